@@ -1,0 +1,38 @@
+"""uavsnn: drone detection on event-camera streams with an STDP-trained spiking network.
+
+An implementation, and extension, of Kirkland et al., "UAV Detection: A STDP trained Deep
+Convolutional Spiking Neural Network Retina-Neuromorphic Approach" (ICANN 2019).
+"""
+
+from __future__ import annotations
+
+from uavsnn._core import __version__
+from uavsnn.errors import (
+    DatasetError,
+    EventError,
+    InternalError,
+    ModelFileError,
+    ParameterError,
+    RecordingFileError,
+    ShapeError,
+    SimulationError,
+    StreamError,
+    UavsnnError,
+)
+from uavsnn.events import EVENT_DTYPE, Recording
+
+__all__ = [
+    "EVENT_DTYPE",
+    "DatasetError",
+    "EventError",
+    "InternalError",
+    "ModelFileError",
+    "ParameterError",
+    "Recording",
+    "RecordingFileError",
+    "ShapeError",
+    "SimulationError",
+    "StreamError",
+    "UavsnnError",
+    "__version__",
+]

@@ -1,0 +1,55 @@
+//! Error mapping and the GIL-free, panic-safe call wrapper.
+
+use std::panic::{catch_unwind, AssertUnwindSafe};
+
+use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use pyo3::prelude::*;
+
+use crate::error::Error;
+
+/// Turn an engine error into an instance of the matching class of `uavsnn.errors`.
+///
+/// The hierarchy is defined once, in Python (`uavsnn/errors.py`), so that classes can also
+/// subclass `ValueError` where callers expect it; the class is looked up when the error is
+/// raised. If the package is not importable (the raw extension used on its own) a builtin
+/// exception carries the same message.
+pub fn to_pyerr(py: Python<'_>, err: &Error) -> PyErr {
+    let message = err.to_string();
+    let class = py
+        .import("uavsnn.errors")
+        .and_then(|m| m.getattr(err.python_class()));
+    match class.and_then(|c| c.call1((message.clone(),))) {
+        Ok(instance) => PyErr::from_value(instance),
+        Err(_) => match err {
+            Error::Internal(_) => PyRuntimeError::new_err(message),
+            _ => PyValueError::new_err(message),
+        },
+    }
+}
+
+/// Run `f` with the GIL released; map its error, and any panic, to a `uavsnn` exception.
+pub fn detach<T, F>(py: Python<'_>, f: F) -> PyResult<T>
+where
+    T: Send,
+    F: FnOnce() -> crate::Result<T> + Send,
+{
+    let outcome = py.detach(|| catch_unwind(AssertUnwindSafe(f)));
+    match outcome {
+        Ok(Ok(value)) => Ok(value),
+        Ok(Err(err)) => Err(to_pyerr(py, &err)),
+        Err(panic) => {
+            let what = panic
+                .downcast_ref::<&str>()
+                .map(|s| (*s).to_string())
+                .or_else(|| panic.downcast_ref::<String>().cloned())
+                .unwrap_or_else(|| "unknown panic".to_string());
+            Err(to_pyerr(py, &Error::Internal(what)))
+        }
+    }
+}
+
+/// Map an engine result without releasing the GIL (for cheap calls).
+#[allow(dead_code)] // used by the area wrappers as they land
+pub fn map<T>(py: Python<'_>, r: crate::Result<T>) -> PyResult<T> {
+    r.map_err(|e| to_pyerr(py, &e))
+}

@@ -1,0 +1,25 @@
+//! The PyO3 binding: the only place where the engine meets Python. Compiled with the `python`
+//! feature only. Each area of the engine has its own small wrapper module with a `register`
+//! function; inputs are converted first, then the work runs with the GIL released through
+//! [`errors::detach`], which also turns panics and engine errors into `uavsnn` exceptions.
+
+mod errors;
+mod events;
+mod network;
+mod sim;
+mod stream;
+mod windows;
+
+use pyo3::prelude::*;
+
+#[pymodule]
+#[pyo3(name = "_core")]
+fn core_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    events::register(m)?;
+    windows::register(m)?;
+    network::register(m)?;
+    sim::register(m)?;
+    stream::register(m)?;
+    Ok(())
+}

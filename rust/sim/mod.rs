@@ -1,0 +1,1 @@
+//! Simulation kernels: PIX2NVS and the DVS emulator (SPEC §4).
