@@ -3,6 +3,9 @@
 //! function; inputs are converted first, then the work runs with the GIL released through
 //! [`errors::detach`], which also turns panics and engine errors into `uavsnn` exceptions.
 
+// PyO3 functions receive their arguments by value; that is the calling convention, not a copy.
+#![allow(clippy::needless_pass_by_value)]
+
 mod errors;
 mod events;
 mod network;
