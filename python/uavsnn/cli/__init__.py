@@ -1,8 +1,16 @@
-"""The ``uavsnn`` command line: one sub-command per step of the path (SPEC §6)."""
+"""The ``uavsnn`` command line: one sub-command per step of the path (SPEC §6).
+
+Each sub-command lives in its own module of this package and exposes
+``register(subparsers) -> None``, which adds its parser and sets ``handler`` (a function of the
+parsed arguments returning an exit code) with ``parser.set_defaults(handler=...)``. Modules are
+discovered, so adding a command touches no other file.
+"""
 
 from __future__ import annotations
 
 import argparse
+import importlib
+import pkgutil
 import sys
 
 from uavsnn import __version__
@@ -17,7 +25,12 @@ def _build_parser() -> argparse.ArgumentParser:
         description="Drone detection on event-camera streams with an STDP-trained SNN.",
     )
     parser.add_argument("--version", action="version", version=f"uavsnn {__version__}")
-    parser.add_subparsers(dest="command", metavar="COMMAND")
+    subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for info in sorted(pkgutil.iter_modules(__path__), key=lambda m: m.name):
+        module = importlib.import_module(f"{__name__}.{info.name}")
+        register = getattr(module, "register", None)
+        if register is not None:
+            register(subparsers)
     return parser
 
 
