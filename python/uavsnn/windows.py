@@ -211,7 +211,8 @@ class Windows:
                 )
         shifts = np.cumsum([0] + [len(p.t) for p in parts[:-1]])
         offsets = np.concatenate(
-            [np.zeros(1, np.int64)] + [p.offsets[1:] + s for p, s in zip(parts, shifts)]
+            [np.zeros(1, np.int64)]
+            + [p.offsets[1:] + s for p, s in zip(parts, shifts, strict=True)]
         )
         return Windows(
             first.sensor_size,
