@@ -154,7 +154,7 @@ def _polarity(values: np.ndarray) -> np.ndarray:
         i = _first_bad(bad)
         encoding = "-1/+1" if plus_minus else "0/1"
         raise EventError(
-            f"event {i}: polarity {values[i]!r} is not {allowed[0]} or {allowed[1]} "
+            f"event {i}: polarity {values[i]} is not {allowed[0]} or {allowed[1]} "
             f"(the stream uses the {encoding} encoding)"
         )
     return values == 1
