@@ -190,6 +190,20 @@ def test_potential_at_crossing_counts_every_spike_of_that_time() -> None:
     assert spike["t"][0] == T0 + 7
 
 
+def test_potentials_are_exact_float64_sums() -> None:
+    # 0.5 + (0.5 - 2**-25) = 1 - 2**-25 exactly, below θ = 1. (A float32 sum would round it to
+    # 1.0, ties to even, and fire.) §3: decisions use the exact float64 sum.
+    config = make_config(conv1={"threshold": 1.0}, pool1={"kernel": 1, "stride": 1})
+    conv1 = np.zeros((1, 1, 3, 3), np.float32)
+    conv1[0, 0, 1, 1] = 0.5
+    conv1[0, 0, 1, 2] = np.float32(0.5 - 2**-25)
+    assert np.float32(conv1[0, 0, 1, 1] + conv1[0, 0, 1, 2]) == 1.0  # the float32 trap
+    weights = pass_through_weights(config, conv1)
+    t, x, y = window((T0 + 1, 5, 4), (T0 + 1, 6, 4))
+    out = dense.run_window(config, weights, t, x, y, T0)
+    assert conv1_at(out, 4, 5) == set()
+
+
 def test_below_threshold_never_fires() -> None:
     config = make_config(conv1={"threshold": 2.0})
     weights = pass_through_weights(config, np.ones((1, 1, 3, 3), np.float32))
@@ -250,6 +264,24 @@ def test_lateral_inhibition_earliest_crossing_wins_over_higher_potential() -> No
     config["conv1"]["lateral_inhibition"] = False
     out = dense.run_window(config, weights, t, x, y, T0)
     assert conv1_at(out, 4, 5) == {(T0 + 4, 1), (T0 + 9, 0)}
+
+
+def test_lateral_inhibition_compares_float64_potentials() -> None:
+    # Map 1 reaches 0.5 + (0.5 + 2**-24) = 1 + 2**-24, map 0 reaches 1.0: equal in float32, but
+    # map 1 is higher in float64 and fires; its reported v is the float32 rounding, 1.0.
+    config = make_config(conv1={"maps": 2, "threshold": 1.0}, pool1={"kernel": 1, "stride": 1})
+    conv1 = two_map_conv1(1.0, 0.0, 0.5, float(np.float32(0.5 + 2**-24)))
+    assert conv1[1, 0, 1, 2] == 0.5 + 2**-24
+    weights = pass_through_weights(config, conv1)
+    t, x, y = window((T0 + 4, 5, 4), (T0 + 4, 6, 4))
+    out = dense.run_window(config, weights, t, x, y, T0)
+    assert conv1_at(out, 4, 5) == {(T0 + 4, 1)}
+    s = out["conv1"]
+    assert s["v"][(s["row"] == 4) & (s["col"] == 5)].tolist() == [1.0]
+    # The same comparison orders the winners in training.
+    config["conv1"].update(wta_k=1, wta_radius=5)
+    winners, _ = dense.stdp_step(config, weights, "conv1", t, x, y, T0)
+    assert [(int(w["map"]), int(w["row"]), int(w["col"])) for w in winners] == [(1, 4, 5)]
 
 
 def test_lateral_inhibition_is_per_position() -> None:
@@ -376,19 +408,20 @@ def test_pent_threshold_formula_and_floor() -> None:
     assert np.all(dense.pent_thresholds(config, conv1, 0) == np.float32(1.0))
 
 
-def test_pent_in_run_window_counts_input_pixels_and_honours_n_in() -> None:
+def test_pent_in_run_window_counts_the_spikes_given_and_honours_n_in() -> None:
     config = make_config(
-        pent={"mode": "pent", "beta": 60.0, "theta_min": 0.5}, pool1={"kernel": 1, "stride": 1}
+        pent={"mode": "pent", "beta": 40.0, "theta_min": 0.5}, pool1={"kernel": 1, "stride": 1}
     )
     weights = pass_through_weights(config, single_tap(3, 1, 1))
-    # Two pixels (one of them twice): N_in = 2, θ1 = 60 · 2/120 · 1 = 1.0 — the relay fires.
+    # Three spikes given, one a repeat of pixel (7, 7): N_in = 3 (§4: the number of spikes
+    # given), θ1 = 40 · 3/120 · 1 = 1.0, so the relay fires, once per pixel.
     t, x, y = window((T0 + 1, 2, 2), (T0 + 2, 7, 7), (T0 + 3, 7, 7))
     out = dense.run_window(config, weights, t, x, y, T0)
-    assert out["thresholds"].tolist() == [np.float32(60.0 * 2 / 120 * 1.0)]
-    assert len(out["conv1"]) == 2
-    # n_in = 4 doubles the threshold above the relay weight: nothing fires.
-    out = dense.run_window(config, weights, t, x, y, T0, n_in=4)
-    assert out["thresholds"][0] == np.float32(60.0 * 4 / 120)
+    assert out["thresholds"].tolist() == [np.float32(40.0 * (3 / 120) * 1.0)]
+    assert spikes_at(out["conv1"]) == {(T0 + 1, 0, 2, 2), (T0 + 2, 0, 7, 7)}
+    # n_in = 6 doubles the threshold above the relay weight: nothing fires.
+    out = dense.run_window(config, weights, t, x, y, T0, n_in=6)
+    assert out["thresholds"][0] == np.float32(40.0 * (6 / 120))
     assert len(out["conv1"]) == 0
 
 
@@ -430,15 +463,17 @@ def test_detection_carries_centre_and_causal_box() -> None:
     # conv3 (2, 3) reads pool1 (2, 3) -> conv1 rows 4..5, cols 6..7 -> sensor rows 3..6, cols 5..8.
     t, x, y = window((T0 + 1, 6, 5), (T0 + 1, 8, 3), (T0 + 9, 3, 6), (T0 + 1, 11, 9))
     out = dense.run_window(config, weights, t, x, y, T0)
+    assert dense.receptive_field(config, "conv3", 2, 3) == (5, 3, 8, 6)
     det = out["detections"]
     assert len(det) == len(out["conv3"])
     one = det[(det["row"] == 2) & (det["col"] == 3)]
     assert len(one) == 1
     assert int(one["t"][0]) == T0 + 1
-    assert (one["rf_x0"][0], one["rf_y0"][0], one["rf_x1"][0], one["rf_y1"][0]) == (5, 3, 8, 6)
-    assert (one["x"][0], one["y"][0]) == (6.5, 4.5)
-    # Inside the field with t <= T0 + 1: (6, 5) and (8, 3); (3, 6) is outside the field.
-    assert (one["x0"][0], one["y0"][0], one["x1"][0], one["y1"][0]) == (6, 3, 8, 5)
+    # The centre of the half-open field [5, 9) × [3, 7).
+    assert (one["x"][0], one["y"][0]) == (7.0, 5.0)
+    # Inside the field with t <= T0 + 1: (6, 5) and (8, 3); (3, 6) is outside the field. The box
+    # is half-open: one past the largest x and y.
+    assert (one["x0"][0], one["y0"][0], one["x1"][0], one["y1"][0]) == (6, 3, 9, 6)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -590,7 +625,7 @@ def test_learning_rate_schedule_doubles_up_to_the_cap_and_keeps_the_ratio() -> N
     a_plus = [a for a, _ in rates]
     assert a_plus == [0.004, 0.004, 0.008, 0.008, 0.015, 0.015, 0.015]
     for a, b in rates:
-        assert b == pytest.approx(a * -0.75)
+        assert b == -0.003 * (a / 0.004)
 
 
 def test_convergence_is_the_mean_of_w_times_one_minus_w() -> None:

@@ -11,9 +11,11 @@ microsecond exactly below 2**24 µs (16.7 s), which :func:`time_embedded_frame` 
 arrays handed back carry absolute times, ``t0 + (t - t0)``.
 
 Potentials. A conv layer is evaluated at each distinct time ``τ`` of its input, in increasing
-order: the weights of the input spikes of time exactly ``τ`` are added into ``float32``
-potentials, and only then are crossings ``V(τ) >= θ`` decided, so every spike at ``τ`` counts
-before any crossing at ``τ`` (§3, "Spikes at the same time").
+order: the weights of the input spikes of time exactly ``τ`` are added into the potentials, and
+only then are crossings ``V(τ) >= θ`` decided, so every spike at ``τ`` counts before any crossing
+at ``τ`` (§3, "Spikes at the same time"). Potentials are float64 sums of the float32 weights,
+exact whatever the order (§3, "Arithmetic of V"); every decision (crossing, lateral inhibition,
+winner order) uses them, and a reported potential ``v`` is rounded to float32.
 """
 
 from __future__ import annotations
@@ -41,9 +43,9 @@ LAYERS = ("conv1", "pool1", "conv2", "pool2", "conv3")
 CONV_LAYERS = ("conv1", "conv2", "conv3")
 
 SPIKE_DTYPE = np.dtype([("t", "<u8"), ("map", "<u2"), ("row", "<u2"), ("col", "<u2"), ("v", "<f4")])
-# A conv3 spike with its receptive field (§5): centre (x, y) in sensor pixels, the field's
-# inclusive bounds (rf_x0 … rf_x1, rf_y0 … rf_y1) and the box (x0 … x1, y0 … y1, inclusive) of the
-# window's input spikes of time <= t inside it.
+# A conv3 spike as a detection (§5), in continuous sensor coordinates where pixel (x, y) covers
+# [x, x + 1) × [y, y + 1): the centre (x, y) of its receptive field and the half-open box
+# [x0, x1) × [y0, y1) of the window's input spikes of time <= t inside that field.
 DETECTION_DTYPE = np.dtype(
     [
         ("t", "<u8"),
@@ -52,10 +54,6 @@ DETECTION_DTYPE = np.dtype(
         ("col", "<u2"),
         ("x", "<f4"),
         ("y", "<f4"),
-        ("rf_x0", "<u2"),
-        ("rf_y0", "<u2"),
-        ("rf_x1", "<u2"),
-        ("rf_y1", "<u2"),
         ("x0", "<u2"),
         ("y0", "<u2"),
         ("x1", "<u2"),
@@ -135,9 +133,10 @@ def _conv_crossings(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Every neuron's first crossing time and its potential then, without any inhibition.
 
-    ``in_times`` is the input time map ``(C, H, W)``; ``weights`` ``(M, C, k, k)``;
+    ``in_times`` is the input time map ``(C, H, W)``; ``weights`` ``(M, C, k, k)`` float32;
     ``thresholds`` ``(M,)`` float32. Returns ``(cross_t, cross_v)``, each ``(M, Ho, Wo)``:
-    ``cross_t`` is ``+inf`` for neurons that never cross.
+    ``cross_t`` (float32) is ``+inf`` for neurons that never cross; ``cross_v`` is the float64
+    potential at the crossing.
     """
     maps, channels, k, _ = weights.shape
     _, height, width = in_times.shape
@@ -150,10 +149,12 @@ def _conv_crossings(
     pad_w = (p_lo, out_w + k - 1 - width - p_lo)
     padded = np.pad(in_times, ((0, 0), pad_h, pad_w), constant_values=np.inf)
 
-    potential = np.zeros((maps, out_h, out_w), dtype=np.float32)
+    # §3: float64 sums of the float32 weights (exact), compared with float64(θ).
+    weights64 = weights.astype(np.float32).astype(np.float64)
+    potential = np.zeros((maps, out_h, out_w), dtype=np.float64)
     cross_t = np.full((maps, out_h, out_w), _NEVER, dtype=np.float32)
-    cross_v = np.zeros((maps, out_h, out_w), dtype=np.float32)
-    theta = thresholds.astype(np.float32)[:, None, None]
+    cross_v = np.zeros((maps, out_h, out_w), dtype=np.float64)
+    theta = thresholds.astype(np.float32).astype(np.float64)[:, None, None]
 
     for tau in np.unique(in_times[np.isfinite(in_times)]):
         arrived = padded == tau  # the input spikes of time exactly tau
@@ -163,8 +164,8 @@ def _conv_crossings(
                 for dx in range(k):
                     hit = arrived[c, dy : dy + out_h, dx : dx + out_w]
                     if hit.any():
-                        w = weights[:, c, dy, dx][:, None, None]
-                        potential += np.where(hit[None], w, np.float32(0))
+                        w = weights64[:, c, dy, dx][:, None, None]
+                        potential += np.where(hit[None], w, 0.0)
         # All spikes at tau are in; now decide crossings at tau (a neuron latches once).
         crossing = (potential >= theta) & ~np.isfinite(cross_t)
         cross_t[crossing] = tau
@@ -197,13 +198,13 @@ def _conv_layer(
     padding: str,
     lateral_inhibition: bool,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """A conv layer in inference mode: ``(fire_t, fire_v)`` time map and spike potentials."""
+    """A conv layer in inference mode: firing time map and float64 spike potentials."""
     cross_t, cross_v = _conv_crossings(in_times, weights, thresholds, padding)
     if lateral_inhibition:
         fire_t = _lateral_inhibition(cross_t, cross_v)
     else:
         fire_t = cross_t
-    return fire_t, np.where(np.isfinite(fire_t), cross_v, np.float32(0)).astype(np.float32)
+    return fire_t, np.where(np.isfinite(fire_t), cross_v, 0.0)
 
 
 def _pool_layer(in_times: np.ndarray, k: int, s: int, padding: str) -> np.ndarray:
@@ -221,7 +222,10 @@ def _pool_layer(in_times: np.ndarray, k: int, s: int, padding: str) -> np.ndarra
 
 
 def _spikes(fire_t: np.ndarray, fire_v: np.ndarray | None, t0: int) -> np.ndarray:
-    """A time map as a spike array sorted by ``(t, map, row, col)``, with absolute times."""
+    """A time map as a spike array sorted by ``(t, map, row, col)``, with absolute times.
+
+    ``fire_v`` (float64 potentials, ``None`` for pools) is reported rounded to float32.
+    """
     maps, rows, cols = np.nonzero(np.isfinite(fire_t))
     out = np.zeros(len(maps), dtype=SPIKE_DTYPE)
     out["t"] = fire_t[maps, rows, cols].astype(np.uint64) + np.uint64(t0)
@@ -229,7 +233,7 @@ def _spikes(fire_t: np.ndarray, fire_v: np.ndarray | None, t0: int) -> np.ndarra
     out["row"] = rows
     out["col"] = cols
     if fire_v is not None:
-        out["v"] = fire_v[maps, rows, cols]
+        out["v"] = fire_v[maps, rows, cols].astype(np.float32)
     return np.sort(out, order=["t", "map", "row", "col"])
 
 
@@ -332,7 +336,7 @@ def _window_input(
 ) -> tuple[np.ndarray, int]:
     frame = time_embedded_frame(t, x, y, t0, int(config["width"]), int(config["height"]))
     if n_in is None:
-        n_in = int(np.isfinite(frame).sum())  # the window's own count of input spikes
+        n_in = len(t)  # §4: the number of spikes given, whatever the estimate
     return frame, int(n_in)
 
 
@@ -345,7 +349,7 @@ def receptive_field(config: dict, layer: str, row: int, col: int) -> tuple[int, 
 
     The field is composed down through the layers with the geometry of §2; at each layer it is
     clipped to that layer's input (padding positions hold no neuron), so it is also clipped to the
-    sensor.
+    sensor. Bounds are pixel indices, both included.
     """
     padding = config["padding"]
     sizes = {"input": (int(config["height"]), int(config["width"]))}
@@ -387,14 +391,15 @@ def _detections(config: dict, frame: np.ndarray, conv3: np.ndarray, t0: int) -> 
         out[i]["map"] = spike["map"]
         out[i]["row"] = spike["row"]
         out[i]["col"] = spike["col"]
-        out[i]["x"] = (x0 + x1) / 2
-        out[i]["y"] = (y0 + y1) / 2
-        out[i]["rf_x0"], out[i]["rf_y0"], out[i]["rf_x1"], out[i]["rf_y1"] = x0, y0, x1, y1
+        # The middle of the half-open field [x0, x1 + 1) × [y0, y1 + 1).
+        out[i]["x"] = (x0 + x1 + 1) / 2
+        out[i]["y"] = (y0 + y1 + 1) / 2
         field = frame[0, y0 : y1 + 1, x0 : x1 + 1]
         ys, xs = np.nonzero(field <= np.float32(int(spike["t"]) - t0))
-        # A conv3 spike always has at least one input spike of time <= t in its field.
-        out[i]["x0"], out[i]["x1"] = x0 + xs.min(), x0 + xs.max()
-        out[i]["y0"], out[i]["y1"] = y0 + ys.min(), y0 + ys.max()
+        # A conv3 spike always has at least one input spike of time <= t in its field (with a
+        # positive threshold); the box is half-open: one past the largest x and y.
+        out[i]["x0"], out[i]["x1"] = x0 + xs.min(), x0 + xs.max() + 1
+        out[i]["y0"], out[i]["y1"] = y0 + ys.min(), y0 + ys.max() + 1
     return out
 
 
@@ -415,7 +420,7 @@ def run_window(
 
     Returns a dict with a spike array (:data:`SPIKE_DTYPE`) per layer name, ``"thresholds"``
     (conv1's θ1 per map, float32) and ``"detections"`` (:data:`DETECTION_DTYPE`). ``n_in``
-    overrides ``N_in`` for PENT; by default it is the window's count of input spikes.
+    overrides ``N_in`` for PENT; by default it is the number of spikes given (``len(t)``).
     """
     frame, n_in = _window_input(config, t, x, y, t0, n_in)
     times, potentials, thresholds = _forward(config, weights, frame, n_in)
@@ -430,33 +435,32 @@ def run_window(
 
 
 def _winners(cross_t: np.ndarray, cross_v: np.ndarray, k: int, radius: int, t0: int) -> np.ndarray:
-    """§6 steps 1–3 over the trained layer's crossings (no lateral inhibition)."""
-    crossed = _spikes(cross_t, cross_v, t0)
-    order = sorted(
-        range(len(crossed)),
-        key=lambda i: (
-            int(crossed["t"][i]),
-            -float(crossed["v"][i]),
-            int(crossed["map"][i]),
-            int(crossed["row"][i]),
-            int(crossed["col"][i]),
-        ),
-    )
-    accepted: list[int] = []
-    for i in order:
-        if len(accepted) == k:
+    """§6 steps 1–3 over the trained layer's crossings (no lateral inhibition).
+
+    Potentials are compared in float64 (§3); the winners report them rounded to float32.
+    """
+    maps, rows, cols = np.nonzero(np.isfinite(cross_t))
+    # (t, V, map, row, col) of every neuron that crossed.
+    crossed = [
+        (float(cross_t[m, r, c]), float(cross_v[m, r, c]), int(m), int(r), int(c))
+        for m, r, c in zip(maps, rows, cols, strict=True)
+    ]
+    # 1. Time ascending, potential descending, then map, row, col ascending.
+    crossed.sort(key=lambda n: (n[0], -n[1], n[2], n[3], n[4]))
+    winners: list[tuple[float, float, int, int, int]] = []
+    for n in crossed:
+        if len(winners) == k:  # 3. at most k winners
             break
-        n = crossed[i]
-        if any(crossed["map"][j] == n["map"] for j in accepted):
-            continue  # intra-map: one winner per map
-        if any(
-            abs(int(n["row"]) - int(crossed["row"][j])) <= radius
-            and abs(int(n["col"]) - int(crossed["col"][j])) <= radius
-            for j in accepted
-        ):
-            continue  # inter-map: inside the radius of an earlier winner
-        accepted.append(i)
-    return crossed[accepted]
+        _, _, m, r, c = n
+        if any(w[2] == m for w in winners):
+            continue  # 2. intra-map: one winner per map
+        if any(abs(r - w[3]) <= radius and abs(c - w[4]) <= radius for w in winners):
+            continue  # 2. inter-map: inside the radius of an earlier winner
+        winners.append(n)
+    out = np.zeros(len(winners), dtype=SPIKE_DTYPE)
+    for i, (t, v, m, r, c) in enumerate(winners):
+        out[i] = (int(t) + t0, m, r, c, np.float32(v))
+    return out
 
 
 def _stdp_update(
@@ -538,14 +542,14 @@ def learning_rates(config: dict, windows_seen: int) -> tuple[float, float]:
     """§6 schedule: ``(a_plus, a_minus)`` after ``windows_seen`` training windows.
 
     ``a_plus`` doubles every ``lr_every`` windows up to ``a_plus_max``; ``a_minus`` keeps the
-    starting ratio ``a_minus₀ / a_plus₀``.
+    starting ratio, as ``a_minus₀ · (a_plus / a_plus₀)``, in float64.
     """
     stdp = config["stdp"]
     a_plus0, a_minus0 = float(stdp["a_plus"]), float(stdp["a_minus"])
     a_plus = a_plus0
     for _ in range(windows_seen // int(stdp["lr_every"])):
         a_plus = min(a_plus * 2, float(stdp["a_plus_max"]))
-    return a_plus, a_plus * (a_minus0 / a_plus0)
+    return a_plus, a_minus0 * (a_plus / a_plus0)
 
 
 def convergence(weights: np.ndarray) -> float:
