@@ -147,7 +147,8 @@ pub struct Pix2NvsKernel {
 impl Pix2NvsKernel {
     #[new]
     #[pyo3(signature = (width, height, *, threshold, n_max, reference, block_size, adaptive,
-                        log_offset, output_size=None, pooling="strongest"))]
+                        threshold_min, threshold_max, log_offset, output_size=None,
+                        pooling="strongest"))]
     fn new(
         py: Python<'_>,
         width: usize,
@@ -157,6 +158,8 @@ impl Pix2NvsKernel {
         reference: &str,
         block_size: usize,
         adaptive: f32,
+        threshold_min: f32,
+        threshold_max: f32,
         log_offset: f32,
         output_size: Option<(usize, usize)>,
         pooling: &str,
@@ -168,6 +171,8 @@ impl Pix2NvsKernel {
                 reference: reference_mode(reference)?,
                 block_size,
                 adaptive,
+                threshold_min,
+                threshold_max,
                 log_offset,
             };
             let pool = pooling_mode(pooling)?;

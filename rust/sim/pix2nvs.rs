@@ -18,8 +18,12 @@
 //! 5. Adaptive threshold (`-a`): the competing pixel's `θ` is multiplied by `1 + adaptive` when it
 //!    emits and by `1 - adaptive` when it does not.
 //!
-//! Defaults are PIX2NVS's compiled-in ones (`-r 1`, `θ = 0.4`, `n_max = 5`, block 1,
-//! `adaptive = 0.05`). Where this implementation departs from the released code, on purpose:
+//! Defaults are PIX2NVS's compiled-in ones (`-r 1`, `θ = 0.4`, `n_max = 5`, block 1) except
+//! `adaptive`, 0 here as in PIX2NVS's worked example (`-a 0`): its compiled-in 0.05 has no floor,
+//! so the threshold of every quiet pixel decays as `0.95^frames` and video-compression noise
+//! floods the background within a second or two. Optional bounds (`threshold_min`,
+//! `threshold_max`, not in PIX2NVS) keep the adaptive threshold usable. Where this
+//! implementation departs from the released code, on purpose:
 //!
 //! - PIX2NVS computes `log(Y)`, which is `-inf` on black pixels; we add `log_offset` (default 1,
 //!   which changes nothing visible above a few grey levels).
@@ -83,8 +87,12 @@ pub struct Pix2NvsParams {
     /// Side of the local-inhibition blocks; 1 disables inhibition (PIX2NVS: 1; allows 1, 2, 4).
     pub block_size: usize,
     /// Adaptive threshold step: ×(1+a) after emitting, ×(1−a) otherwise; 0 disables
-    /// (PIX2NVS: 0.05, range 0–0.1).
+    /// (PIX2NVS: 0.05, range 0–0.1; our default 0, as in PIX2NVS's worked example `-a 0`).
     pub adaptive: f32,
+    /// Lowest value the adaptive threshold may reach (PIX2NVS: none, i.e. 0).
+    pub threshold_min: f32,
+    /// Highest value the adaptive threshold may reach (PIX2NVS: none, i.e. infinity).
+    pub threshold_max: f32,
     /// Added to luma before the logarithm (not in PIX2NVS; keeps black pixels finite).
     pub log_offset: f32,
 }
@@ -96,7 +104,9 @@ impl Default for Pix2NvsParams {
             n_max: 5,
             reference: ReferenceUpdate::Frame,
             block_size: 1,
-            adaptive: 0.05,
+            adaptive: 0.0,
+            threshold_min: 0.0,
+            threshold_max: f32::INFINITY,
             log_offset: 1.0,
         }
     }
@@ -130,6 +140,18 @@ impl Pix2NvsParams {
             return Err(Error::param(
                 "adaptive",
                 format!("must be in [0, 1), got {}", self.adaptive),
+            ));
+        }
+        if !(self.threshold_min >= 0.0
+            && self.threshold_min <= self.threshold
+            && self.threshold <= self.threshold_max)
+        {
+            return Err(Error::param(
+                "threshold_min, threshold_max",
+                format!(
+                    "need 0 <= threshold_min <= threshold <= threshold_max, got {} <= {} <= {}",
+                    self.threshold_min, self.threshold, self.threshold_max
+                ),
             ));
         }
         if !(self.log_offset.is_finite() && self.log_offset > 0.0) {
@@ -416,9 +438,9 @@ fn compete_block(
             ReferenceUpdate::EventIncrement => s.reference += f32::from(signed) * theta,
             ReferenceUpdate::Frame => {}
         }
-        s.threshold = theta * (1.0 + p.adaptive);
+        s.threshold = (theta * (1.0 + p.adaptive)).min(p.threshold_max);
     } else {
-        s.threshold = theta * (1.0 - p.adaptive);
+        s.threshold = (theta * (1.0 - p.adaptive)).max(p.threshold_min);
     }
     if p.reference == ReferenceUpdate::Frame {
         for y in 0..rows {
@@ -555,8 +577,19 @@ mod tests {
             reference: ReferenceUpdate::EventCopy,
             ..Pix2NvsParams::default()
         };
-        let ev = run(p, &[flat(1, 1, 50), flat(1, 1, 75), flat(1, 1, 112)], 10);
-        assert_eq!(ev.len(), 1);
+        let steps = [flat(1, 1, 50), flat(1, 1, 75), flat(1, 1, 112)];
+        assert_eq!(run(p, &steps, 10).len(), 1);
+        // A ceiling on the threshold lets the second step through again.
+        let capped = Pix2NvsParams {
+            threshold_max: 0.35,
+            ..p
+        };
+        assert_eq!(run(capped, &steps, 10).len(), 2);
+        let bad = Pix2NvsParams {
+            threshold_min: 0.5,
+            ..p
+        };
+        assert!(bad.validate().is_err());
     }
 
     #[test]
