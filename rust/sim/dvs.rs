@@ -36,7 +36,7 @@ use rand_pcg::Pcg64Mcg;
 use rayon::prelude::*;
 
 use super::frame::{Converter, Frame, Response};
-use super::order::{sort_interval, Sorter};
+use super::order::gather_sorted;
 use super::seed;
 use crate::error::{Error, Result};
 use crate::events::Event;
@@ -198,7 +198,13 @@ struct Pixel {
 struct Step {
     t0: f64,
     t1: f64,
+    /// `1 / (t1 - t0)`, per microsecond.
+    inv_dt: f64,
     dt_s: f64,
+    /// Low-pass update factor per integer luma (exact for 8-bit gray input).
+    eps_table: [f32; 256],
+    /// Whether luma values are integers (8-bit gray input), so `eps_table` applies.
+    integral_luma: bool,
     refractory: f64,
     cutoff_hz: f64,
     /// Highest shot-noise rate per microsecond (thinning bound).
@@ -216,13 +222,19 @@ pub struct DvsEmulator {
     seed: u64,
     converter: Converter,
     pixels: Vec<Pixel>,
-    rngs: Vec<Pcg64Mcg>,
-    response: Vec<f32>,
-    luma: Vec<f32>,
-    rows: Vec<Vec<Event>>,
-    sorter: Sorter,
+    rows: Vec<Row>,
+    scratch: Vec<u32>,
     last_t: Option<u64>,
     frames: usize,
+}
+
+/// Work space and random stream of one pixel row.
+#[derive(Debug, Clone)]
+struct Row {
+    rng: Pcg64Mcg,
+    response: Vec<f32>,
+    luma: Vec<f32>,
+    events: Vec<Event>,
 }
 
 #[inline]
@@ -296,11 +308,16 @@ impl DvsEmulator {
                 threshold: params.linlog_threshold,
             }),
             pixels,
-            rngs,
-            response: vec![0.0; n],
-            luma: vec![0.0; n],
-            rows: vec![Vec::new(); height],
-            sorter: Sorter::default(),
+            rows: rngs
+                .into_iter()
+                .map(|rng| Row {
+                    rng,
+                    response: vec![0.0; width],
+                    luma: vec![0.0; width],
+                    events: Vec::new(),
+                })
+                .collect(),
+            scratch: Vec::new(),
             last_t: None,
             frames: 0,
         })
@@ -347,22 +364,23 @@ impl DvsEmulator {
             }
             prev => prev,
         };
-        self.converter
-            .convert(frame, &mut self.response, Some(&mut self.luma));
         self.frames += 1;
         self.last_t = Some(t_us);
         let p = self.params;
         let shot_max_factor = p.shot_noise_bright_factor.max(1.0);
         let shot_max_per_us = p.shot_noise_rate_hz * shot_max_factor * 1e-6;
         let w = self.width;
+        let conv = &self.converter;
         let Some(t_prev) = t_prev else {
             let t0 = t_us as f64;
             self.pixels
                 .par_chunks_mut(w)
-                .zip(self.response.par_chunks(w))
-                .zip(self.rngs.par_iter_mut())
-                .for_each(|((px, resp), rng)| {
-                    for (q, &r) in px.iter_mut().zip(resp) {
+                .zip(self.rows.par_iter_mut())
+                .enumerate()
+                .for_each(|(y, (px, row))| {
+                    conv.convert_row(frame, y, &mut row.response, None);
+                    let rng = &mut row.rng;
+                    for (q, &r) in px.iter_mut().zip(&row.response) {
                         q.lp = r;
                         // A random phase of the leak drift, so that pixels do not fire in step.
                         let phase: f32 = if q.leak_per_us > 0.0 {
@@ -377,10 +395,18 @@ impl DvsEmulator {
                 });
             return Ok(());
         };
+        let dt_s = (t_us - t_prev) as f64 * 1e-6;
+        let mut eps_table = [0.0f32; 256];
+        for (y, e) in eps_table.iter_mut().enumerate() {
+            *e = lowpass_eps(p.cutoff_hz, y as f64, dt_s) as f32;
+        }
         let step = Step {
             t0: t_prev as f64,
             t1: t_us as f64,
-            dt_s: (t_us - t_prev) as f64 * 1e-6,
+            inv_dt: 1.0 / (t_us - t_prev) as f64,
+            dt_s,
+            eps_table,
+            integral_luma: matches!(frame, Frame::Gray(_)),
             refractory: p.refractory_us,
             cutoff_hz: p.cutoff_hz,
             shot_max_per_us,
@@ -389,26 +415,43 @@ impl DvsEmulator {
         };
         self.pixels
             .par_chunks_mut(w)
-            .zip(self.response.par_chunks(w))
-            .zip(self.luma.par_chunks(w))
-            .zip(self.rngs.par_iter_mut())
             .zip(self.rows.par_iter_mut())
             .enumerate()
-            .for_each(|(y, ((((px, resp), luma), rng), row))| {
-                row.clear();
+            .for_each(|(y, (px, row))| {
+                conv.convert_row(frame, y, &mut row.response, Some(&mut row.luma));
+                row.events.clear();
                 for (x, q) in px.iter_mut().enumerate() {
-                    pixel_step(q, resp[x], luma[x], &step, rng, x as u16, y as u16, row);
+                    pixel_step(
+                        q,
+                        row.response[x],
+                        row.luma[x],
+                        &step,
+                        &mut row.rng,
+                        x as u16,
+                        y as u16,
+                        &mut row.events,
+                    );
                 }
             });
-        let start = out.len();
-        for row in &mut self.rows {
-            out.append(row);
+        let mut parts: Vec<Vec<Event>> = self
+            .rows
+            .iter_mut()
+            .map(|r| std::mem::take(&mut r.events))
+            .collect();
+        gather_sorted(&mut parts, t_prev, t_us, out, &mut self.scratch);
+        for (row, events) in self.rows.iter_mut().zip(parts) {
+            row.events = events;
         }
-        let mut fresh = out.split_off(start);
-        sort_interval(&mut fresh, t_prev, t_us, &mut self.sorter);
-        out.append(&mut fresh);
         Ok(())
     }
+}
+
+/// The photoreceptor low-pass update factor over `dt_s` seconds at luma `y`: a first-order
+/// filter with cutoff `cutoff_hz · (y + 20) / 275` (v2e's intensity scaling), exact for any
+/// step.
+fn lowpass_eps(cutoff_hz: f64, y: f64, dt_s: f64) -> f64 {
+    let f3db = cutoff_hz * (y + 20.0) / 275.0;
+    -(-std::f64::consts::TAU * f3db * dt_s).exp_m1()
 }
 
 /// Advance one pixel from `step.t0` to `step.t1`, appending its events in time order.
@@ -425,15 +468,18 @@ fn pixel_step(
 ) {
     let a = f64::from(q.lp);
     let b = if s.cutoff_hz > 0.0 {
-        let f3db = s.cutoff_hz * (f64::from(luma) + 20.0) / 275.0;
-        let eps = 1.0 - (-std::f64::consts::TAU * f3db * s.dt_s).exp();
+        let eps = if s.integral_luma {
+            f64::from(s.eps_table[luma as usize & 255])
+        } else {
+            lowpass_eps(s.cutoff_hz, f64::from(luma), s.dt_s)
+        };
         a + eps * (f64::from(response) - a)
     } else {
         f64::from(response)
     };
     let (t0, t1) = (s.t0, s.t1);
     // d = L - R moves linearly: the signal's slope plus the leak's drift.
-    let g = (b - a) / (t1 - t0) + q.leak_per_us;
+    let g = (b - a) * s.inv_dt + q.leak_per_us;
     let (th_on, th_off) = (f64::from(q.th_on), f64::from(q.th_off));
     let mut d = a - f64::from(q.reference);
     let mut cur = t0;
@@ -441,13 +487,62 @@ fn pixel_step(
         cur = q.hold_until.min(t1);
         d = 0.0;
     }
-    // Fast path: no crossing and no noise candidate in this interval.
+    let quiet = q.next_shot > t1 && q.next_hot > t1;
     let d_end = d + g * (t1 - cur);
-    if d_end < th_on && d_end > -th_off && q.next_shot > t1 && q.next_hot > t1 {
-        q.lp = b as f32;
-        q.reference = (b - d_end) as f32;
-        return;
+    if quiet && d_end < th_on && d_end > -th_off {
+        // Nothing happens in this interval.
+        d = d_end;
+    } else if quiet {
+        // Signal only: crossings one `θ/|g|` apart, plus the refractory period after each.
+        let (on, threshold, distance) = if g > 0.0 {
+            (true, th_on, th_on - d)
+        } else {
+            (false, th_off, th_off + d)
+        };
+        let pace = 1.0 / g.abs();
+        let gap = s.refractory + threshold * pace;
+        let mut t = cur + distance.max(0.0) * pace;
+        let mut last = f64::NAN;
+        while t <= t1 {
+            row.push(Event {
+                t: (t + 0.5) as u64,
+                x,
+                y,
+                p: on,
+            });
+            last = t;
+            t += gap;
+        }
+        if !last.is_nan() {
+            q.hold_until = last + s.refractory;
+            cur = q.hold_until.min(t1);
+            d = 0.0;
+        }
+        d += g * (t1 - cur);
+    } else {
+        d = noisy_step(q, d, g, cur, luma, s, rng, x, y, row);
     }
+    q.lp = b as f32;
+    q.reference = (b - d) as f32;
+}
+
+/// The general case: threshold crossings merged in time with noise candidates. Returns `d`
+/// at the end of the interval.
+#[inline(never)]
+fn noisy_step(
+    q: &mut Pixel,
+    mut d: f64,
+    g: f64,
+    mut cur: f64,
+    luma: f32,
+    s: &Step,
+    rng: &mut Pcg64Mcg,
+    x: u16,
+    y: u16,
+    row: &mut Vec<Event>,
+) -> f64 {
+    let t1 = s.t1;
+    let (th_on, th_off) = (f64::from(q.th_on), f64::from(q.th_off));
     loop {
         let t_sig = if g > 0.0 {
             cur + ((th_on - d) / g).max(0.0)
@@ -482,7 +577,7 @@ fn pixel_step(
             (t_noise, polarity)
         };
         row.push(Event {
-            t: t_event.round() as u64,
+            t: (t_event + 0.5) as u64,
             x,
             y,
             p: polarity,
@@ -492,9 +587,7 @@ fn pixel_step(
         q.hold_until = t_event + s.refractory;
         cur = q.hold_until.min(t1).max(t_event);
     }
-    d += g * (t1 - cur);
-    q.lp = b as f32;
-    q.reference = (b - d) as f32;
+    d + g * (t1 - cur)
 }
 
 #[cfg(test)]
@@ -525,6 +618,16 @@ mod tests {
             assert!(e.t.abs_diff(want) <= 1, "{} vs {want}", e.t);
             assert!(e.p);
         }
+    }
+
+    #[test]
+    fn sub_threshold_changes_accumulate() {
+        // Three steps of ln 1.1 = 0.095 each: none crosses 0.2 alone, together they do once.
+        let f = |v: f32| Array2::from_elem((1, 1), v);
+        let frames = [f(100.0), f(110.0), f(121.0), f(133.1)];
+        let ev = run(DvsParams::ideal(), &frames, &[0, 10, 20, 30], 0);
+        assert_eq!(ev.len(), 1);
+        assert!(ev[0].t > 20 && ev[0].t <= 30, "{}", ev[0].t);
     }
 
     #[test]

@@ -130,6 +130,63 @@ impl Converter {
         })
     }
 
+    /// Fill `out` (one row, `width` values) with the response of row `y` of `frame`, and
+    /// `luma` with its BT.601 luma when given.
+    pub fn convert_row(
+        &self,
+        frame: &Frame<'_>,
+        y: usize,
+        out: &mut [f32],
+        mut luma: Option<&mut [f32]>,
+    ) {
+        match frame {
+            Frame::Gray(v) => {
+                let row = v.row(y);
+                if let (Some(px), None) = (row.as_slice(), luma.as_deref()) {
+                    for (o, &p) in out.iter_mut().zip(px) {
+                        *o = self.gray[p as usize];
+                    }
+                    return;
+                }
+                for (x, (o, &p)) in out.iter_mut().zip(row.iter()).enumerate() {
+                    *o = self.gray[p as usize];
+                    if let Some(l) = luma.as_deref_mut() {
+                        l[x] = f32::from(p);
+                    }
+                }
+            }
+            Frame::Bgr(v) => {
+                let table = self.bgr_table();
+                let row = v.index_axis(Axis(0), y);
+                if let Some(px) = row.as_slice() {
+                    for (x, (o, c)) in out.iter_mut().zip(px.chunks_exact(3)).enumerate() {
+                        let k = luma_key(c[0], c[1], c[2]);
+                        *o = table[k];
+                        if let Some(l) = luma.as_deref_mut() {
+                            l[x] = k as f32 / 1000.0;
+                        }
+                    }
+                } else {
+                    for (x, (o, c)) in out.iter_mut().zip(row.outer_iter()).enumerate() {
+                        let k = luma_key(c[0], c[1], c[2]);
+                        *o = table[k];
+                        if let Some(l) = luma.as_deref_mut() {
+                            l[x] = k as f32 / 1000.0;
+                        }
+                    }
+                }
+            }
+            Frame::GrayF32(v) => {
+                for (x, (o, &p)) in out.iter_mut().zip(v.row(y).iter()).enumerate() {
+                    *o = self.response.eval(f64::from(p));
+                    if let Some(l) = luma.as_deref_mut() {
+                        l[x] = p;
+                    }
+                }
+            }
+        }
+    }
+
     /// Fill `out` (row-major, `width*height`) with the response of `frame`, and `luma` with
     /// its BT.601 luma when given. Rows run in parallel; the result does not depend on it.
     pub fn convert(&self, frame: &Frame<'_>, out: &mut [f32], luma: Option<&mut [f32]>) {
@@ -137,58 +194,16 @@ impl Converter {
         if w == 0 {
             return;
         }
-        let bgr_table = matches!(frame, Frame::Bgr(_)).then(|| self.bgr_table());
-        let row_job = |y: usize, out_row: &mut [f32], mut luma_row: Option<&mut [f32]>| match frame
-        {
-            Frame::Gray(v) => {
-                let row = v.row(y);
-                for (x, (o, &p)) in out_row.iter_mut().zip(row.iter()).enumerate() {
-                    *o = self.gray[p as usize];
-                    if let Some(l) = luma_row.as_deref_mut() {
-                        l[x] = f32::from(p);
-                    }
-                }
-            }
-            Frame::Bgr(v) => {
-                let table = bgr_table.unwrap_or(&[]);
-                let row = v.index_axis(Axis(0), y);
-                let mut put = |x: usize, b: u8, g: u8, r: u8| {
-                    let k = luma_key(b, g, r);
-                    out_row[x] = table[k];
-                    if let Some(l) = luma_row.as_deref_mut() {
-                        l[x] = k as f32 / 1000.0;
-                    }
-                };
-                if let Some(px) = row.as_slice() {
-                    for (x, c) in px.chunks_exact(3).enumerate() {
-                        put(x, c[0], c[1], c[2]);
-                    }
-                } else {
-                    for (x, c) in row.outer_iter().enumerate() {
-                        put(x, c[0], c[1], c[2]);
-                    }
-                }
-            }
-            Frame::GrayF32(v) => {
-                let row = v.row(y);
-                for (x, (o, &p)) in out_row.iter_mut().zip(row.iter()).enumerate() {
-                    *o = self.response.eval(f64::from(p));
-                    if let Some(l) = luma_row.as_deref_mut() {
-                        l[x] = p;
-                    }
-                }
-            }
-        };
         match luma {
             Some(luma) => out
                 .par_chunks_mut(w)
                 .zip(luma.par_chunks_mut(w))
                 .enumerate()
-                .for_each(|(y, (o, l))| row_job(y, o, Some(l))),
+                .for_each(|(y, (o, l))| self.convert_row(frame, y, o, Some(l))),
             None => out
                 .par_chunks_mut(w)
                 .enumerate()
-                .for_each(|(y, o)| row_job(y, o, None)),
+                .for_each(|(y, o)| self.convert_row(frame, y, o, None)),
         }
     }
 }

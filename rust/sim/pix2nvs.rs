@@ -49,7 +49,7 @@
 use rayon::prelude::*;
 
 use super::frame::{Converter, Frame, Response};
-use super::order::{sort_interval, Sorter};
+use super::order::gather_sorted;
 use crate::error::{Error, Result};
 use crate::events::Event;
 
@@ -171,10 +171,12 @@ struct PixelState {
     threshold: f32,
 }
 
-/// What one source pixel emitted in the current frame interval.
-#[derive(Debug, Clone, Copy, Default)]
-struct Emission {
-    /// Signed number of events (positive ON, negative OFF), 0 when silent.
+/// A source pixel that emitted in the current frame interval.
+#[derive(Debug, Clone, Copy)]
+struct Emitter {
+    x: u16,
+    y: u16,
+    /// Signed number of events (positive ON, negative OFF).
     count: i8,
     /// `θ/|ΔB|`: the fraction of the interval between successive events.
     step: f32,
@@ -182,12 +184,25 @@ struct Emission {
     magnitude: f32,
 }
 
-/// Output pooling geometry: the source area of each output row and column.
+/// Work space of one row of inhibition blocks (`block_size` source rows).
+#[derive(Debug, Clone, Default)]
+struct Band {
+    input: Vec<f32>,
+    emitters: Vec<Emitter>,
+    events: Vec<Event>,
+}
+
+/// Output pooling geometry: the output column and row of each source column and row.
 #[derive(Debug, Clone)]
 struct Pool {
     mode: Pooling,
-    x_edges: Vec<usize>,
-    y_edges: Vec<usize>,
+    width: usize,
+    height: usize,
+    x_of: Vec<u16>,
+    y_of: Vec<u16>,
+    /// Per output pixel, the strongest emitter so far this frame: (magnitude, band, index).
+    best: Vec<(f32, u32, u32)>,
+    touched: Vec<u32>,
 }
 
 /// A PIX2NVS simulator fed one frame at a time.
@@ -199,16 +214,16 @@ pub struct Pix2Nvs {
     pool: Option<Pool>,
     converter: Converter,
     state: Vec<PixelState>,
-    input: Vec<f32>,
-    emission: Vec<Emission>,
-    rows: Vec<Vec<Event>>,
-    sorter: Sorter,
+    bands: Vec<Band>,
+    pooled: Vec<Event>,
+    scratch: Vec<u32>,
     last_t: Option<u64>,
     frames: usize,
 }
 
-fn edges(from: usize, to: usize) -> Vec<usize> {
-    (0..=to).map(|i| i * from / to).collect()
+/// The output index (column or row) of each of `from` source indices mapped onto `to`.
+fn index_map(from: usize, to: usize) -> Vec<u16> {
+    (0..from).map(|i| (i * to / from) as u16).collect()
 }
 
 impl Pix2Nvs {
@@ -235,13 +250,22 @@ impl Pix2Nvs {
                 }
                 Some(Pool {
                     mode,
-                    x_edges: edges(width, w),
-                    y_edges: edges(height, h),
+                    width: w,
+                    height: h,
+                    x_of: index_map(width, w),
+                    y_of: index_map(height, h),
+                    best: vec![(0.0, u32::MAX, 0); w * h],
+                    touched: Vec::new(),
                 })
             }
         };
-        let n = width * height;
-        let out_rows = pool.as_ref().map_or(height, |p| p.y_edges.len() - 1);
+        let b = params.block_size;
+        let bands = (0..height.div_ceil(b))
+            .map(|k| Band {
+                input: vec![0.0; b.min(height - k * b) * width],
+                ..Band::default()
+            })
+            .collect();
         Ok(Self {
             params,
             width,
@@ -250,11 +274,10 @@ impl Pix2Nvs {
             converter: Converter::new(Response::Log {
                 offset: params.log_offset,
             }),
-            state: vec![PixelState::default(); n],
-            input: vec![0.0; n],
-            emission: vec![Emission::default(); n],
-            rows: vec![Vec::new(); out_rows],
-            sorter: Sorter::default(),
+            state: vec![PixelState::default(); width * height],
+            bands,
+            pooled: Vec::new(),
+            scratch: Vec::new(),
             last_t: None,
             frames: 0,
         })
@@ -263,7 +286,7 @@ impl Pix2Nvs {
     /// `(width, height)` of the events this simulator writes.
     pub fn output_size(&self) -> (usize, usize) {
         match &self.pool {
-            Some(p) => (p.x_edges.len() - 1, p.y_edges.len() - 1),
+            Some(p) => (p.width, p.height),
             None => (self.width, self.height),
         }
     }
@@ -292,102 +315,116 @@ impl Pix2Nvs {
             }
             prev => prev,
         };
-        self.converter.convert(frame, &mut self.input, None);
         self.frames += 1;
         self.last_t = Some(t_us);
-        let Some(t_prev) = t_prev else {
-            let threshold = self.params.threshold;
-            for (s, &b) in self.state.iter_mut().zip(&self.input) {
-                *s = PixelState {
-                    reference: b,
-                    threshold,
-                };
-            }
-            return Ok(());
-        };
-        self.compete();
-        let start = out.len();
-        self.emit(t_prev, t_us);
-        for row in &mut self.rows {
-            out.append(row);
-        }
-        let mut fresh = out.split_off(start);
-        sort_interval(&mut fresh, t_prev, t_us, &mut self.sorter);
-        out.append(&mut fresh);
-        Ok(())
-    }
-
-    /// Steps 2–5: inhibition, event counts, reference and threshold updates; block rows in
-    /// parallel (blocks never share pixels).
-    fn compete(&mut self) {
         let (w, b) = (self.width, self.params.block_size);
         let p = self.params;
+        let conv = &self.converter;
+        let direct = self.pool.is_none();
+        let dt = t_prev.map_or(0.0, |t| (t_us - t) as f64);
+        // Steps 1–5 band by band (bands of inhibition blocks never share a pixel); without
+        // pooling the events are made in the same pass.
         self.state
             .par_chunks_mut(b * w)
-            .zip(self.emission.par_chunks_mut(b * w))
-            .zip(self.input.par_chunks(b * w))
-            .for_each(|((state, emission), input)| {
-                let rows = input.len() / w;
-                for x0 in (0..w).step_by(b) {
-                    let bw = b.min(w - x0);
-                    compete_block(&p, state, emission, input, w, x0, bw, rows);
+            .zip(self.bands.par_iter_mut())
+            .enumerate()
+            .for_each(|(k, (state, band))| {
+                for (r, row) in band.input.chunks_exact_mut(w).enumerate() {
+                    conv.convert_row(frame, k * b + r, row, None);
+                }
+                let Some(t_prev) = t_prev else {
+                    for (s, &v) in state.iter_mut().zip(&band.input) {
+                        *s = PixelState {
+                            reference: v,
+                            threshold: p.threshold,
+                        };
+                    }
+                    return;
+                };
+                band.emitters.clear();
+                compete_band(&p, state, &band.input, w, k * b, &mut band.emitters);
+                if direct {
+                    band.events.clear();
+                    for e in &band.emitters {
+                        push_events(&mut band.events, e, e.x, e.y, t_prev, dt);
+                    }
                 }
             });
-    }
-
-    /// Turn the emissions into events with interpolated times, one output row per task.
-    fn emit(&mut self, t_prev: u64, t_us: u64) {
-        let dt = (t_us - t_prev) as f64;
-        let n_w = self.width;
-        let emission = &self.emission;
-        match &self.pool {
-            None => self.rows.par_iter_mut().enumerate().for_each(|(y, row)| {
-                row.clear();
-                for (x, e) in emission[y * n_w..(y + 1) * n_w].iter().enumerate() {
-                    if e.count != 0 {
-                        push_events(row, e, x as u16, y as u16, t_prev, dt);
+        let Some(t_prev) = t_prev else {
+            return Ok(());
+        };
+        match &mut self.pool {
+            None => {}
+            Some(pool) if pool.mode == Pooling::All => {
+                let (x_of, y_of) = (&pool.x_of, &pool.y_of);
+                self.bands.par_iter_mut().for_each(|band| {
+                    band.events.clear();
+                    for e in &band.emitters {
+                        let (x, y) = (x_of[e.x as usize], y_of[e.y as usize]);
+                        push_events(&mut band.events, e, x, y, t_prev, dt);
                     }
-                }
-            }),
-            Some(pool) => self.rows.par_iter_mut().enumerate().for_each(|(oy, row)| {
-                row.clear();
-                let (y0, y1) = (pool.y_edges[oy], pool.y_edges[oy + 1]);
-                for ox in 0..pool.x_edges.len() - 1 {
-                    let (x0, x1) = (pool.x_edges[ox], pool.x_edges[ox + 1]);
-                    let area = (y0..y1).flat_map(|y| &emission[y * n_w + x0..y * n_w + x1]);
-                    match pool.mode {
-                        Pooling::Strongest => {
-                            let mut best: Option<&Emission> = None;
-                            for e in area {
-                                if e.count != 0 && best.map_or(true, |b| e.magnitude > b.magnitude)
-                                {
-                                    best = Some(e);
-                                }
-                            }
-                            if let Some(e) = best {
-                                push_events(row, e, ox as u16, oy as u16, t_prev, dt);
-                            }
-                        }
-                        Pooling::All => {
-                            for e in area.filter(|e| e.count != 0) {
-                                push_events(row, e, ox as u16, oy as u16, t_prev, dt);
-                            }
-                        }
-                    }
-                }
-            }),
+                });
+            }
+            Some(pool) => {
+                pool_strongest(pool, &self.bands, &mut self.pooled, t_prev, dt);
+                let mut parts = [std::mem::take(&mut self.pooled)];
+                gather_sorted(&mut parts, t_prev, t_us, out, &mut self.scratch);
+                let [pooled] = parts;
+                self.pooled = pooled;
+                return Ok(());
+            }
         }
+        let mut parts: Vec<Vec<Event>> = self
+            .bands
+            .iter_mut()
+            .map(|b| std::mem::take(&mut b.events))
+            .collect();
+        gather_sorted(&mut parts, t_prev, t_us, out, &mut self.scratch);
+        for (band, events) in self.bands.iter_mut().zip(parts) {
+            band.events = events;
+        }
+        Ok(())
     }
 }
 
-/// Append the events of one emission: event `k` (1-based) at `t_prev + k·step·dt`.
+/// Per output pixel, the events of the strongest emitter in its area (ties: the first found,
+/// bands top to bottom, blocks left to right).
+fn pool_strongest(pool: &mut Pool, bands: &[Band], out: &mut Vec<Event>, t_prev: u64, dt: f64) {
+    for &o in &pool.touched {
+        pool.best[o as usize] = (0.0, u32::MAX, 0);
+    }
+    pool.touched.clear();
+    for (k, band) in bands.iter().enumerate() {
+        for (i, e) in band.emitters.iter().enumerate() {
+            let o =
+                pool.y_of[e.y as usize] as usize * pool.width + pool.x_of[e.x as usize] as usize;
+            let best = &mut pool.best[o];
+            if best.1 == u32::MAX {
+                pool.touched.push(o as u32);
+                *best = (e.magnitude, k as u32, i as u32);
+            } else if e.magnitude > best.0 {
+                *best = (e.magnitude, k as u32, i as u32);
+            }
+        }
+    }
+    out.clear();
+    for &o in &pool.touched {
+        let (_, k, i) = pool.best[o as usize];
+        let e = &bands[k as usize].emitters[i as usize];
+        let (x, y) = (o as usize % pool.width, o as usize / pool.width);
+        push_events(out, e, x as u16, y as u16, t_prev, dt);
+    }
+}
+
+/// Append the events of one emitter: event `k` (1-based) at `t_prev + k·step·dt`, rounded
+/// half up (`frac·dt >= 0`).
 #[inline]
-fn push_events(row: &mut Vec<Event>, e: &Emission, x: u16, y: u16, t_prev: u64, dt: f64) {
+fn push_events(row: &mut Vec<Event>, e: &Emitter, x: u16, y: u16, t_prev: u64, dt: f64) {
     let p = e.count > 0;
     for k in 1..=u32::from(e.count.unsigned_abs()) {
         let frac = (f64::from(k) * f64::from(e.step)).min(1.0);
         row.push(Event {
-            t: t_prev + (frac * dt).round() as u64,
+            t: t_prev + (frac * dt + 0.5) as u64,
             x,
             y,
             p,
@@ -395,57 +432,88 @@ fn push_events(row: &mut Vec<Event>, e: &Emission, x: u16, y: u16, t_prev: u64, 
     }
 }
 
-/// One inhibition block: columns `x0..x0+bw` of the `rows` rows held by the slices.
+/// Decide one competing pixel (steps 3–5); returns its emission, if any.
 #[inline]
-fn compete_block(
-    p: &Pix2NvsParams,
-    state: &mut [PixelState],
-    emission: &mut [Emission],
-    input: &[f32],
-    w: usize,
-    x0: usize,
-    bw: usize,
-    rows: usize,
-) {
-    // The strongest change; PIX2NVS scans x outer, y inner, and keeps the first strict maximum
-    // above 0 (so an unchanged block competes with its top-left pixel).
-    let mut win = x0;
-    let mut best = 0.0f32;
-    for x in x0..x0 + bw {
-        for y in 0..rows {
-            let i = y * w + x;
-            emission[i] = Emission::default();
-            let d = (input[i] - state[i].reference).abs();
-            if d > best {
-                best = d;
-                win = i;
-            }
-        }
-    }
-    let s = &mut state[win];
-    let delta = input[win] - s.reference;
+fn decide(p: &Pix2NvsParams, s: &mut PixelState, input: f32) -> Option<(i8, f32, f32)> {
+    let delta = input - s.reference;
     let theta = s.threshold;
-    if delta.abs() > theta {
-        let n = ((delta.abs() / theta) as u32).min(p.n_max);
+    let magnitude = delta.abs();
+    if magnitude > theta {
+        let n = ((magnitude / theta) as u32).min(p.n_max);
         let signed = if delta > 0.0 { n as i8 } else { -(n as i8) };
-        emission[win] = Emission {
-            count: signed,
-            step: theta / delta.abs(),
-            magnitude: delta.abs(),
-        };
         match p.reference {
-            ReferenceUpdate::EventCopy => s.reference = input[win],
+            ReferenceUpdate::EventCopy => s.reference = input,
             ReferenceUpdate::EventIncrement => s.reference += f32::from(signed) * theta,
             ReferenceUpdate::Frame => {}
         }
-        s.threshold = (theta * (1.0 + p.adaptive)).min(p.threshold_max);
+        if p.adaptive > 0.0 {
+            s.threshold = (theta * (1.0 + p.adaptive)).min(p.threshold_max);
+        }
+        Some((signed, theta / magnitude, magnitude))
     } else {
-        s.threshold = (theta * (1.0 - p.adaptive)).max(p.threshold_min);
+        if p.adaptive > 0.0 {
+            s.threshold = (theta * (1.0 - p.adaptive)).max(p.threshold_min);
+        }
+        None
     }
-    if p.reference == ReferenceUpdate::Frame {
-        for y in 0..rows {
-            for x in x0..x0 + bw {
-                state[y * w + x].reference = input[y * w + x];
+}
+
+/// One band of `rows` source rows starting at row `y0`: every inhibition block in it.
+fn compete_band(
+    p: &Pix2NvsParams,
+    state: &mut [PixelState],
+    input: &[f32],
+    w: usize,
+    y0: usize,
+    emitters: &mut Vec<Emitter>,
+) {
+    let b = p.block_size;
+    let rows = input.len() / w;
+    let emit = |emitters: &mut Vec<Emitter>, i: usize, (count, step, magnitude)| {
+        emitters.push(Emitter {
+            x: (i % w) as u16,
+            y: (y0 + i / w) as u16,
+            count,
+            step,
+            magnitude,
+        });
+    };
+    if b == 1 {
+        // No inhibition: every pixel competes on its own.
+        for (i, (s, &v)) in state.iter_mut().zip(input).enumerate() {
+            if let Some(e) = decide(p, s, v) {
+                emit(emitters, i, e);
+            }
+            if p.reference == ReferenceUpdate::Frame {
+                s.reference = v;
+            }
+        }
+        return;
+    }
+    for x0 in (0..w).step_by(b) {
+        let bw = b.min(w - x0);
+        // The strongest change; PIX2NVS scans x outer, y inner, and keeps the first strict
+        // maximum above 0 (so an unchanged block competes with its top-left pixel).
+        let mut win = x0;
+        let mut best = 0.0f32;
+        for x in x0..x0 + bw {
+            for y in 0..rows {
+                let i = y * w + x;
+                let d = (input[i] - state[i].reference).abs();
+                if d > best {
+                    best = d;
+                    win = i;
+                }
+            }
+        }
+        if let Some(e) = decide(p, &mut state[win], input[win]) {
+            emit(emitters, win, e);
+        }
+        if p.reference == ReferenceUpdate::Frame {
+            for y in 0..rows {
+                for x in x0..x0 + bw {
+                    state[y * w + x].reference = input[y * w + x];
+                }
             }
         }
     }

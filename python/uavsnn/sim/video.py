@@ -16,7 +16,9 @@ Where the down-sampling happens is a parameter of :func:`video_to_recording`:
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterator
+import queue
+import threading
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import asdict
 from pathlib import Path
 from typing import Any, Literal
@@ -34,6 +36,7 @@ __all__ = [
     "VideoInfo",
     "crop_to_aspect",
     "iter_video",
+    "prefetch",
     "probe_video",
     "read_video",
     "video_to_recording",
@@ -41,8 +44,8 @@ __all__ = [
 
 Color = Literal["gray", "bgr"]
 
-#: Frames handed to the engine per call when streaming a video.
-BATCH_FRAMES = 8
+#: Decoded frames held ahead of the simulator.
+PREFETCH_FRAMES = 4
 
 
 def crop_to_aspect(frame: np.ndarray, aspect: float) -> np.ndarray:
@@ -173,6 +176,50 @@ def iter_video(
         cap.release()
 
 
+def prefetch(items: Iterable[Any], depth: int = PREFETCH_FRAMES) -> Iterator[Any]:
+    """Iterate ``items`` from a background thread, ``depth`` items ahead.
+
+    OpenCV's decoder and the engine both release the GIL, so decoding the next frames overlaps
+    with simulating the current one. An exception in the producer is raised here; stopping
+    early stops the producer.
+    """
+    slots: queue.Queue[tuple[bool, Any]] = queue.Queue(maxsize=depth)
+    stop = threading.Event()
+
+    def produce() -> None:
+        try:
+            for item in items:
+                while not stop.is_set():
+                    try:
+                        slots.put((True, item), timeout=0.1)
+                        break
+                    except queue.Full:
+                        continue
+                if stop.is_set():
+                    return
+            slots.put((False, None))
+        except BaseException as exc:  # handed to the consumer, raised there
+            slots.put((False, exc))
+
+    worker = threading.Thread(target=produce, name="uavsnn-video-reader", daemon=True)
+    worker.start()
+    try:
+        while True:
+            more, item = slots.get()
+            if not more:
+                if item is not None:
+                    raise item
+                return
+            yield item
+    finally:
+        stop.set()
+        while worker.is_alive():
+            try:
+                slots.get_nowait()
+            except queue.Empty:
+                worker.join(timeout=0.05)
+
+
 def read_video(
     path: str | Path,
     *,
@@ -257,26 +304,17 @@ def video_to_recording(
     )
     bar = _progress(progress, info.frame_count if max_frames is None else max_frames, path)
     chunks: list[np.ndarray] = []
-    frames: list[np.ndarray] = []
-    times: list[int] = []
     sim: Pix2NvsSimulator | DvsEmulator | None = None
     n = 0
     rate = fps
     try:
-        for frame, t in stream:
+        # One frame per call: the engine reads the cropped view in place, without a copy.
+        for frame, t in prefetch(stream):
             if sim is None:
                 sim = _simulator(mode, frame, sensor, params, pooling, seed, downsample)
-            frames.append(frame)
-            times.append(t)
-            if len(frames) == BATCH_FRAMES:
-                chunks.append(sim.process(np.stack(frames), times))
-                n += len(frames)
-                bar(len(frames))
-                frames, times = [], []
-        if frames and sim is not None:
-            chunks.append(sim.process(np.stack(frames), times))
-            n += len(frames)
-            bar(len(frames))
+            chunks.append(sim.process(frame[None], [t]))
+            n += 1
+            bar(1)
     finally:
         bar(None)
     if rate is None:
