@@ -121,6 +121,10 @@ def main() -> None:
         f"({sim / decode:.2f} x decoding alone; {len(rec)} events)"  # type: ignore[arg-type]
     )
     print(
+        f"  (process CPU time per sim run: {cpu_per_run:.2f} s over {os.cpu_count()} CPUs, "
+        "decoder threads included)"
+    )
+    print(
         f"sim, resize then simulate {frames_first:7.2f} s  = {real_time / frames_first:5.1f} x "
         f"real time ({len(rec_f)} events)"  # type: ignore[arg-type]
     )
