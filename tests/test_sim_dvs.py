@@ -207,6 +207,21 @@ def test_uint8_and_bgr_frames_are_accepted():
     np.testing.assert_array_equal(a, b)  # equal B, G, R: luma is the grey value
 
 
+@pytest.mark.parametrize("start", [2**53 + 1, 2**63 - 10_000_000])
+def test_timestamps_beyond_double_precision_stay_in_their_interval(start):
+    from uavsnn.sim import pix2nvs
+
+    frames, _ = moving_bar(150, n=6)
+    times = np.uint64(start) + np.arange(6, dtype=np.uint64) * np.uint64(1_000_001)
+    for ev in (
+        emulate_dvs(frames, times, params=DvsParams(shot_noise_rate_hz=20.0)),
+        pix2nvs(frames, times),
+    ):
+        assert len(ev) > 0
+        assert np.all((ev["t"] >= times[0]) & (ev["t"] <= times[-1]))
+        assert np.all(np.diff(ev["t"]) < 2**63)  # non-decreasing as unsigned
+
+
 # ------------------------------------------------------------------------------ bad input
 
 

@@ -198,6 +198,10 @@ struct Pixel {
 struct Step {
     t0: f64,
     t1: f64,
+    /// The interval's ends in integer microseconds: event times are clamped to them (beyond
+    /// 2^53 µs an `f64` time may round past the interval).
+    t0_us: u64,
+    t1_us: u64,
     /// `1 / (t1 - t0)`, per microsecond.
     inv_dt: f64,
     dt_s: f64,
@@ -403,6 +407,8 @@ impl DvsEmulator {
         let step = Step {
             t0: t_prev as f64,
             t1: t_us as f64,
+            t0_us: t_prev,
+            t1_us: t_us,
             inv_dt: 1.0 / (t_us - t_prev) as f64,
             dt_s,
             eps_table,
@@ -505,7 +511,7 @@ fn pixel_step(
         let mut last = f64::NAN;
         while t <= t1 {
             row.push(Event {
-                t: (t + 0.5) as u64,
+                t: ((t + 0.5) as u64).clamp(s.t0_us, s.t1_us),
                 x,
                 y,
                 p: on,
@@ -577,7 +583,7 @@ fn noisy_step(
             (t_noise, polarity)
         };
         row.push(Event {
-            t: (t_event + 0.5) as u64,
+            t: ((t_event + 0.5) as u64).clamp(s.t0_us, s.t1_us),
             x,
             y,
             p: polarity,

@@ -22,8 +22,8 @@ pub fn gather_sorted(
 ) {
     let n: usize = parts.iter().map(Vec::len).sum();
     let start = out.len();
-    let span = (t1 - t0) as usize + 1;
-    if n < 2 || span > 8 * n + (1 << 16) || u32::try_from(n).is_err() {
+    let span = t1 - t0;
+    if n < 2 || span > 8 * n as u64 + (1 << 16) || u32::try_from(n).is_err() {
         for p in parts.iter_mut() {
             out.append(p);
         }
@@ -33,7 +33,7 @@ pub fn gather_sorted(
     // Four interleaved histograms: consecutive events often share a time, and one counter
     // would serialise on its own increments.
 
-    let bins = span + 1;
+    let bins = span as usize + 2;
     scratch.clear();
     scratch.resize(LANES * bins, 0);
     for (i, e) in parts.iter().flatten().enumerate() {

@@ -321,7 +321,7 @@ impl Pix2Nvs {
         let p = self.params;
         let conv = &self.converter;
         let direct = self.pool.is_none();
-        let dt = t_prev.map_or(0.0, |t| (t_us - t) as f64);
+        let dt = t_prev.map_or(0, |t| t_us - t);
         // Steps 1–5 band by band (bands of inhibition blocks never share a pixel); without
         // pooling the events are made in the same pass.
         self.state
@@ -389,7 +389,7 @@ impl Pix2Nvs {
 
 /// Per output pixel, the events of the strongest emitter in its area (ties: the first found,
 /// bands top to bottom, blocks left to right).
-fn pool_strongest(pool: &mut Pool, bands: &[Band], out: &mut Vec<Event>, t_prev: u64, dt: f64) {
+fn pool_strongest(pool: &mut Pool, bands: &[Band], out: &mut Vec<Event>, t_prev: u64, dt: u64) {
     for &o in &pool.touched {
         pool.best[o as usize] = (0.0, u32::MAX, 0);
     }
@@ -419,12 +419,15 @@ fn pool_strongest(pool: &mut Pool, bands: &[Band], out: &mut Vec<Event>, t_prev:
 /// Append the events of one emitter: event `k` (1-based) at `t_prev + k·step·dt`, rounded
 /// half up (`frac·dt >= 0`).
 #[inline]
-fn push_events(row: &mut Vec<Event>, e: &Emitter, x: u16, y: u16, t_prev: u64, dt: f64) {
+fn push_events(row: &mut Vec<Event>, e: &Emitter, x: u16, y: u16, t_prev: u64, dt_us: u64) {
     let p = e.count > 0;
+    let dt = dt_us as f64;
     for k in 1..=u32::from(e.count.unsigned_abs()) {
         let frac = (f64::from(k) * f64::from(e.step)).min(1.0);
+        // `dt` is exact below 2^53 µs; beyond, rounding must not pass the interval's end.
+        let offset = ((frac * dt + 0.5) as u64).min(dt_us);
         row.push(Event {
-            t: t_prev + (frac * dt + 0.5) as u64,
+            t: t_prev + offset,
             x,
             y,
             p,
