@@ -132,7 +132,9 @@ def iter_video(
         size: ``(width, height)`` to crop (centred, to its aspect ratio) and resize to;
             ``None`` keeps frames as decoded (then they must all have one size).
         max_frames: stop after this many frames.
-        color: ``"gray"`` (BT.601 luma, ``uint8``) or ``"bgr"`` (``uint8``, 3 channels).
+        color: ``"gray"`` (OpenCV's BT.601 luma rounded to ``uint8``) or ``"bgr"`` (``uint8``,
+            3 channels; the simulators then take luma in floating point, as PIX2NVS does —
+            :func:`video_to_recording` reads BGR for that reason).
         fps: frame rate to assume, overriding the container's.
         resize: with ``size``, ``False`` only crops to its aspect ratio (for simulating at full
             resolution and pooling the events afterwards).
