@@ -1,0 +1,157 @@
+//! When windows start and which of them hold a given instant (docs/model.md §1).
+//!
+//! Window `k` covers `[start + k·step, start + k·step + length)`. With an overlap `o`, `step` is
+//! `length·(1 − o)` rounded down to whole microseconds, at least 1, exactly as the batch path
+//! (`make_windows`) computes it, so that the streaming and batch paths number windows alike.
+
+use std::ops::RangeInclusive;
+
+use crate::error::{Error, Result};
+
+/// The start times of a stream's windows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct WindowSchedule {
+    start: u64,
+    length: u64,
+    step: u64,
+}
+
+/// The step between window starts for a window length and an overlap, validated.
+pub fn window_step(length_us: u64, overlap: f64) -> Result<u64> {
+    if length_us == 0 {
+        return Err(Error::param(
+            "window_us",
+            "the window length must be at least 1 µs, got 0",
+        ));
+    }
+    if !overlap.is_finite() || !(0.0..1.0).contains(&overlap) {
+        return Err(Error::param(
+            "overlap",
+            format!("the overlap must lie in [0, 1), got {overlap}"),
+        ));
+    }
+    // 1e-6 µs absorbs the rounding of `1 − o` (50 µs at o = 0.9 is 4.999… in floating point),
+    // far below one microsecond for any window length a u64 can hold in f64 exactly enough.
+    Ok(((length_us as f64 * (1.0 - overlap) + 1e-6).floor() as u64).max(1))
+}
+
+impl WindowSchedule {
+    /// Windows of `length_us` starting every `length_us·(1 − overlap)` from `start_us`.
+    pub fn new(start_us: u64, length_us: u64, overlap: f64) -> Result<Self> {
+        let step = window_step(length_us, overlap)?;
+        Ok(Self::with_step(start_us, length_us, step))
+    }
+
+    /// Windows of `length_us` starting every `step_us` (both at least 1) from `start_us`.
+    pub(crate) fn with_step(start_us: u64, length_us: u64, step_us: u64) -> Self {
+        Self {
+            start: start_us,
+            length: length_us.max(1),
+            step: step_us.max(1),
+        }
+    }
+
+    /// Start of the first window.
+    pub fn start(&self) -> u64 {
+        self.start
+    }
+
+    /// Window length in microseconds.
+    pub fn length(&self) -> u64 {
+        self.length
+    }
+
+    /// Microseconds between two window starts.
+    pub fn step(&self) -> u64 {
+        self.step
+    }
+
+    /// Start time of window `k`.
+    pub fn start_of(&self, k: u64) -> u64 {
+        self.start.saturating_add(k.saturating_mul(self.step))
+    }
+
+    /// End (exclusive) of window `k`.
+    pub fn end_of(&self, k: u64) -> u64 {
+        self.start_of(k).saturating_add(self.length)
+    }
+
+    /// The most windows that can hold one instant: `ceil(length / step)`.
+    pub fn max_live(&self) -> usize {
+        self.length.div_ceil(self.step) as usize
+    }
+
+    /// Indices of the windows that hold time `t` (`None` before the first window starts).
+    pub fn live_at(&self, t: u64) -> Option<RangeInclusive<u64>> {
+        let since = t.checked_sub(self.start)?;
+        let last = since / self.step;
+        let first = if since >= self.length {
+            (since - self.length) / self.step + 1
+        } else {
+            0
+        };
+        Some(first..=last)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The live windows straight from the definition, by enumeration.
+    fn live_brute(s: &WindowSchedule, t: u64) -> Vec<u64> {
+        (0..=t)
+            .filter(|&k| s.start_of(k) <= t && t < s.end_of(k))
+            .collect()
+    }
+
+    #[test]
+    fn live_windows_match_the_definition() {
+        for (start, length, overlap) in [(0, 10, 0.0), (5, 10, 0.5), (3, 7, 0.9), (0, 1, 0.0)] {
+            let s = WindowSchedule::new(start, length, overlap).unwrap();
+            for t in 0..60 {
+                let got: Vec<u64> = s.live_at(t).map(Iterator::collect).unwrap_or_default();
+                assert_eq!(
+                    got,
+                    live_brute(&s, t),
+                    "start {start} L {length} o {overlap} t {t}"
+                );
+                assert!(got.len() <= s.max_live());
+            }
+        }
+    }
+
+    #[test]
+    fn step_rounds_down_and_is_at_least_one() {
+        assert_eq!(window_step(10, 0.5).unwrap(), 5);
+        assert_eq!(window_step(7, 0.5).unwrap(), 3);
+        assert_eq!(window_step(3, 0.9).unwrap(), 1);
+        assert_eq!(window_step(50, 0.9).unwrap(), 5);
+        assert_eq!(window_step(10_000, 0.9).unwrap(), 1000);
+        assert_eq!(WindowSchedule::new(0, 10, 0.9).unwrap().max_live(), 10);
+    }
+
+    #[test]
+    fn absurd_parameters_are_rejected() {
+        assert!(matches!(
+            window_step(0, 0.0),
+            Err(Error::InvalidParameter {
+                name: "window_us",
+                ..
+            })
+        ));
+        for o in [f64::NAN, -0.1, 1.0, f64::INFINITY] {
+            let err = window_step(10, o).unwrap_err();
+            assert!(
+                matches!(
+                    err,
+                    Error::InvalidParameter {
+                        name: "overlap",
+                        ..
+                    }
+                ),
+                "{err}"
+            );
+        }
+    }
+}
