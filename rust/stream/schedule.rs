@@ -1,12 +1,13 @@
 //! When windows start and which of them hold a given instant (docs/model.md §1).
 //!
 //! Window `k` covers `[start + k·step, start + k·step + length)`. With an overlap `o`, `step` is
-//! `length·(1 − o)` rounded down to whole microseconds, at least 1, exactly as the batch path
-//! (`make_windows`) computes it, so that the streaming and batch paths number windows alike.
+//! `length·(1 − o)` rounded down to whole microseconds, at least 1, by the batch path's own
+//! [`window_step`], so that the streaming and batch paths number windows alike.
 
 use std::ops::RangeInclusive;
 
-use crate::error::{Error, Result};
+use crate::error::Result;
+pub use crate::windows::window_step;
 
 /// The start times of a stream's windows.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -14,25 +15,6 @@ pub struct WindowSchedule {
     start: u64,
     length: u64,
     step: u64,
-}
-
-/// The step between window starts for a window length and an overlap, validated.
-pub fn window_step(length_us: u64, overlap: f64) -> Result<u64> {
-    if length_us == 0 {
-        return Err(Error::param(
-            "window_us",
-            "the window length must be at least 1 µs, got 0",
-        ));
-    }
-    if !overlap.is_finite() || !(0.0..1.0).contains(&overlap) {
-        return Err(Error::param(
-            "overlap",
-            format!("the overlap must lie in [0, 1), got {overlap}"),
-        ));
-    }
-    // 1e-6 µs absorbs the rounding of `1 − o` (50 µs at o = 0.9 is 4.999… in floating point),
-    // far below one microsecond for any window length a u64 can hold in f64 exactly enough.
-    Ok(((length_us as f64 * (1.0 - overlap) + 1e-6).floor() as u64).max(1))
 }
 
 impl WindowSchedule {
@@ -97,6 +79,7 @@ impl WindowSchedule {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::error::Error;
 
     /// The live windows straight from the definition, by enumeration.
     fn live_brute(s: &WindowSchedule, t: u64) -> Vec<u64> {
@@ -136,7 +119,7 @@ mod tests {
         assert!(matches!(
             window_step(0, 0.0),
             Err(Error::InvalidParameter {
-                name: "window_us",
+                name: "length_us",
                 ..
             })
         ));

@@ -1,6 +1,6 @@
 //! The detector's scheduling, input spikes, PENT estimate and validation, checked against a
-//! brute-force reading of docs/model.md §1 and §4 through an engine that reports every input
-//! spike it receives.
+//! brute-force reading of docs/model.md §1 and §4 and against the batch path's `make_windows`,
+//! through an engine that reports every input spike it receives.
 
 use std::cell::Cell;
 
@@ -9,6 +9,7 @@ use proptest::prelude::*;
 use super::*;
 use crate::error::Error;
 use crate::events::{Event, SensorSize};
+use crate::windows::{make_windows, WindowConfig};
 
 const W: u16 = 5;
 const H: u16 = 4;
@@ -129,6 +130,29 @@ fn brute(events: &[Event], window_us: u64, overlap: f64) -> Vec<Detection> {
     out
 }
 
+/// The batch path's windows (`make_windows`), reported the way [`Echo`] reports them.
+fn batch(events: &[Event], window_us: u64, overlap: f64) -> Vec<Detection> {
+    let sensor = SensorSize::new(W, H).unwrap();
+    let config = WindowConfig::new(window_us, overlap).unwrap();
+    let w = make_windows(events, sensor, &config).unwrap();
+    let mut out = Vec::new();
+    for i in 0..w.len() {
+        for j in w.offsets[i]..w.offsets[i + 1] {
+            out.push(Detection {
+                window: i as u64,
+                t: w.t[j],
+                x: w.x[j],
+                y: w.y[j],
+                map: w.n_preceding[i] as u16,
+                row: (w.t[j] - w.t0[i]) as u16,
+                ..Detection::default()
+            });
+        }
+    }
+    out.sort_unstable();
+    out
+}
+
 fn run(events: &[Event], cuts: &[usize], config: StreamConfig) -> (Vec<Detection>, usize) {
     let mut d = Detector::new(echo(), config).unwrap();
     let mut out = Vec::new();
@@ -170,7 +194,8 @@ proptest! {
         cuts.sort_unstable();
         let config = config(window_us, overlap);
         let (got, made) = run(&events, &cuts, config);
-        prop_assert_eq!(got, brute(&events, window_us, overlap));
+        prop_assert_eq!(&got, &brute(&events, window_us, overlap));
+        prop_assert_eq!(&got, &batch(&events, window_us, overlap));
         let max_live = WindowSchedule::new(0, window_us, overlap).unwrap().max_live();
         prop_assert!(made <= max_live, "{} states for at most {} live windows", made, max_live);
     }
