@@ -19,3 +19,16 @@ def validate_events(
 # ---------------------------------------------------------------- simulation (issue 4)
 
 # ---------------------------------------------------------------- streaming (issue 6)
+
+from typing import final
+
+PACKET_FORMATS: list[str]
+
+@final
+class PacketDecoder:
+    def __new__(cls, format: str, width: int, height: int) -> PacketDecoder: ...
+    def decode(self, packet: bytes, arrival_us: int) -> npt.NDArray[np.uint8]: ...
+    @property
+    def format(self) -> str: ...
+    @property
+    def last_t(self) -> int | None: ...
