@@ -20,7 +20,7 @@ def validate_events(
 
 # ---------------------------------------------------------------- streaming (issue 6)
 
-from typing import final
+from typing import final  # noqa: E402 (this section's own import)
 
 PACKET_FORMATS: list[str]
 
