@@ -1,0 +1,464 @@
+//! The network's configuration (docs/api.md, docs/model.md §2): every number of the paper's
+//! Table 1 is a field, with the table as the default. The struct is (de)serialised with serde as
+//! the JSON dict of `uavsnn.network.default_config()`; missing fields take their defaults and
+//! unknown fields are rejected, so a typo never passes silently.
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+
+/// The only configuration format version this engine reads and writes.
+pub const CONFIG_VERSION: u32 = 1;
+
+/// How conv and pool layers treat their borders (docs/model.md §2).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Padding {
+    /// Output size = input size (conv) or `ceil(in / stride)` (pool); reads past the border see
+    /// padding, which never spikes.
+    Same,
+    /// Only positions whose whole kernel lies inside the input.
+    Valid,
+}
+
+/// One convolution layer (conv1, conv2 or conv3).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ConvConfig {
+    /// Kernel side `k` (kernels are `k × k`).
+    pub kernel: usize,
+    /// Number of feature maps.
+    pub maps: usize,
+    /// Firing threshold (for conv1: the static threshold, used when `pent.mode == "static"`).
+    pub threshold: f32,
+    /// Inter-map lateral inhibition in inference: one map per position per window.
+    pub lateral_inhibition: bool,
+    /// Winner-take-all: at most this many winners per training window.
+    pub wta_k: usize,
+    /// Winner-take-all: Chebyshev radius of inter-map inhibition around a winner.
+    pub wta_radius: usize,
+}
+
+/// One max-pooling layer (pool1 or pool2).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PoolConfig {
+    /// Block side.
+    pub kernel: usize,
+    /// Step between blocks.
+    pub stride: usize,
+}
+
+/// How conv1's threshold is set (docs/model.md §4).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ThresholdMode {
+    /// Pre-emptive neuron thresholding, from the window's number of input spikes.
+    Pent,
+    /// `conv1.threshold` for every map (the paper's comparison).
+    Static,
+}
+
+/// Where PENT's `N_in` comes from (docs/model.md §4).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PentEstimate {
+    /// The window's own number of input spikes (offline).
+    Window,
+    /// The number of distinct active pixels in `[t0 − L, t0)` (what a live stream knows).
+    Preceding,
+}
+
+/// PENT parameters.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PentConfig {
+    /// `"pent"` or `"static"`.
+    pub mode: ThresholdMode,
+    /// β: how many times denser than the window's average a neuron's input must be.
+    pub beta: f64,
+    /// `θ_min`: the threshold floor.
+    pub theta_min: f64,
+    /// Source of `N_in`.
+    pub estimate: PentEstimate,
+}
+
+/// STDP learning rates and their schedule (docs/model.md §6).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StdpConfig {
+    /// Initial potentiation rate a⁺ (> 0).
+    pub a_plus: f64,
+    /// Initial depression rate a⁻ (≤ 0).
+    pub a_minus: f64,
+    /// Cap of the doubling schedule of a⁺.
+    pub a_plus_max: f64,
+    /// Double a⁺ every this many training windows.
+    pub lr_every: u64,
+}
+
+/// The detection rule (docs/model.md §5).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DetectionConfig {
+    /// A window contains a UAV when at least this many conv3 neurons fire.
+    pub min_detections: usize,
+}
+
+/// Initial weights of conv2 and conv3: `N(mean, std)` clipped to `[0, 1]`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InitConfig {
+    pub mean: f64,
+    pub std: f64,
+}
+
+/// conv1's Gabor kernels (docs/model.md §4).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GaborConfig {
+    pub sigma: f64,
+    pub wavelength: f64,
+    pub gamma: f64,
+}
+
+/// The whole network configuration (docs/api.md).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct NetworkConfig {
+    /// Format version; always [`CONFIG_VERSION`].
+    pub version: u32,
+    /// Input (sensor) width in pixels.
+    pub width: usize,
+    /// Input (sensor) height in pixels.
+    pub height: usize,
+    pub padding: Padding,
+    pub conv1: ConvConfig,
+    pub pool1: PoolConfig,
+    pub conv2: ConvConfig,
+    pub pool2: PoolConfig,
+    pub conv3: ConvConfig,
+    pub pent: PentConfig,
+    pub stdp: StdpConfig,
+    pub detection: DetectionConfig,
+    pub init: InitConfig,
+    pub gabor: GaborConfig,
+}
+
+impl Default for NetworkConfig {
+    /// The paper's Table 1 on a 240 × 180 sensor, with `same` padding.
+    fn default() -> Self {
+        Self {
+            version: CONFIG_VERSION,
+            width: 240,
+            height: 180,
+            padding: Padding::Same,
+            conv1: ConvConfig {
+                kernel: 5,
+                maps: 4,
+                threshold: 4.0,
+                lateral_inhibition: true,
+                wta_k: 4,
+                wta_radius: 5,
+            },
+            pool1: PoolConfig {
+                kernel: 5,
+                stride: 5,
+            },
+            conv2: ConvConfig {
+                kernel: 10,
+                maps: 20,
+                threshold: 45.0,
+                lateral_inhibition: true,
+                wta_k: 5,
+                wta_radius: 10,
+            },
+            pool2: PoolConfig {
+                kernel: 5,
+                stride: 5,
+            },
+            conv3: ConvConfig {
+                kernel: 5,
+                maps: 10,
+                threshold: 3.0,
+                lateral_inhibition: true,
+                wta_k: 8,
+                wta_radius: 5,
+            },
+            pent: PentConfig {
+                mode: ThresholdMode::Pent,
+                beta: 8.0,
+                theta_min: 3.0,
+                estimate: PentEstimate::Window,
+            },
+            stdp: StdpConfig {
+                a_plus: 0.004,
+                a_minus: -0.003,
+                a_plus_max: 0.15,
+                lr_every: 500,
+            },
+            detection: DetectionConfig { min_detections: 1 },
+            init: InitConfig {
+                mean: 0.8,
+                std: 0.08,
+            },
+            gabor: GaborConfig {
+                sigma: 1.5,
+                wavelength: 4.0,
+                gamma: 0.5,
+            },
+        }
+    }
+}
+
+/// Sizes above this (per axis, and for kernels and maps) are rejected as absurd: they would not
+/// fit the engine's 16-bit coordinates.
+const MAX_SIDE: usize = u16::MAX as usize;
+
+impl NetworkConfig {
+    /// Parse a JSON config (missing fields take the defaults) and validate it.
+    pub fn from_json(text: &str) -> Result<Self> {
+        let config: Self = serde_json::from_str(text)
+            .map_err(|e| Error::param("config", format!("cannot read the config: {e}")))?;
+        config.validate()?;
+        Ok(config)
+    }
+
+    /// The config as pretty JSON (the dict of `default_config()`).
+    pub fn to_json(&self) -> String {
+        // Serialising plain structs of numbers, bools and enums cannot fail.
+        serde_json::to_string_pretty(self).unwrap_or_default()
+    }
+
+    /// The conv layers' configs in order (conv1, conv2, conv3).
+    pub fn conv(&self, index: usize) -> &ConvConfig {
+        match index {
+            0 => &self.conv1,
+            1 => &self.conv2,
+            _ => &self.conv3,
+        }
+    }
+
+    /// The pool layers' configs in order (pool1, pool2).
+    pub fn pool(&self, index: usize) -> &PoolConfig {
+        if index == 0 {
+            &self.pool1
+        } else {
+            &self.pool2
+        }
+    }
+
+    /// Check every field's range and that the layers' sizes compose (docs/model.md §2).
+    pub fn validate(&self) -> Result<()> {
+        if self.version != CONFIG_VERSION {
+            return Err(Error::param(
+                "version",
+                format!(
+                    "this engine reads config version {CONFIG_VERSION}, got {}",
+                    self.version
+                ),
+            ));
+        }
+        for (name, side) in [("width", self.width), ("height", self.height)] {
+            if side == 0 || side > MAX_SIDE {
+                return Err(Error::param(
+                    name,
+                    format!("must be in 1..={MAX_SIDE}, got {side}"),
+                ));
+            }
+        }
+        for index in 0..3 {
+            check_conv(index, self.conv(index))?;
+        }
+        for (name, p) in [("pool1", &self.pool1), ("pool2", &self.pool2)] {
+            if p.kernel == 0 || p.kernel > MAX_SIDE || p.stride == 0 || p.stride > MAX_SIDE {
+                return Err(Error::param(
+                    name,
+                    format!(
+                        "kernel and stride must be in 1..={MAX_SIDE}, got kernel {} stride {}",
+                        p.kernel, p.stride
+                    ),
+                ));
+            }
+        }
+        self.check_pent()?;
+        self.check_stdp()?;
+        if self.detection.min_detections == 0 {
+            return Err(Error::param(
+                "detection.min_detections",
+                "must be at least 1, got 0",
+            ));
+        }
+        if !(self.init.mean.is_finite() && self.init.std.is_finite() && self.init.std >= 0.0) {
+            return Err(Error::param(
+                "init",
+                format!(
+                    "mean must be finite and std finite and >= 0, got mean {} std {}",
+                    self.init.mean, self.init.std
+                ),
+            ));
+        }
+        let g = &self.gabor;
+        if !(g.sigma.is_finite()
+            && g.sigma > 0.0
+            && g.wavelength.is_finite()
+            && g.wavelength > 0.0
+            && g.gamma.is_finite()
+            && g.gamma > 0.0)
+        {
+            return Err(Error::param(
+                "gabor",
+                format!(
+                    "sigma, wavelength and gamma must be finite and > 0, got sigma {} \
+                     wavelength {} gamma {}",
+                    g.sigma, g.wavelength, g.gamma
+                ),
+            ));
+        }
+        // The layer sizes must compose: this fails on kernels larger than their input under
+        // `valid` padding.
+        super::geometry::Geometry::new(self)?;
+        Ok(())
+    }
+
+    fn check_pent(&self) -> Result<()> {
+        let p = &self.pent;
+        if !(p.beta.is_finite() && p.beta >= 0.0) {
+            return Err(Error::param(
+                "pent.beta",
+                format!("must be finite and >= 0, got {}", p.beta),
+            ));
+        }
+        if !(p.theta_min.is_finite() && p.theta_min > 0.0) || p.theta_min > f64::from(f32::MAX) {
+            return Err(Error::param(
+                "pent.theta_min",
+                format!("must be finite and > 0, got {}", p.theta_min),
+            ));
+        }
+        Ok(())
+    }
+
+    fn check_stdp(&self) -> Result<()> {
+        let s = &self.stdp;
+        if !(s.a_plus.is_finite() && s.a_plus > 0.0) {
+            return Err(Error::param(
+                "stdp.a_plus",
+                format!("must be finite and > 0, got {}", s.a_plus),
+            ));
+        }
+        if !(s.a_minus.is_finite() && s.a_minus <= 0.0) {
+            return Err(Error::param(
+                "stdp.a_minus",
+                format!("must be finite and <= 0, got {}", s.a_minus),
+            ));
+        }
+        if !(s.a_plus_max.is_finite() && s.a_plus_max >= s.a_plus) {
+            return Err(Error::param(
+                "stdp.a_plus_max",
+                format!(
+                    "must be finite and >= a_plus ({}), got {}",
+                    s.a_plus, s.a_plus_max
+                ),
+            ));
+        }
+        if s.lr_every == 0 {
+            return Err(Error::param("stdp.lr_every", "must be at least 1, got 0"));
+        }
+        Ok(())
+    }
+}
+
+/// Field names per conv layer, for error messages (`Error` names are static strings).
+const CONV_FIELDS: [[&str; 4]; 3] = [
+    [
+        "conv1.kernel",
+        "conv1.maps",
+        "conv1.threshold",
+        "conv1.wta_k",
+    ],
+    [
+        "conv2.kernel",
+        "conv2.maps",
+        "conv2.threshold",
+        "conv2.wta_k",
+    ],
+    [
+        "conv3.kernel",
+        "conv3.maps",
+        "conv3.threshold",
+        "conv3.wta_k",
+    ],
+];
+
+fn check_conv(index: usize, c: &ConvConfig) -> Result<()> {
+    let [kernel, maps, threshold, wta_k] = CONV_FIELDS[index];
+    if c.kernel == 0 || c.kernel > MAX_SIDE {
+        return Err(Error::param(
+            kernel,
+            format!("must be in 1..={MAX_SIDE}, got {}", c.kernel),
+        ));
+    }
+    if c.maps == 0 || c.maps > MAX_SIDE {
+        return Err(Error::param(
+            maps,
+            format!("must be in 1..={MAX_SIDE}, got {}", c.maps),
+        ));
+    }
+    if !(c.threshold.is_finite() && c.threshold > 0.0) {
+        return Err(Error::param(
+            threshold,
+            format!("must be finite and > 0, got {}", c.threshold),
+        ));
+    }
+    if c.wta_k == 0 {
+        return Err(Error::param(wta_k, "must be at least 1, got 0"));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn default_is_valid_and_round_trips_through_json() {
+        let c = NetworkConfig::default();
+        c.validate().unwrap();
+        let back = NetworkConfig::from_json(&c.to_json()).unwrap();
+        assert_eq!(back, c);
+    }
+
+    #[test]
+    fn missing_fields_take_defaults() {
+        let c = NetworkConfig::from_json(r#"{"width": 64, "height": 48}"#).unwrap();
+        assert_eq!(c.width, 64);
+        assert_eq!(c.conv2, NetworkConfig::default().conv2);
+    }
+
+    #[test]
+    fn rejects_bad_values() {
+        let cases = [
+            r#"{"version": 2}"#,
+            r#"{"width": 0}"#,
+            r#"{"conv2": {"kernel": 0, "maps": 20, "threshold": 45.0,
+                "lateral_inhibition": true, "wta_k": 5, "wta_radius": 10}}"#,
+            r#"{"conv2": {"kernel": 10, "maps": 20, "threshold": -1.0,
+                "lateral_inhibition": true, "wta_k": 5, "wta_radius": 10}}"#,
+            r#"{"pent": {"mode": "pent", "beta": -1.0, "theta_min": 3.0,
+                "estimate": "window"}}"#,
+            r#"{"pent": {"mode": "pent", "beta": 8.0, "theta_min": 0.0,
+                "estimate": "window"}}"#,
+            r#"{"padding": "valid", "width": 8, "height": 8}"#,
+            r#"{"widht": 240}"#,
+            r#"{"stdp": {"a_plus": 0.004, "a_minus": 0.003, "a_plus_max": 0.15,
+                "lr_every": 500}}"#,
+        ];
+        for text in cases {
+            let err = NetworkConfig::from_json(text).unwrap_err();
+            assert!(
+                matches!(err, Error::InvalidParameter { .. } | Error::Shape { .. }),
+                "{text}: {err:?}"
+            );
+        }
+    }
+}

@@ -1,0 +1,72 @@
+//! conv1's fixed Gabor kernels (docs/model.md §4).
+
+use super::config::GaborConfig;
+
+/// `maps` Gabor kernels of side `k`, orientations `m · 180° / maps` (0°, 45°, 90°, 135° for the
+/// default 4 maps), each min–max scaled into `[0, 1]`; returned in the layout `(maps, 1, k, k)`.
+///
+/// `g(x, y) = exp(−(x'² + γ²y'²) / (2σ²)) · cos(2πx'/λ)` with `x' = x cos θ + y sin θ`,
+/// `y' = −x sin θ + y cos θ`, `x` to the right and `y` down, both centred on the kernel (from
+/// `−(k−1)/2` to `(k−1)/2`). Computed in float64 and rounded to float32 at the end. A constant
+/// kernel (possible only for degenerate parameters) scales to all ones.
+pub fn gabor_kernels(k: usize, maps: usize, p: &GaborConfig) -> Vec<f32> {
+    let mut out = Vec::with_capacity(maps * k * k);
+    let centre = (k as f64 - 1.0) / 2.0;
+    for m in 0..maps {
+        let theta = m as f64 * std::f64::consts::PI / maps as f64;
+        let (sin, cos) = theta.sin_cos();
+        let raw: Vec<f64> = (0..k * k)
+            .map(|i| {
+                let y = (i / k) as f64 - centre;
+                let x = (i % k) as f64 - centre;
+                let xr = x * cos + y * sin;
+                let yr = -x * sin + y * cos;
+                let envelope =
+                    (-(xr * xr + p.gamma * p.gamma * yr * yr) / (2.0 * p.sigma * p.sigma)).exp();
+                envelope * (2.0 * std::f64::consts::PI * xr / p.wavelength).cos()
+            })
+            .collect();
+        let lo = raw.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = raw.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let span = hi - lo;
+        out.extend(raw.iter().map(|&g| {
+            if span > 0.0 {
+                ((g - lo) / span) as f32
+            } else {
+                1.0
+            }
+        }));
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::network::config::NetworkConfig;
+
+    #[test]
+    fn kernels_are_scaled_and_oriented() {
+        let p = NetworkConfig::default().gabor;
+        let w = gabor_kernels(5, 4, &p);
+        assert_eq!(w.len(), 100);
+        for m in 0..4 {
+            let kernel = &w[m * 25..(m + 1) * 25];
+            let lo = kernel.iter().copied().fold(f32::INFINITY, f32::min);
+            let hi = kernel.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+            assert_eq!((lo, hi), (0.0, 1.0));
+        }
+        // 0°: the wave runs along x, so the kernel responds to vertical edges: its centre
+        // column is its strongest, and every row is the same up to the envelope.
+        let k0 = &w[..25];
+        let col = |c: usize| (0..5).map(|r| k0[r * 5 + c]).sum::<f32>();
+        assert!(col(2) > col(1) && col(2) > col(0));
+        // 90° is 0° transposed.
+        let k90 = &w[50..75];
+        for r in 0..5 {
+            for c in 0..5 {
+                assert!((k0[r * 5 + c] - k90[c * 5 + r]).abs() < 1e-6);
+            }
+        }
+    }
+}

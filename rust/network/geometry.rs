@@ -1,0 +1,331 @@
+//! Layer geometry (docs/model.md §2): output sizes, which outputs an input position reaches
+//! (the event-driven direction) and which inputs an output reads (receptive fields, STDP).
+//!
+//! Everything is per axis; a layer's 2-D geometry is the same rule applied to rows and columns.
+
+use std::ops::Range;
+
+use super::config::{NetworkConfig, Padding};
+use crate::error::{Error, Result};
+
+/// One convolution layer's geometry.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ConvGeom {
+    pub in_h: usize,
+    pub in_w: usize,
+    pub in_ch: usize,
+    pub k: usize,
+    pub maps: usize,
+    pub out_h: usize,
+    pub out_w: usize,
+    /// Offset of the kernel's first row/column before the output position: `(k − 1) / 2` for
+    /// `same`, 0 for `valid`.
+    pub p_lo: usize,
+}
+
+/// One max-pool layer's geometry.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PoolGeom {
+    pub in_h: usize,
+    pub in_w: usize,
+    pub maps: usize,
+    pub k: usize,
+    pub stride: usize,
+    pub out_h: usize,
+    pub out_w: usize,
+}
+
+/// The geometry of the whole network: conv1, pool1, conv2, pool2, conv3.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Geometry {
+    pub conv: [ConvGeom; 3],
+    pub pool: [PoolGeom; 2],
+}
+
+impl ConvGeom {
+    fn new(
+        layer: &'static str,
+        in_h: usize,
+        in_w: usize,
+        in_ch: usize,
+        k: usize,
+        maps: usize,
+        padding: Padding,
+    ) -> Result<Self> {
+        let out = |n: usize| match padding {
+            Padding::Same => Ok(n),
+            Padding::Valid if k <= n => Ok(n - k + 1),
+            Padding::Valid => Err(Error::Shape {
+                name: layer,
+                expected: format!(
+                    "a kernel no larger than its {in_w}x{in_h} input (valid padding)"
+                ),
+                got: format!("kernel {k}"),
+            }),
+        };
+        Ok(Self {
+            in_h,
+            in_w,
+            in_ch,
+            k,
+            maps,
+            out_h: out(in_h)?,
+            out_w: out(in_w)?,
+            p_lo: match padding {
+                Padding::Same => (k - 1) / 2,
+                Padding::Valid => 0,
+            },
+        })
+    }
+
+    /// Output rows (or columns) whose kernel covers input row `i`.
+    #[inline]
+    pub fn outputs_of(&self, i: usize, out: usize) -> Range<usize> {
+        let hi = (i + self.p_lo + 1).min(out);
+        let lo = (i + self.p_lo + 1).saturating_sub(self.k);
+        lo..hi.max(lo)
+    }
+
+    /// Input rows (or columns) read by output row `o`, clipped to the input.
+    #[inline]
+    pub fn inputs_of(&self, o: usize, input: usize) -> Range<usize> {
+        let lo = o.saturating_sub(self.p_lo);
+        let hi = (o + self.k).saturating_sub(self.p_lo).min(input);
+        lo..hi.max(lo)
+    }
+
+    /// Number of weights of one map's kernel.
+    pub fn kernel_len(&self) -> usize {
+        self.in_ch * self.k * self.k
+    }
+
+    /// Number of neurons.
+    pub fn neurons(&self) -> usize {
+        self.out_h * self.out_w * self.maps
+    }
+}
+
+impl PoolGeom {
+    fn new(
+        layer: &'static str,
+        in_h: usize,
+        in_w: usize,
+        maps: usize,
+        k: usize,
+        stride: usize,
+        padding: Padding,
+    ) -> Result<Self> {
+        let out = |n: usize| match padding {
+            Padding::Same => Ok(n.div_ceil(stride)),
+            Padding::Valid if k <= n => Ok((n - k) / stride + 1),
+            Padding::Valid => Err(Error::Shape {
+                name: layer,
+                expected: format!("a block no larger than its {in_w}x{in_h} input (valid padding)"),
+                got: format!("kernel {k}"),
+            }),
+        };
+        Ok(Self {
+            in_h,
+            in_w,
+            maps,
+            k,
+            stride,
+            out_h: out(in_h)?,
+            out_w: out(in_w)?,
+        })
+    }
+
+    /// Pool rows (or columns) whose block holds input row `i`.
+    #[inline]
+    pub fn outputs_of(&self, i: usize, out: usize) -> Range<usize> {
+        let lo = (i + 1).saturating_sub(self.k).div_ceil(self.stride);
+        let hi = (i / self.stride + 1).min(out);
+        lo..hi.max(lo)
+    }
+
+    /// Input rows (or columns) read by pool row `q`, clipped to the input.
+    #[inline]
+    pub fn inputs_of(&self, q: usize, input: usize) -> Range<usize> {
+        let lo = q * self.stride;
+        let hi = (lo + self.k).min(input);
+        lo..hi.max(lo)
+    }
+
+    /// Number of neurons.
+    pub fn neurons(&self) -> usize {
+        self.out_h * self.out_w * self.maps
+    }
+}
+
+impl Geometry {
+    /// Compose the layers of a config; fails when a layer comes out empty.
+    pub fn new(c: &NetworkConfig) -> Result<Self> {
+        let p = c.padding;
+        let conv1 = ConvGeom::new(
+            "conv1",
+            c.height,
+            c.width,
+            1,
+            c.conv1.kernel,
+            c.conv1.maps,
+            p,
+        )?;
+        let pool1 = PoolGeom::new(
+            "pool1",
+            conv1.out_h,
+            conv1.out_w,
+            conv1.maps,
+            c.pool1.kernel,
+            c.pool1.stride,
+            p,
+        )?;
+        let conv2 = ConvGeom::new(
+            "conv2",
+            pool1.out_h,
+            pool1.out_w,
+            pool1.maps,
+            c.conv2.kernel,
+            c.conv2.maps,
+            p,
+        )?;
+        let pool2 = PoolGeom::new(
+            "pool2",
+            conv2.out_h,
+            conv2.out_w,
+            conv2.maps,
+            c.pool2.kernel,
+            c.pool2.stride,
+            p,
+        )?;
+        let conv3 = ConvGeom::new(
+            "conv3",
+            pool2.out_h,
+            pool2.out_w,
+            pool2.maps,
+            c.conv3.kernel,
+            c.conv3.maps,
+            p,
+        )?;
+        Ok(Self {
+            conv: [conv1, conv2, conv3],
+            pool: [pool1, pool2],
+        })
+    }
+
+    /// The sensor pixels a conv3 neuron at `(row, col)` can see: rows `y0..y1`, columns `x0..x1`
+    /// (half-open), composed back through every layer and clipped to each layer's extent.
+    pub fn conv3_receptive_field(&self, row: usize, col: usize) -> (Range<usize>, Range<usize>) {
+        let [c1, c2, c3] = &self.conv;
+        let [p1, p2] = &self.pool;
+        let axis = |o: usize, vertical: bool| {
+            let pick = |h: usize, w: usize| if vertical { h } else { w };
+            let r = conv_back(c3, o..o + 1, pick(c3.in_h, c3.in_w));
+            let r = pool_back(p2, r, pick(p2.in_h, p2.in_w));
+            let r = conv_back(c2, r, pick(c2.in_h, c2.in_w));
+            let r = pool_back(p1, r, pick(p1.in_h, p1.in_w));
+            conv_back(c1, r, pick(c1.in_h, c1.in_w))
+        };
+        (axis(row, true), axis(col, false))
+    }
+}
+
+/// Inputs read by a range of conv outputs.
+fn conv_back(g: &ConvGeom, r: Range<usize>, input: usize) -> Range<usize> {
+    if r.is_empty() {
+        return r;
+    }
+    let first = g.inputs_of(r.start, input);
+    let last = g.inputs_of(r.end - 1, input);
+    first.start..last.end.max(first.start)
+}
+
+/// Inputs read by a range of pool outputs.
+fn pool_back(g: &PoolGeom, r: Range<usize>, input: usize) -> Range<usize> {
+    if r.is_empty() {
+        return r;
+    }
+    let first = g.inputs_of(r.start, input);
+    let last = g.inputs_of(r.end - 1, input);
+    first.start..last.end.max(first.start)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn conv(k: usize, padding: Padding, n: usize) -> ConvGeom {
+        ConvGeom::new("t", n, n, 1, k, 1, padding).unwrap()
+    }
+
+    fn pool(k: usize, s: usize, padding: Padding, n: usize) -> PoolGeom {
+        PoolGeom::new("t", n, n, 1, k, s, padding).unwrap()
+    }
+
+    /// `outputs_of` is exactly the inverse of `inputs_of`, by brute force.
+    #[test]
+    fn conv_directions_agree() {
+        for padding in [Padding::Same, Padding::Valid] {
+            for k in 1..7 {
+                for n in k..12 {
+                    let g = conv(k, padding, n);
+                    for i in 0..n {
+                        let direct: Vec<usize> = (0..g.out_h)
+                            .filter(|&o| g.inputs_of(o, n).contains(&i))
+                            .collect();
+                        let inverse: Vec<usize> = g.outputs_of(i, g.out_h).collect();
+                        assert_eq!(direct, inverse, "k={k} n={n} i={i} {padding:?}");
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn pool_directions_agree() {
+        for padding in [Padding::Same, Padding::Valid] {
+            for k in 1..7 {
+                for s in 1..7 {
+                    for n in k..14 {
+                        let g = pool(k, s, padding, n);
+                        for i in 0..n {
+                            let direct: Vec<usize> = (0..g.out_h)
+                                .filter(|&q| g.inputs_of(q, n).contains(&i))
+                                .collect();
+                            let inverse: Vec<usize> = g.outputs_of(i, g.out_h).collect();
+                            assert_eq!(direct, inverse, "k={k} s={s} n={n} i={i}");
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn table1_sizes() {
+        let g = Geometry::new(&NetworkConfig::default()).unwrap();
+        assert_eq!((g.conv[0].out_h, g.conv[0].out_w), (180, 240));
+        assert_eq!((g.pool[0].out_h, g.pool[0].out_w), (36, 48));
+        assert_eq!(
+            (g.conv[1].out_h, g.conv[1].out_w, g.conv[1].p_lo),
+            (36, 48, 4)
+        );
+        assert_eq!((g.pool[1].out_h, g.pool[1].out_w), (8, 10));
+        assert_eq!((g.conv[2].out_h, g.conv[2].out_w), (8, 10));
+        let (rows, cols) = g.conv3_receptive_field(0, 0);
+        assert_eq!(rows.start, 0);
+        assert_eq!(cols.start, 0);
+        let (rows, cols) = g.conv3_receptive_field(7, 9);
+        assert_eq!((rows.end, cols.end), (180, 240));
+    }
+
+    #[test]
+    fn valid_padding_rejects_large_kernels() {
+        let c = NetworkConfig {
+            padding: Padding::Valid,
+            width: 20,
+            height: 20,
+            ..NetworkConfig::default()
+        };
+        assert!(matches!(Geometry::new(&c), Err(Error::Shape { .. })));
+    }
+}

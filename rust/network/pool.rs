@@ -1,0 +1,65 @@
+//! A max-pool layer's per-window state (docs/model.md §3): a pool neuron `(m, q)` fires at the
+//! time of the first spike of map `m` in its block. It has no potential and does not inhibit.
+
+use super::geometry::PoolGeom;
+
+/// A spike leaving a pool layer: `(map, row, col)`, all at the group's time.
+pub(crate) type PoolSpike = (u32, u32, u32);
+
+/// Per-window state of one pool layer.
+#[derive(Debug, Clone)]
+pub(crate) struct PoolState {
+    pub geom: PoolGeom,
+    /// Generation in which a neuron `[row][col][map]` fired.
+    fired: Vec<u32>,
+    /// Its firing time (meaningful only where `fired` is the current generation).
+    time: Vec<u64>,
+}
+
+impl PoolState {
+    pub fn new(geom: PoolGeom) -> Self {
+        let n = geom.neurons();
+        Self {
+            geom,
+            fired: vec![0; n],
+            time: vec![0; n],
+        }
+    }
+
+    /// Forget every stamp (after the generation counter wrapped).
+    pub fn clear_stamps(&mut self) {
+        self.fired.fill(0);
+    }
+
+    /// A spike of map `map` at conv position `(row, col)` at time `t`: fire every pool neuron of
+    /// that map whose block holds it and that has not fired yet.
+    #[inline]
+    pub fn on_spike(
+        &mut self,
+        generation: u32,
+        t: u64,
+        map: u32,
+        row: usize,
+        col: usize,
+        out: &mut Vec<PoolSpike>,
+    ) {
+        let g = self.geom;
+        for qy in g.outputs_of(row, g.out_h) {
+            for qx in g.outputs_of(col, g.out_w) {
+                let i = (qy * g.out_w + qx) * g.maps + map as usize;
+                if self.fired[i] != generation {
+                    self.fired[i] = generation;
+                    self.time[i] = t;
+                    out.push((map, qy as u32, qx as u32));
+                }
+            }
+        }
+    }
+
+    /// When pool neuron `(map, row, col)` fired in this window, if it did.
+    #[inline]
+    pub fn fired_at(&self, generation: u32, map: usize, row: usize, col: usize) -> Option<u64> {
+        let i = (row * self.geom.out_w + col) * self.geom.maps + map;
+        (self.fired[i] == generation).then_some(self.time[i])
+    }
+}

@@ -1,0 +1,580 @@
+//! End-to-end checks of the event-driven engine against a plain dense, layer-by-layer
+//! implementation of docs/model.md written here for clarity (test-only), on random small
+//! networks and windows, with one engine state reused across windows (sparse resets).
+
+#![allow(clippy::float_cmp, clippy::needless_range_loop)] // exact equality; dense loops by index
+
+use proptest::prelude::*;
+
+use super::*;
+
+/// Spike times of a layer's neurons, `[map][row][col]`, `None` = silent.
+type Times = Vec<Vec<Vec<Option<u64>>>>;
+
+/// A dense layer's output: spike times and potentials at the firing time.
+struct DenseConv {
+    times: Times,
+    v: Vec<Vec<Vec<f64>>>,
+    /// Every neuron that crossed (time, potential) — before inhibition.
+    crossed: Vec<(u64, f64, usize, usize, usize)>,
+}
+
+fn dense_conv(
+    g: &ConvGeom,
+    w: &ConvWeights,
+    input: &Times,
+    thresholds: &[f64],
+    inhibit: bool,
+) -> DenseConv {
+    let mut taus: Vec<u64> = input
+        .iter()
+        .flatten()
+        .flatten()
+        .flatten()
+        .copied()
+        .collect();
+    taus.sort_unstable();
+    taus.dedup();
+    let mut cross = vec![vec![vec![None::<(u64, f64)>; g.out_w]; g.out_h]; g.maps];
+    for m in 0..g.maps {
+        for oy in 0..g.out_h {
+            for ox in 0..g.out_w {
+                for &tau in &taus {
+                    let mut v = 0.0f64;
+                    for c in 0..g.in_ch {
+                        for dy in 0..g.k {
+                            for dx in 0..g.k {
+                                let (iy, ix) = (oy + dy, ox + dx);
+                                if iy < g.p_lo || ix < g.p_lo {
+                                    continue;
+                                }
+                                let (iy, ix) = (iy - g.p_lo, ix - g.p_lo);
+                                if iy >= g.in_h || ix >= g.in_w {
+                                    continue;
+                                }
+                                if input[c][iy][ix].is_some_and(|t| t <= tau) {
+                                    v += f64::from(w.kernel(m)[(c * g.k + dy) * g.k + dx]);
+                                }
+                            }
+                        }
+                    }
+                    if v >= thresholds[m] {
+                        cross[m][oy][ox] = Some((tau, v));
+                        break;
+                    }
+                }
+            }
+        }
+    }
+    let mut out = DenseConv {
+        times: vec![vec![vec![None; g.out_w]; g.out_h]; g.maps],
+        v: vec![vec![vec![0.0; g.out_w]; g.out_h]; g.maps],
+        crossed: Vec::new(),
+    };
+    for oy in 0..g.out_h {
+        for ox in 0..g.out_w {
+            let mut best: Option<(u64, f64, usize)> = None;
+            for (m, map) in cross.iter().enumerate() {
+                if let Some((t, v)) = map[oy][ox] {
+                    out.crossed.push((t, v, m, oy, ox));
+                    if !inhibit {
+                        out.times[m][oy][ox] = Some(t);
+                        out.v[m][oy][ox] = v;
+                    }
+                    let better = match best {
+                        None => true,
+                        Some((bt, bv, _)) => t < bt || (t == bt && v > bv),
+                    };
+                    if better {
+                        best = Some((t, v, m));
+                    }
+                }
+            }
+            if inhibit {
+                if let Some((t, v, m)) = best {
+                    out.times[m][oy][ox] = Some(t);
+                    out.v[m][oy][ox] = v;
+                }
+            }
+        }
+    }
+    out
+}
+
+fn dense_pool(g: &PoolGeom, input: &Times) -> Times {
+    let mut out = vec![vec![vec![None; g.out_w]; g.out_h]; g.maps];
+    for (m, map) in out.iter_mut().enumerate() {
+        for (qy, row) in map.iter_mut().enumerate() {
+            for (qx, cell) in row.iter_mut().enumerate() {
+                for iy in g.inputs_of(qy, g.in_h) {
+                    for ix in g.inputs_of(qx, g.in_w) {
+                        if let Some(t) = input[m][iy][ix] {
+                            *cell = Some(cell.map_or(t, |c: u64| c.min(t)));
+                        }
+                    }
+                }
+            }
+        }
+    }
+    out
+}
+
+fn spikes_of(times: &Times, v: Option<&Vec<Vec<Vec<f64>>>>) -> Vec<Spike> {
+    let mut out = Vec::new();
+    for (m, map) in times.iter().enumerate() {
+        for (r, row) in map.iter().enumerate() {
+            for (c, t) in row.iter().enumerate() {
+                if let Some(t) = t {
+                    out.push(Spike {
+                        t: *t,
+                        map: m as u16,
+                        row: r as u16,
+                        col: c as u16,
+                        v: v.map_or(0.0, |v| v[m][r][c] as f32),
+                    });
+                }
+            }
+        }
+    }
+    out.sort_unstable_by_key(|s| (s.t, s.map, s.row, s.col));
+    out
+}
+
+/// The dense model on one window: every layer's spikes, and for `train`, the winners.
+fn dense_window(
+    net: &Network,
+    t: &[u64],
+    x: &[u16],
+    y: &[u16],
+    train: Option<usize>,
+) -> ([Vec<Spike>; 5], Vec<Winner>) {
+    let c = net.config();
+    let g = net.geometry();
+    let mut frame: Times = vec![vec![vec![None; c.width]; c.height]];
+    for i in 0..t.len() {
+        let cell = &mut frame[0][y[i] as usize][x[i] as usize];
+        if cell.is_none() {
+            *cell = Some(t[i]);
+        }
+    }
+    let th1: Vec<f64> = net
+        .conv1_thresholds(t.len() as u64)
+        .iter()
+        .map(|&v| f64::from(v))
+        .collect();
+    let mut traces: [Vec<Spike>; 5] = Default::default();
+    let mut input = frame;
+    for layer in 0..3 {
+        let lc = c.conv(layer);
+        let th = if layer == 0 {
+            th1.clone()
+        } else {
+            vec![f64::from(lc.threshold); lc.maps]
+        };
+        let training = train == Some(layer);
+        let conv = dense_conv(
+            &g.conv[layer],
+            net.conv_weights(ConvLayer::ALL[layer]),
+            &input,
+            &th,
+            lc.lateral_inhibition && !training,
+        );
+        traces[2 * layer] = spikes_of(&conv.times, Some(&conv.v));
+        if training {
+            let mut all = conv.crossed.clone();
+            all.sort_by(|a, b| {
+                a.0.cmp(&b.0)
+                    .then(b.1.total_cmp(&a.1))
+                    .then((a.2, a.3, a.4).cmp(&(b.2, b.3, b.4)))
+            });
+            let mut winners: Vec<Winner> = Vec::new();
+            for (t, v, m, r, col) in all {
+                if winners.len() >= lc.wta_k {
+                    break;
+                }
+                let taken = winners.iter().any(|w| w.map as usize == m);
+                let near = winners.iter().any(|w| {
+                    (w.row as usize).abs_diff(r) <= lc.wta_radius
+                        && (w.col as usize).abs_diff(col) <= lc.wta_radius
+                });
+                if !taken && !near {
+                    winners.push(Winner {
+                        t,
+                        map: m as u16,
+                        row: r as u16,
+                        col: col as u16,
+                        v,
+                    });
+                }
+            }
+            return (traces, winners);
+        }
+        if layer == 2 {
+            break;
+        }
+        let pooled = dense_pool(&g.pool[layer], &conv.times);
+        traces[2 * layer + 1] = spikes_of(&pooled, None);
+        input = pooled;
+    }
+    (traces, Vec::new())
+}
+
+/// A random small network config.
+fn config_strategy() -> impl Strategy<Value = NetworkConfig> {
+    (
+        (6usize..20, 6usize..20, any::<bool>()),
+        (1usize..6, 1usize..5, 0.5f32..4.0, any::<bool>()),
+        (1usize..4, 1usize..4),
+        (1usize..5, 1usize..5, 0.3f32..3.0, any::<bool>()),
+        (1usize..3, 1usize..3),
+        (1usize..4, 1usize..4, 0.3f32..2.0, any::<bool>()),
+        (any::<bool>(), 0.0f64..20.0, 0.5f64..3.0),
+        (1usize..5, 0usize..4),
+    )
+        .prop_map(|(sensor, c1, p1, c2, p2, c3, pent, wta)| {
+            let mut c = NetworkConfig {
+                width: sensor.0,
+                height: sensor.1,
+                padding: if sensor.2 {
+                    Padding::Same
+                } else {
+                    Padding::Valid
+                },
+                ..NetworkConfig::default()
+            };
+            // Thresholds on a grid of 1/4, to meet potentials exactly.
+            let conv = |(kernel, maps, threshold, li): (usize, usize, f32, bool)| ConvConfig {
+                kernel,
+                maps,
+                threshold: (threshold * 4.0).round().max(1.0) / 4.0,
+                lateral_inhibition: li,
+                wta_k: wta.0,
+                wta_radius: wta.1,
+            };
+            c.conv1 = conv(c1);
+            c.conv2 = conv(c2);
+            c.conv3 = conv(c3);
+            c.pool1 = PoolConfig {
+                kernel: p1.0,
+                stride: p1.1,
+            };
+            c.pool2 = PoolConfig {
+                kernel: p2.0,
+                stride: p2.1,
+            };
+            c.pent.mode = if pent.0 {
+                ThresholdMode::Pent
+            } else {
+                ThresholdMode::Static
+            };
+            c.pent.beta = pent.1;
+            c.pent.theta_min = (pent.2 * 4.0).round().max(1.0) / 4.0;
+            c
+        })
+        .prop_filter("layers must fit", |c| c.validate().is_ok())
+}
+
+/// Weights on a grid of 1/8 (odd seeds, so that equal potentials and potentials exactly at a
+/// threshold are common) or of 2⁻¹² (even seeds).
+fn random_weights(net: &mut Network, seed: u64) {
+    let steps = if seed % 2 == 1 { 8 } else { 4096 };
+    let mut s = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+    for layer in ConvLayer::ALL {
+        let n = net.conv_weights(layer).canonical().len();
+        let w = (0..n)
+            .map(|_| {
+                s = s
+                    .wrapping_mul(6_364_136_223_846_793_005)
+                    .wrapping_add(1_442_695_040_888_963_407);
+                ((s >> 40) % (steps + 1)) as f32 / steps as f32
+            })
+            .collect();
+        net.set_weights(layer, w).unwrap();
+    }
+}
+
+/// Random windows: pixels with times in a small range (many equal times).
+fn window(c: &NetworkConfig, seed: u64, n: usize, t0: u64) -> (Vec<u64>, Vec<u16>, Vec<u16>) {
+    let mut s = seed | 1;
+    let mut next = |m: u64| {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        s % m
+    };
+    let mut v: Vec<(u64, u16, u16)> = (0..n)
+        .map(|_| {
+            (
+                t0 + next(12),
+                next(c.width as u64) as u16,
+                next(c.height as u64) as u16,
+            )
+        })
+        .collect();
+    v.sort_by_key(|e| e.0);
+    (
+        v.iter().map(|e| e.0).collect(),
+        v.iter().map(|e| e.1).collect(),
+        v.iter().map(|e| e.2).collect(),
+    )
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 96, ..ProptestConfig::default() })]
+
+    #[test]
+    fn engine_equals_dense_reference(c in config_strategy(), seed in any::<u64>()) {
+        let mut net = Network::new(c.clone(), seed).unwrap();
+        random_weights(&mut net, seed);
+        let mut state = net.new_state();
+        for w in 0..3u64 {
+            let n = (seed.wrapping_add(w) % (c.width as u64 * c.height as u64)) as usize;
+            let (t, x, y) = window(&c, seed.wrapping_add(w * 7919), n, 100 * w);
+            net.run_window(&mut state, Spikes::new(&t, &x, &y).unwrap(), 100 * w, None, true)
+                .unwrap();
+            let (dense, _) = dense_window(&net, &t, &x, &y, None);
+            for layer in Layer::ALL {
+                prop_assert_eq!(state.spikes(layer), &dense[layer.index()][..], "{}", layer);
+                prop_assert_eq!(state.counts()[layer.index()], dense[layer.index()].len() as u64);
+            }
+            let det: Vec<_> = state.detections().iter().map(|d| (d.t, d.map, d.row, d.col)).collect();
+            let mut want: Vec<_> = dense[4].iter().map(|s| (s.t, s.map, s.row, s.col)).collect();
+            let mut got = det.clone();
+            got.sort_unstable();
+            want.sort_unstable();
+            prop_assert_eq!(got, want);
+        }
+    }
+
+    #[test]
+    fn stdp_step_equals_dense_reference(
+        c in config_strategy(),
+        seed in any::<u64>(),
+        layer in 0usize..3,
+    ) {
+        let mut net = Network::new(c.clone(), seed).unwrap();
+        random_weights(&mut net, seed);
+        let mut state = net.new_state();
+        let conv = ConvLayer::ALL[layer];
+        for w in 0..3u64 {
+            let n = (seed.wrapping_add(w) % (c.width as u64 * c.height as u64)) as usize;
+            let (t, x, y) = window(&c, seed.wrapping_add(w * 31), n, 50 * w);
+            let (_, want) = dense_window(&net, &t, &x, &y, Some(layer));
+            let mut expected = net.clone();
+            let rates = Rates { a_plus: 0.25, a_minus: -0.125 };
+            // The dense update: inputs' first spikes from the dense run of the layers below.
+            dense_stdp(&mut expected, &t, &x, &y, layer, &want, rates);
+            let got = net
+                .stdp_step(&mut state, conv, Spikes::new(&t, &x, &y).unwrap(), 50 * w, None, rates)
+                .unwrap();
+            prop_assert_eq!(&got, &want);
+            prop_assert_eq!(net.conv_weights(conv), expected.conv_weights(conv));
+        }
+    }
+}
+
+/// Apply STDP densely for `winners` of `layer`, computing input spike times with the dense
+/// model.
+fn dense_stdp(
+    net: &mut Network,
+    t: &[u64],
+    x: &[u16],
+    y: &[u16],
+    layer: usize,
+    winners: &[Winner],
+    rates: Rates,
+) {
+    let c = net.config().clone();
+    let g = net.geometry().conv[layer];
+    // The input of `layer`: pixels, pool1 or pool2 spike times.
+    let input: Times = if layer == 0 {
+        let mut f = vec![vec![vec![None; c.width]; c.height]];
+        for i in 0..t.len() {
+            let cell = &mut f[0][y[i] as usize][x[i] as usize];
+            if cell.is_none() {
+                *cell = Some(t[i]);
+            }
+        }
+        f
+    } else {
+        let (traces, _) = dense_window(net, t, x, y, None);
+        let pool = &traces[2 * layer - 1];
+        let pg = net.geometry().pool[layer - 1];
+        let mut f = vec![vec![vec![None; pg.out_w]; pg.out_h]; pg.maps];
+        for s in pool {
+            f[s.map as usize][s.row as usize][s.col as usize] = Some(s.t);
+        }
+        f
+    };
+    let conv = ConvLayer::ALL[layer];
+    let mut w = net.conv_weights(conv).canonical().to_vec();
+    let n = g.kernel_len();
+    for win in winners {
+        for ch in 0..g.in_ch {
+            for dy in 0..g.k {
+                for dx in 0..g.k {
+                    let iy = (win.row as usize + dy).checked_sub(g.p_lo);
+                    let ix = (win.col as usize + dx).checked_sub(g.p_lo);
+                    let fired = match (iy, ix) {
+                        (Some(iy), Some(ix)) if iy < g.in_h && ix < g.in_w => {
+                            input[ch][iy][ix].is_some_and(|ti| ti <= win.t)
+                        }
+                        _ => false,
+                    };
+                    let a = if fired { rates.a_plus } else { rates.a_minus };
+                    let i = win.map as usize * n + (ch * g.k + dy) * g.k + dx;
+                    w[i] = stdp::updated(w[i], a);
+                }
+            }
+        }
+    }
+    net.set_weights(conv, w).unwrap();
+}
+
+#[test]
+fn generation_wrap_keeps_results() {
+    let c = NetworkConfig {
+        width: 30,
+        height: 20,
+        ..NetworkConfig::default()
+    };
+    let mut net = Network::new(c.clone(), 1).unwrap();
+    random_weights(&mut net, 3);
+    let (t, x, y) = window(&c, 11, 200, 0);
+    let mut a = net.new_state();
+    net.run_window(&mut a, Spikes::new(&t, &x, &y).unwrap(), 0, None, true)
+        .unwrap();
+    let mut b = net.new_state();
+    b.set_generation(u32::MAX - 1, u32::MAX - 3);
+    for _ in 0..3 {
+        net.run_window(&mut b, Spikes::new(&t, &x, &y).unwrap(), 0, None, true)
+            .unwrap();
+        for layer in Layer::ALL {
+            assert_eq!(a.spikes(layer), b.spikes(layer));
+        }
+    }
+}
+
+#[test]
+fn a_line_makes_the_matching_gabor_fire_at_its_last_pixel() {
+    // A vertical line of 5 pixels, one pixel per microsecond: the 0° kernel (vertical edges)
+    // centred on the line reaches its threshold at exactly the pixel that brings the sum of its
+    // centre column over it.
+    let mut c = NetworkConfig {
+        width: 20,
+        height: 20,
+        ..NetworkConfig::default()
+    };
+    c.pent.mode = ThresholdMode::Static;
+    c.conv1.threshold = 4.0;
+    let net = Network::new(c, 0).unwrap();
+    let w = net.conv_weights(ConvLayer::Conv1).kernel(0).to_vec();
+    let column: Vec<f64> = (0..5).map(|r| f64::from(w[r * 5 + 2])).collect();
+    let mut sum = 0.0;
+    let crossing = column
+        .iter()
+        .position(|&v| {
+            sum += v;
+            sum >= 4.0
+        })
+        .unwrap() as u64;
+    let t: Vec<u64> = (0..5).collect();
+    let x = vec![10u16; 5];
+    let y: Vec<u16> = (8..13).collect();
+    let mut state = net.new_state();
+    net.run_window(&mut state, Spikes::new(&t, &x, &y).unwrap(), 0, None, true)
+        .unwrap();
+    let centre = state
+        .spikes(Layer::Conv1)
+        .iter()
+        .find(|s| (s.row, s.col) == (10, 10))
+        .copied()
+        .unwrap();
+    assert_eq!((centre.map, centre.t), (0, crossing));
+    assert_eq!(
+        centre.v,
+        column[..=crossing as usize].iter().sum::<f64>() as f32
+    );
+    // Raising the threshold past the whole column silences the centre neuron.
+    let mut c = net.config().clone();
+    c.conv1.threshold = (column.iter().sum::<f64>() + 0.01) as f32;
+    let net = Network::new(c, 0).unwrap();
+    let mut state = net.new_state();
+    net.run_window(&mut state, Spikes::new(&t, &x, &y).unwrap(), 0, None, true)
+        .unwrap();
+    assert!(state
+        .spikes(Layer::Conv1)
+        .iter()
+        .all(|s| (s.row, s.col) != (10, 10) || s.map != 0));
+}
+
+#[test]
+fn push_api_matches_run_window_and_reports_detections_early() {
+    let c = NetworkConfig {
+        width: 40,
+        height: 30,
+        ..NetworkConfig::default()
+    };
+    let mut c = c;
+    c.pent.mode = ThresholdMode::Static;
+    c.conv1.threshold = 1.5;
+    c.conv2.threshold = 2.0;
+    c.conv3.threshold = 1.0;
+    let mut net = Network::new(c.clone(), 2).unwrap();
+    random_weights(&mut net, 9);
+    let (t, x, y) = window(&c, 5, 400, 0);
+    let mut a = net.new_state();
+    net.run_window(&mut a, Spikes::new(&t, &x, &y).unwrap(), 0, None, false)
+        .unwrap();
+    assert!(!a.detections().is_empty(), "the test needs detections");
+    let mut b = net.new_state();
+    b.begin(&net, 0, &net.conv1_thresholds(t.len() as u64))
+        .unwrap();
+    let mut seen = Vec::new();
+    for i in 0..t.len() {
+        for d in b.push(&net, t[i], x[i], y[i]).unwrap() {
+            // A group's detections come back as soon as a later spike arrives.
+            assert!(d.t < t[i]);
+            seen.push(*d);
+        }
+    }
+    b.finish(&net).unwrap();
+    seen.extend_from_slice(&b.detections()[seen.len()..]);
+    assert_eq!(seen, a.detections());
+    assert_eq!(b.counts(), a.counts());
+    // Bad input is refused with the event's index, and the window goes on.
+    b.begin(&net, 100, &net.conv1_thresholds(0)).unwrap();
+    assert!(matches!(
+        b.push(&net, 99, 0, 0),
+        Err(Error::InvalidEvent { index: 0, .. })
+    ));
+    assert!(matches!(
+        b.push(&net, 100, 40, 0),
+        Err(Error::InvalidEvent { index: 0, .. })
+    ));
+    b.push(&net, 105, 1, 1).unwrap();
+    assert!(matches!(
+        b.push(&net, 104, 1, 2),
+        Err(Error::InvalidEvent { index: 1, .. })
+    ));
+    // A state made for another network is refused.
+    let other = Network::new(c, 2).unwrap();
+    assert!(b.push(&other, 106, 0, 0).is_err());
+}
+
+#[test]
+fn duplicate_pixels_keep_their_first_spike() {
+    let c = NetworkConfig {
+        width: 20,
+        height: 20,
+        ..NetworkConfig::default()
+    };
+    let net = Network::new(c, 0).unwrap();
+    let mut state = net.new_state();
+    state.begin(&net, 0, &net.conv1_thresholds(0)).unwrap();
+    for t in 0..5 {
+        state.push(&net, t, 3, 3).unwrap();
+    }
+    state.finish(&net).unwrap();
+    assert_eq!(state.input_count(), 1);
+}

@@ -1,0 +1,186 @@
+//! A conv layer's weights, in two layouts kept in step:
+//!
+//! - the *canonical* `(maps, in_ch, k, k)` float32 array of docs/model.md §2 (what users, model
+//!   files and STDP see);
+//! - the *engine* layout `[in_ch][dy][j][map]` in float64, with `j = k − 1 − dx`. An input spike
+//!   at `(c, iy, ix)` reaches, in output row `oy`, the consecutive columns `ox0 ..` with
+//!   `dx` falling as `ox` rises; with potentials stored `[row][col][map]`, its update for that
+//!   row is one contiguous run of `k × maps` potentials plus one contiguous run of weights.
+//!   Float64 holds every float32 exactly; the engine adds in float64 (see `conv`).
+
+use rand::SeedableRng;
+use rand_distr::{Distribution, Normal};
+use rand_pcg::Pcg64;
+
+use super::geometry::ConvGeom;
+use crate::error::{Error, Result};
+
+/// One conv layer's weights.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ConvWeights {
+    maps: usize,
+    in_ch: usize,
+    k: usize,
+    canonical: Vec<f32>,
+    engine: Vec<f64>,
+}
+
+impl ConvWeights {
+    /// Weights from a canonical `(maps, in_ch, k, k)` array; every value must be finite and in
+    /// `[0, 1]`.
+    pub fn new(g: &ConvGeom, canonical: Vec<f32>) -> Result<Self> {
+        check_values(g, &canonical)?;
+        let mut w = Self {
+            maps: g.maps,
+            in_ch: g.in_ch,
+            k: g.k,
+            canonical,
+            engine: vec![0.0; g.maps * g.kernel_len()],
+        };
+        for m in 0..w.maps {
+            w.sync_map(m);
+        }
+        Ok(w)
+    }
+
+    /// `N(mean, std)` clipped to `[0, 1]`, drawn in canonical order from a PCG64 stream seeded
+    /// by `seed` and the layer's index (so conv2 and conv3 draw independent streams).
+    pub fn random(g: &ConvGeom, mean: f64, std: f64, seed: u64, layer: usize) -> Result<Self> {
+        let normal = Normal::new(mean, std)
+            .map_err(|e| Error::param("init", format!("mean {mean} std {std}: {e}")))?;
+        let mut rng =
+            Pcg64::seed_from_u64(seed ^ (layer as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15));
+        let canonical = (0..g.maps * g.kernel_len())
+            .map(|_| normal.sample(&mut rng).clamp(0.0, 1.0) as f32)
+            .collect();
+        Self::new(g, canonical)
+    }
+
+    /// The canonical `(maps, in_ch, k, k)` weights, C order.
+    pub fn canonical(&self) -> &[f32] {
+        &self.canonical
+    }
+
+    /// The engine layout (see the module docs).
+    #[inline]
+    pub fn engine(&self) -> &[f64] {
+        &self.engine
+    }
+
+    /// `(maps, in_ch, k, k)`.
+    pub fn shape(&self) -> [usize; 4] {
+        [self.maps, self.in_ch, self.k, self.k]
+    }
+
+    /// Map `m`'s canonical kernel `(in_ch, k, k)`.
+    pub fn kernel(&self, m: usize) -> &[f32] {
+        let n = self.in_ch * self.k * self.k;
+        &self.canonical[m * n..(m + 1) * n]
+    }
+
+    /// Map `m`'s canonical kernel, mutable; call [`Self::sync_map`] after writing it.
+    pub(crate) fn kernel_mut(&mut self, m: usize) -> &mut [f32] {
+        let n = self.in_ch * self.k * self.k;
+        &mut self.canonical[m * n..(m + 1) * n]
+    }
+
+    /// Copy map `m`'s canonical kernel into the engine layout.
+    pub(crate) fn sync_map(&mut self, m: usize) {
+        let (k, maps) = (self.k, self.maps);
+        let n = self.in_ch * k * k;
+        let kernel = &self.canonical[m * n..(m + 1) * n];
+        for c in 0..self.in_ch {
+            for dy in 0..k {
+                for dx in 0..k {
+                    let j = k - 1 - dx;
+                    self.engine[((c * k + dy) * k + j) * maps + m] =
+                        f64::from(kernel[(c * k + dy) * k + dx]);
+                }
+            }
+        }
+    }
+
+    /// Sum of map `m`'s weights in float64 (PENT's `K1[m]`), summed in canonical order.
+    pub fn kernel_sum(&self, m: usize) -> f64 {
+        self.kernel(m).iter().map(|&w| f64::from(w)).sum()
+    }
+}
+
+fn check_values(g: &ConvGeom, w: &[f32]) -> Result<()> {
+    let expected = g.maps * g.kernel_len();
+    if w.len() != expected {
+        return Err(Error::Shape {
+            name: "weights",
+            expected: format!("({}, {}, {}, {})", g.maps, g.in_ch, g.k, g.k),
+            got: format!("{} values", w.len()),
+        });
+    }
+    if let Some((i, v)) = w
+        .iter()
+        .enumerate()
+        .find(|(_, v)| !(v.is_finite() && (0.0..=1.0).contains(*v)))
+    {
+        return Err(Error::param(
+            "weights",
+            format!("every weight must be finite and in [0, 1]; value {i} is {v}"),
+        ));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+#[allow(clippy::float_cmp)] // exact equality is the property under test
+mod tests {
+    use super::*;
+    use crate::network::config::NetworkConfig;
+    use crate::network::geometry::Geometry;
+
+    #[test]
+    fn random_weights_are_seeded_and_clipped() {
+        let g = Geometry::new(&NetworkConfig::default()).unwrap().conv[1];
+        let a = ConvWeights::random(&g, 0.8, 0.08, 7, 1).unwrap();
+        let b = ConvWeights::random(&g, 0.8, 0.08, 7, 1).unwrap();
+        let c = ConvWeights::random(&g, 0.8, 0.08, 8, 1).unwrap();
+        assert_eq!(a, b);
+        assert_ne!(a, c);
+        let mean = a.canonical().iter().map(|&w| f64::from(w)).sum::<f64>() / 8000.0;
+        assert!((mean - 0.8).abs() < 0.01, "{mean}");
+        let wide = ConvWeights::random(&g, 0.8, 2.0, 7, 1).unwrap();
+        assert!(wide.canonical().iter().all(|w| (0.0..=1.0).contains(w)));
+    }
+
+    #[test]
+    fn engine_layout_matches_canonical() {
+        let g = Geometry::new(&NetworkConfig::default()).unwrap().conv[1];
+        let w = ConvWeights::random(&g, 0.5, 0.2, 1, 1).unwrap();
+        let (k, maps) = (g.k, g.maps);
+        for m in 0..maps {
+            for c in 0..g.in_ch {
+                for dy in 0..k {
+                    for dx in 0..k {
+                        let a = w.kernel(m)[(c * k + dy) * k + dx];
+                        let b = w.engine()[((c * k + dy) * k + (k - 1 - dx)) * maps + m];
+                        assert_eq!(f64::from(a), b);
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn rejects_out_of_range_values() {
+        let g = Geometry::new(&NetworkConfig::default()).unwrap().conv[0];
+        for bad in [f32::NAN, -0.1, 1.5, f32::INFINITY] {
+            let mut v = vec![0.5; 100];
+            v[3] = bad;
+            assert!(matches!(
+                ConvWeights::new(&g, v),
+                Err(Error::InvalidParameter { .. })
+            ));
+        }
+        assert!(matches!(
+            ConvWeights::new(&g, vec![0.5; 99]),
+            Err(Error::Shape { .. })
+        ));
+    }
+}

@@ -1,0 +1,488 @@
+//! The per-event engine: one window at a time through the whole network (docs/model.md §3).
+//!
+//! A [`WindowState`] holds everything one worker needs (potentials, stamps, scratch lists), sized
+//! by the network's neurons once; it is reused from window to window and allocates nothing per
+//! event once its scratch lists have grown. Nothing is swept per window: every per-neuron array
+//! carries generation stamps, so starting a window costs O(maps).
+//!
+//! # Incremental use (streams)
+//!
+//! ```
+//! use uavsnn::network::{Network, NetworkConfig};
+//!
+//! let config = NetworkConfig { width: 64, height: 48, ..NetworkConfig::default() };
+//! let net = Network::new(config, 0).unwrap();
+//! let mut state = net.new_state();
+//! let thresholds = net.conv1_thresholds(0); // PENT from an estimate known before the window
+//! state.begin(&net, 1_000, &thresholds).unwrap();
+//! for (t, x, y) in [(1_005, 3, 4), (1_005, 4, 4), (1_009, 5, 4)] {
+//!     // Detections of completed timestamp groups come back at once.
+//!     for d in state.push(&net, t, x, y).unwrap() {
+//!         println!("UAV at ({}, {}) t={}", d.x, d.y, d.t);
+//!     }
+//! }
+//! state.finish(&net).unwrap(); // completes the last group
+//! println!("{} conv3 spikes", state.detections().len());
+//! ```
+//!
+//! Spikes of equal time form a *group* that is processed at once: its crossings are decided only
+//! when the group is complete, that is when a later spike arrives ([`WindowState::push`]), when
+//! the caller says so ([`WindowState::flush`], [`WindowState::push_group`]) or at
+//! [`WindowState::finish`]. A pixel's first spike in the window is its input spike; later ones
+//! are ignored (docs/model.md §1), so raw events can be pushed as they come.
+
+use super::config::NetworkConfig;
+use super::conv::{ConvState, Crossing};
+use super::detection::{detection, Detection, Inputs};
+use super::geometry::Geometry;
+use super::model::Network;
+use super::pool::{PoolSpike, PoolState};
+use super::winners::{Winner, Wta};
+use super::{ConvLayer, Layer};
+use crate::error::{Error, Result};
+
+/// A spike of a layer, as reported in traces.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Spike {
+    /// Time (µs, absolute).
+    pub t: u64,
+    pub map: u16,
+    pub row: u16,
+    pub col: u16,
+    /// Potential at the firing time, rounded to float32 (0 for pools).
+    pub v: f32,
+}
+
+/// The engine state of one worker; see the module docs.
+#[derive(Debug, Clone)]
+pub struct WindowState {
+    net_id: u64,
+    geom: Geometry,
+    width: usize,
+    height: usize,
+    generation: u32,
+    group: u32,
+    open: bool,
+    t0: u64,
+    last_t: Option<u64>,
+    pushed: usize,
+    pixel_fired: Vec<u32>,
+    pixel_time: Vec<u64>,
+    inputs: Inputs,
+    pending: Vec<(u16, u16)>,
+    pending_t: Option<u64>,
+    conv: [ConvState; 3],
+    pool: [PoolState; 2],
+    thresholds: Vec<f32>,
+    crossings: Vec<Crossing>,
+    pool_out: Vec<PoolSpike>,
+    counts: [u64; 5],
+    record: bool,
+    trace: [Vec<Spike>; 5],
+    detections: Vec<Detection>,
+    training: Option<usize>,
+    wta: Wta,
+}
+
+impl WindowState {
+    /// A state sized for `net` (see also [`Network::new_state`]).
+    pub fn new(net: &Network) -> Self {
+        let g = *net.geometry();
+        let c = net.config();
+        Self {
+            net_id: net.id(),
+            geom: g,
+            width: c.width,
+            height: c.height,
+            generation: 0,
+            group: 0,
+            open: false,
+            t0: 0,
+            last_t: None,
+            pushed: 0,
+            pixel_fired: vec![0; c.width * c.height],
+            pixel_time: vec![0; c.width * c.height],
+            inputs: Inputs::default(),
+            pending: Vec::new(),
+            pending_t: None,
+            conv: g.conv.map(ConvState::new),
+            pool: g.pool.map(PoolState::new),
+            thresholds: Vec::new(),
+            crossings: Vec::new(),
+            pool_out: Vec::new(),
+            counts: [0; 5],
+            record: false,
+            trace: Default::default(),
+            detections: Vec::new(),
+            training: None,
+            wta: Wta::default(),
+        }
+    }
+
+    /// Keep every layer's spikes of the coming windows (see [`Self::spikes`]); off by default.
+    pub fn set_record(&mut self, record: bool) {
+        self.record = record;
+    }
+
+    /// Start a window at `t0` in inference mode, with conv1's per-map `thresholds`
+    /// (from [`Network::conv1_thresholds`]). Any unfinished window is dropped.
+    pub fn begin(&mut self, net: &Network, t0: u64, thresholds: &[f32]) -> Result<()> {
+        self.start(net, t0, thresholds, None)
+    }
+
+    /// Start a training window for `layer`: earlier layers run in inference mode, `layer` runs
+    /// without lateral inhibition and its crossings compete in the winner-take-all; layers above
+    /// it are not run. Read the winners with [`Self::winners`] after [`Self::finish`].
+    pub fn begin_training(
+        &mut self,
+        net: &Network,
+        layer: ConvLayer,
+        t0: u64,
+        thresholds: &[f32],
+    ) -> Result<()> {
+        self.start(net, t0, thresholds, Some(layer.index()))
+    }
+
+    fn start(
+        &mut self,
+        net: &Network,
+        t0: u64,
+        thresholds: &[f32],
+        training: Option<usize>,
+    ) -> Result<()> {
+        self.check_net(net)?;
+        let maps = self.geom.conv[0].maps;
+        if thresholds.len() != maps {
+            return Err(Error::Shape {
+                name: "thresholds",
+                expected: format!("{maps} values (one per conv1 map)"),
+                got: format!("{}", thresholds.len()),
+            });
+        }
+        if let Some(v) = thresholds.iter().find(|v| v.is_nan() || **v <= 0.0) {
+            return Err(Error::param(
+                "thresholds",
+                format!("conv1 thresholds must be > 0 and not NaN, got {v}"),
+            ));
+        }
+        self.next_generation();
+        self.open = true;
+        self.t0 = t0;
+        self.last_t = None;
+        self.pushed = 0;
+        self.inputs.clear();
+        self.pending.clear();
+        self.pending_t = None;
+        self.thresholds.clear();
+        self.thresholds.extend_from_slice(thresholds);
+        let c: &NetworkConfig = net.config();
+        self.conv[0].set_thresholds(|m| thresholds[m]);
+        self.conv[1].set_thresholds(|_| c.conv2.threshold);
+        self.conv[2].set_thresholds(|_| c.conv3.threshold);
+        self.counts = [0; 5];
+        for t in &mut self.trace {
+            t.clear();
+        }
+        self.detections.clear();
+        self.training = training;
+        if let Some(l) = training {
+            let lc = c.conv(l);
+            self.wta.reset(lc.maps, lc.wta_k, lc.wta_radius);
+        }
+        Ok(())
+    }
+
+    fn check_net(&self, net: &Network) -> Result<()> {
+        if net.id() == self.net_id {
+            Ok(())
+        } else {
+            Err(Error::param(
+                "network",
+                "this WindowState was made for another Network (make one with Network::new_state)",
+            ))
+        }
+    }
+
+    fn next_generation(&mut self) {
+        self.generation = self.generation.wrapping_add(1);
+        if self.generation == 0 {
+            self.pixel_fired.fill(0);
+            for c in &mut self.conv {
+                c.clear_window_stamps();
+            }
+            for p in &mut self.pool {
+                p.clear_stamps();
+            }
+            self.generation = 1;
+        }
+    }
+
+    fn next_group(&mut self) {
+        self.group = self.group.wrapping_add(1);
+        if self.group == 0 {
+            for c in &mut self.conv {
+                c.clear_group_stamps();
+            }
+            self.group = 1;
+        }
+    }
+
+    /// Push one input spike (`t` ≥ the previous spike's, inside the sensor, ≥ `t0`). If it
+    /// starts a new timestamp group, the previous group is processed first; returns the
+    /// detections that this produced (empty most of the time).
+    pub fn push(&mut self, net: &Network, t: u64, x: u16, y: u16) -> Result<&[Detection]> {
+        let first = self.detections.len();
+        self.accept(net, t, x, y)?;
+        Ok(&self.detections[first..])
+    }
+
+    /// Push a whole timestamp group (every input spike at time `t`) and process it at once;
+    /// returns the detections it (and any pending earlier group) produced.
+    pub fn push_group(
+        &mut self,
+        net: &Network,
+        t: u64,
+        xs: &[u16],
+        ys: &[u16],
+    ) -> Result<&[Detection]> {
+        if xs.len() != ys.len() {
+            return Err(Error::Shape {
+                name: "group",
+                expected: "x and y of equal length".into(),
+                got: format!("{} and {}", xs.len(), ys.len()),
+            });
+        }
+        let first = self.detections.len();
+        for (&x, &y) in xs.iter().zip(ys) {
+            self.accept(net, t, x, y)?;
+        }
+        self.process_pending(net);
+        Ok(&self.detections[first..])
+    }
+
+    /// Process the pending timestamp group now (call it when no more spikes of its time will
+    /// come); returns the detections it produced.
+    pub fn flush(&mut self, net: &Network) -> Result<&[Detection]> {
+        self.check_open(net)?;
+        let first = self.detections.len();
+        self.process_pending(net);
+        Ok(&self.detections[first..])
+    }
+
+    /// Complete the window: process the pending group and close it. Results stay readable
+    /// ([`Self::counts`], [`Self::detections`], [`Self::spikes`], [`Self::winners`]) until the
+    /// next `begin`.
+    pub fn finish(&mut self, net: &Network) -> Result<()> {
+        self.check_open(net)?;
+        self.process_pending(net);
+        self.open = false;
+        if self.record {
+            for t in &mut self.trace {
+                t.sort_unstable_by_key(|s| (s.t, s.map, s.row, s.col));
+            }
+        }
+        Ok(())
+    }
+
+    fn check_open(&self, net: &Network) -> Result<()> {
+        self.check_net(net)?;
+        if self.open {
+            Ok(())
+        } else {
+            Err(Error::Stream(
+                "no window is open: call begin() first".into(),
+            ))
+        }
+    }
+
+    #[inline]
+    fn accept(&mut self, net: &Network, t: u64, x: u16, y: u16) -> Result<()> {
+        self.check_open(net)?;
+        let (xs, ys) = (usize::from(x), usize::from(y));
+        if xs >= self.width || ys >= self.height {
+            return Err(self.bad_event(format!(
+                "(x={x}, y={y}) is outside the {}x{} sensor",
+                self.width, self.height
+            )));
+        }
+        if t < self.t0 {
+            return Err(
+                self.bad_event(format!("t={t} is before the window's start t0={}", self.t0))
+            );
+        }
+        if let Some(last) = self.last_t {
+            if t < last {
+                return Err(
+                    self.bad_event(format!("t={t} goes backwards (previous spike at t={last})"))
+                );
+            }
+        }
+        if self.pending_t.is_some_and(|p| t > p) {
+            self.process_pending(net);
+        }
+        self.pushed += 1;
+        self.last_t = Some(t);
+        if self.training.is_some() && self.wta.done() {
+            // The winners are known; later spikes cannot change the STDP update.
+            return Ok(());
+        }
+        let pixel = ys * self.width + xs;
+        if self.pixel_fired[pixel] != self.generation {
+            self.pixel_fired[pixel] = self.generation;
+            self.pixel_time[pixel] = t;
+            self.inputs.push(x, y);
+            self.pending.push((x, y));
+            self.pending_t = Some(t);
+        }
+        Ok(())
+    }
+
+    fn bad_event(&self, reason: String) -> Error {
+        Error::InvalidEvent {
+            index: self.pushed,
+            reason,
+        }
+    }
+
+    /// Run the pending group through the network.
+    fn process_pending(&mut self, net: &Network) {
+        let Some(t) = self.pending_t.take() else {
+            return;
+        };
+        self.next_group();
+        let w = net.conv_weights(ConvLayer::Conv1).engine();
+        for &(x, y) in &self.pending {
+            self.conv[0].add(w, self.generation, 0, usize::from(y), usize::from(x));
+        }
+        self.pending.clear();
+        self.propagate(net, t);
+    }
+
+    /// Decide conv1's crossings of the group at `t` and carry the spikes up the layers.
+    fn propagate(&mut self, net: &Network, t: u64) {
+        let config = net.config();
+        let generation = self.generation;
+        let mut crossings = std::mem::take(&mut self.crossings);
+        let mut pool_out = std::mem::take(&mut self.pool_out);
+        for layer in 0..3 {
+            let training = self.training == Some(layer);
+            let inhibit = config.conv(layer).lateral_inhibition && !training;
+            crossings.clear();
+            self.conv[layer].resolve(generation, self.group, inhibit, &mut crossings);
+            if crossings.is_empty() {
+                break;
+            }
+            let out_w = self.geom.conv[layer].out_w;
+            let conv_layer = Layer::ALL[2 * layer];
+            self.counts[conv_layer.index()] += crossings.len() as u64;
+            if self.record {
+                self.trace[conv_layer.index()].extend(crossings.iter().map(|c| Spike {
+                    t,
+                    map: c.map as u16,
+                    row: (c.pos as usize / out_w) as u16,
+                    col: (c.pos as usize % out_w) as u16,
+                    v: c.v as f32,
+                }));
+            }
+            if training {
+                for c in &crossings {
+                    self.wta.offer(Winner {
+                        t,
+                        map: c.map as u16,
+                        row: (c.pos as usize / out_w) as u16,
+                        col: (c.pos as usize % out_w) as u16,
+                        v: c.v,
+                    });
+                }
+                self.wta.close_group();
+                break;
+            }
+            if layer == 2 {
+                for c in &crossings {
+                    let (row, col) = (c.pos as usize / out_w, c.pos as usize % out_w);
+                    let (rows, cols) = self.geom.conv3_receptive_field(row, col);
+                    self.detections
+                        .push(detection(t, c.map, row, col, &rows, &cols, &self.inputs));
+                }
+                break;
+            }
+            pool_out.clear();
+            for c in &crossings {
+                let (row, col) = (c.pos as usize / out_w, c.pos as usize % out_w);
+                self.pool[layer].on_spike(generation, t, c.map, row, col, &mut pool_out);
+            }
+            let pool_layer = Layer::ALL[2 * layer + 1];
+            self.counts[pool_layer.index()] += pool_out.len() as u64;
+            if self.record {
+                self.trace[pool_layer.index()].extend(pool_out.iter().map(|&(m, r, c)| Spike {
+                    t,
+                    map: m as u16,
+                    row: r as u16,
+                    col: c as u16,
+                    v: 0.0,
+                }));
+            }
+            let w = net.conv_weights(ConvLayer::ALL[layer + 1]).engine();
+            for &(m, r, c) in &pool_out {
+                self.conv[layer + 1].add(w, generation, m as usize, r as usize, c as usize);
+            }
+        }
+        self.crossings = crossings;
+        self.pool_out = pool_out;
+    }
+
+    /// Spikes per layer (conv1, pool1, conv2, pool2, conv3) in the current or last window.
+    pub fn counts(&self) -> [u64; 5] {
+        self.counts
+    }
+
+    /// conv3 spikes as detections, in firing order.
+    pub fn detections(&self) -> &[Detection] {
+        &self.detections
+    }
+
+    /// conv1's thresholds of the current or last window.
+    pub fn thresholds(&self) -> &[f32] {
+        &self.thresholds
+    }
+
+    /// Number of input spikes (distinct pixels) taken so far in the window.
+    pub fn input_count(&self) -> usize {
+        self.inputs.len()
+    }
+
+    /// A layer's spikes, sorted by `(t, map, row, col)` after [`Self::finish`]; empty unless
+    /// recording is on ([`Self::set_record`]).
+    pub fn spikes(&self, layer: Layer) -> &[Spike] {
+        &self.trace[layer.index()]
+    }
+
+    /// The training window's winners, in acceptance order.
+    pub fn winners(&self) -> &[Winner] {
+        self.wta.winners()
+    }
+
+    /// When the input neuron `(c, row, col)` of conv layer `layer` fired in this window.
+    pub(crate) fn input_fired_at(
+        &self,
+        layer: ConvLayer,
+        c: usize,
+        row: usize,
+        col: usize,
+    ) -> Option<u64> {
+        match layer {
+            ConvLayer::Conv1 => {
+                let p = row * self.width + col;
+                (self.pixel_fired[p] == self.generation).then_some(self.pixel_time[p])
+            }
+            ConvLayer::Conv2 => self.pool[0].fired_at(self.generation, c, row, col),
+            ConvLayer::Conv3 => self.pool[1].fired_at(self.generation, c, row, col),
+        }
+    }
+
+    #[cfg(test)]
+    pub(crate) fn set_generation(&mut self, generation: u32, group: u32) {
+        self.generation = generation;
+        self.group = group;
+    }
+}
