@@ -15,30 +15,17 @@ use std::collections::VecDeque;
 
 use crate::error::{Error, Result};
 use crate::events::{validate, Event, SensorSize};
+use crate::network::Detection;
 
 use super::preceding::PrecedingCounter;
 use super::schedule::{window_step, WindowSchedule};
 
-/// One conv3 spike, reported as a detection (docs/model.md §5).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Default)]
-pub struct Detection {
-    /// Index of the window, counted from the stream's first window.
+/// A conv3 detection (docs/model.md §5) and the index of the window it fired in, counted from
+/// the stream's first window (window `k` starts at `start + k·step`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StreamDetection {
     pub window: u64,
-    /// Spike time in microseconds.
-    pub t: u64,
-    /// conv3 map.
-    pub map: u16,
-    /// conv3 position.
-    pub row: u16,
-    pub col: u16,
-    /// Centre of the neuron's receptive field, in sensor pixels.
-    pub x: u16,
-    pub y: u16,
-    /// Box of the window's input spikes up to `t` inside the receptive field (inclusive).
-    pub x0: u16,
-    pub y0: u16,
-    pub x1: u16,
-    pub y1: u16,
+    pub detection: Detection,
 }
 
 /// What the detector needs from a network: one state per live window, fed the window's input
@@ -48,22 +35,21 @@ pub trait WindowEngine {
     type State;
 
     /// The input size the engine expects.
-    fn sensor(&self) -> SensorSize;
+    fn sensor(&self) -> Result<SensorSize>;
 
     /// A fresh state; states are reused through [`WindowEngine::begin`].
     fn new_state(&self) -> Self::State;
 
     /// Start a window at `t0` whose PENT estimate is `n_in` input spikes.
-    fn begin(&self, state: &mut Self::State, t0: u64, n_in: u64);
+    fn begin(&self, state: &mut Self::State, t0: u64, n_in: u64) -> Result<()>;
 
     /// Add one input spike. Its time is at least that of the previous spike; spikes of one
-    /// time arrive together, before that time is settled.
-    fn push(&self, state: &mut Self::State, t: u64, x: u16, y: u16);
+    /// time arrive together, and that time is settled before a later one is pushed.
+    fn push(&self, state: &mut Self::State, t: u64, x: u16, y: u16) -> Result<()>;
 
     /// Every input spike up to the time of the last push has arrived: decide the crossings at
-    /// that time through the whole network and append the conv3 spikes it causes (their
-    /// `window` field is filled in by the caller).
-    fn settle(&self, state: &mut Self::State, out: &mut Vec<Detection>);
+    /// that time through the whole network and append the conv3 spikes it causes.
+    fn settle(&self, state: &mut Self::State, out: &mut Vec<Detection>) -> Result<()>;
 }
 
 /// Window length, overlap and (optionally) the first window's start.
@@ -111,13 +97,14 @@ pub struct Detector<E: WindowEngine> {
     last_t: Option<u64>,
     finished: bool,
     stats: StreamStats,
+    scratch: Vec<Detection>,
 }
 
 impl<E: WindowEngine> Detector<E> {
     /// A detector running `engine` over windows of `config`.
     pub fn new(engine: E, config: StreamConfig) -> Result<Self> {
         let step = window_step(config.window_us, config.overlap)?;
-        let sensor = engine.sensor();
+        let sensor = engine.sensor()?;
         Ok(Self {
             counter: PrecedingCounter::new(sensor.area(), config.window_us),
             engine,
@@ -131,6 +118,7 @@ impl<E: WindowEngine> Detector<E> {
             last_t: None,
             finished: false,
             stats: StreamStats::default(),
+            scratch: Vec::new(),
         })
     }
 
@@ -201,30 +189,30 @@ impl<E: WindowEngine> Detector<E> {
 
     /// Feed a chunk of events (any size, in time order, not earlier than the previous chunk)
     /// and append the detections it decides to `out`. A bad chunk is rejected whole, before
-    /// anything changes.
-    pub fn push(&mut self, events: &[Event], out: &mut Vec<Detection>) -> Result<()> {
+    /// anything changes. (An error from the engine itself after that would be a bug:
+    /// [`Error::Internal`] territory.)
+    pub fn push(&mut self, events: &[Event], out: &mut Vec<StreamDetection>) -> Result<()> {
         self.check(events)?;
         let before = out.len();
-        for e in events {
-            self.step(e, out);
-        }
+        let result = events.iter().try_for_each(|e| self.step(e, out));
         self.stats.detections += (out.len() - before) as u64;
-        Ok(())
+        result
     }
 
     /// End of the stream: settle the last timestamp, close every window and append the
     /// remaining detections. Later pushes fail until [`Detector::reset`].
-    pub fn flush(&mut self, out: &mut Vec<Detection>) {
+    pub fn flush(&mut self, out: &mut Vec<StreamDetection>) -> Result<()> {
         if self.finished {
-            return;
+            return Ok(());
         }
         let before = out.len();
-        self.settle(out);
+        let result = self.settle(out);
         while let Some(w) = self.live.pop_front() {
             self.spare.push(w.state);
         }
         self.finished = true;
         self.stats.detections += (out.len() - before) as u64;
+        result
     }
 
     /// Forget the stream (keeping allocations): the next event starts a new one.
@@ -240,7 +228,7 @@ impl<E: WindowEngine> Detector<E> {
         self.stats = StreamStats::default();
     }
 
-    fn step(&mut self, e: &Event, out: &mut Vec<Detection>) {
+    fn step(&mut self, e: &Event, out: &mut Vec<StreamDetection>) -> Result<()> {
         let schedule = *self.schedule.get_or_insert_with(|| {
             WindowSchedule::with_step(
                 self.config.start_us.unwrap_or(e.t),
@@ -249,7 +237,7 @@ impl<E: WindowEngine> Detector<E> {
             )
         });
         if self.last_t.is_some_and(|last| e.t > last) {
-            self.settle(out);
+            self.settle(out)?;
         }
         while self.live.front().is_some_and(|w| w.end <= e.t) {
             if let Some(w) = self.live.pop_front() {
@@ -259,7 +247,7 @@ impl<E: WindowEngine> Detector<E> {
         if let Some(range) = schedule.live_at(e.t) {
             let first = self.next_window.max(*range.start());
             for index in first..=*range.end() {
-                self.open(&schedule, index);
+                self.open(&schedule, index)?;
             }
             self.next_window = self.next_window.max(range.end() + 1);
         }
@@ -267,19 +255,20 @@ impl<E: WindowEngine> Detector<E> {
         for w in &mut self.live {
             // The pixel's first event in this window: it has not fired since the window opened.
             if previous.map_or(true, |p| p < w.t0) {
-                self.engine.push(&mut w.state, e.t, e.x, e.y);
+                self.engine.push(&mut w.state, e.t, e.x, e.y)?;
                 w.unsettled = true;
             }
         }
         self.last_t = Some(e.t);
         self.stats.events += 1;
+        Ok(())
     }
 
-    fn open(&mut self, schedule: &WindowSchedule, index: u64) {
+    fn open(&mut self, schedule: &WindowSchedule, index: u64) -> Result<()> {
         let t0 = schedule.start_of(index);
         let n_in = self.counter.count_before(t0) as u64;
         let mut state = self.spare.pop().unwrap_or_else(|| self.engine.new_state());
-        self.engine.begin(&mut state, t0, n_in);
+        self.engine.begin(&mut state, t0, n_in)?;
         self.live.push_back(LiveWindow {
             index,
             t0,
@@ -288,18 +277,21 @@ impl<E: WindowEngine> Detector<E> {
             unsettled: false,
         });
         self.stats.windows_opened += 1;
+        Ok(())
     }
 
-    fn settle(&mut self, out: &mut Vec<Detection>) {
+    fn settle(&mut self, out: &mut Vec<StreamDetection>) -> Result<()> {
         for w in &mut self.live {
             if w.unsettled {
-                let from = out.len();
-                self.engine.settle(&mut w.state, out);
-                for d in &mut out[from..] {
-                    d.window = w.index;
-                }
                 w.unsettled = false;
+                self.scratch.clear();
+                self.engine.settle(&mut w.state, &mut self.scratch)?;
+                out.extend(self.scratch.iter().map(|&detection| StreamDetection {
+                    window: w.index,
+                    detection,
+                }));
             }
         }
+        Ok(())
     }
 }

@@ -11,11 +11,13 @@
 //! "preceding" PENT estimate) on the same recording, whatever the chunking.
 
 mod detector;
+mod engine;
 mod packets;
 mod preceding;
 mod schedule;
 
-pub use detector::{Detection, Detector, StreamConfig, StreamStats, WindowEngine};
+pub use detector::{Detector, StreamConfig, StreamDetection, StreamStats, WindowEngine};
+pub use engine::NetworkDetector;
 pub use packets::{PacketDecoder, PacketFormat};
 pub use preceding::PrecedingCounter;
 pub use schedule::{window_step, WindowSchedule};
