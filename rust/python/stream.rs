@@ -1,11 +1,193 @@
-//! Bindings for `stream`: the UDP packet decoder (and, with the engine, the streaming detector).
+//! Bindings for `stream`: the streaming detector and the UDP packet decoder.
+//!
+//! The detector is built from the network's config (JSON) and weights, the documented face of
+//! `uavsnn.network.Network`, so it holds its own copy of the weights. Events cross as the packed
+//! bytes of the canonical dtype; detections come back as packed records that Python views with
+//! `uavsnn.detector.DETECTION_DTYPE`.
 
-use numpy::{IntoPyArray, PyArray1};
+use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1};
 use pyo3::prelude::*;
 
 use super::errors::{detach, map};
+use crate::error::Error;
 use crate::events::{Event, SensorSize, PACKED_EVENT_SIZE};
-use crate::stream::{PacketDecoder, PacketFormat};
+use crate::network::{Network, NetworkConfig};
+use crate::stream::{NetworkDetector, PacketDecoder, PacketFormat, StreamConfig, StreamDetection};
+
+/// Size of one packed detection record: `window u8, t u8, map row col u2, x y f4, box 4×u2`.
+const DETECTION_RECORD: usize = 8 + 8 + 3 * 2 + 2 * 4 + 4 * 2;
+
+fn pack_detections(found: &[StreamDetection]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(found.len() * DETECTION_RECORD);
+    for f in found {
+        let d = &f.detection;
+        out.extend_from_slice(&f.window.to_le_bytes());
+        out.extend_from_slice(&d.t.to_le_bytes());
+        for v in [d.map, d.row, d.col] {
+            out.extend_from_slice(&v.to_le_bytes());
+        }
+        out.extend_from_slice(&d.x.to_le_bytes());
+        out.extend_from_slice(&d.y.to_le_bytes());
+        for v in [d.x0, d.y0, d.x1, d.y1] {
+            out.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    out
+}
+
+/// Unchecked decoding of packed 13-byte event records (the detector validates them).
+fn unpack_events(bytes: &[u8], out: &mut Vec<Event>) -> Result<(), Error> {
+    if bytes.len() % PACKED_EVENT_SIZE != 0 {
+        return Err(Error::Shape {
+            name: "events",
+            expected: format!("a multiple of {PACKED_EVENT_SIZE} bytes"),
+            got: format!("{} bytes", bytes.len()),
+        });
+    }
+    out.clear();
+    out.extend(bytes.chunks_exact(PACKED_EVENT_SIZE).map(|r| Event {
+        t: u64::from_le_bytes([r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7]]),
+        x: u16::from_le_bytes([r[8], r[9]]),
+        y: u16::from_le_bytes([r[10], r[11]]),
+        p: r[12] != 0,
+    }));
+    Ok(())
+}
+
+/// The streaming detector over a copy of a network.
+#[pyclass(name = "StreamDetector", module = "uavsnn._core")]
+struct PyStreamDetector {
+    inner: NetworkDetector,
+    events: Vec<Event>,
+    found: Vec<StreamDetection>,
+}
+
+#[pymethods]
+impl PyStreamDetector {
+    #[new]
+    #[pyo3(signature = (config_json, conv1, conv2, conv3, window_us, overlap, start_us=None))]
+    fn new(
+        py: Python<'_>,
+        config_json: &str,
+        conv1: PyReadonlyArray1<'_, f32>,
+        conv2: PyReadonlyArray1<'_, f32>,
+        conv3: PyReadonlyArray1<'_, f32>,
+        window_us: u64,
+        overlap: f64,
+        start_us: Option<u64>,
+    ) -> PyResult<Self> {
+        let weights = [
+            conv1.as_slice()?.to_vec(),
+            conv2.as_slice()?.to_vec(),
+            conv3.as_slice()?.to_vec(),
+        ];
+        let inner = detach(py, || {
+            let config = NetworkConfig::from_json(config_json)?;
+            let net = Network::from_weights(config, weights)?;
+            NetworkDetector::new(
+                net,
+                StreamConfig {
+                    window_us,
+                    overlap,
+                    start_us,
+                },
+            )
+        })?;
+        Ok(Self {
+            inner,
+            events: Vec::new(),
+            found: Vec::new(),
+        })
+    }
+
+    /// Push packed event records; return the packed detections they decided.
+    fn push<'py>(
+        &mut self,
+        py: Python<'py>,
+        events: PyReadonlyArray1<'py, u8>,
+    ) -> PyResult<Bound<'py, PyArray1<u8>>> {
+        let raw = events.as_slice()?;
+        let Self {
+            inner,
+            events,
+            found,
+        } = self;
+        let bytes = detach(py, || {
+            unpack_events(raw, events)?;
+            found.clear();
+            inner.push(events, found)?;
+            Ok(pack_detections(found))
+        })?;
+        Ok(bytes.into_pyarray(py))
+    }
+
+    /// End the stream; return the packed detections still pending.
+    fn flush<'py>(&mut self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<u8>>> {
+        let Self { inner, found, .. } = self;
+        let bytes = detach(py, || {
+            found.clear();
+            inner.flush(found)?;
+            Ok(pack_detections(found))
+        })?;
+        Ok(bytes.into_pyarray(py))
+    }
+
+    /// Forget the stream.
+    fn reset(&mut self) {
+        self.inner.reset();
+    }
+
+    #[getter]
+    fn sensor_size(&self) -> (u16, u16) {
+        let s = self.inner.sensor();
+        (s.width, s.height)
+    }
+
+    #[getter]
+    fn window_us(&self) -> u64 {
+        self.inner.config().window_us
+    }
+
+    #[getter]
+    fn overlap(&self) -> f64 {
+        self.inner.config().overlap
+    }
+
+    #[getter]
+    fn step_us(&self) -> u64 {
+        self.inner.step_us()
+    }
+
+    #[getter]
+    fn events_seen(&self) -> u64 {
+        self.inner.stats().events
+    }
+
+    #[getter]
+    fn windows_opened(&self) -> u64 {
+        self.inner.stats().windows_opened
+    }
+
+    #[getter]
+    fn detections_emitted(&self) -> u64 {
+        self.inner.stats().detections
+    }
+
+    #[getter]
+    fn live_windows(&self) -> usize {
+        self.inner.live_windows()
+    }
+
+    #[getter]
+    fn states_allocated(&self) -> usize {
+        self.inner.states_allocated()
+    }
+
+    #[getter]
+    fn last_t(&self) -> Option<u64> {
+        self.inner.last_t()
+    }
+}
 
 /// Append events as packed 13-byte records (the canonical dtype's bytes).
 fn pack_events(events: &[Event], out: &mut Vec<u8>) {
@@ -70,7 +252,9 @@ impl PyPacketDecoder {
 }
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<PyStreamDetector>()?;
     m.add_class::<PyPacketDecoder>()?;
+    m.add("DETECTION_RECORD_SIZE", DETECTION_RECORD)?;
     m.add("PACKET_FORMATS", PacketFormat::NAMES.to_vec())?;
     Ok(())
 }

@@ -137,6 +137,11 @@ impl<E: WindowEngine> Detector<E> {
         self.config
     }
 
+    /// Microseconds between window starts.
+    pub fn step_us(&self) -> u64 {
+        self.step
+    }
+
     /// The window schedule, once the first window's start is known.
     pub fn schedule(&self) -> Option<WindowSchedule> {
         self.schedule
@@ -194,7 +199,7 @@ impl<E: WindowEngine> Detector<E> {
     pub fn push(&mut self, events: &[Event], out: &mut Vec<StreamDetection>) -> Result<()> {
         self.check(events)?;
         let before = out.len();
-        let result = events.iter().try_for_each(|e| self.step(e, out));
+        let result = events.iter().try_for_each(|e| self.accept(e, out));
         self.stats.detections += (out.len() - before) as u64;
         result
     }
@@ -228,7 +233,7 @@ impl<E: WindowEngine> Detector<E> {
         self.stats = StreamStats::default();
     }
 
-    fn step(&mut self, e: &Event, out: &mut Vec<StreamDetection>) -> Result<()> {
+    fn accept(&mut self, e: &Event, out: &mut Vec<StreamDetection>) -> Result<()> {
         let schedule = *self.schedule.get_or_insert_with(|| {
             WindowSchedule::with_step(
                 self.config.start_us.unwrap_or(e.t),
