@@ -44,7 +44,7 @@ __all__ = ["DETECTION_DTYPE", "Detector"]
 #: (half-open, ``x0 <= x < x1``). The same fields as ``Inference.detections``.
 DETECTION_DTYPE = np.dtype(
     [
-        ("window", "<u8"),
+        ("window", "<i8"),
         ("t", "<u8"),
         ("map", "<u2"),
         ("row", "<u2"),

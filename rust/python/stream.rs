@@ -14,14 +14,15 @@ use crate::events::{Event, SensorSize, PACKED_EVENT_SIZE};
 use crate::network::{Network, NetworkConfig};
 use crate::stream::{NetworkDetector, PacketDecoder, PacketFormat, StreamConfig, StreamDetection};
 
-/// Size of one packed detection record: `window u8, t u8, map row col u2, x y f4, box 4×u2`.
+/// Size of one packed detection record: `window i8, t u8, map row col u2, x y f4, box 4×u2`.
 const DETECTION_RECORD: usize = 8 + 8 + 3 * 2 + 2 * 4 + 4 * 2;
 
 fn pack_detections(found: &[StreamDetection]) -> Vec<u8> {
     let mut out = Vec::with_capacity(found.len() * DETECTION_RECORD);
     for f in found {
         let d = &f.detection;
-        out.extend_from_slice(&f.window.to_le_bytes());
+        // Window indices stay far below 2^63 (times are at most 2^62 µs).
+        out.extend_from_slice(&(f.window as i64).to_le_bytes());
         out.extend_from_slice(&d.t.to_le_bytes());
         for v in [d.map, d.row, d.col] {
             out.extend_from_slice(&v.to_le_bytes());
