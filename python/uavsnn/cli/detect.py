@@ -24,13 +24,30 @@ from uavsnn.errors import EventError, ParameterError, StreamError
 
 __all__ = ["register"]
 
+_DESCRIPTION = """\
+Run a trained model over a live event stream and print detections as they happen.
+
+SOURCE is one of:
+  FILE              a recording (AEDAT4, RAW EVT2/EVT3, DAT, ES, CSV, .npz, .npy), replayed as
+                    fast as possible, or at its own pace with --realtime
+  -                 standard input: packed 13-byte records (t u64, x u16, y u16, p u8, little
+                    endian: the bytes of uavsnn.EVENT_DTYPE), or t,x,y,p CSV lines with
+                    --stdin-format csv
+  udp://HOST:PORT   UDP packets in faery's t64_x16_y16_on8 (default) or t32_x16_y15_on1
+                    format, or aestream's spif words (--udp-format spif)
+
+Detections go to standard output, one line each (JSON lines with --json); a rate summary goes
+to standard error. Malformed packets, and chunks the detector rejects (events outside the
+sensor, time going backwards), are counted as drops and skipped.
+"""
+
 
 def register(subparsers: Any) -> None:
     """Add the ``detect`` sub-command."""
     p = subparsers.add_parser(
         "detect",
         help="detect UAVs in a recording, standard input or a UDP event stream",
-        description=__doc__,
+        description=_DESCRIPTION,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("source", metavar="SOURCE", help="a recording file, '-', or udp://HOST:PORT")
