@@ -16,6 +16,7 @@ use std::collections::VecDeque;
 use crate::error::{Error, Result};
 use crate::events::{validate, Event, SensorSize};
 use crate::network::Detection;
+use crate::windows::MAX_TIME_US;
 
 use super::preceding::PrecedingCounter;
 use super::schedule::{window_step, WindowSchedule};
@@ -104,6 +105,12 @@ impl<E: WindowEngine> Detector<E> {
     /// A detector running `engine` over windows of `config`.
     pub fn new(engine: E, config: StreamConfig) -> Result<Self> {
         let step = window_step(config.window_us, config.overlap)?;
+        if let Some(start) = config.start_us.filter(|&s| s > MAX_TIME_US) {
+            return Err(Error::param(
+                "start_us",
+                format!("must be at most 2^62 µs, got {start}"),
+            ));
+        }
         let sensor = engine.sensor()?;
         Ok(Self {
             counter: PrecedingCounter::new(sensor.area(), config.window_us),
@@ -180,6 +187,12 @@ impl<E: WindowEngine> Detector<E> {
             ));
         }
         validate(events, self.sensor, None, 0)?;
+        if let Some(last) = events.last().filter(|e| e.t > MAX_TIME_US) {
+            return Err(Error::InvalidEvent {
+                index: events.len() - 1,
+                reason: format!("t={} is beyond the largest time streamed (2^62 µs)", last.t),
+            });
+        }
         if let (Some(first), Some(last)) = (events.first(), self.last_t) {
             if first.t < last {
                 return Err(Error::Stream(format!(

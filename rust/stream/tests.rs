@@ -337,6 +337,18 @@ fn empty_chunks_are_fine_and_parameters_are_checked() {
     assert!(Detector::new(echo(), config(0, 0.0)).is_err());
     assert!(Detector::new(echo(), config(10, 1.0)).is_err());
     assert!(Detector::new(echo(), config(10, f64::NAN)).is_err());
+    let late_start = StreamConfig {
+        start_us: Some(u64::MAX),
+        ..config(10, 0.0)
+    };
+    assert!(Detector::new(echo(), late_start).is_err());
+    let err = d.push(&[ev(u64::MAX, 0, 0)], &mut out).unwrap_err();
+    assert!(matches!(err, Error::Stream(_)), "{err}"); // flushed first
+    d.reset();
+    let err = d
+        .push(&[ev(1, 0, 0), ev(u64::MAX, 0, 0)], &mut out)
+        .unwrap_err();
+    assert!(matches!(err, Error::InvalidEvent { index: 1, .. }), "{err}");
 }
 
 #[test]
