@@ -216,10 +216,21 @@ impl Default for NetworkConfig {
 const MAX_SIDE: usize = u16::MAX as usize;
 
 impl NetworkConfig {
-    /// Parse a JSON config (missing fields take the defaults) and validate it.
+    /// Parse a JSON config and validate it. Missing fields, at any depth, take the defaults
+    /// (`{"conv2": {"threshold": 30}}` changes one number); unknown fields are refused.
     pub fn from_json(text: &str) -> Result<Self> {
-        let config: Self = serde_json::from_str(text)
-            .map_err(|e| Error::param("config", format!("cannot read the config: {e}")))?;
+        let bad =
+            |e: serde_json::Error| Error::param("config", format!("cannot read the config: {e}"));
+        let given: serde_json::Value = serde_json::from_str(text).map_err(bad)?;
+        if !given.is_object() {
+            return Err(Error::param(
+                "config",
+                format!("must be a JSON object, got {given}"),
+            ));
+        }
+        let mut merged = serde_json::to_value(Self::default()).map_err(bad)?;
+        merge(&mut merged, given);
+        let config: Self = serde_json::from_value(merged).map_err(bad)?;
         config.validate()?;
         Ok(config)
     }
@@ -368,6 +379,23 @@ impl NetworkConfig {
     }
 }
 
+/// Overlay `given` onto `base`, recursing into objects present in both.
+fn merge(base: &mut serde_json::Value, given: serde_json::Value) {
+    match (base, given) {
+        (serde_json::Value::Object(b), serde_json::Value::Object(g)) => {
+            for (key, value) in g {
+                match b.get_mut(&key) {
+                    Some(slot) => merge(slot, value),
+                    None => {
+                        b.insert(key, value);
+                    }
+                }
+            }
+        }
+        (slot, value) => *slot = value,
+    }
+}
+
 /// Field names per conv layer, for error messages (`Error` names are static strings).
 const CONV_FIELDS: [[&str; 4]; 3] = [
     [
@@ -433,6 +461,11 @@ mod tests {
         let c = NetworkConfig::from_json(r#"{"width": 64, "height": 48}"#).unwrap();
         assert_eq!(c.width, 64);
         assert_eq!(c.conv2, NetworkConfig::default().conv2);
+        let c = NetworkConfig::from_json(r#"{"conv3": {"maps": 3}}"#).unwrap();
+        assert_eq!(c.conv3.maps, 3);
+        assert_eq!(c.conv3.kernel, NetworkConfig::default().conv3.kernel);
+        assert!(NetworkConfig::from_json(r#"{"conv3": {"mpas": 3}}"#).is_err());
+        assert!(NetworkConfig::from_json("[1]").is_err());
     }
 
     #[test]

@@ -49,7 +49,7 @@ pub fn infer(
     threads: Option<usize>,
     record: bool,
 ) -> Result<Vec<WindowResult>> {
-    check_sensor(net, batch)?;
+    check_sensor(net, batch.sensor)?;
     let states: Mutex<Vec<WindowState>> = Mutex::new(Vec::new());
     let run = || {
         (0..batch.len())
@@ -75,14 +75,14 @@ pub fn infer(
     }
 }
 
-/// Check that the batch's sensor is the network's input.
-pub(crate) fn check_sensor(net: &Network, batch: &WindowBatch<'_>) -> Result<()> {
+/// Check that a sensor `(width, height)` is the network's input.
+pub fn check_sensor(net: &Network, sensor: (usize, usize)) -> Result<()> {
     let c = net.config();
-    if batch.sensor != (c.width, c.height) {
+    if sensor != (c.width, c.height) {
         return Err(Error::Shape {
             name: "sensor_size",
             expected: format!("{}x{} (the network's input)", c.width, c.height),
-            got: format!("{}x{}", batch.sensor.0, batch.sensor.1),
+            got: format!("{}x{}", sensor.0, sensor.1),
         });
     }
     Ok(())

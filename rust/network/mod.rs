@@ -54,7 +54,7 @@ pub use config::{
 pub use detection::Detection;
 pub use gabor::gabor_kernels;
 pub use geometry::{ConvGeom, Geometry, PoolGeom};
-pub use inference::{infer, WindowResult};
+pub use inference::{check_sensor, infer, WindowResult};
 pub use model::Network;
 pub use model_io::MODEL_FORMAT;
 pub use stdp::{Convergence, Rates, Schedule};

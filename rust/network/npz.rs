@@ -288,9 +288,7 @@ pub(crate) fn unzip(bytes: &[u8]) -> Result<Vec<(String, Vec<u8>)>> {
         }
         let local = usize::try_from(local).map_err(|_| truncated())?;
         let size = usize::try_from(size).map_err(|_| truncated())?;
-        if get32(bytes, local)? != LOCAL {
-            return Err(Error::Model(format!("corrupt zip entry {name}")));
-        }
+        check_local_header(bytes, local, &name, method, crc, size)?;
         let data_at = local
             + 30
             + usize::from(get16(bytes, local + 26)?)
@@ -305,6 +303,39 @@ pub(crate) fn unzip(bytes: &[u8]) -> Result<Vec<(String, Vec<u8>)>> {
         at += 46 + name_len + extra_len + comment_len;
     }
     Ok(entries)
+}
+
+/// The local header of an entry must agree with its central-directory record (name, method,
+/// and CRC and size unless they are deferred to a data descriptor or to zip64).
+fn check_local_header(
+    bytes: &[u8],
+    at: usize,
+    name: &str,
+    method: u16,
+    crc: u32,
+    size: usize,
+) -> Result<()> {
+    let corrupt = |what: &str| Error::Model(format!("corrupt zip entry {name}: {what}"));
+    if get32(bytes, at)? != LOCAL {
+        return Err(corrupt("no local header"));
+    }
+    let flags = get16(bytes, at + 6)?;
+    let name_len = usize::from(get16(bytes, at + 26)?);
+    if get16(bytes, at + 8)? != method {
+        return Err(corrupt("method differs from the directory"));
+    }
+    if bytes.get(at + 30..at + 30 + name_len) != Some(name.as_bytes()) {
+        return Err(corrupt("name differs from the directory"));
+    }
+    if flags & 0x08 == 0 {
+        let local_crc = get32(bytes, at + 14)?;
+        let sizes = [get32(bytes, at + 18)?, get32(bytes, at + 22)?];
+        let size_ok = |s: u32| s == 0xFFFF_FFFF || s as usize == size;
+        if local_crc != crc || !sizes.into_iter().all(size_ok) {
+            return Err(corrupt("CRC or size differs from the directory"));
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -171,7 +171,7 @@ pub fn train_layer(
 
 /// Check a training run's inputs.
 pub fn check_training(net: &Network, batch: &WindowBatch<'_>, options: TrainOptions) -> Result<()> {
-    check_sensor(net, batch)?;
+    check_sensor(net, batch.sensor)?;
     if options.epochs == 0 {
         return Err(Error::param("epochs", "must be at least 1, got 0"));
     }

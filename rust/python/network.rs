@@ -1,8 +1,473 @@
-//! Bindings for `network`; filled in by its issue.
+//! Bindings for `network`: the `NetworkCore` class that `uavsnn.network.Network` wraps.
+//!
+//! Inputs arrive as contiguous NumPy arrays of the exact dtypes (the Python layer converts and
+//! type-checks them); results go back as columns that the Python layer assembles into
+//! structured arrays.
 
+use numpy::prelude::*;
+use numpy::{PyArray1, PyReadonlyArray1, PyReadonlyArray4};
 use pyo3::prelude::*;
+use pyo3::types::PyTuple;
 
-#[allow(clippy::unnecessary_wraps)]
-pub fn register(_m: &Bound<'_, PyModule>) -> PyResult<()> {
-    Ok(())
+use super::errors::{detach, map};
+use crate::error::Error;
+use crate::network::{
+    check_sensor, infer, training_order, ConvLayer, Detection, Layer, Network, NetworkConfig,
+    Rates, Spike, Spikes, TrainOptions, Trainer, WindowBatch, Winner,
+};
+
+/// Columns `(t, map, row, col, v)` of spikes.
+type SpikeColumns<'py> = (
+    Bound<'py, PyArray1<u64>>,
+    Bound<'py, PyArray1<u16>>,
+    Bound<'py, PyArray1<u16>>,
+    Bound<'py, PyArray1<u16>>,
+    Bound<'py, PyArray1<f32>>,
+);
+
+/// What `run_window` returns: per layer spike columns, conv1 thresholds, detection columns.
+type TraceColumns<'py> = (
+    Vec<SpikeColumns<'py>>,
+    Bound<'py, PyArray1<f32>>,
+    Bound<'py, PyTuple>,
+);
+
+fn spike_columns<'py>(py: Python<'py>, spikes: &[Spike]) -> SpikeColumns<'py> {
+    (
+        PyArray1::from_iter(py, spikes.iter().map(|s| s.t)),
+        PyArray1::from_iter(py, spikes.iter().map(|s| s.map)),
+        PyArray1::from_iter(py, spikes.iter().map(|s| s.row)),
+        PyArray1::from_iter(py, spikes.iter().map(|s| s.col)),
+        PyArray1::from_iter(py, spikes.iter().map(|s| s.v)),
+    )
+}
+
+fn winner_columns<'py>(py: Python<'py>, winners: &[Winner]) -> SpikeColumns<'py> {
+    (
+        PyArray1::from_iter(py, winners.iter().map(|w| w.t)),
+        PyArray1::from_iter(py, winners.iter().map(|w| w.map)),
+        PyArray1::from_iter(py, winners.iter().map(|w| w.row)),
+        PyArray1::from_iter(py, winners.iter().map(|w| w.col)),
+        PyArray1::from_iter(py, winners.iter().map(|w| w.v as f32)),
+    )
+}
+
+/// Columns `(window, t, map, row, col, x, y, x0, y0, x1, y1)` of detections.
+fn detection_columns<'py>(
+    py: Python<'py>,
+    detections: &[(i64, Detection)],
+) -> PyResult<Bound<'py, PyTuple>> {
+    let d = detections;
+    PyTuple::new(
+        py,
+        [
+            PyArray1::from_iter(py, d.iter().map(|x| x.0)).into_any(),
+            PyArray1::from_iter(py, d.iter().map(|x| x.1.t)).into_any(),
+            PyArray1::from_iter(py, d.iter().map(|x| x.1.map)).into_any(),
+            PyArray1::from_iter(py, d.iter().map(|x| x.1.row)).into_any(),
+            PyArray1::from_iter(py, d.iter().map(|x| x.1.col)).into_any(),
+            PyArray1::from_iter(py, d.iter().map(|x| x.1.x)).into_any(),
+            PyArray1::from_iter(py, d.iter().map(|x| x.1.y)).into_any(),
+            PyArray1::from_iter(py, d.iter().map(|x| x.1.x0)).into_any(),
+            PyArray1::from_iter(py, d.iter().map(|x| x.1.y0)).into_any(),
+            PyArray1::from_iter(py, d.iter().map(|x| x.1.x1)).into_any(),
+            PyArray1::from_iter(py, d.iter().map(|x| x.1.y1)).into_any(),
+        ],
+    )
+}
+
+fn slice<'a, T: numpy::Element>(
+    a: &'a PyReadonlyArray1<'_, T>,
+    name: &'static str,
+) -> PyResult<&'a [T]> {
+    a.as_slice().map_err(|_| {
+        super::errors::to_pyerr(
+            a.py(),
+            &Error::Shape {
+                name,
+                expected: "a contiguous 1-D array".into(),
+                got: "a strided view".into(),
+            },
+        )
+    })
+}
+
+fn parse_layer(py: Python<'_>, layer: &str) -> PyResult<ConvLayer> {
+    map(py, layer.parse())
+}
+
+/// The config of `uavsnn.network.default_config()`, as JSON.
+#[pyfunction]
+fn network_default_config() -> String {
+    NetworkConfig::default().to_json()
+}
+
+/// The engine's network (weights and config); see `uavsnn.network.Network`.
+#[pyclass(module = "uavsnn._core")]
+pub struct NetworkCore {
+    net: Network,
+}
+
+/// The columns of a `uavsnn.windows.Windows`, borrowed as slices.
+struct BatchArgs<'a> {
+    sensor: (usize, usize),
+    length_us: u64,
+    t0: &'a [u64],
+    offsets: &'a [i64],
+    t: &'a [u64],
+    x: &'a [u16],
+    y: &'a [u16],
+    n_preceding: &'a [i64],
+}
+
+impl BatchArgs<'_> {
+    /// The validated batch, for `net` (its sensor checked first).
+    fn batch(&self, net: &Network) -> crate::Result<WindowBatch<'_>> {
+        check_sensor(net, self.sensor)?;
+        WindowBatch::new(
+            self.sensor,
+            self.length_us,
+            self.t0,
+            self.offsets,
+            Spikes::new(self.t, self.x, self.y)?,
+            self.n_preceding,
+        )
+    }
+}
+
+#[pymethods]
+impl NetworkCore {
+    /// A network from a JSON config (missing fields take their defaults) and a seed.
+    #[new]
+    fn new(py: Python<'_>, config_json: &str, seed: u64) -> PyResult<Self> {
+        let config = map(py, NetworkConfig::from_json(config_json))?;
+        let net = map(py, Network::new(config, seed))?;
+        Ok(Self { net })
+    }
+
+    /// The full config as JSON.
+    fn config_json(&self) -> String {
+        self.net.config().to_json()
+    }
+
+    /// Per layer: `(maps, rows, cols)` of its output.
+    fn shapes(&self) -> Vec<(String, (usize, usize, usize))> {
+        let g = self.net.geometry();
+        Layer::ALL
+            .iter()
+            .map(|l| {
+                let i = l.index() / 2;
+                let s = if l.index() % 2 == 0 {
+                    (g.conv[i].maps, g.conv[i].out_h, g.conv[i].out_w)
+                } else {
+                    (g.pool[i].maps, g.pool[i].out_h, g.pool[i].out_w)
+                };
+                (l.name().to_string(), s)
+            })
+            .collect()
+    }
+
+    /// A copy of a conv layer's weights, `(maps, in_ch, k, k)` float32.
+    fn weights<'py>(
+        &self,
+        py: Python<'py>,
+        layer: &str,
+    ) -> PyResult<Bound<'py, numpy::PyArray4<f32>>> {
+        let w = self.net.conv_weights(parse_layer(py, layer)?);
+        PyArray1::from_slice(py, w.canonical()).reshape(w.shape())
+    }
+
+    /// Replace a conv layer's weights (checked: shape, finite, in [0, 1]).
+    fn set_weights(
+        &mut self,
+        py: Python<'_>,
+        layer: &str,
+        w: PyReadonlyArray4<'_, f32>,
+    ) -> PyResult<()> {
+        let layer = parse_layer(py, layer)?;
+        let expected = self.net.conv_weights(layer).shape();
+        if w.shape() != expected {
+            return Err(super::errors::to_pyerr(
+                py,
+                &Error::Shape {
+                    name: "weights",
+                    expected: format!("{expected:?}"),
+                    got: format!("{:?}", w.shape()),
+                },
+            ));
+        }
+        let values = w.as_array().iter().copied().collect();
+        map(py, self.net.set_weights(layer, values))
+    }
+
+    /// conv1's thresholds for a window whose PENT estimate is `n_in`.
+    fn conv1_thresholds(&self, n_in: u64) -> Vec<f32> {
+        self.net.conv1_thresholds(n_in)
+    }
+
+    /// One window in inference mode: `(layers, thresholds, detections)` where `layers` holds
+    /// the columns `(t, map, row, col, v)` of each layer's spikes.
+    #[pyo3(signature = (t, x, y, t0, n_in=None))]
+    fn run_window<'py>(
+        &self,
+        py: Python<'py>,
+        t: PyReadonlyArray1<'py, u64>,
+        x: PyReadonlyArray1<'py, u16>,
+        y: PyReadonlyArray1<'py, u16>,
+        t0: u64,
+        n_in: Option<u64>,
+    ) -> PyResult<TraceColumns<'py>> {
+        let (ts, xs, ys) = (slice(&t, "t")?, slice(&x, "x")?, slice(&y, "y")?);
+        let net = &self.net;
+        let state = detach(py, || {
+            let mut state = net.new_state();
+            net.run_window(&mut state, Spikes::new(ts, xs, ys)?, t0, n_in, true)?;
+            Ok(state)
+        })?;
+        let layers = Layer::ALL
+            .iter()
+            .map(|&l| spike_columns(py, state.spikes(l)))
+            .collect();
+        let detections: Vec<(i64, Detection)> =
+            state.detections().iter().map(|d| (0, *d)).collect();
+        Ok((
+            layers,
+            PyArray1::from_slice(py, state.thresholds()),
+            detection_columns(py, &detections)?,
+        ))
+    }
+
+    /// One STDP step of `layer` on one window; returns the winners' columns
+    /// `(t, map, row, col, v)` in acceptance order. Rates default to the config's.
+    #[pyo3(signature = (layer, t, x, y, t0, n_in=None, a_plus=None, a_minus=None))]
+    fn stdp_step<'py>(
+        &mut self,
+        py: Python<'py>,
+        layer: &str,
+        t: PyReadonlyArray1<'py, u64>,
+        x: PyReadonlyArray1<'py, u16>,
+        y: PyReadonlyArray1<'py, u16>,
+        t0: u64,
+        n_in: Option<u64>,
+        a_plus: Option<f64>,
+        a_minus: Option<f64>,
+    ) -> PyResult<SpikeColumns<'py>> {
+        let layer = parse_layer(py, layer)?;
+        let (ts, xs, ys) = (slice(&t, "t")?, slice(&x, "x")?, slice(&y, "y")?);
+        let initial = Rates::initial(&self.net.config().stdp);
+        let rates = Rates {
+            a_plus: a_plus.map_or(initial.a_plus, |a| a as f32),
+            a_minus: a_minus.map_or(initial.a_minus, |a| a as f32),
+        };
+        if !(rates.a_plus.is_finite() && rates.a_minus.is_finite()) {
+            return Err(super::errors::to_pyerr(
+                py,
+                &Error::param("rates", format!("must be finite, got {rates:?}")),
+            ));
+        }
+        let net = &mut self.net;
+        let winners = detach(py, || {
+            let mut state = net.new_state();
+            net.stdp_step(&mut state, layer, Spikes::new(ts, xs, ys)?, t0, n_in, rates)
+        })?;
+        Ok(winner_columns(py, &winners))
+    }
+
+    /// Inference on many windows in parallel. Returns `(counts (n, 5) int64, thresholds
+    /// (n, maps) float32, detections columns, spikes)` where `spikes` is `None` or per layer
+    /// `(window, t, map, row, col, v)` columns.
+    #[pyo3(signature = (sensor_size, length_us, t0, offsets, t, x, y, n_preceding, threads=None, record=false))]
+    fn infer<'py>(
+        &self,
+        py: Python<'py>,
+        sensor_size: (usize, usize),
+        length_us: u64,
+        t0: PyReadonlyArray1<'py, u64>,
+        offsets: PyReadonlyArray1<'py, i64>,
+        t: PyReadonlyArray1<'py, u64>,
+        x: PyReadonlyArray1<'py, u16>,
+        y: PyReadonlyArray1<'py, u16>,
+        n_preceding: PyReadonlyArray1<'py, i64>,
+        threads: Option<usize>,
+        record: bool,
+    ) -> PyResult<Bound<'py, PyTuple>> {
+        let args = BatchArgs {
+            sensor: sensor_size,
+            length_us,
+            t0: slice(&t0, "t0")?,
+            offsets: slice(&offsets, "offsets")?,
+            t: slice(&t, "t")?,
+            x: slice(&x, "x")?,
+            y: slice(&y, "y")?,
+            n_preceding: slice(&n_preceding, "n_preceding")?,
+        };
+        let net = &self.net;
+        let results = detach(py, || infer(net, &args.batch(net)?, threads, record))?;
+        let n = results.len();
+        let maps = net.geometry().conv[0].maps;
+        let counts: Vec<i64> = results
+            .iter()
+            .flat_map(|r| r.counts.map(|c| c as i64))
+            .collect();
+        let thresholds: Vec<f32> = results.iter().flat_map(|r| r.thresholds.clone()).collect();
+        let detections: Vec<(i64, Detection)> = results
+            .iter()
+            .enumerate()
+            .flat_map(|(i, r)| r.detections.iter().map(move |d| (i as i64, *d)))
+            .collect();
+        let spikes = if record {
+            let layers: Vec<Bound<'py, PyTuple>> = Layer::ALL
+                .iter()
+                .map(|&l| {
+                    let all: Vec<(i64, Spike)> = results
+                        .iter()
+                        .enumerate()
+                        .flat_map(|(i, r)| {
+                            r.spikes
+                                .iter()
+                                .flat_map(move |s| s[l.index()].iter().map(move |s| (i as i64, *s)))
+                        })
+                        .collect();
+                    let (tt, m, rr, cc, v) =
+                        spike_columns(py, &all.iter().map(|(_, s)| *s).collect::<Vec<_>>());
+                    PyTuple::new(
+                        py,
+                        [
+                            PyArray1::from_iter(py, all.iter().map(|(i, _)| *i)).into_any(),
+                            tt.into_any(),
+                            m.into_any(),
+                            rr.into_any(),
+                            cc.into_any(),
+                            v.into_any(),
+                        ],
+                    )
+                })
+                .collect::<PyResult<_>>()?;
+            Some(PyTuple::new(py, layers)?)
+        } else {
+            None
+        };
+        PyTuple::new(
+            py,
+            [
+                PyArray1::from_vec(py, counts).reshape([n, 5])?.into_any(),
+                PyArray1::from_vec(py, thresholds)
+                    .reshape([n, maps])?
+                    .into_any(),
+                detection_columns(py, &detections)?.into_any(),
+                spikes.map_or_else(|| py.None().into_bound(py), Bound::into_any),
+            ],
+        )
+    }
+
+    /// Train `layer` on windows with winner-take-all and STDP. `callback(done, total, C)` is
+    /// called (with the GIL) every `every` windows and at the end; returning `False` stops.
+    /// Returns `(convergence, a_plus, windows_seen, winners)`.
+    #[pyo3(signature = (layer, sensor_size, length_us, t0, offsets, t, x, y, n_preceding, epochs=1, seed=0, shuffle=true, callback=None, every=64))]
+    fn train_layer(
+        slf: &Bound<'_, Self>,
+        layer: &str,
+        sensor_size: (usize, usize),
+        length_us: u64,
+        t0: PyReadonlyArray1<'_, u64>,
+        offsets: PyReadonlyArray1<'_, i64>,
+        t: PyReadonlyArray1<'_, u64>,
+        x: PyReadonlyArray1<'_, u16>,
+        y: PyReadonlyArray1<'_, u16>,
+        n_preceding: PyReadonlyArray1<'_, i64>,
+        epochs: usize,
+        seed: u64,
+        shuffle: bool,
+        callback: Option<Bound<'_, PyAny>>,
+        every: usize,
+    ) -> PyResult<(Vec<f64>, Vec<f64>, u64, u64)> {
+        let py = slf.py();
+        let layer = parse_layer(py, layer)?;
+        let args = BatchArgs {
+            sensor: sensor_size,
+            length_us,
+            t0: slice(&t0, "t0")?,
+            offsets: slice(&offsets, "offsets")?,
+            t: slice(&t, "t")?,
+            x: slice(&x, "x")?,
+            y: slice(&y, "y")?,
+            n_preceding: slice(&n_preceding, "n_preceding")?,
+        };
+        let options = TrainOptions {
+            epochs,
+            seed,
+            shuffle,
+        };
+        let (batch, order, mut trainer) = {
+            let this = slf.borrow();
+            let net = &this.net;
+            let args = &args;
+            detach(py, || {
+                let batch = args.batch(net)?;
+                crate::network::check_training(net, &batch, options)?;
+                Ok((
+                    batch,
+                    training_order(batch.len(), epochs, seed, shuffle),
+                    Trainer::new(net, layer),
+                ))
+            })?
+        };
+        let total = order.len();
+        let mut done = 0;
+        for chunk in order.chunks(every.max(1)) {
+            {
+                let mut this = slf.borrow_mut();
+                let net = &mut this.net;
+                let trainer = &mut trainer;
+                let batch = &batch;
+                detach(py, || {
+                    for &i in chunk {
+                        trainer.step(net, batch, i)?;
+                    }
+                    Ok(())
+                })?;
+            }
+            done += chunk.len();
+            if let Some(cb) = &callback {
+                let p = trainer.progress(done, total);
+                let go_on = cb.call1((p.done, p.total, p.convergence))?;
+                // Only an explicit `False` stops (a callback returning None goes on).
+                if go_on.extract::<bool>().is_ok_and(|b| !b) {
+                    break;
+                }
+            }
+        }
+        let r = trainer.into_report();
+        Ok((r.convergence, r.a_plus, r.windows_seen, r.winners))
+    }
+
+    /// Save to a model file (atomic).
+    fn save(&self, py: Python<'_>, path: std::path::PathBuf) -> PyResult<()> {
+        let net = &self.net;
+        detach(py, || net.save(&path))
+    }
+
+    /// Load a model file (checked).
+    #[staticmethod]
+    fn load(py: Python<'_>, path: std::path::PathBuf) -> PyResult<Self> {
+        let net = detach(py, || Network::load(&path))?;
+        Ok(Self { net })
+    }
+
+    /// Whether two networks have the same config and bit-identical weights.
+    fn same_as(&self, other: &Self) -> bool {
+        self.net == other.net
+    }
+
+    /// A deep copy.
+    fn copy(&self) -> Self {
+        Self {
+            net: self.net.clone(),
+        }
+    }
+}
+
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(network_default_config, m)?)?;
+    m.add_class::<NetworkCore>()
 }

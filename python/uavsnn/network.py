@@ -1,0 +1,508 @@
+"""The spiking network of the paper (Table 1), exactly as ``docs/model.md`` specifies it.
+
+The work is done by the Rust engine, event by event; this module converts and checks inputs and
+wraps results in NumPy structured arrays::
+
+    import uavsnn.network as nw
+
+    net = nw.Network(seed=1)                      # Table 1 on a 240x180 sensor
+    trace = net.run_window(t, x, y, t0)           # one window, every layer's spikes
+    report = net.train_layer("conv2", windows)    # WTA + STDP, one layer at a time
+    result = net.infer(windows)                   # many windows in parallel
+    net.save("model.npz"); net = nw.Network.load("model.npz")
+
+Times are absolute microseconds. Inputs ``t, x, y`` are one window's input spikes (the first
+event of each active pixel, polarities merged), sorted by ``t``; a repeated pixel is ignored.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+import numpy as np
+import numpy.typing as npt
+
+from uavsnn import _core
+from uavsnn.errors import EventError, ParameterError, ShapeError
+
+__all__ = [
+    "CONV_LAYERS",
+    "DETECTION_DTYPE",
+    "LAYERS",
+    "SPIKE_DTYPE",
+    "WINDOW_DETECTION_DTYPE",
+    "WINDOW_SPIKE_DTYPE",
+    "Inference",
+    "Network",
+    "TrainReport",
+    "WindowTrace",
+    "WindowsLike",
+    "default_config",
+]
+
+LAYERS: tuple[str, ...] = ("conv1", "pool1", "conv2", "pool2", "conv3")
+"""The network's layers, in order."""
+
+CONV_LAYERS: tuple[str, ...] = ("conv1", "conv2", "conv3")
+"""The layers that have weights (and can be trained)."""
+
+SPIKE_DTYPE = np.dtype([("t", "<u8"), ("map", "<u2"), ("row", "<u2"), ("col", "<u2"), ("v", "<f4")])
+"""A spike (or a winner): time, map, position, potential at the firing time (0 for pools)."""
+
+WINDOW_SPIKE_DTYPE = np.dtype([("window", "<i8"), *SPIKE_DTYPE.descr])
+"""A spike of one of many windows."""
+
+DETECTION_DTYPE = np.dtype(
+    [
+        ("t", "<u8"),
+        ("map", "<u2"),
+        ("row", "<u2"),
+        ("col", "<u2"),
+        ("x", "<f4"),
+        ("y", "<f4"),
+        ("x0", "<u2"),
+        ("y0", "<u2"),
+        ("x1", "<u2"),
+        ("y1", "<u2"),
+    ]
+)
+"""A conv3 spike as a detection: time, map, conv3 position, the centre ``x, y`` of its receptive
+field and the box ``x0, y0, x1, y1`` (half-open) of the input spikes that it saw, all in sensor
+coordinates where pixel ``(x, y)`` covers ``[x, x+1) x [y, y+1)`` (docs/model.md §5)."""
+
+WINDOW_DETECTION_DTYPE = np.dtype([("window", "<i8"), *DETECTION_DTYPE.descr])
+"""A detection of one of many windows."""
+
+
+class WindowsLike(Protocol):
+    """What :meth:`Network.infer` and :meth:`Network.train_layer` read from a
+    ``uavsnn.windows.Windows``."""
+
+    @property
+    def sensor_size(self) -> tuple[int, int]:
+        """``(width, height)`` of the sensor."""
+        ...
+
+    @property
+    def length_us(self) -> int:
+        """Window length in microseconds."""
+        ...
+
+    @property
+    def t0(self) -> np.ndarray:
+        """``(n,)`` window starts."""
+        ...
+
+    @property
+    def offsets(self) -> np.ndarray:
+        """``(n + 1,)``: window ``i``'s spikes are ``offsets[i]:offsets[i + 1]``."""
+        ...
+
+    @property
+    def t(self) -> np.ndarray:
+        """Spike times (absolute, sorted within each window)."""
+        ...
+
+    @property
+    def x(self) -> np.ndarray:
+        """Spike columns."""
+        ...
+
+    @property
+    def y(self) -> np.ndarray:
+        """Spike rows."""
+        ...
+
+    @property
+    def n_preceding(self) -> np.ndarray:
+        """``(n,)`` distinct active pixels in ``[t0 - L, t0)``."""
+        ...
+
+
+def default_config() -> dict[str, Any]:
+    """The default configuration: the paper's Table 1 on a 240x180 sensor, ``same`` padding,
+    PENT on (a new dict each call; see docs/api.md for every field)."""
+    config: dict[str, Any] = json.loads(_core.network_default_config())
+    return config
+
+
+@dataclass(frozen=True)
+class WindowTrace:
+    """Everything one window did in inference mode (:meth:`Network.run_window`).
+
+    Each layer's spikes are a structured array of :data:`SPIKE_DTYPE` sorted by
+    ``(t, map, row, col)``; ``thresholds`` are conv1's per-map thresholds of the window;
+    ``detections`` (:data:`DETECTION_DTYPE`) are the conv3 spikes in firing order.
+    """
+
+    conv1: np.ndarray
+    pool1: np.ndarray
+    conv2: np.ndarray
+    pool2: np.ndarray
+    conv3: np.ndarray
+    thresholds: np.ndarray
+    detections: np.ndarray
+
+    def __getitem__(self, layer: str) -> np.ndarray:
+        """The spikes of ``layer`` (``"conv1"`` ... ``"conv3"``)."""
+        if layer not in LAYERS:
+            raise ParameterError(f"layer must be one of {', '.join(LAYERS)}, got {layer!r}")
+        spikes: np.ndarray = getattr(self, layer)
+        return spikes
+
+    @property
+    def layers(self) -> dict[str, np.ndarray]:
+        """Every layer's spikes by name."""
+        return {name: self[name] for name in LAYERS}
+
+    @property
+    def counts(self) -> np.ndarray:
+        """Spikes per layer, ``(5,)`` int64."""
+        return np.array([len(self[name]) for name in LAYERS], dtype=np.int64)
+
+
+@dataclass(frozen=True)
+class Inference:
+    """What :meth:`Network.infer` found, per window (``n`` windows).
+
+    - ``detected`` ``(n,)`` bool: at least ``min_detections`` conv3 spikes.
+    - ``counts`` ``(n, 5)`` int64: spikes per layer (conv1, pool1, conv2, pool2, conv3).
+    - ``first_detection_t`` ``(n,)`` uint64: time of the first conv3 spike (0 if none).
+    - ``detections``: every conv3 spike, :data:`WINDOW_DETECTION_DTYPE`, by window then time.
+    - ``thresholds`` ``(n, maps)`` float32: conv1's thresholds per window.
+    - ``spikes``: with ``spikes=True``, each layer's spikes (:data:`WINDOW_SPIKE_DTYPE`, by
+      window then ``(t, map, row, col)``); else ``None``.
+    """
+
+    detected: np.ndarray
+    counts: np.ndarray
+    first_detection_t: np.ndarray
+    detections: np.ndarray
+    thresholds: np.ndarray
+    spikes: dict[str, np.ndarray] | None = None
+
+    def __len__(self) -> int:
+        """Number of windows."""
+        return len(self.detected)
+
+
+@dataclass(frozen=True)
+class TrainReport:
+    """What :meth:`Network.train_layer` did.
+
+    ``convergence`` is ``C = mean(w (1 - w))`` of the trained layer after each window (it falls
+    towards 0 as weights settle at 0 or 1); ``a_plus`` the potentiation rate used for each
+    window; ``winners`` the number of kernel updates made.
+    """
+
+    layer: str
+    convergence: list[float]
+    a_plus: list[float]
+    windows_seen: int
+    winners: int
+
+
+def _integers(name: str, values: Any, dtype: type[np.integer[Any]]) -> np.ndarray:
+    """A contiguous 1-D array of ``dtype`` from integer ``values``, range-checked."""
+    array = np.asarray(values)
+    if array.ndim != 1:
+        raise ShapeError(f"{name} must be a 1-D array, got shape {array.shape}")
+    if array.size == 0:
+        return np.zeros(0, dtype=dtype)
+    if array.dtype.kind not in "ui":
+        raise EventError(f"{name} must hold integers, got dtype {array.dtype}")
+    info = np.iinfo(dtype)
+    low, high = int(array.min()), int(array.max())
+    if low < 0 or high > info.max:
+        raise EventError(f"{name} must lie in [0, {info.max}], got values in [{low}, {high}]")
+    return np.ascontiguousarray(array, dtype=dtype)
+
+
+def _count(name: str, value: Any, *, minimum: int = 0) -> int:
+    """A non-negative integer parameter (``bool`` refused)."""
+    if isinstance(value, bool) or not isinstance(value, int | np.integer):
+        raise ParameterError(f"{name} must be an integer, got {value!r}")
+    if not minimum <= int(value) < 2**64:
+        raise ParameterError(f"{name} must be an integer >= {minimum}, got {value}")
+    return int(value)
+
+
+def _spikes(columns: tuple[np.ndarray, ...], dtype: np.dtype) -> np.ndarray:
+    out = np.empty(len(columns[0]), dtype=dtype)
+    for name, column in zip(dtype.names or (), columns, strict=True):
+        out[name] = column
+    return out
+
+
+def _window_columns(windows: WindowsLike) -> dict[str, Any]:
+    """The columns of a ``Windows``-like object, converted to the engine's dtypes."""
+    try:
+        sensor_size = windows.sensor_size
+        length_us = windows.length_us
+        t0, offsets, t = windows.t0, windows.offsets, windows.t
+        x, y, n_preceding = windows.x, windows.y, windows.n_preceding
+    except AttributeError as exc:
+        raise ParameterError(
+            f"windows must be a uavsnn.windows.Windows (or have its columns): {exc}"
+        ) from exc
+    try:
+        width, height = (int(v) for v in sensor_size)
+    except (TypeError, ValueError) as exc:
+        raise ParameterError(f"sensor_size must be (width, height), got {sensor_size!r}") from exc
+    offsets_array = np.asarray(offsets)
+    if offsets_array.ndim != 1 or (offsets_array.size and offsets_array.dtype.kind not in "ui"):
+        raise ShapeError(
+            f"offsets must be a 1-D integer array, got {offsets_array.dtype} "
+            f"shape {offsets_array.shape}"
+        )
+    preceding = np.asarray(n_preceding)
+    if preceding.ndim != 1 or (preceding.size and preceding.dtype.kind not in "ui"):
+        raise ShapeError(
+            f"n_preceding must be a 1-D integer array, got {preceding.dtype} "
+            f"shape {preceding.shape}"
+        )
+    return {
+        "sensor_size": (width, height),
+        "length_us": _count("length_us", length_us, minimum=1),
+        "t0": _integers("t0", t0, np.uint64),
+        "offsets": np.ascontiguousarray(offsets_array, dtype=np.int64),
+        "t": _integers("t", t, np.uint64),
+        "x": _integers("x", x, np.uint16),
+        "y": _integers("y", y, np.uint16),
+        "n_preceding": np.ascontiguousarray(preceding, dtype=np.int64),
+    }
+
+
+class Network:
+    """The network: conv1 (Gabor, or trained), conv2 and conv3 (STDP) with their config.
+
+    ``config`` is a (possibly partial) dict like :func:`default_config`'s; missing fields take
+    the defaults, unknown fields or bad values raise :class:`~uavsnn.ParameterError` (or
+    :class:`~uavsnn.ShapeError` for layers that do not fit their input). conv2 and conv3 start
+    from ``N(mean, std)`` clipped to ``[0, 1]`` drawn from ``seed``.
+    """
+
+    def __init__(self, config: Mapping[str, Any] | None = None, seed: int = 0) -> None:
+        if config is not None and not isinstance(config, Mapping):
+            raise ParameterError(f"config must be a dict, got {type(config).__name__}")
+        _check_finite(config or {}, "config")
+        try:
+            text = json.dumps(dict(config or {}), allow_nan=False)
+        except (TypeError, ValueError) as exc:
+            raise ParameterError(f"config must be JSON-serialisable: {exc}") from exc
+        self._core = _core.NetworkCore(text, _count("seed", seed))
+
+    @classmethod
+    def _wrap(cls, core: _core.NetworkCore) -> Network:
+        net = cls.__new__(cls)
+        net._core = core
+        return net
+
+    @property
+    def config(self) -> dict[str, Any]:
+        """The full configuration (a copy; JSON-serialisable)."""
+        config: dict[str, Any] = json.loads(self._core.config_json())
+        return config
+
+    @property
+    def shapes(self) -> dict[str, tuple[int, int, int]]:
+        """Each layer's output shape ``(maps, rows, cols)``."""
+        return dict(self._core.shapes())
+
+    def weights(self, layer: str) -> np.ndarray:
+        """A copy of a conv layer's weights, ``(maps, in_channels, k, k)`` float32."""
+        return self._core.weights(layer)
+
+    def set_weights(self, layer: str, w: npt.ArrayLike) -> None:
+        """Replace a conv layer's weights: float32 of shape ``(maps, in_channels, k, k)``, every
+        value finite and in ``[0, 1]``."""
+        array = np.asarray(w)
+        if array.dtype != np.float32:
+            raise ParameterError(f"weights must be float32, got {array.dtype}")
+        if array.ndim != 4:
+            raise ShapeError(f"weights must be 4-D (maps, in_channels, k, k), got {array.shape}")
+        self._core.set_weights(layer, np.ascontiguousarray(array))
+
+    def conv1_thresholds(self, n_in: int) -> np.ndarray:
+        """conv1's per-map thresholds (float32) for a window whose PENT estimate is ``n_in``."""
+        return np.asarray(self._core.conv1_thresholds(_count("n_in", n_in)), dtype=np.float32)
+
+    def _inputs(self, t: Any, x: Any, y: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        t_, x_, y_ = (
+            _integers("t", t, np.uint64),
+            _integers("x", x, np.uint16),
+            _integers("y", y, np.uint16),
+        )
+        if not len(t_) == len(x_) == len(y_):
+            raise ShapeError(
+                f"t, x and y must have equal lengths, got {len(t_)}, {len(x_)}, {len(y_)}"
+            )
+        return t_, x_, y_
+
+    def run_window(
+        self, t: npt.ArrayLike, x: npt.ArrayLike, y: npt.ArrayLike, t0: int, n_in: int | None = None
+    ) -> WindowTrace:
+        """Run one window's input spikes through the network in inference mode.
+
+        ``t`` (sorted, ``>= t0``), ``x``, ``y`` are integer arrays of equal length. ``n_in``
+        overrides PENT's ``N_in`` (default: the number of spikes). Out-of-sensor or unsorted
+        spikes raise :class:`~uavsnn.EventError`.
+        """
+        t_, x_, y_ = self._inputs(t, x, y)
+        n = None if n_in is None else _count("n_in", n_in)
+        layers, thresholds, detections = self._core.run_window(t_, x_, y_, _count("t0", t0), n)
+        conv1, pool1, conv2, pool2, conv3 = (_spikes(cols, SPIKE_DTYPE) for cols in layers)
+        return WindowTrace(
+            conv1=conv1,
+            pool1=pool1,
+            conv2=conv2,
+            pool2=pool2,
+            conv3=conv3,
+            thresholds=np.asarray(thresholds),
+            detections=_spikes(tuple(detections[1:]), DETECTION_DTYPE),
+        )
+
+    def stdp_step(
+        self,
+        layer: str,
+        t: npt.ArrayLike,
+        x: npt.ArrayLike,
+        y: npt.ArrayLike,
+        t0: int,
+        n_in: int | None = None,
+        *,
+        a_plus: float | None = None,
+        a_minus: float | None = None,
+    ) -> np.ndarray:
+        """One STDP training step of ``layer`` on one window (docs/model.md §6).
+
+        Layers below run in inference mode; ``layer`` runs without lateral inhibition and its
+        crossings compete (winner-take-all); the winners' kernels are updated in place with
+        ``a_plus``/``a_minus`` (default: the config's initial rates). Returns the winners in
+        acceptance order (:data:`SPIKE_DTYPE`).
+        """
+        t_, x_, y_ = self._inputs(t, x, y)
+        n = None if n_in is None else _count("n_in", n_in)
+        columns = self._core.stdp_step(
+            layer, t_, x_, y_, _count("t0", t0), n, _rate(a_plus), _rate(a_minus)
+        )
+        return _spikes(columns, SPIKE_DTYPE)
+
+    def infer(
+        self, windows: WindowsLike, *, threads: int | None = None, spikes: bool = False
+    ) -> Inference:
+        """Run every window in inference mode, in parallel (``threads`` workers; default: all
+        cores), without holding the GIL. PENT's ``N_in`` is each window's spike count or its
+        ``n_preceding``, as ``config["pent"]["estimate"]`` says. With ``spikes=True`` every
+        layer's spikes are returned too."""
+        columns = _window_columns(windows)
+        workers = None if threads is None else _count("threads", threads, minimum=1)
+        counts, thresholds, detections, layer_spikes = self._core.infer(
+            **columns, threads=workers, record=bool(spikes)
+        )
+        found = _spikes(tuple(detections), WINDOW_DETECTION_DTYPE)
+        n = len(counts)
+        first = np.zeros(n, dtype=np.uint64)
+        if len(found):
+            windows_with, index = np.unique(found["window"], return_index=True)
+            first[windows_with] = found["t"][index]
+        min_detections = int(self.config["detection"]["min_detections"])
+        return Inference(
+            detected=counts[:, 4] >= min_detections,
+            counts=counts,
+            first_detection_t=first,
+            detections=found,
+            thresholds=thresholds,
+            spikes=None
+            if layer_spikes is None
+            else {
+                name: _spikes(tuple(cols), WINDOW_SPIKE_DTYPE)
+                for name, cols in zip(LAYERS, layer_spikes, strict=True)
+            },
+        )
+
+    def train_layer(
+        self,
+        layer: str,
+        windows: WindowsLike,
+        *,
+        epochs: int = 1,
+        seed: int = 0,
+        callback: Callable[[int, int, float], bool | None] | None = None,
+        shuffle: bool = True,
+        every: int = 64,
+    ) -> TrainReport:
+        """Train ``layer`` on ``windows`` (winner-take-all + STDP, docs/model.md §6), with the
+        learning-rate schedule starting from the config's rates.
+
+        Each epoch visits every window once, shuffled with ``seed`` unless ``shuffle=False``.
+        ``callback(done, total, convergence)`` is called every ``every`` windows and at the end;
+        returning ``False`` stops training early. The GIL is released between calls.
+        """
+        columns = _window_columns(windows)
+        convergence, a_plus, seen, winners = self._core.train_layer(
+            layer,
+            **columns,
+            epochs=_count("epochs", epochs, minimum=1),
+            seed=_count("seed", seed),
+            shuffle=bool(shuffle),
+            callback=callback,
+            every=_count("every", every, minimum=1),
+        )
+        return TrainReport(
+            layer=layer,
+            convergence=list(convergence),
+            a_plus=list(a_plus),
+            windows_seen=int(seen),
+            winners=int(winners),
+        )
+
+    def save(self, path: str | os.PathLike[str]) -> None:
+        """Write a model file (``.npz``: weights + versioned config, no pickle), atomically."""
+        self._core.save(os.fspath(path))
+
+    @classmethod
+    def load(cls, path: str | os.PathLike[str]) -> Network:
+        """Read a model file written by :meth:`save`; a corrupt, foreign or other-version file
+        raises :class:`~uavsnn.ModelFileError`."""
+        return cls._wrap(_core.NetworkCore.load(os.fspath(path)))
+
+    def copy(self) -> Network:
+        """An independent copy (same config and weights)."""
+        return self._wrap(self._core.copy())
+
+    def __eq__(self, other: object) -> bool:
+        """Same config and bit-identical weights."""
+        if not isinstance(other, Network):
+            return NotImplemented
+        return self._core.same_as(other._core)
+
+    __hash__ = None  # type: ignore[assignment]  # mutable
+
+    def __repr__(self) -> str:
+        """A short description: sensor and maps per conv layer."""
+        c = self.config
+        maps = "/".join(str(c[name]["maps"]) for name in CONV_LAYERS)
+        return f"Network({c['width']}x{c['height']}, maps {maps}, {c['pent']['mode']})"
+
+
+def _check_finite(value: Any, path: str) -> None:
+    """Name the first NaN or infinite number of a config (JSON cannot carry them)."""
+    if isinstance(value, Mapping):
+        for key, item in value.items():
+            _check_finite(item, f"{path}.{key}")
+    elif isinstance(value, float) and not np.isfinite(value):
+        raise ParameterError(f"{path} must be a finite number, got {value}")
+
+
+def _rate(value: float | None) -> float | None:
+    if value is None:
+        return None
+    rate = float(value)
+    if not np.isfinite(rate):
+        raise ParameterError(f"learning rates must be finite, got {value!r}")
+    return rate
