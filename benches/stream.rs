@@ -10,6 +10,7 @@
 //! (100 k events/s), through the default network with its seeded initial weights.
 
 use std::hint::black_box;
+use std::time::{Duration, Instant};
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
 use uavsnn::network::{infer, Network, NetworkConfig, PentEstimate, Spikes, WindowBatch};
@@ -77,17 +78,23 @@ fn push_latency(c: &mut Criterion) {
         det.push(&events[..half], &mut out).expect("warm-up");
         let mut at = half;
         group.bench_function(size.to_string(), |b| {
-            b.iter(|| {
-                if at + size > events.len() {
-                    det.reset();
-                    det.push(&events[..half], &mut out).expect("warm-up");
-                    at = half;
+            b.iter_custom(|iters| {
+                let mut spent = Duration::ZERO;
+                for _ in 0..iters {
+                    if at + size > events.len() {
+                        // Start over, unmeasured, with a freshly warmed detector.
+                        det.reset();
+                        det.push(&events[..half], &mut out).expect("warm-up");
+                        at = half;
+                    }
+                    out.clear();
+                    let start = Instant::now();
+                    det.push(black_box(&events[at..at + size]), &mut out)
+                        .expect("push");
+                    spent += start.elapsed();
+                    at += size;
                 }
-                out.clear();
-                det.push(black_box(&events[at..at + size]), &mut out)
-                    .expect("push");
-                at += size;
-                black_box(out.len())
+                spent
             });
         });
     }
