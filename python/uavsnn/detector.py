@@ -32,7 +32,7 @@ import numpy as np
 
 from uavsnn import _core
 from uavsnn.errors import ParameterError, ShapeError
-from uavsnn.events import _check_sensor_size, packed_bytes
+from uavsnn.events import EVENT_DTYPE, _check_sensor_size, packed_bytes
 
 if TYPE_CHECKING:
     from uavsnn.network import Network
@@ -57,6 +57,15 @@ DETECTION_DTYPE = np.dtype(
         ("y1", "<u2"),
     ]
 )
+
+
+_NO_DETECTIONS = np.empty(0, dtype=DETECTION_DTYPE)
+_NO_DETECTIONS.flags.writeable = False
+
+
+def _detections(packed: np.ndarray) -> np.ndarray:
+    """View packed detection records; most pushes find none, and share one empty array."""
+    return packed.view(DETECTION_DTYPE) if len(packed) else _NO_DETECTIONS
 
 
 class Detector:
@@ -133,11 +142,18 @@ class Detector:
             StreamError: the chunk starts before the previous one ended, or the stream was
                 flushed. After any error the detector is as it was before the call.
         """
-        raw = packed_bytes(events)
+        # Cheap checks first: a one-event push should cost microseconds, not a dtype walk.
+        if not (
+            isinstance(events, np.ndarray)
+            and (events.dtype is EVENT_DTYPE or events.dtype == EVENT_DTYPE)
+            and events.ndim == 1
+        ):
+            packed_bytes(events)  # raises the EventError that says what is wrong
+        raw = events.tobytes()  # the packed records, copied (cheaper than a dtype view)
         start = time.perf_counter_ns()
         out = self._inner.push(raw)
         self._busy_ns += time.perf_counter_ns() - start
-        return out.view(DETECTION_DTYPE)
+        return _detections(out)
 
     def flush(self) -> np.ndarray:
         """End the stream: return the detections still pending (the last timestamp's) and
@@ -146,7 +162,7 @@ class Detector:
         start = time.perf_counter_ns()
         out = self._inner.flush()
         self._busy_ns += time.perf_counter_ns() - start
-        return out.view(DETECTION_DTYPE)
+        return _detections(out)
 
     def reset(self) -> None:
         """Forget the stream (counters included); the next event starts a new one."""

@@ -101,13 +101,8 @@ impl PyStreamDetector {
         })
     }
 
-    /// Push packed event records; return the packed detections they decided.
-    fn push<'py>(
-        &mut self,
-        py: Python<'py>,
-        events: PyReadonlyArray1<'py, u8>,
-    ) -> PyResult<Bound<'py, PyArray1<u8>>> {
-        let raw = events.as_slice()?;
+    /// Push packed event records (`bytes`); return the packed detections they decided.
+    fn push<'py>(&mut self, py: Python<'py>, raw: &[u8]) -> PyResult<Bound<'py, PyArray1<u8>>> {
         let Self {
             inner,
             events,
