@@ -168,7 +168,7 @@ class NetworkCore:
 
 # ---------------------------------------------------------------- streaming (issue 6)
 
-from typing import final  # noqa: E402 (this section's own import)
+# (`final` comes from the network section's import above.)
 
 PACKET_FORMATS: list[str]
 
