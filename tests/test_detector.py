@@ -23,6 +23,7 @@ from hypothesis import strategies as st
 
 from uavsnn import EVENT_DTYPE, EventError, ParameterError, Recording, ShapeError, StreamError
 from uavsnn.detector import DETECTION_DTYPE, Detector
+from uavsnn.filters import downsample
 from uavsnn.io import write_npz
 from uavsnn.network import WINDOW_DETECTION_DTYPE, Network
 from uavsnn.sources import FileSource, StdinSource
@@ -378,6 +379,22 @@ def test_cli_reads_a_recording_file(model_file: Path, expected, tmp_path: Path) 
     assert done.returncode == 0, done.stderr.decode()
     assert parse_json_lines(done.stdout) == rows
     assert b"done" in done.stderr and b"events=700" in done.stderr
+
+
+def test_cli_downsamples_a_larger_recording(model_file: Path, net: Network, tmp_path: Path) -> None:
+    events = blob_events(13, 700)
+    events["x"] *= 2
+    events["y"] *= 2
+    big = Recording(events, (2 * SIZE[0], 2 * SIZE[1]))
+    path = tmp_path / "big.npz"
+    write_npz(big, path)
+    args = [str(path), "--model", str(model_file), "--json", "--window-ms", "3"]
+    refused = run_cli(detect_cmd(*args))
+    assert refused.returncode == 2 and b"downsample" in refused.stderr
+    done = run_cli(detect_cmd(*args, "--downsample"))
+    assert done.returncode == 0, done.stderr.decode()
+    rows = as_rows(stream(net, downsample(big, SIZE).events, [], 3_000, 0.5))
+    assert rows and parse_json_lines(done.stdout) == rows
 
 
 @pytest.mark.parametrize("fmt", ["packed", "csv"])

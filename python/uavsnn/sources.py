@@ -115,6 +115,8 @@ class FileSource(EventSource):
             time since the first event.
         chunk_events: events per chunk when not ``realtime``.
         chunk_us: event time per chunk when ``realtime``.
+        downsample_to: ``(width, height)`` to crop and scale the recording to
+            (:func:`uavsnn.filters.downsample`), e.g. a model's input size; ``None`` keeps it.
     """
 
     def __init__(
@@ -125,15 +127,18 @@ class FileSource(EventSource):
         realtime: bool = False,
         chunk_events: int = 4096,
         chunk_us: int = 1000,
+        downsample_to: tuple[int, int] | None = None,
     ) -> None:
         super().__init__()
-        from uavsnn import io
+        from uavsnn import filters, io
 
         if chunk_events < 1 or chunk_us < 1:
             raise ParameterError(
                 f"chunk_events and chunk_us must be >= 1, got {chunk_events} and {chunk_us}"
             )
         self.recording = io.read(path, sensor_size=sensor_size)
+        if downsample_to is not None and self.recording.sensor_size != tuple(downsample_to):
+            self.recording = filters.downsample(self.recording, downsample_to)
         self.sensor_size = self.recording.sensor_size
         self.realtime = realtime
         self.chunk_events = chunk_events
@@ -343,12 +348,13 @@ def open_source(
     udp_format: str = "t64_x16_y16_on8",
     max_packets: int | None = None,
     idle_timeout: float | None = None,
+    downsample_to: tuple[int, int] | None = None,
 ) -> EventSource:
     """Open a source from its command-line spelling: a path, ``-`` or ``udp://HOST:PORT``.
 
     ``sensor_size`` is required for ``-`` and UDP (their bytes carry none) and overrides a
-    file's own. ``realtime`` applies to files, ``stdin_format`` to ``-``, and ``udp_format``,
-    ``max_packets`` and ``idle_timeout`` to UDP.
+    file's own. ``realtime`` and ``downsample_to`` apply to files, ``stdin_format`` to ``-``,
+    and ``udp_format``, ``max_packets`` and ``idle_timeout`` to UDP.
     """
     if spec == "-":
         if sensor_size is None:
@@ -372,4 +378,4 @@ def open_source(
             max_packets=max_packets,
             idle_timeout=idle_timeout,
         )
-    return FileSource(spec, sensor_size=sensor_size, realtime=realtime)
+    return FileSource(spec, sensor_size=sensor_size, realtime=realtime, downsample_to=downsample_to)

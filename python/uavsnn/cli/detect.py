@@ -29,7 +29,8 @@ Run a trained model over a live event stream and print detections as they happen
 
 SOURCE is one of:
   FILE              a recording (AEDAT4, RAW EVT2/EVT3, DAT, ES, CSV, .npz, .npy), replayed as
-                    fast as possible, or at its own pace with --realtime
+                    fast as possible, or at its own pace with --realtime; --downsample fits a
+                    larger sensor to the model's input
   -                 standard input: packed 13-byte records (t u64, x u16, y u16, p u8, little
                     endian: the bytes of uavsnn.EVENT_DTYPE), or t,x,y,p CSV lines with
                     --stdin-format csv
@@ -59,6 +60,11 @@ def register(subparsers: Any) -> None:
     p.add_argument("--window-ms", type=float, default=50.0, help="window length in ms (default 50)")
     p.add_argument(
         "--overlap", type=float, default=0.5, help="window overlap in [0, 1) (default 0.5)"
+    )
+    p.add_argument(
+        "--downsample",
+        action="store_true",
+        help="files only: crop and scale the recording to the model's input size",
     )
     p.add_argument(
         "--sensor-size",
@@ -176,6 +182,7 @@ def run(args: argparse.Namespace) -> int:
         udp_format=args.udp_format,
         max_packets=args.max_packets,
         idle_timeout=args.idle_timeout,
+        downsample_to=model_size if args.downsample else None,
     )
     out, err = sys.stdout, sys.stderr
     with source:
