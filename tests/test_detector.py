@@ -458,3 +458,21 @@ def test_cli_receives_udp_and_prints_detections(model_file: Path, expected) -> N
     assert proc.returncode == 0, err.decode()
     assert parse_json_lines(out) == rows
     assert b"dropped=1" in err
+
+
+def test_cli_on_a_real_recording(shared_data: Path, tmp_path: Path) -> None:
+    """A real DAVIS346 recording (AEDAT4), fitted to the default 240x180 network: the command
+    line streams every event and prints what the Detector finds in process."""
+    from uavsnn.io import read
+
+    path = shared_data / "dvs" / "aestream_davis346_lab.aedat4"
+    model = tmp_path / "model.npz"
+    network = Network(seed=0)
+    network.save(model)
+    events = downsample(read(path), (240, 180)).events
+    det = Detector(network, window_us=50_000, overlap=0.5)
+    rows = as_rows(np.concatenate([det.push(events), det.flush()]))
+    done = run_cli(detect_cmd(str(path), "--model", str(model), "--json", "--downsample"))
+    assert done.returncode == 0, done.stderr.decode()
+    assert parse_json_lines(done.stdout) == rows
+    assert f"events={len(events)} ".encode() in done.stderr

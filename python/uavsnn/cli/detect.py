@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 import time
 from typing import Any, TextIO
@@ -209,9 +210,13 @@ def run(args: argparse.Namespace) -> int:
                 for d in found:
                     print(_format(d, args.json), file=out, flush=True)
                 summary.maybe(detector, source, rejected)
+            for d in detector.flush():
+                print(_format(d, args.json), file=out, flush=True)
         except KeyboardInterrupt:
-            pass
-        for d in detector.flush():
-            print(_format(d, args.json), file=out, flush=True)
+            for d in detector.flush():
+                print(_format(d, args.json), file=out, flush=True)
+        except BrokenPipeError:
+            # The reader went away (``| head``): stop quietly, as command-line tools do.
+            os.dup2(os.open(os.devnull, os.O_WRONLY), out.fileno())
         summary.write(detector, source, rejected, final=True)
     return 0
