@@ -79,9 +79,23 @@ struct LiveWindow<S> {
     index: u64,
     t0: u64,
     end: u64,
-    state: S,
-    /// Received a spike at the current time that is not settled yet.
-    unsettled: bool,
+    /// PENT's estimate, taken when the window opened.
+    n_in: u64,
+    /// Begun lazily, at the window's first input spike.
+    state: Option<S>,
+    /// Time of the spikes pushed and not settled yet.
+    pending_t: Option<u64>,
+}
+
+/// An input spike of the current chunk, and the windows `first..=last` it is the first
+/// spike of.
+#[derive(Debug, Clone, Copy)]
+struct ChunkSpike {
+    t: u64,
+    x: u16,
+    y: u16,
+    first: u64,
+    last: u64,
 }
 
 /// Streaming detection over any [`WindowEngine`].
@@ -98,6 +112,7 @@ pub struct Detector<E: WindowEngine> {
     last_t: Option<u64>,
     finished: bool,
     stats: StreamStats,
+    spikes: Vec<ChunkSpike>,
     scratch: Vec<Detection>,
 }
 
@@ -125,6 +140,7 @@ impl<E: WindowEngine> Detector<E> {
             last_t: None,
             finished: false,
             stats: StreamStats::default(),
+            spikes: Vec::new(),
             scratch: Vec::new(),
         })
     }
@@ -171,7 +187,7 @@ impl<E: WindowEngine> Detector<E> {
 
     /// Network states allocated (live and spare): bounded by `ceil(L / step)`.
     pub fn states_allocated(&self) -> usize {
-        self.live.len() + self.spare.len()
+        self.live.iter().filter(|w| w.state.is_some()).count() + self.spare.len()
     }
 
     /// Whether [`Detector::flush`] ended the stream.
@@ -206,13 +222,26 @@ impl<E: WindowEngine> Detector<E> {
     }
 
     /// Feed a chunk of events (any size, in time order, not earlier than the previous chunk)
-    /// and append the detections it decides to `out`. A bad chunk is rejected whole, before
-    /// anything changes. (An error from the engine itself after that would be a bug:
-    /// [`Error::Internal`] territory.)
+    /// and append the detections it decides to `out`, in time order. A bad chunk is rejected
+    /// whole, before anything changes. (An error from the engine itself after that would be a
+    /// bug: [`Error::Internal`] territory.)
+    ///
+    /// The chunk is read in two passes: first in time order, to open windows, take their PENT
+    /// estimates and find each event's input spikes; then window by window, so that one
+    /// window's network state stays hot in cache while it takes all its spikes of the chunk.
     pub fn push(&mut self, events: &[Event], out: &mut Vec<StreamDetection>) -> Result<()> {
         self.check(events)?;
+        let Some(chunk_end) = events.last().map(|e| e.t) else {
+            return Ok(());
+        };
         let before = out.len();
-        let result = events.iter().try_for_each(|e| self.accept(e, out));
+        self.spikes.clear();
+        for e in events {
+            self.schedule_event(e);
+        }
+        let result = self.run_windows(chunk_end, out);
+        // Stable: one window's detections of one time stay in firing order.
+        out[before..].sort_by_key(|d| (d.detection.t, d.window));
         self.stats.detections += (out.len() - before) as u64;
         result
     }
@@ -224,10 +253,13 @@ impl<E: WindowEngine> Detector<E> {
             return Ok(());
         }
         let before = out.len();
-        let result = self.settle(out);
-        while let Some(w) = self.live.pop_front() {
-            self.spare.push(w.state);
+        let mut result = Ok(());
+        for w in &mut self.live {
+            if result.is_ok() {
+                result = settle(&self.engine, w, &mut self.scratch, out);
+            }
         }
+        self.release_all();
         self.finished = true;
         self.stats.detections += (out.len() - before) as u64;
         result
@@ -235,9 +267,7 @@ impl<E: WindowEngine> Detector<E> {
 
     /// Forget the stream (keeping allocations): the next event starts a new one.
     pub fn reset(&mut self) {
-        while let Some(w) = self.live.pop_front() {
-            self.spare.push(w.state);
-        }
+        self.release_all();
         self.counter.clear();
         self.schedule = None;
         self.next_window = 0;
@@ -246,7 +276,16 @@ impl<E: WindowEngine> Detector<E> {
         self.stats = StreamStats::default();
     }
 
-    fn accept(&mut self, e: &Event, out: &mut Vec<StreamDetection>) -> Result<()> {
+    fn release_all(&mut self) {
+        while let Some(w) = self.live.pop_front() {
+            self.spare.extend(w.state);
+        }
+    }
+
+    /// First pass, in time order: open the windows that start by `e.t` (their PENT estimate is
+    /// read now, before `e` is counted) and record `e` as an input spike of the live windows
+    /// in which its pixel has not fired yet.
+    fn schedule_event(&mut self, e: &Event) {
         let schedule = *self.schedule.get_or_insert_with(|| {
             WindowSchedule::with_step(
                 self.config.start_us.unwrap_or(e.t),
@@ -254,62 +293,105 @@ impl<E: WindowEngine> Detector<E> {
                 self.step,
             )
         });
-        if self.last_t.is_some_and(|last| e.t > last) {
-            self.settle(out)?;
-        }
-        while self.live.front().is_some_and(|w| w.end <= e.t) {
-            if let Some(w) = self.live.pop_front() {
-                self.spare.push(w.state);
-            }
-        }
-        if let Some(range) = schedule.live_at(e.t) {
-            let first = self.next_window.max(*range.start());
-            for index in first..=*range.end() {
-                self.open(&schedule, index)?;
+        let live = schedule.live_at(e.t);
+        if let Some(range) = &live {
+            // Windows lying wholly in a silent gap (before `range.start()`) are skipped.
+            for index in self.next_window.max(*range.start())..=*range.end() {
+                let t0 = schedule.start_of(index);
+                self.live.push_back(LiveWindow {
+                    index,
+                    t0,
+                    end: schedule.end_of(index),
+                    n_in: self.counter.count_before(t0) as u64,
+                    state: None,
+                    pending_t: None,
+                });
+                self.stats.windows_opened += 1;
             }
             self.next_window = self.next_window.max(range.end() + 1);
         }
         let previous = self.counter.push(e.t, self.sensor.index(e.x, e.y));
-        for w in &mut self.live {
-            // The pixel's first event in this window: it has not fired since the window opened.
-            if previous.map_or(true, |p| p < w.t0) {
-                self.engine.push(&mut w.state, e.t, e.x, e.y)?;
-                w.unsettled = true;
+        if let Some(range) = live {
+            // The pixel's first event in window k when it has not fired since t0(k).
+            let first = previous.map_or(*range.start(), |p| {
+                schedule.first_starting_after(p).max(*range.start())
+            });
+            if first <= *range.end() {
+                self.spikes.push(ChunkSpike {
+                    t: e.t,
+                    x: e.x,
+                    y: e.y,
+                    first,
+                    last: *range.end(),
+                });
             }
         }
         self.last_t = Some(e.t);
         self.stats.events += 1;
-        Ok(())
     }
 
-    fn open(&mut self, schedule: &WindowSchedule, index: u64) -> Result<()> {
-        let t0 = schedule.start_of(index);
-        let n_in = self.counter.count_before(t0) as u64;
-        let mut state = self.spare.pop().unwrap_or_else(|| self.engine.new_state());
-        self.engine.begin(&mut state, t0, n_in)?;
-        self.live.push_back(LiveWindow {
-            index,
-            t0,
-            end: schedule.end_of(index),
-            state,
-            unsettled: false,
-        });
-        self.stats.windows_opened += 1;
-        Ok(())
-    }
-
-    fn settle(&mut self, out: &mut Vec<StreamDetection>) -> Result<()> {
-        for w in &mut self.live {
-            if w.unsettled {
-                w.unsettled = false;
-                self.scratch.clear();
-                self.engine.settle(&mut w.state, &mut self.scratch)?;
-                out.extend(self.scratch.iter().map(|&detection| StreamDetection {
-                    window: w.index,
-                    detection,
-                }));
+    /// Second pass, window by window: feed each live window its spikes of the chunk, settling
+    /// every timestamp that the chunk shows complete (a later event exists), and recycle the
+    /// windows that the chunk has passed.
+    fn run_windows(&mut self, chunk_end: u64, out: &mut Vec<StreamDetection>) -> Result<()> {
+        let Self {
+            engine,
+            live,
+            spare,
+            spikes,
+            scratch,
+            ..
+        } = self;
+        for w in live.iter_mut() {
+            let from = spikes.partition_point(|s| s.t < w.t0);
+            let to = spikes.partition_point(|s| s.t < w.end);
+            for s in &spikes[from..to] {
+                if s.first > w.index || w.index > s.last {
+                    continue;
+                }
+                if w.pending_t.is_some_and(|p| s.t > p) {
+                    settle(engine, w, scratch, out)?;
+                }
+                let state = if let Some(state) = &mut w.state {
+                    state
+                } else {
+                    let mut state = spare.pop().unwrap_or_else(|| engine.new_state());
+                    engine.begin(&mut state, w.t0, w.n_in)?;
+                    w.state.insert(state)
+                };
+                engine.push(state, s.t, s.x, s.y)?;
+                w.pending_t = Some(s.t);
             }
+            if w.pending_t.is_some_and(|p| chunk_end > p) {
+                settle(engine, w, scratch, out)?;
+            }
+            if w.end <= chunk_end {
+                // The stream has passed this window: its state goes to the next one.
+                spare.extend(w.state.take());
+            }
+        }
+        while live.front().is_some_and(|w| w.end <= chunk_end) {
+            live.pop_front();
         }
         Ok(())
     }
+}
+
+/// Decide a window's pending timestamp and append the detections it makes.
+fn settle<E: WindowEngine>(
+    engine: &E,
+    w: &mut LiveWindow<E::State>,
+    scratch: &mut Vec<Detection>,
+    out: &mut Vec<StreamDetection>,
+) -> Result<()> {
+    let (Some(state), Some(_)) = (w.state.as_mut(), w.pending_t.take()) else {
+        return Ok(());
+    };
+    scratch.clear();
+    engine.settle(state, scratch)?;
+    out.extend(scratch.iter().map(|&detection| StreamDetection {
+        window: w.index,
+        detection,
+    }));
+    Ok(())
 }

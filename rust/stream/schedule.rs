@@ -63,6 +63,14 @@ impl WindowSchedule {
         self.length.div_ceil(self.step) as usize
     }
 
+    /// The first window starting strictly after `t`.
+    pub fn first_starting_after(&self, t: u64) -> u64 {
+        match t.checked_sub(self.start) {
+            None => 0,
+            Some(since) => since / self.step + 1,
+        }
+    }
+
     /// Indices of the windows that hold time `t` (`None` before the first window starts).
     pub fn live_at(&self, t: u64) -> Option<RangeInclusive<u64>> {
         let since = t.checked_sub(self.start)?;
@@ -100,6 +108,9 @@ mod tests {
                     "start {start} L {length} o {overlap} t {t}"
                 );
                 assert!(got.len() <= s.max_live());
+                let after = s.first_starting_after(t);
+                assert!(s.start_of(after) > t);
+                assert!(after == 0 || s.start_of(after - 1) <= t);
             }
         }
     }
