@@ -4,8 +4,14 @@
 //! time has its own state, at most `ceil(L / step)` of them, recycled when a window ends. Each
 //! event is an input spike of every live window in which its pixel has not fired yet (its first
 //! event there, docs/model.md §1); whether it has is read from the pixel's previous event time,
-//! which the PENT counter keeps anyway. A window's PENT threshold is set when it opens, from the
-//! distinct pixels active in the `L` microseconds before it (the "preceding" estimate, §4).
+//! which the PENT counter keeps anyway. A window's PENT estimate is taken when it opens: the
+//! distinct pixels active in the `L` microseconds before it (the "preceding" estimate, §4); its
+//! conv1 thresholds are set from it before its first spike goes in.
+//!
+//! Each chunk is read twice: in time order to open windows, take their estimates and find every
+//! event's input spikes, then window by window to run them, so that one network state stays in
+//! cache while it takes all its spikes of the chunk (the states of overlapping windows would
+//! otherwise evict each other at every event).
 //!
 //! Spikes at one timestamp are decided together (§3), so a detection at time `t` leaves the
 //! detector as soon as an event later than `t` arrives, or at [`Detector::flush`]: events of
