@@ -12,7 +12,9 @@ use super::errors::{detach, map};
 use crate::error::Error;
 use crate::events::{Event, SensorSize, PACKED_EVENT_SIZE};
 use crate::network::{Network, NetworkConfig};
-use crate::stream::{NetworkDetector, PacketDecoder, PacketFormat, StreamConfig, StreamDetection};
+use crate::stream::{
+    packed_event, NetworkDetector, PacketDecoder, PacketFormat, StreamConfig, StreamDetection,
+};
 
 /// Size of one packed detection record: `window i8, t u8, map row col u2, x y f4, box 4×u2`.
 const DETECTION_RECORD: usize = 8 + 8 + 3 * 2 + 2 * 4 + 4 * 2;
@@ -46,12 +48,7 @@ fn unpack_events(bytes: &[u8], out: &mut Vec<Event>) -> Result<(), Error> {
         });
     }
     out.clear();
-    out.extend(bytes.chunks_exact(PACKED_EVENT_SIZE).map(|r| Event {
-        t: u64::from_le_bytes([r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7]]),
-        x: u16::from_le_bytes([r[8], r[9]]),
-        y: u16::from_le_bytes([r[10], r[11]]),
-        p: r[12] != 0,
-    }));
+    out.extend(bytes.chunks_exact(PACKED_EVENT_SIZE).map(packed_event));
     Ok(())
 }
 

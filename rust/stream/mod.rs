@@ -18,7 +18,7 @@ mod schedule;
 
 pub use detector::{Detector, StreamConfig, StreamDetection, StreamStats, WindowEngine};
 pub use engine::NetworkDetector;
-pub use packets::{PacketDecoder, PacketFormat};
+pub use packets::{packed_event, PacketDecoder, PacketFormat};
 pub use preceding::PrecedingCounter;
 pub use schedule::{window_step, WindowSchedule};
 

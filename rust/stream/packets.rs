@@ -76,6 +76,19 @@ impl FromStr for PacketFormat {
 
 const WRAP: u64 = 1 << 32;
 
+/// One packed 13-byte record (`t u64, x u16, y u16, p u8`, little endian: the canonical
+/// dtype's bytes), unchecked. `record` holds at least 13 bytes.
+#[inline]
+pub fn packed_event(record: &[u8]) -> Event {
+    let r = record;
+    Event {
+        t: u64::from_le_bytes([r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7]]),
+        x: u16::from_le_bytes([r[8], r[9]]),
+        y: u16::from_le_bytes([r[10], r[11]]),
+        p: r[12] != 0,
+    }
+}
+
 /// Decodes packets of one format into validated events, keeping the time base across packets.
 #[derive(Debug, Clone)]
 pub struct PacketDecoder {
@@ -153,12 +166,7 @@ impl PacketDecoder {
     fn decode_t64(&self, packet: &[u8], clock: &mut Clock, out: &mut Vec<Event>) -> Result<()> {
         self.whole(packet, PACKED_EVENT_SIZE)?;
         for (i, r) in packet.chunks_exact(PACKED_EVENT_SIZE).enumerate() {
-            let e = Event {
-                t: u64::from_le_bytes([r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7]]),
-                x: u16::from_le_bytes([r[8], r[9]]),
-                y: u16::from_le_bytes([r[10], r[11]]),
-                p: r[12] != 0,
-            };
+            let e = packed_event(r);
             clock.accept(&e, self.sensor, i)?;
             out.push(e);
         }
