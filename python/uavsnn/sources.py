@@ -1,0 +1,381 @@
+"""Live event sources for streaming detection: a recording file, standard input, a UDP socket.
+
+Every source is an iterable of event chunks (1-D arrays of :data:`uavsnn.EVENT_DTYPE`, in time
+order) with a :class:`SourceStats` of what it received and dropped. Open one from a command-line
+spelling with :func:`open_source`.
+
+Formats read
+------------
+File
+    Any recording :func:`uavsnn.io.read` reads (AEDAT4, RAW EVT2/EVT3, DAT, ES, CSV, ``.npz`` /
+    ``.npy``). Chunks of ``chunk_events`` events as fast as possible, or, with ``realtime``,
+    chunks of ``chunk_us`` of event time released at the recording's own pace.
+Standard input (``-``)
+    ``packed``: the canonical 13-byte little-endian records ``t u64, x u16, y u16, p u8``
+    (``events.tobytes()`` of an ``EVENT_DTYPE`` array); a record split across reads is kept until
+    its end arrives. ``csv``: one ``t,x,y,p`` line per event (integers; ``p`` is 1/0 or 1/-1, any
+    value > 0 is ON; a first line that is not numbers is taken as a header). A malformed line
+    is counted as a drop.
+UDP (``udp://HOST:PORT``)
+    One datagram = one packet, decoded whole or dropped (:class:`uavsnn._core.PacketDecoder`):
+
+    - ``t64_x16_y16_on8`` (faery's default ``UdpFormat``): 13-byte records as above.
+    - ``t32_x16_y15_on1`` (faery's compact ``UdpFormat``): 8-byte little-endian records
+      ``t u32, x u16, y_on u16`` with ``y = y_on >> 1`` and ``on = y_on & 1``; the 32-bit time
+      is unwrapped (a jump back by more than 2**31 µs is a wrap, as faery's receiver reads it).
+    - ``spif`` (aestream's UDP output, the spif/spiffer event word): little-endian 32-bit words,
+      bit 31 = no-timestamp flag, bits 30..16 = x, bit 15 = polarity, bits 14..0 = y; when bit 31
+      is clear the next word is the event's u32 time in µs. Events without a time (aestream's
+      default) are stamped with their packet's arrival time on a monotonic clock, in µs since the
+      source opened.
+
+    A packet that is not a whole number of records, holds an event outside the sensor, goes back
+    in time, or mixes stamped and unstamped ``spif`` events is counted in
+    :attr:`SourceStats.dropped` and skipped; it never stops the stream.
+"""
+
+from __future__ import annotations
+
+import socket
+import sys
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import BinaryIO
+from urllib.parse import urlsplit
+
+import numpy as np
+
+from uavsnn import _core
+from uavsnn.errors import ParameterError, UavsnnError
+from uavsnn.events import EVENT_DTYPE, _check_sensor_size
+
+__all__ = [
+    "PACKET_FORMATS",
+    "STDIN_FORMATS",
+    "EventSource",
+    "FileSource",
+    "SourceStats",
+    "StdinSource",
+    "UdpSource",
+    "open_source",
+]
+
+#: UDP packet formats understood by :class:`UdpSource`.
+PACKET_FORMATS: tuple[str, ...] = tuple(_core.PACKET_FORMATS)
+#: Formats of standard input understood by :class:`StdinSource`.
+STDIN_FORMATS: tuple[str, ...] = ("packed", "csv")
+
+_RECORD = EVENT_DTYPE.itemsize
+_EMPTY = np.empty(0, dtype=EVENT_DTYPE)
+
+
+@dataclass
+class SourceStats:
+    """What a source has received so far."""
+
+    #: Events delivered.
+    events: int = 0
+    #: Packets (UDP datagrams, stdin reads or file chunks) received.
+    packets: int = 0
+    #: Packets (or CSV lines) that were malformed and skipped.
+    dropped: int = 0
+
+
+class EventSource:
+    """Base of the sources: iterate to receive chunks of events in time order."""
+
+    #: Sensor size ``(width, height)``; ``None`` when the source cannot tell.
+    sensor_size: tuple[int, int] | None = None
+
+    def __init__(self) -> None:
+        self.stats = SourceStats()
+
+    def __iter__(self) -> Iterator[np.ndarray]:
+        raise NotImplementedError
+
+    def close(self) -> None:
+        """Release what the source holds (sockets); iterating afterwards is an error."""
+
+    def __enter__(self) -> EventSource:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+class FileSource(EventSource):
+    """A recording file, replayed as fast as possible or at its own pace.
+
+    Args:
+        path: any file :func:`uavsnn.io.read` reads.
+        sensor_size: overrides the file's sensor size (required for files that have none).
+        realtime: release each chunk when the wall clock since the start reaches its event
+            time since the first event.
+        chunk_events: events per chunk when not ``realtime``.
+        chunk_us: event time per chunk when ``realtime``.
+        downsample_to: ``(width, height)`` to crop and scale the recording to
+            (:func:`uavsnn.filters.downsample`), e.g. a model's input size; ``None`` keeps it.
+    """
+
+    def __init__(
+        self,
+        path: str | Path,
+        *,
+        sensor_size: tuple[int, int] | None = None,
+        realtime: bool = False,
+        chunk_events: int = 4096,
+        chunk_us: int = 1000,
+        downsample_to: tuple[int, int] | None = None,
+    ) -> None:
+        super().__init__()
+        from uavsnn import filters, io
+
+        if chunk_events < 1 or chunk_us < 1:
+            raise ParameterError(
+                f"chunk_events and chunk_us must be >= 1, got {chunk_events} and {chunk_us}"
+            )
+        self.recording = io.read(path, sensor_size=sensor_size)
+        if downsample_to is not None and self.recording.sensor_size != tuple(downsample_to):
+            self.recording = filters.downsample(self.recording, downsample_to)
+        self.sensor_size = self.recording.sensor_size
+        self.realtime = realtime
+        self.chunk_events = chunk_events
+        self.chunk_us = chunk_us
+
+    def __iter__(self) -> Iterator[np.ndarray]:
+        events = self.recording.events
+        if len(events) == 0:
+            return
+        if not self.realtime:
+            for i in range(0, len(events), self.chunk_events):
+                chunk = events[i : i + self.chunk_events]
+                self._count(chunk)
+                yield chunk
+            return
+        t = events["t"]
+        first = int(t[0])
+        edges = np.arange(first, int(t[-1]) + self.chunk_us + 1, self.chunk_us, dtype=np.uint64)
+        cuts = np.searchsorted(t, edges[1:], side="left")
+        start_wall = time.monotonic()
+        begin = 0
+        for edge, end in zip(edges[1:], cuts, strict=True):
+            if end == begin:
+                continue
+            # The chunk is complete once the clock passes its window's end.
+            wait = (int(edge) - first) / 1e6 - (time.monotonic() - start_wall)
+            if wait > 0:
+                time.sleep(wait)
+            chunk = events[begin:end]
+            begin = int(end)
+            self._count(chunk)
+            yield chunk
+
+    def _count(self, chunk: np.ndarray) -> None:
+        self.stats.packets += 1
+        self.stats.events += len(chunk)
+
+
+class StdinSource(EventSource):
+    """Events from a binary stream (standard input by default).
+
+    Args:
+        stream: a binary file object; ``sys.stdin.buffer`` when ``None``.
+        fmt: ``"packed"`` (13-byte records) or ``"csv"`` (``t,x,y,p`` lines).
+        sensor_size: ``(width, height)``; events outside it or going back in time raise
+            :class:`~uavsnn.EventError` in the detector (packed) or are dropped (CSV lines).
+        read_size: most bytes read at once; a read returns what is available, so a slow
+            producer's events are not held back waiting for a full buffer.
+    """
+
+    def __init__(
+        self,
+        stream: BinaryIO | None = None,
+        *,
+        fmt: str = "packed",
+        sensor_size: tuple[int, int] | None = None,
+        read_size: int = 1 << 16,
+    ) -> None:
+        super().__init__()
+        if fmt not in STDIN_FORMATS:
+            raise ParameterError(f"stdin format must be one of {STDIN_FORMATS}, got {fmt!r}")
+        if read_size < _RECORD:
+            raise ParameterError(f"read_size must be >= {_RECORD}, got {read_size}")
+        self.stream = stream if stream is not None else sys.stdin.buffer
+        self.fmt = fmt
+        self.sensor_size = None if sensor_size is None else _check_sensor_size(sensor_size)
+        self.read_size = read_size
+        self._lines = 0
+
+    def _read(self) -> bytes:
+        read1 = getattr(self.stream, "read1", None)
+        return read1(self.read_size) if read1 is not None else self.stream.read(self.read_size)
+
+    def __iter__(self) -> Iterator[np.ndarray]:
+        rest = b""
+        while True:
+            data = self._read()
+            if not data:
+                break
+            self.stats.packets += 1
+            data = rest + data
+            if self.fmt == "packed":
+                whole = len(data) - len(data) % _RECORD
+                rest = data[whole:]
+                chunk = np.frombuffer(data[:whole], dtype=EVENT_DTYPE)
+            else:
+                cut = data.rfind(b"\n") + 1
+                rest = data[cut:]
+                chunk = self._parse_csv(data[:cut])
+            if len(chunk):
+                self.stats.events += len(chunk)
+                yield chunk
+        if rest:
+            if self.fmt == "csv":
+                chunk = self._parse_csv(rest + b"\n")
+                if len(chunk):
+                    self.stats.events += len(chunk)
+                    yield chunk
+            else:
+                # A truncated last record: its bytes never made an event.
+                self.stats.dropped += 1
+
+    def _parse_csv(self, text: bytes) -> np.ndarray:
+        rows: list[tuple[int, int, int, bool]] = []
+        for line in text.splitlines():
+            fields = line.strip()
+            if not fields:
+                continue
+            try:
+                t, x, y, p = (int(v) for v in fields.split(b","))
+                if t < 0 or not (0 <= x < 65536 and 0 <= y < 65536):
+                    raise ValueError
+            except ValueError:
+                # The stream's first line may be a header; any other bad line is a drop.
+                self.stats.dropped += self._lines > 0
+                self._lines += 1
+                continue
+            self._lines += 1
+            rows.append((t, x, y, p > 0))
+        if not rows:
+            return _EMPTY
+        return np.array(rows, dtype=EVENT_DTYPE)
+
+
+class UdpSource(EventSource):
+    """Events received as UDP packets on ``host:port`` (see the module docs for the formats).
+
+    Args:
+        host: address to bind, e.g. ``"127.0.0.1"``.
+        port: port to bind; 0 picks a free one (read it back from :attr:`address`).
+        fmt: one of :data:`PACKET_FORMATS`.
+        sensor_size: ``(width, height)`` the events must lie in (packets carry no size).
+        max_packets: stop after this many datagrams (dropped ones included); ``None``: never.
+        idle_timeout: stop when no datagram arrived for this many seconds; ``None``: never.
+    """
+
+    def __init__(
+        self,
+        host: str,
+        port: int,
+        *,
+        fmt: str = "t64_x16_y16_on8",
+        sensor_size: tuple[int, int],
+        max_packets: int | None = None,
+        idle_timeout: float | None = None,
+    ) -> None:
+        super().__init__()
+        if fmt not in PACKET_FORMATS:
+            raise ParameterError(f"UDP format must be one of {PACKET_FORMATS}, got {fmt!r}")
+        if max_packets is not None and max_packets < 1:
+            raise ParameterError(f"max_packets must be >= 1, got {max_packets}")
+        if idle_timeout is not None and not idle_timeout > 0:
+            raise ParameterError(f"idle_timeout must be > 0 seconds, got {idle_timeout}")
+        width, height = _check_sensor_size(sensor_size)
+        self.sensor_size = (width, height)
+        self.decoder = _core.PacketDecoder(fmt, width, height)
+        self.max_packets = max_packets
+        self.idle_timeout = idle_timeout
+        family = socket.AF_INET6 if ":" in host else socket.AF_INET
+        self.socket = socket.socket(family, socket.SOCK_DGRAM)
+        try:
+            self.socket.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 22)
+            self.socket.bind((host, port))
+        except OSError as exc:
+            self.socket.close()
+            raise ParameterError(f"cannot listen on udp://{host}:{port}: {exc}") from exc
+        self.socket.settimeout(idle_timeout)
+        self._opened_ns = time.monotonic_ns()
+
+    @property
+    def address(self) -> tuple[str, int]:
+        """The bound ``(host, port)``."""
+        host, port = self.socket.getsockname()[:2]
+        return host, port
+
+    def __iter__(self) -> Iterator[np.ndarray]:
+        buffer = bytearray(1 << 16)
+        view = memoryview(buffer)
+        while self.max_packets is None or self.stats.packets < self.max_packets:
+            try:
+                size = self.socket.recv_into(buffer)
+            except TimeoutError:
+                return
+            self.stats.packets += 1
+            arrival_us = (time.monotonic_ns() - self._opened_ns) // 1000
+            try:
+                raw = self.decoder.decode(bytes(view[:size]), arrival_us)
+            except (UavsnnError, ValueError):
+                self.stats.dropped += 1
+                continue
+            chunk = raw.view(EVENT_DTYPE)
+            if len(chunk):
+                self.stats.events += len(chunk)
+                yield chunk
+
+    def close(self) -> None:
+        """Close the socket."""
+        self.socket.close()
+
+
+def open_source(
+    spec: str,
+    *,
+    sensor_size: tuple[int, int] | None = None,
+    realtime: bool = False,
+    stdin_format: str = "packed",
+    udp_format: str = "t64_x16_y16_on8",
+    max_packets: int | None = None,
+    idle_timeout: float | None = None,
+    downsample_to: tuple[int, int] | None = None,
+) -> EventSource:
+    """Open a source from its command-line spelling: a path, ``-`` or ``udp://HOST:PORT``.
+
+    ``sensor_size`` is required for ``-`` and UDP (their bytes carry none) and overrides a
+    file's own. ``realtime`` and ``downsample_to`` apply to files, ``stdin_format`` to ``-``,
+    and ``udp_format``, ``max_packets`` and ``idle_timeout`` to UDP.
+    """
+    if spec == "-":
+        if sensor_size is None:
+            raise ParameterError("standard input carries no sensor size: give sensor_size")
+        return StdinSource(fmt=stdin_format, sensor_size=sensor_size)
+    if spec.startswith("udp://"):
+        if sensor_size is None:
+            raise ParameterError("UDP packets carry no sensor size: give sensor_size")
+        url = urlsplit(spec)
+        try:
+            port = url.port
+        except ValueError as exc:
+            raise ParameterError(f"bad UDP address {spec!r}: {exc}") from exc
+        if not url.hostname or port is None:
+            raise ParameterError(f"UDP address must be udp://HOST:PORT, got {spec!r}")
+        return UdpSource(
+            url.hostname,
+            port,
+            fmt=udp_format,
+            sensor_size=sensor_size,
+            max_packets=max_packets,
+            idle_timeout=idle_timeout,
+        )
+    return FileSource(spec, sensor_size=sensor_size, realtime=realtime, downsample_to=downsample_to)

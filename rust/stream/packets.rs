@@ -1,0 +1,428 @@
+//! Decoders for the UDP packet formats that the field's streaming tools send.
+//!
+//! - `t64_x16_y16_on8` (faery's default `UdpFormat`): packed 13-byte little-endian records,
+//!   `t: u64, x: u16, y: u16, on: u8`, the same bytes as the canonical NumPy dtype.
+//! - `t32_x16_y15_on1` (faery's compact `UdpFormat`): 8-byte little-endian records,
+//!   `t: u32, x: u16, y_on: u16` with `y = y_on >> 1` and `on = y_on & 1`. The 32-bit time wraps
+//!   every 71.6 minutes; like faery's receiver, a jump back by more than 2³¹ µs is read as a wrap.
+//! - `spif` (aestream's UDP output, the event word of `SpiNNaker`'s spif, "spiffer"): little-endian
+//!   32-bit words, bit 31 = "no timestamp" flag, bits 30..16 = x, bit 15 = polarity,
+//!   bits 14..0 = y. When bit 31 is clear, the next word is the event's time (u32 µs, unwrapped
+//!   as above). aestream sends no time by default; such events are stamped with the packet's
+//!   arrival time, which the caller reads from a monotonic clock.
+//!
+//! A packet is decoded whole or not at all: a length that is not a whole number of records,
+//! an event outside the sensor, a time going backwards, or a `spif` packet mixing stamped and
+//! unstamped events is an error, and the decoder's state (last time, wrap count) is unchanged,
+//! so the caller can count the packet as dropped and go on with the next one.
+
+use std::fmt;
+use std::str::FromStr;
+
+use crate::error::{Error, Result};
+use crate::events::{Event, SensorSize, PACKED_EVENT_SIZE};
+
+/// A UDP event packet format.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum PacketFormat {
+    /// faery `t64_x16_y16_on8`: 13 bytes per event.
+    T64X16Y16On8,
+    /// faery `t32_x16_y15_on1`: 8 bytes per event.
+    T32X16Y15On1,
+    /// aestream / spif: one 32-bit word per event, plus one time word when bit 31 is clear.
+    Spif,
+}
+
+impl PacketFormat {
+    /// Every format, in the order of their names in [`PacketFormat::NAMES`].
+    pub const ALL: [PacketFormat; 3] = [Self::T64X16Y16On8, Self::T32X16Y15On1, Self::Spif];
+    /// The names accepted by [`FromStr`].
+    pub const NAMES: [&'static str; 3] = ["t64_x16_y16_on8", "t32_x16_y15_on1", "spif"];
+
+    /// The format's name, as faery and aestream spell it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::T64X16Y16On8 => Self::NAMES[0],
+            Self::T32X16Y15On1 => Self::NAMES[1],
+            Self::Spif => Self::NAMES[2],
+        }
+    }
+}
+
+impl fmt::Display for PacketFormat {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for PacketFormat {
+    type Err = Error;
+
+    fn from_str(s: &str) -> Result<Self> {
+        Self::ALL
+            .into_iter()
+            .find(|f| f.name() == s)
+            .ok_or_else(|| {
+                Error::param(
+                    "format",
+                    format!(
+                        "unknown packet format {s:?}; expected one of {:?}",
+                        Self::NAMES
+                    ),
+                )
+            })
+    }
+}
+
+const WRAP: u64 = 1 << 32;
+
+/// One packed 13-byte record (`t u64, x u16, y u16, p u8`, little endian: the canonical
+/// dtype's bytes), unchecked. `record` holds at least 13 bytes.
+#[inline]
+pub fn packed_event(record: &[u8]) -> Event {
+    let r = record;
+    Event {
+        t: u64::from_le_bytes([r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7]]),
+        x: u16::from_le_bytes([r[8], r[9]]),
+        y: u16::from_le_bytes([r[10], r[11]]),
+        p: r[12] != 0,
+    }
+}
+
+/// Decodes packets of one format into validated events, keeping the time base across packets.
+#[derive(Debug, Clone)]
+pub struct PacketDecoder {
+    format: PacketFormat,
+    sensor: SensorSize,
+    last_t: Option<u64>,
+    /// Sum of the 32-bit wraps seen so far (a multiple of 2³²).
+    wrap_base: u64,
+    /// Last 32-bit timestamp read, to detect wraps.
+    last_raw: Option<u32>,
+}
+
+impl PacketDecoder {
+    /// A decoder for `format` checking coordinates against `sensor`.
+    pub fn new(format: PacketFormat, sensor: SensorSize) -> Self {
+        Self {
+            format,
+            sensor,
+            last_t: None,
+            wrap_base: 0,
+            last_raw: None,
+        }
+    }
+
+    /// The format decoded.
+    pub fn format(&self) -> PacketFormat {
+        self.format
+    }
+
+    /// Time of the last event decoded.
+    pub fn last_t(&self) -> Option<u64> {
+        self.last_t
+    }
+
+    /// Decode one packet, appending its events to `out`. `arrival_us` stamps events that carry
+    /// no time (`spif` without timestamps). On error nothing is appended and no state changes.
+    pub fn decode(&mut self, packet: &[u8], arrival_us: u64, out: &mut Vec<Event>) -> Result<()> {
+        let mark = out.len();
+        let mut clock = Clock {
+            last_t: self.last_t,
+            wrap_base: self.wrap_base,
+            last_raw: self.last_raw,
+        };
+        let result = match self.format {
+            PacketFormat::T64X16Y16On8 => self.decode_t64(packet, &mut clock, out),
+            PacketFormat::T32X16Y15On1 => self.decode_t32(packet, &mut clock, out),
+            PacketFormat::Spif => self.decode_spif(packet, arrival_us, &mut clock, out),
+        };
+        match result {
+            Ok(()) => {
+                self.last_t = clock.last_t;
+                self.wrap_base = clock.wrap_base;
+                self.last_raw = clock.last_raw;
+                Ok(())
+            }
+            Err(err) => {
+                out.truncate(mark);
+                Err(err)
+            }
+        }
+    }
+
+    fn whole(&self, packet: &[u8], record: usize) -> Result<()> {
+        if packet.len() % record == 0 {
+            Ok(())
+        } else {
+            Err(Error::Stream(format!(
+                "{} packet of {} bytes is not a whole number of {record}-byte records",
+                self.format,
+                packet.len()
+            )))
+        }
+    }
+
+    fn decode_t64(&self, packet: &[u8], clock: &mut Clock, out: &mut Vec<Event>) -> Result<()> {
+        self.whole(packet, PACKED_EVENT_SIZE)?;
+        for (i, r) in packet.chunks_exact(PACKED_EVENT_SIZE).enumerate() {
+            let e = packed_event(r);
+            clock.accept(&e, self.sensor, i)?;
+            out.push(e);
+        }
+        Ok(())
+    }
+
+    fn decode_t32(&self, packet: &[u8], clock: &mut Clock, out: &mut Vec<Event>) -> Result<()> {
+        self.whole(packet, 8)?;
+        for (i, r) in packet.chunks_exact(8).enumerate() {
+            let y_on = u16::from_le_bytes([r[6], r[7]]);
+            let e = Event {
+                t: clock.unwrap(u32::from_le_bytes([r[0], r[1], r[2], r[3]])),
+                x: u16::from_le_bytes([r[4], r[5]]),
+                y: y_on >> 1,
+                p: y_on & 1 == 1,
+            };
+            clock.accept(&e, self.sensor, i)?;
+            out.push(e);
+        }
+        Ok(())
+    }
+
+    fn decode_spif(
+        &self,
+        packet: &[u8],
+        arrival_us: u64,
+        clock: &mut Clock,
+        out: &mut Vec<Event>,
+    ) -> Result<()> {
+        self.whole(packet, 4)?;
+        let mut words = packet
+            .chunks_exact(4)
+            .map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]]));
+        let mut stamped = None;
+        let mut i = 0;
+        while let Some(word) = words.next() {
+            let has_time = word & 0x8000_0000 == 0;
+            if *stamped.get_or_insert(has_time) != has_time {
+                return Err(Error::Stream(format!(
+                    "spif packet mixes events with and without timestamps (event {i})"
+                )));
+            }
+            let t = if has_time {
+                let raw = words.next().ok_or_else(|| {
+                    Error::Stream(format!(
+                        "spif packet ends after event {i}, whose timestamp word is missing"
+                    ))
+                })?;
+                clock.unwrap(raw)
+            } else {
+                arrival_us
+            };
+            let e = Event {
+                t,
+                x: ((word >> 16) & 0x7FFF) as u16,
+                y: (word & 0x7FFF) as u16,
+                p: word & 0x8000 != 0,
+            };
+            clock.accept(&e, self.sensor, i)?;
+            out.push(e);
+            i += 1;
+        }
+        Ok(())
+    }
+}
+
+/// The time base while a packet is decoded, committed only when the whole packet is good.
+struct Clock {
+    last_t: Option<u64>,
+    wrap_base: u64,
+    last_raw: Option<u32>,
+}
+
+impl Clock {
+    fn unwrap(&mut self, raw: u32) -> u64 {
+        if let Some(previous) = self.last_raw {
+            if raw < previous && u64::from(previous - raw) > WRAP / 2 {
+                self.wrap_base += WRAP;
+            }
+        }
+        self.last_raw = Some(raw);
+        self.wrap_base + u64::from(raw)
+    }
+
+    fn accept(&mut self, e: &Event, sensor: SensorSize, index: usize) -> Result<()> {
+        if !sensor.contains(e.x, e.y) {
+            return Err(Error::InvalidEvent {
+                index,
+                reason: format!(
+                    "(x={}, y={}) is outside the {}x{} sensor",
+                    e.x, e.y, sensor.width, sensor.height
+                ),
+            });
+        }
+        if let Some(previous) = self.last_t {
+            if e.t < previous {
+                return Err(Error::InvalidEvent {
+                    index,
+                    reason: format!("t={} goes backwards (previous event at t={previous})", e.t),
+                });
+            }
+        }
+        self.last_t = Some(e.t);
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sensor() -> SensorSize {
+        SensorSize::new(640, 480).unwrap()
+    }
+
+    fn ev(t: u64, x: u16, y: u16, p: bool) -> Event {
+        Event { t, x, y, p }
+    }
+
+    fn t64(events: &[Event]) -> Vec<u8> {
+        let mut b = Vec::new();
+        for e in events {
+            b.extend_from_slice(&e.t.to_le_bytes());
+            b.extend_from_slice(&e.x.to_le_bytes());
+            b.extend_from_slice(&e.y.to_le_bytes());
+            b.push(u8::from(e.p));
+        }
+        b
+    }
+
+    /// As faery's encoder writes it: `t & 0xFFFFFFFF`, `x`, `((y << 1) & 0x7FFF) | on`.
+    fn t32(events: &[Event]) -> Vec<u8> {
+        let mut b = Vec::new();
+        for e in events {
+            b.extend_from_slice(&((e.t & 0xFFFF_FFFF) as u32).to_le_bytes());
+            b.extend_from_slice(&e.x.to_le_bytes());
+            b.extend_from_slice(&(((e.y << 1) & 0x7FFF) | u16::from(e.p)).to_le_bytes());
+        }
+        b
+    }
+
+    /// As aestream's `DVSToUDP` writes it, with or without the time word.
+    fn spif(events: &[Event], with_time: bool) -> Vec<u8> {
+        let mut b = Vec::new();
+        for e in events {
+            let flag = if with_time { 0 } else { 0x8000_0000u32 };
+            let word = flag
+                | (u32::from(e.x & 0x7FFF) << 16)
+                | (u32::from(e.p) << 15)
+                | u32::from(e.y & 0x7FFF);
+            b.extend_from_slice(&word.to_le_bytes());
+            if with_time {
+                b.extend_from_slice(&((e.t & 0xFFFF_FFFF) as u32).to_le_bytes());
+            }
+        }
+        b
+    }
+
+    fn sample() -> Vec<Event> {
+        vec![
+            ev(10, 0, 0, true),
+            ev(10, 639, 479, false),
+            ev(25, 320, 7, true),
+        ]
+    }
+
+    #[test]
+    fn formats_round_trip() {
+        for (format, bytes) in [
+            (PacketFormat::T64X16Y16On8, t64(&sample())),
+            (PacketFormat::T32X16Y15On1, t32(&sample())),
+            (PacketFormat::Spif, spif(&sample(), true)),
+        ] {
+            let mut d = PacketDecoder::new(format, sensor());
+            let mut out = Vec::new();
+            d.decode(&bytes, 0, &mut out).unwrap();
+            assert_eq!(out, sample(), "{format}");
+            assert_eq!(format.name().parse::<PacketFormat>().unwrap(), format);
+        }
+        assert!("t16".parse::<PacketFormat>().is_err());
+    }
+
+    #[test]
+    fn unstamped_spif_events_take_the_arrival_time() {
+        let mut d = PacketDecoder::new(PacketFormat::Spif, sensor());
+        let mut out = Vec::new();
+        d.decode(&spif(&sample(), false), 777, &mut out).unwrap();
+        assert!(out.iter().all(|e| e.t == 777));
+        let xs: Vec<(u16, u16, bool)> = out.iter().map(|e| (e.x, e.y, e.p)).collect();
+        let want: Vec<(u16, u16, bool)> = sample().iter().map(|e| (e.x, e.y, e.p)).collect();
+        assert_eq!(xs, want);
+    }
+
+    #[test]
+    fn thirty_two_bit_time_unwraps() {
+        let mut d = PacketDecoder::new(PacketFormat::T32X16Y15On1, sensor());
+        let mut out = Vec::new();
+        let before = ev(WRAP - 5, 1, 1, true);
+        let after = ev(WRAP + 3, 2, 2, false);
+        d.decode(&t32(&[before]), 0, &mut out).unwrap();
+        d.decode(&t32(&[after]), 0, &mut out).unwrap();
+        assert_eq!(out, vec![before, after]);
+    }
+
+    #[test]
+    fn malformed_packets_are_errors_and_leave_the_state_alone() {
+        let good = sample();
+        let later = vec![ev(30, 1, 1, true)];
+        for format in PacketFormat::ALL {
+            let encode = |e: &[Event]| match format {
+                PacketFormat::T64X16Y16On8 => t64(e),
+                PacketFormat::T32X16Y15On1 => t32(e),
+                PacketFormat::Spif => spif(e, true),
+            };
+            let mut d = PacketDecoder::new(format, sensor());
+            let mut out = Vec::new();
+            d.decode(&encode(&good), 0, &mut out).unwrap();
+            let n = out.len();
+
+            let mut truncated = encode(&later);
+            truncated.pop();
+            let err = d.decode(&truncated, 0, &mut out).unwrap_err();
+            assert!(matches!(err, Error::Stream(_)), "{format}: {err}");
+
+            let outside = encode(&[ev(40, 1, 1, true), ev(41, 640, 2, true)]);
+            let err = d.decode(&outside, 0, &mut out).unwrap_err();
+            assert!(
+                matches!(err, Error::InvalidEvent { index: 1, .. }),
+                "{format}: {err}"
+            );
+
+            let backwards = encode(&[ev(5, 1, 1, true)]);
+            let err = d.decode(&backwards, 0, &mut out).unwrap_err();
+            assert!(err.to_string().contains("backwards"), "{format}: {err}");
+
+            assert_eq!(out.len(), n, "{format}: a bad packet appended events");
+            assert_eq!(d.last_t(), Some(25));
+            d.decode(&encode(&later), 0, &mut out).unwrap();
+            assert_eq!(&out[n..], &later[..], "{format}");
+        }
+    }
+
+    #[test]
+    fn spif_rejects_a_missing_time_word_and_mixed_stamps() {
+        let mut d = PacketDecoder::new(PacketFormat::Spif, sensor());
+        let mut out = Vec::new();
+        let stamped = spif(&sample(), true);
+        let err = d
+            .decode(&stamped[..stamped.len() - 4], 0, &mut out)
+            .unwrap_err();
+        assert!(err.to_string().contains("missing"), "{err}");
+        let mut mixed = spif(&sample()[..1], true);
+        mixed.extend(spif(&sample()[1..2], false));
+        let err = d.decode(&mixed, 0, &mut out).unwrap_err();
+        assert!(err.to_string().contains("mixes"), "{err}");
+        assert!(out.is_empty());
+        assert_eq!(d.last_t(), None);
+    }
+}

@@ -1,0 +1,493 @@
+//! The detector's scheduling, input spikes, PENT estimate and validation, checked against a
+//! brute-force reading of docs/model.md §1 and §4 and against the batch path's `make_windows`,
+//! through an engine that reports every input spike it receives.
+
+use std::cell::Cell;
+
+use proptest::prelude::*;
+
+use super::*;
+use crate::error::{Error, Result};
+use crate::events::{Event, SensorSize};
+use crate::network::{infer, Detection, Network, NetworkConfig, PentEstimate, Spikes, WindowBatch};
+use crate::windows::{make_windows, WindowConfig};
+
+const W: u16 = 5;
+const H: u16 = 4;
+
+/// Reports each input spike as a "detection" at its pixel (`x0`, `y0`): `map` = the window's
+/// PENT estimate, `row` = the spike's offset from `t0`. Asserts the engine contract: times never decrease and one time is
+/// settled before a later one is pushed.
+struct Echo {
+    states_made: Cell<usize>,
+}
+
+#[derive(Default)]
+struct EchoState {
+    t0: u64,
+    n_in: u64,
+    pending: Vec<(u64, u16, u16)>,
+    settled_t: Option<u64>,
+}
+
+impl WindowEngine for Echo {
+    type State = EchoState;
+
+    fn sensor(&self) -> Result<SensorSize> {
+        SensorSize::new(W, H)
+    }
+
+    fn new_state(&self) -> EchoState {
+        self.states_made.set(self.states_made.get() + 1);
+        EchoState::default()
+    }
+
+    fn begin(&self, state: &mut EchoState, t0: u64, n_in: u64) -> Result<()> {
+        *state = EchoState {
+            t0,
+            n_in,
+            ..EchoState::default()
+        };
+        Ok(())
+    }
+
+    fn push(&self, state: &mut EchoState, t: u64, x: u16, y: u16) -> Result<()> {
+        if let Some(&(pending_t, _, _)) = state.pending.last() {
+            assert_eq!(pending_t, t, "a later time was pushed before settling");
+        }
+        assert!(state.settled_t.map_or(true, |s| s < t), "time went back");
+        state.pending.push((t, x, y));
+        Ok(())
+    }
+
+    fn settle(&self, state: &mut EchoState, out: &mut Vec<Detection>) -> Result<()> {
+        for (t, x, y) in state.pending.drain(..) {
+            out.push(echoed(t, x, y, state.n_in, t - state.t0));
+            state.settled_t = Some(t);
+        }
+        Ok(())
+    }
+}
+
+fn echoed(t: u64, x: u16, y: u16, n_in: u64, offset: u64) -> Detection {
+    Detection {
+        t,
+        map: n_in as u16,
+        row: offset as u16,
+        col: 0,
+        x: 0.0,
+        y: 0.0,
+        x0: x,
+        y0: y,
+        x1: x + 1,
+        y1: y + 1,
+    }
+}
+
+/// What the detector returned, reduced to `(window, t, x, y, n_in, t - t0)` and sorted.
+type Echoed = (u64, u64, u16, u16, u16, u16);
+
+fn key(d: &StreamDetection) -> Echoed {
+    let e = &d.detection;
+    (d.window, e.t, e.x0, e.y0, e.map, e.row)
+}
+
+fn echo() -> Echo {
+    Echo {
+        states_made: Cell::new(0),
+    }
+}
+
+fn ev(t: u64, x: u16, y: u16) -> Event {
+    Event { t, x, y, p: true }
+}
+
+fn config(window_us: u64, overlap: f64) -> StreamConfig {
+    StreamConfig {
+        window_us,
+        overlap,
+        start_us: None,
+    }
+}
+
+/// docs/model.md §1 and §4 read literally: every window from the first event's time on, its
+/// input spikes (each pixel's first event), and the distinct pixels active before it.
+fn brute(events: &[Event], window_us: u64, overlap: f64) -> Vec<Echoed> {
+    let Some(first) = events.first() else {
+        return Vec::new();
+    };
+    let last = events[events.len() - 1].t;
+    let step = window_step(window_us, overlap).unwrap();
+    let mut out = Vec::new();
+    let mut k = 0;
+    while first.t + k * step <= last {
+        let t0 = first.t + k * step;
+        let mut before: Vec<(u16, u16)> = events
+            .iter()
+            .filter(|e| e.t >= t0.saturating_sub(window_us) && e.t < t0)
+            .map(|e| (e.x, e.y))
+            .collect();
+        before.sort_unstable();
+        before.dedup();
+        let mut fired = Vec::new();
+        for e in events.iter().filter(|e| e.t >= t0 && e.t < t0 + window_us) {
+            if !fired.contains(&(e.x, e.y)) {
+                fired.push((e.x, e.y));
+                out.push((k, e.t, e.x, e.y, before.len() as u16, (e.t - t0) as u16));
+            }
+        }
+        k += 1;
+    }
+    out.sort_unstable();
+    out
+}
+
+/// The batch path's windows (`make_windows`), reported the way [`Echo`] reports them.
+fn batch(events: &[Event], window_us: u64, overlap: f64) -> Vec<Echoed> {
+    let sensor = SensorSize::new(W, H).unwrap();
+    let config = WindowConfig::new(window_us, overlap).unwrap();
+    let w = make_windows(events, sensor, &config).unwrap();
+    let mut out = Vec::new();
+    for i in 0..w.len() {
+        for j in w.offsets[i]..w.offsets[i + 1] {
+            out.push((
+                i as u64,
+                w.t[j],
+                w.x[j],
+                w.y[j],
+                w.n_preceding[i] as u16,
+                (w.t[j] - w.t0[i]) as u16,
+            ));
+        }
+    }
+    out.sort_unstable();
+    out
+}
+
+fn run(events: &[Event], cuts: &[usize], config: StreamConfig) -> (Vec<Echoed>, usize) {
+    let mut d = Detector::new(echo(), config).unwrap();
+    let mut out = Vec::new();
+    let mut from = 0;
+    for &cut in cuts {
+        let to = cut.clamp(from, events.len());
+        d.push(&events[from..to], &mut out).unwrap();
+        from = to;
+    }
+    d.push(&events[from..], &mut out).unwrap();
+    d.flush(&mut out).unwrap();
+    let made = d.engine().states_made.get();
+    assert!(d.states_allocated() <= made);
+    let mut got: Vec<Echoed> = out.iter().map(key).collect();
+    got.sort_unstable();
+    (got, made)
+}
+
+fn arb_events() -> impl Strategy<Value = Vec<Event>> {
+    prop::collection::vec((0u64..6, 0..W, 0..H), 0..120).prop_map(|raw| {
+        let mut t = 1000;
+        raw.into_iter()
+            .map(|(dt, x, y)| {
+                t += dt * dt; // many equal times, some gaps
+                ev(t, x, y)
+            })
+            .collect()
+    })
+}
+
+proptest! {
+    #[test]
+    fn stream_equals_the_definition_whatever_the_chunking(
+        events in arb_events(),
+        cuts in prop::collection::vec(0usize..120, 0..12),
+        window_us in 1u64..40,
+        overlap in prop::sample::select(vec![0.0, 0.1, 0.5, 0.75, 0.9]),
+    ) {
+        let mut cuts = cuts;
+        cuts.sort_unstable();
+        let config = config(window_us, overlap);
+        let (got, made) = run(&events, &cuts, config);
+        prop_assert_eq!(&got, &brute(&events, window_us, overlap));
+        prop_assert_eq!(&got, &batch(&events, window_us, overlap));
+        let max_live = WindowSchedule::new(0, window_us, overlap).unwrap().max_live();
+        prop_assert!(made <= max_live, "{} states for at most {} live windows", made, max_live);
+    }
+}
+
+#[test]
+fn detections_leave_as_soon_as_their_time_is_complete() {
+    let mut d = Detector::new(echo(), config(100, 0.0)).unwrap();
+    let mut out = Vec::new();
+    d.push(&[ev(10, 1, 1), ev(10, 2, 2)], &mut out).unwrap();
+    assert!(out.is_empty(), "t=10 may still receive events");
+    d.push(&[ev(10, 3, 3)], &mut out).unwrap();
+    assert!(out.is_empty());
+    d.push(&[ev(11, 4, 3)], &mut out).unwrap();
+    assert_eq!(out.len(), 3);
+    assert!(out.iter().all(|o| o.detection.t == 10 && o.window == 0));
+    d.flush(&mut out).unwrap();
+    assert_eq!(out.len(), 4);
+    assert_eq!(d.stats().detections, 4);
+}
+
+#[test]
+fn windows_in_a_silent_gap_are_skipped_but_numbered() {
+    let mut d = Detector::new(echo(), config(10, 0.5)).unwrap();
+    let mut out = Vec::new();
+    d.push(&[ev(0, 0, 0), ev(1_000_000, 1, 1)], &mut out)
+        .unwrap();
+    d.flush(&mut out).unwrap();
+    // Windows 0 (and none else) hold t=0; windows 199_999 and 200_000 hold t=1e6.
+    let windows: Vec<u64> = out.iter().map(|o| o.window).collect();
+    assert_eq!(windows, vec![0, 199_999, 200_000]);
+    assert_eq!(d.stats().windows_opened, 3);
+}
+
+#[test]
+fn a_given_start_places_window_zero() {
+    let mut d = Detector::new(
+        echo(),
+        StreamConfig {
+            start_us: Some(100),
+            ..config(10, 0.0)
+        },
+    )
+    .unwrap();
+    let mut out = Vec::new();
+    // Before the start: no window, but it counts for the first window's PENT estimate.
+    d.push(&[ev(95, 0, 0), ev(96, 1, 0), ev(105, 2, 2)], &mut out)
+        .unwrap();
+    d.flush(&mut out).unwrap();
+    assert_eq!(out.len(), 1);
+    let d0 = out[0].detection;
+    assert_eq!((out[0].window, d0.map, d0.row), (0, 2, 5));
+}
+
+type IsExpected = fn(&Error) -> bool;
+
+/// The state after a rejected chunk is the state before it: the rest of the stream gives what
+/// it would have given without the bad chunk.
+#[test]
+fn bad_chunks_are_typed_errors_and_change_nothing() {
+    let good_a = [ev(5, 0, 0), ev(7, 1, 1)];
+    let good_b = [ev(9, 2, 2), ev(30, 3, 3)];
+    let reference = {
+        let mut d = Detector::new(echo(), config(10, 0.5)).unwrap();
+        let mut out = Vec::new();
+        d.push(&good_a, &mut out).unwrap();
+        d.push(&good_b, &mut out).unwrap();
+        d.flush(&mut out).unwrap();
+        (out, d.stats())
+    };
+    let bad: [(&[Event], IsExpected); 4] = [
+        // Out of order inside the chunk.
+        (&[ev(8, 0, 0), ev(7, 1, 0)], |e| {
+            matches!(e, Error::InvalidEvent { index: 1, .. })
+        }),
+        // Earlier than the stream so far.
+        (&[ev(6, 0, 0)], |e| matches!(e, Error::Stream(_))),
+        // Outside the sensor, in x and in y.
+        (&[ev(8, W, 0)], |e| {
+            matches!(e, Error::InvalidEvent { index: 0, .. })
+        }),
+        (&[ev(8, 0, 0), ev(8, 0, H)], |e| {
+            matches!(e, Error::InvalidEvent { index: 1, .. })
+        }),
+    ];
+    for (chunk, is_expected) in bad {
+        let mut d = Detector::new(echo(), config(10, 0.5)).unwrap();
+        let mut out = Vec::new();
+        d.push(&good_a, &mut out).unwrap();
+        let stats = d.stats();
+        let err = d.push(chunk, &mut out).unwrap_err();
+        assert!(is_expected(&err), "{chunk:?}: {err}");
+        assert_eq!(d.stats(), stats);
+        assert_eq!(d.last_t(), Some(7));
+        d.push(&good_b, &mut out).unwrap();
+        d.flush(&mut out).unwrap();
+        assert_eq!((out, d.stats()), reference, "after {chunk:?}");
+    }
+}
+
+#[test]
+fn a_flushed_stream_refuses_events_until_reset() {
+    let mut d = Detector::new(echo(), config(10, 0.0)).unwrap();
+    let mut out = Vec::new();
+    d.push(&[ev(5, 0, 0)], &mut out).unwrap();
+    d.flush(&mut out).unwrap();
+    assert!(d.is_finished());
+    assert!(matches!(
+        d.push(&[ev(6, 0, 0)], &mut out),
+        Err(Error::Stream(_))
+    ));
+    d.reset();
+    let mut again = Vec::new();
+    d.push(&[ev(1, 0, 0)], &mut again).unwrap();
+    d.flush(&mut again).unwrap();
+    assert_eq!(again.len(), 1);
+    assert_eq!((again[0].window, again[0].detection.t), (0, 1));
+}
+
+#[test]
+fn empty_chunks_are_fine_and_parameters_are_checked() {
+    let mut d = Detector::new(echo(), config(10, 0.0)).unwrap();
+    let mut out = Vec::new();
+    d.push(&[], &mut out).unwrap();
+    d.flush(&mut out).unwrap();
+    assert!(out.is_empty());
+    assert!(Detector::new(echo(), config(0, 0.0)).is_err());
+    assert!(Detector::new(echo(), config(10, 1.0)).is_err());
+    assert!(Detector::new(echo(), config(10, f64::NAN)).is_err());
+    let late_start = StreamConfig {
+        start_us: Some(u64::MAX),
+        ..config(10, 0.0)
+    };
+    assert!(Detector::new(echo(), late_start).is_err());
+    let err = d.push(&[ev(u64::MAX, 0, 0)], &mut out).unwrap_err();
+    assert!(matches!(err, Error::Stream(_)), "{err}"); // flushed first
+    d.reset();
+    let err = d
+        .push(&[ev(1, 0, 0), ev(u64::MAX, 0, 0)], &mut out)
+        .unwrap_err();
+    assert!(matches!(err, Error::InvalidEvent { index: 1, .. }), "{err}");
+}
+
+#[test]
+fn a_long_stream_keeps_a_bounded_number_of_states() {
+    let mut d = Detector::new(echo(), config(50, 0.9)).unwrap();
+    let mut out = Vec::new();
+    for t in 0..20_000u64 {
+        d.push(&[ev(t, (t % 5) as u16, (t % 4) as u16)], &mut out)
+            .unwrap();
+        out.clear();
+        assert!(d.states_allocated() <= 10);
+    }
+}
+
+/// A small network whose conv3 fires often, with PENT on (so the preceding estimate matters).
+fn small_network(seed: u64) -> Network {
+    let mut c = NetworkConfig {
+        width: 40,
+        height: 30,
+        ..NetworkConfig::default()
+    };
+    c.pent.beta = 2.0;
+    c.pent.theta_min = 1.5;
+    c.pent.estimate = PentEstimate::Preceding;
+    c.conv2.threshold = 3.0;
+    c.conv3.threshold = 1.5;
+    Network::new(c, seed).unwrap()
+}
+
+/// A blob drifting right over sparse noise, on the small network's 40×30 sensor.
+fn blob_events(seed: u64, n: usize) -> Vec<Event> {
+    let mut s = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
+    let mut next = |m: u64| {
+        s = s
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        (s >> 33) % m
+    };
+    let mut t = 5_000;
+    (0..n)
+        .map(|i| {
+            t += next(40);
+            let (x, y) = if next(4) == 0 {
+                (next(40), next(30))
+            } else {
+                let cx = 5 + (i as u64 * 30 / n as u64);
+                (cx + next(5), 12 + next(5))
+            };
+            ev(t, x as u16, y as u16)
+        })
+        .collect()
+}
+
+/// The batch path: `make_windows` then `network::infer` with the "preceding" estimate.
+fn network_batch(net: &Network, events: &[Event], window_us: u64, overlap: f64) -> Vec<Found> {
+    let sensor = SensorSize::new(40, 30).unwrap();
+    let w = make_windows(
+        events,
+        sensor,
+        &WindowConfig::new(window_us, overlap).unwrap(),
+    )
+    .unwrap();
+    let offsets: Vec<i64> = w.offsets.iter().map(|&o| o as i64).collect();
+    let n_preceding: Vec<i64> = w.n_preceding.iter().map(|&n| n as i64).collect();
+    let spikes = Spikes::new(&w.t, &w.x, &w.y).unwrap();
+    let batch =
+        WindowBatch::new((40, 30), window_us, &w.t0, &offsets, spikes, &n_preceding).unwrap();
+    let results = infer(net, &batch, Some(1), false).unwrap();
+    let mut out: Vec<Found> = results
+        .iter()
+        .enumerate()
+        .flat_map(|(i, r)| {
+            r.detections.iter().map(move |&detection| {
+                found(&StreamDetection {
+                    window: i as u64,
+                    detection,
+                })
+            })
+        })
+        .collect();
+    out.sort_unstable();
+    out
+}
+
+/// A detection as comparable bits: window, t, map, row, col, x, y, box.
+type Found = (u64, u64, u16, u16, u16, u32, u32, [u16; 4]);
+
+fn found(d: &StreamDetection) -> Found {
+    let e = &d.detection;
+    (
+        d.window,
+        e.t,
+        e.map,
+        e.row,
+        e.col,
+        e.x.to_bits(),
+        e.y.to_bits(),
+        [e.x0, e.y0, e.x1, e.y1],
+    )
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(24))]
+
+    #[test]
+    fn network_stream_equals_network_batch(
+        seed in 0u64..1000,
+        n in 50usize..600,
+        cuts in prop::collection::vec(0usize..600, 0..10),
+        window_us in prop::sample::select(vec![500u64, 1_000, 3_000]),
+        overlap in prop::sample::select(vec![0.0, 0.5, 0.9]),
+    ) {
+        let net = small_network(seed);
+        let events = blob_events(seed, n);
+        let mut cuts = cuts;
+        cuts.sort_unstable();
+        let mut d = NetworkDetector::new(
+            net.clone(),
+            StreamConfig { window_us, overlap, start_us: None },
+        ).unwrap();
+        let mut out = Vec::new();
+        let mut from = 0;
+        for cut in cuts {
+            let to = cut.clamp(from, events.len());
+            d.push(&events[from..to], &mut out).unwrap();
+            from = to;
+        }
+        d.push(&events[from..], &mut out).unwrap();
+        d.flush(&mut out).unwrap();
+        let mut got: Vec<Found> = out.iter().map(found).collect();
+        got.sort_unstable();
+        prop_assert_eq!(got, network_batch(&net, &events, window_us, overlap));
+    }
+}
+
+#[test]
+fn the_small_network_detects_the_blob() {
+    // Guards the property above against passing vacuously.
+    let net = small_network(1);
+    let events = blob_events(1, 600);
+    assert!(!network_batch(&net, &events, 3_000, 0.5).is_empty());
+}

@@ -1,0 +1,478 @@
+"""uavsnn.Detector and ``uavsnn detect``: streaming detections equal the batch path's whatever
+the chunking, bad chunks are typed errors that change nothing, the GIL is released, and the
+command line reads files, standard input and UDP."""
+
+from __future__ import annotations
+
+import io
+import itertools
+import json
+import math
+import os
+import socket
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from uavsnn import EVENT_DTYPE, EventError, ParameterError, Recording, ShapeError, StreamError
+from uavsnn.detector import DETECTION_DTYPE, Detector
+from uavsnn.filters import downsample
+from uavsnn.io import write_npz
+from uavsnn.network import WINDOW_DETECTION_DTYPE, Network
+from uavsnn.sources import FileSource, StdinSource
+from uavsnn.windows import make_windows
+
+SIZE = (40, 30)
+ORDER = ["window", "t", "map", "row", "col"]
+
+
+def small_config(estimate: str = "preceding") -> dict:
+    """A 40x30 network whose conv3 fires often, PENT on."""
+    return {
+        "width": SIZE[0],
+        "height": SIZE[1],
+        "pent": {"mode": "pent", "beta": 2.0, "theta_min": 1.5, "estimate": estimate},
+        "conv2": {"threshold": 3.0},
+        "conv3": {"threshold": 1.5},
+    }
+
+
+@pytest.fixture(scope="module")
+def net() -> Network:
+    return Network(small_config(), seed=3)
+
+
+def blob_events(seed: int, n: int, *, t0: int = 5_000) -> np.ndarray:
+    """A blob drifting right over sparse noise on the 40x30 sensor; many equal times."""
+    rng = np.random.default_rng(seed)
+    ev = np.zeros(n, dtype=EVENT_DTYPE)
+    ev["t"] = t0 + np.cumsum(rng.integers(0, 40, n) * (rng.random(n) < 0.7))
+    noise = rng.random(n) < 0.25
+    cx = 5 + np.arange(n) * 30 // max(n, 1)
+    ev["x"] = np.where(noise, rng.integers(0, SIZE[0], n), cx + rng.integers(0, 5, n))
+    ev["y"] = np.where(noise, rng.integers(0, SIZE[1], n), 12 + rng.integers(0, 5, n))
+    ev["p"] = rng.random(n) < 0.5
+    return ev
+
+
+def stream(
+    net: Network, events: np.ndarray, cuts: list[int], window_us: int, overlap: float
+) -> np.ndarray:
+    det = Detector(net, window_us=window_us, overlap=overlap)
+    bounds = [0, *sorted(min(c, len(events)) for c in cuts), len(events)]
+    found = [det.push(events[a:b]) for a, b in itertools.pairwise(bounds)]
+    found.append(det.flush())
+    return np.sort(np.concatenate(found), order=ORDER)
+
+
+def batch(net: Network, events: np.ndarray, window_us: int, overlap: float) -> np.ndarray:
+    windows = make_windows(Recording(events, SIZE), window_us, overlap)
+    found = net.infer(windows, threads=1).detections
+    return np.sort(found.astype(DETECTION_DTYPE), order=ORDER)
+
+
+def test_detection_dtype_is_the_batch_paths() -> None:
+    assert DETECTION_DTYPE == WINDOW_DETECTION_DTYPE
+
+
+@given(
+    seed=st.integers(0, 10_000),
+    n=st.integers(0, 700),
+    cuts=st.lists(st.integers(0, 700), max_size=12),
+    window_us=st.sampled_from([400, 1_000, 3_000]),
+    overlap=st.sampled_from([0.0, 0.1, 0.5, 0.9]),
+)
+def test_stream_equals_batch_whatever_the_chunking(
+    net: Network, seed: int, n: int, cuts: list[int], window_us: int, overlap: float
+) -> None:
+    events = blob_events(seed, n)
+    got = stream(net, events, cuts, window_us, overlap)
+    np.testing.assert_array_equal(got, batch(net, events, window_us, overlap))
+
+
+def test_the_equivalence_is_not_vacuous(net: Network) -> None:
+    events = blob_events(1, 700)
+    found = stream(net, events, [1, 2, 350], 3_000, 0.5)
+    assert len(found) > 0
+    np.testing.assert_array_equal(found, batch(net, events, 3_000, 0.5))
+    # Every chunk size, down to one event at a time, gives the same.
+    one_by_one = stream(net, events, list(range(len(events))), 3_000, 0.5)
+    np.testing.assert_array_equal(one_by_one, found)
+
+
+def test_detections_leave_at_once(net: Network) -> None:
+    """A detection comes back from the push whose events complete its timestamp, long before
+    its window closes."""
+    events = blob_events(2, 700)
+    det = Detector(net, window_us=100_000, overlap=0.0)
+    for i in range(len(events)):
+        found = det.push(events[i : i + 1])
+        if len(found):
+            assert np.all(found["t"] < events["t"][i])
+            assert det.last_t < 5_000 + 100_000  # window 0 is still open
+            return
+    pytest.fail("no detection before the end of the stream")
+
+
+def reference_after(net: Network, first: np.ndarray, rest: np.ndarray) -> tuple:
+    det = Detector(net, window_us=1_000, overlap=0.5)
+    found = [det.push(first), det.push(rest), det.flush()]
+    return np.concatenate(found), det.events_seen, det.windows_opened
+
+
+def backwards_chunk(first: np.ndarray) -> np.ndarray:
+    """Earlier than the stream so far."""
+    return first[:1].copy()
+
+
+def out_of_order_chunk(first: np.ndarray) -> np.ndarray:
+    chunk = np.zeros(2, dtype=EVENT_DTYPE)
+    chunk["t"] = [first["t"][-1] + 10, first["t"][-1] + 5]
+    return chunk
+
+
+def outside_chunk(axis: str, size: int):
+    def make(first: np.ndarray) -> np.ndarray:
+        chunk = np.zeros(2, dtype=EVENT_DTYPE)
+        chunk["t"] = first["t"][-1] + 1
+        chunk[axis][1] = size
+        return chunk
+
+    return make
+
+
+@pytest.mark.parametrize(
+    ("make_bad", "error", "match"),
+    [
+        (backwards_chunk, StreamError, "backwards across chunks"),
+        (out_of_order_chunk, EventError, "event 1: .* goes backwards"),
+        (outside_chunk("x", SIZE[0]), EventError, "outside the 40x30 sensor"),
+        (outside_chunk("y", SIZE[1]), EventError, "outside the 40x30 sensor"),
+        (lambda first: first[["t", "x", "y"]], EventError, "dtype"),
+        (lambda first: np.stack([first, first]), EventError, "1-D"),
+    ],
+)
+def test_bad_chunks_raise_and_change_nothing(
+    net: Network, make_bad, error: type[Exception], match: str
+) -> None:
+    events = blob_events(4, 600)
+    first, rest = events[:300], events[300:]
+    expected, seen, opened = reference_after(net, first, rest)
+    det = Detector(net, window_us=1_000, overlap=0.5)
+    found = [det.push(first)]
+    before = (det.events_seen, det.windows_opened, det.last_t, det.detections_emitted)
+    with pytest.raises(error, match=match):
+        det.push(make_bad(first))
+    assert (det.events_seen, det.windows_opened, det.last_t, det.detections_emitted) == before
+    found += [det.push(rest), det.flush()]
+    np.testing.assert_array_equal(np.concatenate(found), expected)
+    assert (det.events_seen, det.windows_opened) == (seen, opened)
+
+
+def test_flush_ends_the_stream_until_reset(net: Network) -> None:
+    events = blob_events(5, 400)
+    det = Detector(net, window_us=1_000, overlap=0.5)
+    first = np.concatenate([det.push(events), det.flush()])
+    assert len(det.flush()) == 0
+    with pytest.raises(StreamError, match="flushed"):
+        det.push(events[-1:])
+    det.reset()
+    assert det.events_seen == 0
+    again = np.concatenate([det.push(events), det.flush()])
+    np.testing.assert_array_equal(again, first)
+
+
+def test_empty_chunks_and_counters(net: Network) -> None:
+    det = Detector(net, window_us=1_000, overlap=0.75)
+    assert len(det.push(np.zeros(0, dtype=EVENT_DTYPE))) == 0
+    assert det.rate == 0.0 and det.last_t is None
+    events = blob_events(6, 500)
+    det.push(events)
+    assert det.events_seen == len(events)
+    assert det.last_t == int(events["t"][-1])
+    assert det.step_us == 250
+    assert 0 < det.live_windows <= math.ceil(1 / (1 - 0.75))
+    assert det.windows_opened >= (int(events["t"][-1]) - int(events["t"][0])) // 250
+    assert det.rate > 0
+    assert det.sensor_size == SIZE and det.window_us == 1_000 and det.overlap == 0.75
+    assert "events_seen=500" in repr(det)
+
+
+def test_bad_parameters_are_typed_errors(net: Network, tmp_path: Path) -> None:
+    with pytest.raises(ParameterError, match="at least 1"):
+        Detector(net, window_us=0)
+    with pytest.raises(ParameterError, match="integer"):
+        Detector(net, window_us=1.5)  # type: ignore[arg-type]
+    for overlap in (1.0, -0.1, float("nan")):
+        with pytest.raises(ParameterError, match="overlap"):
+            Detector(net, window_us=1_000, overlap=overlap)
+    with pytest.raises(ShapeError, match="differs from the network"):
+        Detector(net, window_us=1_000, sensor_size=(240, 180))
+    with pytest.raises(ParameterError, match="start_us"):
+        Detector(net, window_us=1_000, start_us=-1)
+
+
+def test_a_model_file_and_a_copy_of_the_weights(net: Network, tmp_path: Path) -> None:
+    path = tmp_path / "model.npz"
+    net.save(path)
+    events = blob_events(7, 600)
+    from_file = stream(Network.load(path), events, [], 3_000, 0.5)
+    det = Detector(path, window_us=3_000, overlap=0.5)
+    found = np.sort(np.concatenate([det.push(events), det.flush()]), order=ORDER)
+    np.testing.assert_array_equal(found, from_file)
+    # Changing the network afterwards does not reach a detector built from it.
+    changed = net.copy()
+    det = Detector(changed, window_us=3_000, overlap=0.5)
+    changed.set_weights("conv3", np.zeros_like(changed.weights("conv3")))
+    found = np.sort(np.concatenate([det.push(events), det.flush()]), order=ORDER)
+    np.testing.assert_array_equal(found, from_file)
+
+
+def test_push_releases_the_gil() -> None:
+    """While one thread pushes a large chunk, another keeps running Python."""
+    rng = np.random.default_rng(0)
+    n = 400_000
+    events = np.zeros(n, dtype=EVENT_DTYPE)
+    events["t"] = np.cumsum(rng.integers(0, 3, n))
+    events["x"] = rng.integers(0, 240, n)
+    events["y"] = rng.integers(0, 180, n)
+    det = Detector(Network(seed=0), window_us=20_000, overlap=0.9)
+    started, done = threading.Event(), threading.Event()
+
+    def work() -> None:
+        started.set()
+        det.push(events)
+        done.set()
+
+    worker = threading.Thread(target=work)
+    worker.start()
+    started.wait()
+    ticks = 0
+    while not done.is_set():
+        ticks += 1
+    worker.join()
+    # Holding the GIL, the push would leave this loop no turn until it returned.
+    assert ticks > 1_000
+
+
+# ---------------------------------------------------------------- sources: file, standard input
+
+
+def test_file_source_fast_and_at_the_recordings_pace(tmp_path: Path) -> None:
+    events = blob_events(12, 300)
+    events["t"] = 5_000 + (events["t"] - 5_000) * 40  # about 0.15 s of event time
+    path = tmp_path / "rec.npz"
+    write_npz(Recording(events, SIZE), path)
+    fast = list(FileSource(path, chunk_events=64))
+    assert [len(c) for c in fast[:-1]] == [64] * (len(fast) - 1)
+    np.testing.assert_array_equal(np.concatenate(fast), events)
+    paced = FileSource(path, realtime=True, chunk_us=10_000)
+    start = time.monotonic()
+    chunks = list(paced)
+    elapsed = time.monotonic() - start
+    np.testing.assert_array_equal(np.concatenate(chunks), events)
+    assert all(int(c["t"][-1]) - int(c["t"][0]) < 10_000 for c in chunks)
+    # Released no earlier than the recording's own clock allows.
+    assert elapsed >= (int(events["t"][-1]) - int(events["t"][0])) / 1e6
+    assert paced.stats.events == len(events) and paced.stats.packets == len(chunks)
+    with pytest.raises(ParameterError, match="chunk"):
+        FileSource(path, chunk_events=0)
+
+
+class Trickle(io.RawIOBase):
+    """A binary stream that hands out at most ``step`` bytes per read, like a slow pipe."""
+
+    def __init__(self, data: bytes, step: int) -> None:
+        self.data, self.step, self.at = data, step, 0
+
+    def readable(self) -> bool:
+        return True
+
+    def read1(self, size: int = -1) -> bytes:
+        n = self.step if size < 0 else min(size, self.step)
+        out = self.data[self.at : self.at + n]
+        self.at += len(out)
+        return out
+
+
+def test_stdin_packed_records_split_across_reads() -> None:
+    events = blob_events(8, 300)
+    source = StdinSource(Trickle(events.tobytes(), step=17), fmt="packed", sensor_size=SIZE)
+    np.testing.assert_array_equal(np.concatenate(list(source)), events)
+    assert source.stats.dropped == 0
+
+
+def test_stdin_truncated_last_record_is_a_drop() -> None:
+    events = blob_events(9, 10)
+    source = StdinSource(io.BytesIO(events.tobytes()[:-3]), sensor_size=SIZE)
+    np.testing.assert_array_equal(np.concatenate(list(source)), events[:-1])
+    assert source.stats.dropped == 1
+
+
+def test_stdin_csv_with_header_and_a_malformed_line() -> None:
+    events = blob_events(10, 50)
+    lines = ["t,x,y,p"] + [f"{e['t']},{e['x']},{e['y']},{1 if e['p'] else -1}" for e in events]
+    lines.insert(20, "12,not-a-number,3,1")
+    text = ("\n".join(lines)).encode()  # no final newline: the last line still counts
+    source = StdinSource(Trickle(text, step=64), fmt="csv", sensor_size=SIZE)
+    np.testing.assert_array_equal(np.concatenate(list(source)), events)
+    assert source.stats.dropped == 1
+
+
+def test_stdin_parameters() -> None:
+    with pytest.raises(ParameterError, match="stdin format"):
+        StdinSource(io.BytesIO(), fmt="json", sensor_size=SIZE)
+
+
+# ---------------------------------------------------------------- the command line
+
+
+def detect_cmd(*args: str) -> list[str]:
+    return [sys.executable, "-m", "uavsnn", "detect", *args]
+
+
+def run_cli(args: list[str], stdin: bytes | None = None) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        args, input=stdin, capture_output=True, timeout=120, check=False, env=dict(os.environ)
+    )
+
+
+def parse_json_lines(text: bytes) -> list[tuple]:
+    rows = [json.loads(line) for line in text.decode().splitlines() if line.strip()]
+    return sorted((r["window"], r["t"], r["map"], r["row"], r["col"], *r["box"]) for r in rows)
+
+
+def as_rows(found: np.ndarray) -> list[tuple]:
+    return sorted(
+        tuple(int(d[f]) for f in ["window", "t", "map", "row", "col", "x0", "y0", "x1", "y1"])
+        for d in found
+    )
+
+
+@pytest.fixture(scope="module")
+def model_file(net: Network, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("model") / "model.npz"
+    net.save(path)
+    return path
+
+
+@pytest.fixture(scope="module")
+def expected(net: Network) -> tuple[np.ndarray, list[tuple]]:
+    events = blob_events(11, 700)
+    found = stream(net, events, [], 3_000, 0.5)
+    assert len(found) > 0
+    return events, as_rows(found)
+
+
+def test_cli_reads_a_recording_file(model_file: Path, expected, tmp_path: Path) -> None:
+    events, rows = expected
+    path = tmp_path / "rec.npz"
+    write_npz(Recording(events, SIZE), path)
+    done = run_cli(detect_cmd(str(path), "--model", str(model_file), "--json", "--window-ms", "3"))
+    assert done.returncode == 0, done.stderr.decode()
+    assert parse_json_lines(done.stdout) == rows
+    assert b"done" in done.stderr and b"events=700" in done.stderr
+
+
+def test_cli_downsamples_a_larger_recording(model_file: Path, net: Network, tmp_path: Path) -> None:
+    events = blob_events(13, 700)
+    events["x"] *= 2
+    events["y"] *= 2
+    big = Recording(events, (2 * SIZE[0], 2 * SIZE[1]))
+    path = tmp_path / "big.npz"
+    write_npz(big, path)
+    args = [str(path), "--model", str(model_file), "--json", "--window-ms", "3"]
+    refused = run_cli(detect_cmd(*args))
+    assert refused.returncode == 2 and b"downsample" in refused.stderr
+    done = run_cli(detect_cmd(*args, "--downsample"))
+    assert done.returncode == 0, done.stderr.decode()
+    rows = as_rows(stream(net, downsample(big, SIZE).events, [], 3_000, 0.5))
+    assert rows and parse_json_lines(done.stdout) == rows
+
+
+@pytest.mark.parametrize("fmt", ["packed", "csv"])
+def test_cli_reads_standard_input(model_file: Path, expected, fmt: str) -> None:
+    events, rows = expected
+    if fmt == "packed":
+        data = events.tobytes()
+    else:
+        data = "".join(f"{e['t']},{e['x']},{e['y']},{int(e['p'])}\n" for e in events).encode()
+    args = ["-", "--model", str(model_file), "--json", "--window-ms", "3"]
+    done = run_cli(detect_cmd(*args, "--stdin-format", fmt), stdin=data)
+    assert done.returncode == 0, done.stderr.decode()
+    assert parse_json_lines(done.stdout) == rows
+
+
+def test_cli_plain_lines_and_errors(model_file: Path, expected, tmp_path: Path) -> None:
+    events, rows = expected
+    args = ["-", "--model", str(model_file), "--window-ms", "3"]
+    done = run_cli(detect_cmd(*args), stdin=events.tobytes())
+    lines = done.stdout.decode().splitlines()
+    assert len(lines) == len(rows) and all(line.startswith("t=") for line in lines)
+    bad = run_cli(detect_cmd(*args[:-2], "--window-ms", "0"), stdin=b"")
+    assert bad.returncode == 2 and b"window-ms" in bad.stderr
+    missing = run_cli(detect_cmd(str(tmp_path / "nope.npz"), "--model", str(model_file)))
+    assert missing.returncode == 2
+
+
+def test_cli_receives_udp_and_prints_detections(model_file: Path, expected) -> None:
+    """Events sent over a real loopback socket come out as the same detections; a malformed
+    packet in the middle is counted as a drop."""
+    events, rows = expected
+    packets = [events[i : i + 50].tobytes() for i in range(0, len(events), 50)]
+    packets.insert(3, b"\x00" * 7)  # not a whole number of 13-byte records
+    proc = subprocess.Popen(
+        detect_cmd(
+            "udp://127.0.0.1:0",
+            "--model",
+            str(model_file),
+            "--json",
+            "--window-ms",
+            "3",
+            "--max-packets",
+            str(len(packets)),
+            "--idle-timeout",
+            "30",
+        ),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    try:
+        assert proc.stderr is not None
+        line = proc.stderr.readline().decode()
+        assert "listening on udp://127.0.0.1:" in line, line
+        port = int(line.rsplit(":", 1)[1])
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+            for p in packets:
+                s.sendto(p, ("127.0.0.1", port))
+        out, err = proc.communicate(timeout=60)
+    finally:
+        proc.kill()
+    assert proc.returncode == 0, err.decode()
+    assert parse_json_lines(out) == rows
+    assert b"dropped=1" in err
+
+
+def test_cli_on_a_real_recording(shared_data: Path, tmp_path: Path) -> None:
+    """A real DAVIS346 recording (AEDAT4), fitted to the default 240x180 network: the command
+    line streams every event and prints what the Detector finds in process."""
+    from uavsnn.io import read
+
+    path = shared_data / "dvs" / "aestream_davis346_lab.aedat4"
+    model = tmp_path / "model.npz"
+    network = Network(seed=0)
+    network.save(model)
+    events = downsample(read(path), (240, 180)).events
+    det = Detector(network, window_us=50_000, overlap=0.5)
+    rows = as_rows(np.concatenate([det.push(events), det.flush()]))
+    done = run_cli(detect_cmd(str(path), "--model", str(model), "--json", "--downsample"))
+    assert done.returncode == 0, done.stderr.decode()
+    assert parse_json_lines(done.stdout) == rows
+    assert f"events={len(events)} ".encode() in done.stderr
