@@ -7,6 +7,7 @@ Convolutional Spiking Neural Network Retina-Neuromorphic Approach" (ICANN 2019).
 from __future__ import annotations
 
 from uavsnn._core import __version__
+from uavsnn.detector import Detector
 from uavsnn.errors import (
     DatasetError,
     EventError,
@@ -24,6 +25,7 @@ from uavsnn.events import EVENT_DTYPE, Recording
 __all__ = [
     "EVENT_DTYPE",
     "DatasetError",
+    "Detector",
     "EventError",
     "InternalError",
     "ModelFileError",

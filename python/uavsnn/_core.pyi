@@ -84,7 +84,6 @@ def add_noise(
 
 # ---------------------------------------------------------------- network (issue 3)
 
-from typing_extensions import final  # noqa: E402
 
 def network_default_config() -> str: ...
 
