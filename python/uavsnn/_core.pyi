@@ -84,7 +84,6 @@ def add_noise(
 
 # ---------------------------------------------------------------- network (issue 3)
 
-
 def network_default_config() -> str: ...
 
 _SpikeColumns = tuple[
