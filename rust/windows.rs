@@ -12,13 +12,14 @@
 //!
 //! # Cost
 //!
-//! One pass over the events, in time order, with a per-pixel array holding the time of the
-//! pixel's previous event. An event at time `t` whose pixel last fired at `t_prev` is the
-//! pixel's first event in exactly the windows with `max(t − L, t_prev) < t0 ≤ t`: a range of
-//! window indices computed by two divisions, so the work is `O(events × windows per event)`
-//! (`windows per event` = `ceil(L / step)`) and nothing is ever cleared per window. Windows are
-//! assembled in a ring of `ceil(L / step)` buffers and flushed, in order, once the stream has
-//! passed their end. Long recordings are cut into runs of consecutive windows processed in
+//! One pass over the events, in time order. An event at time `t` whose pixel last fired at
+//! `t_prev` is the pixel's first event in exactly the windows with `max(t − L, t_prev) < t0 ≤ t`,
+//! a range of window indices. Cursors that follow the stream over the windows, and a per-pixel
+//! array remembering the range's end at the pixel's previous event, give that range without a
+//! division or a search, so the work is `O(events × windows per event)` (`windows per event` =
+//! `ceil(L / step)`) and nothing is ever cleared per window. Windows are assembled in a ring of
+//! buffers and flushed, in order, once the stream has passed their end. Long recordings are cut
+//! into runs of consecutive windows processed in
 //! parallel (rayon), each run reading only the events that can reach it.
 
 mod frames;
@@ -32,7 +33,7 @@ pub use noise::{add_noise, NoisyWindows};
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
-use crate::events::{validate, Event, SensorSize};
+use crate::events::{validate_source, Event, EventSource, SensorSize};
 
 /// Largest timestamp (and window length) windowing accepts: 2^62 µs, about 146,000 years.
 /// Keeping every time below it makes all window arithmetic free of overflow.
@@ -42,6 +43,9 @@ pub const MAX_TIME_US: u64 = 1 << 62;
 /// request is almost always a unit mistake (nanoseconds given as microseconds, a step of 1 µs
 /// over hours) and is refused rather than exhausting memory.
 pub const MAX_WINDOWS: usize = 50_000_000;
+
+/// Most windows in one run: run-relative window indices are stored per pixel as `u16`.
+const RUN_MAX_WINDOWS: usize = u16::MAX as usize;
 
 /// Events per parallel run below which windowing stays on one thread.
 const EVENTS_PER_RUN: usize = 250_000;
@@ -335,26 +339,6 @@ impl Grid {
     fn t0(self, k: usize) -> u64 {
         self.start + k as u64 * self.step
     }
-
-    /// The smallest `k` with `t0(k) > t` (may be `n`: none).
-    #[inline]
-    fn first_after(self, t: u64) -> usize {
-        if t < self.start {
-            0
-        } else {
-            ((t - self.start) / self.step + 1).min(self.n as u64) as usize
-        }
-    }
-
-    /// The largest `k < n` with `t0(k) ≤ t`.
-    #[inline]
-    fn last_at_or_before(self, t: u64) -> Option<usize> {
-        if t < self.start || self.n == 0 {
-            None
-        } else {
-            Some(((t - self.start) / self.step).min(self.n as u64 - 1) as usize)
-        }
-    }
 }
 
 /// Cut `events` (sorted by time, on `sensor`) into windows.
@@ -362,8 +346,8 @@ impl Grid {
 /// The events are validated first (sorted, on the sensor, times ≤ [`MAX_TIME_US`]). An empty
 /// stream gives no windows unless both `start_us` and `end_us` are given, in which case it gives
 /// the empty windows of that range.
-pub fn make_windows(
-    events: &[Event],
+pub fn make_windows<E: EventSource + ?Sized>(
+    events: &E,
     sensor: SensorSize,
     config: &WindowConfig,
 ) -> Result<Windows> {
@@ -380,8 +364,10 @@ pub fn make_windows(
             format!("must be in [1, {}], got {step}", config.length_us),
         ));
     }
-    validate(events, sensor, None, 0)?;
-    if let Some(last) = events.last() {
+    validate_source(events, sensor, None, 0)?;
+    let first = (!events.is_empty()).then(|| events.get(0));
+    let last = (!events.is_empty()).then(|| events.get(events.len() - 1));
+    if let Some(last) = last {
         if last.t > MAX_TIME_US {
             return Err(Error::InvalidEvent {
                 index: events.len() - 1,
@@ -400,7 +386,7 @@ pub fn make_windows(
             ));
         }
     }
-    let Some(start) = config.start_us.or(events.first().map(|e| e.t)) else {
+    let Some(start) = config.start_us.or(first.map(|e| e.t)) else {
         return Ok(Windows::empty(sensor, config.length_us));
     };
     let end = match config.end_us {
@@ -411,7 +397,7 @@ pub fn make_windows(
             ))
         }
         Some(end) => end,
-        None => events.last().map_or(start, |e| (e.t + 1).max(start)),
+        None => last.map_or(start, |e| (e.t + 1).max(start)),
     };
     let n = (end - start).div_ceil(step);
     if n > MAX_WINDOWS as u64 {
@@ -430,11 +416,7 @@ pub fn make_windows(
         n: n as usize,
     };
     let runs = plan_runs(grid.n, events.len());
-    let parts: Vec<Part> = runs
-        .into_par_iter()
-        .map(|(ka, kb)| window_run(events, sensor, grid, ka, kb, end, config.median))
-        .collect();
-    Ok(join_parts(sensor, config.length_us, parts))
+    build(events, sensor, grid, end, config.median, &runs)
 }
 
 /// Split `n` windows into runs of consecutive windows: one per [`EVENTS_PER_RUN`] events, a few
@@ -445,144 +427,222 @@ fn plan_runs(n: usize, events: usize) -> Vec<(usize, usize)> {
     }
     let threads = rayon::current_num_threads();
     let wanted = (events / EVENTS_PER_RUN).clamp(1, 4 * threads).min(n);
-    let per = n.div_ceil(wanted);
+    // A run indexes its windows with u16 (a small per-pixel table stays in cache).
+    let per = n.div_ceil(wanted).min(RUN_MAX_WINDOWS);
     (0..n).step_by(per).map(|a| (a, (a + per).min(n))).collect()
 }
 
-/// The windows of one run, before joining.
-struct Part {
-    t0: Vec<u64>,
-    counts: Vec<usize>,
-    spikes: Vec<Spike>,
-    n_preceding: Vec<u64>,
+/// A zero-filled column of `len` values, or an error (not an abort) when memory is short.
+fn column<T: Clone + Default>(name: &'static str, len: usize) -> Result<Vec<T>> {
+    let mut v = Vec::new();
+    v.try_reserve_exact(len).map_err(|_| {
+        Error::param(
+            name,
+            format!("{len} spikes do not fit in memory; window a shorter range"),
+        )
+    })?;
+    v.resize(len, T::default());
+    Ok(v)
 }
 
-/// Build windows `ka..kb` of `grid` from the events that can reach them.
-fn window_run(
-    events: &[Event],
+/// The windows of `grid`, run by run in parallel: a counting sweep sizes every window, then a
+/// filling sweep writes each spike straight to its final place in the columns. Sweeping twice
+/// costs less than buffering the spikes: the output is allocated once, at its exact size, and
+/// no spike is copied.
+fn build<E: EventSource + ?Sized>(
+    events: &E,
     sensor: SensorSize,
     grid: Grid,
-    ka: usize,
-    kb: usize,
     end: u64,
     median: bool,
-) -> Part {
-    const NEVER: u64 = u64::MAX;
-    let length = grid.length;
-    // Events before `t0(ka) − L` reach neither a window of this run nor its preceding interval;
-    // events at or after the last window's end, or after `end`, reach none either.
-    let lo_t = grid.t0(ka).saturating_sub(length);
-    let hi_t = end.min(grid.t0(kb - 1) + length);
-    let i0 = events.partition_point(|e| e.t < lo_t);
-    let i1 = events.partition_point(|e| e.t < hi_t);
+    runs: &[(usize, usize)],
+) -> Result<Windows> {
+    let counted: Vec<(Vec<usize>, Vec<u64>)> = runs
+        .par_iter()
+        .map(|&(ka, kb)| {
+            let mut counts = vec![0usize; kb - ka];
+            // n_preceding as a difference array: each event adds 1 to a range of windows.
+            let mut diff = vec![0i64; kb - ka + 1];
+            sweep(
+                events,
+                sensor,
+                grid,
+                (ka, kb),
+                end,
+                |r, _| counts[r] += 1,
+                |a, b| {
+                    diff[a] += 1;
+                    diff[b] -= 1;
+                },
+            );
+            let mut running = 0i64;
+            let preceding = diff[..kb - ka]
+                .iter()
+                .map(|d| {
+                    running += d;
+                    running as u64
+                })
+                .collect();
+            (counts, preceding)
+        })
+        .collect();
 
-    let ring_len = (length.div_ceil(grid.step) as usize).min(kb - ka).max(1);
-    let mut ring: Vec<Vec<Spike>> = vec![Vec::new(); ring_len];
-    let mut last = vec![NEVER; sensor.area()];
-    // n_preceding as a difference array: each event adds 1 to a range of windows.
-    let mut preceding = vec![0i64; kb - ka + 1];
-    let mut filter = median.then(|| MedianFilter::new(sensor));
-    let mut part = Part {
-        t0: Vec::with_capacity(kb - ka),
-        counts: Vec::with_capacity(kb - ka),
-        spikes: Vec::with_capacity(i1 - i0),
-        n_preceding: Vec::with_capacity(kb - ka),
-    };
-    let mut flush = |k: usize, part: &mut Part, ring: &mut [Vec<Spike>]| {
-        let slot = &mut ring[(k - ka) % ring_len];
-        if let Some(filter) = filter.as_mut() {
-            filter.apply(slot);
+    let mut offsets = Vec::with_capacity(grid.n + 1);
+    let mut n_preceding = Vec::with_capacity(grid.n);
+    let mut total = 0usize;
+    offsets.push(0);
+    for (counts, preceding) in counted {
+        for c in counts {
+            total += c;
+            offsets.push(total);
         }
-        part.t0.push(grid.t0(k));
-        part.counts.push(slot.len());
-        part.spikes.extend_from_slice(slot);
-        slot.clear();
-    };
+        n_preceding.extend(preceding);
+    }
+    let mut t = column::<u64>("length_us", total)?;
+    let mut x = column::<u16>("length_us", total)?;
+    let mut y = column::<u16>("length_us", total)?;
 
-    let mut next_close = ka;
-    for e in &events[i0..i1] {
-        while next_close < kb && grid.t0(next_close) + length <= e.t {
-            flush(next_close, &mut part, &mut ring);
-            next_close += 1;
-        }
-        let pixel = sensor.index(e.x, e.y);
-        let prev = last[pixel];
-        last[pixel] = e.t;
-
-        // Preceding intervals [t0 − L, t0) holding this event as their pixel's first:
-        // t < t0 ≤ t + L and t0 > t_prev + L.
-        let lower = if prev == NEVER {
-            e.t
-        } else {
-            e.t.max(prev + length)
-        };
-        let a = grid.first_after(lower).max(ka);
-        if let Some(b) = grid.last_at_or_before(e.t + length) {
-            let b = b.min(kb - 1);
-            if a <= b {
-                preceding[a - ka] += 1;
-                preceding[b + 1 - ka] -= 1;
+    // Each run fills its own slice of the columns.
+    let mut slices = Vec::with_capacity(runs.len());
+    let (mut rest_t, mut rest_x, mut rest_y) = (&mut t[..], &mut x[..], &mut y[..]);
+    for &(ka, kb) in runs {
+        let len = offsets[kb] - offsets[ka];
+        let (head_t, tail_t) = rest_t.split_at_mut(len);
+        let (head_x, tail_x) = rest_x.split_at_mut(len);
+        let (head_y, tail_y) = rest_y.split_at_mut(len);
+        slices.push((head_t, head_x, head_y));
+        (rest_t, rest_x, rest_y) = (tail_t, tail_x, tail_y);
+    }
+    let kept: Vec<Vec<usize>> = runs
+        .par_iter()
+        .zip(slices)
+        .map(|(&(ka, kb), (ts, xs, ys))| {
+            let base = offsets[ka];
+            let mut cursor: Vec<usize> = offsets[ka..kb].iter().map(|o| o - base).collect();
+            sweep(
+                events,
+                sensor,
+                grid,
+                (ka, kb),
+                end,
+                |r, e| {
+                    let j = cursor[r];
+                    ts[j] = e.t;
+                    xs[j] = e.x;
+                    ys[j] = e.y;
+                    cursor[r] = j + 1;
+                },
+                |_, _| {},
+            );
+            if !median {
+                return Vec::new();
             }
-        }
+            // Filter each window in place, its kept spikes moved to the front of the run.
+            let mut filter = MedianFilter::new(sensor);
+            let mut write = 0;
+            (ka..kb)
+                .map(|k| {
+                    let (a, b) = (offsets[k] - base, offsets[k + 1] - base);
+                    let keep = filter.compact(&mut ts[a..b], &mut xs[a..b], &mut ys[a..b]);
+                    ts.copy_within(a..a + keep, write);
+                    xs.copy_within(a..a + keep, write);
+                    ys.copy_within(a..a + keep, write);
+                    write += keep;
+                    keep
+                })
+                .collect()
+        })
+        .collect();
 
-        // Windows holding this event as their pixel's first: max(t − L, t_prev) < t0 ≤ t.
-        let Some(b) = grid.last_at_or_before(e.t) else {
-            continue;
-        };
-        let b = b.min(kb - 1);
-        let floor = match (e.t.checked_sub(length), prev != NEVER) {
-            (Some(f), true) => Some(f.max(prev)),
-            (Some(f), false) => Some(f),
-            (None, true) => Some(prev),
-            (None, false) => None,
-        };
-        let a = floor.map_or(0, |f| grid.first_after(f)).max(ka);
-        let spike = Spike {
-            t: e.t,
-            x: e.x,
-            y: e.y,
-        };
-        for k in a..=b {
-            ring[(k - ka) % ring_len].push(spike);
+    if median {
+        // Close the gaps the filter left between runs, and recount the offsets.
+        let mut write = 0;
+        for (&(ka, _), counts) in runs.iter().zip(&kept) {
+            let from = offsets[ka];
+            let len: usize = counts.iter().sum();
+            t.copy_within(from..from + len, write);
+            x.copy_within(from..from + len, write);
+            y.copy_within(from..from + len, write);
+            write += len;
         }
+        t.truncate(write);
+        x.truncate(write);
+        y.truncate(write);
+        let mut total = 0;
+        offsets = std::iter::once(0)
+            .chain(kept.iter().flatten().map(|c| {
+                total += c;
+                total
+            }))
+            .collect();
     }
-    while next_close < kb {
-        flush(next_close, &mut part, &mut ring);
-        next_close += 1;
-    }
-    let mut running = 0i64;
-    for d in &preceding[..kb - ka] {
-        running += d;
-        part.n_preceding.push(running as u64);
-    }
-    part
+    Ok(Windows {
+        sensor,
+        length_us: grid.length,
+        t0: (0..grid.n).map(|k| grid.t0(k)).collect(),
+        offsets,
+        t,
+        x,
+        y,
+        n_preceding,
+    })
 }
 
-fn join_parts(sensor: SensorSize, length_us: u64, parts: Vec<Part>) -> Windows {
-    let n: usize = parts.iter().map(|p| p.t0.len()).sum();
-    let m: usize = parts.iter().map(|p| p.spikes.len()).sum();
-    let mut w = Windows::empty(sensor, length_us);
-    w.t0.reserve(n);
-    w.offsets.reserve(n);
-    w.n_preceding.reserve(n);
-    w.t.reserve(m);
-    w.x.reserve(m);
-    w.y.reserve(m);
-    let mut total = 0usize;
-    for part in parts {
-        w.t0.extend_from_slice(&part.t0);
-        w.n_preceding.extend_from_slice(&part.n_preceding);
-        for c in part.counts {
-            total += c;
-            w.offsets.push(total);
-        }
-        for s in part.spikes {
-            w.t.push(s.t);
-            w.x.push(s.x);
-            w.y.push(s.y);
-        }
+/// Walk the events that can reach windows `ka..kb` of `grid`, in time order, and report each
+/// (window, event) where the event is its pixel's first in the window (`spike(r, e)`, `r`
+/// relative to `ka`), and each range of windows `a..b` whose preceding interval `[t0 − L, t0)`
+/// holds the event as its pixel's first (`preceding(a, b)`).
+///
+/// Three cursors follow the stream over the run's windows: `closed` counts windows with
+/// `t0 + L ≤ t`, `opened` those with `t0 ≤ t`, `reach` those with `t0 ≤ t + L`. An event is its
+/// pixel's first in windows `max(closed, fresh) .. opened`, where `fresh` is `opened` as it was
+/// at the pixel's previous event, and in the preceding intervals of windows
+/// `max(opened, fresh') .. reach`, with `fresh'` the previous event's `reach`. No division, no
+/// search, nothing cleared per window.
+fn sweep<E: EventSource + ?Sized>(
+    events: &E,
+    sensor: SensorSize,
+    grid: Grid,
+    (ka, kb): (usize, usize),
+    end: u64,
+    mut spike: impl FnMut(usize, Event),
+    mut preceding: impl FnMut(usize, usize),
+) {
+    let length = grid.length;
+    let n = kb.saturating_sub(ka);
+    if n == 0 {
+        return;
     }
-    w
+    let t0 = |r: usize| grid.t0(ka + r);
+    // Events before `t0(ka) − L` reach neither a window of this run nor its preceding interval;
+    // events at or after the last window's end, or after `end`, reach none either.
+    let i0 = events.count_before(t0(0).saturating_sub(length));
+    let i1 = events.count_before(end.min(t0(n - 1) + length));
+    // Per pixel: [first window where its next event is new, same for preceding intervals].
+    let mut fresh = vec![[0u16; 2]; sensor.area()];
+    let (mut closed, mut opened, mut reach) = (0usize, 0usize, 0usize);
+    for i in i0..i1 {
+        let e = events.get(i);
+        while closed < n && t0(closed) + length <= e.t {
+            closed += 1;
+        }
+        while opened < n && t0(opened) <= e.t {
+            opened += 1;
+        }
+        while reach < n && t0(reach) <= e.t + length {
+            reach += 1;
+        }
+        let cell = &mut fresh[sensor.index(e.x, e.y)];
+        for r in (cell[0] as usize).max(closed)..opened {
+            spike(r, e);
+        }
+        let a = (cell[1] as usize).max(opened);
+        if a < reach {
+            preceding(a, reach);
+        }
+        // Run indices fit in u16: a run holds at most RUN_MAX_WINDOWS windows.
+        *cell = [opened as u16, reach as u16];
+    }
 }
 
 #[cfg(test)]
