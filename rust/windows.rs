@@ -12,15 +12,16 @@
 //!
 //! # Cost
 //!
-//! One pass over the events, in time order. An event at time `t` whose pixel last fired at
-//! `t_prev` is the pixel's first event in exactly the windows with `max(t − L, t_prev) < t0 ≤ t`,
-//! a range of window indices. Cursors that follow the stream over the windows, and a per-pixel
-//! array remembering the range's end at the pixel's previous event, give that range without a
-//! division or a search, so the work is `O(events × windows per event)` (`windows per event` =
-//! `ceil(L / step)`) and nothing is ever cleared per window. Windows are assembled in a ring of
-//! buffers and flushed, in order, once the stream has passed their end. Long recordings are cut
-//! into runs of consecutive windows processed in
-//! parallel (rayon), each run reading only the events that can reach it.
+//! Two sweeps over the events in time order: one counts each window's spikes, the other writes
+//! them straight to their final place, so the output is allocated once and nothing is copied.
+//! An event at time `t` whose pixel last fired at `t_prev` is the pixel's first event in exactly
+//! the windows with `max(t − L, t_prev) < t0 ≤ t`, a range of window indices. Cursors that follow
+//! the stream over the windows, and a per-pixel table remembering the range's end at the
+//! pixel's previous event, give that range without a division or a search, so the work is
+//! `O(events × windows per event)` (`windows per event` = `ceil(L / step)`) and nothing is ever
+//! cleared per window. Events are read in place (any [`EventSource`], such as NumPy's packed
+//! records). Long recordings are cut into runs of consecutive windows processed in parallel
+//! (rayon), each run reading only the events that can reach it.
 
 mod frames;
 mod median;
