@@ -417,7 +417,18 @@ pub fn make_windows<E: EventSource + ?Sized>(
         n: n as usize,
     };
     let runs = plan_runs(grid.n, events.len());
-    build(events, sensor, grid, end, config.median, &runs)
+    if step == config.length_us {
+        Ok(build_disjoint(
+            events,
+            sensor,
+            grid,
+            end,
+            config.median,
+            &runs,
+        ))
+    } else {
+        build(events, sensor, grid, end, config.median, &runs)
+    }
 }
 
 /// Split `n` windows into runs of consecutive windows: one per [`EVENTS_PER_RUN`] events, a few
@@ -587,6 +598,85 @@ fn build<E: EventSource + ?Sized>(
         y,
         n_preceding,
     })
+}
+
+/// Windows that do not overlap (`step = L`), in one sweep: each event reaches at most one
+/// window and windows come one after the other, so spikes are appended to the columns in their
+/// final order; runs are then joined.
+fn build_disjoint<E: EventSource + ?Sized>(
+    events: &E,
+    sensor: SensorSize,
+    grid: Grid,
+    end: u64,
+    median: bool,
+    runs: &[(usize, usize)],
+) -> Windows {
+    let parts: Vec<Windows> = runs
+        .par_iter()
+        .map(|&(ka, kb)| {
+            let n = kb - ka;
+            let mut w = Windows::empty(sensor, grid.length);
+            w.t0 = (ka..kb).map(|k| grid.t0(k)).collect();
+            w.offsets.reserve(n);
+            let mut filter = median.then(|| MedianFilter::new(sensor));
+            // Close windows up to `r` (exclusive): record their ends, filter the last one.
+            let mut close = |w: &mut Windows, r: usize| {
+                while w.offsets.len() <= r {
+                    let start = w.offsets[w.offsets.len() - 1];
+                    if let Some(filter) = filter.as_mut() {
+                        let kept =
+                            filter.compact(&mut w.t[start..], &mut w.x[start..], &mut w.y[start..]);
+                        w.t.truncate(start + kept);
+                        w.x.truncate(start + kept);
+                        w.y.truncate(start + kept);
+                    }
+                    w.offsets.push(w.t.len());
+                }
+            };
+            let mut diff = vec![0i64; n + 1];
+            sweep(
+                events,
+                sensor,
+                grid,
+                (ka, kb),
+                end,
+                |r, e| {
+                    close(&mut w, r);
+                    w.t.push(e.t);
+                    w.x.push(e.x);
+                    w.y.push(e.y);
+                },
+                |a, b| {
+                    diff[a] += 1;
+                    diff[b] -= 1;
+                },
+            );
+            close(&mut w, n);
+            let mut running = 0i64;
+            w.n_preceding = diff[..n]
+                .iter()
+                .map(|d| {
+                    running += d;
+                    running as u64
+                })
+                .collect();
+            w
+        })
+        .collect();
+    let mut parts = parts.into_iter();
+    let Some(mut w) = parts.next() else {
+        return Windows::empty(sensor, grid.length);
+    };
+    for part in parts {
+        let base = w.t.len();
+        w.t0.extend_from_slice(&part.t0);
+        w.offsets.extend(part.offsets[1..].iter().map(|o| o + base));
+        w.t.extend_from_slice(&part.t);
+        w.x.extend_from_slice(&part.x);
+        w.y.extend_from_slice(&part.y);
+        w.n_preceding.extend_from_slice(&part.n_preceding);
+    }
+    w
 }
 
 /// Walk the events that can reach windows `ka..kb` of `grid`, in time order, and report each

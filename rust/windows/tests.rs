@@ -247,6 +247,10 @@ proptest! {
             let one = build(&events, sensor, grid, start + span, median, &[(0, grid.n)]).unwrap();
             let many = build(&events, sensor, grid, start + span, median, &runs).unwrap();
             prop_assert_eq!(&one, &many);
+            if config.step_us == length {
+                let disjoint = build_disjoint(&events, sensor, grid, start + span, median, &runs);
+                prop_assert_eq!(&one, &disjoint);
+            }
         }
     }
 }
