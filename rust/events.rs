@@ -60,6 +60,110 @@ impl SensorSize {
 /// Size in bytes of one packed NumPy event record.
 pub const PACKED_EVENT_SIZE: usize = 13;
 
+/// Read access to a sequence of events, whatever its memory layout: a slice of [`Event`], or
+/// packed NumPy records read in place ([`PackedEvents`]), so that windowing and filters need no
+/// copy of a recording.
+pub trait EventSource: Sync {
+    /// Number of events.
+    fn len(&self) -> usize;
+
+    /// Event `i` (`i < len()`; panics otherwise, like slice indexing).
+    fn get(&self, i: usize) -> Event;
+
+    /// Whether there are no events.
+    fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Number of leading events with `t < time` (events sorted by time).
+    fn count_before(&self, time: u64) -> usize {
+        let (mut lo, mut hi) = (0, self.len());
+        while lo < hi {
+            let mid = lo + (hi - lo) / 2;
+            if self.get(mid).t < time {
+                lo = mid + 1;
+            } else {
+                hi = mid;
+            }
+        }
+        lo
+    }
+}
+
+impl EventSource for [Event] {
+    #[inline]
+    fn len(&self) -> usize {
+        <[Event]>::len(self)
+    }
+
+    #[inline]
+    fn get(&self, i: usize) -> Event {
+        self[i]
+    }
+}
+
+impl<const N: usize> EventSource for [Event; N] {
+    #[inline]
+    fn len(&self) -> usize {
+        N
+    }
+
+    #[inline]
+    fn get(&self, i: usize) -> Event {
+        self[i]
+    }
+}
+
+impl EventSource for Vec<Event> {
+    #[inline]
+    fn len(&self) -> usize {
+        Vec::len(self)
+    }
+
+    #[inline]
+    fn get(&self, i: usize) -> Event {
+        self[i]
+    }
+}
+
+/// Canonical NumPy event records (13 bytes each, little-endian), read in place.
+#[derive(Debug, Clone, Copy)]
+pub struct PackedEvents<'a> {
+    bytes: &'a [u8],
+}
+
+impl<'a> PackedEvents<'a> {
+    /// Wrap packed records, checking only that the length is a whole number of records.
+    pub fn new(bytes: &'a [u8]) -> Result<Self> {
+        if bytes.len() % PACKED_EVENT_SIZE != 0 {
+            return Err(Error::Shape {
+                name: "events",
+                expected: format!("a multiple of {PACKED_EVENT_SIZE} bytes"),
+                got: format!("{} bytes", bytes.len()),
+            });
+        }
+        Ok(Self { bytes })
+    }
+}
+
+impl EventSource for PackedEvents<'_> {
+    #[inline]
+    fn len(&self) -> usize {
+        self.bytes.len() / PACKED_EVENT_SIZE
+    }
+
+    #[inline]
+    fn get(&self, i: usize) -> Event {
+        let r = &self.bytes[i * PACKED_EVENT_SIZE..(i + 1) * PACKED_EVENT_SIZE];
+        Event {
+            t: u64::from_le_bytes([r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7]]),
+            x: u16::from_le_bytes([r[8], r[9]]),
+            y: u16::from_le_bytes([r[10], r[11]]),
+            p: r[12] != 0,
+        }
+    }
+}
+
 /// Check that events are sorted by time and inside the sensor.
 ///
 /// `previous_t` is the time of the last event already accepted (for streams fed in chunks);
@@ -70,9 +174,20 @@ pub fn validate(
     previous_t: Option<u64>,
     index_offset: usize,
 ) -> Result<()> {
+    validate_source(events, sensor, previous_t, index_offset)
+}
+
+/// [`validate`] for any [`EventSource`].
+pub fn validate_source<E: EventSource + ?Sized>(
+    events: &E,
+    sensor: SensorSize,
+    previous_t: Option<u64>,
+    index_offset: usize,
+) -> Result<()> {
     let mut last = previous_t;
-    for (i, e) in events.iter().enumerate() {
-        check_one(e, sensor, last, index_offset + i)?;
+    for i in 0..events.len() {
+        let e = events.get(i);
+        check_one(&e, sensor, last, index_offset + i)?;
         last = Some(e.t);
     }
     Ok(())
@@ -178,6 +293,31 @@ mod tests {
             ]
         );
         assert!(decode_packed(&bytes[..12], s, None, 0).is_err());
+    }
+
+    #[test]
+    fn packed_source_reads_records_in_place() {
+        let s = SensorSize::new(640, 480).unwrap();
+        let mut bytes = Vec::new();
+        for (t, x, y, p) in [
+            (7u64, 1u16, 2u16, true),
+            (9, 639, 479, false),
+            (9, 3, 3, true),
+        ] {
+            bytes.extend_from_slice(&t.to_le_bytes());
+            bytes.extend_from_slice(&x.to_le_bytes());
+            bytes.extend_from_slice(&y.to_le_bytes());
+            bytes.push(u8::from(p));
+        }
+        let packed = PackedEvents::new(&bytes).unwrap();
+        let decoded = decode_packed(&bytes, s, None, 0).unwrap();
+        assert_eq!(packed.len(), 3);
+        assert_eq!((0..3).map(|i| packed.get(i)).collect::<Vec<_>>(), decoded);
+        assert_eq!(packed.count_before(9), 1);
+        assert_eq!(packed.count_before(10), 3);
+        assert_eq!(decoded[..].count_before(0), 0);
+        assert!(validate_source(&packed, s, None, 0).is_ok());
+        assert!(PackedEvents::new(&bytes[..20]).is_err());
     }
 
     #[test]

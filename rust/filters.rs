@@ -2,7 +2,7 @@
 //! downsample of coordinates to a target sensor.
 
 use crate::error::{Error, Result};
-use crate::events::{validate, Event, SensorSize};
+use crate::events::{validate_source, Event, EventSource, SensorSize};
 
 /// Which events the background-activity filter keeps, with the semantics of tonic's
 /// `tonic.functional.denoise_numpy` (tonic 1.x), event for event.
@@ -18,26 +18,30 @@ use crate::events::{validate, Event, SensorSize};
 /// `(max x + 1, max y + 1)`, ours is the recording's sensor. The results differ only for events
 /// with `t < dt_us` next to the bounding box's edge; they are equal whenever the sensor is that
 /// box or every `t ≥ dt_us`.
-pub fn denoise_mask(events: &[Event], sensor: SensorSize, dt_us: u64) -> Result<Vec<bool>> {
+pub fn denoise_mask<E: EventSource + ?Sized>(
+    events: &E,
+    sensor: SensorSize,
+    dt_us: u64,
+) -> Result<Vec<bool>> {
     if dt_us == 0 {
         return Err(Error::param(
             "dt_us",
             "the filter time must be at least 1 µs, got 0",
         ));
     }
-    validate(events, sensor, None, 0)?;
+    validate_source(events, sensor, None, 0)?;
     let (w, h) = (sensor.width as usize, sensor.height as usize);
     let mut memory = vec![dt_us; sensor.area()];
-    Ok(events
-        .iter()
-        .map(|e| {
+    Ok((0..events.len())
+        .map(|i| {
+            let e = events.get(i);
             let (x, y, t) = (e.x as usize, e.y as usize, e.t);
-            let i = y * w + x;
-            memory[i] = t.saturating_add(dt_us);
-            (x > 0 && memory[i - 1] > t)
-                || (x + 1 < w && memory[i + 1] > t)
-                || (y > 0 && memory[i - w] > t)
-                || (y + 1 < h && memory[i + w] > t)
+            let px = y * w + x;
+            memory[px] = t.saturating_add(dt_us);
+            (x > 0 && memory[px - 1] > t)
+                || (x + 1 < w && memory[px + 1] > t)
+                || (y > 0 && memory[px - w] > t)
+                || (y + 1 < h && memory[px + w] > t)
         })
         .collect())
 }
@@ -92,18 +96,18 @@ impl Crop {
 /// covers a block of source pixels. Every event inside the crop is kept, with its time and
 /// polarity, in its original order, even when several land on one target pixel at once (a
 /// window then takes the first of them).
-pub fn downsample_map(
-    events: &[Event],
+pub fn downsample_map<E: EventSource + ?Sized>(
+    events: &E,
     source: SensorSize,
     target: SensorSize,
 ) -> Result<Vec<Option<(u16, u16)>>> {
-    validate(events, source, None, 0)?;
+    validate_source(events, source, None, 0)?;
     let crop = Crop::centred(source, target);
     let (cx, cy) = (u64::from(crop.width), u64::from(crop.height));
     let (tw, th) = (u64::from(target.width), u64::from(target.height));
-    Ok(events
-        .iter()
-        .map(|e| {
+    Ok((0..events.len())
+        .map(|i| {
+            let e = events.get(i);
             let inside = e.x >= crop.x0
                 && e.y >= crop.y0
                 && e.x - crop.x0 < crop.width

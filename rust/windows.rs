@@ -12,15 +12,18 @@
 //!
 //! # Cost
 //!
-//! One pass over the events, in time order, with a per-pixel array holding the time of the
-//! pixel's previous event. An event at time `t` whose pixel last fired at `t_prev` is the
-//! pixel's first event in exactly the windows with `max(t − L, t_prev) < t0 ≤ t`: a range of
-//! window indices computed by two divisions, so the work is `O(events × windows per event)`
-//! (`windows per event` = `ceil(L / step)`) and nothing is ever cleared per window. Windows are
-//! assembled in a ring of `ceil(L / step)` buffers and flushed, in order, once the stream has
-//! passed their end. Long recordings are cut into runs of consecutive windows processed in
-//! parallel (rayon), each run reading only the events that can reach it.
+//! Two sweeps over the events in time order: one counts each window's spikes, the other writes
+//! them straight to their final place, so the output is allocated once and nothing is copied.
+//! An event at time `t` whose pixel last fired at `t_prev` is the pixel's first event in exactly
+//! the windows with `max(t − L, t_prev) < t0 ≤ t`, a range of window indices. Cursors that follow
+//! the stream over the windows, and a per-pixel table remembering the range's end at the
+//! pixel's previous event, give that range without a division or a search, so the work is
+//! `O(events × windows per event)` (`windows per event` = `ceil(L / step)`) and nothing is ever
+//! cleared per window. Events are read in place (any [`EventSource`], such as NumPy's packed
+//! records). Long recordings are cut into runs of consecutive windows processed in parallel
+//! (rayon), each run reading only the events that can reach it.
 
+mod build;
 mod frames;
 mod median;
 mod noise;
@@ -29,10 +32,10 @@ pub use frames::frames;
 pub use median::{median_keep, MedianFilter, MEDIAN_MIN_ACTIVE};
 pub use noise::{add_noise, NoisyWindows};
 
-use rayon::prelude::*;
+use build::{build, build_disjoint, plan_runs};
 
 use crate::error::{Error, Result};
-use crate::events::{validate, Event, SensorSize};
+use crate::events::{validate_source, EventSource, SensorSize};
 
 /// Largest timestamp (and window length) windowing accepts: 2^62 µs, about 146,000 years.
 /// Keeping every time below it makes all window arithmetic free of overflow.
@@ -42,9 +45,6 @@ pub const MAX_TIME_US: u64 = 1 << 62;
 /// request is almost always a unit mistake (nanoseconds given as microseconds, a step of 1 µs
 /// over hours) and is refused rather than exhausting memory.
 pub const MAX_WINDOWS: usize = 50_000_000;
-
-/// Events per parallel run below which windowing stays on one thread.
-const EVENTS_PER_RUN: usize = 250_000;
 
 /// The step between window starts, `L·(1 − o)` rounded down to whole microseconds, at least 1.
 ///
@@ -335,26 +335,6 @@ impl Grid {
     fn t0(self, k: usize) -> u64 {
         self.start + k as u64 * self.step
     }
-
-    /// The smallest `k` with `t0(k) > t` (may be `n`: none).
-    #[inline]
-    fn first_after(self, t: u64) -> usize {
-        if t < self.start {
-            0
-        } else {
-            ((t - self.start) / self.step + 1).min(self.n as u64) as usize
-        }
-    }
-
-    /// The largest `k < n` with `t0(k) ≤ t`.
-    #[inline]
-    fn last_at_or_before(self, t: u64) -> Option<usize> {
-        if t < self.start || self.n == 0 {
-            None
-        } else {
-            Some(((t - self.start) / self.step).min(self.n as u64 - 1) as usize)
-        }
-    }
 }
 
 /// Cut `events` (sorted by time, on `sensor`) into windows.
@@ -362,8 +342,8 @@ impl Grid {
 /// The events are validated first (sorted, on the sensor, times ≤ [`MAX_TIME_US`]). An empty
 /// stream gives no windows unless both `start_us` and `end_us` are given, in which case it gives
 /// the empty windows of that range.
-pub fn make_windows(
-    events: &[Event],
+pub fn make_windows<E: EventSource + ?Sized>(
+    events: &E,
     sensor: SensorSize,
     config: &WindowConfig,
 ) -> Result<Windows> {
@@ -380,8 +360,10 @@ pub fn make_windows(
             format!("must be in [1, {}], got {step}", config.length_us),
         ));
     }
-    validate(events, sensor, None, 0)?;
-    if let Some(last) = events.last() {
+    validate_source(events, sensor, None, 0)?;
+    let first = (!events.is_empty()).then(|| events.get(0));
+    let last = (!events.is_empty()).then(|| events.get(events.len() - 1));
+    if let Some(last) = last {
         if last.t > MAX_TIME_US {
             return Err(Error::InvalidEvent {
                 index: events.len() - 1,
@@ -400,7 +382,7 @@ pub fn make_windows(
             ));
         }
     }
-    let Some(start) = config.start_us.or(events.first().map(|e| e.t)) else {
+    let Some(start) = config.start_us.or(first.map(|e| e.t)) else {
         return Ok(Windows::empty(sensor, config.length_us));
     };
     let end = match config.end_us {
@@ -411,7 +393,7 @@ pub fn make_windows(
             ))
         }
         Some(end) => end,
-        None => events.last().map_or(start, |e| (e.t + 1).max(start)),
+        None => last.map_or(start, |e| (e.t + 1).max(start)),
     };
     let n = (end - start).div_ceil(step);
     if n > MAX_WINDOWS as u64 {
@@ -430,159 +412,18 @@ pub fn make_windows(
         n: n as usize,
     };
     let runs = plan_runs(grid.n, events.len());
-    let parts: Vec<Part> = runs
-        .into_par_iter()
-        .map(|(ka, kb)| window_run(events, sensor, grid, ka, kb, end, config.median))
-        .collect();
-    Ok(join_parts(sensor, config.length_us, parts))
-}
-
-/// Split `n` windows into runs of consecutive windows: one per [`EVENTS_PER_RUN`] events, a few
-/// per thread at most.
-fn plan_runs(n: usize, events: usize) -> Vec<(usize, usize)> {
-    if n == 0 {
-        return Vec::new();
+    if step == config.length_us {
+        Ok(build_disjoint(
+            events,
+            sensor,
+            grid,
+            end,
+            config.median,
+            &runs,
+        ))
+    } else {
+        build(events, sensor, grid, end, config.median, &runs)
     }
-    let threads = rayon::current_num_threads();
-    let wanted = (events / EVENTS_PER_RUN).clamp(1, 4 * threads).min(n);
-    let per = n.div_ceil(wanted);
-    (0..n).step_by(per).map(|a| (a, (a + per).min(n))).collect()
-}
-
-/// The windows of one run, before joining.
-struct Part {
-    t0: Vec<u64>,
-    counts: Vec<usize>,
-    spikes: Vec<Spike>,
-    n_preceding: Vec<u64>,
-}
-
-/// Build windows `ka..kb` of `grid` from the events that can reach them.
-fn window_run(
-    events: &[Event],
-    sensor: SensorSize,
-    grid: Grid,
-    ka: usize,
-    kb: usize,
-    end: u64,
-    median: bool,
-) -> Part {
-    const NEVER: u64 = u64::MAX;
-    let length = grid.length;
-    // Events before `t0(ka) − L` reach neither a window of this run nor its preceding interval;
-    // events at or after the last window's end, or after `end`, reach none either.
-    let lo_t = grid.t0(ka).saturating_sub(length);
-    let hi_t = end.min(grid.t0(kb - 1) + length);
-    let i0 = events.partition_point(|e| e.t < lo_t);
-    let i1 = events.partition_point(|e| e.t < hi_t);
-
-    let ring_len = (length.div_ceil(grid.step) as usize).min(kb - ka).max(1);
-    let mut ring: Vec<Vec<Spike>> = vec![Vec::new(); ring_len];
-    let mut last = vec![NEVER; sensor.area()];
-    // n_preceding as a difference array: each event adds 1 to a range of windows.
-    let mut preceding = vec![0i64; kb - ka + 1];
-    let mut filter = median.then(|| MedianFilter::new(sensor));
-    let mut part = Part {
-        t0: Vec::with_capacity(kb - ka),
-        counts: Vec::with_capacity(kb - ka),
-        spikes: Vec::with_capacity(i1 - i0),
-        n_preceding: Vec::with_capacity(kb - ka),
-    };
-    let mut flush = |k: usize, part: &mut Part, ring: &mut [Vec<Spike>]| {
-        let slot = &mut ring[(k - ka) % ring_len];
-        if let Some(filter) = filter.as_mut() {
-            filter.apply(slot);
-        }
-        part.t0.push(grid.t0(k));
-        part.counts.push(slot.len());
-        part.spikes.extend_from_slice(slot);
-        slot.clear();
-    };
-
-    let mut next_close = ka;
-    for e in &events[i0..i1] {
-        while next_close < kb && grid.t0(next_close) + length <= e.t {
-            flush(next_close, &mut part, &mut ring);
-            next_close += 1;
-        }
-        let pixel = sensor.index(e.x, e.y);
-        let prev = last[pixel];
-        last[pixel] = e.t;
-
-        // Preceding intervals [t0 − L, t0) holding this event as their pixel's first:
-        // t < t0 ≤ t + L and t0 > t_prev + L.
-        let lower = if prev == NEVER {
-            e.t
-        } else {
-            e.t.max(prev + length)
-        };
-        let a = grid.first_after(lower).max(ka);
-        if let Some(b) = grid.last_at_or_before(e.t + length) {
-            let b = b.min(kb - 1);
-            if a <= b {
-                preceding[a - ka] += 1;
-                preceding[b + 1 - ka] -= 1;
-            }
-        }
-
-        // Windows holding this event as their pixel's first: max(t − L, t_prev) < t0 ≤ t.
-        let Some(b) = grid.last_at_or_before(e.t) else {
-            continue;
-        };
-        let b = b.min(kb - 1);
-        let floor = match (e.t.checked_sub(length), prev != NEVER) {
-            (Some(f), true) => Some(f.max(prev)),
-            (Some(f), false) => Some(f),
-            (None, true) => Some(prev),
-            (None, false) => None,
-        };
-        let a = floor.map_or(0, |f| grid.first_after(f)).max(ka);
-        let spike = Spike {
-            t: e.t,
-            x: e.x,
-            y: e.y,
-        };
-        for k in a..=b {
-            ring[(k - ka) % ring_len].push(spike);
-        }
-    }
-    while next_close < kb {
-        flush(next_close, &mut part, &mut ring);
-        next_close += 1;
-    }
-    let mut running = 0i64;
-    for d in &preceding[..kb - ka] {
-        running += d;
-        part.n_preceding.push(running as u64);
-    }
-    part
-}
-
-fn join_parts(sensor: SensorSize, length_us: u64, parts: Vec<Part>) -> Windows {
-    let n: usize = parts.iter().map(|p| p.t0.len()).sum();
-    let m: usize = parts.iter().map(|p| p.spikes.len()).sum();
-    let mut w = Windows::empty(sensor, length_us);
-    w.t0.reserve(n);
-    w.offsets.reserve(n);
-    w.n_preceding.reserve(n);
-    w.t.reserve(m);
-    w.x.reserve(m);
-    w.y.reserve(m);
-    let mut total = 0usize;
-    for part in parts {
-        w.t0.extend_from_slice(&part.t0);
-        w.n_preceding.extend_from_slice(&part.n_preceding);
-        for c in part.counts {
-            total += c;
-            w.offsets.push(total);
-        }
-        for s in part.spikes {
-            w.t.push(s.t);
-            w.x.push(s.x);
-            w.y.push(s.y);
-        }
-    }
-    w
 }
 
 #[cfg(test)]

@@ -5,7 +5,7 @@ use pyo3::prelude::*;
 
 use super::errors::detach;
 use crate::error::Error;
-use crate::events::{decode_packed, Event, SensorSize};
+use crate::events::{decode_packed, Event, PackedEvents, SensorSize};
 use crate::filters;
 
 /// Decode and validate packed event records (canonical dtype viewed as `uint8`).
@@ -50,8 +50,7 @@ fn denoise_mask<'py>(
         let sensor = SensorSize::new(width, height)?;
         let dt = u64::try_from(dt_us)
             .map_err(|_| Error::param("dt_us", format!("must be >= 1 µs, got {dt_us}")))?;
-        let events = decode_packed(raw, sensor, None, 0)?;
-        filters::denoise_mask(&events, sensor, dt)
+        filters::denoise_mask(&PackedEvents::new(raw)?, sensor, dt)
     })?;
     Ok(keep.into_pyarray(py))
 }
@@ -78,8 +77,7 @@ fn downsample_events<'py>(
     let (keep, xs, ys) = detach(py, || {
         let source = SensorSize::new(width, height)?;
         let target = SensorSize::new(target_width, target_height)?;
-        let events = decode_packed(raw, source, None, 0)?;
-        let map = filters::downsample_map(&events, source, target)?;
+        let map = filters::downsample_map(&PackedEvents::new(raw)?, source, target)?;
         let keep: Vec<bool> = map.iter().map(Option::is_some).collect();
         let (xs, ys): (Vec<u16>, Vec<u16>) = map.into_iter().flatten().unzip();
         Ok((keep, xs, ys))

@@ -8,7 +8,7 @@ use pyo3::prelude::*;
 
 use super::errors::detach;
 use crate::error::{Error, Result};
-use crate::events::{decode_packed, SensorSize};
+use crate::events::{PackedEvents, SensorSize};
 use crate::windows::{self, WindowConfig, Windows, WindowsView};
 
 /// The CSR columns of windows, as NumPy arrays.
@@ -121,8 +121,7 @@ fn make_windows<'py>(
                 start_us.map(|v| non_negative("start_us", v)).transpose()?,
                 end_us.map(|v| non_negative("end_us", v)).transpose()?,
             );
-        let events = decode_packed(raw, sensor, None, 0)?;
-        windows::make_windows(&events, sensor, &config)
+        windows::make_windows(&PackedEvents::new(raw)?, sensor, &config)
     })?;
     Ok(into_arrays(py, w))
 }

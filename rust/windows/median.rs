@@ -10,7 +10,6 @@
 //! Cost: `O(spikes)` per window, with a per-pixel stamp array that is never cleared (a new stamp
 //! marks each window).
 
-use super::Spike;
 use crate::error::{Error, Result};
 use crate::events::SensorSize;
 
@@ -35,13 +34,23 @@ impl MedianFilter {
         }
     }
 
-    /// Filter one window's spikes in place (spikes must lie on the sensor, one per pixel).
-    pub fn apply(&mut self, spikes: &mut Vec<Spike>) {
+    /// Filter one window's spikes (columns of equal length, on the sensor, one per pixel) in
+    /// place: the kept spikes move to the front, in order; returns how many were kept.
+    pub fn compact(&mut self, t: &mut [u64], x: &mut [u16], y: &mut [u16]) -> usize {
         self.stamp += 1;
-        for s in spikes.iter() {
-            self.mark[self.sensor.index(s.x, s.y)] = self.stamp;
+        for (&xi, &yi) in x.iter().zip(y.iter()) {
+            self.mark[self.sensor.index(xi, yi)] = self.stamp;
         }
-        spikes.retain(|s| self.active_around(s.x, s.y) >= MEDIAN_MIN_ACTIVE);
+        let mut kept = 0;
+        for j in 0..t.len() {
+            if self.active_around(x[j], y[j]) >= MEDIAN_MIN_ACTIVE {
+                t[kept] = t[j];
+                x[kept] = x[j];
+                y[kept] = y[j];
+                kept += 1;
+            }
+        }
+        kept
     }
 
     /// Active pixels in the 3×3 neighbourhood of `(x, y)` under the current stamp.

@@ -3,6 +3,7 @@
 use proptest::prelude::*;
 
 use super::*;
+use crate::events::Event;
 
 fn ev(t: u64, x: u16, y: u16) -> Event {
     Event { t, x, y, p: true }
@@ -241,11 +242,15 @@ proptest! {
         prop_assert_eq!(&got, &reference(&events, sensor, &config));
         // Many small runs (as on a large machine) give the same result as one.
         let grid = Grid { start, step: config.step_us, length, n: got.len() };
-        if grid.n > 0 {
-            let parts = (0..grid.n)
-                .map(|k| window_run(&events, sensor, grid, k, k + 1, start + span, false))
-                .collect();
-            prop_assert_eq!(&join_parts(sensor, length, parts), &got);
+        let runs: Vec<_> = (0..grid.n).map(|k| (k, k + 1)).collect();
+        for median in [false, true] {
+            let one = build(&events, sensor, grid, start + span, median, &[(0, grid.n)]).unwrap();
+            let many = build(&events, sensor, grid, start + span, median, &runs).unwrap();
+            prop_assert_eq!(&one, &many);
+            if config.step_us == length {
+                let disjoint = build_disjoint(&events, sensor, grid, start + span, median, &runs);
+                prop_assert_eq!(&one, &disjoint);
+            }
         }
     }
 }

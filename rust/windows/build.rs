@@ -1,0 +1,319 @@
+//! Building windows: runs of consecutive windows swept in parallel (the method and its cost
+//! are described in the parent module).
+
+use rayon::prelude::*;
+
+use super::{Grid, MedianFilter, Windows};
+use crate::error::{Error, Result};
+use crate::events::{Event, EventSource, SensorSize};
+
+/// Most windows in one run: run-relative window indices are stored per pixel as `u16`.
+const RUN_MAX_WINDOWS: usize = u16::MAX as usize;
+
+/// Events per parallel run below which windowing stays on one thread.
+const EVENTS_PER_RUN: usize = 250_000;
+
+/// Split `n` windows into runs of consecutive windows: one per [`EVENTS_PER_RUN`] events, a few
+/// per thread at most.
+pub(super) fn plan_runs(n: usize, events: usize) -> Vec<(usize, usize)> {
+    if n == 0 {
+        return Vec::new();
+    }
+    let threads = rayon::current_num_threads();
+    let wanted = (events / EVENTS_PER_RUN).clamp(1, 4 * threads).min(n);
+    // A run indexes its windows with u16 (a small per-pixel table stays in cache).
+    let per = n.div_ceil(wanted).min(RUN_MAX_WINDOWS);
+    (0..n).step_by(per).map(|a| (a, (a + per).min(n))).collect()
+}
+
+/// A zero-filled column of `len` values, or an error (not an abort) when memory is short.
+fn column<T: Clone + Default>(name: &'static str, len: usize) -> Result<Vec<T>> {
+    let mut v = Vec::new();
+    v.try_reserve_exact(len).map_err(|_| {
+        Error::param(
+            name,
+            format!("{len} spikes do not fit in memory; window a shorter range"),
+        )
+    })?;
+    v.resize(len, T::default());
+    Ok(v)
+}
+
+/// The windows of `grid`, run by run in parallel: a counting sweep sizes every window, then a
+/// filling sweep writes each spike straight to its final place in the columns. Sweeping twice
+/// costs less than buffering the spikes: the output is allocated once, at its exact size, and
+/// no spike is copied.
+pub(super) fn build<E: EventSource + ?Sized>(
+    events: &E,
+    sensor: SensorSize,
+    grid: Grid,
+    end: u64,
+    median: bool,
+    runs: &[(usize, usize)],
+) -> Result<Windows> {
+    let counted: Vec<(Vec<usize>, Vec<u64>)> = runs
+        .par_iter()
+        .map(|&(ka, kb)| {
+            let mut counts = vec![0usize; kb - ka];
+            // n_preceding as a difference array: each event adds 1 to a range of windows.
+            let mut diff = vec![0i64; kb - ka + 1];
+            sweep(
+                events,
+                sensor,
+                grid,
+                (ka, kb),
+                end,
+                |r, _| counts[r] += 1,
+                |a, b| {
+                    diff[a] += 1;
+                    diff[b] -= 1;
+                },
+            );
+            let mut running = 0i64;
+            let preceding = diff[..kb - ka]
+                .iter()
+                .map(|d| {
+                    running += d;
+                    running as u64
+                })
+                .collect();
+            (counts, preceding)
+        })
+        .collect();
+
+    let mut offsets = Vec::with_capacity(grid.n + 1);
+    let mut n_preceding = Vec::with_capacity(grid.n);
+    let mut total = 0usize;
+    offsets.push(0);
+    for (counts, preceding) in counted {
+        for c in counts {
+            total += c;
+            offsets.push(total);
+        }
+        n_preceding.extend(preceding);
+    }
+    let mut t = column::<u64>("length_us", total)?;
+    let mut x = column::<u16>("length_us", total)?;
+    let mut y = column::<u16>("length_us", total)?;
+
+    // Each run fills its own slice of the columns.
+    let mut slices = Vec::with_capacity(runs.len());
+    let (mut rest_t, mut rest_x, mut rest_y) = (&mut t[..], &mut x[..], &mut y[..]);
+    for &(ka, kb) in runs {
+        let len = offsets[kb] - offsets[ka];
+        let (head_t, tail_t) = rest_t.split_at_mut(len);
+        let (head_x, tail_x) = rest_x.split_at_mut(len);
+        let (head_y, tail_y) = rest_y.split_at_mut(len);
+        slices.push((head_t, head_x, head_y));
+        (rest_t, rest_x, rest_y) = (tail_t, tail_x, tail_y);
+    }
+    let kept: Vec<Vec<usize>> = runs
+        .par_iter()
+        .zip(slices)
+        .map(|(&(ka, kb), (ts, xs, ys))| {
+            let base = offsets[ka];
+            let mut cursor: Vec<usize> = offsets[ka..kb].iter().map(|o| o - base).collect();
+            sweep(
+                events,
+                sensor,
+                grid,
+                (ka, kb),
+                end,
+                |r, e| {
+                    let j = cursor[r];
+                    ts[j] = e.t;
+                    xs[j] = e.x;
+                    ys[j] = e.y;
+                    cursor[r] = j + 1;
+                },
+                |_, _| {},
+            );
+            if !median {
+                return Vec::new();
+            }
+            // Filter each window in place, its kept spikes moved to the front of the run.
+            let mut filter = MedianFilter::new(sensor);
+            let mut write = 0;
+            (ka..kb)
+                .map(|k| {
+                    let (a, b) = (offsets[k] - base, offsets[k + 1] - base);
+                    let keep = filter.compact(&mut ts[a..b], &mut xs[a..b], &mut ys[a..b]);
+                    ts.copy_within(a..a + keep, write);
+                    xs.copy_within(a..a + keep, write);
+                    ys.copy_within(a..a + keep, write);
+                    write += keep;
+                    keep
+                })
+                .collect()
+        })
+        .collect();
+
+    if median {
+        // Close the gaps the filter left between runs, and recount the offsets.
+        let mut write = 0;
+        for (&(ka, _), counts) in runs.iter().zip(&kept) {
+            let from = offsets[ka];
+            let len: usize = counts.iter().sum();
+            t.copy_within(from..from + len, write);
+            x.copy_within(from..from + len, write);
+            y.copy_within(from..from + len, write);
+            write += len;
+        }
+        t.truncate(write);
+        x.truncate(write);
+        y.truncate(write);
+        let mut total = 0;
+        offsets = std::iter::once(0)
+            .chain(kept.iter().flatten().map(|c| {
+                total += c;
+                total
+            }))
+            .collect();
+    }
+    Ok(Windows {
+        sensor,
+        length_us: grid.length,
+        t0: (0..grid.n).map(|k| grid.t0(k)).collect(),
+        offsets,
+        t,
+        x,
+        y,
+        n_preceding,
+    })
+}
+
+/// Windows that do not overlap (`step = L`), in one sweep: each event reaches at most one
+/// window and windows come one after the other, so spikes are appended to the columns in their
+/// final order; runs are then joined.
+pub(super) fn build_disjoint<E: EventSource + ?Sized>(
+    events: &E,
+    sensor: SensorSize,
+    grid: Grid,
+    end: u64,
+    median: bool,
+    runs: &[(usize, usize)],
+) -> Windows {
+    let parts: Vec<Windows> = runs
+        .par_iter()
+        .map(|&(ka, kb)| {
+            let n = kb - ka;
+            let mut w = Windows::empty(sensor, grid.length);
+            w.t0 = (ka..kb).map(|k| grid.t0(k)).collect();
+            w.offsets.reserve(n);
+            let mut filter = median.then(|| MedianFilter::new(sensor));
+            // Close windows up to `r` (exclusive): record their ends, filter the last one.
+            let mut close = |w: &mut Windows, r: usize| {
+                while w.offsets.len() <= r {
+                    let start = w.offsets[w.offsets.len() - 1];
+                    if let Some(filter) = filter.as_mut() {
+                        let kept =
+                            filter.compact(&mut w.t[start..], &mut w.x[start..], &mut w.y[start..]);
+                        w.t.truncate(start + kept);
+                        w.x.truncate(start + kept);
+                        w.y.truncate(start + kept);
+                    }
+                    w.offsets.push(w.t.len());
+                }
+            };
+            let mut diff = vec![0i64; n + 1];
+            sweep(
+                events,
+                sensor,
+                grid,
+                (ka, kb),
+                end,
+                |r, e| {
+                    close(&mut w, r);
+                    w.t.push(e.t);
+                    w.x.push(e.x);
+                    w.y.push(e.y);
+                },
+                |a, b| {
+                    diff[a] += 1;
+                    diff[b] -= 1;
+                },
+            );
+            close(&mut w, n);
+            let mut running = 0i64;
+            w.n_preceding = diff[..n]
+                .iter()
+                .map(|d| {
+                    running += d;
+                    running as u64
+                })
+                .collect();
+            w
+        })
+        .collect();
+    let mut parts = parts.into_iter();
+    let Some(mut w) = parts.next() else {
+        return Windows::empty(sensor, grid.length);
+    };
+    for part in parts {
+        let base = w.t.len();
+        w.t0.extend_from_slice(&part.t0);
+        w.offsets.extend(part.offsets[1..].iter().map(|o| o + base));
+        w.t.extend_from_slice(&part.t);
+        w.x.extend_from_slice(&part.x);
+        w.y.extend_from_slice(&part.y);
+        w.n_preceding.extend_from_slice(&part.n_preceding);
+    }
+    w
+}
+
+/// Walk the events that can reach windows `ka..kb` of `grid`, in time order, and report each
+/// (window, event) where the event is its pixel's first in the window (`spike(r, e)`, `r`
+/// relative to `ka`), and each range of windows `a..b` whose preceding interval `[t0 − L, t0)`
+/// holds the event as its pixel's first (`preceding(a, b)`).
+///
+/// Three cursors follow the stream over the run's windows: `closed` counts windows with
+/// `t0 + L ≤ t`, `opened` those with `t0 ≤ t`, `reach` those with `t0 ≤ t + L`. An event is its
+/// pixel's first in windows `max(closed, fresh) .. opened`, where `fresh` is `opened` as it was
+/// at the pixel's previous event, and in the preceding intervals of windows
+/// `max(opened, fresh') .. reach`, with `fresh'` the previous event's `reach`. No division, no
+/// search, nothing cleared per window.
+fn sweep<E: EventSource + ?Sized>(
+    events: &E,
+    sensor: SensorSize,
+    grid: Grid,
+    (ka, kb): (usize, usize),
+    end: u64,
+    mut spike: impl FnMut(usize, Event),
+    mut preceding: impl FnMut(usize, usize),
+) {
+    let length = grid.length;
+    let n = kb.saturating_sub(ka);
+    if n == 0 {
+        return;
+    }
+    let t0 = |r: usize| grid.t0(ka + r);
+    // Events before `t0(ka) − L` reach neither a window of this run nor its preceding interval;
+    // events at or after the last window's end, or after `end`, reach none either.
+    let i0 = events.count_before(t0(0).saturating_sub(length));
+    let i1 = events.count_before(end.min(t0(n - 1) + length));
+    // Per pixel: [first window where its next event is new, same for preceding intervals].
+    let mut fresh = vec![[0u16; 2]; sensor.area()];
+    let (mut closed, mut opened, mut reach) = (0usize, 0usize, 0usize);
+    for i in i0..i1 {
+        let e = events.get(i);
+        while closed < n && t0(closed) + length <= e.t {
+            closed += 1;
+        }
+        while opened < n && t0(opened) <= e.t {
+            opened += 1;
+        }
+        while reach < n && t0(reach) <= e.t + length {
+            reach += 1;
+        }
+        let cell = &mut fresh[sensor.index(e.x, e.y)];
+        for r in (cell[0] as usize).max(closed)..opened {
+            spike(r, e);
+        }
+        let a = (cell[1] as usize).max(opened);
+        if a < reach {
+            preceding(a, reach);
+        }
+        // Run indices fit in u16: a run holds at most RUN_MAX_WINDOWS windows.
+        *cell = [opened as u16, reach as u16];
+    }
+}
