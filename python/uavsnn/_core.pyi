@@ -1,5 +1,7 @@
 """Type stubs of the compiled engine (`rust/python/`). Checked by `mypy.stubtest` in CI."""
 
+from typing import final
+
 import numpy as np
 import numpy.typing as npt
 
@@ -17,5 +19,77 @@ def validate_events(
 # ---------------------------------------------------------------- network (issue 3)
 
 # ---------------------------------------------------------------- simulation (issue 4)
+
+@final
+class Pix2NvsKernel:
+    """PIX2NVS fed batches of frames; returns packed 13-byte event records."""
+
+    def __new__(
+        cls,
+        width: int,
+        height: int,
+        *,
+        threshold: float,
+        n_max: int,
+        reference: str,
+        block_size: int,
+        adaptive: float,
+        threshold_min: float,
+        threshold_max: float,
+        log_offset: float,
+        output_size: tuple[int, int] | None = None,
+        pooling: str = "strongest",
+    ) -> Pix2NvsKernel: ...
+    @property
+    def output_size(self) -> tuple[int, int]: ...
+    @property
+    def frames_seen(self) -> int: ...
+    def push_gray(
+        self, frames: npt.NDArray[np.uint8], timestamps_us: npt.NDArray[np.uint64]
+    ) -> npt.NDArray[np.uint8]: ...
+    def push_bgr(
+        self, frames: npt.NDArray[np.uint8], timestamps_us: npt.NDArray[np.uint64]
+    ) -> npt.NDArray[np.uint8]: ...
+    def push_float(
+        self, frames: npt.NDArray[np.float32], timestamps_us: npt.NDArray[np.uint64]
+    ) -> npt.NDArray[np.uint8]: ...
+
+@final
+class DvsKernel:
+    """The DVS emulator fed batches of frames; returns packed 13-byte event records."""
+
+    def __new__(
+        cls,
+        width: int,
+        height: int,
+        *,
+        seed: int,
+        threshold_on: float,
+        threshold_off: float,
+        threshold_sigma: float,
+        refractory_us: float,
+        leak_rate_hz: float,
+        leak_spread_decades: float,
+        shot_noise_rate_hz: float,
+        shot_noise_bright_factor: float,
+        hot_pixel_fraction: float,
+        hot_pixel_rate_hz: float,
+        cutoff_hz: float,
+        linlog_threshold: float,
+    ) -> DvsKernel: ...
+    @property
+    def size(self) -> tuple[int, int]: ...
+    @property
+    def frames_seen(self) -> int: ...
+    def hot_pixels(self) -> list[int]: ...
+    def push_gray(
+        self, frames: npt.NDArray[np.uint8], timestamps_us: npt.NDArray[np.uint64]
+    ) -> npt.NDArray[np.uint8]: ...
+    def push_bgr(
+        self, frames: npt.NDArray[np.uint8], timestamps_us: npt.NDArray[np.uint64]
+    ) -> npt.NDArray[np.uint8]: ...
+    def push_float(
+        self, frames: npt.NDArray[np.float32], timestamps_us: npt.NDArray[np.uint64]
+    ) -> npt.NDArray[np.uint8]: ...
 
 # ---------------------------------------------------------------- streaming (issue 6)

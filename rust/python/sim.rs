@@ -1,8 +1,340 @@
-//! Bindings for `sim`; filled in by its issue.
+//! Bindings for `sim`: the PIX2NVS simulator and the DVS emulator as stateful kernels that take
+//! batches of frames and return packed events (the canonical dtype viewed as bytes).
 
+use ndarray::{ArrayView3, ArrayView4, Axis};
+use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1, PyReadonlyArray3, PyReadonlyArray4};
 use pyo3::prelude::*;
 
-#[allow(clippy::unnecessary_wraps)]
-pub fn register(_m: &Bound<'_, PyModule>) -> PyResult<()> {
+use super::errors::{detach, map};
+use crate::error::{Error, Result};
+use crate::events::{Event, PACKED_EVENT_SIZE};
+use crate::sim::{DvsEmulator, DvsParams, Frame, Pix2Nvs, Pix2NvsParams, Pooling, ReferenceUpdate};
+
+/// Events as packed 13-byte records, the canonical NumPy dtype's memory layout.
+fn pack(events: &[Event]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(events.len() * PACKED_EVENT_SIZE);
+    for e in events {
+        out.extend_from_slice(&e.t.to_le_bytes());
+        out.extend_from_slice(&e.x.to_le_bytes());
+        out.extend_from_slice(&e.y.to_le_bytes());
+        out.push(u8::from(e.p));
+    }
+    out
+}
+
+/// Frames of one batch, borrowed from NumPy.
+enum Batch<'a> {
+    Gray(ArrayView3<'a, u8>),
+    Bgr(ArrayView4<'a, u8>),
+    Float(ArrayView3<'a, f32>),
+}
+
+impl Batch<'_> {
+    fn len(&self) -> usize {
+        match self {
+            Batch::Gray(v) => v.len_of(Axis(0)),
+            Batch::Bgr(v) => v.len_of(Axis(0)),
+            Batch::Float(v) => v.len_of(Axis(0)),
+        }
+    }
+
+    fn frame(&self, i: usize) -> Frame<'_> {
+        match self {
+            Batch::Gray(v) => Frame::Gray(v.index_axis(Axis(0), i)),
+            Batch::Bgr(v) => Frame::Bgr(v.index_axis(Axis(0), i)),
+            Batch::Float(v) => Frame::GrayF32(v.index_axis(Axis(0), i)),
+        }
+    }
+}
+
+/// Check a batch's timestamps before any frame changes a kernel's state.
+fn check_times(n: usize, times: &[u64], last: Option<u64>) -> Result<()> {
+    if times.len() != n {
+        return Err(Error::Simulation(format!(
+            "{} timestamps for {n} frames; give one per frame",
+            times.len()
+        )));
+    }
+    let mut prev = last;
+    for (i, &t) in times.iter().enumerate() {
+        if let Some(p) = prev {
+            if t <= p {
+                return Err(Error::Simulation(format!(
+                    "timestamp {i} ({t} us) is not after the one before it ({p} us); frame times \
+                     must increase strictly"
+                )));
+            }
+        }
+        prev = Some(t);
+    }
+    Ok(())
+}
+
+/// Anything that takes frames one at a time.
+trait Kernel: Send {
+    fn push(&mut self, frame: &Frame<'_>, t: u64, out: &mut Vec<Event>) -> Result<()>;
+    fn last_time(&self) -> Option<u64>;
+}
+
+impl Kernel for Pix2Nvs {
+    fn push(&mut self, frame: &Frame<'_>, t: u64, out: &mut Vec<Event>) -> Result<()> {
+        Pix2Nvs::push(self, frame, t, out)
+    }
+    fn last_time(&self) -> Option<u64> {
+        Pix2Nvs::last_time(self)
+    }
+}
+
+impl Kernel for DvsEmulator {
+    fn push(&mut self, frame: &Frame<'_>, t: u64, out: &mut Vec<Event>) -> Result<()> {
+        DvsEmulator::push(self, frame, t, out)
+    }
+    fn last_time(&self) -> Option<u64> {
+        DvsEmulator::last_time(self)
+    }
+}
+
+/// Run a batch through a kernel with the GIL released; packed events out.
+fn run_batch<'py, K: Kernel>(
+    py: Python<'py>,
+    kernel: &mut K,
+    batch: &Batch<'_>,
+    times: &PyReadonlyArray1<'_, u64>,
+) -> PyResult<Bound<'py, PyArray1<u8>>> {
+    let times = times.as_slice()?;
+    let last = kernel.last_time();
+    let bytes = detach(py, || {
+        check_times(batch.len(), times, last)?;
+        let mut events = Vec::new();
+        for (i, &t) in times.iter().enumerate() {
+            kernel.push(&batch.frame(i), t, &mut events)?;
+        }
+        Ok(pack(&events))
+    })?;
+    Ok(bytes.into_pyarray(py))
+}
+
+fn reference_mode(name: &str) -> Result<ReferenceUpdate> {
+    match name {
+        "frame" => Ok(ReferenceUpdate::Frame),
+        "event_copy" => Ok(ReferenceUpdate::EventCopy),
+        "event_increment" => Ok(ReferenceUpdate::EventIncrement),
+        other => Err(Error::param(
+            "reference",
+            format!("must be 'frame', 'event_copy' or 'event_increment', got {other:?}"),
+        )),
+    }
+}
+
+fn pooling_mode(name: &str) -> Result<Pooling> {
+    match name {
+        "strongest" => Ok(Pooling::Strongest),
+        "all" => Ok(Pooling::All),
+        other => Err(Error::param(
+            "pooling",
+            format!("must be 'strongest' or 'all', got {other:?}"),
+        )),
+    }
+}
+
+/// PIX2NVS fed batches of frames; keeps its state between calls.
+#[pyclass(module = "uavsnn._core")]
+pub struct Pix2NvsKernel {
+    inner: Pix2Nvs,
+}
+
+#[pymethods]
+impl Pix2NvsKernel {
+    #[new]
+    #[pyo3(signature = (width, height, *, threshold, n_max, reference, block_size, adaptive,
+                        threshold_min, threshold_max, log_offset, output_size=None,
+                        pooling="strongest"))]
+    fn new(
+        py: Python<'_>,
+        width: usize,
+        height: usize,
+        threshold: f32,
+        n_max: u32,
+        reference: &str,
+        block_size: usize,
+        adaptive: f32,
+        threshold_min: f32,
+        threshold_max: f32,
+        log_offset: f32,
+        output_size: Option<(usize, usize)>,
+        pooling: &str,
+    ) -> PyResult<Self> {
+        let build = || -> Result<Pix2Nvs> {
+            let params = Pix2NvsParams {
+                threshold,
+                n_max,
+                reference: reference_mode(reference)?,
+                block_size,
+                adaptive,
+                threshold_min,
+                threshold_max,
+                log_offset,
+            };
+            let pool = pooling_mode(pooling)?;
+            Pix2Nvs::new(
+                params,
+                width,
+                height,
+                output_size.map(|(w, h)| (w, h, pool)),
+            )
+        };
+        let inner = map(py, build())?;
+        Ok(Self { inner })
+    }
+
+    /// `(width, height)` of the events written.
+    #[getter]
+    fn output_size(&self) -> (usize, usize) {
+        self.inner.output_size()
+    }
+
+    /// Frames consumed so far.
+    #[getter]
+    fn frames_seen(&self) -> usize {
+        self.inner.frames_seen()
+    }
+
+    /// Feed `(n, h, w)` uint8 gray frames; returns packed events.
+    fn push_gray<'py>(
+        &mut self,
+        py: Python<'py>,
+        frames: PyReadonlyArray3<'_, u8>,
+        timestamps_us: PyReadonlyArray1<'_, u64>,
+    ) -> PyResult<Bound<'py, PyArray1<u8>>> {
+        let batch = Batch::Gray(frames.as_array());
+        run_batch(py, &mut self.inner, &batch, &timestamps_us)
+    }
+
+    /// Feed `(n, h, w, 3)` uint8 BGR frames; returns packed events.
+    fn push_bgr<'py>(
+        &mut self,
+        py: Python<'py>,
+        frames: PyReadonlyArray4<'_, u8>,
+        timestamps_us: PyReadonlyArray1<'_, u64>,
+    ) -> PyResult<Bound<'py, PyArray1<u8>>> {
+        let batch = Batch::Bgr(frames.as_array());
+        run_batch(py, &mut self.inner, &batch, &timestamps_us)
+    }
+
+    /// Feed `(n, h, w)` float32 gray frames (0–255 scale); returns packed events.
+    fn push_float<'py>(
+        &mut self,
+        py: Python<'py>,
+        frames: PyReadonlyArray3<'_, f32>,
+        timestamps_us: PyReadonlyArray1<'_, u64>,
+    ) -> PyResult<Bound<'py, PyArray1<u8>>> {
+        let batch = Batch::Float(frames.as_array());
+        run_batch(py, &mut self.inner, &batch, &timestamps_us)
+    }
+}
+
+/// The DVS emulator fed batches of frames; keeps its state between calls.
+#[pyclass(module = "uavsnn._core")]
+pub struct DvsKernel {
+    inner: DvsEmulator,
+}
+
+#[pymethods]
+impl DvsKernel {
+    #[new]
+    #[pyo3(signature = (width, height, *, seed, threshold_on, threshold_off, threshold_sigma,
+                        refractory_us, leak_rate_hz, leak_spread_decades, shot_noise_rate_hz,
+                        shot_noise_bright_factor, hot_pixel_fraction, hot_pixel_rate_hz,
+                        cutoff_hz, linlog_threshold))]
+    fn new(
+        py: Python<'_>,
+        width: usize,
+        height: usize,
+        seed: u64,
+        threshold_on: f32,
+        threshold_off: f32,
+        threshold_sigma: f32,
+        refractory_us: f64,
+        leak_rate_hz: f64,
+        leak_spread_decades: f64,
+        shot_noise_rate_hz: f64,
+        shot_noise_bright_factor: f64,
+        hot_pixel_fraction: f64,
+        hot_pixel_rate_hz: f64,
+        cutoff_hz: f64,
+        linlog_threshold: f32,
+    ) -> PyResult<Self> {
+        let params = DvsParams {
+            threshold_on,
+            threshold_off,
+            threshold_sigma,
+            refractory_us,
+            leak_rate_hz,
+            leak_spread_decades,
+            shot_noise_rate_hz,
+            shot_noise_bright_factor,
+            hot_pixel_fraction,
+            hot_pixel_rate_hz,
+            cutoff_hz,
+            linlog_threshold,
+        };
+        let inner = detach(py, || DvsEmulator::new(params, width, height, seed))?;
+        Ok(Self { inner })
+    }
+
+    /// `(width, height)` of the sensor.
+    #[getter]
+    fn size(&self) -> (usize, usize) {
+        self.inner.size()
+    }
+
+    /// Frames consumed so far.
+    #[getter]
+    fn frames_seen(&self) -> usize {
+        self.inner.frames_seen()
+    }
+
+    /// Row-major indices of the hot pixels.
+    fn hot_pixels(&self) -> Vec<usize> {
+        self.inner.hot_pixels()
+    }
+
+    /// Feed `(n, h, w)` uint8 gray frames; returns packed events.
+    fn push_gray<'py>(
+        &mut self,
+        py: Python<'py>,
+        frames: PyReadonlyArray3<'_, u8>,
+        timestamps_us: PyReadonlyArray1<'_, u64>,
+    ) -> PyResult<Bound<'py, PyArray1<u8>>> {
+        let batch = Batch::Gray(frames.as_array());
+        run_batch(py, &mut self.inner, &batch, &timestamps_us)
+    }
+
+    /// Feed `(n, h, w, 3)` uint8 BGR frames; returns packed events.
+    fn push_bgr<'py>(
+        &mut self,
+        py: Python<'py>,
+        frames: PyReadonlyArray4<'_, u8>,
+        timestamps_us: PyReadonlyArray1<'_, u64>,
+    ) -> PyResult<Bound<'py, PyArray1<u8>>> {
+        let batch = Batch::Bgr(frames.as_array());
+        run_batch(py, &mut self.inner, &batch, &timestamps_us)
+    }
+
+    /// Feed `(n, h, w)` float32 gray frames (0–255 scale); returns packed events.
+    fn push_float<'py>(
+        &mut self,
+        py: Python<'py>,
+        frames: PyReadonlyArray3<'_, f32>,
+        timestamps_us: PyReadonlyArray1<'_, u64>,
+    ) -> PyResult<Bound<'py, PyArray1<u8>>> {
+        let batch = Batch::Float(frames.as_array());
+        run_batch(py, &mut self.inner, &batch, &timestamps_us)
+    }
+}
+
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<Pix2NvsKernel>()?;
+    m.add_class::<DvsKernel>()?;
     Ok(())
 }

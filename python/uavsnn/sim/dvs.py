@@ -1,0 +1,223 @@
+"""The "dvs" domain: a DVS sensor emulator in the spirit of v2e and ESIM.
+
+The per-pixel work runs in Rust (``rust/sim/dvs.rs``). Each pixel tracks the difference
+``d = L - R`` between its (low-passed) response ``L`` — v2e's ``lin_log`` of BT.601 luma — and
+its memorised value ``R``; between frames ``L`` moves linearly and every threshold crossing is
+emitted at its exact interpolated time, as ESIM does (no cap on events per frame). On top:
+
+- threshold mismatch: per-pixel ``θ_on``, ``θ_off`` from ``N(θ, σ)`` clipped at 0.01 (v2e);
+- refractory period: after any event the pixel is held in reset for ``refractory_us``;
+- leak: ``R`` drifts down by ``leak_rate_hz · θ_on`` per second — ON events at ``leak_rate_hz``
+  in a static scene — with log-normal per-pixel rates (``leak_spread_decades``, normalised to
+  the asked mean) and a random starting phase;
+- shot noise: Poisson events at ``shot_noise_rate_hz`` per pixel in the dark, scaled linearly to
+  ``shot_noise_bright_factor`` times that at white, half ON, half OFF;
+- hot pixels: ``round(hot_pixel_fraction · pixels)`` pixels firing ON at ``hot_pixel_rate_hz``;
+- low light: a first-order photoreceptor low-pass with cutoff ``cutoff_hz · (Y + 20) / 275``
+  (v2e's intensity scaling), so dark pixels are slower as well as noisier.
+
+Every event resets its pixel; noise events do not shift ``R`` by a threshold, so the noise
+rates delivered are the rates asked for (with no refractory period). Random draws come from one
+PCG stream per pixel row derived from ``seed``: the same seed gives the same events whatever the
+number of threads. See ``docs/simulation.md`` for the choices.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from uavsnn import _core
+from uavsnn.errors import SimulationError
+from uavsnn.events import EVENT_DTYPE
+from uavsnn.sim.checks import check_real, check_seed, check_size
+from uavsnn.sim.frames import FrameBatch, as_frame_batch, as_timestamps
+
+__all__ = ["DvsEmulator", "DvsParams", "emulate_dvs"]
+
+#: Highest rate accepted for any per-pixel noise process (one event per microsecond).
+MAX_RATE_HZ = 1e6
+
+
+@dataclass(frozen=True)
+class DvsParams:
+    """Parameters of the emulated sensor, validated on construction
+    (:class:`~uavsnn.ParameterError`). Defaults describe a DAVIS240-like sensor in ordinary
+    light.
+
+    Attributes:
+        threshold_on: mean ON threshold, in log-intensity units (default 0.2, as v2e).
+        threshold_off: mean OFF threshold, positive (default 0.2).
+        threshold_sigma: per-pixel standard deviation of both thresholds (default 0.03, v2e).
+        refractory_us: dead time after each event, microseconds (default 100).
+        leak_rate_hz: leak (background-activity) ON events per pixel per second (default 0.1).
+        leak_spread_decades: log-normal spread of per-pixel leak rates (default 0.1, v2e).
+        shot_noise_rate_hz: shot-noise events per pixel per second in the dark (default 1).
+        shot_noise_bright_factor: shot-noise rate at white relative to dark (default 0.25, v2e).
+        hot_pixel_fraction: fraction of pixels that are hot (default 1e-4).
+        hot_pixel_rate_hz: ON events per second of each hot pixel (default 20).
+        cutoff_hz: photoreceptor cutoff at white, Hz; 0 disables the low-pass (default 300).
+        linlog_threshold: luma below which the response is linear, not log (default 20, v2e).
+    """
+
+    threshold_on: float = 0.2
+    threshold_off: float = 0.2
+    threshold_sigma: float = 0.03
+    refractory_us: float = 100.0
+    leak_rate_hz: float = 0.1
+    leak_spread_decades: float = 0.1
+    shot_noise_rate_hz: float = 1.0
+    shot_noise_bright_factor: float = 0.25
+    hot_pixel_fraction: float = 1e-4
+    hot_pixel_rate_hz: float = 20.0
+    cutoff_hz: float = 300.0
+    linlog_threshold: float = 20.0
+
+    def __post_init__(self) -> None:
+        check_real("threshold_on", self.threshold_on, low=0.0, low_open=True)
+        check_real("threshold_off", self.threshold_off, low=0.0, low_open=True)
+        check_real("threshold_sigma", self.threshold_sigma, low=0.0)
+        check_real("refractory_us", self.refractory_us, low=0.0)
+        check_real("leak_rate_hz", self.leak_rate_hz, low=0.0, high=MAX_RATE_HZ)
+        check_real("leak_spread_decades", self.leak_spread_decades, low=0.0, high=3.0)
+        check_real("shot_noise_rate_hz", self.shot_noise_rate_hz, low=0.0, high=MAX_RATE_HZ)
+        check_real("shot_noise_bright_factor", self.shot_noise_bright_factor, low=0.0)
+        check_real(
+            "shot_noise_rate_hz * shot_noise_bright_factor",
+            float(self.shot_noise_rate_hz) * float(self.shot_noise_bright_factor),
+            high=MAX_RATE_HZ,
+        )
+        check_real("hot_pixel_fraction", self.hot_pixel_fraction, low=0.0, high=1.0)
+        check_real("hot_pixel_rate_hz", self.hot_pixel_rate_hz, low=0.0, high=MAX_RATE_HZ)
+        check_real("cutoff_hz", self.cutoff_hz, low=0.0)
+        check_real("linlog_threshold", self.linlog_threshold, low=0.0, low_open=True)
+
+    @classmethod
+    def ideal(cls, **overrides: Any) -> DvsParams:
+        """An ideal sensor: uniform thresholds, no refractory period, no noise of any kind,
+        unlimited bandwidth. Keyword arguments override fields."""
+        base: dict[str, Any] = {
+            "threshold_sigma": 0.0,
+            "refractory_us": 0.0,
+            "leak_rate_hz": 0.0,
+            "shot_noise_rate_hz": 0.0,
+            "hot_pixel_fraction": 0.0,
+            "cutoff_hz": 0.0,
+        }
+        base.update(overrides)
+        return cls(**base)
+
+    @classmethod
+    def noisy(cls, **overrides: Any) -> DvsParams:
+        """v2e's "noisy" preset (σ 0.05, 30 Hz cutoff, 0.1 Hz leak, 5 Hz shot noise, 10 ms
+        refractory period): a dim scene. Keyword arguments override fields."""
+        base: dict[str, Any] = {
+            "threshold_sigma": 0.05,
+            "cutoff_hz": 30.0,
+            "leak_rate_hz": 0.1,
+            "shot_noise_rate_hz": 5.0,
+            "refractory_us": 10_000.0,
+        }
+        base.update(overrides)
+        return cls(**base)
+
+
+class DvsEmulator:
+    """The emulator fed frames in batches, keeping each pixel's state between calls, so that a
+    long rendering runs in bounded memory.
+
+    Args:
+        sensor_size: ``(width, height)`` of the frames, which is the sensor's size.
+        params: sensor parameters (defaults: :class:`DvsParams`).
+        seed: draws the thresholds, leak rates, hot pixels and all noise.
+    """
+
+    def __init__(
+        self,
+        sensor_size: tuple[int, int],
+        *,
+        params: DvsParams | None = None,
+        seed: int = 0,
+    ) -> None:
+        self.params = params if params is not None else DvsParams()
+        if not isinstance(self.params, DvsParams):
+            raise TypeError(f"params must be DvsParams, got {type(self.params).__name__}")
+        width, height = check_size(sensor_size, "sensor_size")
+        self.seed = check_seed(seed)
+        p = self.params
+        self._kernel = _core.DvsKernel(
+            width,
+            height,
+            seed=self.seed,
+            threshold_on=p.threshold_on,
+            threshold_off=p.threshold_off,
+            threshold_sigma=p.threshold_sigma,
+            refractory_us=p.refractory_us,
+            leak_rate_hz=p.leak_rate_hz,
+            leak_spread_decades=p.leak_spread_decades,
+            shot_noise_rate_hz=p.shot_noise_rate_hz,
+            shot_noise_bright_factor=p.shot_noise_bright_factor,
+            hot_pixel_fraction=p.hot_pixel_fraction,
+            hot_pixel_rate_hz=p.hot_pixel_rate_hz,
+            cutoff_hz=p.cutoff_hz,
+            linlog_threshold=p.linlog_threshold,
+        )
+        self.sensor_size = (width, height)
+
+    @property
+    def frames_seen(self) -> int:
+        """Number of frames consumed so far."""
+        return int(self._kernel.frames_seen)
+
+    def hot_pixels(self) -> np.ndarray:
+        """``(k, 2)`` array of the hot pixels' ``(x, y)``."""
+        idx = np.asarray(self._kernel.hot_pixels(), dtype=np.int64)
+        w = self.sensor_size[0]
+        return np.stack([idx % w, idx // w], axis=1) if idx.size else np.zeros((0, 2), np.int64)
+
+    def process(self, frames: Any, timestamps_us: Any) -> np.ndarray:
+        """Feed frames (see :func:`emulate_dvs`) and return the events they make, sorted by
+        time. The first frame ever fed only sets the pixels' state; each batch must continue in
+        time after the previous one."""
+        batch = frames if isinstance(frames, FrameBatch) else as_frame_batch(frames)
+        times = as_timestamps(timestamps_us, len(batch))
+        if batch.size != self.sensor_size:
+            raise SimulationError(
+                f"frames are {batch.size[0]}x{batch.size[1]}, this sensor is "
+                f"{self.sensor_size[0]}x{self.sensor_size[1]}"
+            )
+        push = getattr(self._kernel, f"push_{batch.kind}")
+        return np.asarray(push(batch.array, times)).view(EVENT_DTYPE)
+
+
+def emulate_dvs(
+    frames: Any,
+    timestamps_us: Any,
+    *,
+    params: DvsParams | None = None,
+    seed: int = 0,
+) -> np.ndarray:
+    """Turn frames into the events a DVS would give; events at frame size, sorted by time.
+
+    Args:
+        frames: ``(n, h, w)`` gray or ``(n, h, w, 3)`` BGR, ``uint8`` or float on the 0–255
+            scale, or a sequence of such frames (all of one size). Render them at a high frame
+            rate: motion between two frames is taken as linear in log intensity.
+        timestamps_us: ``n`` strictly increasing times in microseconds.
+        params: sensor parameters (defaults: :class:`DvsParams`; :meth:`DvsParams.ideal` for a
+            noiseless sensor).
+        seed: draws thresholds, leak rates, hot pixels and noise; same seed, same events.
+
+    Returns:
+        Events of ``uavsnn.EVENT_DTYPE``, sorted by time; ties keep pixel order.
+
+    Raises:
+        SimulationError: no frames, frames of mixed sizes or bad shape, non-finite or negative
+            intensities, timestamps that are not one per frame and strictly increasing.
+        ParameterError: impossible parameters or seed.
+    """
+    batch = as_frame_batch(frames)
+    emulator = DvsEmulator(batch.size, params=params, seed=seed)
+    return emulator.process(batch, timestamps_us)

@@ -1,0 +1,127 @@
+"""Checking and normalising the frames and timestamps given to the simulators.
+
+Frames may be an array ``(n, h, w)`` of gray or ``(n, h, w, 3)`` of BGR (OpenCV's channel
+order), or a sequence of such frames. ``uint8`` passes to the engine untouched (no copy, strided
+views included); every other real dtype becomes ``float32`` on the same 0–255 scale, BGR being
+turned into BT.601 luma first. Timestamps are integer microseconds, one per frame, strictly
+increasing.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import numpy as np
+
+from uavsnn.errors import SimulationError
+
+__all__ = ["FrameBatch", "as_frame_batch", "as_timestamps"]
+
+#: BT.601 luma weights in OpenCV's B, G, R order.
+BT601_BGR = np.array([0.114, 0.587, 0.299], dtype=np.float32)
+
+
+@dataclass(frozen=True)
+class FrameBatch:
+    """Frames ready for a kernel: ``kind`` says which ``push_*`` method takes ``array``."""
+
+    kind: Literal["gray", "bgr", "float"]
+    array: np.ndarray
+
+    @property
+    def size(self) -> tuple[int, int]:
+        """``(width, height)`` of the frames."""
+        return int(self.array.shape[2]), int(self.array.shape[1])
+
+    def __len__(self) -> int:
+        return int(self.array.shape[0])
+
+
+def _stack(frames: Sequence[Any]) -> np.ndarray:
+    arrays = [np.asarray(f) for f in frames]
+    if not arrays:
+        raise SimulationError("no frames given")
+    first = arrays[0].shape
+    for i, a in enumerate(arrays):
+        if a.shape != first:
+            raise SimulationError(
+                f"frame {i} has shape {a.shape}, expected {first} like frame 0; "
+                "frames of mixed sizes cannot make one recording (resize them first)"
+            )
+    return np.stack(arrays)
+
+
+def as_frame_batch(frames: Any) -> FrameBatch:
+    """Check ``frames`` and return them as a :class:`FrameBatch`.
+
+    Raises :class:`~uavsnn.SimulationError` for no frames, frames of mixed sizes, a shape that
+    is neither ``(n, h, w)`` nor ``(n, h, w, 3)``, a non-numeric dtype, or non-finite or negative
+    intensities.
+    """
+    if isinstance(frames, np.ndarray):
+        array = frames
+    elif isinstance(frames, Sequence) and not isinstance(frames, (str, bytes)):
+        array = _stack(frames)
+    else:
+        raise SimulationError(
+            f"frames must be a NumPy array or a sequence of frames, got {type(frames).__name__}"
+        )
+    if array.ndim == 4 and array.shape[3] == 1:
+        array = array[..., 0]
+    if not (array.ndim == 3 or (array.ndim == 4 and array.shape[3] == 3)):
+        raise SimulationError(
+            f"frames must have shape (n, h, w) or (n, h, w, 3), got {array.shape}"
+        )
+    n, h, w = array.shape[:3]
+    if n == 0:
+        raise SimulationError("no frames given")
+    if h == 0 or w == 0:
+        raise SimulationError(f"frames are empty ({w}x{h} pixels)")
+    if array.dtype == np.uint8:
+        return FrameBatch("bgr" if array.ndim == 4 else "gray", array)
+    if array.dtype == np.bool_ or not np.issubdtype(array.dtype, np.number):
+        raise SimulationError(f"frames must be numeric intensities, got dtype {array.dtype}")
+    if np.issubdtype(array.dtype, np.complexfloating):
+        raise SimulationError(f"frames must be real intensities, got dtype {array.dtype}")
+    gray = array.astype(np.float32) @ BT601_BGR if array.ndim == 4 else array
+    gray = np.ascontiguousarray(gray, dtype=np.float32)
+    bad = ~np.isfinite(gray) | (gray < 0)
+    if bad.any():
+        k, y, x = (int(v) for v in np.argwhere(bad)[0])
+        raise SimulationError(
+            f"frame {k}: pixel (x={x}, y={y}) has intensity {gray[k, y, x]}, "
+            "expected a finite value >= 0"
+        )
+    return FrameBatch("float", gray)
+
+
+def as_timestamps(timestamps_us: Any, n: int) -> np.ndarray:
+    """Check timestamps (µs, one per frame, strictly increasing, >= 0) and return them as
+    ``uint64``. Raises :class:`~uavsnn.SimulationError` naming the first bad one."""
+    t = np.asarray(timestamps_us)
+    if t.ndim != 1 or t.shape[0] != n:
+        raise SimulationError(f"expected {n} timestamps (one per frame), got shape {t.shape}")
+    if n == 0:
+        return t.astype(np.uint64)
+    if t.dtype == np.bool_ or not np.issubdtype(t.dtype, np.number):
+        raise SimulationError(f"timestamps must be integer microseconds, got dtype {t.dtype}")
+    if np.issubdtype(t.dtype, np.floating):
+        bad = ~np.isfinite(t) | (t != np.round(t))
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise SimulationError(f"timestamp {i} ({t[i]}) is not a whole number of microseconds")
+    if (t < 0).any():
+        i = int(np.argmax(t < 0))
+        raise SimulationError(f"timestamp {i} ({t[i]}) is negative")
+    t = t.astype(np.uint64)
+    if n > 1:
+        step = np.diff(t.astype(np.int64))
+        if (step <= 0).any():
+            i = int(np.argmax(step <= 0)) + 1
+            raise SimulationError(
+                f"timestamp {i} ({t[i]} us) is not after timestamp {i - 1} ({t[i - 1]} us); "
+                "frame times must increase strictly"
+            )
+    return t

@@ -1,0 +1,348 @@
+"""Ordinary video in, events out: reading through OpenCV and the whole video-to-recording path.
+
+Frames are cropped, centred, to the aspect ratio of the target sensor (4:3 for the default
+240×180) and resized with area averaging (``cv2.INTER_AREA``: a larger pixel integrates the
+light of the smaller ones it covers). Frame ``i`` is at ``round(i · 10⁶ / fps)`` µs, with ``fps``
+from the container unless given.
+
+Where the down-sampling happens is a parameter of :func:`video_to_recording`:
+
+- ``"events"`` (default for ``mode="sim"``): what Kirkland et al. did — simulate PIX2NVS on the
+  full-resolution (cropped) frames and pool the events onto the sensor afterwards;
+- ``"frames"`` (always for ``mode="dvs"``): resize the frames to the sensor first, then simulate
+  at sensor size — the physical picture of a sensor with larger pixels, and much cheaper.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterator
+from dataclasses import asdict
+from pathlib import Path
+from typing import Any, Literal
+
+import cv2
+import numpy as np
+
+from uavsnn.errors import ParameterError, SimulationError
+from uavsnn.events import EVENT_DTYPE, Recording
+from uavsnn.sim.checks import check_choice, check_int, check_real, check_seed, check_size
+from uavsnn.sim.dvs import DvsEmulator, DvsParams
+from uavsnn.sim.pix2nvs import POOLING_MODES, Pix2NvsParams, Pix2NvsSimulator
+
+__all__ = [
+    "VideoInfo",
+    "crop_to_aspect",
+    "iter_video",
+    "probe_video",
+    "read_video",
+    "video_to_recording",
+]
+
+Color = Literal["gray", "bgr"]
+
+#: Frames handed to the engine per call when streaming a video.
+BATCH_FRAMES = 8
+
+
+def crop_to_aspect(frame: np.ndarray, aspect: float) -> np.ndarray:
+    """The largest centred crop of ``frame`` (``(h, w)`` or ``(h, w, c)``) whose width/height
+    is ``aspect``; a view, no copy."""
+    h, w = frame.shape[:2]
+    if w / h > aspect:
+        cw = min(w, max(1, round(h * aspect)))
+        x0 = (w - cw) // 2
+        return frame[:, x0 : x0 + cw]
+    ch = min(h, max(1, round(w / aspect)))
+    y0 = (h - ch) // 2
+    return frame[y0 : y0 + ch]
+
+
+class VideoInfo:
+    """What OpenCV reports about a video: ``width``, ``height``, ``fps``, ``frame_count``
+    (an estimate from the container; 0 when unknown)."""
+
+    def __init__(self, width: int, height: int, fps: float, frame_count: int) -> None:
+        self.width = width
+        self.height = height
+        self.fps = fps
+        self.frame_count = frame_count
+
+    def __repr__(self) -> str:
+        return (
+            f"VideoInfo(width={self.width}, height={self.height}, fps={self.fps}, "
+            f"frame_count={self.frame_count})"
+        )
+
+
+def _open(path: str | Path) -> cv2.VideoCapture:
+    p = Path(path)
+    if not p.exists():
+        raise SimulationError(f"video {str(p)!r} does not exist")
+    if not p.is_file():
+        raise SimulationError(f"video {str(p)!r} is not a file")
+    cap = cv2.VideoCapture(str(p))
+    if not cap.isOpened():
+        cap.release()
+        raise SimulationError(f"cannot read {str(p)!r} as a video (unknown format or corrupt)")
+    return cap
+
+
+def _fps(cap: cv2.VideoCapture, fps: float | None, path: str | Path) -> float:
+    if fps is not None:
+        return check_real("fps", fps, low=0.0, low_open=True, high=1e6)
+    reported = float(cap.get(cv2.CAP_PROP_FPS))
+    if not math.isfinite(reported) or not 0.0 < reported <= 1e6:
+        raise SimulationError(
+            f"{str(path)!r} reports no usable frame rate ({reported}); pass fps= explicitly"
+        )
+    return reported
+
+
+def probe_video(path: str | Path) -> VideoInfo:
+    """Open a video and report its size, frame rate and (estimated) frame count."""
+    cap = _open(path)
+    try:
+        return VideoInfo(
+            int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)),
+            int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT)),
+            float(cap.get(cv2.CAP_PROP_FPS)),
+            max(0, int(cap.get(cv2.CAP_PROP_FRAME_COUNT))),
+        )
+    finally:
+        cap.release()
+
+
+def iter_video(
+    path: str | Path,
+    *,
+    size: tuple[int, int] | None = (240, 180),
+    max_frames: int | None = None,
+    color: Color = "gray",
+    fps: float | None = None,
+    resize: bool = True,
+) -> Iterator[tuple[np.ndarray, int]]:
+    """Yield ``(frame, t_us)`` one frame at a time.
+
+    Args:
+        path: any file OpenCV's FFmpeg back end reads (mp4, avi, mkv, mov, ...).
+        size: ``(width, height)`` to crop (centred, to its aspect ratio) and resize to;
+            ``None`` keeps frames as decoded (then they must all have one size).
+        max_frames: stop after this many frames.
+        color: ``"gray"`` (BT.601 luma, ``uint8``) or ``"bgr"`` (``uint8``, 3 channels).
+        fps: frame rate to assume, overriding the container's.
+        resize: with ``size``, ``False`` only crops to its aspect ratio (for simulating at full
+            resolution and pooling the events afterwards).
+
+    Raises:
+        SimulationError: a missing, unreadable or empty video, no usable frame rate, frames
+            that change size when ``size`` is ``None``.
+    """
+    check_choice("color", color, ("gray", "bgr"))
+    target = None if size is None else check_size(size)
+    limit = None if max_frames is None else check_int("max_frames", max_frames, low=1, high=2**62)
+    cap = _open(path)
+    try:
+        rate = _fps(cap, fps, path)
+        first_shape: tuple[int, ...] | None = None
+        i = 0
+        while limit is None or i < limit:
+            ok, frame = cap.read()
+            if not ok or frame is None:
+                break
+            if first_shape is None:
+                first_shape = frame.shape
+            elif frame.shape != first_shape and target is None:
+                raise SimulationError(
+                    f"frame {i} of {str(path)!r} is {frame.shape[1]}x{frame.shape[0]}, the "
+                    f"first was {first_shape[1]}x{first_shape[0]}; give size= to resize them"
+                )
+            if frame.ndim == 2:
+                frame = cv2.cvtColor(frame, cv2.COLOR_GRAY2BGR)
+            if target is not None:
+                frame = crop_to_aspect(frame, target[0] / target[1])
+                if resize and frame.shape[1::-1] != target:
+                    frame = cv2.resize(frame, target, interpolation=cv2.INTER_AREA)
+            if color == "gray":
+                frame = cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY)
+            yield frame, round(i * 1e6 / rate)
+            i += 1
+        if i == 0:
+            raise SimulationError(f"no frame could be decoded from {str(path)!r} (empty video?)")
+    finally:
+        cap.release()
+
+
+def read_video(
+    path: str | Path,
+    *,
+    size: tuple[int, int] | None = (240, 180),
+    max_frames: int | None = None,
+    color: Color = "gray",
+    fps: float | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Read a whole video: ``(frames, timestamps_us)``.
+
+    ``frames`` is ``(n, h, w)`` ``uint8`` gray or ``(n, h, w, 3)`` BGR, cropped to the aspect
+    ratio of ``size`` and resized to it (see :func:`iter_video`); ``timestamps_us`` is
+    ``(n,)`` ``uint64``. For long or large videos prefer :func:`iter_video` or
+    :func:`video_to_recording`, which stream.
+    """
+    frames: list[np.ndarray] = []
+    times: list[int] = []
+    for frame, t in iter_video(path, size=size, max_frames=max_frames, color=color, fps=fps):
+        frames.append(frame)
+        times.append(t)
+    return np.stack(frames), np.asarray(times, dtype=np.uint64)
+
+
+def video_to_recording(
+    path: str | Path,
+    mode: Literal["sim", "dvs"] = "sim",
+    size: tuple[int, int] = (240, 180),
+    seed: int = 0,
+    *,
+    params: Pix2NvsParams | DvsParams | None = None,
+    downsample: Literal["events", "frames"] | None = None,
+    pooling: Literal["strongest", "all"] = "strongest",
+    max_frames: int | None = None,
+    fps: float | None = None,
+    progress: bool | Callable[[int], None] = False,
+) -> Recording:
+    """Turn a video file into a :class:`~uavsnn.Recording` of ``size``, streaming it.
+
+    Args:
+        path: the video.
+        mode: ``"sim"`` (PIX2NVS) or ``"dvs"`` (the sensor emulator).
+        size: the sensor's ``(width, height)``.
+        seed: for the ``"dvs"`` noise; recorded in the metadata in both modes.
+        params: :class:`Pix2NvsParams` for ``"sim"``, :class:`DvsParams` for ``"dvs"``.
+        downsample: ``"events"`` (simulate at full resolution, pool the events — the paper's
+            way, default for ``"sim"``) or ``"frames"`` (resize first; the only choice for
+            ``"dvs"``).
+        pooling: with ``downsample="events"``, ``"strongest"`` or ``"all"`` (see
+            :class:`~uavsnn.sim.Pix2NvsSimulator`).
+        max_frames: stop after this many frames.
+        fps: frame rate to assume, overriding the container's.
+        progress: ``True`` for a progress bar, or a callable given the number of frames done.
+
+    The metadata holds the source, mode, seed, parameters, frame rate, frame count and
+    down-sampling.
+    """
+    check_choice("mode", mode, ("sim", "dvs"))
+    sensor = check_size(size)
+    seed = check_seed(seed)
+    check_choice("pooling", pooling, POOLING_MODES)
+    if downsample is None:
+        downsample = "events" if mode == "sim" else "frames"
+    check_choice("downsample", downsample, ("events", "frames"))
+    if mode == "dvs" and downsample == "events":
+        raise ParameterError(
+            "downsample='events' is for mode='sim'; the dvs emulator models the sensor's own "
+            "pixels, so it always takes frames resized to the sensor (downsample='frames')"
+        )
+    expected = Pix2NvsParams if mode == "sim" else DvsParams
+    if params is not None and not isinstance(params, expected):
+        raise ParameterError(
+            f"mode={mode!r} takes {expected.__name__}, got {type(params).__name__}"
+        )
+    info = probe_video(path)
+    stream = iter_video(
+        path,
+        size=sensor,
+        max_frames=max_frames,
+        color="bgr",
+        fps=fps,
+        resize=downsample == "frames",
+    )
+    bar = _progress(progress, info.frame_count if max_frames is None else max_frames, path)
+    chunks: list[np.ndarray] = []
+    frames: list[np.ndarray] = []
+    times: list[int] = []
+    sim: Pix2NvsSimulator | DvsEmulator | None = None
+    n = 0
+    rate = fps
+    try:
+        for frame, t in stream:
+            if sim is None:
+                sim = _simulator(mode, frame, sensor, params, pooling, seed, downsample)
+            frames.append(frame)
+            times.append(t)
+            if len(frames) == BATCH_FRAMES:
+                chunks.append(sim.process(np.stack(frames), times))
+                n += len(frames)
+                bar(len(frames))
+                frames, times = [], []
+        if frames and sim is not None:
+            chunks.append(sim.process(np.stack(frames), times))
+            n += len(frames)
+            bar(len(frames))
+    finally:
+        bar(None)
+    if rate is None:
+        rate = info.fps
+    events = np.concatenate(chunks) if chunks else np.zeros(0, dtype=EVENT_DTYPE)
+    used = sim.params if sim is not None else expected()
+    metadata: dict[str, Any] = {
+        "source": str(path),
+        "mode": mode,
+        "seed": seed,
+        "params": asdict(used),
+        "fps": float(rate),
+        "frames": n,
+        "downsample": downsample,
+        "pooling": pooling if downsample == "events" else None,
+        "video_size": [info.width, info.height],
+    }
+    return Recording(events, sensor, metadata)
+
+
+def _simulator(
+    mode: str,
+    first: np.ndarray,
+    sensor: tuple[int, int],
+    params: Any,
+    pooling: Any,
+    seed: int,
+    downsample: str,
+) -> Pix2NvsSimulator | DvsEmulator:
+    frame_size = (int(first.shape[1]), int(first.shape[0]))
+    if mode == "dvs":
+        return DvsEmulator(sensor, params=params, seed=seed)
+    if downsample == "frames":
+        return Pix2NvsSimulator(sensor, params=params)
+    if frame_size[0] < sensor[0] or frame_size[1] < sensor[1]:
+        raise ParameterError(
+            f"the video's {frame_size[0]}x{frame_size[1]} crop is smaller than the "
+            f"{sensor[0]}x{sensor[1]} sensor; use downsample='frames' to upscale frames instead"
+        )
+    return Pix2NvsSimulator(frame_size, params=params, output_size=sensor, pooling=pooling)
+
+
+def _progress(
+    progress: bool | Callable[[int], None], total: int, path: str | Path
+) -> Callable[[int | None], None]:
+    """A ``step(n)`` function; ``step(None)`` closes the bar."""
+    if callable(progress):
+        user = progress
+        done = [0]
+
+        def step_user(k: int | None) -> None:
+            if k is not None:
+                done[0] += k
+                user(done[0])
+
+        return step_user
+    if not progress:
+        return lambda k: None
+    from tqdm import tqdm
+
+    bar = tqdm(total=total or None, unit="frame", desc=Path(path).name)
+
+    def step_bar(k: int | None) -> None:
+        if k is None:
+            bar.close()
+        else:
+            bar.update(k)
+
+    return step_bar

@@ -1,0 +1,215 @@
+"""Video through OpenCV: reading, cropping, the video-to-recording path, the ``simulate``
+command and its preview, and typed errors for unusable videos."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from uavsnn import ParameterError, Recording, SimulationError
+from uavsnn.cli import main
+from uavsnn.sim import (
+    DvsParams,
+    Pix2NvsParams,
+    crop_to_aspect,
+    event_strip,
+    iter_video,
+    read_video,
+    video_to_recording,
+)
+
+FPS = 25.0
+W, H = 320, 200  # wider than 4:3: the crop takes the centre 267x200
+
+
+def square_position(k: int) -> tuple[int, int]:
+    """Top-left of the moving square in frame ``k`` (source pixels)."""
+    return 60 + 8 * k, 70
+
+
+def write_video(path: Path, n: int = 12, fourcc: str = "MJPG", size=(W, H)) -> Path:
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*fourcc), FPS, size)
+    assert writer.isOpened()
+    for k in range(n):
+        frame = np.full((size[1], size[0], 3), 60, dtype=np.uint8)
+        x, y = square_position(k)
+        frame[y : y + 40, x : x + 40] = (200, 220, 240)
+        writer.write(frame)
+    writer.release()
+    return path
+
+
+@pytest.fixture(scope="module")
+def video(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return write_video(tmp_path_factory.mktemp("video") / "square.avi")
+
+
+# ------------------------------------------------------------------------------ reading
+
+
+@given(st.integers(1, 400), st.integers(1, 400), st.sampled_from([4 / 3, 16 / 9, 1.0, 0.5]))
+def test_crop_is_centred_and_has_the_aspect_ratio(h, w, aspect):
+    frame = np.arange(h * w).reshape(h, w)
+    crop = crop_to_aspect(frame, aspect)
+    ch, cw = crop.shape
+    assert (ch == h) or (cw == w)  # the largest crop keeps one full dimension
+    assert abs(cw / ch - aspect) <= max(1 / ch, aspect / ch) + 1e-9 or min(ch, cw) == 1
+    y0, x0 = divmod(int(crop[0, 0]), w)
+    assert abs((w - cw) - 2 * x0) <= 1 and abs((h - ch) - 2 * y0) <= 1
+
+
+def test_read_video_crops_resizes_and_times_frames(video):
+    frames, times = read_video(video)
+    assert frames.shape == (12, 180, 240) and frames.dtype == np.uint8
+    np.testing.assert_array_equal(times, np.round(np.arange(12) * 1e6 / FPS))
+    bgr, _ = read_video(video, size=(64, 48), max_frames=3, color="bgr")
+    assert bgr.shape == (3, 48, 64, 3)
+    native, _ = read_video(video, size=None, max_frames=2)
+    assert native.shape == (2, H, W)
+    # The square moves right: the bright column's centre grows with the frame index.
+    centres = [np.argwhere(f > 150)[:, 1].mean() for f in frames]
+    assert np.all(np.diff(centres) > 0)
+
+
+@pytest.mark.parametrize(("fourcc", "ext"), [("mp4v", "mp4"), ("FFV1", "mkv")])
+def test_other_formats(tmp_path, fourcc, ext):
+    path = write_video(tmp_path / f"clip.{ext}", n=4, fourcc=fourcc)
+    frames, _ = read_video(path, size=(40, 30))
+    assert frames.shape == (4, 30, 40)
+
+
+def test_unreadable_missing_and_empty_videos_raise_simulation_error(tmp_path):
+    with pytest.raises(SimulationError, match="does not exist"):
+        read_video(tmp_path / "nope.mp4")
+    with pytest.raises(SimulationError, match="not a file"):
+        read_video(tmp_path)
+    junk = tmp_path / "junk.mp4"
+    junk.write_bytes(b"this is not a video" * 50)
+    with pytest.raises(SimulationError):
+        read_video(junk)
+    empty = tmp_path / "empty.avi"
+    cv2.VideoWriter(str(empty), cv2.VideoWriter_fourcc(*"MJPG"), FPS, (32, 24)).release()
+    with pytest.raises(SimulationError):
+        read_video(empty)
+    with pytest.raises(SimulationError):
+        video_to_recording(empty)
+
+
+def test_bad_reading_parameters(video):
+    with pytest.raises(ParameterError):
+        read_video(video, size=(0, 10))
+    with pytest.raises(ParameterError):
+        read_video(video, max_frames=0)
+    with pytest.raises(ParameterError):
+        read_video(video, color="rgb")  # type: ignore[arg-type]
+    with pytest.raises(ParameterError):
+        read_video(video, fps=-1.0)
+    times = [t for _, t in iter_video(video, fps=50.0, max_frames=3)]
+    assert times == [0, 20_000, 40_000]  # fps= overrides the container's 25
+
+
+# ------------------------------------------------------------------------------ recordings
+
+
+def square_box(k: int, scale: float, x_crop: float) -> tuple[float, float, float, float]:
+    x, y = square_position(k)
+    return (x - x_crop) * scale, y * scale, (x + 40 - x_crop) * scale, (y + 40) * scale
+
+
+@pytest.mark.parametrize(
+    ("mode", "downsample"), [("sim", "events"), ("sim", "frames"), ("dvs", "frames")]
+)
+def test_video_to_recording_puts_events_on_the_moving_square(video, mode, downsample):
+    # Without noise, every event should come from the square.
+    quiet = DvsParams(leak_rate_hz=0.0, shot_noise_rate_hz=0.0, hot_pixel_fraction=0.0)
+    params = quiet if mode == "dvs" else None
+    rec = video_to_recording(video, mode, (120, 90), 1, params=params, downsample=downsample)
+    assert isinstance(rec, Recording) and rec.sensor_size == (120, 90)
+    assert rec.metadata["mode"] == mode and rec.metadata["frames"] == 12
+    assert rec.metadata["downsample"] == downsample and rec.metadata["seed"] == 1
+    assert len(rec) > 0
+    crop_w = round(H * 4 / 3)
+    scale, x_crop = 120 / crop_w, (W - crop_w) // 2
+    ev = rec.events
+    # Every event of the square's interval k lies near the square in frames k-1 and k.
+    k = np.ceil(ev["t"] / (1e6 / FPS)).astype(int)
+    x0 = np.array([square_box(i - 1, scale, x_crop)[0] for i in k]) - 2
+    x1 = np.array([square_box(i, scale, x_crop)[2] for i in k]) + 2
+    y0, y1 = 70 * scale - 2, 110 * scale + 2
+    near = (ev["x"] >= x0) & (ev["x"] <= x1) & (ev["y"] >= y0) & (ev["y"] <= y1)
+    assert near.mean() > 0.99, near.mean()
+
+
+def test_events_downsampling_follows_the_paper_and_is_denser(video):
+    by_events = video_to_recording(video, "sim", (120, 90), downsample="events")
+    by_frames = video_to_recording(video, "sim", (120, 90), downsample="frames")
+    assert len(by_events) > len(by_frames)
+    every = video_to_recording(video, "sim", (120, 90), pooling="all")
+    assert len(every) > len(by_events)
+
+
+def test_recording_parameters_are_checked(video):
+    with pytest.raises(ParameterError, match="downsample"):
+        video_to_recording(video, "dvs", downsample="events")
+    with pytest.raises(ParameterError, match="Pix2NvsParams"):
+        video_to_recording(video, "sim", params=DvsParams())
+    with pytest.raises(ParameterError, match="mode"):
+        video_to_recording(video, "aps")  # type: ignore[arg-type]
+    with pytest.raises(ParameterError, match="smaller"):
+        video_to_recording(video, "sim", (640, 480))
+    rec = video_to_recording(video, "sim", (640, 480), downsample="frames", max_frames=3)
+    assert rec.sensor_size == (640, 480)
+    params = Pix2NvsParams(threshold=0.2)
+    assert video_to_recording(video, params=params, max_frames=2).metadata["params"][
+        "threshold"
+    ] == pytest.approx(0.2)
+
+
+def test_progress_callback_counts_frames(video):
+    seen: list[int] = []
+    video_to_recording(video, "dvs", (60, 45), progress=seen.append)
+    assert seen[-1] == 12 and seen == sorted(seen)
+
+
+# ------------------------------------------------------------------------------ command line
+
+
+def test_simulate_command_writes_recording_and_preview(video, tmp_path, capsys):
+    out, png = tmp_path / "out.npz", tmp_path / "out.png"
+    code = main(
+        [
+            *("simulate", str(video), "-o", str(out), "--size", "120x90"),
+            *("--preview", str(png), "--mode", "dvs", "--seed", "5", "--json"),
+        ]
+    )
+    assert code == 0
+    summary = json.loads(capsys.readouterr().out)
+    with np.load(out, allow_pickle=False) as data:
+        events, sensor = data["events"], data["sensor_size"]
+    assert tuple(sensor) == (120, 90) and len(events) == summary["events"] > 0
+    assert np.all(np.diff(events["t"].astype(np.int64)) >= 0)
+    image = cv2.imread(str(png))
+    assert image is not None and image.shape[0] == 2 * 90
+    # The preview shows events: some panels hold coloured pixels, not only background.
+    assert (image.reshape(-1, 3).max(axis=1) > 100).mean() > 0.001
+
+
+def test_simulate_command_reports_errors(tmp_path, capsys):
+    out = tmp_path / "x.npz"
+    assert main(["simulate", str(tmp_path / "missing.mp4"), "-o", str(out)]) == 2
+    assert "does not exist" in capsys.readouterr().err
+    assert main(["simulate", str(tmp_path), "-o", str(out), "--size", "0x4"]) == 2
+    assert not out.exists()
+
+
+def test_event_strip_of_an_empty_recording():
+    from uavsnn.events import EVENT_DTYPE
+
+    img = event_strip(Recording(np.zeros(0, EVENT_DTYPE), (20, 10)), panels=3, scale=1)
+    assert img.shape == (10, 3 * 20 + 2 * 2, 3)
