@@ -1,1 +1,210 @@
-//! Placeholder: filled in by its issue.
+//! Event filters of the paper's preprocessing: background-activity denoising, and crop and
+//! downsample of coordinates to a target sensor.
+
+use crate::error::{Error, Result};
+use crate::events::{validate, Event, SensorSize};
+
+/// Which events the background-activity filter keeps, with the semantics of tonic's
+/// `tonic.functional.denoise_numpy` (tonic 1.x), event for event.
+///
+/// Events are taken in order. Each pixel remembers `t + dt_us` of its latest event; an event at
+/// `(x, y, t)` is kept iff one of its four neighbours `(x±1, y)`, `(x, y±1)` on the sensor
+/// remembers a value `> t`, that is, fired at `t' > t − dt_us` earlier in the stream. The event
+/// then updates its own pixel (its own past is not a support). As in tonic, a pixel that has not
+/// fired yet remembers `dt_us` (it counts as having fired at `t = 0`), so events with
+/// `t < dt_us` are kept wherever they have a neighbour on the sensor.
+///
+/// One difference from tonic, by design: tonic's grid is the events' bounding box
+/// `(max x + 1, max y + 1)`, ours is the recording's sensor. The results differ only for events
+/// with `t < dt_us` next to the bounding box's edge; they are equal whenever the sensor is that
+/// box or every `t ≥ dt_us`.
+pub fn denoise_mask(events: &[Event], sensor: SensorSize, dt_us: u64) -> Result<Vec<bool>> {
+    if dt_us == 0 {
+        return Err(Error::param(
+            "dt_us",
+            "the filter time must be at least 1 µs, got 0",
+        ));
+    }
+    validate(events, sensor, None, 0)?;
+    let (w, h) = (sensor.width as usize, sensor.height as usize);
+    let mut memory = vec![dt_us; sensor.area()];
+    Ok(events
+        .iter()
+        .map(|e| {
+            let (x, y, t) = (e.x as usize, e.y as usize, e.t);
+            let i = y * w + x;
+            memory[i] = t.saturating_add(dt_us);
+            (x > 0 && memory[i - 1] > t)
+                || (x + 1 < w && memory[i + 1] > t)
+                || (y > 0 && memory[i - w] > t)
+                || (y + 1 < h && memory[i + w] > t)
+        })
+        .collect())
+}
+
+/// The events that [`denoise_mask`] keeps, in order.
+pub fn denoise(events: &[Event], sensor: SensorSize, dt_us: u64) -> Result<Vec<Event>> {
+    let keep = denoise_mask(events, sensor, dt_us)?;
+    Ok(events
+        .iter()
+        .zip(keep)
+        .filter_map(|(e, k)| k.then_some(*e))
+        .collect())
+}
+
+/// The centred region of a source sensor with the aspect ratio of a target.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Crop {
+    /// Left column of the region.
+    pub x0: u16,
+    /// Top row of the region.
+    pub y0: u16,
+    /// Width of the region.
+    pub width: u16,
+    /// Height of the region.
+    pub height: u16,
+}
+
+impl Crop {
+    /// The largest region of `source` with `target`'s aspect ratio, centred (rounded down to
+    /// whole pixels, offsets rounded down).
+    pub fn centred(source: SensorSize, target: SensorSize) -> Self {
+        let (sw, sh) = (u64::from(source.width), u64::from(source.height));
+        let (tw, th) = (u64::from(target.width), u64::from(target.height));
+        // Compare sw/sh with tw/th without division.
+        let (width, height) = if sw * th > tw * sh {
+            ((sh * tw / th).max(1), sh)
+        } else {
+            (sw, (sw * th / tw).max(1))
+        };
+        Self {
+            x0: ((sw - width) / 2) as u16,
+            y0: ((sh - height) / 2) as u16,
+            width: width as u16,
+            height: height as u16,
+        }
+    }
+}
+
+/// Where each event goes under [`downsample`]: `None` outside the crop, else its new pixel.
+///
+/// Inside the crop, `x' = ⌊(x − x0)·W' / w⌋` and `y' = ⌊(y − y0)·H' / h⌋`, so each target pixel
+/// covers a block of source pixels. Every event inside the crop is kept, with its time and
+/// polarity, in its original order, even when several land on one target pixel at once (a
+/// window then takes the first of them).
+pub fn downsample_map(
+    events: &[Event],
+    source: SensorSize,
+    target: SensorSize,
+) -> Result<Vec<Option<(u16, u16)>>> {
+    validate(events, source, None, 0)?;
+    let crop = Crop::centred(source, target);
+    let (cx, cy) = (u64::from(crop.width), u64::from(crop.height));
+    let (tw, th) = (u64::from(target.width), u64::from(target.height));
+    Ok(events
+        .iter()
+        .map(|e| {
+            let inside = e.x >= crop.x0
+                && e.y >= crop.y0
+                && e.x - crop.x0 < crop.width
+                && e.y - crop.y0 < crop.height;
+            inside.then(|| {
+                let x = u64::from(e.x - crop.x0) * tw / cx;
+                let y = u64::from(e.y - crop.y0) * th / cy;
+                (x as u16, y as u16)
+            })
+        })
+        .collect())
+}
+
+/// Crop `events` to the centred region of `source` with `target`'s aspect ratio, then scale
+/// their coordinates onto `target` (see [`downsample_map`]).
+pub fn downsample(events: &[Event], source: SensorSize, target: SensorSize) -> Result<Vec<Event>> {
+    let map = downsample_map(events, source, target)?;
+    Ok(events
+        .iter()
+        .zip(map)
+        .filter_map(|(e, m)| m.map(|(x, y)| Event { x, y, ..*e }))
+        .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ev(t: u64, x: u16, y: u16) -> Event {
+        Event { t, x, y, p: false }
+    }
+
+    #[test]
+    fn denoise_keeps_supported_events_only() {
+        let s = SensorSize::new(5, 5).unwrap();
+        let dt = 10;
+        let events = [
+            ev(100, 2, 2), // no neighbour yet: dropped
+            ev(105, 2, 3), // (2,2) fired 5 µs ago: kept
+            ev(200, 0, 0), // isolated: dropped
+            ev(209, 1, 0), // (0,0) fired 9 µs ago: kept
+            ev(220, 0, 0), // (1,0) fired 11 µs ago: dropped
+        ];
+        assert_eq!(
+            denoise_mask(&events, s, dt).unwrap(),
+            vec![false, true, false, true, false]
+        );
+        // tonic's convention: unfired neighbours count as fired at t = 0.
+        assert_eq!(denoise_mask(&[ev(3, 4, 4)], s, dt).unwrap(), vec![true]);
+        assert_eq!(denoise(&events, s, dt).unwrap().len(), 2);
+        assert!(denoise_mask(&events, s, 0).is_err());
+    }
+
+    #[test]
+    fn crop_is_centred_with_the_target_aspect() {
+        let c = Crop::centred(
+            SensorSize::new(640, 480).unwrap(),
+            SensorSize::new(240, 180).unwrap(),
+        );
+        assert_eq!(
+            c,
+            Crop {
+                x0: 0,
+                y0: 0,
+                width: 640,
+                height: 480
+            }
+        );
+        let c = Crop::centred(
+            SensorSize::new(1280, 720).unwrap(),
+            SensorSize::new(240, 180).unwrap(),
+        );
+        assert_eq!(
+            c,
+            Crop {
+                x0: 160,
+                y0: 0,
+                width: 960,
+                height: 720
+            }
+        );
+        let c = Crop::centred(
+            SensorSize::new(346, 260).unwrap(),
+            SensorSize::new(240, 180).unwrap(),
+        );
+        assert_eq!((c.width, c.height, c.x0, c.y0), (346, 259, 0, 0));
+    }
+
+    #[test]
+    fn downsample_scales_and_keeps_every_event_in_the_crop() {
+        let source = SensorSize::new(1280, 720).unwrap();
+        let target = SensorSize::new(240, 180).unwrap();
+        let events = [
+            ev(1, 0, 0),
+            ev(2, 160, 0),
+            ev(3, 163, 3),
+            ev(4, 1119, 719),
+            ev(5, 1120, 5),
+        ];
+        let out = downsample(&events, source, target).unwrap();
+        assert_eq!(out, vec![ev(2, 0, 0), ev(3, 0, 0), ev(4, 239, 179)]);
+        assert!(downsample(&[ev(1, 1280, 0)], source, target).is_err());
+    }
+}

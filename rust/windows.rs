@@ -1,1 +1,589 @@
-//! Placeholder: filled in by its issue.
+//! Windows: the time-embedded frames of SPEC §2 and `docs/model.md` §1.
+//!
+//! A window is `[t0, t0 + L)`. Windows start every `step = L·(1 − o)` µs (see [`window_step`])
+//! from `start` (the first event's time unless given) while `t0 < end` (one past the last event's
+//! time unless given). A window's *input spikes* are, for each pixel with at least one event in
+//! it, that pixel's first event in the window (polarities merged), in time order and, on equal
+//! times, in order of arrival. Empty windows are kept, so that window `i` always starts at
+//! `start + i·step`.
+//!
+//! The result is in compressed sparse rows ([`Windows`]): the spikes of window `i` are
+//! `offsets[i]..offsets[i + 1]` of the columns `t`, `x`, `y`.
+//!
+//! # Cost
+//!
+//! One pass over the events, in time order, with a per-pixel array holding the time of the
+//! pixel's previous event. An event at time `t` whose pixel last fired at `t_prev` is the
+//! pixel's first event in exactly the windows with `max(t − L, t_prev) < t0 ≤ t`: a range of
+//! window indices computed by two divisions, so the work is `O(events × windows per event)`
+//! (`windows per event` = `ceil(L / step)`) and nothing is ever cleared per window. Windows are
+//! assembled in a ring of `ceil(L / step)` buffers and flushed, in order, once the stream has
+//! passed their end. Long recordings are cut into runs of consecutive windows processed in
+//! parallel (rayon), each run reading only the events that can reach it.
+
+mod frames;
+mod median;
+mod noise;
+
+pub use frames::frames;
+pub use median::{median_keep, MedianFilter, MEDIAN_MIN_ACTIVE};
+pub use noise::{add_noise, NoisyWindows};
+
+use rayon::prelude::*;
+
+use crate::error::{Error, Result};
+use crate::events::{validate, Event, SensorSize};
+
+/// Largest timestamp (and window length) windowing accepts: 2^62 µs, about 146,000 years.
+/// Keeping every time below it makes all window arithmetic free of overflow.
+pub const MAX_TIME_US: u64 = 1 << 62;
+
+/// Most windows one call may produce (each costs about 32 bytes before any spike); a larger
+/// request is almost always a unit mistake (nanoseconds given as microseconds, a step of 1 µs
+/// over hours) and is refused rather than exhausting memory.
+pub const MAX_WINDOWS: usize = 50_000_000;
+
+/// Events per parallel run below which windowing stays on one thread.
+const EVENTS_PER_RUN: usize = 250_000;
+
+/// The step between window starts, `L·(1 − o)` rounded down to whole microseconds, at least 1.
+///
+/// A product within `1e-9` (relative) of an integer counts as that integer, so that binary
+/// floating point does not turn 10 ms at 90 % overlap into 999 µs.
+pub fn window_step(length_us: u64, overlap: f64) -> Result<u64> {
+    if length_us == 0 {
+        return Err(Error::param(
+            "length_us",
+            "the window length must be at least 1 µs, got 0",
+        ));
+    }
+    if length_us > MAX_TIME_US {
+        return Err(Error::param(
+            "length_us",
+            format!("the window length must be at most 2^62 µs, got {length_us}"),
+        ));
+    }
+    if !overlap.is_finite() || !(0.0..1.0).contains(&overlap) {
+        return Err(Error::param(
+            "overlap",
+            format!("the overlap must be in [0, 1), got {overlap}"),
+        ));
+    }
+    let exact = length_us as f64 * (1.0 - overlap);
+    let nearest = exact.round();
+    let step = if (exact - nearest).abs() <= 1e-9 * exact.max(1.0) {
+        nearest
+    } else {
+        exact.floor()
+    };
+    Ok((step as u64).clamp(1, length_us))
+}
+
+/// How to cut a stream into windows.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WindowConfig {
+    /// Window length `L` in µs.
+    pub length_us: u64,
+    /// Step between window starts in µs (from [`window_step`]).
+    pub step_us: u64,
+    /// Apply the 3×3 median filter to each window's active pixels ([`median`](MedianFilter)).
+    pub median: bool,
+    /// Start of the first window; the first event's time when `None`.
+    pub start_us: Option<u64>,
+    /// Windows start strictly before this time, and events at or after it are ignored; one past
+    /// the last event's time when `None`.
+    pub end_us: Option<u64>,
+}
+
+impl WindowConfig {
+    /// Windows of `length_us` with overlap `overlap` in `[0, 1)`, no median filter, spanning the
+    /// whole stream.
+    pub fn new(length_us: u64, overlap: f64) -> Result<Self> {
+        Ok(Self {
+            length_us,
+            step_us: window_step(length_us, overlap)?,
+            median: false,
+            start_us: None,
+            end_us: None,
+        })
+    }
+
+    /// The same windows with the median filter switched on or off.
+    #[must_use]
+    pub fn with_median(mut self, median: bool) -> Self {
+        self.median = median;
+        self
+    }
+
+    /// The same windows restricted to `[start_us, end_us)` (`None` keeps the default).
+    #[must_use]
+    pub fn with_range(mut self, start_us: Option<u64>, end_us: Option<u64>) -> Self {
+        self.start_us = start_us;
+        self.end_us = end_us;
+        self
+    }
+}
+
+/// One input spike of a window.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Spike {
+    /// Absolute time in µs.
+    pub t: u64,
+    /// Column.
+    pub x: u16,
+    /// Row.
+    pub y: u16,
+}
+
+/// Many windows in compressed sparse rows.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Windows {
+    /// Sensor the coordinates refer to.
+    pub sensor: SensorSize,
+    /// Window length `L` in µs.
+    pub length_us: u64,
+    /// Window starts, `(n,)`.
+    pub t0: Vec<u64>,
+    /// Window `i`'s spikes are `offsets[i]..offsets[i + 1]`, `(n + 1,)`.
+    pub offsets: Vec<usize>,
+    /// Absolute spike times, sorted within each window.
+    pub t: Vec<u64>,
+    /// Spike columns.
+    pub x: Vec<u16>,
+    /// Spike rows.
+    pub y: Vec<u16>,
+    /// Distinct pixels with at least one event in `[t0 − L, t0)` (PENT's "preceding" estimate of
+    /// `N_in`, `docs/model.md` §4), counted on the raw events before any median filter.
+    pub n_preceding: Vec<u64>,
+}
+
+impl Windows {
+    /// No windows.
+    pub fn empty(sensor: SensorSize, length_us: u64) -> Self {
+        Self {
+            sensor,
+            length_us,
+            t0: Vec::new(),
+            offsets: vec![0],
+            t: Vec::new(),
+            x: Vec::new(),
+            y: Vec::new(),
+            n_preceding: Vec::new(),
+        }
+    }
+
+    /// Number of windows.
+    pub fn len(&self) -> usize {
+        self.t0.len()
+    }
+
+    /// Whether there are no windows.
+    pub fn is_empty(&self) -> bool {
+        self.t0.is_empty()
+    }
+
+    /// A borrowed view (already consistent: built by this module).
+    pub fn view(&self) -> WindowsView<'_> {
+        WindowsView {
+            sensor: self.sensor,
+            length_us: self.length_us,
+            t0: &self.t0,
+            offsets: &self.offsets,
+            t: &self.t,
+            x: &self.x,
+            y: &self.y,
+        }
+    }
+}
+
+/// Borrowed windows, checked for consistency when built from outside data.
+#[derive(Debug, Clone, Copy)]
+pub struct WindowsView<'a> {
+    pub sensor: SensorSize,
+    pub length_us: u64,
+    pub t0: &'a [u64],
+    pub offsets: &'a [usize],
+    pub t: &'a [u64],
+    pub x: &'a [u16],
+    pub y: &'a [u16],
+}
+
+impl<'a> WindowsView<'a> {
+    /// Check that the columns describe valid windows: `offsets` starts at 0, never decreases and
+    /// ends at the number of spikes; every spike lies on the sensor and inside its window, and
+    /// spikes are sorted by time within each window.
+    pub fn new(
+        sensor: SensorSize,
+        length_us: u64,
+        t0: &'a [u64],
+        offsets: &'a [usize],
+        t: &'a [u64],
+        x: &'a [u16],
+        y: &'a [u16],
+    ) -> Result<Self> {
+        if length_us == 0 || length_us > MAX_TIME_US {
+            return Err(Error::param(
+                "length_us",
+                format!("must be in [1, 2^62] µs, got {length_us}"),
+            ));
+        }
+        if offsets.len() != t0.len() + 1 {
+            return Err(Error::Shape {
+                name: "offsets",
+                expected: format!("{} entries (windows + 1)", t0.len() + 1),
+                got: format!("{}", offsets.len()),
+            });
+        }
+        if t.len() != x.len() || t.len() != y.len() {
+            return Err(Error::Shape {
+                name: "t, x, y",
+                expected: "three columns of equal length".into(),
+                got: format!("{}, {}, {}", t.len(), x.len(), y.len()),
+            });
+        }
+        if offsets[0] != 0 || offsets[offsets.len() - 1] != t.len() {
+            return Err(Error::Shape {
+                name: "offsets",
+                expected: format!("to run from 0 to {} (the number of spikes)", t.len()),
+                got: format!("{} .. {}", offsets[0], offsets[offsets.len() - 1]),
+            });
+        }
+        for (i, pair) in offsets.windows(2).enumerate() {
+            if pair[1] < pair[0] {
+                return Err(Error::Shape {
+                    name: "offsets",
+                    expected: "non-decreasing values".into(),
+                    got: format!(
+                        "offsets[{}]={} > offsets[{}]={}",
+                        i,
+                        pair[0],
+                        i + 1,
+                        pair[1]
+                    ),
+                });
+            }
+            let start = t0[i];
+            for j in pair[0]..pair[1] {
+                if !sensor.contains(x[j], y[j]) {
+                    return Err(Error::InvalidEvent {
+                        index: j,
+                        reason: format!(
+                            "spike (x={}, y={}) of window {i} is outside the {}x{} sensor",
+                            x[j], y[j], sensor.width, sensor.height
+                        ),
+                    });
+                }
+                if j > pair[0] && t[j] < t[j - 1] {
+                    return Err(Error::InvalidEvent {
+                        index: j,
+                        reason: format!(
+                            "spike t={} of window {i} comes before the previous spike (t={})",
+                            t[j],
+                            t[j - 1]
+                        ),
+                    });
+                }
+                if t[j] < start || t[j] - start >= length_us {
+                    return Err(Error::InvalidEvent {
+                        index: j,
+                        reason: format!(
+                            "spike t={} of window {i} is outside [{start}, {start} + {length_us})",
+                            t[j]
+                        ),
+                    });
+                }
+            }
+        }
+        Ok(Self {
+            sensor,
+            length_us,
+            t0,
+            offsets,
+            t,
+            x,
+            y,
+        })
+    }
+
+    /// Number of windows.
+    pub fn len(&self) -> usize {
+        self.t0.len()
+    }
+
+    /// Whether there are no windows.
+    pub fn is_empty(&self) -> bool {
+        self.t0.is_empty()
+    }
+
+    /// The index range of window `i`'s spikes in the columns.
+    pub fn range(&self, i: usize) -> std::ops::Range<usize> {
+        self.offsets[i]..self.offsets[i + 1]
+    }
+}
+
+/// The arithmetic of window starts: `t0(k) = start + k·step` for `k < n`.
+#[derive(Debug, Clone, Copy)]
+struct Grid {
+    start: u64,
+    step: u64,
+    length: u64,
+    n: usize,
+}
+
+impl Grid {
+    #[inline]
+    fn t0(self, k: usize) -> u64 {
+        self.start + k as u64 * self.step
+    }
+
+    /// The smallest `k` with `t0(k) > t` (may be `n`: none).
+    #[inline]
+    fn first_after(self, t: u64) -> usize {
+        if t < self.start {
+            0
+        } else {
+            ((t - self.start) / self.step + 1).min(self.n as u64) as usize
+        }
+    }
+
+    /// The largest `k < n` with `t0(k) ≤ t`.
+    #[inline]
+    fn last_at_or_before(self, t: u64) -> Option<usize> {
+        if t < self.start || self.n == 0 {
+            None
+        } else {
+            Some(((t - self.start) / self.step).min(self.n as u64 - 1) as usize)
+        }
+    }
+}
+
+/// Cut `events` (sorted by time, on `sensor`) into windows.
+///
+/// The events are validated first (sorted, on the sensor, times ≤ [`MAX_TIME_US`]). An empty
+/// stream gives no windows unless both `start_us` and `end_us` are given, in which case it gives
+/// the empty windows of that range.
+pub fn make_windows(
+    events: &[Event],
+    sensor: SensorSize,
+    config: &WindowConfig,
+) -> Result<Windows> {
+    if config.length_us == 0 || config.length_us > MAX_TIME_US {
+        return Err(Error::param(
+            "length_us",
+            format!("must be in [1, 2^62] µs, got {}", config.length_us),
+        ));
+    }
+    let step = config.step_us;
+    if step == 0 || step > config.length_us {
+        return Err(Error::param(
+            "step_us",
+            format!("must be in [1, {}], got {step}", config.length_us),
+        ));
+    }
+    validate(events, sensor, None, 0)?;
+    if let Some(last) = events.last() {
+        if last.t > MAX_TIME_US {
+            return Err(Error::InvalidEvent {
+                index: events.len() - 1,
+                reason: format!(
+                    "t={} is beyond the largest time windowing accepts (2^62 µs)",
+                    last.t
+                ),
+            });
+        }
+    }
+    for (name, value) in [("start_us", config.start_us), ("end_us", config.end_us)] {
+        if value.is_some_and(|v| v > MAX_TIME_US) {
+            return Err(Error::param(
+                name,
+                format!("must be at most 2^62 µs, got {value:?}"),
+            ));
+        }
+    }
+    let Some(start) = config.start_us.or(events.first().map(|e| e.t)) else {
+        return Ok(Windows::empty(sensor, config.length_us));
+    };
+    let end = match config.end_us {
+        Some(end) if end < start => {
+            return Err(Error::param(
+                "end_us",
+                format!("must not be before start_us={start}, got {end}"),
+            ))
+        }
+        Some(end) => end,
+        None => events.last().map_or(start, |e| (e.t + 1).max(start)),
+    };
+    let n = (end - start).div_ceil(step);
+    if n > MAX_WINDOWS as u64 {
+        return Err(Error::param(
+            "length_us",
+            format!(
+                "{n} windows of step {step} µs over [{start}, {end}) exceed the limit of \
+                 {MAX_WINDOWS}; check the time unit, or window a shorter range"
+            ),
+        ));
+    }
+    let grid = Grid {
+        start,
+        step,
+        length: config.length_us,
+        n: n as usize,
+    };
+    let runs = plan_runs(grid.n, events.len());
+    let parts: Vec<Part> = runs
+        .into_par_iter()
+        .map(|(ka, kb)| window_run(events, sensor, grid, ka, kb, end, config.median))
+        .collect();
+    Ok(join_parts(sensor, config.length_us, parts))
+}
+
+/// Split `n` windows into runs of consecutive windows: one per [`EVENTS_PER_RUN`] events, a few
+/// per thread at most.
+fn plan_runs(n: usize, events: usize) -> Vec<(usize, usize)> {
+    if n == 0 {
+        return Vec::new();
+    }
+    let threads = rayon::current_num_threads();
+    let wanted = (events / EVENTS_PER_RUN).clamp(1, 4 * threads).min(n);
+    let per = n.div_ceil(wanted);
+    (0..n).step_by(per).map(|a| (a, (a + per).min(n))).collect()
+}
+
+/// The windows of one run, before joining.
+struct Part {
+    t0: Vec<u64>,
+    counts: Vec<usize>,
+    spikes: Vec<Spike>,
+    n_preceding: Vec<u64>,
+}
+
+/// Build windows `ka..kb` of `grid` from the events that can reach them.
+fn window_run(
+    events: &[Event],
+    sensor: SensorSize,
+    grid: Grid,
+    ka: usize,
+    kb: usize,
+    end: u64,
+    median: bool,
+) -> Part {
+    const NEVER: u64 = u64::MAX;
+    let length = grid.length;
+    // Events before `t0(ka) − L` reach neither a window of this run nor its preceding interval;
+    // events at or after the last window's end, or after `end`, reach none either.
+    let lo_t = grid.t0(ka).saturating_sub(length);
+    let hi_t = end.min(grid.t0(kb - 1) + length);
+    let i0 = events.partition_point(|e| e.t < lo_t);
+    let i1 = events.partition_point(|e| e.t < hi_t);
+
+    let ring_len = (length.div_ceil(grid.step) as usize).min(kb - ka).max(1);
+    let mut ring: Vec<Vec<Spike>> = vec![Vec::new(); ring_len];
+    let mut last = vec![NEVER; sensor.area()];
+    // n_preceding as a difference array: each event adds 1 to a range of windows.
+    let mut preceding = vec![0i64; kb - ka + 1];
+    let mut filter = median.then(|| MedianFilter::new(sensor));
+    let mut part = Part {
+        t0: Vec::with_capacity(kb - ka),
+        counts: Vec::with_capacity(kb - ka),
+        spikes: Vec::with_capacity(i1 - i0),
+        n_preceding: Vec::with_capacity(kb - ka),
+    };
+    let mut flush = |k: usize, part: &mut Part, ring: &mut [Vec<Spike>]| {
+        let slot = &mut ring[(k - ka) % ring_len];
+        if let Some(filter) = filter.as_mut() {
+            filter.apply(slot);
+        }
+        part.t0.push(grid.t0(k));
+        part.counts.push(slot.len());
+        part.spikes.extend_from_slice(slot);
+        slot.clear();
+    };
+
+    let mut next_close = ka;
+    for e in &events[i0..i1] {
+        while next_close < kb && grid.t0(next_close) + length <= e.t {
+            flush(next_close, &mut part, &mut ring);
+            next_close += 1;
+        }
+        let pixel = sensor.index(e.x, e.y);
+        let prev = last[pixel];
+        last[pixel] = e.t;
+
+        // Preceding intervals [t0 − L, t0) holding this event as their pixel's first:
+        // t < t0 ≤ t + L and t0 > t_prev + L.
+        let lower = if prev == NEVER {
+            e.t
+        } else {
+            e.t.max(prev + length)
+        };
+        let a = grid.first_after(lower).max(ka);
+        if let Some(b) = grid.last_at_or_before(e.t + length) {
+            let b = b.min(kb - 1);
+            if a <= b {
+                preceding[a - ka] += 1;
+                preceding[b + 1 - ka] -= 1;
+            }
+        }
+
+        // Windows holding this event as their pixel's first: max(t − L, t_prev) < t0 ≤ t.
+        let Some(b) = grid.last_at_or_before(e.t) else {
+            continue;
+        };
+        let b = b.min(kb - 1);
+        let floor = match (e.t.checked_sub(length), prev != NEVER) {
+            (Some(f), true) => Some(f.max(prev)),
+            (Some(f), false) => Some(f),
+            (None, true) => Some(prev),
+            (None, false) => None,
+        };
+        let a = floor.map_or(0, |f| grid.first_after(f)).max(ka);
+        let spike = Spike {
+            t: e.t,
+            x: e.x,
+            y: e.y,
+        };
+        for k in a..=b {
+            ring[(k - ka) % ring_len].push(spike);
+        }
+    }
+    while next_close < kb {
+        flush(next_close, &mut part, &mut ring);
+        next_close += 1;
+    }
+    let mut running = 0i64;
+    for d in &preceding[..kb - ka] {
+        running += d;
+        part.n_preceding.push(running as u64);
+    }
+    part
+}
+
+fn join_parts(sensor: SensorSize, length_us: u64, parts: Vec<Part>) -> Windows {
+    let n: usize = parts.iter().map(|p| p.t0.len()).sum();
+    let m: usize = parts.iter().map(|p| p.spikes.len()).sum();
+    let mut w = Windows::empty(sensor, length_us);
+    w.t0.reserve(n);
+    w.offsets.reserve(n);
+    w.n_preceding.reserve(n);
+    w.t.reserve(m);
+    w.x.reserve(m);
+    w.y.reserve(m);
+    let mut total = 0usize;
+    for part in parts {
+        w.t0.extend_from_slice(&part.t0);
+        w.n_preceding.extend_from_slice(&part.n_preceding);
+        for c in part.counts {
+            total += c;
+            w.offsets.push(total);
+        }
+        for s in part.spikes {
+            w.t.push(s.t);
+            w.x.push(s.x);
+            w.y.push(s.y);
+        }
+    }
+    w
+}
+
+#[cfg(test)]
+mod tests;

@@ -16,6 +16,72 @@ def validate_events(
 
 # ---------------------------------------------------------------- windows and filters (issue 2)
 
+def denoise_mask(
+    events: npt.NDArray[np.uint8], width: int, height: int, dt_us: int
+) -> npt.NDArray[np.bool_]: ...
+def downsample_events(
+    events: npt.NDArray[np.uint8],
+    width: int,
+    height: int,
+    target_width: int,
+    target_height: int,
+) -> tuple[npt.NDArray[np.bool_], npt.NDArray[np.uint16], npt.NDArray[np.uint16]]: ...
+
+_WindowArrays = tuple[
+    npt.NDArray[np.uint64],
+    npt.NDArray[np.int64],
+    npt.NDArray[np.uint64],
+    npt.NDArray[np.uint16],
+    npt.NDArray[np.uint16],
+    npt.NDArray[np.int64],
+]
+
+def window_step(length_us: int, overlap: float) -> int: ...
+def make_windows(
+    events: npt.NDArray[np.uint8],
+    width: int,
+    height: int,
+    length_us: int,
+    overlap: float = 0.0,
+    median: bool = False,
+    start_us: int | None = None,
+    end_us: int | None = None,
+) -> _WindowArrays: ...
+def check_windows(
+    width: int,
+    height: int,
+    length_us: int,
+    t0: npt.NDArray[np.uint64],
+    offsets: npt.NDArray[np.int64],
+    t: npt.NDArray[np.uint64],
+    x: npt.NDArray[np.uint16],
+    y: npt.NDArray[np.uint16],
+) -> None: ...
+def window_frames(
+    width: int,
+    height: int,
+    length_us: int,
+    t0: npt.NDArray[np.uint64],
+    offsets: npt.NDArray[np.int64],
+    t: npt.NDArray[np.uint64],
+    x: npt.NDArray[np.uint16],
+    y: npt.NDArray[np.uint16],
+    indices: npt.NDArray[np.int64],
+) -> npt.NDArray[np.float32]: ...
+def add_noise(
+    width: int,
+    height: int,
+    length_us: int,
+    t0: npt.NDArray[np.uint64],
+    offsets: npt.NDArray[np.int64],
+    t: npt.NDArray[np.uint64],
+    x: npt.NDArray[np.uint16],
+    y: npt.NDArray[np.uint16],
+    n_preceding: npt.NDArray[np.int64],
+    fraction: float,
+    seed: int,
+) -> tuple[_WindowArrays, npt.NDArray[np.float64]]: ...
+
 # ---------------------------------------------------------------- network (issue 3)
 
 # ---------------------------------------------------------------- simulation (issue 4)

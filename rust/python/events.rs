@@ -1,10 +1,12 @@
-//! Bindings for events: validation of packed event records.
+//! Bindings for events: validation of packed event records, and the event filters.
 
-use numpy::PyReadonlyArray1;
+use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1};
 use pyo3::prelude::*;
 
 use super::errors::detach;
+use crate::error::Error;
 use crate::events::{decode_packed, Event, SensorSize};
+use crate::filters;
 
 /// Decode and validate packed event records (canonical dtype viewed as `uint8`).
 pub fn events_from_bytes(
@@ -34,6 +36,64 @@ fn validate_events(
     events_from_bytes(py, &events, width, height, previous_t).map(|v| v.len())
 }
 
+/// Which events the background-activity filter keeps (tonic's `denoise` semantics).
+#[pyfunction]
+fn denoise_mask<'py>(
+    py: Python<'py>,
+    events: PyReadonlyArray1<'py, u8>,
+    width: u16,
+    height: u16,
+    dt_us: i64,
+) -> PyResult<Bound<'py, PyArray1<bool>>> {
+    let raw = events.as_slice()?;
+    let keep = detach(py, || {
+        let sensor = SensorSize::new(width, height)?;
+        let dt = u64::try_from(dt_us)
+            .map_err(|_| Error::param("dt_us", format!("must be >= 1 µs, got {dt_us}")))?;
+        let events = decode_packed(raw, sensor, None, 0)?;
+        filters::denoise_mask(&events, sensor, dt)
+    })?;
+    Ok(keep.into_pyarray(py))
+}
+
+/// The kept-event mask and the new coordinates of the kept events.
+type Downsampled<'py> = (
+    Bound<'py, PyArray1<bool>>,
+    Bound<'py, PyArray1<u16>>,
+    Bound<'py, PyArray1<u16>>,
+);
+
+/// Crop to the target's aspect (centred) and scale: returns the mask of kept events and their
+/// new `x`, `y` (for the kept events only).
+#[pyfunction]
+fn downsample_events<'py>(
+    py: Python<'py>,
+    events: PyReadonlyArray1<'py, u8>,
+    width: u16,
+    height: u16,
+    target_width: u16,
+    target_height: u16,
+) -> PyResult<Downsampled<'py>> {
+    let raw = events.as_slice()?;
+    let (keep, xs, ys) = detach(py, || {
+        let source = SensorSize::new(width, height)?;
+        let target = SensorSize::new(target_width, target_height)?;
+        let events = decode_packed(raw, source, None, 0)?;
+        let map = filters::downsample_map(&events, source, target)?;
+        let keep: Vec<bool> = map.iter().map(Option::is_some).collect();
+        let (xs, ys): (Vec<u16>, Vec<u16>) = map.into_iter().flatten().unzip();
+        Ok((keep, xs, ys))
+    })?;
+    Ok((
+        keep.into_pyarray(py),
+        xs.into_pyarray(py),
+        ys.into_pyarray(py),
+    ))
+}
+
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
-    m.add_function(wrap_pyfunction!(validate_events, m)?)
+    m.add_function(wrap_pyfunction!(validate_events, m)?)?;
+    m.add_function(wrap_pyfunction!(denoise_mask, m)?)?;
+    m.add_function(wrap_pyfunction!(downsample_events, m)?)?;
+    Ok(())
 }

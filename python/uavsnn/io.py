@@ -1,0 +1,294 @@
+"""Reading and writing recordings (SPEC §1).
+
+The formats that event cameras and their tools write (AEDAT4, Prophesee RAW EVT 2.0/2.1/3.0,
+DAT, ES, CSV) are decoded by `faery <https://github.com/aestream/faery>`_, the field's maintained
+Rust decoder; NumPy ``.npz`` and ``.npy`` are read natively, and recordings are written as
+``.npz``.
+
+The sensor size comes from the file when the file has one (AEDAT4, ES, and RAW/DAT files whose
+header carries the geometry). Otherwise it is the ``sensor_size`` argument, or, if that is
+absent, faery's fallback of 1280×720 (``.npy``: the events' bounding box); the recording's
+``metadata["sensor_size_source"]`` says which: ``"file"``, ``"argument"``, ``"fallback"`` or
+``"inferred"``. A ``sensor_size`` that contradicts the file's is an error.
+
+Every failure to read is a :class:`~uavsnn.RecordingFileError` naming the file: missing, empty,
+of an unknown extension, truncated (RAW and DAT: a data section that is not a whole number of
+words; AEDAT4: a cut packet), or corrupt (undecodable, events off the sensor or out of order).
+A RAW file cut exactly on a word boundary is indistinguishable from a shorter recording: the
+format has no length field.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import secrets
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from uavsnn.errors import EventError, ParameterError, RecordingFileError
+from uavsnn.events import EVENT_DTYPE, Recording, _check_sensor_size, convert
+
+__all__ = ["FAERY_FALLBACK_SIZE", "FORMATS", "read", "write_npz"]
+
+#: File extensions and the format each is read as.
+FORMATS: dict[str, str] = {
+    ".aedat4": "aedat",
+    ".aedat": "aedat",
+    ".raw": "evt",
+    ".evt": "evt",
+    ".dat": "dat",
+    ".es": "es",
+    ".csv": "csv",
+    ".npz": "npz",
+    ".npy": "npy",
+}
+
+#: The sensor size faery assumes for a RAW, DAT or CSV file without geometry.
+FAERY_FALLBACK_SIZE = (1280, 720)
+
+# Bytes per word of each EVT version (RAW files); faery reads a RAW file without a version line
+# as EVT 3.0.
+_EVT_WORD = {"2.0": 4, "2.1": 8, "3.0": 2}
+
+
+def read(path: str | os.PathLike[str], sensor_size: tuple[int, int] | None = None) -> Recording:
+    """Read a recording.
+
+    Args:
+        path: an ``.aedat4``, ``.raw``/``.evt``, ``.dat``, ``.es``, ``.csv``, ``.npz`` or
+            ``.npy`` file.
+        sensor_size: ``(width, height)`` for files without geometry (RAW files whose header
+            has none, such as Prophesee Gen3 files; CSV; ``.npy``).
+
+    Returns:
+        the :class:`~uavsnn.Recording`, with ``metadata`` holding ``path``, ``format`` and
+        ``sensor_size_source``.
+
+    Raises:
+        RecordingFileError: the file is missing, empty, of an unknown type, truncated or corrupt.
+        ParameterError: ``sensor_size`` is malformed or contradicts the file's own.
+    """
+    file = Path(path)
+    given = None if sensor_size is None else _check_sensor_size(sensor_size)
+    kind = FORMATS.get(file.suffix.lower())
+    if kind is None:
+        raise RecordingFileError(
+            f"{file}: unknown file type {file.suffix!r}; expected one of {sorted(FORMATS)}"
+        )
+    if not file.is_file():
+        raise RecordingFileError(f"{file}: no such file")
+    size = file.stat().st_size
+    if size == 0:
+        raise RecordingFileError(f"{file}: the file is empty")
+    if kind == "npz":
+        return _read_npz(file, given)
+    if kind == "npy":
+        return _read_npy(file, given)
+    return _read_faery(file, kind, size, given)
+
+
+def _recording(
+    file: Path, events: np.ndarray, sensor: tuple[int, int], metadata: dict[str, Any]
+) -> Recording:
+    try:
+        return Recording(events, sensor, metadata)
+    except EventError as exc:
+        raise RecordingFileError(f"{file}: corrupt or not a recording: {exc}") from exc
+
+
+def _read_npz(file: Path, given: tuple[int, int] | None) -> Recording:
+    try:
+        with np.load(file, allow_pickle=False) as data:
+            missing = {"events", "sensor_size"} - set(data.files)
+            if missing:
+                raise RecordingFileError(
+                    f"{file}: an .npz recording needs arrays 'events' and 'sensor_size', "
+                    f"missing {sorted(missing)}"
+                )
+            raw_events = data["events"]
+            stored_size = data["sensor_size"]
+            stored_meta = data["metadata"] if "metadata" in data.files else None
+    except RecordingFileError:
+        raise
+    except Exception as exc:  # zipfile, numpy format and pickle refusals alike
+        raise RecordingFileError(f"{file}: cannot read as .npz: {exc}") from exc
+    try:
+        events = convert(raw_events)
+    except EventError as exc:
+        raise RecordingFileError(f"{file}: bad 'events' array: {exc}") from exc
+    try:
+        sensor = _check_sensor_size(stored_size.tolist())
+    except ParameterError as exc:
+        raise RecordingFileError(f"{file}: bad 'sensor_size' array: {exc}") from exc
+    if given is not None and given != sensor:
+        raise ParameterError(f"{file}: sensor_size={given} contradicts the file's {sensor}")
+    metadata: dict[str, Any] = {}
+    if stored_meta is not None:
+        try:
+            loaded = json.loads(str(stored_meta[()]))
+        except (ValueError, TypeError, IndexError) as exc:
+            raise RecordingFileError(f"{file}: bad 'metadata' (not JSON): {exc}") from exc
+        if isinstance(loaded, dict):
+            metadata.update(loaded)
+    metadata.update(path=str(file), format="npz", sensor_size_source="file")
+    return _recording(file, events, sensor, metadata)
+
+
+def _read_npy(file: Path, given: tuple[int, int] | None) -> Recording:
+    try:
+        raw_events = np.load(file, allow_pickle=False)
+    except Exception as exc:
+        raise RecordingFileError(f"{file}: cannot read as .npy: {exc}") from exc
+    try:
+        events = convert(raw_events)
+    except EventError as exc:
+        raise RecordingFileError(f"{file}: not an event array: {exc}") from exc
+    if given is not None:
+        sensor, source = given, "argument"
+    elif len(events):
+        sensor = (int(events["x"].max()) + 1, int(events["y"].max()) + 1)
+        source = "inferred"
+    else:
+        raise ParameterError(f"{file}: an empty .npy recording needs sensor_size=(width, height)")
+    metadata = {"path": str(file), "format": "npy", "sensor_size_source": source}
+    return _recording(file, events, sensor, metadata)
+
+
+def _check_words(file: Path, kind: str, size: int) -> None:
+    """Refuse RAW/DAT files whose data section is not a whole number of words."""
+    with open(file, "rb") as handle:
+        head = handle.read(1 << 16)
+    pos = 0
+    version = None
+    while pos < len(head) and head[pos : pos + 1] == b"%":
+        end = head.find(b"\n", pos)
+        if end < 0:
+            if len(head) == size:
+                raise RecordingFileError(f"{file}: truncated inside its header")
+            return  # a header longer than 64 KiB: leave it to faery
+        line = head[pos + 1 : end].decode("latin-1").strip()
+        pos = end + 1
+        if line.startswith("evt "):
+            version = line.split()[1]
+        elif line.startswith("format "):
+            version = {"EVT2": "2.0", "EVT21": "2.1", "EVT3": "3.0"}.get(
+                line.split()[1].split(";")[0].upper(), version
+            )
+        elif line == "end":
+            break
+    if kind == "evt":
+        word = _EVT_WORD.get(version or "3.0")
+        data = size - pos
+        if word is not None and data % word:
+            raise RecordingFileError(
+                f"{file}: truncated: its event data holds {data} bytes, not a whole number "
+                f"of {word}-byte EVT {version or '3.0'} words"
+            )
+    else:  # DAT: a type byte and a size byte, then records of that size
+        if size - pos < 2:
+            raise RecordingFileError(f"{file}: truncated after its header")
+        record = head[pos + 1] if pos + 1 < len(head) else 0
+        data = size - pos - 2
+        if record and data % record:
+            raise RecordingFileError(
+                f"{file}: truncated: its event data holds {data} bytes, not a whole number "
+                f"of {record}-byte DAT records"
+            )
+
+
+def _file_geometry(file: Path) -> tuple[int, int] | None:
+    """The sensor size written in a RAW/DAT file's header, or ``None`` if it has none.
+
+    faery reports the fallback it is given when the header has no geometry, so two different
+    fallbacks tell the cases apart.
+    """
+    import faery
+
+    first = faery.events_stream_from_file(file, dimensions_fallback=(1, 1)).dimensions()
+    second = faery.events_stream_from_file(file, dimensions_fallback=(2, 2)).dimensions()
+    return (int(first[0]), int(first[1])) if tuple(first) == tuple(second) else None
+
+
+def _read_faery(file: Path, kind: str, size: int, given: tuple[int, int] | None) -> Recording:
+    import faery
+
+    if kind in ("evt", "dat"):
+        _check_words(file, kind, size)
+    geometry: tuple[int, int] | None = None
+    sensor, source = FAERY_FALLBACK_SIZE, "fallback"
+    try:
+        if kind in ("evt", "dat"):
+            geometry = _file_geometry(file)
+        elif kind == "csv":
+            geometry = None
+        else:
+            width, height = faery.events_stream_from_file(file).dimensions()
+            geometry = (int(width), int(height))
+        if geometry is not None:
+            sensor, source = geometry, "file"
+            if given is not None and given != sensor:
+                raise ParameterError(f"{file}: sensor_size={given} contradicts the file's {sensor}")
+        elif given is not None:
+            sensor, source = given, "argument"
+        stream = faery.events_stream_from_file(file, dimensions_fallback=sensor)
+        chunks = [np.ascontiguousarray(c).view(EVENT_DTYPE) for c in stream if len(c)]
+    except ParameterError:
+        raise
+    except Exception as exc:  # faery raises RuntimeError and bare Exception
+        hint = ""
+        if source == "fallback" and "overflow" in str(exc):
+            hint = (
+                f" (the file has no geometry; the sensor was taken as {sensor}: give sensor_size)"
+            )
+        raise RecordingFileError(f"{file}: cannot decode as {kind}: {exc}{hint}") from exc
+    events = np.concatenate(chunks) if chunks else np.empty(0, EVENT_DTYPE)
+    metadata = {"path": str(file), "format": kind, "sensor_size_source": source}
+    return _recording(file, events, sensor, metadata)
+
+
+def _json_default(value: Any) -> Any:
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    raise TypeError(f"{type(value).__name__} is not JSON-serialisable")
+
+
+def write_npz(recording: Recording, path: str | os.PathLike[str]) -> None:
+    """Write a recording as ``.npz`` (arrays ``events``, ``sensor_size``, ``metadata`` as JSON),
+    atomically: to a temporary file in the same directory, then renamed over ``path``.
+
+    Raises:
+        ParameterError: ``recording`` is not a :class:`~uavsnn.Recording` or its metadata is
+            not JSON-serialisable.
+        RecordingFileError: the file cannot be written.
+    """
+    if not isinstance(recording, Recording):
+        raise ParameterError(f"expected a Recording, got {type(recording).__name__}")
+    try:
+        meta = json.dumps(recording.metadata, default=_json_default)
+    except (TypeError, ValueError) as exc:
+        raise ParameterError(f"recording metadata is not JSON-serialisable: {exc}") from exc
+    target = Path(path)
+    tmp = target.with_name(f".{target.name}.{secrets.token_hex(6)}.tmp")
+    try:
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+        with os.fdopen(fd, "wb") as handle:
+            np.savez(
+                handle,
+                events=np.ascontiguousarray(recording.events),
+                sensor_size=np.asarray(recording.sensor_size, dtype=np.int64),
+                metadata=np.asarray(meta),
+            )
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.replace(tmp, target)
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        raise RecordingFileError(f"{target}: cannot write: {exc}") from exc
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise

@@ -1,0 +1,310 @@
+"""Windows: the time-embedded frames the network looks through (SPEC §2, docs/model.md §1).
+
+A window is ``[t0, t0 + L)``; windows start every ``L·(1 − o)`` µs (:func:`window_step`) from
+the recording's first event (or ``start_us``) while ``t0`` is before one past the last event (or
+``end_us``). A window's input spikes are each pixel's first event in it, polarities merged, in
+time order (ties: order of arrival); a pixel fires at most once per window. Empty windows are
+kept, so that window ``i`` starts at ``start + i·step``. An empty recording gives no windows
+(unless both ``start_us`` and ``end_us`` are given: then the empty windows of that range).
+
+With ``median=True`` the paper's 3×3 median filter cleans each window's active pixels: an active
+pixel is kept iff at least 5 of the 9 pixels of its 3×3 neighbourhood (itself included, zero
+padding outside the sensor) are active; silent pixels stay silent.
+
+The work is done by the Rust engine (``rust/windows.rs``) in one pass over the events.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from uavsnn import _core
+from uavsnn.errors import ParameterError, ShapeError
+from uavsnn.events import Recording, packed_bytes
+
+__all__ = ["Windows", "add_noise", "make_windows", "window_step"]
+
+_U64_MAX = (1 << 64) - 1
+
+
+def _int_param(name: str, value: Any, minimum: int, maximum: int = _U64_MAX) -> int:
+    """An integer parameter (an integral float is accepted), or :class:`ParameterError`."""
+    if isinstance(value, bool) or not isinstance(value, (numbers.Integral, numbers.Real)):
+        raise ParameterError(f"{name} must be an integer, got {value!r}")
+    if isinstance(value, numbers.Integral):
+        result = int(value)
+    else:
+        number = float(value)
+        if not math.isfinite(number) or number != math.floor(number):
+            raise ParameterError(f"{name} must be a whole number of microseconds, got {value!r}")
+        result = int(number)
+    if not minimum <= result <= maximum:
+        raise ParameterError(f"{name} must be in [{minimum}, {maximum}], got {result}")
+    return result
+
+
+def _overlap(value: Any) -> float:
+    try:
+        overlap = float(value)
+    except (TypeError, ValueError) as exc:
+        raise ParameterError(f"overlap must be a number in [0, 1), got {value!r}") from exc
+    if not (0.0 <= overlap < 1.0):  # also refuses NaN
+        raise ParameterError(f"overlap must be in [0, 1), got {value!r}")
+    return overlap
+
+
+def _column(name: str, values: Any, dtype: type[np.generic]) -> np.ndarray:
+    """A contiguous 1-D column of ``dtype``; values that do not fit are a ShapeError."""
+    arr = np.asarray(values)
+    if arr.ndim != 1:
+        raise ShapeError(f"{name} must be 1-D, got shape {arr.shape}")
+    if arr.size == 0:
+        return np.zeros(0, dtype)
+    if arr.dtype.kind not in "iu":
+        raise ShapeError(f"{name} must hold integers, got {arr.dtype}")
+    info = np.iinfo(dtype)
+    if arr.dtype != dtype and (arr.min() < info.min or arr.max() > info.max):
+        raise ShapeError(f"{name} holds values outside [{info.min}, {info.max}]")
+    return np.ascontiguousarray(arr, dtype=dtype)
+
+
+def window_step(length_us: int, overlap: float = 0.0) -> int:
+    """The step between window starts: ``length_us·(1 − overlap)`` rounded down to whole µs, at
+    least 1 (a product within 1e-9 of an integer counts as that integer, so 10 ms at 90 % gives
+    exactly 1 ms)."""
+    length = _int_param("length_us", length_us, 1, 1 << 62)
+    return int(_core.window_step(length, _overlap(overlap)))
+
+
+@dataclass(frozen=True)
+class Windows:
+    """Many windows in compressed sparse rows: window ``i``'s spikes are
+    ``t[offsets[i]:offsets[i+1]]`` (and the same range of ``x``, ``y``).
+
+    Attributes:
+        sensor_size: ``(width, height)`` of the coordinates.
+        length_us: the window length ``L``.
+        t0: ``(n,)`` uint64, window starts.
+        offsets: ``(n + 1,)`` int64.
+        t: ``(m,)`` uint64, absolute spike times, sorted within each window.
+        x: ``(m,)`` uint16.
+        y: ``(m,)`` uint16.
+        n_preceding: ``(n,)`` int64, distinct pixels with an event in ``[t0 − L, t0)`` (raw
+            events, before any median filter): PENT's "preceding" estimate.
+
+    Building one checks that the columns agree (``ShapeError``) and that every spike lies on
+    the sensor and inside its window, sorted (``EventError``).
+    """
+
+    sensor_size: tuple[int, int]
+    length_us: int
+    t0: np.ndarray
+    offsets: np.ndarray
+    t: np.ndarray
+    x: np.ndarray
+    y: np.ndarray
+    n_preceding: np.ndarray
+
+    def __post_init__(self) -> None:
+        try:
+            width, height = (int(v) for v in self.sensor_size)
+        except (TypeError, ValueError) as exc:
+            raise ParameterError(
+                f"sensor_size must be (width, height), got {self.sensor_size!r}"
+            ) from exc
+        if not (0 < width <= 65535 and 0 < height <= 65535):
+            raise ParameterError(f"sensor_size must be positive and < 65536, got {width}x{height}")
+        object.__setattr__(self, "sensor_size", (width, height))
+        object.__setattr__(self, "length_us", _int_param("length_us", self.length_us, 1, 1 << 62))
+        for name, dtype in (
+            ("t0", np.uint64),
+            ("offsets", np.int64),
+            ("t", np.uint64),
+            ("x", np.uint16),
+            ("y", np.uint16),
+            ("n_preceding", np.int64),
+        ):
+            object.__setattr__(self, name, _column(name, getattr(self, name), dtype))
+        if len(self.n_preceding) != len(self.t0):
+            raise ShapeError(
+                f"n_preceding has {len(self.n_preceding)} entries for {len(self.t0)} windows"
+            )
+        if len(self.n_preceding) and self.n_preceding.min() < 0:
+            raise ShapeError("n_preceding holds negative counts")
+        _core.check_windows(width, height, self.length_us, *self._columns())
+
+    def _columns(self) -> tuple[np.ndarray, ...]:
+        return (self.t0, self.offsets, self.t, self.x, self.y)
+
+    def __len__(self) -> int:
+        return len(self.t0)
+
+    def _indices(self, indices: Any) -> np.ndarray:
+        """Window indices as int64 (negative ones count from the end), range-checked."""
+        idx = np.atleast_1d(np.asarray(indices))
+        if idx.ndim != 1:
+            raise ShapeError(f"indices must be 1-D, got shape {idx.shape}")
+        if idx.size == 0:
+            return np.zeros(0, np.int64)
+        if idx.dtype.kind not in "iu":
+            raise ParameterError(f"indices must be integers, got {idx.dtype}")
+        n = len(self)
+        bad = (idx < -n) | (idx >= n)
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise ParameterError(f"indices[{i}]={idx[i]} is out of range for {n} windows")
+        idx = idx.astype(np.int64)
+        return np.where(idx < 0, idx + n, idx)
+
+    def spikes(self, i: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(t, x, y)`` of window ``i`` (views, not copies)."""
+        (k,) = self._indices([i])
+        a, b = int(self.offsets[k]), int(self.offsets[k + 1])
+        return self.t[a:b], self.x[a:b], self.y[a:b]
+
+    def frames(self, indices: Any = None) -> np.ndarray:
+        """Dense time-embedded frames ``(k, height, width)`` float32: ``t − t0`` of each pixel's
+        spike, ``+inf`` where silent; all windows when ``indices`` is ``None``."""
+        idx = np.arange(len(self), dtype=np.int64) if indices is None else self._indices(indices)
+        width, height = self.sensor_size
+        return _core.window_frames(width, height, self.length_us, *self._columns(), idx)
+
+    def select(self, indices: Any) -> Windows:
+        """The windows ``indices`` (ints, negative from the end), in the given order."""
+        idx = self._indices(indices)
+        starts = self.offsets[idx]
+        counts = self.offsets[idx + 1] - starts
+        offsets = np.zeros(len(idx) + 1, np.int64)
+        np.cumsum(counts, out=offsets[1:])
+        # Position of each selected spike in the original columns.
+        gather = np.repeat(starts - offsets[:-1], counts) + np.arange(offsets[-1], dtype=np.int64)
+        return Windows(
+            self.sensor_size,
+            self.length_us,
+            self.t0[idx],
+            offsets,
+            self.t[gather],
+            self.x[gather],
+            self.y[gather],
+            self.n_preceding[idx],
+        )
+
+    @staticmethod
+    def concatenate(parts: Sequence[Windows]) -> Windows:
+        """The windows of ``parts`` one after the other; all must share sensor and length."""
+        if len(parts) == 0:
+            raise ParameterError("concatenate needs at least one Windows")
+        first = parts[0]
+        for i, part in enumerate(parts):
+            if not isinstance(part, Windows):
+                raise ParameterError(f"parts[{i}] is a {type(part).__name__}, not Windows")
+            if (part.sensor_size, part.length_us) != (first.sensor_size, first.length_us):
+                raise ShapeError(
+                    f"parts[{i}] has sensor {part.sensor_size} and length {part.length_us} µs, "
+                    f"parts[0] has {first.sensor_size} and {first.length_us} µs"
+                )
+        shifts = np.cumsum([0] + [len(p.t) for p in parts[:-1]])
+        offsets = np.concatenate(
+            [np.zeros(1, np.int64)]
+            + [p.offsets[1:] + s for p, s in zip(parts, shifts, strict=True)]
+        )
+        return Windows(
+            first.sensor_size,
+            first.length_us,
+            np.concatenate([p.t0 for p in parts]),
+            offsets,
+            np.concatenate([p.t for p in parts]),
+            np.concatenate([p.x for p in parts]),
+            np.concatenate([p.y for p in parts]),
+            np.concatenate([p.n_preceding for p in parts]),
+        )
+
+
+def make_windows(
+    recording: Recording,
+    length_us: int,
+    overlap: float = 0.0,
+    *,
+    median: bool = False,
+    start_us: int | None = None,
+    end_us: int | None = None,
+) -> Windows:
+    """Cut a recording into windows of ``length_us`` with ``overlap`` in ``[0, 1)``.
+
+    Args:
+        recording: the events.
+        length_us: window length ``L`` in µs (≥ 1).
+        overlap: fraction of a window shared with the next; windows start every
+            :func:`window_step` µs.
+        median: apply the 3×3 median filter to each window's active pixels.
+        start_us: start of the first window (default: the first event's time).
+        end_us: windows start before this time and events at or after it are ignored
+            (default: one past the last event's time).
+
+    Raises:
+        ParameterError: a length below 1 µs, an overlap outside ``[0, 1)`` or NaN, negative
+            or inverted ``start_us``/``end_us``, or more windows than the engine's limit.
+    """
+    if not isinstance(recording, Recording):
+        raise ParameterError(f"expected a Recording, got {type(recording).__name__}")
+    length = _int_param("length_us", length_us, 1, 1 << 62)
+    start = None if start_us is None else _int_param("start_us", start_us, 0, 1 << 62)
+    end = None if end_us is None else _int_param("end_us", end_us, 0, 1 << 62)
+    width, height = recording.sensor_size
+    t0, offsets, t, x, y, n_preceding = _core.make_windows(
+        packed_bytes(recording.events),
+        width,
+        height,
+        length,
+        _overlap(overlap),
+        bool(median),
+        start,
+        end,
+    )
+    return Windows(recording.sensor_size, length, t0, offsets, t, x, y, n_preceding)
+
+
+def add_noise(windows: Windows, fraction: float, *, seed: int) -> tuple[Windows, np.ndarray]:
+    """Add uniform noise events to every window (SPEC §5, the paper's noise experiment).
+
+    Each window gets ``round(fraction · W · H)`` noise events on distinct pixels drawn uniformly
+    over the sensor, at times drawn uniformly in the window; a pixel keeps its earliest spike
+    (the signal's on a tie). Each window draws from its own generator seeded by ``(seed, i)``.
+
+    Returns:
+        the noisy windows and the signal-to-noise ratio of each window in dB,
+        ``10·log10(S / N)`` with ``S`` the window's spikes before noise and ``N`` the noise events
+        added (``+inf`` when ``N = 0``, ``-inf`` when ``S = 0 < N``). ``n_preceding`` becomes the
+        expected count once the same noise falls on the preceding interval,
+        ``round(P + N − P·N/(W·H))``.
+
+    Raises:
+        ParameterError: ``fraction`` outside ``[0, 1]`` or NaN, or a bad seed.
+    """
+    if not isinstance(windows, Windows):
+        raise ParameterError(f"expected Windows, got {type(windows).__name__}")
+    try:
+        frac = float(fraction)
+    except (TypeError, ValueError) as exc:
+        raise ParameterError(f"fraction must be a number in [0, 1], got {fraction!r}") from exc
+    if not (0.0 <= frac <= 1.0):
+        raise ParameterError(f"fraction must be in [0, 1], got {fraction!r}")
+    seed_value = _int_param("seed", seed, 0)
+    width, height = windows.sensor_size
+    (t0, offsets, t, x, y, n_preceding), snr = _core.add_noise(
+        width,
+        height,
+        windows.length_us,
+        *windows._columns(),
+        windows.n_preceding,
+        frac,
+        seed_value,
+    )
+    noisy = Windows(windows.sensor_size, windows.length_us, t0, offsets, t, x, y, n_preceding)
+    return noisy, snr

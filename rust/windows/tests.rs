@@ -1,0 +1,251 @@
+//! Windowing against a direct transcription of its definition.
+
+use proptest::prelude::*;
+
+use super::*;
+
+fn ev(t: u64, x: u16, y: u16) -> Event {
+    Event { t, x, y, p: true }
+}
+
+/// The definition, window by window, with no cleverness: O(windows × events).
+fn reference(events: &[Event], sensor: SensorSize, config: &WindowConfig) -> Windows {
+    let mut w = Windows::empty(sensor, config.length_us);
+    let Some(start) = config.start_us.or(events.first().map(|e| e.t)) else {
+        return w;
+    };
+    let end = config
+        .end_us
+        .unwrap_or_else(|| events.last().map_or(start, |e| (e.t + 1).max(start)));
+    let mut t0 = start;
+    while t0 < end {
+        let mut seen = std::collections::HashSet::new();
+        let mut spikes = Vec::new();
+        for e in events {
+            if e.t >= t0 && e.t < t0 + config.length_us && e.t < end && seen.insert((e.x, e.y)) {
+                spikes.push(Spike {
+                    t: e.t,
+                    x: e.x,
+                    y: e.y,
+                });
+            }
+        }
+        if config.median {
+            let xs: Vec<u16> = spikes.iter().map(|s| s.x).collect();
+            let ys: Vec<u16> = spikes.iter().map(|s| s.y).collect();
+            let keep = median_keep(sensor, &xs, &ys).unwrap();
+            let mut it = keep.iter();
+            spikes.retain(|_| *it.next().unwrap());
+        }
+        let lo = t0.saturating_sub(config.length_us);
+        let preceding: std::collections::HashSet<_> = events
+            .iter()
+            .filter(|e| e.t >= lo && e.t < t0)
+            .map(|e| (e.x, e.y))
+            .collect();
+        w.t0.push(t0);
+        w.n_preceding.push(preceding.len() as u64);
+        for s in &spikes {
+            w.t.push(s.t);
+            w.x.push(s.x);
+            w.y.push(s.y);
+        }
+        w.offsets.push(w.t.len());
+        t0 += config.step_us;
+    }
+    w
+}
+
+#[test]
+fn step_rounds_down_but_respects_decimal_overlaps() {
+    assert_eq!(window_step(10_000, 0.9).unwrap(), 1_000);
+    assert_eq!(window_step(10_000, 0.5).unwrap(), 5_000);
+    assert_eq!(window_step(10_000, 0.1).unwrap(), 9_000);
+    assert_eq!(window_step(7, 0.5).unwrap(), 3);
+    assert_eq!(window_step(1, 0.99).unwrap(), 1);
+    assert!(window_step(0, 0.0).is_err());
+    assert!(window_step(10, 1.0).is_err());
+    assert!(window_step(10, -0.1).is_err());
+    assert!(window_step(10, f64::NAN).is_err());
+}
+
+#[test]
+fn first_event_per_pixel_and_preceding_counts() {
+    let sensor = SensorSize::new(4, 4).unwrap();
+    let events = [
+        ev(100, 0, 0),
+        ev(101, 0, 0),
+        ev(105, 1, 0),
+        ev(112, 0, 0),
+        ev(125, 2, 2),
+    ];
+    let config = WindowConfig::new(10, 0.5).unwrap();
+    let w = make_windows(&events, sensor, &config).unwrap();
+    assert_eq!(w.t0, vec![100, 105, 110, 115, 120, 125]);
+    // [100,110): (0,0)@100 (its repeat at 101 is dropped), (1,0)@105; [105,115): (1,0)@105,
+    // (0,0)@112; [110,120): (0,0)@112; [115,125): nothing; then (2,2)@125 twice.
+    assert_eq!(w.offsets, vec![0, 2, 4, 5, 5, 6, 7]);
+    assert_eq!(w.t, vec![100, 105, 105, 112, 112, 125, 125]);
+    assert_eq!(w.x, vec![0, 1, 1, 0, 0, 2, 2]);
+    assert_eq!(w.n_preceding, vec![0, 1, 2, 2, 1, 0]);
+    assert_eq!(w, reference(&events, sensor, &config));
+}
+
+#[test]
+fn empty_streams_and_ranges() {
+    let sensor = SensorSize::new(4, 4).unwrap();
+    let config = WindowConfig::new(10, 0.0).unwrap();
+    assert!(make_windows(&[], sensor, &config).unwrap().is_empty());
+    let ranged = config.with_range(Some(0), Some(30));
+    let w = make_windows(&[], sensor, &ranged).unwrap();
+    assert_eq!(w.t0, vec![0, 10, 20]);
+    assert_eq!(w.offsets, vec![0, 0, 0, 0]);
+    let bad = config.with_range(Some(30), Some(20));
+    assert!(matches!(
+        make_windows(&[], sensor, &bad),
+        Err(Error::InvalidParameter { name: "end_us", .. })
+    ));
+}
+
+#[test]
+fn bad_input_is_an_error_not_a_panic() {
+    let sensor = SensorSize::new(4, 4).unwrap();
+    let config = WindowConfig::new(10, 0.0).unwrap();
+    let unsorted = [ev(5, 0, 0), ev(4, 0, 0)];
+    assert!(matches!(
+        make_windows(&unsorted, sensor, &config),
+        Err(Error::InvalidEvent { index: 1, .. })
+    ));
+    let outside = [ev(5, 4, 0)];
+    assert!(make_windows(&outside, sensor, &config).is_err());
+    let late = [ev(MAX_TIME_US + 1, 0, 0)];
+    assert!(make_windows(&late, sensor, &config).is_err());
+    let tiny_step = WindowConfig::new(1, 0.0).unwrap();
+    let far = [ev(0, 0, 0), ev(1 << 40, 0, 0)];
+    assert!(make_windows(&far, sensor, &tiny_step).is_err());
+}
+
+#[test]
+fn median_keeps_dense_blocks_and_drops_isolated_pixels() {
+    let sensor = SensorSize::new(5, 5).unwrap();
+    // A full 3x3 block at the corner plus one isolated pixel.
+    let mut xs = vec![];
+    let mut ys = vec![];
+    for y in 0..3 {
+        for x in 0..3 {
+            xs.push(x);
+            ys.push(y);
+        }
+    }
+    xs.push(4);
+    ys.push(4);
+    let keep = median_keep(sensor, &xs, &ys).unwrap();
+    // Corner (0,0) sees 4 active pixels inside the sensor (zero padding): dropped.
+    assert!(!keep[0]);
+    // Centre (1,1) sees 9; edges (1,0) see 6: kept.
+    assert!(keep[4] && keep[1]);
+    // (2,2) sees 4: dropped; the isolated pixel sees 1: dropped.
+    assert!(!keep[8] && !keep[9]);
+    assert!(median_keep(sensor, &[5], &[0]).is_err());
+}
+
+#[test]
+fn frames_embed_times_and_mark_silence() {
+    let sensor = SensorSize::new(3, 2).unwrap();
+    let events = [ev(10, 0, 0), ev(13, 2, 1), ev(14, 0, 0)];
+    let w = make_windows(&events, sensor, &WindowConfig::new(10, 0.0).unwrap()).unwrap();
+    let f = frames(&w.view(), &[0]).unwrap();
+    assert_eq!(f.len(), 6);
+    assert_eq!(f[0].to_bits(), 0.0f32.to_bits());
+    assert_eq!(f[5].to_bits(), 3.0f32.to_bits());
+    assert!(f[1].is_infinite() && f[4].is_infinite());
+    assert!(frames(&w.view(), &[1]).is_err());
+}
+
+#[test]
+fn view_rejects_inconsistent_columns() {
+    let sensor = SensorSize::new(3, 2).unwrap();
+    let ok = WindowsView::new(sensor, 10, &[0], &[0, 1], &[5], &[1], &[1]);
+    assert!(ok.is_ok());
+    assert!(WindowsView::new(sensor, 10, &[0], &[0, 2], &[5], &[1], &[1]).is_err());
+    assert!(WindowsView::new(sensor, 10, &[0], &[0, 1], &[10], &[1], &[1]).is_err());
+    assert!(WindowsView::new(sensor, 10, &[0], &[0, 1], &[5], &[3], &[1]).is_err());
+    assert!(WindowsView::new(sensor, 10, &[0, 5], &[0, 1, 0], &[5], &[1], &[1]).is_err());
+    assert!(WindowsView::new(sensor, 10, &[0], &[0, 2], &[5, 4], &[1, 2], &[1, 1]).is_err());
+}
+
+#[test]
+fn noise_adds_the_requested_pixels_and_reports_snr() {
+    let sensor = SensorSize::new(20, 10).unwrap();
+    let events: Vec<Event> = (0..50).map(|i| ev(i * 2, (i % 20) as u16, 0)).collect();
+    let w = make_windows(&events, sensor, &WindowConfig::new(50, 0.0).unwrap()).unwrap();
+    let noisy = add_noise(&w.view(), &w.n_preceding, 0.05, 7).unwrap();
+    assert_eq!(noisy.noise_per_window, 10);
+    let again = add_noise(&w.view(), &w.n_preceding, 0.05, 7).unwrap();
+    assert_eq!(noisy, again);
+    let nv = noisy.windows.view();
+    WindowsView::new(sensor, 50, nv.t0, nv.offsets, nv.t, nv.x, nv.y).unwrap();
+    for i in 0..w.len() {
+        let signal = w.view().range(i).len();
+        let got = nv.range(i).len();
+        assert!(got >= signal && got <= signal + 10);
+        let expected = 10.0 * (signal as f64 / 10.0).log10();
+        assert!((noisy.snr_db[i] - expected).abs() < 1e-12);
+    }
+    assert!(add_noise(&w.view(), &w.n_preceding, 1.5, 0).is_err());
+    assert!(add_noise(&w.view(), &w.n_preceding, f64::NAN, 0).is_err());
+}
+
+fn arb_stream() -> impl Strategy<Value = (Vec<Event>, u64, f64, bool)> {
+    (
+        prop::collection::vec((0u64..40, 0u16..6, 0u16..5), 0..120),
+        1u64..30,
+        prop::sample::select(vec![0.0, 0.1, 0.5, 0.75, 0.9]),
+        any::<bool>(),
+    )
+        .prop_map(|(raw, length, overlap, median)| {
+            let mut t = 1_000;
+            let events = raw
+                .into_iter()
+                .map(|(dt, x, y)| {
+                    t += dt / 4;
+                    ev(t, x, y)
+                })
+                .collect();
+            (events, length, overlap, median)
+        })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(300))]
+
+    #[test]
+    fn windows_equal_the_definition((events, length, overlap, median) in arb_stream()) {
+        let sensor = SensorSize::new(6, 5).unwrap();
+        let config = WindowConfig::new(length, overlap).unwrap().with_median(median);
+        let got = make_windows(&events, sensor, &config).unwrap();
+        prop_assert_eq!(&got, &reference(&events, sensor, &config));
+    }
+
+    #[test]
+    fn ranges_and_runs_equal_the_definition(
+        (events, length, overlap, _) in arb_stream(),
+        start in 990u64..1_050,
+        span in 0u64..200,
+    ) {
+        let sensor = SensorSize::new(6, 5).unwrap();
+        let config = WindowConfig::new(length, overlap)
+            .unwrap()
+            .with_range(Some(start), Some(start + span));
+        let got = make_windows(&events, sensor, &config).unwrap();
+        prop_assert_eq!(&got, &reference(&events, sensor, &config));
+        // Many small runs (as on a large machine) give the same result as one.
+        let grid = Grid { start, step: config.step_us, length, n: got.len() };
+        if grid.n > 0 {
+            let parts = (0..grid.n)
+                .map(|k| window_run(&events, sensor, grid, k, k + 1, start + span, false))
+                .collect();
+            prop_assert_eq!(&join_parts(sensor, length, parts), &got);
+        }
+    }
+}

@@ -1,0 +1,208 @@
+"""Reading and writing recordings: golden real files, round trips through every format, and
+typed errors for files that are missing, empty, truncated, corrupt or of an unknown type."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import uavsnn
+from uavsnn import io
+from uavsnn.cli import main
+from uavsnn.events import EVENT_DTYPE, Recording
+
+# Third-party facts, not our results: event counts, first/last timestamps and sensors of the real
+# recordings, as listed in ../shared/data/README.md (decoded by faery 0.7.1 and cross-checked
+# there with two other decoders). The Gen3 RAW headers carry no geometry: 640x480 is given.
+GOLDEN = {
+    "aestream_davis346_lab.aedat4": ((346, 260), None, 117_667, 1633953690975950, 1633953691105949),
+    "tonic_dvxplorer_person.aedat4": (
+        (320, 240),
+        None,
+        111_954,
+        1605537493718345,
+        1605537494308262,
+    ),
+    "prophesee_gen3_spinner_evt2.raw": ((640, 480), (640, 480), 539_481, 1317888, 1367888),
+    "prophesee_gen3_sparklers_evt2.raw": ((640, 480), (640, 480), 521_252, 913716224, 913812095),
+    "prophesee_gen4_driving_evt3.raw": ((1280, 720), (1280, 720), 219_596, 11718656, 11727467),
+}
+
+
+@pytest.mark.parametrize("name", sorted(GOLDEN))
+def test_golden_recordings(shared_data: Path, name: str) -> None:
+    sensor, given, count, first, last = GOLDEN[name]
+    rec = io.read(shared_data / "dvs" / name, sensor_size=given)
+    assert rec.sensor_size == sensor
+    assert len(rec) == count
+    assert (int(rec.events["t"][0]), int(rec.events["t"][-1])) == (first, last)
+    assert rec.events.dtype == EVENT_DTYPE
+    assert rec.metadata["sensor_size_source"] == ("file" if given is None else "argument")
+
+
+def test_raw_without_geometry_falls_back_and_says_so(shared_data: Path) -> None:
+    rec = io.read(shared_data / "dvs" / "prophesee_gen3_spinner_evt2.raw")
+    assert rec.sensor_size == io.FAERY_FALLBACK_SIZE
+    assert rec.metadata["sensor_size_source"] == "fallback"
+
+
+def test_sensor_size_contradicting_the_file_is_refused(shared_data: Path) -> None:
+    with pytest.raises(uavsnn.ParameterError, match=r"contradicts the file's \(320, 240\)"):
+        io.read(shared_data / "dvs" / "tonic_dvxplorer_person.aedat4", sensor_size=(640, 480))
+
+
+def _events(n: int = 500, size: tuple[int, int] = (64, 48), seed: int = 0) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    ev = np.zeros(n, EVENT_DTYPE)
+    ev["t"] = np.sort(rng.integers(1_000, 500_000, n))
+    ev["x"] = rng.integers(0, size[0], n)
+    ev["y"] = rng.integers(0, size[1], n)
+    ev["p"] = rng.random(n) < 0.5
+    return ev
+
+
+@pytest.mark.parametrize("ext", ["aedat4", "es", "dat", "raw", "csv"])
+def test_every_faery_format_round_trips(tmp_path: Path, ext: str) -> None:
+    faery = pytest.importorskip("faery")
+    ev = _events()
+    path = tmp_path / f"rec.{ext}"
+    faery.events_stream_from_array(ev.astype(faery.EVENTS_DTYPE), (64, 48)).to_file(
+        path, zero_t0=False
+    )
+    rec = io.read(path, sensor_size=(64, 48))
+    np.testing.assert_array_equal(rec.events, ev)
+    assert rec.sensor_size == (64, 48)
+    # CSV has no geometry; the others write it in their header.
+    assert rec.metadata["sensor_size_source"] == ("argument" if ext == "csv" else "file")
+    assert rec.metadata["format"] == io.FORMATS[f".{ext}"]
+
+
+def test_npz_round_trip_is_exact_and_atomic(tmp_path: Path) -> None:
+    rec = Recording(_events(), (64, 48), {"scene": "lab", "seed": np.int64(3)})
+    path = tmp_path / "rec.npz"
+    path.write_bytes(b"old content")
+    io.write_npz(rec, path)
+    back = io.read(path)
+    np.testing.assert_array_equal(back.events, rec.events)
+    assert back.sensor_size == rec.sensor_size
+    assert back.metadata["scene"] == "lab" and back.metadata["seed"] == 3
+    assert [p.name for p in tmp_path.iterdir()] == ["rec.npz"]  # no temporary left behind
+
+
+def test_write_npz_leaves_the_old_file_when_it_fails(tmp_path: Path) -> None:
+    path = tmp_path / "rec.npz"
+    io.write_npz(Recording(_events(10), (64, 48)), path)
+    before = path.read_bytes()
+    with pytest.raises(uavsnn.ParameterError, match="not JSON-serialisable"):
+        io.write_npz(Recording(_events(20), (64, 48), {"bad": object()}), path)
+    with pytest.raises(uavsnn.RecordingFileError, match="cannot write"):
+        io.write_npz(Recording(_events(20), (64, 48)), tmp_path / "missing" / "rec.npz")
+    assert path.read_bytes() == before
+    assert [p.name for p in tmp_path.iterdir()] == ["rec.npz"]
+
+
+def test_npy_infers_or_takes_the_sensor(tmp_path: Path) -> None:
+    ev = _events()
+    path = tmp_path / "ev.npy"
+    np.save(path, ev)
+    rec = io.read(path)
+    assert rec.sensor_size == (int(ev["x"].max()) + 1, int(ev["y"].max()) + 1)
+    assert rec.metadata["sensor_size_source"] == "inferred"
+    assert io.read(path, sensor_size=(100, 100)).sensor_size == (100, 100)
+    np.save(path, ev[:0])
+    with pytest.raises(uavsnn.ParameterError, match="needs sensor_size"):
+        io.read(path)
+    assert len(io.read(path, sensor_size=(4, 4))) == 0
+
+
+def test_missing_empty_and_unknown_files(tmp_path: Path) -> None:
+    with pytest.raises(uavsnn.RecordingFileError, match="no such file"):
+        io.read(tmp_path / "absent.aedat4")
+    for ext in ("aedat4", "raw", "npz", "csv"):
+        (tmp_path / f"empty.{ext}").write_bytes(b"")
+        with pytest.raises(uavsnn.RecordingFileError, match="empty"):
+            io.read(tmp_path / f"empty.{ext}")
+    (tmp_path / "rec.mp4").write_bytes(b"\0" * 10)
+    with pytest.raises(uavsnn.RecordingFileError, match=r"unknown file type '\.mp4'"):
+        io.read(tmp_path / "rec.mp4")
+
+
+@pytest.mark.parametrize("ext", ["aedat4", "raw", "dat", "es", "npz", "npy"])
+def test_garbage_bytes_are_a_recording_file_error(tmp_path: Path, ext: str) -> None:
+    path = tmp_path / f"garbage.{ext}"
+    path.write_bytes(np.random.default_rng(1).bytes(4099))
+    with pytest.raises(uavsnn.RecordingFileError, match=r"garbage\."):
+        io.read(path, sensor_size=(640, 480))
+
+
+def test_truncated_real_files_are_refused(shared_data: Path, tmp_path: Path) -> None:
+    for name in ["tonic_dvxplorer_person.aedat4", *(n for n in GOLDEN if n.endswith(".raw"))]:
+        data = (shared_data / "dvs" / name).read_bytes()
+        n = len(data) // 2
+        n += 1 if n % 2 == 0 else 0  # inside an EVT word (2 or 4 bytes)
+        path = tmp_path / name
+        path.write_bytes(data[:n])
+        with pytest.raises(uavsnn.RecordingFileError, match=name):
+            io.read(path, sensor_size=GOLDEN[name][1])
+
+
+def test_truncated_header_is_refused(tmp_path: Path) -> None:
+    path = tmp_path / "cut.raw"
+    path.write_bytes(b"% evt 2.0\n% firmware_ver")
+    with pytest.raises(uavsnn.RecordingFileError, match="truncated inside its header"):
+        io.read(path, sensor_size=(640, 480))
+
+
+def test_npz_without_the_arrays_or_with_pickles_is_refused(tmp_path: Path) -> None:
+    path = tmp_path / "bad.npz"
+    np.savez(path, events=_events(5))
+    with pytest.raises(uavsnn.RecordingFileError, match=r"missing \['sensor_size'\]"):
+        io.read(path)
+    np.savez(path, events=np.array([{"t": 1}], dtype=object), sensor_size=np.array([4, 4]))
+    with pytest.raises(uavsnn.RecordingFileError, match=r"cannot read as \.npz"):
+        io.read(path)
+    ev = _events(5)
+    ev["t"] = ev["t"][::-1]
+    np.savez(path, events=ev, sensor_size=np.array([64, 48]))
+    with pytest.raises(uavsnn.RecordingFileError, match="goes backwards"):
+        io.read(path)
+
+
+def test_corrupt_events_in_a_valid_container_are_a_file_error(tmp_path: Path) -> None:
+    faery = pytest.importorskip("faery")
+    ev = _events(50)
+    path = tmp_path / "rec.csv"
+    faery.events_stream_from_array(ev.astype(faery.EVENTS_DTYPE), (64, 48)).to_file(path)
+    with pytest.raises(uavsnn.RecordingFileError, match=r"rec\.csv"):
+        io.read(path, sensor_size=(10, 10))  # events beyond the given sensor
+
+
+def test_info_command_reports_counts_and_rates(
+    shared_data: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = shared_data / "dvs" / "prophesee_gen3_spinner_evt2.raw"
+    assert main(["info", str(path), "--json", "--sensor-size", "640x480"]) == 0
+    info = json.loads(capsys.readouterr().out)
+    rec = io.read(path, sensor_size=(640, 480))
+    t = rec.events["t"].astype(np.int64)
+    assert info["events"] == len(rec) and info["sensor_size"] == [640, 480]
+    assert info["duration_us"] == t[-1] - t[0]
+    assert info["mean_rate_ev_per_s"] == pytest.approx(len(t) / ((t[-1] - t[0]) * 1e-6))
+    busiest = np.bincount((t - t[0]) // 1000).max()
+    assert info["peak_rate_ev_per_s"] == busiest * 1000
+    assert main(["info", str(path)]) == 0
+    text = capsys.readouterr().out
+    assert "faery's fallback" in text and "busiest 1 ms bin" in text
+
+
+def test_info_command_survives_bad_files(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = tmp_path / "bad.aedat4"
+    shutil.copyfile(__file__, path)
+    assert main(["info", str(path)]) == 2
+    assert "bad.aedat4" in capsys.readouterr().err
