@@ -10,7 +10,7 @@ hall, in light from bright to very dark. See ``docs/dataset.md``.
 from __future__ import annotations
 
 from uavsnn.scenes.preview import contact_sheet, write_png
-from uavsnn.scenes.renderer import LABEL_DTYPE, render
+from uavsnn.scenes.renderer import LABEL_DTYPE, render, scene_labels
 from uavsnn.scenes.sampler import SCENE_KINDS, default_format, sample_spec
 from uavsnn.scenes.spec import (
     BACKGROUNDS,
@@ -42,5 +42,6 @@ __all__ = [
     "default_format",
     "render",
     "sample_spec",
+    "scene_labels",
     "write_png",
 ]

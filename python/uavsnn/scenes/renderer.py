@@ -29,7 +29,7 @@ from uavsnn.scenes.camera import Camera, view_rotation
 from uavsnn.scenes.objects import Model, Part, model_for
 from uavsnn.scenes.spec import SceneSpec
 
-__all__ = ["LABEL_DTYPE", "render"]
+__all__ = ["LABEL_DTYPE", "render", "scene_labels"]
 
 #: One label per frame: is a UAV visible, the class of the labelled object, its box.
 LABEL_DTYPE = np.dtype(
@@ -63,7 +63,7 @@ def _tone(color: tuple[float, float, float], channels: int) -> np.ndarray:
 
 
 def _draw(
-    img: np.ndarray,
+    img: np.ndarray | None,
     parts: list[Part],
     rot: np.ndarray,
     uv: np.ndarray,
@@ -71,12 +71,12 @@ def _draw(
     elevation: float,
     faces_camera: bool,
 ) -> tuple[float, float, float, float]:
-    """Fill the parts into ``img`` (in place) and return the bound of what was drawn.
+    """Fill the parts into ``img`` (in place; ``None`` to only measure) and return the bound
+    of what is drawn.
 
     Parts of one colour and opacity share a mask; these groups are painted far to near by
     their mean depth along the line of sight.
     """
-    h, w, c = img.shape
     m = (np.eye(3) if faces_camera else view_rotation(elevation)) @ rot
     pts = np.concatenate([p.points for p in parts]) @ m.T
     xy = np.empty((len(pts), 2))
@@ -88,6 +88,9 @@ def _draw(
         float(xy[:, 0].max()),
         float(xy[:, 1].max()),
     )
+    if img is None:
+        return box
+    h, w, c = img.shape
     if box[2] < -1 or box[3] < -1 or box[0] > w + 1 or box[1] > h + 1:
         return box
     # Fine-grid coordinates, with cv2's pixel centres on integers (ours are at +0.5).
@@ -147,6 +150,51 @@ def _encode_bgr8(
     return v.astype(np.uint8)
 
 
+def _check(spec: SceneSpec) -> None:
+    if not isinstance(spec, SceneSpec):
+        raise SimulationError(f"spec must be a SceneSpec, got {type(spec).__name__}")
+
+
+def _frame_times(spec: SceneSpec) -> tuple[np.ndarray, np.ndarray]:
+    times = np.arange(spec.n_frames, dtype=np.float64) / spec.fps
+    return times, np.round(times * 1e6).astype(np.uint64)
+
+
+class _Objects:
+    """The spec's objects along their paths: where, how big, seen from how high."""
+
+    def __init__(self, spec: SceneSpec, cam: Camera, times: np.ndarray) -> None:
+        self.spec = spec
+        self.models: list[Model] = [model_for(o) for o in spec.objects]
+        self.tracks = []
+        grounded = spec.background.kind in ("ground", "hall")
+        for obj in spec.objects:
+            pos = obj.path.position(times)
+            uv, scale = cam.project(pos, times)
+            if grounded:
+                # Below the ground or the hall's floor, an object is hidden.
+                height = cam.altitude(pos, spec.background.camera_height_m)
+                scale = np.where(height < 0, 0.0, scale)
+            self.tracks.append((pos, obj.path.velocity_at(times), uv, scale, cam.elevation(pos)))
+
+    def draw(
+        self, img: np.ndarray | None, k: int, t: float
+    ) -> tuple[bool, str, float, float, float, float]:
+        """Draw frame ``k`` at time ``t`` far to near into ``img`` (or only measure, for
+        ``None``); return the frame's label."""
+        boxes: list[tuple[float, float, float, float] | None] = [None] * len(self.models)
+        order = sorted(range(len(self.models)), key=lambda i: -self.tracks[i][0][k, 2])
+        for i in order:
+            _, vel, uv, scale, elev = self.tracks[i]
+            if scale[k] <= 0:
+                continue
+            parts, rot = self.models[i].parts(t, vel[k])
+            boxes[i] = _draw(
+                img, parts, rot, uv[k], float(scale[k]), float(elev[k]), self.models[i].faces_camera
+            )
+        return _label(self.spec, boxes, self.spec.width, self.spec.height)
+
+
 def render(spec: SceneSpec, *, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Render ``spec``: ``(frames, timestamps_us, labels)``.
 
@@ -157,32 +205,19 @@ def render(spec: SceneSpec, *, seed: int) -> tuple[np.ndarray, np.ndarray, np.nd
     the seed shapes only textures (clouds, trees, grain) and camera noise, which do not depend
     on the objects, so the spec without its objects renders the same background.
     """
-    if not isinstance(spec, SceneSpec):
-        raise SimulationError(f"spec must be a SceneSpec, got {type(spec).__name__}")
+    _check(spec)
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise SimulationError(f"seed must be a non-negative integer, got {seed!r}")
     tex_seq, noise_seq = np.random.SeedSequence(int(seed)).spawn(2)
     tex_rng, noise_rng = np.random.default_rng(tex_seq), np.random.default_rng(noise_seq)
     n, w, h = spec.n_frames, spec.width, spec.height
-    times = np.arange(n, dtype=np.float64) / spec.fps
-    timestamps = np.round(times * 1e6).astype(np.uint64)
+    times, timestamps = _frame_times(spec)
     cam = Camera(spec)
     shifts = cam.shift(times)
     fmt = spec.frame_format
     channels = 3 if fmt == "bgr8" else 1
     backdrop = Backdrop(spec, cam, shifts, tex_rng, channels)
-
-    models: list[Model] = [model_for(o) for o in spec.objects]
-    tracks = []
-    grounded = spec.background.kind in ("ground", "hall")
-    for obj in spec.objects:
-        pos = obj.path.position(times)
-        uv, scale = cam.project(pos, times)
-        if grounded:
-            # Below the ground or the hall's floor, an object is hidden.
-            scale = np.where(cam.altitude(pos, spec.background.camera_height_m) < 0, 0.0, scale)
-        tracks.append((pos, obj.path.velocity_at(times), uv, scale, cam.elevation(pos)))
-
+    objects = _Objects(spec, cam, times)
     frames = (
         np.empty((n, h, w, 3), dtype=np.uint8)
         if fmt == "bgr8"
@@ -196,23 +231,26 @@ def render(spec: SceneSpec, *, seed: int) -> tuple[np.ndarray, np.ndarray, np.nd
     for k in range(n):
         t = float(times[k])
         img = backdrop.frame(t, shifts[k])
-        boxes: list[tuple[float, float, float, float] | None] = [None] * len(models)
-        order = sorted(range(len(models)), key=lambda i: -tracks[i][0][k, 2])
-        for i in order:
-            pos, vel, uv, scale, elev = tracks[i]
-            if scale[k] <= 0:
-                continue
-            parts, rot = models[i].parts(t, vel[k])
-            boxes[i] = _draw(
-                img, parts, rot, uv[k], float(scale[k]), float(elev[k]), models[i].faces_camera
-            )
-        labels[k] = _label(spec, boxes, w, h)
+        labels[k] = objects.draw(img, k, t)
         level = light.level * (1.0 + light.flicker * math.sin(2 * math.pi * light.flicker_hz * t))
         if fmt == "bgr8":
             frames[k] = _encode_bgr8(img, level, light.noise, noise_rng, grain)
         else:
             frames[k] = img[:, :, 0] * np.float32(level * 255.0)
     return frames, timestamps, labels
+
+
+def scene_labels(spec: SceneSpec) -> tuple[np.ndarray, np.ndarray]:
+    """``(timestamps_us, labels)`` exactly as :func:`render` gives them, without drawing a
+    pixel (the objects' geometry is still built frame by frame, so it takes about half the
+    time of a small render)."""
+    _check(spec)
+    times, timestamps = _frame_times(spec)
+    objects = _Objects(spec, Camera(spec), times)
+    labels = np.zeros(spec.n_frames, dtype=LABEL_DTYPE)
+    for k in range(spec.n_frames):
+        labels[k] = objects.draw(None, k, float(times[k]))
+    return timestamps, labels
 
 
 def _label(
