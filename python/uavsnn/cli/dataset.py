@@ -33,7 +33,15 @@ def register(subparsers: Any) -> None:
     )
     actions = parser.add_subparsers(dest="dataset_action", metavar="ACTION", required=True)
 
-    b = actions.add_parser("build", help="build a dataset", description=build.__doc__)
+    b = actions.add_parser(
+        "build",
+        help="build a dataset",
+        description="Render or read recordings, turn them into events, cut windows, label them "
+        "and write train/test splits (by recording; balanced) with a manifest. Domains: dvs "
+        "(rendered scenes through the DVS emulator), sim (rendered video through PIX2NVS), "
+        "real (labelled videos through PIX2NVS), combined (train on dvs+sim[+real], test on "
+        "dvs). Rules and format: docs/dataset.md.",
+    )
     b.add_argument("out_dir", type=Path, help="folder to write (created; must be empty)")
     b.add_argument("--domain", choices=DATASET_DOMAINS, required=True)
     b.add_argument("--videos", type=Path, help="labelled videos (V_<CLASS>_<ID>.mp4 + .csv)")

@@ -22,7 +22,12 @@ from uavsnn.dataset.format import (
 )
 from uavsnn.dataset.labels import WindowLabels, label_windows
 from uavsnn.dataset.real import Clip, boxes_to_sensor, clip_labels, find_clips, read_boxes
-from uavsnn.dataset.synthetic import LabelledRecording, SceneSource, synthetic_recording
+from uavsnn.dataset.synthetic import (
+    LabelledRecording,
+    SceneSource,
+    synthetic_recording,
+    synthetic_split,
+)
 from uavsnn.errors import DatasetError
 
 __all__ = [
@@ -46,4 +51,5 @@ __all__ = [
     "read_manifest",
     "save_split",
     "synthetic_recording",
+    "synthetic_split",
 ]

@@ -1,4 +1,5 @@
-"""Synthetic labelled recordings: a sampled scene, rendered, turned into events.
+"""Synthetic labelled recordings — a sampled scene, rendered, turned into events — and the
+splits made of them.
 
 - "dvs": the scene is rendered at the sensor's size (240×180) at a high frame rate (500 fps
   by default) as linear intensity, and :class:`uavsnn.sim.DvsEmulator` makes the events.
@@ -6,23 +7,39 @@
   4:3 centre of a 640×360 camera), and PIX2NVS (:class:`uavsnn.sim.Pix2NvsSimulator`) makes
   events at that size and pools them onto the sensor, as the paper did with its 1080p footage.
 
-Labels follow the frames onto the sensor (the same crop and scale as the frames).
+Labels follow the frames onto the sensor (the same crop and scale as the frames). A split is
+made of recordings rendered for it alone (:func:`synthetic_split`).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
+from uavsnn.dataset.format import LabelledWindows
 from uavsnn.dataset.real import boxes_to_sensor, crop_box
-from uavsnn.errors import ParameterError
+from uavsnn.dataset.splits import (
+    DOMAIN_KEY,
+    POOL_FACTOR,
+    SPLIT_KEY,
+    Pool,
+    Recorder,
+    balanced,
+    keyed_rng,
+    keyed_seed,
+)
+from uavsnn.errors import DatasetError, ParameterError
 from uavsnn.events import Recording
 from uavsnn.scenes import render, sample_spec
 from uavsnn.sim import DvsEmulator, DvsParams, Pix2NvsParams, Pix2NvsSimulator, crop_to_aspect
 
-__all__ = ["LabelledRecording", "SceneSource", "synthetic_recording"]
+__all__ = ["LabelledRecording", "SceneSource", "synthetic_recording", "synthetic_split"]
+
+#: Give up when this many recordings in a row add nothing that a split still needs.
+STALL = 25
 
 
 @dataclass(frozen=True)
@@ -153,3 +170,62 @@ def synthetic_recording(source: SceneSource, kind: str, seed: int) -> LabelledRe
         np.ones(len(ts), dtype=bool),
         info,
     )
+
+
+def synthetic_split(rec: Recorder, source: SceneSource, split: str, n: int) -> LabelledWindows:
+    """Render recordings for ``split`` until its pools hold ``POOL_FACTOR`` times the ``n / 2``
+    UAV and ``n / 2`` other windows it needs, then draw them.
+
+    The next recording is a ``"uav"`` scene while UAV windows are the scarcer, else an
+    ``"object"`` (70 %) or ``"empty"`` (30 %) scene. Recording ``i`` of a split is seeded by
+    ``(seed, domain, split, i)`` alone.
+
+    Raises:
+        DatasetError: ``STALL`` recordings in a row added nothing that was needed.
+    """
+    need_pos = math.ceil(POOL_FACTOR * (n // 2))
+    need_neg = math.ceil(POOL_FACTOR * (n - n // 2))
+    dkey, skey = DOMAIN_KEY[source.domain], SPLIT_KEY[split]
+    kinds = keyed_rng(rec.seed, dkey, skey, 0)
+    pool = Pool()
+    stall, i = 0, 0
+    while pool.positives < need_pos or pool.negatives < need_neg:
+        if need_pos and pool.positives / need_pos <= pool.negatives / max(need_neg, 1):
+            kind = "uav"
+        else:
+            kind = "object" if kinds.random() < 0.7 else "empty"
+        lr = synthetic_recording(source, kind, keyed_seed(rec.seed, dkey, skey, 1, i))
+        windows = rec.cut.cut(lr.recording, lr.end_us)
+        labels = rec.cut.label(windows.t0, lr.timestamps_us, lr.labels, lr.labelled)
+        rec_id = rec.record(
+            {
+                "name": f"{source.domain}-{split}-{i:05d}",
+                "domain": source.domain,
+                "split": split,
+                **lr.info,
+                "windows": len(windows),
+                "usable": int(labels.usable.sum()),
+                "usable_uav": int((labels.usable & labels.label).sum()),
+            }
+        )
+        before = (pool.positives, pool.negatives)
+        pool.add(rec_id, windows, labels)
+        gained = (before[0] < pool.positives and before[0] < need_pos) or (
+            before[1] < pool.negatives and before[1] < need_neg
+        )
+        stall = 0 if gained else stall + 1
+        if stall >= STALL:
+            raise DatasetError(
+                f"the {source.domain} {split} split stalled: {STALL} recordings in a row added "
+                f"no needed window ({pool.positives}/{need_pos} UAV, {pool.negatives}/{need_neg} "
+                f"non-UAV windows)"
+            )
+        i += 1
+        rec.progress(
+            f"{source.domain} {split}: {i} recordings, {pool.positives} UAV and "
+            f"{pool.negatives} non-UAV windows"
+        )
+    pick = balanced(
+        pool.labels(), n, keyed_rng(rec.seed, dkey, skey, 2), f"{source.domain} {split} pool"
+    )
+    return rec.mark_used(pool.take(pick))
