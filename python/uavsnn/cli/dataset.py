@@ -1,0 +1,197 @@
+"""``uavsnn dataset``: build labelled datasets, look at them, and look at the scenes behind them.
+
+- ``uavsnn dataset build OUT_DIR --domain dvs|sim|real|combined [--videos DIR] ...``
+- ``uavsnn dataset demo OUT_DIR`` — the small set that ``uavsnn demo`` uses
+- ``uavsnn dataset info DIR [--json]``
+- ``uavsnn dataset preview OUT.png --domain dvs --kind uav`` — a contact sheet of a scene
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from uavsnn.dataset import DATASET_DOMAINS, DatasetPaths, build, build_demo, read_manifest
+from uavsnn.errors import ParameterError
+from uavsnn.scenes import OBJECT_KINDS, SCENE_KINDS, contact_sheet, render, sample_spec, write_png
+
+__all__ = ["register"]
+
+
+def register(subparsers: Any) -> None:
+    """Add ``uavsnn dataset`` and its actions."""
+    parser = subparsers.add_parser(
+        "dataset",
+        help="build and inspect labelled datasets of windows",
+        description="Build labelled train/test sets (split by recording, balanced test sets, "
+        "a manifest) from rendered scenes or labelled videos; see docs/dataset.md.",
+    )
+    actions = parser.add_subparsers(dest="dataset_action", metavar="ACTION", required=True)
+
+    b = actions.add_parser(
+        "build",
+        help="build a dataset",
+        description="Render or read recordings, turn them into events, cut windows, label them "
+        "and write train/test splits (by recording; balanced) with a manifest. Domains: dvs "
+        "(rendered scenes through the DVS emulator), sim (rendered video through PIX2NVS), "
+        "real (labelled videos through PIX2NVS), combined (train on dvs+sim[+real], test on "
+        "dvs). Rules and format: docs/dataset.md.",
+    )
+    b.add_argument("out_dir", type=Path, help="folder to write (created; must be empty)")
+    b.add_argument("--domain", choices=DATASET_DOMAINS, required=True)
+    b.add_argument("--videos", type=Path, help="labelled videos (V_<CLASS>_<ID>.mp4 + .csv)")
+    b.add_argument("--n-test", type=int, default=2000, help="test windows, half UAV (2000)")
+    b.add_argument(
+        "--n-train",
+        type=int,
+        default=None,
+        help="train windows, half UAV (default: 4000; for --domain real all usable windows)",
+    )
+    b.add_argument("--window-ms", type=float, default=50.0, help="window length (50)")
+    b.add_argument("--overlap", type=float, default=0.5, help="window overlap in [0, 1) (0.5)")
+    b.add_argument("--seed", type=int, default=0)
+    b.add_argument(
+        "--min-fraction",
+        type=float,
+        default=0.5,
+        help="share of a window the UAV must be visible to count (0.5)",
+    )
+    b.add_argument(
+        "--test-fraction", type=float, default=0.3, help="share of real clips kept for test (0.3)"
+    )
+    b.add_argument("--overwrite", action="store_true", help="replace a dataset in OUT_DIR")
+    b.add_argument("--json", action="store_true", help="print the summary as JSON")
+    b.add_argument("--quiet", action="store_true", help="no progress bar")
+    b.set_defaults(handler=_build)
+
+    d = actions.add_parser("demo", help="build the small built-in synthetic set")
+    d.add_argument("out_dir", type=Path)
+    d.add_argument("--seed", type=int, default=0)
+    d.add_argument("--n-test", type=int, default=200)
+    d.add_argument("--n-train", type=int, default=400)
+    d.add_argument("--overwrite", action="store_true")
+    d.add_argument("--json", action="store_true")
+    d.add_argument("--quiet", action="store_true")
+    d.set_defaults(handler=_demo)
+
+    i = actions.add_parser("info", help="summarise a dataset")
+    i.add_argument("dir", type=Path)
+    i.add_argument("--json", action="store_true", help="print the manifest's summary as JSON")
+    i.set_defaults(handler=_info)
+
+    p = actions.add_parser("preview", help="render a sampled scene to a PNG contact sheet")
+    p.add_argument("out", type=Path, help="PNG to write")
+    p.add_argument("--domain", choices=("dvs", "sim"), default="dvs")
+    p.add_argument("--kind", choices=(*SCENE_KINDS, *OBJECT_KINDS), default="uav")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--frames", type=int, default=8, help="frames on the sheet (8)")
+    p.add_argument("--duration", type=float, default=None, help="seconds (domain default)")
+    p.set_defaults(handler=_preview)
+
+
+def _summary(root: Path) -> dict[str, Any]:
+    manifest = read_manifest(root)
+    return {
+        "root": str(root),
+        "domain": manifest["domain"],
+        "source": manifest["source"],
+        "seed": manifest["seed"],
+        "parameters": {k: v for k, v in manifest["parameters"].items() if k not in ("sources",)},
+        "splits": {
+            name: {k: v for k, v in s.items() if k != "recordings"}
+            | {"recordings": len(s["recordings"])}
+            for name, s in manifest["splits"].items()
+        },
+        "recordings": len(manifest.get("recordings", [])),
+    }
+
+
+def _print(summary: dict[str, Any], as_json: bool) -> None:
+    if as_json:
+        print(json.dumps(summary, indent=2))
+        return
+    print(f"{summary['root']}: {summary['domain']} — {summary['source']} (seed {summary['seed']})")
+    p = summary["parameters"]
+    print(
+        f"  windows of {p['window_ms']} ms, overlap {p['overlap']}, sensor "
+        f"{p['sensor_size'][0]}x{p['sensor_size'][1]}"
+    )
+    for name, s in summary["splits"].items():
+        classes = ", ".join(f"{k} {v}" for k, v in sorted(s["classes"].items()))
+        print(
+            f"  {name}: {s['windows']} windows ({s['uav']} UAV, {s['non_uav']} not) from "
+            f"{s['recordings']} recordings — {classes}"
+        )
+
+
+def _progress(quiet: bool) -> bool:
+    return not quiet and sys.stderr.isatty()
+
+
+def _done(paths: DatasetPaths, as_json: bool) -> int:
+    _print(_summary(paths.root), as_json)
+    return 0
+
+
+def _build(args: argparse.Namespace) -> int:
+    n_train = args.n_train
+    if n_train is None and args.domain != "real":
+        n_train = 4000
+    paths = build(
+        args.out_dir,
+        args.domain,
+        videos=args.videos,
+        n_test=args.n_test,
+        n_train=n_train,
+        window_ms=args.window_ms,
+        overlap=args.overlap,
+        seed=args.seed,
+        min_fraction=args.min_fraction,
+        test_fraction=args.test_fraction,
+        overwrite=args.overwrite,
+        progress=_progress(args.quiet),
+    )
+    return _done(paths, args.json)
+
+
+def _demo(args: argparse.Namespace) -> int:
+    paths = build_demo(
+        args.out_dir,
+        args.seed,
+        n_test=args.n_test,
+        n_train=args.n_train,
+        overwrite=args.overwrite,
+        progress=_progress(args.quiet),
+    )
+    return _done(paths, args.json)
+
+
+def _info(args: argparse.Namespace) -> int:
+    _print(_summary(args.dir), args.json)
+    return 0
+
+
+def _preview(args: argparse.Namespace) -> int:
+    if args.frames < 1:
+        raise ParameterError(f"--frames must be >= 1, got {args.frames}")
+    if args.seed < 0:
+        raise ParameterError(f"--seed must be >= 0, got {args.seed}")
+    spec = sample_spec(
+        args.domain, args.kind, np.random.default_rng(args.seed), duration_s=args.duration
+    )
+    frames, _, labels = render(spec, seed=args.seed)
+    sheet = contact_sheet(
+        frames, labels, count=args.frames, columns=4, scale=2.0 if args.domain == "dvs" else 1.0
+    )
+    write_png(args.out, sheet)
+    objects = ", ".join(f"{o.kind} at {o.path.start[2]:.1f} m" for o in spec.objects) or "none"
+    print(
+        f"{args.out}: {args.domain} scene, {spec.background.kind} background, light "
+        f"{spec.lighting.level:.3f}, objects: {objects}"
+    )
+    return 0

@@ -1,0 +1,240 @@
+"""The dataset on disk: ``manifest.json`` and one ``<split>.npz`` per split.
+
+A split file is a plain NumPy ``.npz`` (no pickled objects; strings are fixed-width unicode)
+that any NumPy reads with ``np.load(path)``. It holds a :class:`~uavsnn.windows.Windows` as its
+arrays — ``sensor_size`` (2,) int64, ``length_us`` () int64, ``t0`` (n,) uint64, ``offsets``
+(n+1,) int64, ``t`` (m,) uint64, ``x``/``y`` (m,) uint16, ``n_preceding`` (n,) int64 — and
+per window ``label`` (n,) bool (a UAV), ``cls`` (n,) <U12, ``recording`` (n,) int64 (an id in
+the manifest's ``recordings``) and ``box`` (n, 4) float32 (x0, y0, x1, y1 in sensor pixels,
+NaN without an object), plus ``format_version`` () int64. ``docs/dataset.md`` describes every
+field of the manifest.
+
+Files are written to a temporary name and renamed, so a file is either whole or absent; the
+manifest is written last, so a folder with a manifest is a finished dataset.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import zipfile
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from uavsnn.errors import DatasetError, UavsnnError
+from uavsnn.windows import Windows
+
+__all__ = [
+    "FORMAT_NAME",
+    "FORMAT_VERSION",
+    "MANIFEST",
+    "LabelledWindows",
+    "load",
+    "read_manifest",
+    "save_split",
+    "write_manifest",
+]
+
+FORMAT_NAME = "uavsnn-dataset"
+FORMAT_VERSION = 1
+MANIFEST = "manifest.json"
+_WINDOW_COLUMNS = {
+    "t0": np.uint64,
+    "offsets": np.int64,
+    "t": np.uint64,
+    "x": np.uint16,
+    "y": np.uint16,
+    "n_preceding": np.int64,
+}
+_LABEL_COLUMNS = {"label": np.bool_, "recording": np.int64}
+
+
+@dataclass(frozen=True)
+class LabelledWindows:
+    """Windows and their labels: ``label`` (n,) bool — a UAV; ``cls`` (n,) <U12 — the labelled
+    object's class (``"drone"``, ``"bird"``... or ``"none"``); ``recording`` (n,) int64 — the
+    recording's id in ``manifest["recordings"]``; ``box`` (n, 4) float32; and the dataset's
+    ``manifest``."""
+
+    windows: Windows
+    label: np.ndarray
+    cls: np.ndarray
+    recording: np.ndarray
+    box: np.ndarray
+    manifest: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        n = len(self.windows)
+        for name in ("label", "cls", "recording", "box"):
+            arr = getattr(self, name)
+            if len(arr) != n:
+                raise DatasetError(f"{name} has {len(arr)} entries for {n} windows")
+        if self.box.shape != (n, 4):
+            raise DatasetError(f"box must have shape ({n}, 4), got {self.box.shape}")
+
+    def __len__(self) -> int:
+        return len(self.windows)
+
+    def select(self, indices: Any) -> LabelledWindows:
+        """The windows ``indices``, with their labels, in the given order."""
+        idx = np.asarray(indices, dtype=np.int64)
+        return LabelledWindows(
+            self.windows.select(idx),
+            self.label[idx],
+            self.cls[idx],
+            self.recording[idx],
+            self.box[idx],
+            self.manifest,
+        )
+
+    def class_counts(self) -> dict[str, int]:
+        """Windows per class."""
+        names, counts = np.unique(self.cls, return_counts=True)
+        return {str(k): int(v) for k, v in zip(names, counts, strict=True)}
+
+    def recording_domains(self) -> np.ndarray:
+        """The domain (``"dvs"``, ``"sim"``, ``"real"``) of each window's recording, from the
+        manifest."""
+        table = {int(r["id"]): str(r["domain"]) for r in self.manifest.get("recordings", [])}
+        try:
+            return np.array([table[int(r)] for r in self.recording], dtype="<U8")
+        except KeyError as exc:
+            raise DatasetError(f"recording {exc.args[0]} is not in the manifest") from exc
+
+
+def _atomic(path: Path, write: Any) -> None:
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    try:
+        with tmp.open("wb") as f:
+            write(f)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+
+
+def save_split(path: str | Path, data: LabelledWindows) -> Path:
+    """Write ``data`` as a split file (atomically); returns the path."""
+    path = Path(path)
+    w = data.windows
+    arrays: dict[str, np.ndarray] = {
+        "format_version": np.asarray(FORMAT_VERSION, dtype=np.int64),
+        "sensor_size": np.asarray(w.sensor_size, dtype=np.int64),
+        "length_us": np.asarray(w.length_us, dtype=np.int64),
+    }
+    for name, dtype in _WINDOW_COLUMNS.items():
+        arrays[name] = np.ascontiguousarray(getattr(w, name), dtype=dtype)
+    arrays["label"] = np.asarray(data.label, dtype=np.bool_)
+    arrays["cls"] = np.asarray(data.cls, dtype="<U12")
+    arrays["recording"] = np.asarray(data.recording, dtype=np.int64)
+    arrays["box"] = np.asarray(data.box, dtype=np.float32)
+    columns: dict[str, Any] = arrays
+    _atomic(path, lambda f: np.savez(f, **columns))
+    return path
+
+
+def write_manifest(root: str | Path, manifest: dict[str, Any]) -> Path:
+    """Write ``manifest.json`` (atomically); returns its path."""
+    path = Path(root) / MANIFEST
+    text = json.dumps(manifest, indent=2, sort_keys=False, allow_nan=False) + "\n"
+    _atomic(path, lambda f: f.write(text.encode("utf-8")))
+    return path
+
+
+def read_manifest(root: str | Path) -> dict[str, Any]:
+    """Read and check a dataset's manifest.
+
+    Raises:
+        DatasetError: no such folder or manifest, not JSON, not a uavsnn dataset, or of another
+            format version.
+    """
+    root = Path(root)
+    if not root.is_dir():
+        raise DatasetError(f"dataset folder {root} does not exist")
+    path = root / MANIFEST
+    if not path.is_file():
+        raise DatasetError(f"{root} has no {MANIFEST}: not a dataset, or its build did not finish")
+    try:
+        manifest = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise DatasetError(f"cannot read {path}: {exc}") from exc
+    if not isinstance(manifest, dict) or manifest.get("format") != FORMAT_NAME:
+        raise DatasetError(f"{path} is not a {FORMAT_NAME} manifest")
+    version = manifest.get("format_version")
+    if version != FORMAT_VERSION:
+        raise DatasetError(
+            f"{path} is format version {version!r}; this uavsnn reads version {FORMAT_VERSION}"
+        )
+    return manifest
+
+
+def load(root: str | Path, split: str) -> LabelledWindows:
+    """Load one split of the dataset in ``root``.
+
+    Raises:
+        DatasetError: a missing or unreadable manifest or split file, a split the manifest does
+            not list, missing or inconsistent arrays, or counts that disagree with the
+            manifest.
+    """
+    root = Path(root)
+    manifest = read_manifest(root)
+    splits = manifest.get("splits", {})
+    if split not in splits:
+        raise DatasetError(
+            f"dataset {root} has no split {split!r}; it has: {', '.join(sorted(splits)) or 'none'}"
+        )
+    path = root / str(splits[split].get("file", f"{split}.npz"))
+    if not path.is_file():
+        raise DatasetError(f"split file {path} is missing")
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            arrays = {k: z[k] for k in z.files}
+    except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
+        raise DatasetError(f"cannot read split file {path}: {exc}") from exc
+    need = {
+        "format_version",
+        "sensor_size",
+        "length_us",
+        "cls",
+        "box",
+        *_WINDOW_COLUMNS,
+        *_LABEL_COLUMNS,
+    }
+    missing = sorted(need - set(arrays))
+    if missing:
+        raise DatasetError(f"split file {path} lacks arrays: {', '.join(missing)}")
+    if int(arrays["format_version"]) != FORMAT_VERSION:
+        raise DatasetError(
+            f"split file {path} is format version {int(arrays['format_version'])}; "
+            f"this uavsnn reads version {FORMAT_VERSION}"
+        )
+    for name, dtype in {**_WINDOW_COLUMNS, **_LABEL_COLUMNS}.items():
+        if arrays[name].dtype != dtype:
+            raise DatasetError(
+                f"{path}: {name} has dtype {arrays[name].dtype}, expected {np.dtype(dtype)}"
+            )
+    if arrays["cls"].dtype.kind != "U" or arrays["box"].dtype != np.float32:
+        raise DatasetError(f"{path}: cls must be unicode and box float32")
+    try:
+        width, height = (int(v) for v in arrays["sensor_size"])
+        windows = Windows(
+            (width, height), int(arrays["length_us"]), *(arrays[k] for k in _WINDOW_COLUMNS)
+        )
+        data = LabelledWindows(
+            windows, arrays["label"], arrays["cls"], arrays["recording"], arrays["box"], manifest
+        )
+    except UavsnnError as exc:
+        raise DatasetError(f"split file {path} is inconsistent: {exc}") from exc
+    except (TypeError, ValueError) as exc:
+        raise DatasetError(f"split file {path} is malformed: {exc}") from exc
+    expected = splits[split].get("windows")
+    if expected is not None and expected != len(data):
+        raise DatasetError(
+            f"split file {path} holds {len(data)} windows, the manifest says {expected}"
+        )
+    return data

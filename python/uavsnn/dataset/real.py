@@ -1,0 +1,205 @@
+"""Real labelled footage: folders laid out like the Svanström drone-detection dataset.
+
+A folder holds videos named ``<PREFIX>_<CLASS>_<ID>.<ext>`` (``V_DRONE_001.mp4``,
+``V_BIRD_012.avi``...) and beside each a ``.csv`` of the same name with the header
+``frame,x,y,w,h``: one row per frame, frames counted from 1, the box's top-left corner and size
+in pixels of the video; an empty box means no target in that frame. Frames without a row
+(past the last one, or skipped) are unlabelled and are never scored. ``DRONE`` (or ``UAV``) is
+the UAV class; every other class (``BIRD``, ``AIRPLANE``, ``HELICOPTER``...) is not a UAV.
+
+The videos become events through the "sim" path (:func:`uavsnn.sim.video_to_recording`:
+PIX2NVS on the frames cropped, centred, to the sensor's aspect ratio, events pooled onto the
+sensor), and the boxes follow the same crop and scale.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from uavsnn.errors import DatasetError
+from uavsnn.scenes import LABEL_DTYPE, UAV_CLASS
+
+__all__ = [
+    "UAV_NAMES",
+    "VIDEO_SUFFIXES",
+    "Clip",
+    "boxes_to_sensor",
+    "clip_labels",
+    "crop_box",
+    "find_clips",
+    "read_boxes",
+]
+
+VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".mkv", ".m4v", ".webm", ".mpg", ".mpeg")
+#: Class names (case-insensitive) that mean a UAV.
+UAV_NAMES = ("DRONE", "UAV")
+_NAME = re.compile(r"^(?P<prefix>[A-Za-z0-9]+)_(?P<cls>[A-Za-z]+)_(?P<id>[A-Za-z0-9]+)$")
+
+
+@dataclass(frozen=True)
+class Clip:
+    """One labelled video: its ``name`` (the file stem), paths, class (lower case:
+    ``"drone"``, ``"bird"``...) and whether that class is a UAV."""
+
+    name: str
+    video: Path
+    boxes: Path
+    cls: str
+    uav: bool
+
+
+def find_clips(folder: str | Path) -> list[Clip]:
+    """The labelled videos of ``folder``, sorted by name.
+
+    Raises:
+        DatasetError: the folder is missing or holds no video named ``<PREFIX>_<CLASS>_<ID>``,
+            or a video has no ``.csv`` beside it.
+    """
+    root = Path(folder)
+    if not root.is_dir():
+        raise DatasetError(f"video folder {root} does not exist or is not a folder")
+    clips = []
+    for path in sorted(root.iterdir()):
+        if path.suffix.lower() not in VIDEO_SUFFIXES or not path.is_file():
+            continue
+        m = _NAME.match(path.stem)
+        if m is None:
+            continue
+        boxes = path.with_suffix(".csv")
+        if not boxes.is_file():
+            raise DatasetError(f"video {path.name} has no box file {boxes.name} beside it")
+        cls_name = m.group("cls").upper()
+        uav = cls_name in UAV_NAMES
+        clips.append(Clip(path.stem, path, boxes, UAV_CLASS if uav else cls_name.lower(), uav))
+    if not clips:
+        raise DatasetError(
+            f"no labelled videos in {root}: expected files named like V_DRONE_001.mp4 "
+            f"(<PREFIX>_<CLASS>_<ID> with a suffix in {', '.join(VIDEO_SUFFIXES)}) and a .csv "
+            f"of the same name"
+        )
+    return clips
+
+
+def read_boxes(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
+    """Read a ``frame,x,y,w,h`` box file: ``(frames, boxes)``, frame numbers from 1 (int64)
+    and ``(x0, y0, x1, y1)`` float32 boxes, NaN for rows with an empty box.
+
+    Raises:
+        DatasetError: unreadable file, wrong header, a malformed row (named by line), a box of
+            zero or negative size, frame numbers below 1 or not increasing.
+    """
+    path = Path(path)
+    try:
+        with path.open(newline="") as f:
+            rows = list(csv.reader(f))
+    except (OSError, UnicodeDecodeError) as exc:
+        raise DatasetError(f"cannot read box file {path}: {exc}") from exc
+    if not rows:
+        raise DatasetError(f"box file {path} is empty; expected the header frame,x,y,w,h")
+    header = [c.strip().lower() for c in rows[0]]
+    if header != ["frame", "x", "y", "w", "h"]:
+        raise DatasetError(f"box file {path} has header {rows[0]}, expected frame,x,y,w,h")
+    frames = np.zeros(len(rows) - 1, dtype=np.int64)
+    boxes = np.full((len(rows) - 1, 4), np.nan, dtype=np.float32)
+    for i, row in enumerate(rows[1:]):
+        line = i + 2
+        cells = [c.strip() for c in row]
+        if len(cells) != 5:
+            raise DatasetError(f"{path}:{line}: expected 5 fields frame,x,y,w,h, got {row}")
+        try:
+            frames[i] = int(cells[0])
+        except ValueError as exc:
+            raise DatasetError(f"{path}:{line}: frame {cells[0]!r} is not an integer") from exc
+        if frames[i] < 1 or (i > 0 and frames[i] <= frames[i - 1]):
+            raise DatasetError(
+                f"{path}:{line}: frame numbers must start at 1 and increase, got {frames[i]}"
+                + (f" after {frames[i - 1]}" if i > 0 else "")
+            )
+        vals = cells[1:]
+        if all(v == "" for v in vals):
+            continue
+        try:
+            x, y, w, h = (float(v) for v in vals)
+        except ValueError as exc:
+            raise DatasetError(f"{path}:{line}: box {vals} is not four numbers or empty") from exc
+        if not all(math.isfinite(v) for v in (x, y, w, h)) or w <= 0 or h <= 0:
+            raise DatasetError(f"{path}:{line}: box {vals} must be finite with w, h > 0")
+        boxes[i] = (x, y, x + w, y + h)
+    return frames, boxes
+
+
+def crop_box(
+    video_size: tuple[int, int], sensor_size: tuple[int, int]
+) -> tuple[int, int, int, int]:
+    """``(x0, y0, width, height)`` of the centred crop of a ``video_size`` frame to the
+    sensor's aspect ratio — the crop :func:`uavsnn.sim.crop_to_aspect` takes."""
+    w, h = video_size
+    aspect = sensor_size[0] / sensor_size[1]
+    if w / h > aspect:
+        cw = min(w, max(1, round(h * aspect)))
+        return (w - cw) // 2, 0, cw, h
+    ch = min(h, max(1, round(w / aspect)))
+    return 0, (h - ch) // 2, w, ch
+
+
+def boxes_to_sensor(
+    labels: np.ndarray, video_size: tuple[int, int], sensor_size: tuple[int, int]
+) -> np.ndarray:
+    """Frame labels in video pixels to sensor pixels: the centred crop, the scale, clipping to
+    the sensor; a box left with less than a pixel's width or height on the sensor (unless it
+    was smaller than that to start with) is no longer visible (``cls`` ``"none"``)."""
+    x0, y0, cw, ch = crop_box(video_size, sensor_size)
+    sx, sy = sensor_size[0] / cw, sensor_size[1] / ch
+    out = labels.copy()
+    bx0 = (labels["x0"] - x0) * sx
+    by0 = (labels["y0"] - y0) * sy
+    bx1 = (labels["x1"] - x0) * sx
+    by1 = (labels["y1"] - y0) * sy
+    cx0, cy0 = np.maximum(bx0, 0), np.maximum(by0, 0)
+    cx1, cy1 = np.minimum(bx1, sensor_size[0]), np.minimum(by1, sensor_size[1])
+    with np.errstate(invalid="ignore"):
+        visible = (
+            (cx1 - cx0 >= np.minimum(1.0, bx1 - bx0))
+            & (cy1 - cy0 >= np.minimum(1.0, by1 - by0))
+            & (cx1 > cx0)
+            & (cy1 > cy0)
+        )
+    visible &= labels["cls"] != "none"
+    out["x0"], out["y0"], out["x1"], out["y1"] = cx0, cy0, cx1, cy1
+    out["uav"] = labels["uav"] & visible
+    out["cls"] = np.where(visible, labels["cls"], "none")
+    for k in ("x0", "y0", "x1", "y1"):
+        out[k] = np.where(visible, out[k], np.nan)
+    return out
+
+
+def clip_labels(
+    clip: Clip, n_frames: int, video_size: tuple[int, int], sensor_size: tuple[int, int]
+) -> tuple[np.ndarray, np.ndarray]:
+    """Per frame of the video: labels in sensor pixels and whether the frame is labelled.
+
+    Rows for frames the video does not have are ignored; frames without a row are unlabelled.
+    """
+    frames, boxes = read_boxes(clip.boxes)
+    labels = np.zeros(n_frames, dtype=LABEL_DTYPE)
+    labels["cls"] = "none"
+    for k in ("x0", "y0", "x1", "y1"):
+        labels[k] = np.nan
+    labelled = np.zeros(n_frames, dtype=bool)
+    idx = frames - 1
+    keep = idx < n_frames
+    idx, boxes = idx[keep], boxes[keep]
+    labelled[idx] = True
+    has = ~np.isnan(boxes[:, 0])
+    target = idx[has]
+    labels["cls"][target] = clip.cls
+    labels["uav"][target] = clip.uav
+    for j, k in enumerate(("x0", "y0", "x1", "y1")):
+        labels[k][target] = boxes[has, j]
+    return boxes_to_sensor(labels, video_size, sensor_size), labelled

@@ -1,0 +1,178 @@
+"""What every build shares: cutting and labelling windows, pools of usable windows, balanced
+draws, keyed seeds, and the record of the recordings a build makes (the manifest's
+``recordings``)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from uavsnn.dataset.format import LabelledWindows
+from uavsnn.dataset.labels import WindowLabels, label_windows
+from uavsnn.errors import DatasetError
+from uavsnn.events import Recording
+from uavsnn.windows import Windows, make_windows, window_step
+
+__all__ = [
+    "DOMAIN_KEY",
+    "POOL_FACTOR",
+    "SENSOR",
+    "SPLIT_KEY",
+    "Pool",
+    "Progress",
+    "Recorder",
+    "WindowCut",
+    "balanced",
+    "keyed_rng",
+    "keyed_seed",
+]
+
+SENSOR = (240, 180)
+#: A split's pools hold this many times the windows it needs before sampling, for variety.
+POOL_FACTOR = 1.25
+#: Seed keys: every recording and draw has its own stream, so one split never shifts another.
+DOMAIN_KEY = {"dvs": 1, "sim": 2, "real": 3}
+SPLIT_KEY = {"test": 1, "train": 2}
+
+Progress = Callable[[str], None]
+
+
+def keyed_rng(seed: int, *key: int) -> np.random.Generator:
+    """A generator of its own for ``key`` under the dataset ``seed``."""
+    return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=key))
+
+
+def keyed_seed(seed: int, *key: int) -> int:
+    """A 32-bit seed of its own for ``key`` under the dataset ``seed``."""
+    return int(np.random.SeedSequence(seed, spawn_key=key).generate_state(1)[0])
+
+
+@dataclass(frozen=True)
+class WindowCut:
+    """How windows are cut (``length_us``, ``overlap``) and labelled (``min_fraction``)."""
+
+    length_us: int
+    overlap: float
+    min_fraction: float
+
+    @property
+    def step_us(self) -> int:
+        """Time between window starts."""
+        return window_step(self.length_us, self.overlap)
+
+    def starts(self, end_us: int) -> np.ndarray:
+        """Window starts for a recording of ``[0, end_us)``: what :meth:`cut` makes."""
+        return np.arange(0, end_us, self.step_us, dtype=np.uint64)
+
+    def label(
+        self,
+        t0: np.ndarray,
+        timestamps_us: np.ndarray,
+        frame_labels: np.ndarray,
+        labelled: np.ndarray,
+    ) -> WindowLabels:
+        """Label windows starting at ``t0`` from the frames' labels."""
+        return label_windows(
+            t0,
+            self.length_us,
+            timestamps_us,
+            frame_labels,
+            labelled,
+            min_fraction=self.min_fraction,
+        )
+
+    def cut(self, recording: Recording, end_us: int) -> Windows:
+        """The windows of a recording of ``[0, end_us)``, starting at 0."""
+        return make_windows(recording, self.length_us, self.overlap, start_us=0, end_us=end_us)
+
+
+class Pool:
+    """Usable windows gathered from recordings, with their labels and recording ids."""
+
+    def __init__(self) -> None:
+        self._windows: list[Windows] = []
+        self._label: list[np.ndarray] = []
+        self._cls: list[np.ndarray] = []
+        self._box: list[np.ndarray] = []
+        self._recording: list[np.ndarray] = []
+        self.positives = 0
+        self.negatives = 0
+
+    def add(
+        self, rec_id: int, windows: Windows, labels: WindowLabels, keep: np.ndarray | None = None
+    ) -> None:
+        """Add the usable windows (or those in ``keep``) of one recording."""
+        idx = np.flatnonzero(labels.usable if keep is None else keep)
+        if len(idx) == 0:
+            return
+        self._windows.append(windows.select(idx))
+        self._label.append(labels.label[idx])
+        self._cls.append(labels.cls[idx])
+        self._box.append(labels.box[idx])
+        self._recording.append(np.full(len(idx), rec_id, dtype=np.int64))
+        pos = int(labels.label[idx].sum())
+        self.positives += pos
+        self.negatives += len(idx) - pos
+
+    def labels(self) -> np.ndarray:
+        """The UAV label of every window in the pool."""
+        return np.concatenate(self._label) if self._label else np.zeros(0, dtype=bool)
+
+    def take(self, indices: np.ndarray | None = None) -> LabelledWindows:
+        """The pool's windows (or those at ``indices``) as one :class:`LabelledWindows`."""
+        if not self._windows:
+            raise DatasetError("no usable windows were made")
+        data = LabelledWindows(
+            Windows.concatenate(self._windows),
+            np.concatenate(self._label),
+            np.concatenate(self._cls),
+            np.concatenate(self._recording),
+            np.concatenate(self._box),
+        )
+        return data if indices is None else data.select(indices)
+
+
+def balanced(label: np.ndarray, n: int, rng: np.random.Generator, what: str) -> np.ndarray:
+    """``n // 2`` UAV and ``n - n // 2`` other windows drawn without replacement, sorted.
+
+    Raises:
+        DatasetError: too few windows of either label.
+    """
+    pos, neg = np.flatnonzero(label), np.flatnonzero(~label)
+    n_pos, n_neg = n // 2, n - n // 2
+    if len(pos) < n_pos or len(neg) < n_neg:
+        raise DatasetError(
+            f"cannot balance the {what}: it has {len(pos)} UAV and {len(neg)} non-UAV windows, "
+            f"{n_pos} and {n_neg} are needed"
+        )
+    pick = np.concatenate(
+        [rng.choice(pos, n_pos, replace=False), rng.choice(neg, n_neg, replace=False)]
+    )
+    return np.sort(pick)
+
+
+class Recorder:
+    """One build's seed, window settings and progress, and the manifest entries of the
+    recordings it makes (their ids are their positions)."""
+
+    def __init__(self, seed: int, cut: WindowCut, progress: Progress) -> None:
+        self.seed = seed
+        self.cut = cut
+        self.progress = progress
+        self.records: list[dict[str, Any]] = []
+
+    def record(self, entry: dict[str, Any]) -> int:
+        """Add a recording's entry; returns its id."""
+        rec_id = len(self.records)
+        self.records.append({"id": rec_id, **entry, "windows_used": 0})
+        return rec_id
+
+    def mark_used(self, data: LabelledWindows) -> LabelledWindows:
+        """Note how many windows of each recording ``data`` uses; returns ``data``."""
+        ids, counts = np.unique(data.recording, return_counts=True)
+        for rec_id, count in zip(ids.tolist(), counts.tolist(), strict=True):
+            self.records[rec_id]["windows_used"] = int(count)
+        return data

@@ -1,0 +1,231 @@
+"""Synthetic labelled recordings — a sampled scene, rendered, turned into events — and the
+splits made of them.
+
+- "dvs": the scene is rendered at the sensor's size (240×180) at a high frame rate (500 fps
+  by default) as linear intensity, and :class:`uavsnn.sim.DvsEmulator` makes the events.
+- "sim": the scene is rendered as 8-bit colour video (30 or 60 fps, 480×360 by default — the
+  4:3 centre of a 640×360 camera), and PIX2NVS (:class:`uavsnn.sim.Pix2NvsSimulator`) makes
+  events at that size and pools them onto the sensor, as the paper did with its 1080p footage.
+
+Labels follow the frames onto the sensor (the same crop and scale as the frames). A split is
+made of recordings rendered for it alone (:func:`synthetic_split`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from uavsnn.dataset.format import LabelledWindows
+from uavsnn.dataset.real import boxes_to_sensor, crop_box
+from uavsnn.dataset.splits import (
+    DOMAIN_KEY,
+    POOL_FACTOR,
+    SPLIT_KEY,
+    Pool,
+    Recorder,
+    balanced,
+    keyed_rng,
+    keyed_seed,
+)
+from uavsnn.errors import DatasetError, ParameterError
+from uavsnn.events import Recording
+from uavsnn.scenes import render, sample_spec
+from uavsnn.sim import DvsEmulator, DvsParams, Pix2NvsParams, Pix2NvsSimulator, crop_to_aspect
+
+__all__ = ["LabelledRecording", "SceneSource", "synthetic_recording", "synthetic_split"]
+
+#: Give up when this many recordings in a row add nothing that a split still needs.
+STALL = 25
+
+
+@dataclass(frozen=True)
+class SceneSource:
+    """How recordings of one synthetic domain are made: render ``size``, frame rate (``None``:
+    the domain's default), clip ``duration_s``, the sensor size, and the simulator's
+    parameters (``None``: its defaults)."""
+
+    domain: str
+    size: tuple[int, int]
+    fps: float | None
+    duration_s: float
+    sensor: tuple[int, int] = (240, 180)
+    dvs_params: DvsParams | None = None
+    pix2nvs_params: Pix2NvsParams | None = None
+
+    def __post_init__(self) -> None:
+        if self.domain not in ("dvs", "sim"):
+            raise ParameterError(f"a scene source's domain is 'dvs' or 'sim', got {self.domain!r}")
+        if self.domain == "dvs" and tuple(self.size) != tuple(self.sensor):
+            raise ParameterError(
+                f"the dvs domain renders at the sensor's size {self.sensor}, got {self.size}"
+            )
+        crop = crop_box(self.size, self.sensor)
+        if self.domain == "sim" and (crop[2] < self.sensor[0] or crop[3] < self.sensor[1]):
+            raise ParameterError(
+                f"sim frames of {self.size[0]}x{self.size[1]} crop to {crop[2]}x{crop[3]}, "
+                f"smaller than the {self.sensor[0]}x{self.sensor[1]} sensor"
+            )
+
+    def describe(self) -> dict[str, Any]:
+        """The source's settings, for a manifest."""
+        out: dict[str, Any] = {
+            "domain": self.domain,
+            "render_size": list(self.size),
+            "fps": self.fps
+            if self.fps is not None
+            else "30 or 60"
+            if self.domain == "sim"
+            else None,
+            "duration_s": self.duration_s,
+            "sensor_size": list(self.sensor),
+        }
+        if self.domain == "dvs":
+            out["simulator"] = "uavsnn.sim.DvsEmulator"
+            out["simulator_params"] = _params(self.dvs_params or DvsParams())
+        else:
+            out["simulator"] = "uavsnn.sim.Pix2NvsSimulator (events pooled onto the sensor)"
+            out["simulator_params"] = _params(self.pix2nvs_params or Pix2NvsParams())
+        return out
+
+
+def _params(p: Any) -> dict[str, Any]:
+    return {k: getattr(p, k) for k in p.__dataclass_fields__}
+
+
+@dataclass
+class LabelledRecording:
+    """Events with the labels of the frames they came from (in sensor pixels): frame times,
+    labels, which frames are labelled, and a description for the manifest."""
+
+    recording: Recording
+    timestamps_us: np.ndarray
+    labels: np.ndarray
+    labelled: np.ndarray
+    info: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def end_us(self) -> int:
+        """One frame interval after the last frame: the end of the recorded time."""
+        t = self.timestamps_us
+        return int(t[-1]) + int(t[-1] - t[-2])
+
+
+def synthetic_recording(source: SceneSource, kind: str, seed: int) -> LabelledRecording:
+    """Sample a scene of ``kind`` (see :func:`uavsnn.scenes.sample_spec`), render it and
+    simulate its events, all from ``seed``."""
+    spec_seq, render_seq, sensor_seq = np.random.SeedSequence(seed).spawn(3)
+    spec = sample_spec(
+        source.domain,
+        kind,
+        np.random.default_rng(spec_seq),
+        size=source.size,
+        fps=source.fps,
+        duration_s=source.duration_s,
+    )
+    render_seed = int(render_seq.generate_state(1)[0])
+    frames, ts, labels = render(spec, seed=render_seed)
+    if source.domain == "dvs":
+        sensor_seed = int(sensor_seq.generate_state(1)[0])
+        emulator = DvsEmulator(source.sensor, params=source.dvs_params, seed=sensor_seed)
+        events = emulator.process(frames, ts)
+    else:
+        crop = crop_to_aspect(frames[0], source.sensor[0] / source.sensor[1]).shape
+        size = (crop[1], crop[0])
+        if size == tuple(source.sensor):
+            sim = Pix2NvsSimulator(size, params=source.pix2nvs_params)
+        else:
+            sim = Pix2NvsSimulator(
+                size, params=source.pix2nvs_params, output_size=source.sensor, pooling="strongest"
+            )
+        x0, y0, cw, ch = crop_box(source.size, source.sensor)
+        events = sim.process(np.ascontiguousarray(frames[:, y0 : y0 + ch, x0 : x0 + cw]), ts)
+    del frames
+    info = {
+        "kind": kind,
+        "seed": int(seed),
+        "background": spec.background.kind,
+        "lighting": round(spec.lighting.level, 4),
+        "objects": [
+            {
+                "kind": o.kind,
+                "size_m": round(o.size_m, 4),
+                "range_m": round(o.path.start[2], 2),
+                "path": o.path.kind,
+            }
+            for o in spec.objects
+        ],
+        "fps": spec.fps,
+        "frames": spec.n_frames,
+        "events": len(events),
+    }
+    sensor_labels = boxes_to_sensor(labels, source.size, source.sensor)
+    return LabelledRecording(
+        Recording(events, source.sensor, {"source": "uavsnn.scenes", **info}),
+        ts,
+        sensor_labels,
+        np.ones(len(ts), dtype=bool),
+        info,
+    )
+
+
+def synthetic_split(rec: Recorder, source: SceneSource, split: str, n: int) -> LabelledWindows:
+    """Render recordings for ``split`` until its pools hold ``POOL_FACTOR`` times the ``n / 2``
+    UAV and ``n / 2`` other windows it needs, then draw them.
+
+    The next recording is a ``"uav"`` scene while UAV windows are the scarcer, else an
+    ``"object"`` (70 %) or ``"empty"`` (30 %) scene. Recording ``i`` of a split is seeded by
+    ``(seed, domain, split, i)`` alone.
+
+    Raises:
+        DatasetError: ``STALL`` recordings in a row added nothing that was needed.
+    """
+    need_pos = math.ceil(POOL_FACTOR * (n // 2))
+    need_neg = math.ceil(POOL_FACTOR * (n - n // 2))
+    dkey, skey = DOMAIN_KEY[source.domain], SPLIT_KEY[split]
+    kinds = keyed_rng(rec.seed, dkey, skey, 0)
+    pool = Pool()
+    stall, i = 0, 0
+    while pool.positives < need_pos or pool.negatives < need_neg:
+        if need_pos and pool.positives / need_pos <= pool.negatives / max(need_neg, 1):
+            kind = "uav"
+        else:
+            kind = "object" if kinds.random() < 0.7 else "empty"
+        lr = synthetic_recording(source, kind, keyed_seed(rec.seed, dkey, skey, 1, i))
+        windows = rec.cut.cut(lr.recording, lr.end_us)
+        labels = rec.cut.label(windows.t0, lr.timestamps_us, lr.labels, lr.labelled)
+        rec_id = rec.record(
+            {
+                "name": f"{source.domain}-{split}-{i:05d}",
+                "domain": source.domain,
+                "split": split,
+                **lr.info,
+                "windows": len(windows),
+                "usable": int(labels.usable.sum()),
+                "usable_uav": int((labels.usable & labels.label).sum()),
+            }
+        )
+        before = (pool.positives, pool.negatives)
+        pool.add(rec_id, windows, labels)
+        gained = (before[0] < pool.positives and before[0] < need_pos) or (
+            before[1] < pool.negatives and before[1] < need_neg
+        )
+        stall = 0 if gained else stall + 1
+        if stall >= STALL:
+            raise DatasetError(
+                f"the {source.domain} {split} split stalled: {STALL} recordings in a row added "
+                f"no needed window ({pool.positives}/{need_pos} UAV, {pool.negatives}/{need_neg} "
+                f"non-UAV windows)"
+            )
+        i += 1
+        rec.progress(
+            f"{source.domain} {split}: {i} recordings, {pool.positives} UAV and "
+            f"{pool.negatives} non-UAV windows"
+        )
+    pick = balanced(
+        pool.labels(), n, keyed_rng(rec.seed, dkey, skey, 2), f"{source.domain} {split} pool"
+    )
+    return rec.mark_used(pool.take(pick))

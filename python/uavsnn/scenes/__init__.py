@@ -1,0 +1,47 @@
+"""Labelled scenes for training and testing: UAVs and other flying things, rendered.
+
+``render(spec, *, seed) -> (frames, timestamps_us, labels)`` draws a :class:`SceneSpec` with
+OpenCV and NumPy; ``sample_spec(domain, kind, rng)`` draws varied specs: Phantom- and
+Tello-sized quadcopters with spinning rotors, birds with beating wings, aircraft, helicopters,
+balls, insects and leaves, in front of sky with drifting clouds, a field with trees or a sports
+hall, in light from bright to very dark. See ``docs/dataset.md``.
+"""
+
+from __future__ import annotations
+
+from uavsnn.scenes.preview import contact_sheet, write_png
+from uavsnn.scenes.renderer import LABEL_DTYPE, render, scene_labels
+from uavsnn.scenes.sampler import SCENE_KINDS, default_format, sample_spec
+from uavsnn.scenes.spec import (
+    BACKGROUNDS,
+    CLASS_OF_KIND,
+    DOMAINS,
+    OBJECT_KINDS,
+    UAV_CLASS,
+    Background,
+    Lighting,
+    ObjectSpec,
+    PathSpec,
+    SceneSpec,
+)
+
+__all__ = [
+    "BACKGROUNDS",
+    "CLASS_OF_KIND",
+    "DOMAINS",
+    "LABEL_DTYPE",
+    "OBJECT_KINDS",
+    "SCENE_KINDS",
+    "UAV_CLASS",
+    "Background",
+    "Lighting",
+    "ObjectSpec",
+    "PathSpec",
+    "SceneSpec",
+    "contact_sheet",
+    "default_format",
+    "render",
+    "sample_spec",
+    "scene_labels",
+    "write_png",
+]
