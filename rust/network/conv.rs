@@ -56,18 +56,27 @@ impl Fired<'_> {
     }
 }
 
+/// Lateral inhibition at one position (one cache line holds all of it).
+#[derive(Debug, Clone, Copy, Default)]
+struct Slot {
+    /// Generation in which a map fired here.
+    lock: u32,
+    /// Group in which `best` was last written.
+    group: u32,
+    /// Best crossing here in the current group (index into `crossed`).
+    best: u32,
+}
+
 /// Per-window state of one conv layer.
 #[derive(Debug, Clone)]
 pub(crate) struct ConvState {
     pub geom: ConvGeom,
     /// Float32 running potentials `[row][col][map]` (`−∞` once crossed).
     pot: Vec<f32>,
-    /// Generation in which a map fired at a position (lateral inhibition).
-    lock: Vec<u32>,
-    /// Group in which `best` was last written, per position.
-    best_group: Vec<u32>,
-    /// Best crossing at a position in the current group (index into `crossed`).
-    best: Vec<u32>,
+    /// Lateral-inhibition state per position.
+    slots: Vec<Slot>,
+    /// Per lane of a row's run: (position offset, map), to avoid dividing in the hot loop.
+    lane_split: Vec<(u32, u32)>,
     /// Exact thresholds per map.
     thr: Vec<f64>,
     /// `θ_hi` per map: float32 sums at or above it have surely crossed.
@@ -86,6 +95,10 @@ pub(crate) struct ConvState {
     touched: Vec<u32>,
     /// Input positions `(row, col)` added this window (what the next window must zero).
     inputs: Vec<(u32, u32)>,
+    /// Scratch: per 8 lanes of a run, which reached `θ_lo`.
+    masks: Vec<u8>,
+    /// Whether the CPU has AVX2 (asked once, at construction).
+    avx2: bool,
 }
 
 impl ConvState {
@@ -94,9 +107,10 @@ impl ConvState {
         Self {
             geom,
             pot: vec![0.0; positions * geom.maps],
-            lock: vec![0; positions],
-            best_group: vec![0; positions],
-            best: vec![0; positions],
+            slots: vec![Slot::default(); positions],
+            lane_split: (0..geom.k * geom.maps)
+                .map(|l| ((l / geom.maps) as u32, (l % geom.maps) as u32))
+                .collect(),
             thr: vec![f64::INFINITY; geom.maps],
             thr_hi: vec![f32::INFINITY; geom.maps],
             thr_lo: vec![f32::INFINITY; geom.k * geom.maps],
@@ -106,6 +120,8 @@ impl ConvState {
             crossed: Vec::new(),
             touched: Vec::new(),
             inputs: Vec::new(),
+            masks: vec![0; (geom.k * geom.maps).div_ceil(8)],
+            avx2: has_avx2(),
         }
     }
 
@@ -128,12 +144,16 @@ impl ConvState {
 
     /// Forget the window stamps (after the window generation counter wrapped).
     pub fn clear_window_stamps(&mut self) {
-        self.lock.fill(0);
+        for s in &mut self.slots {
+            s.lock = 0;
+        }
     }
 
     /// Forget the group stamps (after the group counter wrapped).
     pub fn clear_group_stamps(&mut self) {
-        self.best_group.fill(0);
+        for s in &mut self.slots {
+            s.group = 0;
+        }
     }
 
     /// Set the per-map thresholds for the coming window.
@@ -162,27 +182,30 @@ impl ConvState {
             return;
         }
         self.inputs.push((iy as u32, ix as u32));
+        let rows = g.outputs_of(iy, g.out_h);
         let run = cols.len() * maps;
-        // Kernel column index j = k − 1 − dx of the first output column.
+        // Kernel column index j = k − 1 − dx of the first output column; each output row
+        // further down reads the kernel row above (dy falls by one).
         let j0 = g.k - 1 - (ix + g.p_lo - cols.start);
-        for oy in g.outputs_of(iy, g.out_h) {
-            let dy = iy + g.p_lo - oy;
-            let wstart = ((c * g.k + dy) * g.k + j0) * maps;
+        let dy0 = iy + g.p_lo - rows.start;
+        let thr = &self.thr_lo[..run];
+        for (step, oy) in rows.enumerate() {
+            let wstart = ((c * g.k + dy0 - step) * g.k + j0) * maps;
             let start = (oy * g.out_w + cols.start) * maps;
-            let pot = &mut self.pot[start..start + run];
-            let weights = &w[wstart..wstart + run];
-            let thr = &self.thr_lo[..run];
-            if reaches(pot, weights, thr) {
-                for (i, (v, &dw)) in pot.iter_mut().zip(weights).enumerate() {
-                    let old = *v;
-                    *v = old + dw;
-                    if old < thr[i] && *v >= thr[i] {
-                        let (pos, map) = ((start + i) / maps, (start + i) % maps);
-                        self.candidates.push((pos as u32, map as u32));
-                    }
-                }
-            } else {
-                add_run(pot, weights);
+            let hit = add_detect(
+                self.avx2,
+                &mut self.pot[start..start + run],
+                &w[wstart..wstart + run],
+                thr,
+                &mut self.masks,
+            );
+            if hit {
+                push_candidates(
+                    &self.masks[..run.div_ceil(8)],
+                    &self.lane_split,
+                    (start / maps) as u32,
+                    &mut self.candidates,
+                );
             }
         }
     }
@@ -228,11 +251,17 @@ impl ConvState {
         exact: bool,
         out: &mut Vec<Crossing>,
     ) {
+        if self.candidates.is_empty() && self.band.is_empty() {
+            return;
+        }
         let maps = self.geom.maps;
         // Which candidates crossed (the band's neurons stay candidates until they do).
         let mut candidates = std::mem::take(&mut self.candidates);
         candidates.append(&mut self.band);
         for &(pos, map) in &candidates {
+            if inhibit && self.slots[pos as usize].lock == generation {
+                continue; // another map fired here: this one never can
+            }
             let i = pos as usize * maps + map as usize;
             let v32 = self.pot[i];
             let mut c = Crossing {
@@ -269,25 +298,31 @@ impl ConvState {
         }
         for i in 0..self.crossed.len() {
             let c = self.crossed[i];
-            let p = c.pos as usize;
-            if self.lock[p] == generation {
+            let slot = self.slots[c.pos as usize];
+            if slot.lock == generation {
                 continue;
             }
-            if self.best_group[p] == group {
-                let b = self.crossed[self.best[p] as usize];
+            if slot.group == group {
+                let b = self.crossed[slot.best as usize];
                 if self.beats(kernels, fired, c, b) {
-                    self.best[p] = i as u32;
+                    self.slots[c.pos as usize].best = i as u32;
                 }
             } else {
-                self.best_group[p] = group;
-                self.best[p] = i as u32;
+                self.slots[c.pos as usize] = Slot {
+                    lock: slot.lock,
+                    group,
+                    best: i as u32,
+                };
                 self.touched.push(c.pos);
             }
         }
         for &pos in &self.touched {
-            let p = pos as usize;
-            self.lock[p] = generation;
-            out.push(self.crossed[self.best[p] as usize]);
+            let slot = &mut self.slots[pos as usize];
+            slot.lock = generation;
+            out.push(self.crossed[slot.best as usize]);
+            // No map may fire here any more: latch them all, so none becomes a candidate again.
+            let p = pos as usize * maps;
+            self.pot[p..p + maps].fill(f32::NEG_INFINITY);
         }
         self.touched.clear();
         self.crossed.clear();
@@ -325,6 +360,19 @@ impl ConvState {
     }
 }
 
+/// Record the neurons of a run whose lanes are set in `masks` as candidates.
+#[cold]
+fn push_candidates(masks: &[u8], split: &[(u32, u32)], pos0: u32, out: &mut Vec<(u32, u32)>) {
+    for (chunk, &mask) in masks.iter().enumerate() {
+        let mut mask = mask;
+        while mask != 0 {
+            let (dp, map) = split[chunk * 8 + mask.trailing_zeros() as usize];
+            out.push((pos0 + dp, map));
+            mask &= mask - 1;
+        }
+    }
+}
+
 /// The smallest float32 not below `x` (for `x ≥ 0`).
 fn round_up(x: f64) -> f32 {
     let y = x as f32;
@@ -347,72 +395,182 @@ fn round_down(x: f64) -> f32 {
     }
 }
 
-/// Whether adding `w` to `pot` takes any value from below its threshold to at or above it
-/// (read only). Branch-free so that it vectorises; the AVX2 copy is picked at run time.
+/// `pot += w`; bit `l % 8` of `masks[l / 8]` tells whether lane `l` went from below its
+/// threshold `thr` to at or above it; returns whether any did. One pass with explicit AVX2
+/// (picked at run time) or SSE2 vectors; `masks` holds at least `ceil(len / 8)` bytes.
 #[inline]
-fn reaches(pot: &[f32], w: &[f32], thr: &[f32]) -> bool {
+fn add_detect(avx2: bool, pot: &mut [f32], w: &[f32], thr: &[f32], masks: &mut [u8]) -> bool {
+    let n = pot.len();
+    assert!(
+        w.len() >= n && thr.len() >= n && masks.len() >= n.div_ceil(8),
+        "runs of equal length"
+    );
     #[cfg(target_arch = "x86_64")]
     {
-        if avx2() {
-            // SAFETY: the CPU supports AVX2 (checked at run time just above).
-            return unsafe { reaches_avx2(pot, w, thr) };
+        // SAFETY: the lengths are asserted above; `avx2` comes from `has_avx2` (the CPU has
+        // it), and SSE2 is part of x86-64.
+        unsafe {
+            if avx2 {
+                simd::add_detect_avx2(pot, w, thr, masks)
+            } else {
+                simd::add_detect_sse2(pot, w, thr, masks)
+            }
         }
     }
-    reaches_plain(pot, w, thr)
-}
-
-#[inline(always)] // so that the AVX2 copy gets its own code
-#[allow(clippy::inline_always, clippy::needless_bitwise_bool)] // `&`, `|`: branch-free
-fn reaches_plain(pot: &[f32], w: &[f32], thr: &[f32]) -> bool {
-    let mut any = false;
-    for ((&v, &dw), &t) in pot.iter().zip(w).zip(thr) {
-        any |= (v < t) & (v + dw >= t);
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let _ = avx2;
+        add_detect_scalar(pot, w, thr, masks, 0)
     }
-    any
 }
 
-/// # Safety
-/// The CPU must support AVX2.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-unsafe fn reaches_avx2(pot: &[f32], w: &[f32], thr: &[f32]) -> bool {
-    reaches_plain(pot, w, thr)
-}
-
-/// `pot += w`; the AVX2 copy is picked at run time.
+/// The scalar version, from lane `from` (a multiple of 8) to the end.
 #[inline]
-fn add_run(pot: &mut [f32], w: &[f32]) {
+fn add_detect_scalar(
+    pot: &mut [f32],
+    w: &[f32],
+    thr: &[f32],
+    masks: &mut [u8],
+    from: usize,
+) -> bool {
+    let mut any = 0u8;
+    let chunks = from / 8..pot.len().div_ceil(8);
+    for (chunk, slot) in chunks.clone().zip(&mut masks[chunks]) {
+        let mut mask = 0u8;
+        for i in chunk * 8..(chunk * 8 + 8).min(pot.len()) {
+            let old = pot[i];
+            let new = old + w[i];
+            pot[i] = new;
+            mask |= u8::from(old < thr[i] && new >= thr[i]) << (i % 8);
+        }
+        *slot = mask;
+        any |= mask;
+    }
+    any != 0
+}
+
+#[cfg(target_arch = "x86_64")]
+mod simd {
+    //! The add-and-detect kernel with explicit vectors: per 8 lanes, loads of potentials,
+    //! weights and thresholds, one store, and a movemask byte (almost always 0).
+    use std::arch::x86_64::{
+        __m256, _mm256_add_ps, _mm256_and_ps, _mm256_cmp_ps, _mm256_loadu_ps, _mm256_loadu_si256,
+        _mm256_maskload_ps, _mm256_maskstore_ps, _mm256_movemask_ps, _mm256_storeu_ps, _mm_add_ps,
+        _mm_and_ps, _mm_cmpge_ps, _mm_cmplt_ps, _mm_loadu_ps, _mm_movemask_ps, _mm_storeu_ps,
+        _CMP_GE_OQ, _CMP_LT_OQ,
+    };
+
+    /// Eight "on" lanes then eight "off": the window at `8 − r` enables the first `r` lanes.
+    static TAIL: [i32; 16] = [-1, -1, -1, -1, -1, -1, -1, -1, 0, 0, 0, 0, 0, 0, 0, 0];
+
+    /// The crossing mask of one vector of lanes.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn crossed(old: __m256, new: __m256, t: __m256) -> i32 {
+        _mm256_movemask_ps(_mm256_and_ps(
+            _mm256_cmp_ps::<_CMP_LT_OQ>(old, t),
+            _mm256_cmp_ps::<_CMP_GE_OQ>(new, t),
+        ))
+    }
+
+    /// # Safety
+    /// The CPU must support AVX2; `w`, `thr` as long as `pot`, `masks` `ceil(len / 8)` bytes.
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn add_detect_avx2(
+        pot: &mut [f32],
+        w: &[f32],
+        thr: &[f32],
+        masks: &mut [u8],
+    ) -> bool {
+        let n = pot.len();
+        let (p, wp, tp, mp) = (
+            pot.as_mut_ptr(),
+            w.as_ptr(),
+            thr.as_ptr(),
+            masks.as_mut_ptr(),
+        );
+        let mut any = 0;
+        let mut i = 0;
+        while i + 8 <= n {
+            // SAFETY: i + 8 <= n, the slices hold n values and masks n / 8 bytes.
+            unsafe {
+                let old = _mm256_loadu_ps(p.add(i));
+                let new = _mm256_add_ps(old, _mm256_loadu_ps(wp.add(i)));
+                _mm256_storeu_ps(p.add(i), new);
+                let mask = crossed(old, new, _mm256_loadu_ps(tp.add(i)));
+                *mp.add(i / 8) = mask as u8;
+                any |= mask;
+            }
+            i += 8;
+        }
+        if i < n {
+            // The last 1-7 lanes in one masked vector (masked-off lanes are neither read nor
+            // written, and compare as 0 < 0: not crossed).
+            // SAFETY: TAIL has 16 values and 8 − (n − i) is in 1..=7; enabled lanes are below n.
+            unsafe {
+                let lanes = _mm256_loadu_si256(TAIL.as_ptr().add(8 - (n - i)).cast());
+                let old = _mm256_maskload_ps(p.add(i), lanes);
+                let new = _mm256_add_ps(old, _mm256_maskload_ps(wp.add(i), lanes));
+                _mm256_maskstore_ps(p.add(i), lanes, new);
+                let mask = crossed(old, new, _mm256_maskload_ps(tp.add(i), lanes));
+                *mp.add(i / 8) = mask as u8;
+                any |= mask;
+            }
+        }
+        any != 0
+    }
+
+    /// # Safety
+    /// `w`, `thr` as long as `pot`, `masks` `ceil(len / 8)` bytes.
+    pub(super) unsafe fn add_detect_sse2(
+        pot: &mut [f32],
+        w: &[f32],
+        thr: &[f32],
+        masks: &mut [u8],
+    ) -> bool {
+        let n = pot.len();
+        let (p, wp, tp, mp) = (
+            pot.as_mut_ptr(),
+            w.as_ptr(),
+            thr.as_ptr(),
+            masks.as_mut_ptr(),
+        );
+        let mut any = 0;
+        let mut i = 0;
+        while i + 8 <= n {
+            let mut mask = 0;
+            for half in 0..2 {
+                let j = i + 4 * half;
+                // SAFETY: j + 4 <= n and the slices hold n values.
+                unsafe {
+                    let old = _mm_loadu_ps(p.add(j));
+                    let new = _mm_add_ps(old, _mm_loadu_ps(wp.add(j)));
+                    _mm_storeu_ps(p.add(j), new);
+                    let t = _mm_loadu_ps(tp.add(j));
+                    mask |= _mm_movemask_ps(_mm_and_ps(_mm_cmplt_ps(old, t), _mm_cmpge_ps(new, t)))
+                        << (4 * half);
+                }
+            }
+            // SAFETY: i / 8 < n / 8 bytes.
+            unsafe { *mp.add(i / 8) = mask as u8 };
+            any |= mask;
+            i += 8;
+        }
+        let tail = i < n && super::add_detect_scalar(pot, w, thr, masks, i);
+        any != 0 || tail
+    }
+}
+
+/// Whether the CPU has AVX2.
+fn has_avx2() -> bool {
     #[cfg(target_arch = "x86_64")]
     {
-        if avx2() {
-            // SAFETY: the CPU supports AVX2 (checked at run time just above).
-            return unsafe { add_run_avx2(pot, w) };
-        }
+        std::arch::is_x86_feature_detected!("avx2")
     }
-    add_run_plain(pot, w);
-}
-
-#[inline(always)] // so that the AVX2 copy gets its own code
-#[allow(clippy::inline_always)]
-fn add_run_plain(pot: &mut [f32], w: &[f32]) {
-    for (v, &dw) in pot.iter_mut().zip(w) {
-        *v += dw;
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
     }
-}
-
-/// # Safety
-/// The CPU must support AVX2.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-unsafe fn add_run_avx2(pot: &mut [f32], w: &[f32]) {
-    add_run_plain(pot, w);
-}
-
-/// Whether the CPU has AVX2 (asked once).
-#[cfg(target_arch = "x86_64")]
-fn avx2() -> bool {
-    static HAS: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
-    *HAS.get_or_init(|| std::arch::is_x86_feature_detected!("avx2"))
 }
 
 #[cfg(test)]
@@ -485,6 +643,59 @@ mod tests {
             }
             s.reset();
             assert!(s.pot.iter().all(|&v| v == 0.0));
+        }
+    }
+
+    /// The vector kernels add and detect exactly like the scalar loop, at every length and
+    /// alignment.
+    #[test]
+    fn add_detect_equals_scalar() {
+        let mut s = 7u64;
+        let mut next = || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 40) as f32 / (1u64 << 20) as f32
+        };
+        for n in 0..40 {
+            for offset in 0..3 {
+                let pot: Vec<f32> = (0..n + offset).map(|_| next() * 2.0).collect();
+                let w: Vec<f32> = (0..n + offset).map(|_| next()).collect();
+                let mut thr: Vec<f32> = (0..n + offset).map(|_| next() * 3.0).collect();
+                if let Some(t) = thr.last_mut() {
+                    *t = f32::INFINITY;
+                }
+                let (mut a, mut b) = (pot.clone(), pot.clone());
+                let (mut ma, mut mb) = (vec![0u8; 8], vec![0u8; 8]);
+                let any_a = add_detect(
+                    has_avx2(),
+                    &mut a[offset..],
+                    &w[offset..],
+                    &thr[offset..],
+                    &mut ma,
+                );
+                let any_b =
+                    add_detect_scalar(&mut b[offset..], &w[offset..], &thr[offset..], &mut mb, 0);
+                assert_eq!((a, any_a), (b, any_b));
+                assert_eq!(ma[..n.div_ceil(8)], mb[..n.div_ceil(8)]);
+                #[cfg(target_arch = "x86_64")]
+                {
+                    let mut c = pot.clone();
+                    let mut mc = vec![0u8; 8];
+                    // SAFETY: lengths as required.
+                    let any_c = unsafe {
+                        simd::add_detect_sse2(
+                            &mut c[offset..],
+                            &w[offset..],
+                            &thr[offset..],
+                            &mut mc,
+                        )
+                    };
+                    assert_eq!(any_c, any_b);
+                    assert_eq!(mc[..n.div_ceil(8)], mb[..n.div_ceil(8)]);
+                }
+                assert!(any_b == mb.iter().any(|&m| m != 0));
+            }
         }
     }
 
