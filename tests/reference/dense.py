@@ -263,7 +263,10 @@ def gabor_kernels(config: dict) -> np.ndarray:
         g = np.exp(-(xr**2 + gamma**2 * yr**2) / (2 * sigma**2)) * np.cos(
             2 * math.pi * xr / wavelength
         )
-        kernels[m, 0] = ((g - g.min()) / (g.max() - g.min())).astype(np.float32)
+        span = g.max() - g.min()
+        # A constant kernel (k = 1, say) has no range to scale: docs/model.md leaves it open;
+        # like the engine, take all ones.
+        kernels[m, 0] = ((g - g.min()) / span).astype(np.float32) if span > 0 else 1.0
     return kernels
 
 
