@@ -409,3 +409,40 @@ def test_train_layer_matches_the_reference_with_its_schedule(
     assert report.convergence == pytest.approx(convergence, rel=1e-12, abs=1e-15)
     for name in dense.CONV_LAYERS:
         assert np.array_equal(net.weights(name), weights[name]), f"{name} after training {layer}"
+
+
+# ------------------------------------------------------------------------------------------------
+# The paper's network itself
+
+
+def test_table1_network_matches_the_reference_on_a_busy_window() -> None:
+    # The default configuration (Table 1 on 240x180, Gabor conv1, seeded N(0.8, 0.08) weights)
+    # on one window: 1 % background activity plus a dense moving patch, 200 µs of times, so
+    # that every layer fires and many spikes share a time. Slow in the reference (seconds), so
+    # one window only.
+    net = network.Network(seed=3)
+    config = net.config
+    weights = {layer: net.weights(layer) for layer in dense.CONV_LAYERS}
+    rng = np.random.default_rng(1)
+    active = rng.random((config["height"], config["width"])) < 0.01
+    active[60:100, 100:150] |= rng.random((40, 50)) < 0.7
+    y, x = np.nonzero(active)
+    order = rng.permutation(len(x))
+    t0 = 5_000
+    t = t0 + np.sort(rng.integers(0, 200, len(x)))
+    x, y = x[order], y[order]
+
+    trace = net.run_window(t, x, y, t0)
+    want = dense.run_window(config, weights, t, x, y, t0)
+    for layer in dense.LAYERS:
+        assert len(want[layer]), f"the window should reach {layer}"
+        assert_same_spikes(_field(trace, layer), want[layer], layer)
+    assert np.array_equal(_field(trace, "thresholds"), want["thresholds"])
+    assert_same_detections(_field(trace, "detections"), want["detections"])
+
+    for layer in ("conv2", "conv3"):
+        winners = net.stdp_step(layer, t, x, y, t0)
+        want_winners, weights = dense.stdp_step(config, weights, layer, t, x, y, t0)
+        assert len(want_winners), f"{layer} should have winners"
+        assert_same_spikes(winners, want_winners, f"{layer} winners")
+        assert np.array_equal(net.weights(layer), weights[layer])
