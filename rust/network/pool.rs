@@ -56,6 +56,11 @@ impl PoolState {
         }
     }
 
+    /// The fired stamps, `[row][col][map]`.
+    pub fn stamps(&self) -> &[u32] {
+        &self.fired
+    }
+
     /// When pool neuron `(map, row, col)` fired in this window, if it did.
     #[inline]
     pub fn fired_at(&self, generation: u32, map: usize, row: usize, col: usize) -> Option<u64> {

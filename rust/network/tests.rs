@@ -274,10 +274,10 @@ fn config_strategy() -> impl Strategy<Value = NetworkConfig> {
         .prop_filter("layers must fit", |c| c.validate().is_ok())
 }
 
-/// Weights on a grid of 1/8 (odd seeds, so that equal potentials and potentials exactly at a
-/// threshold are common) or of 2⁻¹² (even seeds).
+/// Weights on a grid of 1/8 (equal potentials and potentials exactly at a threshold are
+/// common), of 2⁻¹², or of 2⁻²⁴ (float32 running sums round), by seed.
 fn random_weights(net: &mut Network, seed: u64) {
-    let steps = if seed % 2 == 1 { 8 } else { 4096 };
+    let steps = [8, 1 << 12, 1 << 24][(seed % 3) as usize];
     let mut s = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
     for layer in ConvLayer::ALL {
         let n = net.conv_weights(layer).canonical().len();
@@ -337,6 +337,13 @@ proptest! {
                 prop_assert_eq!(state.spikes(layer), &dense[layer.index()][..], "{}", layer);
                 prop_assert_eq!(state.counts()[layer.index()], dense[layer.index()].len() as u64);
             }
+            // Without recording, potentials are gathered exactly only where decisions need
+            // them: the same spikes must come out.
+            let mut quiet = net.new_state();
+            net.run_window(&mut quiet, Spikes::new(&t, &x, &y).unwrap(), 100 * w, None, false)
+                .unwrap();
+            prop_assert_eq!(quiet.counts(), state.counts());
+            prop_assert_eq!(quiet.detections(), state.detections());
             let det: Vec<_> = state.detections().iter().map(|d| (d.t, d.map, d.row, d.col)).collect();
             let mut want: Vec<_> = dense[4].iter().map(|s| (s.t, s.map, s.row, s.col)).collect();
             let mut got = det.clone();
@@ -577,4 +584,227 @@ fn duplicate_pixels_keep_their_first_spike() {
     }
     state.finish(&net).unwrap();
     assert_eq!(state.input_count(), 1);
+}
+
+#[test]
+fn depth_stops_the_network_early_without_changing_the_layers_below() {
+    let c = NetworkConfig {
+        width: 40,
+        height: 30,
+        ..NetworkConfig::default()
+    };
+    let mut c = c;
+    c.pent.mode = ThresholdMode::Static;
+    c.conv1.threshold = 1.5;
+    c.conv2.threshold = 2.0;
+    c.conv3.threshold = 1.0;
+    let mut net = Network::new(c.clone(), 2).unwrap();
+    random_weights(&mut net, 9);
+    let (t, x, y) = window(&c, 5, 400, 0);
+    let mut full = net.new_state();
+    net.run_window(&mut full, Spikes::new(&t, &x, &y).unwrap(), 0, None, true)
+        .unwrap();
+    assert!(full.counts().iter().all(|&n| n > 0));
+    for last in Layer::ALL {
+        let mut s = net.new_state();
+        s.set_depth(last);
+        net.run_window(&mut s, Spikes::new(&t, &x, &y).unwrap(), 0, None, true)
+            .unwrap();
+        for layer in Layer::ALL {
+            if layer.index() <= last.index() {
+                assert_eq!(s.spikes(layer), full.spikes(layer));
+            } else {
+                assert_eq!(s.counts()[layer.index()], 0);
+            }
+        }
+    }
+}
+
+/// A neuron whose float32 running sum rounds below its threshold while its exact potential
+/// reaches it must fire: the float32 sum is only a filter.
+#[test]
+fn exact_potential_decides_where_float32_rounds_below() {
+    // Find three weights whose sequential float32 sum rounds below the float32 threshold that
+    // their exact sum reaches.
+    let mut s = 0x2545_f491_4f6c_dd1du64;
+    let mut next = || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        (s >> 40) as f32 / (1u64 << 24) as f32 + (s & 0xFF) as f32 * 1e-10
+    };
+    let (w, theta) = loop {
+        let w = [next(), next(), next()];
+        let exact: f64 = w.iter().map(|&v| f64::from(v)).sum();
+        let running = w[0] + w[1] + w[2];
+        let theta = exact as f32;
+        let theta = if f64::from(theta) > exact {
+            f32::from_bits(theta.to_bits() - 1)
+        } else {
+            theta
+        };
+        if running < theta && w.iter().all(|v| (0.0..=1.0).contains(v)) {
+            break (w, theta);
+        }
+    };
+    let mut c = NetworkConfig {
+        width: 3,
+        height: 1,
+        ..NetworkConfig::default()
+    };
+    c.conv1.kernel = 3;
+    c.conv1.maps = 1;
+    c.conv1.threshold = theta;
+    c.pent.mode = ThresholdMode::Static;
+    c.pool1 = PoolConfig {
+        kernel: 1,
+        stride: 1,
+    };
+    c.conv2.kernel = 1;
+    c.pool2 = c.pool1;
+    c.conv3.kernel = 1;
+    let mut net = Network::new(c, 0).unwrap();
+    // Only the middle row of the kernel: the neuron at column 1 reads the 3 pixels.
+    let mut kernel = vec![0.0f32; 9];
+    kernel[3..6].copy_from_slice(&w);
+    net.set_weights(ConvLayer::Conv1, kernel).unwrap();
+    let (t, x, y) = (vec![1u64, 2, 3], vec![0u16, 1, 2], vec![0u16; 3]);
+    let mut state = net.new_state();
+    net.run_window(&mut state, Spikes::new(&t, &x, &y).unwrap(), 0, None, true)
+        .unwrap();
+    let exact: f64 = w.iter().map(|&v| f64::from(v)).sum();
+    assert_eq!(
+        state.spikes(Layer::Conv1),
+        &[Spike {
+            t: 3,
+            map: 0,
+            row: 0,
+            col: 1,
+            v: exact as f32
+        }]
+    );
+}
+
+/// Two maps whose exact potentials tie while their float32 running sums differ (the same
+/// weights added in another order): the tie goes to the lower map, as the exact values say.
+#[test]
+fn inhibition_ties_are_decided_exactly() {
+    let mut s = 0x9E37_79B9_7F4A_7C15u64;
+    let mut next = || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        (s >> 40) as f32 / (1u64 << 24) as f32
+    };
+    let w = loop {
+        let w = [next(), next(), next()];
+        if (w[2] + w[1]) + w[0] > (w[0] + w[1]) + w[2] {
+            break w;
+        }
+    };
+    let mut c = NetworkConfig {
+        width: 3,
+        height: 1,
+        ..NetworkConfig::default()
+    };
+    c.conv1.kernel = 3;
+    c.conv1.maps = 2;
+    c.conv1.threshold = 0.01;
+    c.pent.mode = ThresholdMode::Static;
+    c.pool1 = PoolConfig {
+        kernel: 1,
+        stride: 1,
+    };
+    c.conv2.kernel = 1;
+    c.conv2.maps = 1;
+    c.conv2.threshold = 0.5;
+    c.pool2 = c.pool1;
+    c.conv3.kernel = 1;
+    let mut net = Network::new(c, 0).unwrap();
+    // Middle rows: map 0 reads the pixels with (w0, w1, w2), map 1 with (w2, w1, w0).
+    let mut kernels = vec![0.0f32; 18];
+    kernels[3..6].copy_from_slice(&w);
+    kernels[12..15].copy_from_slice(&[w[2], w[1], w[0]]);
+    net.set_weights(ConvLayer::Conv1, kernels).unwrap();
+    // conv2 (1x1) listens to map 0 only, so its count tells which map won, even unrecorded.
+    net.set_weights(ConvLayer::Conv2, vec![1.0, 0.0]).unwrap();
+    // All three pixels at once: both maps cross at (0, 1) in the same group with equal exact
+    // potentials.
+    let (t, x, y) = (vec![5u64; 3], vec![0u16, 1, 2], vec![0u16; 3]);
+    let mut recorded = net.new_state();
+    net.run_window(
+        &mut recorded,
+        Spikes::new(&t, &x, &y).unwrap(),
+        0,
+        None,
+        true,
+    )
+    .unwrap();
+    let winner: Vec<u16> = recorded
+        .spikes(Layer::Conv1)
+        .iter()
+        .filter(|s| s.col == 1)
+        .map(|s| s.map)
+        .collect();
+    assert_eq!(winner, vec![0]);
+    assert!(recorded.spikes(Layer::Conv2).iter().any(|s| s.col == 1));
+    let mut quiet = net.new_state();
+    net.run_window(&mut quiet, Spikes::new(&t, &x, &y).unwrap(), 0, None, false)
+        .unwrap();
+    assert_eq!(quiet.counts(), recorded.counts());
+}
+
+/// The mirror case: a float32 running sum that rounds up to the threshold while the exact
+/// potential stays below it must not fire.
+#[test]
+fn exact_potential_decides_where_float32_rounds_above() {
+    let mut s = 0x1234_5678_9abc_def1u64;
+    let mut next = || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        (s >> 40) as f32 / (1u64 << 24) as f32 + (s & 0xFF) as f32 * 1e-10
+    };
+    let (w, theta) = loop {
+        let w = [next(), next(), next()];
+        let exact: f64 = w.iter().map(|&v| f64::from(v)).sum();
+        let running = w[0] + w[1] + w[2];
+        if f64::from(running) > exact && w.iter().all(|v| (0.0..=1.0).contains(v)) {
+            // The running sum itself as threshold: reached by float32, not by the exact sum.
+            break (w, running);
+        }
+    };
+    let mut c = NetworkConfig {
+        width: 3,
+        height: 1,
+        ..NetworkConfig::default()
+    };
+    c.conv1.kernel = 3;
+    c.conv1.maps = 1;
+    c.conv1.threshold = theta;
+    c.pent.mode = ThresholdMode::Static;
+    c.pool1 = PoolConfig {
+        kernel: 1,
+        stride: 1,
+    };
+    c.conv2.kernel = 1;
+    c.pool2 = c.pool1;
+    c.conv3.kernel = 1;
+    let mut net = Network::new(c, 0).unwrap();
+    let mut kernel = vec![0.0f32; 9];
+    kernel[3..6].copy_from_slice(&w);
+    net.set_weights(ConvLayer::Conv1, kernel).unwrap();
+    let (t, x, y) = (vec![1u64, 2, 3], vec![0u16, 1, 2], vec![0u16; 3]);
+    for record in [false, true] {
+        let mut state = net.new_state();
+        net.run_window(
+            &mut state,
+            Spikes::new(&t, &x, &y).unwrap(),
+            0,
+            None,
+            record,
+        )
+        .unwrap();
+        assert_eq!(state.counts()[0], 0);
+    }
 }

@@ -6,7 +6,8 @@
 //!   at `(c, iy, ix)` reaches, in output row `oy`, the consecutive columns `ox0 ..` with
 //!   `dx` falling as `ox` rises; with potentials stored `[row][col][map]`, its update for that
 //!   row is one contiguous run of `k × maps` potentials plus one contiguous run of weights.
-//!   Float64 holds every float32 exactly; the engine adds in float64 (see `conv`).
+//!   The engine's running sums are float32 filters; exact potentials are gathered from the
+//!   canonical weights (see `conv`).
 
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
@@ -22,7 +23,7 @@ pub struct ConvWeights {
     in_ch: usize,
     k: usize,
     canonical: Vec<f32>,
-    engine: Vec<f64>,
+    engine: Vec<f32>,
 }
 
 impl ConvWeights {
@@ -63,7 +64,7 @@ impl ConvWeights {
 
     /// The engine layout (see the module docs).
     #[inline]
-    pub fn engine(&self) -> &[f64] {
+    pub fn engine(&self) -> &[f32] {
         &self.engine
     }
 
@@ -93,8 +94,7 @@ impl ConvWeights {
             for dy in 0..k {
                 for dx in 0..k {
                     let j = k - 1 - dx;
-                    self.engine[((c * k + dy) * k + j) * maps + m] =
-                        f64::from(kernel[(c * k + dy) * k + dx]);
+                    self.engine[((c * k + dy) * k + j) * maps + m] = kernel[(c * k + dy) * k + dx];
                 }
             }
         }
@@ -160,7 +160,7 @@ mod tests {
                     for dx in 0..k {
                         let a = w.kernel(m)[(c * k + dy) * k + dx];
                         let b = w.engine()[((c * k + dy) * k + (k - 1 - dx)) * maps + m];
-                        assert_eq!(f64::from(a), b);
+                        assert_eq!(a, b);
                     }
                 }
             }

@@ -32,7 +32,7 @@
 //! are ignored (docs/model.md §1), so raw events can be pushed as they come.
 
 use super::config::NetworkConfig;
-use super::conv::{ConvState, Crossing};
+use super::conv::{ConvState, Crossing, Fired};
 use super::detection::{detection, Detection, Inputs};
 use super::geometry::Geometry;
 use super::model::Network;
@@ -82,6 +82,8 @@ pub struct WindowState {
     detections: Vec<Detection>,
     training: Option<usize>,
     wta: Wta,
+    /// Layers run in inference: `Layer::index() < depth`.
+    depth: usize,
 }
 
 impl WindowState {
@@ -116,7 +118,14 @@ impl WindowState {
             detections: Vec::new(),
             training: None,
             wta: Wta::default(),
+            depth: Layer::ALL.len(),
         }
+    }
+
+    /// Run the coming inference windows only up to `last` (inclusive); layers above it stay
+    /// silent. Default: the whole network (`Layer::Conv3`).
+    pub fn set_depth(&mut self, last: Layer) {
+        self.depth = last.index() + 1;
     }
 
     /// Keep every layer's spikes of the coming windows (see [`Self::spikes`]); off by default.
@@ -164,6 +173,9 @@ impl WindowState {
                 "thresholds",
                 format!("conv1 thresholds must be > 0 and not NaN, got {v}"),
             ));
+        }
+        for c in &mut self.conv {
+            c.reset();
         }
         self.next_generation();
         self.open = true;
@@ -352,7 +364,7 @@ impl WindowState {
         self.next_group();
         let w = net.conv_weights(ConvLayer::Conv1).engine();
         for &(x, y) in &self.pending {
-            self.conv[0].add(w, self.generation, 0, usize::from(y), usize::from(x));
+            self.conv[0].add(w, 0, usize::from(y), usize::from(x));
         }
         self.pending.clear();
         self.propagate(net, t);
@@ -368,7 +380,31 @@ impl WindowState {
             let training = self.training == Some(layer);
             let inhibit = config.conv(layer).lateral_inhibition && !training;
             crossings.clear();
-            self.conv[layer].resolve(generation, self.group, inhibit, &mut crossings);
+            let fired = if layer == 0 {
+                Fired {
+                    stamps: &self.pixel_fired,
+                    width: self.width,
+                    channels: 1,
+                    generation,
+                }
+            } else {
+                let pool = &self.pool[layer - 1];
+                Fired {
+                    stamps: pool.stamps(),
+                    width: pool.geom.out_w,
+                    channels: pool.geom.maps,
+                    generation,
+                }
+            };
+            self.conv[layer].resolve(
+                net.conv_weights(ConvLayer::ALL[layer]).canonical(),
+                fired,
+                generation,
+                self.group,
+                inhibit,
+                self.record || training,
+                &mut crossings,
+            );
             if crossings.is_empty() {
                 break;
             }
@@ -397,6 +433,12 @@ impl WindowState {
                 self.wta.close_group();
                 break;
             }
+            // Training runs every layer up to the trained one, whatever the depth.
+            let depth = if self.training.is_some() {
+                5
+            } else {
+                self.depth
+            };
             if layer == 2 {
                 for c in &crossings {
                     let (row, col) = (c.pos as usize / out_w, c.pos as usize % out_w);
@@ -404,6 +446,9 @@ impl WindowState {
                     self.detections
                         .push(detection(t, c.map, row, col, &rows, &cols, &self.inputs));
                 }
+                break;
+            }
+            if 2 * layer + 1 >= depth {
                 break;
             }
             pool_out.clear();
@@ -422,9 +467,12 @@ impl WindowState {
                     v: 0.0,
                 }));
             }
+            if 2 * layer + 2 >= depth {
+                break;
+            }
             let w = net.conv_weights(ConvLayer::ALL[layer + 1]).engine();
             for &(m, r, c) in &pool_out {
-                self.conv[layer + 1].add(w, generation, m as usize, r as usize, c as usize);
+                self.conv[layer + 1].add(w, m as usize, r as usize, c as usize);
             }
         }
         self.crossings = crossings;
