@@ -9,11 +9,12 @@ in the same order and bit-identical weights.
 
 Weights. Potentials are float64 sums of float32 weights, exact whatever the order of addition
 (docs/model.md §3) as long as every nonzero weight is at least 2**-21 and a neuron has fewer than
-2**9 inputs, which these small networks keep to. Half of the networks draw arbitrary float32
-weights; the other half draw multiples of 1/64, whose sums land exactly on thresholds (also
-multiples of 1/64) and on each other, so that ``V >= θ`` at equality and the ties of lateral
-inhibition and winner-take-all (equal time, equal potential) are common rather than never seen.
-Some networks use the real Gabor kernels in conv1.
+2**9 inputs, which these small networks keep to. A third of the networks draw arbitrary float32
+weights; a third draw multiples of 1/64, whose sums land exactly on thresholds (also multiples
+of 1/64) and on each other, so that ``V >= θ`` at equality and the ties of lateral inhibition and
+winner-take-all (equal time, equal potential) are common rather than never seen; a third draw
+weights a few float32 steps off that grid, whose sums miss thresholds and each other by less
+than float32 can tell. Some networks use the real Gabor kernels in conv1.
 """
 
 from __future__ import annotations
@@ -100,10 +101,11 @@ def configs(draw: st.DrawFn) -> dict:
 
 
 def weights_for(config: dict, draw: st.DrawFn) -> dict[str, np.ndarray]:
-    """Random kernels in [0, 1], on the 1/64 grid or free, each layer biased high or low."""
+    """Random kernels in [0, 1], each layer biased high or low: free, on the 1/64 grid, or a few
+    float32 steps off it."""
     weights = {}
     channels = 1
-    on_grid = draw(st.booleans())
+    kind = draw(st.sampled_from(["free", "grid", "near grid"]))
     for layer in dense.CONV_LAYERS:
         k, maps = config[layer]["kernel"], config[layer]["maps"]
         gabor = dense.gabor_kernels(config) if layer == "conv1" else None
@@ -118,10 +120,17 @@ def weights_for(config: dict, draw: st.DrawFn) -> dict[str, np.ndarray]:
         rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
         low = draw(st.sampled_from([0.0, 0.25, 0.5]))
         w = rng.uniform(low, 1.0, size=(maps, channels, k, k))
-        if on_grid:
+        if kind != "free":
             w = np.round(w * QUANTUM) / QUANTUM
         w[rng.random(w.shape) < 0.1] = 0.0  # some silent synapses
         w = w.astype(np.float32)
+        if kind == "near grid":
+            # Up to 2 float32 steps off the grid: sums then fall within a few float32 steps of
+            # the thresholds and of each other, where a float32 sum would round onto them and
+            # only the exact float64 sum decides (§3).
+            steps = rng.integers(-2, 3, size=w.shape).astype(np.int32)
+            nudged = (w.view(np.int32) + steps).view(np.float32)
+            w = np.where(w > 0, np.clip(nudged, 0.0, 1.0), 0.0).astype(np.float32)
         w[w < SMALLEST_EXACT] = 0.0
         weights[layer] = w
         channels = maps
