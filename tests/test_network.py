@@ -641,3 +641,41 @@ def test_window_trace_lookup() -> None:
     assert trace["conv1"] is trace.conv1
     with pytest.raises(uavsnn.ParameterError):
         trace["conv4"]
+
+
+# ------------------------------------------------------------------- with the real windows
+
+
+def _check_batch_against_single(net: Network, windows: Any) -> Inference:
+    result = net.infer(windows)
+    for i in range(len(windows)):
+        t, x, y = windows.spikes(i)
+        trace = net.run_window(t, x, y, int(windows.t0[i]))
+        assert result.counts[i].tolist() == trace.counts.tolist()
+    return result
+
+
+def test_infer_reads_uavsnn_windows() -> None:
+    windows_module = pytest.importorskip("uavsnn.windows", reason="uavsnn.windows not merged")
+    rng = np.random.default_rng(2)
+    events = np.zeros(3000, dtype=uavsnn.EVENT_DTYPE)
+    events["t"] = np.sort(rng.integers(0, 20_000, len(events)))
+    # A vertical bar sweeping right, and noise.
+    events["x"] = (events["t"] // 500 + rng.integers(0, 3, len(events))) % 48
+    events["y"] = rng.integers(5, 30, len(events))
+    events["p"] = rng.random(len(events)) < 0.5
+    recording = uavsnn.Recording(events, (48, 36))
+    windows = windows_module.make_windows(recording, 5_000, 0.5)
+    result = _check_batch_against_single(Network(small_config()), windows)
+    assert result.counts[:, 0].sum() > 0
+
+
+def test_a_real_dvs_recording_at_its_own_sensor_size(shared_data: Path) -> None:
+    io = pytest.importorskip("uavsnn.io", reason="uavsnn.io not merged")
+    windows_module = pytest.importorskip("uavsnn.windows", reason="uavsnn.windows not merged")
+    recording = io.read(shared_data / "dvs" / "aestream_davis346_lab.aedat4")
+    width, height = recording.sensor_size
+    windows = windows_module.make_windows(recording, 20_000)
+    net = Network({"width": width, "height": height}, seed=0)
+    result = _check_batch_against_single(net, windows)
+    assert len(result) == len(windows) and result.counts[:, 0].sum() > 0

@@ -136,7 +136,7 @@ class WindowTrace:
 
     Each layer's spikes are a structured array of :data:`SPIKE_DTYPE` sorted by
     ``(t, map, row, col)``; ``thresholds`` are conv1's per-map thresholds of the window;
-    ``detections`` (:data:`DETECTION_DTYPE`) are the conv3 spikes in firing order.
+    ``detections`` (:data:`DETECTION_DTYPE`) are the conv3 spikes, sorted like the spikes.
     """
 
     conv1: np.ndarray

@@ -363,13 +363,10 @@ impl NetworkConfig {
                 format!("must be finite and <= 0, got {}", s.a_minus),
             ));
         }
-        if !(s.a_plus_max.is_finite() && s.a_plus_max >= s.a_plus) {
+        if !(s.a_plus_max.is_finite() && s.a_plus_max > 0.0) {
             return Err(Error::param(
                 "stdp.a_plus_max",
-                format!(
-                    "must be finite and >= a_plus ({}), got {}",
-                    s.a_plus, s.a_plus_max
-                ),
+                format!("must be finite and > 0, got {}", s.a_plus_max),
             ));
         }
         if s.lr_every == 0 {

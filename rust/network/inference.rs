@@ -19,7 +19,7 @@ pub struct WindowResult {
     pub counts: [u64; 5],
     /// conv1's thresholds.
     pub thresholds: Vec<f32>,
-    /// conv3 spikes as detections, in firing order.
+    /// conv3 spikes as detections, by time, then map, row and col.
     pub detections: Vec<Detection>,
     /// Every layer's spikes, when asked for.
     pub spikes: Option<[Vec<Spike>; 5]>,
@@ -50,13 +50,12 @@ pub fn infer(
     record: bool,
 ) -> Result<Vec<WindowResult>> {
     check_sensor(net, batch.sensor)?;
-    let states: Mutex<Vec<WindowState>> = Mutex::new(Vec::new());
     let run = || {
         (0..batch.len())
             .into_par_iter()
             .with_min_len(CHUNK)
             .map_init(
-                || StateGuard::take(&states, net),
+                || StateGuard::take(net.state_pool(), net),
                 |guard, i| match guard.state.as_mut() {
                     Some(state) => run_one(net, state, batch, i, record),
                     None => Err(Error::Internal("worker state missing".into())),
@@ -116,8 +115,9 @@ fn run_one(
     })
 }
 
-/// A state borrowed from a shared pool for the life of one rayon task, and given back after:
-/// states (megabytes each on large sensors) are made once per worker, not once per task.
+/// A state borrowed from the network's pool for the life of one rayon task, and given back
+/// after: states (megabytes each on large sensors) are made once per worker, and reused from
+/// call to call.
 struct StateGuard<'a> {
     pool: &'a Mutex<Vec<WindowState>>,
     state: Option<WindowState>,

@@ -2,6 +2,7 @@
 //! entry points of docs/model.md §7.
 
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Mutex;
 
 use super::batch::Spikes;
 use super::config::NetworkConfig;
@@ -27,6 +28,18 @@ pub struct Network {
     weights: [ConvWeights; 3],
     /// `K1[m]` of PENT: float64 sums of conv1's kernels.
     kernel_sums: Vec<f64>,
+    /// Engine states kept between parallel calls (one per worker that used one).
+    states: StatePool,
+}
+
+/// Engine states for reuse; a clone starts empty.
+#[derive(Debug, Default)]
+pub(crate) struct StatePool(Mutex<Vec<WindowState>>);
+
+impl Clone for StatePool {
+    fn clone(&self) -> Self {
+        Self::default()
+    }
 }
 
 impl PartialEq for Network {
@@ -73,6 +86,7 @@ impl Network {
             geom: *geom,
             weights,
             kernel_sums: Vec::new(),
+            states: StatePool::default(),
         };
         net.update_kernel_sums();
         net
@@ -115,6 +129,35 @@ impl Network {
     /// static mode).
     pub fn conv1_thresholds(&self, n_in: u64) -> Vec<f32> {
         conv1_thresholds(&self.config, &self.kernel_sums, n_in)
+    }
+
+    /// The pool of engine states reused by parallel calls.
+    pub(crate) fn state_pool(&self) -> &Mutex<Vec<WindowState>> {
+        &self.states.0
+    }
+
+    /// Run `f` with an engine state from the pool (made if none is free), then give it back:
+    /// repeated one-window calls allocate nothing.
+    pub fn with_state<T>(&self, f: impl FnOnce(&mut WindowState) -> T) -> T {
+        let mut state = self.take_state();
+        let out = f(&mut state);
+        self.put_state(state);
+        out
+    }
+
+    /// An engine state from the pool, or a fresh one; give it back with [`Self::put_state`].
+    pub fn take_state(&self) -> WindowState {
+        let reused = self.states.0.lock().ok().and_then(|mut v| v.pop());
+        reused.unwrap_or_else(|| self.new_state())
+    }
+
+    /// Return a state to the pool for later calls (states of other networks are dropped).
+    pub fn put_state(&self, state: WindowState) {
+        if state.made_for(self) {
+            if let Ok(mut v) = self.states.0.lock() {
+                v.push(state);
+            }
+        }
     }
 
     /// A fresh engine state for this network (one per worker thread).

@@ -128,6 +128,11 @@ impl WindowState {
         self.depth = last.index() + 1;
     }
 
+    /// Whether this state was made for `net` (or a clone of it).
+    pub fn made_for(&self, net: &Network) -> bool {
+        self.net_id == net.id()
+    }
+
     /// Keep every layer's spikes of the coming windows (see [`Self::spikes`]); off by default.
     pub fn set_record(&mut self, record: bool) {
         self.record = record;
@@ -440,6 +445,8 @@ impl WindowState {
                 self.depth
             };
             if layer == 2 {
+                // Detections of one group in (map, row, col) order, as spikes are reported.
+                crossings.sort_unstable_by_key(|c| (c.map, c.pos));
                 for c in &crossings {
                     let (row, col) = (c.pos as usize / out_w, c.pos as usize % out_w);
                     let (rows, cols) = self.geom.conv3_receptive_field(row, col);
@@ -484,7 +491,7 @@ impl WindowState {
         self.counts
     }
 
-    /// conv3 spikes as detections, in firing order.
+    /// conv3 spikes as detections, by time, then map, row and col.
     pub fn detections(&self) -> &[Detection] {
         &self.detections
     }

@@ -219,20 +219,22 @@ impl NetworkCore {
     ) -> PyResult<TraceColumns<'py>> {
         let (ts, xs, ys) = (slice(&t, "t")?, slice(&x, "x")?, slice(&y, "y")?);
         let net = &self.net;
-        let state = detach(py, || {
-            let mut state = net.new_state();
-            net.run_window(&mut state, Spikes::new(ts, xs, ys)?, t0, n_in, true)?;
-            Ok(state)
+        let (spikes, thresholds, detections) = detach(py, || {
+            net.with_state(|state| {
+                net.run_window(state, Spikes::new(ts, xs, ys)?, t0, n_in, true)?;
+                let spikes: Vec<Vec<Spike>> = Layer::ALL
+                    .iter()
+                    .map(|&l| state.spikes(l).to_vec())
+                    .collect();
+                let detections: Vec<(i64, Detection)> =
+                    state.detections().iter().map(|d| (0, *d)).collect();
+                Ok((spikes, state.thresholds().to_vec(), detections))
+            })
         })?;
-        let layers = Layer::ALL
-            .iter()
-            .map(|&l| spike_columns(py, state.spikes(l)))
-            .collect();
-        let detections: Vec<(i64, Detection)> =
-            state.detections().iter().map(|d| (0, *d)).collect();
+        let layers = spikes.iter().map(|s| spike_columns(py, s)).collect();
         Ok((
             layers,
-            PyArray1::from_slice(py, state.thresholds()),
+            PyArray1::from_vec(py, thresholds),
             detection_columns(py, &detections)?,
         ))
     }
@@ -267,8 +269,11 @@ impl NetworkCore {
         }
         let net = &mut self.net;
         let winners = detach(py, || {
-            let mut state = net.new_state();
-            net.stdp_step(&mut state, layer, Spikes::new(ts, xs, ys)?, t0, n_in, rates)
+            let mut state = net.take_state();
+            let winners =
+                net.stdp_step(&mut state, layer, Spikes::new(ts, xs, ys)?, t0, n_in, rates);
+            net.put_state(state);
+            winners
         })?;
         Ok(winner_columns(py, &winners))
     }
