@@ -218,11 +218,7 @@ def assert_same_spikes(engine: np.ndarray, reference: np.ndarray, what: str) -> 
 def assert_same_detections(engine: np.ndarray, reference: np.ndarray) -> None:
     assert engine.dtype == reference.dtype, f"detections dtype {engine.dtype}"
     assert len(engine) == len(reference), f"{len(engine)} detections, reference {len(reference)}"
-    # docs/model.md does not order detections (the engine lists them in firing order, which
-    # among spikes of one time is its processing order): compare them sorted like spikes.
-    key = ["t", "map", "row", "col"]
-    engine = np.sort(engine, order=key)
-    reference = np.sort(reference, order=key)
+    # In the order of the conv3 spikes, (t, map, row, col) (docs/model.md §7).
     for field in reference.dtype.names or ():
         assert np.array_equal(engine[field], reference[field]), (
             f"detections.{field}: engine {engine[field].tolist()[:10]}, "
