@@ -10,12 +10,13 @@ where it did not (§1's time-embedded frame, one per channel). ``float32`` holds
 microsecond exactly below 2**24 µs (16.7 s), which :func:`time_embedded_frame` checks. Spike
 arrays handed back carry absolute times, ``t0 + (t - t0)``.
 
-Potentials. A conv layer is evaluated at each distinct time ``τ`` of its input, in increasing
-order: the weights of the input spikes of time exactly ``τ`` are added into the potentials, and
-only then are crossings ``V(τ) >= θ`` decided, so every spike at ``τ`` counts before any crossing
-at ``τ`` (§3, "Spikes at the same time"). Potentials are float64 sums of the float32 weights,
-exact whatever the order (§3, "Arithmetic of V"); every decision (crossing, lateral inhibition,
-winner order) uses them, and a reported potential ``v`` is rounded to float32.
+Potentials. A conv neuron's potential ``V(τ)`` at each time ``τ`` is the sum of the weights of
+its inputs of time ``<= τ``: the neuron's inputs are sorted by time and summed cumulatively, and
+``V >= θ`` is tested only at the end of each run of equal times, so every spike at ``τ`` counts
+before any crossing at ``τ`` is decided (§3, "Spikes at the same time"). Potentials are float64
+sums of the float32 weights, exact whatever the order (§3, "Arithmetic of V"); every decision
+(crossing, lateral inhibition, winner order) uses them, and a reported potential ``v`` is rounded
+to float32.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
 
 __all__ = [
     "CONV_LAYERS",
@@ -137,6 +139,10 @@ def _conv_crossings(
     ``thresholds`` ``(M,)`` float32. Returns ``(cross_t, cross_v)``, each ``(M, Ho, Wo)``:
     ``cross_t`` (float32) is ``+inf`` for neurons that never cross; ``cross_v`` is the float64
     potential at the crossing.
+
+    Each neuron's inputs are taken in time order and their weights summed cumulatively; the
+    neuron crosses at the first input time ``t`` whose cumulative sum, taken over *every* input
+    of time ``<= t`` (the end of a run of equal times), reaches its threshold.
     """
     maps, channels, k, _ = weights.shape
     _, height, width = in_times.shape
@@ -149,27 +155,32 @@ def _conv_crossings(
     pad_w = (p_lo, out_w + k - 1 - width - p_lo)
     padded = np.pad(in_times, ((0, 0), pad_h, pad_w), constant_values=np.inf)
 
-    # §3: float64 sums of the float32 weights (exact), compared with float64(θ).
-    weights64 = weights.astype(np.float32).astype(np.float64)
-    potential = np.zeros((maps, out_h, out_w), dtype=np.float64)
+    # Cross-correlation: neuron (oy, ox) reads padded input (c, oy + dy, ox + dx) through
+    # synapse (c, dy, dx). ``reads[s, oy, ox]`` is the input time behind synapse s, with the
+    # synapses in the order of ``weights[m].ravel()``.
+    reads = sliding_window_view(padded, (k, k), axis=(1, 2))  # (C, Ho, Wo, k, k)
+    reads = reads.transpose(0, 3, 4, 1, 2).reshape(channels * k * k, out_h, out_w)
+    order = np.argsort(reads, axis=0, kind="stable")  # each neuron's synapses by input time
+    times = np.take_along_axis(reads, order, axis=0)
+    # V(t) counts every input of time <= t, so a crossing is decided only at the last input of
+    # a run of equal times (§3, "Spikes at the same time"), and never at a silent input.
+    decides = np.isfinite(times)
+    decides[:-1] &= times[:-1] != times[1:]
+
     cross_t = np.full((maps, out_h, out_w), _NEVER, dtype=np.float32)
     cross_v = np.zeros((maps, out_h, out_w), dtype=np.float64)
-    theta = thresholds.astype(np.float32).astype(np.float64)[:, None, None]
-
-    for tau in np.unique(in_times[np.isfinite(in_times)]):
-        arrived = padded == tau  # the input spikes of time exactly tau
-        # Cross-correlation: output (oy, ox) reads padded input (oy + dy, ox + dx).
-        for c in range(channels):
-            for dy in range(k):
-                for dx in range(k):
-                    hit = arrived[c, dy : dy + out_h, dx : dx + out_w]
-                    if hit.any():
-                        w = weights64[:, c, dy, dx][:, None, None]
-                        potential += np.where(hit[None], w, 0.0)
-        # All spikes at tau are in; now decide crossings at tau (a neuron latches once).
-        crossing = (potential >= theta) & ~np.isfinite(cross_t)
-        cross_t[crossing] = tau
-        cross_v[crossing] = potential[crossing]
+    for m in range(maps):
+        # §3: float64 sums of the float32 weights (exact in any order), against float64(θ).
+        w = weights[m].astype(np.float32).astype(np.float64).ravel()
+        potential = np.cumsum(w[order], axis=0)
+        theta = np.float64(np.float32(thresholds[m]))
+        crossed = decides & (potential >= theta)
+        fires = crossed.any(axis=0)
+        first = np.argmax(crossed, axis=0)[None]  # the earliest crossing (latching)
+        at_first_t = np.take_along_axis(times, first, axis=0)[0]
+        at_first_v = np.take_along_axis(potential, first, axis=0)[0]
+        cross_t[m] = np.where(fires, at_first_t, _NEVER)
+        cross_v[m] = np.where(fires, at_first_v, 0.0)
     return cross_t, cross_v
 
 
@@ -263,7 +274,10 @@ def gabor_kernels(config: dict) -> np.ndarray:
         g = np.exp(-(xr**2 + gamma**2 * yr**2) / (2 * sigma**2)) * np.cos(
             2 * math.pi * xr / wavelength
         )
-        kernels[m, 0] = ((g - g.min()) / (g.max() - g.min())).astype(np.float32)
+        span = g.max() - g.min()
+        # A constant kernel (k = 1, say) has no range to scale: docs/model.md leaves it open;
+        # like the engine, take all ones.
+        kernels[m, 0] = ((g - g.min()) / span).astype(np.float32) if span > 0 else 1.0
     return kernels
 
 
