@@ -31,7 +31,14 @@ pub fn gabor_kernels(k: usize, maps: usize, p: &GaborConfig) -> Vec<f32> {
         let span = hi - lo;
         out.extend(raw.iter().map(|&g| {
             if span > 0.0 {
-                ((g - lo) / span) as f32
+                // Round-off of a cosine that should be 0 leaves values far below 2^-21; flush
+                // them so that potentials stay exact float64 sums (docs/model.md §3-4).
+                let w = ((g - lo) / span) as f32;
+                if w < GABOR_FLUSH {
+                    0.0
+                } else {
+                    w
+                }
             } else {
                 1.0
             }
@@ -39,6 +46,9 @@ pub fn gabor_kernels(k: usize, maps: usize, p: &GaborConfig) -> Vec<f32> {
     }
     out
 }
+
+/// Scaled Gabor weights below this are set to 0 (see [`gabor_kernels`]).
+const GABOR_FLUSH: f32 = 1.0 / (1u32 << 21) as f32;
 
 #[cfg(test)]
 mod tests {

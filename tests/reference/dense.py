@@ -277,7 +277,12 @@ def gabor_kernels(config: dict) -> np.ndarray:
         span = g.max() - g.min()
         # A constant kernel (k = 1, say) has no range to scale: docs/model.md leaves it open;
         # like the engine, take all ones.
-        kernels[m, 0] = ((g - g.min()) / span).astype(np.float32) if span > 0 else 1.0
+        if span > 0:
+            w = ((g - g.min()) / span).astype(np.float32)
+            # §4: scaled weights below 2**-21 are round-off of a zero; flush them to 0.
+            kernels[m, 0] = np.where(w < np.float32(2.0**-21), np.float32(0), w)
+        else:
+            kernels[m, 0] = 1.0
     return kernels
 
 
