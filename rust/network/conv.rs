@@ -95,6 +95,8 @@ pub(crate) struct ConvState {
     touched: Vec<u32>,
     /// Input positions `(row, col)` added this window (what the next window must zero).
     inputs: Vec<(u32, u32)>,
+    /// Potentials written this window, counted with repeats (the cost of replaying `inputs`).
+    touched_lanes: usize,
     /// Scratch: per 8 lanes of a run, which reached `θ_lo`.
     masks: Vec<u8>,
     /// Whether the CPU has AVX2 (asked once, at construction).
@@ -120,22 +122,32 @@ impl ConvState {
             crossed: Vec::new(),
             touched: Vec::new(),
             inputs: Vec::new(),
+            touched_lanes: 0,
             masks: vec![0; (geom.k * geom.maps).div_ceil(8)],
             avx2: has_avx2(),
         }
     }
 
     /// Zero the potentials that the last window touched.
+    ///
+    /// Replaying the window's inputs costs what their additions cost; where that would exceed
+    /// one pass over the layer (a busy window on a small layer), one contiguous fill is cheaper
+    /// and does the same. Either way the cost never exceeds the window's own work.
     pub fn reset(&mut self) {
         let g = self.geom;
         let maps = g.maps;
-        for &(iy, ix) in &self.inputs {
-            let cols = g.outputs_of(ix as usize, g.out_w);
-            for oy in g.outputs_of(iy as usize, g.out_h) {
-                let start = (oy * g.out_w + cols.start) * maps;
-                self.pot[start..start + cols.len() * maps].fill(0.0);
+        if self.touched_lanes >= self.pot.len() {
+            self.pot.fill(0.0);
+        } else {
+            for &(iy, ix) in &self.inputs {
+                let cols = g.outputs_of(ix as usize, g.out_w);
+                for oy in g.outputs_of(iy as usize, g.out_h) {
+                    let start = (oy * g.out_w + cols.start) * maps;
+                    self.pot[start..start + cols.len() * maps].fill(0.0);
+                }
             }
         }
+        self.touched_lanes = 0;
         self.inputs.clear();
         self.candidates.clear();
         self.band.clear();
@@ -184,6 +196,7 @@ impl ConvState {
         self.inputs.push((iy as u32, ix as u32));
         let rows = g.outputs_of(iy, g.out_h);
         let run = cols.len() * maps;
+        self.touched_lanes += rows.len() * run;
         // Kernel column index j = k − 1 − dx of the first output column; each output row
         // further down reads the kernel row above (dy falls by one).
         let j0 = g.k - 1 - (ix + g.p_lo - cols.start);
