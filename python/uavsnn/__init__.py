@@ -21,6 +21,7 @@ from uavsnn.errors import (
     UavsnnError,
 )
 from uavsnn.events import EVENT_DTYPE, Recording
+from uavsnn.network import Network
 
 __all__ = [
     "EVENT_DTYPE",
@@ -29,6 +30,7 @@ __all__ = [
     "EventError",
     "InternalError",
     "ModelFileError",
+    "Network",
     "ParameterError",
     "Recording",
     "RecordingFileError",
