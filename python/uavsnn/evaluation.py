@@ -1,0 +1,286 @@
+"""Honest figures for a detector on a labelled test set (SPEC §5).
+
+The paper's rule decides: a window holds a UAV when at least ``min_detections`` conv3 neurons
+fire (:attr:`uavsnn.network.Inference.detected`). Beside the confusion matrix
+``[[TP, FN], [FP, TN]]`` and the accuracy, an :class:`Evaluation` carries what users ask next:
+
+- per object class, how often windows of that class were called UAV;
+- latency in event time: from the first input spike of the window that falls inside the
+  labelled UAV box to the first conv3 spike (and from the window's start), over the true
+  positives;
+- the fraction of the sensor's pixels that spiked per window (the paper's sparsity);
+- the cost: input spikes per second of wall time through :meth:`~uavsnn.Network.infer`, and
+  nanoseconds per input spike.
+
+::
+
+    from uavsnn import Network, dataset, evaluation
+    test = dataset.load("data/dvs", "test")
+    result = evaluation.evaluate(Network.load("model.npz"), test)
+    print(result.accuracy, result.confusion)
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from uavsnn.dataset import LabelledWindows
+from uavsnn.errors import DatasetError, ParameterError, ShapeError
+from uavsnn.network import Inference, Network
+
+__all__ = [
+    "ClassFigures",
+    "Evaluation",
+    "accuracy",
+    "check_test_set",
+    "confusion_matrix",
+    "evaluate",
+    "first_spike_in_box",
+    "score",
+]
+
+
+def confusion_matrix(predicted: npt.ArrayLike, actual: npt.ArrayLike) -> np.ndarray:
+    """``[[TP, FN], [FP, TN]]`` (int64): rows are the truth (UAV, not), columns the call."""
+    p = _bools("predicted", predicted)
+    a = _bools("actual", actual)
+    if p.shape != a.shape:
+        raise ShapeError(f"predicted has {p.size} windows, actual {a.size}")
+    return np.array(
+        [[np.sum(p & a), np.sum(~p & a)], [np.sum(p & ~a), np.sum(~p & ~a)]], dtype=np.int64
+    )
+
+
+def accuracy(matrix: npt.ArrayLike) -> float:
+    """``(TP + TN) / N`` of a confusion matrix (NaN for an empty one)."""
+    m = np.asarray(matrix, dtype=np.int64)
+    if m.shape != (2, 2):
+        raise ShapeError(f"a confusion matrix is 2x2, got shape {m.shape}")
+    total = int(m.sum())
+    return float("nan") if total == 0 else float(m[0, 0] + m[1, 1]) / total
+
+
+def _bools(name: str, values: npt.ArrayLike) -> np.ndarray:
+    array = np.asarray(values)
+    if array.ndim != 1:
+        raise ShapeError(f"{name} must be 1-D, got shape {array.shape}")
+    if array.dtype != np.bool_:
+        raise ParameterError(f"{name} must be boolean, got dtype {array.dtype}")
+    return array
+
+
+@dataclass(frozen=True)
+class ClassFigures:
+    """Windows of one object class: how many, how many were called UAV, and how many of the
+    calls were right (for ``drone`` that is the detection rate, for the others 1 − it)."""
+
+    windows: int
+    called_uav: int
+    correct: int
+
+    @property
+    def called_uav_rate(self) -> float:
+        """Share of this class's windows called UAV."""
+        return self.called_uav / self.windows if self.windows else float("nan")
+
+
+@dataclass(frozen=True)
+class Evaluation:
+    """A detector's figures on one test set (see the module's docstring)."""
+
+    confusion: np.ndarray
+    per_class: dict[str, ClassFigures]
+    latency_us: np.ndarray
+    latency_from_start_us: np.ndarray
+    pixel_fraction: float
+    input_spikes: int
+    seconds: float
+    min_detections: int
+    predicted: np.ndarray = field(repr=False)
+    inference: Inference | None = field(default=None, repr=False)
+
+    @property
+    def accuracy(self) -> float:
+        """``(TP + TN) / N``."""
+        return accuracy(self.confusion)
+
+    @property
+    def windows(self) -> int:
+        """Test windows scored."""
+        return int(self.confusion.sum())
+
+    @property
+    def events_per_second(self) -> float:
+        """Input spikes through the network per second of wall time."""
+        return self.input_spikes / self.seconds if self.seconds > 0 else float("nan")
+
+    @property
+    def ns_per_event(self) -> float:
+        """Wall time per input spike, in nanoseconds."""
+        return 1e9 * self.seconds / self.input_spikes if self.input_spikes else float("nan")
+
+    def to_dict(self) -> dict[str, Any]:
+        """Everything as JSON-ready values."""
+        (tp, fn), (fp, tn) = self.confusion.tolist()
+
+        def stats(values: np.ndarray) -> dict[str, float | int | None]:
+            if values.size == 0:
+                return {"n": 0, "median": None, "p90": None, "mean": None}
+            return {
+                "n": int(values.size),
+                "median": float(np.median(values)),
+                "p90": float(np.percentile(values, 90)),
+                "mean": float(values.mean()),
+            }
+
+        return {
+            "windows": self.windows,
+            "confusion": [[tp, fn], [fp, tn]],
+            "accuracy": self.accuracy,
+            "tp": tp,
+            "fn": fn,
+            "fp": fp,
+            "tn": tn,
+            "min_detections": self.min_detections,
+            "per_class": {
+                name: {
+                    "windows": c.windows,
+                    "called_uav": c.called_uav,
+                    "correct": c.correct,
+                    "called_uav_rate": c.called_uav_rate,
+                }
+                for name, c in sorted(self.per_class.items())
+            },
+            "latency_us": stats(self.latency_us),
+            "latency_from_window_start_us": stats(self.latency_from_start_us),
+            "pixel_fraction": self.pixel_fraction,
+            "input_spikes": self.input_spikes,
+            "seconds": self.seconds,
+            "events_per_second": self.events_per_second,
+            "ns_per_event": self.ns_per_event,
+        }
+
+
+def check_test_set(data: LabelledWindows, network: Network, *, balanced: bool = True) -> None:
+    """Refuse a test set that cannot give an honest figure for ``network``: empty, of another
+    sensor size, or (with ``balanced``) not half UAV windows.
+
+    Raises:
+        DatasetError: an empty or unbalanced set.
+        ShapeError: the set's sensor size is not the network's input.
+    """
+    if not isinstance(data, LabelledWindows):
+        raise ParameterError(f"expected uavsnn.dataset.LabelledWindows, got {type(data).__name__}")
+    if len(data) == 0:
+        raise DatasetError("the test set is empty")
+    config = network.config
+    expected = (int(config["width"]), int(config["height"]))
+    if tuple(data.windows.sensor_size) != expected:
+        raise ShapeError(
+            f"the test set's sensor is {data.windows.sensor_size[0]}x"
+            f"{data.windows.sensor_size[1]} but the model's input is {expected[0]}x{expected[1]}"
+        )
+    uav = int(np.count_nonzero(data.label))
+    if balanced and 2 * uav != len(data):
+        raise DatasetError(
+            f"the test set is unbalanced: {uav} UAV and {len(data) - uav} other windows "
+            "(SPEC §5 asks for half each; pass balanced=False to score it anyway)"
+        )
+
+
+def evaluate(
+    network: Network,
+    data: LabelledWindows,
+    *,
+    threads: int | None = None,
+    balanced: bool = True,
+    keep_inference: bool = False,
+) -> Evaluation:
+    """Run ``network`` on every window of ``data`` and score it (see :func:`check_test_set`
+    for what is refused)."""
+    check_test_set(data, network, balanced=balanced)
+    start = time.perf_counter()
+    inference = network.infer(data.windows, threads=threads)
+    seconds = time.perf_counter() - start
+    return score(inference, data, seconds=seconds, keep_inference=keep_inference, network=network)
+
+
+def score(
+    inference: Inference,
+    data: LabelledWindows,
+    *,
+    seconds: float = float("nan"),
+    keep_inference: bool = False,
+    network: Network | None = None,
+) -> Evaluation:
+    """Score an :class:`~uavsnn.network.Inference` of ``data``'s windows against its labels."""
+    if len(inference) != len(data):
+        raise ShapeError(f"inference has {len(inference)} windows, the data {len(data)}")
+    predicted = np.asarray(inference.detected, dtype=bool)
+    actual = np.asarray(data.label, dtype=bool)
+    per_class: dict[str, ClassFigures] = {}
+    for name in np.unique(data.cls):
+        mask = data.cls == name
+        per_class[str(name)] = ClassFigures(
+            windows=int(mask.sum()),
+            called_uav=int(predicted[mask].sum()),
+            correct=int((predicted[mask] == actual[mask]).sum()),
+        )
+    w = data.windows
+    tp = np.flatnonzero(predicted & actual)
+    first_in_box = first_spike_in_box(w, data.box)
+    detection_t = inference.first_detection_t.astype(np.int64)
+    reached = tp[first_in_box[tp] >= 0]
+    latency = detection_t[reached] - first_in_box[reached]
+    from_start = detection_t[tp] - w.t0[tp].astype(np.int64)
+    width, height = w.sensor_size
+    spikes = np.diff(np.asarray(w.offsets, dtype=np.int64))
+    min_detections = 1 if network is None else int(network.config["detection"]["min_detections"])
+    return Evaluation(
+        confusion=confusion_matrix(predicted, actual),
+        per_class=per_class,
+        latency_us=latency.astype(np.int64),
+        latency_from_start_us=from_start.astype(np.int64),
+        pixel_fraction=float(spikes.mean() / (width * height)) if len(spikes) else float("nan"),
+        input_spikes=int(spikes.sum()),
+        seconds=float(seconds),
+        min_detections=min_detections,
+        predicted=predicted,
+        inference=inference if keep_inference else None,
+    )
+
+
+def first_spike_in_box(windows: Any, boxes: npt.ArrayLike) -> np.ndarray:
+    """Per window, the time (int64 µs) of its first input spike inside its box
+    ``x0, y0, x1, y1`` (pixel ``(x, y)`` counts when its centre ``x + ½, y + ½`` is inside), or
+    −1 when none is (or the box is NaN)."""
+    box = np.asarray(boxes, dtype=np.float64)
+    n = len(windows.t0)
+    if box.shape != (n, 4):
+        raise ShapeError(f"boxes must have shape ({n}, 4), got {box.shape}")
+    offsets = np.asarray(windows.offsets, dtype=np.int64)
+    counts = np.diff(offsets)
+    per_spike = np.repeat(box, counts, axis=0)
+    cx = np.asarray(windows.x, dtype=np.float64) + 0.5
+    cy = np.asarray(windows.y, dtype=np.float64) + 0.5
+    with np.errstate(invalid="ignore"):
+        inside = (
+            (cx >= per_spike[:, 0])
+            & (cx < per_spike[:, 2])
+            & (cy >= per_spike[:, 1])
+            & (cy < per_spike[:, 3])
+        )
+    t = np.asarray(windows.t, dtype=np.int64)
+    big = np.iinfo(np.int64).max
+    masked = np.where(inside, t, big)
+    out = np.full(n, -1, dtype=np.int64)
+    nonempty = np.flatnonzero(counts > 0)
+    if nonempty.size:
+        firsts = np.minimum.reduceat(masked, offsets[nonempty])
+        out[nonempty] = np.where(firsts == big, -1, firsts)
+    return out

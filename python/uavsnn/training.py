@@ -1,0 +1,306 @@
+"""Layer-wise STDP training of a :class:`~uavsnn.Network` on a dataset (SPEC §3, docs/model.md §6).
+
+Layers are trained in order — conv2, then conv3 (conv1 too, if asked) — each on the same
+training windows with the layers below frozen::
+
+    from uavsnn import Network, dataset, training
+
+    train = dataset.load("data/dvs", "train")
+    result = training.train(Network(seed=0), train.windows, windows_per_layer=20_000,
+                            checkpoint_dir="runs/ckpt", progress=True)
+    result.network.save("model.npz")
+
+With ``checkpoint_dir``, the model is written after each layer (atomically) with a small
+``state.json``; ``resume=True`` picks up after the last finished layer, so an interrupted run
+loses at most the layer it was in and never leaves a half-written file.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from uavsnn.errors import DatasetError, ModelFileError, ParameterError
+from uavsnn.network import CONV_LAYERS, Network, TrainReport, WindowsLike
+
+__all__ = [
+    "STATE_FILE",
+    "LayerResult",
+    "TrainingResult",
+    "apply_overrides",
+    "parse_override",
+    "train",
+]
+
+STATE_FILE = "state.json"
+"""The checkpoint folder's record of finished layers."""
+
+#: Called with (layer, windows done, windows planned, convergence C).
+ProgressFn = Callable[[str, int, int, float], None]
+
+
+@dataclass(frozen=True)
+class LayerResult:
+    """One trained layer: the engine's report, weight snapshots taken as training went
+    (``(windows seen, weights)``, the first before any update, the last at the end) and the
+    wall time it took."""
+
+    report: TrainReport
+    snapshots: list[tuple[int, np.ndarray]]
+    seconds: float
+
+    def to_dict(self) -> dict[str, Any]:
+        """A JSON-ready summary (no weights)."""
+        c = self.report.convergence
+        return {
+            "windows_seen": self.report.windows_seen,
+            "winners": self.report.winners,
+            "convergence_first": c[0] if c else None,
+            "convergence_last": c[-1] if c else None,
+            "a_plus_last": self.report.a_plus[-1] if self.report.a_plus else None,
+            "seconds": round(self.seconds, 3),
+        }
+
+
+@dataclass
+class TrainingResult:
+    """The trained network and what each layer's training did (layers resumed from a
+    checkpoint have no entry)."""
+
+    network: Network
+    layers: dict[str, LayerResult] = field(default_factory=dict)
+    resumed: tuple[str, ...] = ()
+
+    def to_dict(self) -> dict[str, Any]:
+        """A JSON-ready summary."""
+        return {
+            "layers": {name: r.to_dict() for name, r in self.layers.items()},
+            "resumed": list(self.resumed),
+        }
+
+
+def train(
+    network: Network,
+    windows: WindowsLike,
+    *,
+    layers: Sequence[str] = ("conv2", "conv3"),
+    windows_per_layer: int | None = None,
+    epochs: int = 1,
+    seed: int = 0,
+    snapshots: int = 6,
+    checkpoint_dir: str | os.PathLike[str] | None = None,
+    resume: bool = False,
+    progress: bool | ProgressFn = False,
+) -> TrainingResult:
+    """Train ``layers`` of ``network`` in place, one after the other, on ``windows``.
+
+    Each layer sees ``windows_per_layer`` windows (the set is visited in shuffled epochs until
+    that many are seen; the paper used about 20,000) or, if that is ``None``, ``epochs`` passes
+    over the set. The learning-rate schedule restarts from the config's rates for each layer.
+    ``snapshots`` weight copies per layer are kept for the pictures of how features evolve.
+    Layer ``i`` shuffles with seed ``seed + i``.
+
+    Raises:
+        ParameterError: an unknown layer, layers out of order, a bad count.
+        DatasetError: no training windows.
+        ModelFileError: ``resume`` with a checkpoint of another network shape.
+    """
+    names = _check_layers(layers)
+    n = len(windows.t0)
+    if n == 0:
+        raise DatasetError("no training windows: the train split is empty")
+    if windows_per_layer is not None:
+        windows_per_layer = _positive("windows_per_layer", windows_per_layer)
+        epochs = math.ceil(windows_per_layer / n)
+    planned = windows_per_layer or n * _positive("epochs", epochs)
+    snapshots = int(snapshots)
+    if snapshots < 0:
+        raise ParameterError(f"snapshots must be >= 0, got {snapshots}")
+    report_progress = _progress_fn(progress)
+
+    ckpt = None if checkpoint_dir is None else Path(checkpoint_dir)
+    done: list[str] = []
+    if ckpt is not None:
+        ckpt.mkdir(parents=True, exist_ok=True)
+        if resume:
+            done, loaded = _read_checkpoint(ckpt, names)
+            if loaded is not None:
+                _copy_weights(loaded, network)
+    result = TrainingResult(network=network, resumed=tuple(done))
+
+    for index, layer in enumerate(names):
+        if layer in done:
+            continue
+        result.layers[layer] = _train_layer(
+            network, windows, layer, epochs, seed + index, planned, snapshots, report_progress
+        )
+        if ckpt is not None:
+            done.append(layer)
+            _write_checkpoint(ckpt, network, done, result.layers[layer], layer)
+    return result
+
+
+def _train_layer(
+    network: Network,
+    windows: WindowsLike,
+    layer: str,
+    epochs: int,
+    seed: int,
+    planned: int,
+    snapshots: int,
+    report_progress: ProgressFn,
+) -> LayerResult:
+    """Train one layer for ``planned`` windows, taking ``snapshots`` weight copies on the way."""
+    every = max(1, min(64, planned // max(snapshots, 1)))
+    marks = _snapshot_marks(planned, snapshots)
+    taken: list[tuple[int, np.ndarray]] = [(0, network.weights(layer))] if snapshots else []
+
+    def callback(seen: int, _total: int, convergence: float) -> bool:
+        if marks and seen >= marks[0]:
+            while marks and seen >= marks[0]:
+                marks.pop(0)
+            taken.append((seen, network.weights(layer)))
+        report_progress(layer, min(seen, planned), planned, convergence)
+        return seen < planned
+
+    start = time.perf_counter()
+    report = network.train_layer(
+        layer, windows, epochs=epochs, seed=seed, callback=callback, every=every
+    )
+    if snapshots and taken[-1][0] != report.windows_seen:
+        taken.append((report.windows_seen, network.weights(layer)))
+    return LayerResult(report, taken, time.perf_counter() - start)
+
+
+def _check_layers(layers: Sequence[str]) -> list[str]:
+    names = [layers] if isinstance(layers, str) else list(layers)
+    if not names:
+        raise ParameterError("no layers to train")
+    for name in names:
+        if name not in CONV_LAYERS:
+            raise ParameterError(f"cannot train {name!r}: layers are {', '.join(CONV_LAYERS)}")
+    order = [CONV_LAYERS.index(name) for name in names]
+    if order != sorted(set(order)):
+        raise ParameterError(
+            f"layers must be distinct and in the network's order (conv1, conv2, conv3), "
+            f"got {', '.join(names)}"
+        )
+    return names
+
+
+def _positive(name: str, value: Any) -> int:
+    if isinstance(value, bool) or not isinstance(value, int | np.integer) or int(value) < 1:
+        raise ParameterError(f"{name} must be an integer >= 1, got {value!r}")
+    return int(value)
+
+
+def _snapshot_marks(planned: int, snapshots: int) -> list[int]:
+    if snapshots <= 1:
+        return []
+    return sorted({max(1, round(planned * k / (snapshots - 1))) for k in range(1, snapshots - 1)})
+
+
+def _progress_fn(progress: bool | ProgressFn) -> ProgressFn:
+    if callable(progress):
+        return progress
+    if not progress:
+        return lambda *_args: None
+    from tqdm import tqdm
+
+    bars: dict[str, Any] = {}
+
+    def step(layer: str, done: int, total: int, convergence: float) -> None:
+        bar = bars.get(layer)
+        if bar is None:
+            bar = bars[layer] = tqdm(total=total, unit=" win", desc=f"train {layer}")
+        bar.set_postfix_str(f"C={convergence:.4f}", refresh=False)
+        bar.update(done - bar.n)
+        if done >= total:
+            bar.close()
+
+    return step
+
+
+def _write_checkpoint(
+    root: Path, network: Network, done: list[str], layer_result: LayerResult, layer: str
+) -> None:
+    """The model after ``layer`` (atomic, by the engine), then the state that names it."""
+    model = root / f"after-{layer}.npz"
+    network.save(model)
+    state_path = root / STATE_FILE
+    state: dict[str, Any] = {"format": "uavsnn-training-state", "version": 1, "layers": {}}
+    if state_path.exists():
+        state = json.loads(state_path.read_text(encoding="utf-8"))
+    state["done"] = list(done)
+    state["model"] = model.name
+    state["layers"][layer] = layer_result.to_dict()
+    tmp = state_path.with_name(f".{STATE_FILE}.tmp-{os.getpid()}")
+    tmp.write_text(json.dumps(state, indent=2) + "\n", encoding="utf-8")
+    os.replace(tmp, state_path)
+
+
+def _read_checkpoint(root: Path, names: list[str]) -> tuple[list[str], Network | None]:
+    state_path = root / STATE_FILE
+    if not state_path.exists():
+        return [], None
+    try:
+        state = json.loads(state_path.read_text(encoding="utf-8"))
+        done = [str(name) for name in state["done"]]
+        model = root / str(state["model"])
+    except (ValueError, KeyError, TypeError) as exc:
+        raise ModelFileError(f"{state_path}: not a training state file ({exc})") from exc
+    if done != names[: len(done)]:
+        raise ParameterError(
+            f"checkpoint in {root} finished {', '.join(done)}, which is not a start of the "
+            f"layers asked for ({', '.join(names)})"
+        )
+    return done, Network.load(model)
+
+
+def _copy_weights(source: Network, target: Network) -> None:
+    if source.shapes != target.shapes:
+        raise ParameterError(
+            f"the checkpoint's network has shapes {source.shapes}, this one {target.shapes}"
+        )
+    for layer in CONV_LAYERS:
+        target.set_weights(layer, source.weights(layer))
+
+
+def parse_override(text: str) -> tuple[list[str], Any]:
+    """``"conv2.threshold=15"`` → ``(["conv2", "threshold"], 15)``; the value is read as JSON
+    (numbers, ``true``/``false``, quoted strings), or taken as a plain string."""
+    key, sep, value = text.partition("=")
+    path = [part for part in key.strip().split(".") if part]
+    if not sep or not path:
+        raise ParameterError(
+            f"a setting must read KEY=VALUE (e.g. conv2.threshold=15), got {text!r}"
+        )
+    try:
+        parsed: Any = json.loads(value)
+    except ValueError:
+        parsed = value.strip()
+    return path, parsed
+
+
+def apply_overrides(config: Mapping[str, Any], overrides: Sequence[str]) -> dict[str, Any]:
+    """A copy of ``config`` with each ``KEY=VALUE`` of ``overrides`` set (nested keys with
+    dots). Unknown keys are left for :class:`~uavsnn.Network` to refuse."""
+    out: dict[str, Any] = json.loads(json.dumps(dict(config)))
+    for text in overrides:
+        path, value = parse_override(text)
+        node = out
+        for part in path[:-1]:
+            child = node.setdefault(part, {})
+            if not isinstance(child, dict):
+                raise ParameterError(f"{'.'.join(path)}: {part!r} is not a section of the config")
+            node = child
+        node[path[-1]] = value
+    return out

@@ -1,0 +1,160 @@
+"""Evaluation: the counts on hand-made predictions, latency, refusals, and that a saved model
+scores the same after loading."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+import uavsnn
+from uavsnn.dataset import LabelledWindows, SceneSource, build, load
+from uavsnn.errors import DatasetError, ParameterError, ShapeError
+from uavsnn.evaluation import (
+    accuracy,
+    confusion_matrix,
+    evaluate,
+    first_spike_in_box,
+    score,
+)
+from uavsnn.network import WINDOW_DETECTION_DTYPE, Inference
+from uavsnn.windows import Windows
+
+NAN4 = [np.nan] * 4
+
+
+def test_confusion_matrix_on_hand_made_predictions() -> None:
+    predicted = np.array([1, 1, 0, 0, 1, 0, 0], dtype=bool)
+    actual = np.array([1, 0, 1, 0, 1, 0, 0], dtype=bool)
+    m = confusion_matrix(predicted, actual)
+    assert m.tolist() == [[2, 1], [1, 3]]
+    assert accuracy(m) == pytest.approx(5 / 7)
+
+
+@given(st.lists(st.tuples(st.booleans(), st.booleans()), max_size=60))
+def test_confusion_matrix_counts_every_window_once(pairs: list[tuple[bool, bool]]) -> None:
+    p = np.array([a for a, _ in pairs], dtype=bool)
+    a = np.array([b for _, b in pairs], dtype=bool)
+    (tp, fn), (fp, tn) = confusion_matrix(p, a).tolist()
+    assert tp == sum(x and y for x, y in pairs)
+    assert fn == sum((not x) and y for x, y in pairs)
+    assert fp == sum(x and not y for x, y in pairs)
+    assert tn == sum(not x and not y for x, y in pairs)
+    if pairs:
+        assert accuracy([[tp, fn], [fp, tn]]) == sum(x == y for x, y in pairs) / len(pairs)
+    else:
+        assert np.isnan(accuracy([[tp, fn], [fp, tn]]))
+
+
+def test_confusion_matrix_refuses_bad_input() -> None:
+    with pytest.raises(ShapeError, match="predicted has 2 windows, actual 3"):
+        confusion_matrix(np.zeros(2, bool), np.zeros(3, bool))
+    with pytest.raises(ParameterError, match="boolean"):
+        confusion_matrix(np.zeros(2, int), np.zeros(2, bool))
+    with pytest.raises(ShapeError, match="2x2"):
+        accuracy(np.zeros((3, 2)))
+
+
+def _windows(spikes: list[list[tuple[int, int, int]]], size: tuple[int, int] = (20, 10)) -> Windows:
+    """Windows of 1000 µs starting every 1000 µs, with the given (t offset, x, y) spikes."""
+    t0 = np.arange(len(spikes), dtype=np.uint64) * 1000
+    offsets = np.cumsum([0] + [len(s) for s in spikes]).astype(np.int64)
+    flat = [(int(t0[i]) + dt, x, y) for i, s in enumerate(spikes) for dt, x, y in s]
+    cols = np.array(flat, dtype=np.int64).reshape(-1, 3)
+    return Windows(
+        size, 1000, t0, offsets, cols[:, 0], cols[:, 1], cols[:, 2], np.zeros(len(spikes), np.int64)
+    )
+
+
+def _labelled(windows: Windows, label: list[bool], cls: list[str], box: object) -> LabelledWindows:
+    n = len(windows)
+    return LabelledWindows(
+        windows,
+        np.array(label, dtype=bool),
+        np.array(cls, dtype="<U12"),
+        np.zeros(n, np.int64),
+        np.array(box, dtype=np.float32),
+    )
+
+
+def test_first_spike_in_box() -> None:
+    w = _windows([[(1, 0, 0), (5, 4, 4), (9, 5, 5)], [], [(2, 1, 1)], [(3, 7, 2)]])
+    boxes = np.array([[4, 4, 6, 6], [0, 0, 20, 10], NAN4, [0, 0, 5, 5]], dtype=np.float32)
+    assert first_spike_in_box(w, boxes).tolist() == [5, -1, -1, -1]
+
+
+def test_score_per_class_latency_and_pixels() -> None:
+    w = _windows([[(1, 0, 0), (5, 4, 4)], [(2, 4, 4)], [(3, 1, 1)], [(4, 2, 2), (6, 3, 3)]])
+    data = _labelled(
+        w,
+        [True, True, False, False],
+        ["drone", "drone", "bird", "none"],
+        [[4, 4, 5, 5], [0, 0, 20, 10], [0, 0, 2, 2], NAN4],
+    )
+    detections = np.zeros(2, dtype=WINDOW_DETECTION_DTYPE)
+    detections["window"] = [0, 2]
+    detections["t"] = [25, 2003]
+    inference = Inference(
+        detected=np.array([True, False, True, False]),
+        counts=np.zeros((4, 5), np.int64),
+        first_detection_t=np.array([25, 0, 2003, 0], dtype=np.uint64),
+        detections=detections,
+        thresholds=np.zeros((4, 4), np.float32),
+    )
+    e = score(inference, data, seconds=0.5)
+    assert e.confusion.tolist() == [[1, 1], [1, 1]]
+    assert e.accuracy == 0.5
+    assert e.per_class["drone"].called_uav == 1 and e.per_class["drone"].correct == 1
+    assert e.per_class["bird"].called_uav == 1 and e.per_class["bird"].correct == 0
+    assert e.per_class["none"].correct == 1
+    # the drone window's first spike in its box is at 5; detected at 25
+    assert e.latency_us.tolist() == [20]
+    assert e.latency_from_start_us.tolist() == [25]
+    assert e.pixel_fraction == pytest.approx(6 / 4 / 200)
+    assert e.input_spikes == 6 and e.events_per_second == 12.0
+    d = e.to_dict()
+    assert (d["tp"], d["fn"], d["fp"], d["tn"]) == (1, 1, 1, 1)
+    assert d["latency_us"]["median"] == 20.0
+
+
+def test_evaluate_refuses_what_cannot_be_scored_honestly() -> None:
+    net = uavsnn.Network({"width": 20, "height": 10}, seed=0)
+    w = _windows([[(1, 0, 0)], [(2, 3, 3)], [(3, 4, 4)]])
+    unbalanced = _labelled(w, [True, False, False], ["drone", "none", "none"], [NAN4] * 3)
+    with pytest.raises(DatasetError, match="unbalanced: 1 UAV and 2 other"):
+        evaluate(net, unbalanced)
+    assert evaluate(net, unbalanced, balanced=False).windows == 3
+    empty = _labelled(_windows([]), [], [], np.zeros((0, 4)))
+    with pytest.raises(DatasetError, match="empty"):
+        evaluate(net, empty)
+    other = uavsnn.Network({"width": 24, "height": 10}, seed=0)
+    with pytest.raises(ShapeError, match="sensor is 20x10 but the model's input is 24x10"):
+        evaluate(other, unbalanced, balanced=False)
+    with pytest.raises(ParameterError, match="LabelledWindows"):
+        evaluate(net, w)  # type: ignore[arg-type]
+
+
+@pytest.fixture(scope="module")
+def small_set(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    root = tmp_path_factory.mktemp("eval") / "set"
+    build(
+        root, "dvs", n_test=20, n_train=16, seed=5, dvs=SceneSource("dvs", (240, 180), 200.0, 0.3)
+    )
+    return root
+
+
+def test_train_save_load_evaluate_gives_the_same_numbers(small_set: Path, tmp_path: Path) -> None:
+    from uavsnn.training import train
+
+    net = uavsnn.Network({"conv2": {"threshold": 15.0}}, seed=2)
+    train(net, load(small_set, "train").windows, windows_per_layer=64, snapshots=0)
+    test = load(small_set, "test")
+    before = evaluate(net, test)
+    net.save(tmp_path / "m.npz")
+    after = evaluate(uavsnn.Network.load(tmp_path / "m.npz"), test)
+    assert after.confusion.tolist() == before.confusion.tolist()
+    assert after.per_class == before.per_class
+    assert after.latency_us.tolist() == before.latency_us.tolist()
