@@ -1,0 +1,97 @@
+"""``uavsnn evaluate MODEL DATASET``: the paper's figures for a model on a test set."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import Any
+
+from uavsnn import report
+from uavsnn.dataset import load
+from uavsnn.evaluation import evaluate
+from uavsnn.experiments import NOISE_FRACTIONS, noise_sweep, static_threshold, with_config
+from uavsnn.network import Network
+
+__all__ = ["register"]
+
+
+def register(subparsers: Any) -> None:
+    """Add ``uavsnn evaluate``."""
+    p = subparsers.add_parser(
+        "evaluate",
+        help="score a model on a labelled test set",
+        description="Run a model on a dataset's test split: confusion matrix [[TP, FN], "
+        "[FP, TN]], accuracy, per class, event-time latency, pixels used, cost; optionally "
+        "accuracy against added noise with PENT and static thresholds, and a Markdown report "
+        "with pictures.",
+    )
+    p.add_argument("model", type=Path, help="model file written by `uavsnn train`")
+    p.add_argument("dataset", type=Path, help="dataset folder")
+    p.add_argument("--split", default="test", help="split to score (test)")
+    p.add_argument("--noise", action="store_true", help="also sweep added noise (Table 3)")
+    p.add_argument("--report", type=Path, help="write report.md and its pictures to this folder")
+    p.add_argument("--unbalanced", action="store_true", help="score a set that is not half UAV")
+    p.add_argument("--threads", type=int, default=None, help="worker threads (all cores)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the added noise (0)")
+    p.add_argument("--json", action="store_true", help="print the figures as JSON")
+    p.set_defaults(handler=_evaluate)
+
+
+def _evaluate(args: argparse.Namespace) -> int:
+    network = Network.load(args.model)
+    data = load(args.dataset, args.split)
+    result = evaluate(
+        network, data, threads=args.threads, balanced=not args.unbalanced, keep_inference=True
+    )
+    figures: dict[str, Any] = {"model": str(args.model), "dataset": str(args.dataset)}
+    figures |= result.to_dict()
+    points = []
+    # Static thresholds for the comparison: the one PENT sets on a typical clean training window.
+    train = load(args.dataset, "train") if (args.dataset / "train.npz").exists() else data
+    theta = static_threshold(network, train.windows)
+    static = with_config(network, pent={"mode": "static"}, conv1={"threshold": theta})
+    if args.noise:
+        points = noise_sweep(
+            {"pent": network, "static": static}, data, NOISE_FRACTIONS, seed=args.seed,
+            threads=args.threads,
+        )  # fmt: skip
+        figures["noise"] = [p.to_dict() for p in points]
+    if args.report:
+        written = report.figures(
+            args.report, network, data, result, noise=points, static=static, seed=args.seed
+        )
+        text = [
+            f"# Evaluation of {args.model.name} on {args.dataset}\n",
+            report.evaluation_markdown(result),
+        ]
+        if points:
+            text += ["\n## Noise\n", report.noise_table(points)]
+        text += ["\n## Pictures\n"] + [
+            f"![{name}]({path.name})\n" for name, path in written.items()
+        ]
+        (args.report / "report.md").write_text("\n".join(text), encoding="utf-8")
+        figures["report"] = str(args.report / "report.md")
+    if args.json:
+        print(json.dumps(figures, indent=2))
+        return 0
+    (tp, fn), (fp, tn) = result.confusion.tolist()
+    print(f"accuracy {100 * result.accuracy:.1f} % on {result.windows} windows")
+    print(f"confusion [[TP {tp}, FN {fn}], [FP {fp}, TN {tn}]]")
+    for name, c in sorted(result.per_class.items()):
+        print(f"  {name:12s} {c.windows:6d} windows, called UAV {100 * c.called_uav_rate:5.1f} %")
+    if len(result.latency_us):
+        median_ms = figures["latency_us"]["median"] / 1000
+        print(f"latency (first UAV spike -> detection): median {median_ms:.2f} ms")
+    print(
+        f"pixels used {100 * result.pixel_fraction:.2f} %; {result.events_per_second / 1e6:.2f} M "
+        f"spikes/s ({result.ns_per_event:.0f} ns each)"
+    )
+    for point in points:
+        print(
+            f"  noise {100 * point.fraction:4.1f} % ({point.snr_db:6.1f} dB) {point.mode:7s} "
+            f"{100 * point.evaluation.accuracy:.1f} %"
+        )
+    if args.report:
+        print(f"wrote {figures['report']}")
+    return 0

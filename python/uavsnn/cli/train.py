@@ -1,0 +1,94 @@
+"""``uavsnn train DATASET -o MODEL.npz``: layer-wise STDP on a dataset's train split."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+from uavsnn.dataset import load
+from uavsnn.network import Network, default_config
+from uavsnn.training import apply_overrides, train
+
+__all__ = ["register"]
+
+
+def register(subparsers: Any) -> None:
+    """Add ``uavsnn train``."""
+    p = subparsers.add_parser(
+        "train",
+        help="train a detector by STDP, one layer at a time",
+        description="Train conv2 then conv3 (and conv1 with --layers conv1,conv2,conv3) by "
+        "winner-take-all STDP on the train split of a dataset made by `uavsnn dataset build`; "
+        "write the model file. No labels are used.",
+    )
+    p.add_argument("dataset", type=Path, help="dataset folder (with manifest.json)")
+    p.add_argument("-o", "--output", type=Path, required=True, help="model file to write (.npz)")
+    p.add_argument("--split", default="train", help="split to train on (train)")
+    p.add_argument("--layers", default="conv2,conv3", help="layers in order (conv2,conv3)")
+    p.add_argument(
+        "--windows-per-layer",
+        type=int,
+        default=None,
+        help="windows each layer sees, in shuffled passes (default: one pass; the paper: 20000)",
+    )
+    p.add_argument(
+        "--epochs", type=int, default=1, help="passes when --windows-per-layer is not given"
+    )
+    p.add_argument("--config", type=Path, help="a JSON network config (default: Table 1)")
+    p.add_argument(
+        "--set",
+        dest="settings",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="change one config field, e.g. --set conv2.threshold=15 (repeatable)",
+    )
+    p.add_argument("--seed", type=int, default=0, help="initial weights and shuffling (0)")
+    p.add_argument("--checkpoint-dir", type=Path, help="write the model after each layer here")
+    p.add_argument("--resume", action="store_true", help="continue from --checkpoint-dir")
+    p.add_argument("--json", action="store_true", help="print the training summary as JSON")
+    p.add_argument("--quiet", action="store_true", help="no progress bars")
+    p.set_defaults(handler=_train)
+
+
+def network_config(config_file: Path | None, settings: list[str]) -> dict[str, Any]:
+    """The config of ``--config`` (or Table 1) with ``--set`` fields applied."""
+    base = default_config()
+    if config_file is not None:
+        base = json.loads(config_file.read_text(encoding="utf-8"))
+    return apply_overrides(base, settings)
+
+
+def _train(args: argparse.Namespace) -> int:
+    data = load(args.dataset, args.split)
+    network = Network(network_config(args.config, args.settings), seed=args.seed)
+    result = train(
+        network,
+        data.windows,
+        layers=[name.strip() for name in args.layers.split(",") if name.strip()],
+        windows_per_layer=args.windows_per_layer,
+        epochs=args.epochs,
+        seed=args.seed,
+        checkpoint_dir=args.checkpoint_dir,
+        resume=args.resume,
+        progress=not args.quiet and sys.stderr.isatty(),
+    )
+    network.save(args.output)
+    summary: dict[str, Any] = {"model": str(args.output), "windows": len(data)}
+    summary |= result.to_dict()
+    if args.json:
+        print(json.dumps(summary, indent=2))
+    else:
+        for layer, r in summary["layers"].items():
+            print(
+                f"{layer}: {r['windows_seen']} windows, {r['winners']} winners, C "
+                f"{r['convergence_first']:.4f} -> {r['convergence_last']:.4f} "
+                f"({r['seconds']:.1f} s)"
+            )
+        for layer in summary["resumed"]:
+            print(f"{layer}: from the checkpoint")
+        print(f"wrote {args.output}")
+    return 0

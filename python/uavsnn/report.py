@@ -1,0 +1,226 @@
+"""The Markdown report of a trained detector, with its pictures (SPEC §6): learned features and
+how they evolved (the paper's Figs. 6–9), detections over event frames (Fig. 10), a noisy window
+with PENT on and off (Fig. 11), accuracy against SNR (Table 3), confusion matrices.
+
+:func:`figures` writes the PNGs and returns their paths; :func:`markdown` turns an
+evaluation into Markdown tables. ``uavsnn demo``, ``uavsnn evaluate --report`` and
+``uavsnn reproduce`` compose them.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from uavsnn import pictures
+from uavsnn.dataset import LabelledWindows
+from uavsnn.evaluation import Evaluation
+from uavsnn.experiments import PAPER_TABLE3, NoisePoint
+from uavsnn.network import Network
+from uavsnn.training import TrainingResult
+from uavsnn.windows import add_noise
+
+__all__ = ["confusion_table", "evaluation_markdown", "figures", "noise_table"]
+
+
+def figures(
+    out_dir: str | Path,
+    network: Network,
+    test: LabelledWindows,
+    evaluation: Evaluation,
+    *,
+    training: TrainingResult | None = None,
+    noise: Sequence[NoisePoint] = (),
+    static: Network | None = None,
+    seed: int = 0,
+    prefix: str = "",
+) -> dict[str, Path]:
+    """Write the report's pictures into ``out_dir``; returns ``{name: path}``.
+
+    ``evaluation`` must have been made with ``keep_inference=True`` for the detection
+    pictures. ``static`` (the same weights under static thresholds) adds the PENT on/off
+    picture.
+    """
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    written: dict[str, Path] = {}
+
+    def put(name: str, image: np.ndarray) -> None:
+        written[name] = pictures.write_png(out / f"{prefix}{name}.png", image)
+
+    for layer, image in pictures.feature_images(network).items():
+        put(f"features-{layer}", image)
+    if training is not None:
+        for layer, result in training.layers.items():
+            if len(result.snapshots) < 2:
+                continue
+            shots = []
+            for seen, weights in result.snapshots:
+                copy = network.copy()
+                copy.set_weights(layer, weights)
+                shots.append((f"{seen} windows", pictures.reconstruct_features(copy, layer)))
+            put(
+                f"evolution-{layer}",
+                pictures.feature_evolution(shots, title=f"{layer} features during STDP"),
+            )
+        put("convergence", _convergence_chart(training))
+    put(
+        "confusion",
+        pictures.confusion_image(
+            evaluation.confusion, title=f"any-spike rule, {evaluation.windows} test windows"
+        ),
+    )
+    if evaluation.inference is not None:
+        put("detections", _detections_sheet(test, evaluation))
+    if static is not None:
+        put("pent", _pent_sheet(network, static, test, seed))
+    if noise:
+        put("snr", _snr_chart(noise))
+    return written
+
+
+def _convergence_chart(training: TrainingResult) -> np.ndarray:
+    longest = max(len(r.report.convergence) for r in training.layers.values())
+    x = np.arange(1, longest + 1, dtype=float)
+    series = {}
+    for layer, result in training.layers.items():
+        c = np.full(longest, np.nan)
+        c[: len(result.report.convergence)] = result.report.convergence
+        series[layer] = c.tolist()
+    return pictures.line_chart(
+        x.tolist(),
+        series,
+        title="convergence C = mean(w(1-w))",
+        xlabel="training windows",
+        ylabel="C",
+        markers=False,
+    )
+
+
+def _pick(mask: np.ndarray, count: int) -> list[int]:
+    return [int(i) for i in np.flatnonzero(mask)[:count]]
+
+
+def _detections_sheet(test: LabelledWindows, evaluation: Evaluation) -> np.ndarray:
+    inference = evaluation.inference
+    assert inference is not None
+    predicted, actual = evaluation.predicted, test.label
+    chosen = (
+        [("true positive", i) for i in _pick(predicted & actual, 3)]
+        + [("false positive", i) for i in _pick(predicted & ~actual, 1)]
+        + [("missed", i) for i in _pick(~predicted & actual, 1)]
+    )
+    if not chosen:
+        chosen = [("window", 0)]
+    frames = test.windows.frames([i for _, i in chosen])
+    found = inference.detections
+    panels = []
+    for (what, i), frame in zip(chosen, frames, strict=True):
+        box = test.box[i]
+        panels.append(
+            pictures.detections_image(
+                frame,
+                found[found["window"] == i],
+                truth_box=None if np.isnan(box).any() else tuple(float(v) for v in box),
+                title=f"{what}: {test.cls[i]} (window {i})",
+            )
+        )
+    rows = [pictures.hstack(panels[k : k + 3]) for k in range(0, len(panels), 3)]
+    return pictures.vstack(rows)
+
+
+def _pent_sheet(network: Network, static: Network, test: LabelledWindows, seed: int) -> np.ndarray:
+    uav = np.flatnonzero(test.label)
+    index = int(uav[0]) if uav.size else 0
+    noisy, snr = add_noise(test.windows.select([index]), 0.05, seed=seed)
+    t, x, y = noisy.spikes(0)
+    t0 = int(noisy.t0[0])
+    frame = noisy.frames([0])[0]
+    return pictures.pent_comparison(
+        frame,
+        network.run_window(t, x, y, t0),
+        static.run_window(t, x, y, t0),
+        title=f"a UAV window with noise on 5 % of pixels (SNR {float(snr[0]):.1f} dB)",
+    )
+
+
+def _snr_chart(noise: Sequence[NoisePoint]) -> np.ndarray:
+    noisy = [p for p in noise if np.isfinite(p.snr_db)]
+    levels = sorted({p.snr_db for p in noisy})
+    series: dict[str, list[float]] = {}
+    for mode in dict.fromkeys(p.mode for p in noisy):
+        by_level = {p.snr_db: p.evaluation.accuracy for p in noisy if p.mode == mode}
+        series[mode] = [by_level.get(level, float("nan")) for level in levels]
+    x = [*levels, *PAPER_TABLE3]
+    padded = {
+        name: [*values, *([float("nan")] * len(PAPER_TABLE3))] for name, values in series.items()
+    }
+    padded["paper (Table 3)"] = [float("nan")] * len(levels) + list(PAPER_TABLE3.values())
+    return pictures.line_chart(
+        x,
+        padded,
+        title="accuracy against SNR",
+        xlabel="SNR (dB)",
+        ylabel="accuracy",
+        y_range=(0.0, 1.0),
+    )
+
+
+def confusion_table(matrix: np.ndarray) -> str:
+    """The confusion matrix as a Markdown table."""
+    (tp, fn), (fp, tn) = np.asarray(matrix).tolist()
+    return (
+        "| | called UAV | called not UAV |\n|---|---|---|\n"
+        f"| **UAV** | {tp} (TP) | {fn} (FN) |\n| **not UAV** | {fp} (FP) | {tn} (TN) |\n"
+    )
+
+
+def evaluation_markdown(evaluation: Evaluation) -> str:
+    """Accuracy, the confusion matrix, per-class figures, latency, sparsity and cost."""
+    d = evaluation.to_dict()
+    lines = [
+        f"Accuracy **{100 * d['accuracy']:.1f} %** on {d['windows']} windows (a window is a UAV "
+        f"when at least {d['min_detections']} conv3 neuron fires).",
+        "",
+        confusion_table(evaluation.confusion),
+        "| class | windows | called UAV | right |",
+        "|---|---|---|---|",
+    ]
+    for name, c in d["per_class"].items():
+        lines.append(
+            f"| {name} | {c['windows']} | {c['called_uav']} | "
+            f"{100 * c['correct'] / c['windows']:.1f} % |"
+        )
+    lat, start = d["latency_us"], d["latency_from_window_start_us"]
+    lines += [""]
+    if lat["n"]:
+        lines.append(
+            f"Latency in event time over {lat['n']} true positives: from the first input spike "
+            f"in the UAV's box to the first conv3 spike, median {lat['median'] / 1000:.2f} ms "
+            f"(90th percentile {lat['p90'] / 1000:.2f} ms); from the window's start, median "
+            f"{start['median'] / 1000:.2f} ms."
+        )
+    lines.append(
+        f"Pixels that spiked per window: {100 * d['pixel_fraction']:.2f} % of the sensor. "
+        f"Cost: {d['input_spikes']} input spikes in {d['seconds']:.3f} s of wall time, "
+        f"{d['events_per_second'] / 1e6:.2f} M spikes/s ({d['ns_per_event']:.0f} ns each, "
+        "batch inference on all cores, Python overhead included)."
+    )
+    return "\n".join(lines) + "\n"
+
+
+def noise_table(points: Sequence[NoisePoint]) -> str:
+    """Accuracy per noise level and mode, with the paper's Table 3 beside it."""
+    modes = list(dict.fromkeys(p.mode for p in points))
+    header = "| noise (share of pixels) | median SNR (dB) | " + " | ".join(modes) + " |"
+    rows = [header, "|---|---|" + "---|" * len(modes)]
+    for fraction in dict.fromkeys(p.fraction for p in points):
+        level = next(p.snr_db for p in points if p.fraction == fraction)
+        accs = {p.mode: p.evaluation.accuracy for p in points if p.fraction == fraction}
+        snr = "no noise" if not np.isfinite(level) else f"{level:.1f}"
+        cells = " | ".join(f"{100 * accs[m]:.1f} %" for m in modes)
+        rows.append(f"| {100 * fraction:.1f} % | {snr} | {cells} |")
+    paper = ", ".join(f"{snr:g} dB: {100 * acc:.0f} %" for snr, acc in PAPER_TABLE3.items())
+    return "\n".join(rows) + f"\n\nThe paper's Table 3 (PENT): {paper}.\n"

@@ -1,0 +1,92 @@
+"""The commands of the whole path: ``uavsnn train``, ``evaluate``, ``demo`` (held-out accuracy
+well above chance) and ``reproduce`` at a tiny size; their errors."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from uavsnn import Network
+from uavsnn.cli import main
+from uavsnn.dataset import SceneSource, build
+
+DVS = SceneSource("dvs", (240, 180), 200.0, 0.3)
+
+
+@pytest.fixture(scope="module")
+def dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    root = tmp_path_factory.mktemp("pipeline") / "set"
+    build(root, "dvs", n_test=20, n_train=24, seed=11, dvs=DVS)
+    return root
+
+
+def test_train_then_evaluate(
+    dataset: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    model = tmp_path / "m.npz"
+    args = ["train", str(dataset), "-o", str(model), "--windows-per-layer", "100"]
+    assert main([*args, "--set", "conv2.threshold=15", "--json", "--quiet"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert set(summary["layers"]) == {"conv2", "conv3"} and model.exists()
+    assert summary["layers"]["conv2"]["windows_seen"] >= 100
+
+    report = tmp_path / "report"
+    assert (
+        main(["evaluate", str(model), str(dataset), "--json", "--noise", "--report", str(report)])
+        == 0
+    )
+    figures = json.loads(capsys.readouterr().out)
+    (tp, fn), (fp, tn) = figures["confusion"]
+    assert tp + fn == 10 and fp + tn == 10 and figures["windows"] == 20
+    assert figures["accuracy"] == (tp + tn) / 20
+    assert {p["mode"] for p in figures["noise"]} == {"pent", "static"}
+    assert (report / "report.md").exists() and (report / "confusion.png").exists()
+    text = (report / "report.md").read_text()
+    assert f"{tp} (TP)" in text and "![confusion](confusion.png)" in text
+
+
+def test_commands_fail_cleanly_on_bad_input(
+    dataset: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    model = tmp_path / "small.npz"
+    assert main(["train", str(dataset), "-o", str(model), "--set", "width=120", "--quiet"]) == 2
+    assert "error" in capsys.readouterr().err and not model.exists()
+    assert main(["train", str(tmp_path / "nothing"), "-o", str(model), "--quiet"]) == 2
+    assert "does not exist" in capsys.readouterr().err
+    # a model of another sensor size than the dataset's
+    Network({"width": 120, "height": 90}, seed=0).save(model)
+    assert main(["evaluate", str(model), str(dataset)]) == 2
+    assert "sensor is 240x180 but the model's input is 120x90" in capsys.readouterr().err
+    assert main(["evaluate", str(tmp_path / "missing.npz"), str(dataset)]) == 2
+
+
+def test_demo_is_well_above_chance_on_held_out_windows(tmp_path: Path) -> None:
+    from uavsnn.cli.demo import run_demo
+
+    figures = run_demo(tmp_path / "demo", seed=0)
+    test = figures["test"]
+    assert test["windows"] == 200
+    assert test["accuracy"] >= 0.65, test["confusion"]
+    for name in (
+        "report.md",
+        "results.json",
+        "model.npz",
+        "features-conv2.png",
+        "snr.png",
+        "pent.png",
+    ):
+        assert (tmp_path / "demo" / name).exists(), name
+    assert "Accuracy" in (tmp_path / "demo" / "report.md").read_text()
+
+
+def test_reproduce_at_a_tiny_size(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "repro"
+    args = ["reproduce", "--out", str(out), "--n-train", "16", "--n-test", "20"]
+    assert main([*args, "--windows-per-layer", "32", "--no-real", "--quiet"]) == 0
+    text = (out / "RESULTS.md").read_text()
+    assert "## Table 2" in text and "| combined |" in text and "## Table 3" in text
+    results = json.loads((out / "results.json").read_text())
+    assert set(results["table2"]) == {"dvs", "sim", "combined", "combined, Table 1 as published"}
+    assert len(results["noise"]) == 12
