@@ -7,11 +7,12 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
-from uavsnn.dataset import LabelledWindows
-from uavsnn.errors import ParameterError
+from uavsnn.dataset import LabelledWindows, read_manifest
+from uavsnn.errors import DatasetError, ParameterError
 from uavsnn.evaluation import Evaluation, evaluate
 from uavsnn.network import CONV_LAYERS, Network
 from uavsnn.windows import Windows, add_noise
@@ -22,9 +23,11 @@ __all__ = [
     "PAPER_TABLE3",
     "RECIPE_SETTINGS",
     "NoisePoint",
+    "have_dataset",
     "mix_windows",
     "noise_sweep",
     "static_threshold",
+    "static_twin",
     "with_config",
     "with_noise",
 ]
@@ -78,6 +81,21 @@ def static_threshold(network: Network, windows: Windows) -> float:
     counts = np.diff(np.asarray(windows.offsets, dtype=np.int64))
     n_in = int(np.median(counts)) if len(counts) else 0
     return float(np.mean(network.conv1_thresholds(n_in)))
+
+
+def static_twin(network: Network, windows: Windows) -> tuple[Network, float]:
+    """``network``'s weights under static conv1 thresholds set by :func:`static_threshold` on
+    ``windows`` (clean training windows), and that threshold."""
+    theta = static_threshold(network, windows)
+    return with_config(network, pent={"mode": "static"}, conv1={"threshold": theta}), theta
+
+
+def have_dataset(root: str | Path, seed: int) -> bool:
+    """A finished dataset of ``seed`` is in ``root``, so a rerun of an experiment can reuse it."""
+    try:
+        return bool(read_manifest(root)["seed"] == seed)
+    except DatasetError:
+        return False
 
 
 def with_noise(

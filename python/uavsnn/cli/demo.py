@@ -11,10 +11,9 @@ from pathlib import Path
 from typing import Any
 
 from uavsnn import __version__, report
-from uavsnn.dataset import build_demo, load, read_manifest
-from uavsnn.errors import DatasetError
+from uavsnn.dataset import build_demo, load
 from uavsnn.evaluation import evaluate
-from uavsnn.experiments import RECIPE_SETTINGS, noise_sweep, static_threshold, with_config
+from uavsnn.experiments import RECIPE_SETTINGS, have_dataset, noise_sweep, static_twin
 from uavsnn.network import Network, default_config
 from uavsnn.training import apply_overrides, train
 
@@ -45,7 +44,7 @@ def run_demo(out: Path, seed: int = 0, *, progress: bool = False) -> dict[str, A
     """Run the demo into ``out``; returns its figures (also written to ``out/results.json``)."""
     started = time.perf_counter()
     data_dir = out / "data"
-    if not _have_dataset(data_dir, seed):
+    if not have_dataset(data_dir, seed):
         build_demo(data_dir, seed, overwrite=True, progress=progress)
     built = time.perf_counter()
     train_set, test_set = load(data_dir, "train"), load(data_dir, "test")
@@ -56,8 +55,7 @@ def run_demo(out: Path, seed: int = 0, *, progress: bool = False) -> dict[str, A
     )  # fmt: skip
     network.save(out / "model.npz")
     result = evaluate(network, test_set, keep_inference=True)
-    theta = static_threshold(network, train_set.windows)
-    static = with_config(network, pent={"mode": "static"}, conv1={"threshold": theta})
+    static, theta = static_twin(network, train_set.windows)
     points = noise_sweep({"pent": network, "static": static}, test_set, DEMO_NOISE, seed=seed)
     written = report.figures(
         out, network, test_set, result, training=trained, noise=points, static=static, seed=seed
@@ -94,14 +92,6 @@ def run_demo(out: Path, seed: int = 0, *, progress: bool = False) -> dict[str, A
     ]
     (out / "report.md").write_text("\n".join(text), encoding="utf-8")
     return figures
-
-
-def _have_dataset(root: Path, seed: int) -> bool:
-    """A finished demo set of ``seed`` is in ``root`` (a rerun reuses it)."""
-    try:
-        return bool(read_manifest(root)["seed"] == seed)
-    except DatasetError:
-        return False
 
 
 def _demo(args: argparse.Namespace) -> int:

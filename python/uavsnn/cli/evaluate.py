@@ -10,7 +10,7 @@ from typing import Any
 from uavsnn import report
 from uavsnn.dataset import load
 from uavsnn.evaluation import evaluate
-from uavsnn.experiments import NOISE_FRACTIONS, noise_sweep, static_threshold, with_config
+from uavsnn.experiments import NOISE_FRACTIONS, noise_sweep, static_twin
 from uavsnn.network import Network
 
 __all__ = ["register"]
@@ -49,8 +49,7 @@ def _evaluate(args: argparse.Namespace) -> int:
     points = []
     # Static thresholds for the comparison: the one PENT sets on a typical clean training window.
     train = load(args.dataset, "train") if (args.dataset / "train.npz").exists() else data
-    theta = static_threshold(network, train.windows)
-    static = with_config(network, pent={"mode": "static"}, conv1={"threshold": theta})
+    static, _ = static_twin(network, train.windows)
     if args.noise:
         points = noise_sweep(
             {"pent": network, "static": static}, data, NOISE_FRACTIONS, seed=args.seed,

@@ -21,17 +21,16 @@ from pathlib import Path
 from typing import Any
 
 from uavsnn import __version__, report
-from uavsnn.dataset import LabelledWindows, build, load, read_manifest
-from uavsnn.errors import DatasetError
+from uavsnn.dataset import LabelledWindows, build, load
 from uavsnn.evaluation import Evaluation, evaluate
 from uavsnn.experiments import (
     NOISE_FRACTIONS,
     PAPER_TABLE2,
     RECIPE_SETTINGS,
+    have_dataset,
     mix_windows,
     noise_sweep,
-    static_threshold,
-    with_config,
+    static_twin,
 )
 from uavsnn.network import Network, default_config
 from uavsnn.training import apply_overrides, train
@@ -69,12 +68,8 @@ def register(subparsers: Any) -> None:
 
 
 def _dataset(root: Path, domain: str, seed: int, progress: bool, **kwargs: Any) -> Path:
-    try:
-        if read_manifest(root)["seed"] == seed:
-            return root
-    except DatasetError:
-        pass
-    build(root, domain, seed=seed, overwrite=True, progress=progress, **kwargs)
+    if not have_dataset(root, seed):
+        build(root, domain, seed=seed, overwrite=True, progress=progress, **kwargs)
     return root
 
 
@@ -129,8 +124,7 @@ def _reproduce(args: argparse.Namespace) -> int:
 
     step("noise sweep")
     best = networks["combined"]
-    theta = static_threshold(best, combined.windows)
-    static = with_config(best, pent={"mode": "static"}, conv1={"threshold": theta})
+    static, theta = static_twin(best, combined.windows)
     points = noise_sweep({"pent": best, "static": static}, dvs_test, NOISE_FRACTIONS, seed=seed)
     log["noise"] = [p.to_dict() for p in points]
     log["static_threshold"] = theta
