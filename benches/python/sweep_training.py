@@ -1,0 +1,75 @@
+"""Sweep the network's thresholds on a tuning dataset: train conv2 and conv3 by STDP for each
+setting and score the any-spike rule on the tuning set's own test split.
+
+The tuning set is built with a seed that no reported test set uses (101 by default; `uavsnn
+demo` and `uavsnn reproduce` use 0), so choosing settings here does not touch the figures
+they report::
+
+    python benches/python/sweep_training.py --data /tmp/tune            # builds it if absent
+    python benches/python/sweep_training.py --data /tmp/tune --set conv2.threshold=10,15,45
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import json
+import time
+from pathlib import Path
+
+from uavsnn.dataset import build, load, read_manifest
+from uavsnn.errors import DatasetError
+from uavsnn.evaluation import evaluate
+from uavsnn.network import Network, default_config
+from uavsnn.training import apply_overrides, train
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--data", type=Path, required=True, help="tuning dataset folder")
+    parser.add_argument("--seed", type=int, default=101, help="tuning dataset seed (101)")
+    parser.add_argument("--n-train", type=int, default=1600)
+    parser.add_argument("--n-test", type=int, default=600)
+    parser.add_argument("--windows-per-layer", type=int, default=8000)
+    parser.add_argument(
+        "--set",
+        dest="grid",
+        action="append",
+        default=[],
+        metavar="KEY=V1,V2,...",
+        help="a config field and the values to try (repeatable; default conv2.threshold=15,45)",
+    )
+    parser.add_argument("--json", action="store_true", help="one JSON line per setting")
+    args = parser.parse_args()
+    try:
+        if read_manifest(args.data)["seed"] != args.seed:
+            raise SystemExit(f"{args.data} holds a dataset of another seed")
+    except DatasetError:
+        build(args.data, "dvs", n_train=args.n_train, n_test=args.n_test, seed=args.seed)
+    train_set, test_set = load(args.data, "train"), load(args.data, "test")
+    grid = [g.split("=", 1) for g in (args.grid or ["conv2.threshold=15,45"])]
+    keys = [k for k, _ in grid]
+    for values in itertools.product(*[v.split(",") for _, v in grid]):
+        settings = [f"{k}={v}" for k, v in zip(keys, values, strict=True)]
+        started = time.perf_counter()
+        net = Network(apply_overrides(default_config(), settings), seed=0)
+        train(net, train_set.windows, windows_per_layer=args.windows_per_layer, snapshots=0)
+        e = evaluate(net, test_set)
+        row = {
+            "settings": settings,
+            "accuracy": e.accuracy,
+            "confusion": e.confusion.tolist(),
+            "called_uav": {k: round(c.called_uav_rate, 3) for k, c in sorted(e.per_class.items())},
+            "seconds": round(time.perf_counter() - started, 1),
+        }
+        if args.json:
+            print(json.dumps(row), flush=True)
+        else:
+            rates = " ".join(f"{k} {v:.2f}" for k, v in row["called_uav"].items())
+            print(
+                f"{' '.join(settings):50s} accuracy {100 * e.accuracy:5.1f} %  called UAV: {rates}"
+            )
+
+
+if __name__ == "__main__":
+    main()
