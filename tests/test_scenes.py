@@ -8,7 +8,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from uavsnn import ParameterError, SimulationError
@@ -23,6 +23,7 @@ from uavsnn.scenes import (
     contact_sheet,
     render,
     sample_spec,
+    scene_labels,
 )
 
 FOCAL = 220.0
@@ -247,34 +248,45 @@ def test_contact_sheet_draws_frames_and_boxes() -> None:
 # -- the sampler -------------------------------------------------------------------------------
 
 
-@settings(max_examples=25)
-@given(seed=st.integers(0, 2**32 - 1), domain=st.sampled_from(["dvs", "sim"]))
-def test_sampled_uav_scenes_show_the_uav_mid_clip(seed: int, domain: str) -> None:
+def _check_uav_shown_mid_clip(seed: int, domain: str) -> None:
     rng = np.random.default_rng(seed)
+    # The sampled scene does not depend on fps; at 4 fps the clip's frames are t = 0 and 0.25 s.
     spec = sample_spec(
         domain,
         "uav",
         rng,
         size=(240, 180) if domain == "dvs" else (320, 180),
-        fps=100.0,
+        fps=4.0,
         duration_s=0.5,
     )
     assert spec.objects[0].is_uav
-    mid = replace(
-        spec,
-        duration_s=0.02,
-        objects=tuple(
-            replace(o, path=replace(o.path, start=tuple(o.path.position(np.array([0.25]))[0])))
-            for o in spec.objects
-        ),
-    )
-    _, _, labels = render(mid, seed=0)
-    lab = labels[0]
+    timestamps, labels = scene_labels(spec)
+    lab = labels[int(np.flatnonzero(timestamps == 250_000)[0])]
     assert lab["uav"], (spec, lab)
     # At least min_object_px (3) sensor pixels: the 4:3 crop of the frame scaled to 240 wide.
     to_sensor = 240 / min(spec.width, spec.height * 4 / 3)
     extent = max(lab["x1"] - lab["x0"], lab["y1"] - lab["y0"]) * to_sensor
     assert extent >= 2.0
+
+
+@settings(max_examples=25)
+@given(seed=st.integers(0, 2**32 - 1), domain=st.sampled_from(["dvs", "sim"]))
+# Scenes whose drone the path's wobble once carried out of the frame at mid-clip.
+@example(seed=1196, domain="sim")
+@example(seed=751, domain="sim")
+@example(seed=408, domain="sim")
+@example(seed=1613, domain="dvs")
+@example(seed=2470, domain="dvs")
+@example(seed=3034, domain="dvs")
+def test_sampled_uav_scenes_show_the_uav_mid_clip(seed: int, domain: str) -> None:
+    _check_uav_shown_mid_clip(seed, domain)
+
+
+@pytest.mark.parametrize("domain", ["dvs", "sim"])
+def test_every_sampled_uav_scene_shows_the_uav_mid_clip(domain: str) -> None:
+    # Five of these 600 scenes lost their drone at mid-clip before the wobble was accounted for.
+    for seed in range(1600, 1900):
+        _check_uav_shown_mid_clip(seed, domain)
 
 
 @pytest.mark.parametrize("kind", ["uav", "object", "empty", *OBJECT_KINDS])

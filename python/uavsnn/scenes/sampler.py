@@ -207,19 +207,22 @@ class _Placer:
             n_wobble = max(n_wobble, 1)
             wobble_m = max(wobble_m, 0.03 * span_m)
         half = duration / 2
-        start = mid - vel * half - 0.5 * acc * half * half
         amps = tuple(_v3(rng.normal(0, wobble_m, 3) * (1.0, 1.0, 0.5)) for _ in range(n_wobble))
         freqs = tuple(float(rng.uniform(*wobble_hz)) for _ in range(n_wobble))
         phases = tuple(float(rng.uniform(0, 2 * math.pi)) for _ in range(n_wobble))
-        return PathSpec(
+        path = PathSpec(
             kind=kind,
-            start=_v3(start),
+            start=_v3(mid - vel * half - 0.5 * acc * half * half),
             velocity=_v3(vel),
             acceleration=_v3(acc),
             amplitudes=amps,
             freqs=freqs,
             phases=phases,
         )
+        # Move the whole path, wobble included, to pass through ``mid`` at mid-clip: tens of
+        # centimetres of wobble would otherwise carry a drone 2 m away out of the frame.
+        off = mid - path.position(np.array([half]))[0]
+        return replace(path, start=_v3(np.asarray(path.start) + off))
 
 
 #: How high above the ground each kind flies, at least, at the middle of its path (metres).
