@@ -38,6 +38,9 @@ SOURCE is one of:
   udp://HOST:PORT   UDP packets in faery's t64_x16_y16_on8 (default) or t32_x16_y15_on1
                     format, or aestream's spif words (--udp-format spif)
 
+MODEL (--model) is a trained model file: 'uavsnn train DATASET -o MODEL' writes one, and
+'uavsnn demo --out DIR' writes DIR/model.npz (trained on its small built-in set).
+
 Detections go to standard output, one line each (JSON lines with --json); a rate summary goes
 to standard error. Malformed packets, and chunks the detector rejects (events outside the
 sensor, time going backwards), are counted as drops and skipped.
@@ -53,7 +56,14 @@ def register(subparsers: Any) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("source", metavar="SOURCE", help="a recording file, '-', or udp://HOST:PORT")
-    p.add_argument("--model", "-m", required=True, help="model file (uavsnn train)")
+    p.add_argument(
+        "--model",
+        "-m",
+        required=True,
+        metavar="MODEL",
+        help="trained model file (.npz): written by 'uavsnn train DATASET -o MODEL', or "
+        "DIR/model.npz by 'uavsnn demo --out DIR'",
+    )
     p.add_argument("--json", action="store_true", help="print detections as JSON lines")
     p.add_argument(
         "--realtime", action="store_true", help="replay a file at its own pace (files only)"

@@ -1,0 +1,69 @@
+"""Smoke test of benches/python/bench_stream.py at a tiny size (a few seconds)."""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+
+import pytest
+
+from uavsnn.network import Network, default_config
+from uavsnn.training import apply_overrides
+
+BENCH = Path(__file__).resolve().parents[1] / "benches" / "python" / "bench_stream.py"
+
+
+@pytest.fixture(scope="module")
+def bench():
+    spec = importlib.util.spec_from_file_location("bench_stream", BENCH)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules["bench_stream"] = module  # dataclasses look their module up
+    spec.loader.exec_module(module)
+    yield module
+    sys.modules.pop("bench_stream", None)
+
+
+def test_scene_latency_of_a_detected_recording(bench):
+    # Low thresholds, so that the untrained network surely fires on the scene.
+    config = apply_overrides(default_config(), ["conv2.threshold=10", "conv3.threshold=1"])
+    net = Network(config, seed=0)
+    (lr,) = bench.uav_scenes(1, 1000, 0.2)
+    first = bench.first_uav_event(lr)
+    assert first is not None and 0 <= first < lr.end_us
+    r = bench.scene_latency(net, lr, window_us=50_000, overlap=0.5, chunk=100)
+    assert r["first_event_us"] == first
+    assert isinstance(r["latency_us"], int) and 0 <= r["latency_us"] < lr.end_us
+    assert r["released_latency_us"] >= r["latency_us"]
+    assert r["holds_uav_latency_us"] is None or r["holds_uav_latency_us"] >= r["latency_us"]
+    assert 0 < r["windows_detected"] <= r["windows"]
+    s = bench.summarise([r["latency_us"], None])
+    assert s["detected"] == 1 and s["recordings"] == 2
+    assert s["median_us"] == s["p90_us"] == r["latency_us"]
+
+
+def test_report_lines(bench, capsys):
+    argv = ["--untrained", "--seconds", "1.5", "--recordings", "1"]
+    argv += ["--scenes", "1", "--controls", "1", "--scene-seconds", "0.2"]
+    assert bench.main(argv) == 0
+    lines = capsys.readouterr().out.splitlines()
+    starts = [
+        "model: untrained (seed 0)",
+        "synthetic moving blob: ",
+        "push latency per chunk:",
+        "       1 events: p50",
+        "     100 events: p50",
+        "   10000 events: p50",
+        "sustained: stream ",
+        "event-time latency on simulated UAV recordings ",
+        "  seed 1000: ",
+        "  first detection: median ",
+        "  first detection whose box holds the UAV's centre: median ",
+        "  first detection returned by push ",
+        "  reference, scenes without a UAV ",
+        "event-time latency, first blob event -> first detection ",
+        "total ",
+    ]
+    assert len(lines) == len(starts)
+    for line, start in zip(lines, starts, strict=True):
+        assert line.startswith(start), (line, start)
