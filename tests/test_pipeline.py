@@ -11,6 +11,7 @@ import pytest
 from uavsnn import Network
 from uavsnn.cli import main
 from uavsnn.dataset import SceneSource, build
+from uavsnn.experiments import NOISE_FRACTIONS
 
 DVS = SceneSource("dvs", (240, 180), 200.0, 0.3)
 
@@ -89,4 +90,4 @@ def test_reproduce_at_a_tiny_size(tmp_path: Path, capsys: pytest.CaptureFixture[
     assert "## Table 2" in text and "| combined |" in text and "## Table 3" in text
     results = json.loads((out / "results.json").read_text())
     assert set(results["table2"]) == {"dvs", "sim", "combined", "combined, Table 1 as published"}
-    assert len(results["noise"]) == 12
+    assert len(results["noise"]) == 2 * len(NOISE_FRACTIONS)

@@ -129,8 +129,8 @@ def _reproduce(args: argparse.Namespace) -> int:
     log["noise"] = [p.to_dict() for p in points]
     log["static_threshold"] = theta
     written = report.figures(
-        out, best, dvs_test, results["combined"], training=trainings["combined"], noise=points,
-        static=static, seed=seed,
+        out / "figures", best, dvs_test, results["combined"], training=trainings["combined"],
+        noise=points, static=static, seed=seed,
     )  # fmt: skip
 
     real_text: list[str] = []
@@ -181,7 +181,7 @@ def _reproduce(args: argparse.Namespace) -> int:
         report.noise_table(points),
         *real_text,
         "\n## Pictures\n",
-        *[f"![{name}]({path.name})\n" for name, path in written.items()],
+        *[f"![{name}](figures/{path.name})\n" for name, path in written.items()],
     ]
     (out / "RESULTS.md").write_text("\n".join(text), encoding="utf-8")
     step(f"wrote {out / 'RESULTS.md'}")
