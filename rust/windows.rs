@@ -28,7 +28,7 @@ mod frames;
 mod median;
 mod noise;
 
-pub use frames::frames;
+pub use frames::{frames, frames_into, frames_len};
 pub use median::{median_keep, MedianFilter, MEDIAN_MIN_ACTIVE};
 pub use noise::{add_noise, NoisyWindows};
 
