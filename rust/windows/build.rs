@@ -7,8 +7,9 @@ use super::{Grid, MedianFilter, Windows};
 use crate::error::{Error, Result};
 use crate::events::{Event, EventSource, SensorSize};
 
-/// Most windows in one run: run-relative window indices are stored per pixel as `u16`.
-const RUN_MAX_WINDOWS: usize = u16::MAX as usize;
+/// Most windows in one run: run-relative window indices (plus one) are stored per pixel as
+/// `u16`.
+const RUN_MAX_WINDOWS: usize = u16::MAX as usize - 1;
 
 /// Events per parallel run below which windowing stays on one thread.
 const EVENTS_PER_RUN: usize = 250_000;
@@ -185,6 +186,11 @@ pub(super) fn build<E: EventSource + ?Sized>(
 /// Windows that do not overlap (`step = L`), in one sweep: each event reaches at most one
 /// window and windows come one after the other, so spikes are appended to the columns in their
 /// final order; runs are then joined.
+///
+/// Slot `s` of a run is `[t0(ka) + (s − 1)·L, t0(ka) + s·L)`: slot 0 is window `ka`'s preceding
+/// interval and slot `s ≥ 1` is window `ka + s − 1`, which is also window `ka + s`'s preceding
+/// interval. So counting each slot's distinct pixels gives both the spikes (slots `1..=n`) and
+/// `n_preceding` (slots `0..n`), with one small table per pixel (the last slot it fired in).
 pub(super) fn build_disjoint<E: EventSource + ?Sized>(
     events: &E,
     sensor: SensorSize,
@@ -195,55 +201,7 @@ pub(super) fn build_disjoint<E: EventSource + ?Sized>(
 ) -> Windows {
     let parts: Vec<Windows> = runs
         .par_iter()
-        .map(|&(ka, kb)| {
-            let n = kb - ka;
-            let mut w = Windows::empty(sensor, grid.length);
-            w.t0 = (ka..kb).map(|k| grid.t0(k)).collect();
-            w.offsets.reserve(n);
-            let mut filter = median.then(|| MedianFilter::new(sensor));
-            // Close windows up to `r` (exclusive): record their ends, filter the last one.
-            let mut close = |w: &mut Windows, r: usize| {
-                while w.offsets.len() <= r {
-                    let start = w.offsets[w.offsets.len() - 1];
-                    if let Some(filter) = filter.as_mut() {
-                        let kept =
-                            filter.compact(&mut w.t[start..], &mut w.x[start..], &mut w.y[start..]);
-                        w.t.truncate(start + kept);
-                        w.x.truncate(start + kept);
-                        w.y.truncate(start + kept);
-                    }
-                    w.offsets.push(w.t.len());
-                }
-            };
-            let mut diff = vec![0i64; n + 1];
-            sweep(
-                events,
-                sensor,
-                grid,
-                (ka, kb),
-                end,
-                |r, e| {
-                    close(&mut w, r);
-                    w.t.push(e.t);
-                    w.x.push(e.x);
-                    w.y.push(e.y);
-                },
-                |a, b| {
-                    diff[a] += 1;
-                    diff[b] -= 1;
-                },
-            );
-            close(&mut w, n);
-            let mut running = 0i64;
-            w.n_preceding = diff[..n]
-                .iter()
-                .map(|d| {
-                    running += d;
-                    running as u64
-                })
-                .collect();
-            w
-        })
+        .map(|&(ka, kb)| disjoint_run(events, sensor, grid, end, median, (ka, kb)))
         .collect();
     let mut parts = parts.into_iter();
     let Some(mut w) = parts.next() else {
@@ -259,6 +217,104 @@ pub(super) fn build_disjoint<E: EventSource + ?Sized>(
         w.n_preceding.extend_from_slice(&part.n_preceding);
     }
     w
+}
+
+/// Windows `ka..kb` of a disjoint grid (see [`build_disjoint`]).
+///
+/// The loop has no branch on whether an event is new to its slot (a coin toss the CPU cannot
+/// predict): every event is written at the columns' end, which only advances for a new pixel.
+fn disjoint_run<E: EventSource + ?Sized>(
+    events: &E,
+    sensor: SensorSize,
+    grid: Grid,
+    end: u64,
+    median: bool,
+    (ka, kb): (usize, usize),
+) -> Windows {
+    let n = kb - ka;
+    let length = grid.length;
+    let first = grid.t0(ka);
+    // Events before the preceding interval of window ka, or at or after the end of window
+    // kb − 1 (or `end`), reach nothing here.
+    let i0 = events.count_before(first.saturating_sub(length));
+    let i1 = events.count_before(end.min(grid.t0(kb - 1) + length));
+    // At most one spike per event. Zeroed columns are mapped lazily, so the untouched room
+    // costs no memory, and is given back at the end.
+    let room = i1.saturating_sub(i0);
+    let (mut t, mut x, mut y) = (vec![0u64; room], vec![0u16; room], vec![0u16; room]);
+    let mut offsets = Vec::with_capacity(n + 1);
+    offsets.push(0);
+    let mut filter = median.then(|| MedianFilter::new(sensor));
+    // Distinct pixels per slot (slots 0..=n).
+    let mut counts = vec![0u64; n + 1];
+    // Per pixel: 1 + the last slot it fired in (0: not yet); slots fit: n < RUN_MAX_WINDOWS.
+    let mut seen = vec![0u16; sensor.area()];
+    let mut len = 0usize;
+    let mut slot = 0usize;
+    let mut slot_end = first;
+    for i in i0..i1 {
+        let e = events.get(i);
+        while e.t >= slot_end {
+            if slot >= 1 {
+                len = close_window(&mut offsets, (&mut t, &mut x, &mut y), len, filter.as_mut());
+            }
+            slot += 1;
+            slot_end += length;
+        }
+        let stamp = slot as u16 + 1;
+        let cell = &mut seen[sensor.index(e.x, e.y)];
+        let new = usize::from(*cell != stamp);
+        *cell = stamp;
+        counts[slot] += new as u64;
+        // `len` counts spikes of earlier events only, so it is below `room`.
+        t[len] = e.t;
+        x[len] = e.x;
+        y[len] = e.y;
+        len += new & usize::from(slot != 0);
+    }
+    // Close the window the last event fell in, and the empty ones after it.
+    if slot >= 1 {
+        len = close_window(&mut offsets, (&mut t, &mut x, &mut y), len, filter.as_mut());
+    }
+    while offsets.len() <= n {
+        offsets.push(len);
+    }
+    for column in [&mut x, &mut y] {
+        column.truncate(len);
+        column.shrink_to_fit();
+    }
+    t.truncate(len);
+    t.shrink_to_fit();
+    counts.truncate(n);
+    Windows {
+        sensor,
+        length_us: length,
+        t0: (ka..kb).map(|k| grid.t0(k)).collect(),
+        offsets,
+        t,
+        x,
+        y,
+        n_preceding: counts,
+    }
+}
+
+/// End the window whose spikes are `columns[offsets.last()..len]`: filter them if asked, and
+/// record the window's end; returns the columns' new length.
+fn close_window(
+    offsets: &mut Vec<usize>,
+    (t, x, y): (&mut [u64], &mut [u16], &mut [u16]),
+    len: usize,
+    filter: Option<&mut MedianFilter>,
+) -> usize {
+    let start = offsets[offsets.len() - 1];
+    let len = match filter {
+        Some(filter) => {
+            start + filter.compact(&mut t[start..len], &mut x[start..len], &mut y[start..len])
+        }
+        None => len,
+    };
+    offsets.push(len);
+    len
 }
 
 /// Walk the events that can reach windows `ka..kb` of `grid`, in time order, and report each
