@@ -40,10 +40,10 @@ fn column<T: Clone + Default>(name: &'static str, len: usize) -> Result<Vec<T>> 
     Ok(v)
 }
 
-/// The windows of `grid`, run by run in parallel: a counting sweep sizes every window, then a
-/// filling sweep writes each spike straight to its final place in the columns. Sweeping twice
-/// costs less than buffering the spikes: the output is allocated once, at its exact size, and
-/// no spike is copied.
+/// The windows of `grid`, run by run in parallel: a counting sweep sizes every window and keeps
+/// the events that are their pixel's first in some window (with that range of windows), then a
+/// filling pass writes each of them straight to its final places in the columns. The output is
+/// allocated once, at its exact size, and the events are swept once.
 pub(super) fn build<E: EventSource + ?Sized>(
     events: &E,
     sensor: SensorSize,
@@ -52,33 +52,44 @@ pub(super) fn build<E: EventSource + ?Sized>(
     median: bool,
     runs: &[(usize, usize)],
 ) -> Result<Windows> {
-    let counted: Vec<(Vec<usize>, Vec<u64>)> = runs
+    let counted: Vec<(Vec<usize>, Vec<u64>, Firsts)> = runs
         .par_iter()
         .map(|&(ka, kb)| {
-            let mut counts = vec![0usize; kb - ka];
-            // n_preceding as a difference array: each event adds 1 to a range of windows.
+            // Spike counts and n_preceding as difference arrays: each event adds 1 to a range
+            // of windows (maybe empty, which adds nothing: no branch on it).
+            let mut spikes = vec![0i64; kb - ka + 1];
             let mut diff = vec![0i64; kb - ka + 1];
+            let (i0, i1) = event_range(events, grid, (ka, kb), end);
+            let mut firsts = Firsts::with_room(i1 - i0);
             sweep(
                 events,
                 sensor,
                 grid,
                 (ka, kb),
                 end,
-                |r, _| counts[r] += 1,
+                |a, b, e| {
+                    spikes[a] += 1;
+                    spikes[b] -= 1;
+                    firsts.push(a, b, e);
+                },
                 |a, b| {
                     diff[a] += 1;
                     diff[b] -= 1;
                 },
             );
-            let mut running = 0i64;
-            let preceding = diff[..kb - ka]
-                .iter()
-                .map(|d| {
-                    running += d;
-                    running as u64
-                })
-                .collect();
-            (counts, preceding)
+            let running = |d: &[i64]| {
+                let mut sum = 0i64;
+                d[..kb - ka]
+                    .iter()
+                    .map(|v| {
+                        sum += v;
+                        sum
+                    })
+                    .collect::<Vec<i64>>()
+            };
+            let counts = running(&spikes).into_iter().map(|c| c as usize).collect();
+            let preceding = running(&diff).into_iter().map(|c| c as u64).collect();
+            (counts, preceding, firsts)
         })
         .collect();
 
@@ -86,12 +97,14 @@ pub(super) fn build<E: EventSource + ?Sized>(
     let mut n_preceding = Vec::with_capacity(grid.n);
     let mut total = 0usize;
     offsets.push(0);
-    for (counts, preceding) in counted {
+    let mut all_firsts = Vec::with_capacity(runs.len());
+    for (counts, preceding, firsts) in counted {
         for c in counts {
             total += c;
             offsets.push(total);
         }
         n_preceding.extend(preceding);
+        all_firsts.push(firsts);
     }
     let mut t = column::<u64>("length_us", total)?;
     let mut x = column::<u16>("length_us", total)?;
@@ -111,24 +124,21 @@ pub(super) fn build<E: EventSource + ?Sized>(
     let kept: Vec<Vec<usize>> = runs
         .par_iter()
         .zip(slices)
-        .map(|(&(ka, kb), (ts, xs, ys))| {
+        .zip(all_firsts)
+        .map(|((&(ka, kb), (ts, xs, ys)), firsts)| {
             let base = offsets[ka];
             let mut cursor: Vec<usize> = offsets[ka..kb].iter().map(|o| o - base).collect();
-            sweep(
-                events,
-                sensor,
-                grid,
-                (ka, kb),
-                end,
-                |r, e| {
-                    let j = cursor[r];
-                    ts[j] = e.t;
-                    xs[j] = e.x;
-                    ys[j] = e.y;
-                    cursor[r] = j + 1;
-                },
-                |_, _| {},
-            );
+            for k in 0..firsts.len {
+                let (a, b) = (firsts.a[k] as usize, firsts.b[k] as usize);
+                for c in &mut cursor[a..b] {
+                    let j = *c;
+                    ts[j] = firsts.t[k];
+                    xs[j] = firsts.x[k];
+                    ys[j] = firsts.y[k];
+                    *c = j + 1;
+                }
+            }
+            drop(firsts);
             if !median {
                 return Vec::new();
             }
@@ -317,10 +327,66 @@ fn close_window(
     len
 }
 
-/// Walk the events that can reach windows `ka..kb` of `grid`, in time order, and report each
-/// (window, event) where the event is its pixel's first in the window (`spike(r, e)`, `r`
-/// relative to `ka`), and each range of windows `a..b` whose preceding interval `[t0 − L, t0)`
-/// holds the event as its pixel's first (`preceding(a, b)`).
+/// The events that are their pixel's first in at least one window of a run, with that range
+/// of windows (run-relative): what the filling pass needs, so that it does not sweep the
+/// events again. Columns have room for every event the run reads; zeroed columns are mapped
+/// lazily, so the room that stays unused costs no memory.
+struct Firsts {
+    t: Vec<u64>,
+    x: Vec<u16>,
+    y: Vec<u16>,
+    a: Vec<u16>,
+    b: Vec<u16>,
+    len: usize,
+}
+
+impl Firsts {
+    fn with_room(room: usize) -> Self {
+        Self {
+            t: vec![0; room],
+            x: vec![0; room],
+            y: vec![0; room],
+            a: vec![0; room],
+            b: vec![0; room],
+            len: 0,
+        }
+    }
+
+    /// Keep `e` if `a..b` is not empty, without a branch on it: the entry is always written
+    /// and only counted when kept (`len` counts earlier events only, so it is in room).
+    #[inline]
+    fn push(&mut self, a: usize, b: usize, e: Event) {
+        let k = self.len;
+        self.t[k] = e.t;
+        self.x[k] = e.x;
+        self.y[k] = e.y;
+        self.a[k] = a as u16;
+        self.b[k] = b as u16;
+        self.len = k + usize::from(a < b);
+    }
+}
+
+/// The events that can reach windows `ka..kb` of `grid` (or their preceding intervals): those
+/// from `t0(ka) − L` up to the last window's end or `end`, whichever is first.
+fn event_range<E: EventSource + ?Sized>(
+    events: &E,
+    grid: Grid,
+    (ka, kb): (usize, usize),
+    end: u64,
+) -> (usize, usize) {
+    if kb <= ka {
+        return (0, 0);
+    }
+    let i0 = events.count_before(grid.t0(ka).saturating_sub(grid.length));
+    let i1 = events.count_before(end.min(grid.t0(kb - 1) + grid.length));
+    (i0, i1.max(i0))
+}
+
+/// Walk the events that can reach windows `ka..kb` of `grid`, in time order, and report for
+/// each event the range of windows `a..b` where it is its pixel's first (`spike(a, b, e)`,
+/// relative to `ka`), and the range of windows `a..b` whose preceding interval `[t0 − L, t0)`
+/// holds it as its pixel's first (`preceding(a, b)`). Ranges may be empty (`a == b`): callers
+/// that can add an empty range for free save a branch the CPU cannot predict.
 ///
 /// Three cursors follow the stream over the run's windows: `closed` counts windows with
 /// `t0 + L ≤ t`, `opened` those with `t0 ≤ t`, `reach` those with `t0 ≤ t + L`. An event is its
@@ -334,7 +400,7 @@ fn sweep<E: EventSource + ?Sized>(
     grid: Grid,
     (ka, kb): (usize, usize),
     end: u64,
-    mut spike: impl FnMut(usize, Event),
+    mut spike: impl FnMut(usize, usize, Event),
     mut preceding: impl FnMut(usize, usize),
 ) {
     let length = grid.length;
@@ -343,10 +409,7 @@ fn sweep<E: EventSource + ?Sized>(
         return;
     }
     let t0 = |r: usize| grid.t0(ka + r);
-    // Events before `t0(ka) − L` reach neither a window of this run nor its preceding interval;
-    // events at or after the last window's end, or after `end`, reach none either.
-    let i0 = events.count_before(t0(0).saturating_sub(length));
-    let i1 = events.count_before(end.min(t0(n - 1) + length));
+    let (i0, i1) = event_range(events, grid, (ka, kb), end);
     // Per pixel: [first window where its next event is new, same for preceding intervals].
     let mut fresh = vec![[0u16; 2]; sensor.area()];
     let (mut closed, mut opened, mut reach) = (0usize, 0usize, 0usize);
@@ -362,13 +425,10 @@ fn sweep<E: EventSource + ?Sized>(
             reach += 1;
         }
         let cell = &mut fresh[sensor.index(e.x, e.y)];
-        for r in (cell[0] as usize).max(closed)..opened {
-            spike(r, e);
-        }
+        let a = (cell[0] as usize).max(closed);
+        spike(a, a.max(opened), e);
         let a = (cell[1] as usize).max(opened);
-        if a < reach {
-            preceding(a, reach);
-        }
+        preceding(a, a.max(reach));
         // Run indices fit in u16: a run holds at most RUN_MAX_WINDOWS windows.
         *cell = [opened as u16, reach as u16];
     }

@@ -101,7 +101,11 @@ pub fn frames_into(view: &WindowsView<'_>, indices: &[usize], out: &mut [f32]) -
 fn write_spikes(view: &WindowsView<'_>, i: usize, frame: &mut [f32]) {
     let t0 = view.t0[i];
     let range = view.range(i);
-    let (t, x, y) = (&view.t[range.clone()], &view.x[range.clone()], &view.y[range]);
+    let (t, x, y) = (
+        &view.t[range.clone()],
+        &view.x[range.clone()],
+        &view.y[range],
+    );
     for ((&t, &x), &y) in t.iter().zip(x).zip(y) {
         let cell = &mut frame[view.sensor.index(x, y)];
         if cell.is_infinite() {
