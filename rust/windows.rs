@@ -12,8 +12,10 @@
 //!
 //! # Cost
 //!
-//! Two sweeps over the events in time order: one counts each window's spikes, the other writes
-//! them straight to their final place, so the output is allocated once and nothing is copied.
+//! One sweep over the events in time order counts each window's spikes and keeps the events
+//! that are some window's input spike; a second pass over those writes them straight to their
+//! final place, so the output is allocated once and nothing is copied (disjoint windows need
+//! only the sweep: their spikes arrive in final order).
 //! An event at time `t` whose pixel last fired at `t_prev` is the pixel's first event in exactly
 //! the windows with `max(t − L, t_prev) < t0 ≤ t`, a range of window indices. Cursors that follow
 //! the stream over the windows, and a per-pixel table remembering the range's end at the
@@ -28,7 +30,7 @@ mod frames;
 mod median;
 mod noise;
 
-pub use frames::frames;
+pub use frames::{frames, frames_into, frames_len};
 pub use median::{median_keep, MedianFilter, MEDIAN_MIN_ACTIVE};
 pub use noise::{add_noise, NoisyWindows};
 

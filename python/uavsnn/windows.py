@@ -32,6 +32,9 @@ __all__ = ["Windows", "add_noise", "make_windows", "window_step"]
 
 _U64_MAX = (1 << 64) - 1
 
+# The array fields of Windows, in the order the engine returns them.
+_COLUMNS = ("t0", "offsets", "t", "x", "y", "n_preceding")
+
 
 def _int_param(name: str, value: Any, minimum: int, maximum: int = _U64_MAX) -> int:
     """An integer parameter (an integral float is accepted), or :class:`ParameterError`."""
@@ -138,6 +141,23 @@ class Windows:
         if len(self.n_preceding) and self.n_preceding.min() < 0:
             raise ShapeError("n_preceding holds negative counts")
         _core.check_windows(width, height, self.length_us, *self._columns())
+
+    @classmethod
+    def _from_engine(
+        cls,
+        sensor_size: tuple[int, int],
+        length_us: int,
+        columns: tuple[np.ndarray, ...],
+    ) -> Windows:
+        """Windows the engine just built (columns of the exact dtypes, already consistent by
+        construction), without checking them again: that pass over every spike cost as much as
+        a tenth of windowing itself."""
+        windows = object.__new__(cls)
+        object.__setattr__(windows, "sensor_size", (int(sensor_size[0]), int(sensor_size[1])))
+        object.__setattr__(windows, "length_us", int(length_us))
+        for name, value in zip(_COLUMNS, columns, strict=True):
+            object.__setattr__(windows, name, value)
+        return windows
 
     def _columns(self) -> tuple[np.ndarray, ...]:
         return (self.t0, self.offsets, self.t, self.x, self.y)
@@ -257,7 +277,7 @@ def make_windows(
     start = None if start_us is None else _int_param("start_us", start_us, 0, 1 << 62)
     end = None if end_us is None else _int_param("end_us", end_us, 0, 1 << 62)
     width, height = recording.sensor_size
-    t0, offsets, t, x, y, n_preceding = _core.make_windows(
+    columns = _core.make_windows(
         packed_bytes(recording.events),
         width,
         height,
@@ -267,7 +287,7 @@ def make_windows(
         start,
         end,
     )
-    return Windows(recording.sensor_size, length, t0, offsets, t, x, y, n_preceding)
+    return Windows._from_engine(recording.sensor_size, length, columns)
 
 
 def add_noise(windows: Windows, fraction: float, *, seed: int) -> tuple[Windows, np.ndarray]:
@@ -297,7 +317,7 @@ def add_noise(windows: Windows, fraction: float, *, seed: int) -> tuple[Windows,
         raise ParameterError(f"fraction must be in [0, 1], got {fraction!r}")
     seed_value = _int_param("seed", seed, 0)
     width, height = windows.sensor_size
-    (t0, offsets, t, x, y, n_preceding), snr = _core.add_noise(
+    columns, snr = _core.add_noise(
         width,
         height,
         windows.length_us,
@@ -306,5 +326,5 @@ def add_noise(windows: Windows, fraction: float, *, seed: int) -> tuple[Windows,
         frac,
         seed_value,
     )
-    noisy = Windows(windows.sensor_size, windows.length_us, t0, offsets, t, x, y, n_preceding)
+    noisy = Windows._from_engine(windows.sensor_size, windows.length_us, columns)
     return noisy, snr

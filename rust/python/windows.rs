@@ -159,7 +159,7 @@ fn window_frames<'py>(
 ) -> PyResult<Bound<'py, PyArray3<f32>>> {
     let columns = Columns::new(&t0, &offsets, &t, &x, &y)?;
     let indices = indices.as_slice()?;
-    let data = detach(py, || {
+    let (view, indices) = detach(py, || {
         let view = columns.view(width, height, length_us)?;
         let indices = indices
             .iter()
@@ -176,12 +176,18 @@ fn window_frames<'py>(
                 })
             })
             .collect::<Result<Vec<_>>>()?;
-        windows::frames(&view, &indices).map(|f| (f, indices.len()))
+        windows::frames_len(&view, &indices)?;
+        Ok((view, indices))
     })?;
-    let (frames, k) = data;
-    frames
-        .into_pyarray(py)
-        .reshape([k, height as usize, width as usize])
+    // NumPy's allocator: large arrays come zeroed on demand (and on huge pages where the
+    // kernel allows), so each frame is touched once, when it is filled.
+    let out = PyArray3::<f32>::zeros(py, [indices.len(), height as usize, width as usize], false);
+    {
+        let mut buffer = out.readwrite();
+        let buffer = buffer.as_slice_mut()?;
+        detach(py, || windows::frames_into(&view, &indices, buffer))?;
+    }
+    Ok(out)
 }
 
 /// Add uniform noise to windows; returns the noisy CSR columns and the SNR (dB) per window.

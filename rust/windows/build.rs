@@ -7,8 +7,9 @@ use super::{Grid, MedianFilter, Windows};
 use crate::error::{Error, Result};
 use crate::events::{Event, EventSource, SensorSize};
 
-/// Most windows in one run: run-relative window indices are stored per pixel as `u16`.
-const RUN_MAX_WINDOWS: usize = u16::MAX as usize;
+/// Most windows in one run: run-relative window indices (plus one) are stored per pixel as
+/// `u16`.
+const RUN_MAX_WINDOWS: usize = u16::MAX as usize - 1;
 
 /// Events per parallel run below which windowing stays on one thread.
 const EVENTS_PER_RUN: usize = 250_000;
@@ -39,10 +40,10 @@ fn column<T: Clone + Default>(name: &'static str, len: usize) -> Result<Vec<T>> 
     Ok(v)
 }
 
-/// The windows of `grid`, run by run in parallel: a counting sweep sizes every window, then a
-/// filling sweep writes each spike straight to its final place in the columns. Sweeping twice
-/// costs less than buffering the spikes: the output is allocated once, at its exact size, and
-/// no spike is copied.
+/// The windows of `grid`, run by run in parallel: a counting sweep sizes every window and keeps
+/// the events that are their pixel's first in some window (with that range of windows), then a
+/// filling pass writes each of them straight to its final places in the columns. The output is
+/// allocated once, at its exact size, and the events are swept once.
 pub(super) fn build<E: EventSource + ?Sized>(
     events: &E,
     sensor: SensorSize,
@@ -51,33 +52,44 @@ pub(super) fn build<E: EventSource + ?Sized>(
     median: bool,
     runs: &[(usize, usize)],
 ) -> Result<Windows> {
-    let counted: Vec<(Vec<usize>, Vec<u64>)> = runs
+    let counted: Vec<(Vec<usize>, Vec<u64>, Firsts)> = runs
         .par_iter()
         .map(|&(ka, kb)| {
-            let mut counts = vec![0usize; kb - ka];
-            // n_preceding as a difference array: each event adds 1 to a range of windows.
+            // Spike counts and n_preceding as difference arrays: each event adds 1 to a range
+            // of windows (maybe empty, which adds nothing: no branch on it).
+            let mut spikes = vec![0i64; kb - ka + 1];
             let mut diff = vec![0i64; kb - ka + 1];
+            let (i0, i1) = event_range(events, grid, (ka, kb), end);
+            let mut firsts = Firsts::with_room(i1 - i0);
             sweep(
                 events,
                 sensor,
                 grid,
                 (ka, kb),
                 end,
-                |r, _| counts[r] += 1,
+                |a, b, e| {
+                    spikes[a] += 1;
+                    spikes[b] -= 1;
+                    firsts.push(a, b, e);
+                },
                 |a, b| {
                     diff[a] += 1;
                     diff[b] -= 1;
                 },
             );
-            let mut running = 0i64;
-            let preceding = diff[..kb - ka]
-                .iter()
-                .map(|d| {
-                    running += d;
-                    running as u64
-                })
-                .collect();
-            (counts, preceding)
+            let running = |d: &[i64]| {
+                let mut sum = 0i64;
+                d[..kb - ka]
+                    .iter()
+                    .map(|v| {
+                        sum += v;
+                        sum
+                    })
+                    .collect::<Vec<i64>>()
+            };
+            let counts = running(&spikes).into_iter().map(|c| c as usize).collect();
+            let preceding = running(&diff).into_iter().map(|c| c as u64).collect();
+            (counts, preceding, firsts)
         })
         .collect();
 
@@ -85,12 +97,14 @@ pub(super) fn build<E: EventSource + ?Sized>(
     let mut n_preceding = Vec::with_capacity(grid.n);
     let mut total = 0usize;
     offsets.push(0);
-    for (counts, preceding) in counted {
+    let mut all_firsts = Vec::with_capacity(runs.len());
+    for (counts, preceding, firsts) in counted {
         for c in counts {
             total += c;
             offsets.push(total);
         }
         n_preceding.extend(preceding);
+        all_firsts.push(firsts);
     }
     let mut t = column::<u64>("length_us", total)?;
     let mut x = column::<u16>("length_us", total)?;
@@ -110,24 +124,21 @@ pub(super) fn build<E: EventSource + ?Sized>(
     let kept: Vec<Vec<usize>> = runs
         .par_iter()
         .zip(slices)
-        .map(|(&(ka, kb), (ts, xs, ys))| {
+        .zip(all_firsts)
+        .map(|((&(ka, kb), (ts, xs, ys)), firsts)| {
             let base = offsets[ka];
             let mut cursor: Vec<usize> = offsets[ka..kb].iter().map(|o| o - base).collect();
-            sweep(
-                events,
-                sensor,
-                grid,
-                (ka, kb),
-                end,
-                |r, e| {
-                    let j = cursor[r];
-                    ts[j] = e.t;
-                    xs[j] = e.x;
-                    ys[j] = e.y;
-                    cursor[r] = j + 1;
-                },
-                |_, _| {},
-            );
+            for k in 0..firsts.len {
+                let (a, b) = (firsts.a[k] as usize, firsts.b[k] as usize);
+                for c in &mut cursor[a..b] {
+                    let j = *c;
+                    ts[j] = firsts.t[k];
+                    xs[j] = firsts.x[k];
+                    ys[j] = firsts.y[k];
+                    *c = j + 1;
+                }
+            }
+            drop(firsts);
             if !median {
                 return Vec::new();
             }
@@ -185,6 +196,11 @@ pub(super) fn build<E: EventSource + ?Sized>(
 /// Windows that do not overlap (`step = L`), in one sweep: each event reaches at most one
 /// window and windows come one after the other, so spikes are appended to the columns in their
 /// final order; runs are then joined.
+///
+/// Slot `s` of a run is `[t0(ka) + (s − 1)·L, t0(ka) + s·L)`: slot 0 is window `ka`'s preceding
+/// interval and slot `s ≥ 1` is window `ka + s − 1`, which is also window `ka + s`'s preceding
+/// interval. So counting each slot's distinct pixels gives both the spikes (slots `1..=n`) and
+/// `n_preceding` (slots `0..n`), with one small table per pixel (the last slot it fired in).
 pub(super) fn build_disjoint<E: EventSource + ?Sized>(
     events: &E,
     sensor: SensorSize,
@@ -195,55 +211,7 @@ pub(super) fn build_disjoint<E: EventSource + ?Sized>(
 ) -> Windows {
     let parts: Vec<Windows> = runs
         .par_iter()
-        .map(|&(ka, kb)| {
-            let n = kb - ka;
-            let mut w = Windows::empty(sensor, grid.length);
-            w.t0 = (ka..kb).map(|k| grid.t0(k)).collect();
-            w.offsets.reserve(n);
-            let mut filter = median.then(|| MedianFilter::new(sensor));
-            // Close windows up to `r` (exclusive): record their ends, filter the last one.
-            let mut close = |w: &mut Windows, r: usize| {
-                while w.offsets.len() <= r {
-                    let start = w.offsets[w.offsets.len() - 1];
-                    if let Some(filter) = filter.as_mut() {
-                        let kept =
-                            filter.compact(&mut w.t[start..], &mut w.x[start..], &mut w.y[start..]);
-                        w.t.truncate(start + kept);
-                        w.x.truncate(start + kept);
-                        w.y.truncate(start + kept);
-                    }
-                    w.offsets.push(w.t.len());
-                }
-            };
-            let mut diff = vec![0i64; n + 1];
-            sweep(
-                events,
-                sensor,
-                grid,
-                (ka, kb),
-                end,
-                |r, e| {
-                    close(&mut w, r);
-                    w.t.push(e.t);
-                    w.x.push(e.x);
-                    w.y.push(e.y);
-                },
-                |a, b| {
-                    diff[a] += 1;
-                    diff[b] -= 1;
-                },
-            );
-            close(&mut w, n);
-            let mut running = 0i64;
-            w.n_preceding = diff[..n]
-                .iter()
-                .map(|d| {
-                    running += d;
-                    running as u64
-                })
-                .collect();
-            w
-        })
+        .map(|&(ka, kb)| disjoint_run(events, sensor, grid, end, median, (ka, kb)))
         .collect();
     let mut parts = parts.into_iter();
     let Some(mut w) = parts.next() else {
@@ -261,10 +229,164 @@ pub(super) fn build_disjoint<E: EventSource + ?Sized>(
     w
 }
 
-/// Walk the events that can reach windows `ka..kb` of `grid`, in time order, and report each
-/// (window, event) where the event is its pixel's first in the window (`spike(r, e)`, `r`
-/// relative to `ka`), and each range of windows `a..b` whose preceding interval `[t0 − L, t0)`
-/// holds the event as its pixel's first (`preceding(a, b)`).
+/// Windows `ka..kb` of a disjoint grid (see [`build_disjoint`]).
+///
+/// The loop has no branch on whether an event is new to its slot (a coin toss the CPU cannot
+/// predict): every event is written at the columns' end, which only advances for a new pixel.
+fn disjoint_run<E: EventSource + ?Sized>(
+    events: &E,
+    sensor: SensorSize,
+    grid: Grid,
+    end: u64,
+    median: bool,
+    (ka, kb): (usize, usize),
+) -> Windows {
+    let n = kb - ka;
+    let length = grid.length;
+    let first = grid.t0(ka);
+    // Events before the preceding interval of window ka, or at or after the end of window
+    // kb − 1 (or `end`), reach nothing here.
+    let i0 = events.count_before(first.saturating_sub(length));
+    let i1 = events.count_before(end.min(grid.t0(kb - 1) + length));
+    // At most one spike per event. Zeroed columns are mapped lazily, so the untouched room
+    // costs no memory, and is given back at the end.
+    let room = i1.saturating_sub(i0);
+    let (mut t, mut x, mut y) = (vec![0u64; room], vec![0u16; room], vec![0u16; room]);
+    let mut offsets = Vec::with_capacity(n + 1);
+    offsets.push(0);
+    let mut filter = median.then(|| MedianFilter::new(sensor));
+    // Distinct pixels per slot (slots 0..=n).
+    let mut counts = vec![0u64; n + 1];
+    // Per pixel: 1 + the last slot it fired in (0: not yet); slots fit: n < RUN_MAX_WINDOWS.
+    let mut seen = vec![0u16; sensor.area()];
+    let mut len = 0usize;
+    let mut slot = 0usize;
+    let mut slot_end = first;
+    for i in i0..i1 {
+        let e = events.get(i);
+        while e.t >= slot_end {
+            if slot >= 1 {
+                len = close_window(&mut offsets, (&mut t, &mut x, &mut y), len, filter.as_mut());
+            }
+            slot += 1;
+            slot_end += length;
+        }
+        let stamp = slot as u16 + 1;
+        let cell = &mut seen[sensor.index(e.x, e.y)];
+        let new = usize::from(*cell != stamp);
+        *cell = stamp;
+        counts[slot] += new as u64;
+        // `len` counts spikes of earlier events only, so it is below `room`.
+        t[len] = e.t;
+        x[len] = e.x;
+        y[len] = e.y;
+        len += new & usize::from(slot != 0);
+    }
+    // Close the window the last event fell in, and the empty ones after it.
+    if slot >= 1 {
+        len = close_window(&mut offsets, (&mut t, &mut x, &mut y), len, filter.as_mut());
+    }
+    while offsets.len() <= n {
+        offsets.push(len);
+    }
+    for column in [&mut x, &mut y] {
+        column.truncate(len);
+        column.shrink_to_fit();
+    }
+    t.truncate(len);
+    t.shrink_to_fit();
+    counts.truncate(n);
+    Windows {
+        sensor,
+        length_us: length,
+        t0: (ka..kb).map(|k| grid.t0(k)).collect(),
+        offsets,
+        t,
+        x,
+        y,
+        n_preceding: counts,
+    }
+}
+
+/// End the window whose spikes are `columns[offsets.last()..len]`: filter them if asked, and
+/// record the window's end; returns the columns' new length.
+fn close_window(
+    offsets: &mut Vec<usize>,
+    (t, x, y): (&mut [u64], &mut [u16], &mut [u16]),
+    len: usize,
+    filter: Option<&mut MedianFilter>,
+) -> usize {
+    let start = offsets[offsets.len() - 1];
+    let len = match filter {
+        Some(filter) => {
+            start + filter.compact(&mut t[start..len], &mut x[start..len], &mut y[start..len])
+        }
+        None => len,
+    };
+    offsets.push(len);
+    len
+}
+
+/// The events that are their pixel's first in at least one window of a run, with that range
+/// of windows (run-relative): what the filling pass needs, so that it does not sweep the
+/// events again. Columns have room for every event the run reads; zeroed columns are mapped
+/// lazily, so the room that stays unused costs no memory.
+struct Firsts {
+    t: Vec<u64>,
+    x: Vec<u16>,
+    y: Vec<u16>,
+    a: Vec<u16>,
+    b: Vec<u16>,
+    len: usize,
+}
+
+impl Firsts {
+    fn with_room(room: usize) -> Self {
+        Self {
+            t: vec![0; room],
+            x: vec![0; room],
+            y: vec![0; room],
+            a: vec![0; room],
+            b: vec![0; room],
+            len: 0,
+        }
+    }
+
+    /// Keep `e` if `a..b` is not empty, without a branch on it: the entry is always written
+    /// and only counted when kept (`len` counts earlier events only, so it is in room).
+    #[inline]
+    fn push(&mut self, a: usize, b: usize, e: Event) {
+        let k = self.len;
+        self.t[k] = e.t;
+        self.x[k] = e.x;
+        self.y[k] = e.y;
+        self.a[k] = a as u16;
+        self.b[k] = b as u16;
+        self.len = k + usize::from(a < b);
+    }
+}
+
+/// The events that can reach windows `ka..kb` of `grid` (or their preceding intervals): those
+/// from `t0(ka) − L` up to the last window's end or `end`, whichever is first.
+fn event_range<E: EventSource + ?Sized>(
+    events: &E,
+    grid: Grid,
+    (ka, kb): (usize, usize),
+    end: u64,
+) -> (usize, usize) {
+    if kb <= ka {
+        return (0, 0);
+    }
+    let i0 = events.count_before(grid.t0(ka).saturating_sub(grid.length));
+    let i1 = events.count_before(end.min(grid.t0(kb - 1) + grid.length));
+    (i0, i1.max(i0))
+}
+
+/// Walk the events that can reach windows `ka..kb` of `grid`, in time order, and report for
+/// each event the range of windows `a..b` where it is its pixel's first (`spike(a, b, e)`,
+/// relative to `ka`), and the range of windows `a..b` whose preceding interval `[t0 − L, t0)`
+/// holds it as its pixel's first (`preceding(a, b)`). Ranges may be empty (`a == b`): callers
+/// that can add an empty range for free save a branch the CPU cannot predict.
 ///
 /// Three cursors follow the stream over the run's windows: `closed` counts windows with
 /// `t0 + L ≤ t`, `opened` those with `t0 ≤ t`, `reach` those with `t0 ≤ t + L`. An event is its
@@ -278,7 +400,7 @@ fn sweep<E: EventSource + ?Sized>(
     grid: Grid,
     (ka, kb): (usize, usize),
     end: u64,
-    mut spike: impl FnMut(usize, Event),
+    mut spike: impl FnMut(usize, usize, Event),
     mut preceding: impl FnMut(usize, usize),
 ) {
     let length = grid.length;
@@ -287,10 +409,7 @@ fn sweep<E: EventSource + ?Sized>(
         return;
     }
     let t0 = |r: usize| grid.t0(ka + r);
-    // Events before `t0(ka) − L` reach neither a window of this run nor its preceding interval;
-    // events at or after the last window's end, or after `end`, reach none either.
-    let i0 = events.count_before(t0(0).saturating_sub(length));
-    let i1 = events.count_before(end.min(t0(n - 1) + length));
+    let (i0, i1) = event_range(events, grid, (ka, kb), end);
     // Per pixel: [first window where its next event is new, same for preceding intervals].
     let mut fresh = vec![[0u16; 2]; sensor.area()];
     let (mut closed, mut opened, mut reach) = (0usize, 0usize, 0usize);
@@ -306,13 +425,10 @@ fn sweep<E: EventSource + ?Sized>(
             reach += 1;
         }
         let cell = &mut fresh[sensor.index(e.x, e.y)];
-        for r in (cell[0] as usize).max(closed)..opened {
-            spike(r, e);
-        }
+        let a = (cell[0] as usize).max(closed);
+        spike(a, a.max(opened), e);
         let a = (cell[1] as usize).max(opened);
-        if a < reach {
-            preceding(a, reach);
-        }
+        preceding(a, a.max(reach));
         // Run indices fit in u16: a run holds at most RUN_MAX_WINDOWS windows.
         *cell = [opened as u16, reach as u16];
     }
