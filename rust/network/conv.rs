@@ -100,6 +100,8 @@ pub(crate) struct ConvState {
     slots: Vec<Slot>,
     /// Per lane of a row's run: (position offset, map), to avoid dividing in the hot loop.
     lane_split: Vec<(u32, u32)>,
+    /// Per input of a row of a receptive field, `[col][channel]`: (column offset, channel).
+    input_split: Vec<(u32, u32)>,
     /// Exact thresholds per map.
     thr: Vec<f64>,
     /// `θ_hi` per map: float32 sums at or above it have surely crossed.
@@ -146,6 +148,9 @@ impl ConvState {
             slots: vec![Slot::default(); positions],
             lane_split: (0..geom.k * geom.maps)
                 .map(|l| ((l / geom.maps) as u32, (l % geom.maps) as u32))
+                .collect(),
+            input_split: (0..geom.k * geom.in_ch)
+                .map(|l| ((l / geom.in_ch) as u32, (l % geom.in_ch) as u32))
                 .collect(),
             thr: vec![f64::INFINITY; geom.maps],
             thr_hi: vec![f32::INFINITY; geom.maps],
@@ -363,16 +368,24 @@ impl ConvState {
             let (oy, ox) = (p / g.out_w, p % g.out_w);
             let pot = &mut self.pot[p * maps..(p + 1) * maps];
             pot.fill(0.0);
+            let cols = g.inputs_of(ox, g.in_w);
             for iy in g.inputs_of(oy, g.in_h) {
                 let dy = iy + g.p_lo - oy;
-                for ix in g.inputs_of(ox, g.in_w) {
-                    let j = g.k - 1 - (ix + g.p_lo - ox);
-                    for c in 0..g.in_ch {
-                        if fired.fired(c, iy, ix) {
-                            let ws = ((c * g.k + dy) * g.k + j) * maps;
-                            for (v, &x) in pot.iter_mut().zip(&w[ws..ws + maps]) {
-                                *v += x;
-                            }
+                // The row's inputs `[col][channel]` are contiguous: test them 64 at a time
+                // without branching, then visit only those that fired.
+                let from = (iy * fired.width + cols.start) * fired.channels;
+                let row = &fired.stamps[from..from + cols.len() * fired.channels];
+                for (chunk, stamps) in row.chunks(64).enumerate() {
+                    let mut mask = fired_mask(self.avx2, stamps, fired.generation);
+                    while mask != 0 {
+                        let l = chunk * 64 + mask.trailing_zeros() as usize;
+                        mask &= mask - 1;
+                        let (dx, c) = self.input_split[l];
+                        let ix = cols.start + dx as usize;
+                        let j = g.k - 1 - (ix + g.p_lo - ox);
+                        let ws = ((c as usize * g.k + dy) * g.k + j) * maps;
+                        for (v, &x) in pot.iter_mut().zip(&w[ws..ws + maps]) {
+                            *v += x;
                         }
                     }
                 }
@@ -583,6 +596,28 @@ fn count_run(avx2: bool, counts: &mut [u16], len: usize, wake_at: u16) -> u32 {
     }
 }
 
+/// Bit `b` set where `stamps[b] == generation`, for up to 64 stamps.
+#[inline]
+fn fired_mask(avx2: bool, stamps: &[u32], generation: u32) -> u64 {
+    assert!(stamps.len() <= 64, "at most 64 stamps");
+    #[cfg(target_arch = "x86_64")]
+    if avx2 {
+        // SAFETY: `avx2` comes from `has_avx2`; the length is asserted above.
+        return unsafe { simd::fired_mask_avx2(stamps, generation) };
+    }
+    let _ = avx2;
+    fired_mask_scalar(stamps, generation)
+}
+
+/// The scalar version of `fired_mask`.
+fn fired_mask_scalar(stamps: &[u32], generation: u32) -> u64 {
+    let mut mask = 0;
+    for (b, &stamp) in stamps.iter().enumerate() {
+        mask |= u64::from(stamp == generation) << b;
+    }
+    mask
+}
+
 /// The scalar version of `count_run`.
 #[cfg_attr(target_arch = "x86_64", allow(dead_code))]
 fn count_run_scalar(counts: &mut [u16], len: usize, wake_at: u16) -> u32 {
@@ -675,13 +710,13 @@ mod simd {
     //! The add-and-detect kernel with explicit vectors: per 8 lanes, loads of potentials,
     //! weights and thresholds, one store, and a movemask byte (almost always 0).
     use std::arch::x86_64::{
-        __m256, _mm256_add_ps, _mm256_and_ps, _mm256_and_si256, _mm256_cmp_ps, _mm256_cmpgt_epi16,
-        _mm256_loadu_ps, _mm256_loadu_si256, _mm256_maskload_ps, _mm256_maskstore_ps,
-        _mm256_movemask_epi8, _mm256_movemask_ps, _mm256_set1_epi16, _mm256_storeu_ps,
-        _mm256_storeu_si256, _mm256_sub_epi16, _mm_add_ps, _mm_and_ps, _mm_and_si128, _mm_cmpge_ps,
-        _mm_cmpgt_epi16, _mm_cmplt_ps, _mm_loadu_ps, _mm_loadu_si128, _mm_movemask_epi8,
-        _mm_movemask_ps, _mm_set1_epi16, _mm_storeu_ps, _mm_storeu_si128, _mm_sub_epi16,
-        _CMP_GE_OQ, _CMP_LT_OQ,
+        __m256, _mm256_add_ps, _mm256_and_ps, _mm256_and_si256, _mm256_castsi256_ps, _mm256_cmp_ps,
+        _mm256_cmpeq_epi32, _mm256_cmpgt_epi16, _mm256_loadu_ps, _mm256_loadu_si256,
+        _mm256_maskload_ps, _mm256_maskstore_ps, _mm256_movemask_epi8, _mm256_movemask_ps,
+        _mm256_set1_epi16, _mm256_set1_epi32, _mm256_storeu_ps, _mm256_storeu_si256,
+        _mm256_sub_epi16, _mm_add_ps, _mm_and_ps, _mm_and_si128, _mm_cmpge_ps, _mm_cmpgt_epi16,
+        _mm_cmplt_ps, _mm_loadu_ps, _mm_loadu_si128, _mm_movemask_epi8, _mm_movemask_ps,
+        _mm_set1_epi16, _mm_storeu_ps, _mm_storeu_si128, _mm_sub_epi16, _CMP_GE_OQ, _CMP_LT_OQ,
     };
 
     /// Eight "on" lanes then eight "off": the window at `8 − r` enables the first `r` lanes.
@@ -698,6 +733,27 @@ mod simd {
         }
         a
     };
+
+    /// # Safety
+    /// The CPU must support AVX2; `stamps` holds at most 64 values.
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn fired_mask_avx2(stamps: &[u32], generation: u32) -> u64 {
+        let n = stamps.len();
+        let g = _mm256_set1_epi32(generation as i32);
+        let mut mask = 0u64;
+        let mut i = 0;
+        while i + 8 <= n {
+            // SAFETY: i + 8 <= n values.
+            let v = unsafe { _mm256_loadu_si256(stamps.as_ptr().add(i).cast()) };
+            let eq = _mm256_castsi256_ps(_mm256_cmpeq_epi32(v, g));
+            mask |= u64::from(_mm256_movemask_ps(eq) as u8) << i;
+            i += 8;
+        }
+        if i < n {
+            mask |= super::fired_mask_scalar(&stamps[i..], generation) << i;
+        }
+        mask
+    }
 
     /// The 2-bits-per-lane byte mask of 16-bit lanes, as 1 bit per lane.
     #[inline]
@@ -1003,6 +1059,22 @@ mod tests {
                     let sse = unsafe { simd::count_run_sse2(&mut got, len, wake_at) };
                     assert_eq!((sse, got), (hits, want));
                 }
+            }
+        }
+    }
+
+    /// The vector stamp test equals the scalar one at every length up to 64.
+    #[test]
+    fn fired_mask_equals_scalar() {
+        let stamps: Vec<u32> = (0..64u32).map(|i| (i * 7 + i / 5) % 3).collect();
+        for n in 0..=64 {
+            for generation in 0..3 {
+                let want = fired_mask_scalar(&stamps[..n], generation);
+                assert_eq!(fired_mask(has_avx2(), &stamps[..n], generation), want);
+                assert_eq!(
+                    want.count_ones() as usize,
+                    stamps[..n].iter().filter(|&&s| s == generation).count()
+                );
             }
         }
     }
