@@ -21,11 +21,34 @@
 //! **Latching.** A neuron that crossed has its float32 potential set to `−∞` once its group is
 //! decided, so it never passes the filter again in the window.
 //!
+//! **Waking by count** (layers with many maps). All weights are ≥ 0, so a neuron whose `n`
+//! fired inputs are fewer than its map needs (the `n` largest weights of its kernel falling
+//! short of θ, see `weights`) cannot have crossed. Such a layer counts, per position, the
+//! inputs that fired (one counter for all maps) and keeps no potentials at positions still
+//! short of the fewest inputs any map needs. A position that reaches it *wakes* once its group
+//! is added: its float32 potentials are gathered from the inputs that fired, its maps at or
+//! above `θ_lo` become candidates, and from then on it is added to like any other. One input
+//! spike of conv2 thus costs `k²` counter increments, plus `maps` additions only where the
+//! counts are already high, instead of `k² × maps` additions everywhere.
+//!
 //! **Sparse reset.** The layer records where its input spikes landed; the next window zeroes
-//! exactly those runs, so nothing is swept and the hot loop carries no per-position stamps.
-//! Lateral-inhibition locks are generation stamps.
+//! exactly those runs (or the positions that woke), so nothing is swept and the hot loop
+//! carries no per-position stamps. Lateral-inhibition locks are generation stamps.
 
 use super::geometry::ConvGeom;
+use super::weights::ConvWeights;
+
+/// The bit of a position's input count that says it is awake (counts stay below it, and
+/// awake counts stay positive as `i16`, for the vector compare).
+const AWAKE: u16 = 1 << 14;
+
+/// Fewest maps for which a layer wakes by count: the count saves `maps − 1` additions per
+/// input and position, which pays for the waking (measured on the bench scenes: conv1's 4 maps
+/// are cheaper added densely, conv2's 20 and conv3's 10 by count).
+const WAKE_MAPS: usize = 8;
+
+/// Counter lanes of one vector: one output row's positions of one input (`k ≤ LANES`).
+const LANES: usize = 16;
 
 /// A neuron that crossed its threshold in the current timestamp group.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -77,6 +100,8 @@ pub(crate) struct ConvState {
     slots: Vec<Slot>,
     /// Per lane of a row's run: (position offset, map), to avoid dividing in the hot loop.
     lane_split: Vec<(u32, u32)>,
+    /// Per input of a row of a receptive field, `[col][channel]`: (column offset, channel).
+    input_split: Vec<(u32, u32)>,
     /// Exact thresholds per map.
     thr: Vec<f64>,
     /// `θ_hi` per map: float32 sums at or above it have surely crossed.
@@ -101,6 +126,17 @@ pub(crate) struct ConvState {
     masks: Vec<u8>,
     /// Whether the CPU has AVX2 (asked once, at construction).
     avx2: bool,
+    /// Whether this layer wakes positions by count (see the module docs).
+    gated: bool,
+    /// Per position: how many of its inputs fired this window, `| AWAKE` once awake
+    /// (`LANES` more at the end, never counted, so that a row's vector never reads past it).
+    counts: Vec<u16>,
+    /// The count at which a position wakes: the fewest inputs any map needs to cross.
+    wake_at: u16,
+    /// Positions that reached `wake_at` in the current group (woken in `resolve`).
+    waking: Vec<u32>,
+    /// Positions awake this window (what the next window must zero).
+    awake: Vec<u32>,
 }
 
 impl ConvState {
@@ -112,6 +148,9 @@ impl ConvState {
             slots: vec![Slot::default(); positions],
             lane_split: (0..geom.k * geom.maps)
                 .map(|l| ((l / geom.maps) as u32, (l % geom.maps) as u32))
+                .collect(),
+            input_split: (0..geom.k * geom.in_ch)
+                .map(|l| ((l / geom.in_ch) as u32, (l % geom.in_ch) as u32))
                 .collect(),
             thr: vec![f64::INFINITY; geom.maps],
             thr_hi: vec![f32::INFINITY; geom.maps],
@@ -125,7 +164,20 @@ impl ConvState {
             touched_lanes: 0,
             masks: vec![0; (geom.k * geom.maps).div_ceil(8)],
             avx2: has_avx2(),
+            gated: geom.maps >= WAKE_MAPS && geom.k <= LANES && geom.kernel_len() < AWAKE.into(),
+            counts: vec![0; positions + LANES],
+            wake_at: 0,
+            waking: Vec::new(),
+            awake: Vec::new(),
         }
+    }
+
+    /// Choose whether this layer wakes positions by count (default: when it has at least
+    /// `WAKE_MAPS` maps); results are the same either way. Call between windows.
+    #[cfg(test)]
+    pub fn set_gated(&mut self, gated: bool) {
+        self.reset();
+        self.gated = gated && self.geom.k <= LANES && self.geom.kernel_len() < usize::from(AWAKE);
     }
 
     /// Zero the potentials that the last window touched.
@@ -136,7 +188,23 @@ impl ConvState {
     pub fn reset(&mut self) {
         let g = self.geom;
         let maps = g.maps;
-        if self.touched_lanes >= self.pot.len() {
+        if self.gated {
+            for &pos in &self.awake {
+                let p = pos as usize * maps;
+                self.pot[p..p + maps].fill(0.0);
+            }
+            if self.touched_lanes >= self.counts.len() {
+                self.counts.fill(0);
+            } else {
+                for &(iy, ix) in &self.inputs {
+                    let cols = g.outputs_of(ix as usize, g.out_w);
+                    for oy in g.outputs_of(iy as usize, g.out_h) {
+                        let start = oy * g.out_w;
+                        self.counts[start + cols.start..start + cols.end].fill(0);
+                    }
+                }
+            }
+        } else if self.touched_lanes >= self.pot.len() {
             self.pot.fill(0.0);
         } else {
             for &(iy, ix) in &self.inputs {
@@ -149,6 +217,8 @@ impl ConvState {
         }
         self.touched_lanes = 0;
         self.inputs.clear();
+        self.awake.clear();
+        self.waking.clear();
         self.candidates.clear();
         self.band.clear();
         self.crossed.clear();
@@ -183,6 +253,18 @@ impl ConvState {
         }
     }
 
+    /// Set how many fired inputs wake a position (after `set_thresholds`, with the layer's
+    /// weights): the fewest with which any map's largest weights reach its `θ_lo`.
+    pub fn set_wake(&mut self, weights: &ConvWeights) {
+        let lo = 1.0 - self.margin;
+        let fewest = (0..self.geom.maps)
+            .map(|m| weights.inputs_to_reach(m, self.thr[m] * lo))
+            .min()
+            .unwrap_or(usize::MAX);
+        // Never 0 (a position with no input has no potential); beyond any count if unreachable.
+        self.wake_at = fewest.clamp(1, usize::from(AWAKE - 1)) as u16;
+    }
+
     /// Add input spike `(c, iy, ix)` (engine-layout weights `w`) to every neuron whose kernel
     /// covers it; neurons whose float32 sum reaches `θ_lo` become candidates of the group.
     #[inline]
@@ -195,32 +277,127 @@ impl ConvState {
         }
         self.inputs.push((iy as u32, ix as u32));
         let rows = g.outputs_of(iy, g.out_h);
-        let run = cols.len() * maps;
-        self.touched_lanes += rows.len() * run;
         // Kernel column index j = k − 1 − dx of the first output column; each output row
         // further down reads the kernel row above (dy falls by one).
         let j0 = g.k - 1 - (ix + g.p_lo - cols.start);
         let dy0 = iy + g.p_lo - rows.start;
-        let thr = &self.thr_lo[..run];
-        for (step, oy) in rows.enumerate() {
-            let wstart = ((c * g.k + dy0 - step) * g.k + j0) * maps;
-            let start = (oy * g.out_w + cols.start) * maps;
-            let hit = add_detect(
-                self.avx2,
-                &mut self.pot[start..start + run],
-                &w[wstart..wstart + run],
-                thr,
-                &mut self.masks,
-            );
-            if hit {
-                push_candidates(
-                    &self.masks[..run.div_ceil(8)],
-                    &self.lane_split,
-                    (start / maps) as u32,
-                    &mut self.candidates,
+        if self.gated {
+            self.touched_lanes += rows.len() * cols.len();
+            for (step, oy) in rows.enumerate() {
+                let p0 = oy * g.out_w + cols.start;
+                let mut hits = count_run(
+                    self.avx2,
+                    &mut self.counts[p0..p0 + LANES],
+                    cols.len(),
+                    self.wake_at,
                 );
+                if hits == 0 {
+                    continue; // the common case: every position still short of waking
+                }
+                // Awake positions are added in runs of consecutive ones.
+                let wstart = ((c * g.k + dy0 - step) * g.k + j0) * maps;
+                let mut run: Option<(usize, usize)> = None;
+                while hits != 0 {
+                    let d = hits.trailing_zeros() as usize;
+                    hits &= hits - 1;
+                    let n = self.counts[p0 + d];
+                    if n & AWAKE == 0 {
+                        if n == self.wake_at {
+                            self.waking.push((p0 + d) as u32);
+                        }
+                        continue;
+                    }
+                    run = match run {
+                        Some((from, to)) if to == d => Some((from, d + 1)),
+                        Some((from, to)) => {
+                            self.add_run(w, wstart + from * maps, p0 + from, to - from);
+                            Some((d, d + 1))
+                        }
+                        None => Some((d, d + 1)),
+                    };
+                }
+                if let Some((from, to)) = run {
+                    self.add_run(w, wstart + from * maps, p0 + from, to - from);
+                }
+            }
+        } else {
+            let run = cols.len() * maps;
+            self.touched_lanes += rows.len() * run;
+            for (step, oy) in rows.enumerate() {
+                let wstart = ((c * g.k + dy0 - step) * g.k + j0) * maps;
+                self.add_run(w, wstart, oy * g.out_w + cols.start, cols.len());
             }
         }
+    }
+
+    /// Add the weights from `wstart` to the `len` consecutive positions from `pos0` of one
+    /// output row; neurons whose float32 sum reaches `θ_lo` become candidates.
+    #[inline]
+    fn add_run(&mut self, w: &[f32], wstart: usize, pos0: usize, len: usize) {
+        let maps = self.geom.maps;
+        let run = len * maps;
+        let start = pos0 * maps;
+        let hit = add_detect(
+            self.avx2,
+            &mut self.pot[start..start + run],
+            &w[wstart..wstart + run],
+            &self.thr_lo[..run],
+            &mut self.masks,
+        );
+        if hit {
+            push_candidates(
+                &self.masks[..run.div_ceil(8)],
+                &self.lane_split,
+                pos0 as u32,
+                &mut self.candidates,
+            );
+        }
+    }
+
+    /// Wake the positions that reached `wake_at` in the group just added: gather their float32
+    /// potentials from the inputs that fired (engine-layout weights `w`); maps at or above
+    /// `θ_lo` become candidates.
+    fn wake(&mut self, w: &[f32], fired: Fired<'_>) {
+        let g = self.geom;
+        let maps = g.maps;
+        let waking = std::mem::take(&mut self.waking);
+        for &pos in &waking {
+            let p = pos as usize;
+            self.counts[p] |= AWAKE;
+            self.awake.push(pos);
+            let (oy, ox) = (p / g.out_w, p % g.out_w);
+            let pot = &mut self.pot[p * maps..(p + 1) * maps];
+            pot.fill(0.0);
+            let cols = g.inputs_of(ox, g.in_w);
+            for iy in g.inputs_of(oy, g.in_h) {
+                let dy = iy + g.p_lo - oy;
+                // The row's inputs `[col][channel]` are contiguous: test them 64 at a time
+                // without branching, then visit only those that fired.
+                let from = (iy * fired.width + cols.start) * fired.channels;
+                let row = &fired.stamps[from..from + cols.len() * fired.channels];
+                for (chunk, stamps) in row.chunks(64).enumerate() {
+                    let mut mask = fired_mask(self.avx2, stamps, fired.generation);
+                    while mask != 0 {
+                        let l = chunk * 64 + mask.trailing_zeros() as usize;
+                        mask &= mask - 1;
+                        let (dx, c) = self.input_split[l];
+                        let ix = cols.start + dx as usize;
+                        let j = g.k - 1 - (ix + g.p_lo - ox);
+                        let ws = ((c as usize * g.k + dy) * g.k + j) * maps;
+                        for (v, &x) in pot.iter_mut().zip(&w[ws..ws + maps]) {
+                            *v += x;
+                        }
+                    }
+                }
+            }
+            for (m, &v) in pot.iter().enumerate() {
+                if v >= self.thr_lo[m] {
+                    self.candidates.push((pos, m as u32));
+                }
+            }
+        }
+        self.waking = waking;
+        self.waking.clear();
     }
 
     /// The exact potential of neuron `(map, pos)`: the float64 sum of the weights of its inputs
@@ -247,8 +424,9 @@ impl ConvState {
     }
 
     /// Decide the crossings of the group just added and append the neurons that fire to
-    /// `out`, with their exact potential when `exact` (else `v` is NaN). `kernels` are the
-    /// canonical weights and `fired` the layer's inputs that fired so far.
+    /// `out`, with their exact potential when `exact` (else `v` is NaN). `weights` are the
+    /// layer's and `fired` its inputs that fired so far. Positions that reached their waking
+    /// count in the group wake first.
     ///
     /// With lateral inhibition, a position that already fired this window fires nothing; among
     /// a position's crossings in the group the highest potential fires, ties going to the
@@ -256,7 +434,7 @@ impl ConvState {
     /// that crossed is latched.
     pub fn resolve(
         &mut self,
-        kernels: &[f32],
+        weights: &ConvWeights,
         fired: Fired<'_>,
         generation: u32,
         group: u32,
@@ -264,9 +442,13 @@ impl ConvState {
         exact: bool,
         out: &mut Vec<Crossing>,
     ) {
+        if !self.waking.is_empty() {
+            self.wake(weights.engine(), fired);
+        }
         if self.candidates.is_empty() && self.band.is_empty() {
             return;
         }
+        let kernels = weights.canonical();
         let maps = self.geom.maps;
         // Which candidates crossed (the band's neurons stay candidates until they do).
         let mut candidates = std::mem::take(&mut self.candidates);
@@ -386,6 +568,67 @@ fn push_candidates(masks: &[u8], split: &[(u32, u32)], pos0: u32, out: &mut Vec<
     }
 }
 
+/// Count one more fired input at the first `len` positions of `counts` (which holds `LANES`
+/// values); returns bit `d` set for each of them whose count is now at least `wake_at`
+/// (awake ones included). The other lanes are left as they are.
+#[inline]
+fn count_run(avx2: bool, counts: &mut [u16], len: usize, wake_at: u16) -> u32 {
+    assert!(
+        counts.len() == LANES && len <= LANES,
+        "one vector of counts"
+    );
+    #[cfg(target_arch = "x86_64")]
+    {
+        // SAFETY: the lengths are asserted above; `avx2` comes from `has_avx2`, and SSE2 is
+        // part of x86-64.
+        unsafe {
+            if avx2 {
+                simd::count_run_avx2(counts, len, wake_at)
+            } else {
+                simd::count_run_sse2(counts, len, wake_at)
+            }
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let _ = avx2;
+        count_run_scalar(counts, len, wake_at)
+    }
+}
+
+/// Bit `b` set where `stamps[b] == generation`, for up to 64 stamps.
+#[inline]
+fn fired_mask(avx2: bool, stamps: &[u32], generation: u32) -> u64 {
+    assert!(stamps.len() <= 64, "at most 64 stamps");
+    #[cfg(target_arch = "x86_64")]
+    if avx2 {
+        // SAFETY: `avx2` comes from `has_avx2`; the length is asserted above.
+        return unsafe { simd::fired_mask_avx2(stamps, generation) };
+    }
+    let _ = avx2;
+    fired_mask_scalar(stamps, generation)
+}
+
+/// The scalar version of `fired_mask`.
+fn fired_mask_scalar(stamps: &[u32], generation: u32) -> u64 {
+    let mut mask = 0;
+    for (b, &stamp) in stamps.iter().enumerate() {
+        mask |= u64::from(stamp == generation) << b;
+    }
+    mask
+}
+
+/// The scalar version of `count_run`.
+#[cfg_attr(target_arch = "x86_64", allow(dead_code))]
+fn count_run_scalar(counts: &mut [u16], len: usize, wake_at: u16) -> u32 {
+    let mut hits = 0;
+    for (d, n) in counts[..len].iter_mut().enumerate() {
+        *n += 1;
+        hits |= u32::from(*n >= wake_at) << d;
+    }
+    hits
+}
+
 /// The smallest float32 not below `x` (for `x ≥ 0`).
 fn round_up(x: f64) -> f32 {
     let y = x as f32;
@@ -467,14 +710,96 @@ mod simd {
     //! The add-and-detect kernel with explicit vectors: per 8 lanes, loads of potentials,
     //! weights and thresholds, one store, and a movemask byte (almost always 0).
     use std::arch::x86_64::{
-        __m256, _mm256_add_ps, _mm256_and_ps, _mm256_cmp_ps, _mm256_loadu_ps, _mm256_loadu_si256,
-        _mm256_maskload_ps, _mm256_maskstore_ps, _mm256_movemask_ps, _mm256_storeu_ps, _mm_add_ps,
-        _mm_and_ps, _mm_cmpge_ps, _mm_cmplt_ps, _mm_loadu_ps, _mm_movemask_ps, _mm_storeu_ps,
-        _CMP_GE_OQ, _CMP_LT_OQ,
+        __m256, _mm256_add_ps, _mm256_and_ps, _mm256_and_si256, _mm256_castsi256_ps, _mm256_cmp_ps,
+        _mm256_cmpeq_epi32, _mm256_cmpgt_epi16, _mm256_loadu_ps, _mm256_loadu_si256,
+        _mm256_maskload_ps, _mm256_maskstore_ps, _mm256_movemask_epi8, _mm256_movemask_ps,
+        _mm256_set1_epi16, _mm256_set1_epi32, _mm256_storeu_ps, _mm256_storeu_si256,
+        _mm256_sub_epi16, _mm_add_ps, _mm_and_ps, _mm_and_si128, _mm_cmpge_ps, _mm_cmpgt_epi16,
+        _mm_cmplt_ps, _mm_loadu_ps, _mm_loadu_si128, _mm_movemask_epi8, _mm_movemask_ps,
+        _mm_set1_epi16, _mm_storeu_ps, _mm_storeu_si128, _mm_sub_epi16, _CMP_GE_OQ, _CMP_LT_OQ,
     };
 
     /// Eight "on" lanes then eight "off": the window at `8 − r` enables the first `r` lanes.
     static TAIL: [i32; 16] = [-1, -1, -1, -1, -1, -1, -1, -1, 0, 0, 0, 0, 0, 0, 0, 0];
+
+    /// Sixteen −1 then sixteen 0: the window at `16 − len` is −1 in the first `len` lanes
+    /// (subtracting it counts one more there).
+    static ONES: [i16; 32] = {
+        let mut a = [0i16; 32];
+        let mut i = 0;
+        while i < 16 {
+            a[i] = -1;
+            i += 1;
+        }
+        a
+    };
+
+    /// # Safety
+    /// The CPU must support AVX2; `stamps` holds at most 64 values.
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn fired_mask_avx2(stamps: &[u32], generation: u32) -> u64 {
+        let n = stamps.len();
+        let g = _mm256_set1_epi32(generation as i32);
+        let mut mask = 0u64;
+        let mut i = 0;
+        while i + 8 <= n {
+            // SAFETY: i + 8 <= n values.
+            let v = unsafe { _mm256_loadu_si256(stamps.as_ptr().add(i).cast()) };
+            let eq = _mm256_castsi256_ps(_mm256_cmpeq_epi32(v, g));
+            mask |= u64::from(_mm256_movemask_ps(eq) as u8) << i;
+            i += 8;
+        }
+        if i < n {
+            mask |= super::fired_mask_scalar(&stamps[i..], generation) << i;
+        }
+        mask
+    }
+
+    /// The 2-bits-per-lane byte mask of 16-bit lanes, as 1 bit per lane.
+    #[inline]
+    fn lane_bits(mask: u32) -> u32 {
+        let mut m = mask & 0x5555_5555;
+        m = (m | (m >> 1)) & 0x3333_3333;
+        m = (m | (m >> 2)) & 0x0F0F_0F0F;
+        m = (m | (m >> 4)) & 0x00FF_00FF;
+        (m | (m >> 8)) & 0xFFFF
+    }
+
+    /// # Safety
+    /// The CPU must support AVX2; `counts` holds `LANES` (16) values and `len <= 16`.
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn count_run_avx2(counts: &mut [u16], len: usize, wake_at: u16) -> u32 {
+        // SAFETY: 16 counts, and ONES has 32 values with 16 − len in 0..=16.
+        unsafe {
+            // Unaligned loads and stores: the casts need no alignment.
+            let p = counts.as_mut_ptr();
+            let inc = _mm256_loadu_si256(ONES.as_ptr().add(16 - len).cast());
+            let n = _mm256_sub_epi16(_mm256_loadu_si256(p.cast()), inc);
+            _mm256_storeu_si256(p.cast(), n);
+            let at = _mm256_set1_epi16(wake_at as i16 - 1);
+            let hit = _mm256_and_si256(_mm256_cmpgt_epi16(n, at), inc);
+            lane_bits(_mm256_movemask_epi8(hit) as u32)
+        }
+    }
+
+    /// # Safety
+    /// `counts` holds `LANES` (16) values and `len <= 16`.
+    pub(super) unsafe fn count_run_sse2(counts: &mut [u16], len: usize, wake_at: u16) -> u32 {
+        let mut mask = 0;
+        // SAFETY: 16 counts in two halves of 8, and ONES has 32 values with 16 − len in 0..=16.
+        unsafe {
+            let at = _mm_set1_epi16(wake_at as i16 - 1);
+            for half in 0..2 {
+                let p = counts.as_mut_ptr().add(8 * half);
+                let inc = _mm_loadu_si128(ONES.as_ptr().add(16 - len + 8 * half).cast());
+                let n = _mm_sub_epi16(_mm_loadu_si128(p.cast()), inc);
+                _mm_storeu_si128(p.cast(), n);
+                let hit = _mm_and_si128(_mm_cmpgt_epi16(n, at), inc);
+                mask |= (_mm_movemask_epi8(hit) as u32) << (16 * half);
+            }
+        }
+        lane_bits(mask)
+    }
 
     /// The crossing mask of one vector of lanes.
     #[inline]
@@ -708,6 +1033,48 @@ mod tests {
                     assert_eq!(mc[..n.div_ceil(8)], mb[..n.div_ceil(8)]);
                 }
                 assert!(any_b == mb.iter().any(|&m| m != 0));
+            }
+        }
+    }
+
+    /// The vector counters count and report like the scalar loop, at every length, and leave
+    /// the lanes past the run alone.
+    #[test]
+    fn count_run_equals_scalar() {
+        for len in 0..=LANES {
+            for wake_at in [1u16, 2, 3, 7, AWAKE - 1] {
+                let start: Vec<u16> = (0..LANES as u16)
+                    .map(|i| if i % 5 == 4 { AWAKE | i } else { i % 4 })
+                    .collect();
+                let mut want = start.clone();
+                let hits = count_run_scalar(&mut want, len, wake_at);
+                assert_eq!(want[len..], start[len..]);
+                let mut got = start.clone();
+                assert_eq!(count_run(has_avx2(), &mut got, len, wake_at), hits);
+                assert_eq!(got, want);
+                #[cfg(target_arch = "x86_64")]
+                {
+                    let mut got = start.clone();
+                    // SAFETY: LANES counts, len ≤ LANES.
+                    let sse = unsafe { simd::count_run_sse2(&mut got, len, wake_at) };
+                    assert_eq!((sse, got), (hits, want));
+                }
+            }
+        }
+    }
+
+    /// The vector stamp test equals the scalar one at every length up to 64.
+    #[test]
+    fn fired_mask_equals_scalar() {
+        let stamps: Vec<u32> = (0..64u32).map(|i| (i * 7 + i / 5) % 3).collect();
+        for n in 0..=64 {
+            for generation in 0..3 {
+                let want = fired_mask_scalar(&stamps[..n], generation);
+                assert_eq!(fired_mask(has_avx2(), &stamps[..n], generation), want);
+                assert_eq!(
+                    want.count_ones() as usize,
+                    stamps[..n].iter().filter(|&&s| s == generation).count()
+                );
             }
         }
     }

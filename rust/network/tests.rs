@@ -380,6 +380,51 @@ proptest! {
     }
 }
 
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
+
+    /// Waking positions by count (the default only for layers with many maps) changes no
+    /// spike, potential, detection or STDP update, on any layer.
+    #[test]
+    fn waking_by_count_equals_dense_reference(
+        c in config_strategy(),
+        seed in any::<u64>(),
+        layer in 0usize..3,
+    ) {
+        let mut net = Network::new(c.clone(), seed).unwrap();
+        random_weights(&mut net, seed);
+        let mut state = net.new_state();
+        for w in 0..3u64 {
+            // Denser windows than above, so that many positions wake.
+            let n = (seed.wrapping_add(w) % (2 * c.width as u64 * c.height as u64)) as usize;
+            let (t, x, y) = window(&c, seed.wrapping_add(w * 104_729), n, 100 * w);
+            let (dense, _) = dense_window(&net, &t, &x, &y, None);
+            for (gated, record) in [(true, true), (true, false), (false, false)] {
+                state.set_gated(gated);
+                net.run_window(&mut state, Spikes::new(&t, &x, &y).unwrap(), 100 * w, None, record)
+                    .unwrap();
+                for l in Layer::ALL {
+                    prop_assert_eq!(state.counts()[l.index()], dense[l.index()].len() as u64);
+                    if record {
+                        prop_assert_eq!(state.spikes(l), &dense[l.index()][..], "{}", l);
+                    }
+                }
+            }
+            state.set_gated(true);
+            let (_, want) = dense_window(&net, &t, &x, &y, Some(layer));
+            let mut expected = net.clone();
+            let rates = Rates { a_plus: 0.25, a_minus: -0.125 };
+            dense_stdp(&mut expected, &t, &x, &y, layer, &want, rates);
+            let conv = ConvLayer::ALL[layer];
+            let got = net
+                .stdp_step(&mut state, conv, Spikes::new(&t, &x, &y).unwrap(), 100 * w, None, rates)
+                .unwrap();
+            prop_assert_eq!(&got, &want);
+            prop_assert_eq!(net.conv_weights(conv), expected.conv_weights(conv));
+        }
+    }
+}
+
 /// Apply STDP densely for `winners` of `layer`, computing input spike times with the dense
 /// model.
 fn dense_stdp(

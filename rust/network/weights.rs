@@ -8,6 +8,10 @@
 //!   row is one contiguous run of `k × maps` potentials plus one contiguous run of weights.
 //!   The engine's running sums are float32 filters; exact potentials are gathered from the
 //!   canonical weights (see `conv`).
+//!
+//! Each map also keeps the running sums of its weights sorted from the largest: no `n` inputs
+//! of a neuron can give it more potential than the `n`-th of them, which tells the engine how
+//! many inputs must have fired before a neuron can cross (see `conv`).
 
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
@@ -24,6 +28,8 @@ pub struct ConvWeights {
     k: usize,
     canonical: Vec<f32>,
     engine: Vec<f32>,
+    /// Per map, `kernel_len + 1` values: the float64 sum of its `n` largest weights, `n = 0 ..`.
+    top: Vec<f64>,
 }
 
 impl ConvWeights {
@@ -37,6 +43,7 @@ impl ConvWeights {
             k: g.k,
             canonical,
             engine: vec![0.0; g.maps * g.kernel_len()],
+            top: vec![0.0; g.maps * (g.kernel_len() + 1)],
         };
         for m in 0..w.maps {
             w.sync_map(m);
@@ -85,7 +92,7 @@ impl ConvWeights {
         &mut self.canonical[m * n..(m + 1) * n]
     }
 
-    /// Copy map `m`'s canonical kernel into the engine layout.
+    /// Copy map `m`'s canonical kernel into the engine layout and its sorted sums.
     pub(crate) fn sync_map(&mut self, m: usize) {
         let (k, maps) = (self.k, self.maps);
         let n = self.in_ch * k * k;
@@ -98,6 +105,23 @@ impl ConvWeights {
                 }
             }
         }
+        let top = &mut self.top[m * (n + 1)..(m + 1) * (n + 1)];
+        for (t, &w) in top[1..].iter_mut().zip(kernel) {
+            *t = f64::from(w);
+        }
+        top[1..].sort_unstable_by(|a, b| b.total_cmp(a));
+        top[0] = 0.0;
+        for i in 1..=n {
+            top[i] += top[i - 1];
+        }
+    }
+
+    /// The fewest inputs that can give a neuron of map `m` a potential of at least `target`:
+    /// the smallest `n` whose `n` largest weights sum to `target` or more (`kernel_len + 1` if
+    /// even all of them fall short).
+    pub(crate) fn inputs_to_reach(&self, m: usize, target: f64) -> usize {
+        let n = self.in_ch * self.k * self.k;
+        self.top[m * (n + 1)..(m + 1) * (n + 1)].partition_point(|&s| s < target)
     }
 
     /// Sum of map `m`'s weights in float64 (PENT's `K1[m]`), summed in canonical order.
@@ -165,6 +189,22 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn inputs_to_reach_counts_the_largest_weights() {
+        let g = Geometry::new(&NetworkConfig::default()).unwrap().conv[0];
+        let mut v = vec![0.0f32; 100];
+        v[..25].copy_from_slice(&[0.5; 25]);
+        v[3] = 1.0;
+        v[7] = 0.75;
+        let w = ConvWeights::new(&g, v).unwrap();
+        assert_eq!(w.inputs_to_reach(0, 1.0), 1);
+        assert_eq!(w.inputs_to_reach(0, 1.75), 2);
+        assert_eq!(w.inputs_to_reach(0, 1.76), 3);
+        assert_eq!(w.inputs_to_reach(0, 13.25), 25);
+        assert_eq!(w.inputs_to_reach(0, 13.3), 26);
+        assert_eq!(w.inputs_to_reach(1, 0.1), 26); // all zeros
     }
 
     #[test]

@@ -196,6 +196,9 @@ impl WindowState {
         self.conv[0].set_thresholds(|m| thresholds[m]);
         self.conv[1].set_thresholds(|_| c.conv2.threshold);
         self.conv[2].set_thresholds(|_| c.conv3.threshold);
+        for (conv, layer) in self.conv.iter_mut().zip(ConvLayer::ALL) {
+            conv.set_wake(net.conv_weights(layer));
+        }
         self.counts = [0; 5];
         for t in &mut self.trace {
             t.clear();
@@ -402,7 +405,7 @@ impl WindowState {
                 }
             };
             self.conv[layer].resolve(
-                net.conv_weights(ConvLayer::ALL[layer]).canonical(),
+                net.conv_weights(ConvLayer::ALL[layer]),
                 fired,
                 generation,
                 self.group,
@@ -532,6 +535,14 @@ impl WindowState {
             }
             ConvLayer::Conv2 => self.pool[0].fired_at(self.generation, c, row, col),
             ConvLayer::Conv3 => self.pool[1].fired_at(self.generation, c, row, col),
+        }
+    }
+
+    /// Force every conv layer to wake positions by count, or to add densely (see `conv`).
+    #[cfg(test)]
+    pub(crate) fn set_gated(&mut self, gated: bool) {
+        for c in &mut self.conv {
+            c.set_gated(gated);
         }
     }
 
