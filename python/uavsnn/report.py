@@ -221,6 +221,6 @@ def noise_table(points: Sequence[NoisePoint]) -> str:
         accs = {p.mode: p.evaluation.accuracy for p in points if p.fraction == fraction}
         snr = "no noise" if not np.isfinite(level) else f"{level:.1f}"
         cells = " | ".join(f"{100 * accs[m]:.1f} %" for m in modes)
-        rows.append(f"| {100 * fraction:.1f} % | {snr} | {cells} |")
+        rows.append(f"| {100 * fraction:g} % | {snr} | {cells} |")
     paper = ", ".join(f"{snr:g} dB: {100 * acc:.0f} %" for snr, acc in PAPER_TABLE3.items())
     return "\n".join(rows) + f"\n\nThe paper's Table 3 (PENT): {paper}.\n"

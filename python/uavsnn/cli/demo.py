@@ -110,7 +110,7 @@ def _demo(args: argparse.Namespace) -> int:
     for p in figures["noise"]:
         snr = "clean" if p["snr_db"] is None else f"{p['snr_db']:.1f} dB"
         print(
-            f"  noise {100 * p['fraction']:.1f} % ({snr}), {p['mode']}: {100 * p['accuracy']:.1f} %"
+            f"  noise {100 * p['fraction']:g} % ({snr}), {p['mode']}: {100 * p['accuracy']:.1f} %"
         )
     print(f"  report: {args.out / 'report.md'}")
     return 0

@@ -88,7 +88,7 @@ def _evaluate(args: argparse.Namespace) -> int:
     )
     for point in points:
         print(
-            f"  noise {100 * point.fraction:4.1f} % ({point.snr_db:6.1f} dB) {point.mode:7s} "
+            f"  noise {100 * point.fraction:5g} % ({point.snr_db:6.1f} dB) {point.mode:7s} "
             f"{100 * point.evaluation.accuracy:.1f} %"
         )
     if args.report:
