@@ -340,3 +340,24 @@ def test_bad_input_raises_typed_errors(case: str) -> None:
     call, error, match = BAD_INPUT[case]
     with pytest.raises(error, match=match):
         call()
+
+
+def test_line_chart_joins_series_measured_at_other_x_without_gaps() -> None:
+    nan = float("nan")
+    series = {"a": [0.2, nan, 0.8], "b": [nan, 0.5, nan]}
+    x = [0.0, 1.0, 2.0]
+    with_gaps = pictures.line_chart(
+        x, series, title="t", xlabel="x", ylabel="y", y_range=(0, 1), markers=False
+    )
+    joined = pictures.line_chart(
+        x, series, title="t", xlabel="x", ylabel="y", y_range=(0, 1), markers=False, gaps=False
+    )
+    # with gaps, "a" has no line between its two points; joined, the pixels between them change
+    assert (joined != with_gaps).any()
+    blue = np.array(joined[:, :, 0] == 180) & (joined[:, :, 1] == 119) & (joined[:, :, 2] == 31)
+    assert (
+        blue.sum()
+        > (
+            (with_gaps[:, :, 0] == 180) & (with_gaps[:, :, 1] == 119) & (with_gaps[:, :, 2] == 31)
+        ).sum()
+    )

@@ -415,10 +415,13 @@ def line_chart(
     y_range: tuple[float, float] | None = None,
     size: tuple[int, int] = (640, 400),
     markers: bool = True,
+    gaps: bool = True,
 ) -> np.ndarray:
     """A line chart ``size = (width, height)``: one colour per series (legend below), round
     ticks with values, gridlines. Points are drawn in order of ``x``; a NaN is a gap (a point
-    between gaps still gets its marker); ``y_range`` fixes the y axis, else it fits the data."""
+    between gaps still gets its marker), or with ``gaps=False`` a value not measured at that
+    ``x`` (the series' other points are joined: series measured at different x); ``y_range``
+    fixes the y axis, else it fits the data."""
     xs = np.asarray(x, dtype=np.float64)
     if xs.ndim != 1 or xs.size == 0 or not np.isfinite(xs).all():
         raise ParameterError(f"x must be a non-empty 1-D sequence of finite numbers, got {xs!r}")
@@ -466,8 +469,14 @@ def line_chart(
     for i, v in enumerate(ys.values()):
         colour, ok = _PALETTE[i % len(_PALETTE)], np.isfinite(v[order])
         pts = px(xs[order], np.where(ok, v[order], y0))
-        for run in np.split(np.arange(len(ok)), np.flatnonzero(np.diff(ok)) + 1):
-            if ok[run[0]]:  # a run of finite points: a polyline, and markers
+        # With gaps=False a series' NaNs are only "not measured at this x": its points are joined.
+        runs = (
+            np.split(np.arange(len(ok)), np.flatnonzero(np.diff(ok)) + 1)
+            if gaps
+            else [np.flatnonzero(ok)]
+        )
+        for run in runs:
+            if run.size and ok[run[0]]:  # a run of finite points: a polyline, and markers
                 cv2.polylines(plot, [pts[run]], False, colour, 2, cv2.LINE_AA)
                 for k in run if markers or len(run) == 1 else []:
                     cv2.circle(plot, (int(pts[k, 0]), int(pts[k, 1])), 3, colour, -1)

@@ -165,6 +165,7 @@ def _snr_chart(noise: Sequence[NoisePoint]) -> np.ndarray:
         xlabel="SNR (dB)",
         ylabel="accuracy",
         y_range=(0.0, 1.0),
+        gaps=False,
     )
 
 
