@@ -56,9 +56,9 @@ from uavsnn.dataset import (
     synthetic_recording,
 )
 from uavsnn.detector import Detector
-from uavsnn.experiments import RECIPE_SETTINGS
-from uavsnn.network import Network, default_config
-from uavsnn.training import apply_overrides, train
+from uavsnn.experiments import RECIPE_SETTINGS, recipe_config
+from uavsnn.network import Network
+from uavsnn.training import train
 from uavsnn.windows import make_windows
 
 SIZE = (240, 180)
@@ -369,7 +369,7 @@ def demo_model(data: Path | None, data_seed: int, windows_per_layer: int) -> tup
         built = time.perf_counter()
         train_set = load(root, "train")
         seeds = {int(r["seed"]) for r in train_set.manifest["recordings"] if "seed" in r}
-        net = Network(apply_overrides(default_config(), RECIPE_SETTINGS), seed=data_seed)
+        net = Network(recipe_config(), seed=data_seed)
         train(net, train_set.windows, windows_per_layer=windows_per_layer, seed=data_seed)
     info = {
         "model": f"trained here: demo set seed {data_seed} ({len(train_set)} train windows), "

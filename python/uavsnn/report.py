@@ -22,7 +22,7 @@ from uavsnn.network import Network
 from uavsnn.training import TrainingResult
 from uavsnn.windows import add_noise
 
-__all__ = ["confusion_table", "evaluation_markdown", "figures", "noise_table"]
+__all__ = ["confusion_table", "evaluation_markdown", "figures", "noise_table", "picture_links"]
 
 
 def figures(
@@ -167,6 +167,13 @@ def _snr_chart(noise: Sequence[NoisePoint]) -> np.ndarray:
         y_range=(0.0, 1.0),
         gaps=False,
     )
+
+
+def picture_links(written: dict[str, Path], markdown_dir: str | Path) -> list[str]:
+    """Markdown image lines for :func:`figures`' PNGs, relative to the folder of the Markdown
+    file that shows them."""
+    base = Path(markdown_dir)
+    return [f"![{name}]({path.relative_to(base).as_posix()})\n" for name, path in written.items()]
 
 
 def confusion_table(matrix: np.ndarray) -> str:

@@ -13,13 +13,18 @@ from typing import Any
 from uavsnn import __version__, report
 from uavsnn.dataset import build_demo, load
 from uavsnn.evaluation import evaluate
-from uavsnn.experiments import RECIPE_SETTINGS, have_dataset, noise_sweep, static_twin
-from uavsnn.network import Network, default_config
-from uavsnn.training import apply_overrides, train
+from uavsnn.experiments import (
+    RECIPE_SETTINGS,
+    have_dataset,
+    noise_sweep,
+    recipe_config,
+    static_twin,
+)
+from uavsnn.network import Network
+from uavsnn.training import train
 
-__all__ = ["DEMO_SETTINGS", "DEMO_WINDOWS_PER_LAYER", "register", "run_demo"]
+__all__ = ["DEMO_WINDOWS_PER_LAYER", "register", "run_demo"]
 
-DEMO_SETTINGS = RECIPE_SETTINGS
 DEMO_WINDOWS_PER_LAYER = 2000
 DEMO_NOISE = (0.0, 0.01, 0.03, 0.05)
 
@@ -48,7 +53,7 @@ def run_demo(out: Path, seed: int = 0, *, progress: bool = False) -> dict[str, A
         build_demo(data_dir, seed, overwrite=True, progress=progress)
     built = time.perf_counter()
     train_set, test_set = load(data_dir, "train"), load(data_dir, "test")
-    network = Network(apply_overrides(default_config(), DEMO_SETTINGS), seed=seed)
+    network = Network(recipe_config(), seed=seed)
     trained = train(
         network, train_set.windows, windows_per_layer=DEMO_WINDOWS_PER_LAYER, seed=seed,
         progress=progress,
@@ -63,7 +68,7 @@ def run_demo(out: Path, seed: int = 0, *, progress: bool = False) -> dict[str, A
     figures = {
         "uavsnn": __version__,
         "seed": seed,
-        "settings": list(DEMO_SETTINGS),
+        "settings": list(RECIPE_SETTINGS),
         "windows_per_layer": DEMO_WINDOWS_PER_LAYER,
         "train_windows": len(train_set),
         "test": result.to_dict(),
@@ -81,14 +86,14 @@ def run_demo(out: Path, seed: int = 0, *, progress: bool = False) -> dict[str, A
         f"`uavsnn demo --seed {seed}` (uavsnn {__version__}): the small synthetic dvs set "
         f"({len(train_set)} train and {len(test_set)} test windows of 50 ms from different "
         f"recordings), conv2 and conv3 trained by STDP on {DEMO_WINDOWS_PER_LAYER} windows "
-        f"each with Table 1's network changed by `{' '.join(DEMO_SETTINGS)}`; no label is "
+        f"each with Table 1's network changed by `{' '.join(RECIPE_SETTINGS)}`; no label is "
         "used in training. Figures on the held-out test windows:\n",
         report.evaluation_markdown(result),
         "\n## Added noise: PENT against static thresholds\n",
         f"Static threshold {theta:.2f}: the one PENT sets for the median clean training window.\n",
         report.noise_table(points),
         "\n## Pictures\n",
-        *[f"![{name}]({path.name})\n" for name, path in written.items()],
+        *report.picture_links(written, out),
     ]
     (out / "report.md").write_text("\n".join(text), encoding="utf-8")
     return figures

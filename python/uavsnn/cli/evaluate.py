@@ -47,10 +47,12 @@ def _evaluate(args: argparse.Namespace) -> int:
     figures: dict[str, Any] = {"model": str(args.model), "dataset": str(args.dataset)}
     figures |= result.to_dict()
     points = []
-    # Static thresholds for the comparison: the one PENT sets on a typical clean training window.
-    train = load(args.dataset, "train") if (args.dataset / "train.npz").exists() else data
-    static, _ = static_twin(network, train.windows)
-    if args.noise:
+    static = None
+    if args.noise or args.report:
+        # The static twin's threshold: the one PENT sets on a typical clean training window.
+        train = load(args.dataset, "train") if (args.dataset / "train.npz").exists() else data
+        static, _ = static_twin(network, train.windows)
+    if args.noise and static is not None:
         points = noise_sweep(
             {"pent": network, "static": static}, data, NOISE_FRACTIONS, seed=args.seed,
             threads=args.threads,
@@ -66,9 +68,7 @@ def _evaluate(args: argparse.Namespace) -> int:
         ]
         if points:
             text += ["\n## Noise\n", report.noise_table(points)]
-        text += ["\n## Pictures\n"] + [
-            f"![{name}]({path.name})\n" for name, path in written.items()
-        ]
+        text += ["\n## Pictures\n", *report.picture_links(written, args.report)]
         (args.report / "report.md").write_text("\n".join(text), encoding="utf-8")
         figures["report"] = str(args.report / "report.md")
     if args.json:

@@ -30,10 +30,11 @@ from uavsnn.experiments import (
     have_dataset,
     mix_windows,
     noise_sweep,
+    recipe_config,
     static_twin,
 )
 from uavsnn.network import Network, default_config
-from uavsnn.training import apply_overrides, train
+from uavsnn.training import train
 
 __all__ = ["register"]
 
@@ -100,24 +101,25 @@ def _reproduce(args: argparse.Namespace) -> int:
     dvs_train, dvs_test = load(dvs_dir, "train"), load(dvs_dir, "test")
     sim_train = load(sim_dir, "train")
     combined = mix_windows([dvs_train, sim_train], args.n_train, seed=seed)
-    recipe = apply_overrides(default_config(), RECIPE_SETTINGS)
-    runs: dict[str, tuple[dict[str, Any], LabelledWindows]] = {
-        "dvs": (recipe, dvs_train),
-        "sim": (recipe, sim_train),
-        "combined": (recipe, combined),
-        "combined, Table 1 as published": (default_config(), combined),
+    recipe = recipe_config()
+    # name -> (config, training windows, model file)
+    runs: dict[str, tuple[dict[str, Any], LabelledWindows, str]] = {
+        "dvs": (recipe, dvs_train, "model-dvs.npz"),
+        "sim": (recipe, sim_train, "model-sim.npz"),
+        "combined": (recipe, combined, "model-combined.npz"),
+        "combined, Table 1 as published": (default_config(), combined, "model-combined-table1.npz"),
     }
     networks: dict[str, Network] = {}
     results: dict[str, Evaluation] = {}
     trainings = {}
-    for name, (config, data) in runs.items():
+    for name, (config, data, model_file) in runs.items():
         step(f"train {name}")
         net = Network(config, seed=seed)
         trainings[name] = train(
             net, data.windows, windows_per_layer=args.windows_per_layer, seed=seed,
             progress=progress,
         )  # fmt: skip
-        net.save(out / f"model-{name.split(',')[0]}{'-table1' if ',' in name else ''}.npz")
+        net.save(out / model_file)
         networks[name] = net
         results[name] = evaluate(net, dvs_test, keep_inference=name == "combined")
     log["table2"] = {name: e.to_dict() for name, e in results.items()}
@@ -181,7 +183,7 @@ def _reproduce(args: argparse.Namespace) -> int:
         report.noise_table(points),
         *real_text,
         "\n## Pictures\n",
-        *[f"![{name}](figures/{path.name})\n" for name, path in written.items()],
+        *report.picture_links(written, out),
     ]
     (out / "RESULTS.md").write_text("\n".join(text), encoding="utf-8")
     step(f"wrote {out / 'RESULTS.md'}")
