@@ -35,7 +35,7 @@
 //! exactly those runs (or the positions that woke), so nothing is swept and the hot loop
 //! carries no per-position stamps. Lateral-inhibition locks are generation stamps.
 
-use super::geometry::ConvGeom;
+use super::geometry::{ConvGeom, Divider};
 use super::weights::ConvWeights;
 
 /// The bit of a position's input count that says it is awake (counts stay below it, and
@@ -137,6 +137,8 @@ pub(crate) struct ConvState {
     waking: Vec<u32>,
     /// Positions awake this window (what the next window must zero).
     awake: Vec<u32>,
+    /// Division by the output width (position → row, column).
+    split: Divider,
 }
 
 impl ConvState {
@@ -169,7 +171,14 @@ impl ConvState {
             wake_at: 0,
             waking: Vec::new(),
             awake: Vec::new(),
+            split: Divider::new(geom.out_w),
         }
+    }
+
+    /// Divides a position index by the output width: `div_rem` gives `(row, col)`.
+    #[inline]
+    pub fn splitter(&self) -> Divider {
+        self.split
     }
 
     /// Choose whether this layer wakes positions by count (default: when it has at least
@@ -365,7 +374,7 @@ impl ConvState {
             let p = pos as usize;
             self.counts[p] |= AWAKE;
             self.awake.push(pos);
-            let (oy, ox) = (p / g.out_w, p % g.out_w);
+            let (oy, ox) = self.split.div_rem(p);
             let pot = &mut self.pot[p * maps..(p + 1) * maps];
             pot.fill(0.0);
             let cols = g.inputs_of(ox, g.in_w);
@@ -404,7 +413,7 @@ impl ConvState {
     /// that fired.
     fn exact(&self, kernels: &[f32], fired: Fired<'_>, pos: usize, map: usize) -> f64 {
         let g = self.geom;
-        let (oy, ox) = (pos / g.out_w, pos % g.out_w);
+        let (oy, ox) = self.split.div_rem(pos);
         let kernel = &kernels[map * g.kernel_len()..(map + 1) * g.kernel_len()];
         let rows = g.inputs_of(oy, g.in_h);
         let cols = g.inputs_of(ox, g.in_w);

@@ -157,6 +157,41 @@ impl PoolGeom {
     }
 }
 
+/// Division by a fixed divisor `d ≥ 1` with one multiplication (Lemire, Kaser & Kurz 2019:
+/// `⌊n / d⌋ = ⌊n · M / 2⁶⁴⌋` with `M = ⌊2⁶⁴ / d⌋ + 1`, exact for every 32-bit `n` and `d`):
+/// the engine splits positions into rows and columns per spike, where a hardware division
+/// would cost more than the rest of the work.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Divider {
+    d: u32,
+    magic: u128,
+}
+
+impl Divider {
+    pub fn new(d: usize) -> Self {
+        let d = u32::try_from(d).expect("divisor fits 32 bits");
+        assert!(d > 0, "divisor is positive");
+        Self {
+            d,
+            magic: (1u128 << 64) / u128::from(d) + 1,
+        }
+    }
+
+    /// `⌊n / d⌋`.
+    #[inline]
+    pub fn div(self, n: usize) -> usize {
+        debug_assert!(u32::try_from(n).is_ok(), "dividend fits 32 bits");
+        ((n as u128 * self.magic) >> 64) as usize
+    }
+
+    /// `(⌊n / d⌋, n mod d)`.
+    #[inline]
+    pub fn div_rem(self, n: usize) -> (usize, usize) {
+        let q = self.div(n);
+        (q, n - q * self.d as usize)
+    }
+}
+
 impl Geometry {
     /// Compose the layers of a config; fails when a layer comes out empty.
     pub fn new(c: &NetworkConfig) -> Result<Self> {
@@ -259,6 +294,36 @@ mod tests {
 
     fn pool(k: usize, s: usize, padding: Padding, n: usize) -> PoolGeom {
         PoolGeom::new("t", n, n, 1, k, s, padding).unwrap()
+    }
+
+    /// The multiplicative division equals the hardware one, for divisors of every size and
+    /// dividends near every multiple and at the ends of the 32-bit range.
+    #[test]
+    fn divider_is_exact() {
+        let mut divisors: Vec<usize> = (1..=2000).collect();
+        divisors.extend([
+            4095,
+            4096,
+            65_535,
+            65_536,
+            1 << 20,
+            (1 << 31) - 1,
+            u32::MAX as usize,
+        ]);
+        for d in divisors {
+            let div = Divider::new(d);
+            let mut ns: Vec<usize> = (0..3 * d.min(1000)).collect();
+            for q in [1usize, 7, 1000, 65_535, 1 << 20] {
+                let m = q.saturating_mul(d);
+                if u32::try_from(m).is_ok() {
+                    ns.extend([m.saturating_sub(1), m, m + 1]);
+                }
+            }
+            ns.extend([u32::MAX as usize - 1, u32::MAX as usize]);
+            for n in ns.into_iter().filter(|&n| u32::try_from(n).is_ok()) {
+                assert_eq!(div.div_rem(n), (n / d, n % d), "{n} / {d}");
+            }
+        }
     }
 
     /// `outputs_of` is exactly the inverse of `inputs_of`, by brute force.

@@ -1,7 +1,7 @@
 //! A max-pool layer's per-window state (docs/model.md §3): a pool neuron `(m, q)` fires at the
 //! time of the first spike of map `m` in its block. It has no potential and does not inhibit.
 
-use super::geometry::PoolGeom;
+use super::geometry::{Divider, PoolGeom};
 
 /// A spike leaving a pool layer: `(map, row, col)`, all at the group's time.
 pub(crate) type PoolSpike = (u32, u32, u32);
@@ -14,6 +14,8 @@ pub(crate) struct PoolState {
     fired: Vec<u32>,
     /// Its firing time (meaningful only where `fired` is the current generation).
     time: Vec<u64>,
+    /// Division by the stride.
+    stride: Divider,
 }
 
 impl PoolState {
@@ -23,6 +25,7 @@ impl PoolState {
             geom,
             fired: vec![0; n],
             time: vec![0; n],
+            stride: Divider::new(geom.stride),
         }
     }
 
@@ -44,8 +47,8 @@ impl PoolState {
         out: &mut Vec<PoolSpike>,
     ) {
         let g = self.geom;
-        for qy in g.outputs_of(row, g.out_h) {
-            for qx in g.outputs_of(col, g.out_w) {
+        for qy in self.outputs_of(row, g.out_h) {
+            for qx in self.outputs_of(col, g.out_w) {
                 let i = (qy * g.out_w + qx) * g.maps + map as usize;
                 if self.fired[i] != generation {
                     self.fired[i] = generation;
@@ -54,6 +57,17 @@ impl PoolState {
                 }
             }
         }
+    }
+
+    /// `PoolGeom::outputs_of` without hardware divisions.
+    #[inline]
+    fn outputs_of(&self, i: usize, out: usize) -> std::ops::Range<usize> {
+        let g = self.geom;
+        let from = (i + 1).saturating_sub(g.k);
+        // ⌈from / s⌉ = ⌊(from + s − 1) / s⌋.
+        let lo = self.stride.div(from + g.stride - 1);
+        let hi = (self.stride.div(i) + 1).min(out);
+        lo..hi.max(lo)
     }
 
     /// The fired stamps, `[row][col][map]`.

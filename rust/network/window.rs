@@ -416,25 +416,29 @@ impl WindowState {
             if crossings.is_empty() {
                 break;
             }
-            let out_w = self.geom.conv[layer].out_w;
+            let split = self.conv[layer].splitter();
             let conv_layer = Layer::ALL[2 * layer];
             self.counts[conv_layer.index()] += crossings.len() as u64;
             if self.record {
-                self.trace[conv_layer.index()].extend(crossings.iter().map(|c| Spike {
-                    t,
-                    map: c.map as u16,
-                    row: (c.pos as usize / out_w) as u16,
-                    col: (c.pos as usize % out_w) as u16,
-                    v: c.v as f32,
+                self.trace[conv_layer.index()].extend(crossings.iter().map(|c| {
+                    let (row, col) = split.div_rem(c.pos as usize);
+                    Spike {
+                        t,
+                        map: c.map as u16,
+                        row: row as u16,
+                        col: col as u16,
+                        v: c.v as f32,
+                    }
                 }));
             }
             if training {
                 for c in &crossings {
+                    let (row, col) = split.div_rem(c.pos as usize);
                     self.wta.offer(Winner {
                         t,
                         map: c.map as u16,
-                        row: (c.pos as usize / out_w) as u16,
-                        col: (c.pos as usize % out_w) as u16,
+                        row: row as u16,
+                        col: col as u16,
                         v: c.v,
                     });
                 }
@@ -451,7 +455,7 @@ impl WindowState {
                 // Detections of one group in (map, row, col) order, as spikes are reported.
                 crossings.sort_unstable_by_key(|c| (c.map, c.pos));
                 for c in &crossings {
-                    let (row, col) = (c.pos as usize / out_w, c.pos as usize % out_w);
+                    let (row, col) = split.div_rem(c.pos as usize);
                     let (rows, cols) = self.geom.conv3_receptive_field(row, col);
                     self.detections
                         .push(detection(t, c.map, row, col, &rows, &cols, &self.inputs));
@@ -463,7 +467,7 @@ impl WindowState {
             }
             pool_out.clear();
             for c in &crossings {
-                let (row, col) = (c.pos as usize / out_w, c.pos as usize % out_w);
+                let (row, col) = split.div_rem(c.pos as usize);
                 self.pool[layer].on_spike(generation, t, c.map, row, col, &mut pool_out);
             }
             let pool_layer = Layer::ALL[2 * layer + 1];
