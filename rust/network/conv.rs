@@ -332,6 +332,32 @@ impl ConvState {
         } else {
             let run = cols.len() * maps;
             self.touched_lanes += rows.len() * run;
+            if self.avx2 && run <= 32 && rows.len() <= FUSED_ROWS {
+                // One vector pass over every row, then the candidates of the rows that had any.
+                let mut masks = [0u32; FUSED_ROWS];
+                let any = add_rows(
+                    &mut self.pot,
+                    (rows.start * g.out_w + cols.start) * maps,
+                    g.out_w * maps,
+                    w,
+                    ((c * g.k + dy0) * g.k + j0) * maps,
+                    g.k * maps,
+                    &self.thr_lo[..run],
+                    &mut masks[..rows.len()],
+                );
+                if any {
+                    for (step, &mask) in masks[..rows.len()].iter().enumerate() {
+                        let pos0 = ((rows.start + step) * g.out_w + cols.start) as u32;
+                        let mut mask = mask;
+                        while mask != 0 {
+                            let (dp, map) = self.lane_split[mask.trailing_zeros() as usize];
+                            self.candidates.push((pos0 + dp, map));
+                            mask &= mask - 1;
+                        }
+                    }
+                }
+                return;
+            }
             for (step, oy) in rows.enumerate() {
                 let wstart = ((c * g.k + dy0 - step) * g.k + j0) * maps;
                 self.add_run(w, wstart, oy * g.out_w + cols.start, cols.len());
@@ -689,6 +715,65 @@ fn add_detect(avx2: bool, pot: &mut [f32], w: &[f32], thr: &[f32], masks: &mut [
     }
 }
 
+/// Most output rows that `add_rows` takes at once.
+const FUSED_ROWS: usize = 16;
+
+/// `add_detect` for the `masks.len()` output rows of one input at once (AVX2 only): row `r`
+/// adds the run of weights at `w0 − r · w_stride` to the potentials at `p0 + r · p_stride`
+/// (runs of `thr.len() ≤ 32` lanes); `masks[r]` gets bit `l` where lane `l` of row `r`
+/// crossed. Returns whether any did. One call per input spike and no branch on the data
+/// between rows, so that the rows' loads overlap.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn add_rows(
+    pot: &mut [f32],
+    p0: usize,
+    p_stride: usize,
+    w: &[f32],
+    w0: usize,
+    w_stride: usize,
+    thr: &[f32],
+    masks: &mut [u32],
+) -> bool {
+    let (run, rows) = (thr.len(), masks.len());
+    if rows == 0 {
+        return false;
+    }
+    assert!(
+        run <= 32
+            && p0 + (rows - 1) * p_stride + run <= pot.len()
+            && w0 >= (rows - 1) * w_stride
+            && w0 + run <= w.len(),
+        "rows inside the layer and the kernel"
+    );
+    #[cfg(target_arch = "x86_64")]
+    {
+        assert!(has_avx2(), "add_rows needs AVX2");
+        // SAFETY: the ranges are asserted above and the CPU has AVX2.
+        unsafe {
+            simd::add_rows_avx2(
+                pot.as_mut_ptr().add(p0),
+                p_stride,
+                w.as_ptr().add(w0),
+                w_stride,
+                thr,
+                masks,
+            )
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let mut any = false;
+        let mut bytes = [0u8; 4];
+        for (r, mask) in masks.iter_mut().enumerate() {
+            let (p, q) = (p0 + r * p_stride, w0 - r * w_stride);
+            any |= add_detect_scalar(&mut pot[p..p + run], &w[q..q + run], thr, &mut bytes, 0);
+            *mask = u32::from_le_bytes(bytes);
+        }
+        any
+    }
+}
+
 /// The scalar version, from lane `from` (a multiple of 8) to the end.
 #[inline]
 fn add_detect_scalar(
@@ -863,6 +948,55 @@ mod simd {
                 *mp.add(i / 8) = mask as u8;
                 any |= mask;
             }
+        }
+        any != 0
+    }
+
+    /// # Safety
+    /// The CPU must support AVX2; for every `r < masks.len()`, `pot + r · p_stride` and
+    /// `w − r · w_stride` hold `thr.len() ≤ 32` values.
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn add_rows_avx2(
+        pot: *mut f32,
+        p_stride: usize,
+        w: *const f32,
+        w_stride: usize,
+        thr: &[f32],
+        masks: &mut [u32],
+    ) -> bool {
+        let n = thr.len();
+        let (full, rem) = (n / 8, n % 8);
+        let tp = thr.as_ptr();
+        // SAFETY: TAIL has 16 values and 8 − rem is in 1..=8.
+        let lanes = unsafe { _mm256_loadu_si256(TAIL.as_ptr().add(8 - rem).cast()) };
+        let mut any = 0u32;
+        for (r, slot) in masks.iter_mut().enumerate() {
+            // SAFETY: the caller guarantees both rows hold n values.
+            let (p, wp) = unsafe { (pot.add(r * p_stride), w.sub(r * w_stride)) };
+            let mut mask = 0u32;
+            for v in 0..full {
+                let i = 8 * v;
+                // SAFETY: i + 8 <= n values in each row and in thr.
+                unsafe {
+                    let old = _mm256_loadu_ps(p.add(i));
+                    let new = _mm256_add_ps(old, _mm256_loadu_ps(wp.add(i)));
+                    _mm256_storeu_ps(p.add(i), new);
+                    mask |= (crossed(old, new, _mm256_loadu_ps(tp.add(i))) as u32) << i;
+                }
+            }
+            if rem > 0 {
+                let i = 8 * full;
+                // SAFETY: the enabled lanes are below n (masked-off lanes are neither read nor
+                // written, and compare as 0 < 0: not crossed).
+                unsafe {
+                    let old = _mm256_maskload_ps(p.add(i), lanes);
+                    let new = _mm256_add_ps(old, _mm256_maskload_ps(wp.add(i), lanes));
+                    _mm256_maskstore_ps(p.add(i), lanes, new);
+                    mask |= (crossed(old, new, _mm256_maskload_ps(tp.add(i), lanes)) as u32) << i;
+                }
+            }
+            *slot = mask;
+            any |= mask;
         }
         any != 0
     }
