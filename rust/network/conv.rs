@@ -292,41 +292,26 @@ impl ConvState {
         let dy0 = iy + g.p_lo - rows.start;
         if self.gated {
             self.touched_lanes += rows.len() * cols.len();
-            for (step, oy) in rows.enumerate() {
-                let p0 = oy * g.out_w + cols.start;
-                let mut hits = count_run(
-                    self.avx2,
-                    &mut self.counts[p0..p0 + LANES],
-                    cols.len(),
-                    self.wake_at,
-                );
-                if hits == 0 {
-                    continue; // the common case: every position still short of waking
-                }
-                // Awake positions are added in runs of consecutive ones.
-                let wstart = ((c * g.k + dy0 - step) * g.k + j0) * maps;
-                let mut run: Option<(usize, usize)> = None;
-                while hits != 0 {
-                    let d = hits.trailing_zeros() as usize;
-                    hits &= hits - 1;
-                    let n = self.counts[p0 + d];
-                    if n & AWAKE == 0 {
-                        if n == self.wake_at {
-                            self.waking.push((p0 + d) as u32);
-                        }
-                        continue;
-                    }
-                    run = match run {
-                        Some((from, to)) if to == d => Some((from, d + 1)),
-                        Some((from, to)) => {
-                            self.add_run(w, wstart + from * maps, p0 + from, to - from);
-                            Some((d, d + 1))
-                        }
-                        None => Some((d, d + 1)),
-                    };
-                }
-                if let Some((from, to)) = run {
-                    self.add_run(w, wstart + from * maps, p0 + from, to - from);
+            // Count the input at every output row first (one vector pass where the CPU has
+            // AVX2), then add it to the rows that have awake positions.
+            let mut hit_rows = [0u32; FUSED_ROWS];
+            let hit_rows = &mut hit_rows[..rows.len()];
+            let p0 = rows.start * g.out_w + cols.start;
+            if !count_rows(
+                self.avx2,
+                &mut self.counts,
+                p0,
+                g.out_w,
+                cols.len(),
+                self.wake_at,
+                hit_rows,
+            ) {
+                return; // the common case: every position still short of waking
+            }
+            for (step, &hits) in hit_rows.iter().enumerate() {
+                if hits != 0 {
+                    let wstart = ((c * g.k + dy0 - step) * g.k + j0) * maps;
+                    self.add_awake(w, wstart, p0 + step * g.out_w, hits);
                 }
             }
         } else {
@@ -362,6 +347,37 @@ impl ConvState {
                 let wstart = ((c * g.k + dy0 - step) * g.k + j0) * maps;
                 self.add_run(w, wstart, oy * g.out_w + cols.start, cols.len());
             }
+        }
+    }
+
+    /// Add one input to the positions of one output row (from `p0`) whose bits are set in
+    /// `hits` and that are awake, in runs of consecutive ones (kernel row from `wstart`);
+    /// positions that just reached the waking count are queued to wake.
+    #[inline]
+    fn add_awake(&mut self, w: &[f32], wstart: usize, p0: usize, mut hits: u32) {
+        let maps = self.geom.maps;
+        let mut run: Option<(usize, usize)> = None;
+        while hits != 0 {
+            let d = hits.trailing_zeros() as usize;
+            hits &= hits - 1;
+            let n = self.counts[p0 + d];
+            if n & AWAKE == 0 {
+                if n == self.wake_at {
+                    self.waking.push((p0 + d) as u32);
+                }
+                continue;
+            }
+            run = match run {
+                Some((from, to)) if to == d => Some((from, d + 1)),
+                Some((from, to)) => {
+                    self.add_run(w, wstart + from * maps, p0 + from, to - from);
+                    Some((d, d + 1))
+                }
+                None => Some((d, d + 1)),
+            };
+        }
+        if let Some((from, to)) = run {
+            self.add_run(w, wstart + from * maps, p0 + from, to - from);
         }
     }
 
@@ -631,6 +647,42 @@ fn count_run(avx2: bool, counts: &mut [u16], len: usize, wake_at: u16) -> u32 {
     }
 }
 
+/// `count_run` for the `hits.len()` output rows of one input at once: row `r` counts at
+/// `counts[p0 + r · stride ..][..len]`, `hits[r]` gets its bits. Returns whether any is set.
+#[inline]
+fn count_rows(
+    avx2: bool,
+    counts: &mut [u16],
+    p0: usize,
+    stride: usize,
+    len: usize,
+    wake_at: u16,
+    hits: &mut [u32],
+) -> bool {
+    let rows = hits.len();
+    if rows == 0 {
+        return false;
+    }
+    assert!(
+        len <= LANES && p0 + (rows - 1) * stride + LANES <= counts.len(),
+        "rows of counts inside the layer"
+    );
+    #[cfg(target_arch = "x86_64")]
+    if avx2 {
+        // SAFETY: the rows are asserted above (each holds LANES counts) and the CPU has AVX2.
+        return unsafe {
+            simd::count_rows_avx2(counts.as_mut_ptr().add(p0), stride, len, wake_at, hits)
+        };
+    }
+    let mut any = 0;
+    for (r, h) in hits.iter_mut().enumerate() {
+        let p = p0 + r * stride;
+        *h = count_run(avx2, &mut counts[p..p + LANES], len, wake_at);
+        any |= *h;
+    }
+    any != 0
+}
+
 /// Bit `b` set where `stamps[b] == generation`, for up to 64 stamps.
 #[inline]
 fn fired_mask(avx2: bool, stamps: &[u32], generation: u32) -> u64 {
@@ -873,6 +925,34 @@ mod simd {
             let at = _mm256_set1_epi16(wake_at as i16 - 1);
             let hit = _mm256_and_si256(_mm256_cmpgt_epi16(n, at), inc);
             lane_bits(_mm256_movemask_epi8(hit) as u32)
+        }
+    }
+
+    /// # Safety
+    /// The CPU must support AVX2; for every `r < hits.len()`, `counts + r · stride` holds
+    /// `LANES` (16) values; `len <= 16`.
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn count_rows_avx2(
+        counts: *mut u16,
+        stride: usize,
+        len: usize,
+        wake_at: u16,
+        hits: &mut [u32],
+    ) -> bool {
+        // SAFETY: ONES has 32 values and 16 − len is in 0..=16; the rows are the caller's.
+        unsafe {
+            let inc = _mm256_loadu_si256(ONES.as_ptr().add(16 - len).cast());
+            let at = _mm256_set1_epi16(wake_at as i16 - 1);
+            let mut any = 0u32;
+            for (r, h) in hits.iter_mut().enumerate() {
+                let p = counts.add(r * stride);
+                let n = _mm256_sub_epi16(_mm256_loadu_si256(p.cast()), inc);
+                _mm256_storeu_si256(p.cast(), n);
+                let hit = _mm256_and_si256(_mm256_cmpgt_epi16(n, at), inc);
+                *h = lane_bits(_mm256_movemask_epi8(hit) as u32);
+                any |= *h;
+            }
+            any != 0
         }
     }
 
