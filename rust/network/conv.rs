@@ -33,7 +33,8 @@
 //!
 //! **Sparse reset.** The layer records where its input spikes landed; the next window zeroes
 //! exactly those runs (or the positions that woke), so nothing is swept and the hot loop
-//! carries no per-position stamps. Lateral-inhibition locks are generation stamps.
+//! carries no per-position stamps. A position that fired under lateral inhibition has all its
+//! maps latched, which is all the lock it needs.
 
 use super::geometry::{ConvGeom, Divider};
 use super::weights::ConvWeights;
@@ -79,25 +80,12 @@ impl Fired<'_> {
     }
 }
 
-/// Lateral inhibition at one position (one cache line holds all of it).
-#[derive(Debug, Clone, Copy, Default)]
-struct Slot {
-    /// Generation in which a map fired here.
-    lock: u32,
-    /// Group in which `best` was last written.
-    group: u32,
-    /// Best crossing here in the current group (index into `crossed`).
-    best: u32,
-}
-
 /// Per-window state of one conv layer.
 #[derive(Debug, Clone)]
 pub(crate) struct ConvState {
     pub geom: ConvGeom,
     /// Float32 running potentials `[row][col][map]` (`−∞` once crossed).
     pot: Vec<f32>,
-    /// Lateral-inhibition state per position.
-    slots: Vec<Slot>,
     /// Per lane of a row's run: (position offset, map), to avoid dividing in the hot loop.
     lane_split: Vec<(u32, u32)>,
     /// Per input of a row of a receptive field, `[col][channel]`: (column offset, channel).
@@ -116,8 +104,11 @@ pub(crate) struct ConvState {
     band: Vec<(u32, u32)>,
     /// Neurons that crossed in the current group.
     crossed: Vec<Crossing>,
-    /// Positions holding a best crossing in the current group.
-    touched: Vec<u32>,
+    /// Scratch of lateral inhibition: indices into `crossed` (the best crossing per position,
+    /// in order of first appearance) and, for large groups, the crossings sorted by position.
+    best: Vec<u32>,
+    order: Vec<u32>,
+    pairs: Vec<(u32, u32)>,
     /// Input positions `(row, col)` added this window (what the next window must zero).
     inputs: Vec<(u32, u32)>,
     /// Potentials written this window, counted with repeats (the cost of replaying `inputs`).
@@ -147,7 +138,6 @@ impl ConvState {
         Self {
             geom,
             pot: vec![0.0; positions * geom.maps],
-            slots: vec![Slot::default(); positions],
             lane_split: (0..geom.k * geom.maps)
                 .map(|l| ((l / geom.maps) as u32, (l % geom.maps) as u32))
                 .collect(),
@@ -161,7 +151,9 @@ impl ConvState {
             candidates: Vec::new(),
             band: Vec::new(),
             crossed: Vec::new(),
-            touched: Vec::new(),
+            best: Vec::new(),
+            order: Vec::new(),
+            pairs: Vec::new(),
             inputs: Vec::new(),
             touched_lanes: 0,
             masks: vec![0; (geom.k * geom.maps).div_ceil(8)],
@@ -231,20 +223,6 @@ impl ConvState {
         self.candidates.clear();
         self.band.clear();
         self.crossed.clear();
-    }
-
-    /// Forget the window stamps (after the window generation counter wrapped).
-    pub fn clear_window_stamps(&mut self) {
-        for s in &mut self.slots {
-            s.lock = 0;
-        }
-    }
-
-    /// Forget the group stamps (after the group counter wrapped).
-    pub fn clear_group_stamps(&mut self) {
-        for s in &mut self.slots {
-            s.group = 0;
-        }
     }
 
     /// Set the per-map thresholds for the coming window.
@@ -487,8 +465,6 @@ impl ConvState {
         &mut self,
         weights: &ConvWeights,
         fired: Fired<'_>,
-        generation: u32,
-        group: u32,
         inhibit: bool,
         exact: bool,
         out: &mut Vec<Crossing>,
@@ -505,11 +481,10 @@ impl ConvState {
         let mut candidates = std::mem::take(&mut self.candidates);
         candidates.append(&mut self.band);
         for &(pos, map) in &candidates {
-            if inhibit && self.slots[pos as usize].lock == generation {
-                continue; // another map fired here: this one never can
+            let v32 = self.pot[pos as usize * maps + map as usize];
+            if v32 == f32::NEG_INFINITY {
+                continue; // another map fired here since (latched): this one never can
             }
-            let i = pos as usize * maps + map as usize;
-            let v32 = self.pot[i];
             let mut c = Crossing {
                 pos,
                 map,
@@ -542,36 +517,67 @@ impl ConvState {
             out.append(&mut self.crossed);
             return;
         }
-        for i in 0..self.crossed.len() {
-            let c = self.crossed[i];
-            let slot = self.slots[c.pos as usize];
-            if slot.lock == generation {
-                continue;
-            }
-            if slot.group == group {
-                let b = self.crossed[slot.best as usize];
-                if self.beats(kernels, fired, c, b) {
-                    self.slots[c.pos as usize].best = i as u32;
-                }
-            } else {
-                self.slots[c.pos as usize] = Slot {
-                    lock: slot.lock,
-                    group,
-                    best: i as u32,
-                };
-                self.touched.push(c.pos);
-            }
-        }
-        for &pos in &self.touched {
-            let slot = &mut self.slots[pos as usize];
-            slot.lock = generation;
-            out.push(self.crossed[slot.best as usize]);
+        self.pick_best(kernels, fired);
+        for &i in &self.best {
+            let c = self.crossed[i as usize];
+            out.push(c);
             // No map may fire here any more: latch them all, so none becomes a candidate again.
-            let p = pos as usize * maps;
+            let p = c.pos as usize * maps;
             self.pot[p..p + maps].fill(f32::NEG_INFINITY);
         }
-        self.touched.clear();
         self.crossed.clear();
+    }
+
+    /// Lateral inhibition within a group: `best` = for each position in `crossed`, the index
+    /// of its winning crossing (see `beats`), positions in order of first appearance.
+    fn pick_best(&mut self, kernels: &[f32], fired: Fired<'_>) {
+        /// Up to this many crossings, a scan of the positions seen so far is cheapest.
+        const SCAN: usize = 16;
+        let n = self.crossed.len();
+        let mut best = std::mem::take(&mut self.best);
+        best.clear();
+        if n <= SCAN {
+            for i in 0..n {
+                let c = self.crossed[i];
+                match best
+                    .iter()
+                    .position(|&b| self.crossed[b as usize].pos == c.pos)
+                {
+                    Some(k) => {
+                        if self.beats(kernels, fired, c, self.crossed[best[k] as usize]) {
+                            best[k] = i as u32;
+                        }
+                    }
+                    None => best.push(i as u32),
+                }
+            }
+        } else {
+            // Sorted by (position, index): each position's crossings are consecutive, its
+            // first appearance first; its winner is paired with that first index.
+            let mut order = std::mem::take(&mut self.order);
+            order.clear();
+            order.extend(0..n as u32);
+            order.sort_unstable_by_key(|&i| (self.crossed[i as usize].pos, i));
+            let mut pairs = std::mem::take(&mut self.pairs);
+            pairs.clear();
+            for run in order
+                .chunk_by(|&a, &b| self.crossed[a as usize].pos == self.crossed[b as usize].pos)
+            {
+                let mut w = run[0];
+                for &i in &run[1..] {
+                    let (c, b) = (self.crossed[i as usize], self.crossed[w as usize]);
+                    if self.beats(kernels, fired, c, b) {
+                        w = i;
+                    }
+                }
+                pairs.push((run[0], w));
+            }
+            pairs.sort_unstable(); // back to order of first appearance
+            best.extend(pairs.iter().map(|&(_, w)| w));
+            self.order = order;
+            self.pairs = pairs;
+        }
+        self.best = best;
     }
 
     /// Whether crossing `a` wins lateral inhibition over `b` (same position and group): the

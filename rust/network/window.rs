@@ -61,7 +61,6 @@ pub struct WindowState {
     width: usize,
     height: usize,
     generation: u32,
-    group: u32,
     open: bool,
     t0: u64,
     last_t: Option<u64>,
@@ -97,7 +96,6 @@ impl WindowState {
             width: c.width,
             height: c.height,
             generation: 0,
-            group: 0,
             open: false,
             t0: 0,
             last_t: None,
@@ -227,23 +225,10 @@ impl WindowState {
         self.generation = self.generation.wrapping_add(1);
         if self.generation == 0 {
             self.pixel_fired.fill(0);
-            for c in &mut self.conv {
-                c.clear_window_stamps();
-            }
             for p in &mut self.pool {
                 p.clear_stamps();
             }
             self.generation = 1;
-        }
-    }
-
-    fn next_group(&mut self) {
-        self.group = self.group.wrapping_add(1);
-        if self.group == 0 {
-            for c in &mut self.conv {
-                c.clear_group_stamps();
-            }
-            self.group = 1;
         }
     }
 
@@ -369,7 +354,6 @@ impl WindowState {
         let Some(t) = self.pending_t.take() else {
             return;
         };
-        self.next_group();
         let w = net.conv_weights(ConvLayer::Conv1).engine();
         for &(x, y) in &self.pending {
             self.conv[0].add(w, 0, usize::from(y), usize::from(x));
@@ -407,8 +391,6 @@ impl WindowState {
             self.conv[layer].resolve(
                 net.conv_weights(ConvLayer::ALL[layer]),
                 fired,
-                generation,
-                self.group,
                 inhibit,
                 self.record || training,
                 &mut crossings,
@@ -551,8 +533,7 @@ impl WindowState {
     }
 
     #[cfg(test)]
-    pub(crate) fn set_generation(&mut self, generation: u32, group: u32) {
+    pub(crate) fn set_generation(&mut self, generation: u32) {
         self.generation = generation;
-        self.group = group;
     }
 }
