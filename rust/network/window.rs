@@ -102,7 +102,7 @@ impl WindowState {
             pushed: 0,
             pixel_fired: vec![0; c.width * c.height],
             pixel_time: vec![0; c.width * c.height],
-            inputs: Inputs::default(),
+            inputs: Inputs::new(c.width, c.height),
             pending: Vec::new(),
             pending_t: None,
             conv: g.conv.map(ConvState::new),
