@@ -688,7 +688,7 @@ fn count_rows(
 
 /// Bit `b` set where `stamps[b] == generation`, for up to 64 stamps.
 #[inline]
-fn fired_mask(avx2: bool, stamps: &[u32], generation: u32) -> u64 {
+pub(crate) fn fired_mask(avx2: bool, stamps: &[u32], generation: u32) -> u64 {
     assert!(stamps.len() <= 64, "at most 64 stamps");
     #[cfg(target_arch = "x86_64")]
     if avx2 {
@@ -1126,7 +1126,7 @@ mod simd {
 }
 
 /// Whether the CPU has AVX2.
-fn has_avx2() -> bool {
+pub(crate) fn has_avx2() -> bool {
     #[cfg(target_arch = "x86_64")]
     {
         std::arch::is_x86_feature_detected!("avx2")

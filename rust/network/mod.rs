@@ -24,6 +24,7 @@
 //! ```
 
 mod batch;
+mod cause;
 mod config;
 mod conv;
 mod detection;

@@ -75,6 +75,11 @@ impl PoolState {
         &self.fired
     }
 
+    /// The firing times, `[row][col][map]` (meaningful where the stamp is the generation).
+    pub fn times(&self) -> &[u64] {
+        &self.time
+    }
+
     /// When pool neuron `(map, row, col)` fired in this window, if it did.
     #[inline]
     pub fn fired_at(&self, generation: u32, map: usize, row: usize, col: usize) -> Option<u64> {

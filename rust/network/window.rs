@@ -31,9 +31,10 @@
 //! [`WindowState::finish`]. A pixel's first spike in the window is its input spike; later ones
 //! are ignored (docs/model.md §1), so raw events can be pushed as they come.
 
+use super::cause::{self, Causes};
 use super::config::NetworkConfig;
-use super::conv::{ConvState, Crossing, Fired};
-use super::detection::{detection, Detection, Inputs};
+use super::conv::{has_avx2, ConvState, Crossing, Fired};
+use super::detection::{detection, Detection};
 use super::geometry::Geometry;
 use super::model::Network;
 use super::pool::{PoolSpike, PoolState};
@@ -67,7 +68,11 @@ pub struct WindowState {
     pushed: usize,
     pixel_fired: Vec<u32>,
     pixel_time: Vec<u64>,
-    inputs: Inputs,
+    /// Input spikes (distinct pixels) taken in the window.
+    inputs: usize,
+    causes: Causes,
+    /// Whether the CPU has AVX2 (asked once).
+    avx2: bool,
     pending: Vec<(u16, u16)>,
     pending_t: Option<u64>,
     conv: [ConvState; 3],
@@ -102,7 +107,9 @@ impl WindowState {
             pushed: 0,
             pixel_fired: vec![0; c.width * c.height],
             pixel_time: vec![0; c.width * c.height],
-            inputs: Inputs::new(c.width, c.height),
+            inputs: 0,
+            causes: Causes::new(&g),
+            avx2: has_avx2(),
             pending: Vec::new(),
             pending_t: None,
             conv: g.conv.map(ConvState::new),
@@ -185,7 +192,8 @@ impl WindowState {
         self.t0 = t0;
         self.last_t = None;
         self.pushed = 0;
-        self.inputs.clear();
+        self.inputs = 0;
+        self.causes.reset();
         self.pending.clear();
         self.pending_t = None;
         self.thresholds.clear();
@@ -228,6 +236,7 @@ impl WindowState {
             for p in &mut self.pool {
                 p.clear_stamps();
             }
+            self.causes.clear_stamps();
             self.generation = 1;
         }
     }
@@ -335,7 +344,7 @@ impl WindowState {
         if self.pixel_fired[pixel] != self.generation {
             self.pixel_fired[pixel] = self.generation;
             self.pixel_time[pixel] = t;
-            self.inputs.push(x, y);
+            self.inputs += 1;
             self.pending.push((x, y));
             self.pending_t = Some(t);
         }
@@ -436,16 +445,34 @@ impl WindowState {
             if layer == 2 {
                 // Detections of one group in (map, row, col) order, as spikes are reported.
                 crossings.sort_unstable_by_key(|c| (c.map, c.pos));
+                let window = cause::Window {
+                    geom: &self.geom,
+                    avx2: self.avx2,
+                    width: self.width,
+                    generation,
+                    pixel_fired: &self.pixel_fired,
+                    pixel_time: &self.pixel_time,
+                    pool: &self.pool,
+                };
                 for c in &crossings {
                     let (row, col) = split.div_rem(c.pos as usize);
                     let (rows, cols) = self.geom.conv3_receptive_field(row, col);
+                    let causes = self.causes.conv3_box(&window, c.pos as usize, t);
                     self.detections
-                        .push(detection(t, c.map, row, col, &rows, &cols, &self.inputs));
+                        .push(detection(t, c.map, row, col, &rows, &cols, causes));
                 }
                 break;
             }
             if 2 * layer + 1 >= depth {
                 break;
+            }
+            if self.training.is_none() {
+                // What the boxes of detections follow (see `cause`).
+                let maps = self.geom.conv[layer].maps;
+                for c in &crossings {
+                    self.causes
+                        .record(layer, c.pos as usize * maps + c.map as usize, t);
+                }
             }
             pool_out.clear();
             for c in &crossings {
@@ -492,7 +519,7 @@ impl WindowState {
 
     /// Number of input spikes (distinct pixels) taken so far in the window.
     pub fn input_count(&self) -> usize {
-        self.inputs.len()
+        self.inputs
     }
 
     /// A layer's spikes, sorted by `(t, map, row, col)` after [`Self::finish`]; empty unless

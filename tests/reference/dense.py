@@ -47,7 +47,7 @@ CONV_LAYERS = ("conv1", "conv2", "conv3")
 SPIKE_DTYPE = np.dtype([("t", "<u8"), ("map", "<u2"), ("row", "<u2"), ("col", "<u2"), ("v", "<f4")])
 # A conv3 spike as a detection (§5), in continuous sensor coordinates where pixel (x, y) covers
 # [x, x + 1) × [y, y + 1): the centre (x, y) of its receptive field and the half-open box
-# [x0, x1) × [y0, y1) of the window's input spikes of time <= t inside that field.
+# [x0, x1) × [y0, y1) of the input spikes that caused it (§5, ``_causes``).
 DETECTION_DTYPE = np.dtype(
     [
         ("t", "<u8"),
@@ -402,8 +402,52 @@ def receptive_field(config: dict, layer: str, row: int, col: int) -> tuple[int, 
     return x0, y0, x1, y1
 
 
-def _detections(config: dict, frame: np.ndarray, conv3: np.ndarray, t0: int) -> np.ndarray:
+def _causes(
+    config: dict, times: dict, layer: str, m: int, row: int, col: int, t: float, memo: dict
+) -> frozenset:
+    """§5: the input pixels ``(y, x)`` that caused neuron ``(m, row, col)`` of ``layer`` to
+    fire at ``t`` (relative time).
+
+    A conv neuron's causes are the inputs of its receptive field (every channel) that fired at or
+    before ``t``; a pool neuron's are the neurons of its map ``m`` in its block that fired at
+    ``t``, its first spikes. Pixels cause themselves. A neuron fires at most once per window, so
+    its causes are memoized by neuron.
+    """
+    key = (layer, m, row, col)
+    if key in memo:
+        return memo[key]
+    below = LAYERS[LAYERS.index(layer) - 1] if layer != "conv1" else "input"
+    source = times[below]
+    _, height, width = source.shape
+    k = int(config[layer]["kernel"])
+    out: set = set()
+    if _layer_kind(layer) == "conv":
+        p_lo = _padding_lo(config["padding"], k)
+        ys = range(max(row - p_lo, 0), min(row - p_lo + k, height))
+        xs = range(max(col - p_lo, 0), min(col - p_lo + k, width))
+        for c in range(source.shape[0]):
+            for iy in ys:
+                for ix in xs:
+                    tb = float(source[c, iy, ix])
+                    if tb > t:
+                        continue  # not fired, or fired later
+                    if below == "input":
+                        out.add((iy, ix))
+                    else:
+                        out |= _causes(config, times, below, c, iy, ix, tb, memo)
+    else:
+        s = int(config[layer]["stride"])
+        for y in range(row * s, min(row * s + k, height)):
+            for x in range(col * s, min(col * s + k, width)):
+                if float(source[m, y, x]) == t:
+                    out |= _causes(config, times, below, m, y, x, t, memo)
+    memo[key] = frozenset(out)
+    return memo[key]
+
+
+def _detections(config: dict, times: dict, conv3: np.ndarray, t0: int) -> np.ndarray:
     out = np.zeros(len(conv3), dtype=DETECTION_DTYPE)
+    memo: dict = {}
     for i, spike in enumerate(conv3):
         x0, y0, x1, y1 = receptive_field(config, "conv3", int(spike["row"]), int(spike["col"]))
         out[i]["t"] = spike["t"]
@@ -413,12 +457,16 @@ def _detections(config: dict, frame: np.ndarray, conv3: np.ndarray, t0: int) -> 
         # The middle of the half-open field [x0, x1 + 1) × [y0, y1 + 1).
         out[i]["x"] = (x0 + x1 + 1) / 2
         out[i]["y"] = (y0 + y1 + 1) / 2
-        field = frame[0, y0 : y1 + 1, x0 : x1 + 1]
-        ys, xs = np.nonzero(field <= np.float32(int(spike["t"]) - t0))
-        # A conv3 spike always has at least one input spike of time <= t in its field (with a
-        # positive threshold); the box is half-open: one past the largest x and y.
-        out[i]["x0"], out[i]["x1"] = x0 + xs.min(), x0 + xs.max() + 1
-        out[i]["y0"], out[i]["y1"] = y0 + ys.min(), y0 + ys.max() + 1
+        t = float(np.float32(int(spike["t"]) - t0))
+        m, row, col = int(spike["map"]), int(spike["row"]), int(spike["col"])
+        pixels = _causes(config, times, "conv3", m, row, col, t, memo)
+        if pixels:  # half-open: one past the largest x and y
+            ys, xs = zip(*pixels, strict=True)
+            out[i]["x0"], out[i]["x1"] = min(xs), max(xs) + 1
+            out[i]["y0"], out[i]["y1"] = min(ys), max(ys) + 1
+        else:  # degenerate: the receptive field itself
+            out[i]["x0"], out[i]["x1"] = x0, x1 + 1
+            out[i]["y0"], out[i]["y1"] = y0, y1 + 1
     return out
 
 
@@ -445,7 +493,7 @@ def run_window(
     times, potentials, thresholds = _forward(config, weights, frame, n_in)
     result = {layer: _spikes(times[layer], potentials.get(layer), int(t0)) for layer in LAYERS}
     result["thresholds"] = thresholds["conv1"]
-    result["detections"] = _detections(config, frame, result["conv3"], int(t0))
+    result["detections"] = _detections(config, times, result["conv3"], int(t0))
     return result
 
 

@@ -1,0 +1,183 @@
+//! The input spikes that caused a detection (docs/model.md §5), for its box.
+//!
+//! A conv neuron that fires at `t` was caused by the inputs of its receptive field that fired at
+//! or before `t` (they are what its potential summed); a pool neuron that fires at `t` by the
+//! neurons of its map in its block that fired at `t` (its first spikes). Following these links
+//! down from a conv3 spike reaches the sensor pixels that caused it; its box is their bounding
+//! box.
+//!
+//! Nothing of this runs per event: conv1 and conv2 spikes are only logged as they happen (one
+//! push each). When a conv3 neuron fires, the log is indexed into per-neuron stamps and the links
+//! are followed, with every pool neuron's box kept once computed in the window, so a window's
+//! boxes together cost at most one visit of each pool neuron's block and each conv neuron's
+//! receptive field that some detection reaches.
+
+use super::conv::fired_mask;
+use super::geometry::{Divider, Geometry};
+use super::pool::PoolState;
+
+/// A half-open pixel box `(x0, y0, x1, y1)`; `EMPTY` holds no pixel.
+pub(crate) type PixelBox = (u16, u16, u16, u16);
+
+const EMPTY: PixelBox = (u16::MAX, u16::MAX, 0, 0);
+
+fn union(a: PixelBox, b: PixelBox) -> PixelBox {
+    (a.0.min(b.0), a.1.min(b.1), a.2.max(b.2), a.3.max(b.3))
+}
+
+/// What the links are followed through: the window's pixels and pool layers.
+pub(crate) struct Window<'a> {
+    pub geom: &'a Geometry,
+    /// Whether the CPU has AVX2 (for the stamp tests).
+    pub avx2: bool,
+    pub width: usize,
+    pub generation: u32,
+    /// Per pixel: generation in which it fired, and when.
+    pub pixel_fired: &'a [u32],
+    pub pixel_time: &'a [u64],
+    pub pool: &'a [PoolState; 2],
+}
+
+/// Per-window state for the causes of detections (sized by the network's neurons).
+#[derive(Debug, Clone)]
+pub(crate) struct Causes {
+    /// conv1 and conv2 spikes of the window so far: (neuron `pos * maps + map`, time).
+    log: [Vec<(u32, u64)>; 2],
+    /// How many entries of each log are in `fired`/`time`.
+    indexed: [usize; 2],
+    /// Per conv1 / conv2 neuron: generation in which it fired, and when.
+    fired: [Vec<u32>; 2],
+    time: [Vec<u64>; 2],
+    /// Per pool1 / pool2 neuron: generation in which its box was computed, and the box.
+    done: [Vec<u32>; 2],
+    boxes: [Vec<PixelBox>; 2],
+    /// Division by each conv layer's output width, and by its input channels.
+    split: [Divider; 3],
+    channels: [Divider; 3],
+}
+
+impl Causes {
+    pub fn new(geom: &Geometry) -> Self {
+        let conv = |l: usize| geom.conv[l].neurons();
+        let pool = |l: usize| geom.pool[l].neurons();
+        Self {
+            log: [Vec::new(), Vec::new()],
+            indexed: [0; 2],
+            fired: [vec![0; conv(0)], vec![0; conv(1)]],
+            time: [vec![0; conv(0)], vec![0; conv(1)]],
+            done: [vec![0; pool(0)], vec![0; pool(1)]],
+            boxes: [vec![EMPTY; pool(0)], vec![EMPTY; pool(1)]],
+            split: geom.conv.map(|g| Divider::new(g.out_w)),
+            channels: geom.conv.map(|g| Divider::new(g.in_ch)),
+        }
+    }
+
+    /// Start a window.
+    pub fn reset(&mut self) {
+        for log in &mut self.log {
+            log.clear();
+        }
+        self.indexed = [0; 2];
+    }
+
+    /// Forget every stamp (after the window generation counter wrapped).
+    pub fn clear_stamps(&mut self) {
+        for v in self.fired.iter_mut().chain(&mut self.done) {
+            v.fill(0);
+        }
+    }
+
+    /// Log a spike of conv layer `layer` (0: conv1, 1: conv2) at neuron `pos * maps + map`.
+    #[inline]
+    pub fn record(&mut self, layer: usize, neuron: usize, t: u64) {
+        self.log[layer].push((neuron as u32, t));
+    }
+
+    /// The box of the pixels that caused conv3 neuron `pos` (any map) to fire at `t`, if any.
+    pub fn conv3_box(&mut self, w: &Window<'_>, pos: usize, t: u64) -> Option<PixelBox> {
+        for layer in 0..2 {
+            for &(n, tn) in &self.log[layer][self.indexed[layer]..] {
+                self.fired[layer][n as usize] = w.generation;
+                self.time[layer][n as usize] = tn;
+            }
+            self.indexed[layer] = self.log[layer].len();
+        }
+        let b = self.conv_box(w, 2, pos, t);
+        (b != EMPTY).then_some(b)
+    }
+
+    /// The box of the causes of conv layer `layer`'s neuron at `pos` firing at `t`: the inputs
+    /// of its receptive field that fired at or before `t`.
+    fn conv_box(&mut self, w: &Window<'_>, layer: usize, pos: usize, t: u64) -> PixelBox {
+        let g = w.geom.conv[layer];
+        let (oy, ox) = self.split[layer].div_rem(pos);
+        let (rows, cols) = (g.inputs_of(oy, g.in_h), g.inputs_of(ox, g.in_w));
+        let mut b = EMPTY;
+        if layer == 0 {
+            for iy in rows {
+                for ix in cols.clone() {
+                    let p = iy * w.width + ix;
+                    if w.pixel_fired[p] == w.generation && w.pixel_time[p] <= t {
+                        let (x, y) = (ix as u16, iy as u16);
+                        b = union(b, (x, y, x + 1, y + 1));
+                    }
+                }
+            }
+            return b;
+        }
+        // The pool inputs of each row `[col][map]` are contiguous: tested 64 at a time.
+        let below = &w.pool[layer - 1];
+        let (stamps, times) = (below.stamps(), below.times());
+        let channels = self.channels[layer];
+        for iy in rows {
+            let from = (iy * below.geom.out_w + cols.start) * g.in_ch;
+            let row = &stamps[from..from + cols.len() * g.in_ch];
+            for (chunk, st) in row.chunks(64).enumerate() {
+                let mut mask = fired_mask(w.avx2, st, w.generation);
+                while mask != 0 {
+                    let l = chunk * 64 + mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    let tq = times[from + l];
+                    if tq <= t {
+                        let (dx, c) = channels.div_rem(l);
+                        let ix = cols.start + dx;
+                        b = union(b, self.pool_box(w, layer - 1, c, iy, ix, tq));
+                    }
+                }
+            }
+        }
+        b
+    }
+
+    /// The box of the causes of pool layer `layer`'s neuron `(map, qy, qx)`, which fired at
+    /// `tq`: the neurons of `map` in its block that fired at `tq`.
+    fn pool_box(
+        &mut self,
+        w: &Window<'_>,
+        layer: usize,
+        map: usize,
+        qy: usize,
+        qx: usize,
+        tq: u64,
+    ) -> PixelBox {
+        let pg = w.geom.pool[layer];
+        let i = (qy * pg.out_w + qx) * pg.maps + map;
+        if self.done[layer][i] == w.generation {
+            return self.boxes[layer][i];
+        }
+        let cg = w.geom.conv[layer];
+        let mut b = EMPTY;
+        for y in pg.inputs_of(qy, pg.in_h) {
+            for x in pg.inputs_of(qx, pg.in_w) {
+                let pos = y * cg.out_w + x;
+                let n = pos * cg.maps + map;
+                if self.fired[layer][n] == w.generation && self.time[layer][n] == tq {
+                    b = union(b, self.conv_box(w, layer, pos, tq));
+                }
+            }
+        }
+        self.done[layer][i] = w.generation;
+        self.boxes[layer][i] = b;
+        b
+    }
+}
