@@ -15,8 +15,10 @@ from uavsnn.dataset import LabelledWindows, SceneSource, build, load
 from uavsnn.errors import DatasetError, ParameterError, ShapeError
 from uavsnn.evaluation import (
     accuracy,
+    box_iou,
     confusion_matrix,
     evaluate,
+    first_detection_boxes,
     first_spike_in_box,
     score,
 )
@@ -118,6 +120,40 @@ def test_score_per_class_latency_and_pixels() -> None:
     d = e.to_dict()
     assert (d["tp"], d["fn"], d["fp"], d["tn"]) == (1, 1, 1, 1)
     assert d["latency_us"]["median"] == 20.0
+    # The true positive's first detection has the zero box: no overlap with [4, 5)², centres
+    # (0, 0) and (4.5, 4.5).
+    assert e.box_iou.tolist() == [0.0]
+    assert e.box_centre_error_px.tolist() == pytest.approx([np.hypot(4.5, 4.5)])
+    assert d["box_iou"]["n"] == 1
+
+
+def test_box_iou_on_hand_made_boxes() -> None:
+    a = np.array([[0, 0, 4, 4], [0, 0, 4, 4], [0, 0, 2, 2], [1, 1, 1, 1]], dtype=np.float64)
+    b = np.array([[0, 0, 4, 4], [2, 0, 6, 4], [5, 5, 6, 6], [1, 1, 1, 1]], dtype=np.float64)
+    # same box; half overlapping (8 / 24); apart; two empty boxes (nothing to overlap)
+    assert box_iou(a, b).tolist() == pytest.approx([1.0, 8 / 24, 0.0, 0.0])
+    with pytest.raises(ShapeError):
+        box_iou(a, b[:2])
+
+
+def test_first_detection_boxes_take_each_windows_first_row() -> None:
+    detections = np.zeros(3, dtype=WINDOW_DETECTION_DTYPE)
+    detections["window"] = [1, 1, 3]
+    detections["t"] = [5, 9, 2]
+    for k, v in zip(
+        ("x0", "y0", "x1", "y1"), ([1, 7, 2], [1, 7, 2], [3, 9, 4], [3, 9, 4]), strict=True
+    ):
+        detections[k] = v
+    inference = Inference(
+        detected=np.array([False, True, False, True]),
+        counts=np.zeros((4, 5), np.int64),
+        first_detection_t=np.array([0, 5, 0, 2], dtype=np.uint64),
+        detections=detections,
+        thresholds=np.zeros((4, 4), np.float32),
+    )
+    boxes = first_detection_boxes(inference, 4)
+    assert np.isnan(boxes[[0, 2]]).all()
+    assert boxes[1].tolist() == [1, 1, 3, 3] and boxes[3].tolist() == [2, 2, 4, 4]
 
 
 def test_evaluate_refuses_what_cannot_be_scored_honestly() -> None:

@@ -8,6 +8,8 @@ fire (:attr:`uavsnn.network.Inference.detected`). Beside the confusion matrix
 - latency in event time: from the first input spike of the window that falls inside the
   labelled UAV box to the first conv3 spike (and from the window's start), over the true
   positives;
+- where: over the true positives with a labelled box, the overlap (IoU) of the first
+  detection's box with the labelled UAV box, and the distance between their centres;
 - the fraction of the sensor's pixels that spiked per window (the paper's sparsity);
 - the cost: input spikes per second of wall time through :meth:`~uavsnn.Network.infer`, and
   nanoseconds per input spike.
@@ -37,9 +39,11 @@ __all__ = [
     "ClassFigures",
     "Evaluation",
     "accuracy",
+    "box_iou",
     "check_test_set",
     "confusion_matrix",
     "evaluate",
+    "first_detection_boxes",
     "first_spike_in_box",
     "score",
 ]
@@ -103,6 +107,10 @@ class Evaluation:
     min_detections: int
     predicted: np.ndarray = field(repr=False)
     inference: Inference | None = field(default=None, repr=False)
+    #: Over the true positives with a labelled box: IoU of the first detection's box with it.
+    box_iou: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
+    #: The same windows: distance (pixels) between the two boxes' centres.
+    box_centre_error_px: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
 
     @property
     def accuracy(self) -> float:
@@ -158,6 +166,8 @@ class Evaluation:
             },
             "latency_us": stats(self.latency_us),
             "latency_from_window_start_us": stats(self.latency_from_start_us),
+            "box_iou": stats(self.box_iou),
+            "box_centre_error_px": stats(self.box_centre_error_px),
             "pixel_fraction": self.pixel_fraction,
             "input_spikes": self.input_spikes,
             "seconds": self.seconds,
@@ -238,6 +248,11 @@ def score(
     reached = tp[first_in_box[tp] >= 0]
     latency = detection_t[reached] - first_in_box[reached]
     from_start = detection_t[tp] - w.t0[tp].astype(np.int64)
+    first_box = first_detection_boxes(inference, len(data))
+    labelled = np.asarray(data.box, dtype=np.float64)
+    located = tp[np.isfinite(labelled[tp]).all(axis=1)]
+    iou = box_iou(first_box[located], labelled[located])
+    centre = np.hypot(*(_centres(first_box[located]) - _centres(labelled[located])).T)
     width, height = w.sensor_size
     spikes = np.diff(np.asarray(w.offsets, dtype=np.int64))
     min_detections = 1 if network is None else int(network.config["detection"]["min_detections"])
@@ -252,7 +267,39 @@ def score(
         min_detections=min_detections,
         predicted=predicted,
         inference=inference if keep_inference else None,
+        box_iou=iou,
+        box_centre_error_px=centre,
     )
+
+
+def first_detection_boxes(inference: Inference, windows: int) -> np.ndarray:
+    """Per window, the box ``x0, y0, x1, y1`` (float64) of its first detection (the earliest,
+    then the first reported), NaN where it has none."""
+    out = np.full((windows, 4), np.nan)
+    found = inference.detections
+    if len(found):
+        # Detections come by window, then time: a window's first row is its first detection.
+        which, first = np.unique(found["window"], return_index=True)
+        rows = found[first]
+        out[which] = np.stack([rows[k] for k in ("x0", "y0", "x1", "y1")], axis=1)
+    return out
+
+
+def box_iou(a: npt.ArrayLike, b: npt.ArrayLike) -> np.ndarray:
+    """Intersection over union of boxes ``x0, y0, x1, y1`` (half-open), row by row."""
+    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
+    if a.shape != b.shape or a.shape[-1:] != (4,):
+        raise ShapeError(f"boxes must be (n, 4) alike, got {a.shape} and {b.shape}")
+    iw = np.clip(np.minimum(a[:, 2], b[:, 2]) - np.maximum(a[:, 0], b[:, 0]), 0, None)
+    ih = np.clip(np.minimum(a[:, 3], b[:, 3]) - np.maximum(a[:, 1], b[:, 1]), 0, None)
+    inter = iw * ih
+    area = (a[:, 2] - a[:, 0]) * (a[:, 3] - a[:, 1]) + (b[:, 2] - b[:, 0]) * (b[:, 3] - b[:, 1])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(area - inter > 0, inter / (area - inter), 0.0)
+
+
+def _centres(boxes: np.ndarray) -> np.ndarray:
+    return np.stack([(boxes[:, 0] + boxes[:, 2]) / 2, (boxes[:, 1] + boxes[:, 3]) / 2], axis=1)
 
 
 def first_spike_in_box(windows: Any, boxes: npt.ArrayLike) -> np.ndarray:

@@ -210,6 +210,13 @@ def evaluation_markdown(evaluation: Evaluation) -> str:
             f"(90th percentile {lat['p90'] / 1000:.2f} ms); from the window's start, median "
             f"{start['median'] / 1000:.2f} ms."
         )
+    iou, off = d["box_iou"], d["box_centre_error_px"]
+    if iou["n"]:
+        lines.append(
+            f"Where, over {iou['n']} true positives with a labelled box: the first detection's "
+            f"box overlaps it with a median IoU of {iou['median']:.2f}, and their centres lie a "
+            f"median {off['median']:.1f} px apart (90th percentile {off['p90']:.1f} px)."
+        )
     lines.append(
         f"Pixels that spiked per window: {100 * d['pixel_fraction']:.2f} % of the sensor. "
         f"Cost: {d['input_spikes']} input spikes in {d['seconds']:.3f} s of wall time, "

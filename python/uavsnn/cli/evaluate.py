@@ -82,6 +82,9 @@ def _evaluate(args: argparse.Namespace) -> int:
     if len(result.latency_us):
         median_ms = figures["latency_us"]["median"] / 1000
         print(f"latency (first UAV spike -> detection): median {median_ms:.2f} ms")
+    if len(result.box_iou):
+        iou, off = figures["box_iou"]["median"], figures["box_centre_error_px"]["median"]
+        print(f"first detection's box: median IoU {iou:.2f}, centre {off:.1f} px off the UAV's")
     print(
         f"pixels used {100 * result.pixel_fraction:.2f} %; {result.events_per_second / 1e6:.2f} M "
         f"spikes/s ({result.ns_per_event:.0f} ns each)"
