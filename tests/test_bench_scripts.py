@@ -67,3 +67,37 @@ def test_report_lines(bench, capsys):
     assert len(lines) == len(starts)
     for line, start in zip(lines, starts, strict=True):
         assert line.startswith(start), (line, start)
+
+
+COMPARE = Path(__file__).resolve().parents[1] / "benches" / "python" / "compare_boxes.py"
+
+
+def test_compare_boxes_rebuilds_the_field_box_and_scores_it() -> None:
+    import numpy as np
+
+    from uavsnn.network import WINDOW_DETECTION_DTYPE, Inference
+    from uavsnn.windows import Windows
+
+    spec = importlib.util.spec_from_file_location("compare_boxes", COMPARE)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    # One window on a 40x30 sensor: spikes at (2, 3) t=1, (5, 4) t=2 and (30, 25) t=9; one
+    # detection of conv3 (0, 0) at t=2, whose field (default config) covers the whole sensor.
+    config = apply_overrides(default_config(), ["width=40", "height=30"])
+    net = Network(config, seed=0)
+    w = Windows(
+        (40, 30), 50, np.zeros(1, np.uint64), np.array([0, 3]), np.array([1, 2, 9]),
+        np.array([2, 5, 30]), np.array([3, 4, 25]), np.zeros(1, np.int64),
+    )  # fmt: skip
+    d = np.zeros(1, dtype=WINDOW_DETECTION_DTYPE)
+    d["t"] = 2
+    inference = Inference(
+        detected=np.array([True]), counts=np.zeros((1, 5), np.int64),
+        first_detection_t=np.array([2], np.uint64), detections=d,
+        thresholds=np.zeros((1, 4), np.float32),
+    )  # fmt: skip
+    boxes = module.field_boxes(net, w, inference, np.array([0]))
+    assert boxes.tolist() == [[2, 3, 6, 5]]  # the later spike at t=9 is left out
+    f = module.figures(boxes, np.array([[2.0, 3.0, 6.0, 5.0]]))
+    assert f["iou_median"] == 1.0 and f["centre_error_px_median"] == 0.0
+    assert (f["width_median"], f["height_median"]) == (4.0, 2.0)
