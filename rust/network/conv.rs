@@ -390,28 +390,20 @@ impl ConvState {
             let (oy, ox) = self.split.div_rem(p);
             let pot = &mut self.pot[p * maps..(p + 1) * maps];
             pot.fill(0.0);
-            let cols = g.inputs_of(ox, g.in_w);
-            for iy in g.inputs_of(oy, g.in_h) {
-                let dy = iy + g.p_lo - oy;
-                // The row's inputs `[col][channel]` are contiguous: test them 64 at a time
-                // without branching, then visit only those that fired.
-                let from = (iy * fired.width + cols.start) * fired.channels;
-                let row = &fired.stamps[from..from + cols.len() * fired.channels];
-                for (chunk, stamps) in row.chunks(64).enumerate() {
-                    let mut mask = fired_mask(self.avx2, stamps, fired.generation);
-                    while mask != 0 {
-                        let l = chunk * 64 + mask.trailing_zeros() as usize;
-                        mask &= mask - 1;
-                        let (dx, c) = self.input_split[l];
-                        let ix = cols.start + dx as usize;
-                        let j = g.k - 1 - (ix + g.p_lo - ox);
-                        let ws = ((c as usize * g.k + dy) * g.k + j) * maps;
-                        for (v, &x) in pot.iter_mut().zip(&w[ws..ws + maps]) {
-                            *v += x;
-                        }
+            each_fired_input(
+                &g,
+                fired,
+                &self.input_split,
+                self.avx2,
+                oy,
+                ox,
+                |c, dy, dx| {
+                    let ws = ((c * g.k + dy) * g.k + (g.k - 1 - dx)) * maps;
+                    for (v, &x) in pot.iter_mut().zip(&w[ws..ws + maps]) {
+                        *v += x;
                     }
-                }
-            }
+                },
+            );
             for (m, &v) in pot.iter().enumerate() {
                 if v >= self.thr_lo[m] {
                     self.candidates.push((pos, m as u32));
@@ -428,24 +420,18 @@ impl ConvState {
         let g = self.geom;
         let (oy, ox) = self.split.div_rem(pos);
         let kernel = &kernels[map * g.kernel_len()..(map + 1) * g.kernel_len()];
-        let cols = g.inputs_of(ox, g.in_w);
         let mut v = 0.0;
-        for iy in g.inputs_of(oy, g.in_h) {
-            let dy = iy + g.p_lo - oy;
-            // As in `wake`: the row's inputs `[col][channel]` tested 64 at a time.
-            let from = (iy * fired.width + cols.start) * fired.channels;
-            let row = &fired.stamps[from..from + cols.len() * fired.channels];
-            for (chunk, stamps) in row.chunks(64).enumerate() {
-                let mut mask = fired_mask(self.avx2, stamps, fired.generation);
-                while mask != 0 {
-                    let l = chunk * 64 + mask.trailing_zeros() as usize;
-                    mask &= mask - 1;
-                    let (dx, c) = self.input_split[l];
-                    let dx = cols.start + dx as usize + g.p_lo - ox;
-                    v += f64::from(kernel[(c as usize * g.k + dy) * g.k + dx]);
-                }
-            }
-        }
+        each_fired_input(
+            &g,
+            fired,
+            &self.input_split,
+            self.avx2,
+            oy,
+            ox,
+            |c, dy, dx| {
+                v += f64::from(kernel[(c * g.k + dy) * g.k + dx]);
+            },
+        );
         v
     }
 
@@ -605,6 +591,37 @@ impl ConvState {
             std::cmp::Ordering::Greater => true,
             std::cmp::Ordering::Equal => a.map < b.map,
             std::cmp::Ordering::Less => false,
+        }
+    }
+}
+
+/// Call `f(c, dy, dx)` for every input of output `(oy, ox)`'s receptive field that fired
+/// (kernel offsets `dy`, `dx`, channel `c`). A row's inputs `[col][channel]` are contiguous:
+/// they are tested 64 at a time without branching, and only those that fired are visited.
+/// `split` maps a lane of a row to its (column offset, channel).
+#[inline]
+fn each_fired_input(
+    g: &ConvGeom,
+    fired: Fired<'_>,
+    split: &[(u32, u32)],
+    avx2: bool,
+    oy: usize,
+    ox: usize,
+    mut f: impl FnMut(usize, usize, usize),
+) {
+    let cols = g.inputs_of(ox, g.in_w);
+    for iy in g.inputs_of(oy, g.in_h) {
+        let dy = iy + g.p_lo - oy;
+        let from = (iy * fired.width + cols.start) * fired.channels;
+        let row = &fired.stamps[from..from + cols.len() * fired.channels];
+        for (chunk, stamps) in row.chunks(64).enumerate() {
+            let mut mask = fired_mask(avx2, stamps, fired.generation);
+            while mask != 0 {
+                let l = chunk * 64 + mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                let (col, c) = split[l];
+                f(c as usize, dy, cols.start + col as usize + g.p_lo - ox);
+            }
         }
     }
 }
