@@ -6,11 +6,11 @@
 //! down from a conv3 spike reaches the sensor pixels that caused it; its box is their bounding
 //! box.
 //!
-//! Nothing of this runs per event: conv1 and conv2 spikes are only logged as they happen (one
-//! push each). When a conv3 neuron fires, the log is indexed into per-neuron stamps and the links
-//! are followed, with every pool neuron's box kept once computed in the window, so a window's
-//! boxes together cost at most one visit of each pool neuron's block and each conv neuron's
-//! receptive field that some detection reaches.
+//! Per event, only the pool layers note their causes (one bit per conv spike that lands in a
+//! pool neuron as it fires, see `PoolState::on_spike`). When a conv3 neuron fires, the links are
+//! followed, with every pool neuron's box kept once computed in the window, so a window's boxes
+//! together cost at most one visit of each conv neuron's receptive field that some detection
+//! reaches.
 
 use super::conv::fired_mask;
 use super::geometry::{Divider, Geometry};
@@ -38,70 +38,40 @@ pub(crate) struct Window<'a> {
     pub pool: &'a [PoolState; 2],
 }
 
-/// Per-window state for the causes of detections (sized by the network's neurons).
+/// Per-window state for the boxes of detections: each pool neuron's box, once computed.
 #[derive(Debug, Clone)]
 pub(crate) struct Causes {
-    /// conv1 and conv2 spikes of the window so far: (neuron `pos * maps + map`, time).
-    log: [Vec<(u32, u64)>; 2],
-    /// How many entries of each log are in `fired`/`time`.
-    indexed: [usize; 2],
-    /// Per conv1 / conv2 neuron: generation in which it fired, and when.
-    fired: [Vec<u32>; 2],
-    time: [Vec<u64>; 2],
     /// Per pool1 / pool2 neuron: generation in which its box was computed, and the box.
     done: [Vec<u32>; 2],
     boxes: [Vec<PixelBox>; 2],
     /// Division by each conv layer's output width, and by its input channels.
     split: [Divider; 3],
     channels: [Divider; 3],
+    /// Division by each pool layer's kernel side (block bit → block row and column).
+    side: [Divider; 2],
 }
 
 impl Causes {
     pub fn new(geom: &Geometry) -> Self {
-        let conv = |l: usize| geom.conv[l].neurons();
         let pool = |l: usize| geom.pool[l].neurons();
         Self {
-            log: [Vec::new(), Vec::new()],
-            indexed: [0; 2],
-            fired: [vec![0; conv(0)], vec![0; conv(1)]],
-            time: [vec![0; conv(0)], vec![0; conv(1)]],
             done: [vec![0; pool(0)], vec![0; pool(1)]],
             boxes: [vec![EMPTY; pool(0)], vec![EMPTY; pool(1)]],
             split: geom.conv.map(|g| Divider::new(g.out_w)),
             channels: geom.conv.map(|g| Divider::new(g.in_ch)),
+            side: geom.pool.map(|g| Divider::new(g.k)),
         }
-    }
-
-    /// Start a window.
-    pub fn reset(&mut self) {
-        for log in &mut self.log {
-            log.clear();
-        }
-        self.indexed = [0; 2];
     }
 
     /// Forget every stamp (after the window generation counter wrapped).
     pub fn clear_stamps(&mut self) {
-        for v in self.fired.iter_mut().chain(&mut self.done) {
+        for v in &mut self.done {
             v.fill(0);
         }
     }
 
-    /// Log a spike of conv layer `layer` (0: conv1, 1: conv2) at neuron `pos * maps + map`.
-    #[inline]
-    pub fn record(&mut self, layer: usize, neuron: usize, t: u64) {
-        self.log[layer].push((neuron as u32, t));
-    }
-
     /// The box of the pixels that caused conv3 neuron `pos` (any map) to fire at `t`, if any.
     pub fn conv3_box(&mut self, w: &Window<'_>, pos: usize, t: u64) -> Option<PixelBox> {
-        for layer in 0..2 {
-            for &(n, tn) in &self.log[layer][self.indexed[layer]..] {
-                self.fired[layer][n as usize] = w.generation;
-                self.time[layer][n as usize] = tn;
-            }
-            self.indexed[layer] = self.log[layer].len();
-        }
         let b = self.conv_box(w, 2, pos, t);
         (b != EMPTY).then_some(b)
     }
@@ -167,13 +137,14 @@ impl Causes {
         }
         let cg = w.geom.conv[layer];
         let mut b = EMPTY;
-        for y in pg.inputs_of(qy, pg.in_h) {
-            for x in pg.inputs_of(qx, pg.in_w) {
-                let pos = y * cg.out_w + x;
-                let n = pos * cg.maps + map;
-                if self.fired[layer][n] == w.generation && self.time[layer][n] == tq {
-                    b = union(b, self.conv_box(w, layer, pos, tq));
-                }
+        for (word_index, &word) in w.pool[layer].causes_of(map, qy, qx).iter().enumerate() {
+            let mut m = word;
+            while m != 0 {
+                let bit = word_index * 64 + m.trailing_zeros() as usize;
+                m &= m - 1;
+                let (dy, dx) = self.side[layer].div_rem(bit);
+                let pos = (qy * pg.stride + dy) * cg.out_w + qx * pg.stride + dx;
+                b = union(b, self.conv_box(w, layer, pos, tq));
             }
         }
         self.done[layer][i] = w.generation;

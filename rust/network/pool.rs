@@ -14,6 +14,10 @@ pub(crate) struct PoolState {
     fired: Vec<u32>,
     /// Its firing time (meaningful only where `fired` is the current generation).
     time: Vec<u64>,
+    /// Per neuron, `words` bit words over its `k × k` block (row-major): which conv neurons of
+    /// its map fired at its firing time (its causes, for boxes; meaningful where it fired).
+    causes: Vec<u64>,
+    words: usize,
     /// Division by the stride.
     stride: Divider,
 }
@@ -25,6 +29,8 @@ impl PoolState {
             geom,
             fired: vec![0; n],
             time: vec![0; n],
+            causes: vec![0; n * (geom.k * geom.k).div_ceil(64)],
+            words: (geom.k * geom.k).div_ceil(64),
             stride: Divider::new(geom.stride),
         }
     }
@@ -35,7 +41,8 @@ impl PoolState {
     }
 
     /// A spike of map `map` at conv position `(row, col)` at time `t`: fire every pool neuron of
-    /// that map whose block holds it and that has not fired yet.
+    /// that map whose block holds it and that has not fired yet, and note the spike as a cause
+    /// of those that fire at `t`.
     #[inline]
     pub fn on_spike(
         &mut self,
@@ -50,11 +57,17 @@ impl PoolState {
         for qy in self.outputs_of(row, g.out_h) {
             for qx in self.outputs_of(col, g.out_w) {
                 let i = (qy * g.out_w + qx) * g.maps + map as usize;
+                let bit = (row - qy * g.stride) * g.k + (col - qx * g.stride);
+                let words = &mut self.causes[i * self.words..(i + 1) * self.words];
                 if self.fired[i] != generation {
                     self.fired[i] = generation;
                     self.time[i] = t;
+                    words.fill(0);
                     out.push((map, qy as u32, qx as u32));
+                } else if self.time[i] != t {
+                    continue; // fired earlier: this spike is not one of its causes
                 }
+                words[bit / 64] |= 1 << (bit % 64);
             }
         }
     }
@@ -78,6 +91,15 @@ impl PoolState {
     /// The firing times, `[row][col][map]` (meaningful where the stamp is the generation).
     pub fn times(&self) -> &[u64] {
         &self.time
+    }
+
+    /// Which conv neurons of map `map` caused pool neuron `(map, qy, qx)` to fire (meaningful
+    /// where it fired in this window): bit `b` of the words is block position
+    /// `(qy · stride + b / k, qx · stride + b mod k)`.
+    pub fn causes_of(&self, map: usize, qy: usize, qx: usize) -> &[u64] {
+        let g = self.geom;
+        let i = (qy * g.out_w + qx) * g.maps + map;
+        &self.causes[i * self.words..(i + 1) * self.words]
     }
 
     /// When pool neuron `(map, row, col)` fired in this window, if it did.

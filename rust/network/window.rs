@@ -193,7 +193,6 @@ impl WindowState {
         self.last_t = None;
         self.pushed = 0;
         self.inputs = 0;
-        self.causes.reset();
         self.pending.clear();
         self.pending_t = None;
         self.thresholds.clear();
@@ -465,14 +464,6 @@ impl WindowState {
             }
             if 2 * layer + 1 >= depth {
                 break;
-            }
-            if self.training.is_none() {
-                // What the boxes of detections follow (see `cause`).
-                let maps = self.geom.conv[layer].maps;
-                for c in &crossings {
-                    self.causes
-                        .record(layer, c.pos as usize * maps + c.map as usize, t);
-                }
             }
             pool_out.clear();
             for c in &crossings {
