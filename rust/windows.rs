@@ -415,14 +415,7 @@ pub fn make_windows<E: EventSource + ?Sized>(
     };
     let runs = plan_runs(grid.n, events.len());
     if step == config.length_us {
-        Ok(build_disjoint(
-            events,
-            sensor,
-            grid,
-            end,
-            config.median,
-            &runs,
-        ))
+        build_disjoint(events, sensor, grid, end, config.median, &runs)
     } else {
         build(events, sensor, grid, end, config.median, &runs)
     }

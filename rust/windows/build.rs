@@ -40,6 +40,40 @@ fn column<T: Clone + Default>(name: &'static str, len: usize) -> Result<Vec<T>> 
     Ok(v)
 }
 
+/// Integer types whose all-zero bit pattern is the value 0 (what `zeroed` may hand out).
+///
+/// # Safety
+/// Implementors must be plain integers: every bit pattern valid, all-zero meaning 0.
+unsafe trait Zero: Copy {}
+// SAFETY: plain integers.
+unsafe impl Zero for u16 {}
+// SAFETY: plain integers.
+unsafe impl Zero for u64 {}
+
+/// A column of `len` zeros whose untouched pages the system maps only when written (like
+/// `vec![0; len]`), or an error instead of an abort when the memory is not there.
+fn zeroed<T: Zero>(len: usize) -> Result<Vec<T>> {
+    let short = || {
+        Error::param(
+            "events",
+            format!("room for {len} spikes does not fit in memory; window a shorter range"),
+        )
+    };
+    if len == 0 {
+        return Ok(Vec::new());
+    }
+    let layout = std::alloc::Layout::array::<T>(len).map_err(|_| short())?;
+    // SAFETY: the layout has a non-zero size (len > 0 and T is an integer).
+    let ptr = unsafe { std::alloc::alloc_zeroed(layout) }.cast::<T>();
+    if ptr.is_null() {
+        return Err(short());
+    }
+    // SAFETY: `ptr` was allocated by the global allocator with the layout of `[T; len]`, which is
+    // what a boxed slice of `len` values frees; its values are zeros, valid for `T: Zero`.
+    let column = unsafe { Box::from_raw(std::ptr::slice_from_raw_parts_mut(ptr, len)) };
+    Ok(column.into_vec())
+}
+
 /// The windows of `grid`, run by run in parallel: a counting sweep sizes every window and keeps
 /// the events that are their pixel's first in some window (with that range of windows), then a
 /// filling pass writes each of them straight to its final places in the columns. The output is
@@ -54,13 +88,13 @@ pub(super) fn build<E: EventSource + ?Sized>(
 ) -> Result<Windows> {
     let counted: Vec<(Vec<usize>, Vec<u64>, Firsts)> = runs
         .par_iter()
-        .map(|&(ka, kb)| {
+        .map(|&(ka, kb)| -> Result<_> {
             // Spike counts and n_preceding as difference arrays: each event adds 1 to a range
             // of windows (maybe empty, which adds nothing: no branch on it).
             let mut spikes = vec![0i64; kb - ka + 1];
             let mut diff = vec![0i64; kb - ka + 1];
             let (i0, i1) = event_range(events, grid, (ka, kb), end);
-            let mut firsts = Firsts::with_room(i1 - i0);
+            let mut firsts = Firsts::with_room(i1 - i0)?;
             sweep(
                 events,
                 sensor,
@@ -89,9 +123,9 @@ pub(super) fn build<E: EventSource + ?Sized>(
             };
             let counts = running(&spikes).into_iter().map(|c| c as usize).collect();
             let preceding = running(&diff).into_iter().map(|c| c as u64).collect();
-            (counts, preceding, firsts)
+            Ok((counts, preceding, firsts))
         })
-        .collect();
+        .collect::<Result<_>>()?;
 
     let mut offsets = Vec::with_capacity(grid.n + 1);
     let mut n_preceding = Vec::with_capacity(grid.n);
@@ -208,14 +242,14 @@ pub(super) fn build_disjoint<E: EventSource + ?Sized>(
     end: u64,
     median: bool,
     runs: &[(usize, usize)],
-) -> Windows {
+) -> Result<Windows> {
     let parts: Vec<Windows> = runs
         .par_iter()
         .map(|&(ka, kb)| disjoint_run(events, sensor, grid, end, median, (ka, kb)))
-        .collect();
+        .collect::<Result<_>>()?;
     let mut parts = parts.into_iter();
     let Some(mut w) = parts.next() else {
-        return Windows::empty(sensor, grid.length);
+        return Ok(Windows::empty(sensor, grid.length));
     };
     for part in parts {
         let base = w.t.len();
@@ -226,7 +260,7 @@ pub(super) fn build_disjoint<E: EventSource + ?Sized>(
         w.y.extend_from_slice(&part.y);
         w.n_preceding.extend_from_slice(&part.n_preceding);
     }
-    w
+    Ok(w)
 }
 
 /// Windows `ka..kb` of a disjoint grid (see [`build_disjoint`]).
@@ -240,7 +274,7 @@ fn disjoint_run<E: EventSource + ?Sized>(
     end: u64,
     median: bool,
     (ka, kb): (usize, usize),
-) -> Windows {
+) -> Result<Windows> {
     let n = kb - ka;
     let length = grid.length;
     let first = grid.t0(ka);
@@ -251,7 +285,11 @@ fn disjoint_run<E: EventSource + ?Sized>(
     // At most one spike per event. Zeroed columns are mapped lazily, so the untouched room
     // costs no memory, and is given back at the end.
     let room = i1.saturating_sub(i0);
-    let (mut t, mut x, mut y) = (vec![0u64; room], vec![0u16; room], vec![0u16; room]);
+    let (mut t, mut x, mut y) = (
+        zeroed::<u64>(room)?,
+        zeroed::<u16>(room)?,
+        zeroed::<u16>(room)?,
+    );
     let mut offsets = Vec::with_capacity(n + 1);
     offsets.push(0);
     let mut filter = median.then(|| MedianFilter::new(sensor));
@@ -296,7 +334,7 @@ fn disjoint_run<E: EventSource + ?Sized>(
     t.truncate(len);
     t.shrink_to_fit();
     counts.truncate(n);
-    Windows {
+    Ok(Windows {
         sensor,
         length_us: length,
         t0: (ka..kb).map(|k| grid.t0(k)).collect(),
@@ -305,7 +343,7 @@ fn disjoint_run<E: EventSource + ?Sized>(
         x,
         y,
         n_preceding: counts,
-    }
+    })
 }
 
 /// End the window whose spikes are `columns[offsets.last()..len]`: filter them if asked, and
@@ -341,15 +379,15 @@ struct Firsts {
 }
 
 impl Firsts {
-    fn with_room(room: usize) -> Self {
-        Self {
-            t: vec![0; room],
-            x: vec![0; room],
-            y: vec![0; room],
-            a: vec![0; room],
-            b: vec![0; room],
+    fn with_room(room: usize) -> Result<Self> {
+        Ok(Self {
+            t: zeroed(room)?,
+            x: zeroed(room)?,
+            y: zeroed(room)?,
+            a: zeroed(room)?,
+            b: zeroed(room)?,
             len: 0,
-        }
+        })
     }
 
     /// Keep `e` if `a..b` is not empty, without a branch on it: the entry is always written
@@ -431,5 +469,27 @@ fn sweep<E: EventSource + ?Sized>(
         preceding(a, a.max(reach));
         // Run indices fit in u16: a run holds at most RUN_MAX_WINDOWS windows.
         *cell = [opened as u16, reach as u16];
+    }
+}
+
+#[cfg(test)]
+mod alloc_tests {
+    use super::*;
+
+    /// Columns too large for memory are an error, not an abort; small ones are zeros.
+    #[test]
+    fn zeroed_columns_fail_softly() {
+        assert_eq!(zeroed::<u16>(5).unwrap(), vec![0u16; 5]);
+        assert!(zeroed::<u64>(0).unwrap().is_empty());
+        // Beyond any layout, and beyond any address space (2^62 bytes).
+        assert!(matches!(
+            zeroed::<u64>(usize::MAX / 4),
+            Err(Error::InvalidParameter { .. })
+        ));
+        assert!(matches!(
+            zeroed::<u16>(1 << 61),
+            Err(Error::InvalidParameter { .. })
+        ));
+        assert!(Firsts::with_room(1 << 61).is_err());
     }
 }

@@ -248,7 +248,8 @@ proptest! {
             let many = build(&events, sensor, grid, start + span, median, &runs).unwrap();
             prop_assert_eq!(&one, &many);
             if config.step_us == length {
-                let disjoint = build_disjoint(&events, sensor, grid, start + span, median, &runs);
+                let disjoint =
+                    build_disjoint(&events, sensor, grid, start + span, median, &runs).unwrap();
                 prop_assert_eq!(&one, &disjoint);
             }
         }
