@@ -12,7 +12,7 @@
 //! together cost at most one visit of each conv neuron's receptive field that some detection
 //! reaches.
 
-use super::conv::fired_mask;
+use super::conv::{each_fired_input, has_avx2, Fired};
 use super::geometry::{Divider, Geometry};
 use super::pool::PoolState;
 
@@ -28,8 +28,8 @@ fn union(a: PixelBox, b: PixelBox) -> PixelBox {
 /// What the links are followed through: the window's pixels and pool layers.
 pub(crate) struct Window<'a> {
     pub geom: &'a Geometry,
-    /// Whether the CPU has AVX2 (for the stamp tests).
-    pub avx2: bool,
+    /// Each conv layer's lanes of a receptive field's row (`ConvState::input_split`).
+    pub splits: [&'a [(u32, u32)]; 3],
     pub width: usize,
     pub generation: u32,
     /// Per pixel: generation in which it fired, and when.
@@ -44,11 +44,12 @@ pub(crate) struct Causes {
     /// Per pool1 / pool2 neuron: generation in which its box was computed, and the box.
     done: [Vec<u32>; 2],
     boxes: [Vec<PixelBox>; 2],
-    /// Division by each conv layer's output width, and by its input channels.
+    /// Division by each conv layer's output width.
     split: [Divider; 3],
-    channels: [Divider; 3],
     /// Division by each pool layer's kernel side (block bit → block row and column).
     side: [Divider; 2],
+    /// Whether the CPU has AVX2 (asked once, for the stamp tests).
+    avx2: bool,
 }
 
 impl Causes {
@@ -58,8 +59,8 @@ impl Causes {
             done: [vec![0; pool(0)], vec![0; pool(1)]],
             boxes: [vec![EMPTY; pool(0)], vec![EMPTY; pool(1)]],
             split: geom.conv.map(|g| Divider::new(g.out_w)),
-            channels: geom.conv.map(|g| Divider::new(g.in_ch)),
             side: geom.pool.map(|g| Divider::new(g.k)),
+            avx2: has_avx2(),
         }
     }
 
@@ -81,41 +82,41 @@ impl Causes {
     fn conv_box(&mut self, w: &Window<'_>, layer: usize, pos: usize, t: u64) -> PixelBox {
         let g = w.geom.conv[layer];
         let (oy, ox) = self.split[layer].div_rem(pos);
-        let (rows, cols) = (g.inputs_of(oy, g.in_h), g.inputs_of(ox, g.in_w));
+        let (fired, times) = if layer == 0 {
+            let pixels = Fired {
+                stamps: w.pixel_fired,
+                width: w.width,
+                channels: 1,
+                generation: w.generation,
+            };
+            (pixels, w.pixel_time)
+        } else {
+            let below = &w.pool[layer - 1];
+            let pool = Fired {
+                stamps: below.stamps(),
+                width: below.geom.out_w,
+                channels: g.in_ch,
+                generation: w.generation,
+            };
+            (pool, below.times())
+        };
         let mut b = EMPTY;
-        if layer == 0 {
-            for iy in rows {
-                for ix in cols.clone() {
-                    let p = iy * w.width + ix;
-                    if w.pixel_fired[p] == w.generation && w.pixel_time[p] <= t {
-                        let (x, y) = (ix as u16, iy as u16);
-                        b = union(b, (x, y, x + 1, y + 1));
-                    }
-                }
+        let avx2 = self.avx2;
+        each_fired_input(&g, fired, w.splits[layer], avx2, oy, ox, |c, iy, ix| {
+            let tin = times[(iy * fired.width + ix) * fired.channels + c];
+            if tin > t {
+                return; // fired later: not a cause
             }
-            return b;
-        }
-        // The pool inputs of each row `[col][map]` are contiguous: tested 64 at a time.
-        let below = &w.pool[layer - 1];
-        let (stamps, times) = (below.stamps(), below.times());
-        let channels = self.channels[layer];
-        for iy in rows {
-            let from = (iy * below.geom.out_w + cols.start) * g.in_ch;
-            let row = &stamps[from..from + cols.len() * g.in_ch];
-            for (chunk, st) in row.chunks(64).enumerate() {
-                let mut mask = fired_mask(w.avx2, st, w.generation);
-                while mask != 0 {
-                    let l = chunk * 64 + mask.trailing_zeros() as usize;
-                    mask &= mask - 1;
-                    let tq = times[from + l];
-                    if tq <= t {
-                        let (dx, c) = channels.div_rem(l);
-                        let ix = cols.start + dx;
-                        b = union(b, self.pool_box(w, layer - 1, c, iy, ix, tq));
-                    }
-                }
-            }
-        }
+            b = union(
+                b,
+                if layer == 0 {
+                    let (x, y) = (ix as u16, iy as u16);
+                    (x, y, x + 1, y + 1)
+                } else {
+                    self.pool_box(w, layer - 1, c, iy, ix, tin)
+                },
+            );
+        });
         b
     }
 

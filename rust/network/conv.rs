@@ -160,6 +160,11 @@ impl ConvState {
         }
     }
 
+    /// Per lane of a receptive field's row `[col][channel]`: (column offset, channel).
+    pub fn input_split(&self) -> &[(u32, u32)] {
+        &self.input_split
+    }
+
     /// Divides a position index by the output width: `div_rem` gives `(row, col)`.
     #[inline]
     pub fn splitter(&self) -> Divider {
@@ -397,7 +402,8 @@ impl ConvState {
                 self.avx2,
                 oy,
                 ox,
-                |c, dy, dx| {
+                |c, iy, ix| {
+                    let (dy, dx) = (iy + g.p_lo - oy, ix + g.p_lo - ox);
                     let ws = ((c * g.k + dy) * g.k + (g.k - 1 - dx)) * maps;
                     for (v, &x) in pot.iter_mut().zip(&w[ws..ws + maps]) {
                         *v += x;
@@ -428,7 +434,8 @@ impl ConvState {
             self.avx2,
             oy,
             ox,
-            |c, dy, dx| {
+            |c, iy, ix| {
+                let (dy, dx) = (iy + g.p_lo - oy, ix + g.p_lo - ox);
                 v += f64::from(kernel[(c * g.k + dy) * g.k + dx]);
             },
         );
@@ -595,12 +602,12 @@ impl ConvState {
     }
 }
 
-/// Call `f(c, dy, dx)` for every input of output `(oy, ox)`'s receptive field that fired
-/// (kernel offsets `dy`, `dx`, channel `c`). A row's inputs `[col][channel]` are contiguous:
-/// they are tested 64 at a time without branching, and only those that fired are visited.
-/// `split` maps a lane of a row to its (column offset, channel).
+/// Call `f(c, iy, ix)` for every input `(channel, row, col)` of output `(oy, ox)`'s receptive
+/// field that fired. A row's inputs `[col][channel]` are contiguous: they are tested 64 at a time
+/// without branching, and only those that fired are visited; `split` maps a row's lane to its
+/// (column offset, channel) (`ConvState::input_split`).
 #[inline]
-fn each_fired_input(
+pub(crate) fn each_fired_input(
     g: &ConvGeom,
     fired: Fired<'_>,
     split: &[(u32, u32)],
@@ -611,7 +618,6 @@ fn each_fired_input(
 ) {
     let cols = g.inputs_of(ox, g.in_w);
     for iy in g.inputs_of(oy, g.in_h) {
-        let dy = iy + g.p_lo - oy;
         let from = (iy * fired.width + cols.start) * fired.channels;
         let row = &fired.stamps[from..from + cols.len() * fired.channels];
         for (chunk, stamps) in row.chunks(64).enumerate() {
@@ -620,7 +626,7 @@ fn each_fired_input(
                 let l = chunk * 64 + mask.trailing_zeros() as usize;
                 mask &= mask - 1;
                 let (col, c) = split[l];
-                f(c as usize, dy, cols.start + col as usize + g.p_lo - ox);
+                f(c as usize, iy, cols.start + col as usize);
             }
         }
     }
@@ -705,7 +711,7 @@ fn count_rows(
 
 /// Bit `b` set where `stamps[b] == generation`, for up to 64 stamps.
 #[inline]
-pub(crate) fn fired_mask(avx2: bool, stamps: &[u32], generation: u32) -> u64 {
+fn fired_mask(avx2: bool, stamps: &[u32], generation: u32) -> u64 {
     assert!(stamps.len() <= 64, "at most 64 stamps");
     #[cfg(target_arch = "x86_64")]
     if avx2 {

@@ -33,7 +33,7 @@
 
 use super::cause::{self, Causes};
 use super::config::NetworkConfig;
-use super::conv::{has_avx2, ConvState, Crossing, Fired};
+use super::conv::{ConvState, Crossing, Fired};
 use super::detection::{detection, Detection};
 use super::geometry::Geometry;
 use super::model::Network;
@@ -71,8 +71,6 @@ pub struct WindowState {
     /// Input spikes (distinct pixels) taken in the window.
     inputs: usize,
     causes: Causes,
-    /// Whether the CPU has AVX2 (asked once).
-    avx2: bool,
     pending: Vec<(u16, u16)>,
     pending_t: Option<u64>,
     conv: [ConvState; 3],
@@ -109,7 +107,6 @@ impl WindowState {
             pixel_time: vec![0; c.width * c.height],
             inputs: 0,
             causes: Causes::new(&g),
-            avx2: has_avx2(),
             pending: Vec::new(),
             pending_t: None,
             conv: g.conv.map(ConvState::new),
@@ -446,7 +443,11 @@ impl WindowState {
                 crossings.sort_unstable_by_key(|c| (c.map, c.pos));
                 let window = cause::Window {
                     geom: &self.geom,
-                    avx2: self.avx2,
+                    splits: [
+                        self.conv[0].input_split(),
+                        self.conv[1].input_split(),
+                        self.conv[2].input_split(),
+                    ],
                     width: self.width,
                     generation,
                     pixel_fired: &self.pixel_fired,
