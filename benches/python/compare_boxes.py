@@ -13,34 +13,24 @@ input spikes and the receptive field of ``tests/reference/dense.py``::
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import json
 import sys
 from pathlib import Path
-from types import ModuleType
 
 import numpy as np
 
 from uavsnn import Network, dataset
-from uavsnn.evaluation import box_iou, first_detection_boxes
+from uavsnn.evaluation import box_iou, centre_distance, first_detection_boxes
 
-DENSE = Path(__file__).resolve().parents[2] / "tests" / "reference" / "dense.py"
-
-
-def load_dense(path: Path = DENSE) -> ModuleType:
-    """The dense reference module, imported from its file (a test helper, not a package)."""
-    spec = importlib.util.spec_from_file_location("uavsnn_dense_reference", path)
-    if spec is None or spec.loader is None:
-        raise SystemExit(f"cannot import {path}")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return module
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_engine import DEFAULT_DENSE, load_dense
 
 
 def field_boxes(network: Network, windows, inference, which: np.ndarray) -> np.ndarray:
     """The earlier boxes of the first detections of windows ``which``."""
-    dense = load_dense()
+    dense = load_dense(DEFAULT_DENSE)
+    if dense is None:
+        raise SystemExit(f"cannot import the dense reference {DEFAULT_DENSE}")
     found = inference.detections
     windows_with, first_row = np.unique(found["window"], return_index=True)
     row_of = dict(zip(windows_with.tolist(), first_row.tolist(), strict=True))
@@ -58,13 +48,9 @@ def field_boxes(network: Network, windows, inference, which: np.ndarray) -> np.n
     return out
 
 
-def _centres(b: np.ndarray) -> np.ndarray:
-    return np.stack([(b[:, 0] + b[:, 2]) / 2, (b[:, 1] + b[:, 3]) / 2], axis=1)
-
-
 def figures(boxes: np.ndarray, labelled: np.ndarray) -> dict[str, float]:
     iou = box_iou(boxes, labelled)
-    off = np.hypot(*(_centres(boxes) - _centres(labelled)).T)
+    off = centre_distance(boxes, labelled)
     return {
         "iou_median": float(np.median(iou)),
         "centre_error_px_median": float(np.median(off)),

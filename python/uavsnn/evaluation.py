@@ -40,6 +40,7 @@ __all__ = [
     "Evaluation",
     "accuracy",
     "box_iou",
+    "centre_distance",
     "check_test_set",
     "confusion_matrix",
     "evaluate",
@@ -252,7 +253,7 @@ def score(
     labelled = np.asarray(data.box, dtype=np.float64)
     located = tp[np.isfinite(labelled[tp]).all(axis=1)]
     iou = box_iou(first_box[located], labelled[located])
-    centre = np.hypot(*(_centres(first_box[located]) - _centres(labelled[located])).T)
+    centre = centre_distance(first_box[located], labelled[located])
     width, height = w.sensor_size
     spikes = np.diff(np.asarray(w.offsets, dtype=np.int64))
     min_detections = 1 if network is None else int(network.config["detection"]["min_detections"])
@@ -298,8 +299,14 @@ def box_iou(a: npt.ArrayLike, b: npt.ArrayLike) -> np.ndarray:
         return np.where(area - inter > 0, inter / (area - inter), 0.0)
 
 
-def _centres(boxes: np.ndarray) -> np.ndarray:
-    return np.stack([(boxes[:, 0] + boxes[:, 2]) / 2, (boxes[:, 1] + boxes[:, 3]) / 2], axis=1)
+def centre_distance(a: npt.ArrayLike, b: npt.ArrayLike) -> np.ndarray:
+    """Distance (pixels) between the centres of boxes ``x0, y0, x1, y1``, row by row."""
+    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
+    if a.shape != b.shape or a.shape[-1:] != (4,):
+        raise ShapeError(f"boxes must be (n, 4) alike, got {a.shape} and {b.shape}")
+    dx = (a[:, 0] + a[:, 2] - b[:, 0] - b[:, 2]) / 2
+    dy = (a[:, 1] + a[:, 3] - b[:, 1] - b[:, 3]) / 2
+    return np.hypot(dx, dy)
 
 
 def first_spike_in_box(windows: Any, boxes: npt.ArrayLike) -> np.ndarray:
