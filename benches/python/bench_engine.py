@@ -1,7 +1,8 @@
 """The event-driven engine against the dense reference, on the same windows, in one run.
 
 For each density (0.1 %, 1 %, 5 % of the pixels active per 50 ms window, 240x180 by default),
-runs the same synthetic windows (short moving edges plus noise) through
+runs the same synthetic windows (``uavsnn.bench.synthetic_windows``: short moving edges plus
+noise) through
 
 - the engine, one window at a time (``Network.run_window``) and in a batch (``Network.infer``,
   one thread), and
@@ -21,67 +22,18 @@ import importlib.util
 import json
 import sys
 import time
-from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
 from typing import Any
 
 import numpy as np
 
+from uavsnn.bench import synthetic_windows
 from uavsnn.network import LAYERS, Network
 
 DENSITIES = (0.001, 0.01, 0.05)
 LENGTH_US = 50_000
 DEFAULT_DENSE = Path(__file__).resolve().parents[2] / "tests" / "reference" / "dense.py"
-
-
-@dataclass(frozen=True)
-class Batch:
-    """The columns of ``uavsnn.windows.Windows`` that the engine reads."""
-
-    sensor_size: tuple[int, int]
-    length_us: int
-    t0: np.ndarray
-    offsets: np.ndarray
-    t: np.ndarray
-    x: np.ndarray
-    y: np.ndarray
-    n_preceding: np.ndarray
-
-
-def scene(
-    rng: np.random.Generator, width: int, height: int, density: float, t0: int
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """A window with ``density`` of the pixels active: 80 % on short edges sweeping sideways,
-    20 % uniform noise; first spike per pixel, sorted by time (the Rust bench's scenes)."""
-    target = max(1, round(width * height * density))
-    seen = np.zeros((height, width), dtype=bool)
-    spikes: list[tuple[int, int, int]] = []
-
-    def add(t: int, x: int, y: int) -> None:
-        if 0 <= x < width and 0 <= y < height and not seen[y, x]:
-            seen[y, x] = True
-            spikes.append((t, x, y))
-
-    while len(spikes) < target * 4 // 5:
-        x0, y0 = rng.uniform(0, width), rng.uniform(0, height)
-        angle = rng.uniform(0, np.pi)
-        length, sweep = int(rng.integers(5, 21)), int(rng.integers(1, 5))
-        start, pace = int(rng.integers(0, LENGTH_US // 2)), int(rng.integers(50, 500))
-        for s in range(sweep):
-            for i in range(length):
-                x = x0 + i * np.cos(angle) - s * np.sin(angle)
-                y = y0 + i * np.sin(angle) + s * np.cos(angle)
-                add(min(t0 + start + s * pace + i * 7, t0 + LENGTH_US - 1), int(x), int(y))
-    while len(spikes) < target:
-        add(
-            t0 + int(rng.integers(0, LENGTH_US)),
-            int(rng.integers(width)),
-            int(rng.integers(height)),
-        )
-    spikes.sort(key=lambda s: s[0])
-    t, x, y = (np.array(c) for c in zip(*spikes, strict=True))
-    return t.astype(np.uint64), x.astype(np.uint16), y.astype(np.uint16)
 
 
 def load_dense(path: Path) -> ModuleType | None:
@@ -115,25 +67,14 @@ def cpu_seconds(fn: Any, *args: Any, repeat: int = 1) -> tuple[float, Any]:
 def bench(
     density: float, width: int, height: int, windows: int, dense: ModuleType | None
 ) -> dict[str, Any]:
-    rng = np.random.default_rng(int(density * 1e6))
     net = Network({"width": width, "height": height}, seed=1)
-    parts = [scene(rng, width, height, density, i * LENGTH_US) for i in range(windows)]
-    events = sum(len(p[0]) for p in parts)
+    batch = synthetic_windows(width, height, density, windows, seed=int(density * 1e6))
+    parts = [batch.spikes(i) for i in range(windows)]
+    events = len(batch.t)
 
     def engine_each() -> list[Any]:
         return [net.run_window(t, x, y, i * LENGTH_US) for i, (t, x, y) in enumerate(parts)]
 
-    lengths = [len(p[0]) for p in parts]
-    batch = Batch(
-        sensor_size=(width, height),
-        length_us=LENGTH_US,
-        t0=np.arange(windows, dtype=np.uint64) * LENGTH_US,
-        offsets=np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64),
-        t=np.concatenate([p[0] for p in parts]),
-        x=np.concatenate([p[1] for p in parts]),
-        y=np.concatenate([p[2] for p in parts]),
-        n_preceding=np.zeros(windows, dtype=np.int64),
-    )
     engine_s, traces = cpu_seconds(engine_each, repeat=5)
     # The batch call runs on a one-thread pool so that CPU time is one core's time.
     batch_s, result = cpu_seconds(lambda: net.infer(batch, threads=1), repeat=5)

@@ -1,0 +1,95 @@
+"""``uavsnn bench``: how fast the engine runs on this machine (see :mod:`uavsnn.bench`)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import Any
+
+from uavsnn.bench import DENSITIES, bench
+from uavsnn.errors import ParameterError
+from uavsnn.network import Network
+
+__all__ = ["register"]
+
+
+def _densities(text: str) -> list[float]:
+    try:
+        values = [float(v) / 100 for v in text.split(",")]
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(f"expected percentages like 0.1,1,5, got {text!r}") from (
+            exc
+        )
+    if not all(0 < v <= 1 for v in values):
+        raise argparse.ArgumentTypeError(f"percentages must be in (0, 100], got {text!r}")
+    return values
+
+
+def _size(text: str) -> tuple[int, int]:
+    try:
+        width, height = (int(v) for v in text.lower().split("x"))
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(f"expected WIDTHxHEIGHT, got {text!r}") from exc
+    return width, height
+
+
+def register(subparsers: Any) -> None:
+    """Add ``uavsnn bench``."""
+    p = subparsers.add_parser(
+        "bench",
+        help="measure the engine's speed on this machine",
+        description="Run a network on synthetic bench windows (the Criterion benches' scenes) "
+        "at several shares of active pixels and report, against references measured in the "
+        "same run: ns per input event and the real-time factor on one thread, the scaling to "
+        "all threads, and a Detector stream against the batch path.",
+    )
+    p.add_argument("--model", type=Path, help="model file (default: an untrained network)")
+    p.add_argument(
+        "--size", type=_size, default=(240, 180), metavar="WxH",
+        help="sensor size of the untrained network (240x180; a model brings its own)",
+    )  # fmt: skip
+    p.add_argument(
+        "--density", type=_densities, default=list(DENSITIES),
+        metavar="P,P,..", help="percent of pixels active per window (0.1,1,5)",
+    )  # fmt: skip
+    p.add_argument(
+        "--windows", type=int, default=None,
+        help="windows of 50 ms per density (default: enough for about --events input events)",
+    )  # fmt: skip
+    p.add_argument("--events", type=int, default=300_000, help="input events per density (3e5)")
+    p.add_argument("--repeat", type=int, default=5, help="runs per figure; the best counts (5)")
+    p.add_argument("--threads", type=int, default=None, help="workers of the batch (all cores)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the windows and network (0)")
+    p.add_argument("--json", action="store_true", help="print the figures as JSON")
+    p.set_defaults(handler=_bench)
+
+
+def _bench(args: argparse.Namespace) -> int:
+    if args.model is not None:
+        network = Network.load(args.model)
+    else:
+        width, height = args.size
+        if width < 1 or height < 1:
+            raise ParameterError(f"--size must be positive, got {width}x{height}")
+        network = Network({"width": width, "height": height}, seed=args.seed)
+    rows = bench(
+        network, args.density, windows=args.windows, events=args.events, threads=args.threads,
+        repeat=args.repeat, seed=args.seed,
+    )  # fmt: skip
+    if args.json:
+        model = str(args.model) if args.model else None
+        print(json.dumps({"model": model, "rows": [r.to_dict() for r in rows]}, indent=2))
+        return 0
+    print(f"model: {args.model or f'untrained (seed {args.seed})'}")
+    for r in rows:
+        print(
+            f"{r.sensor} {r.density_percent:g} %: {r.events // r.windows} events/window; "
+            f"one thread {r.one_thread_ns_per_event:.0f} ns/event "
+            f"({r.one_thread_events_per_s / 1e6:.2f} M events/s, "
+            f"{r.real_time_factor:.0f}x real time); "
+            f"{r.threads} threads {r.scaling:.2f}x one; stream {r.stream_vs_batch:.2f}x batch"
+        )
+        spikes = ", ".join(f"{k} {v:.1f}" for k, v in r.spikes_per_window.items())
+        print(f"    spikes/window: {spikes}; windows detected {r.detected_windows}/{r.windows}")
+    return 0
