@@ -21,7 +21,8 @@
 //! **Latching.** A neuron that crossed has its float32 potential set to `−∞` once its group is
 //! decided, so it never passes the filter again in the window.
 //!
-//! **Waking by count** (layers with many maps). All weights are ≥ 0, so a neuron whose `n`
+//! **Waking by count** (layers with many maps whose positions need many inputs to cross; the
+//! choice is made per window, see `set_wake`). All weights are ≥ 0, so a neuron whose `n`
 //! fired inputs are fewer than its map needs (the `n` largest weights of its kernel falling
 //! short of θ, see `weights`) cannot have crossed. Such a layer counts, per position, the
 //! inputs that fired (one counter for all maps) and keeps no potentials at positions still
@@ -45,8 +46,16 @@ const AWAKE: u16 = 1 << 14;
 
 /// Fewest maps for which a layer wakes by count: the count saves `maps − 1` additions per
 /// input and position, which pays for the waking (measured on the bench scenes: conv1's 4 maps
-/// are cheaper added densely, conv2's 20 and conv3's 10 by count).
+/// are cheaper added densely).
 const WAKE_MAPS: usize = 8;
+
+/// A layer wakes by count only where a position needs at least this many kernel widths of
+/// fired inputs to wake. Where it needs fewer, nearly every position an input reaches wakes
+/// within a few inputs, and gathering its potentials costs more than adding them as they come
+/// (measured on the bench scenes: conv2 with Table 1's threshold 45 wakes at 48 inputs and
+/// gains 1.7× by count; with the recipe's threshold 10 it wakes at 11 inputs and loses 1.4×,
+/// as conv3 does at 3).
+const WAKE_WIDTHS: usize = 2;
 
 /// Counter lanes of one vector: one output row's positions of one input (`k ≤ LANES`).
 const LANES: usize = 16;
@@ -110,8 +119,14 @@ pub(crate) struct ConvState {
     masks: Vec<u8>,
     /// Whether the CPU has AVX2 (asked once, at construction).
     avx2: bool,
-    /// Whether this layer wakes positions by count (see the module docs).
+    /// Whether this layer wakes positions by count in the current window (see the module docs
+    /// and `set_wake`).
     gated: bool,
+    /// Whether it may: enough maps, and counts that fit the vectors (fixed by the geometry).
+    can_gate: bool,
+    /// A choice forced by tests (`set_gated`) instead of the rule of `set_wake`.
+    #[cfg(test)]
+    forced: Option<bool>,
     /// Per position: how many of its inputs fired this window, `| AWAKE` once awake
     /// (`LANES` more at the end, never counted, so that a row's vector never reads past it).
     counts: Vec<u16>,
@@ -151,7 +166,10 @@ impl ConvState {
             touched_lanes: 0,
             masks: vec![0; (geom.k * geom.maps).div_ceil(8)],
             avx2: has_avx2(),
-            gated: geom.maps >= WAKE_MAPS && geom.k <= LANES && geom.kernel_len() < AWAKE.into(),
+            gated: false,
+            can_gate: geom.k <= LANES && geom.kernel_len() < AWAKE.into(),
+            #[cfg(test)]
+            forced: None,
             counts: vec![0; positions + LANES],
             wake_at: 0,
             waking: Vec::new(),
@@ -171,12 +189,11 @@ impl ConvState {
         self.split
     }
 
-    /// Choose whether this layer wakes positions by count (default: when it has at least
-    /// `WAKE_MAPS` maps); results are the same either way. Call between windows.
+    /// Force whether this layer wakes positions by count from the next window on, instead of
+    /// the rule of `set_wake`; results are the same either way. Call between windows.
     #[cfg(test)]
     pub fn set_gated(&mut self, gated: bool) {
-        self.reset();
-        self.gated = gated && self.geom.k <= LANES && self.geom.kernel_len() < usize::from(AWAKE);
+        self.forced = Some(gated);
     }
 
     /// Zero the potentials that the last window touched.
@@ -238,8 +255,14 @@ impl ConvState {
         }
     }
 
-    /// Set how many fired inputs wake a position (after `set_thresholds`, with the layer's
-    /// weights): the fewest with which any map's largest weights reach its `θ_lo`.
+    /// Set how many fired inputs wake a position (after `set_thresholds` and `reset`, with the
+    /// layer's weights): the fewest with which any map's largest weights reach its `θ_lo`; and
+    /// from it whether the window wakes positions by count: with at least `WAKE_MAPS` maps and
+    /// `WAKE_WIDTHS · k` inputs to wake.
+    ///
+    /// The choice may change from window to window: after `reset` every potential and count is
+    /// zero whichever way the last window ran (a layer that wakes by count writes potentials
+    /// only at awake positions, and zeroes them there), so both ways start from the same state.
     pub fn set_wake(&mut self, weights: &ConvWeights) {
         let lo = 1.0 - self.margin;
         let fewest = (0..self.geom.maps)
@@ -248,6 +271,10 @@ impl ConvState {
             .unwrap_or(usize::MAX);
         // Never 0 (a position with no input has no potential); beyond any count if unreachable.
         self.wake_at = fewest.clamp(1, usize::from(AWAKE - 1)) as u16;
+        let rule = self.geom.maps >= WAKE_MAPS && fewest >= WAKE_WIDTHS * self.geom.k;
+        #[cfg(test)]
+        let rule = self.forced.unwrap_or(rule);
+        self.gated = self.can_gate && rule;
     }
 
     /// Add input spike `(c, iy, ix)` (engine-layout weights `w`) to every neuron whose kernel
