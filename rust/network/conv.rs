@@ -107,9 +107,10 @@ pub(crate) struct ConvState {
     /// Neurons that crossed in the current group.
     crossed: Vec<Crossing>,
     /// Scratch of lateral inhibition: indices into `crossed` (the best crossing per position,
-    /// in order of first appearance) and, for large groups, the crossings sorted by position.
+    /// in order of first appearance) and, for large groups, the crossings as `pos << 32 | index`
+    /// keys sorted by position.
     best: Vec<u32>,
-    order: Vec<u32>,
+    order: Vec<u64>,
     pairs: Vec<(u32, u32)>,
     /// Input positions `(row, col)` added this window (what the next window must zero).
     inputs: Vec<(u32, u32)>,
@@ -570,26 +571,40 @@ impl ConvState {
             }
         } else {
             // Sorted by (position, index): each position's crossings are consecutive, its
-            // first appearance first; its winner is paired with that first index.
+            // first appearance first; its winner is paired with that first index. The
+            // crossings of one input spike come in position order already (its runs are added
+            // row by row, lanes in order), and then there is nothing to sort.
+            // Sorted as packed `position << 32 | index` keys: a sort of plain integers, without
+            // looking each key up in `crossed`.
             let mut order = std::mem::take(&mut self.order);
             order.clear();
-            order.extend(0..n as u32);
-            order.sort_unstable_by_key(|&i| (self.crossed[i as usize].pos, i));
+            order.extend(
+                self.crossed
+                    .iter()
+                    .enumerate()
+                    .map(|(i, c)| u64::from(c.pos) << 32 | i as u64),
+            );
+            let sorted = order.windows(2).all(|p| p[0] <= p[1]);
+            if !sorted {
+                order.sort_unstable();
+            }
             let mut pairs = std::mem::take(&mut self.pairs);
             pairs.clear();
-            for run in order
-                .chunk_by(|&a, &b| self.crossed[a as usize].pos == self.crossed[b as usize].pos)
-            {
-                let mut w = run[0];
-                for &i in &run[1..] {
+            for run in order.chunk_by(|&a, &b| a >> 32 == b >> 32) {
+                let index = |key: u64| key as u32; // the low half
+                let mut w = index(run[0]);
+                for &key in &run[1..] {
+                    let i = index(key);
                     let (c, b) = (self.crossed[i as usize], self.crossed[w as usize]);
                     if self.beats(kernels, fired, c, b) {
                         w = i;
                     }
                 }
-                pairs.push((run[0], w));
+                pairs.push((index(run[0]), w));
             }
-            pairs.sort_unstable(); // back to order of first appearance
+            if !sorted {
+                pairs.sort_unstable(); // back to order of first appearance
+            }
             best.extend(pairs.iter().map(|&(_, w)| w));
             self.order = order;
             self.pairs = pairs;
