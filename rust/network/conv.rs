@@ -1277,6 +1277,44 @@ mod tests {
 
     /// The vector kernels add and detect exactly like the scalar loop, at every length and
     /// alignment.
+    /// `add_rows` (every run length it takes, several rows, strided) equals `add_detect_scalar`
+    /// row by row.
+    #[test]
+    fn add_rows_equals_scalar() {
+        if !has_avx2() {
+            return; // add_rows is only called where the CPU has AVX2
+        }
+        let mut s = 11u64;
+        let mut next = || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 40) as f32 / (1u64 << 20) as f32
+        };
+        let (p_stride, w_stride) = (40, 33);
+        for run in 1..=32 {
+            for rows in 1..=5 {
+                let pot: Vec<f32> = (0..rows * p_stride).map(|_| next() * 2.0).collect();
+                let w: Vec<f32> = (0..rows * w_stride).map(|_| next()).collect();
+                let thr: Vec<f32> = (0..run).map(|_| next() * 3.0).collect();
+                let (p0, w0) = (3, (rows - 1) * w_stride);
+                let mut a = pot.clone();
+                let mut masks = vec![0u32; rows];
+                let any = add_rows(&mut a, p0, p_stride, &w, w0, w_stride, &thr, &mut masks);
+                let mut b = pot.clone();
+                let mut any_b = false;
+                for (r, &mask) in masks.iter().enumerate() {
+                    let (p, q) = (p0 + r * p_stride, w0 - r * w_stride);
+                    let mut bytes = [0u8; 4];
+                    any_b |=
+                        add_detect_scalar(&mut b[p..p + run], &w[q..q + run], &thr, &mut bytes, 0);
+                    assert_eq!(mask, u32::from_le_bytes(bytes), "run {run}, row {r}");
+                }
+                assert_eq!((a, any), (b, any_b), "run {run}, rows {rows}");
+            }
+        }
+    }
+
     #[test]
     fn add_detect_equals_scalar() {
         let mut s = 7u64;
