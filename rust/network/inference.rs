@@ -1,6 +1,6 @@
 //! Inference on many windows in parallel: rayon workers, one [`WindowState`] each.
 
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 
 use rayon::prelude::*;
 
@@ -66,12 +66,39 @@ pub fn infer(
     match threads {
         None => run(),
         Some(0) => Err(Error::param("threads", "must be at least 1, got 0")),
-        Some(n) => rayon::ThreadPoolBuilder::new()
+        // One worker: the calling thread, with no pool to start.
+        Some(1) => {
+            let mut guard = StateGuard::take(net.state_pool(), net);
+            let state = guard
+                .state
+                .as_mut()
+                .ok_or_else(|| Error::Internal("worker state missing".into()))?;
+            (0..batch.len())
+                .map(|i| run_one(net, state, batch, i, record))
+                .collect()
+        }
+        Some(n) => pool(n)?.install(run),
+    }
+}
+
+/// A rayon pool of `n` workers, started on first use and kept for later calls (starting
+/// threads costs more than a small batch).
+fn pool(n: usize) -> Result<Arc<rayon::ThreadPool>> {
+    static POOLS: Mutex<Vec<(usize, Arc<rayon::ThreadPool>)>> = Mutex::new(Vec::new());
+    let mut pools = POOLS
+        .lock()
+        .map_err(|_| Error::Internal("thread pools poisoned".into()))?;
+    if let Some((_, p)) = pools.iter().find(|(m, _)| *m == n) {
+        return Ok(Arc::clone(p));
+    }
+    let p = Arc::new(
+        rayon::ThreadPoolBuilder::new()
             .num_threads(n)
             .build()
-            .map_err(|e| Error::Internal(format!("cannot start {n} threads: {e}")))?
-            .install(run),
-    }
+            .map_err(|e| Error::Internal(format!("cannot start {n} threads: {e}")))?,
+    );
+    pools.push((n, Arc::clone(&p)));
+    Ok(p)
 }
 
 /// Check that a sensor `(width, height)` is the network's input.
