@@ -89,8 +89,9 @@ def test_cli_json_and_text(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -
 def test_cli_errors(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["bench", "--model", str(tmp_path / "missing.npz")]) == 2
     assert "error" in capsys.readouterr().err
-    assert main(["bench", "--size", "0x48", "--windows", "1"]) == 2
-    for bad in (["--density", "0"], ["--density", "150"], ["--density", "x"], ["--size", "64"]):
+    for size in ("0x48", "64", "axb"):
+        assert main(["bench", "--size", size, "--windows", "1"]) == 2
+    for bad in (["--density", "0"], ["--density", "150"], ["--density", "x"]):
         with pytest.raises(SystemExit) as exc:
             main(["bench", *bad])
         assert exc.value.code == 2

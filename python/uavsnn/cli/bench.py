@@ -8,8 +8,8 @@ from pathlib import Path
 from typing import Any
 
 from uavsnn.bench import DENSITIES, bench
-from uavsnn.errors import ParameterError
 from uavsnn.network import Network
+from uavsnn.sim.checks import check_size
 
 __all__ = ["register"]
 
@@ -26,14 +26,6 @@ def _densities(text: str) -> list[float]:
     return values
 
 
-def _size(text: str) -> tuple[int, int]:
-    try:
-        width, height = (int(v) for v in text.lower().split("x"))
-    except ValueError as exc:
-        raise argparse.ArgumentTypeError(f"expected WIDTHxHEIGHT, got {text!r}") from exc
-    return width, height
-
-
 def register(subparsers: Any) -> None:
     """Add ``uavsnn bench``."""
     p = subparsers.add_parser(
@@ -46,7 +38,7 @@ def register(subparsers: Any) -> None:
     )
     p.add_argument("--model", type=Path, help="model file (default: an untrained network)")
     p.add_argument(
-        "--size", type=_size, default=(240, 180), metavar="WxH",
+        "--size", default="240x180", metavar="WxH",
         help="sensor size of the untrained network (240x180; a model brings its own)",
     )  # fmt: skip
     p.add_argument(
@@ -69,9 +61,7 @@ def _bench(args: argparse.Namespace) -> int:
     if args.model is not None:
         network = Network.load(args.model)
     else:
-        width, height = args.size
-        if width < 1 or height < 1:
-            raise ParameterError(f"--size must be positive, got {width}x{height}")
+        width, height = check_size(args.size, "--size")
         network = Network({"width": width, "height": height}, seed=args.seed)
     rows = bench(
         network, args.density, windows=args.windows, events=args.events, threads=args.threads,
