@@ -26,3 +26,16 @@ def test_engine_errors_arrive_as_typed_exceptions_with_their_message() -> None:
 
 def test_version_is_exposed() -> None:
     assert uavsnn.__version__.count(".") == 2
+
+
+def test_a_rust_panic_arrives_as_an_internal_error_and_the_engine_carries_on() -> None:
+    net = uavsnn.Network({"width": 32, "height": 24}, seed=0)
+    t = np.arange(40, dtype=np.uint64)
+    x, y = (t % 8 + 10).astype(np.uint16), (t // 8 + 10).astype(np.uint16)
+    before = net.run_window(t, x, y, 0)
+    assert before.counts[0] > 0, "the test needs conv1 spikes"
+    with pytest.raises(uavsnn.InternalError, match="deliberate panic"):
+        _core._panic_for_test()
+    after = net.run_window(t, x, y, 0)
+    assert np.array_equal(after.counts, before.counts)
+    assert np.array_equal(after["conv1"], before["conv1"])

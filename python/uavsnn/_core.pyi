@@ -85,6 +85,7 @@ def add_noise(
 # ---------------------------------------------------------------- network (issue 3)
 
 def network_default_config() -> str: ...
+def _panic_for_test() -> None: ...
 
 _SpikeColumns = tuple[
     npt.NDArray[np.uint64],

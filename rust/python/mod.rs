@@ -15,6 +15,15 @@ mod windows;
 
 use pyo3::prelude::*;
 
+/// Panic inside the engine's call wrapper, on purpose: the test that no Rust panic crosses into
+/// Python (it must arrive as `uavsnn.InternalError`, and the interpreter must carry on).
+#[pyfunction]
+fn _panic_for_test(py: Python<'_>) -> PyResult<()> {
+    errors::detach(py, || -> crate::Result<()> {
+        panic!("a deliberate panic for the test")
+    })
+}
+
 #[pymodule]
 #[pyo3(name = "_core")]
 fn core_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -24,5 +33,6 @@ fn core_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     network::register(m)?;
     sim::register(m)?;
     stream::register(m)?;
+    m.add_function(wrap_pyfunction!(_panic_for_test, m)?)?;
     Ok(())
 }
