@@ -92,6 +92,9 @@ pub(crate) struct ConvState {
     lane_split: Vec<(u32, u32)>,
     /// Per input of a row of a receptive field, `[col][channel]`: (column offset, channel).
     input_split: Vec<(u32, u32)>,
+    /// Per input of such a row: `(c·k² + k − 1 − col)·maps`, its part of the engine-layout
+    /// weight offset (waking adds the row's and the clipping's parts).
+    wake_base: Vec<u32>,
     /// Exact thresholds per map.
     thr: Vec<f64>,
     /// `θ_hi` per map: float32 sums at or above it have surely crossed.
@@ -152,6 +155,12 @@ impl ConvState {
                 .collect(),
             input_split: (0..geom.k * geom.in_ch)
                 .map(|l| ((l / geom.in_ch) as u32, (l % geom.in_ch) as u32))
+                .collect(),
+            wake_base: (0..geom.k * geom.in_ch)
+                .map(|l| {
+                    let (col, c) = (l / geom.in_ch, l % geom.in_ch);
+                    ((c * geom.k * geom.k + geom.k - 1 - col) * geom.maps) as u32
+                })
                 .collect(),
             thr: vec![f64::INFINITY; geom.maps],
             thr_hi: vec![f32::INFINITY; geom.maps],
@@ -410,8 +419,8 @@ impl ConvState {
     }
 
     /// Wake the positions that reached `wake_at` in the group just added: gather their float32
-    /// potentials from the inputs that fired (engine-layout weights `w`); maps at or above
-    /// `θ_lo` become candidates.
+    /// potentials from the inputs that fired (engine-layout weights `w`), in the order of
+    /// `each_fired_input`; maps at or above `θ_lo` become candidates.
     fn wake(&mut self, w: &[f32], fired: Fired<'_>) {
         let g = self.geom;
         let maps = g.maps;
@@ -423,21 +432,7 @@ impl ConvState {
             let (oy, ox) = self.split.div_rem(p);
             let pot = &mut self.pot[p * maps..(p + 1) * maps];
             pot.fill(0.0);
-            each_fired_input(
-                &g,
-                fired,
-                &self.input_split,
-                self.avx2,
-                oy,
-                ox,
-                |c, iy, ix| {
-                    let (dy, dx) = (iy + g.p_lo - oy, ix + g.p_lo - ox);
-                    let ws = ((c * g.k + dy) * g.k + (g.k - 1 - dx)) * maps;
-                    for (v, &x) in pot.iter_mut().zip(&w[ws..ws + maps]) {
-                        *v += x;
-                    }
-                },
-            );
+            gather(self.avx2, &g, fired, &self.wake_base, w, oy, ox, pot);
             for (m, &v) in pot.iter().enumerate() {
                 if v >= self.thr_lo[m] {
                     self.candidates.push((pos, m as u32));
@@ -640,6 +635,69 @@ impl ConvState {
             std::cmp::Ordering::Greater => true,
             std::cmp::Ordering::Equal => a.map < b.map,
             std::cmp::Ordering::Less => false,
+        }
+    }
+}
+
+/// Add to `pot` (one position's maps, zeroed) the engine-layout weights `w` of every input of
+/// output `(oy, ox)`'s receptive field that fired, in the order of `each_fired_input`; `base`
+/// is `ConvState::wake_base`. Compiled for AVX2 where the CPU has it, so that the additions of
+/// one input's maps run as vectors.
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn gather(
+    avx2: bool,
+    g: &ConvGeom,
+    fired: Fired<'_>,
+    base: &[u32],
+    w: &[f32],
+    oy: usize,
+    ox: usize,
+    pot: &mut [f32],
+) {
+    #[cfg(target_arch = "x86_64")]
+    if avx2 {
+        // SAFETY: `avx2` comes from `has_avx2`.
+        unsafe { simd::gather_avx2(g, fired, base, w, oy, ox, pot) };
+        return;
+    }
+    gather_body(false, g, fired, base, w, oy, ox, pot);
+}
+
+/// The loop of `gather`, inlined into each of its compilations (always: inlined into the AVX2
+/// one, its additions are compiled as AVX2 vectors).
+#[allow(clippy::too_many_arguments, clippy::inline_always)]
+#[inline(always)]
+fn gather_body(
+    avx2: bool,
+    g: &ConvGeom,
+    fired: Fired<'_>,
+    base: &[u32],
+    w: &[f32],
+    oy: usize,
+    ox: usize,
+    pot: &mut [f32],
+) {
+    let maps = pot.len();
+    let cols = g.inputs_of(ox, g.in_w);
+    // Lane `(col, c)` of a row holds input column `cols.start + col`, kernel column
+    // `dx = col + shift` (`shift` > 0 only where the field is clipped on the left).
+    let shift = (cols.start + g.p_lo - ox) * maps;
+    for iy in g.inputs_of(oy, g.in_h) {
+        let row_start = (iy + g.p_lo - oy) * g.k * maps;
+        let from = (iy * fired.width + cols.start) * fired.channels;
+        let row = &fired.stamps[from..from + cols.len() * fired.channels];
+        for (chunk, stamps) in row.chunks(64).enumerate() {
+            let mut mask = fired_mask(avx2, stamps, fired.generation);
+            while mask != 0 {
+                let l = chunk * 64 + mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                // ((c·k + dy)·k + k − 1 − dx)·maps, from the lane's precomputed part.
+                let ws = base[l] as usize + row_start - shift;
+                for (d, &v) in pot.iter_mut().zip(&w[ws..ws + maps]) {
+                    *d += v;
+                }
+            }
         }
     }
 }
@@ -947,6 +1005,24 @@ mod simd {
         }
         a
     };
+
+    /// `super::gather` compiled for AVX2.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[allow(clippy::too_many_arguments)]
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn gather_avx2(
+        g: &super::ConvGeom,
+        fired: super::Fired<'_>,
+        base: &[u32],
+        w: &[f32],
+        oy: usize,
+        ox: usize,
+        pot: &mut [f32],
+    ) {
+        super::gather_body(true, g, fired, base, w, oy, ox, pot);
+    }
 
     /// # Safety
     /// The CPU must support AVX2; `stamps` holds at most 64 values.
