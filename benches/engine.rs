@@ -19,17 +19,13 @@ use std::time::Duration;
 
 use criterion::measurement::{Measurement, ValueFormatter, WallTime};
 use criterion::{criterion_group, criterion_main, BatchSize, BenchmarkId, Criterion, Throughput};
-use rand::{Rng, SeedableRng};
-use rand_pcg::Pcg64;
-use uavsnn::network::{
-    infer, ConvLayer, Layer, Network, NetworkConfig, Rates, Spikes, WindowBatch, WindowState,
-};
+use uavsnn::network::{infer, ConvLayer, Layer, Network, Rates, Spikes, WindowBatch, WindowState};
 
-const LENGTH_US: u64 = 50_000;
+mod common;
+use common::{network, recipe_network, scene, windows, Window, LENGTH_US};
+
 const DENSITIES: [f64; 3] = [0.001, 0.01, 0.05];
 const SENSORS: [(usize, usize); 2] = [(240, 180), (1280, 720)];
-/// Windows per measured iteration (different scenes, so that caches see realistic traffic).
-const WINDOWS: usize = 8;
 
 /// CPU time of the calling thread, in nanoseconds (`None` where the kernel does not say).
 fn thread_cpu_ns() -> Option<u64> {
@@ -72,94 +68,6 @@ impl Measurement for CpuTime {
     fn formatter(&self) -> &dyn ValueFormatter {
         self.wall.formatter()
     }
-}
-
-/// One window's input spikes.
-struct Window {
-    t0: u64,
-    t: Vec<u64>,
-    x: Vec<u16>,
-    y: Vec<u16>,
-}
-
-/// A synthetic window with `density` of the pixels active: moving edges plus noise, the first
-/// spike per pixel, sorted by time.
-fn scene(width: usize, height: usize, density: f64, seed: u64, t0: u64) -> Window {
-    let mut rng = Pcg64::seed_from_u64(seed);
-    let target = ((width * height) as f64 * density).round().max(1.0) as usize;
-    let mut seen = vec![false; width * height];
-    let mut spikes: Vec<(u64, u16, u16)> = Vec::with_capacity(target);
-    let mut add = |spikes: &mut Vec<(u64, u16, u16)>, t: u64, x: i64, y: i64| {
-        if (0..width as i64).contains(&x) && (0..height as i64).contains(&y) {
-            let i = y as usize * width + x as usize;
-            if !seen[i] {
-                seen[i] = true;
-                spikes.push((t, x as u16, y as u16));
-            }
-        }
-    };
-    let edges = target * 4 / 5;
-    while spikes.len() < edges {
-        // An edge of 5-20 pixels sweeping sideways for 1-4 pixels.
-        let (x0, y0) = (
-            rng.random_range(0..width) as f64,
-            rng.random_range(0..height) as f64,
-        );
-        let angle = rng.random_range(0.0..std::f64::consts::PI);
-        let (len, sweep) = (rng.random_range(5..21), rng.random_range(1..5));
-        let start = rng.random_range(0..LENGTH_US / 2);
-        let pace = rng.random_range(50..500);
-        for s in 0..sweep {
-            for i in 0..len {
-                let x = x0 + f64::from(i) * angle.cos() - f64::from(s) * angle.sin();
-                let y = y0 + f64::from(i) * angle.sin() + f64::from(s) * angle.cos();
-                let t = t0 + start + u64::from(s as u32) * pace + u64::from(i as u32) * 7;
-                add(&mut spikes, t.min(t0 + LENGTH_US - 1), x as i64, y as i64);
-            }
-        }
-    }
-    while spikes.len() < target {
-        let t = t0 + rng.random_range(0..LENGTH_US);
-        let (x, y) = (rng.random_range(0..width), rng.random_range(0..height));
-        add(&mut spikes, t, x as i64, y as i64);
-    }
-    spikes.sort_by_key(|s| s.0);
-    Window {
-        t0,
-        t: spikes.iter().map(|s| s.0).collect(),
-        x: spikes.iter().map(|s| s.1).collect(),
-        y: spikes.iter().map(|s| s.2).collect(),
-    }
-}
-
-fn windows(width: usize, height: usize, density: f64) -> Vec<Window> {
-    (0..WINDOWS)
-        .map(|i| scene(width, height, density, 17 + i as u64, i as u64 * LENGTH_US))
-        .collect()
-}
-
-fn network(width: usize, height: usize) -> Network {
-    let config = NetworkConfig {
-        width,
-        height,
-        ..NetworkConfig::default()
-    };
-    Network::new(config, 1).expect("the default config is valid")
-}
-
-/// Conv2's threshold in the project's training recipe (`uavsnn.experiments.RECIPE_SETTINGS`).
-const RECIPE_CONV2_THRESHOLD: f32 = 10.0;
-
-/// Table 1 with the recipe's conv2 threshold: with untrained weights, conv2 and conv3 fire
-/// about as often as in the trained models (conv2 ≈ 500 spikes per window at 1 %, not 0.2).
-fn recipe_network(width: usize, height: usize) -> Network {
-    let mut config = NetworkConfig {
-        width,
-        height,
-        ..NetworkConfig::default()
-    };
-    config.conv2.threshold = RECIPE_CONV2_THRESHOLD;
-    Network::new(config, 1).expect("the recipe's config is valid")
 }
 
 fn run(net: &Network, state: &mut WindowState, w: &Window) {
