@@ -110,11 +110,11 @@ pub(crate) struct ConvState {
     /// Neurons that crossed in the current group.
     crossed: Vec<Crossing>,
     /// Scratch of lateral inhibition: indices into `crossed` (the best crossing per position,
-    /// in order of first appearance) and, for large groups, the crossings as `pos << 32 | index`
-    /// keys sorted by position.
+    /// see `pick_best`) and, for large groups, the crossings as `pos << 32 | index` keys sorted
+    /// by position, and the merge's buffer.
     best: Vec<u32>,
     order: Vec<u64>,
-    pairs: Vec<(u32, u32)>,
+    merged: Vec<u64>,
     /// Input positions `(row, col)` added this window (what the next window must zero).
     inputs: Vec<(u32, u32)>,
     /// Potentials written this window, counted with repeats (the cost of replaying `inputs`).
@@ -171,7 +171,7 @@ impl ConvState {
             crossed: Vec::new(),
             best: Vec::new(),
             order: Vec::new(),
-            pairs: Vec::new(),
+            merged: Vec::new(),
             inputs: Vec::new(),
             touched_lanes: 0,
             masks: vec![0; (geom.k * geom.maps).div_ceil(8)],
@@ -542,7 +542,10 @@ impl ConvState {
     }
 
     /// Lateral inhibition within a group: `best` = for each position in `crossed`, the index
-    /// of its winning crossing (see `beats`), positions in order of first appearance.
+    /// of its winning crossing (see `beats`): positions in order of first appearance for groups
+    /// of up to 16 crossings, in position order for larger ones. The order changes no result
+    /// (decisions are exact whatever order float32 sums are taken in); it is the order in which
+    /// the spikes go on up.
     fn pick_best(&mut self, kernels: &[f32], fired: Fired<'_>) {
         /// Up to this many crossings, a scan of the positions seen so far is cheapest.
         const SCAN: usize = 16;
@@ -570,7 +573,7 @@ impl ConvState {
             // crossings of one input spike come in position order already (its runs are added
             // row by row, lanes in order), and then there is nothing to sort.
             // Sorted as packed `position << 32 | index` keys: a sort of plain integers, without
-            // looking each key up in `crossed`.
+            // looking each key up in `crossed`, and a merge of the runs that come sorted.
             let mut order = std::mem::take(&mut self.order);
             order.clear();
             order.extend(
@@ -579,12 +582,7 @@ impl ConvState {
                     .enumerate()
                     .map(|(i, c)| u64::from(c.pos) << 32 | i as u64),
             );
-            let sorted = order.windows(2).all(|p| p[0] <= p[1]);
-            if !sorted {
-                order.sort_unstable();
-            }
-            let mut pairs = std::mem::take(&mut self.pairs);
-            pairs.clear();
+            sort_runs(&mut order, &mut self.merged);
             for run in order.chunk_by(|&a, &b| a >> 32 == b >> 32) {
                 let index = |key: u64| key as u32; // the low half
                 let mut w = index(run[0]);
@@ -595,14 +593,9 @@ impl ConvState {
                         w = i;
                     }
                 }
-                pairs.push((index(run[0]), w));
+                best.push(w);
             }
-            if !sorted {
-                pairs.sort_unstable(); // back to order of first appearance
-            }
-            best.extend(pairs.iter().map(|&(_, w)| w));
             self.order = order;
-            self.pairs = pairs;
         }
         self.best = best;
     }
@@ -636,6 +629,53 @@ impl ConvState {
             std::cmp::Ordering::Equal => a.map < b.map,
             std::cmp::Ordering::Less => false,
         }
+    }
+}
+
+/// Sort `v` by merging its ascending runs (the crossings of one input come in position order,
+/// so a group's keys are a few such runs), pairwise through `buffer`; with many runs, an
+/// ordinary sort.
+fn sort_runs(v: &mut Vec<u64>, buffer: &mut Vec<u64>) {
+    /// Beyond this many runs, merging pairwise costs more than sorting.
+    const MAX_RUNS: usize = 8;
+    let mut ends = [0usize; MAX_RUNS];
+    let mut runs = 0;
+    for i in 1..=v.len() {
+        if i == v.len() || v[i] < v[i - 1] {
+            if runs == MAX_RUNS {
+                v.sort_unstable();
+                return;
+            }
+            ends[runs] = i;
+            runs += 1;
+        }
+    }
+    while runs > 1 {
+        buffer.clear();
+        let (mut start, mut merged) = (0, 0);
+        let mut r = 0;
+        while r < runs {
+            let mid = ends[r];
+            let end = if r + 1 < runs { ends[r + 1] } else { mid };
+            let (mut i, mut j) = (start, mid);
+            while i < mid && j < end {
+                if v[j] < v[i] {
+                    buffer.push(v[j]);
+                    j += 1;
+                } else {
+                    buffer.push(v[i]);
+                    i += 1;
+                }
+            }
+            buffer.extend_from_slice(&v[i..mid]);
+            buffer.extend_from_slice(&v[j..end]);
+            ends[merged] = end;
+            merged += 1;
+            start = end;
+            r += 2;
+        }
+        std::mem::swap(v, buffer);
+        runs = merged;
     }
 }
 
@@ -1353,6 +1393,34 @@ mod tests {
 
     /// The vector kernels add and detect exactly like the scalar loop, at every length and
     /// alignment.
+    /// `sort_runs` sorts like `sort_unstable`, whatever the runs: none, a few (merged), many
+    /// (sorted).
+    #[test]
+    fn sort_runs_sorts() {
+        let mut s = 5u64;
+        let mut next = |m: u64| {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            s % m
+        };
+        let mut buffer = Vec::new();
+        for runs in 1..12u64 {
+            for len in [0u64, 1, 2, 7, 40, 300] {
+                let mut v: Vec<u64> = Vec::new();
+                for _ in 0..runs {
+                    let mut run: Vec<u64> = (0..len).map(|_| next(1000)).collect();
+                    run.sort_unstable();
+                    v.extend(run);
+                }
+                let mut want = v.clone();
+                want.sort_unstable();
+                sort_runs(&mut v, &mut buffer);
+                assert_eq!(v, want, "{runs} runs of {len}");
+            }
+        }
+    }
+
     /// `add_rows` (every run length it takes, several rows, strided) equals `add_detect_scalar`
     /// row by row.
     #[test]
