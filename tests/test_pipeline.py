@@ -4,8 +4,10 @@ well above chance) and ``reproduce`` at a tiny size; their errors."""
 from __future__ import annotations
 
 import json
+import platform
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from uavsnn import Network
@@ -91,3 +93,7 @@ def test_reproduce_at_a_tiny_size(tmp_path: Path, capsys: pytest.CaptureFixture[
     results = json.loads((out / "results.json").read_text())
     assert set(results["table2"]) == {"dvs", "sim", "combined", "combined, Table 1 as published"}
     assert len(results["noise"]) == 2 * len(NOISE_FRACTIONS)
+    # What the figures may depend on besides the code and the seed is written beside them.
+    env = results["environment"]
+    assert env["numpy"] == np.__version__ and env["python"] == platform.python_version()
+    assert f"NumPy {np.__version__}" in text

@@ -5,8 +5,10 @@ PENT or static thresholds, and accuracy against additive noise (Table 3).
 
 from __future__ import annotations
 
+import platform
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
+from importlib import metadata
 from pathlib import Path
 
 import numpy as np
@@ -24,6 +26,7 @@ __all__ = [
     "PAPER_TABLE3",
     "RECIPE_SETTINGS",
     "NoisePoint",
+    "environment",
     "have_dataset",
     "mix_windows",
     "noise_sweep",
@@ -33,6 +36,37 @@ __all__ = [
     "with_config",
     "with_noise",
 ]
+
+
+def environment() -> dict[str, str | None]:
+    """What a run's figures may depend on besides the code and the seed: the versions of Python
+    and of the packages that render and simulate scenes, and the machine. Rendered scenes go
+    through NumPy's and OpenCV's floating-point functions, whose last bits can differ between
+    versions and between CPUs (they pick vector code by CPU), so dvs-domain windows, and the
+    figures measured on them, may differ slightly from one environment to another; the engine
+    gives the same results on the same windows everywhere."""
+
+    def version(package: str) -> str | None:
+        try:
+            return metadata.version(package)
+        except metadata.PackageNotFoundError:
+            return None
+
+    cpu = None
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as f:
+            cpu = next((line.split(":", 1)[1].strip() for line in f if "model name" in line), None)
+    except OSError:
+        pass
+    return {
+        "python": platform.python_version(),
+        "numpy": np.__version__,
+        "opencv": version("opencv-python-headless") or version("opencv-python"),
+        "faery": version("faery"),
+        "platform": platform.platform(),
+        "cpu": cpu or platform.processor() or None,
+    }
+
 
 NOISE_FRACTIONS: tuple[float, ...] = (0.0, 0.0005, 0.002, 0.005, 0.01, 0.02, 0.05, 0.1, 0.2)
 """Shares of the sensor's pixels given a noise event per window: SPEC §5's 0.5 % … 5 %, and

@@ -27,6 +27,7 @@ from uavsnn.experiments import (
     NOISE_FRACTIONS,
     PAPER_TABLE2,
     RECIPE_SETTINGS,
+    environment,
     have_dataset,
     mix_windows,
     noise_sweep,
@@ -87,7 +88,10 @@ def _reproduce(args: argparse.Namespace) -> int:
     progress = not args.quiet and sys.stderr.isatty()
     seed = args.seed
     command = "uavsnn reproduce " + " ".join(shlex.quote(a) for a in sys.argv[2:])
-    log: dict[str, Any] = {"uavsnn": __version__, "seed": seed, "command": command}
+    env = environment()
+    log: dict[str, Any] = {
+        "uavsnn": __version__, "seed": seed, "command": command, "environment": env,
+    }  # fmt: skip
 
     def step(msg: str) -> None:
         print(f"[{time.perf_counter() - started:7.1f} s] {msg}", flush=True)
@@ -172,6 +176,11 @@ def _reproduce(args: argparse.Namespace) -> int:
         f"{args.windows_per_layer}; test: the dvs test set of {len(dvs_test)} windows "
         "(half UAV), from recordings no network was trained on. The project's recipe is "
         f"Table 1 with `{' '.join(RECIPE_SETTINGS)}` (see `uavsnn.experiments.RECIPE_SETTINGS`).\n",
+        f"Environment: Python {env['python']}, NumPy {env['numpy']}, OpenCV {env['opencv']}, "
+        f"faery {env['faery']}; {env['platform']}, {env['cpu'] or 'CPU unknown'}. The rendered "
+        "scenes of the dvs and sim domains go through NumPy's and OpenCV's floating-point "
+        "functions, whose last bits can differ between versions and CPUs, so their figures "
+        "may differ slightly in another environment (see `uavsnn.experiments.environment`).\n",
         "## Table 2: networks tested on dvs\n",
         "| trained on | TP | FN | FP | TN | accuracy | paper |",
         "|---|---|---|---|---|---|---|",
