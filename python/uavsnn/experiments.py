@@ -63,7 +63,7 @@ def environment() -> dict[str, str | None]:
         "numpy": np.__version__,
         "opencv": version("opencv-python-headless") or version("opencv-python"),
         "faery": version("faery"),
-        "platform": platform.platform(),
+        "platform": f"{platform.system()} {platform.machine()}",
         "cpu": cpu or platform.processor() or None,
     }
 
