@@ -723,29 +723,18 @@ fn gather_body(
     // Lane `(col, c)` of a row holds input column `cols.start + col`, kernel column
     // `dx = col + shift` (`shift` > 0 only where the field is clipped on the left).
     let shift = (cols.start + g.p_lo - ox) * maps;
-    for iy in g.inputs_of(oy, g.in_h) {
-        let row_start = (iy + g.p_lo - oy) * g.k * maps;
-        let from = (iy * fired.width + cols.start) * fired.channels;
-        let row = &fired.stamps[from..from + cols.len() * fired.channels];
-        for (chunk, stamps) in row.chunks(64).enumerate() {
-            let mut mask = fired_mask(avx2, stamps, fired.generation);
-            while mask != 0 {
-                let l = chunk * 64 + mask.trailing_zeros() as usize;
-                mask &= mask - 1;
-                // ((c·k + dy)·k + k − 1 − dx)·maps, from the lane's precomputed part.
-                let ws = base[l] as usize + row_start - shift;
-                for (d, &v) in pot.iter_mut().zip(&w[ws..ws + maps]) {
-                    *d += v;
-                }
-            }
+    each_fired_lane(g, fired, avx2, oy, ox, |iy, l| {
+        // ((c·k + dy)·k + k − 1 − dx)·maps, from the lane's precomputed part.
+        let ws = base[l] as usize + (iy + g.p_lo - oy) * g.k * maps - shift;
+        for (d, &v) in pot.iter_mut().zip(&w[ws..ws + maps]) {
+            *d += v;
         }
-    }
+    });
 }
 
 /// Call `f(c, iy, ix)` for every input `(channel, row, col)` of output `(oy, ox)`'s receptive
-/// field that fired. A row's inputs `[col][channel]` are contiguous: they are tested 64 at a time
-/// without branching, and only those that fired are visited; `split` maps a row's lane to its
-/// (column offset, channel) (`ConvState::input_split`).
+/// field that fired (see `each_fired_lane`); `split` maps a row's lane to its (column offset,
+/// channel) (`ConvState::input_split`).
 #[inline]
 pub(crate) fn each_fired_input(
     g: &ConvGeom,
@@ -756,6 +745,26 @@ pub(crate) fn each_fired_input(
     ox: usize,
     mut f: impl FnMut(usize, usize, usize),
 ) {
+    let start = g.inputs_of(ox, g.in_w).start;
+    each_fired_lane(g, fired, avx2, oy, ox, |iy, l| {
+        let (col, c) = split[l];
+        f(c as usize, iy, start + col as usize);
+    });
+}
+
+/// Call `f(iy, lane)` for every input of output `(oy, ox)`'s receptive field that fired: input
+/// row `iy`, and `lane` its place in that row's inputs `[col][channel]` (clipped to the input).
+/// A row's inputs are contiguous: they are tested 64 at a time without branching, and only
+/// those that fired are visited, in memory order.
+#[inline]
+fn each_fired_lane(
+    g: &ConvGeom,
+    fired: Fired<'_>,
+    avx2: bool,
+    oy: usize,
+    ox: usize,
+    mut f: impl FnMut(usize, usize),
+) {
     let cols = g.inputs_of(ox, g.in_w);
     for iy in g.inputs_of(oy, g.in_h) {
         let from = (iy * fired.width + cols.start) * fired.channels;
@@ -765,8 +774,7 @@ pub(crate) fn each_fired_input(
             while mask != 0 {
                 let l = chunk * 64 + mask.trailing_zeros() as usize;
                 mask &= mask - 1;
-                let (col, c) = split[l];
-                f(c as usize, iy, cols.start + col as usize);
+                f(iy, l);
             }
         }
     }
