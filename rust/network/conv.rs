@@ -568,12 +568,10 @@ impl ConvState {
                 }
             }
         } else {
-            // Sorted by (position, index): each position's crossings are consecutive, its
-            // first appearance first; its winner is paired with that first index. The
-            // crossings of one input spike come in position order already (its runs are added
-            // row by row, lanes in order), and then there is nothing to sort.
-            // Sorted as packed `position << 32 | index` keys: a sort of plain integers, without
-            // looking each key up in `crossed`, and a merge of the runs that come sorted.
+            // Sorted by (position, index) as packed `position << 32 | index` keys: each
+            // position's crossings are consecutive. The crossings of one input spike come in
+            // position order already (its runs are added row by row, lanes in order), so the
+            // keys are a few sorted runs, merged (`sort_runs`).
             let mut order = std::mem::take(&mut self.order);
             order.clear();
             order.extend(
@@ -1399,8 +1397,6 @@ mod tests {
         }
     }
 
-    /// The vector kernels add and detect exactly like the scalar loop, at every length and
-    /// alignment.
     /// `sort_runs` sorts like `sort_unstable`, whatever the runs: none, a few (merged), many
     /// (sorted).
     #[test]
@@ -1467,6 +1463,8 @@ mod tests {
         }
     }
 
+    /// The vector kernels add and detect exactly like the scalar loop, at every length and
+    /// alignment.
     #[test]
     fn add_detect_equals_scalar() {
         let mut s = 7u64;
