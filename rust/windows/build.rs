@@ -27,19 +27,6 @@ pub(super) fn plan_runs(n: usize, events: usize) -> Vec<(usize, usize)> {
     (0..n).step_by(per).map(|a| (a, (a + per).min(n))).collect()
 }
 
-/// A zero-filled column of `len` values, or an error (not an abort) when memory is short.
-fn column<T: Clone + Default>(name: &'static str, len: usize) -> Result<Vec<T>> {
-    let mut v = Vec::new();
-    v.try_reserve_exact(len).map_err(|_| {
-        Error::param(
-            name,
-            format!("{len} spikes do not fit in memory; window a shorter range"),
-        )
-    })?;
-    v.resize(len, T::default());
-    Ok(v)
-}
-
 /// Integer types whose all-zero bit pattern is the value 0 (what `zeroed` may hand out).
 ///
 /// # Safety
@@ -51,12 +38,13 @@ unsafe impl Zero for u16 {}
 unsafe impl Zero for u64 {}
 
 /// A column of `len` zeros whose untouched pages the system maps only when written (like
-/// `vec![0; len]`), or an error instead of an abort when the memory is not there.
-fn zeroed<T: Zero>(len: usize) -> Result<Vec<T>> {
+/// `vec![0; len]`), or an error (not an abort) naming the parameter `name` when the memory is
+/// not there.
+fn zeroed<T: Zero>(name: &'static str, len: usize) -> Result<Vec<T>> {
     let short = || {
         Error::param(
-            "events",
-            format!("room for {len} spikes does not fit in memory; window a shorter range"),
+            name,
+            format!("{len} spikes do not fit in memory; window a shorter range"),
         )
     };
     if len == 0 {
@@ -140,9 +128,9 @@ pub(super) fn build<E: EventSource + ?Sized>(
         n_preceding.extend(preceding);
         all_firsts.push(firsts);
     }
-    let mut t = column::<u64>("length_us", total)?;
-    let mut x = column::<u16>("length_us", total)?;
-    let mut y = column::<u16>("length_us", total)?;
+    let mut t = zeroed::<u64>("length_us", total)?;
+    let mut x = zeroed::<u16>("length_us", total)?;
+    let mut y = zeroed::<u16>("length_us", total)?;
 
     // Each run fills its own slice of the columns.
     let mut slices = Vec::with_capacity(runs.len());
@@ -286,9 +274,9 @@ fn disjoint_run<E: EventSource + ?Sized>(
     // costs no memory, and is given back at the end.
     let room = i1.saturating_sub(i0);
     let (mut t, mut x, mut y) = (
-        zeroed::<u64>(room)?,
-        zeroed::<u16>(room)?,
-        zeroed::<u16>(room)?,
+        zeroed::<u64>("events", room)?,
+        zeroed::<u16>("events", room)?,
+        zeroed::<u16>("events", room)?,
     );
     let mut offsets = Vec::with_capacity(n + 1);
     offsets.push(0);
@@ -381,11 +369,11 @@ struct Firsts {
 impl Firsts {
     fn with_room(room: usize) -> Result<Self> {
         Ok(Self {
-            t: zeroed(room)?,
-            x: zeroed(room)?,
-            y: zeroed(room)?,
-            a: zeroed(room)?,
-            b: zeroed(room)?,
+            t: zeroed("events", room)?,
+            x: zeroed("events", room)?,
+            y: zeroed("events", room)?,
+            a: zeroed("events", room)?,
+            b: zeroed("events", room)?,
             len: 0,
         })
     }
@@ -479,15 +467,15 @@ mod alloc_tests {
     /// Columns too large for memory are an error, not an abort; small ones are zeros.
     #[test]
     fn zeroed_columns_fail_softly() {
-        assert_eq!(zeroed::<u16>(5).unwrap(), vec![0u16; 5]);
-        assert!(zeroed::<u64>(0).unwrap().is_empty());
+        assert_eq!(zeroed::<u16>("events", 5).unwrap(), vec![0u16; 5]);
+        assert!(zeroed::<u64>("events", 0).unwrap().is_empty());
         // Beyond any layout, and beyond any address space (2^62 bytes).
         assert!(matches!(
-            zeroed::<u64>(usize::MAX / 4),
+            zeroed::<u64>("events", usize::MAX / 4),
             Err(Error::InvalidParameter { .. })
         ));
         assert!(matches!(
-            zeroed::<u16>(1 << 61),
+            zeroed::<u16>("events", 1 << 61),
             Err(Error::InvalidParameter { .. })
         ));
         assert!(Firsts::with_room(1 << 61).is_err());
