@@ -56,10 +56,7 @@ pub fn infer(
             .with_min_len(CHUNK)
             .map_init(
                 || StateGuard::take(net.state_pool(), net),
-                |guard, i| match guard.state.as_mut() {
-                    Some(state) => run_one(net, state, batch, i, record),
-                    None => Err(Error::Internal("worker state missing".into())),
-                },
+                |guard, i| run_one(net, guard.state()?, batch, i, record),
             )
             .collect::<Result<Vec<_>>>()
     };
@@ -69,10 +66,7 @@ pub fn infer(
         // One worker: the calling thread, with no pool to start.
         Some(1) => {
             let mut guard = StateGuard::take(net.state_pool(), net);
-            let state = guard
-                .state
-                .as_mut()
-                .ok_or_else(|| Error::Internal("worker state missing".into()))?;
+            let state = guard.state()?;
             (0..batch.len())
                 .map(|i| run_one(net, state, batch, i, record))
                 .collect()
@@ -157,6 +151,13 @@ impl<'a> StateGuard<'a> {
             pool,
             state: Some(reused.unwrap_or_else(|| net.new_state())),
         }
+    }
+
+    /// The borrowed state (there until the guard is dropped).
+    fn state(&mut self) -> Result<&mut WindowState> {
+        self.state
+            .as_mut()
+            .ok_or_else(|| Error::Internal("worker state missing".into()))
     }
 }
 
