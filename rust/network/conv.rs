@@ -1401,11 +1401,9 @@ mod tests {
     /// (sorted).
     #[test]
     fn sort_runs_sorts() {
-        let mut s = 5u64;
+        let mut rng = crate::network::xorshift(5u64);
         let mut next = |m: u64| {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
+            let s = rng();
             s % m
         };
         let mut buffer = Vec::new();
@@ -1432,11 +1430,9 @@ mod tests {
         if !has_avx2() {
             return; // add_rows is only called where the CPU has AVX2
         }
-        let mut s = 11u64;
+        let mut rng = crate::network::xorshift(11u64);
         let mut next = || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
+            let s = rng();
             (s >> 40) as f32 / (1u64 << 20) as f32
         };
         let (p_stride, w_stride) = (40, 33);
@@ -1467,11 +1463,9 @@ mod tests {
     /// alignment.
     #[test]
     fn add_detect_equals_scalar() {
-        let mut s = 7u64;
+        let mut rng = crate::network::xorshift(7u64);
         let mut next = || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
+            let s = rng();
             (s >> 40) as f32 / (1u64 << 20) as f32
         };
         for n in 0..40 {

@@ -59,6 +59,17 @@ pub use inference::{check_sensor, infer, WindowResult};
 pub use model::Network;
 pub use model_io::MODEL_FORMAT;
 pub use stdp::{Convergence, Rates, Schedule};
+
+/// A xorshift64 generator for tests: each call advances the state and returns it.
+#[cfg(test)]
+pub(crate) fn xorshift(mut s: u64) -> impl FnMut() -> u64 {
+    move || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        s
+    }
+}
 pub use train::{
     check_training, train_layer, training_order, TrainOptions, TrainProgress, TrainReport, Trainer,
 };

@@ -295,11 +295,9 @@ fn random_weights(net: &mut Network, seed: u64) {
 
 /// Random windows: pixels with times in a small range (many equal times).
 fn window(c: &NetworkConfig, seed: u64, n: usize, t0: u64) -> (Vec<u64>, Vec<u16>, Vec<u16>) {
-    let mut s = seed | 1;
+    let mut rng = crate::network::xorshift(seed | 1);
     let mut next = |m: u64| {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
+        let s = rng();
         s % m
     };
     let mut v: Vec<(u64, u16, u16)> = (0..n)
@@ -671,11 +669,9 @@ fn depth_stops_the_network_early_without_changing_the_layers_below() {
 fn exact_potential_decides_where_float32_rounds_below() {
     // Find three weights whose sequential float32 sum rounds below the float32 threshold that
     // their exact sum reaches.
-    let mut s = 0x2545_f491_4f6c_dd1du64;
+    let mut rng = crate::network::xorshift(0x2545_f491_4f6c_dd1du64);
     let mut next = || {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
+        let s = rng();
         (s >> 40) as f32 / (1u64 << 24) as f32 + (s & 0xFF) as f32 * 1e-10
     };
     let (w, theta) = loop {
@@ -734,11 +730,9 @@ fn exact_potential_decides_where_float32_rounds_below() {
 /// weights added in another order): the tie goes to the lower map, as the exact values say.
 #[test]
 fn inhibition_ties_are_decided_exactly() {
-    let mut s = 0x9E37_79B9_7F4A_7C15u64;
+    let mut rng = crate::network::xorshift(0x9E37_79B9_7F4A_7C15u64);
     let mut next = || {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
+        let s = rng();
         (s >> 40) as f32 / (1u64 << 24) as f32
     };
     let w = loop {
@@ -803,11 +797,9 @@ fn inhibition_ties_are_decided_exactly() {
 /// potential stays below it must not fire.
 #[test]
 fn exact_potential_decides_where_float32_rounds_above() {
-    let mut s = 0x1234_5678_9abc_def1u64;
+    let mut rng = crate::network::xorshift(0x1234_5678_9abc_def1u64);
     let mut next = || {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
+        let s = rng();
         (s >> 40) as f32 / (1u64 << 24) as f32 + (s & 0xFF) as f32 * 1e-10
     };
     let (w, theta) = loop {
