@@ -54,6 +54,11 @@ DENSITIES = (0.001, 0.01, 0.05)
 _T = TypeVar("_T")
 
 
+def _active_pixels(width: int, height: int, density: float) -> int:
+    """The pixels a bench window of ``density`` aims at (at least one)."""
+    return max(1, round(width * height * density))
+
+
 def synthetic_spikes(
     rng: np.random.Generator,
     width: int,
@@ -65,7 +70,7 @@ def synthetic_spikes(
     """One window of the bench scenes: ``density`` of the pixels active, 80 % on short edges
     (5–20 px) sweeping sideways for 1–4 px, 20 % uniform noise; the first spike per pixel,
     sorted by time, inside ``[t0, t0 + length_us)``. Returns ``(t, x, y)`` as uint64/uint16."""
-    target = max(1, round(width * height * density))
+    target = _active_pixels(width, height, density)
     seen = np.zeros((height, width), dtype=bool)
     spikes: list[tuple[int, int, int]] = []
 
@@ -197,10 +202,10 @@ def bench_density(
         raise ParameterError(f"threads must be at least 1, got {threads}")
     width, height = int(network.config["width"]), int(network.config["height"])
     if windows is None:
-        per_window = max(1, round(width * height * density))
+        per_window = _active_pixels(width, height, density)
         windows = min(10_000, max(1, -(-events // per_window)))
     data = synthetic_windows(width, height, density, windows, seed=seed)
-    events = len(data.t)
+    spikes = len(data.t)
     stream = _stream(network, data, chunk_us)
     one_wall_s = all_wall_s = stream_s = float("inf")
     for _ in range(repeat):
@@ -214,16 +219,16 @@ def bench_density(
         sensor=f"{width}x{height}",
         density_percent=100 * density,
         windows=windows,
-        events=events,
+        events=spikes,
         spikes_per_window={name: float(v) for name, v in zip(LAYERS, per_layer, strict=True)},
         detected_windows=int(result.detected.sum()),
-        one_thread_ns_per_event=one_wall_s / events * 1e9,
-        one_thread_events_per_s=events / one_wall_s,
+        one_thread_ns_per_event=one_wall_s / spikes * 1e9,
+        one_thread_events_per_s=spikes / one_wall_s,
         real_time_factor=windows * data.length_us * 1e-6 / one_wall_s,
         threads=workers,
-        all_threads_events_per_s=events / all_wall_s,
+        all_threads_events_per_s=spikes / all_wall_s,
         scaling=one_wall_s / all_wall_s,
-        stream_events_per_s=events / stream_s,
+        stream_events_per_s=spikes / stream_s,
         stream_vs_batch=one_wall_s / stream_s,
     )
 
