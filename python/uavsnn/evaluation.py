@@ -286,11 +286,17 @@ def first_detection_boxes(inference: Inference, windows: int) -> np.ndarray:
     return out
 
 
-def box_iou(a: npt.ArrayLike, b: npt.ArrayLike) -> np.ndarray:
-    """Intersection over union of boxes ``x0, y0, x1, y1`` (half-open), row by row."""
+def _box_pairs(a: npt.ArrayLike, b: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+    """Two ``(n, 4)`` float64 arrays of boxes to compare row by row, or a ShapeError."""
     a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
     if a.shape != b.shape or a.shape[-1:] != (4,):
         raise ShapeError(f"boxes must be (n, 4) alike, got {a.shape} and {b.shape}")
+    return a, b
+
+
+def box_iou(a: npt.ArrayLike, b: npt.ArrayLike) -> np.ndarray:
+    """Intersection over union of boxes ``x0, y0, x1, y1`` (half-open), row by row."""
+    a, b = _box_pairs(a, b)
     iw = np.clip(np.minimum(a[:, 2], b[:, 2]) - np.maximum(a[:, 0], b[:, 0]), 0, None)
     ih = np.clip(np.minimum(a[:, 3], b[:, 3]) - np.maximum(a[:, 1], b[:, 1]), 0, None)
     inter = iw * ih
@@ -301,9 +307,7 @@ def box_iou(a: npt.ArrayLike, b: npt.ArrayLike) -> np.ndarray:
 
 def centre_distance(a: npt.ArrayLike, b: npt.ArrayLike) -> np.ndarray:
     """Distance (pixels) between the centres of boxes ``x0, y0, x1, y1``, row by row."""
-    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
-    if a.shape != b.shape or a.shape[-1:] != (4,):
-        raise ShapeError(f"boxes must be (n, 4) alike, got {a.shape} and {b.shape}")
+    a, b = _box_pairs(a, b)
     dx = (a[:, 0] + a[:, 2] - b[:, 0] - b[:, 2]) / 2
     dy = (a[:, 1] + a[:, 3] - b[:, 1] - b[:, 3]) / 2
     return np.hypot(dx, dy)
