@@ -1,4 +1,5 @@
-"""Smoke test of benches/python/bench_stream.py at a tiny size (a few seconds)."""
+"""Smoke tests of benches/python/bench_stream.py at a tiny size (a few seconds), and of the
+readouts and features of benches/python/probe_readout.py."""
 
 from __future__ import annotations
 
@@ -6,6 +7,7 @@ import importlib.util
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from uavsnn.network import Network, default_config
@@ -101,3 +103,44 @@ def test_compare_boxes_rebuilds_the_field_box_and_scores_it() -> None:
     f = module.figures(boxes, np.array([[2.0, 3.0, 6.0, 5.0]]))
     assert f["iou_median"] == 1.0 and f["centre_error_px_median"] == 0.0
     assert (f["width_median"], f["height_median"]) == (4.0, 2.0)
+
+
+PROBE = Path(__file__).resolve().parents[1] / "benches" / "python" / "probe_readout.py"
+
+
+@pytest.fixture(scope="module")
+def probe():
+    spec = importlib.util.spec_from_file_location("probe_readout", PROBE)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_probe_readouts_learn_what_is_there(probe):
+    # The probe's "no better than the rule" means something only if its readouts find a label
+    # that the features do carry: here one feature decides it, among noise features.
+    rng = np.random.default_rng(0)
+    x = rng.normal(size=(600, 6))
+    y = x[:, 2] + 0.1 * rng.normal(size=600) > 0
+    on_train, on_test = probe.logistic(x[:400], y[:400], x[400:])
+    assert np.mean(on_train == y[:400]) > 0.95 and np.mean(on_test == y[400:]) > 0.95
+    assert np.mean(probe.nearest(x[:400], y[:400], x[400:], 5) == y[400:]) > 0.75
+    # and not where they do not: shuffled labels stay near chance on held-out windows
+    shuffled = rng.permutation(y)
+    _, on_test = probe.logistic(x[:400], shuffled[:400], x[400:])
+    assert abs(np.mean(on_test == shuffled[400:]) - 0.5) < 0.15
+
+
+def test_probe_features_of_a_small_set(probe, tmp_path):
+    from uavsnn.dataset import build, load
+
+    build(tmp_path / "d", "dvs", n_train=8, n_test=4, seed=3)
+    data = load(tmp_path / "d", "train")
+    config = apply_overrides(default_config(), ["conv2.threshold=10", "conv3.threshold=1"])
+    net = Network(config, seed=0)
+    x, conv3, rule = probe.features(net, data)
+    maps = sum(net.shapes[layer][0] for layer in probe.LAYERS)
+    assert x.shape == (len(data), maps + 2 * len(probe.LAYERS) + 3 + 6) == (len(data), len(conv3))
+    assert conv3.sum() == net.shapes["conv3"][0] + 2 + 3
+    assert np.isfinite(x).all()
+    assert rule.tolist() == net.infer(data.windows).detected.tolist()

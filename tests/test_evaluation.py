@@ -125,6 +125,49 @@ def test_score_per_class_latency_and_pixels() -> None:
     assert e.box_iou.tolist() == [0.0]
     assert e.box_centre_error_px.tolist() == pytest.approx([np.hypot(4.5, 4.5)])
     assert d["box_iou"]["n"] == 1
+    # By object size: the drone of side 1 and the bird of side 2 (both called UAV) share the
+    # first bin, the missed drone of side 20 is in the 12-24 px bin, the empty window in none.
+    sizes = {z.label: z for z in e.per_size}
+    assert list(sizes) == ["0-6 px", "12-24 px"]
+    assert (sizes["0-6 px"].uav.windows, sizes["0-6 px"].uav.called_uav) == (1, 1)
+    assert (sizes["0-6 px"].other.windows, sizes["0-6 px"].other.called_uav) == (1, 1)
+    assert (sizes["12-24 px"].uav.windows, sizes["12-24 px"].uav.called_uav) == (1, 0)
+    assert sizes["12-24 px"].other.windows == 0
+    assert d["per_size"][1] == {
+        "low_px": 12.0,
+        "high_px": 24.0,
+        "uav": {"windows": 1, "called_uav": 0},
+        "other": {"windows": 0, "called_uav": 0},
+    }
+
+
+def test_per_size_bins_are_half_open_and_the_last_is_unbounded() -> None:
+    w = _windows([[(1, 0, 0)]] * 4, size=(200, 100))
+    # longer sides 6 (the second bin's low edge), 11.5, 48 and 150 (the last bin)
+    data = _labelled(
+        w,
+        [True, False, True, False],
+        ["drone", "ball", "drone", "helicopter"],
+        [[0, 0, 6, 3], [0, 0, 2, 11.5], [10, 10, 58, 20], [0, 0, 150, 90]],
+    )
+    inference = Inference(
+        detected=np.array([False, True, True, True]),
+        counts=np.zeros((4, 5), np.int64),
+        first_detection_t=np.zeros(4, dtype=np.uint64),
+        detections=np.zeros(0, dtype=WINDOW_DETECTION_DTYPE),
+        thresholds=np.zeros((4, 4), np.float32),
+    )
+    sizes = {z.label: z for z in score(inference, data).per_size}
+    assert list(sizes) == ["6-12 px", ">= 48 px"]
+    six = sizes["6-12 px"]
+    assert (six.uav.windows, six.uav.called_uav, six.other.windows, six.other.called_uav) == (
+        1, 0, 1, 1,
+    )  # fmt: skip
+    big = sizes[">= 48 px"]
+    assert (big.uav.windows, big.uav.called_uav, big.other.windows, big.other.called_uav) == (
+        1, 1, 1, 1,
+    )  # fmt: skip
+    assert score(inference, data).to_dict()["per_size"][1]["high_px"] is None
 
 
 def test_box_iou_on_hand_made_boxes() -> None:

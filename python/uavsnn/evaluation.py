@@ -5,6 +5,8 @@ fire (:attr:`uavsnn.network.Inference.detected`). Beside the confusion matrix
 ``[[TP, FN], [FP, TN]]`` and the accuracy, an :class:`Evaluation` carries what users ask next:
 
 - per object class, how often windows of that class were called UAV;
+- per object size (the labelled box's longer side, in bins of :data:`SIZE_BINS_PX`), how often
+  UAV windows and windows of other objects were called UAV: what the any-spike rule responds to;
 - latency in event time: from the first input spike of the window that falls inside the
   labelled UAV box to the first conv3 spike (and from the window's start), over the true
   positives;
@@ -24,6 +26,7 @@ fire (:attr:`uavsnn.network.Inference.detected`). Beside the confusion matrix
 
 from __future__ import annotations
 
+import itertools
 import time
 from dataclasses import dataclass, field
 from typing import Any
@@ -36,8 +39,10 @@ from uavsnn.errors import DatasetError, ParameterError, ShapeError
 from uavsnn.network import Inference, Network
 
 __all__ = [
+    "SIZE_BINS_PX",
     "ClassFigures",
     "Evaluation",
+    "SizeFigures",
     "accuracy",
     "box_iou",
     "centre_distance",
@@ -48,6 +53,10 @@ __all__ = [
     "first_spike_in_box",
     "score",
 ]
+
+SIZE_BINS_PX: tuple[float, ...] = (0.0, 6.0, 12.0, 24.0, 48.0, float("inf"))
+"""Edges of the object-size bins of :attr:`Evaluation.per_size`: the longer side of a window's
+labelled box, in sensor pixels (each bin holds ``low <= side < high``)."""
 
 
 def confusion_matrix(predicted: npt.ArrayLike, actual: npt.ArrayLike) -> np.ndarray:
@@ -95,6 +104,24 @@ class ClassFigures:
 
 
 @dataclass(frozen=True)
+class SizeFigures:
+    """Windows whose labelled object's longer side is in ``[low_px, high_px)``: those with a UAV
+    and those with another object, each as a :class:`ClassFigures`."""
+
+    low_px: float
+    high_px: float
+    uav: ClassFigures
+    other: ClassFigures
+
+    @property
+    def label(self) -> str:
+        """``"6-12 px"``, or ``">= 48 px"`` for the last bin."""
+        if np.isinf(self.high_px):
+            return f">= {self.low_px:g} px"
+        return f"{self.low_px:g}-{self.high_px:g} px"
+
+
+@dataclass(frozen=True)
 class Evaluation:
     """A detector's figures on one test set (see the module's docstring)."""
 
@@ -112,6 +139,8 @@ class Evaluation:
     box_iou: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
     #: The same windows: distance (pixels) between the two boxes' centres.
     box_centre_error_px: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
+    #: By the labelled object's size (:data:`SIZE_BINS_PX`; windows without a box left out).
+    per_size: tuple[SizeFigures, ...] = ()
 
     @property
     def accuracy(self) -> float:
@@ -165,6 +194,15 @@ class Evaluation:
                 }
                 for name, c in sorted(self.per_class.items())
             },
+            "per_size": [
+                {
+                    "low_px": z.low_px,
+                    "high_px": None if np.isinf(z.high_px) else z.high_px,
+                    "uav": {"windows": z.uav.windows, "called_uav": z.uav.called_uav},
+                    "other": {"windows": z.other.windows, "called_uav": z.other.called_uav},
+                }
+                for z in self.per_size
+            ],
             "latency_us": stats(self.latency_us),
             "latency_from_window_start_us": stats(self.latency_from_start_us),
             "box_iou": stats(self.box_iou),
@@ -234,14 +272,30 @@ def score(
         raise ShapeError(f"inference has {len(inference)} windows, the data {len(data)}")
     predicted = np.asarray(inference.detected, dtype=bool)
     actual = np.asarray(data.label, dtype=bool)
-    per_class: dict[str, ClassFigures] = {}
-    for name in np.unique(data.cls):
-        mask = data.cls == name
-        per_class[str(name)] = ClassFigures(
+
+    def figures(mask: np.ndarray) -> ClassFigures:
+        return ClassFigures(
             windows=int(mask.sum()),
             called_uav=int(predicted[mask].sum()),
             correct=int((predicted[mask] == actual[mask]).sum()),
         )
+
+    per_class = {str(name): figures(data.cls == name) for name in np.unique(data.cls)}
+    labelled = np.asarray(data.box, dtype=np.float64)
+    boxed = np.asarray(np.isfinite(labelled).all(axis=1), dtype=bool)
+    side = np.zeros(len(data))
+    side[boxed] = np.maximum(
+        labelled[boxed, 2] - labelled[boxed, 0], labelled[boxed, 3] - labelled[boxed, 1]
+    )
+    per_size = []
+    for low, high in itertools.pairwise(SIZE_BINS_PX):
+        inside = boxed & (side >= low) & (side < high)
+        if inside.any():
+            per_size.append(
+                SizeFigures(
+                    low, high, uav=figures(inside & actual), other=figures(inside & ~actual)
+                )
+            )
     w = data.windows
     tp = np.flatnonzero(predicted & actual)
     first_in_box = first_spike_in_box(w, data.box)
@@ -250,8 +304,7 @@ def score(
     latency = detection_t[reached] - first_in_box[reached]
     from_start = detection_t[tp] - w.t0[tp].astype(np.int64)
     first_box = first_detection_boxes(inference, len(data))
-    labelled = np.asarray(data.box, dtype=np.float64)
-    located = tp[np.isfinite(labelled[tp]).all(axis=1)]
+    located = tp[boxed[tp]]
     iou = box_iou(first_box[located], labelled[located])
     centre = centre_distance(first_box[located], labelled[located])
     width, height = w.sensor_size
@@ -270,6 +323,7 @@ def score(
         inference=inference if keep_inference else None,
         box_iou=iou,
         box_centre_error_px=centre,
+        per_size=tuple(per_size),
     )
 
 

@@ -16,7 +16,7 @@ import numpy as np
 
 from uavsnn import pictures
 from uavsnn.dataset import LabelledWindows
-from uavsnn.evaluation import Evaluation
+from uavsnn.evaluation import ClassFigures, Evaluation
 from uavsnn.experiments import PAPER_TABLE3, NoisePoint
 from uavsnn.network import Network
 from uavsnn.training import TrainingResult
@@ -185,6 +185,13 @@ def confusion_table(matrix: np.ndarray) -> str:
     )
 
 
+def _share(figures: ClassFigures) -> str:
+    """``"12 (34.3 %)"``: windows called UAV, and their share; ``"-"`` for no windows."""
+    if not figures.windows:
+        return "-"
+    return f"{figures.called_uav} ({100 * figures.called_uav_rate:.1f} %)"
+
+
 def evaluation_markdown(evaluation: Evaluation) -> str:
     """Accuracy, the confusion matrix, per-class figures, latency, sparsity and cost."""
     d = evaluation.to_dict()
@@ -201,6 +208,20 @@ def evaluation_markdown(evaluation: Evaluation) -> str:
             f"| {name} | {c['windows']} | {c['called_uav']} | "
             f"{100 * c['correct'] / c['windows']:.1f} % |"
         )
+    if evaluation.per_size:
+        lines += [
+            "",
+            "By the size of the labelled object (the longer side of its box; windows without "
+            "an object left out):",
+            "",
+            "| object size | UAV windows | called UAV | other objects | called UAV |",
+            "|---|---|---|---|---|",
+        ]
+        for z in evaluation.per_size:
+            lines.append(
+                f"| {z.label} | {z.uav.windows} | {_share(z.uav)} | {z.other.windows} | "
+                f"{_share(z.other)} |"
+            )
     lat, start = d["latency_us"], d["latency_from_window_start_us"]
     lines += [""]
     if lat["n"]:

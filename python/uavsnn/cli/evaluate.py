@@ -79,6 +79,11 @@ def _evaluate(args: argparse.Namespace) -> int:
     print(f"confusion [[TP {tp}, FN {fn}], [FP {fp}, TN {tn}]]")
     for name, c in sorted(result.per_class.items()):
         print(f"  {name:12s} {c.windows:6d} windows, called UAV {100 * c.called_uav_rate:5.1f} %")
+    for z in result.per_size:
+        print(
+            f"  object {z.label:10s} UAV: {z.uav.called_uav}/{z.uav.windows} called UAV, "
+            f"others: {z.other.called_uav}/{z.other.windows}"
+        )
     if len(result.latency_us):
         median_ms = figures["latency_us"]["median"] / 1000
         print(f"latency (first UAV spike -> detection): median {median_ms:.2f} ms")
