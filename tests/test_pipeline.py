@@ -13,7 +13,7 @@ import pytest
 from uavsnn import Network
 from uavsnn.cli import main
 from uavsnn.dataset import SceneSource, build
-from uavsnn.experiments import NOISE_FRACTIONS
+from uavsnn.experiments import NOISE_FRACTIONS, describe_cpu
 
 DVS = SceneSource("dvs", (240, 180), 200.0, 0.3)
 
@@ -97,3 +97,15 @@ def test_reproduce_at_a_tiny_size(tmp_path: Path, capsys: pytest.CaptureFixture[
     env = results["environment"]
     assert env["numpy"] == np.__version__ and env["python"] == platform.python_version()
     assert f"NumPy {np.__version__}" in text
+
+
+def test_describe_cpu_tells_apart_cpus_of_one_name() -> None:
+    zen3 = "processor\t: 0\nvendor_id\t: AuthenticAMD\ncpu family\t: 25\nmodel\t\t: 1\n"
+    zen3 += "model name\t: AMD EPYC\nflags\t\t: fpu sse2 avx avx2 fma\n\nprocessor\t: 1\n"
+    zen3 += "cpu family\t: 26\nmodel name\t: other\nflags\t\t: avx512f\n"
+    assert describe_cpu(zen3) == "AMD EPYC (family 25, model 1; AVX2)"
+    zen5 = "cpu family\t: 26\nmodel\t\t: 2\nmodel name\t: AMD EPYC\n"
+    zen5 += "flags\t: avx2 avx512f avx512bw\n"
+    assert describe_cpu(zen5) == "AMD EPYC (family 26, model 2; AVX-512)"
+    assert describe_cpu("model name\t: Some CPU\nflags\t: sse2\n") == "Some CPU (no AVX2)"
+    assert describe_cpu("") is None and describe_cpu("processor\t: 0\n") is None

@@ -26,6 +26,7 @@ __all__ = [
     "PAPER_TABLE3",
     "RECIPE_SETTINGS",
     "NoisePoint",
+    "describe_cpu",
     "environment",
     "have_dataset",
     "mix_windows",
@@ -55,7 +56,7 @@ def environment() -> dict[str, str | None]:
     cpu = None
     try:
         with open("/proc/cpuinfo", encoding="utf-8") as f:
-            cpu = next((line.split(":", 1)[1].strip() for line in f if "model name" in line), None)
+            cpu = describe_cpu(f.read())
     except OSError:
         pass
     return {
@@ -66,6 +67,29 @@ def environment() -> dict[str, str | None]:
         "platform": f"{platform.system()} {platform.machine()}",
         "cpu": cpu or platform.processor() or None,
     }
+
+
+def describe_cpu(cpuinfo: str) -> str | None:
+    """The first processor of a ``/proc/cpuinfo`` text as ``"AMD EPYC (family 25, model 1;
+    AVX2)"``: its name, and what tells apart CPUs that virtual machines give the same name —
+    the family and model, and the widest vector instructions NumPy and OpenCV may pick
+    (``AVX-512``, ``AVX2`` or neither). ``None`` when the text names no processor."""
+    fields: dict[str, str] = {}
+    for line in cpuinfo.splitlines():
+        if not line.strip():
+            if fields:
+                break
+            continue
+        key, _, value = line.partition(":")
+        fields.setdefault(key.strip(), value.strip())
+    name = fields.get("model name")
+    if name is None:
+        return None
+    flags = set(fields.get("flags", "").split())
+    vector = "AVX-512" if "avx512f" in flags else "AVX2" if "avx2" in flags else "no AVX2"
+    family, model = fields.get("cpu family"), fields.get("model")
+    where = f"family {family}, model {model}; " if family and model else ""
+    return f"{name} ({where}{vector})"
 
 
 NOISE_FRACTIONS: tuple[float, ...] = (0.0, 0.0005, 0.002, 0.005, 0.01, 0.02, 0.05, 0.1, 0.2)
