@@ -87,6 +87,7 @@ def configs(draw: st.DrawFn) -> dict:
         "mode": draw(st.sampled_from(["pent", "static"])),
         "beta": draw(st.sampled_from([1.0, 2.0, 4.0, 8.0])),
         "theta_min": draw(st.integers(1, 2 * QUANTUM)) / QUANTUM,
+        "max_density": draw(st.sampled_from([None, 0.05, 0.3, 1.0])),
         "estimate": draw(st.sampled_from(["window", "preceding"])),
     }
     config["detection"] = {"min_detections": draw(st.integers(1, 3))}

@@ -142,6 +142,9 @@ def test_partial_config_takes_defaults_and_other_sensor_sizes() -> None:
         ({"conv3": {"threshold": float("nan")}}, uavsnn.ParameterError),
         ({"pent": {"theta_min": float("nan")}}, uavsnn.ParameterError),
         ({"pent": {"beta": -1.0}}, uavsnn.ParameterError),
+        ({"pent": {"max_density": 0.0}}, uavsnn.ParameterError),
+        ({"pent": {"max_density": 1.5}}, uavsnn.ParameterError),
+        ({"pent": {"max_density": float("nan")}}, uavsnn.ParameterError),
         ({"pent": {"mode": "adaptive"}}, uavsnn.ParameterError),
         ({"stdp": {"a_minus": 0.1}}, uavsnn.ParameterError),
         ({"detection": {"min_detections": 0}}, uavsnn.ParameterError),
@@ -304,6 +307,12 @@ def test_pent_thresholds_follow_the_formula() -> None:
         raw = c["pent"]["beta"] * (n_in / area) * k1
         expected = np.maximum(c["pent"]["theta_min"], raw).astype(np.float32)
         assert np.array_equal(net.conv1_thresholds(n_in), expected)
+    # With a cap on the density asked for, busy windows stop raising the bar at ρ_max · K1.
+    capped = Network({**c, "pent": {**c["pent"], "max_density": 0.25}})
+    for n_in in (0, 10, 300, 1500):
+        asked = min(c["pent"]["beta"] * (n_in / area), 0.25)
+        expected = np.maximum(c["pent"]["theta_min"], asked * k1).astype(np.float32)
+        assert np.array_equal(capped.conv1_thresholds(n_in), expected)
     t, x, y = random_window(np.random.default_rng(1), 48, 36, 0, 1000)
     assert np.array_equal(net.run_window(t, x, y, 0).thresholds, net.conv1_thresholds(len(t)))
     assert np.array_equal(

@@ -79,6 +79,12 @@ pub struct PentConfig {
     pub beta: f64,
     /// `θ_min`: the threshold floor.
     pub theta_min: f64,
+    /// `ρ_max`, optional: the most local density PENT asks for, `θ1 ≤ max(θ_min, ρ_max · K1)`.
+    /// Without it (SPEC §3's formula as written) a window busier than `1/β` of the sensor asks
+    /// for more than a whole kernel of input, which no neuron can reach, so heavy noise silences
+    /// layer 1 instead of raising its bar. Absent from older model files: none.
+    #[serde(default)]
+    pub max_density: Option<f64>,
     /// Source of `N_in`.
     pub estimate: PentEstimate,
 }
@@ -189,6 +195,7 @@ impl Default for NetworkConfig {
                 mode: ThresholdMode::Pent,
                 beta: 8.0,
                 theta_min: 3.0,
+                max_density: None,
                 estimate: PentEstimate::Window,
             },
             stdp: StdpConfig {
@@ -346,6 +353,14 @@ impl NetworkConfig {
                 format!("must be finite and > 0, got {}", p.theta_min),
             ));
         }
+        if let Some(r) = p.max_density {
+            if !(r > 0.0 && r <= 1.0) {
+                return Err(Error::param(
+                    "pent.max_density",
+                    format!("must be in (0, 1] or null, got {r}"),
+                ));
+            }
+        }
         Ok(())
     }
 
@@ -462,6 +477,12 @@ mod tests {
         assert_eq!(c.conv3.maps, 3);
         assert_eq!(c.conv3.kernel, NetworkConfig::default().conv3.kernel);
         assert!(NetworkConfig::from_json(r#"{"conv3": {"mpas": 3}}"#).is_err());
+        // Model files written before `pent.max_density` existed read as without the cap.
+        let c = NetworkConfig::from_json(
+            r#"{"pent": {"mode": "pent", "beta": 8.0, "theta_min": 3.0, "estimate": "window"}}"#,
+        )
+        .unwrap();
+        assert_eq!(c.pent, NetworkConfig::default().pent);
         assert!(NetworkConfig::from_json("[1]").is_err());
     }
 
@@ -478,6 +499,10 @@ mod tests {
                 "estimate": "window"}}"#,
             r#"{"pent": {"mode": "pent", "beta": 8.0, "theta_min": 0.0,
                 "estimate": "window"}}"#,
+            r#"{"pent": {"mode": "pent", "beta": 8.0, "theta_min": 3.0,
+                "max_density": 0.0, "estimate": "window"}}"#,
+            r#"{"pent": {"mode": "pent", "beta": 8.0, "theta_min": 3.0,
+                "max_density": 1.01, "estimate": "window"}}"#,
             r#"{"padding": "valid", "width": 8, "height": 8}"#,
             r#"{"widht": 240}"#,
             r#"{"stdp": {"a_plus": 0.004, "a_minus": 0.003, "a_plus_max": 0.15,

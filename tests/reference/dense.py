@@ -296,7 +296,10 @@ def pent_thresholds(config: dict, conv1_weights: np.ndarray, n_in: int) -> np.nd
     theta = np.zeros(maps, dtype=np.float32)
     for m in range(maps):
         k1 = float(np.sum(conv1_weights[m].astype(np.float64)))
-        value = max(float(pent["theta_min"]), float(pent["beta"]) * (n_in / area) * k1)
+        asked = float(pent["beta"]) * (n_in / area)
+        if pent.get("max_density") is not None:
+            asked = min(asked, float(pent["max_density"]))
+        value = max(float(pent["theta_min"]), asked * k1)
         theta[m] = np.float32(value)  # computed in float64, rounded to float32
     return theta
 
