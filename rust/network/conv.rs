@@ -60,6 +60,21 @@ const WAKE_WIDTHS: usize = 2;
 /// Counter lanes of one vector: one output row's positions of one input (`k ≤ LANES`).
 const LANES: usize = 16;
 
+/// Potentials that `reset` zeroes with one fixed-size store, and the padding at the end of
+/// `ConvState::pot` that lets the last block of a run reach past the layer. A block may also
+/// reach past its run into potentials that are zero already or zeroed by the same reset, so
+/// a run costs a few vector stores instead of a `memset` call.
+const ZERO_BLOCK: usize = 32;
+
+/// Where one input spike's additions landed: `rows` output rows, one `out_w` apart, of `cols`
+/// positions from position `first` (what the next window must zero).
+#[derive(Debug, Clone, Copy)]
+struct Footprint {
+    first: u32,
+    rows: u16,
+    cols: u16,
+}
+
 /// A neuron that crossed its threshold in the current timestamp group.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct Crossing {
@@ -86,7 +101,8 @@ pub(crate) struct Fired<'a> {
 #[derive(Debug, Clone)]
 pub(crate) struct ConvState {
     pub geom: ConvGeom,
-    /// Float32 running potentials `[row][col][map]` (`−∞` once crossed).
+    /// Float32 running potentials `[row][col][map]` (`−∞` once crossed), then `ZERO_BLOCK`
+    /// zeros of padding.
     pot: Vec<f32>,
     /// Per lane of a row's run: (position offset, map), to avoid dividing in the hot loop.
     lane_split: Vec<(u32, u32)>,
@@ -115,8 +131,8 @@ pub(crate) struct ConvState {
     best: Vec<u32>,
     order: Vec<u64>,
     merged: Vec<u64>,
-    /// Input positions `(row, col)` added this window (what the next window must zero).
-    inputs: Vec<(u32, u32)>,
+    /// Where the inputs added this window landed (what the next window must zero).
+    inputs: Vec<Footprint>,
     /// Potentials written this window, counted with repeats (the cost of replaying `inputs`).
     touched_lanes: usize,
     /// Scratch: per 8 lanes of a run, which reached `θ_lo`.
@@ -149,7 +165,7 @@ impl ConvState {
         let positions = geom.out_h * geom.out_w;
         Self {
             geom,
-            pot: vec![0.0; positions * geom.maps],
+            pot: vec![0.0; positions * geom.maps + ZERO_BLOCK],
             lane_split: (0..geom.k * geom.maps)
                 .map(|l| ((l / geom.maps) as u32, (l % geom.maps) as u32))
                 .collect(),
@@ -216,28 +232,27 @@ impl ConvState {
         let maps = g.maps;
         if self.gated {
             for &pos in &self.awake {
-                let p = pos as usize * maps;
-                self.pot[p..p + maps].fill(0.0);
+                zero_blocks(&mut self.pot, pos as usize * maps, maps);
             }
             if self.touched_lanes >= self.counts.len() {
                 self.counts.fill(0);
             } else {
-                for &(iy, ix) in &self.inputs {
-                    let cols = g.outputs_of(ix as usize, g.out_w);
-                    for oy in g.outputs_of(iy as usize, g.out_h) {
-                        let start = oy * g.out_w;
-                        self.counts[start + cols.start..start + cols.end].fill(0);
+                for f in &self.inputs {
+                    for r in 0..usize::from(f.rows) {
+                        // One vector of counts (`cols ≤ k ≤ LANES`; `counts` has `LANES` of
+                        // padding); the lanes past the run are zero or zeroed here too.
+                        let start = f.first as usize + r * g.out_w;
+                        self.counts[start..start + LANES].copy_from_slice(&[0; LANES]);
                     }
                 }
             }
-        } else if self.touched_lanes >= self.pot.len() {
+        } else if self.touched_lanes >= g.neurons() {
             self.pot.fill(0.0);
         } else {
-            for &(iy, ix) in &self.inputs {
-                let cols = g.outputs_of(ix as usize, g.out_w);
-                for oy in g.outputs_of(iy as usize, g.out_h) {
-                    let start = (oy * g.out_w + cols.start) * maps;
-                    self.pot[start..start + cols.len() * maps].fill(0.0);
+            for f in &self.inputs {
+                let run = usize::from(f.cols) * maps;
+                for r in 0..usize::from(f.rows) {
+                    zero_blocks(&mut self.pot, (f.first as usize + r * g.out_w) * maps, run);
                 }
             }
         }
@@ -297,8 +312,12 @@ impl ConvState {
         if cols.is_empty() {
             return;
         }
-        self.inputs.push((iy as u32, ix as u32));
         let rows = g.outputs_of(iy, g.out_h);
+        self.inputs.push(Footprint {
+            first: (rows.start * g.out_w + cols.start) as u32,
+            rows: rows.len() as u16,
+            cols: cols.len() as u16,
+        });
         // Kernel column index j = k − 1 − dx of the first output column; each output row
         // further down reads the kernel row above (dy falls by one).
         let j0 = g.k - 1 - (ix + g.p_lo - cols.start);
@@ -333,18 +352,20 @@ impl ConvState {
             if self.avx2 && run <= 32 && rows.len() <= FUSED_ROWS {
                 // One vector pass over every row, then the candidates of the rows that had any.
                 let mut masks = [0u32; FUSED_ROWS];
-                let any = add_rows(
-                    &mut self.pot,
+                let masks = &mut masks[..rows.len()];
+                let (p0, w0) = (
                     (rows.start * g.out_w + cols.start) * maps,
-                    g.out_w * maps,
-                    w,
                     ((c * g.k + dy0) * g.k + j0) * maps,
-                    g.k * maps,
-                    &self.thr_lo[..run],
-                    &mut masks[..rows.len()],
                 );
+                let (p_stride, w_stride) = (g.out_w * maps, g.k * maps);
+                let any = if rows.len() == FIXED_ROWS && run == FIXED_RUN {
+                    add_rows_fixed(&mut self.pot, p0, p_stride, w, w0, w_stride, &self.thr_lo, masks)
+                } else {
+                    let thr = &self.thr_lo[..run];
+                    add_rows(&mut self.pot, p0, p_stride, w, w0, w_stride, thr, masks)
+                };
                 if any {
-                    for (step, &mask) in masks[..rows.len()].iter().enumerate() {
+                    for (step, &mask) in masks.iter().enumerate() {
                         let pos0 = ((rows.start + step) * g.out_w + cols.start) as u32;
                         let mut mask = mask;
                         while mask != 0 {
@@ -465,6 +486,13 @@ impl ConvState {
         v
     }
 
+    /// Whether `resolve` may find crossings in the group just added: some neuron reached `θ_lo`
+    /// or its waking count, or an earlier one is still in the band.
+    #[inline]
+    pub fn may_fire(&self) -> bool {
+        !(self.candidates.is_empty() && self.band.is_empty() && self.waking.is_empty())
+    }
+
     /// Decide the crossings of the group just added and append the neurons that fire to
     /// `out`, with their exact potential when `exact` (else `v` is NaN). `weights` are the
     /// layer's and `fired` its inputs that fired so far. Positions that reached their waking
@@ -515,9 +543,6 @@ impl ConvState {
         }
         candidates.clear();
         self.candidates = candidates;
-        for c in &mut self.crossed {
-            self.pot[c.pos as usize * maps + c.map as usize] = f32::NEG_INFINITY;
-        }
         if exact {
             for i in 0..self.crossed.len() {
                 let c = self.crossed[i];
@@ -527,9 +552,14 @@ impl ConvState {
             }
         }
         if !inhibit {
+            for c in &self.crossed {
+                self.pot[c.pos as usize * maps + c.map as usize] = f32::NEG_INFINITY;
+            }
             out.append(&mut self.crossed);
             return;
         }
+        // Every position that crossed has a best crossing, and all its maps are latched
+        // below: the crossings need no latch of their own.
         self.pick_best(kernels, fired);
         for &i in &self.best {
             let c = self.crossed[i as usize];
@@ -627,6 +657,18 @@ impl ConvState {
             std::cmp::Ordering::Equal => a.map < b.map,
             std::cmp::Ordering::Less => false,
         }
+    }
+}
+
+/// Zero `buf[start..start + len]` in blocks of `ZERO_BLOCK`, the last of which may reach up to
+/// `ZERO_BLOCK − 1` values further (see `ZERO_BLOCK`: the caller's buffer must hold them, and
+/// they must be zero or be zeroed too).
+#[inline]
+fn zero_blocks(buf: &mut [f32], start: usize, len: usize) {
+    let mut b = start;
+    while b < start + len {
+        buf[b..b + ZERO_BLOCK].copy_from_slice(&[0.0; ZERO_BLOCK]);
+        b += ZERO_BLOCK;
     }
 }
 
@@ -942,6 +984,56 @@ fn add_detect(avx2: bool, pot: &mut [f32], w: &[f32], thr: &[f32], masks: &mut [
 /// Most output rows that `add_rows` takes at once.
 const FUSED_ROWS: usize = 16;
 
+/// The one shape that `add_rows_fixed` takes: conv1's input spike away from the borders adds
+/// to `k = 5` output rows of `k × maps = 5 × 4` lanes each.
+const FIXED_ROWS: usize = 5;
+const FIXED_RUN: usize = 20;
+
+/// `add_rows` for `FIXED_ROWS` rows of `FIXED_RUN` lanes (AVX2 only), with the thresholds
+/// `thr[..FIXED_RUN]`: the shape of nearly every conv1 input, compiled with its sizes known so
+/// that the rows are unrolled, the thresholds loaded once and the last 4 lanes of a row taken
+/// as one half vector (`add_rows` costs about 1.7 times its instructions on that shape).
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn add_rows_fixed(
+    pot: &mut [f32],
+    p0: usize,
+    p_stride: usize,
+    w: &[f32],
+    w0: usize,
+    w_stride: usize,
+    thr: &[f32],
+    masks: &mut [u32],
+) -> bool {
+    assert!(
+        masks.len() == FIXED_ROWS
+            && thr.len() >= FIXED_RUN
+            && p0 + (FIXED_ROWS - 1) * p_stride + FIXED_RUN <= pot.len()
+            && w0 >= (FIXED_ROWS - 1) * w_stride
+            && w0 + FIXED_RUN <= w.len(),
+        "rows inside the layer and the kernel"
+    );
+    #[cfg(target_arch = "x86_64")]
+    {
+        assert!(has_avx2(), "add_rows_fixed needs AVX2");
+        // SAFETY: the ranges are asserted above and the CPU has AVX2.
+        unsafe {
+            simd::add_rows_fixed_avx2(
+                pot.as_mut_ptr().add(p0),
+                p_stride,
+                w.as_ptr().add(w0),
+                w_stride,
+                thr,
+                masks,
+            )
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        add_rows(pot, p0, p_stride, w, w0, w_stride, &thr[..FIXED_RUN], masks)
+    }
+}
+
 /// `add_detect` for the `masks.len()` output rows of one input at once (AVX2 only): row `r`
 /// adds the run of weights at `w0 − r · w_stride` to the potentials at `p0 + r · p_stride`
 /// (runs of `thr.len() ≤ 32` lanes); `masks[r]` gets bit `l` where lane `l` of row `r`
@@ -1028,7 +1120,7 @@ mod simd {
     //! The add-and-detect kernel with explicit vectors: per 8 lanes, loads of potentials,
     //! weights and thresholds, one store, and a movemask byte (almost always 0).
     use std::arch::x86_64::{
-        __m256, _mm256_add_ps, _mm256_and_ps, _mm256_and_si256, _mm256_castsi256_ps, _mm256_cmp_ps,
+        __m128, __m256, _mm256_add_ps, _mm256_and_ps, _mm256_and_si256, _mm256_castsi256_ps, _mm256_cmp_ps,
         _mm256_cmpeq_epi32, _mm256_cmpgt_epi16, _mm256_loadu_ps, _mm256_loadu_si256,
         _mm256_maskload_ps, _mm256_maskstore_ps, _mm256_movemask_epi8, _mm256_movemask_ps,
         _mm256_set1_epi16, _mm256_set1_epi32, _mm256_storeu_ps, _mm256_storeu_si256,
@@ -1271,6 +1363,62 @@ mod simd {
         any != 0
     }
 
+    /// The crossing mask of one half vector of lanes.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn crossed_half(old: __m128, new: __m128, t: __m128) -> i32 {
+        _mm_movemask_ps(_mm_and_ps(_mm_cmplt_ps(old, t), _mm_cmpge_ps(new, t)))
+    }
+
+    /// `add_rows_avx2` for `FIXED_ROWS` rows of `FIXED_RUN` lanes: two full vectors and one
+    /// half vector per row.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2; for every `r < FIXED_ROWS`, `pot + r · p_stride` and
+    /// `w − r · w_stride` hold `FIXED_RUN` values; `thr` holds at least `FIXED_RUN` and
+    /// `masks` `FIXED_ROWS`.
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn add_rows_fixed_avx2(
+        pot: *mut f32,
+        p_stride: usize,
+        w: *const f32,
+        w_stride: usize,
+        thr: &[f32],
+        masks: &mut [u32],
+    ) -> bool {
+        const _: () = assert!(super::FIXED_RUN == 20, "two vectors and a half per row");
+        // SAFETY: thr holds FIXED_RUN values.
+        let (t0, t1, t2) = unsafe {
+            (
+                _mm256_loadu_ps(thr.as_ptr()),
+                _mm256_loadu_ps(thr.as_ptr().add(8)),
+                _mm_loadu_ps(thr.as_ptr().add(16)),
+            )
+        };
+        let mut any = 0u32;
+        for r in 0..super::FIXED_ROWS {
+            // SAFETY: the caller guarantees that both rows hold FIXED_RUN values.
+            let mask = unsafe {
+                let (p, wp) = (pot.add(r * p_stride), w.sub(r * w_stride));
+                let old0 = _mm256_loadu_ps(p);
+                let new0 = _mm256_add_ps(old0, _mm256_loadu_ps(wp));
+                _mm256_storeu_ps(p, new0);
+                let old1 = _mm256_loadu_ps(p.add(8));
+                let new1 = _mm256_add_ps(old1, _mm256_loadu_ps(wp.add(8)));
+                _mm256_storeu_ps(p.add(8), new1);
+                let old2 = _mm_loadu_ps(p.add(16));
+                let new2 = _mm_add_ps(old2, _mm_loadu_ps(wp.add(16)));
+                _mm_storeu_ps(p.add(16), new2);
+                crossed(old0, new0, t0) as u32
+                    | (crossed(old1, new1, t1) as u32) << 8
+                    | (crossed_half(old2, new2, t2) as u32) << 16
+            };
+            *masks.get_mut(r).expect("FIXED_ROWS masks") = mask;
+            any |= mask;
+        }
+        any != 0
+    }
+
     /// # Safety
     /// `w`, `thr` as long as `pot`, `masks` `ceil(len / 8)` bytes.
     pub(super) unsafe fn add_detect_sse2(
@@ -1456,6 +1604,31 @@ mod tests {
                 }
                 assert_eq!((a, any), (b, any_b), "run {run}, rows {rows}");
             }
+        }
+    }
+
+    /// `add_rows_fixed` equals `add_rows` on its shape, crossings in every lane included.
+    #[test]
+    fn add_rows_fixed_equals_add_rows() {
+        if !has_avx2() {
+            return; // add_rows_fixed is only called where the CPU has AVX2
+        }
+        let mut rng = crate::network::xorshift(13u64);
+        let mut next = || {
+            let s = rng();
+            (s >> 40) as f32 / (1u64 << 20) as f32
+        };
+        let (p_stride, w_stride) = (47, 29);
+        for round in 0..50 {
+            let pot: Vec<f32> = (0..FIXED_ROWS * p_stride).map(|_| next() * 2.0).collect();
+            let w: Vec<f32> = (0..FIXED_ROWS * w_stride).map(|_| next()).collect();
+            let thr: Vec<f32> = (0..FIXED_RUN).map(|_| next() * 3.0).collect();
+            let (p0, w0) = (round % 7, (FIXED_ROWS - 1) * w_stride + round % 5);
+            let (mut a, mut b) = (pot.clone(), pot);
+            let (mut ma, mut mb) = ([0u32; FIXED_ROWS], [0u32; FIXED_ROWS]);
+            let any_a = add_rows_fixed(&mut a, p0, p_stride, &w, w0, w_stride, &thr, &mut ma);
+            let any_b = add_rows(&mut b, p0, p_stride, &w, w0, w_stride, &thr, &mut mb);
+            assert_eq!((a, ma, any_a), (b, mb, any_b), "round {round}");
         }
     }
 

@@ -36,6 +36,7 @@ use super::config::NetworkConfig;
 use super::conv::{ConvState, Crossing, Fired};
 use super::detection::{detection, Detection};
 use super::geometry::Geometry;
+use super::batch::Spikes;
 use super::model::Network;
 use super::pool::{PoolSpike, PoolState};
 use super::winners::{Winner, Wta};
@@ -336,15 +337,90 @@ impl WindowState {
             // The winners are known; later spikes cannot change the STDP update.
             return Ok(());
         }
-        let pixel = ys * self.width + xs;
-        if self.pixel_fired[pixel] != self.generation {
-            self.pixel_fired[pixel] = self.generation;
-            self.pixel_time[pixel] = t;
-            self.inputs += 1;
+        if self.stamp(ys * self.width + xs, t) {
             self.pending.push((x, y));
             self.pending_t = Some(t);
         }
         Ok(())
+    }
+
+    /// Note that `pixel` spiked at `t`; returns whether this is its first spike in the window
+    /// (its input spike: later ones are ignored).
+    #[inline]
+    fn stamp(&mut self, pixel: usize, t: u64) -> bool {
+        if self.pixel_fired[pixel] == self.generation {
+            return false;
+        }
+        self.pixel_fired[pixel] = self.generation;
+        self.pixel_time[pixel] = t;
+        self.inputs += 1;
+        true
+    }
+
+    /// Push a window's spikes (sorted by time) and process every timestamp group, the last one
+    /// included, as [`Self::push_group`] would group by group.
+    ///
+    /// In an inference window with no group pending, spikes that are all valid (checked
+    /// together first: inside the sensor, in time order, none before `t0` or the previous
+    /// spike) go straight to conv1, without `accept`'s per-spike checks and the pending list.
+    /// Otherwise they go group by group through `push_group`, so that an error, and the state
+    /// it leaves, are the same.
+    pub(crate) fn push_spikes(&mut self, net: &Network, spikes: Spikes<'_>) -> Result<()> {
+        let (t, x, y) = (spikes.t(), spikes.x(), spikes.y());
+        if self.all_valid(net, t, x, y) {
+            self.take_valid(net, t, x, y);
+            return Ok(());
+        }
+        let mut start = 0;
+        while start < t.len() {
+            let mut end = start + 1;
+            while end < t.len() && t[end] == t[start] {
+                end += 1;
+            }
+            self.push_group(net, t[start], &x[start..end], &y[start..end])?;
+            start = end;
+        }
+        Ok(())
+    }
+
+    /// Whether `take_valid` may take these spikes: see `push_spikes`.
+    fn all_valid(&self, net: &Network, t: &[u64], x: &[u16], y: &[u16]) -> bool {
+        let after = |first: u64| first >= self.t0 && self.last_t.map_or(true, |l| first >= l);
+        self.open
+            && self.made_for(net)
+            && self.training.is_none()
+            && self.pending_t.is_none()
+            && t.first().map_or(true, |&first| after(first))
+            && t.windows(2).all(|w| w[0] <= w[1])
+            && x.iter().all(|&x| usize::from(x) < self.width)
+            && y.iter().all(|&y| usize::from(y) < self.height)
+    }
+
+    /// Take spikes that `all_valid` passed: each group's input spikes are added to conv1 as
+    /// they come and the group is run up the network once complete (what `accept` and
+    /// `process_pending` do, without the pending list).
+    fn take_valid(&mut self, net: &Network, t: &[u64], x: &[u16], y: &[u16]) {
+        let w = net.conv_weights(ConvLayer::Conv1).engine();
+        let mut i = 0;
+        while i < t.len() {
+            let group_t = t[i];
+            let mut added = false;
+            while i < t.len() && t[i] == group_t {
+                let (xs, ys) = (usize::from(x[i]), usize::from(y[i]));
+                if self.stamp(ys * self.width + xs, group_t) {
+                    self.conv[0].add(w, 0, ys, xs);
+                    added = true;
+                }
+                i += 1;
+            }
+            if added {
+                self.propagate(net, group_t);
+            }
+        }
+        self.pushed += t.len();
+        if let Some(&last) = t.last() {
+            self.last_t = Some(last);
+        }
     }
 
     fn bad_event(&self, reason: String) -> Error {
@@ -369,6 +445,9 @@ impl WindowState {
 
     /// Decide conv1's crossings of the group at `t` and carry the spikes up the layers.
     fn propagate(&mut self, net: &Network, t: u64) {
+        if !self.conv[0].may_fire() {
+            return; // the common case: none of the layers' setup is needed
+        }
         let config = net.config();
         let generation = self.generation;
         let mut crossings = std::mem::take(&mut self.crossings);
