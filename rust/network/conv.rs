@@ -37,6 +37,8 @@
 //! carries no per-position stamps. A position that fired under lateral inhibition has all its
 //! maps latched, which is all the lock it needs.
 
+use std::ops::Range;
+
 use super::geometry::{ConvGeom, Divider};
 use super::weights::ConvWeights;
 
@@ -158,6 +160,17 @@ pub(crate) struct ConvState {
     awake: Vec<u32>,
     /// Division by the output width (position → row, column).
     split: Divider,
+    /// The inputs that `add_whole` takes (when the layer adds densely), where it may: the layer
+    /// has `FIXED_ROWS` rows of `FIXED_RUN` lanes and the CPU has AVX2.
+    whole: Option<Whole>,
+}
+
+/// The inputs of a layer whose footprint is the whole kernel: input rows and columns whose `k`
+/// output rows (columns) are all inside the layer.
+#[derive(Debug, Clone)]
+struct Whole {
+    rows: Range<usize>,
+    cols: Range<usize>,
 }
 
 impl ConvState {
@@ -201,6 +214,12 @@ impl ConvState {
             waking: Vec::new(),
             awake: Vec::new(),
             split: Divider::new(geom.out_w),
+            whole: (has_avx2() && geom.k == FIXED_ROWS && geom.k * geom.maps == FIXED_RUN).then(
+                || Whole {
+                    rows: geom.whole_footprints(geom.out_h),
+                    cols: geom.whole_footprints(geom.out_w),
+                },
+            ),
         }
     }
 
@@ -249,12 +268,7 @@ impl ConvState {
         } else if self.touched_lanes >= g.neurons() {
             self.pot.fill(0.0);
         } else {
-            for f in &self.inputs {
-                let run = usize::from(f.cols) * maps;
-                for r in 0..usize::from(f.rows) {
-                    zero_blocks(&mut self.pot, (f.first as usize + r * g.out_w) * maps, run);
-                }
-            }
+            zero_footprints(self.avx2, &mut self.pot, &self.inputs, g.out_w, maps);
         }
         self.touched_lanes = 0;
         self.inputs.clear();
@@ -306,6 +320,11 @@ impl ConvState {
     /// covers it; neurons whose float32 sum reaches `θ_lo` become candidates of the group.
     #[inline]
     pub fn add(&mut self, w: &[f32], c: usize, iy: usize, ix: usize) {
+        let whole = |w: &Whole| w.rows.contains(&iy) && w.cols.contains(&ix);
+        if !self.gated && self.whole.as_ref().is_some_and(whole) {
+            self.add_whole(w, c, iy, ix);
+            return;
+        }
         let g = self.geom;
         let maps = g.maps;
         let cols = g.outputs_of(ix, g.out_w);
@@ -358,28 +377,61 @@ impl ConvState {
                     ((c * g.k + dy0) * g.k + j0) * maps,
                 );
                 let (p_stride, w_stride) = (g.out_w * maps, g.k * maps);
-                let any = if rows.len() == FIXED_ROWS && run == FIXED_RUN {
-                    add_rows_fixed(&mut self.pot, p0, p_stride, w, w0, w_stride, &self.thr_lo, masks)
-                } else {
-                    let thr = &self.thr_lo[..run];
-                    add_rows(&mut self.pot, p0, p_stride, w, w0, w_stride, thr, masks)
-                };
-                if any {
-                    for (step, &mask) in masks.iter().enumerate() {
-                        let pos0 = ((rows.start + step) * g.out_w + cols.start) as u32;
-                        let mut mask = mask;
-                        while mask != 0 {
-                            let (dp, map) = self.lane_split[mask.trailing_zeros() as usize];
-                            self.candidates.push((pos0 + dp, map));
-                            mask &= mask - 1;
-                        }
-                    }
+                let thr = &self.thr_lo[..run];
+                if add_rows(&mut self.pot, p0, p_stride, w, w0, w_stride, thr, masks) {
+                    self.push_row_candidates(masks, rows.start * g.out_w + cols.start);
                 }
                 return;
             }
             for (step, oy) in rows.enumerate() {
                 let wstart = ((c * g.k + dy0 - step) * g.k + j0) * maps;
                 self.add_run(w, wstart, oy * g.out_w + cols.start, cols.len());
+            }
+        }
+    }
+
+    /// `add` for an input whose footprint is the whole kernel (`Whole`) in a
+    /// layer of `FIXED_ROWS` rows of `FIXED_RUN` lanes that adds densely on a CPU with AVX2:
+    /// nearly every input of conv1. Nothing is clipped, so the offsets are those of the
+    /// kernel's last row and column, and the rows go through `add_rows_fixed`.
+    #[inline]
+    fn add_whole(&mut self, w: &[f32], c: usize, iy: usize, ix: usize) {
+        let g = self.geom;
+        let maps = g.maps;
+        // The first output row and column, where the input is under the kernel's last ones.
+        let first = (iy + g.p_lo + 1 - g.k) * g.out_w + (ix + g.p_lo + 1 - g.k);
+        self.inputs.push(Footprint {
+            first: first as u32,
+            rows: FIXED_ROWS as u16,
+            cols: g.k as u16,
+        });
+        self.touched_lanes += FIXED_ROWS * FIXED_RUN;
+        let mut masks = [0u32; FIXED_ROWS];
+        if add_rows_fixed(
+            &mut self.pot,
+            first * maps,
+            g.out_w * maps,
+            w,
+            (c * g.k + g.k - 1) * g.k * maps,
+            g.k * maps,
+            &self.thr_lo,
+            &mut masks,
+        ) {
+            self.push_row_candidates(&masks, first);
+        }
+    }
+
+    /// Record the neurons whose lanes are set in `masks` (one per output row of a run from
+    /// position `first`, one `out_w` apart) as candidates.
+    #[inline]
+    fn push_row_candidates(&mut self, masks: &[u32], first: usize) {
+        for (step, &mask) in masks.iter().enumerate() {
+            let pos0 = (first + step * self.geom.out_w) as u32;
+            let mut mask = mask;
+            while mask != 0 {
+                let (dp, map) = self.lane_split[mask.trailing_zeros() as usize];
+                self.candidates.push((pos0 + dp, map));
+                mask &= mask - 1;
             }
         }
     }
@@ -565,24 +617,39 @@ impl ConvState {
             let c = self.crossed[i as usize];
             out.push(c);
             // No map may fire here any more: latch them all, so none becomes a candidate again.
-            let p = c.pos as usize * maps;
-            self.pot[p..p + maps].fill(f32::NEG_INFINITY);
+            latch_position(&mut self.pot, c.pos as usize, maps);
         }
         self.crossed.clear();
     }
 
     /// Lateral inhibition within a group: `best` = for each position in `crossed`, the index
     /// of its winning crossing (see `beats`): positions in order of first appearance for groups
-    /// of up to 16 crossings, in position order for larger ones. The order changes no result
-    /// (decisions are exact whatever order float32 sums are taken in); it is the order in which
-    /// the spikes go on up.
+    /// of up to 16 crossings, in position order for larger ones (the same where the crossings
+    /// come in position order). The order changes no result (decisions are exact whatever
+    /// order float32 sums are taken in); it is the order in which the spikes go on up.
     fn pick_best(&mut self, kernels: &[f32], fired: Fired<'_>) {
         /// Up to this many crossings, a scan of the positions seen so far is cheapest.
         const SCAN: usize = 16;
         let n = self.crossed.len();
         let mut best = std::mem::take(&mut self.best);
         best.clear();
-        if n <= SCAN {
+        if self.crossed.windows(2).all(|w| w[0].pos <= w[1].pos) {
+            // The usual case (the crossings of one input come in position order, and most
+            // groups are one input): each position's crossings are consecutive.
+            let mut i = 0;
+            while i < n {
+                let mut w = i;
+                let mut j = i + 1;
+                while j < n && self.crossed[j].pos == self.crossed[i].pos {
+                    if self.beats(kernels, fired, self.crossed[j], self.crossed[w]) {
+                        w = j;
+                    }
+                    j += 1;
+                }
+                best.push(w as u32);
+                i = j;
+            }
+        } else if n <= SCAN {
             for i in 0..n {
                 let c = self.crossed[i];
                 match best
@@ -660,6 +727,17 @@ impl ConvState {
     }
 }
 
+/// Latch every map of position `pos` (set its `maps` float32 potentials to `−∞`).
+#[inline]
+fn latch_position(pot: &mut [f32], pos: usize, maps: usize) {
+    let run = &mut pot[pos * maps..(pos + 1) * maps];
+    match <&mut [f32; 4]>::try_from(&mut *run) {
+        // conv1's 4 maps: one vector store, not a loop of unknown length.
+        Ok(four) => *four = [f32::NEG_INFINITY; 4],
+        Err(_) => run.fill(f32::NEG_INFINITY),
+    }
+}
+
 /// Zero `buf[start..start + len]` in blocks of `ZERO_BLOCK`, the last of which may reach up to
 /// `ZERO_BLOCK − 1` values further (see `ZERO_BLOCK`: the caller's buffer must hold them, and
 /// they must be zero or be zeroed too).
@@ -669,6 +747,45 @@ fn zero_blocks(buf: &mut [f32], start: usize, len: usize) {
     while b < start + len {
         buf[b..b + ZERO_BLOCK].copy_from_slice(&[0.0; ZERO_BLOCK]);
         b += ZERO_BLOCK;
+    }
+}
+
+/// Zero the runs of potentials (`[row][col][map]`, rows `out_w` positions apart) of every
+/// footprint, in blocks of `ZERO_BLOCK` (see `zero_blocks`). Compiled for AVX2 where the CPU
+/// has it, so that a block is four stores.
+#[inline]
+fn zero_footprints(avx2: bool, pot: &mut [f32], inputs: &[Footprint], out_w: usize, maps: usize) {
+    #[cfg(target_arch = "x86_64")]
+    if avx2 {
+        // SAFETY: `avx2` comes from `has_avx2`.
+        unsafe { simd::zero_footprints_avx2(pot, inputs, out_w, maps) };
+        return;
+    }
+    let _ = avx2;
+    zero_footprints_body(pot, inputs, out_w, maps);
+}
+
+/// The loop of `zero_footprints`, inlined into each of its compilations.
+#[allow(clippy::inline_always)]
+#[inline(always)]
+fn zero_footprints_body(pot: &mut [f32], inputs: &[Footprint], out_w: usize, maps: usize) {
+    let stride = out_w * maps;
+    for f in inputs {
+        let span = (usize::from(f.cols) * maps).next_multiple_of(ZERO_BLOCK);
+        let first = f.first as usize * maps;
+        let rows = (first..).step_by(stride).take(f.rows.into());
+        if span == ZERO_BLOCK {
+            // One block per row (conv1's runs of 20): its stores without a loop around them.
+            for start in rows {
+                pot[start..start + ZERO_BLOCK].copy_from_slice(&[0.0; ZERO_BLOCK]);
+            }
+        } else {
+            for start in rows {
+                for block in pot[start..start + span].chunks_exact_mut(ZERO_BLOCK) {
+                    block.copy_from_slice(&[0.0; ZERO_BLOCK]);
+                }
+            }
+        }
     }
 }
 
@@ -1120,8 +1237,8 @@ mod simd {
     //! The add-and-detect kernel with explicit vectors: per 8 lanes, loads of potentials,
     //! weights and thresholds, one store, and a movemask byte (almost always 0).
     use std::arch::x86_64::{
-        __m128, __m256, _mm256_add_ps, _mm256_and_ps, _mm256_and_si256, _mm256_castsi256_ps, _mm256_cmp_ps,
-        _mm256_cmpeq_epi32, _mm256_cmpgt_epi16, _mm256_loadu_ps, _mm256_loadu_si256,
+        __m128, __m256, _mm256_add_ps, _mm256_and_ps, _mm256_and_si256, _mm256_castsi256_ps,
+        _mm256_cmp_ps, _mm256_cmpeq_epi32, _mm256_cmpgt_epi16, _mm256_loadu_ps, _mm256_loadu_si256,
         _mm256_maskload_ps, _mm256_maskstore_ps, _mm256_movemask_epi8, _mm256_movemask_ps,
         _mm256_set1_epi16, _mm256_set1_epi32, _mm256_storeu_ps, _mm256_storeu_si256,
         _mm256_sub_epi16, _mm_add_ps, _mm_and_ps, _mm_and_si128, _mm_cmpge_ps, _mm_cmpgt_epi16,
@@ -1160,6 +1277,20 @@ mod simd {
         pot: &mut [f32],
     ) {
         super::gather_body(true, g, fired, base, w, oy, ox, pot);
+    }
+
+    /// `super::zero_footprints` compiled for AVX2.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn zero_footprints_avx2(
+        pot: &mut [f32],
+        inputs: &[super::Footprint],
+        out_w: usize,
+        maps: usize,
+    ) {
+        super::zero_footprints_body(pot, inputs, out_w, maps);
     }
 
     /// # Safety

@@ -31,12 +31,12 @@
 //! [`WindowState::finish`]. A pixel's first spike in the window is its input spike; later ones
 //! are ignored (docs/model.md §1), so raw events can be pushed as they come.
 
+use super::batch::Spikes;
 use super::cause::{self, Causes};
 use super::config::NetworkConfig;
 use super::conv::{ConvState, Crossing, Fired};
 use super::detection::{detection, Detection};
 use super::geometry::Geometry;
-use super::batch::Spikes;
 use super::model::Network;
 use super::pool::{PoolSpike, PoolState};
 use super::winners::{Winner, Wta};
