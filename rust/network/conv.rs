@@ -912,8 +912,10 @@ pub(crate) fn each_fired_input(
 /// Call `f(iy, lane)` for every input of output `(oy, ox)`'s receptive field that fired: input
 /// row `iy`, and `lane` its place in that row's inputs `[col][channel]` (clipped to the input).
 /// A row's inputs are contiguous: they are tested 64 at a time without branching, and only
-/// those that fired are visited, in memory order.
-#[inline]
+/// those that fired are visited, in memory order. Always inlined, so that `gather_avx2`'s
+/// additions are compiled for AVX2 whichever code-generation unit holds it.
+#[allow(clippy::inline_always)]
+#[inline(always)]
 fn each_fired_lane(
     g: &ConvGeom,
     fired: Fired<'_>,
@@ -1237,13 +1239,16 @@ mod simd {
     //! The add-and-detect kernel with explicit vectors: per 8 lanes, loads of potentials,
     //! weights and thresholds, one store, and a movemask byte (almost always 0).
     use std::arch::x86_64::{
-        __m128, __m256, _mm256_add_ps, _mm256_and_ps, _mm256_and_si256, _mm256_castsi256_ps,
-        _mm256_cmp_ps, _mm256_cmpeq_epi32, _mm256_cmpgt_epi16, _mm256_loadu_ps, _mm256_loadu_si256,
-        _mm256_maskload_ps, _mm256_maskstore_ps, _mm256_movemask_epi8, _mm256_movemask_ps,
-        _mm256_set1_epi16, _mm256_set1_epi32, _mm256_storeu_ps, _mm256_storeu_si256,
-        _mm256_sub_epi16, _mm_add_ps, _mm_and_ps, _mm_and_si128, _mm_cmpge_ps, _mm_cmpgt_epi16,
+        __m256, __m256i, _mm256_add_ps, _mm256_and_ps, _mm256_and_si256, _mm256_castps_si256,
+        _mm256_castsi256_ps, _mm256_cmp_ps, _mm256_cmpeq_epi32, _mm256_cmpgt_epi16,
+        _mm256_loadu_ps, _mm256_loadu_si256, _mm256_maskload_ps, _mm256_maskstore_ps,
+        _mm256_movemask_epi8, _mm256_movemask_ps, _mm256_packs_epi16, _mm256_packs_epi32,
+        _mm256_permutevar8x32_epi32, _mm256_set1_epi16, _mm256_set1_epi32, _mm256_setr_epi32,
+        _mm256_storeu_ps, _mm256_storeu_si256, _mm256_sub_epi16, _mm256_zextsi128_si256,
+        _mm_add_ps, _mm_and_ps, _mm_and_si128, _mm_castps_si128, _mm_cmpge_ps, _mm_cmpgt_epi16,
         _mm_cmplt_ps, _mm_loadu_ps, _mm_loadu_si128, _mm_movemask_epi8, _mm_movemask_ps,
-        _mm_set1_epi16, _mm_storeu_ps, _mm_storeu_si128, _mm_sub_epi16, _CMP_GE_OQ, _CMP_LT_OQ,
+        _mm_packs_epi32, _mm_set1_epi16, _mm_setzero_si128, _mm_storeu_ps, _mm_storeu_si128,
+        _mm_sub_epi16, _CMP_GE_OQ, _CMP_LT_OQ,
     };
 
     /// Eight "on" lanes then eight "off": the window at `8 − r` enables the first `r` lanes.
@@ -1494,15 +1499,19 @@ mod simd {
         any != 0
     }
 
-    /// The crossing mask of one half vector of lanes.
+    /// Which lanes crossed (all ones) and which did not (zero), of one vector.
     #[inline]
     #[target_feature(enable = "avx2")]
-    fn crossed_half(old: __m128, new: __m128, t: __m128) -> i32 {
-        _mm_movemask_ps(_mm_and_ps(_mm_cmplt_ps(old, t), _mm_cmpge_ps(new, t)))
+    fn crossed_lanes(old: __m256, new: __m256, t: __m256) -> __m256i {
+        _mm256_castps_si256(_mm256_and_ps(
+            _mm256_cmp_ps::<_CMP_LT_OQ>(old, t),
+            _mm256_cmp_ps::<_CMP_GE_OQ>(new, t),
+        ))
     }
 
     /// `add_rows_avx2` for `FIXED_ROWS` rows of `FIXED_RUN` lanes: two full vectors and one
-    /// half vector per row.
+    /// half vector per row, whose crossing lanes are packed to bytes (in lane order, by one
+    /// permutation) for a single movemask per row.
     ///
     /// # Safety
     /// The CPU must support AVX2; for every `r < FIXED_ROWS`, `pot + r · p_stride` and
@@ -1526,10 +1535,13 @@ mod simd {
                 _mm_loadu_ps(thr.as_ptr().add(16)),
             )
         };
+        // After the packs, the 32-bit groups of bytes hold lanes 0-3, 8-11, 16-19, none, 4-7,
+        // 12-15, none, none: this puts them back in order.
+        let order = _mm256_setr_epi32(0, 4, 1, 5, 2, 3, 6, 7);
         let mut any = 0u32;
-        for r in 0..super::FIXED_ROWS {
+        for (r, slot) in masks.iter_mut().enumerate().take(super::FIXED_ROWS) {
             // SAFETY: the caller guarantees that both rows hold FIXED_RUN values.
-            let mask = unsafe {
+            let (c0, c1, c2) = unsafe {
                 let (p, wp) = (pot.add(r * p_stride), w.sub(r * w_stride));
                 let old0 = _mm256_loadu_ps(p);
                 let new0 = _mm256_add_ps(old0, _mm256_loadu_ps(wp));
@@ -1540,11 +1552,19 @@ mod simd {
                 let old2 = _mm_loadu_ps(p.add(16));
                 let new2 = _mm_add_ps(old2, _mm_loadu_ps(wp.add(16)));
                 _mm_storeu_ps(p.add(16), new2);
-                crossed(old0, new0, t0) as u32
-                    | (crossed(old1, new1, t1) as u32) << 8
-                    | (crossed_half(old2, new2, t2) as u32) << 16
+                let c2 =
+                    _mm_castps_si128(_mm_and_ps(_mm_cmplt_ps(old2, t2), _mm_cmpge_ps(new2, t2)));
+                (
+                    crossed_lanes(old0, new0, t0),
+                    crossed_lanes(old1, new1, t1),
+                    c2,
+                )
             };
-            *masks.get_mut(r).expect("FIXED_ROWS masks") = mask;
+            let words = _mm256_packs_epi32(c0, c1);
+            let tail = _mm256_zextsi128_si256(_mm_packs_epi32(c2, _mm_setzero_si128()));
+            let bytes = _mm256_permutevar8x32_epi32(_mm256_packs_epi16(words, tail), order);
+            let mask = _mm256_movemask_epi8(bytes) as u32;
+            *slot = mask;
             any |= mask;
         }
         any != 0
