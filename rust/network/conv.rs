@@ -573,6 +573,9 @@ impl ConvState {
         // Which candidates crossed (the band's neurons stay candidates until they do).
         let mut candidates = std::mem::take(&mut self.candidates);
         candidates.append(&mut self.band);
+        // Whether the crossings come in position order (those of one input do, and most
+        // groups are one input).
+        let (mut in_order, mut last) = (true, 0);
         for &(pos, map) in &candidates {
             let v32 = self.pot[pos as usize * maps + map as usize];
             if v32 == f32::NEG_INFINITY {
@@ -591,6 +594,8 @@ impl ConvState {
                     continue;
                 }
             }
+            in_order &= pos >= last;
+            last = pos;
             self.crossed.push(c);
         }
         candidates.clear();
@@ -611,45 +616,44 @@ impl ConvState {
             return;
         }
         // Every position that crossed has a best crossing, and all its maps are latched
-        // below: the crossings need no latch of their own.
-        self.pick_best(kernels, fired);
-        for &i in &self.best {
-            let c = self.crossed[i as usize];
-            out.push(c);
-            // No map may fire here any more: latch them all, so none becomes a candidate again.
-            latch_position(&mut self.pot, c.pos as usize, maps);
+        // below (no map may fire there any more, so none becomes a candidate again): the
+        // crossings need no latch of their own.
+        if in_order {
+            // Each position's crossings are consecutive: its best is found among them, and
+            // the spikes go up in position order, as `pick_best` would have them.
+            for run in self.crossed.chunk_by(|a, b| a.pos == b.pos) {
+                let mut best = run[0];
+                for &c in &run[1..] {
+                    if self.beats(kernels, fired, c, best) {
+                        best = c;
+                    }
+                }
+                out.push(best);
+                latch_position(&mut self.pot, best.pos as usize, maps);
+            }
+        } else {
+            self.pick_best(kernels, fired);
+            for &i in &self.best {
+                let c = self.crossed[i as usize];
+                out.push(c);
+                latch_position(&mut self.pot, c.pos as usize, maps);
+            }
         }
         self.crossed.clear();
     }
 
-    /// Lateral inhibition within a group: `best` = for each position in `crossed`, the index
-    /// of its winning crossing (see `beats`): positions in order of first appearance for groups
-    /// of up to 16 crossings, in position order for larger ones (the same where the crossings
-    /// come in position order). The order changes no result (decisions are exact whatever
-    /// order float32 sums are taken in); it is the order in which the spikes go on up.
+    /// Lateral inhibition within a group whose crossings are not in position order: `best` =
+    /// for each position in `crossed`, the index of its winning crossing (see `beats`):
+    /// positions in order of first appearance for groups of up to 16 crossings, in position
+    /// order for larger ones. The order changes no result (decisions are exact whatever order
+    /// float32 sums are taken in); it is the order in which the spikes go on up.
     fn pick_best(&mut self, kernels: &[f32], fired: Fired<'_>) {
         /// Up to this many crossings, a scan of the positions seen so far is cheapest.
         const SCAN: usize = 16;
         let n = self.crossed.len();
         let mut best = std::mem::take(&mut self.best);
         best.clear();
-        if self.crossed.windows(2).all(|w| w[0].pos <= w[1].pos) {
-            // The usual case (the crossings of one input come in position order, and most
-            // groups are one input): each position's crossings are consecutive.
-            let mut i = 0;
-            while i < n {
-                let mut w = i;
-                let mut j = i + 1;
-                while j < n && self.crossed[j].pos == self.crossed[i].pos {
-                    if self.beats(kernels, fired, self.crossed[j], self.crossed[w]) {
-                        w = j;
-                    }
-                    j += 1;
-                }
-                best.push(w as u32);
-                i = j;
-            }
-        } else if n <= SCAN {
+        if n <= SCAN {
             for i in 0..n {
                 let c = self.crossed[i];
                 match best

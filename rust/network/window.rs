@@ -450,12 +450,10 @@ impl WindowState {
         }
         let config = net.config();
         let generation = self.generation;
-        let mut crossings = std::mem::take(&mut self.crossings);
-        let mut pool_out = std::mem::take(&mut self.pool_out);
         for layer in 0..3 {
             let training = self.training == Some(layer);
             let inhibit = config.conv(layer).lateral_inhibition && !training;
-            crossings.clear();
+            self.crossings.clear();
             let fired = if layer == 0 {
                 Fired {
                     stamps: &self.pixel_fired,
@@ -477,16 +475,16 @@ impl WindowState {
                 fired,
                 inhibit,
                 self.record || training,
-                &mut crossings,
+                &mut self.crossings,
             );
-            if crossings.is_empty() {
+            if self.crossings.is_empty() {
                 break;
             }
             let split = self.conv[layer].splitter();
             let conv_layer = Layer::ALL[2 * layer];
-            self.counts[conv_layer.index()] += crossings.len() as u64;
+            self.counts[conv_layer.index()] += self.crossings.len() as u64;
             if self.record {
-                self.trace[conv_layer.index()].extend(crossings.iter().map(|c| {
+                self.trace[conv_layer.index()].extend(self.crossings.iter().map(|c| {
                     let (row, col) = split.div_rem(c.pos as usize);
                     Spike {
                         t,
@@ -498,7 +496,7 @@ impl WindowState {
                 }));
             }
             if training {
-                for c in &crossings {
+                for c in &self.crossings {
                     let (row, col) = split.div_rem(c.pos as usize);
                     self.wta.offer(Winner {
                         t,
@@ -519,7 +517,7 @@ impl WindowState {
             };
             if layer == 2 {
                 // Detections of one group in (map, row, col) order, as spikes are reported.
-                crossings.sort_unstable_by_key(|c| (c.map, c.pos));
+                self.crossings.sort_unstable_by_key(|c| (c.map, c.pos));
                 let window = cause::Window {
                     geom: &self.geom,
                     splits: [
@@ -533,7 +531,7 @@ impl WindowState {
                     pixel_time: &self.pixel_time,
                     pool: &self.pool,
                 };
-                for c in &crossings {
+                for c in &self.crossings {
                     let (row, col) = split.div_rem(c.pos as usize);
                     let (rows, cols) = self.geom.conv3_receptive_field(row, col);
                     let causes = self.causes.conv3_box(&window, c.pos as usize, t);
@@ -545,32 +543,32 @@ impl WindowState {
             if 2 * layer + 1 >= depth {
                 break;
             }
-            pool_out.clear();
-            for c in &crossings {
+            self.pool_out.clear();
+            for c in &self.crossings {
                 let (row, col) = split.div_rem(c.pos as usize);
-                self.pool[layer].on_spike(generation, t, c.map, row, col, &mut pool_out);
+                self.pool[layer].on_spike(generation, t, c.map, row, col, &mut self.pool_out);
             }
             let pool_layer = Layer::ALL[2 * layer + 1];
-            self.counts[pool_layer.index()] += pool_out.len() as u64;
+            self.counts[pool_layer.index()] += self.pool_out.len() as u64;
             if self.record {
-                self.trace[pool_layer.index()].extend(pool_out.iter().map(|&(m, r, c)| Spike {
-                    t,
-                    map: m as u16,
-                    row: r as u16,
-                    col: c as u16,
-                    v: 0.0,
+                self.trace[pool_layer.index()].extend(self.pool_out.iter().map(|&(m, r, c)| {
+                    Spike {
+                        t,
+                        map: m as u16,
+                        row: r as u16,
+                        col: c as u16,
+                        v: 0.0,
+                    }
                 }));
             }
             if 2 * layer + 2 >= depth {
                 break;
             }
             let w = net.conv_weights(ConvLayer::ALL[layer + 1]).engine();
-            for &(m, r, c) in &pool_out {
+            for &(m, r, c) in &self.pool_out {
                 self.conv[layer + 1].add(w, m as usize, r as usize, c as usize);
             }
         }
-        self.crossings = crossings;
-        self.pool_out = pool_out;
     }
 
     /// Spikes per layer (conv1, pool1, conv2, pool2, conv3) in the current or last window.
