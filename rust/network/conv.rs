@@ -289,8 +289,12 @@ impl ConvState {
             *hi = round_up(t * (1.0 + self.margin));
         }
         let slack = (1.0 - self.margin).max(0.0);
-        for (i, lo) in self.thr_lo.iter_mut().enumerate() {
-            *lo = round_down(self.thr[i % maps] * slack);
+        for (lo, &t) in self.thr_lo.iter_mut().zip(&self.thr) {
+            *lo = round_down(t * slack);
+        }
+        // The other `k − 1` tiles repeat the first.
+        for i in maps..self.thr_lo.len() {
+            self.thr_lo[i] = self.thr_lo[i - maps];
         }
     }
 

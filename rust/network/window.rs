@@ -386,14 +386,19 @@ impl WindowState {
     /// Whether `take_valid` may take these spikes: see `push_spikes`.
     fn all_valid(&self, net: &Network, t: &[u64], x: &[u16], y: &[u16]) -> bool {
         let after = |first: u64| first >= self.t0 && self.last_t.map_or(true, |l| first >= l);
+        // One pass without early exits (the spikes are valid but for a rare error).
+        let (mut in_order, mut inside) = (true, true);
+        for (i, (&x, &y)) in x.iter().zip(y).enumerate() {
+            in_order &= i == 0 || t[i - 1] <= t[i];
+            inside &= usize::from(x) < self.width && usize::from(y) < self.height;
+        }
         self.open
             && self.made_for(net)
             && self.training.is_none()
             && self.pending_t.is_none()
             && t.first().map_or(true, |&first| after(first))
-            && t.windows(2).all(|w| w[0] <= w[1])
-            && x.iter().all(|&x| usize::from(x) < self.width)
-            && y.iter().all(|&y| usize::from(y) < self.height)
+            && in_order
+            && inside
     }
 
     /// Take spikes that `all_valid` passed: each group's input spikes are added to conv1 as
