@@ -625,10 +625,14 @@ impl ConvState {
         if in_order {
             // Each position's crossings are consecutive: its best is found among them, and
             // the spikes go up in position order, as `pick_best` would have them.
-            for run in self.crossed.chunk_by(|a, b| a.pos == b.pos) {
-                let mut best = run[0];
-                for &c in &run[1..] {
-                    if self.beats(kernels, fired, c, best) {
+            if let Some((&first, rest)) = self.crossed.split_first() {
+                let mut best = first;
+                for &c in rest {
+                    if c.pos != best.pos {
+                        out.push(best);
+                        latch_position(&mut self.pot, best.pos as usize, maps);
+                        best = c;
+                    } else if self.beats(kernels, fired, c, best) {
                         best = c;
                     }
                 }
