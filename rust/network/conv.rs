@@ -33,9 +33,14 @@
 //! counts are already high, instead of `k² × maps` additions everywhere.
 //!
 //! **Sparse reset.** The layer records where its input spikes landed; the next window zeroes
-//! exactly those runs (or the positions that woke), so nothing is swept and the hot loop
+//! those runs (or the positions that woke), in fixed blocks that may reach past a run into
+//! potentials that are zero anyway (`ZERO_BLOCK`), so nothing is swept and the hot loop
 //! carries no per-position stamps. A position that fired under lateral inhibition has all its
 //! maps latched, which is all the lock it needs.
+//!
+//! **conv1's shape.** Nearly every conv1 input lies away from the borders, where its footprint
+//! is the whole 5 × 5 kernel of 4 maps: such inputs take a path compiled for that shape
+//! (`add_whole`, `add_rows_fixed`).
 
 use std::ops::Range;
 
