@@ -33,9 +33,16 @@
 //! counts are already high, instead of `k² × maps` additions everywhere.
 //!
 //! **Sparse reset.** The layer records where its input spikes landed; the next window zeroes
-//! exactly those runs (or the positions that woke), so nothing is swept and the hot loop
+//! those runs (or the positions that woke), in fixed blocks that may reach past a run into
+//! potentials that are zero anyway (`ZERO_BLOCK`), so nothing is swept and the hot loop
 //! carries no per-position stamps. A position that fired under lateral inhibition has all its
 //! maps latched, which is all the lock it needs.
+//!
+//! **conv1's shape.** Nearly every conv1 input lies away from the borders, where its footprint
+//! is the whole 5 × 5 kernel of 4 maps: such inputs take a path compiled for that shape
+//! (`add_whole`, `add_rows_fixed`).
+
+use std::ops::Range;
 
 use super::geometry::{ConvGeom, Divider};
 use super::weights::ConvWeights;
@@ -59,6 +66,21 @@ const WAKE_WIDTHS: usize = 2;
 
 /// Counter lanes of one vector: one output row's positions of one input (`k ≤ LANES`).
 const LANES: usize = 16;
+
+/// Potentials that `reset` zeroes with one fixed-size store, and the padding at the end of
+/// `ConvState::pot` that lets the last block of a run reach past the layer. A block may also
+/// reach past its run into potentials that are zero already or zeroed by the same reset, so
+/// a run costs a few vector stores instead of a `memset` call.
+const ZERO_BLOCK: usize = 32;
+
+/// Where one input spike's additions landed: `rows` output rows, one `out_w` apart, of `cols`
+/// positions from position `first` (what the next window must zero).
+#[derive(Debug, Clone, Copy)]
+struct Footprint {
+    first: u32,
+    rows: u16,
+    cols: u16,
+}
 
 /// A neuron that crossed its threshold in the current timestamp group.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -86,7 +108,8 @@ pub(crate) struct Fired<'a> {
 #[derive(Debug, Clone)]
 pub(crate) struct ConvState {
     pub geom: ConvGeom,
-    /// Float32 running potentials `[row][col][map]` (`−∞` once crossed).
+    /// Float32 running potentials `[row][col][map]` (`−∞` once crossed), then `ZERO_BLOCK`
+    /// zeros of padding.
     pot: Vec<f32>,
     /// Per lane of a row's run: (position offset, map), to avoid dividing in the hot loop.
     lane_split: Vec<(u32, u32)>,
@@ -115,8 +138,8 @@ pub(crate) struct ConvState {
     best: Vec<u32>,
     order: Vec<u64>,
     merged: Vec<u64>,
-    /// Input positions `(row, col)` added this window (what the next window must zero).
-    inputs: Vec<(u32, u32)>,
+    /// Where the inputs added this window landed (what the next window must zero).
+    inputs: Vec<Footprint>,
     /// Potentials written this window, counted with repeats (the cost of replaying `inputs`).
     touched_lanes: usize,
     /// Scratch: per 8 lanes of a run, which reached `θ_lo`.
@@ -142,6 +165,17 @@ pub(crate) struct ConvState {
     awake: Vec<u32>,
     /// Division by the output width (position → row, column).
     split: Divider,
+    /// The inputs that `add_whole` takes (when the layer adds densely), where it may: the layer
+    /// has `FIXED_ROWS` rows of `FIXED_RUN` lanes and the CPU has AVX2.
+    whole: Option<Whole>,
+}
+
+/// The inputs of a layer whose footprint is the whole kernel: input rows and columns whose `k`
+/// output rows (columns) are all inside the layer.
+#[derive(Debug, Clone)]
+struct Whole {
+    rows: Range<usize>,
+    cols: Range<usize>,
 }
 
 impl ConvState {
@@ -149,7 +183,7 @@ impl ConvState {
         let positions = geom.out_h * geom.out_w;
         Self {
             geom,
-            pot: vec![0.0; positions * geom.maps],
+            pot: vec![0.0; positions * geom.maps + ZERO_BLOCK],
             lane_split: (0..geom.k * geom.maps)
                 .map(|l| ((l / geom.maps) as u32, (l % geom.maps) as u32))
                 .collect(),
@@ -185,6 +219,12 @@ impl ConvState {
             waking: Vec::new(),
             awake: Vec::new(),
             split: Divider::new(geom.out_w),
+            whole: (has_avx2() && geom.k == FIXED_ROWS && geom.k * geom.maps == FIXED_RUN).then(
+                || Whole {
+                    rows: geom.whole_footprints(geom.out_h),
+                    cols: geom.whole_footprints(geom.out_w),
+                },
+            ),
         }
     }
 
@@ -216,30 +256,24 @@ impl ConvState {
         let maps = g.maps;
         if self.gated {
             for &pos in &self.awake {
-                let p = pos as usize * maps;
-                self.pot[p..p + maps].fill(0.0);
+                zero_blocks(&mut self.pot, pos as usize * maps, maps);
             }
             if self.touched_lanes >= self.counts.len() {
                 self.counts.fill(0);
             } else {
-                for &(iy, ix) in &self.inputs {
-                    let cols = g.outputs_of(ix as usize, g.out_w);
-                    for oy in g.outputs_of(iy as usize, g.out_h) {
-                        let start = oy * g.out_w;
-                        self.counts[start + cols.start..start + cols.end].fill(0);
+                for f in &self.inputs {
+                    for r in 0..usize::from(f.rows) {
+                        // One vector of counts (`cols ≤ k ≤ LANES`; `counts` has `LANES` of
+                        // padding); the lanes past the run are zero or zeroed here too.
+                        let start = f.first as usize + r * g.out_w;
+                        self.counts[start..start + LANES].copy_from_slice(&[0; LANES]);
                     }
                 }
             }
-        } else if self.touched_lanes >= self.pot.len() {
+        } else if self.touched_lanes >= g.neurons() {
             self.pot.fill(0.0);
         } else {
-            for &(iy, ix) in &self.inputs {
-                let cols = g.outputs_of(ix as usize, g.out_w);
-                for oy in g.outputs_of(iy as usize, g.out_h) {
-                    let start = (oy * g.out_w + cols.start) * maps;
-                    self.pot[start..start + cols.len() * maps].fill(0.0);
-                }
-            }
+            zero_footprints(self.avx2, &mut self.pot, &self.inputs, g.out_w, maps);
         }
         self.touched_lanes = 0;
         self.inputs.clear();
@@ -260,8 +294,12 @@ impl ConvState {
             *hi = round_up(t * (1.0 + self.margin));
         }
         let slack = (1.0 - self.margin).max(0.0);
-        for (i, lo) in self.thr_lo.iter_mut().enumerate() {
-            *lo = round_down(self.thr[i % maps] * slack);
+        for (lo, &t) in self.thr_lo.iter_mut().zip(&self.thr) {
+            *lo = round_down(t * slack);
+        }
+        // The other `k − 1` tiles repeat the first.
+        for i in maps..self.thr_lo.len() {
+            self.thr_lo[i] = self.thr_lo[i - maps];
         }
     }
 
@@ -291,14 +329,23 @@ impl ConvState {
     /// covers it; neurons whose float32 sum reaches `θ_lo` become candidates of the group.
     #[inline]
     pub fn add(&mut self, w: &[f32], c: usize, iy: usize, ix: usize) {
+        let whole = |w: &Whole| w.rows.contains(&iy) && w.cols.contains(&ix);
+        if !self.gated && self.whole.as_ref().is_some_and(whole) {
+            self.add_whole(w, c, iy, ix);
+            return;
+        }
         let g = self.geom;
         let maps = g.maps;
         let cols = g.outputs_of(ix, g.out_w);
         if cols.is_empty() {
             return;
         }
-        self.inputs.push((iy as u32, ix as u32));
         let rows = g.outputs_of(iy, g.out_h);
+        self.inputs.push(Footprint {
+            first: (rows.start * g.out_w + cols.start) as u32,
+            rows: rows.len() as u16,
+            cols: cols.len() as u16,
+        });
         // Kernel column index j = k − 1 − dx of the first output column; each output row
         // further down reads the kernel row above (dy falls by one).
         let j0 = g.k - 1 - (ix + g.p_lo - cols.start);
@@ -333,32 +380,67 @@ impl ConvState {
             if self.avx2 && run <= 32 && rows.len() <= FUSED_ROWS {
                 // One vector pass over every row, then the candidates of the rows that had any.
                 let mut masks = [0u32; FUSED_ROWS];
-                let any = add_rows(
-                    &mut self.pot,
+                let masks = &mut masks[..rows.len()];
+                let (p0, w0) = (
                     (rows.start * g.out_w + cols.start) * maps,
-                    g.out_w * maps,
-                    w,
                     ((c * g.k + dy0) * g.k + j0) * maps,
-                    g.k * maps,
-                    &self.thr_lo[..run],
-                    &mut masks[..rows.len()],
                 );
-                if any {
-                    for (step, &mask) in masks[..rows.len()].iter().enumerate() {
-                        let pos0 = ((rows.start + step) * g.out_w + cols.start) as u32;
-                        let mut mask = mask;
-                        while mask != 0 {
-                            let (dp, map) = self.lane_split[mask.trailing_zeros() as usize];
-                            self.candidates.push((pos0 + dp, map));
-                            mask &= mask - 1;
-                        }
-                    }
+                let (p_stride, w_stride) = (g.out_w * maps, g.k * maps);
+                let thr = &self.thr_lo[..run];
+                if add_rows(&mut self.pot, p0, p_stride, w, w0, w_stride, thr, masks) {
+                    self.push_row_candidates(masks, rows.start * g.out_w + cols.start);
                 }
                 return;
             }
             for (step, oy) in rows.enumerate() {
                 let wstart = ((c * g.k + dy0 - step) * g.k + j0) * maps;
                 self.add_run(w, wstart, oy * g.out_w + cols.start, cols.len());
+            }
+        }
+    }
+
+    /// `add` for an input whose footprint is the whole kernel (`Whole`) in a
+    /// layer of `FIXED_ROWS` rows of `FIXED_RUN` lanes that adds densely on a CPU with AVX2:
+    /// nearly every input of conv1. Nothing is clipped, so the offsets are those of the
+    /// kernel's last row and column, and the rows go through `add_rows_fixed`.
+    #[inline]
+    fn add_whole(&mut self, w: &[f32], c: usize, iy: usize, ix: usize) {
+        let g = self.geom;
+        let maps = g.maps;
+        // The first output row and column, where the input is under the kernel's last ones.
+        let first = (iy + g.p_lo + 1 - g.k) * g.out_w + (ix + g.p_lo + 1 - g.k);
+        self.inputs.push(Footprint {
+            first: first as u32,
+            rows: FIXED_ROWS as u16,
+            cols: g.k as u16,
+        });
+        self.touched_lanes += FIXED_ROWS * FIXED_RUN;
+        let mut masks = [0u32; FIXED_ROWS];
+        if add_rows_fixed(
+            &mut self.pot,
+            first * maps,
+            g.out_w * maps,
+            w,
+            (c * g.k + g.k - 1) * g.k * maps,
+            g.k * maps,
+            &self.thr_lo,
+            &mut masks,
+        ) {
+            self.push_row_candidates(&masks, first);
+        }
+    }
+
+    /// Record the neurons whose lanes are set in `masks` (one per output row of a run from
+    /// position `first`, one `out_w` apart) as candidates.
+    #[inline]
+    fn push_row_candidates(&mut self, masks: &[u32], first: usize) {
+        for (step, &mask) in masks.iter().enumerate() {
+            let pos0 = (first + step * self.geom.out_w) as u32;
+            let mut mask = mask;
+            while mask != 0 {
+                let (dp, map) = self.lane_split[mask.trailing_zeros() as usize];
+                self.candidates.push((pos0 + dp, map));
+                mask &= mask - 1;
             }
         }
     }
@@ -465,6 +547,13 @@ impl ConvState {
         v
     }
 
+    /// Whether `resolve` may find crossings in the group just added: some neuron reached `θ_lo`
+    /// or its waking count, or an earlier one is still in the band.
+    #[inline]
+    pub fn may_fire(&self) -> bool {
+        !(self.candidates.is_empty() && self.band.is_empty() && self.waking.is_empty())
+    }
+
     /// Decide the crossings of the group just added and append the neurons that fire to
     /// `out`, with their exact potential when `exact` (else `v` is NaN). `weights` are the
     /// layer's and `fired` its inputs that fired so far. Positions that reached their waking
@@ -493,6 +582,9 @@ impl ConvState {
         // Which candidates crossed (the band's neurons stay candidates until they do).
         let mut candidates = std::mem::take(&mut self.candidates);
         candidates.append(&mut self.band);
+        // Whether the crossings come in position order (those of one input do, and most
+        // groups are one input).
+        let (mut in_order, mut last) = (true, 0);
         for &(pos, map) in &candidates {
             let v32 = self.pot[pos as usize * maps + map as usize];
             if v32 == f32::NEG_INFINITY {
@@ -511,13 +603,12 @@ impl ConvState {
                     continue;
                 }
             }
+            in_order &= pos >= last;
+            last = pos;
             self.crossed.push(c);
         }
         candidates.clear();
         self.candidates = candidates;
-        for c in &mut self.crossed {
-            self.pot[c.pos as usize * maps + c.map as usize] = f32::NEG_INFINITY;
-        }
         if exact {
             for i in 0..self.crossed.len() {
                 let c = self.crossed[i];
@@ -527,25 +618,48 @@ impl ConvState {
             }
         }
         if !inhibit {
+            for c in &self.crossed {
+                self.pot[c.pos as usize * maps + c.map as usize] = f32::NEG_INFINITY;
+            }
             out.append(&mut self.crossed);
             return;
         }
-        self.pick_best(kernels, fired);
-        for &i in &self.best {
-            let c = self.crossed[i as usize];
-            out.push(c);
-            // No map may fire here any more: latch them all, so none becomes a candidate again.
-            let p = c.pos as usize * maps;
-            self.pot[p..p + maps].fill(f32::NEG_INFINITY);
+        // Every position that crossed has a best crossing, and all its maps are latched
+        // below (no map may fire there any more, so none becomes a candidate again): the
+        // crossings need no latch of their own.
+        if in_order {
+            // Each position's crossings are consecutive: its best is found among them, and
+            // the spikes go up in position order, as `pick_best` would have them.
+            if let Some((&first, rest)) = self.crossed.split_first() {
+                let mut best = first;
+                for &c in rest {
+                    if c.pos != best.pos {
+                        out.push(best);
+                        latch_position(&mut self.pot, best.pos as usize, maps);
+                        best = c;
+                    } else if self.beats(kernels, fired, c, best) {
+                        best = c;
+                    }
+                }
+                out.push(best);
+                latch_position(&mut self.pot, best.pos as usize, maps);
+            }
+        } else {
+            self.pick_best(kernels, fired);
+            for &i in &self.best {
+                let c = self.crossed[i as usize];
+                out.push(c);
+                latch_position(&mut self.pot, c.pos as usize, maps);
+            }
         }
         self.crossed.clear();
     }
 
-    /// Lateral inhibition within a group: `best` = for each position in `crossed`, the index
-    /// of its winning crossing (see `beats`): positions in order of first appearance for groups
-    /// of up to 16 crossings, in position order for larger ones. The order changes no result
-    /// (decisions are exact whatever order float32 sums are taken in); it is the order in which
-    /// the spikes go on up.
+    /// Lateral inhibition within a group whose crossings are not in position order: `best` =
+    /// for each position in `crossed`, the index of its winning crossing (see `beats`):
+    /// positions in order of first appearance for groups of up to 16 crossings, in position
+    /// order for larger ones. The order changes no result (decisions are exact whatever order
+    /// float32 sums are taken in); it is the order in which the spikes go on up.
     fn pick_best(&mut self, kernels: &[f32], fired: Fired<'_>) {
         /// Up to this many crossings, a scan of the positions seen so far is cheapest.
         const SCAN: usize = 16;
@@ -626,6 +740,68 @@ impl ConvState {
             std::cmp::Ordering::Greater => true,
             std::cmp::Ordering::Equal => a.map < b.map,
             std::cmp::Ordering::Less => false,
+        }
+    }
+}
+
+/// Latch every map of position `pos` (set its `maps` float32 potentials to `−∞`).
+#[inline]
+fn latch_position(pot: &mut [f32], pos: usize, maps: usize) {
+    let run = &mut pot[pos * maps..(pos + 1) * maps];
+    match <&mut [f32; 4]>::try_from(&mut *run) {
+        // conv1's 4 maps: one vector store, not a loop of unknown length.
+        Ok(four) => *four = [f32::NEG_INFINITY; 4],
+        Err(_) => run.fill(f32::NEG_INFINITY),
+    }
+}
+
+/// Zero `buf[start..start + len]` in blocks of `ZERO_BLOCK`, the last of which may reach up to
+/// `ZERO_BLOCK − 1` values further (see `ZERO_BLOCK`: the caller's buffer must hold them, and
+/// they must be zero or be zeroed too).
+#[inline]
+fn zero_blocks(buf: &mut [f32], start: usize, len: usize) {
+    let mut b = start;
+    while b < start + len {
+        buf[b..b + ZERO_BLOCK].copy_from_slice(&[0.0; ZERO_BLOCK]);
+        b += ZERO_BLOCK;
+    }
+}
+
+/// Zero the runs of potentials (`[row][col][map]`, rows `out_w` positions apart) of every
+/// footprint, in blocks of `ZERO_BLOCK` (see `zero_blocks`). Compiled for AVX2 where the CPU
+/// has it, so that a block is four stores.
+#[inline]
+fn zero_footprints(avx2: bool, pot: &mut [f32], inputs: &[Footprint], out_w: usize, maps: usize) {
+    #[cfg(target_arch = "x86_64")]
+    if avx2 {
+        // SAFETY: `avx2` comes from `has_avx2`.
+        unsafe { simd::zero_footprints_avx2(pot, inputs, out_w, maps) };
+        return;
+    }
+    let _ = avx2;
+    zero_footprints_body(pot, inputs, out_w, maps);
+}
+
+/// The loop of `zero_footprints`, inlined into each of its compilations.
+#[allow(clippy::inline_always)]
+#[inline(always)]
+fn zero_footprints_body(pot: &mut [f32], inputs: &[Footprint], out_w: usize, maps: usize) {
+    let stride = out_w * maps;
+    for f in inputs {
+        let span = (usize::from(f.cols) * maps).next_multiple_of(ZERO_BLOCK);
+        let first = f.first as usize * maps;
+        let rows = (first..).step_by(stride).take(f.rows.into());
+        if span == ZERO_BLOCK {
+            // One block per row (conv1's runs of 20): its stores without a loop around them.
+            for start in rows {
+                pot[start..start + ZERO_BLOCK].copy_from_slice(&[0.0; ZERO_BLOCK]);
+            }
+        } else {
+            for start in rows {
+                for block in pot[start..start + span].chunks_exact_mut(ZERO_BLOCK) {
+                    block.copy_from_slice(&[0.0; ZERO_BLOCK]);
+                }
+            }
         }
     }
 }
@@ -753,8 +929,10 @@ pub(crate) fn each_fired_input(
 /// Call `f(iy, lane)` for every input of output `(oy, ox)`'s receptive field that fired: input
 /// row `iy`, and `lane` its place in that row's inputs `[col][channel]` (clipped to the input).
 /// A row's inputs are contiguous: they are tested 64 at a time without branching, and only
-/// those that fired are visited, in memory order.
-#[inline]
+/// those that fired are visited, in memory order. Always inlined, so that `gather_avx2`'s
+/// additions are compiled for AVX2 whichever code-generation unit holds it.
+#[allow(clippy::inline_always)]
+#[inline(always)]
 fn each_fired_lane(
     g: &ConvGeom,
     fired: Fired<'_>,
@@ -942,6 +1120,56 @@ fn add_detect(avx2: bool, pot: &mut [f32], w: &[f32], thr: &[f32], masks: &mut [
 /// Most output rows that `add_rows` takes at once.
 const FUSED_ROWS: usize = 16;
 
+/// The one shape that `add_rows_fixed` takes: conv1's input spike away from the borders adds
+/// to `k = 5` output rows of `k × maps = 5 × 4` lanes each.
+const FIXED_ROWS: usize = 5;
+const FIXED_RUN: usize = 20;
+
+/// `add_rows` for `FIXED_ROWS` rows of `FIXED_RUN` lanes (AVX2 only), with the thresholds
+/// `thr[..FIXED_RUN]`: the shape of nearly every conv1 input, compiled with its sizes known so
+/// that the rows are unrolled, the thresholds loaded once and the last 4 lanes of a row taken
+/// as one half vector (`add_rows` costs about 1.7 times its instructions on that shape).
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn add_rows_fixed(
+    pot: &mut [f32],
+    p0: usize,
+    p_stride: usize,
+    w: &[f32],
+    w0: usize,
+    w_stride: usize,
+    thr: &[f32],
+    masks: &mut [u32],
+) -> bool {
+    assert!(
+        masks.len() == FIXED_ROWS
+            && thr.len() >= FIXED_RUN
+            && p0 + (FIXED_ROWS - 1) * p_stride + FIXED_RUN <= pot.len()
+            && w0 >= (FIXED_ROWS - 1) * w_stride
+            && w0 + FIXED_RUN <= w.len(),
+        "rows inside the layer and the kernel"
+    );
+    #[cfg(target_arch = "x86_64")]
+    {
+        assert!(has_avx2(), "add_rows_fixed needs AVX2");
+        // SAFETY: the ranges are asserted above and the CPU has AVX2.
+        unsafe {
+            simd::add_rows_fixed_avx2(
+                pot.as_mut_ptr().add(p0),
+                p_stride,
+                w.as_ptr().add(w0),
+                w_stride,
+                thr,
+                masks,
+            )
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        add_rows(pot, p0, p_stride, w, w0, w_stride, &thr[..FIXED_RUN], masks)
+    }
+}
+
 /// `add_detect` for the `masks.len()` output rows of one input at once (AVX2 only): row `r`
 /// adds the run of weights at `w0 − r · w_stride` to the potentials at `p0 + r · p_stride`
 /// (runs of `thr.len() ≤ 32` lanes); `masks[r]` gets bit `l` where lane `l` of row `r`
@@ -1028,13 +1256,16 @@ mod simd {
     //! The add-and-detect kernel with explicit vectors: per 8 lanes, loads of potentials,
     //! weights and thresholds, one store, and a movemask byte (almost always 0).
     use std::arch::x86_64::{
-        __m256, _mm256_add_ps, _mm256_and_ps, _mm256_and_si256, _mm256_castsi256_ps, _mm256_cmp_ps,
-        _mm256_cmpeq_epi32, _mm256_cmpgt_epi16, _mm256_loadu_ps, _mm256_loadu_si256,
-        _mm256_maskload_ps, _mm256_maskstore_ps, _mm256_movemask_epi8, _mm256_movemask_ps,
-        _mm256_set1_epi16, _mm256_set1_epi32, _mm256_storeu_ps, _mm256_storeu_si256,
-        _mm256_sub_epi16, _mm_add_ps, _mm_and_ps, _mm_and_si128, _mm_cmpge_ps, _mm_cmpgt_epi16,
+        __m256, __m256i, _mm256_add_ps, _mm256_and_ps, _mm256_and_si256, _mm256_castps_si256,
+        _mm256_castsi256_ps, _mm256_cmp_ps, _mm256_cmpeq_epi32, _mm256_cmpgt_epi16,
+        _mm256_loadu_ps, _mm256_loadu_si256, _mm256_maskload_ps, _mm256_maskstore_ps,
+        _mm256_movemask_epi8, _mm256_movemask_ps, _mm256_packs_epi16, _mm256_packs_epi32,
+        _mm256_permutevar8x32_epi32, _mm256_set1_epi16, _mm256_set1_epi32, _mm256_setr_epi32,
+        _mm256_storeu_ps, _mm256_storeu_si256, _mm256_sub_epi16, _mm256_zextsi128_si256,
+        _mm_add_ps, _mm_and_ps, _mm_and_si128, _mm_castps_si128, _mm_cmpge_ps, _mm_cmpgt_epi16,
         _mm_cmplt_ps, _mm_loadu_ps, _mm_loadu_si128, _mm_movemask_epi8, _mm_movemask_ps,
-        _mm_set1_epi16, _mm_storeu_ps, _mm_storeu_si128, _mm_sub_epi16, _CMP_GE_OQ, _CMP_LT_OQ,
+        _mm_packs_epi32, _mm_set1_epi16, _mm_setzero_si128, _mm_storeu_ps, _mm_storeu_si128,
+        _mm_sub_epi16, _CMP_GE_OQ, _CMP_LT_OQ,
     };
 
     /// Eight "on" lanes then eight "off": the window at `8 − r` enables the first `r` lanes.
@@ -1068,6 +1299,20 @@ mod simd {
         pot: &mut [f32],
     ) {
         super::gather_body(true, g, fired, base, w, oy, ox, pot);
+    }
+
+    /// `super::zero_footprints` compiled for AVX2.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn zero_footprints_avx2(
+        pot: &mut [f32],
+        inputs: &[super::Footprint],
+        out_w: usize,
+        maps: usize,
+    ) {
+        super::zero_footprints_body(pot, inputs, out_w, maps);
     }
 
     /// # Safety
@@ -1271,6 +1516,77 @@ mod simd {
         any != 0
     }
 
+    /// Which lanes crossed (all ones) and which did not (zero), of one vector.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn crossed_lanes(old: __m256, new: __m256, t: __m256) -> __m256i {
+        _mm256_castps_si256(_mm256_and_ps(
+            _mm256_cmp_ps::<_CMP_LT_OQ>(old, t),
+            _mm256_cmp_ps::<_CMP_GE_OQ>(new, t),
+        ))
+    }
+
+    /// `add_rows_avx2` for `FIXED_ROWS` rows of `FIXED_RUN` lanes: two full vectors and one
+    /// half vector per row, whose crossing lanes are packed to bytes (in lane order, by one
+    /// permutation) for a single movemask per row.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2; for every `r < FIXED_ROWS`, `pot + r · p_stride` and
+    /// `w − r · w_stride` hold `FIXED_RUN` values; `thr` holds at least `FIXED_RUN` and
+    /// `masks` `FIXED_ROWS`.
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn add_rows_fixed_avx2(
+        pot: *mut f32,
+        p_stride: usize,
+        w: *const f32,
+        w_stride: usize,
+        thr: &[f32],
+        masks: &mut [u32],
+    ) -> bool {
+        const _: () = assert!(super::FIXED_RUN == 20, "two vectors and a half per row");
+        // SAFETY: thr holds FIXED_RUN values.
+        let (t0, t1, t2) = unsafe {
+            (
+                _mm256_loadu_ps(thr.as_ptr()),
+                _mm256_loadu_ps(thr.as_ptr().add(8)),
+                _mm_loadu_ps(thr.as_ptr().add(16)),
+            )
+        };
+        // After the packs, the 32-bit groups of bytes hold lanes 0-3, 8-11, 16-19, none, 4-7,
+        // 12-15, none, none: this puts them back in order.
+        let order = _mm256_setr_epi32(0, 4, 1, 5, 2, 3, 6, 7);
+        let mut any = 0u32;
+        for (r, slot) in masks.iter_mut().enumerate().take(super::FIXED_ROWS) {
+            // SAFETY: the caller guarantees that both rows hold FIXED_RUN values.
+            let (c0, c1, c2) = unsafe {
+                let (p, wp) = (pot.add(r * p_stride), w.sub(r * w_stride));
+                let old0 = _mm256_loadu_ps(p);
+                let new0 = _mm256_add_ps(old0, _mm256_loadu_ps(wp));
+                _mm256_storeu_ps(p, new0);
+                let old1 = _mm256_loadu_ps(p.add(8));
+                let new1 = _mm256_add_ps(old1, _mm256_loadu_ps(wp.add(8)));
+                _mm256_storeu_ps(p.add(8), new1);
+                let old2 = _mm_loadu_ps(p.add(16));
+                let new2 = _mm_add_ps(old2, _mm_loadu_ps(wp.add(16)));
+                _mm_storeu_ps(p.add(16), new2);
+                let c2 =
+                    _mm_castps_si128(_mm_and_ps(_mm_cmplt_ps(old2, t2), _mm_cmpge_ps(new2, t2)));
+                (
+                    crossed_lanes(old0, new0, t0),
+                    crossed_lanes(old1, new1, t1),
+                    c2,
+                )
+            };
+            let words = _mm256_packs_epi32(c0, c1);
+            let tail = _mm256_zextsi128_si256(_mm_packs_epi32(c2, _mm_setzero_si128()));
+            let bytes = _mm256_permutevar8x32_epi32(_mm256_packs_epi16(words, tail), order);
+            let mask = _mm256_movemask_epi8(bytes) as u32;
+            *slot = mask;
+            any |= mask;
+        }
+        any != 0
+    }
+
     /// # Safety
     /// `w`, `thr` as long as `pot`, `masks` `ceil(len / 8)` bytes.
     pub(super) unsafe fn add_detect_sse2(
@@ -1456,6 +1772,31 @@ mod tests {
                 }
                 assert_eq!((a, any), (b, any_b), "run {run}, rows {rows}");
             }
+        }
+    }
+
+    /// `add_rows_fixed` equals `add_rows` on its shape, crossings in every lane included.
+    #[test]
+    fn add_rows_fixed_equals_add_rows() {
+        if !has_avx2() {
+            return; // add_rows_fixed is only called where the CPU has AVX2
+        }
+        let mut rng = crate::network::xorshift(13u64);
+        let mut next = || {
+            let s = rng();
+            (s >> 40) as f32 / (1u64 << 20) as f32
+        };
+        let (p_stride, w_stride) = (47, 29);
+        for round in 0..50 {
+            let pot: Vec<f32> = (0..FIXED_ROWS * p_stride).map(|_| next() * 2.0).collect();
+            let w: Vec<f32> = (0..FIXED_ROWS * w_stride).map(|_| next()).collect();
+            let thr: Vec<f32> = (0..FIXED_RUN).map(|_| next() * 3.0).collect();
+            let (p0, w0) = (round % 7, (FIXED_ROWS - 1) * w_stride + round % 5);
+            let (mut a, mut b) = (pot.clone(), pot);
+            let (mut ma, mut mb) = ([0u32; FIXED_ROWS], [0u32; FIXED_ROWS]);
+            let any_a = add_rows_fixed(&mut a, p0, p_stride, &w, w0, w_stride, &thr, &mut ma);
+            let any_b = add_rows(&mut b, p0, p_stride, &w, w0, w_stride, &thr, &mut mb);
+            assert_eq!((a, ma, any_a), (b, mb, any_b), "round {round}");
         }
     }
 

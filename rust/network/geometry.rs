@@ -86,6 +86,13 @@ impl ConvGeom {
         lo..hi.max(lo)
     }
 
+    /// Input rows (or columns) whose `k` output rows (columns) all exist: those for which
+    /// `outputs_of` is not clipped.
+    pub fn whole_footprints(&self, out: usize) -> Range<usize> {
+        let lo = self.k - 1 - self.p_lo;
+        lo..out.saturating_sub(self.p_lo).max(lo)
+    }
+
     /// Input rows (or columns) read by output row `o`, clipped to the input.
     #[inline]
     pub fn inputs_of(&self, o: usize, input: usize) -> Range<usize> {
@@ -339,6 +346,11 @@ mod tests {
                             .collect();
                         let inverse: Vec<usize> = g.outputs_of(i, g.out_h).collect();
                         assert_eq!(direct, inverse, "k={k} n={n} i={i} {padding:?}");
+                        assert_eq!(
+                            g.whole_footprints(g.out_h).contains(&i),
+                            inverse.len() == k,
+                            "k={k} n={n} i={i} {padding:?}"
+                        );
                     }
                 }
             }

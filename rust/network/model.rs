@@ -219,17 +219,8 @@ impl Network {
     }
 }
 
-/// Push a window's spikes group by group (equal times together).
+/// Push a window's spikes group by group (equal times together; see
+/// `WindowState::push_spikes`).
 pub(crate) fn feed(net: &Network, state: &mut WindowState, spikes: Spikes<'_>) -> Result<()> {
-    let (t, x, y) = (spikes.t(), spikes.x(), spikes.y());
-    let mut start = 0;
-    while start < t.len() {
-        let mut end = start + 1;
-        while end < t.len() && t[end] == t[start] {
-            end += 1;
-        }
-        state.push_group(net, t[start], &x[start..end], &y[start..end])?;
-        start = end;
-    }
-    Ok(())
+    state.push_spikes(net, spikes)
 }

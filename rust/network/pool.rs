@@ -54,22 +54,52 @@ impl PoolState {
         out: &mut Vec<PoolSpike>,
     ) {
         let g = self.geom;
+        if g.k == g.stride {
+            // Blocks that tile the layer (Table 1's pools): the one block holding the spike,
+            // if any (with valid padding, the last rows or columns may be in none).
+            let ((qy, by), (qx, bx)) = (self.stride.div_rem(row), self.stride.div_rem(col));
+            if qy < g.out_h && qx < g.out_w {
+                self.take(generation, t, map, qy, qx, by * g.k + bx, out);
+            }
+            return;
+        }
         for qy in self.outputs_of(row, g.out_h) {
             for qx in self.outputs_of(col, g.out_w) {
-                let i = (qy * g.out_w + qx) * g.maps + map as usize;
                 let bit = (row - qy * g.stride) * g.k + (col - qx * g.stride);
-                let words = &mut self.causes[i * self.words..(i + 1) * self.words];
-                if self.fired[i] != generation {
-                    self.fired[i] = generation;
-                    self.time[i] = t;
-                    words.fill(0);
-                    out.push((map, qy as u32, qx as u32));
-                } else if self.time[i] != t {
-                    continue; // fired earlier: this spike is not one of its causes
-                }
-                words[bit / 64] |= 1 << (bit % 64);
+                self.take(generation, t, map, qy, qx, bit, out);
             }
         }
+    }
+
+    /// A spike at block position `bit` of pool neuron `(map, qy, qx)`: fire it if it has not
+    /// fired yet, and note the spike as a cause if it fires at `t`.
+    #[inline]
+    fn take(
+        &mut self,
+        generation: u32,
+        t: u64,
+        map: u32,
+        qy: usize,
+        qx: usize,
+        bit: usize,
+        out: &mut Vec<PoolSpike>,
+    ) {
+        let g = self.geom;
+        let i = (qy * g.out_w + qx) * g.maps + map as usize;
+        let words = &mut self.causes[i * self.words..(i + 1) * self.words];
+        if self.fired[i] != generation {
+            self.fired[i] = generation;
+            self.time[i] = t;
+            match words {
+                // Blocks of up to 64 (Table 1's 5 × 5): one store, not a call of `memset`.
+                [only] => *only = 0,
+                _ => words.fill(0),
+            }
+            out.push((map, qy as u32, qx as u32));
+        } else if self.time[i] != t {
+            return; // fired earlier: this spike is not one of its causes
+        }
+        words[bit / 64] |= 1 << (bit % 64);
     }
 
     /// `PoolGeom::outputs_of` without hardware divisions.

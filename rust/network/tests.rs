@@ -558,6 +558,53 @@ fn a_line_makes_the_matching_gabor_fire_at_its_last_pixel() {
         .all(|s| (s.row, s.col) != (10, 10) || s.map != 0));
 }
 
+/// `run_window` checks a window's spikes together before taking them without per-spike checks:
+/// a bad spike anywhere gives the error, with its index, that pushing the groups one by one
+/// gives, after the same earlier spikes.
+#[test]
+fn run_window_refuses_bad_spikes_like_push_group() {
+    let c = NetworkConfig {
+        width: 24,
+        height: 18,
+        ..NetworkConfig::default()
+    };
+    let net = Network::new(c.clone(), 3).unwrap();
+    let (t, x, y) = window(&c, 11, 300, 1_000);
+    let k = 150;
+    let mut cases = Vec::new();
+    for bad in 0..4 {
+        let (mut t, mut x, mut y) = (t.clone(), x.clone(), y.clone());
+        match bad {
+            0 => x[k] = c.width as u16,
+            1 => y[k] = c.height as u16,
+            2 => t[k] = t[k - 1] - 1,
+            _ => t[0] = 999, // before t0
+        }
+        cases.push((t, x, y));
+    }
+    for (t, x, y) in &cases {
+        let mut a = net.new_state();
+        let spikes = Spikes::new(t, x, y).unwrap();
+        let err_a = net
+            .run_window(&mut a, spikes, 1_000, None, false)
+            .unwrap_err();
+        let mut b = net.new_state();
+        b.begin(&net, 1_000, &net.conv1_thresholds(t.len() as u64))
+            .unwrap();
+        let mut start = 0;
+        let err_b = loop {
+            let end = start + t[start..].iter().take_while(|&&ti| ti == t[start]).count();
+            if let Err(e) = b.push_group(&net, t[start], &x[start..end], &y[start..end]) {
+                break e;
+            }
+            start = end;
+        };
+        assert_eq!(err_a.to_string(), err_b.to_string());
+        assert_eq!(a.counts(), b.counts());
+        assert_eq!(a.input_count(), b.input_count());
+    }
+}
+
 #[test]
 fn push_api_matches_run_window_and_reports_detections_early() {
     let c = NetworkConfig {

@@ -31,6 +31,7 @@
 //! [`WindowState::finish`]. A pixel's first spike in the window is its input spike; later ones
 //! are ignored (docs/model.md §1), so raw events can be pushed as they come.
 
+use super::batch::Spikes;
 use super::cause::{self, Causes};
 use super::config::NetworkConfig;
 use super::conv::{ConvState, Crossing, Fired};
@@ -336,15 +337,95 @@ impl WindowState {
             // The winners are known; later spikes cannot change the STDP update.
             return Ok(());
         }
-        let pixel = ys * self.width + xs;
-        if self.pixel_fired[pixel] != self.generation {
-            self.pixel_fired[pixel] = self.generation;
-            self.pixel_time[pixel] = t;
-            self.inputs += 1;
+        if self.stamp(ys * self.width + xs, t) {
             self.pending.push((x, y));
             self.pending_t = Some(t);
         }
         Ok(())
+    }
+
+    /// Note that `pixel` spiked at `t`; returns whether this is its first spike in the window
+    /// (its input spike: later ones are ignored).
+    #[inline]
+    fn stamp(&mut self, pixel: usize, t: u64) -> bool {
+        if self.pixel_fired[pixel] == self.generation {
+            return false;
+        }
+        self.pixel_fired[pixel] = self.generation;
+        self.pixel_time[pixel] = t;
+        self.inputs += 1;
+        true
+    }
+
+    /// Push a window's spikes (sorted by time) and process every timestamp group, the last one
+    /// included, as [`Self::push_group`] would group by group.
+    ///
+    /// In an inference window with no group pending, spikes that are all valid (checked
+    /// together first: inside the sensor, in time order, none before `t0` or the previous
+    /// spike) go straight to conv1, without `accept`'s per-spike checks and the pending list.
+    /// Otherwise they go group by group through `push_group`, so that an error, and the state
+    /// it leaves, are the same.
+    pub(crate) fn push_spikes(&mut self, net: &Network, spikes: Spikes<'_>) -> Result<()> {
+        let (t, x, y) = (spikes.t(), spikes.x(), spikes.y());
+        if self.all_valid(net, t, x, y) {
+            self.take_valid(net, t, x, y);
+            return Ok(());
+        }
+        let mut start = 0;
+        while start < t.len() {
+            let mut end = start + 1;
+            while end < t.len() && t[end] == t[start] {
+                end += 1;
+            }
+            self.push_group(net, t[start], &x[start..end], &y[start..end])?;
+            start = end;
+        }
+        Ok(())
+    }
+
+    /// Whether `take_valid` may take these spikes: see `push_spikes`.
+    fn all_valid(&self, net: &Network, t: &[u64], x: &[u16], y: &[u16]) -> bool {
+        let after = |first: u64| first >= self.t0 && self.last_t.map_or(true, |l| first >= l);
+        // One pass without early exits (the spikes are valid but for a rare error).
+        let (mut in_order, mut inside) = (true, true);
+        for (i, (&x, &y)) in x.iter().zip(y).enumerate() {
+            in_order &= i == 0 || t[i - 1] <= t[i];
+            inside &= usize::from(x) < self.width && usize::from(y) < self.height;
+        }
+        self.open
+            && self.made_for(net)
+            && self.training.is_none()
+            && self.pending_t.is_none()
+            && t.first().map_or(true, |&first| after(first))
+            && in_order
+            && inside
+    }
+
+    /// Take spikes that `all_valid` passed: each group's input spikes are added to conv1 as
+    /// they come and the group is run up the network once complete (what `accept` and
+    /// `process_pending` do, without the pending list).
+    fn take_valid(&mut self, net: &Network, t: &[u64], x: &[u16], y: &[u16]) {
+        let w = net.conv_weights(ConvLayer::Conv1).engine();
+        let mut i = 0;
+        while i < t.len() {
+            let group_t = t[i];
+            let mut added = false;
+            while i < t.len() && t[i] == group_t {
+                let (xs, ys) = (usize::from(x[i]), usize::from(y[i]));
+                if self.stamp(ys * self.width + xs, group_t) {
+                    self.conv[0].add(w, 0, ys, xs);
+                    added = true;
+                }
+                i += 1;
+            }
+            if added {
+                self.propagate(net, group_t);
+            }
+        }
+        self.pushed += t.len();
+        if let Some(&last) = t.last() {
+            self.last_t = Some(last);
+        }
     }
 
     fn bad_event(&self, reason: String) -> Error {
@@ -369,14 +450,15 @@ impl WindowState {
 
     /// Decide conv1's crossings of the group at `t` and carry the spikes up the layers.
     fn propagate(&mut self, net: &Network, t: u64) {
+        if !self.conv[0].may_fire() {
+            return; // the common case: none of the layers' setup is needed
+        }
         let config = net.config();
         let generation = self.generation;
-        let mut crossings = std::mem::take(&mut self.crossings);
-        let mut pool_out = std::mem::take(&mut self.pool_out);
         for layer in 0..3 {
             let training = self.training == Some(layer);
             let inhibit = config.conv(layer).lateral_inhibition && !training;
-            crossings.clear();
+            self.crossings.clear();
             let fired = if layer == 0 {
                 Fired {
                     stamps: &self.pixel_fired,
@@ -398,16 +480,16 @@ impl WindowState {
                 fired,
                 inhibit,
                 self.record || training,
-                &mut crossings,
+                &mut self.crossings,
             );
-            if crossings.is_empty() {
+            if self.crossings.is_empty() {
                 break;
             }
             let split = self.conv[layer].splitter();
             let conv_layer = Layer::ALL[2 * layer];
-            self.counts[conv_layer.index()] += crossings.len() as u64;
+            self.counts[conv_layer.index()] += self.crossings.len() as u64;
             if self.record {
-                self.trace[conv_layer.index()].extend(crossings.iter().map(|c| {
+                self.trace[conv_layer.index()].extend(self.crossings.iter().map(|c| {
                     let (row, col) = split.div_rem(c.pos as usize);
                     Spike {
                         t,
@@ -419,7 +501,7 @@ impl WindowState {
                 }));
             }
             if training {
-                for c in &crossings {
+                for c in &self.crossings {
                     let (row, col) = split.div_rem(c.pos as usize);
                     self.wta.offer(Winner {
                         t,
@@ -440,7 +522,7 @@ impl WindowState {
             };
             if layer == 2 {
                 // Detections of one group in (map, row, col) order, as spikes are reported.
-                crossings.sort_unstable_by_key(|c| (c.map, c.pos));
+                self.crossings.sort_unstable_by_key(|c| (c.map, c.pos));
                 let window = cause::Window {
                     geom: &self.geom,
                     splits: [
@@ -454,7 +536,7 @@ impl WindowState {
                     pixel_time: &self.pixel_time,
                     pool: &self.pool,
                 };
-                for c in &crossings {
+                for c in &self.crossings {
                     let (row, col) = split.div_rem(c.pos as usize);
                     let (rows, cols) = self.geom.conv3_receptive_field(row, col);
                     let causes = self.causes.conv3_box(&window, c.pos as usize, t);
@@ -466,32 +548,32 @@ impl WindowState {
             if 2 * layer + 1 >= depth {
                 break;
             }
-            pool_out.clear();
-            for c in &crossings {
+            self.pool_out.clear();
+            for c in &self.crossings {
                 let (row, col) = split.div_rem(c.pos as usize);
-                self.pool[layer].on_spike(generation, t, c.map, row, col, &mut pool_out);
+                self.pool[layer].on_spike(generation, t, c.map, row, col, &mut self.pool_out);
             }
             let pool_layer = Layer::ALL[2 * layer + 1];
-            self.counts[pool_layer.index()] += pool_out.len() as u64;
+            self.counts[pool_layer.index()] += self.pool_out.len() as u64;
             if self.record {
-                self.trace[pool_layer.index()].extend(pool_out.iter().map(|&(m, r, c)| Spike {
-                    t,
-                    map: m as u16,
-                    row: r as u16,
-                    col: c as u16,
-                    v: 0.0,
+                self.trace[pool_layer.index()].extend(self.pool_out.iter().map(|&(m, r, c)| {
+                    Spike {
+                        t,
+                        map: m as u16,
+                        row: r as u16,
+                        col: c as u16,
+                        v: 0.0,
+                    }
                 }));
             }
             if 2 * layer + 2 >= depth {
                 break;
             }
             let w = net.conv_weights(ConvLayer::ALL[layer + 1]).engine();
-            for &(m, r, c) in &pool_out {
+            for &(m, r, c) in &self.pool_out {
                 self.conv[layer + 1].add(w, m as usize, r as usize, c as usize);
             }
         }
-        self.crossings = crossings;
-        self.pool_out = pool_out;
     }
 
     /// Spikes per layer (conv1, pool1, conv2, pool2, conv3) in the current or last window.
