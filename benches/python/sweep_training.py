@@ -7,6 +7,14 @@ they report::
 
     python benches/python/sweep_training.py --data /tmp/tune            # builds it if absent
     python benches/python/sweep_training.py --data /tmp/tune --set conv2.threshold=10,15,45
+
+With ``--noise``, each trained network is also scored with uniform noise on those shares of
+the pixels (``uavsnn.experiments.noise_sweep``), under PENT and under the static threshold that
+``uavsnn reproduce`` compares it with (``static_twin``); ``--network-seeds`` trains each
+setting from several initial weights, since one STDP run's accuracy moves by a few points::
+
+    python benches/python/sweep_training.py --data /tmp/tune --set conv2.threshold=10 \
+        --set pent.max_density=null,0.6,0.7 --noise 0.005,0.02,0.05,0.1,0.2 --network-seeds 0,1
 """
 
 from __future__ import annotations
@@ -20,6 +28,7 @@ from pathlib import Path
 from uavsnn.dataset import build, load, read_manifest
 from uavsnn.errors import DatasetError
 from uavsnn.evaluation import evaluate
+from uavsnn.experiments import noise_sweep, static_twin
 from uavsnn.network import Network, default_config
 from uavsnn.training import apply_overrides, train
 
@@ -39,6 +48,15 @@ def main() -> None:
         metavar="KEY=V1,V2,...",
         help="a config field and the values to try (repeatable; default conv2.threshold=15,45)",
     )
+    parser.add_argument(
+        "--noise",
+        default="",
+        metavar="F1,F2,...",
+        help="also score with noise on these shares of the pixels, PENT and static",
+    )
+    parser.add_argument(
+        "--network-seeds", default="0", metavar="S1,S2,...", help="initial weights' seeds (0)"
+    )
     parser.add_argument("--json", action="store_true", help="one JSON line per setting")
     args = parser.parse_args()
     try:
@@ -49,17 +67,30 @@ def main() -> None:
     train_set, test_set = load(args.data, "train"), load(args.data, "test")
     grid = [g.split("=", 1) for g in (args.grid or ["conv2.threshold=15,45"])]
     keys = [k for k, _ in grid]
-    for values in itertools.product(*[v.split(",") for _, v in grid]):
+    fractions = [float(f) for f in args.noise.split(",") if f]
+    seeds = [int(s) for s in args.network_seeds.split(",") if s]
+    for values, net_seed in itertools.product(
+        itertools.product(*[v.split(",") for _, v in grid]), seeds
+    ):
         settings = [f"{k}={v}" for k, v in zip(keys, values, strict=True)]
         started = time.perf_counter()
-        net = Network(apply_overrides(default_config(), settings), seed=0)
+        net = Network(apply_overrides(default_config(), settings), seed=net_seed)
         train(net, train_set.windows, windows_per_layer=args.windows_per_layer, snapshots=0)
         e = evaluate(net, test_set)
+        noisy: dict[str, list[float]] = {}
+        if fractions:
+            static, _ = static_twin(net, train_set.windows)
+            points = noise_sweep({"pent": net, "static": static}, test_set, fractions, seed=0)
+            for point in points:
+                noisy.setdefault(point.mode, []).append(point.evaluation.accuracy)
         row = {
             "settings": settings,
+            "network_seed": net_seed,
             "accuracy": e.accuracy,
             "confusion": e.confusion.tolist(),
             "called_uav": {k: round(c.called_uav_rate, 3) for k, c in sorted(e.per_class.items())},
+            "noise": fractions,
+            "noisy_accuracy": noisy,
             "seconds": round(time.perf_counter() - started, 1),
         }
         if args.json:
@@ -67,8 +98,15 @@ def main() -> None:
         else:
             rates = " ".join(f"{k} {v:.2f}" for k, v in row["called_uav"].items())
             print(
-                f"{' '.join(settings):50s} accuracy {100 * e.accuracy:5.1f} %  called UAV: {rates}"
+                f"{' '.join(settings):50s} seed {net_seed} accuracy {100 * e.accuracy:5.1f} %  "
+                f"called UAV: {rates}"
             )
+            for mode, accuracies in noisy.items():
+                figures = "  ".join(
+                    f"{100 * f:g} %: {100 * a:.1f}"
+                    for f, a in zip(fractions, accuracies, strict=True)
+                )
+                print(f"    noise, {mode:6s} {figures}")
 
 
 if __name__ == "__main__":
