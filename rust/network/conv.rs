@@ -1259,13 +1259,13 @@ mod simd {
         __m256, __m256i, _mm256_add_ps, _mm256_and_ps, _mm256_and_si256, _mm256_castps_si256,
         _mm256_castsi256_ps, _mm256_cmp_ps, _mm256_cmpeq_epi32, _mm256_cmpgt_epi16,
         _mm256_loadu_ps, _mm256_loadu_si256, _mm256_maskload_ps, _mm256_maskstore_ps,
-        _mm256_movemask_epi8, _mm256_movemask_ps, _mm256_packs_epi16, _mm256_packs_epi32,
-        _mm256_permutevar8x32_epi32, _mm256_set1_epi16, _mm256_set1_epi32, _mm256_setr_epi32,
-        _mm256_storeu_ps, _mm256_storeu_si256, _mm256_sub_epi16, _mm256_zextsi128_si256,
-        _mm_add_ps, _mm_and_ps, _mm_and_si128, _mm_castps_si128, _mm_cmpge_ps, _mm_cmpgt_epi16,
-        _mm_cmplt_ps, _mm_loadu_ps, _mm_loadu_si128, _mm_movemask_epi8, _mm_movemask_ps,
-        _mm_packs_epi32, _mm_set1_epi16, _mm_setzero_si128, _mm_storeu_ps, _mm_storeu_si128,
-        _mm_sub_epi16, _CMP_GE_OQ, _CMP_LT_OQ,
+        _mm256_movemask_epi8, _mm256_movemask_ps, _mm256_or_si256, _mm256_packs_epi16,
+        _mm256_packs_epi32, _mm256_permutevar8x32_epi32, _mm256_set1_epi16, _mm256_set1_epi32,
+        _mm256_setr_epi32, _mm256_setzero_si256, _mm256_storeu_ps, _mm256_storeu_si256,
+        _mm256_sub_epi16, _mm256_testz_si256, _mm256_zextsi128_si256, _mm_add_ps, _mm_and_ps,
+        _mm_and_si128, _mm_castps_si128, _mm_cmpge_ps, _mm_cmpgt_epi16, _mm_cmplt_ps, _mm_loadu_ps,
+        _mm_loadu_si128, _mm_movemask_epi8, _mm_movemask_ps, _mm_packs_epi32, _mm_set1_epi16,
+        _mm_setzero_si128, _mm_storeu_ps, _mm_storeu_si128, _mm_sub_epi16, _CMP_GE_OQ, _CMP_LT_OQ,
     };
 
     /// Eight "on" lanes then eight "off": the window at `8 − r` enables the first `r` lanes.
@@ -1363,6 +1363,11 @@ mod simd {
         }
     }
 
+    /// Counts the rows first, keeping only the union of their lanes at or above `wake_at`:
+    /// nearly always none of the counted lanes is (every position short of waking), and the
+    /// rows' bit masks are then never built. Otherwise a second pass builds them from the
+    /// counts just stored.
+    ///
     /// # Safety
     /// The CPU must support AVX2; for every `r < hits.len()`, `counts + r · stride` holds
     /// `LANES` (16) values; `len <= 16`.
@@ -1378,16 +1383,23 @@ mod simd {
         unsafe {
             let inc = _mm256_loadu_si256(ONES.as_ptr().add(16 - len).cast());
             let at = _mm256_set1_epi16(wake_at as i16 - 1);
-            let mut any = 0u32;
-            for (r, h) in hits.iter_mut().enumerate() {
+            let mut reached = _mm256_setzero_si256();
+            for r in 0..hits.len() {
                 let p = counts.add(r * stride);
                 let n = _mm256_sub_epi16(_mm256_loadu_si256(p.cast()), inc);
                 _mm256_storeu_si256(p.cast(), n);
+                reached = _mm256_or_si256(reached, _mm256_cmpgt_epi16(n, at));
+            }
+            // Lanes past `len` belong to other positions, which this input did not count.
+            if _mm256_testz_si256(reached, inc) != 0 {
+                return false;
+            }
+            for (r, h) in hits.iter_mut().enumerate() {
+                let n = _mm256_loadu_si256(counts.add(r * stride).cast());
                 let hit = _mm256_and_si256(_mm256_cmpgt_epi16(n, at), inc);
                 *h = lane_bits(_mm256_movemask_epi8(hit) as u32);
-                any |= *h;
             }
-            any != 0
+            true
         }
     }
 
