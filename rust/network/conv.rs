@@ -768,8 +768,9 @@ fn zero_blocks(buf: &mut [f32], start: usize, len: usize) {
 }
 
 /// Zero the runs of potentials (`[row][col][map]`, rows `out_w` positions apart) of every
-/// footprint, in blocks of `ZERO_BLOCK` (see `zero_blocks`). Compiled for AVX2 where the CPU
-/// has it, so that a block is four stores.
+/// footprint, in blocks of `ZERO_BLOCK` (see `zero_blocks`), or, for conv1's whole footprints,
+/// exactly their `FIXED_ROWS` rows of `FIXED_RUN`. Compiled for AVX2 where the CPU has it, so
+/// that a block is four stores and a whole footprint's row three.
 #[inline]
 fn zero_footprints(avx2: bool, pot: &mut [f32], inputs: &[Footprint], out_w: usize, maps: usize) {
     #[cfg(target_arch = "x86_64")]
@@ -788,8 +789,24 @@ fn zero_footprints(avx2: bool, pot: &mut [f32], inputs: &[Footprint], out_w: usi
 fn zero_footprints_body(pot: &mut [f32], inputs: &[Footprint], out_w: usize, maps: usize) {
     let stride = out_w * maps;
     for f in inputs {
-        let span = (usize::from(f.cols) * maps).next_multiple_of(ZERO_BLOCK);
         let first = f.first as usize * maps;
+        if usize::from(f.rows) == FIXED_ROWS && usize::from(f.cols) * maps == FIXED_RUN {
+            // A whole conv1 footprint (`add_whole`): its rows of `FIXED_RUN` without a loop or
+            // a bounds check per row (two vector stores and a half each).
+            let end = first + (FIXED_ROWS - 1) * stride + FIXED_RUN;
+            assert!(end <= pot.len(), "footprint inside the layer");
+            let p = pot.as_mut_ptr();
+            for r in 0..FIXED_ROWS {
+                // SAFETY: row `r` ends at or before `end`, inside `pot` (asserted above).
+                unsafe {
+                    p.add(first + r * stride)
+                        .cast::<[f32; FIXED_RUN]>()
+                        .write_unaligned([0.0; FIXED_RUN]);
+                }
+            }
+            continue;
+        }
+        let span = (usize::from(f.cols) * maps).next_multiple_of(ZERO_BLOCK);
         let rows = (first..).step_by(stride).take(f.rows.into());
         if span == ZERO_BLOCK {
             // One block per row (conv1's runs of 20): its stores without a loop around them.
