@@ -1275,14 +1275,15 @@ mod simd {
     use std::arch::x86_64::{
         __m256, __m256i, _mm256_add_ps, _mm256_and_ps, _mm256_and_si256, _mm256_castps_si256,
         _mm256_castsi256_ps, _mm256_cmp_ps, _mm256_cmpeq_epi32, _mm256_cmpgt_epi16,
-        _mm256_loadu_ps, _mm256_loadu_si256, _mm256_maskload_ps, _mm256_maskstore_ps,
-        _mm256_movemask_epi8, _mm256_movemask_ps, _mm256_or_si256, _mm256_packs_epi16,
-        _mm256_packs_epi32, _mm256_permutevar8x32_epi32, _mm256_set1_epi16, _mm256_set1_epi32,
-        _mm256_setr_epi32, _mm256_setzero_si256, _mm256_storeu_ps, _mm256_storeu_si256,
-        _mm256_sub_epi16, _mm256_testz_si256, _mm256_zextsi128_si256, _mm_add_ps, _mm_and_ps,
-        _mm_and_si128, _mm_castps_si128, _mm_cmpge_ps, _mm_cmpgt_epi16, _mm_cmplt_ps, _mm_loadu_ps,
-        _mm_loadu_si128, _mm_movemask_epi8, _mm_movemask_ps, _mm_packs_epi32, _mm_set1_epi16,
-        _mm_setzero_si128, _mm_storeu_ps, _mm_storeu_si128, _mm_sub_epi16, _CMP_GE_OQ, _CMP_LT_OQ,
+        _mm256_loadu_ps, _mm256_loadu_si256, _mm256_maskload_epi32, _mm256_maskload_ps,
+        _mm256_maskstore_ps, _mm256_movemask_epi8, _mm256_movemask_ps, _mm256_or_si256,
+        _mm256_packs_epi16, _mm256_packs_epi32, _mm256_permutevar8x32_epi32, _mm256_set1_epi16,
+        _mm256_set1_epi32, _mm256_setr_epi32, _mm256_setzero_si256, _mm256_storeu_ps,
+        _mm256_storeu_si256, _mm256_sub_epi16, _mm256_testz_si256, _mm256_zextsi128_si256,
+        _mm_add_ps, _mm_and_ps, _mm_and_si128, _mm_castps_si128, _mm_cmpge_ps, _mm_cmpgt_epi16,
+        _mm_cmplt_ps, _mm_loadu_ps, _mm_loadu_si128, _mm_movemask_epi8, _mm_movemask_ps,
+        _mm_packs_epi32, _mm_set1_epi16, _mm_setzero_si128, _mm_storeu_ps, _mm_storeu_si128,
+        _mm_sub_epi16, _CMP_GE_OQ, _CMP_LT_OQ,
     };
 
     /// Eight "on" lanes then eight "off": the window at `8 − r` enables the first `r` lanes.
@@ -1348,7 +1349,17 @@ mod simd {
             i += 8;
         }
         if i < n {
-            mask |= super::fired_mask_scalar(&stamps[i..], generation) << i;
+            // The last 1-7 stamps in one masked vector (conv1's rows of 5 are nothing else);
+            // masked-off lanes read as 0 and are cleared from the mask whatever the generation.
+            let rem = n - i;
+            // SAFETY: TAIL has 16 values and 8 − rem is in 1..=7; enabled lanes are below n.
+            let eq = unsafe {
+                let lanes = _mm256_loadu_si256(TAIL.as_ptr().add(8 - rem).cast());
+                let v = _mm256_maskload_epi32(stamps.as_ptr().add(i).cast(), lanes);
+                _mm256_castsi256_ps(_mm256_cmpeq_epi32(v, g))
+            };
+            let bits = (_mm256_movemask_ps(eq) as u32) & ((1 << rem) - 1);
+            mask |= u64::from(bits) << i;
         }
         mask
     }
