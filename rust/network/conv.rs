@@ -581,31 +581,20 @@ impl ConvState {
         let maps = self.geom.maps;
         // Which candidates crossed (the band's neurons stay candidates until they do).
         let mut candidates = std::mem::take(&mut self.candidates);
-        candidates.append(&mut self.band);
-        // Whether the crossings come in position order (those of one input do, and most
-        // groups are one input).
-        let (mut in_order, mut last) = (true, 0);
+        if !self.band.is_empty() {
+            candidates.append(&mut self.band);
+        }
+        // Those of one input come in position order, and most groups are one input.
+        if inhibit && candidates.windows(2).all(|p| p[0].0 <= p[1].0) {
+            self.fire_in_order(kernels, fired, exact, &candidates, out);
+            candidates.clear();
+            self.candidates = candidates;
+            return;
+        }
         for &(pos, map) in &candidates {
-            let v32 = self.pot[pos as usize * maps + map as usize];
-            if v32 == f32::NEG_INFINITY {
-                continue; // another map fired here since (latched): this one never can
+            if let Some(c) = self.crossing(kernels, fired, pos, map) {
+                self.crossed.push(c);
             }
-            let mut c = Crossing {
-                pos,
-                map,
-                v: f64::NAN,
-                v32,
-            };
-            if v32 < self.thr_hi[map as usize] {
-                c.v = self.exact(kernels, fired, pos as usize, map as usize);
-                if c.v < self.thr[map as usize] {
-                    self.band.push((pos, map));
-                    continue;
-                }
-            }
-            in_order &= pos >= last;
-            last = pos;
-            self.crossed.push(c);
         }
         candidates.clear();
         self.candidates = candidates;
@@ -627,32 +616,86 @@ impl ConvState {
         // Every position that crossed has a best crossing, and all its maps are latched
         // below (no map may fire there any more, so none becomes a candidate again): the
         // crossings need no latch of their own.
-        if in_order {
-            // Each position's crossings are consecutive: its best is found among them, and
-            // the spikes go up in position order, as `pick_best` would have them.
-            if let Some((&first, rest)) = self.crossed.split_first() {
-                let mut best = first;
-                for &c in rest {
-                    if c.pos != best.pos {
-                        out.push(best);
-                        latch_position(&mut self.pot, best.pos as usize, maps);
-                        best = c;
-                    } else if self.beats(kernels, fired, c, best) {
-                        best = c;
-                    }
-                }
-                out.push(best);
-                latch_position(&mut self.pot, best.pos as usize, maps);
-            }
-        } else {
-            self.pick_best(kernels, fired);
-            for &i in &self.best {
-                let c = self.crossed[i as usize];
-                out.push(c);
-                latch_position(&mut self.pot, c.pos as usize, maps);
-            }
+        self.pick_best(kernels, fired);
+        for &i in &self.best {
+            let c = self.crossed[i as usize];
+            out.push(c);
+            latch_position(&mut self.pot, c.pos as usize, maps);
         }
         self.crossed.clear();
+    }
+
+    /// Whether candidate `(pos, map)` has crossed: its crossing, with the exact potential if
+    /// the float32 sum could not tell; `None` if it is latched (another map fired there since)
+    /// or still below θ (then it goes back to the band).
+    #[allow(clippy::inline_always)]
+    #[inline(always)]
+    fn crossing(
+        &mut self,
+        kernels: &[f32],
+        fired: Fired<'_>,
+        pos: u32,
+        map: u32,
+    ) -> Option<Crossing> {
+        let v32 = self.pot[pos as usize * self.geom.maps + map as usize];
+        if v32 == f32::NEG_INFINITY {
+            return None;
+        }
+        let mut c = Crossing {
+            pos,
+            map,
+            v: f64::NAN,
+            v32,
+        };
+        if v32 < self.thr_hi[map as usize] {
+            c.v = self.exact(kernels, fired, pos as usize, map as usize);
+            if c.v < self.thr[map as usize] {
+                self.band.push((pos, map));
+                return None;
+            }
+        }
+        Some(c)
+    }
+
+    /// `resolve` under lateral inhibition for candidates in position order, in one pass: each
+    /// position's crossings are consecutive, so its best is known, fired and the position
+    /// latched as soon as the next position's come (latching it cannot affect them). The
+    /// spikes go up in position order, as `pick_best` would have them.
+    fn fire_in_order(
+        &mut self,
+        kernels: &[f32],
+        fired: Fired<'_>,
+        exact: bool,
+        candidates: &[(u32, u32)],
+        out: &mut Vec<Crossing>,
+    ) {
+        let maps = self.geom.maps;
+        let mut best: Option<Crossing> = None;
+        for &(pos, map) in candidates {
+            let Some(mut c) = self.crossing(kernels, fired, pos, map) else {
+                continue;
+            };
+            if exact && c.v.is_nan() {
+                c.v = self.exact(kernels, fired, pos as usize, map as usize);
+            }
+            match best {
+                Some(b) if b.pos == pos => {
+                    if self.beats(kernels, fired, c, b) {
+                        best = Some(c);
+                    }
+                }
+                Some(b) => {
+                    out.push(b);
+                    latch_position(&mut self.pot, b.pos as usize, maps);
+                    best = Some(c);
+                }
+                None => best = Some(c),
+            }
+        }
+        if let Some(b) = best {
+            out.push(b);
+            latch_position(&mut self.pot, b.pos as usize, maps);
+        }
     }
 
     /// Lateral inhibition within a group whose crossings are not in position order: `best` =
