@@ -952,17 +952,51 @@ fn gather_body(
     ox: usize,
     pot: &mut [f32],
 ) {
+    if let Ok(pot) = <&mut [f32; GATHER_MAPS]>::try_from(&mut *pot) {
+        // The same sums in the same order, kept in registers instead of memory.
+        let mut sums = [0.0; GATHER_MAPS];
+        each_fired_weights(avx2, g, fired, base, GATHER_MAPS, oy, ox, |ws| {
+            for (d, &v) in sums.iter_mut().zip(&w[ws..ws + GATHER_MAPS]) {
+                *d += v;
+            }
+        });
+        *pot = sums;
+        return;
+    }
     let maps = pot.len();
+    each_fired_weights(avx2, g, fired, base, maps, oy, ox, |ws| {
+        for (d, &v) in pot.iter_mut().zip(&w[ws..ws + maps]) {
+            *d += v;
+        }
+    });
+}
+
+/// The maps of Table 1's conv2, the one layer that wakes by count: `gather` adds them as a
+/// run of known length, whose partial sums stay in vector registers.
+const GATHER_MAPS: usize = 20;
+
+/// Call `f(ws)` for every input of output `(oy, ox)`'s receptive field that fired, in the
+/// order of `each_fired_lane`, with `ws` the offset of its `maps` weights in the engine layout
+/// (`base` is `ConvState::wake_base`).
+#[allow(clippy::too_many_arguments, clippy::inline_always)]
+#[inline(always)]
+fn each_fired_weights(
+    avx2: bool,
+    g: &ConvGeom,
+    fired: Fired<'_>,
+    base: &[u32],
+    maps: usize,
+    oy: usize,
+    ox: usize,
+    mut f: impl FnMut(usize),
+) {
     let cols = g.inputs_of(ox, g.in_w);
     // Lane `(col, c)` of a row holds input column `cols.start + col`, kernel column
     // `dx = col + shift` (`shift` > 0 only where the field is clipped on the left).
     let shift = (cols.start + g.p_lo - ox) * maps;
     each_fired_lane(g, fired, avx2, oy, ox, |iy, l| {
         // ((c·k + dy)·k + k − 1 − dx)·maps, from the lane's precomputed part.
-        let ws = base[l] as usize + (iy + g.p_lo - oy) * g.k * maps - shift;
-        for (d, &v) in pot.iter_mut().zip(&w[ws..ws + maps]) {
-            *d += v;
-        }
+        f(base[l] as usize + (iy + g.p_lo - oy) * g.k * maps - shift);
     });
 }
 
