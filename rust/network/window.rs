@@ -566,7 +566,9 @@ impl WindowState {
                     }
                 }));
             }
-            if 2 * layer + 2 >= depth {
+            // Without new inputs the next layer has nothing to decide: its band's exact
+            // potentials are sums over inputs that fired, which have not changed.
+            if 2 * layer + 2 >= depth || self.pool_out.is_empty() {
                 break;
             }
             let w = net.conv_weights(ConvLayer::ALL[layer + 1]).engine();
