@@ -130,12 +130,10 @@ pub(crate) struct ConvState {
     candidates: Vec<(u32, u32)>,
     /// Earlier candidates whose exact potential was still below θ (re-checked every group).
     band: Vec<(u32, u32)>,
-    /// Neurons that crossed in the current group.
+    /// Neurons that crossed in the current group (without lateral inhibition).
     crossed: Vec<Crossing>,
-    /// Scratch of lateral inhibition: indices into `crossed` (the best crossing per position,
-    /// see `pick_best`) and, for large groups, the crossings as `pos << 32 | index` keys sorted
-    /// by position, and the merge's buffer.
-    best: Vec<u32>,
+    /// Scratch of lateral inhibition for groups whose candidates are not in position order:
+    /// the candidates as `pos << 32 | map` keys sorted by position, and the merge's buffer.
     order: Vec<u64>,
     merged: Vec<u64>,
     /// Where the inputs added this window landed (what the next window must zero).
@@ -203,7 +201,6 @@ impl ConvState {
             candidates: Vec::new(),
             band: Vec::new(),
             crossed: Vec::new(),
-            best: Vec::new(),
             order: Vec::new(),
             merged: Vec::new(),
             inputs: Vec::new(),
@@ -584,9 +581,25 @@ impl ConvState {
         if !self.band.is_empty() {
             candidates.append(&mut self.band);
         }
-        // Those of one input come in position order, and most groups are one input.
-        if inhibit && candidates.windows(2).all(|p| p[0].0 <= p[1].0) {
-            self.fire_in_order(kernels, fired, exact, &candidates, out);
+        if inhibit {
+            // Those of one input come in position order, and most groups are one input; the
+            // others are a few such runs (one per input), merged as packed `pos << 32 | map`
+            // keys (`sort_runs`).
+            if candidates.windows(2).all(|p| p[0].0 <= p[1].0) {
+                self.fire_in_order(kernels, fired, exact, candidates.iter().copied(), out);
+            } else {
+                let mut order = std::mem::take(&mut self.order);
+                order.clear();
+                order.extend(
+                    candidates
+                        .iter()
+                        .map(|&(pos, map)| u64::from(pos) << 32 | u64::from(map)),
+                );
+                sort_runs(&mut order, &mut self.merged);
+                let sorted = order.iter().map(|&key| ((key >> 32) as u32, key as u32));
+                self.fire_in_order(kernels, fired, exact, sorted, out);
+                self.order = order;
+            }
             candidates.clear();
             self.candidates = candidates;
             return;
@@ -606,23 +619,10 @@ impl ConvState {
                 }
             }
         }
-        if !inhibit {
-            for c in &self.crossed {
-                self.pot[c.pos as usize * maps + c.map as usize] = f32::NEG_INFINITY;
-            }
-            out.append(&mut self.crossed);
-            return;
+        for c in &self.crossed {
+            self.pot[c.pos as usize * maps + c.map as usize] = f32::NEG_INFINITY;
         }
-        // Every position that crossed has a best crossing, and all its maps are latched
-        // below (no map may fire there any more, so none becomes a candidate again): the
-        // crossings need no latch of their own.
-        self.pick_best(kernels, fired);
-        for &i in &self.best {
-            let c = self.crossed[i as usize];
-            out.push(c);
-            latch_position(&mut self.pot, c.pos as usize, maps);
-        }
-        self.crossed.clear();
+        out.append(&mut self.crossed);
     }
 
     /// Whether candidate `(pos, map)` has crossed: its crossing, with the exact potential if
@@ -657,21 +657,22 @@ impl ConvState {
         Some(c)
     }
 
-    /// `resolve` under lateral inhibition for candidates in position order, in one pass: each
-    /// position's crossings are consecutive, so its best is known, fired and the position
-    /// latched as soon as the next position's come (latching it cannot affect them). The
-    /// spikes go up in position order, as `pick_best` would have them.
+    /// `resolve` under lateral inhibition, for candidates in position order, in one pass:
+    /// each position's crossings are consecutive, so its best (see `beats`) is known, fired
+    /// and the position latched as soon as the next position's come (latching it cannot
+    /// affect them). The spikes go up in position order; the order changes no result
+    /// (decisions are exact whatever order float32 sums are taken in).
     fn fire_in_order(
         &mut self,
         kernels: &[f32],
         fired: Fired<'_>,
         exact: bool,
-        candidates: &[(u32, u32)],
+        candidates: impl Iterator<Item = (u32, u32)>,
         out: &mut Vec<Crossing>,
     ) {
         let maps = self.geom.maps;
         let mut best: Option<Crossing> = None;
-        for &(pos, map) in candidates {
+        for (pos, map) in candidates {
             let Some(mut c) = self.crossing(kernels, fired, pos, map) else {
                 continue;
             };
@@ -696,63 +697,6 @@ impl ConvState {
             out.push(b);
             latch_position(&mut self.pot, b.pos as usize, maps);
         }
-    }
-
-    /// Lateral inhibition within a group whose crossings are not in position order: `best` =
-    /// for each position in `crossed`, the index of its winning crossing (see `beats`):
-    /// positions in order of first appearance for groups of up to 16 crossings, in position
-    /// order for larger ones. The order changes no result (decisions are exact whatever order
-    /// float32 sums are taken in); it is the order in which the spikes go on up.
-    fn pick_best(&mut self, kernels: &[f32], fired: Fired<'_>) {
-        /// Up to this many crossings, a scan of the positions seen so far is cheapest.
-        const SCAN: usize = 16;
-        let n = self.crossed.len();
-        let mut best = std::mem::take(&mut self.best);
-        best.clear();
-        if n <= SCAN {
-            for i in 0..n {
-                let c = self.crossed[i];
-                match best
-                    .iter()
-                    .position(|&b| self.crossed[b as usize].pos == c.pos)
-                {
-                    Some(k) => {
-                        if self.beats(kernels, fired, c, self.crossed[best[k] as usize]) {
-                            best[k] = i as u32;
-                        }
-                    }
-                    None => best.push(i as u32),
-                }
-            }
-        } else {
-            // Sorted by (position, index) as packed `position << 32 | index` keys: each
-            // position's crossings are consecutive. The crossings of one input spike come in
-            // position order already (its runs are added row by row, lanes in order), so the
-            // keys are a few sorted runs, merged (`sort_runs`).
-            let mut order = std::mem::take(&mut self.order);
-            order.clear();
-            order.extend(
-                self.crossed
-                    .iter()
-                    .enumerate()
-                    .map(|(i, c)| u64::from(c.pos) << 32 | i as u64),
-            );
-            sort_runs(&mut order, &mut self.merged);
-            for run in order.chunk_by(|&a, &b| a >> 32 == b >> 32) {
-                let index = |key: u64| key as u32; // the low half
-                let mut w = index(run[0]);
-                for &key in &run[1..] {
-                    let i = index(key);
-                    let (c, b) = (self.crossed[i as usize], self.crossed[w as usize]);
-                    if self.beats(kernels, fired, c, b) {
-                        w = i;
-                    }
-                }
-                best.push(w);
-            }
-            self.order = order;
-        }
-        self.best = best;
     }
 
     /// Whether crossing `a` wins lateral inhibition over `b` (same position and group): the
@@ -866,8 +810,8 @@ fn zero_footprints_body(pot: &mut [f32], inputs: &[Footprint], out_w: usize, map
     }
 }
 
-/// Sort `v` by merging its ascending runs (the crossings of one input come in position order,
-/// so a group's keys are a few such runs), pairwise through `buffer`; with many runs, an
+/// Sort `v` by merging its ascending runs (the candidates of one input come in position
+/// order, so a group's keys are a few such runs), pairwise through `buffer`; with many runs, an
 /// ordinary sort.
 fn sort_runs(v: &mut Vec<u64>, buffer: &mut Vec<u64>) {
     /// Beyond this many runs, merging pairwise costs more than sorting.
