@@ -994,13 +994,16 @@ fn each_fired_lane(
     }
 }
 
-/// Record the neurons of a run whose lanes are set in `masks` as candidates.
+/// Record the neurons of a run whose lanes are set in `masks` as candidates (read 64 lanes at
+/// a time: conv2's and conv3's runs are 200 lanes long, with few set).
 #[cold]
 fn push_candidates(masks: &[u8], split: &[(u32, u32)], pos0: u32, out: &mut Vec<(u32, u32)>) {
-    for (chunk, &mask) in masks.iter().enumerate() {
-        let mut mask = mask;
+    for (word, bytes) in masks.chunks(8).enumerate() {
+        let mut padded = [0; 8];
+        padded[..bytes.len()].copy_from_slice(bytes);
+        let mut mask = u64::from_le_bytes(padded);
         while mask != 0 {
-            let (dp, map) = split[chunk * 8 + mask.trailing_zeros() as usize];
+            let (dp, map) = split[word * 64 + mask.trailing_zeros() as usize];
             out.push((pos0 + dp, map));
             mask &= mask - 1;
         }
