@@ -453,129 +453,137 @@ impl WindowState {
         if !self.conv[0].may_fire() {
             return; // the common case: none of the layers' setup is needed
         }
+        // One copy of the step per layer, each compiled for its layer.
+        let _ = self.propagate_layer(net, t, 0)
+            && self.propagate_layer(net, t, 1)
+            && self.propagate_layer(net, t, 2);
+    }
+
+    /// Decide conv layer `layer`'s crossings of the group at `t` and carry its spikes to the
+    /// next layer's inputs; returns whether that layer has anything to decide.
+    #[allow(clippy::inline_always)]
+    #[inline(always)]
+    fn propagate_layer(&mut self, net: &Network, t: u64, layer: usize) -> bool {
         let config = net.config();
         let generation = self.generation;
-        for layer in 0..3 {
-            let training = self.training == Some(layer);
-            let inhibit = config.conv(layer).lateral_inhibition && !training;
-            self.crossings.clear();
-            let fired = if layer == 0 {
-                Fired {
-                    stamps: &self.pixel_fired,
-                    width: self.width,
-                    channels: 1,
-                    generation,
+        let training = self.training == Some(layer);
+        let inhibit = config.conv(layer).lateral_inhibition && !training;
+        self.crossings.clear();
+        let fired = if layer == 0 {
+            Fired {
+                stamps: &self.pixel_fired,
+                width: self.width,
+                channels: 1,
+                generation,
+            }
+        } else {
+            let pool = &self.pool[layer - 1];
+            Fired {
+                stamps: pool.stamps(),
+                width: pool.geom.out_w,
+                channels: pool.geom.maps,
+                generation,
+            }
+        };
+        self.conv[layer].resolve(
+            net.conv_weights(ConvLayer::ALL[layer]),
+            fired,
+            inhibit,
+            self.record || training,
+            &mut self.crossings,
+        );
+        if self.crossings.is_empty() {
+            return false;
+        }
+        let split = self.conv[layer].splitter();
+        let conv_layer = Layer::ALL[2 * layer];
+        self.counts[conv_layer.index()] += self.crossings.len() as u64;
+        if self.record {
+            self.trace[conv_layer.index()].extend(self.crossings.iter().map(|c| {
+                let (row, col) = split.div_rem(c.pos as usize);
+                Spike {
+                    t,
+                    map: c.map as u16,
+                    row: row as u16,
+                    col: col as u16,
+                    v: c.v as f32,
                 }
-            } else {
-                let pool = &self.pool[layer - 1];
-                Fired {
-                    stamps: pool.stamps(),
-                    width: pool.geom.out_w,
-                    channels: pool.geom.maps,
-                    generation,
-                }
-            };
-            self.conv[layer].resolve(
-                net.conv_weights(ConvLayer::ALL[layer]),
-                fired,
-                inhibit,
-                self.record || training,
-                &mut self.crossings,
-            );
-            if self.crossings.is_empty() {
-                break;
-            }
-            let split = self.conv[layer].splitter();
-            let conv_layer = Layer::ALL[2 * layer];
-            self.counts[conv_layer.index()] += self.crossings.len() as u64;
-            if self.record {
-                self.trace[conv_layer.index()].extend(self.crossings.iter().map(|c| {
-                    let (row, col) = split.div_rem(c.pos as usize);
-                    Spike {
-                        t,
-                        map: c.map as u16,
-                        row: row as u16,
-                        col: col as u16,
-                        v: c.v as f32,
-                    }
-                }));
-            }
-            if training {
-                for c in &self.crossings {
-                    let (row, col) = split.div_rem(c.pos as usize);
-                    self.wta.offer(Winner {
-                        t,
-                        map: c.map as u16,
-                        row: row as u16,
-                        col: col as u16,
-                        v: c.v,
-                    });
-                }
-                self.wta.close_group();
-                break;
-            }
-            // Training runs every layer up to the trained one, whatever the depth.
-            let depth = if self.training.is_some() {
-                5
-            } else {
-                self.depth
-            };
-            if layer == 2 {
-                // Detections of one group in (map, row, col) order, as spikes are reported.
-                self.crossings.sort_unstable_by_key(|c| (c.map, c.pos));
-                let window = cause::Window {
-                    geom: &self.geom,
-                    splits: [
-                        self.conv[0].input_split(),
-                        self.conv[1].input_split(),
-                        self.conv[2].input_split(),
-                    ],
-                    width: self.width,
-                    generation,
-                    pixel_fired: &self.pixel_fired,
-                    pixel_time: &self.pixel_time,
-                    pool: &self.pool,
-                };
-                for c in &self.crossings {
-                    let (row, col) = split.div_rem(c.pos as usize);
-                    let (rows, cols) = self.geom.conv3_receptive_field(row, col);
-                    let causes = self.causes.conv3_box(&window, c.pos as usize, t);
-                    self.detections
-                        .push(detection(t, c.map, row, col, &rows, &cols, causes));
-                }
-                break;
-            }
-            if 2 * layer + 1 >= depth {
-                break;
-            }
-            self.pool_out.clear();
+            }));
+        }
+        if training {
             for c in &self.crossings {
                 let (row, col) = split.div_rem(c.pos as usize);
-                self.pool[layer].on_spike(generation, t, c.map, row, col, &mut self.pool_out);
+                self.wta.offer(Winner {
+                    t,
+                    map: c.map as u16,
+                    row: row as u16,
+                    col: col as u16,
+                    v: c.v,
+                });
             }
-            let pool_layer = Layer::ALL[2 * layer + 1];
-            self.counts[pool_layer.index()] += self.pool_out.len() as u64;
-            if self.record {
-                self.trace[pool_layer.index()].extend(self.pool_out.iter().map(|&(m, r, c)| {
-                    Spike {
-                        t,
-                        map: m as u16,
-                        row: r as u16,
-                        col: c as u16,
-                        v: 0.0,
-                    }
-                }));
-            }
-            // Without new inputs the next layer has nothing to decide: its band's exact
-            // potentials are sums over inputs that fired, which have not changed.
-            if 2 * layer + 2 >= depth || self.pool_out.is_empty() {
-                break;
-            }
-            let w = net.conv_weights(ConvLayer::ALL[layer + 1]).engine();
-            for &(m, r, c) in &self.pool_out {
-                self.conv[layer + 1].add(w, m as usize, r as usize, c as usize);
-            }
+            self.wta.close_group();
+            return false;
         }
+        // Training runs every layer up to the trained one, whatever the depth.
+        let depth = if self.training.is_some() {
+            5
+        } else {
+            self.depth
+        };
+        if layer == 2 {
+            // Detections of one group in (map, row, col) order, as spikes are reported.
+            self.crossings.sort_unstable_by_key(|c| (c.map, c.pos));
+            let window = cause::Window {
+                geom: &self.geom,
+                splits: [
+                    self.conv[0].input_split(),
+                    self.conv[1].input_split(),
+                    self.conv[2].input_split(),
+                ],
+                width: self.width,
+                generation,
+                pixel_fired: &self.pixel_fired,
+                pixel_time: &self.pixel_time,
+                pool: &self.pool,
+            };
+            for c in &self.crossings {
+                let (row, col) = split.div_rem(c.pos as usize);
+                let (rows, cols) = self.geom.conv3_receptive_field(row, col);
+                let causes = self.causes.conv3_box(&window, c.pos as usize, t);
+                self.detections
+                    .push(detection(t, c.map, row, col, &rows, &cols, causes));
+            }
+            return false;
+        }
+        if 2 * layer + 1 >= depth {
+            return false;
+        }
+        self.pool_out.clear();
+        for c in &self.crossings {
+            let (row, col) = split.div_rem(c.pos as usize);
+            self.pool[layer].on_spike(generation, t, c.map, row, col, &mut self.pool_out);
+        }
+        let pool_layer = Layer::ALL[2 * layer + 1];
+        self.counts[pool_layer.index()] += self.pool_out.len() as u64;
+        if self.record {
+            self.trace[pool_layer.index()].extend(self.pool_out.iter().map(|&(m, r, c)| Spike {
+                t,
+                map: m as u16,
+                row: r as u16,
+                col: c as u16,
+                v: 0.0,
+            }));
+        }
+        // Without new inputs the next layer has nothing to decide: its band's exact
+        // potentials are sums over inputs that fired, which have not changed.
+        if 2 * layer + 2 >= depth || self.pool_out.is_empty() {
+            return false;
+        }
+        let w = net.conv_weights(ConvLayer::ALL[layer + 1]).engine();
+        for &(m, r, c) in &self.pool_out {
+            self.conv[layer + 1].add(w, m as usize, r as usize, c as usize);
+        }
+        true
     }
 
     /// Spikes per layer (conv1, pool1, conv2, pool2, conv3) in the current or last window.
