@@ -67,13 +67,18 @@ def features(net: Network, data: LabelledWindows) -> tuple[np.ndarray, np.ndarra
     return np.hstack(columns), np.array(conv3), np.asarray(inference.detected, dtype=bool)
 
 
+def standardised(train: np.ndarray, test: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Both feature sets centred and scaled by the training windows' mean and spread only."""
+    mean, scale = train.mean(axis=0), train.std(axis=0) + 1e-9
+    return (train - mean) / scale, (test - mean) / scale
+
+
 def logistic(
     train: np.ndarray, labels: np.ndarray, test: np.ndarray, *, l2: float = 1e-3
 ) -> tuple[np.ndarray, np.ndarray]:
     """Calls on the training and the test windows of a logistic regression fitted by full-batch
-    gradient descent on standardised features (scaled by the training windows only)."""
-    mean, scale = train.mean(axis=0), train.std(axis=0) + 1e-9
-    a, b = (train - mean) / scale, (test - mean) / scale
+    gradient descent on standardised features (:func:`standardised`)."""
+    a, b = standardised(train, test)
     w, bias, y = np.zeros(a.shape[1]), 0.0, labels.astype(float)
     for _ in range(4000):
         p = 1.0 / (1.0 + np.exp(-(a @ w + bias)))
@@ -83,9 +88,8 @@ def logistic(
 
 
 def nearest(train: np.ndarray, labels: np.ndarray, test: np.ndarray, k: int) -> np.ndarray:
-    """Majority calls of the ``k`` nearest training windows (standardised features)."""
-    mean, scale = train.mean(axis=0), train.std(axis=0) + 1e-9
-    a, b = (train - mean) / scale, (test - mean) / scale
+    """Majority calls of the ``k`` nearest training windows (:func:`standardised` features)."""
+    a, b = standardised(train, test)
     calls = np.empty(len(b), dtype=bool)
     for start in range(0, len(b), 256):
         d = ((b[start : start + 256, None, :] - a[None, :, :]) ** 2).sum(axis=-1)
