@@ -1161,6 +1161,26 @@ fn add_detect(avx2: bool, pot: &mut [f32], w: &[f32], thr: &[f32], masks: &mut [
 /// Most output rows that `add_rows` takes at once.
 const FUSED_ROWS: usize = 16;
 
+/// Whether `rows ≥ 1` rows of `run` lanes lie inside `pot` and `w`: row `r`'s potentials from
+/// `p0 + r · p_stride` and its weights from `w0 − r · w_stride` (what the AVX2 row adders read
+/// and write without bounds checks).
+#[allow(clippy::too_many_arguments)]
+#[inline]
+fn rows_inside(
+    pot: &[f32],
+    p0: usize,
+    p_stride: usize,
+    w: &[f32],
+    w0: usize,
+    w_stride: usize,
+    run: usize,
+    rows: usize,
+) -> bool {
+    p0 + (rows - 1) * p_stride + run <= pot.len()
+        && w0 >= (rows - 1) * w_stride
+        && w0 + run <= w.len()
+}
+
 /// The one shape that `add_rows_fixed` takes: conv1's input spike away from the borders adds
 /// to `k = 5` output rows of `k × maps = 5 × 4` lanes each.
 const FIXED_ROWS: usize = 5;
@@ -1185,9 +1205,7 @@ fn add_rows_fixed(
     assert!(
         masks.len() == FIXED_ROWS
             && thr.len() >= FIXED_RUN
-            && p0 + (FIXED_ROWS - 1) * p_stride + FIXED_RUN <= pot.len()
-            && w0 >= (FIXED_ROWS - 1) * w_stride
-            && w0 + FIXED_RUN <= w.len(),
+            && rows_inside(pot, p0, p_stride, w, w0, w_stride, FIXED_RUN, FIXED_ROWS),
         "rows inside the layer and the kernel"
     );
     #[cfg(target_arch = "x86_64")]
@@ -1233,10 +1251,7 @@ fn add_rows(
         return false;
     }
     assert!(
-        run <= 32
-            && p0 + (rows - 1) * p_stride + run <= pot.len()
-            && w0 >= (rows - 1) * w_stride
-            && w0 + run <= w.len(),
+        run <= 32 && rows_inside(pot, p0, p_stride, w, w0, w_stride, run, rows),
         "rows inside the layer and the kernel"
     );
     #[cfg(target_arch = "x86_64")]
