@@ -361,13 +361,22 @@ impl ConvState {
 
     /// Add input spike `(c, iy, ix)` (engine-layout weights `w`) to every neuron whose kernel
     /// covers it; neurons whose float32 sum reaches `θ_lo` become candidates of the group.
-    #[inline]
+    #[allow(clippy::inline_always)]
+    #[inline(always)]
     pub fn add(&mut self, w: &[f32], c: usize, iy: usize, ix: usize) {
         let whole = |w: &Whole| w.rows.contains(&iy) && w.cols.contains(&ix);
         if !self.gated && self.whole.as_ref().is_some_and(whole) {
             self.add_whole(w, c, iy, ix);
-            return;
+        } else {
+            self.add_clipped(w, c, iy, ix);
         }
+    }
+
+    /// `add` for every input but the whole ones of `add_whole`: footprints clipped by the
+    /// borders, layers other than conv1, layers that wake by count. Out of line, so that `add`
+    /// inlines into its callers' loops with only `add_whole`'s few registers to save.
+    #[inline(never)]
+    fn add_clipped(&mut self, w: &[f32], c: usize, iy: usize, ix: usize) {
         self.list_held();
         let g = self.geom;
         let maps = g.maps;
@@ -438,7 +447,8 @@ impl ConvState {
     /// layer of `FIXED_ROWS` rows of `FIXED_RUN` lanes that adds densely on a CPU with AVX2:
     /// nearly every input of conv1. Nothing is clipped, so the offsets are those of the
     /// kernel's last row and column, and the rows go through `add_rows_fixed`.
-    #[inline]
+    #[allow(clippy::inline_always)]
+    #[inline(always)]
     fn add_whole(&mut self, w: &[f32], c: usize, iy: usize, ix: usize) {
         let g = self.geom;
         let maps = g.maps;
