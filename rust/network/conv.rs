@@ -128,6 +128,15 @@ pub(crate) struct ConvState {
     margin: f64,
     /// Neurons `(pos, map)` whose float32 sum reached `θ_lo` in the current group.
     candidates: Vec<(u32, u32)>,
+    /// The candidates of a group's first whole input (`add_whole`), held as its lanes' bits
+    /// while no other input of the group has any (most groups are one input): they are in
+    /// position order already, so `resolve` walks them position by position (`fire_held`)
+    /// without listing them or checking their order. Listed in `candidates` (`list_held`) as
+    /// soon as anything else is. Never set with `candidates` non-empty.
+    held: Option<WholeCandidates>,
+    /// Per position `p` of a whole footprint (`p / k` rows and `p mod k` columns from its
+    /// first): its offset from the first, `(p / k) · out_w + p mod k`.
+    whole_offsets: [u32; WHOLE_POSITIONS],
     /// Earlier candidates whose exact potential was still below θ (re-checked every group).
     band: Vec<(u32, u32)>,
     /// Neurons that crossed in the current group (without lateral inhibition).
@@ -168,6 +177,29 @@ pub(crate) struct ConvState {
     whole: Option<Whole>,
 }
 
+/// The candidates of one whole input (`add_whole`): lane `l` of output row `r`'s run is bit
+/// `(r mod WORD_ROWS) · FIXED_RUN + l` of `words[r / WORD_ROWS]`, so that each word is walked
+/// with 64-bit operations and holds whole positions. Its `MAPS` lanes from `MAPS · p` are the
+/// maps of position `WORD_POSITIONS · word + p` of the footprint (see `whole_offsets`).
+#[derive(Debug, Clone, Copy)]
+struct WholeCandidates {
+    first: u32,
+    words: [u64; 2],
+}
+
+/// Rows of a whole footprint per word of `WholeCandidates` (3 × 20 lanes ≤ 64).
+const WORD_ROWS: usize = 3;
+const _: () = assert!(
+    WORD_ROWS * FIXED_RUN <= 64 && FIXED_ROWS <= 2 * WORD_ROWS,
+    "a whole footprint's lanes in two words"
+);
+/// A whole conv1 footprint's maps per position, positions per word, and positions.
+const MAPS: usize = FIXED_RUN / FIXED_ROWS;
+const WORD_POSITIONS: usize = WORD_ROWS * FIXED_RUN / MAPS;
+const WHOLE_POSITIONS: usize = FIXED_ROWS * FIXED_ROWS;
+/// The bits of one position's maps.
+const POSITION_MAPS: u32 = (1 << MAPS) - 1;
+
 /// The inputs of a layer whose footprint is the whole kernel: input rows and columns whose `k`
 /// output rows (columns) are all inside the layer.
 #[derive(Debug, Clone)]
@@ -199,6 +231,10 @@ impl ConvState {
             thr_lo: vec![f32::INFINITY; geom.k * geom.maps],
             margin: geom.kernel_len() as f64 * f64::from(f32::EPSILON),
             candidates: Vec::new(),
+            held: None,
+            whole_offsets: std::array::from_fn(|p| {
+                ((p / FIXED_ROWS) * geom.out_w + p % FIXED_ROWS) as u32
+            }),
             band: Vec::new(),
             crossed: Vec::new(),
             order: Vec::new(),
@@ -277,6 +313,7 @@ impl ConvState {
         self.awake.clear();
         self.waking.clear();
         self.candidates.clear();
+        self.held = None;
         self.band.clear();
         self.crossed.clear();
     }
@@ -324,13 +361,23 @@ impl ConvState {
 
     /// Add input spike `(c, iy, ix)` (engine-layout weights `w`) to every neuron whose kernel
     /// covers it; neurons whose float32 sum reaches `θ_lo` become candidates of the group.
-    #[inline]
+    #[allow(clippy::inline_always)]
+    #[inline(always)]
     pub fn add(&mut self, w: &[f32], c: usize, iy: usize, ix: usize) {
         let whole = |w: &Whole| w.rows.contains(&iy) && w.cols.contains(&ix);
         if !self.gated && self.whole.as_ref().is_some_and(whole) {
             self.add_whole(w, c, iy, ix);
-            return;
+        } else {
+            self.add_clipped(w, c, iy, ix);
         }
+    }
+
+    /// `add` for every input but the whole ones of `add_whole`: footprints clipped by the
+    /// borders, layers other than conv1, layers that wake by count. Out of line, so that `add`
+    /// inlines into its callers' loops with only `add_whole`'s few registers to save.
+    #[inline(never)]
+    fn add_clipped(&mut self, w: &[f32], c: usize, iy: usize, ix: usize) {
+        self.list_held();
         let g = self.geom;
         let maps = g.maps;
         let cols = g.outputs_of(ix, g.out_w);
@@ -400,7 +447,8 @@ impl ConvState {
     /// layer of `FIXED_ROWS` rows of `FIXED_RUN` lanes that adds densely on a CPU with AVX2:
     /// nearly every input of conv1. Nothing is clipped, so the offsets are those of the
     /// kernel's last row and column, and the rows go through `add_rows_fixed`.
-    #[inline]
+    #[allow(clippy::inline_always)]
+    #[inline(always)]
     fn add_whole(&mut self, w: &[f32], c: usize, iy: usize, ix: usize) {
         let g = self.geom;
         let maps = g.maps;
@@ -423,7 +471,35 @@ impl ConvState {
             &self.thr_lo,
             &mut masks,
         ) {
-            self.push_row_candidates(&masks, first);
+            let mut words = [0; 2];
+            for (r, &mask) in masks.iter().enumerate() {
+                words[r / WORD_ROWS] |= u64::from(mask) << (r % WORD_ROWS * FIXED_RUN);
+            }
+            let held = WholeCandidates {
+                first: first as u32,
+                words,
+            };
+            if self.held.is_none() && self.candidates.is_empty() {
+                self.held = Some(held);
+            } else {
+                self.list_held();
+                self.held = Some(held);
+                self.list_held();
+            }
+        }
+    }
+
+    /// Move the candidates held as bits (`held`), if any, to `candidates`.
+    #[inline]
+    fn list_held(&mut self) {
+        if let Some(held) = self.held.take() {
+            for (p, mut maps) in held.positions() {
+                let pos = held.first + self.whole_offsets[p];
+                while maps != 0 {
+                    self.candidates.push((pos, maps.trailing_zeros()));
+                    maps &= maps - 1;
+                }
+            }
         }
     }
 
@@ -548,7 +624,10 @@ impl ConvState {
     /// or its waking count, or an earlier one is still in the band.
     #[inline]
     pub fn may_fire(&self) -> bool {
-        !(self.candidates.is_empty() && self.band.is_empty() && self.waking.is_empty())
+        !(self.candidates.is_empty()
+            && self.held.is_none()
+            && self.band.is_empty()
+            && self.waking.is_empty())
     }
 
     /// Decide the crossings of the group just added and append the neurons that fire to
@@ -568,6 +647,15 @@ impl ConvState {
         exact: bool,
         out: &mut Vec<Crossing>,
     ) {
+        if let Some(held) = self.held {
+            if inhibit && self.band.is_empty() && self.waking.is_empty() {
+                // The common case of conv1: one input's candidates, and nothing else.
+                self.held = None;
+                self.fire_held(weights.canonical(), fired, exact, held, out);
+                return;
+            }
+            self.list_held();
+        }
         if !self.waking.is_empty() {
             self.wake(weights.engine(), fired);
         }
@@ -699,6 +787,66 @@ impl ConvState {
         }
     }
 
+    /// `fire_in_order` for the candidates of one whole input, held as bits: position by
+    /// position (in position order), its crossings' best fires and the position is latched.
+    fn fire_held(
+        &mut self,
+        kernels: &[f32],
+        fired: Fired<'_>,
+        exact: bool,
+        held: WholeCandidates,
+        out: &mut Vec<Crossing>,
+    ) {
+        let thr_hi: [f32; MAPS] = self.thr_hi[..MAPS].try_into().expect("MAPS thresholds");
+        // The walk of `WholeCandidates::positions`, written out (the iterator costs more).
+        for (word, &bits) in held.words.iter().enumerate() {
+            let mut bits = bits;
+            while bits != 0 {
+                let p = bits.trailing_zeros() as usize / MAPS;
+                let mut maps = (bits >> (p * MAPS)) as u32 & POSITION_MAPS;
+                bits &= !(u64::from(POSITION_MAPS) << (p * MAPS));
+                let pos = held.first + self.whole_offsets[word * WORD_POSITIONS + p];
+                // `crossing` for each map, from one load of the position's potentials (none
+                // changes before the position is decided).
+                let at = pos as usize * MAPS;
+                let v: [f32; MAPS] = self.pot[at..at + MAPS].try_into().expect("MAPS maps");
+                let mut best: Option<Crossing> = None;
+                while maps != 0 {
+                    let map = maps.trailing_zeros();
+                    maps &= maps - 1;
+                    let v32 = v[map as usize % MAPS];
+                    if v32 == f32::NEG_INFINITY {
+                        continue; // latched
+                    }
+                    let mut c = Crossing {
+                        pos,
+                        map,
+                        v: f64::NAN,
+                        v32,
+                    };
+                    if v32 < thr_hi[map as usize % MAPS] {
+                        c.v = self.exact(kernels, fired, pos as usize, map as usize);
+                        if c.v < self.thr[map as usize] {
+                            self.band.push((pos, map));
+                            continue;
+                        }
+                    }
+                    if exact && c.v.is_nan() {
+                        c.v = self.exact(kernels, fired, pos as usize, map as usize);
+                    }
+                    match best {
+                        Some(b) if !self.beats(kernels, fired, c, b) => {}
+                        _ => best = Some(c),
+                    }
+                }
+                if let Some(b) = best {
+                    out.push(b);
+                    latch_position(&mut self.pot, pos as usize, MAPS);
+                }
+            }
+        }
+    }
+
     /// Whether crossing `a` wins lateral inhibition over `b` (same position and group): the
     /// higher exact potential, then the lower map. Float32 sums decide where their error
     /// bounds cannot overlap; otherwise the exact potentials are gathered.
@@ -728,6 +876,29 @@ impl ConvState {
             std::cmp::Ordering::Equal => a.map < b.map,
             std::cmp::Ordering::Less => false,
         }
+    }
+}
+
+impl WholeCandidates {
+    /// The positions with candidates, in position order: `(p, maps)` with `p` the position in
+    /// the footprint (see `ConvState::whole_offsets`) and `maps` its maps' bits (bit `m` for
+    /// map `m`).
+    #[inline]
+    fn positions(self) -> impl Iterator<Item = (usize, u32)> {
+        self.words
+            .into_iter()
+            .enumerate()
+            .flat_map(|(word, mut bits)| {
+                std::iter::from_fn(move || {
+                    if bits == 0 {
+                        return None;
+                    }
+                    let p = bits.trailing_zeros() as usize / MAPS;
+                    let maps = (bits >> (p * MAPS)) as u32 & POSITION_MAPS;
+                    bits &= !(u64::from(POSITION_MAPS) << (p * MAPS));
+                    Some((word * WORD_POSITIONS + p, maps))
+                })
+            })
     }
 }
 

@@ -20,6 +20,11 @@ pub(crate) struct PoolState {
     words: usize,
     /// Division by the stride.
     stride: Divider,
+    /// Per conv row: its block row and, times `k`, its row in the block; per conv column: its
+    /// block column and its column in the block (`on_spike` where blocks tile the layer,
+    /// `k = stride`: two loads instead of two divisions per spike).
+    row_block: Vec<(u32, u32)>,
+    col_block: Vec<(u32, u32)>,
 }
 
 impl PoolState {
@@ -32,6 +37,12 @@ impl PoolState {
             causes: vec![0; n * (geom.k * geom.k).div_ceil(64)],
             words: (geom.k * geom.k).div_ceil(64),
             stride: Divider::new(geom.stride),
+            row_block: (0..geom.in_h)
+                .map(|r| ((r / geom.stride) as u32, (r % geom.stride * geom.k) as u32))
+                .collect(),
+            col_block: (0..geom.in_w)
+                .map(|c| ((c / geom.stride) as u32, (c % geom.stride) as u32))
+                .collect(),
         }
     }
 
@@ -57,12 +68,31 @@ impl PoolState {
         if g.k == g.stride {
             // Blocks that tile the layer (Table 1's pools): the one block holding the spike,
             // if any (with valid padding, the last rows or columns may be in none).
-            let ((qy, by), (qx, bx)) = (self.stride.div_rem(row), self.stride.div_rem(col));
+            let ((qy, by), (qx, bx)) = (self.row_block[row], self.col_block[col]);
+            let (qy, qx) = (qy as usize, qx as usize);
             if qy < g.out_h && qx < g.out_w {
-                self.take(generation, t, map, qy, qx, by * g.k + bx, out);
+                self.take(generation, t, map, qy, qx, (by + bx) as usize, out);
             }
             return;
         }
+        self.on_spike_overlapping(generation, t, map, row, col, out);
+    }
+
+    /// `on_spike` for blocks that overlap or leave gaps (`k ≠ stride`): every block holding the
+    /// spike. Kept out of line, so that `on_spike` holds only the one-block path (Table 1's
+    /// pools) and saves fewer registers per spike (inlining `on_spike` into `propagate`
+    /// measured more instructions).
+    #[inline(never)]
+    fn on_spike_overlapping(
+        &mut self,
+        generation: u32,
+        t: u64,
+        map: u32,
+        row: usize,
+        col: usize,
+        out: &mut Vec<PoolSpike>,
+    ) {
+        let g = self.geom;
         for qy in self.outputs_of(row, g.out_h) {
             for qx in self.outputs_of(col, g.out_w) {
                 let bit = (row - qy * g.stride) * g.k + (col - qx * g.stride);
@@ -86,18 +116,23 @@ impl PoolState {
     ) {
         let g = self.geom;
         let i = (qy * g.out_w + qx) * g.maps + map as usize;
-        let words = &mut self.causes[i * self.words..(i + 1) * self.words];
-        if self.fired[i] != generation {
+        let first = self.fired[i] != generation;
+        if first {
             self.fired[i] = generation;
             self.time[i] = t;
+            out.push((map, qy as u32, qx as u32));
+        } else if self.time[i] != t {
+            // Fired earlier (most spikes of a busy block): this spike is not one of its
+            // causes, and its cause words are not even looked up.
+            return;
+        }
+        let words = &mut self.causes[i * self.words..(i + 1) * self.words];
+        if first {
             match words {
                 // Blocks of up to 64 (Table 1's 5 × 5): one store, not a call of `memset`.
                 [only] => *only = 0,
                 _ => words.fill(0),
             }
-            out.push((map, qy as u32, qx as u32));
-        } else if self.time[i] != t {
-            return; // fired earlier: this spike is not one of its causes
         }
         words[bit / 64] |= 1 << (bit % 64);
     }

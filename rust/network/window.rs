@@ -449,10 +449,19 @@ impl WindowState {
     }
 
     /// Decide conv1's crossings of the group at `t` and carry the spikes up the layers.
+    /// Inlined, so that the common case, a group with nothing to decide, costs its test and
+    /// not a call that saves registers.
+    #[allow(clippy::inline_always)]
+    #[inline(always)]
     fn propagate(&mut self, net: &Network, t: u64) {
-        if !self.conv[0].may_fire() {
-            return; // the common case: none of the layers' setup is needed
+        if self.conv[0].may_fire() {
+            self.propagate_fired(net, t);
         }
+    }
+
+    /// `propagate` for a group in which conv1 may fire.
+    #[inline(never)]
+    fn propagate_fired(&mut self, net: &Network, t: u64) {
         // One copy of the step per layer, each compiled for its layer.
         let _ = self.propagate_layer(net, t, 0)
             && self.propagate_layer(net, t, 1)
