@@ -12,7 +12,9 @@
 //! together cost at most one visit of each conv neuron's receptive field that some detection
 //! reaches.
 
-use super::conv::{each_fired_input, has_avx2, Fired};
+use std::ops::Range;
+
+use super::conv::{each_fired_input, fired_mask, has_avx2, Fired};
 use super::geometry::{Divider, Geometry};
 use super::pool::PoolState;
 
@@ -48,6 +50,16 @@ pub(crate) struct Causes {
     split: [Divider; 3],
     /// Division by each pool layer's kernel side (block bit → block row and column).
     side: [Divider; 2],
+    /// Division by each pool layer's maps and output width (neuron index → map, row, column).
+    maps: [Divider; 2],
+    pool_w: [Divider; 2],
+    /// Whether a pool layer's box walks the fields of its causes together (`block_box`): when
+    /// its block side is at most one more than the conv kernel's, so that the columns the
+    /// causes of a row read are one run.
+    merge: [bool; 2],
+    /// Scratch of `block_box`, per pool layer: per block row holding causes, the input rows
+    /// and columns their fields read.
+    strips: [Vec<(usize, usize, usize, usize)>; 2],
     /// Whether the CPU has AVX2 (asked once, for the stamp tests).
     avx2: bool,
 }
@@ -60,6 +72,10 @@ impl Causes {
             boxes: [vec![EMPTY; pool(0)], vec![EMPTY; pool(1)]],
             split: geom.conv.map(|g| Divider::new(g.out_w)),
             side: geom.pool.map(|g| Divider::new(g.k)),
+            maps: geom.pool.map(|g| Divider::new(g.maps)),
+            pool_w: geom.pool.map(|g| Divider::new(g.out_w)),
+            merge: [0, 1].map(|l| geom.pool[l].k <= geom.conv[l].k + 1),
+            strips: Default::default(),
             avx2: has_avx2(),
         }
     }
@@ -103,7 +119,8 @@ impl Causes {
         let mut b = EMPTY;
         let avx2 = self.avx2;
         each_fired_input(&g, fired, w.splits[layer], avx2, oy, ox, |c, iy, ix| {
-            let tin = times[(iy * fired.width + ix) * fired.channels + c];
+            let i = (iy * fired.width + ix) * fired.channels + c;
+            let tin = times[i];
             if tin > t {
                 return; // fired later: not a cause
             }
@@ -113,43 +130,176 @@ impl Causes {
                     let (x, y) = (ix as u16, iy as u16);
                     (x, y, x + 1, y + 1)
                 } else {
-                    self.pool_box(w, layer - 1, c, iy, ix, tin)
+                    self.pool_box(w, layer - 1, i, tin)
                 },
             );
         });
         b
     }
 
-    /// The box of the causes of pool layer `layer`'s neuron `(map, qy, qx)`, which fired at
-    /// `tq`: the neurons of `map` in its block that fired at `tq`.
-    fn pool_box(
-        &mut self,
-        w: &Window<'_>,
-        layer: usize,
-        map: usize,
-        qy: usize,
-        qx: usize,
-        tq: u64,
-    ) -> PixelBox {
-        let pg = w.geom.pool[layer];
-        let i = (qy * pg.out_w + qx) * pg.maps + map;
+    /// The box of the causes of pool layer `layer`'s neuron `i` (`[row][col][map]`), which
+    /// fired at `tq`: the neurons of its map in its block that fired at `tq`.
+    fn pool_box(&mut self, w: &Window<'_>, layer: usize, i: usize, tq: u64) -> PixelBox {
         if self.done[layer][i] == w.generation {
             return self.boxes[layer][i];
         }
-        let cg = w.geom.conv[layer];
-        let mut b = EMPTY;
-        for (word_index, &word) in w.pool[layer].causes_of(map, qy, qx).iter().enumerate() {
-            let mut m = word;
-            while m != 0 {
-                let bit = word_index * 64 + m.trailing_zeros() as usize;
-                m &= m - 1;
-                let (dy, dx) = self.side[layer].div_rem(bit);
+        let pg = w.geom.pool[layer];
+        let (q, map) = self.maps[layer].div_rem(i);
+        let (qy, qx) = self.pool_w[layer].div_rem(q);
+        let causes = w.pool[layer].causes_of(map, qy, qx);
+        let b = if self.merge[layer] {
+            self.block_box(w, layer, causes, qy, qx, tq)
+        } else {
+            let cg = w.geom.conv[layer];
+            let mut b = EMPTY;
+            for (dy, dx) in block_bits(self.side[layer], causes) {
                 let pos = (qy * pg.stride + dy) * cg.out_w + qx * pg.stride + dx;
                 b = union(b, self.conv_box(w, layer, pos, tq));
             }
-        }
+            b
+        };
         self.done[layer][i] = w.generation;
         self.boxes[layer][i] = b;
         b
     }
+
+    /// The box of the inputs that fired at or before `tq` in the fields of the conv neurons of
+    /// layer `layer` whose block positions are set in `causes`, in pool neuron `(qy, qx)`'s
+    /// block: the union of their `conv_box`es, in one walk of the union of their fields.
+    ///
+    /// A pool neuron's causes all fired at `tq`, so one time test serves them all; their fields
+    /// overlap heavily (Table 1's pool2: up to 25 conv2 fields of 10 × 10 inside 14 × 14), and
+    /// walking each field alone visits an input once per field that holds it. In an input row,
+    /// the columns read by the causes whose fields hold the row are one run: their fields'
+    /// columns start at most `k_pool − 1 ≤ k` apart, so each run reaches the next (clipping to
+    /// the input keeps that), and so do those of the neurons between them, which are no causes.
+    fn block_box(
+        &mut self,
+        w: &Window<'_>,
+        layer: usize,
+        causes: &[u64],
+        qy: usize,
+        qx: usize,
+        tq: u64,
+    ) -> PixelBox {
+        let (pg, cg) = (w.geom.pool[layer], w.geom.conv[layer]);
+        // Per block row: the first and last block column of a cause.
+        let mut strips = std::mem::take(&mut self.strips[layer]);
+        strips.clear();
+        let mut row = usize::MAX;
+        for (dy, dx) in block_bits(self.side[layer], causes) {
+            let ox = qx * pg.stride + dx;
+            if dy != row {
+                // Bits come in row-major order: a new block row.
+                row = dy;
+                let rows = cg.inputs_of(qy * pg.stride + dy, cg.in_h);
+                let cols = cg.inputs_of(ox, cg.in_w);
+                strips.push((rows.start, rows.end, cols.start, cols.end));
+            } else if let Some(s) = strips.last_mut() {
+                s.3 = cg.inputs_of(ox, cg.in_w).end;
+            }
+        }
+        let mut b = EMPTY;
+        if let (Some(first), Some(last)) = (strips.first(), strips.last()) {
+            // The fields' rows, from the first block row's to the last's.
+            for iy in first.0..last.1 {
+                let (mut lo, mut hi) = (usize::MAX, 0);
+                for &(r0, r1, c0, c1) in &strips {
+                    if (r0..r1).contains(&iy) {
+                        lo = lo.min(c0);
+                        hi = hi.max(c1);
+                    }
+                }
+                if lo < hi {
+                    self.row_box(w, layer, iy, lo..hi, tq, &mut b);
+                }
+            }
+        }
+        self.strips[layer] = strips;
+        b
+    }
+
+    /// Widen `b` by the inputs of conv layer `layer` (pixels, or pool layer `layer − 1`'s
+    /// neurons, every map) in input row `iy`, columns `cols`, that fired at or before `t`.
+    ///
+    /// Pixels box themselves: only a row's first and last such pixel widen the box, so they are
+    /// looked for from each end of the row's fired ones.
+    fn row_box(
+        &mut self,
+        w: &Window<'_>,
+        layer: usize,
+        iy: usize,
+        cols: Range<usize>,
+        t: u64,
+        b: &mut PixelBox,
+    ) {
+        if layer == 0 {
+            let from = iy * w.width + cols.start;
+            let stamps = &w.pixel_fired[from..from + cols.len()];
+            let times = &w.pixel_time[from..from + cols.len()];
+            // Lane of the first and of the last pixel of the row that fired by `t`.
+            let (mut first, mut last) = (None, 0);
+            for (chunk, s) in stamps.chunks(64).enumerate() {
+                let mut m = fired_mask(self.avx2, s, w.generation);
+                if first.is_none() {
+                    while m != 0 {
+                        let l = chunk * 64 + m.trailing_zeros() as usize;
+                        m &= m - 1;
+                        if times[l] <= t {
+                            (first, last) = (Some(l), l);
+                            break;
+                        }
+                    }
+                }
+                // The last among those above the first.
+                while m != 0 {
+                    let top = 63 - m.leading_zeros() as usize;
+                    m &= !(1 << top);
+                    if times[chunk * 64 + top] <= t {
+                        last = chunk * 64 + top;
+                        break;
+                    }
+                }
+            }
+            if let Some(first) = first {
+                let (x0, x1, y) = (cols.start + first, cols.start + last + 1, iy);
+                *b = union(*b, (x0 as u16, y as u16, x1 as u16, y as u16 + 1));
+            }
+            return;
+        }
+        let below = &w.pool[layer - 1];
+        let maps = below.geom.maps;
+        let from = (iy * below.geom.out_w + cols.start) * maps;
+        let stamps = &below.stamps()[from..from + cols.len() * maps];
+        let times = below.times();
+        for (chunk, s) in stamps.chunks(64).enumerate() {
+            let mut m = fired_mask(self.avx2, s, w.generation);
+            while m != 0 {
+                let i = from + chunk * 64 + m.trailing_zeros() as usize;
+                m &= m - 1;
+                let tin = times[i];
+                if tin <= t {
+                    *b = union(*b, self.pool_box(w, layer - 1, i, tin));
+                }
+            }
+        }
+    }
+}
+
+/// The block positions `(dy, dx)` set in a pool neuron's cause words, in bit order (row-major);
+/// `side` divides by the block side.
+fn block_bits(side: Divider, causes: &[u64]) -> impl Iterator<Item = (usize, usize)> + '_ {
+    causes
+        .iter()
+        .enumerate()
+        .flat_map(move |(word_index, &word)| {
+            let mut m = word;
+            std::iter::from_fn(move || {
+                (m != 0).then(|| {
+                    let bit = word_index * 64 + m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    side.div_rem(bit)
+                })
+            })
+        })
 }
