@@ -94,7 +94,8 @@ impl Causes {
     }
 
     /// The box of the causes of conv layer `layer`'s neuron at `pos` firing at `t`: the inputs
-    /// of its receptive field that fired at or before `t`.
+    /// of its receptive field that fired at or before `t` (for pool boxes whose causes' fields
+    /// are not walked together).
     fn conv_box(&mut self, w: &Window<'_>, layer: usize, pos: usize, t: u64) -> PixelBox {
         let g = w.geom.conv[layer];
         let (oy, ox) = self.split[layer].div_rem(pos);
@@ -138,11 +139,19 @@ impl Causes {
     }
 
     /// The box of the causes of pool layer `layer`'s neuron `i` (`[row][col][map]`), which
-    /// fired at `tq`: the neurons of its map in its block that fired at `tq`.
+    /// fired at `tq`: the neurons of its map in its block that fired at `tq`. Inlined, so that
+    /// the common case, a box computed already, costs no call.
+    #[inline]
     fn pool_box(&mut self, w: &Window<'_>, layer: usize, i: usize, tq: u64) -> PixelBox {
         if self.done[layer][i] == w.generation {
             return self.boxes[layer][i];
         }
+        self.new_pool_box(w, layer, i, tq)
+    }
+
+    /// `pool_box` the first time in the window: compute it and keep it.
+    #[inline(never)]
+    fn new_pool_box(&mut self, w: &Window<'_>, layer: usize, i: usize, tq: u64) -> PixelBox {
         let pg = w.geom.pool[layer];
         let (q, map) = self.maps[layer].div_rem(i);
         let (qy, qx) = self.pool_w[layer].div_rem(q);
