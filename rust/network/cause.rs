@@ -123,15 +123,45 @@ impl Causes {
     }
 
     /// The box of the pixels that caused conv3 neuron `pos` (any map) to fire at `t`, if any.
+    ///
+    /// The walk is compiled twice, with `AVX2` a constant: where the CPU has AVX2, the functions
+    /// it goes through (`conv3_box_avx2`, `new_pool_box_avx2`) are compiled for it, so that the
+    /// stamp tests of the rows (`fired_mask`) are inlined into them instead of called.
     pub fn conv3_box(&mut self, w: &Window<'_>, pos: usize, t: u64) -> Option<PixelBox> {
-        let b = self.conv_box(w, 2, pos, t);
+        #[cfg(target_arch = "x86_64")]
+        let b = if self.avx2 {
+            // SAFETY: `avx2` comes from `has_avx2`.
+            unsafe { self.conv3_box_avx2(w, pos, t) }
+        } else {
+            self.conv_box::<false>(w, 2, pos, t)
+        };
+        #[cfg(not(target_arch = "x86_64"))]
+        let b = self.conv_box::<false>(w, 2, pos, t);
         (b != EMPTY).then(|| b.pixel_box())
+    }
+
+    /// `conv_box` of conv3, compiled for AVX2.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn conv3_box_avx2(&mut self, w: &Window<'_>, pos: usize, t: u64) -> Lanes {
+        self.conv_box::<true>(w, 2, pos, t)
     }
 
     /// The box of the causes of conv layer `layer`'s neuron at `pos` firing at `t`: the inputs
     /// of its receptive field that fired at or before `t` (for pool boxes whose causes' fields
-    /// are not walked together).
-    fn conv_box(&mut self, w: &Window<'_>, layer: usize, pos: usize, t: u64) -> Lanes {
+    /// are not walked together). `AVX2` is true only where the CPU has it.
+    #[allow(clippy::inline_always)]
+    #[inline(always)]
+    fn conv_box<const AVX2: bool>(
+        &mut self,
+        w: &Window<'_>,
+        layer: usize,
+        pos: usize,
+        t: u64,
+    ) -> Lanes {
         let g = w.geom.conv[layer];
         let (oy, ox) = self.split[layer].div_rem(pos);
         let (fired, times) = if layer == 0 {
@@ -153,8 +183,7 @@ impl Causes {
             (pool, below.times())
         };
         let mut b = EMPTY;
-        let avx2 = self.avx2;
-        each_fired_input(&g, fired, w.splits[layer], avx2, oy, ox, |c, iy, ix| {
+        each_fired_input(&g, fired, w.splits[layer], AVX2, oy, ox, |c, iy, ix| {
             let i = (iy * fired.width + ix) * fired.channels + c;
             let tin = times[i];
             if tin > t {
@@ -166,7 +195,7 @@ impl Causes {
                     let (x, y) = (ix as u16, iy as u16);
                     Lanes::new(x, y, x + 1, y + 1)
                 } else {
-                    self.pool_box(w, layer - 1, i, tin)
+                    self.pool_box::<AVX2>(w, layer - 1, i, tin)
                 },
             );
         });
@@ -177,28 +206,68 @@ impl Causes {
     /// fired at `tq`: the neurons of its map in its block that fired at `tq`. Inlined, so that
     /// the common case, a box computed already, costs no call.
     #[inline]
-    fn pool_box(&mut self, w: &Window<'_>, layer: usize, i: usize, tq: u64) -> Lanes {
+    fn pool_box<const AVX2: bool>(
+        &mut self,
+        w: &Window<'_>,
+        layer: usize,
+        i: usize,
+        tq: u64,
+    ) -> Lanes {
         if self.done[layer][i] == w.generation {
             return self.boxes[layer][i];
         }
-        self.new_pool_box(w, layer, i, tq)
+        #[cfg(target_arch = "x86_64")]
+        if AVX2 {
+            // SAFETY: `AVX2` is true only where the CPU has it (`conv3_box`).
+            return unsafe { self.new_pool_box_avx2(w, layer, i, tq) };
+        }
+        self.new_pool_box_plain(w, layer, i, tq)
+    }
+
+    /// `new_pool_box` without AVX2.
+    #[inline(never)]
+    fn new_pool_box_plain(&mut self, w: &Window<'_>, layer: usize, i: usize, tq: u64) -> Lanes {
+        self.new_pool_box::<false>(w, layer, i, tq)
+    }
+
+    /// `new_pool_box` compiled for AVX2.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn new_pool_box_avx2(
+        &mut self,
+        w: &Window<'_>,
+        layer: usize,
+        i: usize,
+        tq: u64,
+    ) -> Lanes {
+        self.new_pool_box::<true>(w, layer, i, tq)
     }
 
     /// `pool_box` the first time in the window: compute it and keep it.
-    #[inline(never)]
-    fn new_pool_box(&mut self, w: &Window<'_>, layer: usize, i: usize, tq: u64) -> Lanes {
+    #[allow(clippy::inline_always)]
+    #[inline(always)]
+    fn new_pool_box<const AVX2: bool>(
+        &mut self,
+        w: &Window<'_>,
+        layer: usize,
+        i: usize,
+        tq: u64,
+    ) -> Lanes {
         let pg = w.geom.pool[layer];
         let (q, map) = self.maps[layer].div_rem(i);
         let (qy, qx) = self.pool_w[layer].div_rem(q);
         let causes = w.pool[layer].causes_of(map, qy, qx);
         let b = if self.merge[layer] {
-            self.block_box(w, layer, causes, qy, qx, tq)
+            self.block_box::<AVX2>(w, layer, causes, qy, qx, tq)
         } else {
             let cg = w.geom.conv[layer];
             let mut b = EMPTY;
             for (dy, dx) in block_bits(self.side[layer], causes) {
                 let pos = (qy * pg.stride + dy) * cg.out_w + qx * pg.stride + dx;
-                b = union(b, self.conv_box(w, layer, pos, tq));
+                b = union(b, self.conv_box::<AVX2>(w, layer, pos, tq));
             }
             b
         };
@@ -217,7 +286,9 @@ impl Causes {
     /// the columns read by the causes whose fields hold the row are one run: their fields'
     /// columns start at most `k_pool − 1 ≤ k` apart, so each run reaches the next (clipping to
     /// the input keeps that), and so do those of the neurons between them, which are no causes.
-    fn block_box(
+    #[allow(clippy::inline_always)]
+    #[inline(always)]
+    fn block_box<const AVX2: bool>(
         &mut self,
         w: &Window<'_>,
         layer: usize,
@@ -255,7 +326,7 @@ impl Causes {
                     }
                 }
                 if lo < hi {
-                    self.row_box(w, layer, iy, lo..hi, tq, &mut b);
+                    self.row_box::<AVX2>(w, layer, iy, lo..hi, tq, &mut b);
                 }
             }
         }
@@ -268,7 +339,9 @@ impl Causes {
     ///
     /// Pixels box themselves: only a row's first and last such pixel widen the box, so they are
     /// looked for from each end of the row's fired ones.
-    fn row_box(
+    #[allow(clippy::inline_always)]
+    #[inline(always)]
+    fn row_box<const AVX2: bool>(
         &mut self,
         w: &Window<'_>,
         layer: usize,
@@ -284,7 +357,7 @@ impl Causes {
             // Lane of the first and of the last pixel of the row that fired by `t`.
             let (mut first, mut last) = (None, 0);
             for (chunk, s) in stamps.chunks(64).enumerate() {
-                let mut m = fired_mask(self.avx2, s, w.generation);
+                let mut m = fired_mask(AVX2, s, w.generation);
                 if first.is_none() {
                     while m != 0 {
                         let l = chunk * 64 + m.trailing_zeros() as usize;
@@ -317,13 +390,13 @@ impl Causes {
         let stamps = &below.stamps()[from..from + cols.len() * maps];
         let times = below.times();
         for (chunk, s) in stamps.chunks(64).enumerate() {
-            let mut m = fired_mask(self.avx2, s, w.generation);
+            let mut m = fired_mask(AVX2, s, w.generation);
             while m != 0 {
                 let i = from + chunk * 64 + m.trailing_zeros() as usize;
                 m &= m - 1;
                 let tin = times[i];
                 if tin <= t {
-                    *b = union(*b, self.pool_box(w, layer - 1, i, tin));
+                    *b = union(*b, self.pool_box::<AVX2>(w, layer - 1, i, tin));
                 }
             }
         }
