@@ -133,10 +133,10 @@ impl Causes {
             // SAFETY: `avx2` comes from `has_avx2`.
             unsafe { self.conv3_box_avx2(w, pos, t) }
         } else {
-            self.conv_box::<false>(w, 2, pos, t)
+            self.conv3_rows::<false>(w, pos, t)
         };
         #[cfg(not(target_arch = "x86_64"))]
-        let b = self.conv_box::<false>(w, 2, pos, t);
+        let b = self.conv3_rows::<false>(w, pos, t);
         (b != EMPTY).then(|| b.pixel_box())
     }
 
@@ -147,7 +147,21 @@ impl Causes {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     unsafe fn conv3_box_avx2(&mut self, w: &Window<'_>, pos: usize, t: u64) -> Lanes {
-        self.conv_box::<true>(w, 2, pos, t)
+        self.conv3_rows::<true>(w, pos, t)
+    }
+
+    /// `conv_box` of conv3 through `row_box`: its pool2 inputs are indexed as they lie.
+    #[allow(clippy::inline_always)]
+    #[inline(always)]
+    fn conv3_rows<const AVX2: bool>(&mut self, w: &Window<'_>, pos: usize, t: u64) -> Lanes {
+        let g = w.geom.conv[2];
+        let (oy, ox) = self.split[2].div_rem(pos);
+        let cols = g.inputs_of(ox, g.in_w);
+        let mut b = EMPTY;
+        for iy in g.inputs_of(oy, g.in_h) {
+            self.row_box::<AVX2>(w, 2, iy, cols.clone(), t, &mut b);
+        }
+        b
     }
 
     /// The box of the causes of conv layer `layer`'s neuron at `pos` firing at `t`: the inputs
