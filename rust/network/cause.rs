@@ -10,7 +10,9 @@
 //! pool neuron as it fires, see `PoolState::on_spike`). When a conv3 neuron fires, the links are
 //! followed, with every pool neuron's box kept once computed in the window, so a window's boxes
 //! together cost at most one visit of each conv neuron's receptive field that some detection
-//! reaches.
+//! reaches; and a pool neuron's box walks the fields of its causes together (`block_box`), so
+//! that an input is visited once per pool box rather than once per cause whose field holds it.
+//! Boxes are kept as lanes whose union is one lane-wise minimum (`Lanes`).
 
 use std::ops::Range;
 
@@ -65,7 +67,8 @@ fn union(a: Lanes, b: Lanes) -> Lanes {
 /// What the links are followed through: the window's pixels and pool layers.
 pub(crate) struct Window<'a> {
     pub geom: &'a Geometry,
-    /// Each conv layer's lanes of a receptive field's row (`ConvState::input_split`).
+    /// Each conv layer's lanes of a receptive field's row (`ConvState::input_split`; for
+    /// `conv_box`, the walk of pool boxes whose causes' fields are not walked together).
     pub splits: [&'a [(u32, u32)]; 3],
     pub width: usize,
     pub generation: u32,
@@ -95,7 +98,7 @@ pub(crate) struct Causes {
     /// Scratch of `block_box`, per pool layer: per block row holding causes, the input rows
     /// and columns their fields read.
     strips: [Vec<(usize, usize, usize, usize)>; 2],
-    /// Whether the CPU has AVX2 (asked once, for the stamp tests).
+    /// Whether the CPU has AVX2 (asked once: the walk is compiled for it, see `conv3_box`).
     avx2: bool,
 }
 
