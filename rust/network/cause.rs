@@ -81,9 +81,9 @@ pub(crate) struct Window<'a> {
 /// Per-window state for the boxes of detections: each pool neuron's box, once computed.
 #[derive(Debug, Clone)]
 pub(crate) struct Causes {
-    /// Per pool1 / pool2 neuron: generation in which its box was computed, and the box.
-    done: [Vec<u32>; 2],
-    boxes: [Vec<Lanes>; 2],
+    /// Per pool1 / pool2 neuron: generation in which its box was computed, and the box (side
+    /// by side: a box computed already costs one read).
+    boxes: [Vec<(u32, Lanes)>; 2],
     /// Division by each conv layer's output width.
     split: [Divider; 3],
     /// Division by each pool layer's kernel side (block bit → block row and column).
@@ -106,8 +106,7 @@ impl Causes {
     pub fn new(geom: &Geometry) -> Self {
         let pool = |l: usize| geom.pool[l].neurons();
         Self {
-            done: [vec![0; pool(0)], vec![0; pool(1)]],
-            boxes: [vec![EMPTY; pool(0)], vec![EMPTY; pool(1)]],
+            boxes: [vec![(0, EMPTY); pool(0)], vec![(0, EMPTY); pool(1)]],
             split: geom.conv.map(|g| Divider::new(g.out_w)),
             side: geom.pool.map(|g| Divider::new(g.k)),
             maps: geom.pool.map(|g| Divider::new(g.maps)),
@@ -120,8 +119,8 @@ impl Causes {
 
     /// Forget every stamp (after the window generation counter wrapped).
     pub fn clear_stamps(&mut self) {
-        for v in &mut self.done {
-            v.fill(0);
+        for v in &mut self.boxes {
+            v.fill((0, EMPTY));
         }
     }
 
@@ -230,8 +229,9 @@ impl Causes {
         i: usize,
         tq: u64,
     ) -> Lanes {
-        if self.done[layer][i] == w.generation {
-            return self.boxes[layer][i];
+        let (done, b) = self.boxes[layer][i];
+        if done == w.generation {
+            return b;
         }
         #[cfg(target_arch = "x86_64")]
         if AVX2 {
@@ -288,8 +288,7 @@ impl Causes {
             }
             b
         };
-        self.done[layer][i] = w.generation;
-        self.boxes[layer][i] = b;
+        self.boxes[layer][i] = (w.generation, b);
         b
     }
 
