@@ -10,25 +10,65 @@
 //! pool neuron as it fires, see `PoolState::on_spike`). When a conv3 neuron fires, the links are
 //! followed, with every pool neuron's box kept once computed in the window, so a window's boxes
 //! together cost at most one visit of each conv neuron's receptive field that some detection
-//! reaches.
+//! reaches; and a pool neuron's box walks the fields of its causes together (`block_box`), so
+//! that an input is visited once per pool box rather than once per cause whose field holds it.
+//! Boxes are kept as lanes whose union is one lane-wise minimum (`Lanes`).
 
-use super::conv::{each_fired_input, has_avx2, Fired};
+use std::ops::Range;
+
+use super::conv::{each_fired_input, fired_mask, has_avx2, Fired};
 use super::geometry::{Divider, Geometry};
 use super::pool::PoolState;
 
-/// A half-open pixel box `(x0, y0, x1, y1)`; `EMPTY` holds no pixel.
+/// A half-open pixel box `(x0, y0, x1, y1)`.
 pub(crate) type PixelBox = (u16, u16, u16, u16);
 
-const EMPTY: PixelBox = (u16::MAX, u16::MAX, 0, 0);
+/// A pixel box as four 16-bit lanes of a word, `x0, y0, !x1, !y1` from the lowest (`!x` is
+/// `u16::MAX − x`), so that the union of two is their lane-wise minimum: on x86-64 two SSE2
+/// instructions on the lanes together, instead of two `min`s and two `max`es one at a time.
+/// `EMPTY` holds no pixel.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Lanes(u64);
 
-fn union(a: PixelBox, b: PixelBox) -> PixelBox {
-    (a.0.min(b.0), a.1.min(b.1), a.2.max(b.2), a.3.max(b.3))
+const EMPTY: Lanes = Lanes(u64::MAX);
+
+impl Lanes {
+    fn new(x0: u16, y0: u16, x1: u16, y1: u16) -> Self {
+        let lane = |v: u16, k: u32| u64::from(v) << (16 * k);
+        Self(lane(x0, 0) | lane(y0, 1) | lane(!x1, 2) | lane(!y1, 3))
+    }
+
+    fn pixel_box(self) -> PixelBox {
+        let lane = |k: u32| (self.0 >> (16 * k)) as u16;
+        (lane(0), lane(1), !lane(2), !lane(3))
+    }
+}
+
+#[inline]
+fn union(a: Lanes, b: Lanes) -> Lanes {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{
+            _mm_cvtsi128_si64, _mm_cvtsi64_si128, _mm_sub_epi16, _mm_subs_epu16,
+        };
+        // SAFETY: SSE2 is part of x86-64. The unsigned minimum is a − (a −sat b).
+        unsafe {
+            let (va, vb) = (_mm_cvtsi64_si128(a.0 as i64), _mm_cvtsi64_si128(b.0 as i64));
+            Lanes(_mm_cvtsi128_si64(_mm_sub_epi16(va, _mm_subs_epu16(va, vb))) as u64)
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let lane = |v: u64, k: u32| (v >> (16 * k)) & 0xffff;
+        Lanes((0..4).fold(0, |m, k| m | lane(a.0, k).min(lane(b.0, k)) << (16 * k)))
+    }
 }
 
 /// What the links are followed through: the window's pixels and pool layers.
 pub(crate) struct Window<'a> {
     pub geom: &'a Geometry,
-    /// Each conv layer's lanes of a receptive field's row (`ConvState::input_split`).
+    /// Each conv layer's lanes of a receptive field's row (`ConvState::input_split`; for
+    /// `conv_box`, the walk of pool boxes whose causes' fields are not walked together).
     pub splits: [&'a [(u32, u32)]; 3],
     pub width: usize,
     pub generation: u32,
@@ -41,14 +81,24 @@ pub(crate) struct Window<'a> {
 /// Per-window state for the boxes of detections: each pool neuron's box, once computed.
 #[derive(Debug, Clone)]
 pub(crate) struct Causes {
-    /// Per pool1 / pool2 neuron: generation in which its box was computed, and the box.
-    done: [Vec<u32>; 2],
-    boxes: [Vec<PixelBox>; 2],
+    /// Per pool1 / pool2 neuron: generation in which its box was computed, and the box (side
+    /// by side: a box computed already costs one read).
+    boxes: [Vec<(u32, Lanes)>; 2],
     /// Division by each conv layer's output width.
     split: [Divider; 3],
     /// Division by each pool layer's kernel side (block bit → block row and column).
     side: [Divider; 2],
-    /// Whether the CPU has AVX2 (asked once, for the stamp tests).
+    /// Division by each pool layer's maps and output width (neuron index → map, row, column).
+    maps: [Divider; 2],
+    pool_w: [Divider; 2],
+    /// Whether a pool layer's box walks the fields of its causes together (`block_box`): when
+    /// its block side is at most one more than the conv kernel's, so that the columns the
+    /// causes of a row read are one run.
+    merge: [bool; 2],
+    /// Scratch of `block_box`, per pool layer: per block row holding causes, the input rows
+    /// and columns their fields read.
+    strips: [Vec<(usize, usize, usize, usize)>; 2],
+    /// Whether the CPU has AVX2 (asked once: the walk is compiled for it, see `conv3_box`).
     avx2: bool,
 }
 
@@ -56,30 +106,78 @@ impl Causes {
     pub fn new(geom: &Geometry) -> Self {
         let pool = |l: usize| geom.pool[l].neurons();
         Self {
-            done: [vec![0; pool(0)], vec![0; pool(1)]],
-            boxes: [vec![EMPTY; pool(0)], vec![EMPTY; pool(1)]],
+            boxes: [vec![(0, EMPTY); pool(0)], vec![(0, EMPTY); pool(1)]],
             split: geom.conv.map(|g| Divider::new(g.out_w)),
             side: geom.pool.map(|g| Divider::new(g.k)),
+            maps: geom.pool.map(|g| Divider::new(g.maps)),
+            pool_w: geom.pool.map(|g| Divider::new(g.out_w)),
+            merge: [0, 1].map(|l| geom.pool[l].k <= geom.conv[l].k + 1),
+            strips: Default::default(),
             avx2: has_avx2(),
         }
     }
 
     /// Forget every stamp (after the window generation counter wrapped).
     pub fn clear_stamps(&mut self) {
-        for v in &mut self.done {
-            v.fill(0);
+        for v in &mut self.boxes {
+            v.fill((0, EMPTY));
         }
     }
 
     /// The box of the pixels that caused conv3 neuron `pos` (any map) to fire at `t`, if any.
+    ///
+    /// The walk is compiled twice, with `AVX2` a constant: where the CPU has AVX2, the functions
+    /// it goes through (`conv3_box_avx2`, `new_pool_box_avx2`) are compiled for it, so that the
+    /// stamp tests of the rows (`fired_mask`) are inlined into them instead of called.
     pub fn conv3_box(&mut self, w: &Window<'_>, pos: usize, t: u64) -> Option<PixelBox> {
-        let b = self.conv_box(w, 2, pos, t);
-        (b != EMPTY).then_some(b)
+        #[cfg(target_arch = "x86_64")]
+        let b = if self.avx2 {
+            // SAFETY: `avx2` comes from `has_avx2`.
+            unsafe { self.conv3_box_avx2(w, pos, t) }
+        } else {
+            self.conv3_rows::<false>(w, pos, t)
+        };
+        #[cfg(not(target_arch = "x86_64"))]
+        let b = self.conv3_rows::<false>(w, pos, t);
+        (b != EMPTY).then(|| b.pixel_box())
+    }
+
+    /// `conv_box` of conv3, compiled for AVX2.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn conv3_box_avx2(&mut self, w: &Window<'_>, pos: usize, t: u64) -> Lanes {
+        self.conv3_rows::<true>(w, pos, t)
+    }
+
+    /// `conv_box` of conv3 through `row_box`: its pool2 inputs are indexed as they lie.
+    #[allow(clippy::inline_always)]
+    #[inline(always)]
+    fn conv3_rows<const AVX2: bool>(&mut self, w: &Window<'_>, pos: usize, t: u64) -> Lanes {
+        let g = w.geom.conv[2];
+        let (oy, ox) = self.split[2].div_rem(pos);
+        let cols = g.inputs_of(ox, g.in_w);
+        let mut b = EMPTY;
+        for iy in g.inputs_of(oy, g.in_h) {
+            self.row_box::<AVX2>(w, 2, iy, cols.clone(), t, &mut b);
+        }
+        b
     }
 
     /// The box of the causes of conv layer `layer`'s neuron at `pos` firing at `t`: the inputs
-    /// of its receptive field that fired at or before `t`.
-    fn conv_box(&mut self, w: &Window<'_>, layer: usize, pos: usize, t: u64) -> PixelBox {
+    /// of its receptive field that fired at or before `t` (for pool boxes whose causes' fields
+    /// are not walked together). `AVX2` is true only where the CPU has it.
+    #[allow(clippy::inline_always)]
+    #[inline(always)]
+    fn conv_box<const AVX2: bool>(
+        &mut self,
+        w: &Window<'_>,
+        layer: usize,
+        pos: usize,
+        t: u64,
+    ) -> Lanes {
         let g = w.geom.conv[layer];
         let (oy, ox) = self.split[layer].div_rem(pos);
         let (fired, times) = if layer == 0 {
@@ -101,9 +199,9 @@ impl Causes {
             (pool, below.times())
         };
         let mut b = EMPTY;
-        let avx2 = self.avx2;
-        each_fired_input(&g, fired, w.splits[layer], avx2, oy, ox, |c, iy, ix| {
-            let tin = times[(iy * fired.width + ix) * fired.channels + c];
+        each_fired_input(&g, fired, w.splits[layer], AVX2, oy, ox, |c, iy, ix| {
+            let i = (iy * fired.width + ix) * fired.channels + c;
+            let tin = times[i];
             if tin > t {
                 return; // fired later: not a cause
             }
@@ -111,45 +209,263 @@ impl Causes {
                 b,
                 if layer == 0 {
                     let (x, y) = (ix as u16, iy as u16);
-                    (x, y, x + 1, y + 1)
+                    Lanes::new(x, y, x + 1, y + 1)
                 } else {
-                    self.pool_box(w, layer - 1, c, iy, ix, tin)
+                    self.pool_box::<AVX2>(w, layer - 1, i, tin)
                 },
             );
         });
         b
     }
 
-    /// The box of the causes of pool layer `layer`'s neuron `(map, qy, qx)`, which fired at
-    /// `tq`: the neurons of `map` in its block that fired at `tq`.
-    fn pool_box(
+    /// The box of the causes of pool layer `layer`'s neuron `i` (`[row][col][map]`), which
+    /// fired at `tq`: the neurons of its map in its block that fired at `tq`. Inlined, so that
+    /// the common case, a box computed already, costs no call.
+    #[inline]
+    fn pool_box<const AVX2: bool>(
         &mut self,
         w: &Window<'_>,
         layer: usize,
-        map: usize,
+        i: usize,
+        tq: u64,
+    ) -> Lanes {
+        let (done, b) = self.boxes[layer][i];
+        if done == w.generation {
+            return b;
+        }
+        #[cfg(target_arch = "x86_64")]
+        if AVX2 {
+            // SAFETY: `AVX2` is true only where the CPU has it (`conv3_box`).
+            return unsafe { self.new_pool_box_avx2(w, layer, i, tq) };
+        }
+        self.new_pool_box_plain(w, layer, i, tq)
+    }
+
+    /// `new_pool_box` without AVX2.
+    #[inline(never)]
+    fn new_pool_box_plain(&mut self, w: &Window<'_>, layer: usize, i: usize, tq: u64) -> Lanes {
+        self.new_pool_box::<false>(w, layer, i, tq)
+    }
+
+    /// `new_pool_box` compiled for AVX2.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn new_pool_box_avx2(
+        &mut self,
+        w: &Window<'_>,
+        layer: usize,
+        i: usize,
+        tq: u64,
+    ) -> Lanes {
+        self.new_pool_box::<true>(w, layer, i, tq)
+    }
+
+    /// `pool_box` the first time in the window: compute it and keep it.
+    #[allow(clippy::inline_always)]
+    #[inline(always)]
+    fn new_pool_box<const AVX2: bool>(
+        &mut self,
+        w: &Window<'_>,
+        layer: usize,
+        i: usize,
+        tq: u64,
+    ) -> Lanes {
+        let pg = w.geom.pool[layer];
+        let (q, map) = self.maps[layer].div_rem(i);
+        let (qy, qx) = self.pool_w[layer].div_rem(q);
+        let causes = w.pool[layer].causes_of(map, qy, qx);
+        let b = if self.merge[layer] {
+            self.block_box::<AVX2>(w, layer, causes, qy, qx, tq)
+        } else {
+            let cg = w.geom.conv[layer];
+            let mut b = EMPTY;
+            for (dy, dx) in block_bits(self.side[layer], causes) {
+                let pos = (qy * pg.stride + dy) * cg.out_w + qx * pg.stride + dx;
+                b = union(b, self.conv_box::<AVX2>(w, layer, pos, tq));
+            }
+            b
+        };
+        self.boxes[layer][i] = (w.generation, b);
+        b
+    }
+
+    /// The box of the inputs that fired at or before `tq` in the fields of the conv neurons of
+    /// layer `layer` whose block positions are set in `causes`, in pool neuron `(qy, qx)`'s
+    /// block: the union of their `conv_box`es, in one walk of the union of their fields.
+    ///
+    /// A pool neuron's causes all fired at `tq`, so one time test serves them all; their fields
+    /// overlap heavily (Table 1's pool2: up to 25 conv2 fields of 10 × 10 inside 14 × 14), and
+    /// walking each field alone visits an input once per field that holds it. In an input row,
+    /// the columns read by the causes whose fields hold the row are one run: their fields'
+    /// columns start at most `k_pool − 1 ≤ k` apart, so each run reaches the next (clipping to
+    /// the input keeps that), and so do those of the neurons between them, which are no causes.
+    #[allow(clippy::inline_always)]
+    #[inline(always)]
+    fn block_box<const AVX2: bool>(
+        &mut self,
+        w: &Window<'_>,
+        layer: usize,
+        causes: &[u64],
         qy: usize,
         qx: usize,
         tq: u64,
-    ) -> PixelBox {
-        let pg = w.geom.pool[layer];
-        let i = (qy * pg.out_w + qx) * pg.maps + map;
-        if self.done[layer][i] == w.generation {
-            return self.boxes[layer][i];
-        }
-        let cg = w.geom.conv[layer];
-        let mut b = EMPTY;
-        for (word_index, &word) in w.pool[layer].causes_of(map, qy, qx).iter().enumerate() {
-            let mut m = word;
-            while m != 0 {
-                let bit = word_index * 64 + m.trailing_zeros() as usize;
-                m &= m - 1;
-                let (dy, dx) = self.side[layer].div_rem(bit);
-                let pos = (qy * pg.stride + dy) * cg.out_w + qx * pg.stride + dx;
-                b = union(b, self.conv_box(w, layer, pos, tq));
+    ) -> Lanes {
+        let (pg, cg) = (w.geom.pool[layer], w.geom.conv[layer]);
+        // Per block row: the first and last block column of a cause.
+        let mut strips = std::mem::take(&mut self.strips[layer]);
+        strips.clear();
+        let mut row = usize::MAX;
+        for (dy, dx) in block_bits(self.side[layer], causes) {
+            let ox = qx * pg.stride + dx;
+            if dy != row {
+                // Bits come in row-major order: a new block row.
+                row = dy;
+                let rows = cg.inputs_of(qy * pg.stride + dy, cg.in_h);
+                let cols = cg.inputs_of(ox, cg.in_w);
+                strips.push((rows.start, rows.end, cols.start, cols.end));
+            } else if let Some(s) = strips.last_mut() {
+                s.3 = cg.inputs_of(ox, cg.in_w).end;
             }
         }
-        self.done[layer][i] = w.generation;
-        self.boxes[layer][i] = b;
+        let mut b = EMPTY;
+        if let (Some(first), Some(last)) = (strips.first(), strips.last()) {
+            // The fields' rows, from the first block row's to the last's.
+            for iy in first.0..last.1 {
+                let (mut lo, mut hi) = (usize::MAX, 0);
+                for &(r0, r1, c0, c1) in &strips {
+                    if (r0..r1).contains(&iy) {
+                        lo = lo.min(c0);
+                        hi = hi.max(c1);
+                    }
+                }
+                if lo < hi {
+                    self.row_box::<AVX2>(w, layer, iy, lo..hi, tq, &mut b);
+                }
+            }
+        }
+        self.strips[layer] = strips;
         b
+    }
+
+    /// Widen `b` by the inputs of conv layer `layer` (pixels, or pool layer `layer − 1`'s
+    /// neurons, every map) in input row `iy`, columns `cols`, that fired at or before `t`.
+    ///
+    /// Pixels box themselves: only a row's first and last such pixel widen the box, so they are
+    /// looked for from each end of the row's fired ones.
+    #[allow(clippy::inline_always)]
+    #[inline(always)]
+    fn row_box<const AVX2: bool>(
+        &mut self,
+        w: &Window<'_>,
+        layer: usize,
+        iy: usize,
+        cols: Range<usize>,
+        t: u64,
+        b: &mut Lanes,
+    ) {
+        if layer == 0 {
+            let from = iy * w.width + cols.start;
+            let stamps = &w.pixel_fired[from..from + cols.len()];
+            let times = &w.pixel_time[from..from + cols.len()];
+            // Lane of the first and of the last pixel of the row that fired by `t`.
+            let (mut first, mut last) = (None, 0);
+            for (chunk, s) in stamps.chunks(64).enumerate() {
+                let mut m = fired_mask(AVX2, s, w.generation);
+                if first.is_none() {
+                    while m != 0 {
+                        let l = chunk * 64 + m.trailing_zeros() as usize;
+                        m &= m - 1;
+                        if times[l] <= t {
+                            (first, last) = (Some(l), l);
+                            break;
+                        }
+                    }
+                }
+                // The last among those above the first.
+                while m != 0 {
+                    let top = 63 - m.leading_zeros() as usize;
+                    m &= !(1 << top);
+                    if times[chunk * 64 + top] <= t {
+                        last = chunk * 64 + top;
+                        break;
+                    }
+                }
+            }
+            if let Some(first) = first {
+                let (x0, x1, y) = (cols.start + first, cols.start + last + 1, iy);
+                *b = union(*b, Lanes::new(x0 as u16, y as u16, x1 as u16, y as u16 + 1));
+            }
+            return;
+        }
+        let below = &w.pool[layer - 1];
+        let maps = below.geom.maps;
+        let from = (iy * below.geom.out_w + cols.start) * maps;
+        let stamps = &below.stamps()[from..from + cols.len() * maps];
+        let times = below.times();
+        for (chunk, s) in stamps.chunks(64).enumerate() {
+            let mut m = fired_mask(AVX2, s, w.generation);
+            while m != 0 {
+                let i = from + chunk * 64 + m.trailing_zeros() as usize;
+                m &= m - 1;
+                let tin = times[i];
+                if tin <= t {
+                    *b = union(*b, self.pool_box::<AVX2>(w, layer - 1, i, tin));
+                }
+            }
+        }
+    }
+}
+
+/// The block positions `(dy, dx)` set in a pool neuron's cause words, in bit order (row-major);
+/// `side` divides by the block side.
+fn block_bits(side: Divider, causes: &[u64]) -> impl Iterator<Item = (usize, usize)> + '_ {
+    causes
+        .iter()
+        .enumerate()
+        .flat_map(move |(word_index, &word)| {
+            let mut m = word;
+            std::iter::from_fn(move || {
+                (m != 0).then(|| {
+                    let bit = word_index * 64 + m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    side.div_rem(bit)
+                })
+            })
+        })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The union of lanes is the union of boxes: the least `x0, y0`, the greatest `x1, y1`.
+    #[test]
+    fn lanes_union_is_the_box_union() {
+        let mut s = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            [0, 1, 2, 3].map(|k| (s >> (16 * k)) as u16)
+        };
+        for _ in 0..1000 {
+            let (a, b) = (next(), next());
+            let want = (
+                a[0].min(b[0]),
+                a[1].min(b[1]),
+                a[2].max(b[2]),
+                a[3].max(b[3]),
+            );
+            let (la, lb) = (
+                Lanes::new(a[0], a[1], a[2], a[3]),
+                Lanes::new(b[0], b[1], b[2], b[3]),
+            );
+            assert_eq!(union(la, lb).pixel_box(), want);
+            assert_eq!(union(EMPTY, la), la);
+        }
+        assert_eq!(EMPTY.pixel_box(), (u16::MAX, u16::MAX, 0, 0));
     }
 }

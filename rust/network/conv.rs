@@ -1247,7 +1247,7 @@ fn count_rows(
 
 /// Bit `b` set where `stamps[b] == generation`, for up to 64 stamps.
 #[inline]
-fn fired_mask(avx2: bool, stamps: &[u32], generation: u32) -> u64 {
+pub(crate) fn fired_mask(avx2: bool, stamps: &[u32], generation: u32) -> u64 {
     assert!(stamps.len() <= 64, "at most 64 stamps");
     #[cfg(target_arch = "x86_64")]
     if avx2 {

@@ -219,6 +219,91 @@ fn dense_window(
     (traces, Vec::new())
 }
 
+/// `dense_box`'s walk down the causes, widening `b`.
+struct Walk<'a> {
+    g: &'a Geometry,
+    pixels: &'a [Vec<Option<u64>>],
+    times: &'a [std::collections::HashMap<(usize, usize, usize), u64>],
+    b: Option<(u16, u16, u16, u16)>,
+}
+
+impl Walk<'_> {
+    fn conv(&mut self, layer: usize, row: usize, col: usize, t: u64) {
+        let cg = self.g.conv[layer];
+        for ch in 0..cg.in_ch {
+            for iy in cg.inputs_of(row, cg.in_h) {
+                for ix in cg.inputs_of(col, cg.in_w) {
+                    if layer == 0 {
+                        if self.pixels[iy][ix].is_some_and(|ti| ti <= t) {
+                            let (x, y) = (ix as u16, iy as u16);
+                            let b = self.b.get_or_insert((x, y, x + 1, y + 1));
+                            *b = (b.0.min(x), b.1.min(y), b.2.max(x + 1), b.3.max(y + 1));
+                        }
+                    } else if let Some(&ti) = self.times[2 * layer - 1].get(&(ch, iy, ix)) {
+                        if ti <= t {
+                            self.pool(layer - 1, ch, iy, ix, ti);
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    fn pool(&mut self, layer: usize, map: usize, qy: usize, qx: usize, tq: u64) {
+        let pg = self.g.pool[layer];
+        for row in pg.inputs_of(qy, pg.in_h) {
+            for col in pg.inputs_of(qx, pg.in_w) {
+                if self.times[2 * layer].get(&(map, row, col)) == Some(&tq) {
+                    self.conv(layer, row, col, tq);
+                }
+            }
+        }
+    }
+}
+
+/// A detection's box by docs/model.md §5 from the dense model's spikes, followed down without
+/// shortcuts: a conv spike at `t` is caused by the inputs of its field that fired at or before
+/// `t`, a pool spike by the spikes of its map in its block at its time, a pixel by itself.
+fn dense_box(
+    net: &Network,
+    t: &[u64],
+    x: &[u16],
+    y: &[u16],
+    spikes: &[Vec<Spike>; 5],
+    d: &Detection,
+) -> (u16, u16, u16, u16) {
+    let g = net.geometry();
+    let mut pixels: Vec<Vec<Option<u64>>> = vec![vec![None; g.conv[0].in_w]; g.conv[0].in_h];
+    for i in 0..t.len() {
+        pixels[y[i] as usize][x[i] as usize].get_or_insert(t[i]);
+    }
+    // Per layer, `(map, row, col) → time`.
+    let times: Vec<std::collections::HashMap<(usize, usize, usize), u64>> = spikes
+        .iter()
+        .map(|l| {
+            l.iter()
+                .map(|s| ((s.map as usize, s.row as usize, s.col as usize), s.t))
+                .collect()
+        })
+        .collect();
+    let mut walk = Walk {
+        g,
+        pixels: &pixels,
+        times: &times,
+        b: None,
+    };
+    walk.conv(2, d.row as usize, d.col as usize, d.t);
+    walk.b.unwrap_or_else(|| {
+        let (rows, cols) = g.conv3_receptive_field(d.row as usize, d.col as usize);
+        (
+            cols.start as u16,
+            rows.start as u16,
+            cols.end as u16,
+            rows.end as u16,
+        )
+    })
+}
+
 /// A random small network config.
 fn config_strategy() -> impl Strategy<Value = NetworkConfig> {
     (
@@ -348,6 +433,10 @@ proptest! {
             got.sort_unstable();
             want.sort_unstable();
             prop_assert_eq!(got, want);
+            for d in state.detections() {
+                let want = dense_box(&net, &t, &x, &y, &dense, d);
+                prop_assert_eq!((d.x0, d.y0, d.x1, d.y1), want, "{:?}", d);
+            }
         }
     }
 
