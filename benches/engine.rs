@@ -19,10 +19,10 @@ use std::time::Duration;
 
 use criterion::measurement::{Measurement, ValueFormatter, WallTime};
 use criterion::{criterion_group, criterion_main, BatchSize, BenchmarkId, Criterion, Throughput};
-use uavsnn::network::{infer, ConvLayer, Layer, Network, Rates, Spikes, WindowBatch, WindowState};
+use uavsnn::network::{infer, ConvLayer, Layer, Network, Rates, Spikes, WindowState};
 
 mod common;
-use common::{network, recipe_network, scene, windows, Window, LENGTH_US};
+use common::{batch_windows, network, recipe_network, windows, Window};
 
 const DENSITIES: [f64; 3] = [0.001, 0.01, 0.05];
 const SENSORS: [(usize, usize); 2] = [(240, 180), (1280, 720)];
@@ -200,28 +200,9 @@ fn threads(c: &mut Criterion) {
         .measurement_time(Duration::from_secs(3));
     let (width, height, density) = (240, 180, 0.01);
     let net = network(width, height);
-    let ws: Vec<Window> = (0..64)
-        .map(|i| scene(width, height, density, 100 + i, i * LENGTH_US))
-        .collect();
-    let t0: Vec<u64> = ws.iter().map(|w| w.t0).collect();
-    let mut offsets = vec![0i64];
-    for w in &ws {
-        offsets.push(offsets[offsets.len() - 1] + w.t.len() as i64);
-    }
-    let t: Vec<u64> = ws.iter().flat_map(|w| w.t.clone()).collect();
-    let x: Vec<u16> = ws.iter().flat_map(|w| w.x.clone()).collect();
-    let y: Vec<u16> = ws.iter().flat_map(|w| w.y.clone()).collect();
-    let n_preceding = vec![0i64; ws.len()];
-    let batch = WindowBatch::new(
-        (width, height),
-        LENGTH_US,
-        &t0,
-        &offsets,
-        Spikes::new(&t, &x, &y).expect("equal columns"),
-        &n_preceding,
-    )
-    .expect("valid windows");
-    g.throughput(Throughput::Elements(t.len() as u64));
+    let windows = batch_windows(width, height, density, 64);
+    let batch = windows.batch();
+    g.throughput(Throughput::Elements(windows.t.len() as u64));
     for n in [1usize, 2] {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(n)

@@ -18,6 +18,7 @@ use std::io::{self, BufWriter, Write};
 
 use uavsnn::network::{Layer, Network, Spikes};
 
+#[allow(dead_code)] // each example uses part of it
 #[path = "../benches/common/mod.rs"]
 mod common;
 use common::{network, recipe_network, windows};

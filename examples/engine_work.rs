@@ -14,6 +14,7 @@
 
 use uavsnn::network::{Layer, Network, Spikes, WindowState};
 
+#[allow(dead_code)] // each example uses part of it
 #[path = "../benches/common/mod.rs"]
 mod common;
 use common::{network, recipe_network, windows, Window};

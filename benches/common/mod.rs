@@ -5,7 +5,7 @@
 
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
-use uavsnn::network::{Network, NetworkConfig};
+use uavsnn::network::{Network, NetworkConfig, Spikes, WindowBatch};
 
 /// Window length.
 pub const LENGTH_US: u64 = 50_000;
@@ -99,4 +99,49 @@ pub fn recipe_network(width: usize, height: usize) -> Network {
     };
     config.conv2.threshold = RECIPE_CONV2_THRESHOLD;
     Network::new(config, 1).expect("the recipe's config is valid")
+}
+
+/// `n` scenes (seeds 100, 101, …, one `LENGTH_US` apart) as the columns of a batch.
+pub struct BatchWindows {
+    pub t0: Vec<u64>,
+    pub offsets: Vec<i64>,
+    pub t: Vec<u64>,
+    pub x: Vec<u16>,
+    pub y: Vec<u16>,
+    pub n_preceding: Vec<i64>,
+    pub sensor: (usize, usize),
+}
+
+pub fn batch_windows(width: usize, height: usize, density: f64, n: u64) -> BatchWindows {
+    let ws: Vec<Window> = (0..n)
+        .map(|i| scene(width, height, density, 100 + i, i * LENGTH_US))
+        .collect();
+    let mut offsets = vec![0i64];
+    for w in &ws {
+        offsets.push(offsets[offsets.len() - 1] + w.t.len() as i64);
+    }
+    BatchWindows {
+        t0: ws.iter().map(|w| w.t0).collect(),
+        offsets,
+        t: ws.iter().flat_map(|w| w.t.clone()).collect(),
+        x: ws.iter().flat_map(|w| w.x.clone()).collect(),
+        y: ws.iter().flat_map(|w| w.y.clone()).collect(),
+        n_preceding: vec![0; n as usize],
+        sensor: (width, height),
+    }
+}
+
+impl BatchWindows {
+    /// The batch, borrowing the columns.
+    pub fn batch(&self) -> WindowBatch<'_> {
+        WindowBatch::new(
+            self.sensor,
+            LENGTH_US,
+            &self.t0,
+            &self.offsets,
+            Spikes::new(&self.t, &self.x, &self.y).expect("equal columns"),
+            &self.n_preceding,
+        )
+        .expect("valid windows")
+    }
 }

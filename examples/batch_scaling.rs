@@ -1,0 +1,137 @@
+//! Batch inference on 1 and 2 threads against a reference of the same shape measured in the
+//! same run: how much of a second core this machine gives to any work, and how much of it the
+//! engine's batch takes.
+//!
+//! ```sh
+//! cargo run --release --example batch_scaling [ROUNDS]
+//! ```
+//!
+//! The batch is the Criterion `batch_threads` group's (64 windows of 240×180 at 1 %, Table 1).
+//! The reference spreads 64 equal tasks of integer arithmetic (no memory traffic) over the same
+//! rayon pools. The pools take turns for `ROUNDS` rounds (default 15); the least wall time of
+//! each is printed, and the ratios 1 → 2 threads.
+
+use std::hint::black_box;
+use std::time::{Duration, Instant};
+
+use rayon::prelude::*;
+use uavsnn::network::infer;
+
+#[allow(dead_code)] // each example uses part of it
+#[path = "../benches/common/mod.rs"]
+mod common;
+use common::{batch_windows, network, BatchWindows};
+
+/// One reference task: a chain of multiply-adds, about a millisecond's work / 16.
+fn spin(seed: u64) -> u64 {
+    let mut x = seed | 1;
+    for _ in 0..200_000 {
+        x = x
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+    }
+    x
+}
+
+/// A second reference task: random read-modify-writes over a private 2 MiB buffer (about an
+/// engine state's size), the memory traffic of a window without its arithmetic.
+fn touch(seed: u64) -> u64 {
+    let mut buf = vec![0u32; 1 << 19];
+    let mut x = seed | 1;
+    for _ in 0..200_000 {
+        x = x
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        let i = (x >> 45) as usize;
+        buf[i] = buf[i].wrapping_add(x as u32);
+    }
+    buf.iter().map(|&v| u64::from(v)).sum()
+}
+
+fn least(f: &mut impl FnMut(), best: &mut Duration) {
+    let t = Instant::now();
+    f();
+    *best = (*best).min(t.elapsed());
+}
+
+fn main() {
+    let rounds: usize = std::env::args()
+        .nth(1)
+        .map_or(15, |a| a.parse().expect("usage: batch_scaling [ROUNDS]"));
+    let net = network(240, 180);
+    let owned: BatchWindows = batch_windows(240, 180, 0.01, 64);
+    let batch = owned.batch();
+    let pools: Vec<rayon::ThreadPool> = [1, 2]
+        .iter()
+        .map(|&n| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(n)
+                .build()
+                .expect("a pool")
+        })
+        .collect();
+    let mut engine = [Duration::MAX; 2];
+    let mut reference = [Duration::MAX; 2];
+    let mut memory = [Duration::MAX; 2];
+    let mut seq = Duration::MAX;
+    let mut state = net.new_state();
+    for _ in 0..rounds {
+        least(
+            &mut || {
+                for i in 0..batch.len() {
+                    let w = batch.window(i);
+                    net.run_window(&mut state, w, batch.t0[i], None, false)
+                        .expect("valid");
+                }
+            },
+            &mut seq,
+        );
+        for (i, pool) in pools.iter().enumerate() {
+            least(
+                &mut || {
+                    pool.install(|| black_box(infer(&net, &batch, None, false).expect("valid")));
+                },
+                &mut engine[i],
+            );
+            least(
+                &mut || {
+                    let s: u64 = pool.install(|| (0..64u64).into_par_iter().map(spin).sum());
+                    black_box(s);
+                },
+                &mut reference[i],
+            );
+            least(
+                &mut || {
+                    let s: u64 = pool.install(|| (0..64u64).into_par_iter().map(touch).sum());
+                    black_box(s);
+                },
+                &mut memory[i],
+            );
+        }
+    }
+    let ms = |d: Duration| d.as_secs_f64() * 1e3;
+    let ratio = |d: [Duration; 2]| d[0].as_secs_f64() / d[1].as_secs_f64();
+    println!("one state, run_window in turn: {:.3} ms", ms(seq));
+    println!(
+        "engine batch: {:.3} ms on 1 thread, {:.3} ms on 2: {:.2}x",
+        ms(engine[0]),
+        ms(engine[1]),
+        ratio(engine)
+    );
+    println!(
+        "reference:    {:.3} ms on 1 thread, {:.3} ms on 2: {:.2}x",
+        ms(reference[0]),
+        ms(reference[1]),
+        ratio(reference)
+    );
+    println!(
+        "memory ref.:  {:.3} ms on 1 thread, {:.3} ms on 2: {:.2}x",
+        ms(memory[0]),
+        ms(memory[1]),
+        ratio(memory)
+    );
+    println!(
+        "engine's scaling over the reference's: {:.2}",
+        ratio(engine) / ratio(reference)
+    );
+}
