@@ -1329,9 +1329,10 @@ fn round_down(x: f64) -> f32 {
     }
 }
 
-/// `pot += w`; bit `l % 8` of `masks[l / 8]` tells whether lane `l` went from below its
-/// threshold `thr` to at or above it; returns whether any did. One pass with explicit AVX2
-/// (picked at run time) or SSE2 vectors; `masks` holds at least `ceil(len / 8)` bytes.
+/// `pot += w`; returns whether any lane `l` went from below its threshold `thr` to at or above
+/// it, and if so bit `l % 8` of `masks[l / 8]` tells whether lane `l` did (else `masks` may be
+/// left as they were). One pass with explicit AVX2 (picked at run time) or SSE2 vectors;
+/// `masks` holds at least `ceil(len / 8)` bytes.
 #[inline]
 fn add_detect(avx2: bool, pot: &mut [f32], w: &[f32], thr: &[f32], masks: &mut [u8]) -> bool {
     let n = pot.len();
@@ -1710,6 +1711,10 @@ mod simd {
 
     /// # Safety
     /// The CPU must support AVX2; `w`, `thr` as long as `pot`, `masks` `ceil(len / 8)` bytes.
+    ///
+    /// Four vectors per step that record no masks while none of their lanes crossed (most runs
+    /// of conv2 and conv3 have none): at the first step that has some, the masks before it are
+    /// zero and `add_detect_rest_avx2` records the rest.
     #[target_feature(enable = "avx2")]
     pub(super) unsafe fn add_detect_avx2(
         pot: &mut [f32],
@@ -1724,11 +1729,99 @@ mod simd {
             thr.as_ptr(),
             masks.as_mut_ptr(),
         );
-        let mut any = 0;
         let mut i = 0;
-        // Two vectors per step: long runs (conv2's and conv3's 10 × 20 lanes) spend fewer
-        // instructions on the loop.
-        for _ in 0..n / 16 {
+        while i + 32 <= n {
+            // SAFETY: i + 32 <= n, the slices hold n values and masks n / 8 bytes.
+            unsafe {
+                let (c0, c1, c2, c3) = (
+                    add_vector(p, wp, tp, i),
+                    add_vector(p, wp, tp, i + 8),
+                    add_vector(p, wp, tp, i + 16),
+                    add_vector(p, wp, tp, i + 24),
+                );
+                let any = _mm256_or_si256(_mm256_or_si256(c0, c1), _mm256_or_si256(c2, c3));
+                if _mm256_testz_si256(any, any) == 0 {
+                    let bits = |c: __m256i| _mm256_movemask_ps(_mm256_castsi256_ps(c)) as u32;
+                    let step = bits(c0) | bits(c1) << 8 | bits(c2) << 16 | bits(c3) << 24;
+                    add_detect_crossed_avx2(p, wp, tp, mp, n, i, step);
+                    return true;
+                }
+            }
+            i += 32;
+        }
+        // SAFETY: as for this function, from lane i (a multiple of 8).
+        let any = unsafe { add_detect_rest_avx2(p, wp, tp, mp, n, i) };
+        if any {
+            // SAFETY: i / 8 <= n / 8 bytes.
+            unsafe { std::ptr::write_bytes(mp, 0, i / 8) };
+        }
+        any
+    }
+
+    /// The rest of `add_detect_avx2` once the step of the 32 lanes from `i` had crossings
+    /// (`step`, their masks' 4 bytes): the masks before it are zero, its own are `step`, and
+    /// the lanes after it are added and recorded. Out of line, so that the loop of
+    /// `add_detect_avx2` saves no registers for it.
+    ///
+    /// # Safety
+    /// As for `add_detect_rest_avx2`, with `i + 32 <= n`.
+    #[cold]
+    #[inline(never)]
+    #[target_feature(enable = "avx2")]
+    unsafe fn add_detect_crossed_avx2(
+        p: *mut f32,
+        wp: *const f32,
+        tp: *const f32,
+        mp: *mut u8,
+        n: usize,
+        i: usize,
+        step: u32,
+    ) {
+        // SAFETY: masks hold ceil(n / 8) >= i / 8 + 4 bytes; the rest as the caller guarantees.
+        unsafe {
+            std::ptr::write_bytes(mp, 0, i / 8);
+            mp.add(i / 8)
+                .cast::<[u8; 4]>()
+                .write_unaligned(step.to_le_bytes());
+            add_detect_rest_avx2(p, wp, tp, mp, n, i + 32);
+        }
+    }
+
+    /// `pot += w` for the 8 lanes from `i`: which crossed `thr` (as `crossed_lanes`).
+    ///
+    /// # Safety
+    /// The CPU must support AVX2; `p`, `wp` and `tp` hold `i + 8` values.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn add_vector(p: *mut f32, wp: *const f32, tp: *const f32, i: usize) -> __m256i {
+        // SAFETY: the caller guarantees the 8 lanes from i.
+        unsafe {
+            let old = _mm256_loadu_ps(p.add(i));
+            let new = _mm256_add_ps(old, _mm256_loadu_ps(wp.add(i)));
+            _mm256_storeu_ps(p.add(i), new);
+            crossed_lanes(old, new, _mm256_loadu_ps(tp.add(i)))
+        }
+    }
+
+    /// `add_detect_avx2` from lane `i` (a multiple of 8) on, recording every mask from byte
+    /// `i / 8`; returns whether any of these lanes crossed.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2; `w`, `thr` and `pot` hold `n` values and `masks`
+    /// `ceil(n / 8)` bytes; `i <= n`.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    unsafe fn add_detect_rest_avx2(
+        p: *mut f32,
+        wp: *const f32,
+        tp: *const f32,
+        mp: *mut u8,
+        n: usize,
+        mut i: usize,
+    ) -> bool {
+        let mut any = 0;
+        // Two vectors per step: fewer instructions on the loop.
+        while i + 16 <= n {
             // SAFETY: i + 16 <= n, the slices hold n values and masks n / 8 bytes.
             unsafe {
                 let old0 = _mm256_loadu_ps(p.add(i));
@@ -2116,16 +2209,22 @@ mod tests {
             let s = rng();
             (s >> 40) as f32 / (1u64 << 20) as f32
         };
-        for n in 0..40 {
-            for offset in 0..3 {
+        // Long runs, whose first crossing (if any) comes in any step of the vector loops.
+        for n in 0..80 {
+            for (offset, cut) in
+                (0..3).flat_map(|o| [0, n / 3, n / 2, n - n.min(5)].map(|c| (o, c)))
+            {
                 let pot: Vec<f32> = (0..n + offset).map(|_| next() * 2.0).collect();
                 let w: Vec<f32> = (0..n + offset).map(|_| next()).collect();
                 let mut thr: Vec<f32> = (0..n + offset).map(|_| next() * 3.0).collect();
                 if let Some(t) = thr.last_mut() {
                     *t = f32::INFINITY;
                 }
+                // No crossing before lane `cut`.
+                thr[offset..offset + cut].fill(f32::INFINITY);
                 let (mut a, mut b) = (pot.clone(), pot.clone());
-                let (mut ma, mut mb) = (vec![0u8; 8], vec![0u8; 8]);
+                // Masks hold garbage before (they are meaningful only when some lane crossed).
+                let (mut ma, mut mb) = (vec![0xa5u8; 16], vec![0u8; 16]);
                 let any_a = add_detect(
                     has_avx2(),
                     &mut a[offset..],
@@ -2136,11 +2235,13 @@ mod tests {
                 let any_b =
                     add_detect_scalar(&mut b[offset..], &w[offset..], &thr[offset..], &mut mb, 0);
                 assert_eq!((a, any_a), (b, any_b));
-                assert_eq!(ma[..n.div_ceil(8)], mb[..n.div_ceil(8)]);
+                if any_b {
+                    assert_eq!(ma[..n.div_ceil(8)], mb[..n.div_ceil(8)]);
+                }
                 #[cfg(target_arch = "x86_64")]
                 {
                     let mut c = pot.clone();
-                    let mut mc = vec![0u8; 8];
+                    let mut mc = vec![0u8; 16];
                     // SAFETY: lengths as required.
                     let any_c = unsafe {
                         simd::add_detect_sse2(
