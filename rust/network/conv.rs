@@ -149,7 +149,8 @@ pub(crate) struct ConvState {
     inputs: Vec<Footprint>,
     /// Potentials written this window, counted with repeats (the cost of replaying `inputs`).
     touched_lanes: usize,
-    /// Scratch: per 8 lanes of a run, which reached `θ_lo`.
+    /// Scratch: per 8 lanes of a run, which reached `θ_lo` (whole words of 64 lanes, read as
+    /// such by `push_candidates`).
     masks: Vec<u8>,
     /// Whether the CPU has AVX2 (asked once, at construction).
     avx2: bool,
@@ -241,7 +242,7 @@ impl ConvState {
             merged: Vec::new(),
             inputs: Vec::new(),
             touched_lanes: 0,
-            masks: vec![0; (geom.k * geom.maps).div_ceil(8)],
+            masks: vec![0; (geom.k * geom.maps).div_ceil(64) * 8],
             avx2: has_avx2(),
             gated: false,
             can_gate: geom.k <= LANES && geom.kernel_len() < AWAKE.into(),
@@ -565,7 +566,8 @@ impl ConvState {
         );
         if hit {
             push_candidates(
-                &self.masks[..run.div_ceil(8)],
+                &self.masks,
+                run,
                 &self.lane_split,
                 pos0 as u32,
                 &mut self.candidates,
@@ -1194,20 +1196,39 @@ fn each_fired_lane(
     }
 }
 
-/// Record the neurons of a run whose lanes are set in `masks` as candidates (read 64 lanes at
-/// a time: conv2's and conv3's runs are 200 lanes long, with few set).
+/// Record the neurons of a run of `lanes` whose lanes are set in `masks` as candidates, read
+/// 64 lanes at a time (conv2's and conv3's runs are 200 lanes long, with few set): `masks`
+/// holds whole words of 64 lanes, and the bytes past the run's, left from earlier runs, are
+/// masked off.
 #[cold]
-fn push_candidates(masks: &[u8], split: &[(u32, u32)], pos0: u32, out: &mut Vec<(u32, u32)>) {
-    for (word, bytes) in masks.chunks(8).enumerate() {
-        let mut padded = [0; 8];
-        padded[..bytes.len()].copy_from_slice(bytes);
-        let mut mask = u64::from_le_bytes(padded);
+fn push_candidates(
+    masks: &[u8],
+    lanes: usize,
+    split: &[(u32, u32)],
+    pos0: u32,
+    out: &mut Vec<(u32, u32)>,
+) {
+    // Room for every lane, written in place (at most one candidate per lane).
+    out.reserve(lanes);
+    let spare = &mut out.spare_capacity_mut()[..lanes];
+    let mut n = 0;
+    let words = masks[..lanes.div_ceil(64) * 8].chunks_exact(8);
+    for (word, bytes) in words.enumerate() {
+        let mut mask = u64::from_le_bytes(bytes.try_into().expect("8 bytes"));
+        let left = lanes - word * 64;
+        if left < 64 {
+            mask &= (1 << left) - 1;
+        }
         while mask != 0 {
             let (dp, map) = split[word * 64 + mask.trailing_zeros() as usize];
-            out.push((pos0 + dp, map));
+            spare[n].write((pos0 + dp, map));
+            n += 1;
             mask &= mask - 1;
         }
     }
+    // SAFETY: the `n` values after the length were written just above (`n ≤ lanes`: each is
+    // a different bit below `lanes`), within the reserved capacity.
+    unsafe { out.set_len(out.len() + n) };
 }
 
 /// Count one more fired input at the first `len` positions of `counts` (which holds `LANES`
