@@ -1030,25 +1030,15 @@ fn sort_runs(v: &mut Vec<u64>, buffer: &mut Vec<u64>) {
             runs += 1;
         }
     }
+    // The buffer as long as `v`, so that swapping them keeps both so.
+    buffer.resize(v.len(), 0);
     while runs > 1 {
-        buffer.clear();
         let (mut start, mut merged) = (0, 0);
         let mut r = 0;
         while r < runs {
             let mid = ends[r];
             let end = if r + 1 < runs { ends[r + 1] } else { mid };
-            let (mut i, mut j) = (start, mid);
-            while i < mid && j < end {
-                if v[j] < v[i] {
-                    buffer.push(v[j]);
-                    j += 1;
-                } else {
-                    buffer.push(v[i]);
-                    i += 1;
-                }
-            }
-            buffer.extend_from_slice(&v[i..mid]);
-            buffer.extend_from_slice(&v[j..end]);
+            merge(&v[start..mid], &v[mid..end], &mut buffer[start..end]);
             ends[merged] = end;
             merged += 1;
             start = end;
@@ -1056,6 +1046,25 @@ fn sort_runs(v: &mut Vec<u64>, buffer: &mut Vec<u64>) {
         }
         std::mem::swap(v, buffer);
         runs = merged;
+    }
+}
+
+/// Merge the ascending `a` and `b` into `out` (`a.len() + b.len()` values), `b`'s after
+/// `a`'s equal ones; each step takes one value without a branch on which.
+#[inline]
+fn merge(a: &[u64], b: &[u64], out: &mut [u64]) {
+    assert_eq!(out.len(), a.len() + b.len(), "room for both");
+    let (mut i, mut j) = (0, 0);
+    while i < a.len() && j < b.len() {
+        let take_b = b[j] < a[i];
+        out[i + j] = if take_b { b[j] } else { a[i] };
+        j += usize::from(take_b);
+        i += usize::from(!take_b);
+    }
+    // What is left of one of them (the other is used up): a few values, copied in a loop
+    // rather than through two `memcpy` calls.
+    for (o, &x) in out[i + j..].iter_mut().zip(a[i..].iter().chain(&b[j..])) {
+        *o = x;
     }
 }
 
