@@ -126,6 +126,8 @@ pub(crate) struct ConvState {
     thr_lo: Vec<f32>,
     /// Relative error bound `m` of the float32 sums.
     margin: f64,
+    /// `(1 − m, 1 + m)`: the factors that bound an exact sum from its float32 one (`beats`).
+    bounds: (f64, f64),
     /// Neurons `(pos, map)` whose float32 sum reached `θ_lo` in the current group.
     candidates: Vec<(u32, u32)>,
     /// The candidates of a group's first whole input (`add_whole`), held as its lanes' bits
@@ -212,6 +214,7 @@ struct Whole {
 impl ConvState {
     pub fn new(geom: ConvGeom) -> Self {
         let positions = geom.out_h * geom.out_w;
+        let margin = geom.kernel_len() as f64 * f64::from(f32::EPSILON);
         Self {
             geom,
             pot: vec![0.0; positions * geom.maps + ZERO_BLOCK],
@@ -230,7 +233,8 @@ impl ConvState {
             thr: vec![f64::INFINITY; geom.maps],
             thr_hi: vec![f32::INFINITY; geom.maps],
             thr_lo: vec![f32::INFINITY; geom.k * geom.maps],
-            margin: geom.kernel_len() as f64 * f64::from(f32::EPSILON),
+            margin,
+            bounds: (1.0 - margin, 1.0 + margin),
             candidates: Vec::new(),
             held: None,
             whole_offsets: std::array::from_fn(|p| {
@@ -855,11 +859,11 @@ impl ConvState {
     fn beats(&self, kernels: &[f32], fired: Fired<'_>, a: Crossing, b: Crossing) -> bool {
         let (va, vb) = if a.v.is_nan() || b.v.is_nan() {
             let (sa, sb) = (f64::from(a.v32), f64::from(b.v32));
-            let m = self.margin;
-            if sa * (1.0 - m) > sb * (1.0 + m) {
+            let (lo, hi) = self.bounds;
+            if sa * lo > sb * hi {
                 return true;
             }
-            if sb * (1.0 - m) > sa * (1.0 + m) {
+            if sb * lo > sa * hi {
                 return false;
             }
             let exact = |c: Crossing| {
