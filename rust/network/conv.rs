@@ -732,6 +732,23 @@ impl ConvState {
         map: u32,
     ) -> Option<Crossing> {
         let v32 = self.pot[pos as usize * self.geom.maps + map as usize];
+        let sure = self.thr_hi[map as usize];
+        self.crossing_at(kernels, fired, pos, map, v32, sure)
+    }
+
+    /// `crossing` of a candidate whose float32 sum `v32` and map's `θ_hi` (`sure`) were read
+    /// already (`fire_held` reads a position's maps, and conv1's thresholds, in one load).
+    #[allow(clippy::inline_always)]
+    #[inline(always)]
+    fn crossing_at(
+        &mut self,
+        kernels: &[f32],
+        fired: Fired<'_>,
+        pos: u32,
+        map: u32,
+        v32: f32,
+        sure: f32,
+    ) -> Option<Crossing> {
         if v32 == f32::NEG_INFINITY {
             return None;
         }
@@ -741,7 +758,7 @@ impl ConvState {
             v: f64::NAN,
             v32,
         };
-        if v32 < self.thr_hi[map as usize] {
+        if v32 < sure {
             c.v = self.exact(kernels, fired, pos as usize, map as usize);
             if c.v < self.thr[map as usize] {
                 self.band.push((pos, map));
@@ -820,23 +837,10 @@ impl ConvState {
                 while maps != 0 {
                     let map = maps.trailing_zeros();
                     maps &= maps - 1;
-                    let v32 = v[map as usize % MAPS];
-                    if v32 == f32::NEG_INFINITY {
-                        continue; // latched
-                    }
-                    let mut c = Crossing {
-                        pos,
-                        map,
-                        v: f64::NAN,
-                        v32,
+                    let (v32, sure) = (v[map as usize % MAPS], thr_hi[map as usize % MAPS]);
+                    let Some(mut c) = self.crossing_at(kernels, fired, pos, map, v32, sure) else {
+                        continue;
                     };
-                    if v32 < thr_hi[map as usize % MAPS] {
-                        c.v = self.exact(kernels, fired, pos as usize, map as usize);
-                        if c.v < self.thr[map as usize] {
-                            self.band.push((pos, map));
-                            continue;
-                        }
-                    }
                     if exact && c.v.is_nan() {
                         c.v = self.exact(kernels, fired, pos as usize, map as usize);
                     }
