@@ -1,4 +1,4 @@
-//! Batch inference on 1 and 2 threads against a reference of the same shape measured in the
+//! Batch inference on 1 and 2 threads against references of the same shape measured in the
 //! same run: how much of a second core this machine gives to any work, and how much of it the
 //! engine's batch takes.
 //!
@@ -6,10 +6,11 @@
 //! cargo run --release --example batch_scaling [ROUNDS]
 //! ```
 //!
-//! The batch is the Criterion `batch_threads` group's (64 windows of 240×180 at 1 %, Table 1).
-//! The reference spreads 64 equal tasks of integer arithmetic (no memory traffic) over the same
-//! rayon pools. The pools take turns for `ROUNDS` rounds (default 15); the least wall time of
-//! each is printed, and the ratios 1 → 2 threads.
+//! The batch is the Criterion `batch_threads` group's (64 windows of 240×180 at 1 %, Table 1),
+//! also run on one state with `run_window` in turn (no pool). The references spread 64 equal
+//! tasks over the same rayon pools: integer arithmetic (no memory traffic), and random writes
+//! over a private 2 MiB buffer each. The pools take turns for `ROUNDS` rounds (default 15);
+//! the least wall time of each is printed, and the ratios 1 → 2 threads.
 
 use std::hint::black_box;
 use std::time::{Duration, Instant};
@@ -46,6 +47,12 @@ fn touch(seed: u64) -> u64 {
         buf[i] = buf[i].wrapping_add(x as u32);
     }
     buf.iter().map(|&v| u64::from(v)).sum()
+}
+
+/// 64 reference tasks `f(0..64)` spread over `pool`.
+fn tasks(pool: &rayon::ThreadPool, f: fn(u64) -> u64) {
+    let s: u64 = pool.install(|| (0..64u64).into_par_iter().map(f).sum());
+    black_box(s);
 }
 
 fn least(f: &mut impl FnMut(), best: &mut Duration) {
@@ -93,43 +100,24 @@ fn main() {
                 },
                 &mut engine[i],
             );
-            least(
-                &mut || {
-                    let s: u64 = pool.install(|| (0..64u64).into_par_iter().map(spin).sum());
-                    black_box(s);
-                },
-                &mut reference[i],
-            );
-            least(
-                &mut || {
-                    let s: u64 = pool.install(|| (0..64u64).into_par_iter().map(touch).sum());
-                    black_box(s);
-                },
-                &mut memory[i],
-            );
+            least(&mut || tasks(pool, spin), &mut reference[i]);
+            least(&mut || tasks(pool, touch), &mut memory[i]);
         }
     }
     let ms = |d: Duration| d.as_secs_f64() * 1e3;
     let ratio = |d: [Duration; 2]| d[0].as_secs_f64() / d[1].as_secs_f64();
     println!("one state, run_window in turn: {:.3} ms", ms(seq));
-    println!(
-        "engine batch: {:.3} ms on 1 thread, {:.3} ms on 2: {:.2}x",
-        ms(engine[0]),
-        ms(engine[1]),
-        ratio(engine)
-    );
-    println!(
-        "reference:    {:.3} ms on 1 thread, {:.3} ms on 2: {:.2}x",
-        ms(reference[0]),
-        ms(reference[1]),
-        ratio(reference)
-    );
-    println!(
-        "memory ref.:  {:.3} ms on 1 thread, {:.3} ms on 2: {:.2}x",
-        ms(memory[0]),
-        ms(memory[1]),
-        ratio(memory)
-    );
+    let line = |name: &str, d: [Duration; 2]| {
+        println!(
+            "{name} {:.3} ms on 1 thread, {:.3} ms on 2: {:.2}x",
+            ms(d[0]),
+            ms(d[1]),
+            ratio(d)
+        );
+    };
+    line("engine batch:", engine);
+    line("reference:   ", reference);
+    line("memory ref.: ", memory);
     println!(
         "engine's scaling over the reference's: {:.2}",
         ratio(engine) / ratio(reference)
