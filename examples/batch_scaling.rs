@@ -34,6 +34,22 @@ fn spin(seed: u64) -> u64 {
     x
 }
 
+/// A third reference task: eight independent chains of adds, rotates and xors, about as many
+/// instructions per cycle as a core's integer units can retire — the work that two hardware
+/// threads of one core would have to share, where two separate cores would not.
+fn busy(seed: u64) -> u64 {
+    let mut x = [0u64; 8];
+    for (i, v) in x.iter_mut().enumerate() {
+        *v = seed.wrapping_add(i as u64) | 1;
+    }
+    for _ in 0..25_000 {
+        for v in &mut x {
+            *v = v.rotate_left(7) ^ v.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        }
+    }
+    x.iter().fold(0, |a, &v| a ^ v)
+}
+
 /// A second reference task: random read-modify-writes over a private 2 MiB buffer (about an
 /// engine state's size), the memory traffic of a window without its arithmetic.
 fn touch(seed: u64) -> u64 {
@@ -80,6 +96,7 @@ fn main() {
     let mut engine = [Duration::MAX; 2];
     let mut reference = [Duration::MAX; 2];
     let mut memory = [Duration::MAX; 2];
+    let mut busy_ref = [Duration::MAX; 2];
     let mut seq = Duration::MAX;
     let mut state = net.new_state();
     for _ in 0..rounds {
@@ -102,6 +119,7 @@ fn main() {
             );
             least(&mut || tasks(pool, spin), &mut reference[i]);
             least(&mut || tasks(pool, touch), &mut memory[i]);
+            least(&mut || tasks(pool, busy), &mut busy_ref[i]);
         }
     }
     let ms = |d: Duration| d.as_secs_f64() * 1e3;
@@ -118,6 +136,7 @@ fn main() {
     line("engine batch:", engine);
     line("reference:   ", reference);
     line("memory ref.: ", memory);
+    line("busy ref.:   ", busy_ref);
     println!(
         "engine's scaling over the reference's: {:.2}",
         ratio(engine) / ratio(reference)
