@@ -106,6 +106,7 @@ pub(crate) struct Fired<'a> {
 
 /// Per-window state of one conv layer.
 #[derive(Debug, Clone)]
+#[allow(clippy::struct_excessive_bools)] // flags the hot paths test, not a state machine
 pub(crate) struct ConvState {
     pub geom: ConvGeom,
     /// Float32 running potentials `[row][col][map]` (`−∞` once crossed), then `ZERO_BLOCK`
@@ -124,6 +125,9 @@ pub(crate) struct ConvState {
     thr_hi: Vec<f32>,
     /// Filter thresholds `θ_lo` per map, tiled `k` times to match one row's run.
     thr_lo: Vec<f32>,
+    /// Whether every `θ_lo` is above 0, the potential of a neuron without inputs (`add_whole`'s
+    /// `fresh` needs every neuron below `θ_lo` at rest).
+    lo_positive: bool,
     /// Relative error bound `m` of the float32 sums.
     margin: f64,
     /// `(1 − m, 1 + m)`: the factors that bound an exact sum from its float32 one (`beats`).
@@ -233,6 +237,7 @@ impl ConvState {
             thr: vec![f64::INFINITY; geom.maps],
             thr_hi: vec![f32::INFINITY; geom.maps],
             thr_lo: vec![f32::INFINITY; geom.k * geom.maps],
+            lo_positive: true,
             margin,
             bounds: (1.0 - margin, 1.0 + margin),
             candidates: Vec::new(),
@@ -340,6 +345,7 @@ impl ConvState {
         for i in maps..self.thr_lo.len() {
             self.thr_lo[i] = self.thr_lo[i - maps];
         }
+        self.lo_positive = self.thr_lo[..maps].iter().all(|&lo| lo > 0.0);
     }
 
     /// Set how many fired inputs wake a position (after `set_thresholds` and `reset`, with the
@@ -465,6 +471,13 @@ impl ConvState {
             cols: g.k as u16,
         });
         self.touched_lanes += FIXED_ROWS * FIXED_RUN;
+        // With nothing of the group pending and nothing in the band, every neuron is below
+        // `θ_lo` or latched: it starts at 0, below every `θ_lo` (`lo_positive`), reaches
+        // `θ_lo` only by an add that makes it a candidate, and `resolve` latches each candidate
+        // or keeps it in the band. The add's crossings are then the lanes it takes to `θ_lo` or
+        // above (latched ones stay `−∞`): `add_rows_fixed`'s `fresh`.
+        let pending = self.held.is_some() || !self.candidates.is_empty();
+        let fresh = !pending && self.band.is_empty() && self.lo_positive;
         let mut masks = [0u32; FIXED_ROWS];
         if add_rows_fixed(
             &mut self.pot,
@@ -475,6 +488,7 @@ impl ConvState {
             g.k * maps,
             &self.thr_lo,
             &mut masks,
+            fresh,
         ) {
             let mut words = [0; 2];
             for (r, &mask) in masks.iter().enumerate() {
@@ -484,12 +498,12 @@ impl ConvState {
                 first: first as u32,
                 words,
             };
-            if self.held.is_none() && self.candidates.is_empty() {
+            if pending {
+                self.list_held();
                 self.held = Some(held);
+                self.list_held();
             } else {
-                self.list_held();
                 self.held = Some(held);
-                self.list_held();
             }
         }
     }
@@ -1429,6 +1443,10 @@ const FIXED_RUN: usize = 20;
 /// `thr[..FIXED_RUN]`: the shape of nearly every conv1 input, compiled with its sizes known so
 /// that the rows are unrolled, the thresholds loaded once and the last 4 lanes of a row taken
 /// as one half vector (`add_rows` costs about 1.7 times its instructions on that shape).
+///
+/// `fresh` promises that no lane of these rows is at or above its threshold before the add
+/// (see `ConvState::add_whole` for when that holds): a lane then crossed exactly where it is at
+/// or above its threshold after the add, which spares the compare of the old potentials.
 #[allow(clippy::too_many_arguments)]
 #[inline]
 fn add_rows_fixed(
@@ -1440,6 +1458,7 @@ fn add_rows_fixed(
     w_stride: usize,
     thr: &[f32],
     masks: &mut [u32],
+    fresh: bool,
 ) -> bool {
     assert!(
         masks.len() == FIXED_ROWS
@@ -1459,11 +1478,13 @@ fn add_rows_fixed(
                 w_stride,
                 thr,
                 masks,
+                fresh,
             )
         }
     }
     #[cfg(not(target_arch = "x86_64"))]
     {
+        let _ = fresh; // the same masks either way, where it holds
         add_rows(pot, p0, p_stride, w, w0, w_stride, &thr[..FIXED_RUN], masks)
     }
 }
@@ -1966,7 +1987,8 @@ mod simd {
 
     /// `add_rows_avx2` for `FIXED_ROWS` rows of `FIXED_RUN` lanes: two full vectors and one
     /// half vector per row, whose crossing lanes are packed to bytes (in lane order, by one
-    /// permutation) for a single movemask per row.
+    /// permutation) for a single movemask per row. With `fresh` (see `super::add_rows_fixed`),
+    /// a lane crossed where its new potential is at or above its threshold.
     ///
     /// # Safety
     /// The CPU must support AVX2; for every `r < FIXED_ROWS`, `pot + r · p_stride` and
@@ -1980,6 +2002,7 @@ mod simd {
         w_stride: usize,
         thr: &[f32],
         masks: &mut [u32],
+        fresh: bool,
     ) -> bool {
         const _: () = assert!(super::FIXED_RUN == 20, "two vectors and a half per row");
         // SAFETY: thr holds FIXED_RUN values.
@@ -2007,13 +2030,23 @@ mod simd {
                 let old2 = _mm_loadu_ps(p.add(16));
                 let new2 = _mm_add_ps(old2, _mm_loadu_ps(wp.add(16)));
                 _mm_storeu_ps(p.add(16), new2);
-                let c2 =
-                    _mm_castps_si128(_mm_and_ps(_mm_cmplt_ps(old2, t2), _mm_cmpge_ps(new2, t2)));
-                (
-                    crossed_lanes(old0, new0, t0),
-                    crossed_lanes(old1, new1, t1),
-                    c2,
-                )
+                if fresh {
+                    (
+                        _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GE_OQ>(new0, t0)),
+                        _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GE_OQ>(new1, t1)),
+                        _mm_castps_si128(_mm_cmpge_ps(new2, t2)),
+                    )
+                } else {
+                    let c2 = _mm_castps_si128(_mm_and_ps(
+                        _mm_cmplt_ps(old2, t2),
+                        _mm_cmpge_ps(new2, t2),
+                    ));
+                    (
+                        crossed_lanes(old0, new0, t0),
+                        crossed_lanes(old1, new1, t1),
+                        c2,
+                    )
+                }
             };
             let words = _mm256_packs_epi32(c0, c1);
             let tail = _mm256_zextsi128_si256(_mm_packs_epi32(c2, _mm_setzero_si128()));
@@ -2230,11 +2263,31 @@ mod tests {
             let w: Vec<f32> = (0..FIXED_ROWS * w_stride).map(|_| next()).collect();
             let thr: Vec<f32> = (0..FIXED_RUN).map(|_| next() * 3.0).collect();
             let (p0, w0) = (round % 7, (FIXED_ROWS - 1) * w_stride + round % 5);
-            let (mut a, mut b) = (pot.clone(), pot);
-            let (mut ma, mut mb) = ([0u32; FIXED_ROWS], [0u32; FIXED_ROWS]);
-            let any_a = add_rows_fixed(&mut a, p0, p_stride, &w, w0, w_stride, &thr, &mut ma);
-            let any_b = add_rows(&mut b, p0, p_stride, &w, w0, w_stride, &thr, &mut mb);
-            assert_eq!((a, ma, any_a), (b, mb, any_b), "round {round}");
+            // `fresh` only where its promise holds: every lane below its threshold or `−∞`.
+            let mut below = pot.clone();
+            for r in 0..FIXED_ROWS {
+                for (l, &t) in thr.iter().enumerate() {
+                    let v = &mut below[p0 + r * p_stride + l];
+                    *v = if (r * FIXED_RUN + l + round) % 7 == 3 {
+                        f32::NEG_INFINITY
+                    } else {
+                        let v = t * (next() / 16.0);
+                        if v < t {
+                            v
+                        } else {
+                            0.0
+                        }
+                    };
+                }
+            }
+            for (pot, fresh) in [(pot, false), (below.clone(), false), (below, true)] {
+                let (mut a, mut b) = (pot.clone(), pot);
+                let (mut ma, mut mb) = ([0u32; FIXED_ROWS], [0u32; FIXED_ROWS]);
+                let any_a =
+                    add_rows_fixed(&mut a, p0, p_stride, &w, w0, w_stride, &thr, &mut ma, fresh);
+                let any_b = add_rows(&mut b, p0, p_stride, &w, w0, w_stride, &thr, &mut mb);
+                assert_eq!((a, ma, any_a), (b, mb, any_b), "round {round}, {fresh}");
+            }
         }
     }
 
