@@ -847,6 +847,25 @@ impl ConvState {
                 // changes before the position is decided).
                 let at = pos as usize * MAPS;
                 let v: [f32; MAPS] = self.pot[at..at + MAPS].try_into().expect("MAPS maps");
+                // `maps` is not 0: one map is one bit (cheaper here than `is_power_of_two`).
+                #[allow(clippy::manual_is_power_of_two)]
+                let one = maps & (maps - 1) == 0;
+                if one && !exact {
+                    // The common case: one map, whose float32 sum is surely above θ (what
+                    // `crossing_at` finds without gathering), fires alone.
+                    let map = maps.trailing_zeros();
+                    let (v32, sure) = (v[map as usize % MAPS], thr_hi[map as usize % MAPS]);
+                    if v32 >= sure && v32 != f32::NEG_INFINITY {
+                        out.push(Crossing {
+                            pos,
+                            map,
+                            v: f64::NAN,
+                            v32,
+                        });
+                        latch_position(&mut self.pot, pos as usize, MAPS);
+                        continue;
+                    }
+                }
                 let mut best: Option<Crossing> = None;
                 while maps != 0 {
                     let map = maps.trailing_zeros();
