@@ -208,11 +208,13 @@ const WHOLE_POSITIONS: usize = FIXED_ROWS * FIXED_ROWS;
 const POSITION_MAPS: u32 = (1 << MAPS) - 1;
 
 /// The inputs of a layer whose footprint is the whole kernel: input rows and columns whose `k`
-/// output rows (columns) are all inside the layer.
+/// output rows (columns) are all inside the layer; and the proof that the CPU has AVX2, which
+/// `add_rows_fixed` needs.
 #[derive(Debug, Clone)]
 struct Whole {
     rows: Range<usize>,
     cols: Range<usize>,
+    avx2: Avx2,
 }
 
 impl ConvState {
@@ -262,12 +264,13 @@ impl ConvState {
             waking: Vec::new(),
             awake: Vec::new(),
             split: Divider::new(geom.out_w),
-            whole: (has_avx2() && geom.k == FIXED_ROWS && geom.k * geom.maps == FIXED_RUN).then(
-                || Whole {
+            whole: Avx2::detect()
+                .filter(|_| geom.k == FIXED_ROWS && geom.k * geom.maps == FIXED_RUN)
+                .map(|avx2| Whole {
                     rows: geom.whole_footprints(geom.out_h),
                     cols: geom.whole_footprints(geom.out_w),
-                },
-            ),
+                    avx2,
+                }),
         }
     }
 
@@ -375,11 +378,13 @@ impl ConvState {
     #[allow(clippy::inline_always)]
     #[inline(always)]
     pub fn add(&mut self, w: &[f32], c: usize, iy: usize, ix: usize) {
-        let whole = |w: &Whole| w.rows.contains(&iy) && w.cols.contains(&ix);
-        if !self.gated && self.whole.as_ref().is_some_and(whole) {
-            self.add_whole(w, c, iy, ix);
-        } else {
-            self.add_clipped(w, c, iy, ix);
+        let whole = |w: &&Whole| w.rows.contains(&iy) && w.cols.contains(&ix);
+        match self.whole.as_ref().filter(whole) {
+            Some(whole) if !self.gated => {
+                let avx2 = whole.avx2;
+                self.add_whole(avx2, w, c, iy, ix);
+            }
+            _ => self.add_clipped(w, c, iy, ix),
         }
     }
 
@@ -460,7 +465,7 @@ impl ConvState {
     /// kernel's last row and column, and the rows go through `add_rows_fixed`.
     #[allow(clippy::inline_always)]
     #[inline(always)]
-    fn add_whole(&mut self, w: &[f32], c: usize, iy: usize, ix: usize) {
+    fn add_whole(&mut self, avx2: Avx2, w: &[f32], c: usize, iy: usize, ix: usize) {
         let g = self.geom;
         let maps = g.maps;
         // The first output row and column, where the input is under the kernel's last ones.
@@ -478,22 +483,15 @@ impl ConvState {
         // above (latched ones stay `−∞`): `add_rows_fixed`'s `fresh`.
         let pending = self.held.is_some() || !self.candidates.is_empty();
         let fresh = !pending && self.band.is_empty() && self.lo_positive;
-        let mut masks = [0u32; FIXED_ROWS];
-        if add_rows_fixed(
-            &mut self.pot,
-            first * maps,
-            g.out_w * maps,
-            w,
-            (c * g.k + g.k - 1) * g.k * maps,
-            g.k * maps,
-            &self.thr_lo,
-            &mut masks,
-            fresh,
-        ) {
-            let mut words = [0; 2];
-            for (r, &mask) in masks.iter().enumerate() {
-                words[r / WORD_ROWS] |= u64::from(mask) << (r % WORD_ROWS * FIXED_RUN);
-            }
+        let kernel = w[c * FIXED_KERNEL..][..FIXED_KERNEL]
+            .try_into()
+            .expect("one channel's kernel");
+        let thr = self.thr_lo[..FIXED_RUN]
+            .try_into()
+            .expect("one row's thresholds");
+        let pot = &mut self.pot[first * maps..];
+        let words = add_rows_fixed(avx2, pot, g.out_w * maps, kernel, thr, fresh);
+        if words != [0; 2] {
             let held = WholeCandidates {
                 first: first as u32,
                 words,
@@ -1457,54 +1455,66 @@ fn rows_inside(
 /// to `k = 5` output rows of `k × maps = 5 × 4` lanes each.
 const FIXED_ROWS: usize = 5;
 const FIXED_RUN: usize = 20;
+/// The weights of one input channel of such a layer (`k × k × maps`, engine layout).
+const FIXED_KERNEL: usize = FIXED_ROWS * FIXED_RUN;
 
-/// `add_rows` for `FIXED_ROWS` rows of `FIXED_RUN` lanes (AVX2 only), with the thresholds
-/// `thr[..FIXED_RUN]`: the shape of nearly every conv1 input, compiled with its sizes known so
-/// that the rows are unrolled, the thresholds loaded once and the last 4 lanes of a row taken
-/// as one half vector (`add_rows` costs about 1.7 times its instructions on that shape).
+/// Proof that the CPU has AVX2: made only by `detect`, so that code holding one (`Whole`) may
+/// call the AVX2 kernels without asking again.
+#[derive(Debug, Clone, Copy)]
+struct Avx2(());
+
+impl Avx2 {
+    fn detect() -> Option<Self> {
+        has_avx2().then_some(Self(()))
+    }
+}
+
+/// `add_rows` for `FIXED_ROWS` rows of `FIXED_RUN` lanes (AVX2 only): row `r`'s potentials
+/// from `pot[r · p_stride]`, its weights the kernel's row `FIXED_ROWS − 1 − r` (`kernel`, one
+/// input channel's), the thresholds `thr`. The shape of nearly every conv1 input, compiled
+/// with its sizes known so that the rows are unrolled, the thresholds loaded once and the
+/// last 4 lanes of a row taken as one half vector (`add_rows` costs about 1.7 times its
+/// instructions on that shape). Returns the crossing lanes as `WholeCandidates` words (none
+/// set where none crossed).
 ///
 /// `fresh` promises that no lane of these rows is at or above its threshold before the add
 /// (see `ConvState::add_whole` for when that holds): a lane then crossed exactly where it is at
 /// or above its threshold after the add, which spares the compare of the old potentials.
-#[allow(clippy::too_many_arguments)]
 #[inline]
 fn add_rows_fixed(
+    avx2: Avx2,
     pot: &mut [f32],
-    p0: usize,
     p_stride: usize,
-    w: &[f32],
-    w0: usize,
-    w_stride: usize,
-    thr: &[f32],
-    masks: &mut [u32],
+    kernel: &[f32; FIXED_KERNEL],
+    thr: &[f32; FIXED_RUN],
     fresh: bool,
-) -> bool {
+) -> [u64; 2] {
     assert!(
-        masks.len() == FIXED_ROWS
-            && thr.len() >= FIXED_RUN
-            && rows_inside(pot, p0, p_stride, w, w0, w_stride, FIXED_RUN, FIXED_ROWS),
-        "rows inside the layer and the kernel"
+        pot.len() >= (FIXED_ROWS - 1) * p_stride + FIXED_RUN,
+        "rows inside the layer"
     );
     #[cfg(target_arch = "x86_64")]
     {
-        assert!(has_avx2(), "add_rows_fixed needs AVX2");
-        // SAFETY: the ranges are asserted above and the CPU has AVX2.
-        unsafe {
-            simd::add_rows_fixed_avx2(
-                pot.as_mut_ptr().add(p0),
-                p_stride,
-                w.as_ptr().add(w0),
-                w_stride,
-                thr,
-                masks,
-                fresh,
-            )
-        }
+        let _ = avx2;
+        // SAFETY: the rows are inside `pot` (asserted above), the kernel's and thresholds'
+        // lengths are their types', and `avx2` proves that the CPU has AVX2.
+        let (a, b) =
+            unsafe { simd::add_rows_fixed_avx2(pot.as_mut_ptr(), p_stride, kernel, thr, fresh) };
+        [a, b]
     }
     #[cfg(not(target_arch = "x86_64"))]
     {
-        let _ = fresh; // the same masks either way, where it holds
-        add_rows(pot, p0, p_stride, w, w0, w_stride, &thr[..FIXED_RUN], masks)
+        let _ = (avx2, fresh); // the same masks either way, where `fresh` holds
+        let mut words = [0; 2];
+        for r in 0..FIXED_ROWS {
+            let (p, k) = (r * p_stride, (FIXED_ROWS - 1 - r) * FIXED_RUN);
+            let mut bytes = [0u8; 4];
+            let w = &kernel[k..k + FIXED_RUN];
+            add_detect_scalar(&mut pot[p..p + FIXED_RUN], w, thr, &mut bytes, 0);
+            let mask = u64::from(u32::from_le_bytes(bytes));
+            words[r / WORD_ROWS] |= mask << (r % WORD_ROWS * FIXED_RUN);
+        }
+        words
     }
 }
 
@@ -2004,25 +2014,22 @@ mod simd {
         ))
     }
 
-    /// `add_rows_avx2` for `FIXED_ROWS` rows of `FIXED_RUN` lanes: two full vectors and one
-    /// half vector per row, whose crossing lanes are packed to bytes (in lane order, by one
-    /// permutation) for a single movemask per row. With `fresh` (see `super::add_rows_fixed`),
-    /// a lane crossed where its new potential is at or above its threshold.
+    /// `super::add_rows_fixed`: two full vectors and one half vector per row, whose crossing
+    /// lanes are packed to bytes (in lane order, by one permutation) for a single movemask per
+    /// row. With `fresh`, a lane crossed where its new potential is at or above its threshold.
+    /// Returns the two words of crossing lanes.
     ///
     /// # Safety
-    /// The CPU must support AVX2; for every `r < FIXED_ROWS`, `pot + r · p_stride` and
-    /// `w − r · w_stride` hold `FIXED_RUN` values; `thr` holds at least `FIXED_RUN` and
-    /// `masks` `FIXED_ROWS`.
+    /// The CPU must support AVX2; for every `r < FIXED_ROWS`, `pot + r · p_stride` holds
+    /// `FIXED_RUN` values.
     #[target_feature(enable = "avx2")]
     pub(super) unsafe fn add_rows_fixed_avx2(
         pot: *mut f32,
         p_stride: usize,
-        w: *const f32,
-        w_stride: usize,
-        thr: &[f32],
-        masks: &mut [u32],
+        kernel: &[f32; super::FIXED_KERNEL],
+        thr: &[f32; super::FIXED_RUN],
         fresh: bool,
-    ) -> bool {
+    ) -> (u64, u64) {
         const _: () = assert!(super::FIXED_RUN == 20, "two vectors and a half per row");
         // SAFETY: thr holds FIXED_RUN values.
         let (t0, t1, t2) = unsafe {
@@ -2035,11 +2042,15 @@ mod simd {
         // After the packs, the 32-bit groups of bytes hold lanes 0-3, 8-11, 16-19, none, 4-7,
         // 12-15, none, none: this puts them back in order.
         let order = _mm256_setr_epi32(0, 4, 1, 5, 2, 3, 6, 7);
-        let mut any = 0u32;
-        for (r, slot) in masks.iter_mut().enumerate().take(super::FIXED_ROWS) {
-            // SAFETY: the caller guarantees that both rows hold FIXED_RUN values.
+        let mut words = [0u64; 2];
+        for r in 0..super::FIXED_ROWS {
+            // SAFETY: the caller guarantees that the row holds FIXED_RUN values; the kernel's
+            // row `FIXED_ROWS − 1 − r` is inside it.
             let (c0, c1, c2) = unsafe {
-                let (p, wp) = (pot.add(r * p_stride), w.sub(r * w_stride));
+                let p = pot.add(r * p_stride);
+                let wp = kernel
+                    .as_ptr()
+                    .add((super::FIXED_ROWS - 1 - r) * super::FIXED_RUN);
                 let old0 = _mm256_loadu_ps(p);
                 let new0 = _mm256_add_ps(old0, _mm256_loadu_ps(wp));
                 _mm256_storeu_ps(p, new0);
@@ -2067,14 +2078,13 @@ mod simd {
                     )
                 }
             };
-            let words = _mm256_packs_epi32(c0, c1);
+            let halves = _mm256_packs_epi32(c0, c1);
             let tail = _mm256_zextsi128_si256(_mm_packs_epi32(c2, _mm_setzero_si128()));
-            let bytes = _mm256_permutevar8x32_epi32(_mm256_packs_epi16(words, tail), order);
-            let mask = _mm256_movemask_epi8(bytes) as u32;
-            *slot = mask;
-            any |= mask;
+            let bytes = _mm256_permutevar8x32_epi32(_mm256_packs_epi16(halves, tail), order);
+            let mask = u64::from(_mm256_movemask_epi8(bytes) as u32);
+            words[r / super::WORD_ROWS] |= mask << (r % super::WORD_ROWS * super::FIXED_RUN);
         }
-        any != 0
+        (words[0], words[1])
     }
 
     /// # Safety
@@ -2268,20 +2278,20 @@ mod tests {
     /// `add_rows_fixed` equals `add_rows` on its shape, crossings in every lane included.
     #[test]
     fn add_rows_fixed_equals_add_rows() {
-        if !has_avx2() {
+        let Some(avx2) = Avx2::detect() else {
             return; // add_rows_fixed is only called where the CPU has AVX2
-        }
+        };
         let mut rng = crate::network::xorshift(13u64);
         let mut next = || {
             let s = rng();
             (s >> 40) as f32 / (1u64 << 20) as f32
         };
-        let (p_stride, w_stride) = (47, 29);
+        let p_stride = 47;
         for round in 0..50 {
             let pot: Vec<f32> = (0..FIXED_ROWS * p_stride).map(|_| next() * 2.0).collect();
-            let w: Vec<f32> = (0..FIXED_ROWS * w_stride).map(|_| next()).collect();
-            let thr: Vec<f32> = (0..FIXED_RUN).map(|_| next() * 3.0).collect();
-            let (p0, w0) = (round % 7, (FIXED_ROWS - 1) * w_stride + round % 5);
+            let kernel: [f32; FIXED_KERNEL] = std::array::from_fn(|_| next());
+            let thr: [f32; FIXED_RUN] = std::array::from_fn(|_| next() * 3.0);
+            let p0 = round % 7;
             // `fresh` only where its promise holds: every lane below its threshold or `−∞`.
             let mut below = pot.clone();
             for r in 0..FIXED_ROWS {
@@ -2301,11 +2311,19 @@ mod tests {
             }
             for (pot, fresh) in [(pot, false), (below.clone(), false), (below, true)] {
                 let (mut a, mut b) = (pot.clone(), pot);
-                let (mut ma, mut mb) = ([0u32; FIXED_ROWS], [0u32; FIXED_ROWS]);
-                let any_a =
-                    add_rows_fixed(&mut a, p0, p_stride, &w, w0, w_stride, &thr, &mut ma, fresh);
-                let any_b = add_rows(&mut b, p0, p_stride, &w, w0, w_stride, &thr, &mut mb);
-                assert_eq!((a, ma, any_a), (b, mb, any_b), "round {round}, {fresh}");
+                let words = add_rows_fixed(avx2, &mut a[p0..], p_stride, &kernel, &thr, fresh);
+                // Row r reads the kernel's row FIXED_ROWS − 1 − r.
+                let w0 = (FIXED_ROWS - 1) * FIXED_RUN;
+                let mut masks = [0u32; FIXED_ROWS];
+                let any = add_rows(
+                    &mut b, p0, p_stride, &kernel, w0, FIXED_RUN, &thr, &mut masks,
+                );
+                let mut want = [0u64; 2];
+                for (r, &mask) in masks.iter().enumerate() {
+                    want[r / WORD_ROWS] |= u64::from(mask) << (r % WORD_ROWS * FIXED_RUN);
+                }
+                assert_eq!((&a, words), (&b, want), "round {round}, {fresh}");
+                assert_eq!(any, want != [0; 2]);
             }
         }
     }
