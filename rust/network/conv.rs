@@ -134,6 +134,13 @@ pub(crate) struct ConvState {
     bounds: (f64, f64),
     /// Neurons `(pos, map)` whose float32 sum reached `θ_lo` in the current group.
     candidates: Vec<(u32, u32)>,
+    /// Where `candidates` fall out of `(pos, map)` order, noted as each batch of them (one
+    /// input's, or one waking position's: ascending) is pushed (`note_run`): the first index of
+    /// each run after the first (`breaks_len` of them, kept up to `MAX_RUNS`), and whether their
+    /// positions alone stay in order. `resolve` reads them instead of scanning.
+    breaks: [u32; MAX_RUNS],
+    breaks_len: usize,
+    pos_sorted: bool,
     /// The candidates of a group's first whole input (`add_whole`), held as its lanes' bits
     /// while no other input of the group has any (most groups are one input): they are in
     /// position order already, so `resolve` walks them position by position (`fire_held`)
@@ -243,6 +250,9 @@ impl ConvState {
             margin,
             bounds: (1.0 - margin, 1.0 + margin),
             candidates: Vec::new(),
+            breaks: [0; MAX_RUNS],
+            breaks_len: 0,
+            pos_sorted: true,
             held: None,
             whole_offsets: std::array::from_fn(|p| {
                 ((p / FIXED_ROWS) * geom.out_w + p % FIXED_ROWS) as u32
@@ -326,6 +336,7 @@ impl ConvState {
         self.awake.clear();
         self.waking.clear();
         self.candidates.clear();
+        self.clear_runs();
         self.held = None;
         self.band.clear();
         self.crossed.clear();
@@ -506,24 +517,59 @@ impl ConvState {
         }
     }
 
-    /// Move the candidates held as bits (`held`), if any, to `candidates`.
+    /// Note where the batch of candidates pushed from index `start` on (ascending in
+    /// `(pos, map)`) joins the ones before it (see `breaks`).
     #[inline]
+    fn note_run(&mut self, start: usize) {
+        if start == 0 || start >= self.candidates.len() {
+            return;
+        }
+        let (a, b) = (self.candidates[start - 1], self.candidates[start]);
+        if b < a {
+            self.pos_sorted &= b.0 >= a.0;
+            if let Some(slot) = self.breaks.get_mut(self.breaks_len) {
+                *slot = start as u32;
+            }
+            self.breaks_len += 1;
+        }
+    }
+
+    /// Forget the runs of `candidates` (once they are cleared).
+    #[inline]
+    fn clear_runs(&mut self) {
+        self.breaks_len = 0;
+        self.pos_sorted = true;
+    }
+
+    /// Move the candidates held as bits (`held`), if any, to `candidates`. The test inline,
+    /// the listing (rare) out of line.
+    #[allow(clippy::inline_always)]
+    #[inline(always)]
     fn list_held(&mut self) {
         if let Some(held) = self.held.take() {
-            for (p, mut maps) in held.positions() {
-                let pos = held.first + self.whole_offsets[p];
-                while maps != 0 {
-                    self.candidates.push((pos, maps.trailing_zeros()));
-                    maps &= maps - 1;
-                }
+            self.list(held);
+        }
+    }
+
+    /// `list_held` of `held`.
+    #[inline(never)]
+    fn list(&mut self, held: WholeCandidates) {
+        let start = self.candidates.len();
+        for (p, mut maps) in held.positions() {
+            let pos = held.first + self.whole_offsets[p];
+            while maps != 0 {
+                self.candidates.push((pos, maps.trailing_zeros()));
+                maps &= maps - 1;
             }
         }
+        self.note_run(start);
     }
 
     /// Record the neurons whose lanes are set in `masks` (one per output row of a run from
     /// position `first`, one `out_w` apart) as candidates.
     #[inline]
     fn push_row_candidates(&mut self, masks: &[u32], first: usize) {
+        let start = self.candidates.len();
         for (step, &mask) in masks.iter().enumerate() {
             let pos0 = (first + step * self.geom.out_w) as u32;
             let mut mask = mask;
@@ -533,6 +579,7 @@ impl ConvState {
                 mask &= mask - 1;
             }
         }
+        self.note_run(start);
     }
 
     /// Add one input to the positions of one output row (from `p0`) whose bits are set in
@@ -581,6 +628,7 @@ impl ConvState {
             &mut self.masks,
         );
         if hit {
+            let start = self.candidates.len();
             push_candidates(
                 &self.masks,
                 run,
@@ -588,6 +636,7 @@ impl ConvState {
                 pos0 as u32,
                 &mut self.candidates,
             );
+            self.note_run(start);
         }
     }
 
@@ -606,11 +655,13 @@ impl ConvState {
             let pot = &mut self.pot[p * maps..(p + 1) * maps];
             pot.fill(0.0);
             gather(self.avx2, &g, fired, &self.wake_base, w, oy, ox, pot);
+            let start = self.candidates.len();
             for (m, &v) in pot.iter().enumerate() {
                 if v >= self.thr_lo[m] {
                     self.candidates.push((pos, m as u32));
                 }
             }
+            self.note_run(start);
         }
         self.waking = waking;
         self.waking.clear();
@@ -682,8 +733,14 @@ impl ConvState {
         }
         let kernels = weights.canonical();
         let maps = self.geom.maps;
-        // Which candidates crossed (the band's neurons stay candidates until they do).
+        // Which candidates crossed (the band's neurons stay candidates until they do). Their
+        // runs are known as pushed, unless the band joins them (in no known order).
         let mut candidates = std::mem::take(&mut self.candidates);
+        let runs = self
+            .band
+            .is_empty()
+            .then_some((self.pos_sorted, self.breaks, self.breaks_len));
+        self.clear_runs();
         if !self.band.is_empty() {
             candidates.append(&mut self.band);
         }
@@ -691,7 +748,11 @@ impl ConvState {
             // Those of one input come in position order, and most groups are one input; the
             // others are a few such runs (one per input), merged as packed `pos << 32 | map`
             // keys (`sort_runs`).
-            if candidates.windows(2).all(|p| p[0].0 <= p[1].0) {
+            let in_order = match runs {
+                Some((pos_sorted, _, _)) => pos_sorted,
+                None => candidates.windows(2).all(|p| p[0].0 <= p[1].0),
+            };
+            if in_order {
                 self.fire_in_order(kernels, fired, exact, candidates.iter().copied(), out);
             } else {
                 let mut order = std::mem::take(&mut self.order);
@@ -701,7 +762,17 @@ impl ConvState {
                         .iter()
                         .map(|&(pos, map)| u64::from(pos) << 32 | u64::from(map)),
                 );
-                sort_runs(&mut order, &mut self.merged);
+                match runs {
+                    Some((_, breaks, len)) => {
+                        merge_runs(
+                            &mut order,
+                            &mut self.merged,
+                            &breaks[..len.min(MAX_RUNS)],
+                            len,
+                        );
+                    }
+                    None => sort_runs(&mut order, &mut self.merged),
+                }
                 let sorted = order.iter().map(|&key| ((key >> 32) as u32, key as u32));
                 self.fire_in_order(kernels, fired, exact, sorted, out);
                 self.order = order;
@@ -1051,24 +1122,41 @@ fn zero_footprints_body(pot: &mut [f32], inputs: &[Footprint], out_w: usize, map
     }
 }
 
+/// Beyond this many runs, merging pairwise costs more than sorting (`sort_runs`).
+const MAX_RUNS: usize = 8;
+
 /// Sort `v` by merging its ascending runs (the candidates of one input come in position
 /// order, so a group's keys are a few such runs), pairwise through `buffer`; with many runs, an
 /// ordinary sort.
 fn sort_runs(v: &mut Vec<u64>, buffer: &mut Vec<u64>) {
-    /// Beyond this many runs, merging pairwise costs more than sorting.
-    const MAX_RUNS: usize = 8;
-    let mut ends = [0usize; MAX_RUNS];
-    let mut runs = 0;
-    for i in 1..=v.len() {
-        if i == v.len() || v[i] < v[i - 1] {
-            if runs == MAX_RUNS {
+    let mut breaks = [0u32; MAX_RUNS];
+    let mut len = 0;
+    for i in 1..v.len() {
+        if v[i] < v[i - 1] {
+            if len == MAX_RUNS {
                 v.sort_unstable();
                 return;
             }
-            ends[runs] = i;
-            runs += 1;
+            breaks[len] = i as u32;
+            len += 1;
         }
     }
+    merge_runs(v, buffer, &breaks[..len], len);
+}
+
+/// `sort_runs` of `v` whose runs are known: each starts at one of `breaks` but the first;
+/// `len` breaks in all, of which those past `MAX_RUNS` are not kept (an ordinary sort then).
+fn merge_runs(v: &mut Vec<u64>, buffer: &mut Vec<u64>, breaks: &[u32], len: usize) {
+    if len >= MAX_RUNS {
+        v.sort_unstable();
+        return;
+    }
+    let mut ends = [0usize; MAX_RUNS];
+    for (end, &b) in ends.iter_mut().zip(breaks) {
+        *end = b as usize;
+    }
+    ends[len] = v.len();
+    let mut runs = len + 1;
     // The buffer as long as `v`, so that swapping them keeps both so.
     buffer.resize(v.len(), 0);
     while runs > 1 {
