@@ -74,9 +74,10 @@ impl PoolState {
 
     /// A conv group's `spikes` at time `t`, in order (positions split into row and column by
     /// `split`): for each, fire every pool neuron of its map whose block holds it and that has
-    /// not fired yet, and note the spike as a cause of those that fire at `t`. Out of line,
-    /// with the loop inside: one call per group, not per spike.
-    #[inline(never)]
+    /// not fired yet, and note the spike as a cause of those that fire at `t`. Inlined into
+    /// the per-layer step, the loop inside: no call per spike, nor per group.
+    #[allow(clippy::inline_always)]
+    #[inline(always)]
     pub fn on_spikes(
         &mut self,
         generation: u32,
