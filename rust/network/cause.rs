@@ -7,7 +7,7 @@
 //! box.
 //!
 //! Per event, only the pool layers note their causes (one bit per conv spike that lands in a
-//! pool neuron as it fires, see `PoolState::on_spike`). When a conv3 neuron fires, the links are
+//! pool neuron as it fires, see `PoolState::on_spikes`). When a conv3 neuron fires, the links are
 //! followed, with every pool neuron's box kept once computed in the window, so a window's boxes
 //! together cost at most one visit of each conv neuron's receptive field that some detection
 //! reaches; and a pool neuron's box walks the fields of its causes together (`block_box`), so

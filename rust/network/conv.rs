@@ -106,6 +106,7 @@ pub(crate) struct Fired<'a> {
 
 /// Per-window state of one conv layer.
 #[derive(Debug, Clone)]
+#[allow(clippy::struct_excessive_bools)] // flags the hot paths test, not a state machine
 pub(crate) struct ConvState {
     pub geom: ConvGeom,
     /// Float32 running potentials `[row][col][map]` (`−∞` once crossed), then `ZERO_BLOCK`
@@ -124,12 +125,22 @@ pub(crate) struct ConvState {
     thr_hi: Vec<f32>,
     /// Filter thresholds `θ_lo` per map, tiled `k` times to match one row's run.
     thr_lo: Vec<f32>,
+    /// Whether every `θ_lo` is above 0, the potential of a neuron without inputs (`add_whole`'s
+    /// `fresh` needs every neuron below `θ_lo` at rest).
+    lo_positive: bool,
     /// Relative error bound `m` of the float32 sums.
     margin: f64,
     /// `(1 − m, 1 + m)`: the factors that bound an exact sum from its float32 one (`beats`).
     bounds: (f64, f64),
     /// Neurons `(pos, map)` whose float32 sum reached `θ_lo` in the current group.
     candidates: Vec<(u32, u32)>,
+    /// Where `candidates` fall out of `(pos, map)` order, noted as each batch of them (one
+    /// input's, or one waking position's: ascending) is pushed (`note_run`): the first index of
+    /// each run after the first (`breaks_len` of them, kept up to `MAX_RUNS`), and whether their
+    /// positions alone stay in order. `resolve` reads them instead of scanning.
+    breaks: [u32; MAX_RUNS],
+    breaks_len: usize,
+    pos_sorted: bool,
     /// The candidates of a group's first whole input (`add_whole`), held as its lanes' bits
     /// while no other input of the group has any (most groups are one input): they are in
     /// position order already, so `resolve` walks them position by position (`fire_held`)
@@ -204,11 +215,13 @@ const WHOLE_POSITIONS: usize = FIXED_ROWS * FIXED_ROWS;
 const POSITION_MAPS: u32 = (1 << MAPS) - 1;
 
 /// The inputs of a layer whose footprint is the whole kernel: input rows and columns whose `k`
-/// output rows (columns) are all inside the layer.
+/// output rows (columns) are all inside the layer; and the proof that the CPU has AVX2, which
+/// `add_rows_fixed` needs.
 #[derive(Debug, Clone)]
 struct Whole {
     rows: Range<usize>,
     cols: Range<usize>,
+    avx2: Avx2,
 }
 
 impl ConvState {
@@ -233,9 +246,13 @@ impl ConvState {
             thr: vec![f64::INFINITY; geom.maps],
             thr_hi: vec![f32::INFINITY; geom.maps],
             thr_lo: vec![f32::INFINITY; geom.k * geom.maps],
+            lo_positive: true,
             margin,
             bounds: (1.0 - margin, 1.0 + margin),
             candidates: Vec::new(),
+            breaks: [0; MAX_RUNS],
+            breaks_len: 0,
+            pos_sorted: true,
             held: None,
             whole_offsets: std::array::from_fn(|p| {
                 ((p / FIXED_ROWS) * geom.out_w + p % FIXED_ROWS) as u32
@@ -257,12 +274,13 @@ impl ConvState {
             waking: Vec::new(),
             awake: Vec::new(),
             split: Divider::new(geom.out_w),
-            whole: (has_avx2() && geom.k == FIXED_ROWS && geom.k * geom.maps == FIXED_RUN).then(
-                || Whole {
+            whole: Avx2::detect()
+                .filter(|_| geom.k == FIXED_ROWS && geom.k * geom.maps == FIXED_RUN)
+                .map(|avx2| Whole {
                     rows: geom.whole_footprints(geom.out_h),
                     cols: geom.whole_footprints(geom.out_w),
-                },
-            ),
+                    avx2,
+                }),
         }
     }
 
@@ -318,6 +336,7 @@ impl ConvState {
         self.awake.clear();
         self.waking.clear();
         self.candidates.clear();
+        self.clear_runs();
         self.held = None;
         self.band.clear();
         self.crossed.clear();
@@ -340,6 +359,7 @@ impl ConvState {
         for i in maps..self.thr_lo.len() {
             self.thr_lo[i] = self.thr_lo[i - maps];
         }
+        self.lo_positive = self.thr_lo[..maps].iter().all(|&lo| lo > 0.0);
     }
 
     /// Set how many fired inputs wake a position (after `set_thresholds` and `reset`, with the
@@ -369,11 +389,13 @@ impl ConvState {
     #[allow(clippy::inline_always)]
     #[inline(always)]
     pub fn add(&mut self, w: &[f32], c: usize, iy: usize, ix: usize) {
-        let whole = |w: &Whole| w.rows.contains(&iy) && w.cols.contains(&ix);
-        if !self.gated && self.whole.as_ref().is_some_and(whole) {
-            self.add_whole(w, c, iy, ix);
-        } else {
-            self.add_clipped(w, c, iy, ix);
+        let whole = |w: &&Whole| w.rows.contains(&iy) && w.cols.contains(&ix);
+        match self.whole.as_ref().filter(whole) {
+            Some(whole) if !self.gated => {
+                let avx2 = whole.avx2;
+                self.add_whole(avx2, w, c, iy, ix);
+            }
+            _ => self.add_clipped(w, c, iy, ix),
         }
     }
 
@@ -454,7 +476,7 @@ impl ConvState {
     /// kernel's last row and column, and the rows go through `add_rows_fixed`.
     #[allow(clippy::inline_always)]
     #[inline(always)]
-    fn add_whole(&mut self, w: &[f32], c: usize, iy: usize, ix: usize) {
+    fn add_whole(&mut self, avx2: Avx2, w: &[f32], c: usize, iy: usize, ix: usize) {
         let g = self.geom;
         let maps = g.maps;
         // The first output row and column, where the input is under the kernel's last ones.
@@ -465,53 +487,89 @@ impl ConvState {
             cols: g.k as u16,
         });
         self.touched_lanes += FIXED_ROWS * FIXED_RUN;
-        let mut masks = [0u32; FIXED_ROWS];
-        if add_rows_fixed(
-            &mut self.pot,
-            first * maps,
-            g.out_w * maps,
-            w,
-            (c * g.k + g.k - 1) * g.k * maps,
-            g.k * maps,
-            &self.thr_lo,
-            &mut masks,
-        ) {
-            let mut words = [0; 2];
-            for (r, &mask) in masks.iter().enumerate() {
-                words[r / WORD_ROWS] |= u64::from(mask) << (r % WORD_ROWS * FIXED_RUN);
-            }
+        // With nothing of the group pending and nothing in the band, every neuron is below
+        // `θ_lo` or latched: it starts at 0, below every `θ_lo` (`lo_positive`), reaches
+        // `θ_lo` only by an add that makes it a candidate, and `resolve` latches each candidate
+        // or keeps it in the band. The add's crossings are then the lanes it takes to `θ_lo` or
+        // above (latched ones stay `−∞`): `add_rows_fixed`'s `fresh`.
+        let pending = self.held.is_some() || !self.candidates.is_empty();
+        let fresh = !pending && self.band.is_empty() && self.lo_positive;
+        let kernel = w[c * FIXED_KERNEL..][..FIXED_KERNEL]
+            .try_into()
+            .expect("one channel's kernel");
+        let thr = self.thr_lo[..FIXED_RUN]
+            .try_into()
+            .expect("one row's thresholds");
+        let pot = &mut self.pot[first * maps..];
+        let words = add_rows_fixed(avx2, pot, g.out_w * maps, kernel, thr, fresh);
+        if words != [0; 2] {
             let held = WholeCandidates {
                 first: first as u32,
                 words,
             };
-            if self.held.is_none() && self.candidates.is_empty() {
+            if pending {
+                self.list_held();
                 self.held = Some(held);
+                self.list_held();
             } else {
-                self.list_held();
                 self.held = Some(held);
-                self.list_held();
             }
         }
     }
 
-    /// Move the candidates held as bits (`held`), if any, to `candidates`.
+    /// Note where the batch of candidates pushed from index `start` on (ascending in
+    /// `(pos, map)`) joins the ones before it (see `breaks`).
     #[inline]
+    fn note_run(&mut self, start: usize) {
+        if start == 0 || start >= self.candidates.len() {
+            return;
+        }
+        let (a, b) = (self.candidates[start - 1], self.candidates[start]);
+        if b < a {
+            self.pos_sorted &= b.0 >= a.0;
+            if let Some(slot) = self.breaks.get_mut(self.breaks_len) {
+                *slot = start as u32;
+            }
+            self.breaks_len += 1;
+        }
+    }
+
+    /// Forget the runs of `candidates` (once they are cleared).
+    #[inline]
+    fn clear_runs(&mut self) {
+        self.breaks_len = 0;
+        self.pos_sorted = true;
+    }
+
+    /// Move the candidates held as bits (`held`), if any, to `candidates`. The test inline,
+    /// the listing (rare) out of line.
+    #[allow(clippy::inline_always)]
+    #[inline(always)]
     fn list_held(&mut self) {
         if let Some(held) = self.held.take() {
-            for (p, mut maps) in held.positions() {
-                let pos = held.first + self.whole_offsets[p];
-                while maps != 0 {
-                    self.candidates.push((pos, maps.trailing_zeros()));
-                    maps &= maps - 1;
-                }
+            self.list(held);
+        }
+    }
+
+    /// `list_held` of `held`.
+    #[inline(never)]
+    fn list(&mut self, held: WholeCandidates) {
+        let start = self.candidates.len();
+        for (p, mut maps) in held.positions() {
+            let pos = held.first + self.whole_offsets[p];
+            while maps != 0 {
+                self.candidates.push((pos, maps.trailing_zeros()));
+                maps &= maps - 1;
             }
         }
+        self.note_run(start);
     }
 
     /// Record the neurons whose lanes are set in `masks` (one per output row of a run from
     /// position `first`, one `out_w` apart) as candidates.
     #[inline]
     fn push_row_candidates(&mut self, masks: &[u32], first: usize) {
+        let start = self.candidates.len();
         for (step, &mask) in masks.iter().enumerate() {
             let pos0 = (first + step * self.geom.out_w) as u32;
             let mut mask = mask;
@@ -521,6 +579,7 @@ impl ConvState {
                 mask &= mask - 1;
             }
         }
+        self.note_run(start);
     }
 
     /// Add one input to the positions of one output row (from `p0`) whose bits are set in
@@ -569,6 +628,7 @@ impl ConvState {
             &mut self.masks,
         );
         if hit {
+            let start = self.candidates.len();
             push_candidates(
                 &self.masks,
                 run,
@@ -576,6 +636,7 @@ impl ConvState {
                 pos0 as u32,
                 &mut self.candidates,
             );
+            self.note_run(start);
         }
     }
 
@@ -594,11 +655,13 @@ impl ConvState {
             let pot = &mut self.pot[p * maps..(p + 1) * maps];
             pot.fill(0.0);
             gather(self.avx2, &g, fired, &self.wake_base, w, oy, ox, pot);
+            let start = self.candidates.len();
             for (m, &v) in pot.iter().enumerate() {
                 if v >= self.thr_lo[m] {
                     self.candidates.push((pos, m as u32));
                 }
             }
+            self.note_run(start);
         }
         self.waking = waking;
         self.waking.clear();
@@ -670,8 +733,14 @@ impl ConvState {
         }
         let kernels = weights.canonical();
         let maps = self.geom.maps;
-        // Which candidates crossed (the band's neurons stay candidates until they do).
+        // Which candidates crossed (the band's neurons stay candidates until they do). Their
+        // runs are known as pushed, unless the band joins them (in no known order).
         let mut candidates = std::mem::take(&mut self.candidates);
+        let runs = self
+            .band
+            .is_empty()
+            .then_some((self.pos_sorted, self.breaks, self.breaks_len));
+        self.clear_runs();
         if !self.band.is_empty() {
             candidates.append(&mut self.band);
         }
@@ -679,7 +748,11 @@ impl ConvState {
             // Those of one input come in position order, and most groups are one input; the
             // others are a few such runs (one per input), merged as packed `pos << 32 | map`
             // keys (`sort_runs`).
-            if candidates.windows(2).all(|p| p[0].0 <= p[1].0) {
+            let in_order = match runs {
+                Some((pos_sorted, _, _)) => pos_sorted,
+                None => candidates.windows(2).all(|p| p[0].0 <= p[1].0),
+            };
+            if in_order {
                 self.fire_in_order(kernels, fired, exact, candidates.iter().copied(), out);
             } else {
                 let mut order = std::mem::take(&mut self.order);
@@ -689,7 +762,17 @@ impl ConvState {
                         .iter()
                         .map(|&(pos, map)| u64::from(pos) << 32 | u64::from(map)),
                 );
-                sort_runs(&mut order, &mut self.merged);
+                match runs {
+                    Some((_, breaks, len)) => {
+                        merge_runs(
+                            &mut order,
+                            &mut self.merged,
+                            &breaks[..len.min(MAX_RUNS)],
+                            len,
+                        );
+                    }
+                    None => sort_runs(&mut order, &mut self.merged),
+                }
                 let sorted = order.iter().map(|&key| ((key >> 32) as u32, key as u32));
                 self.fire_in_order(kernels, fired, exact, sorted, out);
                 self.order = order;
@@ -833,6 +916,25 @@ impl ConvState {
                 // changes before the position is decided).
                 let at = pos as usize * MAPS;
                 let v: [f32; MAPS] = self.pot[at..at + MAPS].try_into().expect("MAPS maps");
+                // `maps` is not 0: one map is one bit (cheaper here than `is_power_of_two`).
+                #[allow(clippy::manual_is_power_of_two)]
+                let one = maps & (maps - 1) == 0;
+                if one && !exact {
+                    // The common case: one map, whose float32 sum is surely above θ (what
+                    // `crossing_at` finds without gathering), fires alone.
+                    let map = maps.trailing_zeros();
+                    let (v32, sure) = (v[map as usize % MAPS], thr_hi[map as usize % MAPS]);
+                    if v32 >= sure && v32 != f32::NEG_INFINITY {
+                        out.push(Crossing {
+                            pos,
+                            map,
+                            v: f64::NAN,
+                            v32,
+                        });
+                        latch_position(&mut self.pot, pos as usize, MAPS);
+                        continue;
+                    }
+                }
                 let mut best: Option<Crossing> = None;
                 while maps != 0 {
                     let map = maps.trailing_zeros();
@@ -1020,24 +1122,41 @@ fn zero_footprints_body(pot: &mut [f32], inputs: &[Footprint], out_w: usize, map
     }
 }
 
+/// Beyond this many runs, merging pairwise costs more than sorting (`sort_runs`).
+const MAX_RUNS: usize = 8;
+
 /// Sort `v` by merging its ascending runs (the candidates of one input come in position
 /// order, so a group's keys are a few such runs), pairwise through `buffer`; with many runs, an
 /// ordinary sort.
 fn sort_runs(v: &mut Vec<u64>, buffer: &mut Vec<u64>) {
-    /// Beyond this many runs, merging pairwise costs more than sorting.
-    const MAX_RUNS: usize = 8;
-    let mut ends = [0usize; MAX_RUNS];
-    let mut runs = 0;
-    for i in 1..=v.len() {
-        if i == v.len() || v[i] < v[i - 1] {
-            if runs == MAX_RUNS {
+    let mut breaks = [0u32; MAX_RUNS];
+    let mut len = 0;
+    for i in 1..v.len() {
+        if v[i] < v[i - 1] {
+            if len == MAX_RUNS {
                 v.sort_unstable();
                 return;
             }
-            ends[runs] = i;
-            runs += 1;
+            breaks[len] = i as u32;
+            len += 1;
         }
     }
+    merge_runs(v, buffer, &breaks[..len], len);
+}
+
+/// `sort_runs` of `v` whose runs are known: each starts at one of `breaks` but the first;
+/// `len` breaks in all, of which those past `MAX_RUNS` are not kept (an ordinary sort then).
+fn merge_runs(v: &mut Vec<u64>, buffer: &mut Vec<u64>, breaks: &[u32], len: usize) {
+    if len >= MAX_RUNS {
+        v.sort_unstable();
+        return;
+    }
+    let mut ends = [0usize; MAX_RUNS];
+    for (end, &b) in ends.iter_mut().zip(breaks) {
+        *end = b as usize;
+    }
+    ends[len] = v.len();
+    let mut runs = len + 1;
     // The buffer as long as `v`, so that swapping them keeps both so.
     buffer.resize(v.len(), 0);
     while runs > 1 {
@@ -1424,47 +1543,66 @@ fn rows_inside(
 /// to `k = 5` output rows of `k × maps = 5 × 4` lanes each.
 const FIXED_ROWS: usize = 5;
 const FIXED_RUN: usize = 20;
+/// The weights of one input channel of such a layer (`k × k × maps`, engine layout).
+const FIXED_KERNEL: usize = FIXED_ROWS * FIXED_RUN;
 
-/// `add_rows` for `FIXED_ROWS` rows of `FIXED_RUN` lanes (AVX2 only), with the thresholds
-/// `thr[..FIXED_RUN]`: the shape of nearly every conv1 input, compiled with its sizes known so
-/// that the rows are unrolled, the thresholds loaded once and the last 4 lanes of a row taken
-/// as one half vector (`add_rows` costs about 1.7 times its instructions on that shape).
-#[allow(clippy::too_many_arguments)]
+/// Proof that the CPU has AVX2: made only by `detect`, so that code holding one (`Whole`) may
+/// call the AVX2 kernels without asking again.
+#[derive(Debug, Clone, Copy)]
+struct Avx2(());
+
+impl Avx2 {
+    fn detect() -> Option<Self> {
+        has_avx2().then_some(Self(()))
+    }
+}
+
+/// `add_rows` for `FIXED_ROWS` rows of `FIXED_RUN` lanes (AVX2 only): row `r`'s potentials
+/// from `pot[r · p_stride]`, its weights the kernel's row `FIXED_ROWS − 1 − r` (`kernel`, one
+/// input channel's), the thresholds `thr`. The shape of nearly every conv1 input, compiled
+/// with its sizes known so that the rows are unrolled, the thresholds loaded once and the
+/// last 4 lanes of a row taken as one half vector (`add_rows` costs about 1.7 times its
+/// instructions on that shape). Returns the crossing lanes as `WholeCandidates` words (none
+/// set where none crossed).
+///
+/// `fresh` promises that no lane of these rows is at or above its threshold before the add
+/// (see `ConvState::add_whole` for when that holds): a lane then crossed exactly where it is at
+/// or above its threshold after the add, which spares the compare of the old potentials.
 #[inline]
 fn add_rows_fixed(
+    avx2: Avx2,
     pot: &mut [f32],
-    p0: usize,
     p_stride: usize,
-    w: &[f32],
-    w0: usize,
-    w_stride: usize,
-    thr: &[f32],
-    masks: &mut [u32],
-) -> bool {
+    kernel: &[f32; FIXED_KERNEL],
+    thr: &[f32; FIXED_RUN],
+    fresh: bool,
+) -> [u64; 2] {
     assert!(
-        masks.len() == FIXED_ROWS
-            && thr.len() >= FIXED_RUN
-            && rows_inside(pot, p0, p_stride, w, w0, w_stride, FIXED_RUN, FIXED_ROWS),
-        "rows inside the layer and the kernel"
+        pot.len() >= (FIXED_ROWS - 1) * p_stride + FIXED_RUN,
+        "rows inside the layer"
     );
     #[cfg(target_arch = "x86_64")]
     {
-        assert!(has_avx2(), "add_rows_fixed needs AVX2");
-        // SAFETY: the ranges are asserted above and the CPU has AVX2.
-        unsafe {
-            simd::add_rows_fixed_avx2(
-                pot.as_mut_ptr().add(p0),
-                p_stride,
-                w.as_ptr().add(w0),
-                w_stride,
-                thr,
-                masks,
-            )
-        }
+        let _ = avx2;
+        // SAFETY: the rows are inside `pot` (asserted above), the kernel's and thresholds'
+        // lengths are their types', and `avx2` proves that the CPU has AVX2.
+        let (a, b) =
+            unsafe { simd::add_rows_fixed_avx2(pot.as_mut_ptr(), p_stride, kernel, thr, fresh) };
+        [a, b]
     }
     #[cfg(not(target_arch = "x86_64"))]
     {
-        add_rows(pot, p0, p_stride, w, w0, w_stride, &thr[..FIXED_RUN], masks)
+        let _ = (avx2, fresh); // the same masks either way, where `fresh` holds
+        let mut words = [0; 2];
+        for r in 0..FIXED_ROWS {
+            let (p, k) = (r * p_stride, (FIXED_ROWS - 1 - r) * FIXED_RUN);
+            let mut bytes = [0u8; 4];
+            let w = &kernel[k..k + FIXED_RUN];
+            add_detect_scalar(&mut pot[p..p + FIXED_RUN], w, thr, &mut bytes, 0);
+            let mask = u64::from(u32::from_le_bytes(bytes));
+            words[r / WORD_ROWS] |= mask << (r % WORD_ROWS * FIXED_RUN);
+        }
+        words
     }
 }
 
@@ -1964,23 +2102,22 @@ mod simd {
         ))
     }
 
-    /// `add_rows_avx2` for `FIXED_ROWS` rows of `FIXED_RUN` lanes: two full vectors and one
-    /// half vector per row, whose crossing lanes are packed to bytes (in lane order, by one
-    /// permutation) for a single movemask per row.
+    /// `super::add_rows_fixed`: two full vectors and one half vector per row, whose crossing
+    /// lanes are packed to bytes (in lane order, by one permutation) for a single movemask per
+    /// row. With `fresh`, a lane crossed where its new potential is at or above its threshold.
+    /// Returns the two words of crossing lanes.
     ///
     /// # Safety
-    /// The CPU must support AVX2; for every `r < FIXED_ROWS`, `pot + r · p_stride` and
-    /// `w − r · w_stride` hold `FIXED_RUN` values; `thr` holds at least `FIXED_RUN` and
-    /// `masks` `FIXED_ROWS`.
+    /// The CPU must support AVX2; for every `r < FIXED_ROWS`, `pot + r · p_stride` holds
+    /// `FIXED_RUN` values.
     #[target_feature(enable = "avx2")]
     pub(super) unsafe fn add_rows_fixed_avx2(
         pot: *mut f32,
         p_stride: usize,
-        w: *const f32,
-        w_stride: usize,
-        thr: &[f32],
-        masks: &mut [u32],
-    ) -> bool {
+        kernel: &[f32; super::FIXED_KERNEL],
+        thr: &[f32; super::FIXED_RUN],
+        fresh: bool,
+    ) -> (u64, u64) {
         const _: () = assert!(super::FIXED_RUN == 20, "two vectors and a half per row");
         // SAFETY: thr holds FIXED_RUN values.
         let (t0, t1, t2) = unsafe {
@@ -1993,11 +2130,15 @@ mod simd {
         // After the packs, the 32-bit groups of bytes hold lanes 0-3, 8-11, 16-19, none, 4-7,
         // 12-15, none, none: this puts them back in order.
         let order = _mm256_setr_epi32(0, 4, 1, 5, 2, 3, 6, 7);
-        let mut any = 0u32;
-        for (r, slot) in masks.iter_mut().enumerate().take(super::FIXED_ROWS) {
-            // SAFETY: the caller guarantees that both rows hold FIXED_RUN values.
+        let mut words = [0u64; 2];
+        for r in 0..super::FIXED_ROWS {
+            // SAFETY: the caller guarantees that the row holds FIXED_RUN values; the kernel's
+            // row `FIXED_ROWS − 1 − r` is inside it.
             let (c0, c1, c2) = unsafe {
-                let (p, wp) = (pot.add(r * p_stride), w.sub(r * w_stride));
+                let p = pot.add(r * p_stride);
+                let wp = kernel
+                    .as_ptr()
+                    .add((super::FIXED_ROWS - 1 - r) * super::FIXED_RUN);
                 let old0 = _mm256_loadu_ps(p);
                 let new0 = _mm256_add_ps(old0, _mm256_loadu_ps(wp));
                 _mm256_storeu_ps(p, new0);
@@ -2007,22 +2148,31 @@ mod simd {
                 let old2 = _mm_loadu_ps(p.add(16));
                 let new2 = _mm_add_ps(old2, _mm_loadu_ps(wp.add(16)));
                 _mm_storeu_ps(p.add(16), new2);
-                let c2 =
-                    _mm_castps_si128(_mm_and_ps(_mm_cmplt_ps(old2, t2), _mm_cmpge_ps(new2, t2)));
-                (
-                    crossed_lanes(old0, new0, t0),
-                    crossed_lanes(old1, new1, t1),
-                    c2,
-                )
+                if fresh {
+                    (
+                        _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GE_OQ>(new0, t0)),
+                        _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GE_OQ>(new1, t1)),
+                        _mm_castps_si128(_mm_cmpge_ps(new2, t2)),
+                    )
+                } else {
+                    let c2 = _mm_castps_si128(_mm_and_ps(
+                        _mm_cmplt_ps(old2, t2),
+                        _mm_cmpge_ps(new2, t2),
+                    ));
+                    (
+                        crossed_lanes(old0, new0, t0),
+                        crossed_lanes(old1, new1, t1),
+                        c2,
+                    )
+                }
             };
-            let words = _mm256_packs_epi32(c0, c1);
+            let halves = _mm256_packs_epi32(c0, c1);
             let tail = _mm256_zextsi128_si256(_mm_packs_epi32(c2, _mm_setzero_si128()));
-            let bytes = _mm256_permutevar8x32_epi32(_mm256_packs_epi16(words, tail), order);
-            let mask = _mm256_movemask_epi8(bytes) as u32;
-            *slot = mask;
-            any |= mask;
+            let bytes = _mm256_permutevar8x32_epi32(_mm256_packs_epi16(halves, tail), order);
+            let mask = u64::from(_mm256_movemask_epi8(bytes) as u32);
+            words[r / super::WORD_ROWS] |= mask << (r % super::WORD_ROWS * super::FIXED_RUN);
         }
-        any != 0
+        (words[0], words[1])
     }
 
     /// # Safety
@@ -2216,25 +2366,53 @@ mod tests {
     /// `add_rows_fixed` equals `add_rows` on its shape, crossings in every lane included.
     #[test]
     fn add_rows_fixed_equals_add_rows() {
-        if !has_avx2() {
+        let Some(avx2) = Avx2::detect() else {
             return; // add_rows_fixed is only called where the CPU has AVX2
-        }
+        };
         let mut rng = crate::network::xorshift(13u64);
         let mut next = || {
             let s = rng();
             (s >> 40) as f32 / (1u64 << 20) as f32
         };
-        let (p_stride, w_stride) = (47, 29);
+        let p_stride = 47;
         for round in 0..50 {
             let pot: Vec<f32> = (0..FIXED_ROWS * p_stride).map(|_| next() * 2.0).collect();
-            let w: Vec<f32> = (0..FIXED_ROWS * w_stride).map(|_| next()).collect();
-            let thr: Vec<f32> = (0..FIXED_RUN).map(|_| next() * 3.0).collect();
-            let (p0, w0) = (round % 7, (FIXED_ROWS - 1) * w_stride + round % 5);
-            let (mut a, mut b) = (pot.clone(), pot);
-            let (mut ma, mut mb) = ([0u32; FIXED_ROWS], [0u32; FIXED_ROWS]);
-            let any_a = add_rows_fixed(&mut a, p0, p_stride, &w, w0, w_stride, &thr, &mut ma);
-            let any_b = add_rows(&mut b, p0, p_stride, &w, w0, w_stride, &thr, &mut mb);
-            assert_eq!((a, ma, any_a), (b, mb, any_b), "round {round}");
+            let kernel: [f32; FIXED_KERNEL] = std::array::from_fn(|_| next());
+            let thr: [f32; FIXED_RUN] = std::array::from_fn(|_| next() * 3.0);
+            let p0 = round % 7;
+            // `fresh` only where its promise holds: every lane below its threshold or `−∞`.
+            let mut below = pot.clone();
+            for r in 0..FIXED_ROWS {
+                for (l, &t) in thr.iter().enumerate() {
+                    let v = &mut below[p0 + r * p_stride + l];
+                    *v = if (r * FIXED_RUN + l + round) % 7 == 3 {
+                        f32::NEG_INFINITY
+                    } else {
+                        let v = t * (next() / 16.0);
+                        if v < t {
+                            v
+                        } else {
+                            0.0
+                        }
+                    };
+                }
+            }
+            for (pot, fresh) in [(pot, false), (below.clone(), false), (below, true)] {
+                let (mut a, mut b) = (pot.clone(), pot);
+                let words = add_rows_fixed(avx2, &mut a[p0..], p_stride, &kernel, &thr, fresh);
+                // Row r reads the kernel's row FIXED_ROWS − 1 − r.
+                let w0 = (FIXED_ROWS - 1) * FIXED_RUN;
+                let mut masks = [0u32; FIXED_ROWS];
+                let any = add_rows(
+                    &mut b, p0, p_stride, &kernel, w0, FIXED_RUN, &thr, &mut masks,
+                );
+                let mut want = [0u64; 2];
+                for (r, &mask) in masks.iter().enumerate() {
+                    want[r / WORD_ROWS] |= u64::from(mask) << (r % WORD_ROWS * FIXED_RUN);
+                }
+                assert_eq!((&a, words), (&b, want), "round {round}, {fresh}");
+                assert_eq!(any, want != [0; 2]);
+            }
         }
     }
 

@@ -1,6 +1,7 @@
 //! A max-pool layer's per-window state (docs/model.md §3): a pool neuron `(m, q)` fires at the
 //! time of the first spike of map `m` in its block. It has no potential and does not inhibit.
 
+use super::conv::Crossing;
 use super::geometry::{Divider, PoolGeom};
 
 /// A spike leaving a pool layer: `(map, row, col)`, all at the group's time.
@@ -20,28 +21,48 @@ pub(crate) struct PoolState {
     words: usize,
     /// Division by the stride.
     stride: Divider,
-    /// Per conv row: its block row and, times `k`, its row in the block; per conv column: its
-    /// block column and its column in the block (`on_spike` where blocks tile the layer,
-    /// `k = stride`: two loads instead of two divisions per spike).
-    row_block: Vec<(u32, u32)>,
-    col_block: Vec<(u32, u32)>,
+    /// Per conv row: the index of its block row's first neuron (`qy · out_w · maps`, or the
+    /// number of neurons where the row is in no block), the block row `qy`, and its row in the
+    /// block times `k`; per conv column: `qx · maps` (or the number of neurons), `qx`, and its
+    /// column in the block. Where blocks tile the layer (`k = stride`), a spike's neuron index
+    /// is then two loads and two additions, out of range exactly where it is in no block.
+    row_block: Vec<[u32; 3]>,
+    col_block: Vec<[u32; 3]>,
 }
 
 impl PoolState {
     pub fn new(geom: PoolGeom) -> Self {
         let n = geom.neurons();
+        let none = u32::try_from(n).expect("pool neurons fit 32 bits");
+        let s = geom.stride;
         Self {
             geom,
             fired: vec![0; n],
             time: vec![0; n],
             causes: vec![0; n * (geom.k * geom.k).div_ceil(64)],
             words: (geom.k * geom.k).div_ceil(64),
-            stride: Divider::new(geom.stride),
+            stride: Divider::new(s),
             row_block: (0..geom.in_h)
-                .map(|r| ((r / geom.stride) as u32, (r % geom.stride * geom.k) as u32))
+                .map(|r| {
+                    let q = r / s;
+                    let base = if q < geom.out_h {
+                        (q * geom.out_w * geom.maps) as u32
+                    } else {
+                        none
+                    };
+                    [base, q as u32, (r % s * geom.k) as u32]
+                })
                 .collect(),
             col_block: (0..geom.in_w)
-                .map(|c| ((c / geom.stride) as u32, (c % geom.stride) as u32))
+                .map(|c| {
+                    let q = c / s;
+                    let base = if q < geom.out_w {
+                        (q * geom.maps) as u32
+                    } else {
+                        none
+                    };
+                    [base, q as u32, (c % s) as u32]
+                })
                 .collect(),
         }
     }
@@ -51,39 +72,64 @@ impl PoolState {
         self.fired.fill(0);
     }
 
-    /// A spike of map `map` at conv position `(row, col)` at time `t`: fire every pool neuron of
-    /// that map whose block holds it and that has not fired yet, and note the spike as a cause
-    /// of those that fire at `t`.
-    #[inline]
-    pub fn on_spike(
+    /// A conv group's `spikes` at time `t`, in order (positions split into row and column by
+    /// `split`): for each, fire every pool neuron of its map whose block holds it and that has
+    /// not fired yet, and note the spike as a cause of those that fire at `t`. Inlined into
+    /// the per-layer step, the loop inside: no call per spike, nor per group.
+    #[allow(clippy::inline_always)]
+    #[inline(always)]
+    pub fn on_spikes(
         &mut self,
         generation: u32,
         t: u64,
-        map: u32,
-        row: usize,
-        col: usize,
+        spikes: &[Crossing],
+        split: Divider,
         out: &mut Vec<PoolSpike>,
     ) {
         let g = self.geom;
-        if g.k == g.stride {
-            // Blocks that tile the layer (Table 1's pools): the one block holding the spike,
-            // if any (with valid padding, the last rows or columns may be in none).
-            let ((qy, by), (qx, bx)) = (self.row_block[row], self.col_block[col]);
-            let (qy, qx) = (qy as usize, qx as usize);
-            if qy < g.out_h && qx < g.out_w {
-                self.take(generation, t, map, qy, qx, (by + bx) as usize, out);
+        if g.k != g.stride || self.words != 1 {
+            for c in spikes {
+                let (row, col) = split.div_rem(c.pos as usize);
+                self.on_spike_blocks(generation, t, c.map, row, col, out);
             }
             return;
         }
-        self.on_spike_overlapping(generation, t, map, row, col, out);
+        // Blocks that tile the layer, of up to 64 conv neurons (Table 1's pools): the one
+        // block holding a spike, if any (with valid padding, the last rows or columns may be
+        // in none), and one cause word per neuron.
+        let n = self.fired.len();
+        let (fired, time, causes) = (
+            &mut self.fired[..],
+            &mut self.time[..n],
+            &mut self.causes[..n],
+        );
+        for c in spikes {
+            let (row, col) = split.div_rem(c.pos as usize);
+            let ([rb, qy, by], [cb, qx, bx]) = (self.row_block[row], self.col_block[col]);
+            let i = rb as usize + cb as usize + c.map as usize;
+            if i >= n {
+                continue; // in no block
+            }
+            let bit = 1u64 << (by + bx);
+            if fired[i] != generation {
+                fired[i] = generation;
+                time[i] = t;
+                causes[i] = bit;
+                out.push((c.map, qy, qx));
+            } else if time[i] == t {
+                causes[i] |= bit;
+            }
+            // Else it fired earlier (most spikes of a busy block): this spike is not one of
+            // its causes.
+        }
     }
 
-    /// `on_spike` for blocks that overlap or leave gaps (`k ≠ stride`): every block holding the
-    /// spike. Kept out of line, so that `on_spike` holds only the one-block path (Table 1's
-    /// pools) and saves fewer registers per spike (inlining `on_spike` into `propagate`
-    /// measured more instructions).
+    /// `on_spikes` for one spike of map `map` at conv position `(row, col)`, where blocks
+    /// overlap or leave gaps (`k ≠ stride`) or hold more than 64 conv neurons: every block
+    /// holding the spike. Kept out of line, so that `on_spikes` holds only the loop of
+    /// Table 1's pools.
     #[inline(never)]
-    fn on_spike_overlapping(
+    fn on_spike_blocks(
         &mut self,
         generation: u32,
         t: u64,

@@ -568,10 +568,7 @@ impl WindowState {
             return false;
         }
         self.pool_out.clear();
-        for c in &self.crossings {
-            let (row, col) = split.div_rem(c.pos as usize);
-            self.pool[layer].on_spike(generation, t, c.map, row, col, &mut self.pool_out);
-        }
+        self.pool[layer].on_spikes(generation, t, &self.crossings, split, &mut self.pool_out);
         let pool_layer = Layer::ALL[2 * layer + 1];
         self.counts[pool_layer.index()] += self.pool_out.len() as u64;
         if self.record {
