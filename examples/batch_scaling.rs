@@ -8,8 +8,9 @@
 //!
 //! The batch is the Criterion `batch_threads` group's (64 windows of 240×180 at 1 %, Table 1),
 //! also run on one state with `run_window` in turn (no pool). The references spread 64 equal
-//! tasks over the same rayon pools: integer arithmetic (no memory traffic), and random writes
-//! over a private 2 MiB buffer each. The pools take turns for `ROUNDS` rounds (default 15);
+//! tasks over the same rayon pools: a chain of integer arithmetic (no memory traffic), random
+//! writes over a private 2 MiB buffer each, and eight independent chains that keep a core's
+//! integer units busy (what two hardware threads of one core would share). The pools take turns for `ROUNDS` rounds (default 15);
 //! the least wall time of each is printed, and the ratios 1 → 2 threads.
 
 use std::hint::black_box;
