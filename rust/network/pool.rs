@@ -96,7 +96,9 @@ impl PoolState {
         }
         // Blocks that tile the layer, of up to 64 conv neurons (Table 1's pools): the one
         // block holding a spike, if any (with valid padding, the last rows or columns may be
-        // in none), and one cause word per neuron.
+        // in none), and one cause word per neuron. `take`'s rule, written out for one word:
+        // going through `take`'s general path (index and cause words per spike) measured 4.3 %
+        // more instructions on Table 1's network at 1 % on 240x180 (5.846 -> 6.098 M).
         let n = self.fired.len();
         let (fired, time, causes) = (
             &mut self.fired[..],
