@@ -386,12 +386,19 @@ impl WindowState {
     /// Whether `take_valid` may take these spikes: see `push_spikes`.
     fn all_valid(&self, net: &Network, t: &[u64], x: &[u16], y: &[u16]) -> bool {
         let after = |first: u64| first >= self.t0 && self.last_t.map_or(true, |l| first >= l);
-        // One pass without early exits (the spikes are valid but for a rare error).
-        let (mut in_order, mut inside) = (true, true);
-        for (i, (&x, &y)) in x.iter().zip(y).enumerate() {
-            in_order &= i == 0 || t[i - 1] <= t[i];
-            inside &= usize::from(x) < self.width && usize::from(y) < self.height;
-        }
+        // Passes without early exits (the spikes are valid but for a rare error), in forms the
+        // compiler vectorises: the count of times that go backwards, the largest coordinates.
+        let backwards = t
+            .iter()
+            .zip(t.iter().skip(1))
+            .fold(0u64, |n, (&a, &b)| n + u64::from(b < a));
+        let in_order = backwards == 0;
+        let (max_x, max_y) = (
+            x.iter().fold(0, |m, &v| m.max(v)),
+            y.iter().fold(0, |m, &v| m.max(v)),
+        );
+        let inside =
+            x.is_empty() || (usize::from(max_x) < self.width && usize::from(max_y) < self.height);
         self.open
             && self.made_for(net)
             && self.training.is_none()
