@@ -413,21 +413,26 @@ impl WindowState {
     /// `process_pending` do, without the pending list).
     fn take_valid(&mut self, net: &Network, t: &[u64], x: &[u16], y: &[u16]) {
         let w = net.conv_weights(ConvLayer::Conv1).engine();
-        let mut i = 0;
-        while i < t.len() {
-            let group_t = t[i];
-            let mut added = false;
-            while i < t.len() && t[i] == group_t {
-                let (xs, ys) = (usize::from(x[i]), usize::from(y[i]));
-                if self.stamp(ys * self.width + xs, group_t) {
-                    self.conv[0].add(w, 0, ys, xs);
-                    added = true;
+        // One pass over the zipped columns (no bounds checks per spike): a spike of a later
+        // time completes the group before it, whose inputs are then run up the network.
+        let mut group_t = t.first().copied().unwrap_or(0);
+        let mut added = false;
+        for ((&st, &sx), &sy) in t.iter().zip(x).zip(y) {
+            if st != group_t {
+                if added {
+                    self.propagate(net, group_t);
                 }
-                i += 1;
+                group_t = st;
+                added = false;
             }
-            if added {
-                self.propagate(net, group_t);
+            let (xs, ys) = (usize::from(sx), usize::from(sy));
+            if self.stamp(ys * self.width + xs, st) {
+                self.conv[0].add(w, 0, ys, xs);
+                added = true;
             }
+        }
+        if added {
+            self.propagate(net, group_t);
         }
         self.pushed += t.len();
         if let Some(&last) = t.last() {
