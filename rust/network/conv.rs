@@ -668,8 +668,25 @@ impl ConvState {
     }
 
     /// The exact potential of neuron `(map, pos)`: the float64 sum of the weights of its inputs
-    /// that fired.
+    /// that fired. A field of one channel and the whole `FIXED_ROWS × FIXED_ROWS` kernel
+    /// (conv1's, nearly always) takes `exact_whole`.
     fn exact(&self, kernels: &[f32], fired: Fired<'_>, pos: usize, map: usize) -> f64 {
+        let g = self.geom;
+        if fired.channels == 1 && g.in_ch == 1 && g.k == FIXED_ROWS {
+            let (oy, ox) = self.split.div_rem(pos);
+            let (rows, cols) = (g.inputs_of(oy, g.in_h), g.inputs_of(ox, g.in_w));
+            if rows.len() == FIXED_ROWS && cols.len() == FIXED_ROWS {
+                let kernel = kernels[map * g.kernel_len()..][..g.kernel_len()]
+                    .try_into()
+                    .expect("one channel's kernel");
+                return exact_whole(kernel, fired, rows.start, cols.start);
+            }
+        }
+        self.exact_general(kernels, fired, pos, map)
+    }
+
+    /// `exact` for any field, through `each_fired_input`.
+    fn exact_general(&self, kernels: &[f32], fired: Fired<'_>, pos: usize, map: usize) -> f64 {
         let g = self.geom;
         let (oy, ox) = self.split.div_rem(pos);
         let kernel = &kernels[map * g.kernel_len()..(map + 1) * g.kernel_len()];
@@ -1012,6 +1029,36 @@ impl WholeCandidates {
                 })
             })
     }
+}
+
+/// `ConvState::exact` for a neuron of one input channel whose receptive field is the whole
+/// `FIXED_ROWS × FIXED_ROWS` kernel `kernel` (canonical `[dy][dx]`), from input row `iy0` and
+/// column `ix0`: conv1's, nearly always. The same float64 sum in the same order (the fired
+/// inputs row by row, each row's from the left, as `each_fired_input` visits them), each row's
+/// stamps tested together instead of through the general walk.
+#[inline]
+fn exact_whole(
+    kernel: &[f32; FIXED_ROWS * FIXED_ROWS],
+    fired: Fired<'_>,
+    iy0: usize,
+    ix0: usize,
+) -> f64 {
+    let mut v = 0.0;
+    for (dy, krow) in kernel.chunks_exact(FIXED_ROWS).enumerate() {
+        let from = (iy0 + dy) * fired.width + ix0;
+        let row: &[u32; FIXED_ROWS] = fired.stamps[from..from + FIXED_ROWS]
+            .try_into()
+            .expect("one row of the field");
+        let mut mask = 0u32;
+        for (b, &stamp) in row.iter().enumerate() {
+            mask |= u32::from(stamp == fired.generation) << b;
+        }
+        while mask != 0 {
+            v += f64::from(krow[mask.trailing_zeros() as usize]);
+            mask &= mask - 1;
+        }
+    }
+    v
 }
 
 /// Latch every map of position `pos` (set its `maps` float32 potentials to `−∞`).
@@ -2303,6 +2350,43 @@ mod tests {
 
     /// `sort_runs` sorts like `sort_unstable`, whatever the runs: none, a few (merged), many
     /// (sorted).
+    /// `exact` (through `exact_whole` where the field is whole) equals the general walk, bit
+    /// for bit, at every neuron of both paddings, with stamps of several generations.
+    #[test]
+    fn exact_whole_equals_general() {
+        let mut rng = crate::network::xorshift(11u64);
+        for padding in [Padding::Same, Padding::Valid] {
+            let (g, w) = small(padding);
+            let s = ConvState::new(g);
+            for density in [2u64, 3, 8] {
+                let stamps: Vec<u32> = (0..g.in_h * g.in_w)
+                    .map(|_| {
+                        if rng() % density == 0 {
+                            7
+                        } else {
+                            (rng() % 7) as u32
+                        }
+                    })
+                    .collect();
+                let fired = Fired {
+                    stamps: &stamps,
+                    width: g.in_w,
+                    channels: 1,
+                    generation: 7,
+                };
+                for pos in 0..g.out_h * g.out_w {
+                    for m in 0..g.maps {
+                        let (fast, general) = (
+                            s.exact(w.canonical(), fired, pos, m),
+                            s.exact_general(w.canonical(), fired, pos, m),
+                        );
+                        assert_eq!(fast.to_bits(), general.to_bits(), "{padding:?} {pos} {m}");
+                    }
+                }
+            }
+        }
+    }
+
     #[test]
     fn sort_runs_sorts() {
         let mut rng = crate::network::xorshift(5u64);
