@@ -160,8 +160,13 @@ pub(crate) struct ConvState {
     merged: Vec<u64>,
     /// Where the inputs added this window landed (what the next window must zero).
     inputs: Vec<Footprint>,
-    /// Potentials written this window, counted with repeats (the cost of replaying `inputs`).
+    /// Potentials written this window by `inputs`, counted with repeats (the cost of
+    /// replaying them).
     touched_lanes: usize,
+    /// The first positions of the whole footprints added this window (`add_whole`'s, of
+    /// `FIXED_ROWS` rows of `FIXED_RUN` lanes each), kept apart from `inputs` so that pushing
+    /// one is one value and zeroing it needs no test of its shape.
+    wholes: Vec<u32>,
     /// Scratch: per 8 lanes of a run, which reached `θ_lo` (whole words of 64 lanes, read as
     /// such by `push_candidates`).
     masks: Vec<u8>,
@@ -263,6 +268,7 @@ impl ConvState {
             merged: Vec::new(),
             inputs: Vec::new(),
             touched_lanes: 0,
+            wholes: Vec::new(),
             masks: vec![0; (geom.k * geom.maps).div_ceil(64) * 8],
             avx2: has_avx2(),
             gated: false,
@@ -326,13 +332,15 @@ impl ConvState {
                     }
                 }
             }
-        } else if self.touched_lanes >= g.neurons() {
+        } else if self.touched_lanes + self.wholes.len() * FIXED_ROWS * FIXED_RUN >= g.neurons() {
             zero_all(self.avx2, &mut self.pot);
         } else {
             zero_footprints(self.avx2, &mut self.pot, &self.inputs, g.out_w, maps);
+            zero_wholes(self.avx2, &mut self.pot, &self.wholes, g.out_w * maps);
         }
         self.touched_lanes = 0;
         self.inputs.clear();
+        self.wholes.clear();
         self.awake.clear();
         self.waking.clear();
         self.candidates.clear();
@@ -481,12 +489,7 @@ impl ConvState {
         let maps = g.maps;
         // The first output row and column, where the input is under the kernel's last ones.
         let first = (iy + g.p_lo + 1 - g.k) * g.out_w + (ix + g.p_lo + 1 - g.k);
-        self.inputs.push(Footprint {
-            first: first as u32,
-            rows: FIXED_ROWS as u16,
-            cols: g.k as u16,
-        });
-        self.touched_lanes += FIXED_ROWS * FIXED_RUN;
+        self.wholes.push(first as u32);
         // With nothing of the group pending and nothing in the band, every neuron is below
         // `θ_lo` or latched: it starts at 0, below every `θ_lo` (`lo_positive`), reaches
         // `θ_lo` only by an add that makes it a candidate, and `resolve` latches each candidate
@@ -1127,6 +1130,48 @@ fn zero_footprints(avx2: bool, pot: &mut [f32], inputs: &[Footprint], out_w: usi
     }
     let _ = avx2;
     zero_footprints_body(pot, inputs, out_w, maps);
+}
+
+/// Zero the whole footprints from the first positions `wholes` (`ConvState::wholes`): each
+/// `FIXED_ROWS` rows of `FIXED_RUN` potentials, `stride` apart. Compiled for AVX2 where the
+/// CPU has it, so that a row is two vector stores and a half.
+#[inline]
+fn zero_wholes(avx2: bool, pot: &mut [f32], wholes: &[u32], stride: usize) {
+    #[cfg(target_arch = "x86_64")]
+    if avx2 {
+        // SAFETY: `avx2` comes from `has_avx2`.
+        unsafe { simd::zero_wholes_avx2(pot, wholes, stride) };
+        return;
+    }
+    let _ = avx2;
+    zero_wholes_body(pot, wholes, stride);
+}
+
+/// The loop of `zero_wholes`, inlined into each of its compilations.
+#[allow(clippy::inline_always)]
+#[inline(always)]
+fn zero_wholes_body(pot: &mut [f32], wholes: &[u32], stride: usize) {
+    // The last first position whose rows end inside `pot` (one compare per footprint instead
+    // of a bounds check per row); none if even position 0's do not.
+    let Some(room) = pot.len().checked_sub((FIXED_ROWS - 1) * stride + FIXED_RUN) else {
+        assert!(wholes.is_empty(), "footprints inside the layer");
+        return;
+    };
+    let last = room / MAPS;
+    let p = pot.as_mut_ptr();
+    for &first in wholes {
+        let first = first as usize;
+        assert!(first <= last, "footprint inside the layer");
+        for r in 0..FIXED_ROWS {
+            // SAFETY: row `r` ends at `first · MAPS + r · stride + FIXED_RUN`, at most
+            // `room + (FIXED_ROWS − 1) · stride + FIXED_RUN = pot.len()` (`first ≤ last`).
+            unsafe {
+                p.add(first * MAPS + r * stride)
+                    .cast::<[f32; FIXED_RUN]>()
+                    .write_unaligned([0.0; FIXED_RUN]);
+            }
+        }
+    }
 }
 
 /// The loop of `zero_footprints`, inlined into each of its compilations.
@@ -1794,6 +1839,15 @@ mod simd {
         maps: usize,
     ) {
         super::zero_footprints_body(pot, inputs, out_w, maps);
+    }
+
+    /// `super::zero_wholes` compiled for AVX2.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn zero_wholes_avx2(pot: &mut [f32], wholes: &[u32], stride: usize) {
+        super::zero_wholes_body(pot, wholes, stride);
     }
 
     /// `super::zero_all` compiled for AVX2.
