@@ -149,7 +149,9 @@ pub(crate) struct ConvState {
     held: Option<WholeCandidates>,
     /// Per position `p` of a whole footprint (`p / k` rows and `p mod k` columns from its
     /// first): its offset from the first, `(p / k) · out_w + p mod k`.
-    whole_offsets: [u32; WHOLE_POSITIONS],
+    /// Padded to `OFFSET_SLOTS`, so that the index of any nibble of a word needs no bounds
+    /// check.
+    whole_offsets: [u32; OFFSET_SLOTS],
     /// Earlier candidates whose exact potential was still below θ (re-checked every group).
     band: Vec<(u32, u32)>,
     /// Neurons that crossed in the current group (without lateral inhibition).
@@ -216,6 +218,9 @@ const _: () = assert!(
 const MAPS: usize = FIXED_RUN / FIXED_ROWS;
 const WORD_POSITIONS: usize = WORD_ROWS * FIXED_RUN / MAPS;
 const WHOLE_POSITIONS: usize = FIXED_ROWS * FIXED_ROWS;
+/// `WORD_POSITIONS + 64 / MAPS`, rounded up to a power of two: above any
+/// `WORD_POSITIONS · word + nibble` of a word's 64 bits.
+const OFFSET_SLOTS: usize = (WORD_POSITIONS + 64 / MAPS).next_power_of_two();
 /// The bits of one position's maps.
 const POSITION_MAPS: u32 = (1 << MAPS) - 1;
 
@@ -260,7 +265,11 @@ impl ConvState {
             pos_sorted: true,
             held: None,
             whole_offsets: std::array::from_fn(|p| {
-                ((p / FIXED_ROWS) * geom.out_w + p % FIXED_ROWS) as u32
+                if p < WHOLE_POSITIONS {
+                    ((p / FIXED_ROWS) * geom.out_w + p % FIXED_ROWS) as u32
+                } else {
+                    0 // never set in a word
+                }
             }),
             band: Vec::new(),
             crossed: Vec::new(),
@@ -931,7 +940,9 @@ impl ConvState {
                 let p = bits.trailing_zeros() as usize / MAPS;
                 let mut maps = (bits >> (p * MAPS)) as u32 & POSITION_MAPS;
                 bits &= !(u64::from(POSITION_MAPS) << (p * MAPS));
-                let pos = held.first + self.whole_offsets[word * WORD_POSITIONS + p];
+                // Below `OFFSET_SLOTS` already: the remainder only tells the compiler so.
+                let slot = (word * WORD_POSITIONS + p) % OFFSET_SLOTS;
+                let pos = held.first + self.whole_offsets[slot];
                 // `crossing` for each map, from one load of the position's potentials (none
                 // changes before the position is decided).
                 let at = pos as usize * MAPS;
@@ -941,10 +952,11 @@ impl ConvState {
                 let one = maps & (maps - 1) == 0;
                 if one && !exact {
                     // The common case: one map, whose float32 sum is surely above θ (what
-                    // `crossing_at` finds without gathering), fires alone.
+                    // `crossing_at` finds without gathering), fires alone. A latched map (`−∞`)
+                    // never passes: `θ_hi` is not `−∞` (it rounds up `θ · (1 + m)`, θ > 0).
                     let map = maps.trailing_zeros();
                     let (v32, sure) = (v[map as usize % MAPS], thr_hi[map as usize % MAPS]);
-                    if v32 >= sure && v32 != f32::NEG_INFINITY {
+                    if v32 >= sure {
                         out.push(Crossing {
                             pos,
                             map,
