@@ -225,13 +225,29 @@ const OFFSET_SLOTS: usize = (WORD_POSITIONS + 64 / MAPS).next_power_of_two();
 const POSITION_MAPS: u32 = (1 << MAPS) - 1;
 
 /// The inputs of a layer whose footprint is the whole kernel: input rows and columns whose `k`
-/// output rows (columns) are all inside the layer; and the proof that the CPU has AVX2, which
-/// `add_rows_fixed` needs.
+/// output rows (columns) are all inside the layer, `rows` from `row0` and `cols` from `col0`
+/// (as first and length, so that an input is tested with one compare per axis, and its
+/// distance from the first is its footprint's first output row or column); and the proof that
+/// the CPU has AVX2, which `add_rows_fixed` needs.
 #[derive(Debug, Clone)]
 struct Whole {
-    rows: Range<usize>,
-    cols: Range<usize>,
+    row0: usize,
+    rows: usize,
+    col0: usize,
+    cols: usize,
     avx2: Avx2,
+}
+
+impl Whole {
+    fn new(rows: Range<usize>, cols: Range<usize>, avx2: Avx2) -> Self {
+        Self {
+            row0: rows.start,
+            rows: rows.len(),
+            col0: cols.start,
+            cols: cols.len(),
+            avx2,
+        }
+    }
 }
 
 impl ConvState {
@@ -291,10 +307,12 @@ impl ConvState {
             split: Divider::new(geom.out_w),
             whole: Avx2::detect()
                 .filter(|_| geom.k == FIXED_ROWS && geom.k * geom.maps == FIXED_RUN)
-                .map(|avx2| Whole {
-                    rows: geom.whole_footprints(geom.out_h),
-                    cols: geom.whole_footprints(geom.out_w),
-                    avx2,
+                .map(|avx2| {
+                    Whole::new(
+                        geom.whole_footprints(geom.out_h),
+                        geom.whole_footprints(geom.out_w),
+                        avx2,
+                    )
                 }),
         }
     }
@@ -406,11 +424,18 @@ impl ConvState {
     #[allow(clippy::inline_always)]
     #[inline(always)]
     pub fn add(&mut self, w: &[f32], c: usize, iy: usize, ix: usize) {
-        let whole = |w: &&Whole| w.rows.contains(&iy) && w.cols.contains(&ix);
-        match self.whole.as_ref().filter(whole) {
+        // An input's footprint is whole where it is `oy < rows` rows below the first such row
+        // and `ox < cols` columns right of the first such column (one wrapping compare each);
+        // its footprint's first output position is then `(oy, ox)`.
+        match &self.whole {
             Some(whole) if !self.gated => {
-                let avx2 = whole.avx2;
-                self.add_whole(avx2, w, c, iy, ix);
+                let (oy, ox) = (iy.wrapping_sub(whole.row0), ix.wrapping_sub(whole.col0));
+                if oy < whole.rows && ox < whole.cols {
+                    let avx2 = whole.avx2;
+                    self.add_whole(avx2, w, c, oy * self.geom.out_w + ox);
+                } else {
+                    self.add_clipped(w, c, iy, ix);
+                }
             }
             _ => self.add_clipped(w, c, iy, ix),
         }
@@ -489,15 +514,15 @@ impl ConvState {
 
     /// `add` for an input whose footprint is the whole kernel (`Whole`) in a
     /// layer of `FIXED_ROWS` rows of `FIXED_RUN` lanes that adds densely on a CPU with AVX2:
-    /// nearly every input of conv1. Nothing is clipped, so the offsets are those of the
-    /// kernel's last row and column, and the rows go through `add_rows_fixed`.
+    /// nearly every input of conv1, whose footprint's first output position is `first` (where
+    /// the input is under the kernel's last row and column). Nothing is clipped, so the
+    /// offsets are those of the kernel's last row and column, and the rows go through
+    /// `add_rows_fixed`.
     #[allow(clippy::inline_always)]
     #[inline(always)]
-    fn add_whole(&mut self, avx2: Avx2, w: &[f32], c: usize, iy: usize, ix: usize) {
+    fn add_whole(&mut self, avx2: Avx2, w: &[f32], c: usize, first: usize) {
         let g = self.geom;
         let maps = g.maps;
-        // The first output row and column, where the input is under the kernel's last ones.
-        let first = (iy + g.p_lo + 1 - g.k) * g.out_w + (ix + g.p_lo + 1 - g.k);
         self.wholes.push(first as u32);
         // With nothing of the group pending and nothing in the band, every neuron is below
         // `θ_lo` or latched: it starts at 0, below every `θ_lo` (`lo_positive`), reaches
