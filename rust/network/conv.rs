@@ -424,6 +424,20 @@ impl ConvState {
     #[allow(clippy::inline_always)]
     #[inline(always)]
     pub fn add(&mut self, w: &[f32], c: usize, iy: usize, ix: usize) {
+        self.add_in::<false>(w, c, iy, ix);
+    }
+
+    /// `add` from a caller compiled for AVX2 (see `add_rows_fixed`'s `INLINE`).
+    #[allow(clippy::inline_always)]
+    #[inline(always)]
+    pub fn add_inline(&mut self, w: &[f32], c: usize, iy: usize, ix: usize) {
+        self.add_in::<true>(w, c, iy, ix);
+    }
+
+    /// `add`, with `add_rows_fixed`'s `INLINE`.
+    #[allow(clippy::inline_always)]
+    #[inline(always)]
+    fn add_in<const INLINE: bool>(&mut self, w: &[f32], c: usize, iy: usize, ix: usize) {
         // An input's footprint is whole where it is `oy < rows` rows below the first such row
         // and `ox < cols` columns right of the first such column (one wrapping compare each);
         // its footprint's first output position is then `(oy, ox)`.
@@ -432,7 +446,7 @@ impl ConvState {
                 let (oy, ox) = (iy.wrapping_sub(whole.row0), ix.wrapping_sub(whole.col0));
                 if oy < whole.rows && ox < whole.cols {
                     let avx2 = whole.avx2;
-                    self.add_whole(avx2, w, c, oy * self.geom.out_w + ox);
+                    self.add_whole::<INLINE>(avx2, w, c, oy * self.geom.out_w + ox);
                 } else {
                     self.add_clipped(w, c, iy, ix);
                 }
@@ -520,7 +534,7 @@ impl ConvState {
     /// `add_rows_fixed`.
     #[allow(clippy::inline_always)]
     #[inline(always)]
-    fn add_whole(&mut self, avx2: Avx2, w: &[f32], c: usize, first: usize) {
+    fn add_whole<const INLINE: bool>(&mut self, avx2: Avx2, w: &[f32], c: usize, first: usize) {
         let g = self.geom;
         let maps = g.maps;
         self.wholes.push(first as u32);
@@ -538,7 +552,7 @@ impl ConvState {
             .try_into()
             .expect("one row's thresholds");
         let pot = &mut self.pot[first * maps..];
-        let words = add_rows_fixed(avx2, pot, g.out_w * maps, kernel, thr, fresh);
+        let words = add_rows_fixed::<INLINE>(avx2, pot, g.out_w * maps, kernel, thr, fresh);
         if words != [0; 2] {
             let held = WholeCandidates {
                 first: first as u32,
@@ -1697,8 +1711,12 @@ impl Avx2 {
 /// `fresh` promises that no lane of these rows is at or above its threshold before the add
 /// (see `ConvState::add_whole` for when that holds): a lane then crossed exactly where it is at
 /// or above its threshold after the add, which spares the compare of the old potentials.
-#[inline]
-fn add_rows_fixed(
+///
+/// With `INLINE` the AVX2 body is inlined into the caller, which must then be compiled for
+/// AVX2 (`WindowState::take_valid`'s loop) for it to run as vectors; without, it is called.
+#[allow(clippy::inline_always)]
+#[inline(always)]
+fn add_rows_fixed<const INLINE: bool>(
     avx2: Avx2,
     pot: &mut [f32],
     p_stride: usize,
@@ -1715,8 +1733,13 @@ fn add_rows_fixed(
         let _ = avx2;
         // SAFETY: the rows are inside `pot` (asserted above), the kernel's and thresholds'
         // lengths are their types', and `avx2` proves that the CPU has AVX2.
-        let (a, b) =
-            unsafe { simd::add_rows_fixed_avx2(pot.as_mut_ptr(), p_stride, kernel, thr, fresh) };
+        let (a, b) = unsafe {
+            if INLINE {
+                simd::add_rows_fixed_body(pot.as_mut_ptr(), p_stride, kernel, thr, fresh)
+            } else {
+                simd::add_rows_fixed_avx2(pot.as_mut_ptr(), p_stride, kernel, thr, fresh)
+            }
+        };
         [a, b]
     }
     #[cfg(not(target_arch = "x86_64"))]
@@ -2256,6 +2279,24 @@ mod simd {
         thr: &[f32; super::FIXED_RUN],
         fresh: bool,
     ) -> (u64, u64) {
+        // SAFETY: as for this function.
+        unsafe { add_rows_fixed_body(pot, p_stride, kernel, thr, fresh) }
+    }
+
+    /// The body of `add_rows_fixed_avx2`, inlined into each caller: compiled for AVX2 only
+    /// where the caller is (`add_rows_fixed` with `INLINE`), so that it is then inlined whole.
+    ///
+    /// # Safety
+    /// As for `add_rows_fixed_avx2`.
+    #[allow(clippy::inline_always)]
+    #[inline(always)]
+    pub(super) unsafe fn add_rows_fixed_body(
+        pot: *mut f32,
+        p_stride: usize,
+        kernel: &[f32; super::FIXED_KERNEL],
+        thr: &[f32; super::FIXED_RUN],
+        fresh: bool,
+    ) -> (u64, u64) {
         const _: () = assert!(super::FIXED_RUN == 20, "two vectors and a half per row");
         // SAFETY: thr holds FIXED_RUN values.
         let (t0, t1, t2) = unsafe {
@@ -2573,8 +2614,19 @@ mod tests {
                 }
             }
             for (pot, fresh) in [(pot, false), (below.clone(), false), (below, true)] {
-                let (mut a, mut b) = (pot.clone(), pot);
-                let words = add_rows_fixed(avx2, &mut a[p0..], p_stride, &kernel, &thr, fresh);
+                let (mut a, mut b) = (pot.clone(), pot.clone());
+                let words =
+                    add_rows_fixed::<false>(avx2, &mut a[p0..], p_stride, &kernel, &thr, fresh);
+                // Inlined (here into code not compiled for AVX2, where its intrinsics are
+                // called): the same.
+                let mut c = pot.clone();
+                let inlined =
+                    add_rows_fixed::<true>(avx2, &mut c[p0..], p_stride, &kernel, &thr, fresh);
+                assert_eq!(
+                    (&c, inlined),
+                    (&a, words),
+                    "inlined, round {round}, {fresh}"
+                );
                 // Row r reads the kernel's row FIXED_ROWS − 1 − r.
                 let w0 = (FIXED_ROWS - 1) * FIXED_RUN;
                 let mut masks = [0u32; FIXED_ROWS];
