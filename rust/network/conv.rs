@@ -985,7 +985,9 @@ impl ConvState {
                 // `crossing` for each map, from one load of the position's potentials (none
                 // changes before the position is decided).
                 let at = pos as usize * MAPS;
-                let v: [f32; MAPS] = self.pot[at..at + MAPS].try_into().expect("MAPS maps");
+                let cell: &mut [f32; MAPS] = (&mut self.pot[at..at + MAPS])
+                    .try_into()
+                    .expect("MAPS maps");
                 // `maps` is not 0: one map is one bit (cheaper here than `is_power_of_two`).
                 #[allow(clippy::manual_is_power_of_two)]
                 let one = maps & (maps - 1) == 0;
@@ -993,8 +995,9 @@ impl ConvState {
                     // The common case: one map, whose float32 sum is surely above θ (what
                     // `crossing_at` finds without gathering), fires alone. A latched map (`−∞`)
                     // never passes: `θ_hi` is not `−∞` (it rounds up `θ · (1 + m)`, θ > 0).
+                    // Read and latched through one bounds check.
                     let map = maps.trailing_zeros();
-                    let (v32, sure) = (v[map as usize % MAPS], thr_hi[map as usize % MAPS]);
+                    let (v32, sure) = (cell[map as usize % MAPS], thr_hi[map as usize % MAPS]);
                     if v32 >= sure {
                         out.push(Crossing {
                             pos,
@@ -1002,10 +1005,11 @@ impl ConvState {
                             v: f64::NAN,
                             v32,
                         });
-                        latch_position(&mut self.pot, pos as usize, MAPS);
+                        *cell = [f32::NEG_INFINITY; MAPS];
                         continue;
                     }
                 }
+                let v = *cell;
                 let mut best: Option<Crossing> = None;
                 while maps != 0 {
                     let map = maps.trailing_zeros();
