@@ -977,7 +977,7 @@ impl ConvState {
             let mut bits = bits;
             while bits != 0 {
                 let p = bits.trailing_zeros() as usize / MAPS;
-                let mut maps = (bits >> (p * MAPS)) as u32 & POSITION_MAPS;
+                let maps = (bits >> (p * MAPS)) as u32 & POSITION_MAPS;
                 bits &= !(u64::from(POSITION_MAPS) << (p * MAPS));
                 // Below `OFFSET_SLOTS` already: the remainder only tells the compiler so.
                 let slot = (word * WORD_POSITIONS + p) % OFFSET_SLOTS;
@@ -1010,27 +1010,47 @@ impl ConvState {
                     }
                 }
                 let v = *cell;
-                let mut best: Option<Crossing> = None;
-                while maps != 0 {
-                    let map = maps.trailing_zeros();
-                    maps &= maps - 1;
-                    let (v32, sure) = (v[map as usize % MAPS], thr_hi[map as usize % MAPS]);
-                    let Some(mut c) = self.crossing_at(kernels, fired, pos, map, v32, sure) else {
-                        continue;
-                    };
-                    if exact && c.v.is_nan() {
-                        c.v = self.exact(kernels, fired, pos as usize, map as usize);
-                    }
-                    match best {
-                        Some(b) if !self.beats(kernels, fired, c, b) => {}
-                        _ => best = Some(c),
-                    }
-                }
-                if let Some(b) = best {
-                    out.push(b);
-                    latch_position(&mut self.pot, pos as usize, MAPS);
-                }
+                self.fire_position(kernels, fired, exact, pos, maps, v, thr_hi, out);
             }
+        }
+    }
+
+    /// `fire_held` for position `pos` whose candidate maps are the bits of `maps` (their
+    /// float32 sums `v`, `θ_hi` `thr_hi`) where its common case does not decide it: its
+    /// crossings' best fires and the position is latched. Out of line, so that the common
+    /// case keeps its registers.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(never)]
+    fn fire_position(
+        &mut self,
+        kernels: &[f32],
+        fired: Fired<'_>,
+        exact: bool,
+        pos: u32,
+        mut maps: u32,
+        v: [f32; MAPS],
+        thr_hi: [f32; MAPS],
+        out: &mut Vec<Crossing>,
+    ) {
+        let mut best: Option<Crossing> = None;
+        while maps != 0 {
+            let map = maps.trailing_zeros();
+            maps &= maps - 1;
+            let (v32, sure) = (v[map as usize % MAPS], thr_hi[map as usize % MAPS]);
+            let Some(mut c) = self.crossing_at(kernels, fired, pos, map, v32, sure) else {
+                continue;
+            };
+            if exact && c.v.is_nan() {
+                c.v = self.exact(kernels, fired, pos as usize, map as usize);
+            }
+            match best {
+                Some(b) if !self.beats(kernels, fired, c, b) => {}
+                _ => best = Some(c),
+            }
+        }
+        if let Some(b) = best {
+            out.push(b);
+            latch_position(&mut self.pot, pos as usize, MAPS);
         }
     }
 
