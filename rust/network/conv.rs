@@ -380,8 +380,16 @@ impl ConvState {
     /// Set the per-map thresholds for the coming window.
     pub fn set_thresholds(&mut self, thresholds: impl Fn(usize) -> f32) {
         let maps = self.geom.maps;
+        let mut same = true;
         for (m, t) in self.thr.iter_mut().enumerate() {
-            *t = f64::from(thresholds(m));
+            let new = f64::from(thresholds(m));
+            same &= t.to_bits() == new.to_bits();
+            *t = new;
+        }
+        if same {
+            // The rest follows from the thresholds (and the fixed margin) alone: conv2's and
+            // conv3's, the same every window, are not tiled again.
+            return;
         }
         for (hi, &t) in self.thr_hi.iter_mut().zip(&self.thr) {
             *hi = round_up(t * (1.0 + self.margin));
