@@ -586,9 +586,7 @@ impl WindowState {
             return false;
         }
         let w = net.conv_weights(ConvLayer::ALL[layer + 1]).engine();
-        for &(m, r, c) in &self.pool_out {
-            self.conv[layer + 1].add(w, m as usize, r as usize, c as usize);
-        }
+        self.conv[layer + 1].add_spikes(w, &self.pool_out);
         true
     }
 
