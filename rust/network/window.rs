@@ -478,6 +478,11 @@ impl WindowState {
         let training = self.training == Some(layer);
         let inhibit = config.conv(layer).lateral_inhibition && !training;
         self.crossings.clear();
+        // With no candidate, band neuron or waking position `resolve` finds nothing (conv1's
+        // was tested by `propagate`): most groups that reach conv2 only count their inputs.
+        if layer > 0 && !self.conv[layer].may_fire() {
+            return false;
+        }
         let fired = if layer == 0 {
             Fired {
                 stamps: &self.pixel_fired,
