@@ -492,16 +492,24 @@ impl ConvState {
     /// `add_clipped` for each). A layer that wakes by count on a CPU with AVX2 counts them in
     /// one loop compiled for it (`count_spikes_avx2`), without a call per spike or
     /// `add_clipped`'s general setup: nearly every spike only counts (Table 1's conv2).
+    /// Inlined, so that the counted path costs its caller one call.
+    #[inline]
     pub fn add_spikes(&mut self, w: &[f32], spikes: &[(u32, u32, u32)]) {
         #[cfg(target_arch = "x86_64")]
         if self.gated && self.avx2 {
-            // Never set in a layer that wakes by count (`add_whole` adds densely); for the
-            // equivalence with `add_clipped`, which lists it first.
-            self.list_held();
+            // `add_clipped` lists the held candidates first; a layer that wakes by count has
+            // none (only `add_whole` holds them, and only where the layer adds densely).
+            debug_assert!(self.held.is_none(), "no held candidates while counting");
             // SAFETY: `avx2` comes from `has_avx2`.
             unsafe { simd::count_spikes_avx2(self, w, spikes) };
             return;
         }
+        self.add_each(w, spikes);
+    }
+
+    /// `add_spikes` through `add`, spike by spike.
+    #[inline(never)]
+    fn add_each(&mut self, w: &[f32], spikes: &[(u32, u32, u32)]) {
         for &(c, iy, ix) in spikes {
             self.add(w, c as usize, iy as usize, ix as usize);
         }
