@@ -707,7 +707,9 @@ impl ConvState {
 
     /// Wake the positions that reached `wake_at` in the group just added: gather their float32
     /// potentials from the inputs that fired (engine-layout weights `w`), in the order of
-    /// `each_fired_input`; maps at or above `θ_lo` become candidates.
+    /// `each_fired_input`; maps at or above `θ_lo` become candidates. Out of line, so that
+    /// `resolve`, which calls it for few groups, is compiled without it.
+    #[inline(never)]
     fn wake(&mut self, w: &[f32], fired: Fired<'_>) {
         let g = self.geom;
         let maps = g.maps;
@@ -1341,7 +1343,7 @@ fn each_fired_weights(
     // Lane `(col, c)` of a row holds input column `cols.start + col`, kernel column
     // `dx = col + shift` (`shift` > 0 only where the field is clipped on the left).
     let shift = (cols.start + g.p_lo - ox) * maps;
-    each_fired_lane(g, fired, avx2, oy, ox, |iy, l| {
+    each_short_lane(g, fired, avx2, oy, ox, |iy, l| {
         // ((c·k + dy)·k + k − 1 − dx)·maps, from the lane's precomputed part.
         f(base[l] as usize + (iy + g.p_lo - oy) * g.k * maps - shift);
     });
@@ -1393,6 +1395,39 @@ fn each_fired_lane(
                 mask &= mask - 1;
                 f(iy, l);
             }
+        }
+    }
+}
+
+/// `each_fired_lane` (the same calls in the same order) for `gather`, where a row of the
+/// receptive field holds at most 64 inputs (every layer of Table 1): each row's stamps tested
+/// as one word, without the loop over words.
+#[allow(clippy::inline_always)]
+#[inline(always)]
+fn each_short_lane(
+    g: &ConvGeom,
+    fired: Fired<'_>,
+    avx2: bool,
+    oy: usize,
+    ox: usize,
+    mut f: impl FnMut(usize, usize),
+) {
+    let cols = g.inputs_of(ox, g.in_w);
+    let len = cols.len() * fired.channels;
+    if len > 64 {
+        each_fired_lane(g, fired, avx2, oy, ox, f);
+        return;
+    }
+    let rows = g.inputs_of(oy, g.in_h);
+    let stride = fired.width * fired.channels;
+    let first = (rows.start * fired.width + cols.start) * fired.channels;
+    for (r, iy) in rows.enumerate() {
+        let from = first + r * stride;
+        let mut mask = fired_mask(avx2, &fired.stamps[from..from + len], fired.generation);
+        while mask != 0 {
+            let l = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            f(iy, l);
         }
     }
 }
@@ -2521,6 +2556,38 @@ mod tests {
             }
             if gated {
                 assert!(a.counts.iter().any(|&n| n & AWAKE != 0), "round {round}");
+            }
+        }
+    }
+
+    /// `each_short_lane` makes `each_fired_lane`'s calls in the same order, rows of one word
+    /// of stamps and longer ones (where it falls back), clipped fields included.
+    #[test]
+    fn each_short_lane_equals_each_fired_lane() {
+        let mut rng = crate::network::xorshift(19u64);
+        for (in_ch, k) in [(1, 5), (4, 10), (20, 5), (7, 10)] {
+            let c = NetworkConfig {
+                width: 40,
+                height: 30,
+                ..NetworkConfig::default()
+            };
+            let mut g = Geometry::new(&c).unwrap().conv[0];
+            (g.in_ch, g.k, g.p_lo) = (in_ch, k, (k - 1) / 2);
+            let stamps: Vec<u32> = (0..g.in_h * g.in_w * in_ch)
+                .map(|_| (rng() % 3) as u32)
+                .collect();
+            let fired = Fired {
+                stamps: &stamps,
+                width: g.in_w,
+                channels: in_ch,
+                generation: 1,
+            };
+            for (oy, ox) in [(0, 0), (3, 7), (g.out_h - 1, g.out_w - 1), (g.out_h / 2, 1)] {
+                let (mut a, mut b) = (Vec::new(), Vec::new());
+                each_short_lane(&g, fired, has_avx2(), oy, ox, |iy, l| a.push((iy, l)));
+                each_fired_lane(&g, fired, has_avx2(), oy, ox, |iy, l| b.push((iy, l)));
+                assert!(!b.is_empty());
+                assert_eq!(a, b, "{in_ch} channels, k {k}, ({oy}, {ox})");
             }
         }
     }
