@@ -42,6 +42,10 @@ pub(crate) struct PoolState {
     /// the block's cause word. A spike's neuron and bit are then two loads and an addition.
     row_keys: Vec<u64>,
     col_keys: Vec<u64>,
+    /// `⌊2^64 / in_w⌋ + 1`, which fits 64 bits where `tiles` holds (`in_w ≥ 2`): a conv
+    /// position's row is the high word of its product with it (exact for positions below
+    /// 2^32, as `Divider`'s), one multiplication.
+    row_magic: u64,
 }
 
 impl PoolState {
@@ -50,7 +54,8 @@ impl PoolState {
         let none = u32::try_from(n).expect("pool neurons fit 32 bits");
         let s = geom.stride;
         // Two indices of at most `n` each sum below 2^32.
-        let tiles = geom.k == s && geom.k * geom.k <= 64 && 2 * u64::from(none) < 1 << 32;
+        let tiles =
+            geom.k == s && geom.k * geom.k <= 64 && 2 * u64::from(none) < 1 << 32 && geom.in_w >= 2;
         let keys = |len: usize, out: usize, step: usize, place: usize| -> Vec<u64> {
             if !tiles {
                 return Vec::new();
@@ -73,6 +78,7 @@ impl PoolState {
             tiles,
             row_keys: keys(geom.in_h, geom.out_h, geom.out_w * geom.maps, geom.k),
             col_keys: keys(geom.in_w, geom.out_w, geom.maps, 1),
+            row_magic: ((1u128 << 64) / geom.in_w as u128 + 1) as u64,
         }
     }
 
@@ -113,9 +119,11 @@ impl PoolState {
             &mut self.time[..n],
             &mut self.causes[..n],
         );
+        let (magic, in_w) = (self.row_magic, self.geom.in_w);
         for c in spikes {
-            let (row, col) = split.div_rem(c.pos as usize);
-            let (rk, ck) = (self.row_keys[row], self.col_keys[col]);
+            let pos = c.pos as usize;
+            let row = ((pos as u128 * u128::from(magic)) >> 64) as usize;
+            let (rk, ck) = (self.row_keys[row], self.col_keys[pos - row * in_w]);
             let sum = rk + ck;
             let i = (sum >> 32) as usize + c.map as usize;
             if i >= n {
