@@ -191,6 +191,11 @@ pub(crate) struct ConvState {
     waking: Vec<u32>,
     /// Positions awake this window (what the next window must zero).
     awake: Vec<u32>,
+    /// Per input row `iy`: `[rows.start · out_w, rows.len()]` of the output rows whose
+    /// kernel covers it (`outputs_of`); per input column: `[cols.start, cols.len()]`. What
+    /// `count_spikes_avx2` reads instead of computing the two ranges per spike.
+    row_spans: Vec<[u32; 2]>,
+    col_spans: Vec<[u32; 2]>,
     /// Division by the output width (position → row, column).
     split: Divider,
     /// The inputs that `add_whole` takes (when the layer adds densely), where it may: the layer
@@ -304,6 +309,18 @@ impl ConvState {
             wake_at: 0,
             waking: Vec::new(),
             awake: Vec::new(),
+            row_spans: (0..geom.in_h)
+                .map(|iy| {
+                    let rows = geom.outputs_of(iy, geom.out_h);
+                    [(rows.start * geom.out_w) as u32, rows.len() as u32]
+                })
+                .collect(),
+            col_spans: (0..geom.in_w)
+                .map(|ix| {
+                    let cols = geom.outputs_of(ix, geom.out_w);
+                    [cols.start as u32, cols.len() as u32]
+                })
+                .collect(),
             split: Divider::new(geom.out_w),
             whole: Avx2::detect()
                 .filter(|_| geom.k == FIXED_ROWS && geom.k * geom.maps == FIXED_RUN)
@@ -534,6 +551,54 @@ impl ConvState {
         }
     }
 
+    /// Add a pool layer's spikes of one group, `(channel, row, col)` each, in order: what
+    /// `add` does spike by spike (a layer after conv1 has no whole inputs, so `add` takes
+    /// `add_clipped` for each). A layer that wakes by count on a CPU with AVX2 counts them in
+    /// one loop compiled for it (`count_spikes_avx2`), without a call per spike or
+    /// `add_clipped`'s general setup: nearly every spike only counts (Table 1's conv2).
+    /// Inlined, so that the counted path costs its caller one call.
+    #[inline]
+    pub fn add_spikes(&mut self, w: &[f32], spikes: &[(u32, u32, u32)]) {
+        #[cfg(target_arch = "x86_64")]
+        if self.gated && self.avx2 {
+            // `add_clipped` lists the held candidates first; a layer that wakes by count has
+            // none (only `add_whole` holds them, and only where the layer adds densely).
+            debug_assert!(self.held.is_none(), "no held candidates while counting");
+            // SAFETY: `avx2` comes from `has_avx2`.
+            unsafe { simd::count_spikes_avx2(self, w, spikes) };
+            return;
+        }
+        self.add_each(w, spikes);
+    }
+
+    /// `add_spikes` through `add`, spike by spike.
+    #[inline(never)]
+    fn add_each(&mut self, w: &[f32], spikes: &[(u32, u32, u32)]) {
+        for &(c, iy, ix) in spikes {
+            self.add(w, c as usize, iy as usize, ix as usize);
+        }
+    }
+
+    /// The rest of `add_clipped`'s counted path for an input `(c, iy, ix)` that brought some
+    /// positions of its output rows (from position `p0`, one `out_w` apart) to their waking
+    /// count: `hits` has a row's bits as `count_rows` gives them; the awake positions of each
+    /// row are added to and the others queued to wake. Out of line (a few inputs in a hundred
+    /// at 1 %).
+    #[cold]
+    #[inline(never)]
+    fn add_counted(&mut self, w: &[f32], c: usize, iy: usize, ix: usize, p0: usize, hits: &[u32]) {
+        let g = self.geom;
+        let (rows, cols) = (g.outputs_of(iy, g.out_h), g.outputs_of(ix, g.out_w));
+        let j0 = g.k - 1 - (ix + g.p_lo - cols.start);
+        let dy0 = iy + g.p_lo - rows.start;
+        for (step, &hits) in hits.iter().enumerate() {
+            if hits != 0 {
+                let wstart = ((c * g.k + dy0 - step) * g.k + j0) * g.maps;
+                self.add_awake(w, wstart, p0 + step * g.out_w, hits);
+            }
+        }
+    }
+
     /// `add` for an input whose footprint is the whole kernel (`Whole`) in a
     /// layer of `FIXED_ROWS` rows of `FIXED_RUN` lanes that adds densely on a CPU with AVX2:
     /// nearly every input of conv1, whose footprint's first output position is `first` (where
@@ -701,7 +766,9 @@ impl ConvState {
 
     /// Wake the positions that reached `wake_at` in the group just added: gather their float32
     /// potentials from the inputs that fired (engine-layout weights `w`), in the order of
-    /// `each_fired_input`; maps at or above `θ_lo` become candidates.
+    /// `each_fired_input`; maps at or above `θ_lo` become candidates. Out of line, so that
+    /// `resolve`, which calls it for few groups, is compiled without it.
+    #[inline(never)]
     fn wake(&mut self, w: &[f32], fired: Fired<'_>) {
         let g = self.geom;
         let maps = g.maps;
@@ -1451,7 +1518,7 @@ fn each_fired_weights(
     // Lane `(col, c)` of a row holds input column `cols.start + col`, kernel column
     // `dx = col + shift` (`shift` > 0 only where the field is clipped on the left).
     let shift = (cols.start + g.p_lo - ox) * maps;
-    each_fired_lane(g, fired, avx2, oy, ox, |iy, l| {
+    each_short_lane(g, fired, avx2, oy, ox, |iy, l| {
         // ((c·k + dy)·k + k − 1 − dx)·maps, from the lane's precomputed part.
         f(base[l] as usize + (iy + g.p_lo - oy) * g.k * maps - shift);
     });
@@ -1503,6 +1570,39 @@ fn each_fired_lane(
                 mask &= mask - 1;
                 f(iy, l);
             }
+        }
+    }
+}
+
+/// `each_fired_lane` (the same calls in the same order) for `gather`, where a row of the
+/// receptive field holds at most 64 inputs (every layer of Table 1): each row's stamps tested
+/// as one word, without the loop over words.
+#[allow(clippy::inline_always)]
+#[inline(always)]
+fn each_short_lane(
+    g: &ConvGeom,
+    fired: Fired<'_>,
+    avx2: bool,
+    oy: usize,
+    ox: usize,
+    mut f: impl FnMut(usize, usize),
+) {
+    let cols = g.inputs_of(ox, g.in_w);
+    let len = cols.len() * fired.channels;
+    if len > 64 {
+        each_fired_lane(g, fired, avx2, oy, ox, f);
+        return;
+    }
+    let rows = g.inputs_of(oy, g.in_h);
+    let stride = fired.width * fired.channels;
+    let first = (rows.start * fired.width + cols.start) * fired.channels;
+    for (r, iy) in rows.enumerate() {
+        let from = first + r * stride;
+        let mut mask = fired_mask(avx2, &fired.stamps[from..from + len], fired.generation);
+        while mask != 0 {
+            let l = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            f(iy, l);
         }
     }
 }
@@ -2049,6 +2149,68 @@ mod simd {
         }
     }
 
+    /// `super::ConvState::add_spikes` for a layer that wakes by count: per spike, its output
+    /// rows (`row_spans`, `col_spans`) counted one vector each (`count_rows_avx2`, inline),
+    /// and only where some position reached its waking count the rest of `add_clipped`
+    /// (`add_counted`).
+    ///
+    /// # Safety
+    /// The CPU must support AVX2; the layer wakes by count (so `k <= LANES`).
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn count_spikes_avx2(
+        s: &mut super::ConvState,
+        w: &[f32],
+        spikes: &[(u32, u32, u32)],
+    ) {
+        let out_w = s.geom.out_w;
+        let at = _mm256_set1_epi16(s.wake_at as i16 - 1);
+        for &(c, iy, ix) in spikes {
+            let ([r0, rows], [c0, cols]) = (s.row_spans[iy as usize], s.col_spans[ix as usize]);
+            if cols == 0 {
+                continue;
+            }
+            let p0 = (r0 + c0) as usize;
+            s.inputs.push(super::Footprint {
+                first: p0 as u32,
+                rows: rows as u16,
+                cols: cols as u16,
+            });
+            let (rows, len) = (rows as usize, cols as usize);
+            s.touched_lanes += rows * len;
+            if rows == 0 {
+                continue;
+            }
+            let counts = &mut s.counts[p0..p0 + (rows - 1) * out_w + super::LANES];
+            assert!(len <= super::LANES, "one vector of counts per row");
+            // SAFETY: ONES has 32 values and 16 − len is in 0..=16; each row holds LANES
+            // counts (inside `counts`, whose range is checked above).
+            let (inc, reached) = unsafe {
+                let inc = _mm256_loadu_si256(ONES.as_ptr().add(16 - len).cast());
+                let base = counts.as_mut_ptr();
+                let mut reached = _mm256_setzero_si256();
+                for r in 0..rows {
+                    let p = base.add(r * out_w);
+                    let n = _mm256_sub_epi16(_mm256_loadu_si256(p.cast()), inc);
+                    _mm256_storeu_si256(p.cast(), n);
+                    reached = _mm256_or_si256(reached, _mm256_cmpgt_epi16(n, at));
+                }
+                (inc, reached)
+            };
+            // Lanes past `len` belong to other positions, which this input did not count.
+            if _mm256_testz_si256(reached, inc) == 0 {
+                let mut hits = [0u32; super::FUSED_ROWS];
+                let hits = &mut hits[..rows];
+                for (r, h) in hits.iter_mut().enumerate() {
+                    // SAFETY: row r is inside `counts`, as above.
+                    let n = unsafe { _mm256_loadu_si256(counts.as_ptr().add(r * out_w).cast()) };
+                    let hit = _mm256_and_si256(_mm256_cmpgt_epi16(n, at), inc);
+                    *h = lane_bits(_mm256_movemask_epi8(hit) as u32);
+                }
+                s.add_counted(w, c as usize, iy as usize, ix as usize, p0, hits);
+            }
+        }
+    }
+
     /// # Safety
     /// `counts` holds `LANES` (16) values and `len <= 16`.
     pub(super) unsafe fn count_run_sse2(counts: &mut [u16], len: usize, wake_at: u16) -> u32 {
@@ -2571,6 +2733,109 @@ mod tests {
                 want.sort_unstable();
                 sort_runs(&mut v, &mut buffer);
                 assert_eq!(v, want, "{runs} runs of {len}");
+            }
+        }
+    }
+
+    /// `add_spikes` leaves a layer as `add` spike by spike does, waking by count or not:
+    /// potentials, counts, candidates, positions to wake and footprints (Table 1's conv2 on a
+    /// small sensor, so that many inputs are clipped, with thresholds that wake positions).
+    #[test]
+    fn add_spikes_equals_add() {
+        let c = NetworkConfig {
+            width: 64,
+            height: 48,
+            ..NetworkConfig::default()
+        };
+        let g = Geometry::new(&c).unwrap().conv[1];
+        let w = ConvWeights::random(&g, 0.5, 0.3, 9, 1).unwrap();
+        let mut rng = crate::network::xorshift(17u64);
+        for (round, gated) in (0..40).zip([true, false].into_iter().cycle()) {
+            let mut a = ConvState::new(g);
+            a.set_thresholds(|m| 2.0 + (m + round) as f32 % 7.0);
+            a.set_gated(gated);
+            a.set_wake(&w);
+            assert_eq!(a.gated, gated);
+            let mut b = a.clone();
+            let mut stamps = vec![0u32; g.in_h * g.in_w * g.in_ch];
+            for _ in 0..4 {
+                let spikes: Vec<(u32, u32, u32)> = (0..rng() % 40)
+                    .map(|_| {
+                        let v = rng();
+                        (
+                            (v % g.in_ch as u64) as u32,
+                            (v / 8 % g.in_h as u64) as u32,
+                            (v / 256 % g.in_w as u64) as u32,
+                        )
+                    })
+                    .collect();
+                a.add_spikes(w.engine(), &spikes);
+                for &(c, iy, ix) in &spikes {
+                    b.add(w.engine(), c as usize, iy as usize, ix as usize);
+                }
+                let footprints = |s: &ConvState| {
+                    s.inputs
+                        .iter()
+                        .map(|f| (f.first, f.rows, f.cols))
+                        .collect::<Vec<_>>()
+                };
+                assert_eq!(
+                    a.pot.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                    b.pot.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
+                );
+                assert_eq!(a.counts, b.counts);
+                assert_eq!(a.candidates, b.candidates);
+                assert_eq!(a.waking, b.waking);
+                assert_eq!(footprints(&a), footprints(&b));
+                assert_eq!(a.touched_lanes, b.touched_lanes);
+                assert_eq!((a.breaks_len, a.pos_sorted), (b.breaks_len, b.pos_sorted));
+                // Wake what reached its count, so that later batches add to awake positions.
+                for &(c, iy, ix) in &spikes {
+                    stamps[(iy as usize * g.in_w + ix as usize) * g.in_ch + c as usize] = 1;
+                }
+                let fired = Fired {
+                    stamps: &stamps,
+                    width: g.in_w,
+                    channels: g.in_ch,
+                    generation: 1,
+                };
+                a.wake(w.engine(), fired);
+                b.wake(w.engine(), fired);
+            }
+            if gated {
+                assert!(a.counts.iter().any(|&n| n & AWAKE != 0), "round {round}");
+            }
+        }
+    }
+
+    /// `each_short_lane` makes `each_fired_lane`'s calls in the same order, rows of one word
+    /// of stamps and longer ones (where it falls back), clipped fields included.
+    #[test]
+    fn each_short_lane_equals_each_fired_lane() {
+        let mut rng = crate::network::xorshift(19u64);
+        for (in_ch, k) in [(1, 5), (4, 10), (20, 5), (7, 10)] {
+            let c = NetworkConfig {
+                width: 40,
+                height: 30,
+                ..NetworkConfig::default()
+            };
+            let mut g = Geometry::new(&c).unwrap().conv[0];
+            (g.in_ch, g.k, g.p_lo) = (in_ch, k, (k - 1) / 2);
+            let stamps: Vec<u32> = (0..g.in_h * g.in_w * in_ch)
+                .map(|_| (rng() % 3) as u32)
+                .collect();
+            let fired = Fired {
+                stamps: &stamps,
+                width: g.in_w,
+                channels: in_ch,
+                generation: 1,
+            };
+            for (oy, ox) in [(0, 0), (3, 7), (g.out_h - 1, g.out_w - 1), (g.out_h / 2, 1)] {
+                let (mut a, mut b) = (Vec::new(), Vec::new());
+                each_short_lane(&g, fired, has_avx2(), oy, ox, |iy, l| a.push((iy, l)));
+                each_fired_lane(&g, fired, has_avx2(), oy, ox, |iy, l| b.push((iy, l)));
+                assert!(!b.is_empty());
+                assert_eq!(a, b, "{in_ch} channels, k {k}, ({oy}, {ox})");
             }
         }
     }

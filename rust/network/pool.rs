@@ -7,6 +7,15 @@ use super::geometry::{Divider, PoolGeom};
 /// A spike leaving a pool layer: `(map, row, col)`, all at the group's time.
 pub(crate) type PoolSpike = (u32, u32, u32);
 
+/// A key of `PoolState::row_keys` or `col_keys`: a neuron index, a block row or column, a place.
+fn key(base: u32, q: usize, place: usize) -> u64 {
+    debug_assert!(
+        u16::try_from(q).is_ok() && place < 64,
+        "fields in their bits"
+    );
+    u64::from(base) << 32 | (q as u64) << 8 | place as u64
+}
+
 /// Per-window state of one pool layer.
 #[derive(Debug, Clone)]
 pub(crate) struct PoolState {
@@ -21,13 +30,22 @@ pub(crate) struct PoolState {
     words: usize,
     /// Division by the stride.
     stride: Divider,
-    /// Per conv row: the index of its block row's first neuron (`qy · out_w · maps`, or the
-    /// number of neurons where the row is in no block), the block row `qy`, and its row in the
-    /// block times `k`; per conv column: `qx · maps` (or the number of neurons), `qx`, and its
-    /// column in the block. Where blocks tile the layer (`k = stride`), a spike's neuron index
-    /// is then two loads and two additions, out of range exactly where it is in no block.
-    row_block: Vec<[u32; 3]>,
-    col_block: Vec<[u32; 3]>,
+    /// Whether `on_spikes` takes its one-block path: blocks tile the layer (`k = stride`), hold
+    /// at most 64 conv neurons (one cause word), and two keys' indices sum without overflow.
+    tiles: bool,
+    /// Where blocks tile the layer, a key per conv row and per conv column, summed per spike:
+    /// bits 32-63 hold the index of the row's block row's first neuron (`qy · out_w · maps`)
+    /// or of the column's block's (`qx · maps`), or the number of neurons where the row
+    /// (column) is in no block, so that the sum's index is out of range exactly where the
+    /// spike is in no block; bits 8-23 hold `qy` (`qx`), and bits 0-7 the row's place in the
+    /// block times `k` (the column's place), so that the sum's low byte is the spike's bit in
+    /// the block's cause word. A spike's neuron and bit are then two loads and an addition.
+    row_keys: Vec<u64>,
+    col_keys: Vec<u64>,
+    /// `⌊2^64 / in_w⌋ + 1`, which fits 64 bits where `tiles` holds (`in_w ≥ 2`): a conv
+    /// position's row is the high word of its product with it (exact for positions below
+    /// 2^32, as `Divider`'s), one multiplication.
+    row_magic: u64,
 }
 
 impl PoolState {
@@ -35,6 +53,21 @@ impl PoolState {
         let n = geom.neurons();
         let none = u32::try_from(n).expect("pool neurons fit 32 bits");
         let s = geom.stride;
+        // Two indices of at most `n` each sum below 2^32.
+        let tiles =
+            geom.k == s && geom.k * geom.k <= 64 && 2 * u64::from(none) < 1 << 32 && geom.in_w >= 2;
+        let keys = |len: usize, out: usize, step: usize, place: usize| -> Vec<u64> {
+            if !tiles {
+                return Vec::new();
+            }
+            (0..len)
+                .map(|i| {
+                    let q = i / s;
+                    let base = if q < out { (q * step) as u32 } else { none };
+                    key(base, q, i % s * place)
+                })
+                .collect()
+        };
         Self {
             geom,
             fired: vec![0; n],
@@ -42,28 +75,10 @@ impl PoolState {
             causes: vec![0; n * (geom.k * geom.k).div_ceil(64)],
             words: (geom.k * geom.k).div_ceil(64),
             stride: Divider::new(s),
-            row_block: (0..geom.in_h)
-                .map(|r| {
-                    let q = r / s;
-                    let base = if q < geom.out_h {
-                        (q * geom.out_w * geom.maps) as u32
-                    } else {
-                        none
-                    };
-                    [base, q as u32, (r % s * geom.k) as u32]
-                })
-                .collect(),
-            col_block: (0..geom.in_w)
-                .map(|c| {
-                    let q = c / s;
-                    let base = if q < geom.out_w {
-                        (q * geom.maps) as u32
-                    } else {
-                        none
-                    };
-                    [base, q as u32, (c % s) as u32]
-                })
-                .collect(),
+            tiles,
+            row_keys: keys(geom.in_h, geom.out_h, geom.out_w * geom.maps, geom.k),
+            col_keys: keys(geom.in_w, geom.out_w, geom.maps, 1),
+            row_magic: ((1u128 << 64) / geom.in_w as u128 + 1) as u64,
         }
     }
 
@@ -86,8 +101,7 @@ impl PoolState {
         split: Divider,
         out: &mut Vec<PoolSpike>,
     ) {
-        let g = self.geom;
-        if g.k != g.stride || self.words != 1 {
+        if !self.tiles {
             for c in spikes {
                 let (row, col) = split.div_rem(c.pos as usize);
                 self.on_spike_blocks(generation, t, c.map, row, col, out);
@@ -105,19 +119,23 @@ impl PoolState {
             &mut self.time[..n],
             &mut self.causes[..n],
         );
+        let (magic, in_w) = (self.row_magic, self.geom.in_w);
         for c in spikes {
-            let (row, col) = split.div_rem(c.pos as usize);
-            let ([rb, qy, by], [cb, qx, bx]) = (self.row_block[row], self.col_block[col]);
-            let i = rb as usize + cb as usize + c.map as usize;
+            let pos = c.pos as usize;
+            let row = ((pos as u128 * u128::from(magic)) >> 64) as usize;
+            let (rk, ck) = (self.row_keys[row], self.col_keys[pos - row * in_w]);
+            let sum = rk + ck;
+            let i = (sum >> 32) as usize + c.map as usize;
             if i >= n {
                 continue; // in no block
             }
-            let bit = 1u64 << (by + bx);
+            // The low byte is below 64 (`tiles`): the shift's own masking leaves it as it is.
+            let bit = 1u64.wrapping_shl(sum as u32);
             if fired[i] != generation {
                 fired[i] = generation;
                 time[i] = t;
                 causes[i] = bit;
-                out.push((c.map, qy, qx));
+                out.push((c.map, (rk >> 8) as u16 as u32, (ck >> 8) as u16 as u32));
             } else if time[i] == t {
                 causes[i] |= bit;
             }
@@ -127,7 +145,8 @@ impl PoolState {
     }
 
     /// `on_spikes` for one spike of map `map` at conv position `(row, col)`, where blocks
-    /// overlap or leave gaps (`k ≠ stride`) or hold more than 64 conv neurons: every block
+    /// overlap or leave gaps (`k ≠ stride`) or hold more than 64 conv neurons (or the layer
+    /// has too many neurons for `tiles`' keys): every block
     /// holding the spike. Kept out of line, so that `on_spikes` holds only the loop of
     /// Table 1's pools.
     #[inline(never)]
@@ -220,5 +239,70 @@ impl PoolState {
     pub fn fired_at(&self, generation: u32, map: usize, row: usize, col: usize) -> Option<u64> {
         let i = (row * self.geom.out_w + col) * self.geom.maps + map;
         (self.fired[i] == generation).then_some(self.time[i])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::network::config::{NetworkConfig, Padding, PoolConfig};
+    use crate::network::geometry::Geometry;
+
+    /// The one-block path of tiling pools fires the same neurons in the same order, at the
+    /// same times and with the same causes, as the general path, blocks in no block included
+    /// (valid padding).
+    #[test]
+    fn tiles_equal_general_path() {
+        let mut rng = crate::network::xorshift(23u64);
+        for (k, padding) in [
+            (2, Padding::Same),
+            (5, Padding::Same),
+            (5, Padding::Valid),
+            (3, Padding::Valid),
+            (8, Padding::Same),
+        ] {
+            let mut c = NetworkConfig {
+                width: 43,
+                height: 31,
+                padding,
+                ..NetworkConfig::default()
+            };
+            c.pool1 = PoolConfig {
+                kernel: k,
+                stride: k,
+            };
+            c.conv2.kernel = 1;
+            c.pool2 = PoolConfig {
+                kernel: 1,
+                stride: 1,
+            };
+            c.conv3.kernel = 1;
+            let geom = Geometry::new(&c).unwrap();
+            let (cg, pg) = (geom.conv[0], geom.pool[0]);
+            let mut a = PoolState::new(pg);
+            assert!(a.tiles, "k {k}");
+            let mut b = a.clone();
+            b.tiles = false;
+            let split = Divider::new(cg.out_w);
+            for t in 0..30u64 {
+                let spikes: Vec<Crossing> = (0..rng() % 12)
+                    .map(|_| Crossing {
+                        pos: (rng() % (cg.out_h * cg.out_w) as u64) as u32,
+                        map: (rng() % cg.maps as u64) as u32,
+                        v: f64::NAN,
+                        v32: 0.0,
+                    })
+                    .collect();
+                let (mut out_a, mut out_b) = (Vec::new(), Vec::new());
+                a.on_spikes(1, t / 3, &spikes, split, &mut out_a);
+                b.on_spikes(1, t / 3, &spikes, split, &mut out_b);
+                assert_eq!(out_a, out_b, "k {k}, t {t}");
+            }
+            assert_eq!(
+                (&a.fired, &a.time, &a.causes),
+                (&b.fired, &b.time, &b.causes)
+            );
+            assert!(a.fired.contains(&1));
+        }
     }
 }

@@ -527,6 +527,11 @@ impl WindowState {
         let training = self.training == Some(layer);
         let inhibit = config.conv(layer).lateral_inhibition && !training;
         self.crossings.clear();
+        // With no candidate, band neuron or waking position `resolve` finds nothing (conv1's
+        // was tested by `propagate`): most groups that reach conv2 only count their inputs.
+        if layer > 0 && !self.conv[layer].may_fire() {
+            return false;
+        }
         let fired = if layer == 0 {
             Fired {
                 stamps: &self.pixel_fired,
@@ -635,9 +640,7 @@ impl WindowState {
             return false;
         }
         let w = net.conv_weights(ConvLayer::ALL[layer + 1]).engine();
-        for &(m, r, c) in &self.pool_out {
-            self.conv[layer + 1].add(w, m as usize, r as usize, c as usize);
-        }
+        self.conv[layer + 1].add_spikes(w, &self.pool_out);
         true
     }
 
