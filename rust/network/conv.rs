@@ -2152,6 +2152,10 @@ mod simd {
         }
     }
 
+    /// Output rows of a whole footprint of Table 1's conv2, whose counting `count_spikes_avx2`
+    /// unrolls.
+    const CONV2_ROWS: usize = 10;
+
     /// `super::ConvState::add_spikes` for a layer that wakes by count: per spike, its output
     /// rows (`row_spans`, `col_spans`) counted one vector each by `count_rows_avx2` (inlined),
     /// and only where some position reached its waking count the rest of `add_clipped`
@@ -2166,6 +2170,9 @@ mod simd {
         spikes: &[(u32, u32, u32)],
     ) {
         let out_w = s.geom.out_w;
+        // Written by `count_rows_avx2` for every row it counts before `add_counted` reads
+        // them: zeroed once, not per spike.
+        let mut hits = [0u32; super::FUSED_ROWS];
         for &(c, iy, ix) in spikes {
             let ([r0, rows], [c0, cols]) = (s.row_spans[iy as usize], s.col_spans[ix as usize]);
             if cols == 0 {
@@ -2184,12 +2191,18 @@ mod simd {
             }
             let counts = &mut s.counts[p0..p0 + (rows - 1) * out_w + super::LANES];
             assert!(len <= super::LANES, "one vector of counts per row");
-            let mut hits = [0u32; super::FUSED_ROWS];
-            let hits = &mut hits[..rows];
+            let (p, wake_at) = (counts.as_mut_ptr(), s.wake_at);
             // SAFETY: the CPU has AVX2 (this function's contract); each of the `rows` rows
             // holds LANES counts (inside `counts`, whose range is checked above); len <= 16.
-            if unsafe { count_rows_avx2(counts.as_mut_ptr(), out_w, len, s.wake_at, hits) } {
-                s.add_counted(w, c as usize, iy as usize, ix as usize, p0, hits);
+            // A footprint of Table 1's conv2 (`k` = 10) unclipped by the layer's edges, most
+            // of them: counted by a copy with its rows unrolled.
+            let reached = if rows == CONV2_ROWS {
+                unsafe { count_rows_avx2(p, out_w, len, wake_at, &mut hits[..CONV2_ROWS]) }
+            } else {
+                unsafe { count_rows_avx2(p, out_w, len, wake_at, &mut hits[..rows]) }
+            };
+            if reached {
+                s.add_counted(w, c as usize, iy as usize, ix as usize, p0, &hits[..rows]);
             }
         }
     }
