@@ -511,20 +511,44 @@ impl WindowState {
     /// `propagate` for a group in which conv1 may fire.
     #[inline(never)]
     fn propagate_fired(&mut self, net: &Network, t: u64) {
+        // Copies of the steps for the common windows (neither recorded nor trained; most of
+        // them through every layer), without the tests of recording, training (and depth)
+        // per group; each copy out of line, so that none's registers are another's.
+        if !self.record && self.training.is_none() {
+            if self.depth == Layer::ALL.len() {
+                self.propagate_layers::<true, true>(net, t);
+            } else {
+                self.propagate_layers::<true, false>(net, t);
+            }
+        } else {
+            self.propagate_layers::<false, false>(net, t);
+        }
+    }
+
+    /// `propagate_fired`'s steps, `PLAIN` and `WHOLE` as `propagate_layer`'s.
+    #[inline(never)]
+    fn propagate_layers<const PLAIN: bool, const WHOLE: bool>(&mut self, net: &Network, t: u64) {
         // One copy of the step per layer, each compiled for its layer.
-        let _ = self.propagate_layer(net, t, 0)
-            && self.propagate_layer(net, t, 1)
-            && self.propagate_layer(net, t, 2);
+        let _ = self.propagate_layer::<PLAIN, WHOLE>(net, t, 0)
+            && self.propagate_layer::<PLAIN, WHOLE>(net, t, 1)
+            && self.propagate_layer::<PLAIN, WHOLE>(net, t, 2);
     }
 
     /// Decide conv layer `layer`'s crossings of the group at `t` and carry its spikes to the
-    /// next layer's inputs; returns whether that layer has anything to decide.
+    /// next layer's inputs; returns whether that layer has anything to decide. `PLAIN`: the
+    /// window is neither recorded nor trained; `WHOLE`: it runs every layer (with `PLAIN`).
     #[allow(clippy::inline_always)]
     #[inline(always)]
-    fn propagate_layer(&mut self, net: &Network, t: u64, layer: usize) -> bool {
+    fn propagate_layer<const PLAIN: bool, const WHOLE: bool>(
+        &mut self,
+        net: &Network,
+        t: u64,
+        layer: usize,
+    ) -> bool {
         let config = net.config();
         let generation = self.generation;
-        let training = self.training == Some(layer);
+        let record = !PLAIN && self.record;
+        let training = !PLAIN && self.training == Some(layer);
         let inhibit = config.conv(layer).lateral_inhibition && !training;
         self.crossings.clear();
         // With no candidate, band neuron or waking position `resolve` finds nothing (conv1's
@@ -552,7 +576,7 @@ impl WindowState {
             net.conv_weights(ConvLayer::ALL[layer]),
             fired,
             inhibit,
-            self.record || training,
+            record || training,
             &mut self.crossings,
         );
         if self.crossings.is_empty() {
@@ -561,7 +585,7 @@ impl WindowState {
         let split = self.conv[layer].splitter();
         let conv_layer = Layer::ALL[2 * layer];
         self.counts[conv_layer.index()] += self.crossings.len() as u64;
-        if self.record {
+        if record {
             self.trace[conv_layer.index()].extend(self.crossings.iter().map(|c| {
                 let (row, col) = split.div_rem(c.pos as usize);
                 Spike {
@@ -588,7 +612,7 @@ impl WindowState {
             return false;
         }
         // Training runs every layer up to the trained one, whatever the depth.
-        let depth = if self.training.is_some() {
+        let depth = if WHOLE || (!PLAIN && self.training.is_some()) {
             5
         } else {
             self.depth
@@ -625,7 +649,7 @@ impl WindowState {
         self.pool[layer].on_spikes(generation, t, &self.crossings, split, &mut self.pool_out);
         let pool_layer = Layer::ALL[2 * layer + 1];
         self.counts[pool_layer.index()] += self.pool_out.len() as u64;
-        if self.record {
+        if record {
             self.trace[pool_layer.index()].extend(self.pool_out.iter().map(|&(m, r, c)| Spike {
                 t,
                 map: m as u16,
