@@ -164,23 +164,27 @@ impl PoolGeom {
     }
 }
 
-/// Division by a fixed divisor `d ≥ 1` with one multiplication (Lemire, Kaser & Kurz 2019:
-/// `⌊n / d⌋ = ⌊n · M / 2⁶⁴⌋` with `M = ⌊2⁶⁴ / d⌋ + 1`, exact for every 32-bit `n` and `d`):
-/// the engine splits positions into rows and columns per spike, where a hardware division
-/// would cost more than the rest of the work.
+/// Division by a fixed divisor `1 ≤ d ≤ 2³¹` with one multiplication (Lemire, Kaser & Kurz
+/// 2019, with a 63-bit shift so that the magic fits 64 bits for every such `d`, `d = 1`
+/// included: `⌊n / d⌋ = ⌊n · M / 2⁶³⌋` with `M = ⌊2⁶³ / d⌋ + 1`, exact for every 32-bit `n`:
+/// `M = 2⁶³ / d + e` with `0 < e ≤ 1` adds `n · e / 2⁶³ < 1 / d` (as `n · d < 2⁶³`) to
+/// `n / d`, whose fraction is at most `1 − 1 / d`). The product's high word is taken of
+/// `2n · M`, no shift. The engine splits positions into rows and columns per spike, where a
+/// hardware division would cost more than the rest of the work; the geometry's divisors
+/// (sides, strides, maps) are at most `u16::MAX`.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct Divider {
     d: u32,
-    magic: u128,
+    magic: u64,
 }
 
 impl Divider {
     pub fn new(d: usize) -> Self {
         let d = u32::try_from(d).expect("divisor fits 32 bits");
-        assert!(d > 0, "divisor is positive");
+        assert!(d > 0 && d <= 1 << 31, "divisor in 1..=2^31");
         Self {
             d,
-            magic: (1u128 << 64) / u128::from(d) + 1,
+            magic: (1u64 << 63) / u64::from(d) + 1,
         }
     }
 
@@ -188,7 +192,8 @@ impl Divider {
     #[inline]
     pub fn div(self, n: usize) -> usize {
         debug_assert!(u32::try_from(n).is_ok(), "dividend fits 32 bits");
-        ((n as u128 * self.magic) >> 64) as usize
+        // `2n` fits 64 bits (`n < 2³²`).
+        ((u128::from(2 * n as u64) * u128::from(self.magic)) >> 64) as usize
     }
 
     /// `(⌊n / d⌋, n mod d)`.
@@ -315,7 +320,7 @@ mod tests {
             65_536,
             1 << 20,
             (1 << 31) - 1,
-            u32::MAX as usize,
+            1 << 31,
         ]);
         for d in divisors {
             let div = Divider::new(d);
