@@ -94,6 +94,32 @@ pub(crate) struct Crossing {
     pub v32: f32,
 }
 
+/// Where `resolve` sends the neurons that fire, in firing order: a list of crossings, or for
+/// conv1 in a window neither recorded nor trained, pool1 itself (`pool::PoolSink`), which
+/// takes each spike as it fires instead of a second pass over a list.
+pub(crate) trait Fire {
+    /// Fire one neuron.
+    fn fire(&mut self, c: Crossing);
+
+    /// Fire `crossed`'s neurons in order, leaving it empty.
+    fn fire_all(&mut self, crossed: &mut Vec<Crossing>) {
+        for c in crossed.drain(..) {
+            self.fire(c);
+        }
+    }
+}
+
+impl Fire for Vec<Crossing> {
+    #[inline]
+    fn fire(&mut self, c: Crossing) {
+        self.push(c);
+    }
+
+    fn fire_all(&mut self, crossed: &mut Vec<Crossing>) {
+        self.append(crossed);
+    }
+}
+
 /// Which inputs of a conv layer fired in the current window: a generation-stamp array laid out
 /// `[row][col][channel]` (pixels have one channel).
 #[derive(Debug, Clone, Copy)]
@@ -857,7 +883,7 @@ impl ConvState {
         fired: Fired<'_>,
         inhibit: bool,
         exact: bool,
-        out: &mut Vec<Crossing>,
+        out: &mut impl Fire,
     ) {
         if let Some(held) = self.held {
             if inhibit && self.band.is_empty() && self.waking.is_empty() {
@@ -942,7 +968,7 @@ impl ConvState {
         for c in &self.crossed {
             self.pot[c.pos as usize * maps + c.map as usize] = f32::NEG_INFINITY;
         }
-        out.append(&mut self.crossed);
+        out.fire_all(&mut self.crossed);
     }
 
     /// Whether candidate `(pos, map)` has crossed: its crossing, with the exact potential if
@@ -1005,7 +1031,7 @@ impl ConvState {
         fired: Fired<'_>,
         exact: bool,
         candidates: impl Iterator<Item = (u32, u32)>,
-        out: &mut Vec<Crossing>,
+        out: &mut impl Fire,
     ) {
         let maps = self.geom.maps;
         let mut best: Option<Crossing> = None;
@@ -1023,7 +1049,7 @@ impl ConvState {
                     }
                 }
                 Some(b) => {
-                    out.push(b);
+                    out.fire(b);
                     latch_position(&mut self.pot, b.pos as usize, maps);
                     best = Some(c);
                 }
@@ -1031,7 +1057,7 @@ impl ConvState {
             }
         }
         if let Some(b) = best {
-            out.push(b);
+            out.fire(b);
             latch_position(&mut self.pot, b.pos as usize, maps);
         }
     }
@@ -1044,7 +1070,7 @@ impl ConvState {
         fired: Fired<'_>,
         exact: bool,
         held: WholeCandidates,
-        out: &mut Vec<Crossing>,
+        out: &mut impl Fire,
     ) {
         let thr_hi: [f32; MAPS] = self.thr_hi[..MAPS].try_into().expect("MAPS thresholds");
         // The walk of `WholeCandidates::positions`, written out (the iterator costs more).
@@ -1074,7 +1100,7 @@ impl ConvState {
                     let map = maps.trailing_zeros();
                     let (v32, sure) = (cell[map as usize % MAPS], thr_hi[map as usize % MAPS]);
                     if v32 >= sure {
-                        out.push(Crossing {
+                        out.fire(Crossing {
                             pos,
                             map,
                             v: f64::NAN,
@@ -1105,7 +1131,7 @@ impl ConvState {
         mut maps: u32,
         v: [f32; MAPS],
         thr_hi: [f32; MAPS],
-        out: &mut Vec<Crossing>,
+        out: &mut impl Fire,
     ) {
         let mut best: Option<Crossing> = None;
         while maps != 0 {
@@ -1124,7 +1150,7 @@ impl ConvState {
             }
         }
         if let Some(b) = best {
-            out.push(b);
+            out.fire(b);
             latch_position(&mut self.pot, pos as usize, MAPS);
         }
     }

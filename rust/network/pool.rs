@@ -1,7 +1,7 @@
 //! A max-pool layer's per-window state (docs/model.md §3): a pool neuron `(m, q)` fires at the
 //! time of the first spike of map `m` in its block. It has no potential and does not inhibit.
 
-use super::conv::Crossing;
+use super::conv::{Crossing, Fire};
 use super::geometry::{Divider, PoolGeom};
 
 /// A spike leaving a pool layer: `(map, row, col)`, all at the group's time.
@@ -14,6 +14,25 @@ fn key(base: u32, q: usize, place: usize) -> u64 {
         "fields in their bits"
     );
     u64::from(base) << 32 | (q as u64) << 8 | place as u64
+}
+
+/// A tiling pool layer taking a conv group's spikes as they fire (`PoolState::sink`).
+pub(crate) struct PoolSink<'a> {
+    pool: &'a mut PoolState,
+    generation: u32,
+    t: u64,
+    out: &'a mut Vec<PoolSpike>,
+    /// Conv spikes taken.
+    pub fired: usize,
+}
+
+impl Fire for PoolSink<'_> {
+    #[allow(clippy::inline_always)]
+    #[inline(always)]
+    fn fire(&mut self, c: Crossing) {
+        self.fired += 1;
+        self.pool.take_tiled(self.generation, self.t, c, self.out);
+    }
 }
 
 /// Per-window state of one pool layer.
@@ -141,6 +160,55 @@ impl PoolState {
             }
             // Else it fired earlier (most spikes of a busy block): this spike is not one of
             // its causes.
+        }
+    }
+
+    /// Whether `on_spikes` takes its one-block path, and a `PoolSink` may stand for it.
+    pub fn tiles(&self) -> bool {
+        self.tiles
+    }
+
+    /// `on_spikes` for spikes as the conv layer fires them, at time `t`, pool spikes going to
+    /// `out`. Only where `tiles` holds.
+    pub fn sink<'a>(
+        &'a mut self,
+        generation: u32,
+        t: u64,
+        out: &'a mut Vec<PoolSpike>,
+    ) -> PoolSink<'a> {
+        debug_assert!(self.tiles, "one block per spike");
+        PoolSink {
+            pool: self,
+            generation,
+            t,
+            out,
+            fired: 0,
+        }
+    }
+
+    /// `on_spikes`' one-block path for one spike (for `PoolSink`). `on_spikes` keeps its own
+    /// copy, its slices and keys hoisted out of the loop: calling this instead measured
+    /// more instructions (network 240x180 5 %: 54.67 -> 54.70 M, recipe 1 %: 35.38 -> 35.46 M).
+    #[allow(clippy::inline_always)]
+    #[inline(always)]
+    fn take_tiled(&mut self, generation: u32, t: u64, c: Crossing, out: &mut Vec<PoolSpike>) {
+        let pos = c.pos as usize;
+        let row = ((pos as u128 * u128::from(self.row_magic)) >> 64) as usize;
+        let (rk, ck) = (self.row_keys[row], self.col_keys[pos - row * self.geom.in_w]);
+        let sum = rk + ck;
+        let i = (sum >> 32) as usize + c.map as usize;
+        let n = self.fired.len();
+        if i >= n {
+            return; // in no block
+        }
+        let bit = 1u64.wrapping_shl(sum as u32);
+        if self.fired[i] != generation {
+            self.fired[i] = generation;
+            self.time[i] = t;
+            self.causes[i] = bit;
+            out.push((c.map, (rk >> 8) as u16 as u32, (ck >> 8) as u16 as u32));
+        } else if self.time[i] == t {
+            self.causes[i] |= bit;
         }
     }
 

@@ -556,6 +556,43 @@ impl WindowState {
         if layer > 0 && !self.conv[layer].may_fire() {
             return false;
         }
+        // Training runs every layer up to the trained one, whatever the depth.
+        let depth = if WHOLE || (!PLAIN && self.training.is_some()) {
+            5
+        } else {
+            self.depth
+        };
+        if PLAIN && layer == 0 && depth > 1 && self.pool[0].tiles() {
+            // conv1's spikes straight into pool1 as they fire (it tiles, as Table 1's): no
+            // list of crossings, nor a second pass over one.
+            self.pool_out.clear();
+            let fired = Fired {
+                stamps: &self.pixel_fired,
+                width: self.width,
+                channels: 1,
+                generation,
+            };
+            let mut sink = self.pool[0].sink(generation, t, &mut self.pool_out);
+            self.conv[0].resolve(
+                net.conv_weights(ConvLayer::Conv1),
+                fired,
+                inhibit,
+                false,
+                &mut sink,
+            );
+            let n = sink.fired;
+            if n == 0 {
+                return false;
+            }
+            self.counts[Layer::Conv1.index()] += n as u64;
+            self.counts[Layer::Pool1.index()] += self.pool_out.len() as u64;
+            if depth <= 2 || self.pool_out.is_empty() {
+                return false;
+            }
+            let w = net.conv_weights(ConvLayer::Conv2).engine();
+            self.conv[1].add_spikes(w, &self.pool_out);
+            return true;
+        }
         let fired = if layer == 0 {
             Fired {
                 stamps: &self.pixel_fired,
@@ -611,12 +648,6 @@ impl WindowState {
             self.wta.close_group();
             return false;
         }
-        // Training runs every layer up to the trained one, whatever the depth.
-        let depth = if WHOLE || (!PLAIN && self.training.is_some()) {
-            5
-        } else {
-            self.depth
-        };
         if layer == 2 {
             // Detections of one group in (map, row, col) order, as spikes are reported.
             self.crossings.sort_unstable_by_key(|c| (c.map, c.pos));
