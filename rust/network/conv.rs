@@ -1073,46 +1073,63 @@ impl ConvState {
         out: &mut impl Fire,
     ) {
         let thr_hi: [f32; MAPS] = self.thr_hi[..MAPS].try_into().expect("MAPS thresholds");
-        // The walk of `WholeCandidates::positions`, written out (the iterator costs more).
-        for (word, &bits) in held.words.iter().enumerate() {
-            let mut bits = bits;
-            while bits != 0 {
-                let p = bits.trailing_zeros() as usize / MAPS;
-                let maps = (bits >> (p * MAPS)) as u32 & POSITION_MAPS;
-                bits &= !(u64::from(POSITION_MAPS) << (p * MAPS));
-                // Below `OFFSET_SLOTS` already: the remainder only tells the compiler so.
-                let slot = (word * WORD_POSITIONS + p) % OFFSET_SLOTS;
-                let pos = held.first + self.whole_offsets[slot];
-                // `crossing` for each map, from one load of the position's potentials (none
-                // changes before the position is decided).
-                let at = pos as usize * MAPS;
-                let cell: &mut [f32; MAPS] = (&mut self.pot[at..at + MAPS])
-                    .try_into()
-                    .expect("MAPS maps");
-                // `maps` is not 0: one map is one bit (cheaper here than `is_power_of_two`).
-                #[allow(clippy::manual_is_power_of_two)]
-                let one = maps & (maps - 1) == 0;
-                if one && !exact {
-                    // The common case: one map, whose float32 sum is surely above θ (what
-                    // `crossing_at` finds without gathering), fires alone. A latched map (`−∞`)
-                    // never passes: `θ_hi` is not `−∞` (it rounds up `θ · (1 + m)`, θ > 0).
-                    // Read and latched through one bounds check.
-                    let map = maps.trailing_zeros();
-                    let (v32, sure) = (cell[map as usize % MAPS], thr_hi[map as usize % MAPS]);
-                    if v32 >= sure {
-                        out.fire(Crossing {
-                            pos,
-                            map,
-                            v: f64::NAN,
-                            v32,
-                        });
-                        *cell = [f32::NEG_INFINITY; MAPS];
-                        continue;
-                    }
+        // The walk of `WholeCandidates::positions`, written out (the iterator costs more), a
+        // copy per word (their positions' slots from a constant).
+        let [w0, w1] = held.words;
+        self.fire_word(kernels, fired, exact, held.first, 0, w0, thr_hi, out);
+        self.fire_word(kernels, fired, exact, held.first, 1, w1, thr_hi, out);
+    }
+
+    /// `fire_held` for word `word` of the held candidates, `bits`.
+    #[allow(clippy::too_many_arguments, clippy::inline_always)]
+    #[inline(always)]
+    fn fire_word(
+        &mut self,
+        kernels: &[f32],
+        fired: Fired<'_>,
+        exact: bool,
+        first: u32,
+        word: usize,
+        mut bits: u64,
+        thr_hi: [f32; MAPS],
+        out: &mut impl Fire,
+    ) {
+        while bits != 0 {
+            let p = bits.trailing_zeros() as usize / MAPS;
+            let maps = (bits >> (p * MAPS)) as u32 & POSITION_MAPS;
+            bits &= !(u64::from(POSITION_MAPS) << (p * MAPS));
+            // Below `OFFSET_SLOTS` already: the remainder only tells the compiler so.
+            let slot = (word * WORD_POSITIONS + p) % OFFSET_SLOTS;
+            let pos = first + self.whole_offsets[slot];
+            // `crossing` for each map, from one load of the position's potentials (none
+            // changes before the position is decided).
+            let at = pos as usize * MAPS;
+            let cell: &mut [f32; MAPS] = (&mut self.pot[at..at + MAPS])
+                .try_into()
+                .expect("MAPS maps");
+            // `maps` is not 0: one map is one bit (cheaper here than `is_power_of_two`).
+            #[allow(clippy::manual_is_power_of_two)]
+            let one = maps & (maps - 1) == 0;
+            if one && !exact {
+                // The common case: one map, whose float32 sum is surely above θ (what
+                // `crossing_at` finds without gathering), fires alone. A latched map (`−∞`)
+                // never passes: `θ_hi` is not `−∞` (it rounds up `θ · (1 + m)`, θ > 0).
+                // Read and latched through one bounds check.
+                let map = maps.trailing_zeros();
+                let (v32, sure) = (cell[map as usize % MAPS], thr_hi[map as usize % MAPS]);
+                if v32 >= sure {
+                    out.fire(Crossing {
+                        pos,
+                        map,
+                        v: f64::NAN,
+                        v32,
+                    });
+                    *cell = [f32::NEG_INFINITY; MAPS];
+                    continue;
                 }
-                let v = *cell;
-                self.fire_position(kernels, fired, exact, pos, maps, v, thr_hi, out);
             }
+            let v = *cell;
+            self.fire_position(kernels, fired, exact, pos, maps, v, thr_hi, out);
         }
     }
 

@@ -313,15 +313,7 @@ mod tests {
     #[test]
     fn divider_is_exact() {
         let mut divisors: Vec<usize> = (1..=2000).collect();
-        divisors.extend([
-            4095,
-            4096,
-            65_535,
-            65_536,
-            1 << 20,
-            (1 << 31) - 1,
-            1 << 31,
-        ]);
+        divisors.extend([4095, 4096, 65_535, 65_536, 1 << 20, (1 << 31) - 1, 1 << 31]);
         for d in divisors {
             let div = Divider::new(d);
             let mut ns: Vec<usize> = (0..3 * d.min(1000)).collect();

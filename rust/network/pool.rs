@@ -194,7 +194,10 @@ impl PoolState {
     fn take_tiled(&mut self, generation: u32, t: u64, c: Crossing, out: &mut Vec<PoolSpike>) {
         let pos = c.pos as usize;
         let row = ((pos as u128 * u128::from(self.row_magic)) >> 64) as usize;
-        let (rk, ck) = (self.row_keys[row], self.col_keys[pos - row * self.geom.in_w]);
+        let (rk, ck) = (
+            self.row_keys[row],
+            self.col_keys[pos - row * self.geom.in_w],
+        );
         let sum = rk + ck;
         let i = (sum >> 32) as usize + c.map as usize;
         let n = self.fired.len();
