@@ -868,8 +868,8 @@ impl ConvState {
             && self.waking.is_empty())
     }
 
-    /// Decide the crossings of the group just added and append the neurons that fire to
-    /// `out`, with their exact potential when `exact` (else `v` is NaN). `weights` are the
+    /// Decide the crossings of the group just added and send the neurons that fire to `out`
+    /// (`Fire`), in order, with their exact potential when `exact` (else `v` is NaN). `weights` are the
     /// layer's and `fired` its inputs that fired so far. Positions that reached their waking
     /// count in the group wake first.
     ///
