@@ -240,6 +240,9 @@ struct Whole {
     rows: usize,
     col0: usize,
     cols: usize,
+    /// `θ_lo` of one row's run: `thr_lo`'s first `FIXED_RUN`, copied by `set_thresholds`, so
+    /// that an input reads them without a bounds check.
+    thr: [f32; FIXED_RUN],
     avx2: Avx2,
 }
 
@@ -250,6 +253,7 @@ impl Whole {
             rows: rows.len(),
             col0: cols.start,
             cols: cols.len(),
+            thr: [f32::INFINITY; FIXED_RUN],
             avx2,
         }
     }
@@ -420,6 +424,9 @@ impl ConvState {
             self.thr_lo[i] = self.thr_lo[i - maps];
         }
         self.lo_positive = self.thr_lo[..maps].iter().all(|&lo| lo > 0.0);
+        if let Some(whole) = &mut self.whole {
+            whole.thr.copy_from_slice(&self.thr_lo[..FIXED_RUN]);
+        }
     }
 
     /// Set how many fired inputs wake a position (after `set_thresholds` and `reset`, with the
@@ -470,8 +477,7 @@ impl ConvState {
             Some(whole) if !self.gated => {
                 let (oy, ox) = (iy.wrapping_sub(whole.row0), ix.wrapping_sub(whole.col0));
                 if oy < whole.rows && ox < whole.cols {
-                    let avx2 = whole.avx2;
-                    self.add_whole::<INLINE>(avx2, w, c, oy * self.geom.out_w + ox);
+                    self.add_whole::<INLINE>(w, c, oy * self.geom.out_w + ox);
                 } else {
                     self.add_clipped(w, c, iy, ix);
                 }
@@ -607,25 +613,27 @@ impl ConvState {
     /// `add_rows_fixed`.
     #[allow(clippy::inline_always)]
     #[inline(always)]
-    fn add_whole<const INLINE: bool>(&mut self, avx2: Avx2, w: &[f32], c: usize, first: usize) {
-        let g = self.geom;
-        let maps = g.maps;
+    fn add_whole<const INLINE: bool>(&mut self, w: &[f32], c: usize, first: usize) {
+        let Some(whole) = &self.whole else {
+            unreachable!("add_whole without Whole")
+        };
         self.wholes.push(first as u32);
         // With nothing of the group pending and nothing in the band, every neuron is below
         // `θ_lo` or latched: it starts at 0, below every `θ_lo` (`lo_positive`), reaches
         // `θ_lo` only by an add that makes it a candidate, and `resolve` latches each candidate
         // or keeps it in the band. The add's crossings are then the lanes it takes to `θ_lo` or
         // above (latched ones stay `−∞`): `add_rows_fixed`'s `fresh`.
-        let pending = self.held.is_some() || !self.candidates.is_empty();
-        let fresh = !pending && self.band.is_empty() && self.lo_positive;
+        // (Tested together, without a branch each.)
+        let pending = self.held.is_some() | !self.candidates.is_empty();
+        let fresh = !pending & self.band.is_empty() & self.lo_positive;
         let kernel = w[c * FIXED_KERNEL..][..FIXED_KERNEL]
             .try_into()
             .expect("one channel's kernel");
-        let thr = self.thr_lo[..FIXED_RUN]
-            .try_into()
-            .expect("one row's thresholds");
-        let pot = &mut self.pot[first * maps..];
-        let words = add_rows_fixed::<INLINE>(avx2, pot, g.out_w * maps, kernel, thr, fresh);
+        // The rows' potentials as one slice of exactly their span (`add_rows_fixed`'s test
+        // of its length then folds away).
+        let stride = self.geom.out_w * MAPS;
+        let pot = &mut self.pot[first * MAPS..][..(FIXED_ROWS - 1) * stride + FIXED_RUN];
+        let words = add_rows_fixed::<INLINE>(whole.avx2, pot, stride, kernel, &whole.thr, fresh);
         if words != [0; 2] {
             let held = WholeCandidates {
                 first: first as u32,
