@@ -350,11 +350,15 @@ impl WindowState {
     /// (its input spike: later ones are ignored).
     #[inline]
     fn stamp(&mut self, pixel: usize, t: u64) -> bool {
-        if self.pixel_fired[pixel] == self.generation {
+        let fired = &mut self.pixel_fired[pixel];
+        if *fired == self.generation {
             return false;
         }
-        self.pixel_fired[pixel] = self.generation;
-        self.pixel_time[pixel] = t;
+        *fired = self.generation;
+        debug_assert_eq!(self.pixel_time.len(), self.pixel_fired.len());
+        // SAFETY: `pixel` is inside `pixel_fired` (indexed above), which has the length of
+        // `pixel_time` (both one value per pixel, made in `new` and never resized).
+        unsafe { *self.pixel_time.get_unchecked_mut(pixel) = t };
         self.inputs += 1;
         true
     }
