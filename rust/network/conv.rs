@@ -237,9 +237,14 @@ const POSITION_MAPS: u32 = (1 << MAPS) - 1;
 #[derive(Debug, Clone)]
 struct Whole {
     row0: usize,
+    /// The rows, or 0 while the layer wakes by count (`set_wake`), when no input is whole.
     rows: usize,
     col0: usize,
     cols: usize,
+    /// The rows whole footprints have (what `rows` is while the layer adds densely).
+    all_rows: usize,
+    /// The potentials of one output row, `out_w · MAPS`: the stride of a footprint's rows.
+    stride: usize,
     /// `θ_lo` of one row's run: `thr_lo`'s first `FIXED_RUN`, copied by `set_thresholds`, so
     /// that an input reads them without a bounds check.
     thr: [f32; FIXED_RUN],
@@ -247,12 +252,24 @@ struct Whole {
 }
 
 impl Whole {
-    fn new(rows: Range<usize>, cols: Range<usize>, avx2: Avx2) -> Self {
+    /// The whole footprints of a layer of `out_w` positions a row whose potentials `pot`
+    /// holds: asserts that the last lies inside it (what `add_whole` relies on).
+    fn new(rows: Range<usize>, cols: Range<usize>, out_w: usize, pot: usize, avx2: Avx2) -> Self {
+        let stride = out_w * MAPS;
+        if !rows.is_empty() && !cols.is_empty() {
+            let last = (rows.len() - 1) * out_w + cols.len() - 1;
+            assert!(
+                last * MAPS + (FIXED_ROWS - 1) * stride + FIXED_RUN <= pot,
+                "whole footprints inside the layer"
+            );
+        }
         Self {
             row0: rows.start,
             rows: rows.len(),
             col0: cols.start,
             cols: cols.len(),
+            all_rows: rows.len(),
+            stride,
             thr: [f32::INFINITY; FIXED_RUN],
             avx2,
         }
@@ -332,6 +349,8 @@ impl ConvState {
                     Whole::new(
                         geom.whole_footprints(geom.out_h),
                         geom.whole_footprints(geom.out_w),
+                        geom.out_w,
+                        positions * geom.maps + ZERO_BLOCK,
                         avx2,
                     )
                 }),
@@ -456,6 +475,10 @@ impl ConvState {
         #[cfg(test)]
         let rule = self.forced.unwrap_or(rule);
         self.gated = self.can_gate && rule;
+        if let Some(whole) = &mut self.whole {
+            // `add` tests for a whole input only: none is while the layer wakes by count.
+            whole.rows = if self.gated { 0 } else { whole.all_rows };
+        }
     }
 
     /// Add input spike `(c, iy, ix)` (engine-layout weights `w`) to every neuron whose kernel
@@ -479,9 +502,10 @@ impl ConvState {
     fn add_in<const INLINE: bool>(&mut self, w: &[f32], c: usize, iy: usize, ix: usize) {
         // An input's footprint is whole where it is `oy < rows` rows below the first such row
         // and `ox < cols` columns right of the first such column (one wrapping compare each);
-        // its footprint's first output position is then `(oy, ox)`.
+        // its footprint's first output position is then `(oy, ox)`. (`rows` is 0 while the
+        // layer wakes by count.)
         match &self.whole {
-            Some(whole) if !self.gated => {
+            Some(whole) => {
                 let (oy, ox) = (iy.wrapping_sub(whole.row0), ix.wrapping_sub(whole.col0));
                 if oy < whole.rows && ox < whole.cols {
                     self.add_whole::<INLINE>(w, c, oy * self.geom.out_w + ox);
@@ -636,10 +660,17 @@ impl ConvState {
         let kernel = w[c * FIXED_KERNEL..][..FIXED_KERNEL]
             .try_into()
             .expect("one channel's kernel");
-        // The rows' potentials as one slice of exactly their span (`add_rows_fixed`'s test
-        // of its length then folds away).
-        let stride = self.geom.out_w * MAPS;
-        let pot = &mut self.pot[first * MAPS..][..(FIXED_ROWS - 1) * stride + FIXED_RUN];
+        // The rows' potentials as one slice of exactly their span, without a test (so that
+        // `add_rows_fixed`'s of its length folds away too).
+        let stride = whole.stride;
+        let span = (FIXED_ROWS - 1) * stride + FIXED_RUN;
+        debug_assert!(first * MAPS + span <= self.pot.len());
+        // SAFETY: `add_in` passes `first = oy · out_w + ox` with `oy < rows ≤ all_rows` and
+        // `ox < cols`, at most the last whole footprint's, whose rows `Whole::new` asserted
+        // to lie inside `pot` (made with the length it was given, never resized).
+        let pot = unsafe {
+            std::slice::from_raw_parts_mut(self.pot.as_mut_ptr().add(first * MAPS), span)
+        };
         let words = add_rows_fixed::<INLINE>(whole.avx2, pot, stride, kernel, &whole.thr, fresh);
         if words != [0; 2] {
             let held = WholeCandidates {
