@@ -347,17 +347,20 @@ impl WindowState {
     }
 
     /// Note that `pixel` spiked at `t`; returns whether this is its first spike in the window
-    /// (its input spike: later ones are ignored).
+    /// (its input spike: later ones are ignored). `pixel` must be `y · width + x` of a spike
+    /// inside the sensor (`x < width`, `y < height`), as `accept` and `all_valid` check.
     #[inline]
     fn stamp(&mut self, pixel: usize, t: u64) -> bool {
-        let fired = &mut self.pixel_fired[pixel];
+        debug_assert!(pixel < self.width * self.height);
+        debug_assert_eq!(self.pixel_time.len(), self.pixel_fired.len());
+        // SAFETY: `pixel < width · height` (the caller's checks above), the length of both
+        // `pixel_fired` and `pixel_time` (one value per pixel, made in `new`, never resized).
+        let fired = unsafe { self.pixel_fired.get_unchecked_mut(pixel) };
         if *fired == self.generation {
             return false;
         }
         *fired = self.generation;
-        debug_assert_eq!(self.pixel_time.len(), self.pixel_fired.len());
-        // SAFETY: `pixel` is inside `pixel_fired` (indexed above), which has the length of
-        // `pixel_time` (both one value per pixel, made in `new` and never resized).
+        // SAFETY: as above.
         unsafe { *self.pixel_time.get_unchecked_mut(pixel) = t };
         self.inputs += 1;
         true
@@ -437,9 +440,10 @@ impl WindowState {
             && inside
     }
 
-    /// Take spikes that `all_valid` passed: each group's input spikes are added to conv1 as
-    /// they come and the group is run up the network once complete (what `accept` and
-    /// `process_pending` do, without the pending list).
+    /// Take spikes that `all_valid` passed (every one inside the sensor, which `stamp` relies
+    /// on): each group's input spikes are added to conv1 as they come and the group is run up
+    /// the network once complete (what `accept` and `process_pending` do, without the pending
+    /// list).
     fn take_valid(&mut self, net: &Network, t: &[u64], x: &[u16], y: &[u16]) {
         #[cfg(target_arch = "x86_64")]
         if has_avx2() {
