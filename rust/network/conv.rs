@@ -263,19 +263,40 @@ const POSITION_MAPS: u32 = (1 << MAPS) - 1;
 #[derive(Debug, Clone)]
 struct Whole {
     row0: usize,
+    /// The rows, or 0 while the layer wakes by count (`set_wake`), when no input is whole.
     rows: usize,
     col0: usize,
     cols: usize,
+    /// The rows whole footprints have (what `rows` is while the layer adds densely).
+    all_rows: usize,
+    /// The potentials of one output row, `out_w · MAPS`: the stride of a footprint's rows.
+    stride: usize,
+    /// `θ_lo` of one row's run: `thr_lo`'s first `FIXED_RUN`, copied by `set_thresholds`, so
+    /// that an input reads them without a bounds check.
+    thr: [f32; FIXED_RUN],
     avx2: Avx2,
 }
 
 impl Whole {
-    fn new(rows: Range<usize>, cols: Range<usize>, avx2: Avx2) -> Self {
+    /// The whole footprints of a layer of `out_w` positions a row whose potentials `pot`
+    /// holds: asserts that the last lies inside it (what `add_whole` relies on).
+    fn new(rows: Range<usize>, cols: Range<usize>, out_w: usize, pot: usize, avx2: Avx2) -> Self {
+        let stride = out_w * MAPS;
+        if !rows.is_empty() && !cols.is_empty() {
+            let last = (rows.len() - 1) * out_w + cols.len() - 1;
+            assert!(
+                last * MAPS + (FIXED_ROWS - 1) * stride + FIXED_RUN <= pot,
+                "whole footprints inside the layer"
+            );
+        }
         Self {
             row0: rows.start,
             rows: rows.len(),
             col0: cols.start,
             cols: cols.len(),
+            all_rows: rows.len(),
+            stride,
+            thr: [f32::INFINITY; FIXED_RUN],
             avx2,
         }
     }
@@ -354,6 +375,8 @@ impl ConvState {
                     Whole::new(
                         geom.whole_footprints(geom.out_h),
                         geom.whole_footprints(geom.out_w),
+                        geom.out_w,
+                        positions * geom.maps + ZERO_BLOCK,
                         avx2,
                     )
                 }),
@@ -446,6 +469,9 @@ impl ConvState {
             self.thr_lo[i] = self.thr_lo[i - maps];
         }
         self.lo_positive = self.thr_lo[..maps].iter().all(|&lo| lo > 0.0);
+        if let Some(whole) = &mut self.whole {
+            whole.thr.copy_from_slice(&self.thr_lo[..FIXED_RUN]);
+        }
     }
 
     /// Set how many fired inputs wake a position (after `set_thresholds` and `reset`, with the
@@ -458,16 +484,27 @@ impl ConvState {
     /// only at awake positions, and zeroes them there), so both ways start from the same state.
     pub fn set_wake(&mut self, weights: &ConvWeights) {
         let lo = 1.0 - self.margin;
-        let fewest = (0..self.geom.maps)
-            .map(|m| weights.inputs_to_reach(m, self.thr[m] * lo))
-            .min()
-            .unwrap_or(usize::MAX);
+        let inputs = self.geom.kernel_len();
+        let fewest = (0..self.geom.maps).fold(usize::MAX, |fewest, m| {
+            let target = self.thr[m] * lo;
+            // A map lowers the fewest so far only where one input fewer reaches its target:
+            // one sum read instead of a search, for nearly every map after the first.
+            if fewest == 0 || (fewest <= inputs + 1 && !weights.reaches(m, fewest - 1, target)) {
+                fewest
+            } else {
+                fewest.min(weights.inputs_to_reach(m, target))
+            }
+        });
         // Never 0 (a position with no input has no potential); beyond any count if unreachable.
         self.wake_at = fewest.clamp(1, usize::from(AWAKE - 1)) as u16;
         let rule = self.geom.maps >= WAKE_MAPS && fewest >= WAKE_WIDTHS * self.geom.k;
         #[cfg(test)]
         let rule = self.forced.unwrap_or(rule);
         self.gated = self.can_gate && rule;
+        if let Some(whole) = &mut self.whole {
+            // `add` tests for a whole input only: none is while the layer wakes by count.
+            whole.rows = if self.gated { 0 } else { whole.all_rows };
+        }
     }
 
     /// Add input spike `(c, iy, ix)` (engine-layout weights `w`) to every neuron whose kernel
@@ -491,13 +528,13 @@ impl ConvState {
     fn add_in<const INLINE: bool>(&mut self, w: &[f32], c: usize, iy: usize, ix: usize) {
         // An input's footprint is whole where it is `oy < rows` rows below the first such row
         // and `ox < cols` columns right of the first such column (one wrapping compare each);
-        // its footprint's first output position is then `(oy, ox)`.
+        // its footprint's first output position is then `(oy, ox)`. (`rows` is 0 while the
+        // layer wakes by count.)
         match &self.whole {
-            Some(whole) if !self.gated => {
+            Some(whole) => {
                 let (oy, ox) = (iy.wrapping_sub(whole.row0), ix.wrapping_sub(whole.col0));
                 if oy < whole.rows && ox < whole.cols {
-                    let avx2 = whole.avx2;
-                    self.add_whole::<INLINE>(avx2, w, c, oy * self.geom.out_w + ox);
+                    self.add_whole::<INLINE>(w, c, oy * self.geom.out_w + ox);
                 } else {
                     self.add_clipped(w, c, iy, ix);
                 }
@@ -633,25 +670,34 @@ impl ConvState {
     /// `add_rows_fixed`.
     #[allow(clippy::inline_always)]
     #[inline(always)]
-    fn add_whole<const INLINE: bool>(&mut self, avx2: Avx2, w: &[f32], c: usize, first: usize) {
-        let g = self.geom;
-        let maps = g.maps;
+    fn add_whole<const INLINE: bool>(&mut self, w: &[f32], c: usize, first: usize) {
+        let Some(whole) = &self.whole else {
+            unreachable!("add_whole without Whole")
+        };
         self.wholes.push(first as u32);
         // With nothing of the group pending and nothing in the band, every neuron is below
         // `θ_lo` or latched: it starts at 0, below every `θ_lo` (`lo_positive`), reaches
         // `θ_lo` only by an add that makes it a candidate, and `resolve` latches each candidate
         // or keeps it in the band. The add's crossings are then the lanes it takes to `θ_lo` or
         // above (latched ones stay `−∞`): `add_rows_fixed`'s `fresh`.
-        let pending = self.held.is_some() || !self.candidates.is_empty();
-        let fresh = !pending && self.band.is_empty() && self.lo_positive;
+        // (Tested together, without a branch each.)
+        let pending = self.held.is_some() | !self.candidates.is_empty();
+        let fresh = !pending & self.band.is_empty() & self.lo_positive;
         let kernel = w[c * FIXED_KERNEL..][..FIXED_KERNEL]
             .try_into()
             .expect("one channel's kernel");
-        let thr = self.thr_lo[..FIXED_RUN]
-            .try_into()
-            .expect("one row's thresholds");
-        let pot = &mut self.pot[first * maps..];
-        let words = add_rows_fixed::<INLINE>(avx2, pot, g.out_w * maps, kernel, thr, fresh);
+        // The rows' potentials as one slice of exactly their span, without a test (so that
+        // `add_rows_fixed`'s of its length folds away too).
+        let stride = whole.stride;
+        let span = (FIXED_ROWS - 1) * stride + FIXED_RUN;
+        debug_assert!(first * MAPS + span <= self.pot.len());
+        // SAFETY: `add_in` passes `first = oy · out_w + ox` with `oy < rows ≤ all_rows` and
+        // `ox < cols`, at most the last whole footprint's, whose rows `Whole::new` asserted
+        // to lie inside `pot` (made with the length it was given, never resized).
+        let pot = unsafe {
+            std::slice::from_raw_parts_mut(self.pot.as_mut_ptr().add(first * MAPS), span)
+        };
+        let words = add_rows_fixed::<INLINE>(whole.avx2, pot, stride, kernel, &whole.thr, fresh);
         if words != [0; 2] {
             let held = WholeCandidates {
                 first: first as u32,

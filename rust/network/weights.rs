@@ -124,6 +124,16 @@ impl ConvWeights {
         self.top[m * (n + 1)..(m + 1) * (n + 1)].partition_point(|&s| s < target)
     }
 
+    /// Whether `n ≤ kernel_len` inputs may be enough: `inputs_to_reach(m, target) ≤ n`, from
+    /// one sum instead of a search.
+    #[inline]
+    pub(crate) fn reaches(&self, m: usize, n: usize, target: f64) -> bool {
+        let len = self.in_ch * self.k * self.k + 1;
+        let s = self.top[m * len..(m + 1) * len][n];
+        // The complement of `inputs_to_reach`'s `s < target`.
+        s >= target || target.is_nan()
+    }
+
     /// Sum of map `m`'s weights in float64 (PENT's `K1[m]`), summed in canonical order.
     pub fn kernel_sum(&self, m: usize) -> f64 {
         self.kernel(m).iter().map(|&w| f64::from(w)).sum()
@@ -205,6 +215,13 @@ mod tests {
         assert_eq!(w.inputs_to_reach(0, 13.25), 25);
         assert_eq!(w.inputs_to_reach(0, 13.3), 26);
         assert_eq!(w.inputs_to_reach(1, 0.1), 26); // all zeros
+        for target in [0.0, 1.0, 1.75, 1.76, 13.25, 13.3, f64::NAN] {
+            for m in 0..2 {
+                for n in 0..=25 {
+                    assert_eq!(w.reaches(m, n, target), w.inputs_to_reach(m, target) <= n);
+                }
+            }
+        }
     }
 
     #[test]

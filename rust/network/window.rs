@@ -347,14 +347,21 @@ impl WindowState {
     }
 
     /// Note that `pixel` spiked at `t`; returns whether this is its first spike in the window
-    /// (its input spike: later ones are ignored).
+    /// (its input spike: later ones are ignored). `pixel` must be `y · width + x` of a spike
+    /// inside the sensor (`x < width`, `y < height`), as `accept` and `all_valid` check.
     #[inline]
     fn stamp(&mut self, pixel: usize, t: u64) -> bool {
-        if self.pixel_fired[pixel] == self.generation {
+        debug_assert!(pixel < self.width * self.height);
+        debug_assert_eq!(self.pixel_time.len(), self.pixel_fired.len());
+        // SAFETY: `pixel < width · height` (the caller's checks above), the length of both
+        // `pixel_fired` and `pixel_time` (one value per pixel, made in `new`, never resized).
+        let fired = unsafe { self.pixel_fired.get_unchecked_mut(pixel) };
+        if *fired == self.generation {
             return false;
         }
-        self.pixel_fired[pixel] = self.generation;
-        self.pixel_time[pixel] = t;
+        *fired = self.generation;
+        // SAFETY: as above.
+        unsafe { *self.pixel_time.get_unchecked_mut(pixel) = t };
         self.inputs += 1;
         true
     }
@@ -387,6 +394,29 @@ impl WindowState {
 
     /// Whether `take_valid` may take these spikes: see `push_spikes`.
     fn all_valid(&self, net: &Network, t: &[u64], x: &[u16], y: &[u16]) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        if has_avx2() {
+            // SAFETY: the CPU has AVX2 (asked just above).
+            return unsafe { self.all_valid_avx2(net, t, x, y) };
+        }
+        self.all_valid_body(net, t, x, y)
+    }
+
+    /// `all_valid` compiled for AVX2, whose vectors compare 64-bit times and take the largest
+    /// of unsigned 16-bit coordinates in one instruction each (SSE2 has neither).
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn all_valid_avx2(&self, net: &Network, t: &[u64], x: &[u16], y: &[u16]) -> bool {
+        self.all_valid_body(net, t, x, y)
+    }
+
+    /// The checks of `all_valid`, inlined into each of its compilations.
+    #[allow(clippy::inline_always)]
+    #[inline(always)]
+    fn all_valid_body(&self, net: &Network, t: &[u64], x: &[u16], y: &[u16]) -> bool {
         let after = |first: u64| first >= self.t0 && self.last_t.map_or(true, |l| first >= l);
         // Passes without early exits (the spikes are valid but for a rare error), in forms the
         // compiler vectorises: the count of times that go backwards, the largest coordinates.
@@ -410,9 +440,10 @@ impl WindowState {
             && inside
     }
 
-    /// Take spikes that `all_valid` passed: each group's input spikes are added to conv1 as
-    /// they come and the group is run up the network once complete (what `accept` and
-    /// `process_pending` do, without the pending list).
+    /// Take spikes that `all_valid` passed (every one inside the sensor, which `stamp` relies
+    /// on): each group's input spikes are added to conv1 as they come and the group is run up
+    /// the network once complete (what `accept` and `process_pending` do, without the pending
+    /// list).
     fn take_valid(&mut self, net: &Network, t: &[u64], x: &[u16], y: &[u16]) {
         #[cfg(target_arch = "x86_64")]
         if has_avx2() {
