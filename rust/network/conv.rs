@@ -274,6 +274,9 @@ struct Whole {
     /// `θ_lo` of one row's run: `thr_lo`'s first `FIXED_RUN`, copied by `set_thresholds`, so
     /// that an input reads them without a bounds check.
     thr: [f32; FIXED_RUN],
+    /// Channel 0's kernel of the weights last given to `load_kernel`: what `add_inline`'s
+    /// inputs read (off `self`, so that the loop keeps no pointer to the weights).
+    kernel: [f32; FIXED_KERNEL],
     avx2: Avx2,
 }
 
@@ -297,6 +300,7 @@ impl Whole {
             all_rows: rows.len(),
             stride,
             thr: [f32::INFINITY; FIXED_RUN],
+            kernel: [0.0; FIXED_KERNEL],
             avx2,
         }
     }
@@ -515,11 +519,21 @@ impl ConvState {
         self.add_in::<false>(w, c, iy, ix);
     }
 
-    /// `add` from a caller compiled for AVX2 (see `add_rows_fixed`'s `INLINE`).
+    /// `add` of channel 0 from a caller compiled for AVX2 (see `add_rows_fixed`'s `INLINE`),
+    /// whose whole inputs read the kernel copied by `load_kernel`: `w` must be the weights
+    /// last given to it.
     #[allow(clippy::inline_always)]
     #[inline(always)]
-    pub fn add_inline(&mut self, w: &[f32], c: usize, iy: usize, ix: usize) {
-        self.add_in::<true>(w, c, iy, ix);
+    pub fn add_inline(&mut self, w: &[f32], iy: usize, ix: usize) {
+        self.add_in::<true>(w, 0, iy, ix);
+    }
+
+    /// Copy channel 0's kernel of the engine-layout weights `w` for `add_inline` (where the
+    /// layer has whole inputs): once before a run of its inputs, not per input.
+    pub fn load_kernel(&mut self, w: &[f32]) {
+        if let Some(whole) = &mut self.whole {
+            whole.kernel = *w.first_chunk().expect("one channel's kernel");
+        }
     }
 
     /// `add`, with `add_rows_fixed`'s `INLINE`.
@@ -683,9 +697,14 @@ impl ConvState {
         // (Tested together, without a branch each.)
         let pending = self.held.is_some() | !self.candidates.is_empty();
         let fresh = !pending & self.band.is_empty() & self.lo_positive;
-        let kernel = w[c * FIXED_KERNEL..][..FIXED_KERNEL]
-            .try_into()
-            .expect("one channel's kernel");
+        let kernel = if INLINE {
+            debug_assert!(c == 0 && whole.kernel[..] == w[..FIXED_KERNEL], "kernel loaded");
+            &whole.kernel
+        } else {
+            w[c * FIXED_KERNEL..][..FIXED_KERNEL]
+                .try_into()
+                .expect("one channel's kernel")
+        };
         // The rows' potentials as one slice of exactly their span, without a test (so that
         // `add_rows_fixed`'s of its length folds away too).
         let stride = whole.stride;

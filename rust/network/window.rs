@@ -477,6 +477,9 @@ impl WindowState {
         y: &[u16],
     ) {
         let w = net.conv_weights(ConvLayer::Conv1).engine();
+        if AVX2 {
+            self.conv[0].load_kernel(w);
+        }
         // One pass over the zipped columns (no bounds checks per spike): a spike of a later
         // time completes the group before it, whose inputs are then run up the network.
         let mut group_t = t.first().copied().unwrap_or(0);
@@ -492,7 +495,7 @@ impl WindowState {
             let (xs, ys) = (usize::from(sx), usize::from(sy));
             if self.stamp(ys * self.width + xs, st) {
                 if AVX2 {
-                    self.conv[0].add_inline(w, 0, ys, xs);
+                    self.conv[0].add_inline(w, ys, xs);
                 } else {
                     self.conv[0].add(w, 0, ys, xs);
                 }
