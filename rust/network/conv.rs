@@ -770,14 +770,37 @@ impl ConvState {
     #[inline(never)]
     fn list(&mut self, held: WholeCandidates) {
         let start = self.candidates.len();
-        for (p, mut maps) in held.positions() {
-            let pos = held.first + self.whole_offsets[p];
-            while maps != 0 {
-                self.candidates.push((pos, maps.trailing_zeros()));
-                maps &= maps - 1;
-            }
-        }
+        // The walk of `WholeCandidates::positions`, written out (the iterator costs more), a
+        // copy per word (their positions' slots from a constant).
+        let [w0, w1] = held.words;
+        self.list_word(held.first, 0, w0);
+        self.list_word(held.first, 1, w1);
+        debug_assert!(
+            held.positions()
+                .flat_map(|(p, maps)| {
+                    let pos = held.first + self.whole_offsets[p];
+                    (0..MAPS as u32)
+                        .filter(move |m| maps >> m & 1 != 0)
+                        .map(move |m| (pos, m))
+                })
+                .eq(self.candidates[start..].iter().copied()),
+            "the candidates of `positions`, in order"
+        );
         self.note_run(start);
+    }
+
+    /// `list` of word `word` of the held candidates, `bits`.
+    #[allow(clippy::inline_always)]
+    #[inline(always)]
+    fn list_word(&mut self, first: u32, word: usize, mut bits: u64) {
+        while bits != 0 {
+            let lane = bits.trailing_zeros() as usize;
+            // Below `OFFSET_SLOTS` already: the remainder only tells the compiler so.
+            let slot = (word * WORD_POSITIONS + lane / MAPS) % OFFSET_SLOTS;
+            let pos = first + self.whole_offsets[slot];
+            self.candidates.push((pos, (lane % MAPS) as u32));
+            bits &= bits - 1;
+        }
     }
 
     /// Record the neurons whose lanes are set in `masks` (one per output row of a run from
