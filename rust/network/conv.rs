@@ -191,9 +191,10 @@ pub(crate) struct ConvState {
     /// Potentials written this window by `inputs`, counted with repeats (the cost of
     /// replaying them).
     touched_lanes: usize,
-    /// The first positions of the whole footprints added this window (`add_whole`'s, of
-    /// `FIXED_ROWS` rows of `FIXED_RUN` lanes each), kept apart from `inputs` so that pushing
-    /// one is one value and zeroing it needs no test of its shape.
+    /// The first potentials (first position · `MAPS`) of the whole footprints added this
+    /// window (`add_whole`'s, of `FIXED_ROWS` rows of `FIXED_RUN` lanes each), kept apart
+    /// from `inputs` so that pushing one is one value and zeroing it needs no test of its
+    /// shape (nor a multiplication).
     wholes: Vec<u32>,
     /// Scratch: per 8 lanes of a run, which reached `θ_lo` (whole words of 64 lanes, read as
     /// such by `push_candidates`).
@@ -688,7 +689,7 @@ impl ConvState {
         let Some(whole) = &self.whole else {
             unreachable!("add_whole without Whole")
         };
-        self.wholes.push(first as u32);
+        self.wholes.push((first * MAPS) as u32);
         // With nothing of the group pending and nothing in the band, every neuron is below
         // `θ_lo` or latched: it starts at 0, below every `θ_lo` (`lo_positive`), reaches
         // `θ_lo` only by an add that makes it a candidate, and `resolve` latches each candidate
@@ -1413,7 +1414,7 @@ fn zero_footprints(avx2: bool, pot: &mut [f32], inputs: &[Footprint], out_w: usi
     zero_footprints_body(pot, inputs, out_w, maps);
 }
 
-/// Zero the whole footprints from the first positions `wholes` (`ConvState::wholes`): each
+/// Zero the whole footprints from the first potentials `wholes` (`ConvState::wholes`): each
 /// `FIXED_ROWS` rows of `FIXED_RUN` potentials, `stride` apart. Compiled for AVX2 where the
 /// CPU has it, so that a row is two vector stores and a half.
 #[inline]
@@ -1432,7 +1433,7 @@ fn zero_wholes(avx2: bool, pot: &mut [f32], wholes: &[u32], stride: usize) {
 #[allow(clippy::inline_always)]
 #[inline(always)]
 fn zero_wholes_body(pot: &mut [f32], wholes: &[u32], stride: usize) {
-    // The largest first position, tested against the last whose rows end inside `pot`: one
+    // The largest first potential, tested against the last whose rows end inside `pot`: one
     // vectorised pass (a few instructions per eight footprints) and one compare, instead of
     // a compare per footprint or a bounds check per row.
     if wholes.is_empty() {
@@ -1441,18 +1442,18 @@ fn zero_wholes_body(pot: &mut [f32], wholes: &[u32], stride: usize) {
     let largest = wholes.iter().fold(0, |m, &first| m.max(first));
     let room = pot.len().checked_sub((FIXED_ROWS - 1) * stride + FIXED_RUN);
     assert!(
-        room.is_some_and(|room| largest as usize <= room / MAPS),
+        room.is_some_and(|room| largest as usize <= room),
         "footprints inside the layer"
     );
     let p = pot.as_mut_ptr();
     for &first in wholes {
         let first = first as usize;
         for r in 0..FIXED_ROWS {
-            // SAFETY: row `r` ends at `first · MAPS + r · stride + FIXED_RUN`, at most
-            // `room + (FIXED_ROWS − 1) · stride + FIXED_RUN = pot.len()` (`first ≤ largest ≤
-            // room / MAPS`, asserted above).
+            // SAFETY: row `r` ends at `first + r · stride + FIXED_RUN`, at most `room +
+            // (FIXED_ROWS − 1) · stride + FIXED_RUN = pot.len()` (`first ≤ largest ≤ room`,
+            // asserted above).
             unsafe {
-                p.add(first * MAPS + r * stride)
+                p.add(first + r * stride)
                     .cast::<[f32; FIXED_RUN]>()
                     .write_unaligned([0.0; FIXED_RUN]);
             }
