@@ -98,6 +98,10 @@ pub(crate) struct Crossing {
 /// conv1 in a window neither recorded nor trained, pool1 itself (`pool::PoolSink`), which
 /// takes each spike as it fires instead of a second pass over a list.
 pub(crate) trait Fire {
+    /// Whether it may want the exact potentials (`resolve`'s `exact`): where not, `resolve`
+    /// is compiled without them, whatever the optimiser makes of its callers.
+    const EXACT: bool = true;
+
     /// Fire one neuron.
     fn fire(&mut self, c: Crossing);
 
@@ -142,8 +146,10 @@ pub(crate) struct ConvState {
     lane_split: Vec<(u32, u32)>,
     /// Per input of a row of a receptive field, `[col][channel]`: (column offset, channel).
     input_split: Vec<(u32, u32)>,
-    /// Per input of such a row: `(c·k² + k − 1 − col)·maps`, its part of the engine-layout
-    /// weight offset (waking adds the row's and the clipping's parts).
+    /// Per input of such a row: `c·k² + k − 1 − col`, its part of the index of its run of
+    /// `maps` weights in the engine layout (waking adds the row's and the clipping's parts);
+    /// zeros after them up to `WAKE_LANES` values, so that a lane of a row of at most 64 (a
+    /// trailing-zero count) indexes a `WAKE_LANES` array without a test.
     wake_base: Vec<u32>,
     /// Exact thresholds per map.
     thr: Vec<f64>,
@@ -315,10 +321,13 @@ impl ConvState {
             input_split: (0..geom.k * geom.in_ch)
                 .map(|l| ((l / geom.in_ch) as u32, (l % geom.in_ch) as u32))
                 .collect(),
-            wake_base: (0..geom.k * geom.in_ch)
+            wake_base: (0..(geom.k * geom.in_ch).max(WAKE_LANES))
                 .map(|l| {
+                    if l >= geom.k * geom.in_ch {
+                        return 0; // past a row's inputs
+                    }
                     let (col, c) = (l / geom.in_ch, l % geom.in_ch);
-                    ((c * geom.k * geom.k + geom.k - 1 - col) * geom.maps) as u32
+                    (c * geom.k * geom.k + geom.k - 1 - col) as u32
                 })
                 .collect(),
             thr: vec![f64::INFINITY; geom.maps],
@@ -923,14 +932,15 @@ impl ConvState {
     /// a position's crossings in the group the highest potential fires, ties going to the
     /// lowest map, and the position is locked. Without it, every crossing fires. Every neuron
     /// that crossed is latched.
-    pub fn resolve(
+    pub fn resolve<F: Fire>(
         &mut self,
         weights: &ConvWeights,
         fired: Fired<'_>,
         inhibit: bool,
         exact: bool,
-        out: &mut impl Fire,
+        out: &mut F,
     ) {
+        let exact = exact && F::EXACT;
         if let Some(held) = self.held {
             if inhibit && self.band.is_empty() && self.waking.is_empty() {
                 // The common case of conv1: one input's candidates, and nothing else.
@@ -1566,10 +1576,15 @@ fn gather_body(
     pot: &mut [f32],
 ) {
     if let Ok(pot) = <&mut [f32; GATHER_MAPS]>::try_from(&mut *pot) {
+        // The weights as their runs of `GATHER_MAPS`: one test per input, not two.
+        // SAFETY: `[f32; GATHER_MAPS]` has `f32`'s alignment and no padding, and the
+        // `w.len() / GATHER_MAPS` arrays lie inside `w`.
+        let runs: &[[f32; GATHER_MAPS]] =
+            unsafe { std::slice::from_raw_parts(w.as_ptr().cast(), w.len() / GATHER_MAPS) };
         // The same sums in the same order, kept in registers instead of memory.
         let mut sums = [0.0; GATHER_MAPS];
-        each_fired_weights(avx2, g, fired, base, GATHER_MAPS, oy, ox, |ws| {
-            for (d, &v) in sums.iter_mut().zip(&w[ws..ws + GATHER_MAPS]) {
+        each_fired_run(avx2, g, fired, base, oy, ox, |r| {
+            for (d, &v) in sums.iter_mut().zip(&runs[r]) {
                 *d += v;
             }
         });
@@ -1577,8 +1592,8 @@ fn gather_body(
         return;
     }
     let maps = pot.len();
-    each_fired_weights(avx2, g, fired, base, maps, oy, ox, |ws| {
-        for (d, &v) in pot.iter_mut().zip(&w[ws..ws + maps]) {
+    each_fired_run(avx2, g, fired, base, oy, ox, |r| {
+        for (d, &v) in pot.iter_mut().zip(&w[r * maps..(r + 1) * maps]) {
             *d += v;
         }
     });
@@ -1588,17 +1603,20 @@ fn gather_body(
 /// run of known length, whose partial sums stay in vector registers.
 const GATHER_MAPS: usize = 20;
 
-/// Call `f(ws)` for every input of output `(oy, ox)`'s receptive field that fired, in the
-/// order of `each_fired_lane`, with `ws` the offset of its `maps` weights in the engine layout
-/// (`base` is `ConvState::wake_base`).
-#[allow(clippy::too_many_arguments, clippy::inline_always)]
+/// The least length of `ConvState::wake_base`: one more than the greatest lane of a row of at
+/// most 64 inputs.
+const WAKE_LANES: usize = 65;
+
+/// Call `f(r)` for every input of output `(oy, ox)`'s receptive field that fired, in the
+/// order of `each_fired_lane`, with `r` the index of its run of weights (one per map) in the
+/// engine layout (`base` is `ConvState::wake_base`).
+#[allow(clippy::inline_always)]
 #[inline(always)]
-fn each_fired_weights(
+fn each_fired_run(
     avx2: bool,
     g: &ConvGeom,
     fired: Fired<'_>,
     base: &[u32],
-    maps: usize,
     oy: usize,
     ox: usize,
     mut f: impl FnMut(usize),
@@ -1606,11 +1624,17 @@ fn each_fired_weights(
     let cols = g.inputs_of(ox, g.in_w);
     // Lane `(col, c)` of a row holds input column `cols.start + col`, kernel column
     // `dx = col + shift` (`shift` > 0 only where the field is clipped on the left).
-    let shift = (cols.start + g.p_lo - ox) * maps;
-    each_short_lane(g, fired, avx2, oy, ox, |iy, l| {
-        // ((c·k + dy)·k + k − 1 − dx)·maps, from the lane's precomputed part.
-        f(base[l] as usize + (iy + g.p_lo - oy) * g.k * maps - shift);
-    });
+    let shift = cols.start + g.p_lo - ox;
+    // (c·k + dy)·k + k − 1 − dx, from the lane's precomputed part.
+    let run = |l: u32, iy: usize| l as usize + (iy + g.p_lo - oy) * g.k - shift;
+    if cols.len() * fired.channels <= 64 {
+        // A lane of `each_short_lane`, a trailing-zero count of a word, is at most 64, inside
+        // `WAKE_LANES` values: read without a test.
+        let short: &[u32; WAKE_LANES] = base[..WAKE_LANES].try_into().expect("padded");
+        each_short_lane(g, fired, avx2, oy, ox, |iy, l| f(run(short[l], iy)));
+    } else {
+        each_fired_lane(g, fired, avx2, oy, ox, |iy, l| f(run(base[l], iy)));
+    }
 }
 
 /// Call `f(c, iy, ix)` for every input `(channel, row, col)` of output `(oy, ox)`'s receptive
