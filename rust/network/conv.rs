@@ -860,11 +860,11 @@ impl ConvState {
             self.awake.push(pos);
             let (oy, ox) = self.split.div_rem(p);
             let pot = &mut self.pot[p * maps..(p + 1) * maps];
-            pot.fill(0.0);
             gather(self.avx2, &g, fired, &self.wake_base, w, oy, ox, pot);
             let start = self.candidates.len();
-            for (m, &v) in pot.iter().enumerate() {
-                if v >= self.thr_lo[m] {
+            // The maps' thresholds as a slice of their length: no test per map.
+            for (m, (&v, &lo)) in pot.iter().zip(&self.thr_lo[..maps]).enumerate() {
+                if v >= lo {
                     self.candidates.push((pos, m as u32));
                 }
             }
@@ -1536,7 +1536,7 @@ fn merge(a: &[u64], b: &[u64], out: &mut [u64]) {
     }
 }
 
-/// Add to `pot` (one position's maps, zeroed) the engine-layout weights `w` of every input of
+/// Set `pot` (one position's maps) to the sum of the engine-layout weights `w` of every input of
 /// output `(oy, ox)`'s receptive field that fired, in the order of `each_fired_input`; `base`
 /// is `ConvState::wake_base`. Compiled for AVX2 where the CPU has it, so that the additions of
 /// one input's maps run as vectors.
@@ -1592,6 +1592,7 @@ fn gather_body(
         return;
     }
     let maps = pot.len();
+    pot.fill(0.0);
     each_fired_run(avx2, g, fired, base, oy, ox, |r| {
         for (d, &v) in pot.iter_mut().zip(&w[r * maps..(r + 1) * maps]) {
             *d += v;
