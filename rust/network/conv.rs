@@ -1604,6 +1604,10 @@ fn gather_body(
 /// run of known length, whose partial sums stay in vector registers.
 const GATHER_MAPS: usize = 20;
 
+/// The inputs of a row of Table 1's conv2's receptive field where it is not clipped (10
+/// columns of 4 channels): `gather` tests them in a fixed number of vectors.
+const CONV2_LANES: usize = 40;
+
 /// The least length of `ConvState::wake_base`: one more than the greatest lane of a row of at
 /// most 64 inputs.
 const WAKE_LANES: usize = 65;
@@ -1628,10 +1632,31 @@ fn each_fired_run(
     let shift = cols.start + g.p_lo - ox;
     // (c·k + dy)·k + k − 1 − dx, from the lane's precomputed part.
     let run = |l: u32, iy: usize| l as usize + (iy + g.p_lo - oy) * g.k - shift;
-    if cols.len() * fired.channels <= 64 {
+    let len = cols.len() * fired.channels;
+    if len <= 64 {
         // A lane of `each_short_lane`, a trailing-zero count of a word, is at most 64, inside
         // `WAKE_LANES` values: read without a test.
         let short: &[u32; WAKE_LANES] = base[..WAKE_LANES].try_into().expect("padded");
+        if len == CONV2_LANES {
+            // `each_short_lane` for rows of a known length: each row's stamps tested in a
+            // fixed number of vectors, without the loop over them.
+            let rows = g.inputs_of(oy, g.in_h);
+            let stride = fired.width * fired.channels;
+            let first = (rows.start * fired.width + cols.start) * fired.channels;
+            for (r, iy) in rows.enumerate() {
+                let from = first + r * stride;
+                let stamps: &[u32; CONV2_LANES] = fired.stamps[from..from + CONV2_LANES]
+                    .try_into()
+                    .expect("one row of the field");
+                let mut mask = fired_mask(avx2, stamps, fired.generation);
+                while mask != 0 {
+                    let l = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    f(run(short[l], iy));
+                }
+            }
+            return;
+        }
         each_short_lane(g, fired, avx2, oy, ox, |iy, l| f(run(short[l], iy)));
     } else {
         each_fired_lane(g, fired, avx2, oy, ox, |iy, l| f(run(base[l], iy)));
