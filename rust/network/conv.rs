@@ -881,12 +881,16 @@ impl ConvState {
         let g = self.geom;
         if fired.channels == 1 && g.in_ch == 1 && g.k == FIXED_ROWS {
             let (oy, ox) = self.split.div_rem(pos);
-            let (rows, cols) = (g.inputs_of(oy, g.in_h), g.inputs_of(ox, g.in_w));
-            if rows.len() == FIXED_ROWS && cols.len() == FIXED_ROWS {
-                let kernel = kernels[map * g.kernel_len()..][..g.kernel_len()]
+            // `inputs_of`'s rows and columns are whole (`FIXED_ROWS` long, from `o − p_lo`)
+            // where the field starts and ends inside the input: tested as such, without
+            // clipping both ends.
+            let whole =
+                |o: usize, input: usize| o.checked_sub(g.p_lo).filter(|&i| i + FIXED_ROWS <= input);
+            if let (Some(iy0), Some(ix0)) = (whole(oy, g.in_h), whole(ox, g.in_w)) {
+                let kernel = kernels[map * FIXED_ROWS * FIXED_ROWS..][..FIXED_ROWS * FIXED_ROWS]
                     .try_into()
                     .expect("one channel's kernel");
-                return exact_whole(kernel, fired, rows.start, cols.start);
+                return exact_whole(kernel, fired, iy0, ix0);
             }
         }
         self.exact_general(kernels, fired, pos, map)
