@@ -862,10 +862,26 @@ impl ConvState {
             let pot = &mut self.pot[p * maps..(p + 1) * maps];
             gather(self.avx2, &g, fired, &self.wake_base, w, oy, ox, pot);
             let start = self.candidates.len();
-            // The maps' thresholds as a slice of their length: no test per map.
-            for (m, (&v, &lo)) in pot.iter().zip(&self.thr_lo[..maps]).enumerate() {
-                if v >= lo {
-                    self.candidates.push((pos, m as u32));
+            let thr_lo = &self.thr_lo[..maps];
+            if let (Ok(v), Ok(lo)) = (
+                <&[f32; GATHER_MAPS]>::try_from(&*pot),
+                <&[f32; GATHER_MAPS]>::try_from(thr_lo),
+            ) {
+                // Table 1's conv2: the maps compared as vectors into one mask, its bits pushed.
+                let mut mask = 0u32;
+                for (m, (&v, &lo)) in v.iter().zip(lo).enumerate() {
+                    mask |= u32::from(v >= lo) << m;
+                }
+                while mask != 0 {
+                    self.candidates.push((pos, mask.trailing_zeros()));
+                    mask &= mask - 1;
+                }
+            } else {
+                // The maps' thresholds as a slice of their length: no test per map.
+                for (m, (&v, &lo)) in pot.iter().zip(thr_lo).enumerate() {
+                    if v >= lo {
+                        self.candidates.push((pos, m as u32));
+                    }
                 }
             }
             self.note_run(start);
