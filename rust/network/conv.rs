@@ -1150,10 +1150,11 @@ impl ConvState {
     ) {
         let thr_hi: [f32; MAPS] = self.thr_hi[..MAPS].try_into().expect("MAPS thresholds");
         // The walk of `WholeCandidates::positions`, written out (the iterator costs more), a
-        // copy per word (their positions' slots from a constant).
+        // copy per word (their positions' slots from a constant), both reading the one copy of
+        // the thresholds.
         let [w0, w1] = held.words;
-        self.fire_word(kernels, fired, exact, held.first, 0, w0, thr_hi, out);
-        self.fire_word(kernels, fired, exact, held.first, 1, w1, thr_hi, out);
+        self.fire_word(kernels, fired, exact, held.first, 0, w0, &thr_hi, out);
+        self.fire_word(kernels, fired, exact, held.first, 1, w1, &thr_hi, out);
     }
 
     /// `fire_held` for word `word` of the held candidates, `bits`.
@@ -1167,7 +1168,7 @@ impl ConvState {
         first: u32,
         word: usize,
         mut bits: u64,
-        thr_hi: [f32; MAPS],
+        thr_hi: &[f32; MAPS],
         out: &mut impl Fire,
     ) {
         while bits != 0 {
@@ -1205,7 +1206,7 @@ impl ConvState {
                 }
             }
             let v = *cell;
-            self.fire_position(kernels, fired, exact, pos, maps, v, thr_hi, out);
+            self.fire_position(kernels, fired, exact, pos, maps, v, *thr_hi, out);
         }
     }
 
