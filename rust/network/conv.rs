@@ -912,7 +912,9 @@ impl ConvState {
         self.exact_general(kernels, fired, pos, map)
     }
 
-    /// `exact` for any field, through `each_fired_input`.
+    /// `exact` for any field, through `each_fired_input`. Out of line, so that `exact`'s
+    /// common case saves no registers for it.
+    #[inline(never)]
     fn exact_general(&self, kernels: &[f32], fired: Fired<'_>, pos: usize, map: usize) -> f64 {
         let g = self.geom;
         let (oy, ox) = self.split.div_rem(pos);
