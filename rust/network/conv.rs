@@ -98,6 +98,10 @@ pub(crate) struct Crossing {
 /// conv1 in a window neither recorded nor trained, pool1 itself (`pool::PoolSink`), which
 /// takes each spike as it fires instead of a second pass over a list.
 pub(crate) trait Fire {
+    /// Whether it may want the exact potentials (`resolve`'s `exact`): where not, `resolve`
+    /// is compiled without them, whatever the optimiser makes of its callers.
+    const EXACT: bool = true;
+
     /// Fire one neuron.
     fn fire(&mut self, c: Crossing);
 
@@ -142,8 +146,10 @@ pub(crate) struct ConvState {
     lane_split: Vec<(u32, u32)>,
     /// Per input of a row of a receptive field, `[col][channel]`: (column offset, channel).
     input_split: Vec<(u32, u32)>,
-    /// Per input of such a row: `(c·k² + k − 1 − col)·maps`, its part of the engine-layout
-    /// weight offset (waking adds the row's and the clipping's parts).
+    /// Per input of such a row: `c·k² + k − 1 − col`, its part of the index of its run of
+    /// `maps` weights in the engine layout (waking adds the row's and the clipping's parts);
+    /// zeros after them up to `WAKE_LANES` values, so that a lane of a row of at most 64 (a
+    /// trailing-zero count) indexes a `WAKE_LANES` array without a test.
     wake_base: Vec<u32>,
     /// Exact thresholds per map.
     thr: Vec<f64>,
@@ -320,10 +326,13 @@ impl ConvState {
             input_split: (0..geom.k * geom.in_ch)
                 .map(|l| ((l / geom.in_ch) as u32, (l % geom.in_ch) as u32))
                 .collect(),
-            wake_base: (0..geom.k * geom.in_ch)
+            wake_base: (0..(geom.k * geom.in_ch).max(WAKE_LANES))
                 .map(|l| {
+                    if l >= geom.k * geom.in_ch {
+                        return 0; // past a row's inputs
+                    }
                     let (col, c) = (l / geom.in_ch, l % geom.in_ch);
-                    ((c * geom.k * geom.k + geom.k - 1 - col) * geom.maps) as u32
+                    (c * geom.k * geom.k + geom.k - 1 - col) as u32
                 })
                 .collect(),
             thr: vec![f64::INFINITY; geom.maps],
@@ -894,12 +903,28 @@ impl ConvState {
             self.awake.push(pos);
             let (oy, ox) = self.split.div_rem(p);
             let pot = &mut self.pot[p * maps..(p + 1) * maps];
-            pot.fill(0.0);
             gather(self.avx2, &g, fired, &self.wake_base, w, oy, ox, pot);
             let start = self.candidates.len();
-            for (m, &v) in pot.iter().enumerate() {
-                if v >= self.thr_lo[m] {
-                    self.candidates.push((pos, m as u32));
+            let thr_lo = &self.thr_lo[..maps];
+            if let (Ok(v), Ok(lo)) = (
+                <&[f32; GATHER_MAPS]>::try_from(&*pot),
+                <&[f32; GATHER_MAPS]>::try_from(thr_lo),
+            ) {
+                // Table 1's conv2: the maps compared as vectors into one mask, its bits pushed.
+                let mut mask = 0u32;
+                for (m, (&v, &lo)) in v.iter().zip(lo).enumerate() {
+                    mask |= u32::from(v >= lo) << m;
+                }
+                while mask != 0 {
+                    self.candidates.push((pos, mask.trailing_zeros()));
+                    mask &= mask - 1;
+                }
+            } else {
+                // The maps' thresholds as a slice of their length: no test per map.
+                for (m, (&v, &lo)) in pot.iter().zip(thr_lo).enumerate() {
+                    if v >= lo {
+                        self.candidates.push((pos, m as u32));
+                    }
                 }
             }
             self.note_run(start);
@@ -915,18 +940,24 @@ impl ConvState {
         let g = self.geom;
         if fired.channels == 1 && g.in_ch == 1 && g.k == FIXED_ROWS {
             let (oy, ox) = self.split.div_rem(pos);
-            let (rows, cols) = (g.inputs_of(oy, g.in_h), g.inputs_of(ox, g.in_w));
-            if rows.len() == FIXED_ROWS && cols.len() == FIXED_ROWS {
-                let kernel = kernels[map * g.kernel_len()..][..g.kernel_len()]
+            // `inputs_of`'s rows and columns are whole (`FIXED_ROWS` long, from `o − p_lo`)
+            // where the field starts and ends inside the input: tested as such, without
+            // clipping both ends.
+            let whole =
+                |o: usize, input: usize| o.checked_sub(g.p_lo).filter(|&i| i + FIXED_ROWS <= input);
+            if let (Some(iy0), Some(ix0)) = (whole(oy, g.in_h), whole(ox, g.in_w)) {
+                let kernel = kernels[map * FIXED_ROWS * FIXED_ROWS..][..FIXED_ROWS * FIXED_ROWS]
                     .try_into()
                     .expect("one channel's kernel");
-                return exact_whole(kernel, fired, rows.start, cols.start);
+                return exact_whole(kernel, fired, iy0, ix0);
             }
         }
         self.exact_general(kernels, fired, pos, map)
     }
 
-    /// `exact` for any field, through `each_fired_input`.
+    /// `exact` for any field, through `each_fired_input`. Out of line, so that `exact`'s
+    /// common case saves no registers for it.
+    #[inline(never)]
     fn exact_general(&self, kernels: &[f32], fired: Fired<'_>, pos: usize, map: usize) -> f64 {
         let g = self.geom;
         let (oy, ox) = self.split.div_rem(pos);
@@ -966,14 +997,15 @@ impl ConvState {
     /// a position's crossings in the group the highest potential fires, ties going to the
     /// lowest map, and the position is locked. Without it, every crossing fires. Every neuron
     /// that crossed is latched.
-    pub fn resolve(
+    pub fn resolve<F: Fire>(
         &mut self,
         weights: &ConvWeights,
         fired: Fired<'_>,
         inhibit: bool,
         exact: bool,
-        out: &mut impl Fire,
+        out: &mut F,
     ) {
+        let exact = exact && F::EXACT;
         if let Some(held) = self.held {
             if inhibit && self.band.is_empty() && self.waking.is_empty() {
                 // The common case of conv1: one input's candidates, and nothing else.
@@ -1163,10 +1195,11 @@ impl ConvState {
     ) {
         let thr_hi: [f32; MAPS] = self.thr_hi[..MAPS].try_into().expect("MAPS thresholds");
         // The walk of `WholeCandidates::positions`, written out (the iterator costs more), a
-        // copy per word (their positions' slots from a constant).
+        // copy per word (their positions' slots from a constant), both reading the one copy of
+        // the thresholds.
         let [w0, w1] = held.words;
-        self.fire_word(kernels, fired, exact, held.first, 0, w0, thr_hi, out);
-        self.fire_word(kernels, fired, exact, held.first, 1, w1, thr_hi, out);
+        self.fire_word(kernels, fired, exact, held.first, 0, w0, &thr_hi, out);
+        self.fire_word(kernels, fired, exact, held.first, 1, w1, &thr_hi, out);
     }
 
     /// `fire_held` for word `word` of the held candidates, `bits`.
@@ -1180,7 +1213,7 @@ impl ConvState {
         first: u32,
         word: usize,
         mut bits: u64,
-        thr_hi: [f32; MAPS],
+        thr_hi: &[f32; MAPS],
         out: &mut impl Fire,
     ) {
         while bits != 0 {
@@ -1218,7 +1251,7 @@ impl ConvState {
                 }
             }
             let v = *cell;
-            self.fire_position(kernels, fired, exact, pos, maps, v, thr_hi, out);
+            self.fire_position(kernels, fired, exact, pos, maps, v, *thr_hi, out);
         }
     }
 
@@ -1574,7 +1607,7 @@ fn merge(a: &[u64], b: &[u64], out: &mut [u64]) {
     }
 }
 
-/// Add to `pot` (one position's maps, zeroed) the engine-layout weights `w` of every input of
+/// Set `pot` (one position's maps) to the sum of the engine-layout weights `w` of every input of
 /// output `(oy, ox)`'s receptive field that fired, in the order of `each_fired_input`; `base`
 /// is `ConvState::wake_base`. Compiled for AVX2 where the CPU has it, so that the additions of
 /// one input's maps run as vectors.
@@ -1614,10 +1647,15 @@ fn gather_body(
     pot: &mut [f32],
 ) {
     if let Ok(pot) = <&mut [f32; GATHER_MAPS]>::try_from(&mut *pot) {
+        // The weights as their runs of `GATHER_MAPS`: one test per input, not two.
+        // SAFETY: `[f32; GATHER_MAPS]` has `f32`'s alignment and no padding, and the
+        // `w.len() / GATHER_MAPS` arrays lie inside `w`.
+        let runs: &[[f32; GATHER_MAPS]] =
+            unsafe { std::slice::from_raw_parts(w.as_ptr().cast(), w.len() / GATHER_MAPS) };
         // The same sums in the same order, kept in registers instead of memory.
         let mut sums = [0.0; GATHER_MAPS];
-        each_fired_weights(avx2, g, fired, base, GATHER_MAPS, oy, ox, |ws| {
-            for (d, &v) in sums.iter_mut().zip(&w[ws..ws + GATHER_MAPS]) {
+        each_fired_run(avx2, g, fired, base, oy, ox, |r| {
+            for (d, &v) in sums.iter_mut().zip(&runs[r]) {
                 *d += v;
             }
         });
@@ -1625,8 +1663,9 @@ fn gather_body(
         return;
     }
     let maps = pot.len();
-    each_fired_weights(avx2, g, fired, base, maps, oy, ox, |ws| {
-        for (d, &v) in pot.iter_mut().zip(&w[ws..ws + maps]) {
+    pot.fill(0.0);
+    each_fired_run(avx2, g, fired, base, oy, ox, |r| {
+        for (d, &v) in pot.iter_mut().zip(&w[r * maps..(r + 1) * maps]) {
             *d += v;
         }
     });
@@ -1636,17 +1675,24 @@ fn gather_body(
 /// run of known length, whose partial sums stay in vector registers.
 const GATHER_MAPS: usize = 20;
 
-/// Call `f(ws)` for every input of output `(oy, ox)`'s receptive field that fired, in the
-/// order of `each_fired_lane`, with `ws` the offset of its `maps` weights in the engine layout
-/// (`base` is `ConvState::wake_base`).
-#[allow(clippy::too_many_arguments, clippy::inline_always)]
+/// The inputs of a row of Table 1's conv2's receptive field where it is not clipped (10
+/// columns of 4 channels): `gather` tests them in a fixed number of vectors.
+const CONV2_LANES: usize = 40;
+
+/// The least length of `ConvState::wake_base`: one more than the greatest lane of a row of at
+/// most 64 inputs.
+const WAKE_LANES: usize = 65;
+
+/// Call `f(r)` for every input of output `(oy, ox)`'s receptive field that fired, in the
+/// order of `each_fired_lane`, with `r` the index of its run of weights (one per map) in the
+/// engine layout (`base` is `ConvState::wake_base`).
+#[allow(clippy::inline_always)]
 #[inline(always)]
-fn each_fired_weights(
+fn each_fired_run(
     avx2: bool,
     g: &ConvGeom,
     fired: Fired<'_>,
     base: &[u32],
-    maps: usize,
     oy: usize,
     ox: usize,
     mut f: impl FnMut(usize),
@@ -1654,11 +1700,38 @@ fn each_fired_weights(
     let cols = g.inputs_of(ox, g.in_w);
     // Lane `(col, c)` of a row holds input column `cols.start + col`, kernel column
     // `dx = col + shift` (`shift` > 0 only where the field is clipped on the left).
-    let shift = (cols.start + g.p_lo - ox) * maps;
-    each_short_lane(g, fired, avx2, oy, ox, |iy, l| {
-        // ((c·k + dy)·k + k − 1 − dx)·maps, from the lane's precomputed part.
-        f(base[l] as usize + (iy + g.p_lo - oy) * g.k * maps - shift);
-    });
+    let shift = cols.start + g.p_lo - ox;
+    // (c·k + dy)·k + k − 1 − dx, from the lane's precomputed part.
+    let run = |l: u32, iy: usize| l as usize + (iy + g.p_lo - oy) * g.k - shift;
+    let len = cols.len() * fired.channels;
+    if len <= 64 {
+        // A lane of `each_short_lane`, a trailing-zero count of a word, is at most 64, inside
+        // `WAKE_LANES` values: read without a test.
+        let short: &[u32; WAKE_LANES] = base[..WAKE_LANES].try_into().expect("padded");
+        if len == CONV2_LANES {
+            // `each_short_lane` for rows of a known length: each row's stamps tested in a
+            // fixed number of vectors, without the loop over them.
+            let rows = g.inputs_of(oy, g.in_h);
+            let stride = fired.width * fired.channels;
+            let first = (rows.start * fired.width + cols.start) * fired.channels;
+            for (r, iy) in rows.enumerate() {
+                let from = first + r * stride;
+                let stamps: &[u32; CONV2_LANES] = fired.stamps[from..from + CONV2_LANES]
+                    .try_into()
+                    .expect("one row of the field");
+                let mut mask = fired_mask(avx2, stamps, fired.generation);
+                while mask != 0 {
+                    let l = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    f(run(short[l], iy));
+                }
+            }
+            return;
+        }
+        each_short_lane(g, fired, avx2, oy, ox, |iy, l| f(run(short[l], iy)));
+    } else {
+        each_fired_lane(g, fired, avx2, oy, ox, |iy, l| f(run(base[l], iy)));
+    }
 }
 
 /// Call `f(c, iy, ix)` for every input `(channel, row, col)` of output `(oy, ox)`'s receptive

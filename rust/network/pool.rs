@@ -27,6 +27,9 @@ pub(crate) struct PoolSink<'a> {
 }
 
 impl Fire for PoolSink<'_> {
+    // Pool neurons fire on conv spikes, whatever their potentials.
+    const EXACT: bool = false;
+
     #[allow(clippy::inline_always)]
     #[inline(always)]
     fn fire(&mut self, c: Crossing) {
