@@ -708,7 +708,10 @@ impl ConvState {
         let pending = self.held.is_some() | !self.candidates.is_empty();
         let fresh = !pending & self.band.is_empty() & self.lo_positive;
         let kernel = if INLINE {
-            debug_assert!(c == 0 && whole.kernel[..] == w[..FIXED_KERNEL], "kernel loaded");
+            debug_assert!(
+                c == 0 && whole.kernel[..] == w[..FIXED_KERNEL],
+                "kernel loaded"
+            );
             &whole.kernel
         } else {
             w[c * FIXED_KERNEL..][..FIXED_KERNEL]

@@ -339,7 +339,8 @@ impl WindowState {
             // The winners are known; later spikes cannot change the STDP update.
             return Ok(());
         }
-        if self.stamp(ys * self.width + xs, t) {
+        // SAFETY: inside the sensor (tested above).
+        if unsafe { self.stamp(ys * self.width + xs, t) } {
             self.pending.push((x, y));
             self.pending_t = Some(t);
         }
@@ -347,13 +348,16 @@ impl WindowState {
     }
 
     /// Note that `pixel` spiked at `t`; returns whether this is its first spike in the window
-    /// (its input spike: later ones are ignored). `pixel` must be `y · width + x` of a spike
-    /// inside the sensor (`x < width`, `y < height`), as `accept` and `all_valid` check.
+    /// (its input spike: later ones are ignored).
+    ///
+    /// # Safety
+    /// `pixel` must be `y · width + x` of a spike inside the sensor (`x < width`,
+    /// `y < height`), as `accept` and `all_valid` check.
     #[inline]
-    fn stamp(&mut self, pixel: usize, t: u64) -> bool {
+    unsafe fn stamp(&mut self, pixel: usize, t: u64) -> bool {
         debug_assert!(pixel < self.width * self.height);
         debug_assert_eq!(self.pixel_time.len(), self.pixel_fired.len());
-        // SAFETY: `pixel < width · height` (the caller's checks above), the length of both
+        // SAFETY: `pixel < width · height` (the caller's contract), the length of both
         // `pixel_fired` and `pixel_time` (one value per pixel, made in `new`, never resized).
         let fired = unsafe { self.pixel_fired.get_unchecked_mut(pixel) };
         if *fired == self.generation {
@@ -377,7 +381,8 @@ impl WindowState {
     pub(crate) fn push_spikes(&mut self, net: &Network, spikes: Spikes<'_>) -> Result<()> {
         let (t, x, y) = (spikes.t(), spikes.x(), spikes.y());
         if self.all_valid(net, t, x, y) {
-            self.take_valid(net, t, x, y);
+            // SAFETY: `all_valid` passed these spikes.
+            unsafe { self.take_valid(net, t, x, y) };
             return Ok(());
         }
         let mut start = 0;
@@ -440,36 +445,45 @@ impl WindowState {
             && inside
     }
 
-    /// Take spikes that `all_valid` passed (every one inside the sensor, which `stamp` relies
-    /// on): each group's input spikes are added to conv1 as they come and the group is run up
-    /// the network once complete (what `accept` and `process_pending` do, without the pending
-    /// list).
-    fn take_valid(&mut self, net: &Network, t: &[u64], x: &[u16], y: &[u16]) {
+    /// Take spikes that `all_valid` passed: each group's input spikes are added to conv1 as
+    /// they come and the group is run up the network once complete (what `accept` and
+    /// `process_pending` do, without the pending list).
+    ///
+    /// # Safety
+    /// `all_valid` must have passed `t`, `x`, `y` (every spike inside the sensor, which
+    /// `stamp` relies on).
+    unsafe fn take_valid(&mut self, net: &Network, t: &[u64], x: &[u16], y: &[u16]) {
         #[cfg(target_arch = "x86_64")]
         if has_avx2() {
-            // SAFETY: the CPU has AVX2 (asked just above).
+            // SAFETY: the CPU has AVX2 (asked just above); the spikes are valid (our caller's
+            // contract).
             unsafe { self.take_valid_avx2(net, t, x, y) };
             return;
         }
-        self.take_valid_body::<false>(net, t, x, y);
+        // SAFETY: as above.
+        unsafe { self.take_valid_body::<false>(net, t, x, y) };
     }
 
     /// `take_valid` compiled for AVX2, so that conv1's fixed-shape vector add
     /// (`add_rows_fixed`, AVX2 only) is inlined into the loop instead of called per input.
     ///
     /// # Safety
-    /// The CPU must support AVX2.
+    /// The CPU must support AVX2, and `all_valid` must have passed the spikes.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     unsafe fn take_valid_avx2(&mut self, net: &Network, t: &[u64], x: &[u16], y: &[u16]) {
-        self.take_valid_body::<true>(net, t, x, y);
+        // SAFETY: our caller's contract.
+        unsafe { self.take_valid_body::<true>(net, t, x, y) };
     }
 
     /// The loop of `take_valid`, inlined into each of its compilations; `AVX2` where that is
     /// compiled for AVX2.
+    ///
+    /// # Safety
+    /// As `take_valid`'s.
     #[allow(clippy::inline_always)]
     #[inline(always)]
-    fn take_valid_body<const AVX2: bool>(
+    unsafe fn take_valid_body<const AVX2: bool>(
         &mut self,
         net: &Network,
         t: &[u64],
@@ -493,7 +507,8 @@ impl WindowState {
                 added = false;
             }
             let (xs, ys) = (usize::from(sx), usize::from(sy));
-            if self.stamp(ys * self.width + xs, st) {
+            // SAFETY: inside the sensor (our caller's contract).
+            if unsafe { self.stamp(ys * self.width + xs, st) } {
                 if AVX2 {
                     self.conv[0].add_inline(w, ys, xs);
                 } else {
