@@ -526,7 +526,7 @@ impl ConvState {
     #[allow(clippy::inline_always)]
     #[inline(always)]
     pub fn add(&mut self, w: &[f32], c: usize, iy: usize, ix: usize) {
-        self.add_in::<false>(w, c, iy, ix);
+        self.add_in::<false, false>(w, c, iy, ix);
     }
 
     /// `add` of channel 0 from a caller compiled for AVX2 (see `add_rows_fixed`'s `INLINE`),
@@ -535,7 +535,22 @@ impl ConvState {
     #[allow(clippy::inline_always)]
     #[inline(always)]
     pub fn add_inline(&mut self, w: &[f32], iy: usize, ix: usize) {
-        self.add_in::<true>(w, 0, iy, ix);
+        self.add_in::<true, false>(w, 0, iy, ix);
+    }
+
+    /// `add_inline` for a layer that has whole inputs, without testing for them per input.
+    ///
+    /// # Safety
+    /// `has_whole` must be true (as it stays: `whole` is set by `new` alone).
+    #[allow(clippy::inline_always)]
+    #[inline(always)]
+    pub unsafe fn add_inline_whole(&mut self, w: &[f32], iy: usize, ix: usize) {
+        self.add_in::<true, true>(w, 0, iy, ix);
+    }
+
+    /// Whether the layer has whole inputs (`Whole`): fixed from `new` on.
+    pub fn has_whole(&self) -> bool {
+        self.whole.is_some()
     }
 
     /// Copy channel 0's kernel of the engine-layout weights `w` for `add_inline` (where the
@@ -546,10 +561,17 @@ impl ConvState {
         }
     }
 
-    /// `add`, with `add_rows_fixed`'s `INLINE`.
+    /// `add`, with `add_rows_fixed`'s `INLINE`; `WHOLE` where the caller knows the layer has
+    /// whole inputs (`add_inline_whole`'s contract), so that `whole` is not tested.
     #[allow(clippy::inline_always)]
     #[inline(always)]
-    fn add_in<const INLINE: bool>(&mut self, w: &[f32], c: usize, iy: usize, ix: usize) {
+    fn add_in<const INLINE: bool, const WHOLE: bool>(
+        &mut self,
+        w: &[f32],
+        c: usize,
+        iy: usize,
+        ix: usize,
+    ) {
         // An input's footprint is whole where it is `oy < rows` rows below the first such row
         // and `ox < cols` columns right of the first such column (one wrapping compare each);
         // its footprint's first output position is then `(oy, ox)`. (`rows` is 0 while the
@@ -563,7 +585,9 @@ impl ConvState {
                     self.add_clipped(w, c, iy, ix);
                 }
             }
-            _ => self.add_clipped(w, c, iy, ix),
+            // SAFETY: `WHOLE` only from `add_inline_whole`, whose caller checked `has_whole`.
+            None if WHOLE => unsafe { std::hint::unreachable_unchecked() },
+            None => self.add_clipped(w, c, iy, ix),
         }
     }
 

@@ -461,7 +461,7 @@ impl WindowState {
             return;
         }
         // SAFETY: as above.
-        unsafe { self.take_valid_body::<false>(net, t, x, y) };
+        unsafe { self.take_valid_body::<false, false>(net, t, x, y) };
     }
 
     /// `take_valid` compiled for AVX2, so that conv1's fixed-shape vector add
@@ -472,18 +472,25 @@ impl WindowState {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     unsafe fn take_valid_avx2(&mut self, net: &Network, t: &[u64], x: &[u16], y: &[u16]) {
-        // SAFETY: our caller's contract.
-        unsafe { self.take_valid_body::<true>(net, t, x, y) };
+        // SAFETY: our caller's contract; `WHOLE` as `has_whole` says.
+        unsafe {
+            if self.conv[0].has_whole() {
+                self.take_valid_body::<true, true>(net, t, x, y);
+            } else {
+                self.take_valid_body::<true, false>(net, t, x, y);
+            }
+        }
     }
 
     /// The loop of `take_valid`, inlined into each of its compilations; `AVX2` where that is
-    /// compiled for AVX2.
+    /// compiled for AVX2, `WHOLE` (with `AVX2`) where conv1 has whole inputs, which its adds
+    /// then do not test per input.
     ///
     /// # Safety
-    /// As `take_valid`'s.
+    /// As `take_valid`'s; `WHOLE` only where conv1's `has_whole`.
     #[allow(clippy::inline_always)]
     #[inline(always)]
-    unsafe fn take_valid_body<const AVX2: bool>(
+    unsafe fn take_valid_body<const AVX2: bool, const WHOLE: bool>(
         &mut self,
         net: &Network,
         t: &[u64],
@@ -509,7 +516,10 @@ impl WindowState {
             let (xs, ys) = (usize::from(sx), usize::from(sy));
             // SAFETY: inside the sensor (our caller's contract).
             if unsafe { self.stamp(ys * self.width + xs, st) } {
-                if AVX2 {
+                if AVX2 && WHOLE {
+                    // SAFETY: conv1 has whole inputs (our caller's contract).
+                    unsafe { self.conv[0].add_inline_whole(w, ys, xs) };
+                } else if AVX2 {
                     self.conv[0].add_inline(w, ys, xs);
                 } else {
                     self.conv[0].add(w, 0, ys, xs);
