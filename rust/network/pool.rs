@@ -208,13 +208,22 @@ impl PoolState {
             return; // in no block
         }
         let bit = 1u64.wrapping_shl(sum as u32);
+        // `time` holds `n` entries and `causes` `n · words` (`new`; neither is resized), so
+        // `i < n` is inside both: indexed without their own bounds checks, which a spike paid
+        // for on every path (the optimiser cannot know their lengths from `fired`'s).
+        debug_assert!(self.time.len() == n && self.causes.len() >= n);
         if self.fired[i] != generation {
             self.fired[i] = generation;
-            self.time[i] = t;
-            self.causes[i] = bit;
+            // SAFETY: `i < n`, and `time` and `causes` hold at least `n` entries (above).
+            unsafe {
+                *self.time.get_unchecked_mut(i) = t;
+                *self.causes.get_unchecked_mut(i) = bit;
+            }
             out.push((c.map, (rk >> 8) as u16 as u32, (ck >> 8) as u16 as u32));
-        } else if self.time[i] == t {
-            self.causes[i] |= bit;
+        // SAFETY: as above.
+        } else if unsafe { *self.time.get_unchecked(i) } == t {
+            // SAFETY: as above.
+            unsafe { *self.causes.get_unchecked_mut(i) |= bit };
         }
     }
 
