@@ -981,3 +981,49 @@ fn exact_potential_decides_where_float32_rounds_above() {
         assert_eq!(state.counts()[0], 0);
     }
 }
+
+/// Table 1's layers (conv2 10 × 10 over 4 maps into 20, conv3 into 10: the shapes the engine
+/// has fixed fast paths for, outside `config_strategy`'s sizes) against the dense reference,
+/// recorded and not, through every layer and stopped early.
+#[test]
+fn table1_layers_equal_dense_reference() {
+    let mut c = NetworkConfig {
+        width: 125,
+        height: 125,
+        padding: Padding::Same,
+        ..NetworkConfig::default()
+    };
+    c.pent.mode = ThresholdMode::Static;
+    c.conv1.threshold = 1.5;
+    c.conv2.threshold = 2.0;
+    c.conv3.threshold = 1.0;
+    let mut net = Network::new(c.clone(), 3).unwrap();
+    random_weights(&mut net, 11);
+    let (t, x, y) = window(&c, 7, 6000, 0);
+    let (dense, _) = dense_window(&net, &t, &x, &y, None);
+    assert!(dense.iter().all(|l| !l.is_empty()), "every layer fires");
+    for record in [true, false] {
+        for last in Layer::ALL {
+            let mut s = net.new_state();
+            s.set_gated(true);
+            s.set_depth(last);
+            net.run_window(&mut s, Spikes::new(&t, &x, &y).unwrap(), 0, None, record)
+                .unwrap();
+            for layer in Layer::ALL {
+                let want = if layer.index() <= last.index() {
+                    dense[layer.index()].len() as u64
+                } else {
+                    0
+                };
+                assert_eq!(
+                    s.counts()[layer.index()],
+                    want,
+                    "{layer} (to {last}, {record})"
+                );
+                if record && layer.index() <= last.index() {
+                    assert_eq!(s.spikes(layer), &dense[layer.index()][..], "{layer}");
+                }
+            }
+        }
+    }
+}
