@@ -64,10 +64,8 @@ pub(crate) struct PoolState {
     /// the block's cause word. A spike's neuron and bit are then two loads and an addition.
     row_keys: Vec<u64>,
     col_keys: Vec<u64>,
-    /// `⌊2^64 / in_w⌋ + 1`, which fits 64 bits where `tiles` holds (`in_w ≥ 2`): a conv
-    /// position's row is the high word of its product with it (exact for positions below
-    /// 2^32, as `Divider`'s), one multiplication.
-    row_magic: u64,
+    /// A conv position's row: `⌊pos / in_w⌋` by one multiplication.
+    rows: Divider,
 }
 
 impl PoolState {
@@ -76,8 +74,7 @@ impl PoolState {
         let none = u32::try_from(n).expect("pool neurons fit 32 bits");
         let s = geom.stride;
         // Two indices of at most `n` each sum below 2^32.
-        let tiles =
-            geom.k == s && geom.k * geom.k <= 64 && 2 * u64::from(none) < 1 << 32 && geom.in_w >= 2;
+        let tiles = geom.k == s && geom.k * geom.k <= 64 && 2 * u64::from(none) < 1 << 32;
         let keys = |len: usize, out: usize, step: usize, place: usize| -> Vec<u64> {
             if !tiles {
                 return Vec::new();
@@ -100,7 +97,7 @@ impl PoolState {
             tiles,
             row_keys: keys(geom.in_h, geom.out_h, geom.out_w * geom.maps, geom.k),
             col_keys: keys(geom.in_w, geom.out_w, geom.maps, 1),
-            row_magic: ((1u128 << 64) / geom.in_w as u128 + 1) as u64,
+            rows: Divider::new(geom.in_w),
         }
     }
 
@@ -109,8 +106,7 @@ impl PoolState {
         self.fired.fill(0);
     }
 
-    /// A conv group's `spikes` at time `t`, in order (positions split into row and column by
-    /// `split`): for each, fire every pool neuron of its map whose block holds it and that has
+    /// A conv group's `spikes` at time `t`, in order: for each, fire every pool neuron of its map whose block holds it and that has
     /// not fired yet, and note the spike as a cause of those that fire at `t`. Inlined into
     /// the per-layer step, the loop inside: no call per spike, nor per group.
     #[allow(clippy::inline_always)]
@@ -120,12 +116,11 @@ impl PoolState {
         generation: u32,
         t: u64,
         spikes: &[Crossing],
-        split: Divider,
         out: &mut Vec<PoolSpike>,
     ) {
         if !self.tiles {
             for c in spikes {
-                let (row, col) = split.div_rem(c.pos as usize);
+                let (row, col) = self.rows.div_rem(c.pos as usize);
                 self.on_spike_blocks(generation, t, c.map, row, col, out);
             }
             return;
@@ -141,11 +136,10 @@ impl PoolState {
             &mut self.time[..n],
             &mut self.causes[..n],
         );
-        let (magic, in_w) = (self.row_magic, self.geom.in_w);
+        let rows = self.rows;
         for c in spikes {
-            let pos = c.pos as usize;
-            let row = ((pos as u128 * u128::from(magic)) >> 64) as usize;
-            let (rk, ck) = (self.row_keys[row], self.col_keys[pos - row * in_w]);
+            let (row, col) = rows.div_rem(c.pos as usize);
+            let (rk, ck) = (self.row_keys[row], self.col_keys[col]);
             let sum = rk + ck;
             let i = (sum >> 32) as usize + c.map as usize;
             if i >= n {
@@ -195,12 +189,8 @@ impl PoolState {
     #[allow(clippy::inline_always)]
     #[inline(always)]
     fn take_tiled(&mut self, generation: u32, t: u64, c: Crossing, out: &mut Vec<PoolSpike>) {
-        let pos = c.pos as usize;
-        let row = ((pos as u128 * u128::from(self.row_magic)) >> 64) as usize;
-        let (rk, ck) = (
-            self.row_keys[row],
-            self.col_keys[pos - row * self.geom.in_w],
-        );
+        let (row, col) = self.rows.div_rem(c.pos as usize);
+        let (rk, ck) = (self.row_keys[row], self.col_keys[col]);
         let sum = rk + ck;
         let i = (sum >> 32) as usize + c.map as usize;
         let n = self.fired.len();
@@ -366,7 +356,7 @@ mod tests {
             assert!(a.tiles, "k {k}");
             let mut b = a.clone();
             b.tiles = false;
-            let split = Divider::new(cg.out_w);
+            assert_eq!(cg.out_w, pg.in_w);
             for t in 0..30u64 {
                 let spikes: Vec<Crossing> = (0..rng() % 12)
                     .map(|_| Crossing {
@@ -377,8 +367,8 @@ mod tests {
                     })
                     .collect();
                 let (mut out_a, mut out_b) = (Vec::new(), Vec::new());
-                a.on_spikes(1, t / 3, &spikes, split, &mut out_a);
-                b.on_spikes(1, t / 3, &spikes, split, &mut out_b);
+                a.on_spikes(1, t / 3, &spikes, &mut out_a);
+                b.on_spikes(1, t / 3, &spikes, &mut out_b);
                 assert_eq!(out_a, out_b, "k {k}, t {t}");
             }
             assert_eq!(

@@ -736,7 +736,7 @@ impl WindowState {
             return false;
         }
         self.pool_out.clear();
-        self.pool[layer].on_spikes(generation, t, &self.crossings, split, &mut self.pool_out);
+        self.pool[layer].on_spikes(generation, t, &self.crossings, &mut self.pool_out);
         let pool_layer = Layer::ALL[2 * layer + 1];
         self.counts[pool_layer.index()] += self.pool_out.len() as u64;
         if record {
