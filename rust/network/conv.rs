@@ -526,7 +526,8 @@ impl ConvState {
     #[allow(clippy::inline_always)]
     #[inline(always)]
     pub fn add(&mut self, w: &[f32], c: usize, iy: usize, ix: usize) {
-        self.add_in::<false, false>(w, c, iy, ix);
+        // SAFETY: without `WHOLE`, `add_in` has no contract.
+        unsafe { self.add_in::<false, false>(w, c, iy, ix) };
     }
 
     /// `add` of channel 0 from a caller compiled for AVX2 (see `add_rows_fixed`'s `INLINE`),
@@ -535,7 +536,8 @@ impl ConvState {
     #[allow(clippy::inline_always)]
     #[inline(always)]
     pub fn add_inline(&mut self, w: &[f32], iy: usize, ix: usize) {
-        self.add_in::<true, false>(w, 0, iy, ix);
+        // SAFETY: without `WHOLE`, `add_in` has no contract.
+        unsafe { self.add_in::<true, false>(w, 0, iy, ix) };
     }
 
     /// `add_inline` for a layer that has whole inputs, without testing for them per input.
@@ -545,7 +547,8 @@ impl ConvState {
     #[allow(clippy::inline_always)]
     #[inline(always)]
     pub unsafe fn add_inline_whole(&mut self, w: &[f32], iy: usize, ix: usize) {
-        self.add_in::<true, true>(w, 0, iy, ix);
+        // SAFETY: `add_in`'s contract is this function's.
+        unsafe { self.add_in::<true, true>(w, 0, iy, ix) };
     }
 
     /// Whether the layer has whole inputs (`Whole`): fixed from `new` on.
@@ -562,10 +565,13 @@ impl ConvState {
     }
 
     /// `add`, with `add_rows_fixed`'s `INLINE`; `WHOLE` where the caller knows the layer has
-    /// whole inputs (`add_inline_whole`'s contract), so that `whole` is not tested.
+    /// whole inputs, so that `whole` is not tested.
+    ///
+    /// # Safety
+    /// With `WHOLE`, `has_whole` must be true; without it, none.
     #[allow(clippy::inline_always)]
     #[inline(always)]
-    fn add_in<const INLINE: bool, const WHOLE: bool>(
+    unsafe fn add_in<const INLINE: bool, const WHOLE: bool>(
         &mut self,
         w: &[f32],
         c: usize,
@@ -580,12 +586,13 @@ impl ConvState {
             Some(whole) => {
                 let (oy, ox) = (iy.wrapping_sub(whole.row0), ix.wrapping_sub(whole.col0));
                 if oy < whole.rows && ox < whole.cols {
-                    self.add_whole::<INLINE>(w, c, oy * self.geom.out_w + ox);
+                    // SAFETY: `first` is `oy · out_w + ox` with `oy < rows`, `ox < cols`.
+                    unsafe { self.add_whole::<INLINE>(w, c, oy * self.geom.out_w + ox) };
                 } else {
                     self.add_clipped(w, c, iy, ix);
                 }
             }
-            // SAFETY: `WHOLE` only from `add_inline_whole`, whose caller checked `has_whole`.
+            // SAFETY: with `WHOLE`, the caller guarantees `has_whole` (this function's contract).
             None if WHOLE => unsafe { std::hint::unreachable_unchecked() },
             None => self.add_clipped(w, c, iy, ix),
         }
@@ -716,9 +723,13 @@ impl ConvState {
     /// the input is under the kernel's last row and column). Nothing is clipped, so the
     /// offsets are those of the kernel's last row and column, and the rows go through
     /// `add_rows_fixed`.
+    ///
+    /// # Safety
+    /// `first` must be `oy · out_w + ox` with `oy < whole.rows` and `ox < whole.cols` (a
+    /// whole footprint's first output position, as `add_in` finds it).
     #[allow(clippy::inline_always)]
     #[inline(always)]
-    fn add_whole<const INLINE: bool>(&mut self, w: &[f32], c: usize, first: usize) {
+    unsafe fn add_whole<const INLINE: bool>(&mut self, w: &[f32], c: usize, first: usize) {
         let Some(whole) = &self.whole else {
             unreachable!("add_whole without Whole")
         };
@@ -747,8 +758,8 @@ impl ConvState {
         let stride = whole.stride;
         let span = (FIXED_ROWS - 1) * stride + FIXED_RUN;
         debug_assert!(first * MAPS + span <= self.pot.len());
-        // SAFETY: `add_in` passes `first = oy · out_w + ox` with `oy < rows ≤ all_rows` and
-        // `ox < cols`, at most the last whole footprint's, whose rows `Whole::new` asserted
+        // SAFETY: `first = oy · out_w + ox` with `oy < rows ≤ all_rows` and `ox < cols` (this
+        // function's contract), at most the last whole footprint's, whose rows `Whole::new` asserted
         // to lie inside `pot` (made with the length it was given, never resized).
         let pot = unsafe {
             std::slice::from_raw_parts_mut(self.pot.as_mut_ptr().add(first * MAPS), span)
