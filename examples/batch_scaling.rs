@@ -3,19 +3,21 @@
 //! engine's batch takes.
 //!
 //! ```sh
-//! cargo run --release --example batch_scaling [ROUNDS]
+//! cargo run --release --example batch_scaling [ROUNDS] [WINDOWS]
 //! ```
 //!
-//! The batch is the Criterion `batch_threads` group's (64 windows of 240×180 at 1 %, Table 1),
-//! also run on one state with `run_window` in turn (no pool). The references spread 64 equal
-//! tasks over the same rayon pools: a chain of integer arithmetic (no memory traffic), random
-//! writes over a private 2 MiB buffer each, and eight independent chains that keep a core's
-//! integer units busy (what two hardware threads of one core would share). The pools take turns
-//! for `ROUNDS` rounds (default 15); before each timed run every worker of its pool is woken by
-//! an untimed task (so that no job pays for workers gone to sleep after the other pool's turn,
-//! which the engine, timed first, otherwise did alone). The least and the median wall time of
-//! each are printed, and their ratios 1 → 2 threads: on a shared machine with slow spells the
-//! least is a calm-period figure and the median what a run meets.
+//! The batch is the Criterion `batch_threads` group's (64 windows of 240×180 at 1 %, Table 1;
+//! `WINDOWS` windows of the same recipe instead), also run on one state with `run_window` in turn
+//! (no pool). The references spread 64 equal tasks over the same rayon pools: a chain of integer
+//! arithmetic (no memory traffic), random writes over a private 2 MiB buffer each, and eight
+//! independent chains that keep a core's integer units busy (what two hardware threads of one
+//! core would share). The pools take turns for `ROUNDS` rounds (default 15); before each timed
+//! run every worker of its pool is woken by an untimed task (so that no job pays for workers gone
+//! to sleep after the other pool's turn, which the engine, timed first, otherwise did alone). The
+//! least and the median wall time of each are printed, and their ratios 1 → 2 threads: on a
+//! shared machine with slow spells the least is a calm-period figure and the median what a run
+//! meets. Each batch is timed once, after other work: what a call pays to start (the second
+//! worker's first job, states gone cold) weighs on 64 windows and much less on 640.
 
 use std::hint::black_box;
 use std::time::{Duration, Instant};
@@ -92,11 +94,15 @@ fn summary(times: &[Duration]) -> (Duration, Duration) {
 }
 
 fn main() {
-    let rounds: usize = std::env::args()
-        .nth(1)
-        .map_or(15, |a| a.parse().expect("usage: batch_scaling [ROUNDS]"));
+    let usage = "usage: batch_scaling [ROUNDS] [WINDOWS]";
+    let arg = |i: usize, default: usize| {
+        std::env::args()
+            .nth(i)
+            .map_or(default, |a| a.parse().expect(usage))
+    };
+    let (rounds, windows) = (arg(1, 15), arg(2, 64));
     let net = network(240, 180);
-    let owned: BatchWindows = batch_windows(240, 180, 0.01, 64);
+    let owned: BatchWindows = batch_windows(240, 180, 0.01, windows as u64);
     let batch = owned.batch();
     let pools: Vec<rayon::ThreadPool> = [1, 2]
         .iter()
