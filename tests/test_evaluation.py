@@ -88,6 +88,50 @@ def test_first_spike_in_box() -> None:
     assert first_spike_in_box(w, boxes).tolist() == [5, -1, -1, -1]
 
 
+def test_first_spike_in_box_counts_a_pixel_by_its_centre() -> None:
+    # Boxes of scaled labels have fractional edges: pixel x covers [x, x + 1), and it is in a
+    # box when its centre x + 1/2 is, an edge through the centre counting as inside.
+    w = _windows(
+        [
+            [(1, 2, 0), (3, 3, 0)],  # centre 2.5 >= 2.4: pixel 2 is in
+            [(1, 5, 0), (4, 4, 0)],  # centre 5.5 >= 5.4: pixel 5 is out, pixel 4 in
+            [(1, 2, 0), (3, 3, 0)],  # an edge at 2.5, through pixel 2's centre
+            [(1, 0, 2), (3, 0, 3)],  # the same in y
+            [(1, 0, 5), (3, 0, 4)],
+        ]
+    )
+    boxes = np.array(
+        [
+            [2.4, 0, 5.4, 10],
+            [2.4, 0, 5.4, 10],
+            [2.5, 0, 4, 10],
+            [0, 2.5, 20, 4],
+            [0, 2.4, 20, 5.4],
+        ],
+        dtype=np.float32,
+    )
+    assert first_spike_in_box(w, boxes).tolist() == [1, 1004, 2001, 3001, 4003]
+
+
+def test_latency_leaves_out_detections_with_no_input_spike_in_the_box() -> None:
+    # Two detected drones: the first's box holds an input spike (at 5), the second's none.
+    w = _windows([[(5, 4, 4)], [(2, 0, 0)]])
+    data = _labelled(w, [True, True], ["drone", "drone"], [[4, 4, 5, 5], [10, 5, 12, 7]])
+    detections = np.zeros(2, dtype=WINDOW_DETECTION_DTYPE)
+    detections["window"] = [0, 1]
+    detections["t"] = [30, 1040]
+    inference = Inference(
+        detected=np.array([True, True]),
+        counts=np.zeros((2, 5), np.int64),
+        first_detection_t=np.array([30, 1040], dtype=np.uint64),
+        detections=detections,
+        thresholds=np.zeros((2, 4), np.float32),
+    )
+    e = score(inference, data)
+    assert e.latency_us.tolist() == [25]
+    assert e.latency_from_start_us.tolist() == [30, 40]
+
+
 def test_score_per_class_latency_and_pixels() -> None:
     w = _windows([[(1, 0, 0), (5, 4, 4)], [(2, 4, 4)], [(3, 1, 1)], [(4, 2, 2), (6, 3, 3)]])
     data = _labelled(
