@@ -36,11 +36,23 @@ def test_each_layer_sees_the_windows_asked_for(windows: uavsnn.windows.Windows) 
     result = train(net, windows, windows_per_layer=100, snapshots=4)
     assert list(result.layers) == ["conv2", "conv3"]
     for layer, r in result.layers.items():
-        assert 100 <= r.report.windows_seen < 100 + 64
+        # Progress reports every 100 // 4 = 25 windows: training stops at the one at 100.
+        assert r.report.windows_seen == 100
         seen = [s for s, _ in r.snapshots]
         assert seen[0] == 0 and seen[-1] == r.report.windows_seen and seen == sorted(seen)
         np.testing.assert_array_equal(r.snapshots[-1][1], net.weights(layer))
     np.testing.assert_array_equal(net.weights("conv1"), conv1)  # Gabor stays fixed
+
+
+def test_training_stops_at_the_first_report_at_or_past_the_count(
+    windows: uavsnn.windows.Windows,
+) -> None:
+    # 40 windows: 77 asks for two passes (80 windows) with reports every 64 and at the end;
+    # 130 with 6 snapshots, reports every 21 windows (126 < 130 <= 147).
+    for asked, snapshots, seen in [(77, 0, 80), (130, 6, 147), (5, 2, 6)]:
+        net = uavsnn.Network(CONFIG, seed=1)
+        result = train(net, windows, layers=["conv2"], windows_per_layer=asked, snapshots=snapshots)
+        assert result.layers["conv2"].report.windows_seen == seen, asked
 
 
 def test_training_learns_weights_settle_towards_0_or_1(windows: uavsnn.windows.Windows) -> None:
@@ -59,6 +71,8 @@ def test_layers_must_be_known_and_in_order(windows: uavsnn.windows.Windows) -> N
         train(net, windows, layers=["pool1"])
     with pytest.raises(ParameterError, match="in the network's order"):
         train(net, windows, layers=["conv3", "conv2"])
+    with pytest.raises(ParameterError, match="distinct"):
+        train(net, windows, layers=["conv2", "conv2"])
     with pytest.raises(ParameterError, match="windows_per_layer must be an integer >= 1"):
         train(net, windows, windows_per_layer=0)
     with pytest.raises(DatasetError, match="no training windows"):
@@ -107,6 +121,9 @@ def test_resume_refuses_a_checkpoint_of_other_layers(
 def test_overrides() -> None:
     assert parse_override("conv2.threshold=15") == (["conv2", "threshold"], 15)
     assert parse_override("pent.mode=static") == (["pent", "mode"], "static")
+    # Spaces around a plain string are not part of it; a JSON string keeps what it quotes.
+    assert parse_override(" pent.mode = static ") == (["pent", "mode"], "static")
+    assert parse_override('name=" a b "') == (["name"], " a b ")
     config = apply_overrides(
         uavsnn.network.default_config(), ["conv2.threshold=15", "seedless.x=1"]
     )

@@ -104,8 +104,11 @@ def train(
 
     Each layer sees ``windows_per_layer`` windows (the set is visited in shuffled epochs until
     that many are seen; the paper used about 20,000) or, if that is ``None``, ``epochs`` passes
-    over the set. The learning-rate schedule restarts from the config's rates for each layer.
-    ``snapshots`` weight copies per layer are kept for the pictures of how features evolve.
+    over the set. Training stops at the first progress report at or past the count (every
+    ``max(1, min(64, windows_per_layer // snapshots))`` windows, and after the last epoch), so a
+    layer may see fewer than one such interval more. The learning-rate schedule restarts from
+    the config's rates for each layer. ``snapshots`` weight copies per layer are kept for the
+    pictures of how features evolve.
     Layer ``i`` shuffles with seed ``seed + i``.
 
     Raises:
