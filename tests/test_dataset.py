@@ -110,6 +110,27 @@ def test_other_objects_name_the_negative_windows() -> None:
     assert wl.cls.tolist() == ["bird", "none"]  # the bird leaves: visible 5 of 40 ms
 
 
+def test_a_box_is_the_union_over_the_frames_that_overlap_the_window() -> None:
+    # Frame k stands for [10k - 5, 10k + 5) ms. [95, 135) ms overlaps frames 10..13 only:
+    # frame 9's span ends where the window starts and frame 14's starts where it ends.
+    ts, lab = _frames(50, np.ones(50, dtype=bool))
+    wl = label_windows(np.array([95_000], dtype=np.uint64), 40_000, ts, lab)
+    assert wl.label.tolist() == [True]
+    assert wl.box[0].tolist() == [20.0, 30.0, 43.0, 53.0]
+
+
+def test_a_tie_between_other_objects_goes_to_the_first_class_by_name() -> None:
+    # In [95, 135) ms a bird and an airplane are each visible 20 ms, half the window.
+    ts, lab = _frames(50, np.zeros(50, dtype=bool))
+    for frames, name in ((slice(10, 12), "airplane"), (slice(12, 14), "bird")):
+        lab["cls"][frames] = name
+        for k, v in zip(("x0", "y0", "x1", "y1"), (1.0, 2.0, 3.0, 4.0), strict=True):
+            lab[k][frames] = v + (name == "bird")
+    wl = label_windows(np.array([95_000], dtype=np.uint64), 40_000, ts, lab)
+    assert wl.cls.tolist() == ["airplane"] and wl.label.tolist() == [False]
+    assert wl.box[0].tolist() == [1.0, 2.0, 3.0, 4.0]
+
+
 def test_bad_label_arguments() -> None:
     ts, lab = _frames(10, np.ones(10, dtype=bool))
     with pytest.raises(ParameterError):

@@ -9,8 +9,9 @@ between them, so each frame speaks for half of the interval on either side. A wi
   ``min_fraction`` (default ½) of the window's time; its box is the union of the UAV's boxes in
   the frames that overlap the window;
 - **not a UAV** (``label = False``) when no UAV is visible at any moment of the window; its
-  class is the other object that is visible longest, if that is at least ``min_fraction`` of
-  the window (its box the union of that object's boxes), else ``"none"`` (box NaN);
+  class is the other object that is visible longest (of equal times, the first class by
+  name), if that is at least ``min_fraction`` of the window (its box the union of that
+  object's boxes), else ``"none"`` (box NaN);
 - **ambiguous** when a UAV is visible for some but less than ``min_fraction`` of the window,
   and **unscored** when any part of the window has no label (past the last labelled frame,
   beyond the recording's end, or a frame without a label row): both are left out of datasets.
