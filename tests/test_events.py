@@ -132,6 +132,21 @@ def test_float_times_and_negative_coordinates_are_refused() -> None:
         convert(src)
 
 
+def test_range_checks_hold_at_their_edges() -> None:
+    # 65535 fits a uint16 coordinate; 65536 would wrap to 0 and is refused.
+    src = np.zeros(2, [("t", "<i8"), ("x", "<i4"), ("y", "<i4"), ("p", "?")])
+    src["x"] = [65535, 0]
+    assert convert(src)["x"].tolist() == [65535, 0]
+    src["x"][1] = 65536
+    with pytest.raises(uavsnn.EventError, match=r"event 1: x=65536 exceeds 65535"):
+        convert(src)
+    # A single event is checked too (a negative time would wrap to a huge uint64).
+    one = np.zeros(1, [("t", "<i8"), ("x", "<i4"), ("y", "<i4"), ("p", "?")])
+    one["t"] = -1
+    with pytest.raises(uavsnn.EventError, match=r"event 0: t=-1 is negative"):
+        convert(one)
+
+
 def test_layout_must_be_known_and_plain_arrays_need_one() -> None:
     with pytest.raises(uavsnn.ParameterError, match="unknown layout"):
         convert(np.zeros(1, EVENT_DTYPE), layout="dvs")
@@ -150,6 +165,9 @@ def test_sensor_size_check_names_the_event() -> None:
     assert len(convert(src, sensor_size=(11, 6))) == 3
     with pytest.raises(uavsnn.EventError, match=r"event 2: \(x=2, y=5\) is outside the 11x5"):
         convert(src, sensor_size=(11, 5))
+    # x = width is off the sensor (columns are 0 .. width - 1).
+    with pytest.raises(uavsnn.EventError, match=r"event 1: \(x=10, y=0\) is outside the 10x6"):
+        convert(src, sensor_size=(10, 6))
 
 
 def test_recording_rejects_unsorted_offsensor_and_wrong_dtype() -> None:
