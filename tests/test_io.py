@@ -151,6 +151,40 @@ def test_truncated_real_files_are_refused(shared_data: Path, tmp_path: Path) -> 
             io.read(path, sensor_size=GOLDEN[name][1])
 
 
+def _header_length(data: bytes) -> int:
+    """Bytes of a RAW/DAT file's ``%`` header lines."""
+    pos = 0
+    while data[pos : pos + 1] == b"%":
+        pos = data.index(b"\n", pos) + 1
+    return pos
+
+
+def test_truncated_dat_files_are_refused(tmp_path: Path) -> None:
+    faery = pytest.importorskip("faery")
+    path = tmp_path / "rec.dat"
+    faery.events_stream_from_array(_events().astype(faery.EVENTS_DTYPE), (64, 48)).to_file(
+        path, zero_t0=False
+    )
+    data = path.read_bytes()
+    head = _header_length(data)
+    record = data[head + 1]  # a type byte, a size byte, then the records
+    cut = tmp_path / "cut.dat"
+    cut.write_bytes(data[: len(data) - 3])
+    with pytest.raises(uavsnn.RecordingFileError, match=f"whole number of {record}-byte DAT"):
+        io.read(cut, sensor_size=(64, 48))
+    cut.write_bytes(data[: head + 1])
+    with pytest.raises(uavsnn.RecordingFileError, match="truncated after its header"):
+        io.read(cut, sensor_size=(64, 48))
+
+
+def test_npz_sensor_size_contradicting_the_file_is_refused(tmp_path: Path) -> None:
+    path = tmp_path / "rec.npz"
+    io.write_npz(Recording(_events(), (64, 48)), path)
+    assert io.read(path, sensor_size=(64, 48)).sensor_size == (64, 48)
+    with pytest.raises(uavsnn.ParameterError, match=r"contradicts the file's \(64, 48\)"):
+        io.read(path, sensor_size=(65, 48))
+
+
 def test_truncated_header_is_refused(tmp_path: Path) -> None:
     path = tmp_path / "cut.raw"
     path.write_bytes(b"% evt 2.0\n% firmware_ver")
