@@ -82,6 +82,20 @@ def _labelled(windows: Windows, label: list[bool], cls: list[str], box: object) 
     )
 
 
+def _inference(
+    detected: list[bool], first_t: list[int], detections: np.ndarray | None = None
+) -> Inference:
+    """An inference of hand-made calls, with zero layer counts and thresholds."""
+    n = len(detected)
+    return Inference(
+        detected=np.array(detected),
+        counts=np.zeros((n, 5), np.int64),
+        first_detection_t=np.array(first_t, dtype=np.uint64),
+        detections=np.zeros(0, WINDOW_DETECTION_DTYPE) if detections is None else detections,
+        thresholds=np.zeros((n, 4), np.float32),
+    )
+
+
 def test_first_spike_in_box() -> None:
     w = _windows([[(1, 0, 0), (5, 4, 4), (9, 5, 5)], [], [(2, 1, 1)], [(3, 7, 2)]])
     boxes = np.array([[4, 4, 6, 6], [0, 0, 20, 10], NAN4, [0, 0, 5, 5]], dtype=np.float32)
@@ -120,13 +134,7 @@ def test_latency_leaves_out_detections_with_no_input_spike_in_the_box() -> None:
     detections = np.zeros(2, dtype=WINDOW_DETECTION_DTYPE)
     detections["window"] = [0, 1]
     detections["t"] = [30, 1040]
-    inference = Inference(
-        detected=np.array([True, True]),
-        counts=np.zeros((2, 5), np.int64),
-        first_detection_t=np.array([30, 1040], dtype=np.uint64),
-        detections=detections,
-        thresholds=np.zeros((2, 4), np.float32),
-    )
+    inference = _inference([True, True], [30, 1040], detections)
     e = score(inference, data)
     assert e.latency_us.tolist() == [25]
     assert e.latency_from_start_us.tolist() == [30, 40]
@@ -143,13 +151,7 @@ def test_score_per_class_latency_and_pixels() -> None:
     detections = np.zeros(2, dtype=WINDOW_DETECTION_DTYPE)
     detections["window"] = [0, 2]
     detections["t"] = [25, 2003]
-    inference = Inference(
-        detected=np.array([True, False, True, False]),
-        counts=np.zeros((4, 5), np.int64),
-        first_detection_t=np.array([25, 0, 2003, 0], dtype=np.uint64),
-        detections=detections,
-        thresholds=np.zeros((4, 4), np.float32),
-    )
+    inference = _inference([True, False, True, False], [25, 0, 2003, 0], detections)
     e = score(inference, data, seconds=0.5)
     assert e.confusion.tolist() == [[1, 1], [1, 1]]
     assert e.accuracy == 0.5
@@ -194,13 +196,7 @@ def test_per_size_bins_are_half_open_and_the_last_is_unbounded() -> None:
         ["drone", "ball", "drone", "helicopter"],
         [[0, 0, 6, 3], [0, 0, 2, 11.5], [10, 10, 58, 20], [0, 0, 150, 90]],
     )
-    inference = Inference(
-        detected=np.array([False, True, True, True]),
-        counts=np.zeros((4, 5), np.int64),
-        first_detection_t=np.zeros(4, dtype=np.uint64),
-        detections=np.zeros(0, dtype=WINDOW_DETECTION_DTYPE),
-        thresholds=np.zeros((4, 4), np.float32),
-    )
+    inference = _inference([False, True, True, True], [0, 0, 0, 0])
     sizes = {z.label: z for z in score(inference, data).per_size}
     assert list(sizes) == ["6-12 px", ">= 48 px"]
     six = sizes["6-12 px"]
@@ -231,13 +227,7 @@ def test_first_detection_boxes_take_each_windows_first_row() -> None:
         ("x0", "y0", "x1", "y1"), ([1, 7, 2], [1, 7, 2], [3, 9, 4], [3, 9, 4]), strict=True
     ):
         detections[k] = v
-    inference = Inference(
-        detected=np.array([False, True, False, True]),
-        counts=np.zeros((4, 5), np.int64),
-        first_detection_t=np.array([0, 5, 0, 2], dtype=np.uint64),
-        detections=detections,
-        thresholds=np.zeros((4, 4), np.float32),
-    )
+    inference = _inference([False, True, False, True], [0, 5, 0, 2], detections)
     boxes = first_detection_boxes(inference, 4)
     assert np.isnan(boxes[[0, 2]]).all()
     assert boxes[1].tolist() == [1, 1, 3, 3] and boxes[3].tolist() == [2, 2, 4, 4]

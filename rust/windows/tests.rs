@@ -195,19 +195,20 @@ fn noise_adds_the_requested_pixels_and_reports_snr() {
     }
     // PENT's estimate: the preceding interval's P distinct pixels and the same noise's N,
     // less their expected overlap, round(P + N - P·N/(W·H)).
+    assert!(
+        w.n_preceding.iter().any(|&p| p >= 20),
+        "a window with a busy past"
+    );
+    let area = sensor.area() as f64;
     for fraction in [0.05, 0.5] {
         let noisy = add_noise(&w.view(), &w.n_preceding, fraction, 7).unwrap();
         let n = noisy.noise_per_window as f64;
         let expected: Vec<u64> = w
             .n_preceding
             .iter()
-            .map(|&p| (p as f64 + n - p as f64 * n / 200.0).round() as u64)
+            .map(|&p| (p as f64 + n - p as f64 * n / area).round() as u64)
             .collect();
         assert_eq!(noisy.windows.n_preceding, expected, "fraction {fraction}");
-        assert!(
-            w.n_preceding.iter().any(|&p| p >= 20),
-            "a window with a busy past"
-        );
     }
     assert!(add_noise(&w.view(), &w.n_preceding, 1.5, 0).is_err());
     assert!(add_noise(&w.view(), &w.n_preceding, f64::NAN, 0).is_err());
