@@ -91,8 +91,10 @@ def nearest(train: np.ndarray, labels: np.ndarray, test: np.ndarray, k: int) -> 
     """Majority calls of the ``k`` nearest training windows (:func:`standardised` features)."""
     a, b = standardised(train, test)
     calls = np.empty(len(b), dtype=bool)
+    a_sq = (a * a).sum(axis=1)
     for start in range(0, len(b), 256):
-        d = ((b[start : start + 256, None, :] - a[None, :, :]) ** 2).sum(axis=-1)
+        # Squared distances up to each test row's own norm, which does not change the order.
+        d = a_sq[None, :] - 2.0 * (b[start : start + 256] @ a.T)
         idx = np.argpartition(d, k, axis=1)[:, :k]
         calls[start : start + 256] = labels[idx].mean(axis=1) > 0.5
     return calls
