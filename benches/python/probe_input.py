@@ -12,15 +12,22 @@ labels from the same spikes; where it can, the network's features are what is mi
     python benches/python/probe_input.py /tmp/tune
     python benches/python/probe_input.py runs/reproduce/data/dvs \\
         --model runs/reproduce/model-dvs.npz
+    uavsnn dataset build /tmp/more --domain dvs --seed 7 --n-train 16000 --n-test 200
+    python benches/python/probe_input.py runs/reproduce/data/dvs --more-train /tmp/more
 
 Only windows with a labelled object take part (drones against the other classes; empty
 windows, which a box cannot be drawn for, are left out). Each window's crop is the square
 around the box's centre, 1.2 times its longer side (at least 4.8 px), on a ``G × G`` grid:
 the share of each cell's pixels that spiked, and their mean spike time in the window; plus the
 logarithm of the box's size and the number of spikes in the crop. Readouts: ridge regression on
-the standardised features and k nearest neighbours, the grid, ridge's penalty and k chosen on a
-quarter of the training recordings held out; the chosen ones are refitted on all training
-windows and scored once on the test windows.
+the standardised features, k nearest neighbours and, where scikit-learn is installed
+(``pip install -e ".[probe]"``), gradient-boosted trees; the grid, ridge's penalty, k and the
+trees' learning rate chosen on a quarter of the training recordings held out; the chosen ones
+are refitted on all training windows and scored once on the test windows.
+
+``--more-train`` adds the training windows with an object of other datasets of the same domain
+(built with other seeds, so from other recordings) to every fit, held-out choice included: how
+far the readouts climb with more labelled windows.
 """
 
 from __future__ import annotations
@@ -40,6 +47,7 @@ from uavsnn.network import Network
 GRIDS = (8, 16)
 PENALTIES = (10.0, 100.0, 1000.0, 10000.0)
 NEIGHBOURS = (5, 15, 45)
+LEARNING_RATES = (0.05, 0.1)
 
 #: A readout: (training features, their labels, test features, its knob) -> test calls.
 Fit = Callable[[np.ndarray, np.ndarray, np.ndarray, float], np.ndarray]
@@ -89,6 +97,26 @@ def knn(train: np.ndarray, labels: np.ndarray, test: np.ndarray, k: float) -> np
     return nearest(train, labels, test, int(k))
 
 
+def boosted(train: np.ndarray, labels: np.ndarray, test: np.ndarray, rate: float) -> np.ndarray:
+    """Calls on ``test`` of gradient-boosted trees (scikit-learn's histogram ones, early-stopped
+    on a tenth of ``train``) with learning rate ``rate``."""
+    from sklearn.ensemble import HistGradientBoostingClassifier
+
+    model = HistGradientBoostingClassifier(
+        learning_rate=rate, max_iter=400, early_stopping=True, random_state=0
+    )
+    return np.asarray(model.fit(train, labels).predict(test), dtype=bool)
+
+
+def has_sklearn() -> bool:
+    """Whether scikit-learn, which :func:`boosted` needs, is installed."""
+    try:
+        import sklearn  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
 def held_out(data: LabelledWindows, which: np.ndarray, seed: int) -> np.ndarray:
     """A mask over ``which``: the windows of a quarter of its recordings."""
     recordings = np.unique(data.recording[which])
@@ -101,6 +129,13 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("data", type=Path, help="a dataset folder with train and test splits")
     parser.add_argument("--model", type=Path, help="a model whose any-spike rule to show beside")
+    parser.add_argument(
+        "--more-train",
+        type=Path,
+        action="append",
+        default=[],
+        help="another dataset of the same domain whose training windows join every fit",
+    )
     parser.add_argument("--seed", type=int, default=0, help="seed of the held-out recordings")
     parser.add_argument("--json", action="store_true", help="one JSON line")
     args = parser.parse_args()
@@ -108,7 +143,14 @@ def main() -> None:
     tr, te = objects(train), objects(test)
     y_tr, y_te = np.asarray(train.label)[tr], np.asarray(test.label)[te]
     val = held_out(train, tr, args.seed)
-    features = {g: (crops(train, tr, g), crops(test, te, g)) for g in GRIDS}
+    more = [load(path, "train") for path in args.more_train]
+    y_more = np.concatenate([np.asarray(m.label)[objects(m)] for m in more] + [y_tr[:0]])
+
+    def more_crops(grid: int) -> np.ndarray:
+        empty = np.zeros((0, 2 * grid * grid + 2))
+        return np.concatenate([crops(m, objects(m), grid) for m in more] + [empty])
+
+    features = {g: (crops(train, tr, g), crops(test, te, g), more_crops(g)) for g in GRIDS}
 
     def chosen(fit: Fit, knobs: tuple[float, ...]) -> tuple[int, float, float]:
         """The grid and knob with the best held-out accuracy, and the test accuracy once
@@ -116,32 +158,41 @@ def main() -> None:
         options = list(itertools.product(GRIDS, knobs))
         scores = []
         for grid, knob in options:
-            x = features[grid][0]
-            scores.append(float(np.mean(fit(x[~val], y_tr[~val], x[val], knob) == y_tr[val])))
+            x, extra = features[grid][0], features[grid][2]
+            fitted = fit(np.r_[x[~val], extra], np.r_[y_tr[~val], y_more], x[val], knob)
+            scores.append(float(np.mean(fitted == y_tr[val])))
         grid, knob = options[int(np.argmax(scores))]
-        calls = fit(features[grid][0], y_tr, features[grid][1], knob)
+        x, test_x, extra = features[grid]
+        calls = fit(np.r_[x, extra], np.r_[y_tr, y_more], test_x, knob)
         return grid, knob, float(np.mean(calls == y_te))
 
-    size_tr, size_te = features[GRIDS[0]][0][:, -2:-1], features[GRIDS[0]][1][:, -2:-1]
+    size_tr = np.r_[features[GRIDS[0]][0], features[GRIDS[0]][2]][:, -2:-1]
+    size_te, y_size = features[GRIDS[0]][1][:, -2:-1], np.r_[y_tr, y_more]
+    size_val = np.r_[val, np.zeros(len(y_more), dtype=bool)]
     size_scores = [
-        float(np.mean(knn(size_tr[~val], y_tr[~val], size_tr[val], k) == y_tr[val]))
+        float(
+            np.mean(knn(size_tr[~size_val], y_size[~size_val], size_tr[size_val], k) == y_tr[val])
+        )
         for k in (15, 45, 135)
     ]
     k_size = (15, 45, 135)[int(np.argmax(size_scores))]
     row: dict[str, object] = {
         "data": str(args.data),
-        "train_windows": len(tr),
+        "train_windows": len(tr) + len(y_more),
         "test_windows": len(te),
         "test_drone_share": float(np.mean(y_te)),
         "size alone": {
             "k": k_size,
-            "test": float(np.mean(knn(size_tr, y_tr, size_te, k_size) == y_te)),
+            "test": float(np.mean(knn(size_tr, y_size, size_te, k_size) == y_te)),
         },
     }
     g, penalty, acc = chosen(ridge, PENALTIES)
     row["ridge"] = {"grid": g, "penalty": penalty, "test": acc}
     g, k, acc = chosen(knn, tuple(float(k) for k in NEIGHBOURS))
     row["nearest"] = {"grid": g, "k": int(k), "test": acc}
+    if has_sklearn():
+        g, rate, acc = chosen(boosted, LEARNING_RATES)
+        row["boosted trees"] = {"grid": g, "learning rate": rate, "test": acc}
     if args.model is not None:
         net = Network.load(args.model)
         detected = np.asarray(net.infer(test.windows).detected, dtype=bool)[te]
@@ -150,8 +201,8 @@ def main() -> None:
         print(json.dumps(row))
         return
     print(
-        f"{args.data}: {len(tr)} training and {len(te)} test windows with a labelled object "
-        f"({100 * float(np.mean(y_te)):.1f} % of the test ones drones)"
+        f"{args.data}: {len(tr) + len(y_more)} training and {len(te)} test windows with a "
+        f"labelled object ({100 * float(np.mean(y_te)):.1f} % of the test ones drones)"
     )
     for key, value in row.items():
         if isinstance(value, dict):
