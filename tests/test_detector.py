@@ -183,8 +183,9 @@ def test_flush_ends_the_stream_until_reset(net: Network) -> None:
     assert len(det.flush()) == 0
     with pytest.raises(StreamError, match="flushed"):
         det.push(events[-1:])
+    assert det.busy_seconds > 0
     det.reset()
-    assert det.events_seen == 0
+    assert det.events_seen == 0 and det.busy_seconds == 0.0 and det.rate == 0.0
     again = np.concatenate([det.push(events), det.flush()])
     np.testing.assert_array_equal(again, first)
 
@@ -200,7 +201,7 @@ def test_empty_chunks_and_counters(net: Network) -> None:
     assert det.step_us == 250
     assert 0 < det.live_windows <= math.ceil(1 / (1 - 0.75))
     assert det.windows_opened >= (int(events["t"][-1]) - int(events["t"][0])) // 250
-    assert det.rate > 0
+    assert det.rate == pytest.approx(len(events) / det.busy_seconds)
     assert det.sensor_size == SIZE and det.window_us == 1_000 and det.overlap == 0.75
     assert "events_seen=500" in repr(det)
 
@@ -282,8 +283,20 @@ def test_file_source_fast_and_at_the_recordings_pace(tmp_path: Path) -> None:
     # Released no earlier than the recording's own clock allows.
     assert elapsed >= (int(events["t"][-1]) - int(events["t"][0])) / 1e6
     assert paced.stats.events == len(events) and paced.stats.packets == len(chunks)
-    with pytest.raises(ParameterError, match="chunk"):
-        FileSource(path, chunk_events=0)
+    for bad in ({"chunk_events": 0}, {"chunk_us": 0}):
+        with pytest.raises(ParameterError, match="chunk"):
+            FileSource(path, **bad)
+
+
+def test_paced_chunks_end_before_their_edge(tmp_path: Path) -> None:
+    """A paced chunk holds ``[first + k·chunk_us, first + (k+1)·chunk_us)``: an event right on
+    an edge opens the next chunk."""
+    events = blob_events(13, 4)
+    events["t"] = [0, 1_000, 1_999, 2_000]
+    path = tmp_path / "edges.npz"
+    write_npz(Recording(events, SIZE), path)
+    chunks = list(FileSource(path, realtime=True, chunk_us=1_000))
+    assert [c["t"].tolist() for c in chunks] == [[0], [1_000, 1_999], [2_000]]
 
 
 class Trickle(io.RawIOBase):
@@ -307,6 +320,8 @@ def test_stdin_packed_records_split_across_reads() -> None:
     source = StdinSource(Trickle(events.tobytes(), step=17), fmt="packed", sensor_size=SIZE)
     np.testing.assert_array_equal(np.concatenate(list(source)), events)
     assert source.stats.dropped == 0
+    assert source.stats.events == len(events)
+    assert source.stats.packets == math.ceil(len(events.tobytes()) / 17)
 
 
 def test_stdin_truncated_last_record_is_a_drop() -> None:
@@ -324,11 +339,24 @@ def test_stdin_csv_with_header_and_a_malformed_line() -> None:
     source = StdinSource(Trickle(text, step=64), fmt="csv", sensor_size=SIZE)
     np.testing.assert_array_equal(np.concatenate(list(source)), events)
     assert source.stats.dropped == 1
+    assert source.stats.events == len(events)
+
+
+def test_stdin_csv_negative_time_is_a_drop() -> None:
+    text = b"5,1,2,1\n-3,1,2,1\n7,2,2,0\n"
+    source = StdinSource(io.BytesIO(text), fmt="csv", sensor_size=SIZE)
+    got = np.concatenate(list(source))
+    assert got["t"].tolist() == [5, 7] and got["p"].tolist() == [1, 0]
+    assert source.stats.dropped == 1
 
 
 def test_stdin_parameters() -> None:
     with pytest.raises(ParameterError, match="stdin format"):
         StdinSource(io.BytesIO(), fmt="json", sensor_size=SIZE)
+    # A read must be able to hold one whole 13-byte record.
+    with pytest.raises(ParameterError, match="read_size"):
+        StdinSource(io.BytesIO(), sensor_size=SIZE, read_size=12)
+    assert StdinSource(io.BytesIO(), sensor_size=SIZE, read_size=13).read_size == 13
 
 
 # ---------------------------------------------------------------- the command line

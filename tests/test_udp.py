@@ -44,9 +44,10 @@ def spif_packet(events: np.ndarray, *, with_time: bool) -> bytes:
 
 
 def receive_all(source: UdpSource) -> tuple[threading.Thread, list[np.ndarray]]:
-    """Start the source in a thread (it stops by itself); the list fills with its chunks."""
+    """Start the source in a thread (it stops by itself); the list fills with its chunks. A
+    daemon, so that a source that fails to stop fails its test instead of hanging the run."""
     chunks: list[np.ndarray] = []
-    thread = threading.Thread(target=lambda: chunks.extend(source))
+    thread = threading.Thread(target=lambda: chunks.extend(source), daemon=True)
     thread.start()
     return thread, chunks
 
@@ -85,6 +86,7 @@ def test_aestream_spif_packets(with_time: bool) -> None:
             for p in packets:
                 s.sendto(spif_packet(p, with_time=with_time), source.address)
         thread.join(timeout=10)
+        assert not thread.is_alive()
     got = np.concatenate(chunks)
     for field in ("x", "y", "p"):
         np.testing.assert_array_equal(got[field], events[field])
@@ -106,6 +108,7 @@ def test_thirty_two_bit_times_unwrap_across_packets() -> None:
             source.address, events_per_packet=1, format="t32_x16_y15_on1"
         )
         thread.join(timeout=10)
+        assert not thread.is_alive()
     np.testing.assert_array_equal(np.concatenate(chunks), events)
 
 
@@ -142,6 +145,7 @@ def test_malformed_packets_are_counted_and_skipped(fmt: str) -> None:
             s.sendto(encode(backwards), source.address)  # earlier than what came before
             s.sendto(encode(third), source.address)
         thread.join(timeout=10)
+        assert not thread.is_alive()
     np.testing.assert_array_equal(np.concatenate(chunks), good)
     assert source.stats.dropped == len(bad) + 1
     assert source.stats.packets == 3 + len(bad) + 1
