@@ -224,10 +224,17 @@ def small_recording() -> Recording:
     return Recording(ev, (4, 4))
 
 
-@pytest.mark.parametrize("length", [0, -10, 0.5, float("nan"), float("inf"), "10", True])
+@pytest.mark.parametrize(
+    "length", [0, -10, 0.5, 10.5, (1 << 62) + 1, float("nan"), float("inf"), "10", True]
+)
 def test_bad_window_lengths_are_parameter_errors(length) -> None:
     with pytest.raises(uavsnn.ParameterError, match="length_us"):
         make_windows(small_recording(), length)
+
+
+def test_the_longest_window_is_accepted() -> None:
+    w = make_windows(small_recording(), 1 << 62)
+    assert len(w) == 1 and w.length_us == 1 << 62
 
 
 @pytest.mark.parametrize("overlap", [1.0, 1.5, -0.1, float("nan"), "half"])
@@ -240,6 +247,9 @@ def test_bad_ranges_and_inputs_are_typed_errors() -> None:
     rec = small_recording()
     with pytest.raises(uavsnn.ParameterError, match="end_us"):
         make_windows(rec, 10, start_us=100, end_us=50)
+    for end in (-5, 10.5, "50"):
+        with pytest.raises(uavsnn.ParameterError, match="end_us"):
+            make_windows(rec, 10, end_us=end)  # type: ignore[arg-type]
     with pytest.raises(uavsnn.ParameterError, match="start_us"):
         make_windows(rec, 10, start_us=-1)
     with pytest.raises(uavsnn.ParameterError, match="exceed the limit"):
@@ -256,6 +266,16 @@ def test_bad_ranges_and_inputs_are_typed_errors() -> None:
         w.frames([5])
     with pytest.raises(uavsnn.ParameterError, match="out of range"):
         w.spikes(-3)
+    n = len(w)
+    assert n > 0
+    with pytest.raises(uavsnn.ParameterError, match="out of range"):
+        w.select([n])
+    assert len(w.select([n - 1, -n])) == 2
+    with pytest.raises(uavsnn.ParameterError, match="integers"):
+        w.select(np.ones(n, dtype=bool))
+    other = make_windows(rec, 20)
+    with pytest.raises(uavsnn.ShapeError, match="length"):
+        Windows.concatenate([w, other])
 
 
 def test_inconsistent_windows_are_refused() -> None:
@@ -280,6 +300,9 @@ def test_inconsistent_windows_are_refused() -> None:
         ({"t": [2, 1]}, uavsnn.EventError, "before the previous spike"),
         ({"t": [1.0, 2.0]}, uavsnn.ShapeError, "integers"),
         ({"x": [0, 70000]}, uavsnn.ShapeError, "outside"),
+        ({"x": [0, -1]}, uavsnn.ShapeError, "outside"),
+        ({"n_preceding": [-1]}, uavsnn.ShapeError, "negative"),
+        ({"sensor_size": (65536, 4)}, uavsnn.ParameterError, "sensor_size"),
         ({"n_preceding": [0, 1]}, uavsnn.ShapeError, "n_preceding"),
         ({"length_us": 0}, uavsnn.ParameterError, "length_us"),
     ]:
