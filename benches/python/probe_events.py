@@ -25,20 +25,22 @@ square around the box's centre, 1.2 times its longer side, at least 4.8 px):
 
 Gradient-boosted trees (scikit-learn's histogram ones), the learning rate chosen on a quarter of
 the training recordings held out, refitted on all training windows, scored once on the test
-windows, also by the object's size.
+windows, also by the object's size (the bins of ``uavsnn.evaluation.SIZE_BINS_PX``).
 """
 
 from __future__ import annotations
 
 import argparse
+import itertools
 import json
 from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
-from probe_input import LEARNING_RATES, boosted
+from probe_input import LEARNING_RATES, boosted, crop_cells, crop_features, held_out
 
 from uavsnn.dataset.splits import SENSOR, WindowCut
 from uavsnn.dataset.synthetic import SceneSource, synthetic_recording
+from uavsnn.evaluation import SIZE_BINS_PX
 
 GRID = 12
 TIME_BINS = 8
@@ -46,34 +48,6 @@ SOURCE = SceneSource("dvs", SENSOR, 500.0, 1.0)
 CUT = WindowCut(50_000, 0.5, 0.5)
 #: Events per firing pixel, binned: 1, 2, 3-4, 5-8, 9-16, 17-32, more.
 PER_PIXEL_BINS = (1, 2, 3, 5, 9, 17, 33, 2**31)
-#: The object sizes (longer side of the box, px) reported apart, as in ``uavsnn evaluate``.
-SIZE_BINS = ((0, 6), (6, 12), (12, 24), (24, 48), (48, np.inf))
-
-
-def cells(
-    x: np.ndarray, y: np.ndarray, box: tuple[float, float, float, float]
-) -> tuple[np.ndarray, np.ndarray, float]:
-    """Which points ``(x, y)`` (pixel indices) fall in the crop around ``box``, their cell on
-    the grid, and the crop's side in pixels."""
-    x0, y0, x1, y1 = box
-    side = max(x1 - x0, y1 - y0, 4.0) * 1.2
-    u = (x + 0.5 - (x0 + x1 - side) / 2) / side * GRID
-    v = (y + 0.5 - (y0 + y1 - side) / 2) / side * GRID
-    inside = (u >= 0) & (u < GRID) & (v >= 0) & (v < GRID)
-    return inside, v[inside].astype(np.int64) * GRID + u[inside].astype(np.int64), side
-
-
-def first_spike_features(
-    x: np.ndarray, y: np.ndarray, t: np.ndarray, box: tuple[float, float, float, float]
-) -> np.ndarray:
-    """A window's first spikes ``(x, y, t)``, ``t`` in window lengths, in the crop of ``box``."""
-    inside, cell, side = cells(x, y, box)
-    n = int(inside.sum())
-    count = np.bincount(cell, minlength=GRID * GRID).astype(float)
-    times = np.bincount(cell, t[inside], minlength=GRID * GRID) / np.maximum(count, 1.0)
-    hist = np.histogram(t[inside], bins=TIME_BINS, range=(0.0, 1.0))[0] / max(1, n)
-    share = count / max(1.0, (side / GRID) ** 2)
-    return np.r_[share, times, hist, np.log(side), np.log1p(n)]
 
 
 def event_features(
@@ -83,7 +57,7 @@ def event_features(
     x, y = events["x"].astype(float), events["y"].astype(float)
     t = (events["t"].astype(float) - t0) / CUT.length_us
     on = events["p"].astype(bool)
-    inside, cell, side = cells(x, y, box)
+    inside, cell, side = crop_cells(x, y, box, GRID)
     n = int(inside.sum())
     t_in, on_in = t[inside], on[inside]
     per_cell = max(1.0, (side / GRID) ** 2)
@@ -114,34 +88,29 @@ def recording_rows(seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.nd
         box = (x0, y0, x1, y1)
         a, b = offsets[i], offsets[i + 1]
         t = (np.asarray(w.t[a:b], dtype=float) - float(starts[i])) / CUT.length_us
-        first.append(
-            first_spike_features(np.asarray(w.x[a:b], float), np.asarray(w.y[a:b], float), t, box)
-        )
+        x, y = np.asarray(w.x[a:b], float), np.asarray(w.y[a:b], float)
+        first.append(crop_features(x, y, t, box, GRID, time_bins=TIME_BINS))
         lo, hi = np.searchsorted(events["t"], [starts[i], starts[i] + CUT.length_us])
         every.append(event_features(events[lo:hi], float(starts[i]), box))
     box = labels.box[keep]
     size = np.maximum(box[:, 2] - box[:, 0], box[:, 3] - box[:, 1])
-    width = 2 * GRID * GRID + TIME_BINS + 2
-    width_all = 2 * GRID * GRID + len(PER_PIXEL_BINS) - 1 + 2 * TIME_BINS + 2
-    return (
-        np.asarray(first).reshape(-1, width),
-        np.asarray(every).reshape(-1, width_all),
-        labels.label[keep].astype(bool),
-        size,
-    )
+    return np.asarray(first), np.asarray(every), labels.label[keep].astype(bool), size
 
 
 def gather(seeds: range, pool: ProcessPoolExecutor) -> dict[str, np.ndarray]:
-    """The rows of the recordings ``seeds``, with each row's recording."""
-    parts = list(pool.map(recording_rows, seeds))
+    """The rows of the recordings ``seeds``, with each row's recording (recordings without a
+    usable window with an object add none)."""
+    parts = [
+        (seed, part)
+        for seed, part in zip(seeds, pool.map(recording_rows, seeds), strict=True)
+        if len(part[2])
+    ]
     return {
-        "first": np.concatenate([p[0] for p in parts]),
-        "all": np.concatenate([p[1] for p in parts]),
-        "label": np.concatenate([p[2] for p in parts]),
-        "size": np.concatenate([p[3] for p in parts]),
-        "recording": np.concatenate(
-            [np.full(len(p[2]), s) for s, p in zip(seeds, parts, strict=True)]
-        ),
+        "first": np.concatenate([p[0] for _, p in parts]),
+        "all": np.concatenate([p[1] for _, p in parts]),
+        "label": np.concatenate([p[2] for _, p in parts]),
+        "size": np.concatenate([p[3] for _, p in parts]),
+        "recording": np.concatenate([np.full(len(p[2]), seed) for seed, p in parts]),
     }
 
 
@@ -155,14 +124,12 @@ def main() -> None:
     with ProcessPoolExecutor(args.workers) as pool:
         train = gather(range(args.train_recordings), pool)
         test = gather(range(10**6, 10**6 + args.test_recordings), pool)
-    rng = np.random.default_rng(0)
-    recordings = np.unique(train["recording"])
-    chosen = rng.choice(recordings, size=max(1, len(recordings) // 4), replace=False)
-    val = np.isin(train["recording"], chosen)
+    val = held_out(train["recording"], 0)
     y, y_test = train["label"], test["label"]
+    size = test["size"]
     bins = {
-        (f">= {lo}" if np.isinf(hi) else f"{lo}-{hi}"): (test["size"] >= lo) & (test["size"] < hi)
-        for lo, hi in SIZE_BINS
+        (f">= {lo:g}" if np.isinf(hi) else f"{lo:g}-{hi:g}"): (size >= lo) & (size < hi)
+        for lo, hi in itertools.pairwise(SIZE_BINS_PX)
     }
     bins = {key: mask for key, mask in bins.items() if mask.any()}
     row: dict[str, object] = {

@@ -58,6 +58,45 @@ def objects(data: LabelledWindows) -> np.ndarray:
     return np.flatnonzero(~np.isnan(np.asarray(data.box, dtype=float)).any(axis=1))
 
 
+def crop_cells(
+    x: np.ndarray, y: np.ndarray, box: tuple[float, float, float, float], grid: int
+) -> tuple[np.ndarray, np.ndarray, float]:
+    """Which pixels ``(x, y)`` (indices; their centres count) fall in the crop around ``box``
+    (the square around its centre, 1.2 times its longer side, at least 4.8 px), their cell on
+    the ``grid × grid`` grid over it, and the crop's side in pixels."""
+    x0, y0, x1, y1 = box
+    side = max(x1 - x0, y1 - y0, 4.0) * 1.2
+    u = (x + 0.5 - (x0 + x1 - side) / 2) / side * grid
+    v = (y + 0.5 - (y0 + y1 - side) / 2) / side * grid
+    inside = (u >= 0) & (u < grid) & (v >= 0) & (v < grid)
+    return inside, v[inside].astype(np.int64) * grid + u[inside].astype(np.int64), side
+
+
+def crop_features(
+    x: np.ndarray,
+    y: np.ndarray,
+    t: np.ndarray,
+    box: tuple[float, float, float, float],
+    grid: int,
+    time_bins: int = 0,
+) -> np.ndarray:
+    """One window's ``2·grid² + 2`` features (see the module's text) from its spikes
+    ``(x, y, t)``, ``t`` in window lengths from the window's start; with ``time_bins``, a
+    histogram of the crop's spike times (shares of its spikes) goes before the last two."""
+    inside, cell, side = crop_cells(x, y, box, grid)
+    n = int(inside.sum())
+    count = np.bincount(cell, minlength=grid * grid).astype(float)
+    times = np.bincount(cell, t[inside], minlength=grid * grid)
+    hist = np.histogram(t[inside], bins=time_bins, range=(0.0, 1.0))[0] if time_bins else []
+    return np.r_[
+        count / max(1.0, (side / grid) ** 2),
+        times / np.maximum(count, 1.0),
+        np.asarray(hist, dtype=float) / max(1, n),
+        np.log(side),
+        np.log1p(n),
+    ]
+
+
 def crops(data: LabelledWindows, which: np.ndarray, grid: int) -> np.ndarray:
     """``(len(which), 2·grid² + 2)`` features of the windows ``which`` (see the module's text)."""
     w = data.windows
@@ -65,21 +104,14 @@ def crops(data: LabelledWindows, which: np.ndarray, grid: int) -> np.ndarray:
     out = np.zeros((len(which), 2 * grid * grid + 2))
     for row, i in enumerate(which):
         a, b = offsets[i], offsets[i + 1]
-        x = np.asarray(w.x[a:b], dtype=float) + 0.5
-        y = np.asarray(w.y[a:b], dtype=float) + 0.5
-        t = (np.asarray(w.t[a:b], dtype=float) - float(t0[i])) / w.length_us
         x0, y0, x1, y1 = (float(v) for v in data.box[i])
-        side = max(x1 - x0, y1 - y0, 4.0) * 1.2
-        u = (x - (x0 + x1 - side) / 2) / side * grid
-        v = (y - (y0 + y1 - side) / 2) / side * grid
-        inside = (u >= 0) & (u < grid) & (v >= 0) & (v < grid)
-        cell = v[inside].astype(np.int64) * grid + u[inside].astype(np.int64)
-        count = np.bincount(cell, minlength=grid * grid).astype(float)
-        times = np.bincount(cell, t[inside], minlength=grid * grid)
-        out[row, : grid * grid] = count / max(1.0, (side / grid) ** 2)
-        out[row, grid * grid : 2 * grid * grid] = times / np.maximum(count, 1.0)
-        out[row, -2] = np.log(side)
-        out[row, -1] = np.log1p(inside.sum())
+        out[row] = crop_features(
+            np.asarray(w.x[a:b], dtype=float),
+            np.asarray(w.y[a:b], dtype=float),
+            (np.asarray(w.t[a:b], dtype=float) - float(t0[i])) / w.length_us,
+            (x0, y0, x1, y1),
+            grid,
+        )
     return out
 
 
@@ -117,12 +149,12 @@ def has_sklearn() -> bool:
     return True
 
 
-def held_out(data: LabelledWindows, which: np.ndarray, seed: int) -> np.ndarray:
-    """A mask over ``which``: the windows of a quarter of its recordings."""
-    recordings = np.unique(data.recording[which])
+def held_out(recording: np.ndarray, seed: int) -> np.ndarray:
+    """A mask over rows of the given recordings: the rows of a quarter of the recordings."""
+    recordings = np.unique(recording)
     rng = np.random.default_rng(seed)
     chosen = rng.choice(recordings, size=max(1, len(recordings) // 4), replace=False)
-    return np.isin(data.recording[which], chosen)
+    return np.isin(recording, chosen)
 
 
 def main() -> None:
@@ -142,7 +174,7 @@ def main() -> None:
     train, test = load(args.data, "train"), load(args.data, "test")
     tr, te = objects(train), objects(test)
     y_tr, y_te = np.asarray(train.label)[tr], np.asarray(test.label)[te]
-    val = held_out(train, tr, args.seed)
+    val = held_out(train.recording[tr], args.seed)
     more = [load(path, "train") for path in args.more_train]
     y_more = np.concatenate([np.asarray(m.label)[objects(m)] for m in more] + [y_tr[:0]])
 
