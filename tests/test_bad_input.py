@@ -1,0 +1,108 @@
+"""Bad input a new user meets: each case ends in a typed error (the command line: one line on
+standard error, exit 2; Ctrl-C: one "interrupted" line, exit 130) and loses nothing."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import uavsnn
+import uavsnn.cli.dataset
+import uavsnn.cli.demo
+import uavsnn.cli.train
+from uavsnn import EVENT_DTYPE, ParameterError
+from uavsnn import io as uio
+from uavsnn.cli import main
+from uavsnn.dataset import SceneSource, build
+from uavsnn.detector import MAX_LIVE_WINDOWS, Detector
+from uavsnn.network import MAX_THREADS, Network, _window_columns
+from uavsnn.windows import make_windows
+
+SIZE = (40, 30)
+CONFIG = {
+    "width": SIZE[0],
+    "height": SIZE[1],
+    "pent": {"mode": "pent", "beta": 2.0, "theta_min": 1.5, "estimate": "preceding"},
+    "conv2": {"threshold": 3.0},
+    "conv3": {"threshold": 1.5},
+}
+DVS = SceneSource("dvs", (240, 180), 200.0, 0.3)
+
+
+@pytest.fixture(scope="module")
+def net() -> Network:
+    return Network(CONFIG, seed=3)
+
+
+@pytest.fixture(scope="module")
+def model(tmp_path_factory: pytest.TempPathFactory, net: Network) -> Path:
+    path = tmp_path_factory.mktemp("model") / "model.npz"
+    net.save(path)
+    return path
+
+
+@pytest.fixture(scope="module")
+def dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    root = tmp_path_factory.mktemp("data") / "set"
+    return build(root, "dvs", n_test=10, n_train=16, seed=3, dvs=DVS).root
+
+
+def _events(n: int, seed: int = 0, size: tuple[int, int] = SIZE) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    ev = np.zeros(n, dtype=EVENT_DTYPE)
+    ev["t"] = 1_000 + np.cumsum(rng.integers(0, 30, n))
+    ev["x"] = rng.integers(0, size[0], n)
+    ev["y"] = rng.integers(0, size[1], n)
+    ev["p"] = rng.random(n) < 0.5
+    return ev
+
+
+def _one_line_exit_2(capsys: pytest.CaptureFixture[str], argv: list[str], match: str) -> str:
+    """Run the command line; it must exit 2 with one error line that contains ``match``."""
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert "error:" in lines[0] and match in lines[0], lines[0]
+    return lines[0]
+
+
+def test_an_overlap_with_too_many_live_windows_is_refused(net: Network) -> None:
+    most = 1 - 1 / MAX_LIVE_WINDOWS
+    det = Detector(net, window_us=64_000, overlap=most)
+    det.push(_events(2_000))
+    assert det.live_windows <= MAX_LIVE_WINDOWS
+    for overlap in (0.99, 0.9999, 0.9999999):
+        with pytest.raises(ParameterError, match=f"at most {MAX_LIVE_WINDOWS} are allowed"):
+            Detector(net, window_us=50_000, overlap=overlap)
+
+
+def test_detect_refuses_such_an_overlap_in_one_line(
+    model: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    rec = tmp_path / "r.npz"
+    uio.write_npz(uavsnn.Recording(_events(500), SIZE), rec)
+    _one_line_exit_2(
+        capsys, ["detect", str(rec), "-m", str(model), "--overlap", "0.9999"], "windows live"
+    )
+
+
+def test_thread_counts_are_capped(net: Network) -> None:
+    w = make_windows(uavsnn.Recording(_events(800), SIZE), 5_000)
+    for threads in (MAX_THREADS + 1, 3000):
+        with pytest.raises(ParameterError, match=f"at most {MAX_THREADS}"):
+            net.infer(w, threads=threads)
+    # The engine refuses on its own too (the check a caller of the binding meets).
+    with pytest.raises(ParameterError, match=f"at most {MAX_THREADS}"):
+        net._core.infer(**_window_columns(w), threads=MAX_THREADS + 1, record=False)
+    # Alternating counts give the same results (pools are reused or replaced, not piled up).
+    first = net.infer(w, threads=2).counts
+    for threads in (3, 2, 4, 3):
+        assert np.array_equal(net.infer(w, threads=threads).counts, first)
+
+
+def test_detector_of_no_network_is_a_parameter_error() -> None:
+    with pytest.raises(ParameterError, match="got NoneType"):
+        Detector(None)  # type: ignore[arg-type]
