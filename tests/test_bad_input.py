@@ -12,7 +12,7 @@ import uavsnn
 import uavsnn.cli.dataset
 import uavsnn.cli.demo
 import uavsnn.cli.train
-from uavsnn import EVENT_DTYPE, ParameterError
+from uavsnn import EVENT_DTYPE, ParameterError, RecordingFileError
 from uavsnn import io as uio
 from uavsnn.cli import main
 from uavsnn.dataset import SceneSource, build
@@ -103,6 +103,38 @@ def test_thread_counts_are_capped(net: Network) -> None:
         assert np.array_equal(net.infer(w, threads=threads).counts, first)
 
 
+@pytest.mark.parametrize("header", ["t,x,y,p\n", ""])
+def test_csv_with_times_out_of_order_is_refused_with_its_line(tmp_path: Path, header: str) -> None:
+    path = tmp_path / "r.csv"
+    path.write_text(header + "100,2,3,1\n120,2,3,1\n50,3,3,0\n")
+    line = 3 + bool(header)
+    with pytest.raises(RecordingFileError, match=f"line {line}: time 50 is earlier .*120"):
+        uio.read(path, sensor_size=(10, 10))
+
+
+@pytest.mark.parametrize("header", ["t,x,y,p\n", ""])
+def test_csv_keeps_every_row_with_or_without_a_header(tmp_path: Path, header: str) -> None:
+    path = tmp_path / "r.csv"
+    path.write_text(header + "100,2,3,1\n100,4,3,0\n150,3,3,0\n")
+    rec = uio.read(path, sensor_size=(10, 10))
+    assert rec.events["t"].tolist() == [100, 100, 150]
+    assert rec.events["x"].tolist() == [2, 4, 3]
+
+
 def test_detector_of_no_network_is_a_parameter_error() -> None:
     with pytest.raises(ParameterError, match="got NoneType"):
         Detector(None)  # type: ignore[arg-type]
+
+
+def test_garbage_npy_and_folders_are_named_for_what_they_are(tmp_path: Path) -> None:
+    garbage = tmp_path / "g.npy"
+    garbage.write_bytes(b"garbage" * 10)
+    with pytest.raises(RecordingFileError, match=r"not a NumPy \.npy file") as info:
+        uio.read(garbage)
+    assert "pickled" not in str(info.value)
+    folder = tmp_path / "rec.npz"
+    folder.mkdir()
+    with pytest.raises(RecordingFileError, match="is a folder"):
+        uio.read(folder)
+    with pytest.raises(RecordingFileError, match="no such file"):
+        uio.read(tmp_path / "absent.npz")

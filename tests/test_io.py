@@ -45,10 +45,27 @@ def test_golden_recordings(shared_data: Path, name: str) -> None:
     assert rec.metadata["sensor_size_source"] == ("file" if given is None else "argument")
 
 
-def test_raw_without_geometry_falls_back_and_says_so(shared_data: Path) -> None:
-    rec = io.read(shared_data / "dvs" / "prophesee_gen3_spinner_evt2.raw")
+def test_raw_without_geometry_takes_the_cameras_size_and_says_so(shared_data: Path) -> None:
+    # Gen3 headers carry no geometry, only plugin_name hal_plugin_gen3_fx3: 640x480, not
+    # faery's 1280x720 (which made --downsample drop half the events).
+    for name in ("prophesee_gen3_spinner_evt2.raw", "prophesee_gen3_sparklers_evt2.raw"):
+        rec = io.read(shared_data / "dvs" / name)
+        assert rec.sensor_size == (640, 480)
+        assert rec.metadata["sensor_size_source"] == "camera"
+        assert rec.metadata["camera"] == "gen3"
+        assert len(rec) == len(io.read(shared_data / "dvs" / name, sensor_size=(640, 480)))
+
+
+def test_raw_without_geometry_or_camera_falls_back_and_says_so(
+    shared_data: Path, tmp_path: Path
+) -> None:
+    data = (shared_data / "dvs" / "prophesee_gen3_spinner_evt2.raw").read_bytes()
+    anonymous = tmp_path / "anonymous.raw"
+    anonymous.write_bytes(data.replace(b"% plugin_name hal_plugin_gen3_fx3\n", b""))
+    rec = io.read(anonymous)
     assert rec.sensor_size == io.FAERY_FALLBACK_SIZE
     assert rec.metadata["sensor_size_source"] == "fallback"
+    assert len(rec) == len(io.read(shared_data / "dvs" / "prophesee_gen3_spinner_evt2.raw"))
 
 
 def test_sensor_size_contradicting_the_file_is_refused(shared_data: Path) -> None:
@@ -231,7 +248,8 @@ def test_info_command_reports_counts_and_rates(
     assert info["peak_rate_ev_per_s"] == busiest * 1000
     assert main(["info", str(path)]) == 0
     text = capsys.readouterr().out
-    assert "faery's fallback" in text and "busiest 1 ms bin" in text
+    assert "640x480 (the gen3 camera named in the header" in text
+    assert "busiest 1 ms bin" in text
 
 
 def test_info_command_survives_bad_files(
