@@ -3,6 +3,8 @@ standard error, exit 2; Ctrl-C: one "interrupted" line, exit 130) and loses noth
 
 from __future__ import annotations
 
+import io
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -12,12 +14,13 @@ import uavsnn
 import uavsnn.cli.dataset
 import uavsnn.cli.demo
 import uavsnn.cli.train
-from uavsnn import EVENT_DTYPE, ParameterError, RecordingFileError
+from uavsnn import EVENT_DTYPE, ParameterError, RecordingFileError, StreamError
 from uavsnn import io as uio
 from uavsnn.cli import main
 from uavsnn.dataset import SceneSource, build
 from uavsnn.detector import MAX_LIVE_WINDOWS, Detector
 from uavsnn.network import MAX_THREADS, Network, _window_columns
+from uavsnn.sources import StdinSource
 from uavsnn.windows import make_windows
 
 SIZE = (40, 30)
@@ -119,6 +122,38 @@ def test_csv_keeps_every_row_with_or_without_a_header(tmp_path: Path, header: st
     rec = uio.read(path, sensor_size=(10, 10))
     assert rec.events["t"].tolist() == [100, 100, 150]
     assert rec.events["x"].tolist() == [2, 4, 3]
+
+
+def test_stdin_drops_only_the_offending_events() -> None:
+    ev = _events(20_000)
+    bad = ev.copy()
+    bad["t"][7_000] = 5  # one backwards time
+    bad["x"][12_345] = SIZE[0] + 3  # one event off the sensor
+    src = StdinSource(io.BytesIO(bad.tobytes()), sensor_size=SIZE, read_size=13 * 1000)
+    got = np.concatenate(list(src))
+    keep = np.ones(len(ev), bool)
+    keep[[7_000, 12_345]] = False
+    assert np.array_equal(got, bad[keep])
+    assert src.stats.dropped == 2 and src.stats.events == len(ev) - 2
+
+
+def test_stdin_in_the_wrong_format_is_an_error_not_zero_events() -> None:
+    text = "".join(f"{t},{x},{y},1\n" for t, x, y in [(10, 1, 1), (20, 2, 2), (30, 3, 3)] * 50)
+    src = StdinSource(io.BytesIO(text.encode()), fmt="packed", sensor_size=SIZE)
+    with pytest.raises(StreamError, match="--stdin-format"):
+        list(src)
+    src = StdinSource(io.BytesIO(_events(100).tobytes()), fmt="csv", sensor_size=SIZE)
+    with pytest.raises(StreamError, match="--stdin-format"):
+        list(src)
+
+
+def test_detect_on_stdin_in_the_wrong_format_exits_2(
+    model: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    text = "".join(f"{1000 + t},1,1,1\n" for t in range(200)).encode()
+    monkeypatch.setattr(sys, "stdin", io.TextIOWrapper(io.BytesIO(text)))
+    assert main(["detect", "-", "-m", str(model), "--summary-every", "0"]) == 2
+    assert "--stdin-format" in capsys.readouterr().err
 
 
 def test_detector_of_no_network_is_a_parameter_error() -> None:
