@@ -17,10 +17,11 @@ import uavsnn.cli.train
 from uavsnn import EVENT_DTYPE, ParameterError, RecordingFileError, StreamError
 from uavsnn import io as uio
 from uavsnn.cli import main
-from uavsnn.dataset import SceneSource, build
+from uavsnn.dataset import SceneSource, build, load
 from uavsnn.detector import MAX_LIVE_WINDOWS, Detector
 from uavsnn.network import MAX_THREADS, Network, _window_columns
 from uavsnn.sources import StdinSource
+from uavsnn.training import train
 from uavsnn.windows import make_windows
 
 SIZE = (40, 30)
@@ -154,6 +155,29 @@ def test_detect_on_stdin_in_the_wrong_format_exits_2(
     monkeypatch.setattr(sys, "stdin", io.TextIOWrapper(io.BytesIO(text)))
     assert main(["detect", "-", "-m", str(model), "--summary-every", "0"]) == 2
     assert "--stdin-format" in capsys.readouterr().err
+
+
+def test_resume_refuses_changed_settings_or_data(dataset: Path, tmp_path: Path) -> None:
+    windows = load(dataset, "train").windows
+    ckpt = tmp_path / "ckpt"
+    train(Network(CONFIG | {"width": 240, "height": 180}, seed=1), windows, layers=["conv2"],
+          windows_per_layer=8, seed=1, checkpoint_dir=ckpt)  # fmt: skip
+    base = CONFIG | {"width": 240, "height": 180}
+    changed = base | {"conv2": {"threshold": 99.0}}
+    with pytest.raises(ParameterError, match="network config"):
+        train(Network(changed, seed=1), windows, windows_per_layer=8, seed=1,
+              checkpoint_dir=ckpt, resume=True)  # fmt: skip
+    with pytest.raises(ParameterError, match="the seed"):
+        train(Network(base, seed=1), windows, windows_per_layer=8, seed=2,
+              checkpoint_dir=ckpt, resume=True)  # fmt: skip
+    other = load(dataset, "test").windows
+    with pytest.raises(ParameterError, match="training windows"):
+        train(Network(base, seed=1), other, windows_per_layer=8, seed=1,
+              checkpoint_dir=ckpt, resume=True)  # fmt: skip
+    # The same settings resume, and train the layer that was left.
+    result = train(Network(base, seed=1), windows, windows_per_layer=8, seed=1,
+                   checkpoint_dir=ckpt, resume=True)  # fmt: skip
+    assert result.resumed == ("conv2",) and list(result.layers) == ["conv3"]
 
 
 def test_detector_of_no_network_is_a_parameter_error() -> None:
