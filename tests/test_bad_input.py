@@ -3,8 +3,12 @@ standard error, exit 2; Ctrl-C: one "interrupted" line, exit 130) and loses noth
 
 from __future__ import annotations
 
+import fcntl
 import io
+import json
+import os
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -18,7 +22,9 @@ from uavsnn import EVENT_DTYPE, ParameterError, RecordingFileError, StreamError
 from uavsnn import io as uio
 from uavsnn.cli import main
 from uavsnn.dataset import SceneSource, build, load
+from uavsnn.dataset.format import LOCK
 from uavsnn.detector import MAX_LIVE_WINDOWS, Detector
+from uavsnn.errors import DatasetError
 from uavsnn.network import MAX_THREADS, Network, _window_columns
 from uavsnn.sources import StdinSource
 from uavsnn.training import train
@@ -178,6 +184,35 @@ def test_resume_refuses_changed_settings_or_data(dataset: Path, tmp_path: Path) 
     result = train(Network(base, seed=1), windows, windows_per_layer=8, seed=1,
                    checkpoint_dir=ckpt, resume=True)  # fmt: skip
     assert result.resumed == ("conv2",) and list(result.layers) == ["conv3"]
+
+
+def test_a_second_build_into_a_locked_folder_fails_fast(tmp_path: Path) -> None:
+    root = tmp_path / "set"
+    root.mkdir()
+    fd = os.open(root / LOCK, os.O_WRONLY | os.O_CREAT)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)  # as a running build holds it
+        start = time.monotonic()
+        with pytest.raises(DatasetError, match="another build is writing"):
+            build(root, "dvs", n_test=10, n_train=16, seed=3, dvs=DVS)
+        assert time.monotonic() - start < 5
+    finally:
+        os.close(fd)
+    assert [p.name for p in root.iterdir()] == [LOCK]  # nothing written
+
+
+def test_a_split_file_from_another_build_is_refused(dataset: Path, tmp_path: Path) -> None:
+    other = build(tmp_path / "other", "dvs", n_test=10, n_train=16, seed=4, dvs=DVS).root
+    manifest = json.loads((dataset / "manifest.json").read_text())
+    assert len(manifest["splits"]["test"]["sha256"]) == 64
+    mixed = tmp_path / "mixed"
+    mixed.mkdir()
+    for name in ("manifest.json", "train.npz"):
+        (mixed / name).write_bytes((dataset / name).read_bytes())
+    (mixed / "test.npz").write_bytes((other / "test.npz").read_bytes())
+    assert len(load(mixed, "train")) == 16
+    with pytest.raises(DatasetError, match="SHA-256 differs"):
+        load(mixed, "test")
 
 
 def test_detector_of_no_network_is_a_parameter_error() -> None:
