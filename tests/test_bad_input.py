@@ -20,6 +20,7 @@ import uavsnn.cli.demo
 import uavsnn.cli.train
 from uavsnn import EVENT_DTYPE, ParameterError, RecordingFileError, StreamError
 from uavsnn import io as uio
+from uavsnn import windows as uwindows
 from uavsnn.cli import main
 from uavsnn.dataset import SceneSource, build, load
 from uavsnn.dataset.format import LOCK
@@ -213,6 +214,17 @@ def test_a_split_file_from_another_build_is_refused(dataset: Path, tmp_path: Pat
     assert len(load(mixed, "train")) == 16
     with pytest.raises(DatasetError, match="SHA-256 differs"):
         load(mixed, "test")
+
+
+def test_windowing_beyond_the_memory_limit_is_refused(monkeypatch: pytest.MonkeyPatch) -> None:
+    rec = uavsnn.Recording(_events(10_000), SIZE)
+    assert len(make_windows(rec, 5_000, 0.5).t0)
+    # 10,000 events at 50 % overlap may take 10,000 * (16 + 2 * 12) bytes.
+    monkeypatch.setattr(uwindows, "MEMORY_LIMIT", 400_000 - 1)
+    with pytest.raises(ParameterError, match=r"windowing 10,000 events .* uavsnn.Detector"):
+        make_windows(rec, 5_000, 0.5)
+    monkeypatch.setattr(uwindows, "MEMORY_LIMIT", 400_000)
+    assert len(make_windows(rec, 5_000, 0.5).t0)
 
 
 def test_detector_of_no_network_is_a_parameter_error() -> None:
