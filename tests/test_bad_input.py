@@ -7,6 +7,8 @@ import fcntl
 import io
 import json
 import os
+import signal
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -80,6 +82,9 @@ def _one_line_exit_2(capsys: pytest.CaptureFixture[str], argv: list[str], match:
     return lines[0]
 
 
+# -- 1. overlaps that keep too many windows live ------------------------------------------------
+
+
 def test_an_overlap_with_too_many_live_windows_is_refused(net: Network) -> None:
     most = 1 - 1 / MAX_LIVE_WINDOWS
     det = Detector(net, window_us=64_000, overlap=most)
@@ -100,6 +105,9 @@ def test_detect_refuses_such_an_overlap_in_one_line(
     )
 
 
+# -- 2. thread counts ---------------------------------------------------------------------------
+
+
 def test_thread_counts_are_capped(net: Network) -> None:
     w = make_windows(uavsnn.Recording(_events(800), SIZE), 5_000)
     for threads in (MAX_THREADS + 1, 3000):
@@ -112,6 +120,141 @@ def test_thread_counts_are_capped(net: Network) -> None:
     first = net.infer(w, threads=2).counts
     for threads in (3, 2, 4, 3):
         assert np.array_equal(net.infer(w, threads=threads).counts, first)
+
+
+def test_evaluate_refuses_20000_threads_at_once(
+    model: Path, dataset: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    start = time.monotonic()
+    _one_line_exit_2(
+        capsys, ["evaluate", str(model), str(dataset), "--threads", "20000"], "--threads"
+    )
+    assert time.monotonic() - start < 10
+
+
+# -- 3. one line and exit 2, not a traceback ----------------------------------------------------
+
+
+@pytest.mark.parametrize("value", ["nan", "inf", "1e30", "-1", "0"])
+def test_detect_window_ms_must_be_a_sane_number(
+    value: str, model: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    _one_line_exit_2(
+        capsys, ["detect", "x.npz", "-m", str(model), "--window-ms", value], "--window-ms"
+    )
+
+
+def test_detect_summary_every_and_realtime_on_stdin_are_checked(
+    model: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    _one_line_exit_2(
+        capsys, ["detect", "x.npz", "-m", str(model), "--summary-every", "-1"], "--summary-every"
+    )
+    _one_line_exit_2(capsys, ["detect", "-", "-m", str(model), "--realtime"], "--realtime")
+
+
+def test_train_config_missing_or_not_json(
+    tmp_path: Path, dataset: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = str(tmp_path / "m.npz")
+    _one_line_exit_2(
+        capsys,
+        ["train", str(dataset), "-o", out, "--config", str(tmp_path / "missing.json")],
+        "cannot read",
+    )
+    bad = tmp_path / "bad.json"
+    bad.write_text("width: 240\n")
+    _one_line_exit_2(capsys, ["train", str(dataset), "-o", out, "--config", str(bad)], "not a JSON")
+    assert not Path(out).exists()
+
+
+def test_output_folders_that_cannot_be_written(
+    tmp_path: Path, model: Path, dataset: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # A path under a file can be made by nobody, root included.
+    blocker = tmp_path / "a-file"
+    blocker.write_text("x")
+    under = str(blocker / "sub")
+    _one_line_exit_2(capsys, ["dataset", "build", under, "--domain", "dvs"], "Not a directory")
+    _one_line_exit_2(capsys, ["demo", "--out", under], "--out")
+    _one_line_exit_2(capsys, ["evaluate", str(model), str(dataset), "--report", under], "--report")
+    # An existing file given as the report folder.
+    _one_line_exit_2(
+        capsys,
+        ["evaluate", str(model), str(dataset), "--report", str(blocker)],
+        "exists and is not a folder",
+    )
+    assert blocker.read_text() == "x"
+
+
+@pytest.mark.parametrize(
+    ("module", "handler", "argv"),
+    [
+        (uavsnn.cli.train, "_train", ["train", "D", "-o", "m.npz"]),
+        (uavsnn.cli.dataset, "_build", ["dataset", "build", "D", "--domain", "dvs"]),
+        (uavsnn.cli.demo, "_demo", ["demo"]),
+    ],
+)
+def test_ctrl_c_is_one_line_and_exit_130(
+    module: object,
+    handler: str,
+    argv: list[str],
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    def interrupted(_args: object) -> int:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(module, handler, interrupted)
+    assert main(argv) == 130
+    err = capsys.readouterr().err
+    assert err == f"uavsnn {argv[0]}: interrupted\n"
+
+
+def test_ctrl_c_during_a_real_dataset_build(tmp_path: Path) -> None:
+    out = tmp_path / "set"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "uavsnn", "dataset", "build", str(out), "--domain", "dvs"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    # Wait until the build has started writing into its folder (it holds its lock).
+    deadline = time.monotonic() + 60
+    while not (out / LOCK).exists() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    time.sleep(0.5)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    assert err.strip().splitlines() == ["uavsnn dataset: interrupted"]
+    # Nothing half-written: no manifest, no temporary file, no lock left behind.
+    assert not out.exists() or not [p.name for p in out.iterdir()]
+
+
+def test_a_closed_standard_output_is_not_a_traceback(shared_data: Path) -> None:
+    read, write = os.pipe()
+    os.close(read)  # the reader is gone before anything is written, as with `| head -0`
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "uavsnn",
+            "info",
+            str(shared_data / "dvs" / "tonic_dvxplorer_person.aedat4"),
+        ],
+        stdout=write,
+        stderr=subprocess.PIPE,
+        text=True,
+        timeout=120,
+        check=False,
+    )
+    os.close(write)
+    assert proc.stderr == ""
+    assert proc.returncode == 1
+
+
+# -- 4. CSV times that go backwards -------------------------------------------------------------
 
 
 @pytest.mark.parametrize("header", ["t,x,y,p\n", ""])
@@ -130,6 +273,9 @@ def test_csv_keeps_every_row_with_or_without_a_header(tmp_path: Path, header: st
     rec = uio.read(path, sensor_size=(10, 10))
     assert rec.events["t"].tolist() == [100, 100, 150]
     assert rec.events["x"].tolist() == [2, 4, 3]
+
+
+# -- 5. one bad event on standard input ---------------------------------------------------------
 
 
 def test_stdin_drops_only_the_offending_events() -> None:
@@ -164,6 +310,9 @@ def test_detect_on_stdin_in_the_wrong_format_exits_2(
     assert "--stdin-format" in capsys.readouterr().err
 
 
+# -- 6. resume with other settings or data ------------------------------------------------------
+
+
 def test_resume_refuses_changed_settings_or_data(dataset: Path, tmp_path: Path) -> None:
     windows = load(dataset, "train").windows
     ckpt = tmp_path / "ckpt"
@@ -185,6 +334,9 @@ def test_resume_refuses_changed_settings_or_data(dataset: Path, tmp_path: Path) 
     result = train(Network(base, seed=1), windows, windows_per_layer=8, seed=1,
                    checkpoint_dir=ckpt, resume=True)  # fmt: skip
     assert result.resumed == ("conv2",) and list(result.layers) == ["conv3"]
+
+
+# -- 7. concurrent builds and split files from another build ------------------------------------
 
 
 def test_a_second_build_into_a_locked_folder_fails_fast(tmp_path: Path) -> None:
@@ -216,6 +368,9 @@ def test_a_split_file_from_another_build_is_refused(dataset: Path, tmp_path: Pat
         load(mixed, "test")
 
 
+# -- 9. recordings larger than memory -----------------------------------------------------------
+
+
 def test_windowing_beyond_the_memory_limit_is_refused(monkeypatch: pytest.MonkeyPatch) -> None:
     rec = uavsnn.Recording(_events(10_000), SIZE)
     assert len(make_windows(rec, 5_000, 0.5).t0)
@@ -225,6 +380,30 @@ def test_windowing_beyond_the_memory_limit_is_refused(monkeypatch: pytest.Monkey
         make_windows(rec, 5_000, 0.5)
     monkeypatch.setattr(uwindows, "MEMORY_LIMIT", 400_000)
     assert len(make_windows(rec, 5_000, 0.5).t0)
+
+
+def test_the_command_line_reports_a_failed_allocation_in_one_line(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    def hungry(_args: object) -> int:
+        raise MemoryError
+
+    monkeypatch.setattr(uavsnn.cli.train, "_train", hungry)
+    _one_line_exit_2(capsys, ["train", "D", "-o", "m.npz"], "not enough memory")
+
+
+# -- a first use, and the small ones ------------------------------------------------------------
+
+
+def test_a_sensor_mismatch_names_the_downsample_flag(
+    shared_data: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    model = tmp_path / "model.npz"
+    Network(seed=0).save(model)  # the README's 240x180 model
+    rec = shared_data / "dvs" / "tonic_dvxplorer_person.aedat4"
+    line = _one_line_exit_2(capsys, ["detect", str(rec), "--model", str(model)], "--downsample")
+    assert "uavsnn.filters" not in line
+    assert main(["detect", str(rec), "--model", str(model), "--downsample"]) == 0
 
 
 def test_detector_of_no_network_is_a_parameter_error() -> None:
