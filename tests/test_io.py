@@ -259,3 +259,59 @@ def test_info_command_survives_bad_files(
     shutil.copyfile(__file__, path)
     assert main(["info", str(path)]) == 2
     assert "bad.aedat4" in capsys.readouterr().err
+
+
+def _evt21(head: bytes, tmp_path: Path, name: str) -> Path:
+    """A small EVT 2.1 file: TIME_HIGH words and CD words with pixel masks (Prophesee's
+    layout; faery 0.7 cannot decode this format)."""
+
+    def word(v: int) -> bytes:
+        return int(v).to_bytes(8, "little")
+
+    def time_high(t: int) -> bytes:
+        return word((0x8 << 60) | ((t >> 6) << 32))
+
+    def cd(on: bool, t: int, x: int, y: int, mask: int) -> bytes:
+        return word((int(on) << 60) | ((t & 63) << 54) | (x << 43) | (y << 32) | mask)
+
+    data = (
+        cd(True, 5, 0, 0, 1)  # before any TIME_HIGH: no time, skipped
+        + time_high(1000)
+        + cd(True, 1000, 32, 5, 0b101)
+        + cd(False, 1010, 64, 7, 1)
+        + word(0xE << 60)  # an "others" word: no CD event
+        + time_high(2000)
+        + cd(True, 2001, 0, 319, 1 << 31)
+    )
+    path = tmp_path / name
+    path.write_bytes(head + b"% end\n" + data)
+    return path
+
+
+def test_evt21_and_genx320_format_lines_are_read(tmp_path: Path) -> None:
+    expected = [
+        (1000, 32, 5, True),
+        (1000, 34, 5, True),
+        (1010, 64, 7, False),
+        (2001, 31, 319, True),
+    ]
+    plugin = b"% plugin_name hal_plugin_genx320_evk\n"
+    written = {
+        "evt": _evt21(b"% evt 2.1\n", tmp_path, "a.raw"),
+        "format": _evt21(plugin + b"% format EVT21;height=320;width=320\n", tmp_path, "b.raw"),
+        "camera": _evt21(plugin + b"% format EVT21\n", tmp_path, "c.raw"),
+    }
+    for how, path in written.items():
+        rec = io.read(path, sensor_size=(320, 320) if how == "evt" else None)
+        assert rec.events.tolist() == expected, how
+        assert rec.sensor_size == (320, 320)
+    assert io.read(written["format"]).metadata["sensor_size_source"] == "file"
+    camera = io.read(written["camera"]).metadata
+    assert (camera["sensor_size_source"], camera["camera"]) == ("camera", "genx320")
+    with pytest.raises(uavsnn.ParameterError, match="contradicts"):
+        io.read(written["format"], sensor_size=(640, 480))
+    # A cut word is still refused as truncated.
+    cut = tmp_path / "cut.raw"
+    cut.write_bytes(written["format"].read_bytes()[:-3])
+    with pytest.raises(uavsnn.RecordingFileError, match="truncated"):
+        io.read(cut)

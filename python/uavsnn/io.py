@@ -2,8 +2,9 @@
 
 The formats that event cameras and their tools write (AEDAT4, Prophesee RAW EVT 2.0/2.1/3.0,
 DAT, ES, CSV) are decoded by `faery <https://github.com/aestream/faery>`_, the field's maintained
-Rust decoder; NumPy ``.npz`` and ``.npy`` are read natively, and recordings are written as
-``.npz``.
+Rust decoder, except EVT 2.1 (faery 0.7 does not implement it), which is decoded here, from
+``% evt 2.1`` headers and from GenX320's ``% format EVT21;height=...;width=...``; NumPy ``.npz``
+and ``.npy`` are read natively, and recordings are written as ``.npz``.
 
 The sensor size comes from the file when the file has one (AEDAT4, ES, and RAW/DAT files whose
 header carries the geometry). Otherwise it is the ``sensor_size`` argument; or, for a RAW/DAT
@@ -199,6 +200,8 @@ def _check_words(file: Path, kind: str, size: int) -> dict[str, str]:
             )
         elif line == "end":
             break
+    fields["<version>"] = version or ""
+    fields["<data>"] = str(pos)
     if kind == "evt":
         word = _EVT_WORD.get(version or "3.0")
         data = size - pos
@@ -259,12 +262,100 @@ def _file_geometry(file: Path) -> tuple[int, int] | None:
     return (int(first[0]), int(first[1])) if tuple(first) == tuple(second) else None
 
 
+def _format_geometry(fields: dict[str, str]) -> tuple[int, int] | None:
+    """The geometry of a ``% format EVT21;height=320;width=320`` or ``% geometry 320x320``
+    header line, or ``None``."""
+    options = dict(
+        part.split("=", 1) for part in fields.get("format", "").split(";")[1:] if "=" in part
+    )
+    try:
+        if "width" in options and "height" in options:
+            return int(options["width"]), int(options["height"])
+        if "geometry" in fields:
+            width, height = fields["geometry"].lower().split("x")
+            return int(width), int(height)
+    except ValueError:
+        return None
+    return None
+
+
+# EVT 2.1 words (Prophesee's 64-bit vectorised format), little-endian: type in bits 63..60;
+# CD events (0: OFF, 1: ON) hold the time's low 6 bits in 59..54, x (a multiple of 32) in
+# 53..43, y in 42..32 and a mask of 32 pixels x..x+31 in 31..0; TIME_HIGH (8) holds the time's
+# high 28 bits in 59..32. Other types (triggers, others, continued) carry no CD event.
+_EVT21_TIME_HIGH = 8
+_EVT21_CHUNK_WORDS = 1 << 18
+
+
+def _decode_evt21(file: Path, offset: int) -> np.ndarray:
+    """The CD events of an EVT 2.1 data section, decoded in bounded chunks (faery 0.7 does not
+    implement EVT 2.1). Events before the first TIME_HIGH word have no time and are skipped."""
+    words = np.memmap(file, dtype="<u8", mode="r", offset=offset)
+    high = -1  # the last TIME_HIGH value, -1 before the first
+    parts = []
+    for start in range(0, len(words), _EVT21_CHUNK_WORDS):
+        w = np.asarray(words[start : start + _EVT21_CHUNK_WORDS])
+        kind = (w >> np.uint64(60)).astype(np.int64)
+        is_high = kind == _EVT21_TIME_HIGH
+        # The TIME_HIGH in force at each word: the last one at or before it.
+        values = np.where(
+            is_high, ((w >> np.uint64(32)) & np.uint64(0x0FFF_FFFF)).astype(np.int64), -1
+        )
+        where = np.maximum.accumulate(np.where(is_high, np.arange(len(w)), -1))
+        current = np.where(where >= 0, values[np.maximum(where, 0)], high)
+        if is_high.any():
+            high = int(values[np.flatnonzero(is_high)[-1]])
+        cd = (kind <= 1) & (current >= 0)
+        if not cd.any():
+            continue
+        w, current, on = w[cd], current[cd], kind[cd] == 1
+        t = (current.astype(np.uint64) << np.uint64(6)) | ((w >> np.uint64(54)) & np.uint64(63))
+        x0 = ((w >> np.uint64(43)) & np.uint64(0x7FF)).astype(np.int64)
+        y = ((w >> np.uint64(32)) & np.uint64(0x7FF)).astype(np.uint16)
+        mask = (w & np.uint64(0xFFFF_FFFF)).astype("<u4")
+        bits = np.unpackbits(mask.view(np.uint8).reshape(-1, 4), axis=1, bitorder="little")
+        row, bit = np.nonzero(bits)
+        out = np.empty(len(row), dtype=EVENT_DTYPE)
+        out["t"] = t[row]
+        out["x"] = x0[row] + bit
+        out["y"] = y[row]
+        out["p"] = on[row]
+        parts.append(out)
+    return np.concatenate(parts) if parts else np.empty(0, EVENT_DTYPE)
+
+
+def _read_evt21(file: Path, header: dict[str, str], given: tuple[int, int] | None) -> Recording:
+    geometry = _format_geometry(header)
+    camera = _camera_size(header)
+    metadata: dict[str, Any] = {"path": str(file), "format": "evt"}
+    if geometry is not None:
+        sensor, source = geometry, "file"
+        if given is not None and given != sensor:
+            raise ParameterError(f"{file}: sensor_size={given} contradicts the file's {sensor}")
+    elif given is not None:
+        sensor, source = given, "argument"
+    elif camera is not None:
+        (metadata["camera"], sensor), source = camera, "camera"
+    else:
+        sensor, source = FAERY_FALLBACK_SIZE, "fallback"
+    try:
+        events = _decode_evt21(file, int(header["<data>"]))
+    except (ValueError, OSError) as exc:
+        raise RecordingFileError(f"{file}: cannot decode as EVT 2.1: {exc}") from exc
+    metadata["sensor_size_source"] = source
+    return _recording(file, events, sensor, metadata)
+
+
 def _read_faery(file: Path, kind: str, size: int, given: tuple[int, int] | None) -> Recording:
     import faery
 
     header: dict[str, str] = {}
     if kind in ("evt", "dat"):
         header = _check_words(file, kind, size)
+    if kind == "evt" and header.get("<version>") == "2.1":
+        # GenX320 cameras write "% format EVT21", which faery refuses; faery 0.7 cannot decode
+        # EVT 2.1 at all ("not yet implemented").
+        return _read_evt21(file, header, given)
     if kind == "csv":
         has_header = _check_csv(file)
     geometry: tuple[int, int] | None = None
