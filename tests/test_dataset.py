@@ -26,6 +26,7 @@ from uavsnn.dataset import (
     read_boxes,
     save_split,
 )
+from uavsnn.dataset.format import write_manifest
 from uavsnn.dataset.labels import AMBIGUOUS, OK, UNSCORED
 from uavsnn.dataset.real import crop_box
 from uavsnn.scenes import LABEL_DTYPE
@@ -210,7 +211,8 @@ def test_round_trip_through_the_file(dvs_set: Path, tmp_path: Path) -> None:
     save_split(tmp_path / "copy" / "test.npz", part)
     manifest = json.loads((tmp_path / "copy" / "manifest.json").read_text())
     manifest["splits"]["test"]["windows"] = len(part)
-    (tmp_path / "copy" / "manifest.json").write_text(json.dumps(manifest))
+    # write_manifest records the new file's hash (a hand-copied manifest would not match it).
+    write_manifest(tmp_path / "copy", manifest)
     back = load(tmp_path / "copy", "test")
     for name in ("t0", "offsets", "t", "x", "y", "n_preceding"):
         assert np.array_equal(getattr(back.windows, name), getattr(part.windows, name))

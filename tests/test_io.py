@@ -45,10 +45,27 @@ def test_golden_recordings(shared_data: Path, name: str) -> None:
     assert rec.metadata["sensor_size_source"] == ("file" if given is None else "argument")
 
 
-def test_raw_without_geometry_falls_back_and_says_so(shared_data: Path) -> None:
-    rec = io.read(shared_data / "dvs" / "prophesee_gen3_spinner_evt2.raw")
+def test_raw_without_geometry_takes_the_cameras_size_and_says_so(shared_data: Path) -> None:
+    # Gen3 headers carry no geometry, only plugin_name hal_plugin_gen3_fx3: 640x480, not
+    # faery's 1280x720 (which made --downsample drop half the events).
+    for name in ("prophesee_gen3_spinner_evt2.raw", "prophesee_gen3_sparklers_evt2.raw"):
+        rec = io.read(shared_data / "dvs" / name)
+        assert rec.sensor_size == (640, 480)
+        assert rec.metadata["sensor_size_source"] == "camera"
+        assert rec.metadata["camera"] == "gen3"
+        assert len(rec) == len(io.read(shared_data / "dvs" / name, sensor_size=(640, 480)))
+
+
+def test_raw_without_geometry_or_camera_falls_back_and_says_so(
+    shared_data: Path, tmp_path: Path
+) -> None:
+    data = (shared_data / "dvs" / "prophesee_gen3_spinner_evt2.raw").read_bytes()
+    anonymous = tmp_path / "anonymous.raw"
+    anonymous.write_bytes(data.replace(b"% plugin_name hal_plugin_gen3_fx3\n", b""))
+    rec = io.read(anonymous)
     assert rec.sensor_size == io.FAERY_FALLBACK_SIZE
     assert rec.metadata["sensor_size_source"] == "fallback"
+    assert len(rec) == len(io.read(shared_data / "dvs" / "prophesee_gen3_spinner_evt2.raw"))
 
 
 def test_sensor_size_contradicting_the_file_is_refused(shared_data: Path) -> None:
@@ -231,7 +248,8 @@ def test_info_command_reports_counts_and_rates(
     assert info["peak_rate_ev_per_s"] == busiest * 1000
     assert main(["info", str(path)]) == 0
     text = capsys.readouterr().out
-    assert "faery's fallback" in text and "busiest 1 ms bin" in text
+    assert "640x480 (the gen3 camera named in the header" in text
+    assert "busiest 1 ms bin" in text
 
 
 def test_info_command_survives_bad_files(
@@ -241,3 +259,59 @@ def test_info_command_survives_bad_files(
     shutil.copyfile(__file__, path)
     assert main(["info", str(path)]) == 2
     assert "bad.aedat4" in capsys.readouterr().err
+
+
+def _evt21(head: bytes, tmp_path: Path, name: str) -> Path:
+    """A small EVT 2.1 file: TIME_HIGH words and CD words with pixel masks (Prophesee's
+    layout; faery 0.7 cannot decode this format)."""
+
+    def word(v: int) -> bytes:
+        return int(v).to_bytes(8, "little")
+
+    def time_high(t: int) -> bytes:
+        return word((0x8 << 60) | ((t >> 6) << 32))
+
+    def cd(on: bool, t: int, x: int, y: int, mask: int) -> bytes:
+        return word((int(on) << 60) | ((t & 63) << 54) | (x << 43) | (y << 32) | mask)
+
+    data = (
+        cd(True, 5, 0, 0, 1)  # before any TIME_HIGH: no time, skipped
+        + time_high(1000)
+        + cd(True, 1000, 32, 5, 0b101)
+        + cd(False, 1010, 64, 7, 1)
+        + word(0xE << 60)  # an "others" word: no CD event
+        + time_high(2000)
+        + cd(True, 2001, 0, 319, 1 << 31)
+    )
+    path = tmp_path / name
+    path.write_bytes(head + b"% end\n" + data)
+    return path
+
+
+def test_evt21_and_genx320_format_lines_are_read(tmp_path: Path) -> None:
+    expected = [
+        (1000, 32, 5, True),
+        (1000, 34, 5, True),
+        (1010, 64, 7, False),
+        (2001, 31, 319, True),
+    ]
+    plugin = b"% plugin_name hal_plugin_genx320_evk\n"
+    written = {
+        "evt": _evt21(b"% evt 2.1\n", tmp_path, "a.raw"),
+        "format": _evt21(plugin + b"% format EVT21;height=320;width=320\n", tmp_path, "b.raw"),
+        "camera": _evt21(plugin + b"% format EVT21\n", tmp_path, "c.raw"),
+    }
+    for how, path in written.items():
+        rec = io.read(path, sensor_size=(320, 320) if how == "evt" else None)
+        assert rec.events.tolist() == expected, how
+        assert rec.sensor_size == (320, 320)
+    assert io.read(written["format"]).metadata["sensor_size_source"] == "file"
+    camera = io.read(written["camera"]).metadata
+    assert (camera["sensor_size_source"], camera["camera"]) == ("camera", "genx320")
+    with pytest.raises(uavsnn.ParameterError, match="contradicts"):
+        io.read(written["format"], sensor_size=(640, 480))
+    # A cut word is still refused as truncated.
+    cut = tmp_path / "cut.raw"
+    cut.write_bytes(written["format"].read_bytes()[:-3])
+    with pytest.raises(uavsnn.RecordingFileError, match="truncated"):
+        io.read(cut)

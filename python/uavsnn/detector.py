@@ -37,7 +37,12 @@ from uavsnn.events import EVENT_DTYPE, _check_sensor_size, packed_bytes
 if TYPE_CHECKING:
     from uavsnn.network import Network
 
-__all__ = ["DETECTION_DTYPE", "Detector"]
+__all__ = ["DETECTION_DTYPE", "MAX_LIVE_WINDOWS", "Detector"]
+
+#: The most windows a :class:`Detector` keeps live at once, ``ceil(1 / (1 - overlap))`` (the
+#: engine's limit): each holds a network state (about 0.5 MiB on a 240×180 sensor), so an
+#: overlap of 0.9999 would need 10,000 of them. Overlaps up to ``1 - 1/64 ≈ 0.984`` are accepted.
+MAX_LIVE_WINDOWS = 64
 
 #: One detection: the window index, the conv3 spike's time, map and position, the centre of its
 #: receptive field in sensor coordinates, and the box of the input spikes that caused it
@@ -76,13 +81,16 @@ class Detector:
             changes to the network do not reach it), or the path of a model file.
         window_us: window length ``L`` in microseconds (at least 1).
         overlap: overlap ``o`` of consecutive windows, in ``[0, 1)``; at most
-            ``ceil(1 / (1 - o))`` windows are live at once.
+            ``ceil(1 / (1 - o))`` windows are live at once, and that may not exceed
+            :data:`MAX_LIVE_WINDOWS`.
         sensor_size: ``(width, height)`` of the camera; it must equal the network's input size
             (a check that the right camera feeds the right model). Default: the network's.
         start_us: start of window 0; default: the first event's time.
 
     Raises:
-        ParameterError: for a window shorter than 1 µs or an overlap outside ``[0, 1)``.
+        ParameterError: for a window shorter than 1 µs, an overlap outside ``[0, 1)`` or one
+            that keeps more than :data:`MAX_LIVE_WINDOWS` windows live, or a ``model`` that is
+            neither a network nor a path.
         ShapeError: when ``sensor_size`` differs from the network's input size.
     """
 
@@ -100,6 +108,13 @@ class Detector:
 
             network = Network.load(model)
         else:
+            from uavsnn.network import Network
+
+            if not isinstance(model, Network):
+                raise ParameterError(
+                    f"model must be a uavsnn.Network or the path of a model file, got "
+                    f"{type(model).__name__}"
+                )
             network = model
         width, height = int(network.config["width"]), int(network.config["height"])
         if sensor_size is not None and _check_sensor_size(sensor_size) != (width, height):

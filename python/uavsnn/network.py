@@ -33,6 +33,7 @@ __all__ = [
     "CONV_LAYERS",
     "DETECTION_DTYPE",
     "LAYERS",
+    "MAX_THREADS",
     "SPIKE_DTYPE",
     "WINDOW_DETECTION_DTYPE",
     "WINDOW_SPIKE_DTYPE",
@@ -49,6 +50,11 @@ LAYERS: tuple[str, ...] = ("conv1", "pool1", "conv2", "pool2", "conv3")
 
 CONV_LAYERS: tuple[str, ...] = ("conv1", "conv2", "conv3")
 """The layers that have weights (and can be trained)."""
+
+MAX_THREADS = 256
+"""The most worker threads :meth:`Network.infer` accepts (the engine's own limit): more than any
+machine has cores, few enough to start quickly. The engine keeps the worker pools of the two
+counts used last, so calls with varying counts do not leave pools behind."""
 
 SPIKE_DTYPE = np.dtype([("t", "<u8"), ("map", "<u2"), ("row", "<u2"), ("col", "<u2"), ("v", "<f4")])
 """A spike (or a winner): time, map, position, potential at the firing time (0 for pools)."""
@@ -396,11 +402,13 @@ class Network:
         self, windows: WindowsLike, *, threads: int | None = None, spikes: bool = False
     ) -> Inference:
         """Run every window in inference mode, in parallel (``threads`` workers; default: all
-        cores), without holding the GIL. PENT's ``N_in`` is each window's spike count or its
-        ``n_preceding``, as ``config["pent"]["estimate"]`` says. With ``spikes=True`` every
-        layer's spikes are returned too."""
+        cores; at most :data:`MAX_THREADS`), without holding the GIL. PENT's ``N_in`` is each
+        window's spike count or its ``n_preceding``, as ``config["pent"]["estimate"]`` says.
+        With ``spikes=True`` every layer's spikes are returned too."""
         columns = _window_columns(windows)
         workers = None if threads is None else _count("threads", threads, minimum=1)
+        if workers is not None and workers > MAX_THREADS:
+            raise ParameterError(f"threads must be at most {MAX_THREADS}, got {workers}")
         counts, thresholds, detections, layer_spikes = self._core.infer(
             **columns, threads=workers, record=bool(spikes)
         )

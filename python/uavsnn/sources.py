@@ -14,8 +14,11 @@ Standard input (``-``)
     ``packed``: the canonical 13-byte little-endian records ``t u64, x u16, y u16, p u8``
     (``events.tobytes()`` of an ``EVENT_DTYPE`` array); a record split across reads is kept until
     its end arrives. ``csv``: one ``t,x,y,p`` line per event (integers; ``p`` is 1/0 or 1/-1, any
-    value > 0 is ON; a first line that is not numbers is taken as a header). A malformed line
-    is counted as a drop.
+    value > 0 is ON; a first line that is not numbers is taken as a header). Each event that
+    cannot be used — a malformed line, an event outside the sensor, a time earlier than an
+    event before it — is dropped alone and counted in :attr:`SourceStats.dropped`; the events
+    around it are kept. A stream that ends without a single usable event raises
+    :class:`~uavsnn.StreamError` (most likely the wrong ``--stdin-format``).
 UDP (``udp://HOST:PORT``)
     One datagram = one packet, decoded whole or dropped (:class:`uavsnn._core.PacketDecoder`):
 
@@ -48,7 +51,7 @@ from urllib.parse import urlsplit
 import numpy as np
 
 from uavsnn import _core
-from uavsnn.errors import ParameterError, UavsnnError
+from uavsnn.errors import ParameterError, StreamError, UavsnnError
 from uavsnn.events import EVENT_DTYPE, _check_sensor_size
 
 __all__ = [
@@ -68,6 +71,8 @@ PACKET_FORMATS: tuple[str, ...] = tuple(_core.PACKET_FORMATS)
 STDIN_FORMATS: tuple[str, ...] = ("packed", "csv")
 
 _RECORD = EVENT_DTYPE.itemsize
+# The latest event time the engine takes (2^62 µs).
+_MAX_TIME_US = np.uint64(1 << 62)
 _EMPTY = np.empty(0, dtype=EVENT_DTYPE)
 
 
@@ -79,7 +84,7 @@ class SourceStats:
     events: int = 0
     #: Packets (UDP datagrams, stdin reads or file chunks) received.
     packets: int = 0
-    #: Packets (or CSV lines) that were malformed and skipped.
+    #: What was malformed and skipped: UDP packets; events (or CSV lines) on standard input.
     dropped: int = 0
 
 
@@ -183,8 +188,8 @@ class StdinSource(EventSource):
     Args:
         stream: a binary file object; ``sys.stdin.buffer`` when ``None``.
         fmt: ``"packed"`` (13-byte records) or ``"csv"`` (``t,x,y,p`` lines).
-        sensor_size: ``(width, height)``; events outside it or going back in time raise
-            :class:`~uavsnn.EventError` in the detector (packed) or are dropped (CSV lines).
+        sensor_size: ``(width, height)``; events outside it or going back in time are dropped
+            one by one (``None``: only times are checked).
         read_size: most bytes read at once; a read returns what is available, so a slow
             producer's events are not held back waiting for a full buffer.
     """
@@ -207,6 +212,7 @@ class StdinSource(EventSource):
         self.sensor_size = None if sensor_size is None else _check_sensor_size(sensor_size)
         self.read_size = read_size
         self._lines = 0
+        self._last_t = 0
 
     def _read(self) -> bytes:
         read1 = getattr(self.stream, "read1", None)
@@ -228,18 +234,46 @@ class StdinSource(EventSource):
                 cut = data.rfind(b"\n") + 1
                 rest = data[cut:]
                 chunk = self._parse_csv(data[:cut])
+            chunk = self._usable(chunk)
             if len(chunk):
                 self.stats.events += len(chunk)
                 yield chunk
         if rest:
             if self.fmt == "csv":
-                chunk = self._parse_csv(rest + b"\n")
+                chunk = self._usable(self._parse_csv(rest + b"\n"))
                 if len(chunk):
                     self.stats.events += len(chunk)
                     yield chunk
             else:
                 # A truncated last record: its bytes never made an event.
                 self.stats.dropped += 1
+        if self.stats.events == 0 and self.stats.dropped:
+            raise StreamError(
+                f"standard input held no usable {self.fmt} event ({self.stats.dropped} dropped): "
+                "is --stdin-format right, and the sensor size?"
+            )
+
+    def _usable(self, chunk: np.ndarray) -> np.ndarray:
+        """The events of ``chunk`` inside the sensor and not earlier than any event before them
+        (each other one is a drop)."""
+        if not len(chunk):
+            return chunk
+        t = chunk["t"]
+        ok = t <= _MAX_TIME_US
+        if self.sensor_size is not None:
+            width, height = self.sensor_size
+            ok &= (chunk["x"] < width) & (chunk["y"] < height)
+        # The latest time before each event, among the usable ones: a backwards event is
+        # dropped alone, not the events that follow it.
+        times = np.where(ok, t, np.uint64(0))
+        first = np.array([self._last_t], dtype=np.uint64)
+        before = np.maximum.accumulate(np.concatenate((first, times[:-1])))
+        ok &= t >= before
+        kept = chunk if ok.all() else chunk[ok]
+        self.stats.dropped += len(chunk) - len(kept)
+        if len(kept):
+            self._last_t = max(self._last_t, int(kept["t"][-1]))
+        return kept
 
     def _parse_csv(self, text: bytes) -> np.ndarray:
         rows: list[tuple[int, int, int, bool]] = []

@@ -12,11 +12,15 @@ training windows with the layers below frozen::
 
 With ``checkpoint_dir``, the model is written after each layer (atomically) with a small
 ``state.json``; ``resume=True`` picks up after the last finished layer, so an interrupted run
-loses at most the layer it was in and never leaves a half-written file.
+loses at most the layer it was in and never leaves a half-written file. The state records a
+fingerprint of what the run was given — the network's config (before training), a hash of the
+training windows, the seed and the schedule — and a resume with any of them changed
+is refused: its weights would be written under settings that did not make them.
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import os
@@ -115,6 +119,8 @@ def train(
         ParameterError: an unknown layer, layers out of order, a bad count.
         DatasetError: no training windows.
         ModelFileError: ``resume`` with a checkpoint of another network shape.
+        ParameterError: ``resume`` with a checkpoint made with another config, training data,
+            seed or schedule.
     """
     names = _check_layers(layers)
     n = len(windows.t0)
@@ -131,10 +137,12 @@ def train(
 
     ckpt = None if checkpoint_dir is None else Path(checkpoint_dir)
     done: list[str] = []
+    fingerprint: dict[str, Any] = {}
     if ckpt is not None:
+        fingerprint = _fingerprint(network, windows, seed, planned, epochs)
         ckpt.mkdir(parents=True, exist_ok=True)
         if resume:
-            done, loaded = _read_checkpoint(ckpt, names)
+            done, loaded = _read_checkpoint(ckpt, names, fingerprint)
             if loaded is not None:
                 _copy_weights(loaded, network)
     result = TrainingResult(network=network, resumed=tuple(done))
@@ -147,8 +155,31 @@ def train(
         )
         if ckpt is not None:
             done.append(layer)
-            _write_checkpoint(ckpt, network, done, result.layers[layer], layer)
+            _write_checkpoint(ckpt, network, done, result.layers[layer], layer, fingerprint)
     return result
+
+
+def _fingerprint(
+    network: Network,
+    windows: WindowsLike,
+    seed: int,
+    planned: int,
+    epochs: int,
+) -> dict[str, Any]:
+    """What a run was given, for a resume to check: hashes of the config and of the windows,
+    the seed and the schedule (the layers may grow: a resume trains those not yet done)."""
+    config = hashlib.sha256(json.dumps(network.config, sort_keys=True).encode()).hexdigest()
+    data = hashlib.sha256()
+    data.update(json.dumps([list(windows.sensor_size), int(windows.length_us)]).encode())
+    for name in ("t0", "offsets", "t", "x", "y", "n_preceding"):
+        data.update(np.ascontiguousarray(getattr(windows, name)).tobytes())
+    return {
+        "config_sha256": config,
+        "data_sha256": data.hexdigest(),
+        "seed": int(seed),
+        "windows_per_layer": int(planned),
+        "epochs": int(epochs),
+    }
 
 
 def _train_layer(
@@ -233,7 +264,12 @@ def _progress_fn(progress: bool | ProgressFn) -> ProgressFn:
 
 
 def _write_checkpoint(
-    root: Path, network: Network, done: list[str], layer_result: LayerResult, layer: str
+    root: Path,
+    network: Network,
+    done: list[str],
+    layer_result: LayerResult,
+    layer: str,
+    fingerprint: dict[str, Any],
 ) -> None:
     """The model after ``layer`` (atomic, by the engine), then the state that names it."""
     model = root / f"after-{layer}.npz"
@@ -244,13 +280,25 @@ def _write_checkpoint(
         state = json.loads(state_path.read_text(encoding="utf-8"))
     state["done"] = list(done)
     state["model"] = model.name
+    state["fingerprint"] = fingerprint
     state["layers"][layer] = layer_result.to_dict()
     tmp = state_path.with_name(f".{STATE_FILE}.tmp-{os.getpid()}")
     tmp.write_text(json.dumps(state, indent=2) + "\n", encoding="utf-8")
     os.replace(tmp, state_path)
 
 
-def _read_checkpoint(root: Path, names: list[str]) -> tuple[list[str], Network | None]:
+_WHAT = {
+    "config_sha256": "the network config (--config, --set)",
+    "data_sha256": "the training windows (dataset or split)",
+    "seed": "the seed",
+    "windows_per_layer": "the windows per layer",
+    "epochs": "the epochs",
+}
+
+
+def _read_checkpoint(
+    root: Path, names: list[str], fingerprint: dict[str, Any]
+) -> tuple[list[str], Network | None]:
     state_path = root / STATE_FILE
     if not state_path.exists():
         return [], None
@@ -264,6 +312,18 @@ def _read_checkpoint(root: Path, names: list[str]) -> tuple[list[str], Network |
         raise ParameterError(
             f"checkpoint in {root} finished {', '.join(done)}, which is not a start of the "
             f"layers asked for ({', '.join(names)})"
+        )
+    stored = state.get("fingerprint") if isinstance(state, dict) else None
+    if done and not isinstance(stored, dict):
+        raise ParameterError(
+            f"checkpoint in {root} records no fingerprint of its settings and data (made by an "
+            "older uavsnn): it cannot be checked, so it is not resumed; start without resume"
+        )
+    changed = [_WHAT.get(k, k) for k in fingerprint if stored and stored.get(k) != fingerprint[k]]
+    if changed:
+        raise ParameterError(
+            f"checkpoint in {root} was made with other settings: {', '.join(changed)} "
+            "changed since; resume with the same ones, or start in another checkpoint folder"
         )
     return done, Network.load(model)
 

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 import numbers
+import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -28,9 +29,45 @@ from uavsnn import _core
 from uavsnn.errors import ParameterError, ShapeError
 from uavsnn.events import Recording, packed_bytes
 
-__all__ = ["Windows", "add_noise", "make_windows", "window_step"]
+__all__ = ["MEMORY_LIMIT", "Windows", "add_noise", "make_windows", "window_step"]
 
 _U64_MAX = (1 << 64) - 1
+
+
+def _physical_memory() -> int | None:
+    try:
+        return int(os.sysconf("SC_PHYS_PAGES")) * int(os.sysconf("SC_PAGE_SIZE"))
+    except (AttributeError, OSError, ValueError):
+        return None
+
+
+#: Bytes :func:`make_windows` may plan to allocate (``None``: no bound); by default the
+#: machine's physical memory. A recording whose windows could need more is refused with its
+#: size, instead of dying on an allocation the system cannot honour.
+MEMORY_LIMIT: int | None = _physical_memory()
+
+# Bytes the engine allocates per input event (its time, place and window range while sweeping)
+# and per window spike (time and place in the output columns).
+_BYTES_PER_EVENT = 16
+_BYTES_PER_SPIKE = 12
+
+
+def _check_memory(n_events: int, length_us: int, overlap: float) -> None:
+    """Refuse a windowing whose worst case (every event in every window that holds it)
+    exceeds :data:`MEMORY_LIMIT`."""
+    if MEMORY_LIMIT is None or n_events == 0:
+        return
+    step = max(1, math.floor(length_us * (1.0 - overlap)))
+    per_event = _BYTES_PER_EVENT + _BYTES_PER_SPIKE * -(-length_us // step)
+    need = n_events * per_event
+    if need > MEMORY_LIMIT:
+        raise ParameterError(
+            f"windowing {n_events:,} events (overlap {overlap}) may need {need / 2**30:.1f} GiB, "
+            f"more than the {MEMORY_LIMIT / 2**30:.1f} GiB allowed (uavsnn.windows.MEMORY_LIMIT):"
+            " window a part at a time (start_us/end_us), or stream the recording through "
+            "uavsnn.Detector ('uavsnn detect'), which needs memory for its live windows only"
+        )
+
 
 # The array fields of Windows, in the order the engine returns them.
 _COLUMNS = ("t0", "offsets", "t", "x", "y", "n_preceding")
@@ -269,7 +306,8 @@ def make_windows(
 
     Raises:
         ParameterError: a length below 1 µs, an overlap outside ``[0, 1)`` or NaN, negative
-            or inverted ``start_us``/``end_us``, or more windows than the engine's limit.
+            or inverted ``start_us``/``end_us``, more windows than the engine's limit, or a
+            recording whose windows may need more than :data:`MEMORY_LIMIT` bytes.
     """
     if not isinstance(recording, Recording):
         raise ParameterError(f"expected a Recording, got {type(recording).__name__}")
@@ -277,12 +315,14 @@ def make_windows(
     start = None if start_us is None else _int_param("start_us", start_us, 0, 1 << 62)
     end = None if end_us is None else _int_param("end_us", end_us, 0, 1 << 62)
     width, height = recording.sensor_size
+    overlap = _overlap(overlap)
+    _check_memory(len(recording.events), length, overlap)
     columns = _core.make_windows(
         packed_bytes(recording.events),
         width,
         height,
         length,
-        _overlap(overlap),
+        overlap,
         bool(median),
         start,
         end,
@@ -293,7 +333,8 @@ def make_windows(
 def add_noise(windows: Windows, fraction: float, *, seed: int) -> tuple[Windows, np.ndarray]:
     """Add uniform noise events to every window (SPEC §5, the paper's noise experiment).
 
-    Each window gets ``round(fraction · W · H)`` noise events on distinct pixels drawn uniformly
+    Each window gets ``fraction · W · H`` rounded half away from zero (``floor(v + 0.5)``, not
+    Python's half-to-even ``round``) noise events on distinct pixels drawn uniformly
     over the sensor, at times drawn uniformly in the window; a pixel keeps its earliest spike
     (the signal's on a tie). Each window draws from its own generator seeded by ``(seed, i)``.
 

@@ -59,6 +59,11 @@ pub trait WindowEngine {
     fn settle(&self, state: &mut Self::State, out: &mut Vec<Detection>) -> Result<()>;
 }
 
+/// The most windows a stream may hold live at once, `ceil(L / step)`: each holds a network state
+/// (about half a MiB on a 240×180 sensor), so an overlap of 0.9999 would need ten thousand of
+/// them. With `step = L·(1 − o)` this allows overlaps up to `1 − 1/64 ≈ 0.984`.
+pub const MAX_LIVE_WINDOWS: u64 = 64;
+
 /// Window length, overlap and (optionally) the first window's start.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct StreamConfig {
@@ -126,6 +131,20 @@ impl<E: WindowEngine> Detector<E> {
     /// A detector running `engine` over windows of `config`.
     pub fn new(engine: E, config: StreamConfig) -> Result<Self> {
         let step = window_step(config.window_us, config.overlap)?;
+        let live = config.window_us.div_ceil(step);
+        if live > MAX_LIVE_WINDOWS {
+            return Err(Error::param(
+                "overlap",
+                format!(
+                    "an overlap of {} keeps {live} windows live at once (window {} µs, step \
+                     {step} µs); at most {MAX_LIVE_WINDOWS} are allowed, an overlap of at most \
+                     {:.4}",
+                    config.overlap,
+                    config.window_us,
+                    1.0 - 1.0 / MAX_LIVE_WINDOWS as f64
+                ),
+            ));
+        }
         if let Some(start) = config.start_us.filter(|&s| s > MAX_TIME_US) {
             return Err(Error::param(
                 "start_us",

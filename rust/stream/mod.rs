@@ -16,7 +16,9 @@ mod packets;
 mod preceding;
 mod schedule;
 
-pub use detector::{Detector, StreamConfig, StreamDetection, StreamStats, WindowEngine};
+pub use detector::{
+    Detector, StreamConfig, StreamDetection, StreamStats, WindowEngine, MAX_LIVE_WINDOWS,
+};
 pub use engine::NetworkDetector;
 pub use packets::{packed_event, PacketDecoder, PacketFormat};
 pub use preceding::PrecedingCounter;

@@ -352,6 +352,31 @@ fn empty_chunks_are_fine_and_parameters_are_checked() {
 }
 
 #[test]
+fn overlaps_with_too_many_live_windows_are_refused() {
+    // 64 live windows at most: L / step = 6400 / 100.
+    let most = 1.0 - 1.0 / MAX_LIVE_WINDOWS as f64;
+    assert!(Detector::new(echo(), config(6400, most)).is_ok());
+    for overlap in [0.99, 0.9999, 0.9999999] {
+        let err = Detector::new(echo(), config(50_000, overlap))
+            .err()
+            .expect("refused");
+        assert!(
+            matches!(
+                err,
+                Error::InvalidParameter {
+                    name: "overlap",
+                    ..
+                }
+            ),
+            "{err}"
+        );
+    }
+    // A short window whose step rounds down to 1 µs keeps L windows live.
+    assert!(Detector::new(echo(), config(64, 0.99)).is_ok());
+    assert!(Detector::new(echo(), config(65, 0.99)).is_err());
+}
+
+#[test]
 fn a_long_stream_keeps_a_bounded_number_of_states() {
     let mut d = Detector::new(echo(), config(50, 0.9)).unwrap();
     let mut out = Vec::new();

@@ -4,19 +4,48 @@ Each sub-command lives in its own module of this package and exposes
 ``register(subparsers) -> None``, which adds its parser and sets ``handler`` (a function of the
 parsed arguments returning an exit code) with ``parser.set_defaults(handler=...)``. Modules are
 discovered, so adding a command touches no other file.
+
+Every failure a user can cause ends in one line on standard error and a documented exit code:
+2 for bad input (any :class:`uavsnn.UavsnnError`, a file that cannot be read or written, not
+enough memory), 130 for Ctrl-C (``interrupted``; files are written atomically, so nothing is
+left half-written), and 1, silently, when the reader of standard output goes away
+(``uavsnn info F | head -3``), as Python's documentation recommends for a broken pipe.
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import pkgutil
 import sys
+from pathlib import Path
 
 from uavsnn import __version__
-from uavsnn.errors import UavsnnError
+from uavsnn.errors import ParameterError, UavsnnError
 
-__all__ = ["main"]
+__all__ = ["main", "output_dir"]
+
+#: Exit code of a command stopped by Ctrl-C (128 + SIGINT, as shells report it).
+EXIT_INTERRUPTED = 130
+
+
+def output_dir(path: Path, flag: str) -> Path:
+    """Create the output folder ``path`` (given by ``flag``) and check that it can be written,
+    before any work is done.
+
+    Raises:
+        ParameterError: ``path`` is an existing file, cannot be created, or is not writable.
+    """
+    if path.exists() and not path.is_dir():
+        raise ParameterError(f"{flag} {path}: exists and is not a folder")
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ParameterError(f"{flag} {path}: cannot create the folder: {exc.strerror}") from exc
+    if not os.access(path, os.W_OK | os.X_OK):
+        raise ParameterError(f"{flag} {path}: the folder is not writable")
+    return path
 
 
 def _build_parser() -> argparse.ArgumentParser:
@@ -44,10 +73,33 @@ def main(argv: list[str] | None = None) -> int:
     handler = getattr(args, "handler", None)
     if handler is None:
         parser.error(f"unknown command {args.command!r}")
+    name = f"uavsnn {args.command}"
     try:
-        return int(handler(args) or 0)
+        code = int(handler(args) or 0)
+        sys.stdout.flush()  # a closed pipe shows here, not at exit
+        return code
     except UavsnnError as exc:
-        print(f"uavsnn {args.command}: error: {exc}", file=sys.stderr)
+        print(f"{name}: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"{name}: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except BrokenPipeError:
+        # The reader went away: send what is still buffered to /dev/null so that the flush
+        # at exit does not fail again, and stop quietly.
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 1
+    except MemoryError:
+        print(
+            f"{name}: error: not enough memory; give a smaller input (a shorter recording, "
+            "fewer windows)",
+            file=sys.stderr,
+        )
+        return 2
+    except OSError as exc:
+        # A file or folder the user named cannot be read or written.
+        print(f"{name}: error: {exc}", file=sys.stderr)
         return 2
 
 

@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from uavsnn import __version__, report
+from uavsnn.cli import output_dir
 from uavsnn.dataset import build_demo, load
 from uavsnn.evaluation import evaluate
 from uavsnn.experiments import (
@@ -100,7 +101,7 @@ def run_demo(out: Path, seed: int = 0, *, progress: bool = False) -> dict[str, A
 
 
 def _demo(args: argparse.Namespace) -> int:
-    args.out.mkdir(parents=True, exist_ok=True)
+    output_dir(args.out, "--out")
     figures = run_demo(args.out, args.seed, progress=not args.quiet and sys.stderr.isatty())
     if args.json:
         print(json.dumps(figures, indent=2))

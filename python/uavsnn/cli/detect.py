@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import sys
 import time
@@ -80,7 +81,9 @@ def register(subparsers: Any) -> None:
     p.add_argument(
         "--sensor-size",
         metavar="WxH",
-        help="sensor size for '-' and UDP (default: the model's input size)",
+        help="sensor size: for '-' and UDP (default: the model's input size), and for files "
+        "whose header has none (CSV; RAW/DAT without geometry: default from the header's "
+        "camera generation, see 'uavsnn info')",
     )
     p.add_argument(
         "--stdin-format",
@@ -172,14 +175,43 @@ class _Summary:
         )
 
 
+#: The longest window ``--window-ms`` accepts: 2^62 µs, the engine's limit on times.
+MAX_WINDOW_MS = float(1 << 62) / 1000
+
+
+def _check_args(args: argparse.Namespace) -> None:
+    """Refuse flag values that make no sense before opening anything."""
+    if not (math.isfinite(args.window_ms) and 0.001 <= args.window_ms <= MAX_WINDOW_MS):
+        raise ParameterError(
+            f"--window-ms must be a number of ms from 0.001 (1 µs) to {MAX_WINDOW_MS:.3g}, "
+            f"got {args.window_ms}"
+        )
+    if not (math.isfinite(args.overlap) and 0.0 <= args.overlap < 1.0):
+        raise ParameterError(f"--overlap must be in [0, 1), got {args.overlap}")
+    if not (math.isfinite(args.summary_every) and args.summary_every >= 0):
+        raise ParameterError(
+            f"--summary-every must be a number of seconds >= 0 (0: only at the end), "
+            f"got {args.summary_every}"
+        )
+    live = args.source == "-" or args.source.startswith("udp://")
+    if args.realtime and live:
+        raise ParameterError(
+            "--realtime replays a file at its own pace; standard input and UDP already "
+            "arrive at theirs"
+        )
+    if args.downsample and live:
+        raise ParameterError("--downsample applies to files; '-' and UDP give --sensor-size")
+    if args.max_packets is not None and args.max_packets < 1:
+        raise ParameterError(f"--max-packets must be >= 1, got {args.max_packets}")
+
+
 def run(args: argparse.Namespace) -> int:
     """Run detection until the source ends (or Ctrl-C); returns the exit code."""
     from uavsnn.detector import Detector
     from uavsnn.network import Network
     from uavsnn.sources import UdpSource, open_source
 
-    if args.window_ms <= 0:
-        raise ParameterError(f"--window-ms must be > 0, got {args.window_ms}")
+    _check_args(args)
     network = Network.load(args.model)
     model_size = (int(network.config["width"]), int(network.config["height"]))
     # '-' and UDP carry no sensor size: default to the model's; a file has its own.
@@ -195,6 +227,13 @@ def run(args: argparse.Namespace) -> int:
         idle_timeout=args.idle_timeout,
         downsample_to=model_size if args.downsample else None,
     )
+    if source.sensor_size is not None and tuple(source.sensor_size) != model_size:
+        source.close()
+        w, h = source.sensor_size
+        raise ParameterError(
+            f"the recording's sensor is {w}x{h}, the model's input {model_size[0]}x"
+            f"{model_size[1]}: add --downsample to crop and scale it to the model"
+        )
     out, err = sys.stdout, sys.stderr
     with source:
         detector = Detector(

@@ -8,10 +8,12 @@ from pathlib import Path
 from typing import Any
 
 from uavsnn import report
+from uavsnn.cli import output_dir
 from uavsnn.dataset import load
+from uavsnn.errors import ParameterError
 from uavsnn.evaluation import evaluate
 from uavsnn.experiments import NOISE_FRACTIONS, noise_sweep, static_twin
-from uavsnn.network import Network
+from uavsnn.network import MAX_THREADS, Network
 
 __all__ = ["register"]
 
@@ -32,13 +34,22 @@ def register(subparsers: Any) -> None:
     p.add_argument("--noise", action="store_true", help="also sweep added noise (Table 3)")
     p.add_argument("--report", type=Path, help="write report.md and its pictures to this folder")
     p.add_argument("--unbalanced", action="store_true", help="score a set that is not half UAV")
-    p.add_argument("--threads", type=int, default=None, help="worker threads (all cores)")
+    p.add_argument(
+        "--threads",
+        type=int,
+        default=None,
+        help=f"worker threads, at most {MAX_THREADS} (default: all cores)",
+    )
     p.add_argument("--seed", type=int, default=0, help="seed of the added noise (0)")
     p.add_argument("--json", action="store_true", help="print the figures as JSON")
     p.set_defaults(handler=_evaluate)
 
 
 def _evaluate(args: argparse.Namespace) -> int:
+    if args.threads is not None and not 1 <= args.threads <= MAX_THREADS:
+        raise ParameterError(f"--threads must be from 1 to {MAX_THREADS}, got {args.threads}")
+    if args.report is not None:
+        output_dir(args.report, "--report")
     network = Network.load(args.model)
     data = load(args.dataset, args.split)
     result = evaluate(

@@ -39,6 +39,7 @@ def summary(recording: Recording) -> dict[str, Any]:
         "format": recording.metadata.get("format"),
         "sensor_size": list(recording.sensor_size),
         "sensor_size_source": recording.metadata.get("sensor_size_source"),
+        "camera": recording.metadata.get("camera"),
         "events": n,
         "first_t_us": int(t[0]) if n else None,
         "last_t_us": int(t[-1]) if n else None,
@@ -60,6 +61,8 @@ def _sensor_size(text: str) -> tuple[int, int]:
 _SOURCES = {
     "file": "from the file",
     "argument": "as given",
+    "camera": "the {camera} camera named in the header, which has no geometry; "
+    "give --sensor-size if wrong",
     "fallback": "faery's fallback: the file has no geometry, give --sensor-size",
     "inferred": "the events' bounding box: give --sensor-size",
 }
@@ -81,6 +84,7 @@ def run(args: argparse.Namespace) -> int:
     duration = info["duration_us"]
     print(f"file:        {info['path']} ({info['format']})")
     source = _SOURCES.get(info["sensor_size_source"], info["sensor_size_source"])
+    source = source.replace("{camera}", str(info["camera"]))
     print(f"sensor:      {width}x{height} ({source})")
     print(f"events:      {info['events']:,}")
     if info["events"]:

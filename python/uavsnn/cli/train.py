@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from uavsnn.dataset import load
+from uavsnn.errors import ParameterError
 from uavsnn.network import Network, default_config
 from uavsnn.training import apply_overrides, train
 
@@ -58,13 +59,21 @@ def network_config(config_file: Path | None, settings: list[str]) -> dict[str, A
     """The config of ``--config`` (or Table 1) with ``--set`` fields applied."""
     base = default_config()
     if config_file is not None:
-        base = json.loads(config_file.read_text(encoding="utf-8"))
+        try:
+            base = json.loads(config_file.read_text(encoding="utf-8"))
+        except OSError as exc:
+            raise ParameterError(f"--config {config_file}: cannot read: {exc.strerror}") from exc
+        except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+            raise ParameterError(f"--config {config_file}: not a JSON file: {exc}") from exc
+        if not isinstance(base, dict):
+            raise ParameterError(f"--config {config_file}: must hold a JSON object")
     return apply_overrides(base, settings)
 
 
 def _train(args: argparse.Namespace) -> int:
+    config = network_config(args.config, args.settings)  # bad flags fail before any work
     data = load(args.dataset, args.split)
-    network = Network(network_config(args.config, args.settings), seed=args.seed)
+    network = Network(config, seed=args.seed)
     result = train(
         network,
         data.windows,

@@ -20,8 +20,10 @@ from uavsnn.dataset.footage import real_splits
 from uavsnn.dataset.format import (
     FORMAT_NAME,
     FORMAT_VERSION,
+    LOCK,
     MANIFEST,
     LabelledWindows,
+    locked_folder,
     save_split,
     write_manifest,
 )
@@ -106,7 +108,7 @@ def _prepare(out_dir: str | Path, overwrite: bool) -> Path:
     root = Path(out_dir)
     if root.exists() and not root.is_dir():
         raise DatasetError(f"{root} exists and is not a folder")
-    if root.is_dir() and any(root.iterdir()):
+    if root.is_dir() and any(p.name != LOCK for p in root.iterdir()):
         if not overwrite:
             raise DatasetError(
                 f"{root} is not empty; choose another folder, or overwrite a dataset there "
@@ -115,6 +117,8 @@ def _prepare(out_dir: str | Path, overwrite: bool) -> Path:
         if not (root / MANIFEST).is_file():
             raise DatasetError(f"{root} is not empty and not a dataset: refusing to overwrite it")
         for path in root.iterdir():
+            if path.name == LOCK:
+                continue
             if path.is_dir():
                 shutil.rmtree(path)
             else:
@@ -123,6 +127,7 @@ def _prepare(out_dir: str | Path, overwrite: bool) -> Path:
     return root
 
 
+@locked_folder
 def build(
     out_dir: str | Path,
     domain: str,

@@ -10,14 +10,21 @@ NaN without an object), plus ``format_version`` () int64. ``docs/dataset.md`` de
 field of the manifest.
 
 Files are written to a temporary name and renamed, so a file is either whole or absent; the
-manifest is written last, so a folder with a manifest is a finished dataset.
+manifest is written last, so a folder with a manifest is a finished dataset. The manifest holds
+each split file's SHA-256 (``splits.<name>.sha256``), checked on load, so a split file from
+another build is refused. A build holds a lock on its folder (:data:`LOCK`, an advisory
+``flock`` that ends with the process), so a second build into the same folder fails at once.
 """
 
 from __future__ import annotations
 
+import fcntl
+import functools
+import hashlib
 import json
 import os
 import zipfile
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -30,6 +37,7 @@ from uavsnn.windows import Windows
 __all__ = [
     "FORMAT_NAME",
     "FORMAT_VERSION",
+    "LOCK",
     "MANIFEST",
     "LabelledWindows",
     "load",
@@ -41,6 +49,8 @@ __all__ = [
 FORMAT_NAME = "uavsnn-dataset"
 FORMAT_VERSION = 1
 MANIFEST = "manifest.json"
+#: The lock file a build holds in its folder while it writes.
+LOCK = ".uavsnn-build.lock"
 _WINDOW_COLUMNS = {
     "t0": np.uint64,
     "offsets": np.int64,
@@ -138,9 +148,61 @@ def save_split(path: str | Path, data: LabelledWindows) -> Path:
     return path
 
 
+def _sha256(path: Path) -> str:
+    digest = hashlib.sha256()
+    with path.open("rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def locked_folder(build: Callable[..., Any]) -> Callable[..., Any]:
+    """Run ``build(out_dir, ...)`` holding :data:`LOCK` in ``out_dir`` (created if missing).
+
+    Raises:
+        DatasetError: another build holds the folder.
+    """
+
+    @functools.wraps(build)
+    def locked(out_dir: str | Path, *args: Any, **kwargs: Any) -> Any:
+        root = Path(out_dir)
+        if root.exists() and not root.is_dir():
+            return build(out_dir, *args, **kwargs)  # which says what is wrong
+        created = not root.exists()
+        root.mkdir(parents=True, exist_ok=True)
+        lock = root / LOCK
+        fd = os.open(lock, os.O_WRONLY | os.O_CREAT, 0o666)
+        try:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError as exc:
+                raise DatasetError(
+                    f"{root}: another build is writing into this folder (it holds {LOCK}); "
+                    "wait for it or choose another folder"
+                ) from exc
+            try:
+                return build(out_dir, *args, **kwargs)
+            finally:
+                lock.unlink(missing_ok=True)
+                if created and not any(root.iterdir()):
+                    root.rmdir()  # a build that failed before writing leaves no folder
+        finally:
+            os.close(fd)
+
+    return locked
+
+
 def write_manifest(root: str | Path, manifest: dict[str, Any]) -> Path:
-    """Write ``manifest.json`` (atomically); returns its path."""
+    """Write ``manifest.json`` (atomically), with the SHA-256 of each split file it lists that
+    is in ``root``; returns its path."""
     path = Path(root) / MANIFEST
+    splits = manifest.get("splits")
+    if isinstance(splits, dict):
+        hashed = {}
+        for name, entry in splits.items():
+            file = Path(root) / str(entry.get("file", f"{name}.npz"))
+            hashed[name] = entry | {"sha256": _sha256(file)} if file.is_file() else entry
+        manifest = manifest | {"splits": hashed}
     text = json.dumps(manifest, indent=2, sort_keys=False, allow_nan=False) + "\n"
     _atomic(path, lambda f: f.write(text.encode("utf-8")))
     return path
@@ -236,5 +298,12 @@ def load(root: str | Path, split: str) -> LabelledWindows:
     if expected is not None and expected != len(data):
         raise DatasetError(
             f"split file {path} holds {len(data)} windows, the manifest says {expected}"
+        )
+    # A well-formed file that is not the one built with this manifest.
+    expected_hash = splits[split].get("sha256")
+    if expected_hash is not None and _sha256(path) != expected_hash:
+        raise DatasetError(
+            f"split file {path} is not the one the manifest lists (its SHA-256 differs): "
+            "it was changed or comes from another build; rebuild the dataset"
         )
     return data

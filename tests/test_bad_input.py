@@ -1,0 +1,425 @@
+"""Bad input a new user meets: each case ends in a typed error (the command line: one line on
+standard error, exit 2; Ctrl-C: one "interrupted" line, exit 130) and loses nothing."""
+
+from __future__ import annotations
+
+import fcntl
+import io
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import uavsnn
+import uavsnn.cli.dataset
+import uavsnn.cli.demo
+import uavsnn.cli.train
+from uavsnn import EVENT_DTYPE, ParameterError, RecordingFileError, StreamError
+from uavsnn import io as uio
+from uavsnn import windows as uwindows
+from uavsnn.cli import main
+from uavsnn.dataset import SceneSource, build, load
+from uavsnn.dataset.format import LOCK
+from uavsnn.detector import MAX_LIVE_WINDOWS, Detector
+from uavsnn.errors import DatasetError
+from uavsnn.network import MAX_THREADS, Network, _window_columns
+from uavsnn.sources import StdinSource
+from uavsnn.training import train
+from uavsnn.windows import make_windows
+
+SIZE = (40, 30)
+CONFIG = {
+    "width": SIZE[0],
+    "height": SIZE[1],
+    "pent": {"mode": "pent", "beta": 2.0, "theta_min": 1.5, "estimate": "preceding"},
+    "conv2": {"threshold": 3.0},
+    "conv3": {"threshold": 1.5},
+}
+DVS = SceneSource("dvs", (240, 180), 200.0, 0.3)
+
+
+@pytest.fixture(scope="module")
+def net() -> Network:
+    return Network(CONFIG, seed=3)
+
+
+@pytest.fixture(scope="module")
+def model(tmp_path_factory: pytest.TempPathFactory, net: Network) -> Path:
+    path = tmp_path_factory.mktemp("model") / "model.npz"
+    net.save(path)
+    return path
+
+
+@pytest.fixture(scope="module")
+def dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    root = tmp_path_factory.mktemp("data") / "set"
+    return build(root, "dvs", n_test=10, n_train=16, seed=3, dvs=DVS).root
+
+
+def _events(n: int, seed: int = 0, size: tuple[int, int] = SIZE) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    ev = np.zeros(n, dtype=EVENT_DTYPE)
+    ev["t"] = 1_000 + np.cumsum(rng.integers(0, 30, n))
+    ev["x"] = rng.integers(0, size[0], n)
+    ev["y"] = rng.integers(0, size[1], n)
+    ev["p"] = rng.random(n) < 0.5
+    return ev
+
+
+def _one_line_exit_2(capsys: pytest.CaptureFixture[str], argv: list[str], match: str) -> str:
+    """Run the command line; it must exit 2 with one error line that contains ``match``."""
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert "error:" in lines[0] and match in lines[0], lines[0]
+    return lines[0]
+
+
+# -- 1. overlaps that keep too many windows live ------------------------------------------------
+
+
+def test_an_overlap_with_too_many_live_windows_is_refused(net: Network) -> None:
+    most = 1 - 1 / MAX_LIVE_WINDOWS
+    det = Detector(net, window_us=64_000, overlap=most)
+    det.push(_events(2_000))
+    assert det.live_windows <= MAX_LIVE_WINDOWS
+    for overlap in (0.99, 0.9999, 0.9999999):
+        with pytest.raises(ParameterError, match=f"at most {MAX_LIVE_WINDOWS} are allowed"):
+            Detector(net, window_us=50_000, overlap=overlap)
+
+
+def test_detect_refuses_such_an_overlap_in_one_line(
+    model: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    rec = tmp_path / "r.npz"
+    uio.write_npz(uavsnn.Recording(_events(500), SIZE), rec)
+    _one_line_exit_2(
+        capsys, ["detect", str(rec), "-m", str(model), "--overlap", "0.9999"], "windows live"
+    )
+
+
+# -- 2. thread counts ---------------------------------------------------------------------------
+
+
+def test_thread_counts_are_capped(net: Network) -> None:
+    w = make_windows(uavsnn.Recording(_events(800), SIZE), 5_000)
+    for threads in (MAX_THREADS + 1, 3000):
+        with pytest.raises(ParameterError, match=f"at most {MAX_THREADS}"):
+            net.infer(w, threads=threads)
+    # The engine refuses on its own too (the check a caller of the binding meets).
+    with pytest.raises(ParameterError, match=f"at most {MAX_THREADS}"):
+        net._core.infer(**_window_columns(w), threads=MAX_THREADS + 1, record=False)
+    # Alternating counts give the same results (pools are reused or replaced, not piled up).
+    first = net.infer(w, threads=2).counts
+    for threads in (3, 2, 4, 3):
+        assert np.array_equal(net.infer(w, threads=threads).counts, first)
+
+
+def test_evaluate_refuses_20000_threads_at_once(
+    model: Path, dataset: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    start = time.monotonic()
+    _one_line_exit_2(
+        capsys, ["evaluate", str(model), str(dataset), "--threads", "20000"], "--threads"
+    )
+    assert time.monotonic() - start < 10
+
+
+# -- 3. one line and exit 2, not a traceback ----------------------------------------------------
+
+
+@pytest.mark.parametrize("value", ["nan", "inf", "1e30", "-1", "0"])
+def test_detect_window_ms_must_be_a_sane_number(
+    value: str, model: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    _one_line_exit_2(
+        capsys, ["detect", "x.npz", "-m", str(model), "--window-ms", value], "--window-ms"
+    )
+
+
+def test_detect_summary_every_and_realtime_on_stdin_are_checked(
+    model: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    _one_line_exit_2(
+        capsys, ["detect", "x.npz", "-m", str(model), "--summary-every", "-1"], "--summary-every"
+    )
+    _one_line_exit_2(capsys, ["detect", "-", "-m", str(model), "--realtime"], "--realtime")
+
+
+def test_train_config_missing_or_not_json(
+    tmp_path: Path, dataset: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = str(tmp_path / "m.npz")
+    _one_line_exit_2(
+        capsys,
+        ["train", str(dataset), "-o", out, "--config", str(tmp_path / "missing.json")],
+        "cannot read",
+    )
+    bad = tmp_path / "bad.json"
+    bad.write_text("width: 240\n")
+    _one_line_exit_2(capsys, ["train", str(dataset), "-o", out, "--config", str(bad)], "not a JSON")
+    assert not Path(out).exists()
+
+
+def test_output_folders_that_cannot_be_written(
+    tmp_path: Path, model: Path, dataset: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # A path under a file can be made by nobody, root included.
+    blocker = tmp_path / "a-file"
+    blocker.write_text("x")
+    under = str(blocker / "sub")
+    _one_line_exit_2(capsys, ["dataset", "build", under, "--domain", "dvs"], "Not a directory")
+    _one_line_exit_2(capsys, ["demo", "--out", under], "--out")
+    _one_line_exit_2(capsys, ["evaluate", str(model), str(dataset), "--report", under], "--report")
+    # An existing file given as the report folder.
+    _one_line_exit_2(
+        capsys,
+        ["evaluate", str(model), str(dataset), "--report", str(blocker)],
+        "exists and is not a folder",
+    )
+    assert blocker.read_text() == "x"
+
+
+@pytest.mark.parametrize(
+    ("module", "handler", "argv"),
+    [
+        (uavsnn.cli.train, "_train", ["train", "D", "-o", "m.npz"]),
+        (uavsnn.cli.dataset, "_build", ["dataset", "build", "D", "--domain", "dvs"]),
+        (uavsnn.cli.demo, "_demo", ["demo"]),
+    ],
+)
+def test_ctrl_c_is_one_line_and_exit_130(
+    module: object,
+    handler: str,
+    argv: list[str],
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    def interrupted(_args: object) -> int:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(module, handler, interrupted)
+    assert main(argv) == 130
+    err = capsys.readouterr().err
+    assert err == f"uavsnn {argv[0]}: interrupted\n"
+
+
+def test_ctrl_c_during_a_real_dataset_build(tmp_path: Path) -> None:
+    out = tmp_path / "set"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "uavsnn", "dataset", "build", str(out), "--domain", "dvs"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    # Wait until the build has started writing into its folder (it holds its lock).
+    deadline = time.monotonic() + 60
+    while not (out / LOCK).exists() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    time.sleep(0.5)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    assert err.strip().splitlines() == ["uavsnn dataset: interrupted"]
+    # Nothing half-written: no manifest, no temporary file, no lock left behind.
+    assert not out.exists() or not [p.name for p in out.iterdir()]
+
+
+def test_a_closed_standard_output_is_not_a_traceback(shared_data: Path) -> None:
+    read, write = os.pipe()
+    os.close(read)  # the reader is gone before anything is written, as with `| head -0`
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "uavsnn",
+            "info",
+            str(shared_data / "dvs" / "tonic_dvxplorer_person.aedat4"),
+        ],
+        stdout=write,
+        stderr=subprocess.PIPE,
+        text=True,
+        timeout=120,
+        check=False,
+    )
+    os.close(write)
+    assert proc.stderr == ""
+    assert proc.returncode == 1
+
+
+# -- 4. CSV times that go backwards -------------------------------------------------------------
+
+
+@pytest.mark.parametrize("header", ["t,x,y,p\n", ""])
+def test_csv_with_times_out_of_order_is_refused_with_its_line(tmp_path: Path, header: str) -> None:
+    path = tmp_path / "r.csv"
+    path.write_text(header + "100,2,3,1\n120,2,3,1\n50,3,3,0\n")
+    line = 3 + bool(header)
+    with pytest.raises(RecordingFileError, match=f"line {line}: time 50 is earlier .*120"):
+        uio.read(path, sensor_size=(10, 10))
+
+
+@pytest.mark.parametrize("header", ["t,x,y,p\n", ""])
+def test_csv_keeps_every_row_with_or_without_a_header(tmp_path: Path, header: str) -> None:
+    path = tmp_path / "r.csv"
+    path.write_text(header + "100,2,3,1\n100,4,3,0\n150,3,3,0\n")
+    rec = uio.read(path, sensor_size=(10, 10))
+    assert rec.events["t"].tolist() == [100, 100, 150]
+    assert rec.events["x"].tolist() == [2, 4, 3]
+
+
+# -- 5. one bad event on standard input ---------------------------------------------------------
+
+
+def test_stdin_drops_only_the_offending_events() -> None:
+    ev = _events(20_000)
+    bad = ev.copy()
+    bad["t"][7_000] = 5  # one backwards time
+    bad["x"][12_345] = SIZE[0] + 3  # one event off the sensor
+    src = StdinSource(io.BytesIO(bad.tobytes()), sensor_size=SIZE, read_size=13 * 1000)
+    got = np.concatenate(list(src))
+    keep = np.ones(len(ev), bool)
+    keep[[7_000, 12_345]] = False
+    assert np.array_equal(got, bad[keep])
+    assert src.stats.dropped == 2 and src.stats.events == len(ev) - 2
+
+
+def test_stdin_in_the_wrong_format_is_an_error_not_zero_events() -> None:
+    text = "".join(f"{t},{x},{y},1\n" for t, x, y in [(10, 1, 1), (20, 2, 2), (30, 3, 3)] * 50)
+    src = StdinSource(io.BytesIO(text.encode()), fmt="packed", sensor_size=SIZE)
+    with pytest.raises(StreamError, match="--stdin-format"):
+        list(src)
+    src = StdinSource(io.BytesIO(_events(100).tobytes()), fmt="csv", sensor_size=SIZE)
+    with pytest.raises(StreamError, match="--stdin-format"):
+        list(src)
+
+
+def test_detect_on_stdin_in_the_wrong_format_exits_2(
+    model: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    text = "".join(f"{1000 + t},1,1,1\n" for t in range(200)).encode()
+    monkeypatch.setattr(sys, "stdin", io.TextIOWrapper(io.BytesIO(text)))
+    assert main(["detect", "-", "-m", str(model), "--summary-every", "0"]) == 2
+    assert "--stdin-format" in capsys.readouterr().err
+
+
+# -- 6. resume with other settings or data ------------------------------------------------------
+
+
+def test_resume_refuses_changed_settings_or_data(dataset: Path, tmp_path: Path) -> None:
+    windows = load(dataset, "train").windows
+    ckpt = tmp_path / "ckpt"
+    train(Network(CONFIG | {"width": 240, "height": 180}, seed=1), windows, layers=["conv2"],
+          windows_per_layer=8, seed=1, checkpoint_dir=ckpt)  # fmt: skip
+    base = CONFIG | {"width": 240, "height": 180}
+    changed = base | {"conv2": {"threshold": 99.0}}
+    with pytest.raises(ParameterError, match="network config"):
+        train(Network(changed, seed=1), windows, windows_per_layer=8, seed=1,
+              checkpoint_dir=ckpt, resume=True)  # fmt: skip
+    with pytest.raises(ParameterError, match="the seed"):
+        train(Network(base, seed=1), windows, windows_per_layer=8, seed=2,
+              checkpoint_dir=ckpt, resume=True)  # fmt: skip
+    other = load(dataset, "test").windows
+    with pytest.raises(ParameterError, match="training windows"):
+        train(Network(base, seed=1), other, windows_per_layer=8, seed=1,
+              checkpoint_dir=ckpt, resume=True)  # fmt: skip
+    # The same settings resume, and train the layer that was left.
+    result = train(Network(base, seed=1), windows, windows_per_layer=8, seed=1,
+                   checkpoint_dir=ckpt, resume=True)  # fmt: skip
+    assert result.resumed == ("conv2",) and list(result.layers) == ["conv3"]
+
+
+# -- 7. concurrent builds and split files from another build ------------------------------------
+
+
+def test_a_second_build_into_a_locked_folder_fails_fast(tmp_path: Path) -> None:
+    root = tmp_path / "set"
+    root.mkdir()
+    fd = os.open(root / LOCK, os.O_WRONLY | os.O_CREAT)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)  # as a running build holds it
+        start = time.monotonic()
+        with pytest.raises(DatasetError, match="another build is writing"):
+            build(root, "dvs", n_test=10, n_train=16, seed=3, dvs=DVS)
+        assert time.monotonic() - start < 5
+    finally:
+        os.close(fd)
+    assert [p.name for p in root.iterdir()] == [LOCK]  # nothing written
+
+
+def test_a_split_file_from_another_build_is_refused(dataset: Path, tmp_path: Path) -> None:
+    other = build(tmp_path / "other", "dvs", n_test=10, n_train=16, seed=4, dvs=DVS).root
+    manifest = json.loads((dataset / "manifest.json").read_text())
+    assert len(manifest["splits"]["test"]["sha256"]) == 64
+    mixed = tmp_path / "mixed"
+    mixed.mkdir()
+    for name in ("manifest.json", "train.npz"):
+        (mixed / name).write_bytes((dataset / name).read_bytes())
+    (mixed / "test.npz").write_bytes((other / "test.npz").read_bytes())
+    assert len(load(mixed, "train")) == 16
+    with pytest.raises(DatasetError, match="SHA-256 differs"):
+        load(mixed, "test")
+
+
+# -- 9. recordings larger than memory -----------------------------------------------------------
+
+
+def test_windowing_beyond_the_memory_limit_is_refused(monkeypatch: pytest.MonkeyPatch) -> None:
+    rec = uavsnn.Recording(_events(10_000), SIZE)
+    assert len(make_windows(rec, 5_000, 0.5).t0)
+    # 10,000 events at 50 % overlap may take 10,000 * (16 + 2 * 12) bytes.
+    monkeypatch.setattr(uwindows, "MEMORY_LIMIT", 400_000 - 1)
+    with pytest.raises(ParameterError, match=r"windowing 10,000 events .* uavsnn.Detector"):
+        make_windows(rec, 5_000, 0.5)
+    monkeypatch.setattr(uwindows, "MEMORY_LIMIT", 400_000)
+    assert len(make_windows(rec, 5_000, 0.5).t0)
+
+
+def test_the_command_line_reports_a_failed_allocation_in_one_line(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    def hungry(_args: object) -> int:
+        raise MemoryError
+
+    monkeypatch.setattr(uavsnn.cli.train, "_train", hungry)
+    _one_line_exit_2(capsys, ["train", "D", "-o", "m.npz"], "not enough memory")
+
+
+# -- a first use, and the small ones ------------------------------------------------------------
+
+
+def test_a_sensor_mismatch_names_the_downsample_flag(
+    shared_data: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    model = tmp_path / "model.npz"
+    Network(seed=0).save(model)  # the README's 240x180 model
+    rec = shared_data / "dvs" / "tonic_dvxplorer_person.aedat4"
+    line = _one_line_exit_2(capsys, ["detect", str(rec), "--model", str(model)], "--downsample")
+    assert "uavsnn.filters" not in line
+    assert main(["detect", str(rec), "--model", str(model), "--downsample"]) == 0
+
+
+def test_detector_of_no_network_is_a_parameter_error() -> None:
+    with pytest.raises(ParameterError, match="got NoneType"):
+        Detector(None)  # type: ignore[arg-type]
+
+
+def test_garbage_npy_and_folders_are_named_for_what_they_are(tmp_path: Path) -> None:
+    garbage = tmp_path / "g.npy"
+    garbage.write_bytes(b"garbage" * 10)
+    with pytest.raises(RecordingFileError, match=r"not a NumPy \.npy file") as info:
+        uio.read(garbage)
+    assert "pickled" not in str(info.value)
+    folder = tmp_path / "rec.npz"
+    folder.mkdir()
+    with pytest.raises(RecordingFileError, match="is a folder"):
+        uio.read(folder)
+    with pytest.raises(RecordingFileError, match="no such file"):
+        uio.read(tmp_path / "absent.npz")
