@@ -1,0 +1,121 @@
+"""How the rotor signature's detection threshold was chosen, and how exact its frequency is.
+
+1. **Noise.** Uniform random events (uniform times, pixels and polarities) in a box, at total
+   rates from 1 k to 1 M events/s, in 16×16 and 64×64 boxes, over ``--window-ms`` of event time,
+   for ``--seeds`` seeds starting at ``--first-seed`` (default 0..199: seeds no test uses; the
+   tests use 1000 and up). Prints, per rate and box, the largest strength, its 99th percentile,
+   the largest number of agreeing pixels, and how many runs pass the detection rule at the
+   default threshold (``uavsnn.signature.DEFAULTS``) and at ``--threshold``s given.
+2. **Flicker.** Every pixel of a 16×16 box flickering at f (a run of ``--run`` ON events then as
+   many OFF events per cycle, each edge jittered uniformly by ±``--jitter`` of the period, each
+   pixel with its own phase) for f from 50 to 1000 Hz: the frequency found, its error, the
+   strength and the agreeing pixels, over ``--window-ms``.
+
+Run from the repository root after ``maturin develop --release``::
+
+    python benches/python/rotor_noise.py [--seeds 200] [--first-seed 0] [--window-ms 100]
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+
+from uavsnn.events import EVENT_DTYPE
+from uavsnn.signature import DEFAULTS, rotor_signature
+
+RATES = (1e3, 1e4, 3e4, 1e5, 3e5, 1e6)
+SIDES = (16, 64)
+FREQUENCIES = (50.0, 80.0, 120.0, 200.0, 260.0, 400.0, 520.0, 700.0, 1000.0)
+
+
+def noise(rate: float, side: int, window_us: int, rng: np.random.Generator) -> np.ndarray:
+    """Uniform random events in a ``side``×``side`` box at ``rate`` events/s."""
+    n = int(rate * window_us * 1e-6)
+    events = np.zeros(n, dtype=EVENT_DTYPE)
+    events["t"] = np.sort(rng.integers(0, window_us, n))
+    events["x"] = rng.integers(0, side, n)
+    events["y"] = rng.integers(0, side, n)
+    events["p"] = rng.integers(0, 2, n).astype(bool)
+    return events
+
+
+def flicker(
+    f: float, side: int, window_us: int, run: int, jitter: float, rng: np.random.Generator
+) -> np.ndarray:
+    """Every pixel of the box flickering at ``f`` Hz (see the module's documentation)."""
+    period = 1e6 / f
+    cycles = int(window_us / period) + 2
+    ts, xs, ys, ps = [], [], [], []
+    for y in range(side):
+        for x in range(side):
+            starts = rng.uniform(0, period) + period * np.arange(-1, cycles)
+            for half, p in ((0.0, True), (0.5, False)):
+                edges = starts + half * period + rng.uniform(-jitter, jitter, starts.size) * period
+                t = (edges[:, None] + 0.02 * period * np.arange(run)[None, :]).ravel()
+                ts.append(t)
+                xs.append(np.full(t.size, x))
+                ys.append(np.full(t.size, y))
+                ps.append(np.full(t.size, p))
+    t = np.concatenate(ts)
+    keep = (t >= 0) & (t < window_us)
+    order = np.argsort(t[keep], kind="stable")
+    events = np.zeros(order.size, dtype=EVENT_DTYPE)
+    events["t"] = t[keep][order].astype(np.uint64)
+    events["x"] = np.concatenate(xs)[keep][order]
+    events["y"] = np.concatenate(ys)[keep][order]
+    events["p"] = np.concatenate(ps)[keep][order]
+    return events
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--seeds", type=int, default=200)
+    parser.add_argument("--first-seed", type=int, default=0)
+    parser.add_argument("--window-ms", type=float, default=100.0)
+    parser.add_argument("--threshold", type=float, action="append", default=[])
+    parser.add_argument("--run", type=int, default=3)
+    parser.add_argument("--jitter", type=float, default=0.02)
+    args = parser.parse_args(argv)
+    window_us = int(args.window_ms * 1000)
+    thresholds = [float(DEFAULTS["threshold"]), *args.threshold]
+    min_pixels = int(DEFAULTS["min_pixels"])
+
+    print(f"noise: {args.seeds} seeds from {args.first_seed}, {args.window_ms:g} ms windows")
+    head = " | ".join(f"passes at {t:g}" for t in thresholds)
+    print(f"| box | rate (ev/s) | max strength | p99 strength | max pixels | {head} |")
+    print("|---|---|---|---|---|" + "---|" * len(thresholds))
+    for side in SIDES:
+        for rate in RATES:
+            strengths, pixels = [], []
+            for seed in range(args.first_seed, args.first_seed + args.seeds):
+                rng = np.random.default_rng(seed)
+                est = rotor_signature(noise(rate, side, window_us, rng), (0, 0, side, side))
+                strengths.append(est.strength)
+                pixels.append(est.pixels)
+            s, px = np.array(strengths), np.array(pixels)
+            passes = " | ".join(
+                f"{int(((s >= t) & (px >= min_pixels)).sum())}/{s.size}" for t in thresholds
+            )
+            print(
+                f"| {side}×{side} | {rate:.0e} | {s.max():.3f} | {np.percentile(s, 99):.3f} "
+                f"| {px.max()} | {passes} |"
+            )
+
+    print(f"\nflicker: 16×16 box, run {args.run}, jitter ±{args.jitter:g} of the period")
+    print("| f (Hz) | found (Hz) | error | strength | pixels | detected |")
+    print("|---|---|---|---|---|---|")
+    for i, f in enumerate(FREQUENCIES):
+        rng = np.random.default_rng(10_000 + i)
+        events = flicker(f, 16, window_us, args.run, args.jitter, rng)
+        est = rotor_signature(events, (0, 0, 16, 16))
+        err = (est.frequency_hz - f) / f
+        print(
+            f"| {f:g} | {est.frequency_hz:.1f} | {err:+.2%} | {est.strength:.3f} "
+            f"| {est.pixels} | {est.detected} |"
+        )
+
+
+if __name__ == "__main__":
+    main()
