@@ -14,6 +14,10 @@
 Run from the repository root after ``maturin develop --release``::
 
     python benches/python/rotor_noise.py [--seeds 200] [--first-seed 0] [--window-ms 100]
+        [--threshold T ...] [--figure rotor-signature.png]
+
+``--figure`` draws both: the noise's largest strength against its rate, and the flicker's
+strength against its frequency at jitters of ±2 % and ±5 %, each with the threshold.
 """
 
 from __future__ import annotations
@@ -77,6 +81,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--threshold", type=float, action="append", default=[])
     parser.add_argument("--run", type=int, default=3)
     parser.add_argument("--jitter", type=float, default=0.02)
+    parser.add_argument("--figure", default=None, help="write the figure to this PNG")
     args = parser.parse_args(argv)
     window_us = int(args.window_ms * 1000)
     thresholds = [float(DEFAULTS["threshold"]), *args.threshold]
@@ -86,6 +91,7 @@ def main(argv: list[str] | None = None) -> None:
     head = " | ".join(f"passes at {t:g}" for t in thresholds)
     print(f"| box | rate (ev/s) | max strength | p99 strength | max pixels | {head} |")
     print("|---|---|---|---|---|" + "---|" * len(thresholds))
+    worst: dict[str, list[float]] = {}
     for side in SIDES:
         for rate in RATES:
             strengths, pixels = [], []
@@ -95,6 +101,7 @@ def main(argv: list[str] | None = None) -> None:
                 strengths.append(est.strength)
                 pixels.append(est.pixels)
             s, px = np.array(strengths), np.array(pixels)
+            worst.setdefault(f"noise, {side}x{side} box", []).append(float(s.max()))
             passes = " | ".join(
                 f"{int(((s >= t) & (px >= min_pixels)).sum())}/{s.size}" for t in thresholds
             )
@@ -103,18 +110,46 @@ def main(argv: list[str] | None = None) -> None:
                 f"| {px.max()} | {passes} |"
             )
 
-    print(f"\nflicker: 16×16 box, run {args.run}, jitter ±{args.jitter:g} of the period")
-    print("| f (Hz) | found (Hz) | error | strength | pixels | detected |")
-    print("|---|---|---|---|---|---|")
-    for i, f in enumerate(FREQUENCIES):
-        rng = np.random.default_rng(10_000 + i)
-        events = flicker(f, 16, window_us, args.run, args.jitter, rng)
-        est = rotor_signature(events, (0, 0, 16, 16))
-        err = (est.frequency_hz - f) / f
-        print(
-            f"| {f:g} | {est.frequency_hz:.1f} | {err:+.2%} | {est.strength:.3f} "
-            f"| {est.pixels} | {est.detected} |"
+    curves: dict[str, list[float]] = {}
+    for jitter in (args.jitter, 0.05):
+        print(f"\nflicker: 16×16 box, run {args.run}, jitter ±{jitter:g} of the period")
+        print("| f (Hz) | found (Hz) | error | strength | pixels | detected |")
+        print("|---|---|---|---|---|---|")
+        for i, f in enumerate(FREQUENCIES):
+            rng = np.random.default_rng(10_000 + i)
+            events = flicker(f, 16, window_us, args.run, jitter, rng)
+            est = rotor_signature(events, (0, 0, 16, 16))
+            err = (est.frequency_hz - f) / f
+            curves.setdefault(f"flicker, jitter {jitter:g}", []).append(est.strength)
+            print(
+                f"| {f:g} | {est.frequency_hz:.1f} | {err:+.2%} | {est.strength:.3f} "
+                f"| {est.pixels} | {est.detected} |"
+            )
+
+    if args.figure:
+        import cv2
+
+        from uavsnn.pictures import hstack, line_chart
+
+        line = [thresholds[0]] * len(RATES)
+        left = line_chart(
+            [float(np.log10(r)) for r in RATES],
+            {**worst, "threshold": line},
+            title=f"uniform noise: largest strength over {args.seeds} seeds",
+            xlabel="log10 rate (events/s in the box)",
+            ylabel="strength",
+            y_range=(0.0, 1.0),
         )
+        right = line_chart(
+            list(FREQUENCIES),
+            {**curves, "threshold": [thresholds[0]] * len(FREQUENCIES)},
+            title="flicker in every pixel of a 16x16 box",
+            xlabel="frequency (Hz)",
+            ylabel="strength",
+            y_range=(0.0, 1.0),
+        )
+        cv2.imwrite(args.figure, hstack([left, right]))
+        print(f"\nfigure: {args.figure}")
 
 
 if __name__ == "__main__":
