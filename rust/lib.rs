@@ -12,6 +12,7 @@ pub mod error;
 pub mod events;
 pub mod filters;
 pub mod network;
+pub mod signature;
 pub mod sim;
 pub mod stream;
 pub mod windows;

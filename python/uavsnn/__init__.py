@@ -22,6 +22,7 @@ from uavsnn.errors import (
 )
 from uavsnn.events import EVENT_DTYPE, Recording
 from uavsnn.network import Network
+from uavsnn.signature import RotorEstimate, RotorSignature, rotor_signature
 
 __all__ = [
     "EVENT_DTYPE",
@@ -34,9 +35,12 @@ __all__ = [
     "ParameterError",
     "Recording",
     "RecordingFileError",
+    "RotorEstimate",
+    "RotorSignature",
     "ShapeError",
     "SimulationError",
     "StreamError",
     "UavsnnError",
     "__version__",
+    "rotor_signature",
 ]

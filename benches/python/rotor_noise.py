@@ -1,0 +1,213 @@
+"""How the rotor signature's detection threshold was chosen, and how exact its frequency is.
+
+1. **Noise.** Uniform random events (uniform times, pixels and polarities) in a box, at total
+   rates from 1 k to 1 M events/s, in 16×16 and 64×64 boxes, over ``--window-ms`` of event time,
+   for ``--seeds`` seeds starting at ``--first-seed`` (default 0..199: seeds no test uses; the
+   tests use 1000 and up). Prints, per rate and box, the largest strength, its 99th percentile,
+   the largest number of agreeing pixels, and how many runs pass the detection rule at the
+   default threshold (``uavsnn.signature.DEFAULTS``) and at ``--threshold``s given.
+2. **Flicker.** Every pixel of a 16×16 box flickering at f (a run of ``--run`` ON events then as
+   many OFF events per cycle, each edge jittered uniformly by ±``--jitter`` of the period, each
+   pixel with its own phase) for f from 50 to 1000 Hz: the frequency found, its error, the
+   strength and the agreeing pixels, over ``--window-ms``.
+3. **Emulated propeller.** A two-blade propeller (dark blades, 36° wide, on a bright sky) drawn
+   in a 24×24 box at 20,000 frames/s with 4×4 supersampling, turned into events by the dvs
+   domain's sensor model (``uavsnn.sim.dvs.emulate_dvs``, default parameters: threshold
+   mismatch, refractory period, leak and shot noise, hot pixels), at 5 to 250 rev/s: the
+   blade-pass frequency (twice the rotation rate) against the one found, over 100 ms.
+
+Run from the repository root after ``maturin develop --release``::
+
+    python benches/python/rotor_noise.py [--seeds 200] [--first-seed 0] [--window-ms 100]
+        [--propeller-ms 100] [--threshold T ...] [--figure rotor-signature.png]
+
+``--figure`` draws both: the noise's largest strength against its rate, and the flicker's
+strength against its frequency at jitters of ±2 % and ±5 %, each with the threshold.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+
+from uavsnn.events import EVENT_DTYPE
+from uavsnn.signature import DEFAULTS, rotor_signature
+
+RATES = (1e3, 1e4, 3e4, 1e5, 3e5, 1e6)
+SIDES = (16, 64)
+PROPELLER_REV_S = (5.0, 40.0, 100.0, 150.0, 200.0, 250.0)
+FREQUENCIES = (50.0, 80.0, 120.0, 200.0, 260.0, 400.0, 520.0, 700.0, 1000.0)
+
+
+def noise(rate: float, side: int, window_us: int, rng: np.random.Generator) -> np.ndarray:
+    """Uniform random events in a ``side``×``side`` box at ``rate`` events/s."""
+    n = int(rate * window_us * 1e-6)
+    events = np.zeros(n, dtype=EVENT_DTYPE)
+    events["t"] = np.sort(rng.integers(0, window_us, n))
+    events["x"] = rng.integers(0, side, n)
+    events["y"] = rng.integers(0, side, n)
+    events["p"] = rng.integers(0, 2, n).astype(bool)
+    return events
+
+
+def flicker(
+    f: float, side: int, window_us: int, run: int, jitter: float, rng: np.random.Generator
+) -> np.ndarray:
+    """Every pixel of the box flickering at ``f`` Hz (see the module's documentation)."""
+    period = 1e6 / f
+    cycles = int(window_us / period) + 2
+    ts, xs, ys, ps = [], [], [], []
+    for y in range(side):
+        for x in range(side):
+            starts = rng.uniform(0, period) + period * np.arange(-1, cycles)
+            for half, p in ((0.0, True), (0.5, False)):
+                edges = starts + half * period + rng.uniform(-jitter, jitter, starts.size) * period
+                t = (edges[:, None] + 0.02 * period * np.arange(run)[None, :]).ravel()
+                ts.append(t)
+                xs.append(np.full(t.size, x))
+                ys.append(np.full(t.size, y))
+                ps.append(np.full(t.size, p))
+    t = np.concatenate(ts)
+    keep = (t >= 0) & (t < window_us)
+    order = np.argsort(t[keep], kind="stable")
+    events = np.zeros(order.size, dtype=EVENT_DTYPE)
+    events["t"] = t[keep][order].astype(np.uint64)
+    events["x"] = np.concatenate(xs)[keep][order]
+    events["y"] = np.concatenate(ys)[keep][order]
+    events["p"] = np.concatenate(ps)[keep][order]
+    return events
+
+
+def propeller(
+    rev_s: float,
+    *,
+    blades: int = 2,
+    size: int = 24,
+    fps: float = 20_000.0,
+    duration_s: float = 0.1,
+    seed: int = 1,
+) -> np.ndarray:
+    """Events of a propeller turning at ``rev_s`` revolutions/s, through the dvs emulator (see the
+    module's documentation)."""
+    from uavsnn.sim.dvs import emulate_dvs
+
+    sub = 4
+    n = int(duration_s * fps)
+    ts = (np.arange(n) * 1e6 / fps).astype(np.int64)
+    c = (size - 1) / 2
+    g = (np.arange(size * sub) + 0.5) / sub - 0.5
+    yy, xx = np.meshgrid(g, g, indexing="ij")
+    radius = np.hypot(xx - c, yy - c)
+    angle = np.arctan2(yy - c, xx - c)
+    frames = np.empty((n, size, size), np.float32)
+    half_width = np.radians(18.0)
+    for i, t in enumerate(ts):
+        phase = 2 * np.pi * rev_s * t * 1e-6
+        to_blade = np.angle(np.exp(1j * blades * (angle - phase))) / blades
+        blade = (np.abs(to_blade) < half_width) & (radius < size / 2 - 1)
+        image = np.where(blade, 40.0, 200.0)
+        frames[i] = image.reshape(size, sub, size, sub).mean(axis=(1, 3))
+    return emulate_dvs(frames, ts, seed=seed)
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--seeds", type=int, default=200)
+    parser.add_argument("--first-seed", type=int, default=0)
+    parser.add_argument("--window-ms", type=float, default=100.0)
+    parser.add_argument("--threshold", type=float, action="append", default=[])
+    parser.add_argument("--run", type=int, default=3)
+    parser.add_argument("--jitter", type=float, default=0.02)
+    parser.add_argument("--propeller-ms", type=float, default=100.0)
+    parser.add_argument("--figure", default=None, help="write the figure to this PNG")
+    args = parser.parse_args(argv)
+    window_us = int(args.window_ms * 1000)
+    thresholds = [float(DEFAULTS["threshold"]), *args.threshold]
+    min_pixels = int(DEFAULTS["min_pixels"])
+
+    print(f"noise: {args.seeds} seeds from {args.first_seed}, {args.window_ms:g} ms windows")
+    head = " | ".join(f"passes at {t:g}" for t in thresholds)
+    print(f"| box | rate (ev/s) | max strength | p99 strength | max pixels | {head} |")
+    print("|---|---|---|---|---|" + "---|" * len(thresholds))
+    worst: dict[str, list[float]] = {}
+    for side in SIDES:
+        for rate in RATES:
+            strengths, pixels = [], []
+            for seed in range(args.first_seed, args.first_seed + args.seeds):
+                rng = np.random.default_rng(seed)
+                est = rotor_signature(noise(rate, side, window_us, rng), (0, 0, side, side))
+                strengths.append(est.strength)
+                pixels.append(est.pixels)
+            s, px = np.array(strengths), np.array(pixels)
+            worst.setdefault(f"noise, {side}x{side} box", []).append(float(s.max()))
+            passes = " | ".join(
+                f"{int(((s >= t) & (px >= min_pixels)).sum())}/{s.size}" for t in thresholds
+            )
+            print(
+                f"| {side}×{side} | {rate:.0e} | {s.max():.3f} | {np.percentile(s, 99):.3f} "
+                f"| {px.max()} | {passes} |"
+            )
+
+    curves: dict[str, list[float]] = {}
+    for jitter in (args.jitter, 0.05):
+        print(f"\nflicker: 16×16 box, run {args.run}, jitter ±{jitter:g} of the period")
+        print("| f (Hz) | found (Hz) | error | strength | pixels | detected |")
+        print("|---|---|---|---|---|---|")
+        for i, f in enumerate(FREQUENCIES):
+            rng = np.random.default_rng(10_000 + i)
+            events = flicker(f, 16, window_us, args.run, jitter, rng)
+            est = rotor_signature(events, (0, 0, 16, 16))
+            err = (est.frequency_hz - f) / f
+            curves.setdefault(f"flicker, jitter {jitter:g}", []).append(est.strength)
+            print(
+                f"| {f:g} | {est.frequency_hz:.1f} | {err:+.2%} | {est.strength:.3f} "
+                f"| {est.pixels} | {est.detected} |"
+            )
+
+    print(
+        "\nemulated two-blade propeller, 24×24 box, dvs sensor model (seed 1), "
+        f"{args.propeller_ms:g} ms"
+    )
+    print(
+        "| rev/s | blade pass (Hz) | events | found (Hz) | error | strength | pixels "
+        + "| detected |"
+    )
+    print("|---|---|---|---|---|---|---|---|")
+    for rev in PROPELLER_REV_S:
+        events = propeller(rev, duration_s=args.propeller_ms * 1e-3)
+        est = rotor_signature(events, (0, 0, 24, 24))
+        err = f"{(est.frequency_hz - 2 * rev) / (2 * rev):+.2%}" if est.frequency_hz else "–"
+        print(
+            f"| {rev:g} | {2 * rev:g} | {events.size} | {est.frequency_hz:.1f} | {err} "
+            f"| {est.strength:.3f} | {est.pixels} | {est.detected} |"
+        )
+
+    if args.figure:
+        import cv2
+
+        from uavsnn.pictures import hstack, line_chart
+
+        line = [thresholds[0]] * len(RATES)
+        left = line_chart(
+            [float(np.log10(r)) for r in RATES],
+            {**worst, "threshold": line},
+            title=f"uniform noise: largest strength over {args.seeds} seeds",
+            xlabel="log10 rate (events/s in the box)",
+            ylabel="strength",
+            y_range=(0.0, 1.0),
+        )
+        right = line_chart(
+            list(FREQUENCIES),
+            {**curves, "threshold": [thresholds[0]] * len(FREQUENCIES)},
+            title="flicker in every pixel of a 16x16 box",
+            xlabel="frequency (Hz)",
+            ylabel="strength",
+            y_range=(0.0, 1.0),
+        )
+        cv2.imwrite(args.figure, hstack([left, right]))
+        print(f"\nfigure: {args.figure}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,154 @@
+"""Rotor signature: the blade-pass frequency of the pixels in a box, event by event.
+
+A thin face of the Rust estimator (``rust/signature.rs``; the method, its parameters and the
+detection threshold are described in ``docs/identification.md``). Each pixel's period is the time
+between two brightness edges of the same direction (a run of OFF events turning ON, or ON turning
+OFF); an interval in the band that repeats the pixel's previous one within ``consistency`` votes
+into a logarithmic histogram. The estimate is the strongest three-bin window: its mean frequency,
+its ``strength`` (its votes over every interval measured), and how many pixels agree with it.
+
+    >>> est = rotor_signature(events, box=(x0, y0, width, height))
+    >>> est.frequency_hz, est.strength, est.pixels, est.detected
+
+The state is fixed when the estimator is made (32 bytes per pixel of the box, at most
+``MAX_PIXELS`` pixels) and the work runs in Rust without the GIL.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from uavsnn import _core
+from uavsnn.errors import ParameterError
+from uavsnn.events import _check_sensor_size, packed_bytes
+
+__all__ = ["DEFAULTS", "MAX_PIXELS", "RotorEstimate", "RotorSignature", "rotor_signature"]
+
+_D = _core.rotor_defaults()
+#: The estimator's default parameters (from the engine).
+DEFAULTS: dict[str, float | int] = {k: v for k, v in _D.items() if k != "max_pixels"}
+#: The largest box one estimator may follow, in pixels.
+MAX_PIXELS: int = int(_D["max_pixels"])
+
+
+@dataclass(frozen=True)
+class RotorEstimate:
+    """The rotor signature of a box.
+
+    Attributes:
+        frequency_hz: the strongest peak's frequency (0.0 when no interval voted).
+        strength: the peak's votes over every interval measured, in ``[0, 1]``.
+        pixels: pixels whose latest voting frequency is within ``agree`` of the peak.
+        peak_votes: votes in the peak's three-bin window.
+        votes: votes in the whole band.
+        intervals: intervals measured (pairs of same-direction edges of a pixel).
+        detected: ``strength >= threshold`` and ``pixels >= min_pixels``.
+    """
+
+    frequency_hz: float
+    strength: float
+    pixels: int
+    peak_votes: int
+    votes: int
+    intervals: int
+    detected: bool
+
+
+def _box(box: object) -> tuple[int, int, int, int]:
+    try:
+        x0, y0, width, height = (int(v) for v in box)  # type: ignore[attr-defined]
+    except (TypeError, ValueError) as exc:
+        raise ParameterError(f"box must be (x0, y0, width, height), got {box!r}") from exc
+    return x0, y0, width, height
+
+
+class RotorSignature:
+    """A rotor-signature estimator over one box of pixels (or a whole sensor).
+
+    Args:
+        box: ``(x0, y0, width, height)`` in sensor pixels; events outside it are counted and
+            ignored.
+        f_min_hz, f_max_hz: the band searched (default 50–1000 Hz).
+        bins: logarithmic histogram bins over the band (default 64).
+        consistency: largest relative change between a pixel's successive periods for a vote
+            (default 0.1).
+        agree: largest relative distance of a pixel's frequency to the peak for it to agree
+            (default 0.05).
+        threshold: detection threshold on the strength (default: the documented one).
+        min_pixels: fewest agreeing pixels for a detection (default 3).
+
+    Raises:
+        ParameterError: a parameter out of range, or an empty or oversized box.
+    """
+
+    def __init__(
+        self,
+        box: tuple[int, int, int, int],
+        *,
+        f_min_hz: float = float(DEFAULTS["f_min_hz"]),
+        f_max_hz: float = float(DEFAULTS["f_max_hz"]),
+        bins: int = int(DEFAULTS["bins"]),
+        consistency: float = float(DEFAULTS["consistency"]),
+        agree: float = float(DEFAULTS["agree"]),
+        threshold: float = float(DEFAULTS["threshold"]),
+        min_pixels: int = int(DEFAULTS["min_pixels"]),
+    ) -> None:
+        x0, y0, width, height = _box(box)
+        try:
+            args = (float(f_min_hz), float(f_max_hz), int(bins), float(consistency))
+            rest = (float(agree), float(threshold), int(min_pixels))
+        except (TypeError, ValueError, OverflowError) as exc:
+            raise ParameterError(f"rotor signature parameters must be numbers: {exc}") from exc
+        self._inner = _core.RotorSignature(x0, y0, width, height, *args, *rest)
+
+    @classmethod
+    def for_sensor(cls, sensor_size: tuple[int, int], **params: Any) -> RotorSignature:
+        """An estimator over a whole ``(width, height)`` sensor."""
+        width, height = _check_sensor_size(sensor_size)
+        return cls((0, 0, width, height), **params)
+
+    def update(self, events: np.ndarray) -> None:
+        """Feed events of the canonical dtype, in time order (earlier ones are counted as late
+        and ignored).
+
+        Raises:
+            EventError: not a 1-D array of the canonical dtype.
+        """
+        self._inner.update(packed_bytes(events))
+
+    def estimate(self) -> RotorEstimate:
+        """The estimate from everything fed since construction or the last :meth:`clear`."""
+        return RotorEstimate(*self._inner.estimate())
+
+    def clear(self) -> None:
+        """Forget every event (the state keeps its size)."""
+        self._inner.clear()
+
+    @property
+    def box(self) -> tuple[int, int, int, int]:
+        """``(x0, y0, width, height)``."""
+        return self._inner.box
+
+    @property
+    def stats(self) -> dict[str, int]:
+        """Events used, outside the box, and late (earlier than the latest seen)."""
+        events, outside, late = self._inner.stats
+        return {"events": events, "outside": outside, "late": late}
+
+    @property
+    def state_bytes(self) -> int:
+        """Bytes of state, fixed at construction."""
+        return self._inner.state_bytes
+
+
+def rotor_signature(
+    events: np.ndarray, box: tuple[int, int, int, int], **params: Any
+) -> RotorEstimate:
+    """The rotor signature of ``events`` (canonical dtype, time order) inside ``box``; ``params``
+    as :class:`RotorSignature`'s."""
+    estimator = RotorSignature(box, **params)
+    estimator.update(events)
+    return estimator.estimate()

@@ -1,0 +1,152 @@
+//! Bindings for `signature`: the rotor-signature estimator over a box.
+//!
+//! Events cross as the packed bytes of the canonical dtype (read in place); the estimate comes
+//! back as a tuple that `uavsnn.signature.RotorEstimate` names.
+
+use numpy::PyReadonlyArray1;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use super::errors::detach;
+use crate::error::{Error, Result};
+use crate::events::PackedEvents;
+use crate::signature::{Region, RotorConfig, RotorSignature};
+
+/// `(frequency_hz, strength, pixels, peak_votes, votes, intervals, detected)`.
+type EstimateTuple = (f64, f64, u32, u64, u64, u64, bool);
+
+fn coordinate(name: &'static str, value: i64) -> Result<u16> {
+    u16::try_from(value)
+        .map_err(|_| Error::param(name, format!("must be in 0..=65535, got {value}")))
+}
+
+/// The estimator's defaults, as a dict (the single source of the Python defaults).
+#[pyfunction]
+fn rotor_defaults(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
+    let c = RotorConfig::default();
+    let d = PyDict::new(py);
+    d.set_item("f_min_hz", c.f_min_hz)?;
+    d.set_item("f_max_hz", c.f_max_hz)?;
+    d.set_item("bins", c.bins)?;
+    d.set_item("consistency", c.consistency)?;
+    d.set_item("agree", c.agree)?;
+    d.set_item("threshold", c.threshold)?;
+    d.set_item("min_pixels", c.min_pixels)?;
+    d.set_item("max_pixels", crate::signature::MAX_PIXELS)?;
+    Ok(d)
+}
+
+/// A rotor-signature estimator over the box `x0, y0, width, height`.
+#[pyclass(name = "RotorSignature", module = "uavsnn._core")]
+struct PyRotorSignature {
+    inner: RotorSignature,
+}
+
+#[pymethods]
+impl PyRotorSignature {
+    #[new]
+    #[pyo3(signature = (x0, y0, width, height, f_min_hz, f_max_hz, bins, consistency, agree, threshold, min_pixels))]
+    fn new(
+        py: Python<'_>,
+        x0: i64,
+        y0: i64,
+        width: i64,
+        height: i64,
+        f_min_hz: f64,
+        f_max_hz: f64,
+        bins: i64,
+        consistency: f64,
+        agree: f64,
+        threshold: f64,
+        min_pixels: i64,
+    ) -> PyResult<Self> {
+        let inner = detach(py, || {
+            let region = Region::new(
+                coordinate("box", x0)?,
+                coordinate("box", y0)?,
+                coordinate("box", width)?,
+                coordinate("box", height)?,
+            )?;
+            let config = RotorConfig {
+                f_min_hz,
+                f_max_hz,
+                bins: usize::try_from(bins).map_err(|_| {
+                    Error::param("bins", format!("must be in 3..=4096, got {bins}"))
+                })?,
+                consistency,
+                agree,
+                threshold,
+                min_pixels: u32::try_from(min_pixels).map_err(|_| {
+                    Error::param(
+                        "min_pixels",
+                        format!("must be in 0..=2**32-1, got {min_pixels}"),
+                    )
+                })?,
+            };
+            RotorSignature::new(config, region)
+        })?;
+        Ok(Self { inner })
+    }
+
+    /// Feed packed canonical event records (a `uint8` view of the canonical dtype).
+    fn update(&mut self, py: Python<'_>, events: PyReadonlyArray1<'_, u8>) -> PyResult<()> {
+        let raw = events.as_slice()?;
+        let inner = &mut self.inner;
+        detach(py, || {
+            let packed = PackedEvents::new(raw)?;
+            inner.extend(&packed);
+            Ok(())
+        })
+    }
+
+    /// The estimate from everything fed so far.
+    fn estimate(&self, py: Python<'_>) -> PyResult<EstimateTuple> {
+        let inner = &self.inner;
+        detach(py, || {
+            let s = inner.estimate();
+            Ok((
+                s.frequency_hz,
+                s.strength,
+                s.pixels,
+                s.peak_votes,
+                s.votes,
+                s.intervals,
+                s.detected,
+            ))
+        })
+    }
+
+    /// Forget every event.
+    fn clear(&mut self, py: Python<'_>) -> PyResult<()> {
+        let inner = &mut self.inner;
+        detach(py, || {
+            inner.clear();
+            Ok(())
+        })
+    }
+
+    /// `(x0, y0, width, height)`.
+    #[getter]
+    fn r#box(&self) -> (u16, u16, u16, u16) {
+        let r = self.inner.region();
+        (r.x0, r.y0, r.width, r.height)
+    }
+
+    /// `(events, outside, late)` since construction or the last clear.
+    #[getter]
+    fn stats(&self) -> (u64, u64, u64) {
+        let s = self.inner.stats();
+        (s.events, s.outside, s.late)
+    }
+
+    #[getter]
+    fn state_bytes(&self) -> usize {
+        self.inner.state_bytes()
+    }
+}
+
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<PyRotorSignature>()?;
+    m.add_function(wrap_pyfunction!(rotor_defaults, m)?)?;
+    Ok(())
+}

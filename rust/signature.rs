@@ -1,0 +1,728 @@
+//! Rotor signature: a periodicity estimate, event by event, over the pixels of a box.
+//!
+//! A multirotor's propellers modulate the light of the pixels they cover at the blade-pass
+//! frequency (about 200–520 Hz for two blades, harmonics above), far above a bird's wing beat
+//! (2–15 Hz); an event camera resolves it (SPEC §3, "Detection, then identification"). This module
+//! measures it from the raw events of a box, with a fixed amount of state sized at construction,
+//! no allocation per event and a few comparisons per event.
+//!
+//! # The estimator
+//!
+//! In the spirit of `FrequencyCam` (Pfrommer, 2022), each pixel's brightness is followed through
+//! the sign of its events, and its period is the time between two brightness crossings of the
+//! same direction. Where `FrequencyCam` reconstructs the brightness with an IIR filter and looks
+//! for zero crossings, this estimator takes the crossings directly from the polarity runs: a
+//! pixel under a flickering light (or a passing blade) gives a run of ON events then a run of
+//! OFF events every cycle, so a *rising edge* is the first ON event after an OFF one and a
+//! *falling edge* the first OFF event after an ON one. Per pixel it keeps the time of its last
+//! rising and last falling edge and the last interval between edges of each kind (32 bytes).
+//!
+//! An interval between two edges of the same kind is a period candidate. It **votes** when it
+//! lies in the band (`1/f_max_hz ..= 1/f_min_hz`, widened by `consistency` on both sides so that
+//! a jittered period at the band's edge still votes, in the edge bin) and agrees with the pixel's
+//! previous interval of the same kind within `consistency` (relative): a periodic pixel repeats
+//! its period, a noisy one rarely does. A vote adds its frequency `1/interval` to a histogram of
+//! `bins` logarithmic bins over the band (`sum` and `count` per bin).
+//!
+//! # The output ([`Signature`])
+//!
+//! - **frequency**: the mean frequency of the votes in the best window of three adjacent bins
+//!   (the window with the most votes); the mean, not the bin centre, so the answer is not
+//!   quantised to the bins.
+//! - **strength**: the votes in that window divided by every interval measured in the box (in
+//!   the band or not, consistent or not), in `[0, 1]`. A pixel flickering at one frequency gives
+//!   about 1; uniform noise spreads its few consistent intervals over the band and gives a small
+//!   value (measured in `docs/identification.md`).
+//! - **pixels**: how many pixels agree: their latest voting interval is within `agree`
+//!   (relative) of the frequency.
+//! - **detected**: `strength >= threshold` and `pixels >= min_pixels`. The default threshold
+//!   ([`DEFAULT_THRESHOLD`]) was chosen on noise seeds that no test uses (the command is in
+//!   `docs/identification.md`).
+//!
+//! State accumulates from construction or the last [`RotorSignature::clear`]: feed it the events
+//! of one detection's box over one window (or a longer stretch), read [`RotorSignature::estimate`],
+//! then clear it.
+//!
+//! Events outside the box are counted and ignored; an event earlier than the latest one seen is
+//! counted as late and ignored (the estimator never panics, whatever the sequence).
+
+use crate::error::{Error, Result};
+use crate::events::{Event, EventSource, SensorSize};
+
+/// The largest number of pixels one estimator may follow (a 2048×2048 box, 128 MiB of state).
+pub const MAX_PIXELS: usize = 1 << 22;
+
+/// The default detection threshold on [`Signature::strength`] (see the module's documentation
+/// and `docs/identification.md` for how it was chosen).
+pub const DEFAULT_THRESHOLD: f64 = 0.1;
+
+/// Parameters of the estimator. [`RotorConfig::default`] gives the documented defaults.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RotorConfig {
+    /// Lowest frequency searched, in Hz (default 50).
+    pub f_min_hz: f64,
+    /// Highest frequency searched, in Hz (default 1000).
+    pub f_max_hz: f64,
+    /// Number of logarithmic bins over the band (default 64: 4.8 % per bin over 50–1000 Hz).
+    pub bins: usize,
+    /// Largest relative difference between a pixel's two successive intervals of the same kind
+    /// for the second to vote (default 0.1).
+    pub consistency: f64,
+    /// Largest relative difference between a pixel's latest voting frequency and the box's for
+    /// the pixel to agree (default 0.05).
+    pub agree: f64,
+    /// Detection threshold on the strength (default [`DEFAULT_THRESHOLD`]).
+    pub threshold: f64,
+    /// Fewest agreeing pixels for a detection (default 3).
+    pub min_pixels: u32,
+}
+
+impl Default for RotorConfig {
+    fn default() -> Self {
+        Self {
+            f_min_hz: 50.0,
+            f_max_hz: 1000.0,
+            bins: 64,
+            consistency: 0.1,
+            agree: 0.05,
+            threshold: DEFAULT_THRESHOLD,
+            min_pixels: 3,
+        }
+    }
+}
+
+impl RotorConfig {
+    /// Check every parameter.
+    ///
+    /// # Errors
+    ///
+    /// [`Error::InvalidParameter`] naming the parameter when a frequency is not finite or not
+    /// positive, `f_min_hz >= f_max_hz`, `f_max_hz` is above 500 kHz (a period under 2 µs, below
+    /// the timestamps' resolution), `bins` is outside `3..=4096`, or `consistency`, `agree` or
+    /// `threshold` is not finite or outside `[0, 1]`.
+    pub fn validate(&self) -> Result<()> {
+        for (name, v) in [("f_min_hz", self.f_min_hz), ("f_max_hz", self.f_max_hz)] {
+            if !v.is_finite() || v <= 0.0 {
+                return Err(Error::param(
+                    name,
+                    format!("must be finite and > 0, got {v}"),
+                ));
+            }
+        }
+        if self.f_min_hz >= self.f_max_hz {
+            return Err(Error::param(
+                "f_min_hz",
+                format!(
+                    "must be below f_max_hz, got {} >= {}",
+                    self.f_min_hz, self.f_max_hz
+                ),
+            ));
+        }
+        if self.f_max_hz > 500_000.0 {
+            return Err(Error::param(
+                "f_max_hz",
+                format!("must be <= 500000 (a 2 µs period), got {}", self.f_max_hz),
+            ));
+        }
+        if !(3..=4096).contains(&self.bins) {
+            return Err(Error::param(
+                "bins",
+                format!("must be in 3..=4096, got {}", self.bins),
+            ));
+        }
+        for (name, v) in [
+            ("consistency", self.consistency),
+            ("agree", self.agree),
+            ("threshold", self.threshold),
+        ] {
+            if !v.is_finite() || !(0.0..=1.0).contains(&v) {
+                return Err(Error::param(name, format!("must be in [0, 1], got {v}")));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The rectangle of pixels an estimator follows: columns `x0..x0 + width`, rows `y0..y0 + height`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Region {
+    pub x0: u16,
+    pub y0: u16,
+    pub width: u16,
+    pub height: u16,
+}
+
+impl Region {
+    /// A region, rejecting an empty one, one that overflows the 16-bit coordinates, or one of more
+    /// than [`MAX_PIXELS`] pixels.
+    ///
+    /// # Errors
+    ///
+    /// [`Error::InvalidParameter`] (`box`) for the cases above.
+    pub fn new(x0: u16, y0: u16, width: u16, height: u16) -> Result<Self> {
+        if width == 0 || height == 0 {
+            return Err(Error::param(
+                "box",
+                format!("width and height must be positive, got {width}x{height}"),
+            ));
+        }
+        if x0 as u32 + width as u32 > 65_536 || y0 as u32 + height as u32 > 65_536 {
+            return Err(Error::param(
+                "box",
+                format!("({x0}, {y0}) + {width}x{height} leaves the 16-bit coordinates"),
+            ));
+        }
+        let area = width as usize * height as usize;
+        if area > MAX_PIXELS {
+            return Err(Error::param(
+                "box",
+                format!("{width}x{height} = {area} pixels is above the cap of {MAX_PIXELS}"),
+            ));
+        }
+        Ok(Self {
+            x0,
+            y0,
+            width,
+            height,
+        })
+    }
+
+    /// The whole sensor.
+    ///
+    /// # Errors
+    ///
+    /// As [`Region::new`].
+    pub fn sensor(sensor: SensorSize) -> Result<Self> {
+        Self::new(0, 0, sensor.width, sensor.height)
+    }
+
+    /// Number of pixels.
+    pub fn area(self) -> usize {
+        self.width as usize * self.height as usize
+    }
+
+    /// Row-major index of a pixel inside the region, or `None` outside it.
+    #[inline]
+    fn index(self, x: u16, y: u16) -> Option<usize> {
+        let dx = x.wrapping_sub(self.x0);
+        let dy = y.wrapping_sub(self.y0);
+        (x >= self.x0 && y >= self.y0 && dx < self.width && dy < self.height)
+            .then(|| dy as usize * self.width as usize + dx as usize)
+    }
+}
+
+/// The estimate for a box.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Signature {
+    /// The frequency of the strongest peak, in Hz (0 when nothing voted).
+    pub frequency_hz: f64,
+    /// Votes in the peak's window over every interval measured, in `[0, 1]`.
+    pub strength: f64,
+    /// Pixels whose latest voting frequency agrees with `frequency_hz`.
+    pub pixels: u32,
+    /// Votes in the peak's window.
+    pub peak_votes: u64,
+    /// Votes in the whole band.
+    pub votes: u64,
+    /// Intervals measured (every pair of same-kind edges of a pixel).
+    pub intervals: u64,
+    /// Whether the peak passes the detection rule (`strength >= threshold`, `pixels >=
+    /// min_pixels`).
+    pub detected: bool,
+}
+
+/// Counters of what the estimator was fed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct RotorStats {
+    /// Events inside the box, in time order (those that updated a pixel).
+    pub events: u64,
+    /// Events outside the box (ignored).
+    pub outside: u64,
+    /// Events earlier than the latest seen (ignored).
+    pub late: u64,
+}
+
+/// Marks "no edge yet" in a pixel's edge times.
+const NO_EDGE: u64 = u64::MAX;
+
+/// One pixel's state: 32 bytes.
+#[derive(Debug, Clone, Copy)]
+struct Pixel {
+    /// Time of the last rising (OFF→ON) and falling (ON→OFF) edge, or [`NO_EDGE`].
+    edge_t: [u64; 2],
+    /// The last in-band interval between edges of each kind, µs (0: none).
+    interval: [f32; 2],
+    /// The pixel's latest voting frequency, Hz (0: none).
+    frequency: f32,
+    /// Polarity of the last event: 0 none, 1 OFF, 2 ON.
+    polarity: u8,
+}
+
+impl Pixel {
+    const EMPTY: Self = Self {
+        edge_t: [NO_EDGE; 2],
+        interval: [0.0; 2],
+        frequency: 0.0,
+        polarity: 0,
+    };
+}
+
+/// A rotor-signature estimator over one box: fixed state, sized at construction.
+#[derive(Debug, Clone)]
+pub struct RotorSignature {
+    config: RotorConfig,
+    region: Region,
+    pixels: Vec<Pixel>,
+    count: Vec<u32>,
+    sum: Vec<f64>,
+    /// Band limits as periods in µs, widened by `consistency`.
+    min_period: f32,
+    max_period: f32,
+    ln_f_min: f32,
+    inv_bin_width: f32,
+    intervals: u64,
+    votes: u64,
+    last_t: u64,
+    stats: RotorStats,
+}
+
+impl RotorSignature {
+    /// An estimator over `region`, all state allocated here (`32 × area` bytes for the pixels,
+    /// `12 × bins` for the histogram).
+    ///
+    /// # Errors
+    ///
+    /// [`Error::InvalidParameter`] when the configuration is invalid ([`RotorConfig::validate`]).
+    pub fn new(config: RotorConfig, region: Region) -> Result<Self> {
+        config.validate()?;
+        let ln_min = config.f_min_hz.ln();
+        let ln_max = config.f_max_hz.ln();
+        Ok(Self {
+            config,
+            region,
+            pixels: vec![Pixel::EMPTY; region.area()],
+            count: vec![0; config.bins],
+            sum: vec![0.0; config.bins],
+            min_period: (1e6 / (config.f_max_hz * (1.0 + config.consistency))) as f32,
+            max_period: (1e6 * (1.0 + config.consistency) / config.f_min_hz) as f32,
+            ln_f_min: ln_min as f32,
+            inv_bin_width: (config.bins as f64 / (ln_max - ln_min)) as f32,
+            intervals: 0,
+            votes: 0,
+            last_t: 0,
+            stats: RotorStats::default(),
+        })
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &RotorConfig {
+        &self.config
+    }
+
+    /// The box followed.
+    pub fn region(&self) -> Region {
+        self.region
+    }
+
+    /// What the estimator was fed since construction or the last [`clear`](Self::clear).
+    pub fn stats(&self) -> RotorStats {
+        self.stats
+    }
+
+    /// Bytes of state held (fixed at construction).
+    pub fn state_bytes(&self) -> usize {
+        self.pixels.capacity() * std::mem::size_of::<Pixel>()
+            + self.count.capacity() * std::mem::size_of::<u32>()
+            + self.sum.capacity() * std::mem::size_of::<f64>()
+    }
+
+    /// Forget every event (the state keeps its size).
+    pub fn clear(&mut self) {
+        self.pixels.fill(Pixel::EMPTY);
+        self.count.fill(0);
+        self.sum.fill(0.0);
+        self.intervals = 0;
+        self.votes = 0;
+        self.last_t = 0;
+        self.stats = RotorStats::default();
+    }
+
+    /// Feed one event.
+    #[inline]
+    pub fn push(&mut self, e: Event) {
+        let Some(i) = self.region.index(e.x, e.y) else {
+            self.stats.outside += 1;
+            return;
+        };
+        if e.t < self.last_t {
+            self.stats.late += 1;
+            return;
+        }
+        self.last_t = e.t;
+        self.stats.events += 1;
+        let px = &mut self.pixels[i];
+        let polarity = 1 + u8::from(e.p);
+        let before = px.polarity;
+        px.polarity = polarity;
+        if before == polarity || before == 0 {
+            return;
+        }
+        // An edge: rising (kind 1) when the run turns ON, falling (kind 0) when it turns OFF.
+        let kind = usize::from(e.p);
+        let last = px.edge_t[kind];
+        px.edge_t[kind] = e.t;
+        if last == NO_EDGE {
+            return;
+        }
+        self.intervals += 1;
+        let dt = (e.t - last) as f32;
+        if dt < self.min_period || dt > self.max_period {
+            px.interval[kind] = 0.0;
+            return;
+        }
+        let previous = px.interval[kind];
+        px.interval[kind] = dt;
+        if previous <= 0.0 || (dt - previous).abs() > self.config.consistency as f32 * previous {
+            return;
+        }
+        let f = 1e6 / dt;
+        let bin =
+            (((f.ln() - self.ln_f_min) * self.inv_bin_width) as usize).min(self.count.len() - 1);
+        self.count[bin] += 1;
+        self.sum[bin] += f as f64;
+        self.votes += 1;
+        px.frequency = f;
+    }
+
+    /// Feed a sequence of events (any layout: a slice, packed NumPy records).
+    pub fn extend<S: EventSource + ?Sized>(&mut self, events: &S) {
+        for i in 0..events.len() {
+            self.push(events.get(i));
+        }
+    }
+
+    /// The estimate from everything fed so far (costs one pass over the box's pixels).
+    pub fn estimate(&self) -> Signature {
+        let n = self.count.len();
+        let window = |i: usize| -> (u64, f64) {
+            let lo = i.saturating_sub(1);
+            let hi = (i + 1).min(n - 1);
+            (lo..=hi).fold((0, 0.0), |(c, s), j| {
+                (c + u64::from(self.count[j]), s + self.sum[j])
+            })
+        };
+        let mut best = (0u64, 0.0f64);
+        for i in 0..n {
+            let w = window(i);
+            if w.0 > best.0 {
+                best = w;
+            }
+        }
+        let (peak_votes, sum) = best;
+        if peak_votes == 0 {
+            return Signature {
+                intervals: self.intervals,
+                votes: self.votes,
+                ..Signature::default()
+            };
+        }
+        let frequency_hz = sum / peak_votes as f64;
+        let strength = peak_votes as f64 / self.intervals.max(1) as f64;
+        let tolerance = self.config.agree * frequency_hz;
+        let pixels = self
+            .pixels
+            .iter()
+            .filter(|p| {
+                p.frequency > 0.0 && (f64::from(p.frequency) - frequency_hz).abs() <= tolerance
+            })
+            .count() as u32;
+        Signature {
+            frequency_hz,
+            strength,
+            pixels,
+            peak_votes,
+            votes: self.votes,
+            intervals: self.intervals,
+            detected: strength >= self.config.threshold && pixels >= self.config.min_pixels,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_pcg::Pcg64;
+
+    /// Pixels of a `side`×`side` block flickering at `f` Hz: per cycle a run of `run` ON events
+    /// then `run` OFF events, every edge jittered by `jitter` (relative to the period), each pixel
+    /// with its own phase. Sorted by time.
+    fn flicker(
+        f: f64,
+        side: u16,
+        duration_us: u64,
+        run: usize,
+        jitter: f64,
+        seed: u64,
+    ) -> Vec<Event> {
+        let mut rng = Pcg64::seed_from_u64(seed);
+        let period = 1e6 / f;
+        let mut out = Vec::new();
+        for y in 0..side {
+            for x in 0..side {
+                let phase = rng.random::<f64>() * period;
+                let mut k = 0.0;
+                loop {
+                    let start = phase + k * period;
+                    if start >= duration_us as f64 {
+                        break;
+                    }
+                    for (half, p) in [(0.0, true), (0.5, false)] {
+                        let edge = start
+                            + half * period
+                            + (rng.random::<f64>() - 0.5) * 2.0 * jitter * period;
+                        for r in 0..run {
+                            let t = edge + r as f64 * period * 0.02;
+                            if t >= 0.0 && t < duration_us as f64 {
+                                out.push(Event {
+                                    t: t as u64,
+                                    x,
+                                    y,
+                                    p,
+                                });
+                            }
+                        }
+                    }
+                    k += 1.0;
+                }
+            }
+        }
+        out.sort_by_key(|e| e.t);
+        out
+    }
+
+    fn noise(rate_hz: f64, side: u16, duration_us: u64, seed: u64) -> Vec<Event> {
+        let mut rng = Pcg64::seed_from_u64(seed);
+        let n = (rate_hz * duration_us as f64 * 1e-6) as usize;
+        let mut out: Vec<Event> = (0..n)
+            .map(|_| Event {
+                t: rng.random_range(0..duration_us),
+                x: rng.random_range(0..side),
+                y: rng.random_range(0..side),
+                p: rng.random(),
+            })
+            .collect();
+        out.sort_by_key(|e| e.t);
+        out
+    }
+
+    fn run(events: &[Event], side: u16) -> Signature {
+        let mut s = RotorSignature::new(
+            RotorConfig::default(),
+            Region::new(0, 0, side, side).unwrap(),
+        )
+        .unwrap();
+        s.extend(events);
+        s.estimate()
+    }
+
+    #[test]
+    fn finds_the_flicker_frequency_within_two_percent() {
+        for (i, f) in [50.0, 73.0, 120.0, 200.0, 333.0, 520.0, 777.0, 1000.0]
+            .into_iter()
+            .enumerate()
+        {
+            let events = flicker(f, 8, 200_000, 3, 0.01, 1000 + i as u64);
+            let s = run(&events, 8);
+            assert!((s.frequency_hz - f).abs() <= 0.02 * f, "{f} Hz: {s:?}");
+            assert!(s.detected, "{f} Hz: {s:?}");
+            assert!(s.pixels >= 32, "{f} Hz: {s:?}");
+        }
+    }
+
+    #[test]
+    fn uniform_noise_raises_no_peak() {
+        // Seeds 1000.. (the threshold was chosen on seeds 0..199 by benches/python/rotor_noise.py).
+        for seed in 1000..1010 {
+            for rate in [1e3, 1e4, 1e5, 1e6] {
+                let s = run(&noise(rate, 16, 200_000, seed), 16);
+                assert!(!s.detected, "rate {rate}, seed {seed}: {s:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn events_outside_the_box_and_late_ones_are_counted_and_ignored() {
+        let mut s = RotorSignature::new(RotorConfig::default(), Region::new(10, 20, 4, 4).unwrap())
+            .unwrap();
+        s.push(Event {
+            t: 5,
+            x: 9,
+            y: 20,
+            p: true,
+        });
+        s.push(Event {
+            t: 5,
+            x: 14,
+            y: 20,
+            p: true,
+        });
+        s.push(Event {
+            t: 5,
+            x: 10,
+            y: 24,
+            p: true,
+        });
+        s.push(Event {
+            t: 6,
+            x: 13,
+            y: 23,
+            p: true,
+        });
+        s.push(Event {
+            t: 4,
+            x: 13,
+            y: 23,
+            p: false,
+        });
+        assert_eq!(
+            s.stats(),
+            RotorStats {
+                events: 1,
+                outside: 3,
+                late: 1
+            }
+        );
+        s.clear();
+        assert_eq!(s.stats(), RotorStats::default());
+        assert_eq!(s.estimate(), Signature::default());
+    }
+
+    #[test]
+    fn bad_parameters_are_typed_errors() {
+        let ok = RotorConfig::default();
+        let region = Region::new(0, 0, 4, 4).unwrap();
+        for (config, name) in [
+            (
+                RotorConfig {
+                    f_min_hz: 0.0,
+                    ..ok
+                },
+                "f_min_hz",
+            ),
+            (
+                RotorConfig {
+                    f_min_hz: f64::NAN,
+                    ..ok
+                },
+                "f_min_hz",
+            ),
+            (
+                RotorConfig {
+                    f_max_hz: f64::INFINITY,
+                    ..ok
+                },
+                "f_max_hz",
+            ),
+            (
+                RotorConfig {
+                    f_min_hz: 1000.0,
+                    ..ok
+                },
+                "f_min_hz",
+            ),
+            (
+                RotorConfig {
+                    f_max_hz: 1e6,
+                    ..ok
+                },
+                "f_max_hz",
+            ),
+            (RotorConfig { bins: 2, ..ok }, "bins"),
+            (
+                RotorConfig {
+                    consistency: -0.1,
+                    ..ok
+                },
+                "consistency",
+            ),
+            (RotorConfig { agree: 1.5, ..ok }, "agree"),
+            (
+                RotorConfig {
+                    threshold: f64::NAN,
+                    ..ok
+                },
+                "threshold",
+            ),
+        ] {
+            match RotorSignature::new(config, region) {
+                Err(Error::InvalidParameter { name: got, .. }) => assert_eq!(got, name),
+                other => panic!("{config:?}: {other:?}"),
+            }
+        }
+        assert!(Region::new(0, 0, 0, 4).is_err());
+        assert!(Region::new(65_535, 0, 2, 4).is_err());
+        assert!(Region::new(0, 0, 4096, 2048).is_err());
+        assert!(Region::new(65_534, 0, 2, 4).is_ok());
+    }
+
+    #[test]
+    fn state_is_fixed_at_construction() {
+        let mut s = RotorSignature::new(RotorConfig::default(), Region::new(0, 0, 16, 16).unwrap())
+            .unwrap();
+        let before = s.state_bytes();
+        assert_eq!(before, 16 * 16 * 32 + 64 * 12);
+        s.extend(noise(1e6, 20, 100_000, 3).as_slice());
+        assert_eq!(s.state_bytes(), before);
+    }
+
+    mod properties {
+        use super::*;
+        use proptest::prelude::*;
+
+        proptest! {
+            #![proptest_config(ProptestConfig::with_cases(64))]
+
+            /// Any sequence (unsorted, outside the box, repeated times) never panics, leaves the
+            /// state's size alone, and gives a sane estimate.
+            #[test]
+            fn never_panics_and_stays_bounded(
+                events in proptest::collection::vec((any::<u64>(), 0u16..40, 0u16..40, any::<bool>()), 0..400),
+                sorted in any::<bool>(),
+                x0 in 0u16..20, y0 in 0u16..20, w in 1u16..20, h in 1u16..20,
+            ) {
+                let mut events: Vec<Event> = events.into_iter().map(|(t, x, y, p)| Event { t, x, y, p }).collect();
+                if sorted {
+                    events.sort_by_key(|e| e.t);
+                }
+                let mut s = RotorSignature::new(RotorConfig::default(), Region::new(x0, y0, w, h).unwrap()).unwrap();
+                let bytes = s.state_bytes();
+                s.extend(events.as_slice());
+                let est = s.estimate();
+                prop_assert_eq!(s.state_bytes(), bytes);
+                let st = s.stats();
+                prop_assert_eq!(st.events + st.outside + st.late, events.len() as u64);
+                prop_assert!((0.0..=1.0).contains(&est.strength));
+                prop_assert!(est.peak_votes <= est.votes && est.votes <= est.intervals);
+                prop_assert!(est.pixels as usize <= s.region().area());
+                prop_assert!(est.frequency_hz == 0.0 || (50.0 / 1.11..=1100.1).contains(&est.frequency_hz));
+            }
+
+            /// A single pixel with an exact period anywhere in the band comes back within 2 %.
+            #[test]
+            fn an_exact_period_comes_back(f in 50.0f64..1000.0, cycles in 4usize..40) {
+                let period = 1e6 / f;
+                let mut events = Vec::new();
+                for k in 0..cycles {
+                    let t = 1000.0 + k as f64 * period;
+                    events.push(Event { t: t as u64, x: 0, y: 0, p: true });
+                    events.push(Event { t: (t + period / 2.0) as u64, x: 0, y: 0, p: false });
+                }
+                let mut s = RotorSignature::new(RotorConfig::default(), Region::new(0, 0, 1, 1).unwrap()).unwrap();
+                s.extend(events.as_slice());
+                let est = s.estimate();
+                prop_assert!((est.frequency_hz - f).abs() <= 0.02 * f, "{} {:?}", f, est);
+            }
+        }
+    }
+}
