@@ -12,6 +12,9 @@ Spikes that share a timestamp are decided together, so a detection at time ``t``
 the first :meth:`Detector.push` that carries an event later than ``t`` (or by
 :meth:`Detector.flush` at the end of the stream). Memory stays bounded however long the stream.
 
+:class:`WindowGrouper` turns the spikes into one :class:`WindowReport` per window (the decision
+and the merged boxes), which is what ``uavsnn detect`` prints.
+
 Example::
 
     det = uavsnn.Detector(network, window_us=50_000, overlap=0.5)
@@ -26,6 +29,8 @@ from __future__ import annotations
 import json
 import os
 import time
+from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -37,7 +42,15 @@ from uavsnn.events import EVENT_DTYPE, _check_sensor_size, packed_bytes
 if TYPE_CHECKING:
     from uavsnn.network import Network
 
-__all__ = ["DETECTION_DTYPE", "MAX_LIVE_WINDOWS", "Detector"]
+__all__ = [
+    "DETECTION_DTYPE",
+    "MAX_LIVE_WINDOWS",
+    "Detector",
+    "WindowGrouper",
+    "WindowObject",
+    "WindowReport",
+    "merge_boxes",
+]
 
 #: The most windows a :class:`Detector` keeps live at once, ``ceil(1 / (1 - overlap))`` (the
 #: engine's limit): each holds a network state (about 0.5 MiB on a 240×180 sensor), so an
@@ -137,6 +150,7 @@ class Detector:
             json.dumps(network.config), *weights, int(window_us), float(overlap), start_us
         )
         self._network = network
+        self._start_us = start_us
         self._busy_ns = 0
 
     # ------------------------------------------------------------------ the stream
@@ -197,6 +211,11 @@ class Detector:
         return self._inner.sensor_size
 
     @property
+    def start_us(self) -> int | None:
+        """Start of window 0 as given, or ``None``: the first event's time."""
+        return self._start_us
+
+    @property
     def window_us(self) -> int:
         """Window length in microseconds."""
         return self._inner.window_us
@@ -253,3 +272,206 @@ class Detector:
             f"sensor_size={self.sensor_size}, events_seen={self.events_seen}, "
             f"windows_opened={self.windows_opened}, detections={self.detections_emitted})"
         )
+
+
+# ---------------------------------------------------------------------- one decision per window
+
+
+@dataclass(frozen=True)
+class WindowObject:
+    """One merged box of a window (see :func:`merge_boxes`) and the fields an identification
+    stage fills (``None`` until one exists: uavsnn does not guess them)."""
+
+    #: ``(x0, y0, x1, y1)``, half-open sensor pixels (``x0 <= x < x1``).
+    box: tuple[int, int, int, int]
+    #: conv3 spikes whose causal boxes were merged into this one.
+    spikes: int
+    uav_score: float | None = None
+    class_guess: str | None = None
+    track_id: int | None = None
+
+    @property
+    def centre(self) -> tuple[float, float]:
+        """The middle of :attr:`box` (it always lies inside the box)."""
+        x0, y0, x1, y1 = self.box
+        return (x0 + x1) / 2, (y0 + y1) / 2
+
+
+@dataclass(frozen=True)
+class WindowReport:
+    """The decision of one window ``[t0, t1)``: its conv3 spikes, merged into objects."""
+
+    window: int
+    t0: int
+    t1: int
+    #: At least ``min_detections`` conv3 spikes (the paper's rule, docs/model.md §5).
+    detected: bool
+    #: The window's spikes, as :meth:`Detector.push` returned them, in time order.
+    detections: np.ndarray
+    objects: tuple[WindowObject, ...]
+
+    @property
+    def spikes(self) -> int:
+        """Number of conv3 spikes in the window."""
+        return len(self.detections)
+
+
+def merge_boxes(detections: np.ndarray) -> tuple[WindowObject, ...]:
+    """Merge the causal boxes of some detections into objects.
+
+    The rule: two boxes that overlap or share an edge (half-open boxes ``a`` and ``b`` with
+    ``a.x0 <= b.x1``, ``b.x0 <= a.x1`` and the same in y) are replaced by their bounding box,
+    repeatedly, until no two boxes overlap or touch. Each object counts the spikes whose boxes
+    it absorbed. Objects come largest spike count first, then by ``x0, y0``. The result does
+    not depend on the order of ``detections``.
+    """
+    if len(detections) == 0:
+        return ()
+    raw = np.stack([detections[f].astype(np.int64) for f in ("x0", "y0", "x1", "y1")], axis=1)
+    boxes, counts = np.unique(raw, axis=0, return_counts=True)
+    while True:
+        merged_boxes: list[np.ndarray] = []
+        merged_counts: list[int] = []
+        rest, rest_n = boxes, counts
+        while len(rest):
+            cur, n = rest[0].copy(), int(rest_n[0])
+            rest, rest_n = rest[1:], rest_n[1:]
+            while len(rest):
+                hit = (
+                    (rest[:, 0] <= cur[2])
+                    & (cur[0] <= rest[:, 2])
+                    & (rest[:, 1] <= cur[3])
+                    & (cur[1] <= rest[:, 3])
+                )
+                if not hit.any():
+                    break
+                cur[:2] = np.minimum(cur[:2], rest[hit, :2].min(axis=0))
+                cur[2:] = np.maximum(cur[2:], rest[hit, 2:].max(axis=0))
+                n += int(rest_n[hit].sum())
+                rest, rest_n = rest[~hit], rest_n[~hit]
+            merged_boxes.append(cur)
+            merged_counts.append(n)
+        stable = len(merged_boxes) == len(boxes)
+        boxes, counts = np.array(merged_boxes), np.array(merged_counts)
+        if stable:  # a pass merged nothing: no two boxes touch
+            break
+    order = sorted(range(len(boxes)), key=lambda i: (-counts[i], *boxes[i][:2].tolist()))
+    objects = []
+    for i in order:
+        x0, y0, x1, y1 = (int(v) for v in boxes[i])
+        objects.append(WindowObject(box=(x0, y0, x1, y1), spikes=int(counts[i])))
+    return tuple(objects)
+
+
+class WindowGrouper:
+    """Group a :class:`Detector`'s spikes by window: one :class:`WindowReport` per window,
+    returned as soon as the window is closed (an event at or after its end has been pushed,
+    so every spike of it has been returned), or at the end of the stream.
+
+    A report is made for every window the detector opens, i.e. every window holding at least
+    one event (windows wholly inside a silent gap are skipped, as the detector skips them);
+    windows without a spike are reported with ``detected=False``.
+
+    Feed it every chunk the detector accepted, with what the detector returned::
+
+        det = Detector(network)
+        windows = WindowGrouper.of(det)
+        for chunk in source:
+            for w in windows.add(chunk, det.push(chunk)):
+                print(w.window, w.detected, [o.box for o in w.objects])
+        for w in windows.finish(det.flush()):
+            ...
+
+    Args:
+        window_us, step_us: the detector's window length and step.
+        start_us: start of window 0, or ``None`` for the first event's time.
+        min_detections: conv3 spikes that make a window a detection.
+    """
+
+    def __init__(
+        self, window_us: int, step_us: int, *, start_us: int | None = None, min_detections: int = 1
+    ) -> None:
+        if window_us < 1 or step_us < 1 or min_detections < 1:
+            raise ParameterError(
+                f"window_us, step_us and min_detections must be at least 1, got "
+                f"{window_us}, {step_us} and {min_detections}"
+            )
+        self.window_us = int(window_us)
+        self.step_us = int(step_us)
+        self.min_detections = int(min_detections)
+        self._start = None if start_us is None else int(start_us)
+        self._next = 0  # the first window not opened yet
+        self._open: list[int] = []  # opened, not yet reported, in order
+        self._found: dict[int, list[np.ndarray]] = {}
+
+    @classmethod
+    def of(cls, detector: Detector) -> WindowGrouper:
+        """A grouper for ``detector``'s windows, to be fed from its first push on."""
+        return cls(
+            detector.window_us,
+            detector.step_us,
+            start_us=detector.start_us,
+            min_detections=int(detector.network.config["detection"]["min_detections"]),
+        )
+
+    def add(self, events: np.ndarray, detections: np.ndarray) -> list[WindowReport]:
+        """Note a chunk the detector accepted and the detections it returned for it; return
+        the windows that chunk closed."""
+        self._note(detections)
+        if len(events) == 0:
+            return []
+        t = events["t"].astype(np.int64)
+        if self._start is None:
+            self._start = int(t[0])
+        t = t[t >= self._start] - self._start
+        if len(t) == 0:
+            return []
+        # The windows holding each event: lo..=hi (hi and lo never decrease along the chunk).
+        hi = t // self.step_us
+        lo = np.where(t >= self.window_us, (t - self.window_us) // self.step_us + 1, 0)
+        prev = np.concatenate([[self._next - 1], np.maximum.accumulate(hi)[:-1]])
+        first = np.maximum(lo, prev + 1)
+        for i in np.flatnonzero(first <= hi):
+            self._open.extend(range(int(first[i]), int(hi[i]) + 1))
+        self._next = max(self._next, int(hi[-1]) + 1)
+        # Window k is closed once an event at or after its end has been pushed.
+        last = int(t[-1])
+        closed = 0
+        while closed < len(self._open) and self._end(self._open[closed]) <= last:
+            closed += 1
+        return self._report(closed)
+
+    def finish(self, detections: np.ndarray) -> list[WindowReport]:
+        """The end of the stream: note the detections :meth:`Detector.flush` returned and
+        report every window still open."""
+        self._note(detections)
+        return self._report(len(self._open))
+
+    def _end(self, k: int) -> int:
+        return k * self.step_us + self.window_us
+
+    def _note(self, detections: np.ndarray) -> None:
+        if len(detections) == 0:
+            return
+        windows = detections["window"]
+        for k in np.unique(windows).tolist():
+            self._found.setdefault(int(k), []).append(detections[windows == k])
+
+    def _report(self, n: int) -> list[WindowReport]:
+        start = self._start or 0
+        out = []
+        for k in self._open[:n]:
+            parts: Sequence[np.ndarray] = self._found.pop(k, [])
+            spikes = np.concatenate(parts) if parts else _NO_DETECTIONS
+            out.append(
+                WindowReport(
+                    window=k,
+                    t0=start + k * self.step_us,
+                    t1=start + self._end(k),
+                    detected=len(spikes) >= self.min_detections,
+                    detections=spikes,
+                    objects=merge_boxes(spikes),
+                )
+            )
+        del self._open[:n]
+        return out

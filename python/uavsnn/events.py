@@ -208,6 +208,12 @@ def convert(
         if missing:
             raise EventError(f"layout {layout!r} needs fields {missing}, got {list(names)}")
         columns = [arr[n] for n in _ROLES[layout]]
+        for name, column in zip(_ROLES[layout], columns, strict=True):
+            if column.shape != arr.shape:  # a sub-array field, such as ('y', '<u2', (2,))
+                raise EventError(
+                    f"field {name!r} must hold one number per event, got {column.dtype} of "
+                    f"shape {column.shape[1:]} per event"
+                )
     else:
         if layout == "auto":
             raise EventError(

@@ -283,7 +283,8 @@ class StdinSource(EventSource):
                 continue
             try:
                 t, x, y, p = (int(v) for v in fields.split(b","))
-                if t < 0 or not (0 <= x < 65536 and 0 <= y < 65536):
+                # A time beyond 64 bits is as malformed as a negative one.
+                if not (0 <= t < 1 << 64 and 0 <= x < 65536 and 0 <= y < 65536):
                     raise ValueError
             except ValueError:
                 # The stream's first line may be a header; any other bad line is a drop.

@@ -4,8 +4,12 @@ SOURCE is a recording file (any format :func:`uavsnn.io.read` reads; as fast as 
 the recording's own pace with ``--realtime``), ``-`` for standard input (``--stdin-format
 packed``: canonical 13-byte records; ``csv``: ``t,x,y,p`` lines), or ``udp://HOST:PORT``
 receiving faery's or aestream's UDP packets (``--udp-format``; see :mod:`uavsnn.sources` for the
-exact layouts). Detections go to standard output as they happen, one line each (JSON lines with
-``--json``); a rate summary goes to standard error every ``--summary-every`` seconds and at the
+exact layouts). Standard output gets one line per window, as soon as the window closes: the
+decision, the count of conv3 spikes and their causal boxes merged into objects
+(:func:`uavsnn.detector.merge_boxes`), with the UAV score, class and track of each object left
+absent (``-``, JSON ``null``) until an identification stage fills them; ``--per-spike`` prints
+every conv3 spike instead, as it is decided; ``--json`` makes JSON lines of either. A rate
+summary goes to standard error every ``--summary-every`` seconds and at the
 end. Malformed packets, and chunks the detector rejects (an event outside the sensor, time going
 backwards), are counted as drops and skipped.
 """
@@ -42,7 +46,12 @@ SOURCE is one of:
 MODEL (--model) is a trained model file: 'uavsnn train DATASET -o MODEL' writes one, and
 'uavsnn demo --out DIR' writes DIR/model.npz (trained on its small built-in set).
 
-Detections go to standard output, one line each (JSON lines with --json); a rate summary goes
+Standard output gets one line per window when it closes: its decision (DETECTED when at least
+detection.min_detections conv3 neurons fire, else clear), the number of conv3 spikes, and
+their causal boxes merged into objects (boxes that overlap or touch are replaced by their
+bounding box until none do), each with its centre and spike count; uav_score, class and track
+print as '-' (null in JSON) until an identification stage fills them. --per-spike prints every
+conv3 spike instead, as it is decided. --json makes JSON lines of either. A rate summary goes
 to standard error. Malformed packets, and chunks the detector rejects (events outside the
 sensor, time going backwards), are counted as drops and skipped.
 """
@@ -65,7 +74,12 @@ def register(subparsers: Any) -> None:
         help="trained model file (.npz): written by 'uavsnn train DATASET -o MODEL', or "
         "DIR/model.npz by 'uavsnn demo --out DIR'",
     )
-    p.add_argument("--json", action="store_true", help="print detections as JSON lines")
+    p.add_argument("--json", action="store_true", help="print JSON lines instead of text")
+    p.add_argument(
+        "--per-spike",
+        action="store_true",
+        help="print every conv3 spike as it is decided instead of one line per window",
+    )
     p.add_argument(
         "--realtime", action="store_true", help="replay a file at its own pace (files only)"
     )
@@ -125,7 +139,12 @@ def _sensor_size(text: str | None) -> tuple[int, int] | None:
     return width, height
 
 
-def _format(d: np.void, as_json: bool) -> str:
+def _spike(d: np.void, as_json: bool) -> str:
+    """One conv3 spike (``--per-spike``). ``centre`` is the middle of the spike's causal box;
+    ``field`` the middle of the neuron's receptive field, which covers most of the sensor and
+    so usually lies outside the box (docs/streaming.md)."""
+    x0, y0, x1, y1 = int(d["x0"]), int(d["y0"]), int(d["x1"]), int(d["y1"])
+    cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
     if as_json:
         return json.dumps(
             {
@@ -134,16 +153,58 @@ def _format(d: np.void, as_json: bool) -> str:
                 "map": int(d["map"]),
                 "row": int(d["row"]),
                 "col": int(d["col"]),
-                "x": round(float(d["x"]), 2),
-                "y": round(float(d["y"]), 2),
-                "box": [int(d["x0"]), int(d["y0"]), int(d["x1"]), int(d["y1"])],
+                "box": [x0, y0, x1, y1],
+                "centre": [cx, cy],
+                "field_centre": [round(float(d["x"]), 2), round(float(d["y"]), 2)],
             }
         )
     return (
         f"t={int(d['t'])} window={int(d['window'])} map={int(d['map'])} "
-        f"x={float(d['x']):.1f} y={float(d['y']):.1f} "
-        f"box={int(d['x0'])},{int(d['y0'])},{int(d['x1'])},{int(d['y1'])}"
+        f"box={x0},{y0},{x1},{y1} centre={cx:.1f},{cy:.1f} "
+        f"field={float(d['x']):.1f},{float(d['y']):.1f}"
     )
+
+
+def _absent(value: object) -> str:
+    return "-" if value is None else str(value)
+
+
+def _window(w: Any, as_json: bool) -> str:
+    """One window's decision (the default output; docs/streaming.md "What detect prints")."""
+    if as_json:
+        return json.dumps(
+            {
+                "window": w.window,
+                "t0": w.t0,
+                "t1": w.t1,
+                "detected": w.detected,
+                "spikes": w.spikes,
+                "objects": [
+                    {
+                        "box": list(o.box),
+                        "centre": list(o.centre),
+                        "spikes": o.spikes,
+                        "uav_score": o.uav_score,
+                        "class": o.class_guess,
+                        "track": o.track_id,
+                    }
+                    for o in w.objects
+                ],
+            }
+        )
+    line = (
+        f"window={w.window} t={w.t0}..{w.t1} {'DETECTED' if w.detected else 'clear'} "
+        f"spikes={w.spikes} objects={len(w.objects)}"
+    )
+    for o in w.objects:
+        x0, y0, x1, y1 = o.box
+        cx, cy = o.centre
+        line += (
+            f" | box={x0},{y0},{x1},{y1} centre={cx:.1f},{cy:.1f} spikes={o.spikes} "
+            f"uav_score={_absent(o.uav_score)} class={_absent(o.class_guess)} "
+            f"track={_absent(o.track_id)}"
+        )
+    return line
 
 
 class _Summary:
@@ -207,7 +268,7 @@ def _check_args(args: argparse.Namespace) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run detection until the source ends (or Ctrl-C); returns the exit code."""
-    from uavsnn.detector import Detector
+    from uavsnn.detector import Detector, WindowGrouper
     from uavsnn.network import Network
     from uavsnn.sources import UdpSource, open_source
 
@@ -246,7 +307,18 @@ def run(args: argparse.Namespace) -> int:
             host, port = source.address
             print(f"uavsnn detect: listening on udp://{host}:{port}", file=err, flush=True)
         summary = _Summary(args.summary_every, err)
+        windows = WindowGrouper.of(detector)
         rejected = 0
+
+        def emit(events: np.ndarray | None, found: np.ndarray) -> None:
+            if args.per_spike:
+                for d in found:
+                    print(_spike(d, args.json), file=out, flush=True)
+                return
+            closed = windows.finish(found) if events is None else windows.add(events, found)
+            for w in closed:
+                print(_window(w, args.json), file=out, flush=True)
+
         try:
             for chunk in source:
                 try:
@@ -256,14 +328,11 @@ def run(args: argparse.Namespace) -> int:
                     if rejected <= 5:
                         print(f"uavsnn detect: dropped a chunk: {exc}", file=err, flush=True)
                     continue
-                for d in found:
-                    print(_format(d, args.json), file=out, flush=True)
+                emit(chunk, found)
                 summary.maybe(detector, source, rejected)
-            for d in detector.flush():
-                print(_format(d, args.json), file=out, flush=True)
+            emit(None, detector.flush())
         except KeyboardInterrupt:
-            for d in detector.flush():
-                print(_format(d, args.json), file=out, flush=True)
+            emit(None, detector.flush())
         except BrokenPipeError:
             # The reader went away (``| head``): stop quietly, as command-line tools do.
             os.dup2(os.open(os.devnull, os.O_WRONLY), out.fileno())
