@@ -423,3 +423,18 @@ def test_garbage_npy_and_folders_are_named_for_what_they_are(tmp_path: Path) -> 
         uio.read(folder)
     with pytest.raises(RecordingFileError, match="no such file"):
         uio.read(tmp_path / "absent.npz")
+
+
+def test_reading_a_recording_beyond_the_memory_limit_is_refused(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    path = tmp_path / "r.csv"
+    ev = _events(5_000)
+    path.write_text("".join(f"{e['t']},{e['x']},{e['y']},{int(e['p'])}\n" for e in ev))
+    assert len(uio.read(path, sensor_size=SIZE)) == 5_000
+    # 5,000 events of 13 bytes, held twice while they are joined: 130,000 bytes.
+    monkeypatch.setattr(uwindows, "MEMORY_LIMIT", 100_000)
+    with pytest.raises(RecordingFileError, match=r"more than [\d,]+ events .* shorter files"):
+        uio.read(path, sensor_size=SIZE)
+    monkeypatch.setattr(uwindows, "MEMORY_LIMIT", 130_000)
+    assert len(uio.read(path, sensor_size=SIZE)) == 5_000

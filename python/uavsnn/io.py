@@ -23,7 +23,9 @@ Every failure to read is a :class:`~uavsnn.RecordingFileError` naming the file: 
 of an unknown extension, truncated (RAW and DAT: a data section that is not a whole number of
 words; AEDAT4: a cut packet), or corrupt (undecodable, events off the sensor or out of order).
 A RAW file cut exactly on a word boundary is indistinguishable from a shorter recording: the
-format has no length field.
+format has no length field. A recording whose events would not fit in
+``uavsnn.windows.MEMORY_LIMIT`` (the machine's physical memory by default) is refused while it
+is read, before the allocation that would fail.
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ from __future__ import annotations
 import json
 import os
 import secrets
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -287,12 +290,11 @@ _EVT21_TIME_HIGH = 8
 _EVT21_CHUNK_WORDS = 1 << 18
 
 
-def _decode_evt21(file: Path, offset: int) -> np.ndarray:
+def _decode_evt21(file: Path, offset: int) -> Iterator[np.ndarray]:
     """The CD events of an EVT 2.1 data section, decoded in bounded chunks (faery 0.7 does not
     implement EVT 2.1). Events before the first TIME_HIGH word have no time and are skipped."""
     words = np.memmap(file, dtype="<u8", mode="r", offset=offset)
     high = -1  # the last TIME_HIGH value, -1 before the first
-    parts = []
     for start in range(0, len(words), _EVT21_CHUNK_WORDS):
         w = np.asarray(words[start : start + _EVT21_CHUNK_WORDS])
         kind = (w >> np.uint64(60)).astype(np.int64)
@@ -320,8 +322,7 @@ def _decode_evt21(file: Path, offset: int) -> np.ndarray:
         out["x"] = x0[row] + bit
         out["y"] = y[row]
         out["p"] = on[row]
-        parts.append(out)
-    return np.concatenate(parts) if parts else np.empty(0, EVENT_DTYPE)
+        yield out
 
 
 def _read_evt21(file: Path, header: dict[str, str], given: tuple[int, int] | None) -> Recording:
@@ -339,9 +340,12 @@ def _read_evt21(file: Path, header: dict[str, str], given: tuple[int, int] | Non
     else:
         sensor, source = FAERY_FALLBACK_SIZE, "fallback"
     try:
-        events = _decode_evt21(file, int(header["<data>"]))
+        chunks = _read_chunks(file, _decode_evt21(file, int(header["<data>"])))
+    except RecordingFileError:
+        raise
     except (ValueError, OSError) as exc:
         raise RecordingFileError(f"{file}: cannot decode as EVT 2.1: {exc}") from exc
+    events = np.concatenate(chunks) if chunks else np.empty(0, EVENT_DTYPE)
     metadata["sensor_size_source"] = source
     return _recording(file, events, sensor, metadata)
 
@@ -387,8 +391,8 @@ def _read_faery(file: Path, kind: str, size: int, given: tuple[int, int] | None)
             )
         else:
             stream = faery.events_stream_from_file(file, dimensions_fallback=sensor)
-        chunks = [np.ascontiguousarray(c).view(EVENT_DTYPE) for c in stream if len(c)]
-    except ParameterError:
+        chunks = _read_chunks(file, stream)
+    except (ParameterError, RecordingFileError):
         raise
     except (KeyboardInterrupt, SystemExit):
         raise
@@ -402,6 +406,29 @@ def _read_faery(file: Path, kind: str, size: int, given: tuple[int, int] | None)
     events = np.concatenate(chunks) if chunks else np.empty(0, EVENT_DTYPE)
     metadata["sensor_size_source"] = source
     return _recording(file, events, sensor, metadata)
+
+
+def _read_chunks(file: Path, stream: Any) -> list[np.ndarray]:
+    """The decoded chunks of a faery stream, refusing a recording whose events (twice: the
+    chunks, then the joined array) would exceed ``uavsnn.windows.MEMORY_LIMIT``."""
+    from uavsnn import windows
+
+    limit = windows.MEMORY_LIMIT
+    chunks = []
+    held = 0
+    for chunk in stream:
+        if not len(chunk):
+            continue
+        chunks.append(np.ascontiguousarray(chunk).view(EVENT_DTYPE))
+        held += chunks[-1].nbytes
+        if limit is not None and 2 * held > limit:
+            events = sum(len(c) for c in chunks)
+            raise RecordingFileError(
+                f"{file}: more than {events:,} events ({held / 2**30:.2f} GiB), more than fit "
+                f"in the {limit / 2**30:.2f} GiB allowed (uavsnn.windows.MEMORY_LIMIT): cut "
+                "the recording into shorter files (e.g. with faery's time slicing)"
+            )
+    return chunks
 
 
 def _check_csv(file: Path) -> bool:

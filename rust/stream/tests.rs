@@ -356,7 +356,7 @@ fn overlaps_with_too_many_live_windows_are_refused() {
     // 64 live windows at most: L / step = 6400 / 100.
     let most = 1.0 - 1.0 / MAX_LIVE_WINDOWS as f64;
     assert!(Detector::new(echo(), config(6400, most)).is_ok());
-    for overlap in [0.99, 0.9999, 0.9999999] {
+    for overlap in [0.99, 0.9999, 0.999_999_9] {
         let err = Detector::new(echo(), config(50_000, overlap))
             .err()
             .expect("refused");
