@@ -387,3 +387,35 @@ def test_bad_render_and_sampler_arguments() -> None:
         sample_spec("dvs", "uav", 42)  # type: ignore[arg-type]
     with pytest.raises(ParameterError):
         sample_spec("dvs", "uav", rng, min_object_px=0.0)
+
+
+def test_record_gives_events_and_labels_with_sub_frame_patches() -> None:
+    """record(): a hovering Tello's rotors are sampled between frames (patches around it),
+    the events are a Recording on the sensor, the labels those of render(), the same seed the
+    same events; a sensor that is not the scene's size is refused."""
+    from uavsnn.errors import ParameterError
+    from uavsnn.events import Recording
+    from uavsnn.scenes import record, render, sample_spec
+    from uavsnn.scenes.renderer import frames
+
+    spec = sample_spec("dvs", "uav", np.random.default_rng(3), duration_s=0.04)
+    assert any(o.rate_hz > 100 for o in spec.objects)
+    got = list(frames(spec, seed=1))
+    assert not got[0].patches
+    assert any(f.patches for f in got[1:])
+    for f in got[1:]:
+        for x0, y0, times, values in f.patches:
+            assert values.shape[0] == len(times) and values.dtype == np.float32
+            assert 0 <= x0 and x0 + values.shape[2] <= spec.width
+            assert 0 <= y0 and y0 + values.shape[1] <= spec.height
+            assert np.all(np.diff(times.astype(np.int64)) > 0)
+    whole, ts, labels = render(spec, seed=1)
+    assert np.array_equal(np.stack([f.image for f in got]), whole)
+    a = record(spec, sensor=(spec.width, spec.height), seed=5)
+    b = record(spec, sensor=(spec.width, spec.height), seed=5)
+    assert isinstance(a.recording, Recording) and len(a.recording.events) > 0
+    assert np.array_equal(a.recording.events, b.recording.events)
+    assert np.array_equal(a.timestamps_us, ts)
+    assert np.array_equal(a.labels, labels)
+    with pytest.raises(ParameterError, match="sensor"):
+        record(spec, sensor=(spec.width + 2, spec.height), seed=5)

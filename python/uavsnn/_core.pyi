@@ -243,9 +243,7 @@ class DvsKernel:
         self,
         frame: npt.NDArray[np.float32],
         t_us: int,
-        patches: list[
-            tuple[int, int, npt.NDArray[np.uint64], npt.NDArray[np.float32]]
-        ],
+        patches: list[tuple[int, int, npt.NDArray[np.uint64], npt.NDArray[np.float32]]],
     ) -> npt.NDArray[np.uint8]: ...
 
 # ---------------------------------------------------------------- streaming (issue 6)

@@ -95,6 +95,33 @@ def blade(
     return np.stack([a - n, b - n * 0.6, b + n * 0.6, a + n])
 
 
+#: A propeller blade's width at its root and its tip, as fractions of the rotor's radius
+#: (a 9.4-inch Phantom propeller: about 25 mm chord at 40 % of its 120 mm radius).
+BLADE_ROOT, BLADE_TIP = 0.16, 0.096
+#: The spinning disc a rotor's blades sweep: colour and opacity (a faint blur in any one frame).
+DISC_COLOR, DISC_ALPHA = (0.25, 0.25, 0.25), 0.22
+#: Blade colour and opacity.
+BLADE_COLOR, BLADE_ALPHA = (0.18, 0.18, 0.18), 0.9
+
+
+def rotor_parts(
+    hub: np.ndarray, radius: float, angle: float, blades: int = 2, *, disc: bool = True
+) -> list[Part]:
+    """A rotor in the horizontal plane at ``hub`` (body frame): its disc (the blur a video
+    camera's exposure makes; ``disc=False`` for an event camera, which sees the blades at each
+    instant), then ``blades`` blades at ``angle`` (radians) and evenly spaced from it."""
+    a = angle + 2 * np.pi * np.arange(blades) / blades
+    d = np.stack([np.cos(a), np.zeros(blades), np.sin(a)], axis=1)
+    nrm = np.stack([-np.sin(a), np.zeros(blades), np.cos(a)], axis=1) * (radius * BLADE_ROOT / 2)
+    tip = hub + d * radius
+    tip_w = BLADE_TIP / BLADE_ROOT
+    quads = np.stack([hub - nrm, tip - tip_w * nrm, tip + tip_w * nrm, hub + nrm], axis=1)
+    out = [Part(q, BLADE_COLOR, BLADE_ALPHA) for q in quads]
+    if disc:
+        out.insert(0, Part(_disc(tuple(hub), radius, n=20), DISC_COLOR, DISC_ALPHA))
+    return out
+
+
 class Model:
     """Base of the object models: ``parts(t, velocity) -> (parts, attitude)``."""
 
@@ -102,6 +129,11 @@ class Model:
     nominal = 1.0
     #: Drawn facing the camera whatever the line of sight (a sphere looks round from anywhere).
     faces_camera = False
+
+    def fast_hz(self) -> float:
+        """The highest rate at which the object's look repeats, in Hz: a rotor's blade pass,
+        a wing beat. Sub-frame samples of its patch follow it (0: nothing moves fast)."""
+        return float(self.obj.rate_hz)
 
     def __init__(self, obj: ObjectSpec) -> None:
         self.obj = obj
@@ -190,6 +222,10 @@ class Quadcopter(Model):
         # Neighbouring rotors turn in opposite directions; two blades each.
         self.turn = np.repeat([1.0, -1.0, 1.0, -1.0], 2)
         self.offset = np.repeat(np.arange(4.0), 2) + np.tile([0.0, math.pi], 4) + obj.phase
+
+    def fast_hz(self) -> float:
+        """Two blades per rotor: the blade pass is twice the rotation rate."""
+        return 2.0 * float(self.obj.rate_hz)
 
     def _parts(self, t: float, velocity: np.ndarray) -> tuple[list[Part], np.ndarray]:
         angle = self.turn * self.spin * t + self.offset  # (8,)
@@ -309,6 +345,12 @@ class Aircraft(Model):
 class Helicopter(Model):
     """A helicopter: cabin, tail boom, fin, skids, a main rotor of 2-5 blades turning at
     ``rate_hz`` and a fast tail rotor."""
+
+    def fast_hz(self) -> float:
+        """The tail rotor (two blade ends, five times the main rotor's rate) or the main
+        rotor's blade pass, whichever is faster."""
+        n_blades = 2 + self.obj.variant % 4
+        return float(self.obj.rate_hz) * max(10.0, n_blades)
 
     def _parts(self, t: float, velocity: np.ndarray) -> tuple[list[Part], np.ndarray]:
         col = self.color
@@ -434,3 +476,6 @@ _MODELS: dict[str, type[Model]] = {
 def model_for(obj: ObjectSpec) -> Model:
     """The model that draws ``obj``."""
     return _MODELS[obj.kind](obj)
+
+
+_disc = disc

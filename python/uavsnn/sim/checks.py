@@ -1,5 +1,13 @@
-"""Validation of simulation parameters: each failure is a :class:`~uavsnn.ParameterError` that
-names the parameter and the value."""
+"""Checks of the simulators.
+
+- Validation of simulation parameters: each failure is a :class:`~uavsnn.ParameterError` that
+  names the parameter and the value.
+- Event-rate spectra (:func:`event_rate_spectrum`, :func:`dominant_frequency`): what periodic
+  motion (a rotor's blade pass, a wing beat, a spinner) puts into the events of a box — shared
+  by the emulator's checks against physics and real recordings, and by identification work.
+- :func:`rotor_events`: a rotor alone, face-on, rendered and emulated, with or without
+  sub-frame samples.
+"""
 
 from __future__ import annotations
 
@@ -10,7 +18,17 @@ import numpy as np
 
 from uavsnn.errors import ParameterError
 
-__all__ = ["check_choice", "check_int", "check_real", "check_seed", "check_size"]
+__all__ = [
+    "check_choice",
+    "check_int",
+    "check_real",
+    "check_seed",
+    "check_size",
+    "dominant_frequency",
+    "event_rate_spectrum",
+    "pixel_rate_spectrum",
+    "rotor_events",
+]
 
 
 def check_real(
@@ -73,3 +91,182 @@ def check_size(size: Any, name: str = "size") -> tuple[int, int]:
         check_int(f"{name} width", width, low=1, high=65535),
         check_int(f"{name} height", height, low=1, high=65535),
     )
+
+
+def event_rate_spectrum(
+    t_us: Any,
+    *,
+    bin_us: int = 50,
+    start_us: int | None = None,
+    end_us: int | None = None,
+    pad: int = 8,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The power spectrum of an event rate: events counted in bins of ``bin_us``, the mean
+    taken out, a Hann window, zero-padded ``pad`` times. Returns ``(freqs_hz, power)``, the
+    power normalised to its largest value (all zeros when there is no variation).
+
+    ``start_us``/``end_us`` bound the time span (default: the events' own span)."""
+    t = np.asarray(t_us, dtype=np.int64)
+    bin_us = check_int("bin_us", bin_us, low=1, high=10**9)
+    pad = check_int("pad", pad, low=1, high=64)
+    lo = int(t.min()) if start_us is None and len(t) else int(start_us or 0)
+    hi = int(t.max()) + 1 if end_us is None and len(t) else int(end_us or lo + bin_us)
+    n = max((hi - lo) // bin_us, 2)
+    counts = np.bincount(((t[(t >= lo) & (t < lo + n * bin_us)] - lo) // bin_us), minlength=n)
+    x = counts[:n].astype(np.float64)
+    x -= x.mean()
+    x *= np.hanning(n)
+    spec = np.abs(np.fft.rfft(x, n * pad)) ** 2
+    freqs = np.fft.rfftfreq(n * pad, bin_us * 1e-6)
+    top = spec.max()
+    return freqs, spec / top if top > 0 else spec
+
+
+def pixel_rate_spectrum(
+    events: np.ndarray,
+    *,
+    bin_us: int = 100,
+    start_us: int | None = None,
+    end_us: int | None = None,
+    pad: int = 4,
+    box: tuple[float, float, float, float] | None = None,
+    min_events: int = 2,
+    chunk: int = 256,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The mean over pixels and polarities of each pixel's ON and OFF event-rate power spectra
+    (binned as :func:`event_rate_spectrum`, each channel's mean taken out, Hann window), for
+    the pixels in
+    ``box`` (``x0, y0, x1, y1``, continuous pixel coordinates; default all) with at least
+    ``min_events`` events. Returns ``(freqs_hz, power)`` normalised to its largest value.
+
+    Per pixel, not summed: a rotor's blades sweep the same area at every instant, so the box's
+    total event rate hardly varies, while each pixel sees a blade pass at the blade-pass
+    frequency (a per-pixel frequency detector's view, as FrequencyCam's)."""
+    ev = np.asarray(events)
+    bin_us = check_int("bin_us", bin_us, low=1, high=10**9)
+    pad = check_int("pad", pad, low=1, high=64)
+    if box is not None:
+        x0, y0, x1, y1 = box
+        keep = (
+            (ev["x"] + 0.5 >= x0)
+            & (ev["x"] + 0.5 < x1)
+            & (ev["y"] + 0.5 >= y0)
+            & (ev["y"] + 0.5 < y1)
+        )
+        ev = ev[keep]
+    t = ev["t"].astype(np.int64)
+    lo = int(t.min()) if start_us is None and len(t) else int(start_us or 0)
+    hi = int(t.max()) + 1 if end_us is None and len(t) else int(end_us or lo + bin_us)
+    n = max((hi - lo) // bin_us, 2)
+    freqs = np.fft.rfftfreq(n * pad, bin_us * 1e-6)
+    total = np.zeros(len(freqs))
+    inside = (t >= lo) & (t < lo + n * bin_us)
+    ev, t = ev[inside], t[inside]
+    # One channel per pixel and polarity: a blade passing makes one OFF burst (it comes) and
+    # one ON burst (it goes), so each channel beats once per passage, while the pixel's total
+    # beats twice when the blade is thin.
+    pix = (ev["y"].astype(np.int64) * 65536 + ev["x"].astype(np.int64)) * 2 + ev["p"]
+    ids, inverse, counts = np.unique(pix, return_inverse=True, return_counts=True)
+    use = np.flatnonzero(counts >= min_events)
+    if not len(use):
+        return freqs, total
+    row_of = np.full(len(ids), -1, dtype=np.int64)
+    row_of[use] = np.arange(len(use))
+    rows = row_of[inverse]
+    ok = rows >= 0
+    rows, bins = rows[ok], (t[ok] - lo) // bin_us
+    window = np.hanning(n)
+    for c0 in range(0, len(use), chunk):
+        sel = (rows >= c0) & (rows < c0 + chunk)
+        m = min(chunk, len(use) - c0)
+        x = np.zeros((m, n))
+        np.add.at(x, (rows[sel] - c0, bins[sel]), 1.0)
+        x -= x.mean(axis=1, keepdims=True)
+        x *= window
+        total += (np.abs(np.fft.rfft(x, n * pad, axis=1)) ** 2).sum(axis=0)
+    top = total.max()
+    return freqs, total / top if top > 0 else total
+
+
+def dominant_frequency(
+    freqs: np.ndarray,
+    power: np.ndarray,
+    *,
+    low_hz: float = 20.0,
+    high_hz: float | None = None,
+) -> float:
+    """The frequency of the strongest peak of a spectrum (:func:`pixel_rate_spectrum`,
+    :func:`event_rate_spectrum`) in ``[low_hz, high_hz]`` (default: all of it above
+    ``low_hz``); NaN when the band holds no power."""
+    f, p = np.asarray(freqs), np.asarray(power)
+    band = (f >= low_hz) & (f <= (f[-1] if high_hz is None else high_hz))
+    if not band.any() or p[band].max() <= 0:
+        return float("nan")
+    return float(f[band][np.argmax(p[band])])
+
+
+def rotor_events(
+    rev_hz: float,
+    diameter_px: float,
+    *,
+    fps: float = 500.0,
+    samples_per_pass: int = 6,
+    duration_s: float = 0.5,
+    blades: int = 2,
+    sky: float = 0.7,
+    level: float = 1.0,
+    params: Any = None,
+    seed: int = 0,
+) -> tuple[np.ndarray, tuple[int, int]]:
+    """A rotor alone, face-on against a plain sky: rendered as the "dvs" scenes render a
+    quadcopter's rotors (its translucent disc and its blades, :func:`uavsnn.scenes.objects.
+    rotor_parts`), frames at ``fps`` with ``ceil(samples_per_pass · blades · rev_hz / fps) -
+    1`` sub-frame samples between frames (``samples_per_pass = 0``: none), emulated by
+    :class:`~uavsnn.sim.DvsEmulator` (``params``: default :data:`~uavsnn.sim.SCENE_PARAMS`).
+
+    Returns the events and the frame's ``(width, height)`` (the rotor in its centre, two
+    pixels of sky around it). The blade pass is ``blades · rev_hz``.
+    """
+    from uavsnn.scenes.objects import rotor_parts
+    from uavsnn.scenes.renderer import FINE_SS, _draw, sub_frame_times
+    from uavsnn.sim.dvs import SCENE_PARAMS, DvsEmulator
+
+    rev_hz = check_real("rev_hz", rev_hz, low=0.0)
+    diameter_px = check_real("diameter_px", diameter_px, low=0.5, high=1000.0)
+    fps = check_real("fps", fps, low=1.0, high=1e6)
+    side = math.ceil(diameter_px) + 4
+    centre = np.array([side / 2, side / 2])
+    n = max(round(duration_s * fps), 2)
+    frame_us = np.round(np.arange(n) * 1e6 / fps).astype(np.int64)
+    m = (
+        max(1, math.ceil(samples_per_pass * blades * rev_hz / fps - 1e-9))
+        if samples_per_pass
+        else 1
+    )
+    emulator = DvsEmulator(
+        (side, side), params=params if params is not None else SCENE_PARAMS, seed=seed
+    )
+    bg = np.full((side, side, 1), sky, dtype=np.float32)
+    spin = 2 * math.pi * rev_hz
+
+    jitter = np.random.default_rng(seed)
+
+    def image(t_s: float, ss: int = 4) -> np.ndarray:
+        img = bg.copy()
+        # Face-on: the rotor's plane (x, z) seen as the screen's (x, y).
+        face = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
+        parts = rotor_parts(np.zeros(3), diameter_px / 2, spin * t_s, blades, disc=False)
+        _draw(img, parts, face, centre, 1.0, 0.0, True, ss)
+        return img[:, :, 0] * np.float32(level * 255.0)
+
+    chunks = []
+    for k in range(n):
+        patches = []
+        if k > 0 and m > 1:
+            t0, t1 = int(frame_us[k - 1]), int(frame_us[k])
+            sub = sub_frame_times(t0, t1, m, jitter)
+            if len(sub):
+                values = np.stack([image(ts * 1e-6, FINE_SS) for ts in sub.tolist()])
+                patches.append((0, 0, sub, values))
+        chunks.append(emulator.process_frame(image(frame_us[k] * 1e-6), int(frame_us[k]), patches))
+    return np.concatenate(chunks), (side, side)

@@ -245,11 +245,11 @@ class DvsEmulator:
             )
         subs = []
         for x0, y0, times, values in patches:
-            t = np.ascontiguousarray(times, dtype=np.uint64)
+            ts = np.ascontiguousarray(times, dtype=np.uint64)
             v = np.ascontiguousarray(values, dtype=np.float32)
             if v.ndim != 3:
                 raise SimulationError(f"sub-frame values must be (n, h, w), got {v.shape}")
-            subs.append((int(x0), int(y0), t, v))
+            subs.append((int(x0), int(y0), ts, v))
         t = check_int_time(t_us)
         return np.asarray(self._kernel.push_float_samples(img, t, subs)).view(EVENT_DTYPE)
 
@@ -283,4 +283,3 @@ def emulate_dvs(
     batch = as_frame_batch(frames)
     emulator = DvsEmulator(batch.size, params=params, seed=seed)
     return emulator.process(batch, timestamps_us)
-
