@@ -31,8 +31,8 @@ def shade(color: Color | tuple[float, ...], k: float, offset: float = 0.0) -> Co
 
 class Part(NamedTuple):
     """One drawn piece: ``points`` ``(k, 3)`` in the body frame (metres), linear BGR ``color``,
-    opacity ``alpha``, and whether to fill the convex ``hull`` of the projected points or the
-    polygon as given."""
+    opacity ``alpha`` (0: not drawn, but part of the object's box), and whether to fill the
+    convex ``hull`` of the projected points or the polygon as given."""
 
     points: np.ndarray
     color: Color
@@ -135,8 +135,12 @@ class Model:
         a wing beat. Sub-frame samples of its patch follow it (0: nothing moves fast)."""
         return float(self.obj.rate_hz)
 
-    def __init__(self, obj: ObjectSpec) -> None:
+    def __init__(self, obj: ObjectSpec, *, event_camera: bool = False) -> None:
         self.obj = obj
+        #: Seen by an event camera: no blur discs for rotors (a video frame's exposure smears
+        #: the blades into a disc; an event camera sees the blades at every instant, and a
+        #: disc drawn over them only darkens the sky they pass against).
+        self.event_camera = event_camera
         self.k = obj.size_m / self.nominal
         self.color = shade(obj.color, 1.0)
 
@@ -161,10 +165,10 @@ class Quadcopter(Model):
     """A quadcopter: body, four arms with motors, four spinning two-blade rotors; the Phantom
     variant stands on a landing gear. It banks into its motion as real multirotors do."""
 
-    def __init__(self, obj: ObjectSpec) -> None:
+    def __init__(self, obj: ObjectSpec, *, event_camera: bool = False) -> None:
         self.phantom = obj.kind == "phantom"
         self.nominal = 0.29 if self.phantom else 0.098
-        super().__init__(obj)
+        super().__init__(obj, event_camera=event_camera)
         grey, light, dark = (0.6, 0.6, 0.6), (0.72, 0.72, 0.72), (0.12, 0.12, 0.12)
         if self.phantom:
             # Motors at (±a, ±a): DJI's 350 mm diagonal; 9.4-inch propellers.
@@ -215,7 +219,9 @@ class Quadcopter(Model):
                     hull=True,
                 )
             )
-            static.append(Part(disc(tuple(hub), self.prop_r, n=20), (0.25, 0.25, 0.25), 0.22))
+            # For an event camera the disc is not drawn (alpha 0) but still bounds the box.
+            alpha = 0.0 if event_camera else DISC_ALPHA
+            static.append(Part(disc(tuple(hub), self.prop_r, n=20), DISC_COLOR, alpha))
         static.insert(0, Part(body, self.color, hull=True))
         self.static = static
         self.spin = 2 * math.pi * obj.rate_hz
@@ -230,11 +236,14 @@ class Quadcopter(Model):
     def _parts(self, t: float, velocity: np.ndarray) -> tuple[list[Part], np.ndarray]:
         angle = self.turn * self.spin * t + self.offset  # (8,)
         d = np.stack([np.cos(angle), np.zeros(8), np.sin(angle)], axis=1)
-        n = np.stack([-np.sin(angle), np.zeros(8), np.cos(angle)], axis=1) * (self.prop_r * 0.08)
+        n = np.stack([-np.sin(angle), np.zeros(8), np.cos(angle)], axis=1) * (
+            self.prop_r * BLADE_ROOT / 2
+        )
         hub = np.repeat(self.hubs, 2, axis=0)
         tip = hub + d * self.prop_r
-        quads = np.stack([hub - n, tip - 0.6 * n, tip + 0.6 * n, hub + n], axis=1)  # (8, 4, 3)
-        blades = [Part(q, (0.18, 0.18, 0.18), 0.9) for q in quads]
+        tip_w = BLADE_TIP / BLADE_ROOT
+        quads = np.stack([hub - n, tip - tip_w * n, tip + tip_w * n, hub + n], axis=1)  # (8,4,3)
+        blades = [Part(q, BLADE_COLOR, BLADE_ALPHA) for q in quads]
         # Bank into the motion: about 2.5° per m/s, at most 25°.
         vx, vz = float(velocity[0]), float(velocity[2])
         tilt_x = math.radians(max(-25.0, min(25.0, -2.5 * vx)))
@@ -372,14 +381,17 @@ class Helicopter(Model):
             Part(stick((0.1, -0.1, 0.0), (0.1, 0.14, 0.0), 0.012), dark, hull=True),
         ]
         hub = (0.1, 0.15, 0.0)
-        parts.append(Part(disc(hub, 0.45, n=24), (0.3, 0.3, 0.3), 0.12))
+        parts.append(
+            Part(disc(hub, 0.45, n=24), (0.3, 0.3, 0.3), 0.0 if self.event_camera else 0.12)
+        )
         n_blades = 2 + self.obj.variant % 4
         spin = 2 * math.pi * self.obj.rate_hz * t + self.obj.phase
         for i in range(n_blades):
             a = spin + 2 * math.pi * i / n_blades
             parts.append(Part(blade(hub, a, 0.45, 0.025), dark, 0.95))
         tail_hub = np.array([-0.49, 0.08, 0.03])
-        parts.append(Part(disc(tuple(tail_hub), 0.07, plane="xy", n=12), (0.3, 0.3, 0.3), 0.15))
+        if not self.event_camera:
+            parts.append(Part(disc(tuple(tail_hub), 0.07, plane="xy", n=12), (0.3, 0.3, 0.3), 0.15))
         ta = 5 * spin
         d = np.array([math.cos(ta), math.sin(ta), 0.0]) * 0.07
         nrm = np.array([-math.sin(ta), math.cos(ta), 0.0]) * 0.006
@@ -473,9 +485,9 @@ _MODELS: dict[str, type[Model]] = {
 }
 
 
-def model_for(obj: ObjectSpec) -> Model:
-    """The model that draws ``obj``."""
-    return _MODELS[obj.kind](obj)
+def model_for(obj: ObjectSpec, *, event_camera: bool = False) -> Model:
+    """The model that draws ``obj`` (for an event camera: without rotor blur discs)."""
+    return _MODELS[obj.kind](obj, event_camera=event_camera)
 
 
 _disc = disc

@@ -111,6 +111,8 @@ def _draw(
         return sum(part_depth[i] for i in members) / len(members)
 
     for key in sorted(groups, key=mean_depth, reverse=True):
+        if key[1] <= 0:
+            continue
         polys: list[np.ndarray] = []
         for i in groups[key]:
             poly = fixed[starts[i] : starts[i] + sizes[i]]
@@ -169,7 +171,8 @@ class _Objects:
 
     def __init__(self, spec: SceneSpec, cam: Camera, times: np.ndarray) -> None:
         self.spec = spec
-        self.models: list[Model] = [model_for(o) for o in spec.objects]
+        ev = spec.frame_format == "gray32f"
+        self.models: list[Model] = [model_for(o, event_camera=ev) for o in spec.objects]
         #: Each object's box at the last frame drawn (``None``: not drawn).
         self.boxes: list[tuple[float, float, float, float] | None] = [None] * len(self.models)
         self.tracks = []
