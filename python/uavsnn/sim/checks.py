@@ -25,8 +25,10 @@ __all__ = [
     "check_seed",
     "check_size",
     "dominant_frequency",
+    "estimate_rotation",
     "event_rate_spectrum",
     "pixel_rate_spectrum",
+    "plot_spectra",
     "rotor_events",
 ]
 
@@ -100,10 +102,13 @@ def event_rate_spectrum(
     start_us: int | None = None,
     end_us: int | None = None,
     pad: int = 8,
+    relative: bool = False,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The power spectrum of an event rate: events counted in bins of ``bin_us``, the mean
     taken out, a Hann window, zero-padded ``pad`` times. Returns ``(freqs_hz, power)``, the
-    power normalised to its largest value (all zeros when there is no variation).
+    power normalised to its largest value (all zeros when there is no variation), or with
+    ``relative`` the power of the rate's relative modulation (counts over their mean, minus
+    one; per bin, Hann-weighted), comparable between recordings of different rates.
 
     ``start_us``/``end_us`` bound the time span (default: the events' own span)."""
     t = np.asarray(t_us, dtype=np.int64)
@@ -114,10 +119,14 @@ def event_rate_spectrum(
     n = max((hi - lo) // bin_us, 2)
     counts = np.bincount(((t[(t >= lo) & (t < lo + n * bin_us)] - lo) // bin_us), minlength=n)
     x = counts[:n].astype(np.float64)
-    x -= x.mean()
-    x *= np.hanning(n)
+    mean = x.mean()
+    x -= mean
+    win = np.hanning(n)
+    x *= win
     spec = np.abs(np.fft.rfft(x, n * pad)) ** 2
     freqs = np.fft.rfftfreq(n * pad, bin_us * 1e-6)
+    if relative:
+        return freqs, spec / (mean * mean * float((win * win).sum())) if mean > 0 else spec
     top = spec.max()
     return freqs, spec / top if top > 0 else spec
 
@@ -270,3 +279,100 @@ def rotor_events(
                 patches.append((0, 0, sub, values))
         chunks.append(emulator.process_frame(image(frame_us[k] * 1e-6), int(frame_us[k]), patches))
     return np.concatenate(chunks), (side, side)
+
+
+def estimate_rotation(
+    events: np.ndarray, *, max_hz: float = 200.0, step_hz: float = 0.01
+) -> tuple[float, float, float, float]:
+    """A rotating thing's ``(rev_hz, cx, cy, concentration)`` from its events: the centre by
+    a least-squares circle fit of the events' pixels (Kåsa), then the angular rate ``ω`` that
+    best lines the events up in the rotating frame (the largest mean resultant length of
+    ``angle - ω t``, searched over ``±max_hz`` in ``step_hz`` steps then refined). Positive:
+    the angle ``atan2(y - cy, x - cx)`` grows (clockwise on screen, y pointing down).
+    ``concentration`` (0-1) says how well one rate explains the events."""
+    ev = np.asarray(events)
+    if len(ev) < 3:
+        raise ParameterError("estimate_rotation needs at least 3 events")
+    x, y = ev["x"].astype(np.float64), ev["y"].astype(np.float64)
+    t = (ev["t"].astype(np.int64) - int(ev["t"][0])) * 1e-6
+    a = np.c_[2 * x, 2 * y, np.ones_like(x)]
+    cx, cy, _ = np.linalg.lstsq(a, x * x + y * y, rcond=None)[0]
+    ang = np.arctan2(y - cy, x - cx)
+    # Subsample for the coarse search; refine on all events.
+    sub = slice(None, None, max(1, len(ev) // 20000))
+
+    def score(w: float, s: slice = sub) -> float:
+        return float(abs(np.exp(1j * (ang[s] - w * t[s])).mean()))
+
+    grid = 2 * np.pi * np.arange(-max_hz, max_hz + step_hz * 50, step_hz * 50)
+    w0 = max(grid, key=score)
+    fine = w0 + 2 * np.pi * np.arange(-50, 51) * step_hz
+    w = max(fine, key=lambda v: score(v, slice(None)))
+    return float(w / (2 * np.pi)), float(cx), float(cy), score(w, slice(None))
+
+
+def plot_spectra(
+    curves: list[tuple[str, np.ndarray, np.ndarray]],
+    path: str,
+    *,
+    title: str = "",
+    max_hz: float | None = None,
+    marks: tuple[float, ...] = (),
+    size: tuple[int, int] = (900, 420),
+) -> None:
+    """Draw spectra (``(label, freqs_hz, power)`` each, power in [0, 1]) one above the other
+    as a PNG with OpenCV (no plotting library needed), frequency axis in Hz with ticks, and
+    vertical marks at ``marks`` (e.g. a blade pass)."""
+    import cv2
+
+    w, h = size
+    colours = [(200, 80, 30), (30, 120, 220), (40, 160, 40), (150, 40, 150)]
+    panel_h = (h - 40) // max(len(curves), 1)
+    img = np.full((h, w, 3), 255, np.uint8)
+    left, right = 60, w - 20
+    top_hz = max_hz if max_hz is not None else max(float(c[1][-1]) for c in curves)
+
+    def xpix(f: float) -> int:
+        return int(left + (right - left) * f / top_hz)
+
+    cv2.putText(img, title, (left, 16), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (0, 0, 0), 1, cv2.LINE_AA)
+    for i, (label, f, p) in enumerate(curves):
+        y0 = 24 + i * panel_h
+        y1 = y0 + panel_h - 24
+        cv2.rectangle(img, (left, y0), (right, y1), (180, 180, 180), 1)
+        for m in marks:
+            cv2.line(img, (xpix(m), y0), (xpix(m), y1), (0, 0, 200), 1, cv2.LINE_AA)
+        keep = f <= top_hz
+        pts = np.stack(
+            [left + (right - left) * f[keep] / top_hz, y1 - (y1 - y0) * np.clip(p[keep], 0, 1)],
+            axis=1,
+        )
+        cv2.polylines(img, [np.round(pts).astype(np.int32)], False, colours[i % 4], 1, cv2.LINE_AA)
+        cv2.putText(
+            img,
+            label,
+            (left + 6, y0 + 14),
+            cv2.FONT_HERSHEY_SIMPLEX,
+            0.42,
+            colours[i % 4],
+            1,
+            cv2.LINE_AA,
+        )
+        step = 10 ** math.floor(math.log10(max(top_hz / 4, 1e-9)))
+        for k in np.arange(0, top_hz + 1e-9, step * (2 if top_hz / step > 10 else 1)):
+            cv2.line(img, (xpix(k), y1), (xpix(k), y1 + 4), (0, 0, 0), 1)
+            cv2.putText(
+                img,
+                f"{k:g}",
+                (xpix(k) - 10, y1 + 16),
+                cv2.FONT_HERSHEY_SIMPLEX,
+                0.35,
+                (0, 0, 0),
+                1,
+                cv2.LINE_AA,
+            )
+    cv2.putText(
+        img, "Hz", (right - 20, h - 4), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (0, 0, 0), 1, cv2.LINE_AA
+    )
+    if not cv2.imwrite(str(path), img):
+        raise OSError(f"could not write {path}")
