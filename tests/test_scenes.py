@@ -5,6 +5,7 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -393,9 +394,8 @@ def test_record_gives_events_and_labels_with_sub_frame_patches() -> None:
     """record(): a hovering Tello's rotors are sampled between frames (patches around it),
     the events are a Recording on the sensor, the labels those of render(), the same seed the
     same events; a sensor that is not the scene's size is refused."""
-    from uavsnn.errors import ParameterError
     from uavsnn.events import Recording
-    from uavsnn.scenes import record, render, sample_spec
+    from uavsnn.scenes import record
     from uavsnn.scenes.renderer import frames
 
     spec = sample_spec("dvs", "uav", np.random.default_rng(3), duration_s=0.04)
@@ -419,3 +419,30 @@ def test_record_gives_events_and_labels_with_sub_frame_patches() -> None:
     assert np.array_equal(a.labels, labels)
     with pytest.raises(ParameterError, match="sensor"):
         record(spec, sensor=(spec.width + 2, spec.height), seed=5)
+
+
+def test_a_scene_round_trips_through_json_and_the_cli_records_it(tmp_path: Path) -> None:
+    """spec_to_dict / spec_from_dict round-trip a sampled scene through JSON; `uavsnn simulate
+    --scene FILE.json` records it (events and the labels beside them), and a bad field is one
+    line and exit code 2."""
+    import json
+
+    from uavsnn.cli import main
+    from uavsnn.scenes import spec_from_dict, spec_to_dict
+
+    spec = sample_spec("dvs", "uav", np.random.default_rng(5), duration_s=0.02)
+    text = json.dumps(spec_to_dict(spec))
+    assert spec_from_dict(json.loads(text)) == spec
+    path = tmp_path / "scene.json"
+    path.write_text(text)
+    out = tmp_path / "scene.npz"
+    assert main(["simulate", "--scene", str(path), "-o", str(out), "--json"]) == 0
+    labels = np.load(tmp_path / "scene.labels.npz")
+    assert len(labels["labels"]) == spec.n_frames
+    assert np.load(out)["events"].shape[0] > 0
+    bad = json.loads(text)
+    bad["objects"][0]["wings"] = 3
+    with pytest.raises(SimulationError, match="wings"):
+        spec_from_dict(bad)
+    path.write_text(json.dumps(bad))
+    assert main(["simulate", "--scene", str(path), "-o", str(out)]) == 2

@@ -12,7 +12,7 @@ hall, in light from bright to very dark. See ``docs/dataset.md``.
 from __future__ import annotations
 
 from uavsnn.scenes.preview import contact_sheet, write_png
-from uavsnn.scenes.record import Recorded, record
+from uavsnn.scenes.record import Recorded, record, spec_from_dict, spec_to_dict
 from uavsnn.scenes.renderer import LABEL_DTYPE, render, scene_labels
 from uavsnn.scenes.sampler import SCENE_KINDS, default_format, sample_spec
 from uavsnn.scenes.spec import (
@@ -48,5 +48,7 @@ __all__ = [
     "render",
     "sample_spec",
     "scene_labels",
+    "spec_from_dict",
+    "spec_to_dict",
     "write_png",
 ]

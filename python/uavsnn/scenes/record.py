@@ -8,18 +8,19 @@ patches whatever the scene's length.
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any, NamedTuple
 
 import numpy as np
 
-from uavsnn.errors import ParameterError
+from uavsnn.errors import ParameterError, SimulationError
 from uavsnn.events import EVENT_DTYPE, Recording
 from uavsnn.scenes.renderer import LABEL_DTYPE, SAMPLES_PER_PASS, frames
-from uavsnn.scenes.spec import SceneSpec
+from uavsnn.scenes.spec import Background, Lighting, ObjectSpec, PathSpec, SceneSpec
 from uavsnn.sim.checks import check_seed, check_size
 from uavsnn.sim.dvs import SCENE_PARAMS, DvsEmulator, DvsParams
 
-__all__ = ["Recorded", "record"]
+__all__ = ["Recorded", "record", "spec_from_dict", "spec_to_dict"]
 
 
 class Recorded(NamedTuple):
@@ -97,3 +98,65 @@ def record(
         "lighting": spec.lighting.level,
     }
     return Recorded(Recording(events, (width, height), meta), times, labels)
+
+
+def spec_to_dict(spec: SceneSpec) -> dict[str, Any]:
+    """A scene as plain JSON-ready data (:func:`spec_from_dict` reads it back)."""
+    return json_ready(dataclasses.asdict(spec))
+
+
+def json_ready(value: Any) -> Any:
+    """Tuples as lists, NumPy scalars as Python numbers, recursively."""
+    if isinstance(value, dict):
+        return {k: json_ready(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [json_ready(v) for v in value]
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
+def _tuples(value: Any) -> Any:
+    if isinstance(value, list):
+        return tuple(_tuples(v) for v in value)
+    return value
+
+
+def _build(cls: Any, data: Any, where: str) -> Any:
+    if not isinstance(data, dict):
+        raise SimulationError(f"{where} must be an object, got {type(data).__name__}")
+    names = {f.name for f in dataclasses.fields(cls)}
+    unknown = sorted(set(data) - names)
+    if unknown:
+        raise SimulationError(f"{where}: unknown field(s) {', '.join(unknown)}")
+    try:
+        return cls(**{k: _tuples(v) for k, v in data.items()})
+    except TypeError as exc:
+        raise SimulationError(f"{where}: {exc}") from exc
+
+
+def spec_from_dict(data: Any) -> SceneSpec:
+    """A :class:`SceneSpec` from the JSON form :func:`spec_to_dict` writes: the spec's fields,
+    ``background`` and ``lighting`` as objects of their fields, ``objects`` a list of objects
+    whose ``path`` is an object of :class:`PathSpec`'s fields. Missing fields take their
+    defaults. Raises :class:`~uavsnn.SimulationError` naming what is wrong."""
+    if not isinstance(data, dict):
+        raise SimulationError(f"a scene must be a JSON object, got {type(data).__name__}")
+    fields = dict(data)
+    if "background" in fields:
+        fields["background"] = _build(Background, fields["background"], "background")
+    if "lighting" in fields:
+        fields["lighting"] = _build(Lighting, fields["lighting"], "lighting")
+    objects = fields.get("objects", [])
+    if not isinstance(objects, list):
+        raise SimulationError("objects must be a list")
+    built = []
+    for i, o in enumerate(objects):
+        if not isinstance(o, dict) or "path" not in o:
+            raise SimulationError(f"objects[{i}] must be an object with a path")
+        o = dict(o)
+        o["path"] = _build(PathSpec, o["path"], f"objects[{i}].path")
+        built.append(_build(ObjectSpec, o, f"objects[{i}]"))
+    fields["objects"] = tuple(built)
+    spec: SceneSpec = _build(SceneSpec, fields, "scene")
+    return spec
