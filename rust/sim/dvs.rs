@@ -206,7 +206,7 @@ struct Pixel {
 }
 
 /// Per-frame constants shared by all pixels.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 struct Step {
     t0: f64,
     t1: f64,
@@ -217,10 +217,12 @@ struct Step {
     /// `1 / (t1 - t0)`, per microsecond.
     inv_dt: f64,
     dt_s: f64,
-    /// Low-pass update factor per integer luma (exact for 8-bit gray input).
-    eps_table: [f32; 256],
-    /// Whether luma values are integers (8-bit gray input), so `eps_table` applies.
-    integral_luma: bool,
+    /// Low-pass update factor at luma `i / eps_per_luma`, `i = 0..=256 · eps_per_luma`:
+    /// exact at integer luma (8-bit gray input, one entry per level), interpolated linearly
+    /// between sixteenths of a level for other input (relative error below 1e-4).
+    eps_table: Vec<f32>,
+    /// Entries of `eps_table` per unit of luma; 0: no table (computed per pixel).
+    eps_per_luma: f32,
     refractory: f64,
     cutoff_hz: f64,
     dark_luma: f64,
@@ -438,15 +440,19 @@ impl DvsEmulator {
                 });
             return Ok(());
         };
-        let step = |t0: u64, t1: u64, integral_luma: bool| {
+        let step = |t0: u64, t1: u64, per_luma: usize| {
             let dt_s = (t1 - t0) as f64 * 1e-6;
-            let mut eps_table = [0.0f32; 256];
-            if integral_luma {
-                for (y, e) in eps_table.iter_mut().enumerate() {
-                    *e = lowpass_eps(p.cutoff_hz, f64::from(p.cutoff_dark_luma), y as f64, dt_s)
-                        as f32;
-                }
-            }
+            let per_luma = if p.cutoff_hz > 0.0 { per_luma } else { 0 };
+            let eps_table: Vec<f32> = if per_luma > 0 {
+                (0..=256 * per_luma)
+                    .map(|i| {
+                        let y = i as f64 / per_luma as f64;
+                        lowpass_eps(p.cutoff_hz, f64::from(p.cutoff_dark_luma), y, dt_s) as f32
+                    })
+                    .collect()
+            } else {
+                Vec::new()
+            };
             Step {
                 t0: t0 as f64,
                 t1: t1 as f64,
@@ -455,7 +461,7 @@ impl DvsEmulator {
                 inv_dt: 1.0 / (t1 - t0) as f64,
                 dt_s,
                 eps_table,
-                integral_luma,
+                eps_per_luma: per_luma as f32,
                 refractory: p.refractory_us,
                 cutoff_hz: p.cutoff_hz,
                 dark_luma: f64::from(p.cutoff_dark_luma),
@@ -464,7 +470,15 @@ impl DvsEmulator {
                 max_factor: shot_max_factor,
             }
         };
-        let whole = step(t_prev, t_us, matches!(frame, Frame::Gray(_)));
+        let whole = step(
+            t_prev,
+            t_us,
+            if matches!(frame, Frame::Gray(_)) {
+                1
+            } else {
+                16
+            },
+        );
         // Each patch's sub-intervals: previous frame -> its samples -> this frame.
         let sub_steps: Vec<Vec<Step>> = patches
             .iter()
@@ -473,7 +487,7 @@ impl DvsEmulator {
                 edges.push(t_prev);
                 edges.extend_from_slice(patch.times);
                 edges.push(t_us);
-                edges.windows(2).map(|e| step(e[0], e[1], false)).collect()
+                edges.windows(2).map(|e| step(e[0], e[1], 0)).collect()
             })
             .collect();
         let response = self.response;
@@ -646,9 +660,17 @@ pub struct SubSamples<'a> {
 /// The photoreceptor low-pass update factor over `dt_s` seconds at luma `y`: a first-order
 /// filter with cutoff `cutoff_hz · (y + dark_luma) / (255 + dark_luma)` (v2e's intensity
 /// scaling has `dark_luma` 20), exact for any step.
+#[inline]
 fn lowpass_eps(cutoff_hz: f64, dark_luma: f64, y: f64, dt_s: f64) -> f64 {
     let f3db = cutoff_hz * (y + dark_luma) / (255.0 + dark_luma);
-    -(-std::f64::consts::TAU * f3db * dt_s).exp_m1()
+    let x = std::f64::consts::TAU * f3db * dt_s;
+    // Past 40 time constants the filter has settled to within e^-40 (below an f32's
+    // resolution): skip the exponential, which bright pixels at kHz cutoffs always hit.
+    if x > 40.0 {
+        1.0
+    } else {
+        -(-x).exp_m1()
+    }
 }
 
 /// Advance one pixel from `step.t0` to `step.t1`, appending its events in time order.
@@ -665,8 +687,11 @@ fn pixel_step(
 ) {
     let a = f64::from(q.lp);
     let b = if s.cutoff_hz > 0.0 {
-        let eps = if s.integral_luma {
-            f64::from(s.eps_table[luma as usize & 255])
+        let eps = if s.eps_per_luma > 0.0 && (0.0..256.0).contains(&luma) {
+            let u = luma * s.eps_per_luma;
+            let i = u as usize;
+            let t = &s.eps_table;
+            f64::from(t[i] + (u - i as f32) * (t[i + 1] - t[i]))
         } else {
             lowpass_eps(s.cutoff_hz, s.dark_luma, f64::from(luma), s.dt_s)
         };

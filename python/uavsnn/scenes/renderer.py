@@ -237,9 +237,9 @@ class _Objects:
         return _label(self.spec, boxes, self.spec.width, self.spec.height)
 
 
-#: Coverage grid of parts drawn between frames: 16 × 16 per pixel, so that a blade a tenth of a
+#: Coverage grid of parts drawn between frames: 8 × 8 per pixel, so that a blade a tenth of a
 #: pixel wide covers its pixels smoothly as it turns.
-FINE_SS = 16
+FINE_SS = 8
 
 #: Sub-frame samples per period of an object's fastest motion (a blade passage, a wing beat)
 #: that the "dvs" domain's renderings give the emulator (the issue's floor is 4).
