@@ -1,8 +1,9 @@
 """Synthetic labelled recordings — a sampled scene, rendered, turned into events — and the
 splits made of them.
 
-- "dvs": the scene is rendered at the sensor's size (240×180) at a high frame rate (500 fps
-  by default) as linear intensity, and :class:`uavsnn.sim.DvsEmulator` makes the events.
+- "dvs": :func:`uavsnn.scenes.record` renders the scene at the sensor's size (240×180) at a
+  high frame rate (500 fps by default) as linear intensity, its fast parts (rotors, wings) also
+  between frames, and :class:`uavsnn.sim.DvsEmulator` makes the events.
 - "sim": the scene is rendered as 8-bit colour video (30 or 60 fps, 480×360 by default — the
   4:3 centre of a 640×360 camera), and PIX2NVS (:class:`uavsnn.sim.Pix2NvsSimulator`) makes
   events at that size and pools them onto the sensor, as the paper did with its 1080p footage.
