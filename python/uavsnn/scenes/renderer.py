@@ -4,7 +4,9 @@ Per frame: crop the background textures (one warp each), draw each object far to
 parts projected in one matrix product and filled anti-aliased at 1/16 pixel into a patch around
 it — then light the frame and encode it as a camera would (8-bit gamma-encoded BGR with noise
 for "sim"; linear gray intensity on the 0-255 scale for the "dvs" sensor emulator, which adds
-its own noise).
+its own noise). :func:`frames` renders one frame at a time and, for "dvs", also renders fast
+parts (rotors, wings) in patches at jittered times between frames for the emulator
+(:func:`uavsnn.scenes.record`).
 
 A frame's label is the box of the first visible UAV of the spec; failing that, of the first
 visible other object (``uav`` false); failing that, ``cls == "none"`` and a NaN box. A box is the
