@@ -261,3 +261,32 @@ def test_bad_frames_seed_and_size():
     emulator = DvsEmulator((4, 4))
     with pytest.raises(SimulationError, match="4x4"):
         emulator.process(np.zeros((1, 4, 5)), [0])
+
+
+def test_process_frame_with_sub_frame_samples_and_bad_patches() -> None:
+    """A patch's sub-frame samples reach its pixels (a flash between two equal frames makes
+    events there and nowhere else); patches off the sensor, overlapping, with times outside the
+    interval or values of the wrong shape are refused with nothing consumed."""
+    emu = DvsEmulator((8, 6), params=DvsParams.ideal())
+    flat = np.full((6, 8), 50.0, np.float32)
+    assert len(emu.process_frame(flat, 0)) == 0
+    flash = np.full((2, 3, 2), 50.0, np.float32)
+    flash[0] = 200.0
+    times = np.array([300, 600], np.uint64)
+    ev = emu.process_frame(flat, 1000, [(4, 2, times, flash)])
+    assert len(ev) > 0
+    assert set(ev["x"].tolist()) <= {4, 5} and set(ev["y"].tolist()) <= {2, 3, 4}
+    assert ev["t"].min() < 300 and ev["t"].max() <= 600
+    bad = [
+        [(7, 0, times, flash)],
+        [(0, 0, np.array([1000, 1500], np.uint64), flash)],
+        [(0, 0, times[:1], flash)],
+        [(0, 0, times, flash), (1, 1, times, flash)],
+        [(0, 0, times, flash[0])],
+    ]
+    for patches in bad:
+        with pytest.raises(SimulationError):
+            emu.process_frame(flat, 2000, patches)
+    assert emu.frames_seen == 2
+    with pytest.raises(SimulationError):
+        emu.process_frame(np.zeros((5, 8), np.float32), 2000)

@@ -223,6 +223,7 @@ class DvsKernel:
         hot_pixel_rate_hz: float,
         cutoff_hz: float,
         linlog_threshold: float,
+        cutoff_dark_luma: float = 20.0,
     ) -> DvsKernel: ...
     @property
     def size(self) -> tuple[int, int]: ...
@@ -237,6 +238,12 @@ class DvsKernel:
     ) -> npt.NDArray[np.uint8]: ...
     def push_float(
         self, frames: npt.NDArray[np.float32], timestamps_us: npt.NDArray[np.uint64]
+    ) -> npt.NDArray[np.uint8]: ...
+    def push_float_samples(
+        self,
+        frame: npt.NDArray[np.float32],
+        t_us: int,
+        patches: list[tuple[int, int, npt.NDArray[np.uint64], npt.NDArray[np.float32]]],
     ) -> npt.NDArray[np.uint8]: ...
 
 # ---------------------------------------------------------------- streaming (issue 6)

@@ -2,13 +2,17 @@
 //! batches of frames and return packed events (the canonical dtype viewed as bytes).
 
 use ndarray::{ArrayView3, ArrayView4, Axis};
-use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1, PyReadonlyArray3, PyReadonlyArray4};
+use numpy::{
+    IntoPyArray, PyArray1, PyReadonlyArray1, PyReadonlyArray2, PyReadonlyArray3, PyReadonlyArray4,
+};
 use pyo3::prelude::*;
 
 use super::errors::{detach, map};
 use crate::error::{Error, Result};
 use crate::events::{Event, PACKED_EVENT_SIZE};
-use crate::sim::{DvsEmulator, DvsParams, Frame, Pix2Nvs, Pix2NvsParams, Pooling, ReferenceUpdate};
+use crate::sim::{
+    DvsEmulator, DvsParams, Frame, Pix2Nvs, Pix2NvsParams, Pooling, ReferenceUpdate, SubSamples,
+};
 
 /// Events as packed 13-byte records, the canonical NumPy dtype's memory layout.
 fn pack(events: &[Event]) -> Vec<u8> {
@@ -245,7 +249,7 @@ impl DvsKernel {
     #[pyo3(signature = (width, height, *, seed, threshold_on, threshold_off, threshold_sigma,
                         refractory_us, leak_rate_hz, leak_spread_decades, shot_noise_rate_hz,
                         shot_noise_bright_factor, hot_pixel_fraction, hot_pixel_rate_hz,
-                        cutoff_hz, linlog_threshold))]
+                        cutoff_hz, linlog_threshold, cutoff_dark_luma=20.0))]
     fn new(
         py: Python<'_>,
         width: usize,
@@ -263,6 +267,7 @@ impl DvsKernel {
         hot_pixel_rate_hz: f64,
         cutoff_hz: f64,
         linlog_threshold: f32,
+        cutoff_dark_luma: f32,
     ) -> PyResult<Self> {
         let params = DvsParams {
             threshold_on,
@@ -276,6 +281,7 @@ impl DvsKernel {
             hot_pixel_fraction,
             hot_pixel_rate_hz,
             cutoff_hz,
+            cutoff_dark_luma,
             linlog_threshold,
         };
         let inner = detach(py, || DvsEmulator::new(params, width, height, seed))?;
@@ -330,6 +336,53 @@ impl DvsKernel {
     ) -> PyResult<Bound<'py, PyArray1<u8>>> {
         let batch = Batch::Float(frames.as_array());
         run_batch(py, &mut self.inner, &batch, &timestamps_us)
+    }
+
+    /// Feed one `(h, w)` float32 gray frame at `t_us` with sub-frame samples: `patches` is a
+    /// list of `(x0, y0, times_us, values)`, `values` `(len(times_us), ph, pw)` float32 luma
+    /// of the patch at those times (strictly between the previous frame and this one).
+    /// Returns packed events.
+    fn push_float_samples<'py>(
+        &mut self,
+        py: Python<'py>,
+        frame: PyReadonlyArray2<'_, f32>,
+        t_us: u64,
+        patches: Vec<(
+            usize,
+            usize,
+            PyReadonlyArray1<'_, u64>,
+            PyReadonlyArray3<'_, f32>,
+        )>,
+    ) -> PyResult<Bound<'py, PyArray1<u8>>> {
+        let frame = frame.as_array();
+        let mut subs = Vec::with_capacity(patches.len());
+        for (x0, y0, times, values) in &patches {
+            let (m, h, w) = values.as_array().dim();
+            if m != times.len()? {
+                return map(
+                    py,
+                    Err(Error::Simulation(format!(
+                        "a sub-frame patch has {m} planes of values for {} times",
+                        times.len()?
+                    ))),
+                );
+            }
+            subs.push(SubSamples {
+                x0: *x0,
+                y0: *y0,
+                width: w,
+                height: h,
+                times: times.as_slice()?,
+                values: values.as_slice()?,
+            });
+        }
+        let inner = &mut self.inner;
+        let bytes = detach(py, || {
+            let mut events = Vec::new();
+            inner.push_with_samples(&Frame::GrayF32(frame), t_us, &subs, &mut events)?;
+            Ok(pack(&events))
+        })?;
+        Ok(bytes.into_pyarray(py))
     }
 }
 

@@ -23,9 +23,14 @@
 //! - Hot pixels: `round(hot_pixel_fraction · pixels)` pixels chosen once fire ON events as a
 //!   Poisson process at `hot_pixel_rate_hz`, on top of everything else.
 //! - Low light: the photoreceptor is a first-order low-pass whose cutoff scales with intensity,
-//!   `f_3dB = cutoff_hz · (Y + 20) / 275` (v2e's scaling), applied per frame with the exact
-//!   update `1 - exp(-2π f_3dB Δt)` rather than v2e's Euler step, so it stays stable at any frame
-//!   rate. Together with the shot-noise scaling, darker scenes give slower, noisier pixels.
+//!   `f_3dB = cutoff_hz · (Y + c) / (255 + c)` with `c = cutoff_dark_luma` (v2e's scaling has
+//!   `c = 20`), applied per frame with the exact update `1 - exp(-2π f_3dB Δt)` rather than
+//!   v2e's Euler step, so it stays stable at any frame rate. Together with the shot-noise
+//!   scaling, darker scenes give slower, noisier pixels.
+//! - Sub-frame samples ([`DvsEmulator::push_with_samples`]): between two frames, disjoint
+//!   patches of the sensor (a rotor, a wing) may be known at more times; their pixels' response
+//!   then moves linearly from sample to sample, each sub-interval treated as a frame interval
+//!   (crossings, low-pass, noise alike), so what changes faster than the frame rate reaches them.
 //!
 //! Randomness comes from one PCG stream per pixel row seeded from the emulator's seed, and rows
 //! run in parallel; the events do not depend on the number of threads.
@@ -72,6 +77,11 @@ pub struct DvsParams {
     pub hot_pixel_rate_hz: f64,
     /// Photoreceptor cutoff at white, in Hz; 0 disables the low-pass.
     pub cutoff_hz: f64,
+    /// Luma added before the cutoff scales with intensity: the cutoff at luma `Y` is
+    /// `cutoff_hz · (Y + cutoff_dark_luma) / (255 + cutoff_dark_luma)`. v2e's 20 keeps a dark
+    /// pixel at 7 % of the bright bandwidth; a small value makes the cutoff proportional to
+    /// the light, as a photoreceptor's is.
+    pub cutoff_dark_luma: f32,
     /// Luma below which the response is linear rather than logarithmic.
     pub linlog_threshold: f32,
 }
@@ -90,6 +100,7 @@ impl Default for DvsParams {
             hot_pixel_fraction: 1e-4,
             hot_pixel_rate_hz: 20.0,
             cutoff_hz: 300.0,
+            cutoff_dark_luma: 20.0,
             linlog_threshold: 20.0,
         }
     }
@@ -167,6 +178,7 @@ impl DvsParams {
         }
         rate("hot_pixel_rate_hz", self.hot_pixel_rate_hz)?;
         non_negative("cutoff_hz", self.cutoff_hz)?;
+        positive("cutoff_dark_luma", f64::from(self.cutoff_dark_luma))?;
         positive("linlog_threshold", f64::from(self.linlog_threshold))?;
         Ok(())
     }
@@ -194,7 +206,7 @@ struct Pixel {
 }
 
 /// Per-frame constants shared by all pixels.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 struct Step {
     t0: f64,
     t1: f64,
@@ -205,12 +217,15 @@ struct Step {
     /// `1 / (t1 - t0)`, per microsecond.
     inv_dt: f64,
     dt_s: f64,
-    /// Low-pass update factor per integer luma (exact for 8-bit gray input).
-    eps_table: [f32; 256],
-    /// Whether luma values are integers (8-bit gray input), so `eps_table` applies.
-    integral_luma: bool,
+    /// Low-pass update factor at luma `i / eps_per_luma`, `i = 0..=256 · eps_per_luma`:
+    /// exact at integer luma (8-bit gray input, one entry per level), interpolated linearly
+    /// between sixteenths of a level for other input (relative error below 1e-4).
+    eps_table: Vec<f32>,
+    /// Entries of `eps_table` per unit of luma; 0: no table (computed per pixel).
+    eps_per_luma: f32,
     refractory: f64,
     cutoff_hz: f64,
+    dark_luma: f64,
     /// Highest shot-noise rate per microsecond (thinning bound).
     shot_max_per_us: f64,
     bright_factor: f64,
@@ -225,6 +240,7 @@ pub struct DvsEmulator {
     height: usize,
     seed: u64,
     converter: Converter,
+    response: Response,
     pixels: Vec<Pixel>,
     rows: Vec<Row>,
     scratch: Vec<u32>,
@@ -311,6 +327,9 @@ impl DvsEmulator {
             converter: Converter::new(Response::LinLog {
                 threshold: params.linlog_threshold,
             }),
+            response: Response::LinLog {
+                threshold: params.linlog_threshold,
+            },
             pixels,
             rows: rngs
                 .into_iter()
@@ -358,6 +377,22 @@ impl DvsEmulator {
     /// time, the events of the interval since the previous frame to `out`. The first frame
     /// only sets the pixels' state.
     pub fn push(&mut self, frame: &Frame<'_>, t_us: u64, out: &mut Vec<Event>) -> Result<()> {
+        self.push_with_samples(frame, t_us, &[], out)
+    }
+
+    /// As [`push`](Self::push), with sub-frame samples: inside each patch, the pixels' luma is
+    /// also known at the patch's times between the previous frame and this one, and the
+    /// response moves linearly from sample to sample instead of from frame to frame (fast
+    /// parts — rotors, wings — rendered at a higher rate than the scene). Patches must lie on
+    /// the sensor and not overlap; their times must increase strictly inside the interval.
+    /// The first frame takes no patches.
+    pub fn push_with_samples(
+        &mut self,
+        frame: &Frame<'_>,
+        t_us: u64,
+        patches: &[SubSamples<'_>],
+        out: &mut Vec<Event>,
+    ) -> Result<()> {
         frame.check(self.width, self.height, self.frames)?;
         let t_prev = match self.last_t {
             Some(prev) if t_us <= prev => {
@@ -368,6 +403,12 @@ impl DvsEmulator {
             }
             prev => prev,
         };
+        if t_prev.is_none() && !patches.is_empty() {
+            return Err(Error::Simulation(
+                "the first frame only sets the pixels' state: it takes no sub-frame samples".into(),
+            ));
+        }
+        self.check_patches(patches, t_prev.unwrap_or(0), t_us)?;
         self.frames += 1;
         self.last_t = Some(t_us);
         let p = self.params;
@@ -399,26 +440,57 @@ impl DvsEmulator {
                 });
             return Ok(());
         };
-        let dt_s = (t_us - t_prev) as f64 * 1e-6;
-        let mut eps_table = [0.0f32; 256];
-        for (y, e) in eps_table.iter_mut().enumerate() {
-            *e = lowpass_eps(p.cutoff_hz, y as f64, dt_s) as f32;
-        }
-        let step = Step {
-            t0: t_prev as f64,
-            t1: t_us as f64,
-            t0_us: t_prev,
-            t1_us: t_us,
-            inv_dt: 1.0 / (t_us - t_prev) as f64,
-            dt_s,
-            eps_table,
-            integral_luma: matches!(frame, Frame::Gray(_)),
-            refractory: p.refractory_us,
-            cutoff_hz: p.cutoff_hz,
-            shot_max_per_us,
-            bright_factor: p.shot_noise_bright_factor,
-            max_factor: shot_max_factor,
+        let step = |t0: u64, t1: u64, per_luma: usize| {
+            let dt_s = (t1 - t0) as f64 * 1e-6;
+            let per_luma = if p.cutoff_hz > 0.0 { per_luma } else { 0 };
+            let eps_table: Vec<f32> = if per_luma > 0 {
+                (0..=256 * per_luma)
+                    .map(|i| {
+                        let y = i as f64 / per_luma as f64;
+                        lowpass_eps(p.cutoff_hz, f64::from(p.cutoff_dark_luma), y, dt_s) as f32
+                    })
+                    .collect()
+            } else {
+                Vec::new()
+            };
+            Step {
+                t0: t0 as f64,
+                t1: t1 as f64,
+                t0_us: t0,
+                t1_us: t1,
+                inv_dt: 1.0 / (t1 - t0) as f64,
+                dt_s,
+                eps_table,
+                eps_per_luma: per_luma as f32,
+                refractory: p.refractory_us,
+                cutoff_hz: p.cutoff_hz,
+                dark_luma: f64::from(p.cutoff_dark_luma),
+                shot_max_per_us,
+                bright_factor: p.shot_noise_bright_factor,
+                max_factor: shot_max_factor,
+            }
         };
+        let whole = step(
+            t_prev,
+            t_us,
+            if matches!(frame, Frame::Gray(_)) {
+                1
+            } else {
+                16
+            },
+        );
+        // Each patch's sub-intervals: previous frame -> its samples -> this frame.
+        let sub_steps: Vec<Vec<Step>> = patches
+            .iter()
+            .map(|patch| {
+                let mut edges = Vec::with_capacity(patch.times.len() + 2);
+                edges.push(t_prev);
+                edges.extend_from_slice(patch.times);
+                edges.push(t_us);
+                edges.windows(2).map(|e| step(e[0], e[1], 0)).collect()
+            })
+            .collect();
+        let response = self.response;
         self.pixels
             .par_chunks_mut(w)
             .zip(self.rows.par_iter_mut())
@@ -426,17 +498,69 @@ impl DvsEmulator {
             .for_each(|(y, (px, row))| {
                 conv.convert_row(frame, y, &mut row.response, Some(&mut row.luma));
                 row.events.clear();
-                for (x, q) in px.iter_mut().enumerate() {
-                    pixel_step(
-                        q,
-                        row.response[x],
-                        row.luma[x],
-                        &step,
-                        &mut row.rng,
-                        x as u16,
-                        y as u16,
-                        &mut row.events,
-                    );
+                // The patches crossing this row, by their first column.
+                let mut spans: Vec<(usize, usize)> = patches
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, pa)| (pa.y0..pa.y0 + pa.height).contains(&y))
+                    .map(|(i, pa)| (pa.x0, i))
+                    .collect();
+                spans.sort_unstable();
+                let mut x = 0;
+                let mut next = spans.iter().peekable();
+                while x < w {
+                    let (x_end, patch) = match next.peek() {
+                        Some(&&(x0, i)) if x0 == x => {
+                            next.next();
+                            (x0 + patches[i].width, Some(i))
+                        }
+                        Some(&&(x0, _)) => (x0, None),
+                        None => (w, None),
+                    };
+                    match patch {
+                        None => {
+                            for (xi, q) in px[x..x_end].iter_mut().enumerate() {
+                                let xx = x + xi;
+                                pixel_step(
+                                    q,
+                                    row.response[xx],
+                                    row.luma[xx],
+                                    &whole,
+                                    &mut row.rng,
+                                    xx as u16,
+                                    y as u16,
+                                    &mut row.events,
+                                );
+                            }
+                        }
+                        Some(i) => {
+                            let pa = &patches[i];
+                            let plane = pa.width * pa.height;
+                            let base = (y - pa.y0) * pa.width;
+                            for (xi, q) in px[x..x_end].iter_mut().enumerate() {
+                                let xx = x + xi;
+                                for (j, s) in sub_steps[i].iter().enumerate() {
+                                    let (r, l) = if j < pa.times.len() {
+                                        let v = pa.values[j * plane + base + xi];
+                                        (response.eval(f64::from(v)), v)
+                                    } else {
+                                        (row.response[xx], row.luma[xx])
+                                    };
+                                    pixel_step(
+                                        q,
+                                        r,
+                                        l,
+                                        s,
+                                        &mut row.rng,
+                                        xx as u16,
+                                        y as u16,
+                                        &mut row.events,
+                                    );
+                                }
+                            }
+                        }
+                    }
+                    x = x_end;
                 }
             });
         let mut parts: Vec<Vec<Event>> = self
@@ -450,14 +574,103 @@ impl DvsEmulator {
         }
         Ok(())
     }
+
+    /// Patches on the sensor, disjoint, with strictly increasing times inside `(t0, t1)` and
+    /// one finite, non-negative value per time and pixel.
+    fn check_patches(&self, patches: &[SubSamples<'_>], t0: u64, t1: u64) -> Result<()> {
+        let bad = |i: usize, why: String| {
+            Err(Error::Simulation(format!(
+                "frame {}: sub-frame patch {i}: {why}",
+                self.frames
+            )))
+        };
+        for (i, pa) in patches.iter().enumerate() {
+            if pa.width == 0
+                || pa.height == 0
+                || pa.x0 + pa.width > self.width
+                || pa.y0 + pa.height > self.height
+            {
+                return bad(
+                    i,
+                    format!(
+                        "{}x{} at ({}, {}) does not lie on the {}x{} sensor",
+                        pa.width, pa.height, pa.x0, pa.y0, self.width, self.height
+                    ),
+                );
+            }
+            let mut prev = t0;
+            for &t in pa.times {
+                if t <= prev || t >= t1 {
+                    return bad(
+                        i,
+                        format!(
+                            "time {t} us is not strictly between {prev} us and the frame at \
+                             {t1} us"
+                        ),
+                    );
+                }
+                prev = t;
+            }
+            if pa.values.len() != pa.times.len() * pa.width * pa.height {
+                return bad(
+                    i,
+                    format!(
+                        "{} values for {} times of {}x{} pixels",
+                        pa.values.len(),
+                        pa.times.len(),
+                        pa.width,
+                        pa.height
+                    ),
+                );
+            }
+            if let Some(v) = pa.values.iter().find(|v| !(v.is_finite() && **v >= 0.0)) {
+                return bad(i, format!("luma must be finite and >= 0, got {v}"));
+            }
+            for (j, other) in patches[..i].iter().enumerate() {
+                let apart = pa.x0 >= other.x0 + other.width
+                    || other.x0 >= pa.x0 + pa.width
+                    || pa.y0 >= other.y0 + other.height
+                    || other.y0 >= pa.y0 + pa.height;
+                if !apart {
+                    return bad(i, format!("overlaps patch {j}"));
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Luma of one rectangular patch of the sensor at times between two frames.
+#[derive(Debug, Clone, Copy)]
+pub struct SubSamples<'a> {
+    /// Left column of the patch.
+    pub x0: usize,
+    /// Top row of the patch.
+    pub y0: usize,
+    /// Columns.
+    pub width: usize,
+    /// Rows.
+    pub height: usize,
+    /// Sample times in microseconds, strictly increasing, strictly between the two frames.
+    pub times: &'a [u64],
+    /// Luma (0–255 scale, linear), `times.len()` row-major planes of `height × width`.
+    pub values: &'a [f32],
 }
 
 /// The photoreceptor low-pass update factor over `dt_s` seconds at luma `y`: a first-order
-/// filter with cutoff `cutoff_hz · (y + 20) / 275` (v2e's intensity scaling), exact for any
-/// step.
-fn lowpass_eps(cutoff_hz: f64, y: f64, dt_s: f64) -> f64 {
-    let f3db = cutoff_hz * (y + 20.0) / 275.0;
-    -(-std::f64::consts::TAU * f3db * dt_s).exp_m1()
+/// filter with cutoff `cutoff_hz · (y + dark_luma) / (255 + dark_luma)` (v2e's intensity
+/// scaling has `dark_luma` 20), exact for any step.
+#[inline]
+fn lowpass_eps(cutoff_hz: f64, dark_luma: f64, y: f64, dt_s: f64) -> f64 {
+    let f3db = cutoff_hz * (y + dark_luma) / (255.0 + dark_luma);
+    let x = std::f64::consts::TAU * f3db * dt_s;
+    // Past 40 time constants the filter has settled to within e^-40 (below an f32's
+    // resolution): skip the exponential, which bright pixels at kHz cutoffs always hit.
+    if x > 40.0 {
+        1.0
+    } else {
+        -(-x).exp_m1()
+    }
 }
 
 /// Advance one pixel from `step.t0` to `step.t1`, appending its events in time order.
@@ -474,10 +687,13 @@ fn pixel_step(
 ) {
     let a = f64::from(q.lp);
     let b = if s.cutoff_hz > 0.0 {
-        let eps = if s.integral_luma {
-            f64::from(s.eps_table[luma as usize & 255])
+        let eps = if s.eps_per_luma > 0.0 && (0.0..256.0).contains(&luma) {
+            let u = luma * s.eps_per_luma;
+            let i = u as usize;
+            let t = &s.eps_table;
+            f64::from(t[i] + (u - i as f32) * (t[i + 1] - t[i]))
         } else {
-            lowpass_eps(s.cutoff_hz, f64::from(luma), s.dt_s)
+            lowpass_eps(s.cutoff_hz, s.dark_luma, f64::from(luma), s.dt_s)
         };
         a + eps * (f64::from(response) - a)
     } else {
@@ -686,6 +902,116 @@ mod tests {
         assert_eq!(a, b);
         assert_ne!(a, run(p, &frames, &times, 8));
         assert!(a.windows(2).all(|w| w[0].t <= w[1].t));
+    }
+
+    #[test]
+    fn sub_frame_samples_equal_frames_at_those_times() {
+        // A patch sampled between two frames gives exactly the events of full frames at the
+        // samples' times; outside the patch, the frames alone.
+        let p = DvsParams {
+            cutoff_hz: 2000.0,
+            cutoff_dark_luma: 1.0,
+            ..DvsParams::ideal()
+        };
+        let frame = |k: usize| {
+            Array2::from_shape_fn((4, 6), |(y, x)| {
+                (40.0 + 30.0 * ((x + 2 * y + 3 * k) % 5) as f32) * (1.0 + 0.5 * k as f32)
+            })
+        };
+        let all: Vec<Array2<f32>> = (0..4).map(frame).collect();
+        let full = run(p, &all, &[0, 100, 250, 400], 0);
+        let mut emu = DvsEmulator::new(p, 6, 4, 0).unwrap();
+        let mut out = Vec::new();
+        emu.push(&Frame::GrayF32(all[0].view()), 0, &mut out)
+            .unwrap();
+        let mut last = all[3].clone();
+        // Outside the patch (columns 2..5, rows 1..3) the pixels move from frame 0 to frame 3.
+        for y in 0..4 {
+            for x in 0..6 {
+                if !((2..5).contains(&x) && (1..3).contains(&y)) {
+                    last[(y, x)] = all[0][(y, x)];
+                }
+            }
+        }
+        let values: Vec<f32> = [1, 2]
+            .iter()
+            .flat_map(|&k| {
+                let f = &all[k];
+                (1..3).flat_map(move |y| (2..5).map(move |x| f[(y, x)]))
+            })
+            .collect();
+        let patch = SubSamples {
+            x0: 2,
+            y0: 1,
+            width: 3,
+            height: 2,
+            times: &[100, 250],
+            values: &values,
+        };
+        emu.push_with_samples(&Frame::GrayF32(last.view()), 400, &[patch], &mut out)
+            .unwrap();
+        let inside = |e: &&Event| (2..5).contains(&e.x) && (1..3).contains(&e.y);
+        let want: Vec<Event> = full.iter().filter(inside).copied().collect();
+        let got: Vec<Event> = out.iter().filter(inside).copied().collect();
+        assert!(!want.is_empty());
+        assert_eq!(got, want);
+        assert!(out.iter().all(|e| inside(&e)), "static pixels made events");
+        assert!(out.windows(2).all(|w| w[0].t <= w[1].t));
+    }
+
+    #[test]
+    fn rejects_bad_patches() {
+        let mut emu = DvsEmulator::new(DvsParams::ideal(), 4, 4, 0).unwrap();
+        let f = Array2::from_elem((4, 4), 10.0f32);
+        let mut out = Vec::new();
+        let v = [1.0f32; 4];
+        let ok = SubSamples {
+            x0: 0,
+            y0: 0,
+            width: 2,
+            height: 2,
+            times: &[5],
+            values: &v,
+        };
+        // The first frame takes none.
+        assert!(emu
+            .push_with_samples(&Frame::GrayF32(f.view()), 0, &[ok], &mut out)
+            .is_err());
+        emu.push(&Frame::GrayF32(f.view()), 0, &mut out).unwrap();
+        let bad = [
+            SubSamples { x0: 3, ..ok },
+            SubSamples { times: &[10], ..ok },
+            SubSamples { times: &[0], ..ok },
+            SubSamples {
+                values: &v[..3],
+                ..ok
+            },
+            SubSamples {
+                values: &[1.0, f32::NAN, 1.0, 1.0],
+                ..ok
+            },
+        ];
+        for b in bad {
+            assert!(emu
+                .push_with_samples(&Frame::GrayF32(f.view()), 10, &[b], &mut out)
+                .is_err());
+        }
+        assert!(emu
+            .push_with_samples(
+                &Frame::GrayF32(f.view()),
+                10,
+                &[ok, SubSamples { x0: 1, ..ok }],
+                &mut out
+            )
+            .is_err());
+        assert_eq!(emu.frames_seen(), 1);
+        emu.push_with_samples(
+            &Frame::GrayF32(f.view()),
+            10,
+            &[ok, SubSamples { x0: 2, ..ok }],
+            &mut out,
+        )
+        .unwrap();
     }
 
     #[test]

@@ -23,6 +23,6 @@ pub mod pix2nvs;
 mod order;
 mod seed;
 
-pub use dvs::{DvsEmulator, DvsParams};
+pub use dvs::{DvsEmulator, DvsParams, SubSamples};
 pub use frame::Frame;
 pub use pix2nvs::{Pix2Nvs, Pix2NvsParams, Pooling, ReferenceUpdate};

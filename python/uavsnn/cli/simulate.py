@@ -5,6 +5,11 @@ Examples::
 
     uavsnn simulate clip.mp4 -o clip.npz --mode sim --size 240x180 --preview clip.png
     uavsnn simulate render.avi -o render.npz --mode dvs --seed 3 --json
+    uavsnn simulate --scene uav -o uav.npz --seed 3        # a sampled "dvs" scene
+    uavsnn simulate --scene scene.json -o scene.npz         # a scene described in JSON
+
+A scene (``--scene``) is rendered and recorded by :func:`uavsnn.scenes.record`; its per-frame
+labels go beside the events, in ``OUTPUT.labels.npz`` (``timestamps_us``, ``labels``).
 """
 
 from __future__ import annotations
@@ -19,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from uavsnn.errors import ParameterError
 from uavsnn.events import Recording
 from uavsnn.sim import video_to_recording, write_preview
 from uavsnn.sim.checks import check_size
@@ -37,7 +43,16 @@ def register(subparsers: Any) -> None:
             "DVS with noise on frames resized to the sensor."
         ),
     )
-    parser.add_argument("video", type=Path, help="input video (any format OpenCV reads)")
+    parser.add_argument("video", type=Path, nargs="?", help="input video (any format OpenCV reads)")
+    parser.add_argument(
+        "--scene",
+        default=None,
+        help="instead of a video: a scene kind to sample (uav, object, empty, or an object "
+        "kind) or a JSON file describing a scene (uavsnn.scenes.spec_to_dict's form)",
+    )
+    parser.add_argument(
+        "--duration", type=float, default=1.0, help="sampled scene's length in seconds (1)"
+    )
     parser.add_argument("-o", "--output", type=Path, required=True, help="output .npz")
     parser.add_argument("--mode", choices=("sim", "dvs"), default="sim")
     parser.add_argument("--size", default="240x180", help="sensor WIDTHxHEIGHT (240x180)")
@@ -83,6 +98,29 @@ def write_recording(recording: Recording, path: Path) -> None:
         raise
 
 
+def _scene(args: argparse.Namespace, size: tuple[int, int]) -> Recording:
+    """Record the scene ``--scene`` names; its labels go beside the output."""
+    from uavsnn.scenes import OBJECT_KINDS, SCENE_KINDS, record, sample_spec, spec_from_dict
+
+    if args.scene.lower().endswith(".json"):
+        try:
+            data = json.loads(Path(args.scene).read_text())
+        except (OSError, ValueError) as exc:
+            raise ParameterError(f"cannot read the scene {args.scene}: {exc}") from exc
+        spec = spec_from_dict(data)
+    elif args.scene in SCENE_KINDS or args.scene in OBJECT_KINDS:
+        rng = np.random.default_rng(args.seed)
+        spec = sample_spec("dvs", args.scene, rng, size=size, duration_s=args.duration)
+    else:
+        kinds = ", ".join((*SCENE_KINDS, *OBJECT_KINDS))
+        raise ParameterError(f"--scene must be a .json file or one of {kinds}, got {args.scene}")
+    out = record(spec, sensor=size, seed=args.seed)
+    labels_path = args.output.with_suffix(".labels.npz")
+    np.savez(labels_path, timestamps_us=out.timestamps_us, labels=out.labels)
+    meta = dict(out.recording.metadata, frames=spec.n_frames, labels=str(labels_path))
+    return Recording(out.recording.events, out.recording.sensor_size, meta)
+
+
 def run(args: argparse.Namespace) -> int:
     """Handler of ``uavsnn simulate``."""
     size = check_size(args.size)
@@ -91,7 +129,19 @@ def run(args: argparse.Namespace) -> int:
             f"uavsnn simulate: error: output must end in .npz, got {args.output}", file=sys.stderr
         )
         return 2
-    recording = video_to_recording(
+    if (args.video is None) == (args.scene is None):
+        print("uavsnn simulate: error: give a video or --scene, not both", file=sys.stderr)
+        return 2
+    if args.scene is not None:
+        recording = _scene(args, size)
+        args.mode = "dvs"
+    else:
+        recording = _video(args, size)
+    return _finish(args, recording)
+
+
+def _video(args: argparse.Namespace, size: tuple[int, int]) -> Recording:
+    return video_to_recording(
         args.video,
         args.mode,
         size,
@@ -101,6 +151,9 @@ def run(args: argparse.Namespace) -> int:
         fps=args.fps,
         progress=not (args.quiet or args.json),
     )
+
+
+def _finish(args: argparse.Namespace, recording: Recording) -> int:
     write_recording(recording, args.output)
     if args.preview is not None:
         write_preview(recording, args.preview)

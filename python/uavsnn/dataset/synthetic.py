@@ -1,8 +1,9 @@
 """Synthetic labelled recordings — a sampled scene, rendered, turned into events — and the
 splits made of them.
 
-- "dvs": the scene is rendered at the sensor's size (240×180) at a high frame rate (500 fps
-  by default) as linear intensity, and :class:`uavsnn.sim.DvsEmulator` makes the events.
+- "dvs": :func:`uavsnn.scenes.record` renders the scene at the sensor's size (240×180) at a
+  high frame rate (500 fps by default) as linear intensity, its fast parts (rotors, wings) also
+  between frames, and :class:`uavsnn.sim.DvsEmulator` makes the events.
 - "sim": the scene is rendered as 8-bit colour video (30 or 60 fps, 480×360 by default — the
   4:3 centre of a 640×360 camera), and PIX2NVS (:class:`uavsnn.sim.Pix2NvsSimulator`) makes
   events at that size and pools them onto the sensor, as the paper did with its 1080p footage.
@@ -33,8 +34,8 @@ from uavsnn.dataset.splits import (
 )
 from uavsnn.errors import DatasetError, ParameterError
 from uavsnn.events import Recording
-from uavsnn.scenes import render, sample_spec
-from uavsnn.sim import DvsEmulator, DvsParams, Pix2NvsParams, Pix2NvsSimulator, crop_to_aspect
+from uavsnn.scenes import record, render, sample_spec
+from uavsnn.sim import SCENE_PARAMS, DvsParams, Pix2NvsParams, Pix2NvsSimulator, crop_to_aspect
 
 __all__ = ["LabelledRecording", "SceneSource", "synthetic_recording", "synthetic_split"]
 
@@ -84,8 +85,8 @@ class SceneSource:
             "sensor_size": list(self.sensor),
         }
         if self.domain == "dvs":
-            out["simulator"] = "uavsnn.sim.DvsEmulator"
-            out["simulator_params"] = _params(self.dvs_params or DvsParams())
+            out["simulator"] = "uavsnn.scenes.record (uavsnn.sim.DvsEmulator, sub-frame samples)"
+            out["simulator_params"] = _params(self.dvs_params or SCENE_PARAMS)
         else:
             out["simulator"] = "uavsnn.sim.Pix2NvsSimulator (events pooled onto the sensor)"
             out["simulator_params"] = _params(self.pix2nvs_params or Pix2NvsParams())
@@ -117,7 +118,7 @@ class LabelledRecording:
 def synthetic_recording(source: SceneSource, kind: str, seed: int) -> LabelledRecording:
     """Sample a scene of ``kind`` (see :func:`uavsnn.scenes.sample_spec`), render it and
     simulate its events, all from ``seed``."""
-    spec_seq, render_seq, sensor_seq = np.random.SeedSequence(seed).spawn(3)
+    spec_seq, render_seq, _ = np.random.SeedSequence(seed).spawn(3)
     spec = sample_spec(
         source.domain,
         kind,
@@ -127,12 +128,12 @@ def synthetic_recording(source: SceneSource, kind: str, seed: int) -> LabelledRe
         duration_s=source.duration_s,
     )
     render_seed = int(render_seq.generate_state(1)[0])
-    frames, ts, labels = render(spec, seed=render_seed)
     if source.domain == "dvs":
-        sensor_seed = int(sensor_seq.generate_state(1)[0])
-        emulator = DvsEmulator(source.sensor, params=source.dvs_params, seed=sensor_seed)
-        events = emulator.process(frames, ts)
+        # Fast parts sampled between frames, frame by frame into the emulator.
+        recorded = record(spec, sensor=source.sensor, seed=render_seed, params=source.dvs_params)
+        events, ts, labels = recorded.recording.events, recorded.timestamps_us, recorded.labels
     else:
+        frames, ts, labels = render(spec, seed=render_seed)
         crop = crop_to_aspect(frames[0], source.sensor[0] / source.sensor[1]).shape
         size = (crop[1], crop[0])
         if size == tuple(source.sensor):
@@ -143,7 +144,7 @@ def synthetic_recording(source: SceneSource, kind: str, seed: int) -> LabelledRe
             )
         x0, y0, cw, ch = crop_box(source.size, source.sensor)
         events = sim.process(np.ascontiguousarray(frames[:, y0 : y0 + ch, x0 : x0 + cw]), ts)
-    del frames
+        del frames
     info = {
         "kind": kind,
         "seed": int(seed),

@@ -1,5 +1,7 @@
 """Labelled scenes for training and testing: UAVs and other flying things, rendered.
 
+``record(spec, *, sensor, seed)`` gives a scene's events as an event camera would (fast parts
+rendered between frames too) with its labels;
 ``render(spec, *, seed) -> (frames, timestamps_us, labels)`` draws a :class:`SceneSpec` with
 OpenCV and NumPy; ``sample_spec(domain, kind, rng)`` draws varied specs: Phantom- and
 Tello-sized quadcopters with spinning rotors, birds with beating wings, aircraft, helicopters,
@@ -10,6 +12,7 @@ hall, in light from bright to very dark. See ``docs/dataset.md``.
 from __future__ import annotations
 
 from uavsnn.scenes.preview import contact_sheet, write_png
+from uavsnn.scenes.record import Recorded, record, spec_from_dict, spec_to_dict
 from uavsnn.scenes.renderer import LABEL_DTYPE, render, scene_labels
 from uavsnn.scenes.sampler import SCENE_KINDS, default_format, sample_spec
 from uavsnn.scenes.spec import (
@@ -37,11 +40,15 @@ __all__ = [
     "Lighting",
     "ObjectSpec",
     "PathSpec",
+    "Recorded",
     "SceneSpec",
     "contact_sheet",
     "default_format",
+    "record",
     "render",
     "sample_spec",
     "scene_labels",
+    "spec_from_dict",
+    "spec_to_dict",
     "write_png",
 ]

@@ -31,8 +31,8 @@ def shade(color: Color | tuple[float, ...], k: float, offset: float = 0.0) -> Co
 
 class Part(NamedTuple):
     """One drawn piece: ``points`` ``(k, 3)`` in the body frame (metres), linear BGR ``color``,
-    opacity ``alpha``, and whether to fill the convex ``hull`` of the projected points or the
-    polygon as given."""
+    opacity ``alpha`` (0: not drawn, but part of the object's box), and whether to fill the
+    convex ``hull`` of the projected points or the polygon as given."""
 
     points: np.ndarray
     color: Color
@@ -95,6 +95,33 @@ def blade(
     return np.stack([a - n, b - n * 0.6, b + n * 0.6, a + n])
 
 
+#: A propeller blade's width at its root and its tip, as fractions of the rotor's radius
+#: (a 9.4-inch Phantom propeller: about 25 mm chord at 40 % of its 120 mm radius).
+BLADE_ROOT, BLADE_TIP = 0.16, 0.096
+#: The spinning disc a rotor's blades sweep: colour and opacity (a faint blur in any one frame).
+DISC_COLOR, DISC_ALPHA = (0.25, 0.25, 0.25), 0.22
+#: Blade colour and opacity.
+BLADE_COLOR, BLADE_ALPHA = (0.18, 0.18, 0.18), 0.9
+
+
+def rotor_parts(
+    hub: np.ndarray, radius: float, angle: float, blades: int = 2, *, disc: bool = True
+) -> list[Part]:
+    """A rotor in the horizontal plane at ``hub`` (body frame): its disc (the blur a video
+    camera's exposure makes; ``disc=False`` for an event camera, which sees the blades at each
+    instant), then ``blades`` blades at ``angle`` (radians) and evenly spaced from it."""
+    a = angle + 2 * np.pi * np.arange(blades) / blades
+    d = np.stack([np.cos(a), np.zeros(blades), np.sin(a)], axis=1)
+    nrm = np.stack([-np.sin(a), np.zeros(blades), np.cos(a)], axis=1) * (radius * BLADE_ROOT / 2)
+    tip = hub + d * radius
+    tip_w = BLADE_TIP / BLADE_ROOT
+    quads = np.stack([hub - nrm, tip - tip_w * nrm, tip + tip_w * nrm, hub + nrm], axis=1)
+    out = [Part(q, BLADE_COLOR, BLADE_ALPHA) for q in quads]
+    if disc:
+        out.insert(0, Part(_disc(tuple(hub), radius, n=20), DISC_COLOR, DISC_ALPHA))
+    return out
+
+
 class Model:
     """Base of the object models: ``parts(t, velocity) -> (parts, attitude)``."""
 
@@ -103,8 +130,17 @@ class Model:
     #: Drawn facing the camera whatever the line of sight (a sphere looks round from anywhere).
     faces_camera = False
 
-    def __init__(self, obj: ObjectSpec) -> None:
+    def fast_hz(self) -> float:
+        """The highest rate at which the object's look repeats, in Hz: a rotor's blade pass,
+        a wing beat. Sub-frame samples of its patch follow it (0: nothing moves fast)."""
+        return float(self.obj.rate_hz)
+
+    def __init__(self, obj: ObjectSpec, *, event_camera: bool = False) -> None:
         self.obj = obj
+        #: Seen by an event camera: no blur discs for rotors (a video frame's exposure smears
+        #: the blades into a disc; an event camera sees the blades at every instant, and a
+        #: disc drawn over them only darkens the sky they pass against).
+        self.event_camera = event_camera
         self.k = obj.size_m / self.nominal
         self.color = shade(obj.color, 1.0)
 
@@ -129,10 +165,10 @@ class Quadcopter(Model):
     """A quadcopter: body, four arms with motors, four spinning two-blade rotors; the Phantom
     variant stands on a landing gear. It banks into its motion as real multirotors do."""
 
-    def __init__(self, obj: ObjectSpec) -> None:
+    def __init__(self, obj: ObjectSpec, *, event_camera: bool = False) -> None:
         self.phantom = obj.kind == "phantom"
         self.nominal = 0.29 if self.phantom else 0.098
-        super().__init__(obj)
+        super().__init__(obj, event_camera=event_camera)
         grey, light, dark = (0.6, 0.6, 0.6), (0.72, 0.72, 0.72), (0.12, 0.12, 0.12)
         if self.phantom:
             # Motors at (±a, ±a): DJI's 350 mm diagonal; 9.4-inch propellers.
@@ -183,7 +219,9 @@ class Quadcopter(Model):
                     hull=True,
                 )
             )
-            static.append(Part(disc(tuple(hub), self.prop_r, n=20), (0.25, 0.25, 0.25), 0.22))
+            # For an event camera the disc is not drawn (alpha 0) but still bounds the box.
+            alpha = 0.0 if event_camera else DISC_ALPHA
+            static.append(Part(disc(tuple(hub), self.prop_r, n=20), DISC_COLOR, alpha))
         static.insert(0, Part(body, self.color, hull=True))
         self.static = static
         self.spin = 2 * math.pi * obj.rate_hz
@@ -191,14 +229,21 @@ class Quadcopter(Model):
         self.turn = np.repeat([1.0, -1.0, 1.0, -1.0], 2)
         self.offset = np.repeat(np.arange(4.0), 2) + np.tile([0.0, math.pi], 4) + obj.phase
 
+    def fast_hz(self) -> float:
+        """Two blades per rotor: the blade pass is twice the rotation rate."""
+        return 2.0 * float(self.obj.rate_hz)
+
     def _parts(self, t: float, velocity: np.ndarray) -> tuple[list[Part], np.ndarray]:
         angle = self.turn * self.spin * t + self.offset  # (8,)
         d = np.stack([np.cos(angle), np.zeros(8), np.sin(angle)], axis=1)
-        n = np.stack([-np.sin(angle), np.zeros(8), np.cos(angle)], axis=1) * (self.prop_r * 0.08)
+        n = np.stack([-np.sin(angle), np.zeros(8), np.cos(angle)], axis=1) * (
+            self.prop_r * BLADE_ROOT / 2
+        )
         hub = np.repeat(self.hubs, 2, axis=0)
         tip = hub + d * self.prop_r
-        quads = np.stack([hub - n, tip - 0.6 * n, tip + 0.6 * n, hub + n], axis=1)  # (8, 4, 3)
-        blades = [Part(q, (0.18, 0.18, 0.18), 0.9) for q in quads]
+        tip_w = BLADE_TIP / BLADE_ROOT
+        quads = np.stack([hub - n, tip - tip_w * n, tip + tip_w * n, hub + n], axis=1)  # (8,4,3)
+        blades = [Part(q, BLADE_COLOR, BLADE_ALPHA) for q in quads]
         # Bank into the motion: about 2.5° per m/s, at most 25°.
         vx, vz = float(velocity[0]), float(velocity[2])
         tilt_x = math.radians(max(-25.0, min(25.0, -2.5 * vx)))
@@ -310,6 +355,12 @@ class Helicopter(Model):
     """A helicopter: cabin, tail boom, fin, skids, a main rotor of 2-5 blades turning at
     ``rate_hz`` and a fast tail rotor."""
 
+    def fast_hz(self) -> float:
+        """The tail rotor (two blade ends, five times the main rotor's rate) or the main
+        rotor's blade pass, whichever is faster."""
+        n_blades = 2 + self.obj.variant % 4
+        return float(self.obj.rate_hz) * max(10.0, n_blades)
+
     def _parts(self, t: float, velocity: np.ndarray) -> tuple[list[Part], np.ndarray]:
         col = self.color
         dark = (0.15, 0.15, 0.15)
@@ -330,14 +381,17 @@ class Helicopter(Model):
             Part(stick((0.1, -0.1, 0.0), (0.1, 0.14, 0.0), 0.012), dark, hull=True),
         ]
         hub = (0.1, 0.15, 0.0)
-        parts.append(Part(disc(hub, 0.45, n=24), (0.3, 0.3, 0.3), 0.12))
+        parts.append(
+            Part(disc(hub, 0.45, n=24), (0.3, 0.3, 0.3), 0.0 if self.event_camera else 0.12)
+        )
         n_blades = 2 + self.obj.variant % 4
         spin = 2 * math.pi * self.obj.rate_hz * t + self.obj.phase
         for i in range(n_blades):
             a = spin + 2 * math.pi * i / n_blades
             parts.append(Part(blade(hub, a, 0.45, 0.025), dark, 0.95))
         tail_hub = np.array([-0.49, 0.08, 0.03])
-        parts.append(Part(disc(tuple(tail_hub), 0.07, plane="xy", n=12), (0.3, 0.3, 0.3), 0.15))
+        if not self.event_camera:
+            parts.append(Part(disc(tuple(tail_hub), 0.07, plane="xy", n=12), (0.3, 0.3, 0.3), 0.15))
         ta = 5 * spin
         d = np.array([math.cos(ta), math.sin(ta), 0.0]) * 0.07
         nrm = np.array([-math.sin(ta), math.cos(ta), 0.0]) * 0.006
@@ -431,6 +485,9 @@ _MODELS: dict[str, type[Model]] = {
 }
 
 
-def model_for(obj: ObjectSpec) -> Model:
-    """The model that draws ``obj``."""
-    return _MODELS[obj.kind](obj)
+def model_for(obj: ObjectSpec, *, event_camera: bool = False) -> Model:
+    """The model that draws ``obj`` (for an event camera: without rotor blur discs)."""
+    return _MODELS[obj.kind](obj, event_camera=event_camera)
+
+
+_disc = disc

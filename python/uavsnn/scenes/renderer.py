@@ -4,7 +4,9 @@ Per frame: crop the background textures (one warp each), draw each object far to
 parts projected in one matrix product and filled anti-aliased at 1/16 pixel into a patch around
 it — then light the frame and encode it as a camera would (8-bit gamma-encoded BGR with noise
 for "sim"; linear gray intensity on the 0-255 scale for the "dvs" sensor emulator, which adds
-its own noise).
+its own noise). :func:`frames` renders one frame at a time and, for "dvs", also renders fast
+parts (rotors, wings) in patches at jittered times between frames for the emulator
+(:func:`uavsnn.scenes.record`).
 
 A frame's label is the box of the first visible UAV of the spec; failing that, of the first
 visible other object (``uav`` false); failing that, ``cls == "none"`` and a NaN box. A box is the
@@ -18,7 +20,9 @@ from __future__ import annotations
 
 import math
 import operator
+from collections.abc import Iterator
 from functools import lru_cache
+from typing import NamedTuple
 
 import cv2
 import numpy as np
@@ -29,7 +33,7 @@ from uavsnn.scenes.camera import Camera, view_rotation
 from uavsnn.scenes.objects import Model, Part, model_for
 from uavsnn.scenes.spec import SceneSpec
 
-__all__ = ["LABEL_DTYPE", "render", "scene_labels"]
+__all__ = ["LABEL_DTYPE", "SAMPLES_PER_PASS", "Frame", "frames", "render", "scene_labels"]
 
 #: One label per frame: is a UAV visible, the class of the labelled object, its box.
 LABEL_DTYPE = np.dtype(
@@ -40,7 +44,6 @@ LABEL_DTYPE = np.dtype(
 # cv2's shift=4) and box-averaged down, so a pixel's opacity is the share of it that the
 # polygon covers and nothing spills past the polygon (cv2's own antialiasing spreads 1.5 px).
 _SS = 4
-_FIX = 16 * _SS
 
 
 def _box_visible(
@@ -70,9 +73,11 @@ def _draw(
     scale: float,
     elevation: float,
     faces_camera: bool,
+    ss: int = _SS,
 ) -> tuple[float, float, float, float]:
     """Fill the parts into ``img`` (in place; ``None`` to only measure) and return the bound
-    of what is drawn.
+    of what is drawn. ``ss``: the coverage grid's subdivisions per pixel (finer for thin
+    fast parts, whose coverage would otherwise step by a sixteenth of a pixel as they turn).
 
     Parts of one colour and opacity share a mask; these groups are painted far to near by
     their mean depth along the line of sight.
@@ -94,7 +99,8 @@ def _draw(
     if box[2] < -1 or box[3] < -1 or box[0] > w + 1 or box[1] > h + 1:
         return box
     # Fine-grid coordinates, with cv2's pixel centres on integers (ours are at +0.5).
-    fixed = np.round((xy * _SS - 0.5) * 16).astype(np.int32)
+    fix = 16 * ss
+    fixed = np.round((xy * ss - 0.5) * 16).astype(np.int32)
     sizes = np.array([len(p.points) for p in parts])
     starts = np.concatenate([[0], np.cumsum(sizes)[:-1]])
     part_depth = (np.add.reduceat(pts[:, 2], starts) / sizes).tolist()
@@ -107,20 +113,22 @@ def _draw(
         return sum(part_depth[i] for i in members) / len(members)
 
     for key in sorted(groups, key=mean_depth, reverse=True):
+        if key[1] <= 0:
+            continue
         polys: list[np.ndarray] = []
         for i in groups[key]:
             poly = fixed[starts[i] : starts[i] + sizes[i]]
             polys.append(cv2.convexHull(poly).reshape(-1, 2) if parts[i].hull else poly)
         allp = np.concatenate(polys)
         lo, hi = allp.min(axis=0), allp.max(axis=0)
-        px0 = max(int(lo[0]) // _FIX - 1, 0)
-        py0 = max(int(lo[1]) // _FIX - 1, 0)
-        px1 = min(-(-int(hi[0]) // _FIX) + 2, w)
-        py1 = min(-(-int(hi[1]) // _FIX) + 2, h)
+        px0 = max(int(lo[0]) // fix - 1, 0)
+        py0 = max(int(lo[1]) // fix - 1, 0)
+        px1 = min(-(-int(hi[0]) // fix) + 2, w)
+        py1 = min(-(-int(hi[1]) // fix) + 2, h)
         if px1 <= px0 or py1 <= py0:
             continue
-        fine = np.zeros(((py1 - py0) * _SS, (px1 - px0) * _SS), dtype=np.uint8)
-        origin = np.array([px0 * _FIX, py0 * _FIX], dtype=np.int32)
+        fine = np.zeros(((py1 - py0) * ss, (px1 - px0) * ss), dtype=np.uint8)
+        origin = np.array([px0 * fix, py0 * fix], dtype=np.int32)
         for outline in polys:
             # One call per polygon: OpenCV fills overlaps of one call's polygons even-odd.
             cv2.fillPoly(fine, [outline - origin], 255, cv2.LINE_8, shift=4)
@@ -165,7 +173,10 @@ class _Objects:
 
     def __init__(self, spec: SceneSpec, cam: Camera, times: np.ndarray) -> None:
         self.spec = spec
-        self.models: list[Model] = [model_for(o) for o in spec.objects]
+        ev = spec.frame_format == "gray32f"
+        self.models: list[Model] = [model_for(o, event_camera=ev) for o in spec.objects]
+        #: Each object's box at the last frame drawn (``None``: not drawn).
+        self.boxes: list[tuple[float, float, float, float] | None] = [None] * len(self.models)
         self.tracks = []
         grounded = spec.background.kind in ("ground", "hall")
         for obj in spec.objects:
@@ -176,6 +187,38 @@ class _Objects:
                 height = cam.altitude(pos, spec.background.camera_height_m)
                 scale = np.where(height < 0, 0.0, scale)
             self.tracks.append((pos, obj.path.velocity_at(times), uv, scale, cam.elevation(pos)))
+
+    def draw_between(
+        self,
+        img: np.ndarray,
+        k: int,
+        alpha: float,
+        t: float,
+        origin: tuple[int, int],
+        only: set[int],
+        ss: int = _SS,
+    ) -> None:
+        """Draw the objects ``only`` far to near into ``img``, a patch whose top-left pixel is
+        ``origin``, at time ``t`` a fraction ``alpha`` of the way from frame ``k - 1`` to frame
+        ``k``: path and view interpolated, moving parts (rotors, wings) at ``t`` itself."""
+        order = sorted(only, key=lambda i: -self.tracks[i][0][k, 2])
+        b = 1.0 - alpha
+        for i in order:
+            _, vel, uv, scale, elev = self.tracks[i]
+            if scale[k] <= 0 or scale[k - 1] <= 0:
+                continue
+            parts, rot = self.models[i].parts(t, vel[k])
+            at = b * uv[k - 1] + alpha * uv[k] - np.asarray(origin, dtype=np.float64)
+            _draw(
+                img,
+                parts,
+                rot,
+                at,
+                float(b * scale[k - 1] + alpha * scale[k]),
+                float(b * elev[k - 1] + alpha * elev[k]),
+                self.models[i].faces_camera,
+                ss,
+            )
 
     def draw(
         self, img: np.ndarray | None, k: int, t: float
@@ -192,7 +235,178 @@ class _Objects:
             boxes[i] = _draw(
                 img, parts, rot, uv[k], float(scale[k]), float(elev[k]), self.models[i].faces_camera
             )
+        self.boxes = boxes
         return _label(self.spec, boxes, self.spec.width, self.spec.height)
+
+
+#: Coverage grid of parts drawn between frames: 8 × 8 per pixel, so that a blade a tenth of a
+#: pixel wide covers its pixels smoothly as it turns.
+FINE_SS = 8
+
+#: Sub-frame samples per period of an object's fastest motion (a blade passage, a wing beat)
+#: that the "dvs" domain's renderings give the emulator (the issue's floor is 4).
+SAMPLES_PER_PASS = 6
+
+
+class Frame(NamedTuple):
+    """One rendered frame: index, time, image, label, and the sub-frame patches since the
+    previous frame (``(x0, y0, times_us, values)`` each, see
+    :meth:`uavsnn.sim.DvsEmulator.process_frame`; empty for video and for the first frame)."""
+
+    k: int
+    t_us: int
+    image: np.ndarray
+    label: tuple[bool, str, float, float, float, float]
+    patches: list[tuple[int, int, np.ndarray, np.ndarray]]
+
+
+def frames(
+    spec: SceneSpec, *, seed: int, samples_per_pass: int = SAMPLES_PER_PASS
+) -> Iterator[Frame]:
+    """Render ``spec`` one frame at a time (bounded memory), with sub-frame samples of fast
+    objects for the "dvs" format (``gray32f``).
+
+    Between frames ``k - 1`` and ``k``, an object whose look repeats at ``fast_hz`` (a rotor's
+    blade pass, a wing beat) is rendered again in a patch around it at
+    ``ceil(samples_per_pass · fast_hz / fps) - 1`` evenly spaced times (integer microseconds),
+    on the background interpolated between the two frames and with its path interpolated, its
+    moving parts at each time; overlapping patches merge. ``samples_per_pass = 0`` turns this
+    off (every motion sampled at the frame rate only, as before). Frames are the same as
+    :func:`render`'s.
+    """
+    _check(spec)
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise SimulationError(f"seed must be a non-negative integer, got {seed!r}")
+    if (
+        isinstance(samples_per_pass, bool)
+        or not isinstance(samples_per_pass, (int, np.integer))
+        or not 0 <= samples_per_pass <= 64
+    ):
+        raise SimulationError(
+            f"samples_per_pass must be an integer in [0, 64], got {samples_per_pass!r}"
+        )
+    tex_seq, noise_seq, jitter_seq = np.random.SeedSequence(int(seed)).spawn(3)
+    tex_rng, noise_rng = np.random.default_rng(tex_seq), np.random.default_rng(noise_seq)
+    jitter = np.random.default_rng(jitter_seq)
+    w, h = spec.width, spec.height
+    times, timestamps = _frame_times(spec)
+    cam = Camera(spec)
+    shifts = cam.shift(times)
+    fmt = spec.frame_format
+    channels = 3 if fmt == "bgr8" else 1
+    backdrop = Backdrop(spec, cam, shifts, tex_rng, channels)
+    objects = _Objects(spec, cam, times)
+    light = spec.lighting
+    grain = None
+    if fmt == "bgr8" and light.noise > 0:
+        grain = noise_rng.standard_normal((2 * h, 2 * w, 3), dtype=np.float32)
+    # Sub-steps per frame interval of each object (1: none between frames).
+    steps = [
+        max(1, math.ceil(samples_per_pass * m.fast_hz() / spec.fps - 1e-9))
+        if fmt != "bgr8" and samples_per_pass
+        else 1
+        for m in objects.models
+    ]
+    fast = [i for i, m in enumerate(steps) if m > 1]
+
+    def level_at(t: float) -> float:
+        return light.level * (1.0 + light.flicker * math.sin(2 * math.pi * light.flicker_hz * t))
+
+    prev_bg: np.ndarray | None = None
+    prev_boxes: list[tuple[float, float, float, float] | None] = []
+    for k in range(spec.n_frames):
+        t = float(times[k])
+        img = backdrop.frame(t, shifts[k])
+        bg = img.copy() if fast else None
+        label = objects.draw(img, k, t)
+        level = level_at(t)
+        if fmt == "bgr8":
+            image = _encode_bgr8(img, level, light.noise, noise_rng, grain)
+        else:
+            image = img[:, :, 0] * np.float32(level * 255.0)
+        patches: list[tuple[int, int, np.ndarray, np.ndarray]] = []
+        if fast and k > 0 and prev_bg is not None and bg is not None:
+            t0, t1 = int(timestamps[k - 1]), int(timestamps[k])
+            for (x0, y0, x1, y1), members in _patches(fast, prev_boxes, objects.boxes, w, h):
+                m = max(steps[i] for i in members)
+                sub = sub_frame_times(t0, t1, m, jitter)
+                if not len(sub):
+                    continue
+                # Everything drawn that may cover the patch, not only the fast objects.
+                near = {
+                    i
+                    for i, (bp, bc) in enumerate(zip(prev_boxes, objects.boxes, strict=True))
+                    if bp is not None
+                    and bc is not None
+                    and min(bp[0], bc[0]) < x1
+                    and max(bp[2], bc[2]) > x0
+                    and min(bp[1], bc[1]) < y1
+                    and max(bp[3], bc[3]) > y0
+                }
+                values = np.empty((len(sub), y1 - y0, x1 - x0), dtype=np.float32)
+                a_bg, b_bg = prev_bg[y0:y1, x0:x1], bg[y0:y1, x0:x1]
+                for j, ts in enumerate(sub.tolist()):
+                    alpha = (ts - t0) / (t1 - t0)
+                    patch = a_bg + np.float32(alpha) * (b_bg - a_bg)
+                    objects.draw_between(patch, k, alpha, ts * 1e-6, (x0, y0), near, FINE_SS)
+                    values[j] = patch[:, :, 0] * np.float32(level_at(ts * 1e-6) * 255.0)
+                patches.append((x0, y0, sub, values))
+        prev_bg, prev_boxes = bg, list(objects.boxes)
+        yield Frame(k, int(timestamps[k]), image, label, patches)
+
+
+def sub_frame_times(t0: int, t1: int, m: int, rng: np.random.Generator) -> np.ndarray:
+    """``m - 1`` sample times strictly between frames at ``t0`` and ``t1`` (µs), one in each
+    of the strata centred on ``t0 + j (t1 - t0) / m``, at a random place in it: jittered, so
+    that the sampling grid does not put lines of its own into the events' spectrum (regular
+    sub-samples make the crossings of barely-crossing pixels bunch at the grid's rate).
+    Integer microseconds, duplicates dropped."""
+    if m <= 1:
+        return np.zeros(0, dtype=np.uint64)
+    j = np.arange(1, m) + rng.random(m - 1) - 0.5
+    sub = np.unique(np.round(t0 + (t1 - t0) * j / m).astype(np.int64))
+    return sub[(sub > t0) & (sub < t1)].astype(np.uint64)
+
+
+def _patches(
+    fast: list[int],
+    before: list[tuple[float, float, float, float] | None],
+    after: list[tuple[float, float, float, float] | None],
+    w: int,
+    h: int,
+) -> list[tuple[tuple[int, int, int, int], list[int]]]:
+    """Disjoint integer rectangles, clipped to the frame, that cover each fast object's box at
+    both frames (one pixel of margin), with the objects each covers."""
+    rects: list[tuple[list[int], list[int]]] = []
+    for i in fast:
+        a, b = before[i], after[i]
+        if a is None or b is None:
+            continue
+        r = [
+            max(math.floor(min(a[0], b[0])) - 1, 0),
+            max(math.floor(min(a[1], b[1])) - 1, 0),
+            min(math.ceil(max(a[2], b[2])) + 1, w),
+            min(math.ceil(max(a[3], b[3])) + 1, h),
+        ]
+        if r[2] > r[0] and r[3] > r[1]:
+            rects.append((r, [i]))
+    merged = True
+    while merged:
+        merged = False
+        for p in range(len(rects)):
+            for q in range(p + 1, len(rects)):
+                r, s = rects[p][0], rects[q][0]
+                if r[0] < s[2] and s[0] < r[2] and r[1] < s[3] and s[1] < r[3]:
+                    rects[p] = (
+                        [min(r[0], s[0]), min(r[1], s[1]), max(r[2], s[2]), max(r[3], s[3])],
+                        rects[p][1] + rects[q][1],
+                    )
+                    del rects[q]
+                    merged = True
+                    break
+            if merged:
+                break
+    return [((r[0], r[1], r[2], r[3]), members) for r, members in rects]
 
 
 def render(spec: SceneSpec, *, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -204,40 +418,23 @@ def render(spec: SceneSpec, *, seed: int) -> tuple[np.ndarray, np.ndarray, np.nd
     ``labels``: ``(n,)`` of :data:`LABEL_DTYPE`. The same spec and seed give the same frames;
     the seed shapes only textures (clouds, trees, grain) and camera noise, which do not depend
     on the objects, so the spec without its objects renders the same background.
+
+    Whole frames only: for the "dvs" domain, :func:`uavsnn.scenes.record` also renders fast
+    parts between frames (:func:`frames`) and is what the dataset builder uses.
     """
     _check(spec)
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise SimulationError(f"seed must be a non-negative integer, got {seed!r}")
-    tex_seq, noise_seq = np.random.SeedSequence(int(seed)).spawn(2)
-    tex_rng, noise_rng = np.random.default_rng(tex_seq), np.random.default_rng(noise_seq)
     n, w, h = spec.n_frames, spec.width, spec.height
-    times, timestamps = _frame_times(spec)
-    cam = Camera(spec)
-    shifts = cam.shift(times)
-    fmt = spec.frame_format
-    channels = 3 if fmt == "bgr8" else 1
-    backdrop = Backdrop(spec, cam, shifts, tex_rng, channels)
-    objects = _Objects(spec, cam, times)
-    frames = (
+    out = (
         np.empty((n, h, w, 3), dtype=np.uint8)
-        if fmt == "bgr8"
+        if spec.frame_format == "bgr8"
         else np.empty((n, h, w), dtype=np.float32)
     )
     labels = np.zeros(n, dtype=LABEL_DTYPE)
-    light = spec.lighting
-    grain = None
-    if fmt == "bgr8" and light.noise > 0:
-        grain = noise_rng.standard_normal((2 * h, 2 * w, 3), dtype=np.float32)
-    for k in range(n):
-        t = float(times[k])
-        img = backdrop.frame(t, shifts[k])
-        labels[k] = objects.draw(img, k, t)
-        level = light.level * (1.0 + light.flicker * math.sin(2 * math.pi * light.flicker_hz * t))
-        if fmt == "bgr8":
-            frames[k] = _encode_bgr8(img, level, light.noise, noise_rng, grain)
-        else:
-            frames[k] = img[:, :, 0] * np.float32(level * 255.0)
-    return frames, timestamps, labels
+    _, timestamps = _frame_times(spec)
+    for f in frames(spec, seed=seed, samples_per_pass=0):
+        out[f.k] = f.image
+        labels[f.k] = f.label
+    return out, timestamps, labels
 
 
 def scene_labels(spec: SceneSpec) -> tuple[np.ndarray, np.ndarray]:

@@ -15,7 +15,7 @@ choices made, and how they compare with PIX2NVS and v2e, are in ``docs/simulatio
 
 from __future__ import annotations
 
-from uavsnn.sim.dvs import DvsEmulator, DvsParams, emulate_dvs
+from uavsnn.sim.dvs import SCENE_PARAMS, DvsEmulator, DvsParams, emulate_dvs
 from uavsnn.sim.pix2nvs import Pix2NvsParams, Pix2NvsSimulator, pix2nvs
 from uavsnn.sim.preview import event_frame, event_strip, write_preview
 from uavsnn.sim.video import (
@@ -27,6 +27,7 @@ from uavsnn.sim.video import (
 )
 
 __all__ = [
+    "SCENE_PARAMS",
     "DvsEmulator",
     "DvsParams",
     "Pix2NvsParams",

@@ -13,8 +13,13 @@ emitted at its exact interpolated time, as ESIM does (no cap on events per frame
 - shot noise: Poisson events at ``shot_noise_rate_hz`` per pixel in the dark, scaled linearly to
   ``shot_noise_bright_factor`` times that at white, half ON, half OFF;
 - hot pixels: ``round(hot_pixel_fraction · pixels)`` pixels firing ON at ``hot_pixel_rate_hz``;
-- low light: a first-order photoreceptor low-pass with cutoff ``cutoff_hz · (Y + 20) / 275``
-  (v2e's intensity scaling), so dark pixels are slower as well as noisier.
+- low light: a first-order photoreceptor low-pass with cutoff
+  ``cutoff_hz · (Y + c) / (255 + c)``, ``c = cutoff_dark_luma`` (v2e's intensity scaling has
+  ``c = 20``; a small ``c`` makes the bandwidth proportional to the light, kHz in daylight and
+  tens of Hz at dusk — :data:`SCENE_PARAMS`), so dark pixels are slower as well as noisier;
+- sub-frame samples: between two frames, small patches (a rotor, a wing) may be given at more
+  times (:meth:`DvsEmulator.process_frame`); their pixels follow those samples, so what moves
+  faster than the frame rate reaches them without aliasing.
 
 Every event resets its pixel; noise events do not shift ``R`` by a threshold, so the noise
 rates delivered are the rates asked for (with no refractory period). Random draws come from one
@@ -35,7 +40,7 @@ from uavsnn.events import EVENT_DTYPE
 from uavsnn.sim.checks import check_real, check_seed, check_size
 from uavsnn.sim.frames import FrameBatch, as_frame_batch, as_timestamps
 
-__all__ = ["DvsEmulator", "DvsParams", "emulate_dvs"]
+__all__ = ["SCENE_PARAMS", "DvsEmulator", "DvsParams", "emulate_dvs"]
 
 #: Highest rate accepted for any per-pixel noise process (one event per microsecond).
 MAX_RATE_HZ = 1e6
@@ -60,6 +65,8 @@ class DvsParams:
         hot_pixel_rate_hz: ON events per second of each hot pixel (default 20).
         cutoff_hz: photoreceptor cutoff at white, Hz; 0 disables the low-pass (default 300).
         linlog_threshold: luma below which the response is linear, not log (default 20, v2e).
+        cutoff_dark_luma: luma added before the cutoff scales with intensity, > 0: the cutoff
+            at luma ``Y`` is ``cutoff_hz · (Y + c) / (255 + c)`` (default 20, v2e).
     """
 
     threshold_on: float = 0.2
@@ -74,6 +81,7 @@ class DvsParams:
     hot_pixel_rate_hz: float = 20.0
     cutoff_hz: float = 300.0
     linlog_threshold: float = 20.0
+    cutoff_dark_luma: float = 20.0
 
     def __post_init__(self) -> None:
         check_real("threshold_on", self.threshold_on, low=0.0, low_open=True)
@@ -93,6 +101,7 @@ class DvsParams:
         check_real("hot_pixel_rate_hz", self.hot_pixel_rate_hz, low=0.0, high=MAX_RATE_HZ)
         check_real("cutoff_hz", self.cutoff_hz, low=0.0)
         check_real("linlog_threshold", self.linlog_threshold, low=0.0, low_open=True)
+        check_real("cutoff_dark_luma", self.cutoff_dark_luma, low=0.0, low_open=True)
 
     @classmethod
     def ideal(cls, **overrides: Any) -> DvsParams:
@@ -122,6 +131,23 @@ class DvsParams:
         }
         base.update(overrides)
         return cls(**base)
+
+
+#: The sensor of rendered scenes ("dvs" domain): v2e's defaults, with a photoreceptor whose
+#: bandwidth is proportional to the light — 3 kHz at white, about 2 kHz under a bright sky, tens
+#: of Hz at dusk (``Lighting.level`` 0.03) — as a DAVIS pixel's is (its bandwidth in daylight is
+#: several kHz). Rendered luma is proportional to the scene's light, so dusk scenes blur what
+#: noon scenes resolve.
+SCENE_PARAMS = DvsParams(cutoff_hz=3000.0, cutoff_dark_luma=0.5)
+
+
+def check_int_time(t_us: Any) -> int:
+    """A frame time in microseconds, ``[0, 2**64)``."""
+    if isinstance(t_us, bool) or not isinstance(t_us, (int, np.integer)) or not 0 <= t_us < 2**64:
+        raise SimulationError(
+            f"a frame time must be an integer number of microseconds, got {t_us!r}"
+        )
+    return int(t_us)
 
 
 class DvsEmulator:
@@ -163,6 +189,7 @@ class DvsEmulator:
             hot_pixel_rate_hz=p.hot_pixel_rate_hz,
             cutoff_hz=p.cutoff_hz,
             linlog_threshold=p.linlog_threshold,
+            cutoff_dark_luma=p.cutoff_dark_luma,
         )
         self.sensor_size = (width, height)
 
@@ -190,6 +217,41 @@ class DvsEmulator:
             )
         push = getattr(self._kernel, f"push_{batch.kind}")
         return np.asarray(push(batch.array, times)).view(EVENT_DTYPE)
+
+    def process_frame(
+        self,
+        frame: Any,
+        t_us: int,
+        patches: list[tuple[int, int, Any, Any]] = (),  # type: ignore[assignment]
+    ) -> np.ndarray:
+        """Feed one ``(h, w)`` linear gray frame (float, 0-255 scale) at ``t_us``, with
+        sub-frame samples, and return the events since the previous frame, sorted by time.
+
+        ``patches``: ``(x0, y0, times_us, values)`` each — a rectangle of the sensor whose luma
+        is also known at ``times_us`` (strictly increasing, strictly between the previous frame
+        and this one), ``values`` of shape ``(len(times_us), h, w)``. Inside a patch each pixel's
+        response moves linearly from sample to sample; patches must not overlap. The first
+        frame takes none.
+
+        Raises:
+            SimulationError: a frame of the wrong size, a time not after the previous frame's,
+                patches off the sensor, overlapping, with bad times or values.
+        """
+        img = np.ascontiguousarray(frame, dtype=np.float32)
+        if img.shape != (self.sensor_size[1], self.sensor_size[0]):
+            raise SimulationError(
+                f"a frame of shape {img.shape}; this sensor needs "
+                f"({self.sensor_size[1]}, {self.sensor_size[0]})"
+            )
+        subs = []
+        for x0, y0, times, values in patches:
+            ts = np.ascontiguousarray(times, dtype=np.uint64)
+            v = np.ascontiguousarray(values, dtype=np.float32)
+            if v.ndim != 3:
+                raise SimulationError(f"sub-frame values must be (n, h, w), got {v.shape}")
+            subs.append((int(x0), int(y0), ts, v))
+        t = check_int_time(t_us)
+        return np.asarray(self._kernel.push_float_samples(img, t, subs)).view(EVENT_DTYPE)
 
 
 def emulate_dvs(
