@@ -251,4 +251,13 @@ def mix_windows(parts: Sequence[LabelledWindows], total: int, *, seed: int) -> L
     recording = np.concatenate(
         [p.recording[idx] + off for p, idx, off in zip(parts, chosen, offsets, strict=True)]
     )
-    return LabelledWindows(windows, cat("label"), cat("cls"), recording, cat("box"), {})
+    return LabelledWindows(
+        windows,
+        cat("label"),
+        cat("cls"),
+        recording,
+        cat("box"),
+        {},
+        range_m=cat("range_m"),
+        size_px=cat("size_px"),
+    )

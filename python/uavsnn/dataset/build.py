@@ -289,6 +289,8 @@ def _concat(parts: list[LabelledWindows]) -> LabelledWindows:
         np.concatenate([p.cls for p in parts]),
         np.concatenate([p.recording for p in parts]),
         np.concatenate([p.box for p in parts]),
+        range_m=np.concatenate([p.range_m for p in parts]),
+        size_px=np.concatenate([p.size_px for p in parts]),
     )
 
 

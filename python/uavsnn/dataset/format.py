@@ -6,7 +6,9 @@ arrays — ``sensor_size`` (2,) int64, ``length_us`` () int64, ``t0`` (n,) uint6
 (n+1,) int64, ``t`` (m,) uint64, ``x``/``y`` (m,) uint16, ``n_preceding`` (n,) int64 — and
 per window ``label`` (n,) bool (a UAV), ``cls`` (n,) <U12, ``recording`` (n,) int64 (an id in
 the manifest's ``recordings``) and ``box`` (n, 4) float32 (x0, y0, x1, y1 in sensor pixels,
-NaN without an object), plus ``format_version`` () int64. ``docs/dataset.md`` describes every
+NaN without an object), ``range_m`` (n,) float32 (the object's range in metres; NaN without
+an object or where unknown) and ``size_px`` (n,) float32 (its size in sensor pixels), plus
+``format_version`` () int64. ``docs/dataset.md`` describes every
 field of the manifest.
 
 Files are written to a temporary name and renamed, so a file is either whole or absent; the
@@ -39,7 +41,12 @@ __all__ = [
 ]
 
 FORMAT_NAME = "uavsnn-dataset"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
+#: What to tell the owner of a dataset of an older format.
+_REBUILD = (
+    "rebuild it with this uavsnn (`uavsnn dataset build` with the parameters in its manifest, "
+    "or `uavsnn dataset demo`): format 2 adds each window's range and size"
+)
 MANIFEST = "manifest.json"
 _WINDOW_COLUMNS = {
     "t0": np.uint64,
@@ -57,7 +64,9 @@ class LabelledWindows:
     """Windows and their labels: ``label`` (n,) bool — a UAV; ``cls`` (n,) <U12 — the labelled
     object's class (``"drone"``, ``"bird"``... or ``"none"``); ``recording`` (n,) int64 — the
     recording's id in ``manifest["recordings"]``; ``box`` (n, 4) float32; and the dataset's
-    ``manifest``."""
+    ``manifest``; ``range_m`` and ``size_px`` (n,) float32 — the labelled object's range in
+    metres and size in pixels (NaN without an object or where unknown; all NaN when not
+    given)."""
 
     windows: Windows
     label: np.ndarray
@@ -65,10 +74,16 @@ class LabelledWindows:
     recording: np.ndarray
     box: np.ndarray
     manifest: dict[str, Any] = field(default_factory=dict)
+    range_m: np.ndarray = None  # type: ignore[assignment]
+    size_px: np.ndarray = None  # type: ignore[assignment]
 
     def __post_init__(self) -> None:
         n = len(self.windows)
-        for name in ("label", "cls", "recording", "box"):
+        for name in ("range_m", "size_px"):
+            arr = getattr(self, name)
+            arr = np.full(n, np.nan, dtype=np.float32) if arr is None else arr
+            object.__setattr__(self, name, np.asarray(arr, dtype=np.float32))
+        for name in ("label", "cls", "recording", "box", "range_m", "size_px"):
             arr = getattr(self, name)
             if len(arr) != n:
                 raise DatasetError(f"{name} has {len(arr)} entries for {n} windows")
@@ -88,6 +103,8 @@ class LabelledWindows:
             self.recording[idx],
             self.box[idx],
             self.manifest,
+            self.range_m[idx],
+            self.size_px[idx],
         )
 
     def class_counts(self) -> dict[str, int]:
@@ -133,6 +150,8 @@ def save_split(path: str | Path, data: LabelledWindows) -> Path:
     arrays["cls"] = np.asarray(data.cls, dtype="<U12")
     arrays["recording"] = np.asarray(data.recording, dtype=np.int64)
     arrays["box"] = np.asarray(data.box, dtype=np.float32)
+    arrays["range_m"] = np.asarray(data.range_m, dtype=np.float32)
+    arrays["size_px"] = np.asarray(data.size_px, dtype=np.float32)
     columns: dict[str, Any] = arrays
     _atomic(path, lambda f: np.savez(f, **columns))
     return path
@@ -169,6 +188,7 @@ def read_manifest(root: str | Path) -> dict[str, Any]:
     if version != FORMAT_VERSION:
         raise DatasetError(
             f"{path} is format version {version!r}; this uavsnn reads version {FORMAT_VERSION}"
+            + (f": {_REBUILD}" if isinstance(version, int) and version < FORMAT_VERSION else "")
         )
     return manifest
 
@@ -202,31 +222,43 @@ def load(root: str | Path, split: str) -> LabelledWindows:
         "length_us",
         "cls",
         "box",
+        "range_m",
+        "size_px",
         *_WINDOW_COLUMNS,
         *_LABEL_COLUMNS,
     }
+    version = int(arrays["format_version"]) if "format_version" in arrays else None
+    if version is not None and version != FORMAT_VERSION:
+        raise DatasetError(
+            f"split file {path} is format version {version}; this uavsnn reads version "
+            f"{FORMAT_VERSION}" + (f": {_REBUILD}" if version < FORMAT_VERSION else "")
+        )
     missing = sorted(need - set(arrays))
     if missing:
         raise DatasetError(f"split file {path} lacks arrays: {', '.join(missing)}")
-    if int(arrays["format_version"]) != FORMAT_VERSION:
-        raise DatasetError(
-            f"split file {path} is format version {int(arrays['format_version'])}; "
-            f"this uavsnn reads version {FORMAT_VERSION}"
-        )
     for name, dtype in {**_WINDOW_COLUMNS, **_LABEL_COLUMNS}.items():
         if arrays[name].dtype != dtype:
             raise DatasetError(
                 f"{path}: {name} has dtype {arrays[name].dtype}, expected {np.dtype(dtype)}"
             )
-    if arrays["cls"].dtype.kind != "U" or arrays["box"].dtype != np.float32:
-        raise DatasetError(f"{path}: cls must be unicode and box float32")
+    if arrays["cls"].dtype.kind != "U" or any(
+        arrays[k].dtype != np.float32 for k in ("box", "range_m", "size_px")
+    ):
+        raise DatasetError(f"{path}: cls must be unicode and box, range_m, size_px float32")
     try:
         width, height = (int(v) for v in arrays["sensor_size"])
         windows = Windows(
             (width, height), int(arrays["length_us"]), *(arrays[k] for k in _WINDOW_COLUMNS)
         )
         data = LabelledWindows(
-            windows, arrays["label"], arrays["cls"], arrays["recording"], arrays["box"], manifest
+            windows,
+            arrays["label"],
+            arrays["cls"],
+            arrays["recording"],
+            arrays["box"],
+            manifest,
+            arrays["range_m"],
+            arrays["size_px"],
         )
     except UavsnnError as exc:
         raise DatasetError(f"split file {path} is inconsistent: {exc}") from exc

@@ -98,6 +98,8 @@ class Pool:
         self._cls: list[np.ndarray] = []
         self._box: list[np.ndarray] = []
         self._recording: list[np.ndarray] = []
+        self._range: list[np.ndarray] = []
+        self._size: list[np.ndarray] = []
         self.positives = 0
         self.negatives = 0
 
@@ -113,6 +115,8 @@ class Pool:
         self._cls.append(labels.cls[idx])
         self._box.append(labels.box[idx])
         self._recording.append(np.full(len(idx), rec_id, dtype=np.int64))
+        self._range.append(labels.range_m[idx])
+        self._size.append(labels.size_px[idx])
         pos = int(labels.label[idx].sum())
         self.positives += pos
         self.negatives += len(idx) - pos
@@ -131,6 +135,8 @@ class Pool:
             np.concatenate(self._cls),
             np.concatenate(self._recording),
             np.concatenate(self._box),
+            range_m=np.concatenate(self._range),
+            size_px=np.concatenate(self._size),
         )
         return data if indices is None else data.select(indices)
 
