@@ -64,6 +64,13 @@ def register(subparsers: Any) -> None:
     b.add_argument(
         "--test-fraction", type=float, default=0.3, help="share of real clips kept for test (0.3)"
     )
+    b.add_argument(
+        "--sensor",
+        default="240x180",
+        metavar="WxH",
+        help="sensor size (240x180; also 346x260, 640x480, 1280x720): scenes keep their field "
+        "of view, so objects cover more pixels on larger sensors",
+    )
     b.add_argument("--overwrite", action="store_true", help="replace a dataset in OUT_DIR")
     b.add_argument("--json", action="store_true", help="print the summary as JSON")
     b.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -153,6 +160,7 @@ def _build(args: argparse.Namespace) -> int:
         seed=args.seed,
         min_fraction=args.min_fraction,
         test_fraction=args.test_fraction,
+        sensor=args.sensor,
         overwrite=args.overwrite,
         progress=_progress(args.quiet),
     )

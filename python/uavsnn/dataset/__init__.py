@@ -12,7 +12,14 @@ The format and every labelling rule are in ``docs/dataset.md``.
 
 from __future__ import annotations
 
-from uavsnn.dataset.build import DATASET_DOMAINS, DatasetPaths, build, build_demo
+from uavsnn.dataset.build import (
+    DATASET_DOMAINS,
+    SENSOR_SIZES,
+    DatasetPaths,
+    build,
+    build_demo,
+    parse_sensor,
+)
 from uavsnn.dataset.format import (
     FORMAT_VERSION,
     LabelledWindows,
@@ -25,6 +32,7 @@ from uavsnn.dataset.real import Clip, boxes_to_sensor, clip_labels, find_clips, 
 from uavsnn.dataset.synthetic import (
     LabelledRecording,
     SceneSource,
+    default_source,
     synthetic_recording,
     synthetic_split,
 )
@@ -33,6 +41,7 @@ from uavsnn.errors import DatasetError
 __all__ = [
     "DATASET_DOMAINS",
     "FORMAT_VERSION",
+    "SENSOR_SIZES",
     "Clip",
     "DatasetError",
     "DatasetPaths",
@@ -44,9 +53,11 @@ __all__ = [
     "build",
     "build_demo",
     "clip_labels",
+    "default_source",
     "find_clips",
     "label_windows",
     "load",
+    "parse_sensor",
     "read_boxes",
     "read_manifest",
     "save_split",
