@@ -183,3 +183,56 @@ def test_range_and_size_go_through_a_dataset_file(tmp_path: Path) -> None:
         load(root, "test")
     save_split(root / "test.npz", data)
     assert np.array_equal(load(root, "test").size_px, data.size_px, equal_nan=True)
+
+
+def test_raw_events_are_what_the_stream_saw_before_and_in_each_window(tmp_path: Path) -> None:
+    from uavsnn.dataset import SceneSource, build
+    from uavsnn.events import Recording
+    from uavsnn.windows import make_windows
+
+    root = build(
+        tmp_path / "set",
+        "dvs",
+        n_test=10,
+        n_train=6,
+        seed=8,
+        dvs=SceneSource("dvs", (240, 180), 200.0, 0.3),
+    ).root
+    for split in ("test", "train"):
+        data = load(root, split)
+        raw, w = data.raw, data.windows
+        assert raw is not None and raw.before_us == w.length_us == 50_000
+        for i in range(len(data)):
+            t0 = int(w.t0[i])
+            ev = raw.window(i)
+            assert len(ev) > 0 and np.all(np.diff(ev["t"].astype(np.int64)) >= 0)
+            assert ev["t"].min() >= max(t0 - 50_000, 0) and ev["t"].max() < t0 + 50_000
+            # Cutting the raw events again gives the stored window: spikes and PENT's count.
+            again = make_windows(
+                Recording(ev, (240, 180)), 50_000, 0.0, start_us=t0, end_us=t0 + 50_000
+            )
+            t, x, y = w.spikes(i)
+            t2, x2, y2 = again.spikes(0)
+            assert np.array_equal(t, t2) and np.array_equal(x, x2) and np.array_equal(y, y2)
+            assert again.n_preceding[0] == w.n_preceding[i]
+        # Each event is stored once: the kept events are exactly those some window uses.
+        covered = np.zeros(len(raw.events), dtype=bool)
+        for a, b in zip(raw.start, raw.stop, strict=True):
+            covered[a:b] = True
+        assert covered.all()
+    # A selection saved and read back keeps every window's raw events, and no others.
+    data = load(root, "test")
+    part = data.select([1, 7, 3])
+    save_split(root / "test.npz", part)
+    m = json.loads((root / "manifest.json").read_text())
+    m["splits"]["test"]["windows"] = 3
+    (root / "manifest.json").write_text(json.dumps(m))
+    back = load(root, "test")
+    for j in range(3):
+        assert np.array_equal(back.raw.window(j), part.raw.window(j))
+    assert len(back.raw.events) <= len(data.raw.events)
+    with np.load(root / "test.npz") as z:
+        arrays = {k: z[k] for k in z.files if k != "raw_stop"}
+    np.savez(root / "test.npz", **arrays)
+    with pytest.raises(DatasetError, match="raw events but lacks arrays: raw_stop"):
+        load(root, "test")

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from uavsnn.dataset import LabelledWindows, read_manifest
+from uavsnn.dataset import LabelledWindows, RawEvents, read_manifest
 from uavsnn.errors import DatasetError, ParameterError
 from uavsnn.evaluation import Evaluation, evaluate
 from uavsnn.network import CONV_LAYERS, Network, default_config
@@ -260,4 +260,9 @@ def mix_windows(parts: Sequence[LabelledWindows], total: int, *, seed: int) -> L
         {},
         range_m=cat("range_m"),
         size_px=cat("size_px"),
+        raw=RawEvents.concatenate(
+            [p.raw.select(idx) for p, idx in zip(parts, chosen, strict=True) if p.raw is not None]
+        )
+        if all(p.raw is not None for p in parts)
+        else None,
     )

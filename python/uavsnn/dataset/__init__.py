@@ -23,6 +23,7 @@ from uavsnn.dataset.build import (
 from uavsnn.dataset.format import (
     FORMAT_VERSION,
     LabelledWindows,
+    RawEvents,
     load,
     read_manifest,
     save_split,
@@ -47,6 +48,7 @@ __all__ = [
     "DatasetPaths",
     "LabelledRecording",
     "LabelledWindows",
+    "RawEvents",
     "SceneSource",
     "WindowLabels",
     "boxes_to_sensor",

@@ -23,6 +23,7 @@ from uavsnn.dataset.format import (
     FORMAT_VERSION,
     MANIFEST,
     LabelledWindows,
+    RawEvents,
     save_split,
     write_manifest,
 )
@@ -366,6 +367,9 @@ def _concat(parts: list[LabelledWindows]) -> LabelledWindows:
         np.concatenate([p.box for p in parts]),
         range_m=np.concatenate([p.range_m for p in parts]),
         size_px=np.concatenate([p.size_px for p in parts]),
+        raw=RawEvents.concatenate([p.raw for p in parts if p.raw is not None])
+        if all(p.raw is not None for p in parts)
+        else None,
     )
 
 

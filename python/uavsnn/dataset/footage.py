@@ -144,8 +144,9 @@ def _draw(
 
 def _simulate(
     rec: Recorder, j: int, plan: ClipPlan, params: Pix2NvsParams | None
-) -> tuple[Windows, WindowLabels, int]:
-    """The clip through the "sim" path, cut into the planned windows and labelled again."""
+) -> tuple[Windows, WindowLabels, np.ndarray]:
+    """The clip through the "sim" path, cut into the planned windows and labelled again; and
+    its events."""
     recording = video_to_recording(
         plan.clip.video,
         "sim",
@@ -161,7 +162,7 @@ def _simulate(
     if not np.array_equal(windows.t0, rec.cut.starts(plan.end_us)):
         raise InternalError(f"windows of {plan.clip.name} do not start where they were planned")
     labels = rec.cut.label(windows.t0, plan.timestamps_us, plan.frame_labels, labelled)
-    return windows, labels, len(recording)
+    return windows, labels, recording.events
 
 
 def real_splits(
@@ -207,8 +208,8 @@ def real_splits(
         splits = [s for s in chosen if j in chosen[s]]
         if not splits:
             continue
-        windows, labels, n_events = _simulate(rec, j, plan, params)
-        rec.records[rec_id]["events"] = n_events
+        windows, labels, events = _simulate(rec, j, plan, params)
+        rec.records[rec_id]["events"] = len(events)
         for split in splits:
             keep = np.zeros(len(windows), dtype=bool)
             keep[chosen[split][j]] = True
@@ -217,6 +218,6 @@ def real_splits(
                     f"clip {plan.clip.name} decodes to fewer frames than its container and box "
                     f"file promised; windows drawn from it are no longer usable"
                 )
-            pools[split].add(rec_id, windows, labels, keep)
+            pools[split].add(rec_id, windows, labels, keep, events)
         rec.progress(f"real: {plan.clip.name}")
     return {split: rec.mark_used(pool.take()) for split, pool in pools.items()}

@@ -256,7 +256,7 @@ def synthetic_split(rec: Recorder, source: SceneSource, split: str, n: int) -> L
             }
         )
         before = (pool.positives, pool.negatives)
-        pool.add(rec_id, windows, labels)
+        pool.add(rec_id, windows, labels, events=lr.recording.events)
         gained = (before[0] < pool.positives and before[0] < need_pos) or (
             before[1] < pool.negatives and before[1] < need_neg
         )
