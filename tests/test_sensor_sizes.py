@@ -160,3 +160,19 @@ def test_the_sensor_benchmark_and_the_raw_cost_script_run(capsys: pytest.Capture
     assert len(out["machine_before"]["load_average"]) == 3
     raw = _script("raw_cost").cost((64, 48), 4, 0.3, 0)
     assert raw["raw_MB_per_1000_windows"] > 0 and raw["raw_events_per_window"] > 0
+
+
+def test_a_real_dataset_made_as_the_original_pix2nvs_makes_events(tmp_path: Path) -> None:
+    import json
+
+    videos = tmp_path / "videos"
+    videos.mkdir()
+    for i, cls in enumerate(("DRONE", "DRONE", "BIRD", "BIRD")):
+        _clip(videos, f"V_{cls}_{i + 1:03d}", (640, 512))
+    out = tmp_path / "real"
+    argv = ["dataset", "build", str(out), "--domain", "real", "--videos", str(videos)]
+    argv += ["--n-test", "2", "--n-train", "0", "--quiet", "--pix2nvs-compat"]
+    assert main(argv) == 0
+    manifest = json.loads((out / "manifest.json").read_text())
+    params = manifest["parameters"]["sources"][0]["simulator_params"]
+    assert params["compat"] is True and params["adaptive"] == 0.05
