@@ -4,11 +4,14 @@ input, and events around the drone on a real labelled clip."""
 from __future__ import annotations
 
 import csv
+import ctypes
+import ctypes.util
+import math
 from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from uavsnn import EVENT_DTYPE, ParameterError, SimulationError
@@ -311,3 +314,200 @@ def test_events_concentrate_on_the_labelled_drone(shared_data):
     density_ratio = (inside / total) / (area / frames_used)
     # Events per unit area inside the box against the average over the frame.
     assert density_ratio > 10, density_ratio
+
+
+# ------------------------------------------------------------------------------ the original
+
+
+class _FileHeader(ctypes.Structure):
+    """``BITMAPFILEHEADER`` as PIX2NVS's ``bmp.h`` declares it: not packed."""
+
+    _fields_ = (
+        ("bfType", ctypes.c_uint16),
+        ("bfSize", ctypes.c_uint32),
+        ("bfReserved1", ctypes.c_uint16),
+        ("bfReserved2", ctypes.c_uint16),
+        ("bfOffBits", ctypes.c_uint32),
+    )
+
+
+class _InfoHeader(ctypes.Structure):
+    _fields_ = tuple(
+        (name, kind)
+        for name, kind in (
+            ("biSize", ctypes.c_uint32),
+            ("biWidth", ctypes.c_int32),
+            ("biHeight", ctypes.c_int32),
+            ("biPlanes", ctypes.c_uint16),
+            ("biBitCount", ctypes.c_uint16),
+            ("biCompression", ctypes.c_uint32),
+            ("biSizeImage", ctypes.c_uint32),
+            ("biXPelsPerMeter", ctypes.c_int32),
+            ("biYPelsPerMeter", ctypes.c_int32),
+            ("biClrUsed", ctypes.c_uint32),
+            ("biClrImportant", ctypes.c_uint32),
+        )
+    )
+
+
+_LIBM = ctypes.CDLL(ctypes.util.find_library("m"))
+_LIBM.logf.restype = ctypes.c_float
+_LIBM.logf.argtypes = (ctypes.c_float,)
+
+
+def bmp_file(frame: np.ndarray) -> bytes:
+    """A BGR frame as ffmpeg writes a 24-bit BMP: a 54-byte header, rows bottom up, each padded
+    to a multiple of 4 bytes."""
+    h, w, _ = frame.shape
+    stride = (3 * w + 3) // 4 * 4
+    rows = np.zeros((h, stride), dtype=np.uint8)
+    rows[:, : 3 * w] = frame[::-1].reshape(h, 3 * w)
+    return bytes(54) + rows.tobytes()
+
+
+def original_readframe(buffer: bytes, w: int, h: int) -> list[list[np.float32]]:
+    """``readframe.cpp`` then ``log_frame.cpp``: ``frame[x][y]``, y from the top."""
+    header = ctypes.sizeof(_FileHeader) + ctypes.sizeof(_InfoHeader)
+    frame = [[np.float32(0)] * h for _ in range(w)]
+    for i in range(h - 1, -1, -1):
+        for j in range(w):
+            k = header + 3 * (w * i + j)
+            blue, green, red = (buffer[k + c] if k + c < len(buffer) else 0 for c in range(3))
+            luma = np.float32(0.299 * red + 0.587 * green + 0.114 * blue)
+            frame[j][h - i - 1] = np.float32(_LIBM.logf(luma))  # log of a float: logf
+    return frame
+
+
+def x86_int(v: np.float32) -> int:
+    """C's ``(int)`` of a float on x86-64: INT_MIN when not representable."""
+    return int(v) if np.isfinite(v) and -(2.0**31) < v < 2.0**31 else -(2**31)
+
+
+def original_pix2nvs(
+    frames: np.ndarray, time_gap: int, threshold: float, n_max: int, d: int, b: int, a: float
+) -> list[tuple[int, int, int, bool]]:
+    """``generate_events.cpp`` and ``print_event.cpp`` written out: events ``(t, x, y, p)``
+    with ``y`` from the top, in the program's own time (frame ``id`` at ``(id - 1)·gap``)."""
+    f32 = np.float32
+    n, h, w, _ = frames.shape
+    with np.errstate(all="ignore"):
+        reference = [[f32(0)] * h for _ in range(w)]
+        thr = [[f32(threshold)] * h for _ in range(w)]
+        adapt = f32(a)
+        if d != 3:
+            reference = original_readframe(bmp_file(frames[0]), w, h)
+        out = []
+        for ident in range(2, n + 1):
+            inp = original_readframe(bmp_file(frames[ident - 1]), w, h)
+            for i in range(0, w, b):
+                for j in range(0, h, b):
+                    diff_, si, sj = f32(0), 0, 0
+                    for ii in range(b):
+                        for jj in range(b):
+                            diff = abs(f32(inp[i + ii][j + jj] - reference[i + ii][j + jj]))
+                            if diff > diff_:
+                                diff_, si, sj = diff, ii, jj
+                    delta = f32(inp[i + si][j + sj] - reference[i + si][j + sj])
+                    theta = thr[i + si][j + sj]
+                    if delta > theta or delta < -theta:
+                        on = bool(delta > theta)
+                        delta = delta if on else f32(-delta)
+                        evenum = min(x86_int(f32(delta / theta)), n_max)
+                        for e in range(evenum):
+                            t = (time_gap * (e + 1) * float(theta)) / float(delta)
+                            t += time_gap * (ident - 1)
+                            out.append((math.floor(t + 0.5), i + si, j + sj, on))
+                        if d == 2:
+                            reference[i][j] = inp[i][j]
+                        if d == 3:
+                            moved = f32(f32(evenum) * thr[i][j])
+                            reference[i][j] = f32(reference[i][j] + (moved if on else -moved))
+                        thr[i][j] = f32(f32(1 + adapt) * thr[i][j])
+                    else:
+                        thr[i][j] = f32(f32(1 - adapt) * thr[i][j])
+                    if d == 1:
+                        for m in range(b):
+                            for q in range(b):
+                                reference[i + m][j + q] = inp[i + m][j + q]
+    return sorted(out)
+
+
+def test_the_original_header_structs_put_its_pixels_two_bytes_late():
+    # The pixels of a 24-bit BMP start at byte 14 + 40 = 54; the unpacked struct is 16 bytes.
+    assert ctypes.sizeof(_FileHeader) + ctypes.sizeof(_InfoHeader) == 56
+
+
+@st.composite
+def colour_videos(draw: st.DrawFn) -> tuple[np.ndarray, int, int]:
+    b = draw(st.sampled_from([1, 1, 2]))
+    n = draw(st.integers(2, 4))
+    h = b * draw(st.integers(1, 3))
+    w = b * draw(st.integers(1, 4))  # widths whose BMP rows are padded, and not
+    rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
+    if draw(st.booleans()):
+        frames = rng.integers(0, 256, size=(n, h, w, 3), dtype=np.uint8)
+    else:  # few levels, black among them: ties, and log(0) = -inf
+        levels = np.array(draw(st.lists(st.sampled_from([0, 1, 40, 200]), min_size=2)))
+        frames = levels[rng.integers(0, len(levels), size=(n, h, w, 3))].astype(np.uint8)
+    return frames, b, draw(st.sampled_from([1_000, 33_000, 40_000]))
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    colour_videos(),
+    st.sampled_from([1, 2, 3]),
+    st.floats(0.2, 0.7),
+    st.integers(1, 5),
+    st.sampled_from([0.0, 0.05, 0.1]),
+)
+def test_compat_reproduces_the_original_program(video, d, threshold, n_max, adaptive):
+    frames, b, gap = video
+    mode = ("frame", "event_copy", "event_increment")[d - 1]
+    params = Pix2NvsParams.original(
+        threshold=threshold, n_max=n_max, reference=mode, block_size=b, adaptive=adaptive
+    )
+    times = np.arange(len(frames), dtype=np.uint64) * gap
+    ours = pix2nvs(frames, times, params=params)
+    want = original_pix2nvs(frames, gap, threshold, n_max, d, b, adaptive)
+    # The program's clock is one frame ahead: frame `id` at (id - 1)·gap, its events after it.
+    got = sorted((int(e["t"]) + gap, int(e["x"]), int(e["y"]), bool(e["p"])) for e in ours)
+    assert got == want
+
+
+def test_compat_luma_is_read_two_bytes_late():
+    # Only the blue and green of pixel (2, 0) change: the documented model answers at x = 2,
+    # the original's luma at x = 1 (blue and green of x + 1 weighed as green and red) — and
+    # nowhere else.
+    frames = np.full((2, 1, 4, 3), 100, dtype=np.uint8)
+    frames[1, 0, 2, :2] = 250
+    times = [0, 10_000]
+    documented = pix2nvs(frames, times)
+    compat = pix2nvs(frames, times, params=Pix2NvsParams.original(adaptive=0.0))
+    assert set(documented["x"].tolist()) == {2}
+    assert set(compat["x"].tolist()) == {1}
+
+
+def test_compat_mode_3_starts_from_zero_and_black_never_fires():
+    frames = np.full((3, 2, 4, 3), 90, dtype=np.uint8)
+    times = [0, 1000, 2000]
+    # From a zero reference every pixel's log luma (ln 90 = 4.5) is 11 thresholds of 0.4: the
+    # second frame floods, capped at n_max; the first frame is never read.
+    ev = pix2nvs(frames, times, params=Pix2NvsParams.original(reference="event_increment"))
+    first = ev[ev["t"] <= 1000]
+    assert len(first) == 8 * 5 and first["p"].all()
+    black = np.zeros((3, 2, 4, 3), dtype=np.uint8)
+    black[1] = 120
+    assert len(pix2nvs(black, times, params=Pix2NvsParams.original())) == 0
+
+
+def test_compat_refuses_what_the_original_cannot_do():
+    with pytest.raises(ParameterError, match="bounds"):
+        Pix2NvsParams.original(threshold_max=1.0)
+    with pytest.raises(ParameterError, match="compat"):
+        Pix2NvsParams(compat=1)
+    with pytest.raises(ParameterError, match="whole number"):
+        Pix2NvsSimulator((5, 4), params=Pix2NvsParams.original(block_size=2))
+    with pytest.raises(SimulationError, match="8-bit"):
+        pix2nvs(np.zeros((2, 4, 4), np.float32), [0, 1], params=Pix2NvsParams.original())
+    assert Pix2NvsParams.original().adaptive == 0.05
+    assert Pix2NvsParams.original(adaptive=0.0).compat

@@ -208,6 +208,26 @@ def test_simulate_command_reports_errors(tmp_path, capsys):
     assert not out.exists()
 
 
+def test_simulate_command_sets_the_pix2nvs_model(video, tmp_path, capsys):
+    out = tmp_path / "compat.npz"
+    argv = ["simulate", str(video), "-o", str(out), "--size", "120x90", "--json"]
+    assert main([*argv, "--pix2nvs-compat", "--threshold", "0.3", "--reference", "frame"]) == 0
+    params = json.loads(capsys.readouterr().out)["params"]
+    assert params["compat"] is True and params["threshold"] == 0.3 and params["adaptive"] == 0.05
+    with np.load(out, allow_pickle=False) as data:
+        compat = data["events"]
+    assert main([*argv, "--threshold", "0.3", "--adaptive", "0.05"]) == 0
+    params = json.loads(capsys.readouterr().out)["params"]
+    assert params["compat"] is False and params["log_offset"] == 1.0
+    with np.load(out, allow_pickle=False) as data:
+        assert not np.array_equal(data["events"], compat)
+    # Model options are for PIX2NVS: an error in one line with dvs, and for impossible values.
+    for bad in (["--mode", "dvs", "--threshold", "0.3"], ["--n-max", "0"]):
+        assert main([*argv, *bad]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1, err
+
+
 def test_event_strip_of_an_empty_recording():
     from uavsnn.events import EVENT_DTYPE
 

@@ -186,6 +186,7 @@ class Pix2NvsKernel:
         log_offset: float,
         output_size: tuple[int, int] | None = None,
         pooling: str = "strongest",
+        compat: bool = False,
     ) -> Pix2NvsKernel: ...
     @property
     def output_size(self) -> tuple[int, int]: ...

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from uavsnn.dataset import LabelledWindows, read_manifest
+from uavsnn.dataset import LabelledWindows, RawEvents, read_manifest
 from uavsnn.errors import DatasetError, ParameterError
 from uavsnn.evaluation import Evaluation, evaluate
 from uavsnn.network import CONV_LAYERS, Network, default_config
@@ -251,4 +251,18 @@ def mix_windows(parts: Sequence[LabelledWindows], total: int, *, seed: int) -> L
     recording = np.concatenate(
         [p.recording[idx] + off for p, idx, off in zip(parts, chosen, offsets, strict=True)]
     )
-    return LabelledWindows(windows, cat("label"), cat("cls"), recording, cat("box"), {})
+    return LabelledWindows(
+        windows,
+        cat("label"),
+        cat("cls"),
+        recording,
+        cat("box"),
+        {},
+        range_m=cat("range_m"),
+        size_px=cat("size_px"),
+        raw=RawEvents.concatenate(
+            [p.raw.select(idx) for p, idx in zip(parts, chosen, strict=True) if p.raw is not None]
+        )
+        if all(p.raw is not None for p in parts)
+        else None,
+    )

@@ -152,7 +152,7 @@ impl Pix2NvsKernel {
     #[new]
     #[pyo3(signature = (width, height, *, threshold, n_max, reference, block_size, adaptive,
                         threshold_min, threshold_max, log_offset, output_size=None,
-                        pooling="strongest"))]
+                        pooling="strongest", compat=false))]
     fn new(
         py: Python<'_>,
         width: usize,
@@ -167,6 +167,7 @@ impl Pix2NvsKernel {
         log_offset: f32,
         output_size: Option<(usize, usize)>,
         pooling: &str,
+        compat: bool,
     ) -> PyResult<Self> {
         let build = || -> Result<Pix2Nvs> {
             let params = Pix2NvsParams {
@@ -178,6 +179,7 @@ impl Pix2NvsKernel {
                 threshold_min,
                 threshold_max,
                 log_offset,
+                compat,
             };
             let pool = pooling_mode(pooling)?;
             Pix2Nvs::new(

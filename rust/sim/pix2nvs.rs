@@ -39,6 +39,13 @@
 //!   (PIX2NVS writes them in pixel order within a frame), and times come from the frames' own
 //!   timestamps rather than `frame index / frame rate`.
 //!
+//! With [`Pix2NvsParams::compat`] the simulator instead reproduces the released program's events
+//! exactly, quirks included (see [`compat_luma_row`] and [`compete_band_compat`]): its luma read
+//! from the frame's BMP bytes two bytes late, `log(Y)` without an offset (black is `-inf`, and
+//! what the program then does on x86-64 is done here too), updates of the block's top-left
+//! pixel in modes 2 and 3 and for the adaptive threshold, mode 3 starting from a zero reference
+//! and skipping the first frame, and event times computed as `print_event.cpp` computes them.
+//!
 //! Pooling to a smaller sensor ([`Pooling`]) is not part of PIX2NVS: Kirkland et al. simulated
 //! their 1920×1080 footage and down-sampled the result to 240×180. With [`Pooling::Strongest`]
 //! each output pixel takes, per frame interval, the events of the source pixel with the largest
@@ -93,8 +100,11 @@ pub struct Pix2NvsParams {
     pub threshold_min: f32,
     /// Highest value the adaptive threshold may reach (PIX2NVS: none, i.e. infinity).
     pub threshold_max: f32,
-    /// Added to luma before the logarithm (not in PIX2NVS; keeps black pixels finite).
+    /// Added to luma before the logarithm (not in PIX2NVS; keeps black pixels finite). Not
+    /// used with `compat`.
     pub log_offset: f32,
+    /// Reproduce the released program's events exactly, quirks included (module docs).
+    pub compat: bool,
 }
 
 impl Default for Pix2NvsParams {
@@ -108,6 +118,7 @@ impl Default for Pix2NvsParams {
             threshold_min: 0.0,
             threshold_max: f32::INFINITY,
             log_offset: 1.0,
+            compat: false,
         }
     }
 }
@@ -154,6 +165,13 @@ impl Pix2NvsParams {
                 ),
             ));
         }
+        if self.compat && (self.threshold_min != 0.0 || self.threshold_max != f32::INFINITY) {
+            return Err(Error::param(
+                "threshold_min, threshold_max",
+                "PIX2NVS has no bounds on its adaptive threshold: leave them unset with compat"
+                    .to_string(),
+            ));
+        }
         if !(self.log_offset.is_finite() && self.log_offset > 0.0) {
             return Err(Error::param(
                 "log_offset",
@@ -182,6 +200,8 @@ struct Emitter {
     step: f32,
     /// `|ΔB|`, to choose the strongest pixel when pooling.
     magnitude: f32,
+    /// The threshold `θ` it crossed (for `print_event.cpp`'s times with `compat`).
+    theta: f32,
 }
 
 /// Work space of one row of inhibition blocks (`block_size` source rows).
@@ -260,6 +280,15 @@ impl Pix2Nvs {
             }
         };
         let b = params.block_size;
+        if params.compat && (width % b != 0 || height % b != 0) {
+            return Err(Error::param(
+                "block_size",
+                format!(
+                    "with compat the frame ({width}x{height}) must be a whole number of \
+                     {b}x{b} blocks: PIX2NVS reads past the frame otherwise"
+                ),
+            ));
+        }
         let bands = (0..height.div_ceil(b))
             .map(|k| Band {
                 input: vec![0.0; b.min(height - k * b) * width],
@@ -306,6 +335,12 @@ impl Pix2Nvs {
     /// sets the reference.
     pub fn push(&mut self, frame: &Frame<'_>, t_us: u64, out: &mut Vec<Event>) -> Result<()> {
         frame.check(self.width, self.height, self.frames)?;
+        if self.params.compat && matches!(frame, Frame::GrayF32(_)) {
+            return Err(Error::Simulation(
+                "compat reads 8-bit frames, as PIX2NVS reads BMP bytes; got float frames"
+                    .to_string(),
+            ));
+        }
         let t_prev = match self.last_t {
             Some(prev) if t_us <= prev => {
                 return Err(Error::Simulation(format!(
@@ -330,23 +365,33 @@ impl Pix2Nvs {
             .enumerate()
             .for_each(|(k, (state, band))| {
                 for (r, row) in band.input.chunks_exact_mut(w).enumerate() {
-                    conv.convert_row(frame, k * b + r, row, None);
+                    if p.compat {
+                        compat_luma_row(frame, k * b + r, row);
+                    } else {
+                        conv.convert_row(frame, k * b + r, row, None);
+                    }
                 }
                 let Some(t_prev) = t_prev else {
+                    // PIX2NVS's mode 3 never reads the first frame: its reference starts at 0.
+                    let zero = p.compat && p.reference == ReferenceUpdate::EventIncrement;
                     for (s, &v) in state.iter_mut().zip(&band.input) {
                         *s = PixelState {
-                            reference: v,
+                            reference: if zero { 0.0 } else { v },
                             threshold: p.threshold,
                         };
                     }
                     return;
                 };
                 band.emitters.clear();
-                compete_band(&p, state, &band.input, w, k * b, &mut band.emitters);
+                if p.compat {
+                    compete_band_compat(&p, state, &band.input, w, k * b, &mut band.emitters);
+                } else {
+                    compete_band(&p, state, &band.input, w, k * b, &mut band.emitters);
+                }
                 if direct {
                     band.events.clear();
                     for e in &band.emitters {
-                        push_events(&mut band.events, e, e.x, e.y, t_prev, dt);
+                        push_events(&mut band.events, e, e.x, e.y, t_prev, dt, p.compat);
                     }
                 }
             });
@@ -357,16 +402,17 @@ impl Pix2Nvs {
             None => {}
             Some(pool) if pool.mode == Pooling::All => {
                 let (x_of, y_of) = (&pool.x_of, &pool.y_of);
+                let compat = p.compat;
                 self.bands.par_iter_mut().for_each(|band| {
                     band.events.clear();
                     for e in &band.emitters {
                         let (x, y) = (x_of[e.x as usize], y_of[e.y as usize]);
-                        push_events(&mut band.events, e, x, y, t_prev, dt);
+                        push_events(&mut band.events, e, x, y, t_prev, dt, compat);
                     }
                 });
             }
             Some(pool) => {
-                pool_strongest(pool, &self.bands, &mut self.pooled, t_prev, dt);
+                pool_strongest(pool, &self.bands, &mut self.pooled, t_prev, dt, p.compat);
                 let mut parts = [std::mem::take(&mut self.pooled)];
                 gather_sorted(&mut parts, t_prev, t_us, out, &mut self.scratch);
                 let [pooled] = parts;
@@ -389,7 +435,14 @@ impl Pix2Nvs {
 
 /// Per output pixel, the events of the strongest emitter in its area (ties: the first found,
 /// bands top to bottom, blocks left to right).
-fn pool_strongest(pool: &mut Pool, bands: &[Band], out: &mut Vec<Event>, t_prev: u64, dt: u64) {
+fn pool_strongest(
+    pool: &mut Pool,
+    bands: &[Band],
+    out: &mut Vec<Event>,
+    t_prev: u64,
+    dt: u64,
+    compat: bool,
+) {
     for &o in &pool.touched {
         pool.best[o as usize] = (0.0, u32::MAX, 0);
     }
@@ -412,20 +465,33 @@ fn pool_strongest(pool: &mut Pool, bands: &[Band], out: &mut Vec<Event>, t_prev:
         let (_, k, i) = pool.best[o as usize];
         let e = &bands[k as usize].emitters[i as usize];
         let (x, y) = (o as usize % pool.width, o as usize / pool.width);
-        push_events(out, e, x as u16, y as u16, t_prev, dt);
+        push_events(out, e, x as u16, y as u16, t_prev, dt, compat);
     }
 }
 
 /// Append the events of one emitter: event `k` (1-based) at `t_prev + k·step·dt`, rounded
-/// half up (`frac·dt >= 0`).
+/// half up (`frac·dt >= 0`); with `compat`, at `t_prev + round(dt·k·θ/|ΔB|)` in double
+/// precision, as `print_event.cpp` computes it.
 #[inline]
-fn push_events(row: &mut Vec<Event>, e: &Emitter, x: u16, y: u16, t_prev: u64, dt_us: u64) {
+fn push_events(
+    row: &mut Vec<Event>,
+    e: &Emitter,
+    x: u16,
+    y: u16,
+    t_prev: u64,
+    dt_us: u64,
+    compat: bool,
+) {
     let p = e.count > 0;
     let dt = dt_us as f64;
     for k in 1..=u32::from(e.count.unsigned_abs()) {
-        let frac = (f64::from(k) * f64::from(e.step)).min(1.0);
+        let raw = if compat {
+            (dt * f64::from(k) * f64::from(e.theta) / f64::from(e.magnitude)).round()
+        } else {
+            (f64::from(k) * f64::from(e.step)).min(1.0) * dt + 0.5
+        };
         // `dt` is exact below 2^53 µs; beyond, rounding must not pass the interval's end.
-        let offset = ((frac * dt + 0.5) as u64).min(dt_us);
+        let offset = (raw as u64).min(dt_us);
         row.push(Event {
             t: t_prev + offset,
             x,
@@ -437,7 +503,7 @@ fn push_events(row: &mut Vec<Event>, e: &Emitter, x: u16, y: u16, t_prev: u64, d
 
 /// Decide one competing pixel (steps 3–5); returns its emission, if any.
 #[inline]
-fn decide(p: &Pix2NvsParams, s: &mut PixelState, input: f32) -> Option<(i8, f32, f32)> {
+fn decide(p: &Pix2NvsParams, s: &mut PixelState, input: f32) -> Option<(i8, f32, f32, f32)> {
     let delta = input - s.reference;
     let theta = s.threshold;
     let magnitude = delta.abs();
@@ -452,7 +518,7 @@ fn decide(p: &Pix2NvsParams, s: &mut PixelState, input: f32) -> Option<(i8, f32,
         if p.adaptive > 0.0 {
             s.threshold = (theta * (1.0 + p.adaptive)).min(p.threshold_max);
         }
-        Some((signed, theta / magnitude, magnitude))
+        Some((signed, theta / magnitude, magnitude, theta))
     } else {
         if p.adaptive > 0.0 {
             s.threshold = (theta * (1.0 - p.adaptive)).max(p.threshold_min);
@@ -472,13 +538,14 @@ fn compete_band(
 ) {
     let b = p.block_size;
     let rows = input.len() / w;
-    let emit = |emitters: &mut Vec<Emitter>, i: usize, (count, step, magnitude)| {
+    let emit = |emitters: &mut Vec<Emitter>, i: usize, (count, step, magnitude, theta)| {
         emitters.push(Emitter {
             x: (i % w) as u16,
             y: (y0 + i / w) as u16,
             count,
             step,
             magnitude,
+            theta,
         });
     };
     if b == 1 {
@@ -515,6 +582,135 @@ fn compete_band(
         if p.reference == ReferenceUpdate::Frame {
             for y in 0..rows {
                 for x in x0..x0 + bw {
+                    state[y * w + x].reference = input[y * w + x];
+                }
+            }
+        }
+    }
+}
+
+/// The 24-bit BMP bytes of `frame` as ffmpeg writes them (rows bottom up, each padded to a
+/// multiple of 4 bytes, pixels in B, G, R order), counted from the start of the pixel data;
+/// 0 for padding and past the end.
+#[inline]
+fn bmp_byte(frame: &Frame<'_>, w: usize, h: usize, a: usize) -> u8 {
+    let stride = (3 * w).div_ceil(4) * 4;
+    let (row, col) = (a / stride, a % stride);
+    if row >= h || col >= 3 * w {
+        return 0;
+    }
+    let (x, y, c) = (col / 3, h - 1 - row, col % 3);
+    match frame {
+        Frame::Bgr(v) => v[[y, x, c]],
+        Frame::Gray(v) => v[[y, x]],
+        Frame::GrayF32(_) => 0, // refused before conversion
+    }
+}
+
+/// Row `y` of `frame` as PIX2NVS's `readframe.cpp` and `log_frame.cpp` see it: `ln(Y)` in
+/// single precision, `Y` computed in double from the BMP bytes two bytes after the pixel's own.
+///
+/// `readframe.cpp` skips `sizeof(BITMAPFILEHEADER) + sizeof(BITMAPINFOHEADER)` bytes, 56 with
+/// the compiler's padding of its unpacked file-header struct, where the pixels start at byte
+/// 54. Its blue, green and red of pixel `k` (counted without row padding) are therefore the
+/// bytes `2 + 3k`, `3 + 3k`, `4 + 3k` of the pixel data: the red of pixel `k` and the blue and
+/// green of the next — of the row above at a row's right end, and past the buffer (read as 0
+/// here; undefined in the program) for the top right pixel.
+fn compat_luma_row(frame: &Frame<'_>, y: usize, out: &mut [f32]) {
+    let (w, h) = frame.size();
+    let file_row = h - 1 - y;
+    for (x, o) in out.iter_mut().enumerate() {
+        let a = 2 + 3 * (w * file_row + x);
+        let blue = f64::from(bmp_byte(frame, w, h, a));
+        let green = f64::from(bmp_byte(frame, w, h, a + 1));
+        let red = f64::from(bmp_byte(frame, w, h, a + 2));
+        let luma = (0.299 * red + 0.587 * green + 0.114 * blue) as f32;
+        *o = luma.ln();
+    }
+}
+
+/// C's `(int)` of a float on x86-64 (`cvttss2si`): truncation, and `i32::MIN` for NaN, the
+/// infinities and anything out of range.
+#[inline]
+fn x86_int(v: f32) -> i32 {
+    if v.is_finite() && v > -2_147_483_648.0 && v < 2_147_483_648.0 {
+        v as i32
+    } else {
+        i32::MIN
+    }
+}
+
+/// One band of blocks as `generate_events.cpp` processes it: the winner decides with its own
+/// threshold, but modes 2 and 3 and the adaptive threshold update the block's top-left pixel;
+/// `print_event.cpp`'s count is `(int)(ΔB/θ)` capped at `n_max` (an infinite change, from a
+/// black pixel's `-inf`, gives `INT_MIN`: no event, and mode 3 moves the reference by
+/// `INT_MIN·θ`).
+fn compete_band_compat(
+    p: &Pix2NvsParams,
+    state: &mut [PixelState],
+    input: &[f32],
+    w: usize,
+    y0: usize,
+    emitters: &mut Vec<Emitter>,
+) {
+    let b = p.block_size;
+    let rows = input.len() / w;
+    let (up, down) = (1.0 + p.adaptive, 1.0 - p.adaptive);
+    for x0 in (0..w).step_by(b) {
+        let mut win = x0;
+        let mut best = 0.0f32;
+        for x in x0..x0 + b {
+            for y in 0..rows {
+                let i = y * w + x;
+                let d = (input[i] - state[i].reference).abs();
+                if d > best {
+                    best = d;
+                    win = i;
+                }
+            }
+        }
+        let delta = input[win] - state[win].reference;
+        let theta = state[win].threshold;
+        let origin = x0; // the block's top-left pixel: row 0 of the band, column x0
+        let on = delta > theta;
+        if on || delta < -theta {
+            let magnitude = if on { delta } else { -delta };
+            let moddiff = x86_int(magnitude / theta);
+            let evenum = if moddiff > p.n_max as i32 {
+                p.n_max as i32
+            } else {
+                moddiff
+            };
+            if evenum > 0 {
+                emitters.push(Emitter {
+                    x: (win % w) as u16,
+                    y: (y0 + win / w) as u16,
+                    count: if on { evenum as i8 } else { -(evenum as i8) },
+                    step: theta / magnitude,
+                    magnitude,
+                    theta,
+                });
+            }
+            let o = &mut state[origin];
+            match p.reference {
+                ReferenceUpdate::EventCopy => o.reference = input[origin],
+                ReferenceUpdate::EventIncrement => {
+                    let moved = evenum as f32 * o.threshold;
+                    o.reference = if on {
+                        o.reference + moved
+                    } else {
+                        o.reference - moved
+                    };
+                }
+                ReferenceUpdate::Frame => {}
+            }
+            o.threshold *= up;
+        } else {
+            state[origin].threshold *= down;
+        }
+        if p.reference == ReferenceUpdate::Frame {
+            for y in 0..rows {
+                for x in x0..x0 + b {
                     state[y * w + x].reference = input[y * w + x];
                 }
             }
@@ -661,6 +857,37 @@ mod tests {
             ..p
         };
         assert!(bad.validate().is_err());
+    }
+
+    #[test]
+    fn compat_reads_luma_two_bytes_late_and_converts_like_x86() {
+        // One row of 4 pixels (12 bytes, no padding): pixel x's luma takes the red of x and
+        // the blue and green of x + 1; the last takes pixel 0 of the row above, here past
+        // the end of the data (0).
+        let mut img = ndarray::Array3::<u8>::zeros((1, 4, 3));
+        for x in 0..4 {
+            img[[0, x, 0]] = 10 + x as u8; // B
+            img[[0, x, 1]] = 20 + x as u8; // G
+            img[[0, x, 2]] = 30 + x as u8; // R
+        }
+        let mut out = vec![0.0f32; 4];
+        compat_luma_row(&Frame::Bgr(img.view()), 0, &mut out);
+        for (x, &got) in out.iter().take(3).enumerate() {
+            let (r, b, g) = (30.0 + x as f64, 11.0 + x as f64, 21.0 + x as f64);
+            let y = (0.299 * g + 0.587 * b + 0.114 * r) as f32;
+            assert_eq!(got.to_bits(), y.ln().to_bits(), "pixel {x}");
+        }
+        assert_eq!(out[3].to_bits(), ((0.114 * 33.0) as f32).ln().to_bits());
+        assert_eq!(x86_int(f32::INFINITY), i32::MIN);
+        assert_eq!(x86_int(f32::NAN), i32::MIN);
+        assert_eq!(x86_int(3.9), 3);
+        let odd = Pix2NvsParams {
+            compat: true,
+            block_size: 2,
+            ..Pix2NvsParams::default()
+        };
+        assert!(Pix2Nvs::new(odd, 3, 2, None).is_err());
+        assert!(Pix2Nvs::new(odd, 4, 2, None).is_ok());
     }
 
     #[test]

@@ -19,6 +19,7 @@ import numpy as np
 from uavsnn.dataset import DATASET_DOMAINS, DatasetPaths, build, build_demo, read_manifest
 from uavsnn.errors import ParameterError
 from uavsnn.scenes import OBJECT_KINDS, SCENE_KINDS, contact_sheet, render, sample_spec, write_png
+from uavsnn.sim import Pix2NvsParams
 
 __all__ = ["register"]
 
@@ -63,6 +64,19 @@ def register(subparsers: Any) -> None:
     )
     b.add_argument(
         "--test-fraction", type=float, default=0.3, help="share of real clips kept for test (0.3)"
+    )
+    b.add_argument(
+        "--sensor",
+        default="240x180",
+        metavar="WxH",
+        help="sensor size (240x180; also 346x260, 640x480, 1280x720): scenes keep their field "
+        "of view, so objects cover more pixels on larger sensors",
+    )
+    b.add_argument(
+        "--pix2nvs-compat",
+        action="store_true",
+        help="sim and real: PIX2NVS as the released program runs, quirks included "
+        "(Pix2NvsParams.original(); docs/simulation.md)",
     )
     b.add_argument("--overwrite", action="store_true", help="replace a dataset in OUT_DIR")
     b.add_argument("--json", action="store_true", help="print the summary as JSON")
@@ -153,6 +167,8 @@ def _build(args: argparse.Namespace) -> int:
         seed=args.seed,
         min_fraction=args.min_fraction,
         test_fraction=args.test_fraction,
+        sensor=args.sensor,
+        pix2nvs_params=Pix2NvsParams.original() if args.pix2nvs_compat else None,
         overwrite=args.overwrite,
         progress=_progress(args.quiet),
     )

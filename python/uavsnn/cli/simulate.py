@@ -5,6 +5,7 @@ Examples::
 
     uavsnn simulate clip.mp4 -o clip.npz --mode sim --size 240x180 --preview clip.png
     uavsnn simulate render.avi -o render.npz --mode dvs --seed 3 --json
+    uavsnn simulate clip.mp4 -o clip.npz --pix2nvs-compat --reference event_increment
     uavsnn simulate --scene uav -o uav.npz --seed 3        # a sampled "dvs" scene
     uavsnn simulate --scene scene.json -o scene.npz         # a scene described in JSON
 
@@ -26,7 +27,7 @@ import numpy as np
 
 from uavsnn.errors import ParameterError
 from uavsnn.events import Recording
-from uavsnn.sim import video_to_recording, write_preview
+from uavsnn.sim import Pix2NvsParams, video_to_recording, write_preview
 from uavsnn.sim.checks import check_size
 
 __all__ = ["register", "run", "write_recording"]
@@ -64,6 +65,29 @@ def register(subparsers: Any) -> None:
         help="sim only: pool events after simulating at full resolution (events, default) "
         "or resize frames first (frames)",
     )
+    model = parser.add_argument_group(
+        "PIX2NVS model (sim only; defaults: the documented model, docs/simulation.md)"
+    )
+    model.add_argument(
+        "--pix2nvs-compat",
+        action="store_true",
+        help="reproduce the released PIX2NVS program's events exactly, quirks included "
+        "(its luma read two bytes late, log without offset, adaptive 0.05 by default)",
+    )
+    model.add_argument("--threshold", type=float, help="threshold on the log change (0.4)")
+    model.add_argument("--n-max", type=int, help="events per pixel per frame at most (5)")
+    model.add_argument(
+        "--reference",
+        choices=("frame", "event_copy", "event_increment"),
+        help="reference update, PIX2NVS -r 1/2/3 (frame)",
+    )
+    model.add_argument("--block-size", type=int, help="local inhibition block side (1: none)")
+    model.add_argument(
+        "--adaptive", type=float, help="adaptive threshold step (0; 0.05 with --pix2nvs-compat)"
+    )
+    model.add_argument("--threshold-min", type=float, help="adaptive threshold floor (0)")
+    model.add_argument("--threshold-max", type=float, help="adaptive threshold ceiling (none)")
+    model.add_argument("--log-offset", type=float, help="added to luma before the log (1)")
     parser.add_argument("--max-frames", type=int, default=None, help="stop after N frames")
     parser.add_argument("--fps", type=float, default=None, help="override the video's rate")
     parser.add_argument("--preview", type=Path, default=None, help="write a PNG strip here")
@@ -121,9 +145,38 @@ def _scene(args: argparse.Namespace, size: tuple[int, int]) -> Recording:
     return Recording(out.recording.events, out.recording.sensor_size, meta)
 
 
+_MODEL_OPTIONS = (
+    "threshold",
+    "n_max",
+    "reference",
+    "block_size",
+    "adaptive",
+    "threshold_min",
+    "threshold_max",
+    "log_offset",
+)
+
+
+def pix2nvs_params(args: argparse.Namespace) -> Pix2NvsParams | None:
+    """The PIX2NVS parameters the options ask for (``None``: none given, the defaults).
+
+    Raises:
+        ParameterError: model options with ``--mode dvs``, or impossible values.
+    """
+    given = {k: getattr(args, k) for k in _MODEL_OPTIONS if getattr(args, k, None) is not None}
+    compat = bool(getattr(args, "pix2nvs_compat", False))
+    if not given and not compat:
+        return None
+    if args.mode != "sim":
+        names = ["--" + k.replace("_", "-") for k in given] + (["--pix2nvs-compat"] * compat)
+        raise ParameterError(f"{', '.join(names)} set PIX2NVS, which only --mode sim uses")
+    return Pix2NvsParams.original(**given) if compat else Pix2NvsParams(**given)
+
+
 def run(args: argparse.Namespace) -> int:
     """Handler of ``uavsnn simulate``."""
     size = check_size(args.size)
+    params = pix2nvs_params(args)
     if args.output.suffix.lower() != ".npz":
         print(
             f"uavsnn simulate: error: output must end in .npz, got {args.output}", file=sys.stderr
@@ -136,11 +189,13 @@ def run(args: argparse.Namespace) -> int:
         recording = _scene(args, size)
         args.mode = "dvs"
     else:
-        recording = _video(args, size)
+        recording = _video(args, size, params)
     return _finish(args, recording)
 
 
-def _video(args: argparse.Namespace, size: tuple[int, int]) -> Recording:
+def _video(
+    args: argparse.Namespace, size: tuple[int, int], params: Pix2NvsParams | None
+) -> Recording:
     return video_to_recording(
         args.video,
         args.mode,
@@ -149,6 +204,7 @@ def _video(args: argparse.Namespace, size: tuple[int, int]) -> Recording:
         downsample=args.downsample,
         max_frames=args.max_frames,
         fps=args.fps,
+        params=params,
         progress=not (args.quiet or args.json),
     )
 
@@ -169,6 +225,7 @@ def _finish(args: argparse.Namespace, recording: Recording) -> int:
         "on_fraction": float(ev["p"].mean()) if len(ev) else 0.0,
         "events_per_second": len(ev) / duration_s if duration_s > 0 else 0.0,
         "seed": args.seed,
+        "params": recording.metadata.get("params"),
     }
     if args.json:
         print(json.dumps(summary))

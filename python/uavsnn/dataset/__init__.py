@@ -12,10 +12,18 @@ The format and every labelling rule are in ``docs/dataset.md``.
 
 from __future__ import annotations
 
-from uavsnn.dataset.build import DATASET_DOMAINS, DatasetPaths, build, build_demo
+from uavsnn.dataset.build import (
+    DATASET_DOMAINS,
+    SENSOR_SIZES,
+    DatasetPaths,
+    build,
+    build_demo,
+    parse_sensor,
+)
 from uavsnn.dataset.format import (
     FORMAT_VERSION,
     LabelledWindows,
+    RawEvents,
     load,
     read_manifest,
     save_split,
@@ -25,6 +33,7 @@ from uavsnn.dataset.real import Clip, boxes_to_sensor, clip_labels, find_clips, 
 from uavsnn.dataset.synthetic import (
     LabelledRecording,
     SceneSource,
+    default_source,
     synthetic_recording,
     synthetic_split,
 )
@@ -33,20 +42,24 @@ from uavsnn.errors import DatasetError
 __all__ = [
     "DATASET_DOMAINS",
     "FORMAT_VERSION",
+    "SENSOR_SIZES",
     "Clip",
     "DatasetError",
     "DatasetPaths",
     "LabelledRecording",
     "LabelledWindows",
+    "RawEvents",
     "SceneSource",
     "WindowLabels",
     "boxes_to_sensor",
     "build",
     "build_demo",
     "clip_labels",
+    "default_source",
     "find_clips",
     "label_windows",
     "load",
+    "parse_sensor",
     "read_boxes",
     "read_manifest",
     "save_split",

@@ -7,9 +7,10 @@ what each domain contains — are in ``docs/dataset.md``; this module carries th
 from __future__ import annotations
 
 import math
+import re
 import shutil
 from collections.abc import Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -23,19 +24,62 @@ from uavsnn.dataset.format import (
     LOCK,
     MANIFEST,
     LabelledWindows,
+    RawEvents,
     locked_folder,
     save_split,
     write_manifest,
 )
 from uavsnn.dataset.splits import POOL_FACTOR, SENSOR, Progress, Recorder, WindowCut
-from uavsnn.dataset.synthetic import SceneSource, synthetic_split
+from uavsnn.dataset.synthetic import SceneSource, default_source, synthetic_split
 from uavsnn.errors import DatasetError, ParameterError
 from uavsnn.sim import Pix2NvsParams
 from uavsnn.windows import Windows
 
-__all__ = ["DATASET_DOMAINS", "DatasetPaths", "build", "build_demo"]
+__all__ = [
+    "DATASET_DOMAINS",
+    "MAX_SENSOR_SIDE",
+    "SENSOR_SIZES",
+    "DatasetPaths",
+    "build",
+    "build_demo",
+    "parse_sensor",
+]
 
 DATASET_DOMAINS = ("dvs", "sim", "real", "combined")
+#: The sensors that users buy: the paper's DVS240, DAVIS346, Prophesee Gen3 and Gen4.
+SENSOR_SIZES = ((240, 180), (346, 260), (640, 480), (1280, 720))
+#: The largest sensor side a dataset takes: the scene renderer's largest frame (the engine's
+#: events and windows reach 65535).
+MAX_SENSOR_SIDE = 4096
+_MIN_SENSOR_SIDE = 8
+_WXH = re.compile(r"^\s*(\d+)\s*[xX×]\s*(\d+)\s*$")
+
+
+def parse_sensor(value: object) -> tuple[int, int]:
+    """A sensor size from ``"WxH"`` or a ``(width, height)`` pair of integers, each side in
+    ``[8, MAX_SENSOR_SIDE]``.
+
+    Raises:
+        ParameterError: anything else, saying what was expected.
+    """
+    if isinstance(value, str):
+        m = _WXH.match(value)
+        if m is None:
+            raise ParameterError(f"sensor must be WIDTHxHEIGHT in whole pixels, got {value!r}")
+        size: tuple[object, ...] = (int(m.group(1)), int(m.group(2)))
+    elif isinstance(value, (tuple, list)) and len(value) == 2:
+        size = tuple(value)
+    else:
+        raise ParameterError(f"sensor must be WIDTHxHEIGHT or (width, height), got {value!r}")
+    if not all(isinstance(v, (int, np.integer)) and not isinstance(v, bool) for v in size):
+        raise ParameterError(f"sensor sides must be integers, got {value!r}")
+    w, h = (int(v) for v in size)  # type: ignore[call-overload]
+    if not (_MIN_SENSOR_SIDE <= w <= MAX_SENSOR_SIDE and _MIN_SENSOR_SIDE <= h <= MAX_SENSOR_SIDE):
+        raise ParameterError(
+            f"sensor sides must be {_MIN_SENSOR_SIDE} to {MAX_SENSOR_SIDE} pixels (the largest "
+            f"frame the scene renderer draws), got {w}x{h}"
+        )
+    return w, h
 
 
 @dataclass(frozen=True)
@@ -143,6 +187,7 @@ def build(
     dvs: SceneSource | None = None,
     sim: SceneSource | None = None,
     pix2nvs_params: Pix2NvsParams | None = None,
+    sensor: tuple[int, int] | str = SENSOR,
     overwrite: bool = False,
     progress: bool | Progress = False,
 ) -> DatasetPaths:
@@ -155,7 +200,13 @@ def build(
     ``"combined"`` (train: dvs and sim, and real when ``videos`` is given, in equal shares;
     test: the dvs test set — the paper tests every network on DVS data). Splits are by
     recording; ``docs/dataset.md`` gives every rule. ``dvs``/``sim`` override how those scenes
-    are made (defaults: 1 s at 500 fps at 240×180; 3 s at 30/60 fps at 480×360).
+    are made (defaults: 1 s at 500 fps at the sensor's size; 3 s at 30/60 fps at
+    :func:`~uavsnn.dataset.synthetic.sim_render_size`, 480×360 for 240×180).
+
+    ``sensor``: ``(width, height)`` or ``"WxH"`` (default 240×180; 346×260, 640×480 and
+    1280×720 are today's cameras). Scenes keep their field of view in degrees, so the same
+    recording shows its objects over more pixels on a larger sensor; real clips must be at
+    least the sensor's size once cropped to its aspect ratio.
 
     Raises:
         ParameterError: impossible arguments.
@@ -165,12 +216,24 @@ def build(
     _check_build_args(
         domain, videos, n_test, n_train, window_ms, overlap, seed, min_fraction, test_fraction
     )
+    sensor = parse_sensor(sensor)
     if n_train is None and domain != "real":
         raise ParameterError("n_train=None (all windows) is only for the real domain")
     window = WindowCut(round(window_ms * 1000), float(overlap), float(min_fraction))
-    dvs = dvs or SceneSource("dvs", SENSOR, 500.0, 1.0)
-    sim = sim or SceneSource("sim", (480, 360), None, 3.0, pix2nvs_params=pix2nvs_params)
+    # Only the sources the domain uses are made and checked.
+    uses = {"dvs": ("dvs",), "sim": ("sim",), "real": (), "combined": ("dvs", "sim")}[domain]
+    if "dvs" in uses:
+        dvs = dvs or default_source("dvs", sensor)
+    if "sim" in uses:
+        sim = sim or replace(default_source("sim", sensor), pix2nvs_params=pix2nvs_params)
     for source in (dvs, sim):
+        if source is None or source.domain not in uses:
+            continue
+        if tuple(source.sensor) != sensor:
+            raise ParameterError(
+                f"the {source.domain} source makes {source.sensor[0]}x{source.sensor[1]} "
+                f"events, the dataset's sensor is {sensor[0]}x{sensor[1]}"
+            )
         if source.duration_s * 1e6 < window.length_us:
             raise ParameterError(
                 f"windows of {window_ms} ms are longer than the {source.domain} recordings "
@@ -183,18 +246,23 @@ def build(
     report = _reporter(progress)
     rec = Recorder(seed, window, report)
     if domain in ("dvs", "sim"):
-        splits, sources, description = _synthetic(
-            rec, dvs if domain == "dvs" else sim, n_test, n_train or 0
-        )
+        source = dvs if domain == "dvs" else sim
+        if source is None:  # made above; for the type checker
+            raise ParameterError(f"no {domain} source")
+        splits, sources, description = _synthetic(rec, source, n_test, n_train or 0)
     elif domain == "real":
         if video_dir is None:  # checked above; for the type checker
             raise ParameterError("the real domain needs videos")
-        splits = real_splits(rec, video_dir, n_test, n_train, test_fraction, pix2nvs_params)
+        splits = real_splits(
+            rec, video_dir, n_test, n_train, test_fraction, pix2nvs_params, sensor=sensor
+        )
         sources = [_real_source(video_dir, pix2nvs_params)]
         description = f"labelled videos in {video_dir} through PIX2NVS"
     else:
+        if dvs is None or sim is None:  # made above; for the type checker
+            raise ParameterError("the combined domain needs dvs and sim sources")
         splits, sources, description = _combined(
-            rec, dvs, sim, video_dir, n_test, n_train or 0, test_fraction, pix2nvs_params
+            rec, dvs, sim, video_dir, n_test, n_train or 0, test_fraction, pix2nvs_params, sensor
         )
     paths: dict[str, Path] = {}
     for name, data in splits.items():
@@ -209,7 +277,7 @@ def build(
         "source": description,
         "seed": seed,
         "parameters": {
-            "sensor_size": list(SENSOR),
+            "sensor_size": list(sensor),
             "window_ms": window_ms,
             "window_us": window.length_us,
             "overlap": overlap,
@@ -249,6 +317,7 @@ def _combined(
     n_train: int,
     test_fraction: float,
     params: Pix2NvsParams | None,
+    sensor: tuple[int, int],
 ) -> tuple[dict[str, LabelledWindows], list[dict[str, Any]], str]:
     """Test: the dvs test set. Train: equal shares of dvs, sim and (with videos) real."""
     splits = {"test": synthetic_split(rec, dvs, "test", n_test)}
@@ -266,7 +335,14 @@ def _combined(
             # The real clips are split as a real build with this seed splits them; only the
             # train clips are used.
             real = real_splits(
-                rec, video_dir, n_test, share[2], test_fraction, params, make=("train",)
+                rec,
+                video_dir,
+                n_test,
+                share[2],
+                test_fraction,
+                params,
+                make=("train",),
+                sensor=sensor,
             )
             parts.append(real["train"])
     if parts:
@@ -294,6 +370,11 @@ def _concat(parts: list[LabelledWindows]) -> LabelledWindows:
         np.concatenate([p.cls for p in parts]),
         np.concatenate([p.recording for p in parts]),
         np.concatenate([p.box for p in parts]),
+        range_m=np.concatenate([p.range_m for p in parts]),
+        size_px=np.concatenate([p.size_px for p in parts]),
+        raw=RawEvents.concatenate([p.raw for p in parts if p.raw is not None])
+        if all(p.raw is not None for p in parts)
+        else None,
     )
 
 

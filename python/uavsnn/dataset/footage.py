@@ -15,7 +15,7 @@ import numpy as np
 
 from uavsnn.dataset.format import LabelledWindows
 from uavsnn.dataset.labels import WindowLabels
-from uavsnn.dataset.real import Clip, clip_labels, find_clips
+from uavsnn.dataset.real import Clip, clip_labels, crop_box, find_clips
 from uavsnn.dataset.splits import (
     DOMAIN_KEY,
     SENSOR,
@@ -37,7 +37,8 @@ _REAL = DOMAIN_KEY["real"]
 
 @dataclass(frozen=True)
 class ClipPlan:
-    """A clip's frames as its container and box file describe them, and its windows' labels."""
+    """A clip's frames as its container and box file describe them, its windows' labels, and
+    the sensor they are for."""
 
     clip: Clip
     timestamps_us: np.ndarray
@@ -45,13 +46,15 @@ class ClipPlan:
     labelled: np.ndarray
     end_us: int
     windows: WindowLabels
+    sensor: tuple[int, int] = SENSOR
 
 
-def plan_clip(rec: Recorder, clip: Clip) -> ClipPlan:
-    """Label a clip's windows from its box file, without decoding it.
+def plan_clip(rec: Recorder, clip: Clip, sensor: tuple[int, int] = SENSOR) -> ClipPlan:
+    """Label a clip's windows on a ``sensor`` from its box file, without decoding it.
 
     Raises:
-        DatasetError: the container reports fewer than two frames or no frame rate.
+        DatasetError: the container reports fewer than two frames or no frame rate, or the
+            video cropped to the sensor's aspect ratio is smaller than the sensor.
     """
     info = probe_video(clip.video)
     if info.frame_count < 2 or not info.fps > 0:
@@ -59,12 +62,19 @@ def plan_clip(rec: Recorder, clip: Clip) -> ClipPlan:
             f"video {clip.video.name} reports {info.frame_count} frames at {info.fps} fps; "
             f"need at least 2 frames and a frame rate"
         )
+    _, _, cw, ch = crop_box((info.width, info.height), sensor)
+    if cw < sensor[0] or ch < sensor[1]:
+        raise DatasetError(
+            f"video {clip.video.name} is {info.width}x{info.height}: cropped to the sensor's "
+            f"aspect ratio it is {cw}x{ch}, smaller than the {sensor[0]}x{sensor[1]} sensor "
+            f"(PIX2NVS pools events onto the sensor and never enlarges frames)"
+        )
     n = int(info.frame_count)
     ts = np.round(np.arange(n) * 1e6 / info.fps).astype(np.uint64)  # as uavsnn.sim times them
-    labels, labelled = clip_labels(clip, n, (info.width, info.height), SENSOR)
+    labels, labelled = clip_labels(clip, n, (info.width, info.height), sensor)
     end_us = int(ts[-1] + (ts[-1] - ts[-2]))
     windows = rec.cut.label(rec.cut.starts(end_us), ts, labels, labelled)
-    return ClipPlan(clip, ts, labels, labelled, end_us, windows)
+    return ClipPlan(clip, ts, labels, labelled, end_us, windows, sensor)
 
 
 def split_clips(
@@ -134,10 +144,15 @@ def _draw(
 
 def _simulate(
     rec: Recorder, j: int, plan: ClipPlan, params: Pix2NvsParams | None
-) -> tuple[Windows, WindowLabels, int]:
-    """The clip through the "sim" path, cut into the planned windows and labelled again."""
+) -> tuple[Windows, WindowLabels, np.ndarray]:
+    """The clip through the "sim" path, cut into the planned windows and labelled again; and
+    its events."""
     recording = video_to_recording(
-        plan.clip.video, "sim", size=SENSOR, seed=keyed_seed(rec.seed, _REAL, 9, j), params=params
+        plan.clip.video,
+        "sim",
+        size=plan.sensor,
+        seed=keyed_seed(rec.seed, _REAL, 9, j),
+        params=params,
     )
     labelled = plan.labelled.copy()
     decoded = int(recording.metadata.get("frames", len(labelled)))
@@ -147,7 +162,7 @@ def _simulate(
     if not np.array_equal(windows.t0, rec.cut.starts(plan.end_us)):
         raise InternalError(f"windows of {plan.clip.name} do not start where they were planned")
     labels = rec.cut.label(windows.t0, plan.timestamps_us, plan.frame_labels, labelled)
-    return windows, labels, len(recording)
+    return windows, labels, recording.events
 
 
 def real_splits(
@@ -158,15 +173,17 @@ def real_splits(
     test_fraction: float,
     params: Pix2NvsParams | None,
     make: tuple[str, ...] = ("test", "train"),
+    sensor: tuple[int, int] = SENSOR,
 ) -> dict[str, LabelledWindows]:
-    """The splits in ``make`` of the labelled videos in ``videos``: ``n_test`` balanced test
-    windows; ``n_train`` balanced train windows, or every usable one for ``None``.
+    """The splits in ``make`` of the labelled videos in ``videos`` on a ``sensor``: ``n_test``
+    balanced test windows; ``n_train`` balanced train windows, or every usable one for
+    ``None``.
 
     Raises:
         DatasetError: bad footage (see :func:`~uavsnn.dataset.find_clips`), too few windows to
             balance a split, or a clip that decodes to fewer frames than a drawn window needs.
     """
-    plans = [plan_clip(rec, c) for c in find_clips(videos)]
+    plans = [plan_clip(rec, c, sensor) for c in find_clips(videos)]
     is_test = split_clips(rec, plans, n_test, test_fraction)
     chosen: dict[str, dict[int, np.ndarray]] = {}
     for split, n in (("test", n_test), ("train", n_train)):
@@ -191,8 +208,8 @@ def real_splits(
         splits = [s for s in chosen if j in chosen[s]]
         if not splits:
             continue
-        windows, labels, n_events = _simulate(rec, j, plan, params)
-        rec.records[rec_id]["events"] = n_events
+        windows, labels, events = _simulate(rec, j, plan, params)
+        rec.records[rec_id]["events"] = len(events)
         for split in splits:
             keep = np.zeros(len(windows), dtype=bool)
             keep[chosen[split][j]] = True
@@ -201,6 +218,6 @@ def real_splits(
                     f"clip {plan.clip.name} decodes to fewer frames than its container and box "
                     f"file promised; windows drawn from it are no longer usable"
                 )
-            pools[split].add(rec_id, windows, labels, keep)
+            pools[split].add(rec_id, windows, labels, keep, events)
         rec.progress(f"real: {plan.clip.name}")
     return {split: rec.mark_used(pool.take()) for split, pool in pools.items()}

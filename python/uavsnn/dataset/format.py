@@ -6,8 +6,14 @@ arrays — ``sensor_size`` (2,) int64, ``length_us`` () int64, ``t0`` (n,) uint6
 (n+1,) int64, ``t`` (m,) uint64, ``x``/``y`` (m,) uint16, ``n_preceding`` (n,) int64 — and
 per window ``label`` (n,) bool (a UAV), ``cls`` (n,) <U12, ``recording`` (n,) int64 (an id in
 the manifest's ``recordings``) and ``box`` (n, 4) float32 (x0, y0, x1, y1 in sensor pixels,
-NaN without an object), plus ``format_version`` () int64. ``docs/dataset.md`` describes every
-field of the manifest.
+NaN without an object), ``range_m`` (n,) float32 (the object's range in metres; NaN without
+an object or where unknown) and ``size_px`` (n,) float32 (its size in sensor pixels), plus
+``format_version`` () int64; and, for windows cut from recordings, the raw events each window
+was made from and those of the time just before it (:class:`RawEvents`): ``raw_t`` (k,)
+uint64, ``raw_x``/``raw_y`` (k,) uint16, ``raw_p`` (k,) bool, ``raw_start``/``raw_stop`` (n,)
+int64 (window ``i``'s raw events are ``[raw_start[i], raw_stop[i])``) and ``raw_before_us``
+() int64. Windows of one recording share its events, each stored once. ``docs/dataset.md``
+describes every field of the manifest.
 
 Files are written to a temporary name and renamed, so a file is either whole or absent; the
 manifest is written last, so a folder with a manifest is a finished dataset. The manifest holds
@@ -32,6 +38,7 @@ from typing import Any
 import numpy as np
 
 from uavsnn.errors import DatasetError, UavsnnError
+from uavsnn.events import EVENT_DTYPE
 from uavsnn.windows import Windows
 
 __all__ = [
@@ -40,6 +47,7 @@ __all__ = [
     "LOCK",
     "MANIFEST",
     "LabelledWindows",
+    "RawEvents",
     "load",
     "read_manifest",
     "save_split",
@@ -47,7 +55,12 @@ __all__ = [
 ]
 
 FORMAT_NAME = "uavsnn-dataset"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
+#: What to tell the owner of a dataset of an older format.
+_REBUILD = (
+    "rebuild it with this uavsnn (`uavsnn dataset build` with the parameters in its manifest, "
+    "or `uavsnn dataset demo`): format 2 adds each window's range, size and raw events"
+)
 MANIFEST = "manifest.json"
 #: The lock file a build holds in its folder while it writes.
 LOCK = ".uavsnn-build.lock"
@@ -62,12 +75,92 @@ _WINDOW_COLUMNS = {
 _LABEL_COLUMNS = {"label": np.bool_, "recording": np.int64}
 
 
+_RAW_COLUMNS = {"raw_t": np.uint64, "raw_x": np.uint16, "raw_y": np.uint16, "raw_p": np.bool_}
+
+
+@dataclass(frozen=True)
+class RawEvents:
+    """The raw events behind windows: window ``i`` was made from ``events[start[i]:stop[i]]``,
+    every event of its recording in ``[t0 − before_us, t0 + length_us)`` — the window and the
+    time just before it, what a streaming :class:`~uavsnn.Detector` has seen when it decides
+    on the window (``before_us`` is the window length: PENT's preceding window). ``events``
+    (k,) of :data:`uavsnn.EVENT_DTYPE`, grouped by recording and sorted by time within one,
+    may be shared by windows of one recording."""
+
+    events: np.ndarray
+    start: np.ndarray
+    stop: np.ndarray
+    before_us: int
+
+    def __post_init__(self) -> None:
+        if self.events.dtype != EVENT_DTYPE or self.events.ndim != 1:
+            raise DatasetError(f"raw events must be a 1-D array of {EVENT_DTYPE.descr}")
+        start = np.asarray(self.start, dtype=np.int64)
+        stop = np.asarray(self.stop, dtype=np.int64)
+        if start.shape != stop.shape or start.ndim != 1:
+            raise DatasetError("raw start and stop must be 1-D and of one length")
+        if np.any(start < 0) or np.any(stop < start) or np.any(stop > len(self.events)):
+            raise DatasetError(f"raw ranges must lie in [0, {len(self.events)}] with start <= stop")
+        object.__setattr__(self, "start", start)
+        object.__setattr__(self, "stop", stop)
+
+    def __len__(self) -> int:
+        return len(self.start)
+
+    def window(self, i: int) -> np.ndarray:
+        """The raw events of window ``i``."""
+        return self.events[self.start[i] : self.stop[i]]
+
+    def select(self, indices: np.ndarray) -> RawEvents:
+        """The ranges of windows ``indices`` (the events are shared, not copied)."""
+        return RawEvents(self.events, self.start[indices], self.stop[indices], self.before_us)
+
+    def compact(self) -> RawEvents:
+        """The same ranges over only the events some window uses."""
+        n = len(self.events)
+        edge = np.zeros(n + 1, dtype=np.int64)
+        np.add.at(edge, self.start, 1)
+        np.add.at(edge, self.stop, -1)
+        used = np.cumsum(edge[:-1]) > 0
+        before = np.concatenate([[0], np.cumsum(used)])
+        return RawEvents(self.events[used], before[self.start], before[self.stop], self.before_us)
+
+    @staticmethod
+    def concatenate(parts: list[RawEvents]) -> RawEvents:
+        """The windows of ``parts`` one after the other."""
+        if not parts:
+            raise DatasetError("nothing to concatenate")
+        if len({p.before_us for p in parts}) != 1:
+            raise DatasetError("raw events kept for different times before their windows")
+        shift = np.cumsum([0] + [len(p.events) for p in parts[:-1]])
+        return RawEvents(
+            np.concatenate([p.events for p in parts]),
+            np.concatenate([p.start + k for p, k in zip(parts, shift, strict=True)]),
+            np.concatenate([p.stop + k for p, k in zip(parts, shift, strict=True)]),
+            parts[0].before_us,
+        )
+
+    @staticmethod
+    def of_recording(
+        events: np.ndarray, t0: np.ndarray, length_us: int, before_us: int
+    ) -> RawEvents:
+        """The events of one recording (sorted by time) behind windows starting at ``t0``,
+        kept once for all of them."""
+        t = events["t"]
+        starts = np.asarray(t0, dtype=np.int64)
+        lo = np.searchsorted(t, np.maximum(starts - before_us, 0).astype(np.uint64), "left")
+        hi = np.searchsorted(t, (starts + length_us).astype(np.uint64), "left")
+        return RawEvents(events, lo, hi, before_us).compact()
+
+
 @dataclass(frozen=True)
 class LabelledWindows:
     """Windows and their labels: ``label`` (n,) bool — a UAV; ``cls`` (n,) <U12 — the labelled
     object's class (``"drone"``, ``"bird"``... or ``"none"``); ``recording`` (n,) int64 — the
     recording's id in ``manifest["recordings"]``; ``box`` (n, 4) float32; and the dataset's
-    ``manifest``."""
+    ``manifest``; ``range_m`` and ``size_px`` (n,) float32 — the labelled object's range in
+    metres and size in pixels (NaN without an object or where unknown; all NaN when not
+    given)."""
 
     windows: Windows
     label: np.ndarray
@@ -75,10 +168,19 @@ class LabelledWindows:
     recording: np.ndarray
     box: np.ndarray
     manifest: dict[str, Any] = field(default_factory=dict)
+    range_m: np.ndarray = None  # type: ignore[assignment]
+    size_px: np.ndarray = None  # type: ignore[assignment]
+    raw: RawEvents | None = None
 
     def __post_init__(self) -> None:
         n = len(self.windows)
-        for name in ("label", "cls", "recording", "box"):
+        if self.raw is not None and len(self.raw) != n:
+            raise DatasetError(f"raw events for {len(self.raw)} windows, not {n}")
+        for name in ("range_m", "size_px"):
+            arr = getattr(self, name)
+            arr = np.full(n, np.nan, dtype=np.float32) if arr is None else arr
+            object.__setattr__(self, name, np.asarray(arr, dtype=np.float32))
+        for name in ("label", "cls", "recording", "box", "range_m", "size_px"):
             arr = getattr(self, name)
             if len(arr) != n:
                 raise DatasetError(f"{name} has {len(arr)} entries for {n} windows")
@@ -98,6 +200,9 @@ class LabelledWindows:
             self.recording[idx],
             self.box[idx],
             self.manifest,
+            self.range_m[idx],
+            self.size_px[idx],
+            None if self.raw is None else self.raw.select(idx),
         )
 
     def class_counts(self) -> dict[str, int]:
@@ -143,6 +248,14 @@ def save_split(path: str | Path, data: LabelledWindows) -> Path:
     arrays["cls"] = np.asarray(data.cls, dtype="<U12")
     arrays["recording"] = np.asarray(data.recording, dtype=np.int64)
     arrays["box"] = np.asarray(data.box, dtype=np.float32)
+    arrays["range_m"] = np.asarray(data.range_m, dtype=np.float32)
+    arrays["size_px"] = np.asarray(data.size_px, dtype=np.float32)
+    if data.raw is not None:
+        raw = data.raw.compact()
+        for name in _RAW_COLUMNS:
+            arrays[name] = np.ascontiguousarray(raw.events[name[4:]])
+        arrays["raw_start"], arrays["raw_stop"] = raw.start, raw.stop
+        arrays["raw_before_us"] = np.asarray(raw.before_us, dtype=np.int64)
     columns: dict[str, Any] = arrays
     _atomic(path, lambda f: np.savez(f, **columns))
     return path
@@ -231,6 +344,7 @@ def read_manifest(root: str | Path) -> dict[str, Any]:
     if version != FORMAT_VERSION:
         raise DatasetError(
             f"{path} is format version {version!r}; this uavsnn reads version {FORMAT_VERSION}"
+            + (f": {_REBUILD}" if isinstance(version, int) and version < FORMAT_VERSION else "")
         )
     return manifest
 
@@ -264,31 +378,53 @@ def load(root: str | Path, split: str) -> LabelledWindows:
         "length_us",
         "cls",
         "box",
+        "range_m",
+        "size_px",
         *_WINDOW_COLUMNS,
         *_LABEL_COLUMNS,
     }
+    version = int(arrays["format_version"]) if "format_version" in arrays else None
+    if version is not None and version != FORMAT_VERSION:
+        raise DatasetError(
+            f"split file {path} is format version {version}; this uavsnn reads version "
+            f"{FORMAT_VERSION}" + (f": {_REBUILD}" if version < FORMAT_VERSION else "")
+        )
     missing = sorted(need - set(arrays))
     if missing:
         raise DatasetError(f"split file {path} lacks arrays: {', '.join(missing)}")
-    if int(arrays["format_version"]) != FORMAT_VERSION:
-        raise DatasetError(
-            f"split file {path} is format version {int(arrays['format_version'])}; "
-            f"this uavsnn reads version {FORMAT_VERSION}"
-        )
     for name, dtype in {**_WINDOW_COLUMNS, **_LABEL_COLUMNS}.items():
         if arrays[name].dtype != dtype:
             raise DatasetError(
                 f"{path}: {name} has dtype {arrays[name].dtype}, expected {np.dtype(dtype)}"
             )
-    if arrays["cls"].dtype.kind != "U" or arrays["box"].dtype != np.float32:
-        raise DatasetError(f"{path}: cls must be unicode and box float32")
+    raw_names = {*_RAW_COLUMNS, "raw_start", "raw_stop", "raw_before_us"}
+    if raw_names & set(arrays) and not raw_names <= set(arrays):
+        lacking = ", ".join(sorted(raw_names - set(arrays)))
+        raise DatasetError(f"split file {path} has raw events but lacks arrays: {lacking}")
+    for name, dtype in _RAW_COLUMNS.items():
+        if name in arrays and arrays[name].dtype != dtype:
+            raise DatasetError(
+                f"{path}: {name} has dtype {arrays[name].dtype}, expected {np.dtype(dtype)}"
+            )
+    if arrays["cls"].dtype.kind != "U" or any(
+        arrays[k].dtype != np.float32 for k in ("box", "range_m", "size_px")
+    ):
+        raise DatasetError(f"{path}: cls must be unicode and box, range_m, size_px float32")
     try:
         width, height = (int(v) for v in arrays["sensor_size"])
         windows = Windows(
             (width, height), int(arrays["length_us"]), *(arrays[k] for k in _WINDOW_COLUMNS)
         )
         data = LabelledWindows(
-            windows, arrays["label"], arrays["cls"], arrays["recording"], arrays["box"], manifest
+            windows,
+            arrays["label"],
+            arrays["cls"],
+            arrays["recording"],
+            arrays["box"],
+            manifest,
+            arrays["range_m"],
+            arrays["size_px"],
+            _raw(arrays) if "raw_t" in arrays else None,
         )
     except UavsnnError as exc:
         raise DatasetError(f"split file {path} is inconsistent: {exc}") from exc
@@ -307,3 +443,12 @@ def load(root: str | Path, split: str) -> LabelledWindows:
             "it was changed or comes from another build; rebuild the dataset"
         )
     return data
+
+
+def _raw(arrays: dict[str, np.ndarray]) -> RawEvents:
+    events = np.empty(len(arrays["raw_t"]), dtype=EVENT_DTYPE)
+    for name in _RAW_COLUMNS:
+        if len(arrays[name]) != len(events):
+            raise DatasetError(f"{name} has {len(arrays[name])} entries, raw_t {len(events)}")
+        events[name[4:]] = arrays[name]
+    return RawEvents(events, arrays["raw_start"], arrays["raw_stop"], int(arrays["raw_before_us"]))

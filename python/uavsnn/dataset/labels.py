@@ -12,6 +12,9 @@ between them, so each frame speaks for half of the interval on either side. A wi
   class is the other object that is visible longest (of equal times, the first class by
   name), if that is at least ``min_fraction`` of the window (its box the union of that
   object's boxes), else ``"none"`` (box NaN);
+- a labelled window (UAV or another object) carries the object's ``range_m`` and ``size_px``:
+  their means over the same frames its box unites (NaN for ``"none"``, and ``range_m`` NaN
+  where frames do not know it, as for real footage);
 - **ambiguous** when a UAV is visible for some but less than ``min_fraction`` of the window,
   and **unscored** when any part of the window has no label (past the last labelled frame,
   beyond the recording's end, or a frame without a label row): both are left out of datasets.
@@ -36,13 +39,17 @@ NONE_CLASS = "none"
 class WindowLabels:
     """Per window: ``label`` (UAV or not), ``cls``, ``box`` ``(n, 4)`` (x0, y0, x1, y1; NaN when
     no object), ``status`` (``OK``, ``AMBIGUOUS`` or ``UNSCORED``), ``uav_fraction`` (share of
-    the window with a UAV visible)."""
+    the window with a UAV visible), ``range_m`` and ``size_px`` ``(n,)`` float32 (the labelled
+    object's mean range in metres and size in pixels over the window's frames; NaN when no
+    object or unknown)."""
 
     label: np.ndarray
     cls: np.ndarray
     box: np.ndarray
     status: np.ndarray
     uav_fraction: np.ndarray
+    range_m: np.ndarray
+    size_px: np.ndarray
 
     @property
     def usable(self) -> np.ndarray:
@@ -124,6 +131,8 @@ def label_windows(
         pick = (status == OK) & ~label & (f >= min_fraction) & (f > best)
         cls[pick] = name
         best = np.where(pick, f, best)
+    range_m = np.full(n, np.nan, dtype=np.float32)
+    size_px = np.full(n, np.nan, dtype=np.float32)
     boxes = np.stack([frame_labels[k] for k in ("x0", "y0", "x1", "y1")], axis=1)
     lo = np.searchsorted(end, a, side="right")  # first frame whose span ends after a
     hi = np.searchsorted(start, b, side="left")  # frames starting before b
@@ -133,4 +142,10 @@ def label_windows(
         if match.any():
             bx = boxes[sel][match]
             box[i] = (bx[:, 0].min(), bx[:, 1].min(), bx[:, 2].max(), bx[:, 3].max())
-    return WindowLabels(label, cls, box, status, f_uav)
+            ranges = frame_labels["range_m"][sel][match]
+            if np.isfinite(ranges).all():
+                range_m[i] = ranges.mean(dtype=np.float64)
+            sizes = frame_labels["size_px"][sel][match]
+            if np.isfinite(sizes).all():
+                size_px[i] = sizes.mean(dtype=np.float64)
+    return WindowLabels(label, cls, box, status, f_uav, range_m, size_px)

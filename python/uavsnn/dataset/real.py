@@ -153,7 +153,8 @@ def boxes_to_sensor(
 ) -> np.ndarray:
     """Frame labels in video pixels to sensor pixels: the centred crop, the scale, clipping to
     the sensor; a box left with less than a pixel's width or height on the sensor (unless it
-    was smaller than that to start with) is no longer visible (``cls`` ``"none"``)."""
+    was smaller than that to start with) is no longer visible (``cls`` ``"none"``, NaN box,
+    range and size). ``size_px`` is scaled with the box; ``range_m`` is kept."""
     x0, y0, cw, ch = crop_box(video_size, sensor_size)
     sx, sy = sensor_size[0] / cw, sensor_size[1] / ch
     out = labels.copy()
@@ -174,7 +175,9 @@ def boxes_to_sensor(
     out["x0"], out["y0"], out["x1"], out["y1"] = cx0, cy0, cx1, cy1
     out["uav"] = labels["uav"] & visible
     out["cls"] = np.where(visible, labels["cls"], "none")
-    for k in ("x0", "y0", "x1", "y1"):
+    # The crop has the sensor's aspect ratio, so sx and sy differ by rounding only.
+    out["size_px"] = labels["size_px"] * np.float32((sx + sy) / 2)
+    for k in ("x0", "y0", "x1", "y1", "range_m", "size_px"):
         out[k] = np.where(visible, out[k], np.nan)
     return out
 
@@ -185,11 +188,12 @@ def clip_labels(
     """Per frame of the video: labels in sensor pixels and whether the frame is labelled.
 
     Rows for frames the video does not have are ignored; frames without a row are unlabelled.
+    The range of a filmed object is unknown (NaN); its size is the longer side of its box.
     """
     frames, boxes = read_boxes(clip.boxes)
     labels = np.zeros(n_frames, dtype=LABEL_DTYPE)
     labels["cls"] = "none"
-    for k in ("x0", "y0", "x1", "y1"):
+    for k in ("x0", "y0", "x1", "y1", "range_m", "size_px"):
         labels[k] = np.nan
     labelled = np.zeros(n_frames, dtype=bool)
     idx = frames - 1
@@ -202,4 +206,7 @@ def clip_labels(
     labels["uav"][target] = clip.uav
     for j, k in enumerate(("x0", "y0", "x1", "y1")):
         labels[k][target] = boxes[has, j]
+    labels["size_px"][target] = np.maximum(
+        boxes[has, 2] - boxes[has, 0], boxes[has, 3] - boxes[has, 1]
+    )
     return boxes_to_sensor(labels, video_size, sensor_size), labelled

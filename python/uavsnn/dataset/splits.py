@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from uavsnn.dataset.format import LabelledWindows
+from uavsnn.dataset.format import LabelledWindows, RawEvents
 from uavsnn.dataset.labels import WindowLabels, label_windows
 from uavsnn.errors import DatasetError
 from uavsnn.events import Recording
@@ -98,21 +98,37 @@ class Pool:
         self._cls: list[np.ndarray] = []
         self._box: list[np.ndarray] = []
         self._recording: list[np.ndarray] = []
+        self._range: list[np.ndarray] = []
+        self._size: list[np.ndarray] = []
+        self._raw: list[RawEvents] | None = []
         self.positives = 0
         self.negatives = 0
 
     def add(
-        self, rec_id: int, windows: Windows, labels: WindowLabels, keep: np.ndarray | None = None
+        self,
+        rec_id: int,
+        windows: Windows,
+        labels: WindowLabels,
+        keep: np.ndarray | None = None,
+        events: np.ndarray | None = None,
     ) -> None:
-        """Add the usable windows (or those in ``keep``) of one recording."""
+        """Add the usable windows (or those in ``keep``) of one recording, and with ``events``
+        (the recording's) the raw events behind them."""
         idx = np.flatnonzero(labels.usable if keep is None else keep)
         if len(idx) == 0:
             return
+        if events is None:
+            self._raw = None
+        elif self._raw is not None:
+            length = windows.length_us
+            self._raw.append(RawEvents.of_recording(events, windows.t0[idx], length, length))
         self._windows.append(windows.select(idx))
         self._label.append(labels.label[idx])
         self._cls.append(labels.cls[idx])
         self._box.append(labels.box[idx])
         self._recording.append(np.full(len(idx), rec_id, dtype=np.int64))
+        self._range.append(labels.range_m[idx])
+        self._size.append(labels.size_px[idx])
         pos = int(labels.label[idx].sum())
         self.positives += pos
         self.negatives += len(idx) - pos
@@ -131,6 +147,9 @@ class Pool:
             np.concatenate(self._cls),
             np.concatenate(self._recording),
             np.concatenate(self._box),
+            range_m=np.concatenate(self._range),
+            size_px=np.concatenate(self._size),
+            raw=RawEvents.concatenate(self._raw) if self._raw else None,
         )
         return data if indices is None else data.select(indices)
 

@@ -1,12 +1,18 @@
 """Synthetic labelled recordings — a sampled scene, rendered, turned into events — and the
 splits made of them.
 
-- "dvs": :func:`uavsnn.scenes.record` renders the scene at the sensor's size (240×180) at a
-  high frame rate (500 fps by default) as linear intensity, its fast parts (rotors, wings) also
-  between frames, and :class:`uavsnn.sim.DvsEmulator` makes the events.
-- "sim": the scene is rendered as 8-bit colour video (30 or 60 fps, 480×360 by default — the
-  4:3 centre of a 640×360 camera), and PIX2NVS (:class:`uavsnn.sim.Pix2NvsSimulator`) makes
-  events at that size and pools them onto the sensor, as the paper did with its 1080p footage.
+- "dvs": :func:`uavsnn.scenes.record` renders the scene at the sensor's size (240×180 by
+  default) at a high frame rate (500 fps by default) as linear intensity, its fast parts
+  (rotors, wings) also between frames, and :class:`uavsnn.sim.DvsEmulator` makes the events.
+- "sim": the scene is rendered as 8-bit colour video (30 or 60 fps; by default at the sensor's
+  aspect ratio and at least 480 pixels wide: 480×360 for 240×180 — the 4:3 centre of a 640×360
+  camera — and the sensor's own size from 480 pixels up, see :func:`sim_render_size`), and
+  PIX2NVS (:class:`uavsnn.sim.Pix2NvsSimulator`) makes events at that size and pools them
+  onto the sensor, as the paper did with its 1080p footage.
+
+Scenes are sampled with the field of view in degrees (see :func:`uavsnn.scenes.sample_spec`),
+so recording ``i`` of a split is the same scene on every sensor of one aspect ratio, its
+objects covering more pixels on the larger sensors.
 
 Labels follow the frames onto the sensor (the same crop and scale as the frames). A split is
 made of recordings rendered for it alone (:func:`synthetic_split`).
@@ -37,10 +43,42 @@ from uavsnn.events import Recording
 from uavsnn.scenes import record, render, sample_spec
 from uavsnn.sim import SCENE_PARAMS, DvsParams, Pix2NvsParams, Pix2NvsSimulator, crop_to_aspect
 
-__all__ = ["LabelledRecording", "SceneSource", "synthetic_recording", "synthetic_split"]
+__all__ = [
+    "MAX_FRAME_BYTES",
+    "LabelledRecording",
+    "SceneSource",
+    "default_source",
+    "sim_render_size",
+    "synthetic_recording",
+    "synthetic_split",
+]
 
 #: Give up when this many recordings in a row add nothing that a split still needs.
 STALL = 25
+#: A sim recording's frames are rendered in memory at once; a source whose frames would take
+#: more than this is refused (the dvs domain streams its frames through
+#: :func:`uavsnn.scenes.record` and is not bound by it).
+MAX_FRAME_BYTES = 2 * 1024**3
+#: The sim domain renders at least this many pixels wide.
+SIM_MIN_WIDTH = 480
+
+
+def sim_render_size(sensor: tuple[int, int]) -> tuple[int, int]:
+    """The sim domain's default frame size for ``sensor``: its aspect ratio, at least
+    :data:`SIM_MIN_WIDTH` wide (240×180 → 480×360, 346×260 → 480×361, 640×480 → 640×480)."""
+    w, h = sensor
+    if w >= SIM_MIN_WIDTH:
+        return w, h
+    return SIM_MIN_WIDTH, max(h, round(h * SIM_MIN_WIDTH / w))
+
+
+def default_source(domain: str, sensor: tuple[int, int] = (240, 180)) -> SceneSource:
+    """How ``domain`` ("dvs" or "sim") recordings are made by default for ``sensor``: dvs 1 s at
+    500 fps at the sensor's size; sim 3 s at 30 or 60 fps at :func:`sim_render_size`."""
+    size = (int(sensor[0]), int(sensor[1]))
+    if domain == "dvs":
+        return SceneSource("dvs", size, 500.0, 1.0, sensor=size)
+    return SceneSource("sim", sim_render_size(size), None, 3.0, sensor=size)
 
 
 @dataclass(frozen=True)
@@ -69,6 +107,15 @@ class SceneSource:
             raise ParameterError(
                 f"sim frames of {self.size[0]}x{self.size[1]} crop to {crop[2]}x{crop[3]}, "
                 f"smaller than the {self.sensor[0]}x{self.sensor[1]} sensor"
+            )
+        fps = self.fps if self.fps is not None else 60.0
+        frames = math.ceil(self.duration_s * fps - 1e-9)
+        nbytes = frames * self.size[0] * self.size[1] * (4 if self.domain == "dvs" else 3)
+        if self.domain == "sim" and nbytes > MAX_FRAME_BYTES:
+            raise ParameterError(
+                f"{self.domain} recordings of {frames} frames of {self.size[0]}x{self.size[1]} "
+                f"would take {nbytes / 1e9:.1f} GB in memory, more than the "
+                f"{MAX_FRAME_BYTES / 1e9:.1f} GB allowed: shorten them or lower the frame rate"
             )
 
     def describe(self) -> dict[str, Any]:
@@ -210,7 +257,7 @@ def synthetic_split(rec: Recorder, source: SceneSource, split: str, n: int) -> L
             }
         )
         before = (pool.positives, pool.negatives)
-        pool.add(rec_id, windows, labels)
+        pool.add(rec_id, windows, labels, events=lr.recording.events)
         gained = (before[0] < pool.positives and before[0] < need_pos) or (
             before[1] < pool.negatives and before[1] < need_neg
         )

@@ -13,7 +13,8 @@ visible other object (``uav`` false); failing that, ``cls == "none"`` and a NaN 
 bound of everything drawn for the object (rotor discs and blades included), clipped to the
 frame, in continuous pixel coordinates (pixel ``(i, j)`` covers ``[i, i+1) × [j, j+1)``). An
 object is visible when at least a pixel's width and height of its box (or all of it, if it is
-smaller) lies in the frame.
+smaller) lies in the frame. The label also carries the object's range (metres from the camera
+to its centre) and its size in pixels (the longer side of its whole bound, before clipping).
 """
 
 from __future__ import annotations
@@ -35,10 +36,24 @@ from uavsnn.scenes.spec import SceneSpec
 
 __all__ = ["LABEL_DTYPE", "SAMPLES_PER_PASS", "Frame", "frames", "render", "scene_labels"]
 
-#: One label per frame: is a UAV visible, the class of the labelled object, its box.
+#: One label per frame: is a UAV visible, the class of the labelled object, its box (clipped
+#: to the frame), its range in metres (NaN where unknown, as for real footage) and its size in
+#: pixels (the longer side of the unclipped bound).
 LABEL_DTYPE = np.dtype(
-    [("uav", "?"), ("cls", "<U12"), ("x0", "<f4"), ("y0", "<f4"), ("x1", "<f4"), ("y1", "<f4")]
+    [
+        ("uav", "?"),
+        ("cls", "<U12"),
+        ("x0", "<f4"),
+        ("y0", "<f4"),
+        ("x1", "<f4"),
+        ("y1", "<f4"),
+        ("range_m", "<f4"),
+        ("size_px", "<f4"),
+    ]
 )
+
+#: A frame's label as :meth:`_Objects.draw` gives it.
+_Label = tuple[bool, str, float, float, float, float, float, float]
 
 # Coverage: each mask is filled on a grid SS times finer (vertices at 1/16 of a fine pixel,
 # cv2's shift=4) and box-averaged down, so a pixel's opacity is the share of it that the
@@ -220,9 +235,7 @@ class _Objects:
                 ss,
             )
 
-    def draw(
-        self, img: np.ndarray | None, k: int, t: float
-    ) -> tuple[bool, str, float, float, float, float]:
+    def draw(self, img: np.ndarray | None, k: int, t: float) -> _Label:
         """Draw frame ``k`` at time ``t`` far to near into ``img`` (or only measure, for
         ``None``); return the frame's label."""
         boxes: list[tuple[float, float, float, float] | None] = [None] * len(self.models)
@@ -236,7 +249,8 @@ class _Objects:
                 img, parts, rot, uv[k], float(scale[k]), float(elev[k]), self.models[i].faces_camera
             )
         self.boxes = boxes
-        return _label(self.spec, boxes, self.spec.width, self.spec.height)
+        ranges = [float(np.linalg.norm(track[0][k])) for track in self.tracks]
+        return _label(self.spec, boxes, ranges, self.spec.width, self.spec.height)
 
 
 #: Coverage grid of parts drawn between frames: 8 × 8 per pixel, so that a blade a tenth of a
@@ -256,7 +270,7 @@ class Frame(NamedTuple):
     k: int
     t_us: int
     image: np.ndarray
-    label: tuple[bool, str, float, float, float, float]
+    label: _Label
     patches: list[tuple[int, int, np.ndarray, np.ndarray]]
 
 
@@ -451,19 +465,24 @@ def scene_labels(spec: SceneSpec) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _label(
-    spec: SceneSpec, boxes: list[tuple[float, float, float, float] | None], w: int, h: int
-) -> tuple[bool, str, float, float, float, float]:
+    spec: SceneSpec,
+    boxes: list[tuple[float, float, float, float] | None],
+    ranges: list[float],
+    w: int,
+    h: int,
+) -> _Label:
     """The frame's label: the first visible UAV, else the first visible other object."""
     visible = []
-    for obj, box in zip(spec.objects, boxes, strict=True):
+    for obj, box, range_m in zip(spec.objects, boxes, ranges, strict=True):
         if box is None:
             continue
         ok, clipped = _box_visible(box, w, h)
         if ok:
-            visible.append((not obj.is_uav, obj.cls, clipped))
+            size = max(box[2] - box[0], box[3] - box[1])
+            visible.append((not obj.is_uav, obj.cls, clipped, range_m, size))
     if not visible:
         nan = float("nan")
-        return (False, "none", nan, nan, nan, nan)
+        return (False, "none", nan, nan, nan, nan, nan, nan)
     # Stable: UAVs first, then spec order.
-    not_uav, cls, (x0, y0, x1, y1) = min(visible, key=operator.itemgetter(0))
-    return (not not_uav, cls, x0, y0, x1, y1)
+    not_uav, cls, (x0, y0, x1, y1), range_m, size = min(visible, key=operator.itemgetter(0))
+    return (not not_uav, cls, x0, y0, x1, y1, range_m, size)

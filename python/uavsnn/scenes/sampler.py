@@ -421,8 +421,16 @@ def sample_spec(
     balls, insects, leaves and now and then a bird), ``"empty"`` (background only), or one
     object kind of :data:`uavsnn.scenes.OBJECT_KINDS` to get that object. ``size``, ``fps``,
     ``duration_s`` override the domain's defaults (dvs: 240×180 at 500 fps for 1 s; sim:
-    640×360 at 30 or 60 fps for 3 s). Objects span at least ``min_object_px`` pixels once the
-    frame is cropped to 4:3 and scaled to ``sensor_width``.
+    640×360 at 30 or 60 fps for 3 s). Objects span at least ``min_object_px`` pixels of a
+    ``sensor_width``-pixel-wide view: for "dvs", a sensor of that width with the same
+    horizontal field of view; for "sim", the frame once cropped to 4:3 and scaled to that width.
+
+    The horizontal field of view is drawn in degrees and every choice after it in metres and
+    angles, so the same ``rng`` state gives the same scene at any ``size`` (keep
+    ``sensor_width`` at its default): only the focal length in pixels, and so every object's
+    size in pixels, grows with the width. A "dvs" scene is laid out for a 4:3 frame of the
+    given width, of which a wider sensor (1280×720) sees the middle rows, with the same optical
+    axis.
     """
     if not isinstance(rng, np.random.Generator):
         raise ParameterError(f"rng must be a numpy Generator, got {type(rng).__name__}")
@@ -446,19 +454,21 @@ def sample_spec(
     pan = (0.0, 0.0)
     if rng.random() < 0.15:
         pan = (float(rng.normal(0, 1.0)), float(rng.normal(0, 0.3)))
+    # The layout's frame: for dvs, 4:3 at the sensor's width, whatever the sensor's shape.
+    lay_h = round(width * 3 / 4) if domain == "dvs" else int(height)
     spec = SceneSpec(
         domain=domain,
         width=int(width),
-        height=int(height),
+        height=lay_h,
         fps=float(fps),
         duration_s=float(duration),
         focal_px=focal,
         background=background,
         lighting=_lighting(rng, domain, indoor),
-        tilt_deg=_tilt(rng, background, int(width), int(height), focal),
+        tilt_deg=_tilt(rng, background, int(width), lay_h, focal),
         pan_deg_s=pan,
     )
-    to_sensor = sensor_width / min(width, height * 4 / 3)
+    to_sensor = sensor_width / (width if domain == "dvs" else min(width, height * 4 / 3))
     place = _Placer(rng, spec, min_object_px / to_sensor)
     others = _INDOOR_OBJECTS if indoor else _OUTDOOR_OBJECTS
     kinds: list[str] = []
@@ -473,4 +483,4 @@ def sample_spec(
     elif kind != "empty":
         kinds.append(kind)
     objects = tuple(_object(k, place) for k in kinds)
-    return replace(spec, objects=objects)
+    return replace(spec, height=int(height), objects=objects)

@@ -23,6 +23,14 @@ from the released code (an offset inside the log, updates at the competing pixel
 the block's corner, mode 3 starting from the first frame, clipped edge blocks, top-left origin,
 time-sorted output) are listed and argued in ``docs/simulation.md``.
 
+``Pix2NvsParams.original()`` (``compat=True``, the command line's ``--pix2nvs-compat``) instead
+reproduces the released program's events exactly, quirks included: its luma read from the
+frame's BMP bytes two bytes late (the red of pixel ``x`` weighted as blue, the blue and green of
+pixel ``x + 1`` as green and red), ``log(Y)`` without an offset, updates of the block's top-left
+pixel in modes 2 and 3 and for the adaptive threshold, mode 3 starting from a zero reference,
+its adaptive step of 0.05 and its event times; frames must then be 8-bit and a whole number of
+blocks. ``docs/simulation.md`` gives the details.
+
 PIX2NVS is deterministic: the ``seed`` argument exists so that both simulators share one
 signature, and is recorded with the recording; it changes nothing.
 """
@@ -36,7 +44,7 @@ from typing import Any, Literal
 import numpy as np
 
 from uavsnn import _core
-from uavsnn.errors import SimulationError
+from uavsnn.errors import ParameterError, SimulationError
 from uavsnn.events import EVENT_DTYPE
 from uavsnn.sim.checks import check_choice, check_int, check_real, check_seed, check_size
 from uavsnn.sim.frames import FrameBatch, as_frame_batch, as_timestamps
@@ -71,7 +79,10 @@ class Pix2NvsParams:
         threshold_max: ceiling of the adaptive threshold (not in PIX2NVS; default ``None``,
             none).
         log_offset: added to luma before the log so black pixels stay finite (not in PIX2NVS,
-            which takes ``log(Y)``; default 1).
+            which takes ``log(Y)``; default 1). Not used with ``compat``.
+        compat: reproduce the released PIX2NVS program's events exactly, quirks included (see
+            the module's docs and :meth:`original`); needs ``threshold_min`` 0 and no
+            ``threshold_max``.
     """
 
     threshold: float = 0.4
@@ -82,6 +93,15 @@ class Pix2NvsParams:
     threshold_min: float = 0.0
     threshold_max: float | None = None
     log_offset: float = 1.0
+    compat: bool = False
+
+    @classmethod
+    def original(cls, **overrides: Any) -> Pix2NvsParams:
+        """The released PIX2NVS program as it runs: ``compat=True`` and its compiled-in
+        defaults (``θ = 0.4``, ``n_max = 5``, ``-r 1``, block 1, ``adaptive = 0.05``);
+        ``overrides`` set its options (``threshold``, ``n_max``, ``reference``,
+        ``block_size``, ``adaptive``)."""
+        return cls(**{"adaptive": 0.05, **overrides, "compat": True})
 
     def __post_init__(self) -> None:
         check_real("threshold", self.threshold, low=0.0, low_open=True)
@@ -93,6 +113,13 @@ class Pix2NvsParams:
         if self.threshold_max is not None:
             check_real("threshold_max", self.threshold_max, low=float(self.threshold))
         check_real("log_offset", self.log_offset, low=0.0, low_open=True)
+        if not isinstance(self.compat, bool):
+            raise ParameterError(f"compat must be True or False, got {self.compat!r}")
+        if self.compat and (self.threshold_min != 0.0 or self.threshold_max is not None):
+            raise ParameterError(
+                "PIX2NVS has no bounds on its adaptive threshold: with compat, leave "
+                "threshold_min at 0 and threshold_max unset"
+            )
 
 
 class Pix2NvsSimulator:
@@ -138,6 +165,7 @@ class Pix2NvsSimulator:
             log_offset=p.log_offset,
             output_size=out,
             pooling=pooling,
+            compat=p.compat,
         )
         self.frame_size = (width, height)
 
