@@ -27,6 +27,7 @@ from uavsnn.dataset.format import (
 )
 from uavsnn.dataset.splits import POOL_FACTOR, SENSOR, Progress, Recorder, WindowCut
 from uavsnn.dataset.synthetic import SceneSource, synthetic_split
+from uavsnn.distributed import Runner
 from uavsnn.errors import DatasetError, ParameterError
 from uavsnn.sim import Pix2NvsParams
 from uavsnn.windows import Windows
@@ -140,6 +141,7 @@ def build(
     pix2nvs_params: Pix2NvsParams | None = None,
     overwrite: bool = False,
     progress: bool | Progress = False,
+    runner: Runner | None = None,
 ) -> DatasetPaths:
     """Build a dataset in ``out_dir``: ``test.npz`` (``n_test`` windows, half with a UAV),
     ``train.npz`` (``n_train`` windows, balanced the same way; all usable windows of the train
@@ -151,6 +153,8 @@ def build(
     test: the dvs test set — the paper tests every network on DVS data). Splits are by
     recording; ``docs/dataset.md`` gives every rule. ``dvs``/``sim`` override how those scenes
     are made (defaults: 1 s at 500 fps at 240×180; 3 s at 30/60 fps at 480×360).
+    ``runner`` simulates the recordings: in this process by default, or as Ray tasks
+    (:func:`uavsnn.distributed.connect`); the dataset is the same either way.
 
     Raises:
         ParameterError: impossible arguments.
@@ -176,7 +180,7 @@ def build(
         raise DatasetError(f"video folder {video_dir} does not exist or is not a folder")
     root = _prepare(out_dir, overwrite)
     report = _reporter(progress)
-    rec = Recorder(seed, window, report)
+    rec = Recorder(seed, window, report, runner)
     if domain in ("dvs", "sim"):
         splits, sources, description = _synthetic(
             rec, dvs if domain == "dvs" else sim, n_test, n_train or 0

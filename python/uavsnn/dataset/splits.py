@@ -12,6 +12,7 @@ import numpy as np
 
 from uavsnn.dataset.format import LabelledWindows
 from uavsnn.dataset.labels import WindowLabels, label_windows
+from uavsnn.distributed import SERIAL, Runner
 from uavsnn.errors import DatasetError
 from uavsnn.events import Recording
 from uavsnn.windows import Windows, make_windows, window_step
@@ -28,6 +29,7 @@ __all__ = [
     "balanced",
     "keyed_rng",
     "keyed_seed",
+    "take_labels",
 ]
 
 SENSOR = (240, 180)
@@ -87,6 +89,14 @@ class WindowCut:
     def cut(self, recording: Recording, end_us: int) -> Windows:
         """The windows of a recording of ``[0, end_us)``, starting at 0."""
         return make_windows(recording, self.length_us, self.overlap, start_us=0, end_us=end_us)
+
+
+def take_labels(labels: WindowLabels, idx: np.ndarray) -> WindowLabels:
+    """The labels of the windows at ``idx``."""
+    return WindowLabels(
+        labels.label[idx], labels.cls[idx], labels.box[idx], labels.status[idx],
+        labels.uav_fraction[idx],
+    )  # fmt: skip
 
 
 class Pool:
@@ -156,12 +166,16 @@ def balanced(label: np.ndarray, n: int, rng: np.random.Generator, what: str) -> 
 
 class Recorder:
     """One build's seed, window settings and progress, and the manifest entries of the
-    recordings it makes (their ids are their positions)."""
+    recordings it makes (their ids are their positions). ``runner`` runs the per-recording
+    work (:mod:`uavsnn.distributed`; default: in this process)."""
 
-    def __init__(self, seed: int, cut: WindowCut, progress: Progress) -> None:
+    def __init__(
+        self, seed: int, cut: WindowCut, progress: Progress, runner: Runner | None = None
+    ) -> None:
         self.seed = seed
         self.cut = cut
         self.progress = progress
+        self.runner = runner if runner is not None else SERIAL
         self.records: list[dict[str, Any]] = []
 
     def record(self, entry: dict[str, Any]) -> int:
