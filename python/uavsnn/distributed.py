@@ -25,7 +25,7 @@ from __future__ import annotations
 import copyreg
 import socket
 import threading
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Callable, Generator, Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 from urllib.parse import urlsplit
@@ -112,7 +112,9 @@ class Runner:
         """Share ``obj`` with many units: pass what this returns instead of ``obj``."""
         return obj
 
-    def imap(self, fn: Callable[..., Any], args: Iterable[Sequence[Any]]) -> Iterator[Any]:
+    def imap(
+        self, fn: Callable[..., Any], args: Iterable[Sequence[Any]]
+    ) -> Generator[Any, None, None]:
         """``fn(*a)`` for each ``a`` of ``args``, in order, with up to ``ahead`` units in flight
         beyond the one being waited for; units still in flight when the iterator is closed
         (or raises) are cancelled."""
@@ -408,7 +410,7 @@ class _StreamWorker:
 
 
 def detect_streams(
-    runner: RayRunner,
+    runner: Runner,
     sources: Sequence[str],
     model: Network,
     *,
@@ -435,6 +437,8 @@ def detect_streams(
     ``udp_format``, ``max_packets``, ``idle_timeout``), and ``downsample`` (fit files to the
     model's input).
     """
+    if not isinstance(runner, RayRunner):
+        raise ParameterError("streams run in Ray actors: pass the runner connect() returns")
     ray = runner._ray
     names = list(names) if names is not None else list(sources)
     if len(names) != len(sources) or len(set(names)) != len(names):
