@@ -15,6 +15,9 @@ setting from several initial weights, since one STDP run's accuracy moves by a f
 
     python benches/python/sweep_training.py --data /tmp/tune --set conv2.threshold=10 \
         --set pent.max_density=null,0.6,0.7 --noise 0.005,0.02,0.05,0.1,0.2 --network-seeds 0,1
+
+With ``--ray [ADDRESS]`` every setting trains and scores as a Ray task (a local cluster, or the
+one at ADDRESS; docs/distributed.md); the rows are the same, printed in the same order.
 """
 
 from __future__ import annotations
@@ -24,13 +27,46 @@ import itertools
 import json
 import time
 from pathlib import Path
+from typing import Any
 
-from uavsnn.dataset import build, load, read_manifest
+from uavsnn.dataset import LabelledWindows, build, load, read_manifest
+from uavsnn.distributed import add_ray_option, runner_for
 from uavsnn.errors import DatasetError
 from uavsnn.evaluation import evaluate
 from uavsnn.experiments import noise_sweep, static_twin
 from uavsnn.network import Network, default_config
 from uavsnn.training import apply_overrides, train
+
+
+def run_setting(
+    settings: list[str],
+    net_seed: int,
+    train_set: LabelledWindows,
+    test_set: LabelledWindows,
+    windows_per_layer: int,
+    fractions: list[float],
+) -> dict[str, Any]:
+    """Train one setting from one initial weight and score it (one task under --ray)."""
+    started = time.perf_counter()
+    net = Network(apply_overrides(default_config(), settings), seed=net_seed)
+    train(net, train_set.windows, windows_per_layer=windows_per_layer, snapshots=0)
+    e = evaluate(net, test_set)
+    noisy: dict[str, list[float]] = {}
+    if fractions:
+        static, _ = static_twin(net, train_set.windows)
+        points = noise_sweep({"pent": net, "static": static}, test_set, fractions, seed=0)
+        for point in points:
+            noisy.setdefault(point.mode, []).append(point.evaluation.accuracy)
+    return {
+        "settings": settings,
+        "network_seed": net_seed,
+        "accuracy": e.accuracy,
+        "confusion": e.confusion.tolist(),
+        "called_uav": {k: round(c.called_uav_rate, 3) for k, c in sorted(e.per_class.items())},
+        "noise": fractions,
+        "noisy_accuracy": noisy,
+        "seconds": round(time.perf_counter() - started, 1),
+    }
 
 
 def main() -> None:
@@ -58,48 +94,45 @@ def main() -> None:
         "--network-seeds", default="0", metavar="S1,S2,...", help="initial weights' seeds (0)"
     )
     parser.add_argument("--json", action="store_true", help="one JSON line per setting")
+    add_ray_option(parser, "each setting as a task")
     args = parser.parse_args()
+    runner = runner_for(args.ray)
     try:
         if read_manifest(args.data)["seed"] != args.seed:
             raise SystemExit(f"{args.data} holds a dataset of another seed")
     except DatasetError:
-        build(args.data, "dvs", n_train=args.n_train, n_test=args.n_test, seed=args.seed)
+        build(
+            args.data, "dvs", n_train=args.n_train, n_test=args.n_test, seed=args.seed,
+            runner=runner,
+        )  # fmt: skip
     train_set, test_set = load(args.data, "train"), load(args.data, "test")
     grid = [g.split("=", 1) for g in (args.grid or ["conv2.threshold=15,45"])]
     keys = [k for k, _ in grid]
     fractions = [float(f) for f in args.noise.split(",") if f]
     seeds = [int(s) for s in args.network_seeds.split(",") if s]
-    for values, net_seed in itertools.product(
-        itertools.product(*[v.split(",") for _, v in grid]), seeds
-    ):
-        settings = [f"{k}={v}" for k, v in zip(keys, values, strict=True)]
-        started = time.perf_counter()
-        net = Network(apply_overrides(default_config(), settings), seed=net_seed)
-        train(net, train_set.windows, windows_per_layer=args.windows_per_layer, snapshots=0)
-        e = evaluate(net, test_set)
-        noisy: dict[str, list[float]] = {}
-        if fractions:
-            static, _ = static_twin(net, train_set.windows)
-            points = noise_sweep({"pent": net, "static": static}, test_set, fractions, seed=0)
-            for point in points:
-                noisy.setdefault(point.mode, []).append(point.evaluation.accuracy)
-        row = {
-            "settings": settings,
-            "network_seed": net_seed,
-            "accuracy": e.accuracy,
-            "confusion": e.confusion.tolist(),
-            "called_uav": {k: round(c.called_uav_rate, 3) for k, c in sorted(e.per_class.items())},
-            "noise": fractions,
-            "noisy_accuracy": noisy,
-            "seconds": round(time.perf_counter() - started, 1),
-        }
+    jobs = [
+        ([f"{k}={v}" for k, v in zip(keys, values, strict=True)], net_seed)
+        for values, net_seed in itertools.product(
+            itertools.product(*[v.split(",") for _, v in grid]), seeds
+        )
+    ]
+    shared_train, shared_test = runner.put(train_set), runner.put(test_set)
+    rows = runner.imap(
+        run_setting,
+        (
+            (settings, net_seed, shared_train, shared_test, args.windows_per_layer, fractions)
+            for settings, net_seed in jobs
+        ),
+    )
+    for (settings, net_seed), row in zip(jobs, rows, strict=True):
+        noisy = row["noisy_accuracy"]
         if args.json:
             print(json.dumps(row), flush=True)
         else:
             rates = " ".join(f"{k} {v:.2f}" for k, v in row["called_uav"].items())
             print(
-                f"{' '.join(settings):50s} seed {net_seed} accuracy {100 * e.accuracy:5.1f} %  "
-                f"called UAV: {rates}"
+                f"{' '.join(settings):50s} seed {net_seed} "
+                f"accuracy {100 * row['accuracy']:5.1f} %  called UAV: {rates}"
             )
             for mode, accuracies in noisy.items():
                 figures = "  ".join(

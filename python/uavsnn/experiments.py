@@ -6,7 +6,7 @@ PENT or static thresholds, and accuracy against additive noise (Table 3).
 from __future__ import annotations
 
 import platform
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, replace
 from importlib import metadata
 from pathlib import Path
@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from uavsnn.dataset import LabelledWindows, RawEvents, read_manifest
+from uavsnn.distributed import SERIAL, Runner, noise_task
 from uavsnn.errors import DatasetError, ParameterError
 from uavsnn.evaluation import Evaluation, evaluate
 from uavsnn.network import CONV_LAYERS, Network, default_config
@@ -30,6 +31,7 @@ __all__ = [
     "environment",
     "have_dataset",
     "mix_windows",
+    "noise_level",
     "noise_sweep",
     "recipe_config",
     "static_threshold",
@@ -206,6 +208,26 @@ class NoisePoint:
         }
 
 
+def noise_level(
+    networks: dict[str, Network],
+    data: LabelledWindows,
+    fraction: float,
+    *,
+    seed: int,
+    threads: int | None = None,
+) -> list[NoisePoint]:
+    """One level of :func:`noise_sweep`: each of ``networks`` on ``data`` with noise on
+    ``fraction`` of the pixels (drawn from ``seed``; none for 0), every network on the same
+    noisy windows."""
+    noisy, snr = with_noise(data, fraction, seed=seed) if fraction > 0 else (data, None)
+    finite = snr[np.isfinite(snr)] if snr is not None else np.zeros(0)
+    level = float(np.median(finite)) if finite.size else float("inf")
+    return [
+        NoisePoint(float(fraction), level, mode, evaluate(network, noisy, threads=threads))
+        for mode, network in networks.items()
+    ]
+
+
 def noise_sweep(
     networks: dict[str, Network],
     data: LabelledWindows,
@@ -213,19 +235,23 @@ def noise_sweep(
     *,
     seed: int,
     threads: int | None = None,
+    runner: Runner | None = None,
 ) -> list[NoisePoint]:
     """Evaluate each of ``networks`` (by mode name, e.g. ``{"pent": a, "static": b}``) on
-    ``data`` with each noise ``fraction`` added; every network sees the same noisy windows."""
-    points = []
-    for i, fraction in enumerate(fractions):
-        noisy, snr = with_noise(data, fraction, seed=seed + i) if fraction > 0 else (data, None)
-        finite = snr[np.isfinite(snr)] if snr is not None else np.zeros(0)
-        level = float(np.median(finite)) if finite.size else float("inf")
-        for mode, network in networks.items():
-            points.append(
-                NoisePoint(float(fraction), level, mode, evaluate(network, noisy, threads=threads))
-            )
-    return points
+    ``data`` with each noise ``fraction`` added; every network sees the same noisy windows.
+    Level ``i`` draws its noise from ``seed + i``. ``runner`` runs the levels (as Ray tasks,
+    :mod:`uavsnn.distributed`; default here, one after the other): the points are the same."""
+    if runner is None or runner is SERIAL:
+        levels: Iterable[list[NoisePoint]] = (
+            noise_level(networks, data, f, seed=seed + i, threads=threads)
+            for i, f in enumerate(fractions)
+        )
+    else:
+        nets, shared = runner.put(networks), runner.put(data)
+        levels = runner.imap(
+            noise_task, ((nets, shared, f, seed + i) for i, f in enumerate(fractions))
+        )
+    return [point for level in levels for point in level]
 
 
 def mix_windows(parts: Sequence[LabelledWindows], total: int, *, seed: int) -> LabelledWindows:

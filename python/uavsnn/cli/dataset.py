@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from uavsnn.dataset import DATASET_DOMAINS, DatasetPaths, build, build_demo, read_manifest
+from uavsnn.distributed import add_ray_option, runner_for
 from uavsnn.errors import ParameterError
 from uavsnn.scenes import OBJECT_KINDS, SCENE_KINDS, contact_sheet, render, sample_spec, write_png
 from uavsnn.sim import Pix2NvsParams
@@ -81,6 +82,7 @@ def register(subparsers: Any) -> None:
     b.add_argument("--overwrite", action="store_true", help="replace a dataset in OUT_DIR")
     b.add_argument("--json", action="store_true", help="print the summary as JSON")
     b.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_ray_option(b, "the recordings' simulation as tasks (the same dataset)")
     b.set_defaults(handler=_build)
 
     d = actions.add_parser("demo", help="build the small built-in synthetic set")
@@ -171,6 +173,7 @@ def _build(args: argparse.Namespace) -> int:
         pix2nvs_params=Pix2NvsParams.original() if args.pix2nvs_compat else None,
         overwrite=args.overwrite,
         progress=_progress(args.quiet),
+        runner=runner_for(args.ray),
     )
     return _done(paths, args.json)
 

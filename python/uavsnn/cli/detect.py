@@ -26,6 +26,7 @@ from typing import Any, TextIO
 
 import numpy as np
 
+from uavsnn.distributed import add_ray_option
 from uavsnn.errors import EventError, ParameterError, StreamError
 
 __all__ = ["register"]
@@ -66,6 +67,12 @@ def register(subparsers: Any) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("source", metavar="SOURCE", help="a recording file, '-', or udp://HOST:PORT")
+    p.add_argument(
+        "more_sources",
+        nargs="*",
+        metavar="SOURCE",
+        help="more files or udp://HOST:PORT streams, each with its own detector (needs --ray)",
+    )
     p.add_argument(
         "--model",
         "-m",
@@ -126,6 +133,7 @@ def register(subparsers: Any) -> None:
         metavar="S",
         help="seconds between rate summaries on stderr (0: only at the end)",
     )
+    add_ray_option(p, "one detector per stream, each in a Ray actor")
     p.set_defaults(handler=run)
 
 
@@ -273,6 +281,8 @@ def run(args: argparse.Namespace) -> int:
     from uavsnn.sources import UdpSource, open_source
 
     _check_args(args)
+    if args.more_sources or args.ray is not None:
+        return _run_many(args)
     network = Network.load(args.model)
     model_size = (int(network.config["width"]), int(network.config["height"]))
     # '-' and UDP carry no sensor size: default to the model's; a file has its own.
@@ -338,3 +348,54 @@ def run(args: argparse.Namespace) -> int:
             os.dup2(os.open(os.devnull, os.O_WRONLY), out.fileno())
         summary.write(detector, source, rejected, final=True)
     return 0
+
+
+def _run_many(args: argparse.Namespace) -> int:
+    """Several streams at once, one Detector per stream in a Ray actor (docs/distributed.md):
+    detections as they come, one line per conv3 spike (as ``--per-spike``), each led by its
+    stream's name; a stream that fails is
+    reported and the others go on (exit 1 when any failed)."""
+    from uavsnn.distributed import detect_streams, runner_for
+    from uavsnn.network import Network
+
+    sources = [args.source, *args.more_sources]
+    if "-" in sources:
+        raise ParameterError("standard input ('-') cannot be one of several streams")
+    if len(set(sources)) != len(sources):
+        raise ParameterError("a source is named twice")
+    if args.ray is None:
+        raise ParameterError("several sources need --ray (one detector per stream, on Ray)")
+    network = Network.load(args.model)
+    runner = runner_for(args.ray)
+    out, err = sys.stdout, sys.stderr
+
+    def ready(addresses: dict[str, tuple[str, int] | None], _actors: Any) -> None:
+        for name, address in addresses.items():
+            if address is not None:
+                print(f"uavsnn detect: {name}: listening on udp://{address[0]}:{address[1]}",
+                      file=err, flush=True)  # fmt: skip
+
+    def found(name: str, detections: np.ndarray) -> None:
+        for d in detections:
+            if args.json:
+                print(json.dumps({"stream": name, **json.loads(_spike(d, True))}), file=out)
+            else:
+                print(f"[{name}] {_spike(d, False)}", file=out)
+        out.flush()
+
+    results = detect_streams(
+        runner, sources, network, window_us=round(args.window_ms * 1000),
+        overlap=args.overlap, on_ready=ready, on_detections=found,
+        sensor_size=_sensor_size(args.sensor_size), realtime=args.realtime,
+        udp_format=args.udp_format, max_packets=args.max_packets,
+        idle_timeout=args.idle_timeout, downsample=args.downsample,
+    )  # fmt: skip
+    for r in results.values():
+        state = "done" if r.ok else f"failed ({r.error})"
+        print(
+            f"uavsnn detect: {r.name}: {state} events={r.events} windows={r.windows} "
+            f"detections={len(r.detections)} packets={r.packets} "
+            f"dropped={r.dropped} rejected_events={r.rejected_events}",
+            file=err, flush=True,
+        )  # fmt: skip
+    return 0 if all(r.ok for r in results.values()) else 1

@@ -22,7 +22,15 @@ from typing import Any
 
 from uavsnn import __version__, report
 from uavsnn.dataset import LabelledWindows, build, load
-from uavsnn.evaluation import Evaluation, evaluate
+from uavsnn.distributed import (
+    SERIAL,
+    Runner,
+    add_ray_option,
+    evaluate_task,
+    runner_for,
+    train_task,
+)
+from uavsnn.evaluation import Evaluation
 from uavsnn.experiments import (
     NOISE_FRACTIONS,
     PAPER_TABLE2,
@@ -35,7 +43,6 @@ from uavsnn.experiments import (
     static_twin,
 )
 from uavsnn.network import Network, default_config
-from uavsnn.training import train
 
 __all__ = ["register"]
 
@@ -66,6 +73,7 @@ def register(subparsers: Any) -> None:
     )
     p.add_argument("--no-real", action="store_true", help="skip the real-footage experiment")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
+    add_ray_option(p, "the dataset builds, trainings and evaluations as tasks (the same figures)")
     p.set_defaults(handler=_reproduce)
 
 
@@ -73,6 +81,22 @@ def _dataset(root: Path, domain: str, seed: int, progress: bool, **kwargs: Any) 
     if not have_dataset(root, seed):
         build(root, domain, seed=seed, overwrite=True, progress=progress, **kwargs)
     return root
+
+
+def _train_all(
+    runner: Runner,
+    runs: dict[str, tuple[dict[str, Any], LabelledWindows, str]],
+    seed: int,
+    train_kwargs: dict[str, Any],
+) -> dict[str, Any]:
+    """Start every run's training (all at once on a cluster); each window set is shared."""
+    shared: dict[int, Any] = {}
+    jobs = {}
+    for name, (config, data, _) in runs.items():
+        if id(data) not in shared:
+            shared[id(data)] = runner.put(data.windows)
+        jobs[name] = runner.submit(train_task, config, seed, shared[id(data)], train_kwargs)
+    return jobs
 
 
 def _row(name: str, e: Evaluation, paper: float | None) -> str:
@@ -96,12 +120,16 @@ def _reproduce(args: argparse.Namespace) -> int:
     def step(msg: str) -> None:
         print(f"[{time.perf_counter() - started:7.1f} s] {msg}", flush=True)
 
+    runner = runner_for(args.ray)
     step("dvs dataset")
     dvs_dir = _dataset(
-        out / "data/dvs", "dvs", seed, progress, n_train=args.n_train, n_test=args.n_test
-    )
+        out / "data/dvs", "dvs", seed, progress, n_train=args.n_train, n_test=args.n_test,
+        runner=runner,
+    )  # fmt: skip
     step("sim dataset")
-    sim_dir = _dataset(out / "data/sim", "sim", seed, progress, n_train=args.n_train, n_test=200)
+    sim_dir = _dataset(
+        out / "data/sim", "sim", seed, progress, n_train=args.n_train, n_test=200, runner=runner
+    )
     dvs_train, dvs_test = load(dvs_dir, "train"), load(dvs_dir, "test")
     sim_train = load(sim_dir, "train")
     combined = mix_windows([dvs_train, sim_train], args.n_train, seed=seed)
@@ -116,22 +144,32 @@ def _reproduce(args: argparse.Namespace) -> int:
     networks: dict[str, Network] = {}
     results: dict[str, Evaluation] = {}
     trainings = {}
-    for name, (config, data, model_file) in runs.items():
+    train_kwargs = {
+        "windows_per_layer": args.windows_per_layer, "seed": seed,
+        "progress": progress and runner is SERIAL,
+    }  # fmt: skip
+    jobs = _train_all(runner, runs, seed, train_kwargs)
+    test_ref = runner.put(dvs_test)
+    evaluations = {}
+    for name, (_, _, model_file) in runs.items():
         step(f"train {name}")
-        net = Network(config, seed=seed)
-        trainings[name] = train(
-            net, data.windows, windows_per_layer=args.windows_per_layer, seed=seed,
-            progress=progress,
-        )  # fmt: skip
+        trainings[name] = runner.result(jobs[name])
+        net = trainings[name].network
         net.save(out / model_file)
         networks[name] = net
-        results[name] = evaluate(net, dvs_test, keep_inference=name == "combined")
+        evaluations[name] = runner.submit(
+            evaluate_task, net, test_ref, {"keep_inference": name == "combined"}
+        )
+    for name, job in evaluations.items():
+        results[name] = runner.result(job)
     log["table2"] = {name: e.to_dict() for name, e in results.items()}
 
     step("noise sweep")
     best = networks["combined"]
     static, theta = static_twin(best, combined.windows)
-    points = noise_sweep({"pent": best, "static": static}, dvs_test, NOISE_FRACTIONS, seed=seed)
+    points = noise_sweep(
+        {"pent": best, "static": static}, dvs_test, NOISE_FRACTIONS, seed=seed, runner=runner
+    )
     log["noise"] = [p.to_dict() for p in points]
     log["static_threshold"] = theta
     written = report.figures(
@@ -143,19 +181,15 @@ def _reproduce(args: argparse.Namespace) -> int:
     videos = args.videos or (_DEFAULT_VIDEOS if _DEFAULT_VIDEOS.is_dir() else None)
     if videos is not None and not args.no_real:
         step(f"real dataset from {videos}")
-        real_dir = _dataset(out / "data/real", "real", seed, progress, videos=videos, n_train=None)
+        real_dir = _dataset(
+            out / "data/real", "real", seed, progress, videos=videos, n_train=None, runner=runner
+        )
         real_train, real_test = load(real_dir, "train"), load(real_dir, "test")
         step("train and test on real footage")
-        net = Network(recipe, seed=seed)
-        train(
-            net,
-            real_train.windows,
-            windows_per_layer=args.windows_per_layer,
-            seed=seed,
-            progress=progress,
-        )
+        job = _train_all(runner, {"real": (recipe, real_train, "")}, seed, train_kwargs)["real"]
+        net = runner.result(job).network
         net.save(out / "model-real.npz")
-        real = evaluate(net, real_test)
+        real = runner.result(runner.submit(evaluate_task, net, real_test, {}))
         log["real"] = real.to_dict() | {"videos": str(videos), "train_windows": len(real_train)}
         real_text = [
             "\n## Real footage\n",

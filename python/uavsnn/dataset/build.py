@@ -31,6 +31,7 @@ from uavsnn.dataset.format import (
 )
 from uavsnn.dataset.splits import POOL_FACTOR, SENSOR, Progress, Recorder, WindowCut
 from uavsnn.dataset.synthetic import SceneSource, default_source, synthetic_split
+from uavsnn.distributed import Runner
 from uavsnn.errors import DatasetError, ParameterError
 from uavsnn.sim import Pix2NvsParams
 from uavsnn.windows import Windows
@@ -190,6 +191,7 @@ def build(
     sensor: tuple[int, int] | str = SENSOR,
     overwrite: bool = False,
     progress: bool | Progress = False,
+    runner: Runner | None = None,
 ) -> DatasetPaths:
     """Build a dataset in ``out_dir``: ``test.npz`` (``n_test`` windows, half with a UAV),
     ``train.npz`` (``n_train`` windows, balanced the same way; all usable windows of the train
@@ -207,6 +209,8 @@ def build(
     1280×720 are today's cameras). Scenes keep their field of view in degrees, so the same
     recording shows its objects over more pixels on a larger sensor; real clips must be at
     least the sensor's size once cropped to its aspect ratio.
+    ``runner`` simulates the recordings: in this process by default, or as Ray tasks
+    (:func:`uavsnn.distributed.connect`); the dataset is the same either way.
 
     Raises:
         ParameterError: impossible arguments.
@@ -244,7 +248,7 @@ def build(
         raise DatasetError(f"video folder {video_dir} does not exist or is not a folder")
     root = _prepare(out_dir, overwrite)
     report = _reporter(progress)
-    rec = Recorder(seed, window, report)
+    rec = Recorder(seed, window, report, runner)
     if domain in ("dvs", "sim"):
         source = dvs if domain == "dvs" else sim
         if source is None:  # made above; for the type checker

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from uavsnn.dataset.format import LabelledWindows
+from uavsnn.dataset.format import LabelledWindows, RawEvents
 from uavsnn.dataset.labels import WindowLabels
 from uavsnn.dataset.real import Clip, clip_labels, crop_box, find_clips
 from uavsnn.dataset.splits import (
@@ -22,15 +22,17 @@ from uavsnn.dataset.splits import (
     SPLIT_KEY,
     Pool,
     Recorder,
+    WindowCut,
     balanced,
     keyed_rng,
     keyed_seed,
+    take_labels,
 )
 from uavsnn.errors import DatasetError, InternalError
 from uavsnn.sim import Pix2NvsParams, probe_video, video_to_recording
 from uavsnn.windows import Windows
 
-__all__ = ["ClipPlan", "plan_clip", "real_splits", "split_clips"]
+__all__ = ["ClipPlan", "plan_clip", "real_splits", "simulate_clip", "split_clips"]
 
 _REAL = DOMAIN_KEY["real"]
 
@@ -142,27 +144,37 @@ def _draw(
     }
 
 
-def _simulate(
-    rec: Recorder, j: int, plan: ClipPlan, params: Pix2NvsParams | None
-) -> tuple[Windows, WindowLabels, np.ndarray]:
-    """The clip through the "sim" path, cut into the planned windows and labelled again; and
-    its events."""
+def simulate_clip(
+    seed: int,
+    cut: WindowCut,
+    j: int,
+    plan: ClipPlan,
+    params: Pix2NvsParams | None,
+    keep: np.ndarray,
+) -> tuple[Windows, WindowLabels, int, RawEvents]:
+    """Clip ``j`` through the "sim" path, cut into the planned windows and labelled again;
+    returns the windows at ``keep`` (sorted indices), their labels, the clip's event count and
+    the raw events behind those windows (the unit of work a build runs, here or as a Ray
+    task)."""
     recording = video_to_recording(
         plan.clip.video,
         "sim",
         size=plan.sensor,
-        seed=keyed_seed(rec.seed, _REAL, 9, j),
+        seed=keyed_seed(seed, _REAL, 9, j),
         params=params,
     )
     labelled = plan.labelled.copy()
     decoded = int(recording.metadata.get("frames", len(labelled)))
     # Frames the container promised but that did not decode carry no events: unscored.
     labelled[decoded:] = False
-    windows = rec.cut.cut(recording, plan.end_us)
-    if not np.array_equal(windows.t0, rec.cut.starts(plan.end_us)):
+    windows = cut.cut(recording, plan.end_us)
+    if not np.array_equal(windows.t0, cut.starts(plan.end_us)):
         raise InternalError(f"windows of {plan.clip.name} do not start where they were planned")
-    labels = rec.cut.label(windows.t0, plan.timestamps_us, plan.frame_labels, labelled)
-    return windows, labels, recording.events
+    labels = cut.label(windows.t0, plan.timestamps_us, plan.frame_labels, labelled)
+    kept = windows.select(keep)
+    length = windows.length_us
+    raw = RawEvents.of_recording(recording.events, kept.t0, length, length)
+    return kept, take_labels(labels, keep), len(recording), raw
 
 
 def real_splits(
@@ -191,33 +203,47 @@ def real_splits(
             members = [j for j in range(len(plans)) if is_test[j] == (split == "test")]
             chosen[split] = _draw(rec, plans, members, split, n)
     pools = {split: Pool() for split in chosen}
-    for j, plan in enumerate(plans):
-        w = plan.windows
-        rec_id = rec.record(
-            {
-                "name": plan.clip.name,
-                "domain": "real",
-                "split": "test" if is_test[j] else "train",
-                "kind": plan.clip.cls,
-                "video": plan.clip.video.name,
-                "windows": len(w.label),
-                "usable": int(w.usable.sum()),
-                "usable_uav": int((w.usable & w.label).sum()),
-            }
-        )
-        splits = [s for s in chosen if j in chosen[s]]
-        if not splits:
-            continue
-        windows, labels, events = _simulate(rec, j, plan, params)
-        rec.records[rec_id]["events"] = len(events)
-        for split in splits:
-            keep = np.zeros(len(windows), dtype=bool)
-            keep[chosen[split][j]] = True
-            if not np.all(labels.usable[keep]):
-                raise DatasetError(
-                    f"clip {plan.clip.name} decodes to fewer frames than its container and box "
-                    f"file promised; windows drawn from it are no longer usable"
-                )
-            pools[split].add(rec_id, windows, labels, keep, events)
-        rec.progress(f"real: {plan.clip.name}")
+    # The clips that contribute, simulated in order (in flight together on a cluster); each
+    # returns only the windows some split takes.
+    needed = {
+        j: np.unique(np.concatenate([chosen[s][j] for s in chosen if j in chosen[s]]))
+        for j in range(len(plans))
+        if any(j in chosen[s] for s in chosen)
+    }
+    simulated = rec.runner.imap(
+        simulate_clip,
+        ((rec.seed, rec.cut, j, plans[j], params, keep) for j, keep in needed.items()),
+    )
+    try:
+        for j, plan in enumerate(plans):
+            w = plan.windows
+            rec_id = rec.record(
+                {
+                    "name": plan.clip.name,
+                    "domain": "real",
+                    "split": "test" if is_test[j] else "train",
+                    "kind": plan.clip.cls,
+                    "video": plan.clip.video.name,
+                    "windows": len(w.label),
+                    "usable": int(w.usable.sum()),
+                    "usable_uav": int((w.usable & w.label).sum()),
+                }
+            )
+            splits = [s for s in chosen if j in chosen[s]]
+            if not splits:
+                continue
+            windows, labels, n_events, raw = next(simulated)
+            rec.records[rec_id]["events"] = n_events
+            for split in splits:
+                keep = np.zeros(len(windows), dtype=bool)
+                keep[np.searchsorted(needed[j], chosen[split][j])] = True
+                if not np.all(labels.usable[keep]):
+                    raise DatasetError(
+                        f"clip {plan.clip.name} decodes to fewer frames than its container and box "
+                        f"file promised; windows drawn from it are no longer usable"
+                    )
+                pools[split].add(rec_id, windows, labels, keep, raw=raw)
+            rec.progress(f"real: {plan.clip.name}")
+    finally:
+        simulated.close()
     return {split: rec.mark_used(pool.take()) for split, pool in pools.items()}

@@ -12,6 +12,7 @@ import numpy as np
 
 from uavsnn.dataset.format import LabelledWindows, RawEvents
 from uavsnn.dataset.labels import WindowLabels, label_windows
+from uavsnn.distributed import SERIAL, Runner
 from uavsnn.errors import DatasetError
 from uavsnn.events import Recording
 from uavsnn.windows import Windows, make_windows, window_step
@@ -28,6 +29,7 @@ __all__ = [
     "balanced",
     "keyed_rng",
     "keyed_seed",
+    "take_labels",
 ]
 
 SENSOR = (240, 180)
@@ -89,6 +91,14 @@ class WindowCut:
         return make_windows(recording, self.length_us, self.overlap, start_us=0, end_us=end_us)
 
 
+def take_labels(labels: WindowLabels, idx: np.ndarray) -> WindowLabels:
+    """The labels of the windows at ``idx``."""
+    return WindowLabels(
+        labels.label[idx], labels.cls[idx], labels.box[idx], labels.status[idx],
+        labels.uav_fraction[idx], labels.range_m[idx], labels.size_px[idx],
+    )  # fmt: skip
+
+
 class Pool:
     """Usable windows gathered from recordings, with their labels and recording ids."""
 
@@ -111,15 +121,19 @@ class Pool:
         labels: WindowLabels,
         keep: np.ndarray | None = None,
         events: np.ndarray | None = None,
+        raw: RawEvents | None = None,
     ) -> None:
-        """Add the usable windows (or those in ``keep``) of one recording, and with ``events``
-        (the recording's) the raw events behind them."""
+        """Add the usable windows (or those in ``keep``) of one recording, and the raw events
+        behind them: from ``events`` (the recording's), or ``raw`` (one entry per window of
+        ``windows``, as a build's tasks return them)."""
         idx = np.flatnonzero(labels.usable if keep is None else keep)
         if len(idx) == 0:
             return
-        if events is None:
+        if events is None and raw is None:
             self._raw = None
-        elif self._raw is not None:
+        elif self._raw is not None and raw is not None:
+            self._raw.append(raw.select(idx).compact())
+        elif self._raw is not None and events is not None:
             length = windows.length_us
             self._raw.append(RawEvents.of_recording(events, windows.t0[idx], length, length))
         self._windows.append(windows.select(idx))
@@ -175,12 +189,16 @@ def balanced(label: np.ndarray, n: int, rng: np.random.Generator, what: str) -> 
 
 class Recorder:
     """One build's seed, window settings and progress, and the manifest entries of the
-    recordings it makes (their ids are their positions)."""
+    recordings it makes (their ids are their positions). ``runner`` runs the per-recording
+    work (:mod:`uavsnn.distributed`; default: in this process)."""
 
-    def __init__(self, seed: int, cut: WindowCut, progress: Progress) -> None:
+    def __init__(
+        self, seed: int, cut: WindowCut, progress: Progress, runner: Runner | None = None
+    ) -> None:
         self.seed = seed
         self.cut = cut
         self.progress = progress
+        self.runner = runner if runner is not None else SERIAL
         self.records: list[dict[str, Any]] = []
 
     def record(self, entry: dict[str, Any]) -> int:

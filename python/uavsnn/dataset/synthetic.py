@@ -20,13 +20,16 @@ made of recordings rendered for it alone (:func:`synthetic_split`).
 
 from __future__ import annotations
 
+import copy
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from uavsnn.dataset.format import LabelledWindows
+from uavsnn.dataset.format import LabelledWindows, RawEvents
+from uavsnn.dataset.labels import WindowLabels
 from uavsnn.dataset.real import boxes_to_sensor, crop_box
 from uavsnn.dataset.splits import (
     DOMAIN_KEY,
@@ -34,14 +37,17 @@ from uavsnn.dataset.splits import (
     SPLIT_KEY,
     Pool,
     Recorder,
+    WindowCut,
     balanced,
     keyed_rng,
     keyed_seed,
+    take_labels,
 )
 from uavsnn.errors import DatasetError, ParameterError
 from uavsnn.events import Recording
 from uavsnn.scenes import record, render, sample_spec
 from uavsnn.sim import SCENE_PARAMS, DvsParams, Pix2NvsParams, Pix2NvsSimulator, crop_to_aspect
+from uavsnn.windows import Windows
 
 __all__ = [
     "MAX_FRAME_BYTES",
@@ -51,6 +57,7 @@ __all__ = [
     "sim_render_size",
     "synthetic_recording",
     "synthetic_split",
+    "synthetic_windows",
 ]
 
 #: Give up when this many recordings in a row add nothing that a split still needs.
@@ -220,6 +227,104 @@ def synthetic_recording(source: SceneSource, kind: str, seed: int) -> LabelledRe
     )
 
 
+def synthetic_windows(
+    source: SceneSource, cut: WindowCut, kind: str, seed: int
+) -> tuple[dict[str, Any], Windows, WindowLabels, RawEvents]:
+    """One recording of a synthetic split, as its pool takes it: the manifest entry, the
+    usable windows with their labels, and the raw events behind those windows (the unit of
+    work a build runs, here or as a Ray task)."""
+    lr = synthetic_recording(source, kind, seed)
+    windows = cut.cut(lr.recording, lr.end_us)
+    labels = cut.label(windows.t0, lr.timestamps_us, lr.labels, lr.labelled)
+    entry = {
+        **lr.info,
+        "windows": len(windows),
+        "usable": int(labels.usable.sum()),
+        "usable_uav": int((labels.usable & labels.label).sum()),
+    }
+    keep = np.flatnonzero(labels.usable)
+    kept = windows.select(keep)
+    length = windows.length_us
+    raw = RawEvents.of_recording(lr.recording.events, kept.t0, length, length)
+    return entry, kept, take_labels(labels, keep), raw
+
+
+def _next_kind(
+    positives: float, negatives: float, need_pos: int, need_neg: int, kinds: np.random.Generator
+) -> str:
+    if need_pos and positives / need_pos <= negatives / max(need_neg, 1):
+        return "uav"
+    return "object" if kinds.random() < 0.7 else "empty"
+
+
+class _Ahead:
+    """Recordings started before the build knows it needs them, so that a cluster has work.
+
+    Which kind of scene recording ``i`` is depends on the windows of recordings ``0..i-1``;
+    its seed does not. The build decides each kind as on one machine, from the real pool;
+    meanwhile the next ``runner.ahead`` recordings are started with the kinds a guess of the
+    pool (mean windows per kind so far) gives. A guess that turns out wrong costs only the
+    time of that recording: it is dropped and the right kind made, so the result is the
+    serial build's whatever the guesses."""
+
+    def __init__(
+        self,
+        rec: Recorder,
+        source: SceneSource,
+        seed_of: Callable[[int], int],
+        need: tuple[int, int],
+    ) -> None:
+        self.rec, self.source, self.seed_of, self.need = rec, source, seed_of, need
+        self.pending: dict[tuple[int, str], Any] = {}
+        n = len(rec.cut.starts(round(source.duration_s * 1e6)))
+        # Windows (UAV, other) a recording of each kind adds: priors until one is seen.
+        self.gain: dict[str, list[float]] = {
+            "uav": [n / 2, n / 2, 0],
+            "object": [0.0, float(n), 0],
+            "empty": [0.0, float(n), 0],
+        }
+
+    def _start(self, i: int, kind: str) -> None:
+        if (i, kind) not in self.pending:
+            self.pending[(i, kind)] = self.rec.runner.submit(
+                synthetic_windows, self.source, self.rec.cut, kind, self.seed_of(i)
+            )
+
+    def get(
+        self, i: int, kind: str, pos: int, neg: int, kinds: np.random.Generator
+    ) -> tuple[dict[str, Any], Windows, WindowLabels, RawEvents]:
+        runner = self.rec.runner
+        want = (i, kind)
+        self._start(i, kind)
+        if runner.ahead:
+            guess = copy.deepcopy(kinds)
+            p, q = float(pos), float(neg)
+            for j in range(i + 1, i + 1 + runner.ahead):
+                g = self.gain[kind]
+                p, q = p + g[0], q + g[1]
+                if p >= self.need[0] and q >= self.need[1]:
+                    break
+                kind_j = _next_kind(p, q, *self.need, guess)
+                if len(self.pending) <= runner.ahead:
+                    self._start(j, kind_j)
+                kind = kind_j
+        out = runner.result(self.pending.pop(want))
+        stale = [key for key in self.pending if key[0] <= i]
+        runner.cancel([self.pending.pop(key) for key in stale])
+        entry, _, labels, _ = out
+        g = self.gain[entry["kind"]]
+        uav = int(labels.label.sum())
+        count = g[2] + 1 if g[2] else 1
+        g[0] = (g[0] * (count - 1) + uav) / count
+        g[1] = (g[1] * (count - 1) + len(labels.label) - uav) / count
+        g[2] = count
+        return out
+
+    def close(self) -> None:
+        self.rec.runner.cancel(self.pending.values())
+        self.pending.clear()
+
+
 def synthetic_split(rec: Recorder, source: SceneSource, split: str, n: int) -> LabelledWindows:
     """Render recordings for ``split`` until its pools hold ``POOL_FACTOR`` times the ``n / 2``
     UAV and ``n / 2`` other windows it needs, then draw them.
@@ -236,43 +341,41 @@ def synthetic_split(rec: Recorder, source: SceneSource, split: str, n: int) -> L
     dkey, skey = DOMAIN_KEY[source.domain], SPLIT_KEY[split]
     kinds = keyed_rng(rec.seed, dkey, skey, 0)
     pool = Pool()
+    ahead = _Ahead(
+        rec, source, lambda i: keyed_seed(rec.seed, dkey, skey, 1, i), (need_pos, need_neg)
+    )
     stall, i = 0, 0
-    while pool.positives < need_pos or pool.negatives < need_neg:
-        if need_pos and pool.positives / need_pos <= pool.negatives / max(need_neg, 1):
-            kind = "uav"
-        else:
-            kind = "object" if kinds.random() < 0.7 else "empty"
-        lr = synthetic_recording(source, kind, keyed_seed(rec.seed, dkey, skey, 1, i))
-        windows = rec.cut.cut(lr.recording, lr.end_us)
-        labels = rec.cut.label(windows.t0, lr.timestamps_us, lr.labels, lr.labelled)
-        rec_id = rec.record(
-            {
-                "name": f"{source.domain}-{split}-{i:05d}",
-                "domain": source.domain,
-                "split": split,
-                **lr.info,
-                "windows": len(windows),
-                "usable": int(labels.usable.sum()),
-                "usable_uav": int((labels.usable & labels.label).sum()),
-            }
-        )
-        before = (pool.positives, pool.negatives)
-        pool.add(rec_id, windows, labels, events=lr.recording.events)
-        gained = (before[0] < pool.positives and before[0] < need_pos) or (
-            before[1] < pool.negatives and before[1] < need_neg
-        )
-        stall = 0 if gained else stall + 1
-        if stall >= STALL:
-            raise DatasetError(
-                f"the {source.domain} {split} split stalled: {STALL} recordings in a row added "
-                f"no needed window ({pool.positives}/{need_pos} UAV, {pool.negatives}/{need_neg} "
-                f"non-UAV windows)"
+    try:
+        while pool.positives < need_pos or pool.negatives < need_neg:
+            kind = _next_kind(pool.positives, pool.negatives, need_pos, need_neg, kinds)
+            entry, windows, labels, raw = ahead.get(i, kind, pool.positives, pool.negatives, kinds)
+            rec_id = rec.record(
+                {
+                    "name": f"{source.domain}-{split}-{i:05d}",
+                    "domain": source.domain,
+                    "split": split,
+                    **entry,
+                }
             )
-        i += 1
-        rec.progress(
-            f"{source.domain} {split}: {i} recordings, {pool.positives} UAV and "
-            f"{pool.negatives} non-UAV windows"
-        )
+            before = (pool.positives, pool.negatives)
+            pool.add(rec_id, windows, labels, raw=raw)
+            gained = (before[0] < pool.positives and before[0] < need_pos) or (
+                before[1] < pool.negatives and before[1] < need_neg
+            )
+            stall = 0 if gained else stall + 1
+            if stall >= STALL:
+                raise DatasetError(
+                    f"the {source.domain} {split} split stalled: {STALL} recordings in a row "
+                    f"added no needed window ({pool.positives}/{need_pos} UAV, "
+                    f"{pool.negatives}/{need_neg} non-UAV windows)"
+                )
+            i += 1
+            rec.progress(
+                f"{source.domain} {split}: {i} recordings, {pool.positives} UAV and "
+                f"{pool.negatives} non-UAV windows"
+            )
+    finally:
+        ahead.close()
     pick = balanced(
         pool.labels(), n, keyed_rng(rec.seed, dkey, skey, 2), f"{source.domain} {split} pool"
     )

@@ -1,0 +1,509 @@
+"""Work spread over a Ray cluster: a laptop's local one (``ray.init()``) or an existing cluster.
+
+Three jobs outgrow one machine, and each runs here on Ray's tasks and actors
+(``docs/distributed.md``):
+
+- **dataset builds**: every recording (rendered or real) is simulated and cut into windows by a
+  task; the build's splits, seeds and window draws are made in the driver exactly as on one
+  machine, so the dataset is the serial one, array for array (:class:`Runner`);
+- **experiments**: ``uavsnn reproduce`` and the sweep script run trainings and evaluations as
+  tasks (:func:`train_task`, :func:`evaluate_task`, :func:`noise_task`);
+- **many streams**: one :class:`~uavsnn.Detector` per stream, each in a Ray actor that opens
+  its own source (file or UDP port), so events never pass through the driver
+  (:func:`detect_streams`).
+
+Ray is optional (``pip install 'uavsnn[ray]'``): this module imports it only when asked to
+connect, and ``import uavsnn`` never does. Without Ray every job runs serially through
+:data:`SERIAL`, the same code path with the same results.
+
+Networks are sent between processes as their config and weights (what a model file holds):
+importing this module registers that with :mod:`copyreg`.
+"""
+
+from __future__ import annotations
+
+import copyreg
+import socket
+import threading
+from collections.abc import Callable, Generator, Iterable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+from urllib.parse import urlsplit
+
+import numpy as np
+
+from uavsnn.errors import ParameterError, UavsnnError
+from uavsnn.network import CONV_LAYERS, Network
+
+__all__ = [
+    "RAY_HINT",
+    "SERIAL",
+    "RayRunner",
+    "Runner",
+    "SerialRunner",
+    "StreamResult",
+    "add_ray_option",
+    "connect",
+    "detect_streams",
+    "ray_available",
+    "runner_for",
+]
+
+#: How to install what ``--ray`` needs.
+RAY_HINT = "pip install 'uavsnn[ray]'"
+#: Seconds an unreachable ``--ray`` address may take to fail.
+CONNECT_TIMEOUT_S = 5.0
+
+
+def ray_available() -> bool:
+    """Whether Ray can be imported (without importing it)."""
+    import importlib.util
+
+    return importlib.util.find_spec("ray") is not None
+
+
+def _import_ray() -> Any:
+    try:
+        import ray
+    except ImportError as exc:
+        raise ParameterError(f"--ray needs Ray, which is not installed: {RAY_HINT}") from exc
+    return ray
+
+
+# ---------------------------------------------------------------------------- networks
+
+
+def _network_from_state(config: dict[str, Any], weights: dict[str, np.ndarray]) -> Network:
+    net = Network(config)
+    for layer, w in weights.items():
+        net.set_weights(layer, w)
+    return net
+
+
+def _network_state(net: Network) -> tuple[Any, ...]:
+    return _network_from_state, (net.config, {layer: net.weights(layer) for layer in CONV_LAYERS})
+
+
+copyreg.pickle(Network, _network_state)
+
+
+# ---------------------------------------------------------------------------- runners
+
+
+class Runner:
+    """Where a job's units of work run. :meth:`submit` starts one (``fn(*args)``) and returns a
+    handle; :meth:`result` waits for it. Results are the same whichever runner runs them."""
+
+    #: Units a job may keep in flight ahead of the one it waits for (0: one at a time).
+    ahead: int = 0
+    #: CPUs the runner has (1 for :class:`SerialRunner`).
+    workers: int = 1
+
+    def submit(self, fn: Callable[..., Any], *args: Any) -> Any:
+        raise NotImplementedError
+
+    def result(self, handle: Any) -> Any:
+        raise NotImplementedError
+
+    def cancel(self, handles: Iterable[Any]) -> None:
+        """Give up on units no longer needed (their results are dropped)."""
+
+    def put(self, obj: Any) -> Any:
+        """Share ``obj`` with many units: pass what this returns instead of ``obj``."""
+        return obj
+
+    def imap(
+        self, fn: Callable[..., Any], args: Iterable[Sequence[Any]]
+    ) -> Generator[Any, None, None]:
+        """``fn(*a)`` for each ``a`` of ``args``, in order, with up to ``ahead`` units in flight
+        beyond the one being waited for; units still in flight when the iterator is closed
+        (or raises) are cancelled."""
+        todo = iter(args)
+        flight: list[Any] = []
+        try:
+            while True:
+                while len(flight) <= self.ahead:
+                    nxt = next(todo, None)
+                    if nxt is None:
+                        break
+                    flight.append(self.submit(fn, *nxt))
+                if not flight:
+                    return
+                yield self.result(flight.pop(0))
+        finally:
+            self.cancel(flight)
+
+
+class _Deferred:
+    __slots__ = ("args", "fn")
+
+    def __init__(self, fn: Callable[..., Any], args: tuple[Any, ...]) -> None:
+        self.fn, self.args = fn, args
+
+
+class SerialRunner(Runner):
+    """Runs each unit in this process when its result is asked for: one machine, no Ray."""
+
+    def submit(self, fn: Callable[..., Any], *args: Any) -> Any:
+        return _Deferred(fn, args)
+
+    def result(self, handle: Any) -> Any:
+        return handle.fn(*handle.args)
+
+
+#: The runner every job uses unless given another.
+SERIAL = SerialRunner()
+
+
+class RayRunner(Runner):
+    """Runs each unit as a Ray task (one CPU each) on the cluster :func:`connect` joined."""
+
+    def __init__(self) -> None:
+        self._ray = _import_ray()
+        if not self._ray.is_initialized():
+            raise ParameterError("Ray is not connected: call uavsnn.distributed.connect() first")
+        self.workers = max(1, int(self._ray.cluster_resources().get("CPU", 1)))
+        self.ahead = 2 * self.workers
+        self._remote: dict[Callable[..., Any], Any] = {}
+
+    def submit(self, fn: Callable[..., Any], *args: Any) -> Any:
+        remote = self._remote.get(fn)
+        if remote is None:
+            remote = self._remote[fn] = self._ray.remote(num_cpus=1, max_retries=0)(fn)
+        return remote.remote(*args)
+
+    def result(self, handle: Any) -> Any:
+        try:
+            return self._ray.get(handle)
+        except self._ray.exceptions.RayTaskError as exc:
+            # A uavsnn error in a task is the same error as on one machine: one line, exit 2.
+            cause = getattr(exc, "cause", None)
+            if isinstance(cause, UavsnnError):
+                raise cause from None
+            raise
+
+    def cancel(self, handles: Iterable[Any]) -> None:
+        for handle in handles:
+            try:
+                self._ray.cancel(handle)
+            except Exception:  # already finished, or the cluster is gone: nothing to cancel
+                pass
+
+    def put(self, obj: Any) -> Any:
+        return self._ray.put(obj)
+
+
+def _check_reachable(address: str, timeout_s: float) -> None:
+    """Fail in seconds, not minutes, when nothing listens at a ``host:port`` address."""
+    url = urlsplit(address if "://" in address else f"ray://{address}")
+    try:
+        host, port = url.hostname, url.port
+    except ValueError as exc:
+        raise ParameterError(f"bad Ray address {address!r}: {exc}") from exc
+    if not host or port is None:
+        raise ParameterError(
+            f"a Ray address is HOST:PORT (the head's GCS port, 6379 by default), "
+            f"ray://HOST:PORT (Ray Client) or 'auto', got {address!r}"
+        )
+    try:
+        with socket.create_connection((host, port), timeout=timeout_s):
+            pass
+    except OSError as exc:
+        raise ParameterError(
+            f"cannot reach a Ray cluster at {address} ({exc}); start one with "
+            f"'ray start --head' or check the address"
+        ) from exc
+
+
+def connect(
+    address: str | None = None,
+    *,
+    num_cpus: int | None = None,
+    timeout_s: float = CONNECT_TIMEOUT_S,
+) -> RayRunner:
+    """Join a Ray cluster and return a runner for it.
+
+    ``address``: ``None`` or ``"local"`` starts a local cluster on this machine (``num_cpus``
+    caps its CPUs; default all), as ``ray.init()`` does; ``"auto"`` joins the cluster this
+    machine is part of (``ray start``, or ``RAY_ADDRESS``); ``HOST:PORT`` or ``ray://HOST:PORT``
+    joins that cluster. An address where nothing answers fails within ``timeout_s``. When Ray
+    is already initialised in this process, that cluster is used.
+
+    Raises:
+        ParameterError: Ray is not installed, or the cluster cannot be reached.
+    """
+    ray = _import_ray()
+    local = address in (None, "", "local")
+    if not local and address != "auto":
+        _check_reachable(str(address), timeout_s)
+    if not ray.is_initialized():
+        kwargs: dict[str, Any] = {"logging_level": "WARNING"}
+        if local:
+            kwargs["include_dashboard"] = False
+            if num_cpus is not None:
+                kwargs["num_cpus"] = int(num_cpus)
+        try:
+            ray.init(address=None if local else address, **kwargs)
+        except (ConnectionError, RuntimeError, ValueError, TimeoutError) as exc:
+            first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+            raise ParameterError(f"cannot join the Ray cluster at {address}: {first}") from exc
+    return RayRunner()
+
+
+def runner_for(address: str | None, *, num_cpus: int | None = None) -> Runner:
+    """:data:`SERIAL` for ``None``; else the runner of the cluster :func:`connect` joins at
+    ``address`` (what a command's ``--ray [ADDRESS]`` gives: ``"local"`` without one)."""
+    return SERIAL if address is None else connect(address, num_cpus=num_cpus)
+
+
+def add_ray_option(parser: Any, what: str) -> None:
+    """Add ``--ray [ADDRESS]`` to a command's parser."""
+    parser.add_argument(
+        "--ray",
+        nargs="?",
+        const="local",
+        default=None,
+        metavar="ADDRESS",
+        help=f"run {what} on Ray: a local cluster on this machine, or the cluster at ADDRESS "
+        f"(HOST:PORT, ray://HOST:PORT or auto); needs {RAY_HINT} (docs/distributed.md)",
+    )
+
+
+# ---------------------------------------------------------------------------- experiments
+
+
+def train_task(
+    config: dict[str, Any], seed: int, windows: Any, train_kwargs: dict[str, Any]
+) -> Any:
+    """Train a new ``Network(config, seed=seed)`` on ``windows``; returns the
+    :class:`~uavsnn.training.TrainingResult` (its network trained)."""
+    from uavsnn.training import train
+
+    return train(Network(config, seed=seed), windows, **train_kwargs)
+
+
+def evaluate_task(network: Network, data: Any, kwargs: dict[str, Any]) -> Any:
+    """:func:`uavsnn.evaluation.evaluate` of ``network`` on ``data``."""
+    from uavsnn.evaluation import evaluate
+
+    return evaluate(network, data, **kwargs)
+
+
+def noise_task(networks: dict[str, Network], data: Any, fraction: float, seed: int) -> Any:
+    """One noise level of :func:`uavsnn.experiments.noise_sweep` (its points)."""
+    from uavsnn.experiments import noise_level
+
+    return noise_level(networks, data, fraction, seed=seed)
+
+
+# ---------------------------------------------------------------------------- many streams
+
+
+@dataclass
+class StreamResult:
+    """What one stream gave: its name, every detection in time order
+    (:data:`~uavsnn.detector.DETECTION_DTYPE`), the source's and detector's counts, and the
+    error that ended it early (``None`` when it ran to its end)."""
+
+    name: str
+    detections: np.ndarray
+    events: int = 0
+    events_seen: int = 0
+    packets: int = 0
+    dropped: int = 0
+    rejected_events: int = 0
+    windows: int = 0
+    error: str | None = None
+    address: tuple[str, int] | None = None
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def ok(self) -> bool:
+        """The stream ran to its end."""
+        return self.error is None
+
+
+class _StreamWorker:
+    """One stream: its source and its Detector, run in a thread so that :meth:`poll` answers
+    while it works. Lives in a Ray actor (see :func:`detect_streams`)."""
+
+    def __init__(self, name: str, spec: str, model: Network, options: dict[str, Any]) -> None:
+        from uavsnn.detector import Detector
+        from uavsnn.sources import UdpSource, open_source
+
+        self.name = name
+        opts = dict(options)
+        window_us, overlap = opts.pop("window_us"), opts.pop("overlap")
+        model_size = (int(model.config["width"]), int(model.config["height"]))
+        live = spec == "-" or spec.startswith("udp://")
+        if opts.get("sensor_size") is None and live:
+            opts["sensor_size"] = model_size
+        if opts.pop("downsample", False):
+            opts["downsample_to"] = model_size
+        self.source = open_source(spec, **opts)
+        self.detector = Detector(
+            model, window_us=window_us, overlap=overlap, sensor_size=self.source.sensor_size
+        )
+        self.address = self.source.address if isinstance(self.source, UdpSource) else None
+        self._lock = threading.Condition()
+        self._found: list[np.ndarray] = []
+        self._rejected = 0
+        self._done = False
+        self._error: str | None = None
+        self._thread = threading.Thread(target=self._run, name=f"uavsnn-{name}", daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        from uavsnn.errors import EventError, StreamError
+
+        try:
+            with self.source:
+                for chunk in self.source:
+                    try:
+                        found = self.detector.push(chunk)
+                    except (EventError, StreamError):
+                        with self._lock:
+                            self._rejected += len(chunk)
+                        continue
+                    if len(found):
+                        with self._lock:
+                            self._found.append(found.copy())
+                            self._lock.notify_all()
+                tail = self.detector.flush()
+                with self._lock:
+                    if len(tail):
+                        self._found.append(tail.copy())
+        except Exception as exc:  # reported with the stream's name; the others go on
+            with self._lock:
+                self._error = f"{type(exc).__name__}: {exc}"
+        finally:
+            with self._lock:
+                self._done = True
+                self._lock.notify_all()
+
+    def bound(self) -> tuple[str, int] | None:
+        """The UDP address the source listens on (``None`` for other sources)."""
+        return self.address
+
+    def poll(self, wait_s: float) -> tuple[np.ndarray, dict[str, Any], bool]:
+        """Detections found since the last poll (time order), the counts, and whether the
+        stream has ended; waits up to ``wait_s`` for something to report."""
+        from uavsnn.detector import DETECTION_DTYPE
+
+        with self._lock:
+            if not self._found and not self._done:
+                self._lock.wait(wait_s)
+            found = np.concatenate(self._found) if self._found else np.empty(0, DETECTION_DTYPE)
+            self._found = []
+            done = self._done
+            s = self.source.stats
+            counts = {
+                "events": s.events,
+                "events_seen": self.detector.events_seen,
+                "packets": s.packets,
+                "dropped": s.dropped,
+                "rejected_events": self._rejected,
+                "windows": self.detector.windows_opened,
+                "error": self._error,
+            }
+        return found, counts, done
+
+
+def detect_streams(
+    runner: Runner,
+    sources: Sequence[str],
+    model: Network,
+    *,
+    window_us: int = 50_000,
+    overlap: float = 0.5,
+    names: Sequence[str] | None = None,
+    on_ready: Callable[[dict[str, tuple[str, int] | None], dict[str, Any]], None] | None = None,
+    on_detections: Callable[[str, np.ndarray], None] | None = None,
+    poll_s: float = 0.1,
+    **source_options: Any,
+) -> dict[str, StreamResult]:
+    """Run one :class:`~uavsnn.Detector` per source, each in a Ray actor, until every stream
+    ends (a file's last event, a UDP source's ``max_packets`` or ``idle_timeout``).
+
+    Each actor opens its own source (a file path or ``udp://HOST:PORT`` on the node it runs
+    on), so events go from the source into the actor's detector and nowhere else; only
+    detections come back. The model goes through the object store once. ``on_ready`` gets
+    each stream's bound UDP address (``None`` for a file) and its actor (``ray.kill(actor)``
+    stops the stream) once every source is open; ``on_detections(name, found)``
+    gets each stream's detections as they come, in time order. A stream whose actor dies or
+    whose source fails is reported in its result's ``error``; the others go on.
+
+    ``source_options``: as :func:`uavsnn.sources.open_source` (``sensor_size``, ``realtime``,
+    ``udp_format``, ``max_packets``, ``idle_timeout``), and ``downsample`` (fit files to the
+    model's input).
+    """
+    if not isinstance(runner, RayRunner):
+        raise ParameterError("streams run in Ray actors: pass the runner connect() returns")
+    ray = runner._ray
+    names = list(names) if names is not None else list(sources)
+    if len(names) != len(sources) or len(set(names)) != len(names):
+        raise ParameterError("every stream needs a name of its own")
+    options = {"window_us": window_us, "overlap": overlap, **source_options}
+    # Every stream must run at once however many CPUs the cluster has: an actor reserves
+    # none (Ray's default for a running actor), so none waits for another to finish.
+    actor_class = ray.remote(num_cpus=0, max_restarts=0, max_task_retries=0)(_StreamWorker)
+    model_ref = ray.put(model)
+    actors = {
+        name: actor_class.remote(name, spec, model_ref, options)
+        for name, spec in zip(names, sources, strict=True)
+    }
+    results = {name: StreamResult(name, np.empty(0, dtype=_detection_dtype())) for name in names}
+    parts: dict[str, list[np.ndarray]] = {name: [] for name in names}
+    live: dict[str, Any] = {}
+    for name, actor in actors.items():
+        try:
+            results[name].address = ray.get(actor.bound.remote())
+            live[name] = actor
+        except Exception as exc:
+            results[name].error = _actor_error(exc)
+    if on_ready is not None:
+        on_ready({name: results[name].address for name in live}, dict(live))
+    pending: dict[Any, str] = {actor.poll.remote(poll_s): name for name, actor in live.items()}
+    while pending:
+        ready, _ = ray.wait(list(pending), num_returns=1, timeout=None)
+        for ref in ready:
+            name = pending.pop(ref)
+            try:
+                found, counts, done = ray.get(ref)
+            except Exception as exc:
+                results[name].error = _actor_error(exc)
+                continue
+            r = results[name]
+            for key in ("events", "events_seen", "packets", "dropped", "rejected_events"):
+                setattr(r, key, counts[key])
+            r.windows = counts["windows"]
+            r.error = counts["error"]
+            if len(found):
+                parts[name].append(found)
+                if on_detections is not None:
+                    on_detections(name, found)
+            if done:
+                ray.kill(live[name], no_restart=True)
+            else:
+                pending[live[name].poll.remote(poll_s)] = name
+    for name, chunks in parts.items():
+        if chunks:
+            results[name].detections = np.concatenate(chunks)
+    return results
+
+
+def _detection_dtype() -> np.dtype:
+    from uavsnn.detector import DETECTION_DTYPE
+
+    return DETECTION_DTYPE
+
+
+def _actor_error(exc: BaseException) -> str:
+    cause = getattr(exc, "cause", None)
+    if isinstance(cause, BaseException):
+        return f"{type(cause).__name__}: {cause}"
+    text = str(exc).strip().splitlines()
+    kind = type(exc).__name__
+    if "ActorDied" in kind or "ActorError" in kind:
+        return "its actor died (killed, or its node was lost)"
+    return f"{kind}: {text[0] if text else ''}"

@@ -1,0 +1,325 @@
+"""Ray (uavsnn.distributed): on a local cluster of 2 CPUs on the loopback interface, started once
+for this module, a build is the serial build array for array, a reproduce gives the serial
+figures, and several UDP streams run through one actor each with every event accounted for;
+a dead stream is reported while the others finish. Without Ray these tests skip, except
+those that check that uavsnn never needs it."""
+
+from __future__ import annotations
+
+import csv
+import json
+import shutil
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+import pytest
+
+from uavsnn import EVENT_DTYPE, Network
+from uavsnn.cli import main
+from uavsnn.dataset import build, load, read_manifest
+from uavsnn.dataset.synthetic import SceneSource
+from uavsnn.errors import DatasetError
+
+try:
+    import ray
+except ImportError:  # the extra is not installed
+    ray = None
+
+needs_ray = pytest.mark.skipif(
+    ray is None, reason="Ray is not installed: pip install '.[test,ray]' (the 'ray' extra)"
+)
+DVS = SceneSource("dvs", (240, 180), 200.0, 0.3)
+
+
+@pytest.fixture(scope="module")
+def runner() -> Any:
+    """A local Ray cluster of 2 CPUs on 127.0.0.1, for this module only."""
+    if ray is None:
+        pytest.skip("Ray is not installed: pip install '.[test,ray]' (the 'ray' extra)")
+    from uavsnn import distributed
+
+    ray.init(
+        num_cpus=2,
+        include_dashboard=False,
+        _node_ip_address="127.0.0.1",
+        logging_level="WARNING",
+        log_to_driver=False,
+    )
+    try:
+        yield distributed.connect()
+    finally:
+        ray.shutdown()
+
+
+# -- without Ray ----------------------------------------------------------------------------
+
+
+def test_uavsnn_and_its_command_never_import_ray() -> None:
+    code = (
+        "import sys, contextlib, io\n"
+        "import uavsnn, uavsnn.dataset, uavsnn.experiments, uavsnn.distributed\n"
+        "from uavsnn.cli import main\n"
+        "with contextlib.redirect_stdout(io.StringIO()):\n"
+        "    for argv in (['--help'], ['dataset', 'build', '--help'], ['detect', '--help'],\n"
+        "                 ['reproduce', '--help']):\n"
+        "        try:\n"
+        "            main(argv)\n"
+        "        except SystemExit:\n"
+        "            pass\n"
+        "print('ray' in sys.modules)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"
+
+
+def test_ray_missing_is_one_line_and_exit_2(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.setitem(sys.modules, "ray", None)  # `import ray` raises ImportError
+    argv = ["dataset", "build", str(tmp_path / "d"), "--domain", "dvs", "--ray"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "uavsnn[ray]" in err
+    assert not (tmp_path / "d").exists()
+
+
+def test_several_streams_need_ray(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["detect", "a.npy", "b.npy", "-m", str(tmp_path / "m.npz")]) == 2
+    assert "--ray" in capsys.readouterr().err
+
+
+@needs_ray
+def test_unreachable_address_fails_fast_with_exit_2(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    with socket.socket() as s:  # a port where nothing listens
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    started = time.monotonic()
+    argv = ["dataset", "build", str(tmp_path / "d"), "--domain", "dvs"]
+    assert main([*argv, "--ray", f"127.0.0.1:{port}"]) == 2
+    assert time.monotonic() - started < 10
+    err = capsys.readouterr().err.strip()
+    assert f"cannot reach a Ray cluster at 127.0.0.1:{port}" in err and len(err.splitlines()) == 1
+    assert main([*argv, "--ray", "nonsense"]) == 2
+    assert "HOST:PORT" in capsys.readouterr().err
+    assert not (tmp_path / "d").exists()
+
+
+# -- datasets -------------------------------------------------------------------------------
+
+
+def _same_dataset(a: Path, b: Path) -> None:
+    assert read_manifest(a) == read_manifest(b)
+    files = sorted(p.name for p in a.glob("*.npz"))
+    assert files == sorted(p.name for p in b.glob("*.npz")) and files
+    for name in files:
+        with np.load(a / name) as za, np.load(b / name) as zb:
+            assert sorted(za.files) == sorted(zb.files)
+            for key in za.files:
+                x, y = za[key], zb[key]
+                assert x.dtype == y.dtype and x.shape == y.shape, key
+                assert np.array_equal(x, y, equal_nan=x.dtype.kind == "f"), (name, key)
+
+
+def test_ray_build_is_the_serial_build(runner: Any, tmp_path: Path) -> None:
+    kwargs: dict[str, Any] = {"n_test": 20, "n_train": 16, "seed": 3, "dvs": DVS}
+    serial = build(tmp_path / "serial", "dvs", **kwargs).root
+    on_ray = build(tmp_path / "ray", "dvs", runner=runner, **kwargs).root
+    _same_dataset(serial, on_ray)
+    assert len(read_manifest(on_ray)["recordings"]) > 2  # several tasks, some in flight at once
+
+
+def _write_clip(folder: Path, name: str, n: int, dx: int) -> None:
+    """A 320×256 clip of a dark square crossing a bright sky, and its box file."""
+    writer = cv2.VideoWriter(
+        str(folder / f"{name}.avi"), cv2.VideoWriter_fourcc(*"MJPG"), 30.0, (320, 256)
+    )
+    with (folder / f"{name}.csv").open("w", newline="") as f:
+        rows = csv.writer(f)
+        rows.writerow(["frame", "x", "y", "w", "h"])
+        for k in range(n):
+            frame = np.full((256, 320, 3), 200, dtype=np.uint8)
+            x, y = 40 + dx * k, 60 + 2 * k
+            frame[y : y + 8, x : x + 12] = 20
+            writer.write(frame)
+            rows.writerow([k + 1, x, y, 12, 8])
+    writer.release()
+
+
+def test_ray_build_of_real_footage_is_the_serial_build(runner: Any, tmp_path: Path) -> None:
+    videos = tmp_path / "videos"
+    videos.mkdir()
+    for i, cls in enumerate(("DRONE", "DRONE", "BIRD", "BIRD", "AIRPLANE")):
+        _write_clip(videos, f"V_{cls}_{i + 1:03d}", 30, 4 + i)
+    kwargs: dict[str, Any] = {"videos": videos, "n_test": 10, "n_train": None, "seed": 1}
+    serial = build(tmp_path / "serial", "real", **kwargs).root
+    on_ray = build(tmp_path / "ray", "real", runner=runner, **kwargs).root
+    _same_dataset(serial, on_ray)
+
+
+def test_interrupted_ray_build_leaves_no_dataset(runner: Any, tmp_path: Path) -> None:
+    calls = []
+
+    def interrupt(msg: str) -> None:
+        calls.append(msg)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+
+    out = tmp_path / "d"
+    with pytest.raises(KeyboardInterrupt):
+        build(out, "dvs", n_test=20, n_train=16, seed=3, dvs=DVS, runner=runner, progress=interrupt)
+    assert not (out / "manifest.json").exists()
+    with pytest.raises(DatasetError):
+        load(out, "test")
+    # Nothing is left running for the build: the cluster's CPUs are free again.
+    deadline = time.monotonic() + 10
+    while ray.available_resources().get("CPU", 0) < 2 and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert ray.available_resources().get("CPU", 0) == 2
+
+
+# -- experiments ----------------------------------------------------------------------------
+
+_TIMINGS = {"seconds", "command", "rate", "events_per_second", "ns_per_event"}
+
+
+def _figures(obj: Any) -> Any:
+    """results.json without what depends on the clock or the command line."""
+    if isinstance(obj, dict):
+        return {k: _figures(v) for k, v in obj.items() if k not in _TIMINGS}
+    if isinstance(obj, list):
+        return [_figures(v) for v in obj]
+    return obj
+
+
+def test_ray_reproduce_gives_the_serial_figures(runner: Any, tmp_path: Path) -> None:
+    # Tiny datasets, built once and given to both runs (the builds are compared above).
+    data = tmp_path / "data"
+    build(data / "dvs", "dvs", n_test=20, n_train=30, seed=0, dvs=DVS)
+    sim = SceneSource("sim", (320, 240), 30.0, 1.0)
+    build(data / "sim", "sim", n_test=10, n_train=30, seed=0, sim=sim)
+    figures = []
+    for name, extra in (("serial", []), ("ray", ["--ray"])):
+        out = tmp_path / name
+        shutil.copytree(data, out / "data")
+        argv = ["reproduce", "--out", str(out), "--n-train", "30", "--n-test", "20"]
+        argv += ["--windows-per-layer", "30", "--no-real", "--quiet", *extra]
+        assert main(argv) == 0
+        figures.append(_figures(json.loads((out / "results.json").read_text())))
+        for model in ("model-dvs.npz", "model-combined.npz"):
+            assert Network.load(out / model) == Network.load(tmp_path / "serial" / model)
+    assert figures[0] == figures[1]
+    assert len(figures[1]["noise"]) == 18 and "table2" in figures[1]
+
+
+# -- many streams ---------------------------------------------------------------------------
+
+
+def _events(n: int, seed: int, t0: int = 0) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    ev = np.zeros(n, dtype=EVENT_DTYPE)
+    ev["t"] = t0 + np.sort(rng.integers(0, 200_000, n)).astype(np.uint64)
+    ev["x"] = rng.integers(0, 240, n)
+    ev["y"] = rng.integers(0, 180, n)
+    ev["p"] = rng.integers(0, 2, n)
+    return ev
+
+
+@pytest.fixture(scope="module")
+def model() -> Network:
+    return Network(seed=4)
+
+
+def test_four_udp_streams_through_four_actors(runner: Any, model: Network) -> None:
+    packets, per_packet = 30, 200
+    streams = {f"cam{k}": _events(packets * per_packet, k) for k in range(4)}
+    sent: dict[str, int] = {}
+
+    def send(addresses: dict[str, Any], _actors: Any) -> None:
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+            for name, events in streams.items():
+                for i in range(packets):
+                    chunk = events[i * per_packet : (i + 1) * per_packet]
+                    s.sendto(chunk.tobytes(), addresses[name])
+                    sent[name] = sent.get(name, 0) + len(chunk)
+
+    from uavsnn.distributed import detect_streams
+
+    got: dict[str, list[np.ndarray]] = {name: [] for name in streams}
+    results = detect_streams(
+        runner,
+        ["udp://127.0.0.1:0"] * 4,
+        model,
+        names=list(streams),
+        window_us=20_000,
+        on_ready=send,
+        on_detections=lambda name, found: got[name].append(found),
+        max_packets=packets,
+        idle_timeout=20.0,
+    )
+    assert set(results) == set(streams)
+    for name, r in results.items():
+        assert r.ok, r.error
+        assert r.packets == packets and r.dropped == 0
+        assert r.events == sent[name] == r.events_seen + r.rejected_events
+        assert r.rejected_events == 0
+        # The same detections as one Detector on the same events, in time order.
+        from uavsnn import Detector
+
+        det = Detector(model, window_us=20_000)
+        want = np.concatenate([det.push(streams[name]), det.flush()])
+        assert np.array_equal(r.detections, want)
+        assert np.all(np.diff(r.detections["t"].astype(np.int64)) >= 0)
+        both = np.concatenate(got[name]) if got[name] else r.detections[:0]
+        assert np.array_equal(both, r.detections)
+
+
+def test_a_killed_stream_is_reported_and_the_others_finish(
+    runner: Any, model: Network, tmp_path: Path
+) -> None:
+    files = []
+    for k in range(2):
+        files.append(tmp_path / f"f{k}.npy")
+        np.save(files[-1], _events(5000, 10 + k))
+
+    def kill_udp(_addresses: dict[str, Any], actors: dict[str, Any]) -> None:
+        ray.kill(actors["live"], no_restart=True)
+
+    from uavsnn.distributed import detect_streams
+
+    results = detect_streams(
+        runner,
+        [str(files[0]), "udp://127.0.0.1:0", str(files[1])],
+        model,
+        names=["a", "live", "b"],
+        on_ready=kill_udp,
+        sensor_size=(240, 180),
+        idle_timeout=30.0,
+    )
+    assert not results["live"].ok and "died" in (results["live"].error or "")
+    for name in ("a", "b"):
+        assert results[name].ok and results[name].events == 5000 == results[name].events_seen
+
+
+def test_detect_command_over_several_files(
+    runner: Any, model: Network, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    model.save(tmp_path / "m.npz")
+    files = []
+    for k in range(2):
+        files.append(str(tmp_path / f"s{k}.npy"))
+        np.save(files[-1], _events(3000, 20 + k))
+    assert main(["detect", *files, "-m", str(tmp_path / "m.npz"), "--json", "--ray"]) == 0
+    captured = capsys.readouterr()
+    lines = [json.loads(line) for line in captured.out.splitlines()]
+    for name in files:
+        mine = [d["t"] for d in lines if d["stream"] == name]
+        assert mine == sorted(mine)
+        assert f"{name}: done events=3000" in captured.err
