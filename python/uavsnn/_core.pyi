@@ -111,7 +111,9 @@ class NetworkCore:
         t0: int,
         n_in: int | None = None,
     ) -> tuple[
-        npt.NDArray[np.uint8], list[int], npt.NDArray[np.float32],
+        npt.NDArray[np.uint8],
+        list[int],
+        npt.NDArray[np.float32],
         npt.NDArray[np.uint8],
     ]: ...
     def stdp_step(

@@ -362,9 +362,7 @@ class Network:
         """
         t_, x_, y_ = self._inputs(t, x, y)
         n = None if n_in is None else _count("n_in", n_in)
-        packed, counts, thresholds, found = self._core.run_window(
-            t_, x_, y_, _count("t0", t0), n
-        )
+        packed, counts, thresholds, found = self._core.run_window(t_, x_, y_, _count("t0", t0), n)
         # One buffer of every layer's spike records; each layer is a slice of one view.
         spikes = packed.view(SPIKE_DTYPE)
         ends = list(itertools.accumulate(counts))
