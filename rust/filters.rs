@@ -2,7 +2,9 @@
 //! downsample of coordinates to a target sensor.
 
 use crate::error::{Error, Result};
-use crate::events::{validate_source, Event, EventSource, SensorSize};
+use crate::events::{
+    validate_source, Event, EventSource, PackedEvents, SensorSize, PACKED_EVENT_SIZE,
+};
 
 /// Which events the background-activity filter keeps, with the semantics of tonic's
 /// `tonic.functional.denoise_numpy` (tonic 1.x), event for event.
@@ -121,6 +123,30 @@ pub fn downsample_map<E: EventSource + ?Sized>(
         .collect())
 }
 
+/// [`downsample`] of packed 13-byte records (the canonical NumPy dtype's bytes): the kept
+/// records, with their new coordinates, packed the same way, in one pass after validation.
+pub fn downsample_packed(raw: &[u8], source: SensorSize, target: SensorSize) -> Result<Vec<u8>> {
+    validate_source(&PackedEvents::new(raw)?, source, None, 0)?;
+    let crop = Crop::centred(source, target);
+    let (cx, cy) = (u64::from(crop.width), u64::from(crop.height));
+    let (tw, th) = (u64::from(target.width), u64::from(target.height));
+    let mut out = Vec::with_capacity(raw.len());
+    for r in raw.chunks_exact(PACKED_EVENT_SIZE) {
+        let x = u16::from_le_bytes([r[8], r[9]]).wrapping_sub(crop.x0);
+        let y = u16::from_le_bytes([r[10], r[11]]).wrapping_sub(crop.y0);
+        // Left of or above the crop wraps round to a large value: one test per axis.
+        if x < crop.width && y < crop.height {
+            let x = (u64::from(x) * tw / cx) as u16;
+            let y = (u64::from(y) * th / cy) as u16;
+            out.extend_from_slice(&r[..8]);
+            out.extend_from_slice(&x.to_le_bytes());
+            out.extend_from_slice(&y.to_le_bytes());
+            out.push(r[12]);
+        }
+    }
+    Ok(out)
+}
+
 /// Crop `events` to the centred region of `source` with `target`'s aspect ratio, then scale
 /// their coordinates onto `target` (see [`downsample_map`]).
 pub fn downsample(events: &[Event], source: SensorSize, target: SensorSize) -> Result<Vec<Event>> {
@@ -159,6 +185,45 @@ mod tests {
         assert_eq!(denoise_mask(&[ev(3, 4, 4)], s, dt).unwrap(), vec![true]);
         assert_eq!(denoise(&events, s, dt).unwrap().len(), 2);
         assert!(denoise_mask(&events, s, 0).is_err());
+    }
+
+    /// The packed path keeps and moves exactly the events that `downsample` does, polarity
+    /// and time included, and refuses what it refuses.
+    #[test]
+    fn packed_downsample_equals_the_event_one() {
+        let source = SensorSize::new(37, 23).unwrap();
+        let events: Vec<Event> = (0..2000u64)
+            .map(|i| Event {
+                t: i / 3,
+                x: (i * 7919 % 37) as u16,
+                y: (i * 104_729 % 23) as u16,
+                p: i % 5 == 0,
+            })
+            .collect();
+        let raw: Vec<u8> = events
+            .iter()
+            .flat_map(|e| {
+                let mut r = e.t.to_le_bytes().to_vec();
+                r.extend_from_slice(&e.x.to_le_bytes());
+                r.extend_from_slice(&e.y.to_le_bytes());
+                r.push(u8::from(e.p));
+                r
+            })
+            .collect();
+        for (tw, th) in [(10, 10), (37, 23), (12, 5), (1, 1), (30, 20)] {
+            let target = SensorSize::new(tw, th).unwrap();
+            let want = downsample(&events, source, target).unwrap();
+            let got = downsample_packed(&raw, source, target).unwrap();
+            let got: Vec<Event> = got
+                .chunks_exact(PACKED_EVENT_SIZE)
+                .map(crate::stream::packed_event)
+                .collect();
+            assert_eq!(got, want, "{tw}x{th}");
+        }
+        assert!(downsample_packed(&raw[..20], source, source).is_err());
+        let mut outside = raw.clone();
+        outside[8] = 37; // x = 37 on a 37-wide sensor
+        assert!(downsample_packed(&outside, source, source).is_err());
     }
 
     #[test]

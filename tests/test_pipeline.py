@@ -81,7 +81,15 @@ def test_demo_is_well_above_chance_on_held_out_windows(tmp_path: Path) -> None:
         "pent.png",
     ):
         assert (tmp_path / "demo" / name).exists(), name
-    assert "Accuracy" in (tmp_path / "demo" / "report.md").read_text()
+    text = (tmp_path / "demo" / "report.md").read_text()
+    assert "Accuracy" in text
+    # Every picture is followed by its caption.
+    from uavsnn.report import CAPTIONS
+
+    pictures = sorted(p.stem for p in (tmp_path / "demo").glob("*.png"))
+    assert pictures
+    for name in pictures:
+        assert f"![{name}](" in text and f"*{name}: {CAPTIONS[name]}*" in text, name
 
 
 def test_reproduce_at_a_tiny_size(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -25,7 +25,7 @@ def downsample_events(
     height: int,
     target_width: int,
     target_height: int,
-) -> tuple[npt.NDArray[np.bool_], npt.NDArray[np.uint16], npt.NDArray[np.uint16]]: ...
+) -> npt.NDArray[np.uint8]: ...
 
 _WindowArrays = tuple[
     npt.NDArray[np.uint64],
@@ -111,7 +111,10 @@ class NetworkCore:
         t0: int,
         n_in: int | None = None,
     ) -> tuple[
-        list[_SpikeColumns], npt.NDArray[np.float32], tuple[npt.NDArray[np.generic], ...]
+        npt.NDArray[np.uint8],
+        list[int],
+        npt.NDArray[np.float32],
+        npt.NDArray[np.uint8],
     ]: ...
     def stdp_step(
         self,

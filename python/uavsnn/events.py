@@ -119,6 +119,18 @@ class Recording:
         return int(self.events["t"][-1]) - int(self.events["t"][0])
 
 
+def _checked_recording(
+    events: np.ndarray, sensor_size: tuple[int, int], metadata: dict[str, Any]
+) -> Recording:
+    """A :class:`Recording` of events the engine has just produced valid (sorted, on the
+    sensor), without validating them a second time."""
+    rec = object.__new__(Recording)
+    object.__setattr__(rec, "events", events)
+    object.__setattr__(rec, "sensor_size", sensor_size)
+    object.__setattr__(rec, "metadata", metadata)
+    return rec
+
+
 def _first_bad(mask: np.ndarray) -> int:
     return int(np.argmax(mask))
 

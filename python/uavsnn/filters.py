@@ -19,7 +19,13 @@ from typing import Any
 
 from uavsnn import _core
 from uavsnn.errors import ParameterError
-from uavsnn.events import Recording, _check_sensor_size, packed_bytes
+from uavsnn.events import (
+    EVENT_DTYPE,
+    Recording,
+    _check_sensor_size,
+    _checked_recording,
+    packed_bytes,
+)
 from uavsnn.windows import _int_param
 
 __all__ = ["denoise", "downsample"]
@@ -55,9 +61,8 @@ def downsample(recording: Recording, target: tuple[int, int] = (240, 180)) -> Re
     rec = _recording(recording)
     tw, th = _check_sensor_size(target)
     width, height = rec.sensor_size
-    keep, x, y = _core.downsample_events(packed_bytes(rec.events), width, height, tw, th)
-    events = rec.events[keep]
-    events["x"] = x
-    events["y"] = y
+    packed = _core.downsample_events(packed_bytes(rec.events), width, height, tw, th)
     metadata = {**rec.metadata, "downsampled_from": [width, height]}
-    return Recording(events, (tw, th), metadata)
+    # The engine checked the source and kept its order; every kept event lies on the target:
+    # the result needs no second validation pass.
+    return _checked_recording(packed.view(EVENT_DTYPE), (tw, th), metadata)

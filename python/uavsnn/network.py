@@ -17,6 +17,7 @@ event of each active pixel, polarities merged), sorted by ``t``; a repeated pixe
 
 from __future__ import annotations
 
+import itertools
 import json
 import os
 from collections.abc import Callable, Mapping
@@ -214,6 +215,13 @@ class TrainReport:
 
 def _integers(name: str, values: Any, dtype: type[np.integer[Any]]) -> np.ndarray:
     """A contiguous 1-D array of ``dtype`` from integer ``values``, range-checked."""
+    if (
+        type(values) is np.ndarray
+        and values.dtype == dtype
+        and values.ndim == 1
+        and values.flags.c_contiguous
+    ):
+        return values  # the dtype's range is the range checked below: nothing to check
     array = np.asarray(values)
     if array.ndim != 1:
         raise ShapeError(f"{name} must be a 1-D array, got shape {array.shape}")
@@ -360,16 +368,21 @@ class Network:
         """
         t_, x_, y_ = self._inputs(t, x, y)
         n = None if n_in is None else _count("n_in", n_in)
-        layers, thresholds, detections = self._core.run_window(t_, x_, y_, _count("t0", t0), n)
-        conv1, pool1, conv2, pool2, conv3 = (_spikes(cols, SPIKE_DTYPE) for cols in layers)
+        packed, counts, thresholds, found = self._core.run_window(t_, x_, y_, _count("t0", t0), n)
+        # One buffer of every layer's spike records; each layer is a slice of one view.
+        spikes = packed.view(SPIKE_DTYPE)
+        ends = list(itertools.accumulate(counts))
+        conv1, pool1, conv2, pool2, conv3 = (
+            spikes[a:b] for a, b in zip([0, *ends[:-1]], ends, strict=True)
+        )
         return WindowTrace(
             conv1=conv1,
             pool1=pool1,
             conv2=conv2,
             pool2=pool2,
             conv3=conv3,
-            thresholds=np.asarray(thresholds),
-            detections=_spikes(tuple(detections[1:]), DETECTION_DTYPE),
+            thresholds=thresholds,
+            detections=found.view(DETECTION_DTYPE),
         )
 
     def stdp_step(

@@ -22,7 +22,15 @@ from uavsnn.network import Network
 from uavsnn.training import TrainingResult
 from uavsnn.windows import add_noise
 
-__all__ = ["confusion_table", "evaluation_markdown", "figures", "noise_table", "picture_links"]
+__all__ = [
+    "CAPTIONS",
+    "caption",
+    "confusion_table",
+    "evaluation_markdown",
+    "figures",
+    "noise_table",
+    "picture_links",
+]
 
 
 def figures(
@@ -169,11 +177,65 @@ def _snr_chart(noise: Sequence[NoisePoint]) -> np.ndarray:
     )
 
 
+_FEATURES = (
+    "Each tile is one map's learned feature in input pixels, scaled to its own range: white is "
+    "a strong weight, black a weak one. {layer}'s features are composed down through the layers "
+    "below (docs/model.md §2), so they are as wide as its receptive field. A feature with clear "
+    "white strokes (edges, a blob) has been learned; a uniform grey tile is a map that STDP has "
+    "barely moved from its initial weights."
+)
+
+#: What each picture of :func:`figures` shows and how to read it, by name.
+CAPTIONS = {
+    "features-conv1": "conv1's Gabor kernels (fixed, not learned): one tile "
+    "per orientation, white is positive weight. They respond to edges of that orientation.",
+    "features-conv2": _FEATURES.format(layer="conv2"),
+    "features-conv3": _FEATURES.format(layer="conv3"),
+    "evolution-conv2": "conv2's features (as in features-conv2) at snapshots during STDP, left "
+    "to right by windows seen: features that sharpen from the uniform start show what training "
+    "changed.",
+    "evolution-conv3": "conv3's features at snapshots during STDP, as evolution-conv2.",
+    "convergence": "The convergence measure C = mean(w(1-w)) of each trained layer's weights "
+    "against training windows. C is 0 when every weight sits at 0 or 1 (converged) and at most "
+    "0.25 (all weights at 0.5). Weights start at 0.8 +- 0.08 (C = 0.154) and STDP drives most "
+    "of them to 0, so C first rises while they pass through 0.5 and only then falls: a curve "
+    "still rising at the end means the layer stopped mid-way, not that it diverged "
+    "(benches/python/convergence_trace.py measures it: in the demo, after 2000 windows conv3's "
+    "mean weight is 0.53 and C 0.22; after 20000, 98 % of its weights are below 0.1 and C is "
+    "0.000).",
+    "confusion": "The any-spike rule's confusion matrix on the test windows: rows are the truth "
+    "(UAV or not), columns the decision; the diagonal is right.",
+    "detections": "Test windows as time-embedded frames (the paper's Fig. 10): each pixel's "
+    "first event coloured from cyan (early in the window) to magenta (late), silent pixels dark. "
+    "Yellow boxes are the causal boxes of conv3's spikes, labelled with their maps; the dashed "
+    "green box is the labelled object. Three true positives, one false positive and one miss, "
+    "where the test set has them.",
+    "pent": "One UAV test window with noise added on 5 % of the pixels (the paper's Fig. 11): "
+    "the noisy input, then conv1's spikes with PENT (thresholds raised with the number of "
+    "active pixels) and with static thresholds, each with every layer's spike count and conv1's "
+    "threshold range under it. PENT should keep conv1 from firing on the noise everywhere.",
+    "snr": "Test accuracy against the signal-to-noise ratio of added noise (higher is "
+    "cleaner), with PENT and with static thresholds, beside the paper's Table 3. 0.5 is chance "
+    "on the balanced test set.",
+}
+
+
+def caption(name: str) -> str:
+    """The caption of picture ``name`` of :func:`figures` (empty for an unknown name)."""
+    return CAPTIONS.get(name, "")
+
+
 def picture_links(written: dict[str, Path], markdown_dir: str | Path) -> list[str]:
     """Markdown image lines for :func:`figures`' PNGs, relative to the folder of the Markdown
-    file that shows them."""
+    file that shows them, each followed by its caption (what it shows, how to read it)."""
     base = Path(markdown_dir)
-    return [f"![{name}]({path.relative_to(base).as_posix()})\n" for name, path in written.items()]
+    lines = []
+    for name, path in written.items():
+        lines.append(f"![{name}]({path.relative_to(base).as_posix()})\n")
+        text = caption(name)
+        if text:
+            lines.append(f"\n*{name}: {text}*\n\n")
+    return lines
 
 
 def confusion_table(matrix: np.ndarray) -> str:

@@ -247,14 +247,14 @@ def _progress_fn(progress: bool | ProgressFn) -> ProgressFn:
         return progress
     if not progress:
         return lambda *_args: None
-    from tqdm import tqdm
+    from uavsnn.progress import bar as new_bar
 
     bars: dict[str, Any] = {}
 
     def step(layer: str, done: int, total: int, convergence: float) -> None:
         bar = bars.get(layer)
         if bar is None:
-            bar = bars[layer] = tqdm(total=total, unit=" win", desc=f"train {layer}")
+            bar = bars[layer] = new_bar(total=total, unit=" win", desc=f"train {layer}")
         bar.set_postfix_str(f"C={convergence:.4f}", refresh=False)
         bar.update(done - bar.n)
         if done >= total:

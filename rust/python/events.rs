@@ -55,15 +55,8 @@ fn denoise_mask<'py>(
     Ok(keep.into_pyarray(py))
 }
 
-/// The kept-event mask and the new coordinates of the kept events.
-type Downsampled<'py> = (
-    Bound<'py, PyArray1<bool>>,
-    Bound<'py, PyArray1<u16>>,
-    Bound<'py, PyArray1<u16>>,
-);
-
-/// Crop to the target's aspect (centred) and scale: returns the mask of kept events and their
-/// new `x`, `y` (for the kept events only).
+/// Crop to the target's aspect (centred) and scale: returns the kept events, as packed
+/// 13-byte records with their new `x`, `y`, in one pass after the source's validation.
 #[pyfunction]
 fn downsample_events<'py>(
     py: Python<'py>,
@@ -72,21 +65,14 @@ fn downsample_events<'py>(
     height: u16,
     target_width: u16,
     target_height: u16,
-) -> PyResult<Downsampled<'py>> {
+) -> PyResult<Bound<'py, PyArray1<u8>>> {
     let raw = events.as_slice()?;
-    let (keep, xs, ys) = detach(py, || {
+    let out = detach(py, || {
         let source = SensorSize::new(width, height)?;
         let target = SensorSize::new(target_width, target_height)?;
-        let map = filters::downsample_map(&PackedEvents::new(raw)?, source, target)?;
-        let keep: Vec<bool> = map.iter().map(Option::is_some).collect();
-        let (xs, ys): (Vec<u16>, Vec<u16>) = map.into_iter().flatten().unzip();
-        Ok((keep, xs, ys))
+        filters::downsample_packed(raw, source, target)
     })?;
-    Ok((
-        keep.into_pyarray(py),
-        xs.into_pyarray(py),
-        ys.into_pyarray(py),
-    ))
+    Ok(out.into_pyarray(py))
 }
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {

@@ -5,7 +5,7 @@
 //! structured arrays.
 
 use numpy::prelude::*;
-use numpy::{PyArray1, PyReadonlyArray1, PyReadonlyArray4};
+use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1, PyReadonlyArray4};
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
 
@@ -25,12 +25,41 @@ type SpikeColumns<'py> = (
     Bound<'py, PyArray1<f32>>,
 );
 
-/// What `run_window` returns: per layer spike columns, conv1 thresholds, detection columns.
-type TraceColumns<'py> = (
-    Vec<SpikeColumns<'py>>,
+/// What `run_window` returns: every layer's spikes as packed `SPIKE_DTYPE` records (conv1
+/// first), the number of spikes of each layer, conv1's thresholds, and the detections as packed
+/// `DETECTION_DTYPE` records. Packed records cost one array each, where columns cost one per
+/// field and a structured array to assemble them in Python.
+type PackedTrace<'py> = (
+    Bound<'py, PyArray1<u8>>,
+    [u64; 5],
     Bound<'py, PyArray1<f32>>,
-    Bound<'py, PyTuple>,
+    Bound<'py, PyArray1<u8>>,
 );
+
+/// Bytes of one `SPIKE_DTYPE` record: `t u8, map row col u2, v f4`, little endian.
+const SPIKE_RECORD: usize = 8 + 3 * 2 + 4;
+/// Bytes of one `DETECTION_DTYPE` record: `t u8, map row col u2, x y f4, box 4×u2`.
+const DETECTION_RECORD: usize = 8 + 3 * 2 + 2 * 4 + 4 * 2;
+
+fn pack_spike(out: &mut Vec<u8>, s: &Spike) {
+    out.extend_from_slice(&s.t.to_le_bytes());
+    for v in [s.map, s.row, s.col] {
+        out.extend_from_slice(&v.to_le_bytes());
+    }
+    out.extend_from_slice(&s.v.to_le_bytes());
+}
+
+fn pack_detection(out: &mut Vec<u8>, d: &Detection) {
+    out.extend_from_slice(&d.t.to_le_bytes());
+    for v in [d.map, d.row, d.col] {
+        out.extend_from_slice(&v.to_le_bytes());
+    }
+    out.extend_from_slice(&d.x.to_le_bytes());
+    out.extend_from_slice(&d.y.to_le_bytes());
+    for v in [d.x0, d.y0, d.x1, d.y1] {
+        out.extend_from_slice(&v.to_le_bytes());
+    }
+}
 
 fn spike_columns<'py>(py: Python<'py>, spikes: &[Spike]) -> SpikeColumns<'py> {
     (
@@ -205,8 +234,8 @@ impl NetworkCore {
         self.net.conv1_thresholds(n_in)
     }
 
-    /// One window in inference mode: `(layers, thresholds, detections)` where `layers` holds
-    /// the columns `(t, map, row, col, v)` of each layer's spikes.
+    /// One window in inference mode: `(spikes, counts, thresholds, detections)`, see
+    /// `PackedTrace`.
     #[pyo3(signature = (t, x, y, t0, n_in=None))]
     fn run_window<'py>(
         &self,
@@ -216,26 +245,36 @@ impl NetworkCore {
         y: PyReadonlyArray1<'py, u16>,
         t0: u64,
         n_in: Option<u64>,
-    ) -> PyResult<TraceColumns<'py>> {
+    ) -> PyResult<PackedTrace<'py>> {
         let (ts, xs, ys) = (slice(&t, "t")?, slice(&x, "x")?, slice(&y, "y")?);
         let net = &self.net;
-        let (spikes, thresholds, detections) = detach(py, || {
+        let (spikes, counts, thresholds, detections) = detach(py, || {
             net.with_state(|state| {
                 net.run_window(state, Spikes::new(ts, xs, ys)?, t0, n_in, true)?;
-                let spikes: Vec<Vec<Spike>> = Layer::ALL
-                    .iter()
-                    .map(|&l| state.spikes(l).to_vec())
-                    .collect();
-                let detections: Vec<(i64, Detection)> =
-                    state.detections().iter().map(|d| (0, *d)).collect();
-                Ok((spikes, state.thresholds().to_vec(), detections))
+                // Every layer's spikes as records of SPIKE_DTYPE, one buffer for all.
+                let total: usize = Layer::ALL.iter().map(|&l| state.spikes(l).len()).sum();
+                let mut packed = Vec::with_capacity(total * SPIKE_RECORD);
+                let mut counts = [0u64; 5];
+                for (n, &l) in counts.iter_mut().zip(Layer::ALL.iter()) {
+                    let layer = state.spikes(l);
+                    *n = layer.len() as u64;
+                    for s in layer {
+                        pack_spike(&mut packed, s);
+                    }
+                }
+                let found = state.detections();
+                let mut detections = Vec::with_capacity(found.len() * DETECTION_RECORD);
+                for d in found {
+                    pack_detection(&mut detections, d);
+                }
+                Ok((packed, counts, state.thresholds().to_vec(), detections))
             })
         })?;
-        let layers = spikes.iter().map(|s| spike_columns(py, s)).collect();
         Ok((
-            layers,
+            spikes.into_pyarray(py),
+            counts,
             PyArray1::from_vec(py, thresholds),
-            detection_columns(py, &detections)?,
+            detections.into_pyarray(py),
         ))
     }
 

@@ -7,8 +7,9 @@ import json
 from pathlib import Path
 from typing import Any
 
-from uavsnn.bench import DENSITIES, bench
+from uavsnn.bench import DENSITIES, bench_density
 from uavsnn.network import Network
+from uavsnn.progress import bar as new_bar
 from uavsnn.sim.checks import check_size
 
 __all__ = ["register"]
@@ -54,6 +55,7 @@ def register(subparsers: Any) -> None:
     p.add_argument("--threads", type=int, default=None, help="workers of the batch (all cores)")
     p.add_argument("--seed", type=int, default=0, help="seed of the windows and network (0)")
     p.add_argument("--json", action="store_true", help="print the figures as JSON")
+    p.add_argument("--quiet", action="store_true", help="no progress on standard error")
     p.set_defaults(handler=_bench)
 
 
@@ -63,10 +65,19 @@ def _bench(args: argparse.Namespace) -> int:
     else:
         width, height = check_size(args.size, "--size")
         network = Network({"width": width, "height": height}, seed=args.seed)
-    rows = bench(
-        network, args.density, windows=args.windows, events=args.events, threads=args.threads,
-        repeat=args.repeat, seed=args.seed,
-    )  # fmt: skip
+    progress = (
+        None if args.quiet else new_bar(total=len(args.density), desc="bench", unit="density")
+    )
+    rows = []
+    for density in args.density:
+        rows.append(bench_density(
+            network, density, windows=args.windows, events=args.events, threads=args.threads,
+            repeat=args.repeat, seed=args.seed,
+        ))  # fmt: skip
+        if progress is not None:
+            progress.update(1)
+    if progress is not None:
+        progress.close()
     if args.json:
         model = str(args.model) if args.model else None
         print(json.dumps({"model": model, "rows": [r.to_dict() for r in rows]}, indent=2))

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -146,7 +145,7 @@ def _print(summary: dict[str, Any], as_json: bool) -> None:
 
 
 def _progress(quiet: bool) -> bool:
-    return not quiet and sys.stderr.isatty()
+    return not quiet
 
 
 def _done(paths: DatasetPaths, as_json: bool) -> int:

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -102,7 +101,7 @@ def run_demo(out: Path, seed: int = 0, *, progress: bool = False) -> dict[str, A
 
 def _demo(args: argparse.Namespace) -> int:
     output_dir(args.out, "--out")
-    figures = run_demo(args.out, args.seed, progress=not args.quiet and sys.stderr.isatty())
+    figures = run_demo(args.out, args.seed, progress=not args.quiet)
     if args.json:
         print(json.dumps(figures, indent=2))
         return 0

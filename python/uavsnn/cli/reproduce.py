@@ -109,7 +109,7 @@ def _reproduce(args: argparse.Namespace) -> int:
     started = time.perf_counter()
     out: Path = args.out
     out.mkdir(parents=True, exist_ok=True)
-    progress = not args.quiet and sys.stderr.isatty()
+    progress = not args.quiet
     seed = args.seed
     command = "uavsnn reproduce " + " ".join(shlex.quote(a) for a in sys.argv[2:])
     env = environment()

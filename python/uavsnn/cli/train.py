@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -83,7 +82,7 @@ def _train(args: argparse.Namespace) -> int:
         seed=args.seed,
         checkpoint_dir=args.checkpoint_dir,
         resume=args.resume,
-        progress=not args.quiet and sys.stderr.isatty(),
+        progress=not args.quiet,
     )
     network.save(args.output)
     summary: dict[str, Any] = {"model": str(args.output), "windows": len(data)}

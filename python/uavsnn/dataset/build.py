@@ -299,6 +299,7 @@ def build(
         "recordings": rec.records,
     }
     manifest_path = write_manifest(root, _jsonable(manifest))
+    getattr(report, "close", lambda: None)()  # the bar's last line
     return DatasetPaths(root, manifest_path, paths)
 
 
@@ -400,14 +401,15 @@ def _reporter(progress: bool | Progress) -> Progress:
         return progress
     if not progress:
         return lambda _msg: None
-    from tqdm import tqdm
+    from uavsnn.progress import bar as new_bar
 
-    bar = tqdm(total=None, unit=" step", leave=False)
+    bar = new_bar(total=None, desc="dataset", unit=" step", leave=False)
 
     def step(msg: str) -> None:
         bar.set_description_str(msg, refresh=False)
         bar.update(1)
 
+    step.close = bar.close  # type: ignore[attr-defined]
     return step
 
 

@@ -375,9 +375,9 @@ def _progress(
         return step_user
     if not progress:
         return lambda k: None
-    from tqdm import tqdm
+    from uavsnn.progress import bar as new_bar
 
-    bar = tqdm(total=total or None, unit="frame", desc=Path(path).name)
+    bar = new_bar(total=total or None, unit="frame", desc=Path(path).name)
 
     def step_bar(k: int | None) -> None:
         if k is None:

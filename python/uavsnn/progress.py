@@ -1,0 +1,92 @@
+"""One progress rule for every long command (``train``, ``dataset build``, ``demo``,
+``reproduce``, ``simulate``, ``bench``):
+
+- on a terminal (standard error is a TTY): a tqdm bar, redrawn in place;
+- piped or redirected: a plain line on standard error when the work starts, then at most every
+  :data:`EVERY_S` seconds, and one when it ends (no carriage returns: a log file holds them);
+- ``--quiet``: nothing.
+
+Library functions take ``progress=True`` for this rule (or a callable of their own, or
+``False``); :func:`bar` is the one place that chooses between the two forms.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from typing import Any, TextIO
+
+__all__ = ["EVERY_S", "LineProgress", "bar"]
+
+#: Seconds between two plain progress lines when standard error is not a terminal.
+EVERY_S = 10.0
+
+
+class LineProgress:
+    """The piped form of a progress bar: the part of tqdm's interface uavsnn uses, writing
+    ``desc: n/total unit [postfix] (elapsed)`` lines instead of redrawing."""
+
+    def __init__(
+        self,
+        total: int | None = None,
+        desc: str = "",
+        unit: str = "",
+        *,
+        stream: TextIO | None = None,
+        every: float = EVERY_S,
+        clock: Any = time.monotonic,
+    ) -> None:
+        self.total = total
+        self.desc = desc
+        self.unit = unit.strip()
+        self.n = 0
+        self.postfix = ""
+        self.stream = stream if stream is not None else sys.stderr
+        self.every = every
+        self.clock = clock
+        self.start = self.last = clock()
+        self.closed = False
+        self._line()  # at once: a piped run says what it is doing before the first interval
+
+    def update(self, k: int = 1) -> None:
+        self.n += k
+        now = self.clock()
+        if now - self.last >= self.every:
+            self.last = now
+            self._line()
+
+    def set_description_str(self, desc: str, refresh: bool = True) -> None:
+        self.desc = desc
+
+    def set_postfix_str(self, postfix: str, refresh: bool = True) -> None:
+        self.postfix = postfix
+
+    def close(self) -> None:
+        if not self.closed:
+            self.closed = True
+            self._line(done=True)
+
+    def _line(self, done: bool = False) -> None:
+        count = f"{self.n}/{self.total}" if self.total else f"{self.n}"
+        unit = f" {self.unit}" if self.unit else ""
+        post = f" [{self.postfix}]" if self.postfix else ""
+        state = " done" if done else ""
+        try:
+            print(
+                f"{self.desc}: {count}{unit}{post} ({self.clock() - self.start:.0f} s){state}",
+                file=self.stream,
+                flush=True,
+            )
+        except (BrokenPipeError, ValueError):  # the reader went away, or the stream closed
+            pass
+
+
+def bar(total: int | None = None, desc: str = "", unit: str = "", **kwargs: Any) -> Any:
+    """A progress bar following the rule of this module: tqdm when standard error is a
+    terminal, else a :class:`LineProgress`."""
+    stream = sys.stderr
+    if stream.isatty():
+        from tqdm import tqdm
+
+        return tqdm(total=total, desc=desc, unit=unit, file=stream, **kwargs)
+    return LineProgress(total, desc, unit, stream=stream)

@@ -1,0 +1,97 @@
+"""One progress rule for every long command: a tqdm bar on a terminal, plain lines (when the
+work starts, at most every EVERY_S seconds, when it ends; never a carriage return) when
+standard error is piped, nothing with --quiet."""
+
+from __future__ import annotations
+
+import io
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+from uavsnn.progress import EVERY_S, LineProgress, bar
+
+
+class Clock:
+    def __init__(self) -> None:
+        self.now = 0.0
+
+    def __call__(self) -> float:
+        return self.now
+
+
+def test_lines_start_at_most_every_interval_and_end() -> None:
+    out, clock = io.StringIO(), Clock()
+    p = LineProgress(100, "train conv2", " win", stream=out, clock=clock)
+    for i in range(100):
+        clock.now = i * 1.0  # 1 s per step: a line every EVERY_S steps
+        p.set_postfix_str(f"C={i}")
+        p.update(1)
+    p.close()
+    p.close()  # once only
+    lines = out.getvalue().splitlines()
+    assert "\r" not in out.getvalue()
+    assert lines[0] == "train conv2: 0/100 win (0 s)"
+    assert lines[-1] == "train conv2: 100/100 win [C=99] (99 s) done"
+    assert len(lines) == 2 + int(99 // EVERY_S)
+    assert lines[1].startswith("train conv2: 11/100 win [C=10] (10 s)")
+
+
+def test_bar_is_lines_when_stderr_is_not_a_terminal(capsys) -> None:
+    p = bar(total=3, desc="x", unit="step")
+    assert isinstance(p, LineProgress)
+    p.update(3)
+    p.close()
+    assert capsys.readouterr().err == "x: 0/3 step (0 s)\nx: 3/3 step (0 s) done\n"
+
+
+def run(*args: str, cwd: Path) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", "uavsnn", *args],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        check=False,
+        cwd=cwd,
+        env=dict(os.environ),
+    )
+
+
+def test_piped_commands_print_plain_progress_lines(tmp_path: Path) -> None:
+    """bench, dataset build and train, their standard error piped: plain lines, no carriage
+    return; --quiet: none."""
+    done = run("bench", "--events", "3000", "--repeat", "1", "--density", "1", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert done.stderr.splitlines() == ["bench: 0/1 density (0 s)", "bench: 1/1 density (0 s) done"]
+    quiet = run("bench", "--events", "3000", "--repeat", "1", "--density", "1", "--quiet",
+                cwd=tmp_path)  # fmt: skip
+    assert quiet.returncode == 0 and quiet.stderr == ""
+
+    # A tiny dataset, then a model trained on it: the same rule.
+    built = run("dataset", "build", "data", "--domain", "dvs", "--n-train", "20", "--n-test", "10",
+                cwd=tmp_path)  # fmt: skip
+    assert built.returncode == 0, built.stderr
+    lines = built.stderr.splitlines()
+    assert "\r" not in built.stderr and lines[0] == "dataset: 0 step (0 s)"
+    assert " step (" in lines[-1] and lines[-1].endswith(" done")
+    trained = run("train", "data", "-o", "m.npz", "--windows-per-layer", "20", cwd=tmp_path)
+    assert trained.returncode == 0, trained.stderr
+    lines = trained.stderr.splitlines()
+    assert "\r" not in trained.stderr
+    for layer in ("conv2", "conv3"):
+        assert f"train {layer}: 0/20 win (0 s)" in lines
+        assert any(
+            s.startswith(f"train {layer}: 20/20 win [C=") and s.endswith("done") for s in lines
+        )
+
+
+def test_piped_simulate_prints_lines_not_carriage_returns(tmp_path: Path) -> None:
+    from test_video import write_video
+
+    video = write_video(tmp_path / "square.avi")
+    done = run("simulate", str(video), "-o", "out.npz", "--size", "120x90", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert "\r" not in done.stderr
+    lines = [s for s in done.stderr.splitlines() if s.startswith("square.avi:")]
+    assert lines[0].startswith("square.avi: 0/") and lines[-1].endswith(" done")
