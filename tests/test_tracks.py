@@ -341,3 +341,33 @@ def test_tracks_on_a_real_recording(shared_data: Path) -> None:
     ev = events.events
     untracked = grouper.add(ev, plain.push(ev)) + grouper.finish(plain.flush())
     assert key(reps) == key(list(track_windows(untracked).reports))
+
+
+def test_a_rejected_chunk_changes_no_track(net: Network) -> None:
+    from uavsnn import EventError, StreamError
+
+    events = blob_events(1, 3000)
+    det = Detector(net, window_us=3_000, overlap=0.5, tracker=Tracker(gate_px=8))
+    first = det.push_windows(events[:1500])
+    before = det.tracker.live
+    bad = events[1500:1600].copy()
+    bad["x"][5] = SIZE[0]  # outside the sensor
+    with pytest.raises(EventError):
+        det.push_windows(bad)
+    with pytest.raises(StreamError):
+        det.push_windows(events[:10])  # back in time
+    assert det.tracker.live == before
+    rest = det.push_windows(events[1500:]) + det.flush_windows()
+    whole = Detector(net, window_us=3_000, overlap=0.5, tracker=Tracker(gate_px=8))
+    assert key(first + rest) == key(streamed(whole, events, []))
+
+
+def test_ended_tracks_undrained_stay_bounded(monkeypatch: pytest.MonkeyPatch) -> None:
+    import uavsnn.tracks as tracks_mod
+
+    monkeypatch.setattr(tracks_mod, "MAX_ENDED", 3)
+    tracker = Tracker(max_misses=1)
+    tracker._ended = tracks_mod.deque(maxlen=3)
+    for k in range(0, 20, 2):  # a new object every other window, far from the last
+        tracker.update(report(k, [box_at(20 + 20 * (k % 10), 50)]))
+    assert len(tracker.drain_ended()) == 3 and tracker.ended_dropped == 6

@@ -19,6 +19,7 @@ history), and tracks are deleted after ``max_misses`` windows without a detectio
 from __future__ import annotations
 
 import math
+from collections import deque
 from collections.abc import Iterable
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
@@ -28,11 +29,15 @@ from uavsnn.errors import ParameterError
 if TYPE_CHECKING:
     from uavsnn.detector import WindowReport
 
-__all__ = ["Track", "TrackResult", "Tracker", "track_windows"]
+__all__ = ["MAX_ENDED", "MAX_TRACKS_LIMIT", "Track", "TrackResult", "Tracker", "track_windows"]
 
 #: The cap ``max_tracks`` may not exceed (each live track is a few hundred bytes; the
 #: assignment is greedy over at most ``max_tracks × objects`` pairs per window).
 MAX_TRACKS_LIMIT = 4096
+#: Deleted tracks a :class:`Tracker` holds until :meth:`Tracker.drain_ended` takes them; beyond
+#: that the oldest are dropped (counted in :attr:`Tracker.ended_dropped`), so a stream nobody
+#: drains stays bounded.
+MAX_ENDED = 4096
 #: Segments shorter than this (px) carry no heading: they do not count in the turn rate.
 MIN_TURN_SEGMENT_PX = 1.0
 
@@ -266,10 +271,11 @@ class Tracker:
     def reset(self) -> None:
         """Forget every track; ids start from 1 again."""
         self._live: list[_Live] = []
-        self._ended: list[Track] = []
+        self._ended: deque[Track] = deque(maxlen=MAX_ENDED)
         self._next_id = 1
         self._last_window: int | None = None
         self.births_refused = 0
+        self.ended_dropped = 0
 
     # ------------------------------------------------------------------ the stream
 
@@ -291,6 +297,8 @@ class Tracker:
         keep = []
         for tr in self._live:
             if k - tr.last_window > self.max_misses:
+                if len(self._ended) == MAX_ENDED:
+                    self.ended_dropped += 1
                 self._ended.append(tr.snapshot())
             else:
                 keep.append(tr)
@@ -369,8 +377,10 @@ class Tracker:
             tr.alarm_us, tr.alarm_window = t1, k
 
     def drain_ended(self) -> list[Track]:
-        """The tracks deleted since the last call (in deletion order), forgotten here."""
-        out, self._ended = self._ended, []
+        """The tracks deleted since the last call (in deletion order, at most
+        :data:`MAX_ENDED`), forgotten here."""
+        out = list(self._ended)
+        self._ended.clear()
         return out
 
     def finish(self) -> list[Track]:
@@ -407,6 +417,9 @@ def track_windows(reports: Iterable[WindowReport], tracker: Tracker | None = Non
     """The batch path: run a :class:`Tracker` (a fresh default one unless given) over window
     reports in window order; the same code as the streaming path, so the same tracks."""
     tracker = Tracker() if tracker is None else tracker
-    out = [tracker.update(r) for r in reports]
-    tracks = sorted(tracker.finish(), key=lambda t: t.id)
+    out, tracks = [], []
+    for r in reports:
+        out.append(tracker.update(r))
+        tracks += tracker.drain_ended()
+    tracks = sorted(tracks + tracker.finish(), key=lambda t: t.id)
     return TrackResult(reports=tuple(out), tracks=tuple(tracks))
