@@ -74,6 +74,26 @@ def test_hovering_and_zigzag_tracks_differ_in_their_statistics() -> None:
     assert z.turn_rate > 10 and z.speed_std < 1e-6 * z.mean_speed + 1
 
 
+def test_darting_falling_and_crossing_paths() -> None:
+    """An insect-like dart (steps of 2 and 14 px), a falling ball (speed growing downwards)
+    and an aircraft (constant speed): the statistics that tell them apart."""
+    xs = [20.0]
+    for k in range(1, 14):
+        xs.append(xs[-1] + (14 if k % 2 else 2))
+    dart = [report(k, [box_at(x, 60)]) for k, x in enumerate(xs)]
+    fall = [report(k, [box_at(100, 10 + 0.5 * k * k)]) for k in range(12)]
+    plane = [report(k, [box_at(10 + 8 * k, 40)]) for k in range(14)]
+    (d,) = track_windows(dart).tracks
+    (f,) = track_windows(fall).tracks
+    (p,) = track_windows(plane).tracks
+    steps = np.diff(xs) / 0.025  # px/s; the population standard deviation
+    assert d.speed_std == pytest.approx(float(np.std(steps)), rel=1e-9)
+    assert d.mean_speed == pytest.approx(float(np.mean(steps)), rel=1e-9) and d.speed_std > 200
+    assert p.speed_std == pytest.approx(0.0, abs=1e-6) and p.straightness == pytest.approx(1)
+    assert f.vertical_speed > 0 and abs(f.horizontal_speed) < 1e-9
+    assert f.velocity[1] > f.vertical_speed  # it is speeding up: now faster than on average
+
+
 def test_two_crossing_objects_keep_their_ids() -> None:
     reps = []
     for k in range(24):

@@ -68,7 +68,8 @@ class Track:
             ``[0, 1]`` (1: a straight line; 0 with no path).
         horizontal_speed, vertical_speed: the displacement from first to latest centre over
             the time between them (px/s; signed).
-        mean_speed, speed_std: the mean and standard deviation of the segment speeds (px/s).
+        mean_speed, speed_std: the mean and (population) standard deviation of the segment
+            speeds (px/s).
         turn_rate: the mean absolute change of heading between successive segments of at
             least :data:`MIN_TURN_SEGMENT_PX`, per second of the second segment (rad/s).
     """
