@@ -675,11 +675,12 @@ def test_cli_prints_one_line_per_window(model_file: Path, net: Network, expected
         for o in row["objects"]:
             x0, y0, x1, y1 = o["box"]
             assert x0 <= o["centre"][0] < x1 and y0 <= o["centre"][1] < y1
-            assert o["uav_score"] is None and o["class"] is None and o["track"] is None
+            assert o["uav_score"] is None and o["class"] is None  # no identification yet
+            assert isinstance(o["track"], int)  # tracks: tests/test_tracks.py
     text = run_cli(detect_cmd(*args), stdin=events.tobytes()).stdout.decode().splitlines()
     assert len(text) == len(rows) and all(line.startswith("window=") for line in text)
     hit = next(line for line in text if "DETECTED" in line)
-    assert " | box=" in hit and "uav_score=- class=- track=-" in hit
+    assert " | box=" in hit and "uav_score=- class=- track=" in hit
 
 
 def test_printed_centre_lies_in_its_box(shared_data: Path, tmp_path: Path) -> None:

@@ -23,6 +23,7 @@ from uavsnn.errors import (
 from uavsnn.events import EVENT_DTYPE, Recording
 from uavsnn.network import Network
 from uavsnn.signature import RotorEstimate, RotorSignature, rotor_signature
+from uavsnn.tracks import Track, Tracker, track_windows
 
 __all__ = [
     "EVENT_DTYPE",
@@ -40,7 +41,10 @@ __all__ = [
     "ShapeError",
     "SimulationError",
     "StreamError",
+    "Track",
+    "Tracker",
     "UavsnnError",
     "__version__",
     "rotor_signature",
+    "track_windows",
 ]

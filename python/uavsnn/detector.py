@@ -30,7 +30,7 @@ import json
 import os
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -38,6 +38,8 @@ import numpy as np
 from uavsnn import _core
 from uavsnn.errors import ParameterError, ShapeError
 from uavsnn.events import EVENT_DTYPE, _check_sensor_size, packed_bytes
+from uavsnn.signature import RotorEstimate, rotor_signature
+from uavsnn.tracks import Tracker
 
 if TYPE_CHECKING:
     from uavsnn.network import Network
@@ -45,6 +47,8 @@ if TYPE_CHECKING:
 __all__ = [
     "DETECTION_DTYPE",
     "MAX_LIVE_WINDOWS",
+    "MAX_ROTOR_BOXES",
+    "MAX_ROTOR_EVENTS",
     "Detector",
     "WindowGrouper",
     "WindowObject",
@@ -56,6 +60,15 @@ __all__ = [
 #: engine's limit): each holds a network state (about 0.5 MiB on a 240×180 sensor), so an
 #: overlap of 0.9999 would need 10,000 of them. Overlaps up to ``1 - 1/64 ≈ 0.984`` are accepted.
 MAX_LIVE_WINDOWS = 64
+
+#: The most objects of one window whose rotor signature :meth:`Detector.push_windows` measures
+#: (the first ones: most conv3 spikes first); the others get ``rotor=None``.
+MAX_ROTOR_BOXES = 8
+
+#: The most raw events :meth:`Detector.push_windows` keeps for the rotor signature of the
+#: windows still open (13 bytes each: 26 MiB). When a stream is denser than that over one
+#: window, the oldest are dropped and the windows that lost events get ``rotor=None``.
+MAX_ROTOR_EVENTS = 1 << 21
 
 #: One detection: the window index, the conv3 spike's time, map and position, the centre of its
 #: receptive field in sensor coordinates, and the box of the input spikes that caused it
@@ -99,6 +112,9 @@ class Detector:
         sensor_size: ``(width, height)`` of the camera; it must equal the network's input size
             (a check that the right camera feeds the right model). Default: the network's.
         start_us: start of window 0; default: the first event's time.
+        tracker: the :class:`uavsnn.tracks.Tracker` :meth:`push_windows` links objects with
+            (default: a new one with the default parameters).
+        rotor: whether :meth:`push_windows` measures each object's rotor signature.
 
     Raises:
         ParameterError: for a window shorter than 1 µs, an overlap outside ``[0, 1)`` or one
@@ -115,7 +131,11 @@ class Detector:
         overlap: float = 0.5,
         sensor_size: tuple[int, int] | None = None,
         start_us: int | None = None,
+        tracker: Tracker | None = None,
+        rotor: bool = True,
     ) -> None:
+        if tracker is not None and not isinstance(tracker, Tracker):
+            raise ParameterError(f"tracker must be a uavsnn.tracks.Tracker, got {tracker!r}")
         if isinstance(model, (str, os.PathLike)):
             from uavsnn.network import Network
 
@@ -152,6 +172,12 @@ class Detector:
         self._network = network
         self._start_us = start_us
         self._busy_ns = 0
+        self._tracker = Tracker() if tracker is None else tracker
+        self._rotor = bool(rotor)
+        self._grouper: WindowGrouper | None = None
+        self._recent: list[np.ndarray] = []  # raw events of the open windows, in order
+        self._recent_n = 0
+        self._lost_until = 0  # events before this time were dropped from _recent
 
     # ------------------------------------------------------------------ the stream
 
@@ -194,9 +220,80 @@ class Detector:
         return _detections(out)
 
     def reset(self) -> None:
-        """Forget the stream (counters included); the next event starts a new one."""
+        """Forget the stream (counters and tracks included); the next event starts a new one."""
         self._inner.reset()
         self._busy_ns = 0
+        self._tracker.reset()
+        self._grouper = None
+        self._recent, self._recent_n, self._lost_until = [], 0, 0
+
+    # ------------------------------------------------------------------ one report per window
+
+    def push_windows(self, events: np.ndarray) -> list[WindowReport]:
+        """Feed a chunk of events (as :meth:`push`) and return the windows it closed, each
+        object with its track (:attr:`tracker`) and rotor signature filled in.
+
+        Use either this (with :meth:`flush_windows`) or :meth:`push` on one stream, not both.
+        The reports are :class:`WindowGrouper`'s whatever the chunking, so the tracks are those
+        of :func:`uavsnn.tracks.track_windows` over them.
+
+        Raises:
+            EventError, StreamError: as :meth:`push`; the detector, its tracks included, is
+                then as it was before the call.
+        """
+        found = self.push(events)
+        grouper = self._windows()
+        if self._rotor and len(events):
+            self._keep(events)
+        return self._finish_reports(grouper.add(events, found))
+
+    def flush_windows(self) -> list[WindowReport]:
+        """End the stream (as :meth:`flush`) and return every window still open, tracked.
+        The live tracks stay in :attr:`tracker` (``tracker.finish()`` ends them)."""
+        return self._finish_reports(self._windows().finish(self.flush()))
+
+    @property
+    def tracker(self) -> Tracker:
+        """The tracker :meth:`push_windows` feeds (its live and ended tracks)."""
+        return self._tracker
+
+    def _windows(self) -> WindowGrouper:
+        if self._grouper is None:
+            self._grouper = WindowGrouper.of(self)
+        return self._grouper
+
+    def _keep(self, events: np.ndarray) -> None:
+        """Keep a copy of a chunk for the rotor signature, within :data:`MAX_ROTOR_EVENTS`."""
+        chunk = events[-MAX_ROTOR_EVENTS:].copy()
+        if len(chunk) < len(events):
+            self._lost_until = int(chunk["t"][0])
+            self._recent, self._recent_n = [], 0
+        self._recent.append(chunk)
+        self._recent_n += len(chunk)
+        while self._recent_n > MAX_ROTOR_EVENTS:
+            extra = self._recent_n - MAX_ROTOR_EVENTS
+            head = self._recent[0]
+            if extra >= len(head):
+                self._recent.pop(0)
+                self._recent_n -= len(head)
+                self._lost_until = max(self._lost_until, int(head["t"][-1]) + 1)
+            else:
+                self._recent[0] = head[extra:]
+                self._recent_n -= extra
+                self._lost_until = max(self._lost_until, int(head["t"][extra]))
+
+    def _finish_reports(self, closed: list[WindowReport]) -> list[WindowReport]:
+        out = []
+        recent = np.concatenate(self._recent) if closed and self._recent else None
+        for report in closed:
+            if recent is not None and report.objects and report.t0 >= self._lost_until:
+                report = _with_rotor(report, recent)
+            out.append(self._tracker.update(report))
+        if self._recent and self._grouper is not None:
+            keep_from = self._grouper.open_since()
+            while self._recent and (keep_from is None or self._recent[0]["t"][-1] < keep_from):
+                self._recent_n -= len(self._recent.pop(0))
+        return out
 
     # ------------------------------------------------------------------ properties
 
@@ -279,8 +376,10 @@ class Detector:
 
 @dataclass(frozen=True)
 class WindowObject:
-    """One merged box of a window (see :func:`merge_boxes`) and the fields an identification
-    stage fills (``None`` until one exists: uavsnn does not guess them)."""
+    """One merged box of a window (see :func:`merge_boxes`), its track and rotor signature
+    (filled by :meth:`Detector.push_windows`; ``None`` when not measured), and the fields an
+    identification stage fills (``uav_score``, ``class_guess``: ``None`` until one exists,
+    uavsnn does not guess them)."""
 
     #: ``(x0, y0, x1, y1)``, half-open sensor pixels (``x0 <= x < x1``).
     box: tuple[int, int, int, int]
@@ -289,6 +388,12 @@ class WindowObject:
     uav_score: float | None = None
     class_guess: str | None = None
     track_id: int | None = None
+    #: Whether the track (:class:`uavsnn.tracks.Tracker`) was confirmed by this window.
+    track_confirmed: bool | None = None
+    #: The rotor signature of the window's raw events inside :attr:`box`
+    #: (:func:`uavsnn.signature.rotor_signature`), whether detected or not; ``None`` when not
+    #: measured (see :data:`MAX_ROTOR_BOXES`, :data:`MAX_ROTOR_EVENTS`).
+    rotor: RotorEstimate | None = None
 
     @property
     def centre(self) -> tuple[float, float]:
@@ -447,6 +552,13 @@ class WindowGrouper:
         self._note(detections)
         return self._report(len(self._open))
 
+    def open_since(self) -> int | None:
+        """Start of the earliest window not yet reported, or of the next one to open; events
+        before it belong to no window still to come. ``None`` before the first event."""
+        if self._start is None:
+            return None
+        return self._start + (self._open[0] if self._open else self._next) * self.step_us
+
     def _end(self, k: int) -> int:
         return k * self.step_us + self.window_us
 
@@ -475,3 +587,18 @@ class WindowGrouper:
             )
         del self._open[:n]
         return out
+
+
+def _with_rotor(report: WindowReport, events: np.ndarray) -> WindowReport:
+    """``report`` with the rotor signature of its first :data:`MAX_ROTOR_BOXES` objects, from
+    the raw ``events`` (time order) that fall in the window and the object's box."""
+    t = events["t"]
+    inside = events[np.searchsorted(t, report.t0) : np.searchsorted(t, report.t1)]
+    x, y = inside["x"], inside["y"]
+    objects = list(report.objects)
+    for i, obj in enumerate(objects[:MAX_ROTOR_BOXES]):
+        x0, y0, x1, y1 = obj.box
+        mask = (x >= x0) & (x < x1) & (y >= y0) & (y < y1)
+        est = rotor_signature(inside[mask], (x0, y0, x1 - x0, y1 - y0))
+        objects[i] = replace(obj, rotor=est)
+    return replace(report, objects=tuple(objects))

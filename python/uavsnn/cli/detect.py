@@ -6,8 +6,9 @@ packed``: canonical 13-byte records; ``csv``: ``t,x,y,p`` lines), or ``udp://HOS
 receiving faery's or aestream's UDP packets (``--udp-format``; see :mod:`uavsnn.sources` for the
 exact layouts). Standard output gets one line per window, as soon as the window closes: the
 decision, the count of conv3 spikes and their causal boxes merged into objects
-(:func:`uavsnn.detector.merge_boxes`), with the UAV score, class and track of each object left
-absent (``-``, JSON ``null``) until an identification stage fills them; ``--per-spike`` prints
+(:func:`uavsnn.detector.merge_boxes`), each with its track id (:mod:`uavsnn.tracks`) and its rotor
+signature when one is detected (:mod:`uavsnn.signature`), the UAV score and class left absent
+(``-``, JSON ``null``) until an identification stage fills them; ``--per-spike`` prints
 every conv3 spike instead, as it is decided; ``--json`` makes JSON lines of either. A rate
 summary goes to standard error every ``--summary-every`` seconds and at the
 end. Malformed packets, and chunks the detector rejects (an event outside the sensor, time going
@@ -50,8 +51,10 @@ MODEL (--model) is a trained model file: 'uavsnn train DATASET -o MODEL' writes 
 Standard output gets one line per window when it closes: its decision (DETECTED when at least
 detection.min_detections conv3 neurons fire, else clear), the number of conv3 spikes, and
 their causal boxes merged into objects (boxes that overlap or touch are replaced by their
-bounding box until none do), each with its centre and spike count; uav_score, class and track
-print as '-' (null in JSON) until an identification stage fills them. --per-spike prints every
+bounding box until none do), each with its centre and spike count, its track (an id linking
+it across windows; '7?' while the track is tentative, '7' once confirmed) and its rotor
+signature when one is detected (frequency/strength/agreeing pixels, else '-'); uav_score and
+class print as '-' (null in JSON) until an identification stage fills them. --per-spike prints every
 conv3 spike instead, as it is decided. --json makes JSON lines of either. A rate summary goes
 to standard error. Malformed packets, and chunks the detector rejects (events outside the
 sensor, time going backwards), are counted as drops and skipped.
@@ -177,6 +180,25 @@ def _absent(value: object) -> str:
     return "-" if value is None else str(value)
 
 
+def _rotor(o: Any) -> dict[str, Any] | None:
+    """The rotor signature when detected (docs/identification.md), else ``None``."""
+    r = o.rotor
+    if r is None or not r.detected:
+        return None
+    return {
+        "frequency_hz": round(r.frequency_hz, 2),
+        "strength": round(r.strength, 4),
+        "pixels": r.pixels,
+    }
+
+
+def _track(o: Any) -> str:
+    """``7`` for a confirmed track, ``7?`` for a tentative one, ``-`` for none."""
+    if o.track_id is None:
+        return "-"
+    return f"{o.track_id}{'' if o.track_confirmed else '?'}"
+
+
 def _window(w: Any, as_json: bool) -> str:
     """One window's decision (the default output; docs/streaming.md "What detect prints")."""
     if as_json:
@@ -195,6 +217,8 @@ def _window(w: Any, as_json: bool) -> str:
                         "uav_score": o.uav_score,
                         "class": o.class_guess,
                         "track": o.track_id,
+                        "track_confirmed": o.track_confirmed,
+                        "rotor": _rotor(o),
                     }
                     for o in w.objects
                 ],
@@ -207,10 +231,16 @@ def _window(w: Any, as_json: bool) -> str:
     for o in w.objects:
         x0, y0, x1, y1 = o.box
         cx, cy = o.centre
+        rotor = _rotor(o)
         line += (
             f" | box={x0},{y0},{x1},{y1} centre={cx:.1f},{cy:.1f} spikes={o.spikes} "
             f"uav_score={_absent(o.uav_score)} class={_absent(o.class_guess)} "
-            f"track={_absent(o.track_id)}"
+            f"track={_track(o)} rotor="
+            + (
+                "-"
+                if rotor is None
+                else f"{rotor['frequency_hz']:.1f}Hz/{rotor['strength']:.3f}/{rotor['pixels']}px"
+            )
         )
     return line
 
@@ -276,7 +306,7 @@ def _check_args(args: argparse.Namespace) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run detection until the source ends (or Ctrl-C); returns the exit code."""
-    from uavsnn.detector import Detector, WindowGrouper
+    from uavsnn.detector import Detector
     from uavsnn.network import Network
     from uavsnn.sources import UdpSource, open_source
 
@@ -317,32 +347,39 @@ def run(args: argparse.Namespace) -> int:
             host, port = source.address
             print(f"uavsnn detect: listening on udp://{host}:{port}", file=err, flush=True)
         summary = _Summary(args.summary_every, err)
-        windows = WindowGrouper.of(detector)
         rejected = 0
 
-        def emit(events: np.ndarray | None, found: np.ndarray) -> None:
-            if args.per_spike:
-                for d in found:
-                    print(_spike(d, args.json), file=out, flush=True)
-                return
-            closed = windows.finish(found) if events is None else windows.add(events, found)
+        def emit(closed: list[Any]) -> None:
             for w in closed:
                 print(_window(w, args.json), file=out, flush=True)
+
+        def push(chunk: np.ndarray) -> None:
+            if args.per_spike:
+                for d in detector.push(chunk):
+                    print(_spike(d, args.json), file=out, flush=True)
+            else:
+                emit(detector.push_windows(chunk))
+
+        def flush() -> None:
+            if args.per_spike:
+                for d in detector.flush():
+                    print(_spike(d, args.json), file=out, flush=True)
+            else:
+                emit(detector.flush_windows())
 
         try:
             for chunk in source:
                 try:
-                    found = detector.push(chunk)
+                    push(chunk)
                 except (EventError, StreamError) as exc:
                     rejected += 1
                     if rejected <= 5:
                         print(f"uavsnn detect: dropped a chunk: {exc}", file=err, flush=True)
                     continue
-                emit(chunk, found)
                 summary.maybe(detector, source, rejected)
-            emit(None, detector.flush())
+            flush()
         except KeyboardInterrupt:
-            emit(None, detector.flush())
+            flush()
         except BrokenPipeError:
             # The reader went away (``| head``): stop quietly, as command-line tools do.
             os.dup2(os.open(os.devnull, os.O_WRONLY), out.fileno())

@@ -1,0 +1,426 @@
+"""Tracks: the merged objects of each window linked from window to window.
+
+A :class:`Tracker` is fed one :class:`~uavsnn.detector.WindowReport` at a time, in window order,
+and returns it with each object's ``track_id`` filled in. :func:`track_windows` runs the same
+tracker over a whole sequence of reports (the batch path): both give the same tracks, since the
+batch path is the streaming one in a loop. The model, the assignment rule, confirmation,
+deletion and the path statistics are described in docs/identification.md ("Tracks").
+
+    >>> tracker = Tracker()
+    >>> for report in reports:               # WindowReports, in window order
+    ...     report = tracker.update(report)  # objects now carry track_id
+    ...     ended = tracker.drain_ended()    # tracks deleted by this window
+    >>> tracker.finish()                     # end the stream: every live track
+
+State is bounded: at most ``max_tracks`` live tracks, each of a fixed size (running sums, no
+history), and tracks are deleted after ``max_misses`` windows without a detection.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from collections.abc import Iterable
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
+
+from uavsnn.errors import ParameterError
+
+if TYPE_CHECKING:
+    from uavsnn.detector import WindowReport
+
+__all__ = ["MAX_ENDED", "MAX_TRACKS_LIMIT", "Track", "TrackResult", "Tracker", "track_windows"]
+
+#: The cap ``max_tracks`` may not exceed (each live track is a few hundred bytes; the
+#: assignment is greedy over at most ``max_tracks × objects`` pairs per window).
+MAX_TRACKS_LIMIT = 4096
+#: Deleted tracks a :class:`Tracker` holds until :meth:`Tracker.drain_ended` takes them; beyond
+#: that the oldest are dropped (counted in :attr:`Tracker.ended_dropped`), so a stream nobody
+#: drains stays bounded.
+MAX_ENDED = 4096
+#: Segments shorter than this (px) carry no heading: they do not count in the turn rate.
+MIN_TURN_SEGMENT_PX = 1.0
+
+
+@dataclass(frozen=True)
+class Track:
+    """A snapshot of one track. Times are µs of event time, positions sensor pixels; ``y``
+    grows downwards, so a positive ``vy`` (or ``vertical_speed``) means moving down.
+
+    Attributes:
+        id: the track id, from 1 up, never reused in a stream.
+        confirmed: it has reached ``confirm_hits`` hits within ``confirm_windows`` windows.
+        birth_window, birth_us: the window of its first detection, and that window's start.
+        last_window, last_update_us: the window of its latest detection, and that window's end.
+        first_alarm_us: end of the window whose detection confirmed it (``None`` until then):
+            the earliest event time at which a stream can announce it.
+        first_alarm_window: that window's index.
+        age_windows, age_us: windows from its birth window to the latest window fed
+            (inclusive), and the time from ``birth_us`` to that window's end.
+        hits: windows with a detection assigned to it; misses: consecutive windows without
+            one since its latest hit.
+        box: the latest detection's box ``(x0, y0, x1, y1)``.
+        position: the filtered centre ``(x, y)`` at its latest update.
+        velocity: the filtered velocity ``(vx, vy)`` in px/s (0 until a second hit).
+        speed: the length of ``velocity`` (px/s).
+        path_length: the sum of the distances between successive detection centres (px).
+        straightness: the distance from first to latest centre over ``path_length``, in
+            ``[0, 1]`` (1: a straight line; 0 with no path).
+        horizontal_speed, vertical_speed: the displacement from first to latest centre over
+            the time between them (px/s; signed).
+        mean_speed, speed_std: the mean and (population) standard deviation of the segment
+            speeds (px/s).
+        turn_rate: the mean absolute change of heading between successive segments of at
+            least :data:`MIN_TURN_SEGMENT_PX`, per second of the second segment (rad/s).
+    """
+
+    id: int
+    confirmed: bool
+    birth_window: int
+    birth_us: int
+    last_window: int
+    last_update_us: int
+    first_alarm_us: int | None
+    first_alarm_window: int | None
+    age_windows: int
+    age_us: int
+    hits: int
+    misses: int
+    box: tuple[int, int, int, int]
+    position: tuple[float, float]
+    velocity: tuple[float, float]
+    speed: float
+    path_length: float
+    straightness: float
+    horizontal_speed: float
+    vertical_speed: float
+    mean_speed: float
+    speed_std: float
+    turn_rate: float
+
+
+class _Live:
+    """A live track's state: fixed size (no history beyond the last hits' window mask)."""
+
+    __slots__ = (
+        "alarm_us",
+        "alarm_window",
+        "birth_tc",
+        "birth_us",
+        "birth_window",
+        "box",
+        "confirmed",
+        "first_z",
+        "heading",
+        "hits",
+        "id",
+        "last_end",
+        "last_tc",
+        "last_window",
+        "last_z",
+        "n_seg",
+        "n_turn",
+        "now_end",
+        "now_window",
+        "path",
+        "pos",
+        "recent",
+        "sp_m2",
+        "sp_mean",
+        "turn_sum",
+        "vel",
+    )
+
+    def __init__(self, tid: int, window: int, t0: int, t1: int, box: tuple, z: tuple) -> None:
+        self.id = tid
+        self.birth_window = window
+        self.birth_us = t0
+        self.birth_tc = (t0 + t1) / 2
+        self.first_z = z
+        self.last_window = window
+        self.last_end = t1
+        self.last_tc = self.birth_tc
+        self.last_z = z
+        self.box = box
+        self.pos = z
+        self.vel = (0.0, 0.0)
+        self.hits = 1
+        self.recent = 1  # bit i: a hit i windows before the latest window fed
+        self.confirmed = False
+        self.alarm_us: int | None = None
+        self.alarm_window: int | None = None
+        self.path = 0.0
+        self.n_seg = 0
+        self.sp_mean = 0.0
+        self.sp_m2 = 0.0
+        self.heading: float | None = None
+        self.turn_sum = 0.0
+        self.n_turn = 0
+        self.now_window = window
+        self.now_end = t1
+
+    def predict(self, tc: float) -> tuple[float, float]:
+        dt = (tc - self.last_tc) / 1e6
+        return self.pos[0] + self.vel[0] * dt, self.pos[1] + self.vel[1] * dt
+
+    def snapshot(self) -> Track:
+        dx = self.last_z[0] - self.first_z[0]
+        dy = self.last_z[1] - self.first_z[1]
+        span = (self.last_tc - self.birth_tc) / 1e6
+        net = math.hypot(dx, dy)
+        return Track(
+            id=self.id,
+            confirmed=self.confirmed,
+            birth_window=self.birth_window,
+            birth_us=self.birth_us,
+            last_window=self.last_window,
+            last_update_us=self.last_end,
+            first_alarm_us=self.alarm_us,
+            first_alarm_window=self.alarm_window,
+            age_windows=self.now_window - self.birth_window + 1,
+            age_us=self.now_end - self.birth_us,
+            hits=self.hits,
+            misses=self.now_window - self.last_window,
+            box=self.box,
+            position=self.pos,
+            velocity=self.vel,
+            speed=math.hypot(*self.vel),
+            path_length=self.path,
+            straightness=min(net / self.path, 1.0) if self.path > 0 else 0.0,
+            horizontal_speed=dx / span if span > 0 else 0.0,
+            vertical_speed=dy / span if span > 0 else 0.0,
+            mean_speed=self.sp_mean,
+            speed_std=math.sqrt(self.sp_m2 / self.n_seg) if self.n_seg else 0.0,
+            turn_rate=self.turn_sum / self.n_turn if self.n_turn else 0.0,
+        )
+
+
+def _iou(a: tuple, b: tuple) -> float:
+    w = min(a[2], b[2]) - max(a[0], b[0])
+    h = min(a[3], b[3]) - max(a[1], b[1])
+    if w <= 0 or h <= 0:
+        return 0.0
+    inter = w * h
+    return inter / ((a[2] - a[0]) * (a[3] - a[1]) + (b[2] - b[0]) * (b[3] - b[1]) - inter)
+
+
+class Tracker:
+    """Link the objects of successive windows into tracks (constant velocity, greedy gating).
+
+    Args:
+        gate_px: the largest distance (px) between a track's predicted centre and an object's
+            centre for them to be linked (default 24).
+        alpha, beta: the position and velocity gains of the constant-velocity (alpha-beta)
+            filter, in ``(0, 1]`` (defaults 0.6 and 0.3).
+        confirm_hits, confirm_windows: a track is confirmed when it has hits in at least
+            ``confirm_hits`` of the last ``confirm_windows`` windows, its birth window
+            included (default 3 of 5; at most 64 windows).
+        max_misses: a track is deleted after this many consecutive windows without a hit
+            (default 5).
+        max_tracks: the most live tracks (default 64, at most :data:`MAX_TRACKS_LIMIT`);
+            an object that would start a track beyond it gets none (``track_id`` stays
+            ``None``) and is counted in :attr:`births_refused`.
+
+    Raises:
+        ParameterError: a parameter out of range or of the wrong type.
+    """
+
+    def __init__(
+        self,
+        *,
+        gate_px: float = 24.0,
+        alpha: float = 0.6,
+        beta: float = 0.3,
+        confirm_hits: int = 3,
+        confirm_windows: int = 5,
+        max_misses: int = 5,
+        max_tracks: int = 64,
+    ) -> None:
+        for name, value in (("gate_px", gate_px), ("alpha", alpha), ("beta", beta)):
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise ParameterError(f"{name} must be a number, got {value!r}")
+        if not (math.isfinite(gate_px) and gate_px > 0):
+            raise ParameterError(f"gate_px must be a finite number > 0, got {gate_px}")
+        for name, value in (("alpha", alpha), ("beta", beta)):
+            if not (0.0 < value <= 1.0):
+                raise ParameterError(f"{name} must be in (0, 1], got {value}")
+        ints = {
+            "confirm_hits": confirm_hits,
+            "confirm_windows": confirm_windows,
+            "max_misses": max_misses,
+            "max_tracks": max_tracks,
+        }
+        for name, value in ints.items():
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise ParameterError(f"{name} must be an integer >= 1, got {value!r}")
+        if confirm_windows > 64 or confirm_hits > confirm_windows:
+            raise ParameterError(
+                f"confirm_hits <= confirm_windows <= 64 needed, got {confirm_hits} of "
+                f"{confirm_windows}"
+            )
+        if max_tracks > MAX_TRACKS_LIMIT:
+            raise ParameterError(f"max_tracks must be at most {MAX_TRACKS_LIMIT}, got {max_tracks}")
+        self.gate_px = float(gate_px)
+        self.alpha = float(alpha)
+        self.beta = float(beta)
+        self.confirm_hits = confirm_hits
+        self.confirm_windows = confirm_windows
+        self.max_misses = max_misses
+        self.max_tracks = max_tracks
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget every track; ids start from 1 again."""
+        self._live: list[_Live] = []
+        self._ended: deque[Track] = deque(maxlen=MAX_ENDED)
+        self._next_id = 1
+        self._last_window: int | None = None
+        self.births_refused = 0
+        self.ended_dropped = 0
+
+    # ------------------------------------------------------------------ the stream
+
+    def update(self, report: WindowReport) -> WindowReport:
+        """Feed the next window (window indices must increase) and return it with each
+        object's ``track_id`` (and ``track_confirmed``) filled in.
+
+        Raises:
+            ParameterError: a window not later than the previous one.
+        """
+        k = report.window
+        if self._last_window is not None and k <= self._last_window:
+            raise ParameterError(
+                f"windows must be fed in increasing order: {k} after {self._last_window}"
+            )
+        self._last_window = k
+        tc = (report.t0 + report.t1) / 2
+        # Deletion first: a track missing max_misses windows by this one is gone.
+        keep = []
+        for tr in self._live:
+            if k - tr.last_window > self.max_misses:
+                if len(self._ended) == MAX_ENDED:
+                    self.ended_dropped += 1
+                self._ended.append(tr.snapshot())
+            else:
+                keep.append(tr)
+        self._live = keep
+        objects = report.objects
+        centres = [o.centre for o in objects]
+        # Candidate pairs inside the gate, cheapest first; ties by track id, then object.
+        pairs = []
+        for ti, tr in enumerate(self._live):
+            px, py = tr.predict(tc)
+            for oi, (cx, cy) in enumerate(centres):
+                d = math.hypot(cx - px, cy - py)
+                if d <= self.gate_px:
+                    pairs.append((d, -_iou(tr.box, objects[oi].box), tr.id, oi, ti))
+        pairs.sort()
+        track_of: list[_Live | None] = [None] * len(objects)
+        taken: set[int] = set()
+        for _d, _iou_neg, _tid, oi, ti in pairs:
+            if track_of[oi] is None and ti not in taken:
+                track_of[oi] = self._live[ti]
+                taken.add(ti)
+        for tr in self._live:  # the window mask moves on for every live track
+            tr.recent = (tr.recent << (k - tr.now_window)) & ((1 << self.confirm_windows) - 1)
+            tr.now_window, tr.now_end = k, report.t1
+        for oi, obj in enumerate(objects):
+            old = track_of[oi]
+            if old is not None:
+                self._hit(old, k, report.t1, tc, obj.box, centres[oi])
+            elif len(self._live) < self.max_tracks:
+                new = _Live(self._next_id, k, report.t0, report.t1, obj.box, centres[oi])
+                self._next_id += 1
+                self._live.append(new)
+                track_of[oi] = new
+                self._confirm(new, k, report.t1)
+            else:
+                self.births_refused += 1
+        new_objects = tuple(
+            o if t is None else replace(o, track_id=t.id, track_confirmed=t.confirmed)
+            for o, t in zip(objects, track_of, strict=True)
+        )
+        return replace(report, objects=new_objects)
+
+    def _hit(self, tr: _Live, k: int, t1: int, tc: float, box: tuple, z: tuple) -> None:
+        dt = (tc - tr.last_tc) / 1e6
+        seg = math.hypot(z[0] - tr.last_z[0], z[1] - tr.last_z[1])
+        if tr.hits == 1:  # the second hit: the first velocity is the displacement
+            tr.vel = ((z[0] - tr.pos[0]) / dt, (z[1] - tr.pos[1]) / dt)
+            tr.pos = z
+        else:
+            px, py = tr.predict(tc)
+            rx, ry = z[0] - px, z[1] - py
+            tr.pos = (px + self.alpha * rx, py + self.alpha * ry)
+            tr.vel = (tr.vel[0] + self.beta * rx / dt, tr.vel[1] + self.beta * ry / dt)
+        # Path statistics: running sums only.
+        tr.path += seg
+        speed = seg / dt
+        tr.n_seg += 1
+        delta = speed - tr.sp_mean
+        tr.sp_mean += delta / tr.n_seg
+        tr.sp_m2 += delta * (speed - tr.sp_mean)
+        if seg >= MIN_TURN_SEGMENT_PX:
+            heading = math.atan2(z[1] - tr.last_z[1], z[0] - tr.last_z[0])
+            if tr.heading is not None:
+                turn = abs((heading - tr.heading + math.pi) % (2 * math.pi) - math.pi)
+                tr.turn_sum += turn / dt
+                tr.n_turn += 1
+            tr.heading = heading
+        tr.hits += 1
+        tr.last_window, tr.last_end, tr.last_tc, tr.last_z, tr.box = k, t1, tc, z, box
+        tr.recent |= 1
+        self._confirm(tr, k, t1)
+
+    def _confirm(self, tr: _Live, k: int, t1: int) -> None:
+        if not tr.confirmed and bin(tr.recent).count("1") >= self.confirm_hits:
+            tr.confirmed = True
+            tr.alarm_us, tr.alarm_window = t1, k
+
+    def drain_ended(self) -> list[Track]:
+        """The tracks deleted since the last call (in deletion order, at most
+        :data:`MAX_ENDED`), forgotten here."""
+        out = list(self._ended)
+        self._ended.clear()
+        return out
+
+    def finish(self) -> list[Track]:
+        """End the stream: every track deleted and not yet drained, then every live track
+        (by id); the tracker is empty afterwards, and ids go on from where they were."""
+        out = self.drain_ended() + [tr.snapshot() for tr in self._live]
+        self._live = []
+        self._last_window = None
+        return out
+
+    @property
+    def live(self) -> tuple[Track, ...]:
+        """Snapshots of the live tracks, by id."""
+        return tuple(tr.snapshot() for tr in self._live)
+
+    def __repr__(self) -> str:
+        return (
+            f"Tracker(gate_px={self.gate_px}, confirm={self.confirm_hits}/"
+            f"{self.confirm_windows}, max_misses={self.max_misses}, "
+            f"max_tracks={self.max_tracks}, live={len(self._live)})"
+        )
+
+
+@dataclass(frozen=True)
+class TrackResult:
+    """What :func:`track_windows` returns: the reports with track ids, and every track."""
+
+    reports: tuple[WindowReport, ...]
+    #: Every track of the sequence, by id (live ones as they stood after the last window).
+    tracks: tuple[Track, ...]
+
+
+def track_windows(reports: Iterable[WindowReport], tracker: Tracker | None = None) -> TrackResult:
+    """The batch path: run a :class:`Tracker` (a fresh default one unless given) over window
+    reports in window order; the same code as the streaming path, so the same tracks."""
+    tracker = Tracker() if tracker is None else tracker
+    out, tracks = [], []
+    for r in reports:
+        out.append(tracker.update(r))
+        tracks += tracker.drain_ended()
+    tracks = sorted(tracks + tracker.finish(), key=lambda t: t.id)
+    return TrackResult(reports=tuple(out), tracks=tuple(tracks))

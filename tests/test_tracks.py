@@ -1,0 +1,393 @@
+"""Tracks: objects linked from window to window (uavsnn.tracks), and their faces."""
+
+from __future__ import annotations
+
+import itertools
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from uavsnn import EVENT_DTYPE, Detector, Network, ParameterError
+from uavsnn.detector import _NO_DETECTIONS, WindowGrouper, WindowObject, WindowReport
+from uavsnn.tracks import Tracker, track_windows
+
+STEP = 25_000  # µs between window starts (50 ms windows, overlap 0.5)
+
+
+def report(k: int, boxes: list[tuple[int, int, int, int]]) -> WindowReport:
+    objects = tuple(WindowObject(box=b, spikes=1) for b in boxes)
+    return WindowReport(
+        window=k,
+        t0=k * STEP,
+        t1=k * STEP + 2 * STEP,
+        detected=bool(boxes),
+        detections=_NO_DETECTIONS,
+        objects=objects,
+    )
+
+
+def box_at(x: float, y: float, half: int = 3) -> tuple[int, int, int, int]:
+    return (round(x) - half, round(y) - half, round(x) + half, round(y) + half)
+
+
+def ids(rep: WindowReport) -> list[int | None]:
+    return [o.track_id for o in rep.objects]
+
+
+def test_constant_velocity_keeps_one_id_and_measures_the_motion() -> None:
+    # 8 px per window = 320 px/s to the right, 2 px per window = 80 px/s down.
+    reps = [report(k, [box_at(20 + 8 * k, 30 + 2 * k)]) for k in range(20)]
+    result = track_windows(reps)
+    assert {i for r in result.reports for i in ids(r)} == {1}
+    (track,) = result.tracks
+    assert track.hits == 20 and track.confirmed
+    assert track.first_alarm_window == 2  # 3 of 5: the third hit
+    assert track.first_alarm_us == reps[2].t1
+    assert track.birth_us == reps[0].t0 and track.last_update_us == reps[-1].t1
+    assert track.age_windows == 20 and track.age_us == reps[-1].t1 - reps[0].t0
+    assert track.velocity == pytest.approx((320.0, 80.0), rel=1e-6)
+    assert track.horizontal_speed == pytest.approx(320.0)
+    assert track.vertical_speed == pytest.approx(80.0)
+    assert track.straightness == pytest.approx(1.0)
+    assert track.turn_rate == pytest.approx(0.0, abs=1e-9)
+    assert track.speed_std == pytest.approx(0.0, abs=1e-6)
+    assert track.path_length == pytest.approx(19 * math.hypot(8, 2))
+    # Tentative until confirmed, in what the reports say.
+    assert [r.objects[0].track_confirmed for r in result.reports[:4]] == [
+        False,
+        False,
+        True,
+        True,
+    ]
+
+
+def test_hovering_and_zigzag_tracks_differ_in_their_statistics() -> None:
+    hover = [report(k, [box_at(60 + (k % 2), 60)]) for k in range(12)]
+    zig = [report(k, [box_at(20 + 6 * k, 40 + (5 if k % 2 else -5))]) for k in range(12)]
+    (h,) = track_windows(hover, Tracker(gate_px=30)).tracks
+    (z,) = track_windows(zig, Tracker(gate_px=30)).tracks
+    assert h.straightness < 0.2 and abs(h.horizontal_speed) < 5
+    assert z.turn_rate > 10 and z.speed_std < 1e-6 * z.mean_speed + 1
+
+
+def test_darting_falling_and_crossing_paths() -> None:
+    """An insect-like dart (steps of 2 and 14 px), a falling ball (speed growing downwards)
+    and an aircraft (constant speed): the statistics that tell them apart."""
+    xs = [20.0]
+    for k in range(1, 14):
+        xs.append(xs[-1] + (14 if k % 2 else 2))
+    dart = [report(k, [box_at(x, 60)]) for k, x in enumerate(xs)]
+    fall = [report(k, [box_at(100, 10 + 0.5 * k * k)]) for k in range(12)]
+    plane = [report(k, [box_at(10 + 8 * k, 40)]) for k in range(14)]
+    (d,) = track_windows(dart).tracks
+    (f,) = track_windows(fall).tracks
+    (p,) = track_windows(plane).tracks
+    steps = np.diff(xs) / 0.025  # px/s; the population standard deviation
+    assert d.speed_std == pytest.approx(float(np.std(steps)), rel=1e-9)
+    assert d.mean_speed == pytest.approx(float(np.mean(steps)), rel=1e-9) and d.speed_std > 200
+    assert p.speed_std == pytest.approx(0.0, abs=1e-6) and p.straightness == pytest.approx(1)
+    assert f.vertical_speed > 0 and abs(f.horizontal_speed) < 1e-9
+    assert f.velocity[1] > f.vertical_speed  # it is speeding up: now faster than on average
+
+
+def test_two_crossing_objects_keep_their_ids() -> None:
+    reps = []
+    for k in range(24):
+        a = box_at(10 + 6 * k, 40 + 2 * k)  # right and down
+        b = box_at(150 - 6 * k, 88 - 2 * k)  # left and up: they cross near k = 11.7
+        reps.append(report(k, [a, b] if k % 2 else [b, a]))
+    result = track_windows(reps)
+    for r in result.reports:
+        by_x_move = {}
+        for o in r.objects:
+            by_x_move[o.track_id] = o.centre
+        assert set(by_x_move) == {1, 2}
+    first, last = result.reports[0], result.reports[-1]
+    start = {o.track_id: o.centre for o in first.objects}
+    end = {o.track_id: o.centre for o in last.objects}
+    for tid in (1, 2):  # each id ends where its own straight line goes
+        moved_right = end[tid][0] > start[tid][0]
+        assert moved_right == (start[tid][0] < 80)
+    assert len(result.tracks) == 2
+
+
+def test_a_vanished_object_is_deleted_after_max_misses_windows() -> None:
+    tracker = Tracker(max_misses=3)
+    for k in range(5):
+        tracker.update(report(k, [box_at(50, 50)]))
+    assert len(tracker.live) == 1
+    for k in range(5, 8):  # three windows without it: still live, coasting
+        tracker.update(report(k, []))
+        assert len(tracker.live) == 1 and tracker.drain_ended() == []
+    tracker.update(report(8, []))
+    assert tracker.live == ()
+    (gone,) = tracker.drain_ended()
+    assert gone.id == 1 and gone.hits == 5 and gone.last_window == 4
+    # Reappearing there later starts a new track.
+    out = tracker.update(report(9, [box_at(50, 50)]))
+    assert ids(out) == [2]
+
+
+def test_skipped_windows_count_as_misses() -> None:
+    tracker = Tracker(max_misses=3)
+    tracker.update(report(0, [box_at(50, 50)]))
+    out = tracker.update(report(10, [box_at(50, 50)]))  # a silent gap of 9 windows
+    assert ids(out) == [2] and [t.id for t in tracker.drain_ended()] == [1]
+
+
+def noise_reports(seed: int, windows: int, rate: float) -> list[WindowReport]:
+    """Detections at uniform positions of a 240x180 sensor, Poisson(rate) per window."""
+    rng = np.random.default_rng(seed)
+    return [
+        report(k, [box_at(rng.uniform(10, 230), rng.uniform(10, 170)) for _ in range(n)])
+        for k, n in enumerate(rng.poisson(rate, windows).tolist())
+    ]
+
+
+def test_noise_does_not_make_confirmed_tracks() -> None:
+    # 0.25 noise detections per window (docs/identification.md, "Tracks": the measured rate
+    # of false confirmations against the noise density).
+    result = track_windows(noise_reports(2000, 1000, 0.25))
+    assert len(result.tracks) > 150  # the noise did start tentative tracks ...
+    assert not any(t.confirmed for t in result.tracks)  # ... none confirmed
+
+
+def test_noise_beside_a_real_object() -> None:
+    rng = np.random.default_rng(2001)
+    reps = []
+    for k in range(40):
+        boxes = [box_at(30 + 4 * k, 90)]
+        if rng.random() < 0.5:
+            boxes.append(box_at(rng.uniform(10, 230), rng.uniform(150, 175)))
+        reps.append(report(k, boxes))
+    result = track_windows(reps)
+    assert [t.id for t in result.tracks if t.confirmed] == [1]
+    assert all(r.objects[0].track_id == 1 for r in result.reports)
+
+
+def test_the_live_track_cap() -> None:
+    tracker = Tracker(max_tracks=2)
+    out = tracker.update(report(0, [box_at(20, 20), box_at(100, 20), box_at(180, 20)]))
+    assert sorted(i for i in ids(out) if i is not None) == [1, 2] and None in ids(out)
+    assert tracker.births_refused == 1 and len(tracker.live) == 2
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        {"gate_px": 0},
+        {"gate_px": float("nan")},
+        {"gate_px": "5"},
+        {"alpha": 0.0},
+        {"beta": 1.5},
+        {"confirm_hits": 0},
+        {"confirm_hits": 6, "confirm_windows": 5},
+        {"confirm_windows": 65},
+        {"max_misses": 0},
+        {"max_misses": 2.5},
+        {"max_tracks": 0},
+        {"max_tracks": 10**6},
+        {"max_tracks": True},
+    ],
+)
+def test_bad_parameters_are_typed_errors(kwargs: dict) -> None:
+    with pytest.raises(ParameterError):
+        Tracker(**kwargs)
+
+
+def test_windows_out_of_order_are_refused() -> None:
+    tracker = Tracker()
+    tracker.update(report(3, []))
+    with pytest.raises(ParameterError):
+        tracker.update(report(3, []))
+    with pytest.raises(ParameterError):
+        Detector(Network(seed=0), tracker="no")  # type: ignore[arg-type]
+
+
+# ---------------------------------------------------------------- through the Detector
+
+SIZE = (40, 30)
+
+
+def small_net() -> Network:
+    config = {
+        "width": SIZE[0],
+        "height": SIZE[1],
+        "pent": {"mode": "pent", "beta": 2.0, "theta_min": 1.5},
+        "conv2": {"threshold": 3.0},
+        "conv3": {"threshold": 1.5},
+    }
+    return Network(config, seed=3)
+
+
+@pytest.fixture(scope="module")
+def net() -> Network:
+    return small_net()
+
+
+def blob_events(seed: int, n: int) -> np.ndarray:
+    """A blob drifting right over sparse noise on the 40x30 sensor."""
+    rng = np.random.default_rng(seed)
+    ev = np.zeros(n, dtype=EVENT_DTYPE)
+    ev["t"] = 5_000 + np.cumsum(rng.integers(0, 40, n) * (rng.random(n) < 0.7))
+    noise = rng.random(n) < 0.25
+    cx = 5 + np.arange(n) * 30 // n
+    ev["x"] = np.where(noise, rng.integers(0, SIZE[0], n), cx + rng.integers(0, 5, n))
+    ev["y"] = np.where(noise, rng.integers(0, SIZE[1], n), 12 + rng.integers(0, 5, n))
+    ev["p"] = rng.random(n) < 0.5
+    return ev
+
+
+def streamed(det: Detector, events: np.ndarray, cuts: list[int]) -> list[WindowReport]:
+    bounds = [0, *sorted(min(c, len(events)) for c in cuts), len(events)]
+    reps = []
+    for a, b in itertools.pairwise(bounds):
+        reps += det.push_windows(events[a:b])
+    return reps + det.flush_windows()
+
+
+def key(reps: list[WindowReport]) -> list:
+    return [(r.window, [(o.box, o.track_id, o.track_confirmed) for o in r.objects]) for r in reps]
+
+
+@settings(max_examples=15, deadline=None)
+@given(cuts=st.lists(st.integers(0, 3000), max_size=10), seed=st.integers(0, 2))
+def test_streaming_in_any_chunks_equals_batch(net: Network, cuts: list[int], seed: int) -> None:
+    events = blob_events(seed, 3000)
+    det = Detector(net, window_us=3_000, overlap=0.5, tracker=Tracker(gate_px=8))
+    reps = streamed(det, events, cuts)
+    # Batch: the plain windows of one whole push, tracked afterwards by the same code.
+    plain = Detector(net, window_us=3_000, overlap=0.5)
+    grouper = WindowGrouper.of(plain)
+    untracked = grouper.add(events, plain.push(events)) + grouper.finish(plain.flush())
+    result = track_windows(untracked, Tracker(gate_px=8))
+    assert key(reps) == key(list(result.reports))
+    assert sorted(det.tracker.finish(), key=lambda t: t.id) == list(result.tracks)
+    assert any(o.track_id is not None for r in reps for o in r.objects)
+
+
+def test_the_drifting_blob_is_one_confirmed_track(net: Network) -> None:
+    events = blob_events(0, 3000)
+    det = Detector(net, window_us=3_000, overlap=0.5, tracker=Tracker(gate_px=8))
+    reps = streamed(det, events, [])
+    tracks = [t for t in det.tracker.finish() if t.confirmed]
+    assert tracks
+    best = max(tracks, key=lambda t: t.hits)
+    assert best.horizontal_speed > 0  # it drifts right
+    assert best.hits >= len([r for r in reps if r.objects]) // 2
+
+
+def flicker_events(freq_hz: float, box: tuple[int, int, int, int], dur_us: int) -> np.ndarray:
+    """Every pixel of ``box`` flickers at ``freq_hz``: an ON then an OFF run per period."""
+    x0, y0, x1, y1 = box
+    period = 1e6 / freq_hz
+    rows = []
+    for c in range(int(dur_us / period)):
+        for half, p in ((0.0, 1), (0.5, 0)):
+            for rep in range(2):
+                t = int(c * period + half * period) + rep
+                rows += [(t, x, y, p) for x in range(x0, x1) for y in range(y0, y1)]
+    ev = np.array(rows, dtype=[("t", "<u8"), ("x", "<u2"), ("y", "<u2"), ("p", "u1")])
+    ev = ev[np.argsort(ev["t"], kind="stable")]
+    out = np.zeros(len(ev), dtype=EVENT_DTYPE)
+    for f in ("t", "x", "y", "p"):
+        out[f] = ev[f]
+    return out
+
+
+def test_rotor_frequency_of_a_flickering_object(net: Network) -> None:
+    events = flicker_events(400.0, (14, 10, 22, 18), 60_000)
+    det = Detector(net, window_us=20_000, overlap=0.5)
+    reps = streamed(det, events, [len(events) // 3])
+    rotors = [o.rotor for r in reps for o in r.objects if o.rotor is not None]
+    assert rotors, "no object measured"
+    found = [r for r in rotors if r.detected]
+    assert found and all(abs(r.frequency_hz - 400.0) < 8.0 for r in found)
+    det_off = Detector(net, window_us=20_000, overlap=0.5, rotor=False)
+    assert all(o.rotor is None for r in streamed(det_off, events, []) for o in r.objects)
+
+
+def test_cli_prints_track_and_rotor(net: Network, tmp_path: Path) -> None:
+    import json
+    import subprocess
+    import sys
+
+    model = tmp_path / "model.npz"
+    net.save(model)
+    events = blob_events(0, 3000)
+    det = Detector(net, window_us=3_000, overlap=0.5)
+    reps = streamed(det, events, [])
+    cmd = [sys.executable, "-m", "uavsnn", "detect", "-", "--model", str(model), "--window-ms", "3"]
+    done = subprocess.run([*cmd, "--json"], input=events.tobytes(), capture_output=True)
+    assert done.returncode == 0, done.stderr.decode()
+    rows = [json.loads(line) for line in done.stdout.decode().splitlines()]
+    assert [[o["track"] for o in row["objects"]] for row in rows] == [
+        [o.track_id for o in r.objects] for r in reps
+    ]
+    assert any(o["track_confirmed"] for row in rows for o in row["objects"])
+    assert all("rotor" in o for row in rows for o in row["objects"])
+    text = subprocess.run(cmd, input=events.tobytes(), capture_output=True).stdout.decode()
+    assert " track=1" in text and " rotor=" in text
+
+
+def test_tracks_on_a_real_recording(shared_data: Path) -> None:
+    """A real DVXplorer recording of a person (0.59 s), downsampled to 240x180, through the
+    Detector with an untrained default network, in two chunks: tracks are produced, ids are
+    never reused, and the person's box keeps its id from window to window."""
+    from uavsnn.filters import downsample
+    from uavsnn.io import read
+    from uavsnn.tracks import _iou
+
+    events = downsample(read(shared_data / "dvs" / "tonic_dvxplorer_person.aedat4"), (240, 180))
+    det = Detector(Network(seed=0), window_us=50_000, overlap=0.5)
+    reps = streamed(det, events.events, [len(events.events) // 2])
+    tracks = det.tracker.finish()
+    assert reps and tracks
+    assert len({t.id for t in tracks}) == len(tracks)
+    assert any(t.confirmed and t.first_alarm_us is not None for t in tracks)
+    linked = 0
+    for a, b in itertools.pairwise(reps):
+        if a.objects and b.objects and _iou(a.objects[0].box, b.objects[0].box) > 0.3:
+            assert a.objects[0].track_id == b.objects[0].track_id
+            linked += 1
+    assert linked >= 5
+    # Streaming equals batch on real data too.
+    plain = Detector(Network(seed=0), window_us=50_000, overlap=0.5)
+    grouper = WindowGrouper.of(plain)
+    ev = events.events
+    untracked = grouper.add(ev, plain.push(ev)) + grouper.finish(plain.flush())
+    assert key(reps) == key(list(track_windows(untracked).reports))
+
+
+def test_a_rejected_chunk_changes_no_track(net: Network) -> None:
+    from uavsnn import EventError, StreamError
+
+    events = blob_events(1, 3000)
+    det = Detector(net, window_us=3_000, overlap=0.5, tracker=Tracker(gate_px=8))
+    first = det.push_windows(events[:1500])
+    before = det.tracker.live
+    bad = events[1500:1600].copy()
+    bad["x"][5] = SIZE[0]  # outside the sensor
+    with pytest.raises(EventError):
+        det.push_windows(bad)
+    with pytest.raises(StreamError):
+        det.push_windows(events[:10])  # back in time
+    assert det.tracker.live == before
+    rest = det.push_windows(events[1500:]) + det.flush_windows()
+    whole = Detector(net, window_us=3_000, overlap=0.5, tracker=Tracker(gate_px=8))
+    assert key(first + rest) == key(streamed(whole, events, []))
+
+
+def test_ended_tracks_undrained_stay_bounded(monkeypatch: pytest.MonkeyPatch) -> None:
+    import uavsnn.tracks as tracks_mod
+
+    monkeypatch.setattr(tracks_mod, "MAX_ENDED", 3)
+    tracker = Tracker(max_misses=1)
+    tracker._ended = tracks_mod.deque(maxlen=3)
+    for k in range(0, 20, 2):  # a new object every other window, far from the last
+        tracker.update(report(k, [box_at(20 + 20 * (k % 10), 50)]))
+    assert len(tracker.drain_ended()) == 3 and tracker.ended_dropped == 6
