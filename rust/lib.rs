@@ -13,6 +13,7 @@ pub mod events;
 pub mod filters;
 pub mod network;
 pub mod sim;
+mod simd;
 pub mod stream;
 pub mod windows;
 

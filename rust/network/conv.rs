@@ -46,6 +46,10 @@ use std::ops::Range;
 
 use super::geometry::{ConvGeom, Divider};
 use super::weights::ConvWeights;
+use crate::simd::{
+    add_detect, add_rows, add_rows_fixed, count_rows, count_rows_unchecked, fired_mask, zero_all,
+    Avx2, FIXED_KERNEL, FIXED_ROWS, FIXED_RUN, LANES, WORD_ROWS,
+};
 
 /// The bit of a position's input count that says it is awake (counts stay below it, and
 /// awake counts stay positive as `i16`, for the vector compare).
@@ -63,9 +67,6 @@ const WAKE_MAPS: usize = 8;
 /// gains 1.7× by count; with the recipe's threshold 10 it wakes at 11 inputs and loses 1.4×,
 /// as conv3 does at 3).
 const WAKE_WIDTHS: usize = 2;
-
-/// Counter lanes of one vector: one output row's positions of one input (`k ≤ LANES`).
-const LANES: usize = 16;
 
 /// Potentials that `reset` zeroes with one fixed-size store, and the padding at the end of
 /// `ConvState::pot` that lets the last block of a run reach past the layer. A block may also
@@ -206,7 +207,7 @@ pub(crate) struct ConvState {
     /// such by `push_candidates`).
     masks: Vec<u8>,
     /// Whether the CPU has AVX2 (asked once, at construction).
-    avx2: bool,
+    avx2: Option<Avx2>,
     /// Whether this layer wakes positions by count in the current window (see the module docs
     /// and `set_wake`).
     gated: bool,
@@ -226,7 +227,7 @@ pub(crate) struct ConvState {
     awake: Vec<u32>,
     /// Per input row `iy`: `[rows.start · out_w, rows.len()]` of the output rows whose
     /// kernel covers it (`outputs_of`); per input column: `[cols.start, cols.len()]`. What
-    /// `count_spikes_avx2` reads instead of computing the two ranges per spike.
+    /// `count_spikes` reads instead of computing the two ranges per spike.
     row_spans: Vec<[u32; 2]>,
     col_spans: Vec<[u32; 2]>,
     /// Division by the output width (position → row, column).
@@ -246,12 +247,6 @@ struct WholeCandidates {
     words: [u64; 2],
 }
 
-/// Rows of a whole footprint per word of `WholeCandidates` (3 × 20 lanes ≤ 64).
-const WORD_ROWS: usize = 3;
-const _: () = assert!(
-    WORD_ROWS * FIXED_RUN <= 64 && FIXED_ROWS <= 2 * WORD_ROWS,
-    "a whole footprint's lanes in two words"
-);
 /// A whole conv1 footprint's maps per position, positions per word, and positions.
 const MAPS: usize = FIXED_RUN / FIXED_ROWS;
 const WORD_POSITIONS: usize = WORD_ROWS * FIXED_RUN / MAPS;
@@ -361,7 +356,7 @@ impl ConvState {
             touched_lanes: 0,
             wholes: Vec::new(),
             masks: vec![0; (geom.k * geom.maps).div_ceil(64) * 8],
-            avx2: has_avx2(),
+            avx2: Avx2::detect(),
             gated: false,
             can_gate: geom.k <= LANES && geom.kernel_len() < AWAKE.into(),
             #[cfg(test)]
@@ -647,7 +642,7 @@ impl ConvState {
         } else {
             let run = cols.len() * maps;
             self.touched_lanes += rows.len() * run;
-            if self.avx2 && run <= 32 && rows.len() <= FUSED_ROWS {
+            if let Some(avx2) = self.avx2.filter(|_| run <= 32 && rows.len() <= FUSED_ROWS) {
                 // One vector pass over every row, then the candidates of the rows that had any.
                 let mut masks = [0u32; FUSED_ROWS];
                 let masks = &mut masks[..rows.len()];
@@ -657,7 +652,17 @@ impl ConvState {
                 );
                 let (p_stride, w_stride) = (g.out_w * maps, g.k * maps);
                 let thr = &self.thr_lo[..run];
-                if add_rows(&mut self.pot, p0, p_stride, w, w0, w_stride, thr, masks) {
+                if add_rows(
+                    avx2,
+                    &mut self.pot,
+                    p0,
+                    p_stride,
+                    w,
+                    w0,
+                    w_stride,
+                    thr,
+                    masks,
+                ) {
                     self.push_row_candidates(masks, rows.start * g.out_w + cols.start);
                 }
                 return;
@@ -672,18 +677,19 @@ impl ConvState {
     /// Add a pool layer's spikes of one group, `(channel, row, col)` each, in order: what
     /// `add` does spike by spike (a layer after conv1 has no whole inputs, so `add` takes
     /// `add_clipped` for each). A layer that wakes by count on a CPU with AVX2 counts them in
-    /// one loop compiled for it (`count_spikes_avx2`), without a call per spike or
+    /// one loop compiled for it (`count_spikes`), without a call per spike or
     /// `add_clipped`'s general setup: nearly every spike only counts (Table 1's conv2).
     /// Inlined, so that the counted path costs its caller one call.
     #[inline]
     pub fn add_spikes(&mut self, w: &[f32], spikes: &[(u32, u32, u32)]) {
-        #[cfg(target_arch = "x86_64")]
-        if self.gated && self.avx2 {
+        if let Some(avx2) = self.avx2.filter(|_| self.gated) {
             // `add_clipped` lists the held candidates first; a layer that wakes by count has
             // none (only `add_whole` holds them, and only where the layer adds densely).
             debug_assert!(self.held.is_none(), "no held candidates while counting");
-            // SAFETY: `avx2` comes from `has_avx2`.
-            unsafe { simd::count_spikes_avx2(self, w, spikes) };
+            avx2.vectorize(
+                #[inline(always)]
+                move || self.count_spikes(avx2, w, spikes),
+            );
             return;
         }
         self.add_each(w, spikes);
@@ -694,6 +700,59 @@ impl ConvState {
     fn add_each(&mut self, w: &[f32], spikes: &[(u32, u32, u32)]) {
         for &(c, iy, ix) in spikes {
             self.add(w, c as usize, iy as usize, ix as usize);
+        }
+    }
+
+    /// `add_spikes` for a layer that wakes by count on a CPU with AVX2, compiled for it
+    /// (`Avx2::vectorize`): per spike, its output rows (`row_spans`, `col_spans`) counted one
+    /// vector each (`count_rows_unchecked`, inlined), and only where some position reached its
+    /// waking count the rest of `add_clipped` (`add_counted`).
+    #[allow(clippy::inline_always)]
+    #[inline(always)]
+    fn count_spikes(&mut self, avx2: Avx2, w: &[f32], spikes: &[(u32, u32, u32)]) {
+        /// Output rows of a whole footprint of Table 1's conv2, whose counting is unrolled.
+        const CONV2_ROWS: usize = 10;
+        let out_w = self.geom.out_w;
+        // Written by `count_rows_unchecked` for every row it counts before `add_counted` reads
+        // them: zeroed once, not per spike.
+        let mut hits = [0u32; FUSED_ROWS];
+        for &(c, iy, ix) in spikes {
+            let ([r0, rows], [c0, cols]) =
+                (self.row_spans[iy as usize], self.col_spans[ix as usize]);
+            if cols == 0 {
+                continue;
+            }
+            let p0 = (r0 + c0) as usize;
+            self.inputs.push(Footprint {
+                first: p0 as u32,
+                rows: rows as u16,
+                cols: cols as u16,
+            });
+            let (rows, len) = (rows as usize, cols as usize);
+            self.touched_lanes += rows * len;
+            if rows == 0 {
+                continue;
+            }
+            let counts = &mut self.counts[p0..p0 + (rows - 1) * out_w + LANES];
+            assert!(len <= LANES, "one vector of counts per row");
+            let wake_at = self.wake_at;
+            // A footprint of Table 1's conv2 (`k` = 10) unclipped by the layer's edges, most
+            // of them: counted by a copy with its rows unrolled.
+            let reached = if rows == CONV2_ROWS {
+                // SAFETY: each of the `rows` rows holds LANES counts (inside `counts`, whose
+                // range is checked above); len <= LANES.
+                unsafe {
+                    count_rows_unchecked(avx2, counts, out_w, len, wake_at, &mut hits[..CONV2_ROWS])
+                }
+            } else {
+                // SAFETY: as above.
+                unsafe {
+                    count_rows_unchecked(avx2, counts, out_w, len, wake_at, &mut hits[..rows])
+                }
+            };
+            if reached {
+                self.add_counted(w, c as usize, iy as usize, ix as usize, p0, &hits[..rows]);
+            }
         }
     }
 
@@ -761,9 +820,10 @@ impl ConvState {
         // SAFETY: `first = oy · out_w + ox` with `oy < rows ≤ all_rows` and `ox < cols` (this
         // function's contract), at most the last whole footprint's, whose rows `Whole::new` asserted
         // to lie inside `pot` (made with the length it was given, never resized).
-        let pot = unsafe {
-            std::slice::from_raw_parts_mut(self.pot.as_mut_ptr().add(first * MAPS), span)
-        };
+        let start = unsafe { self.pot.as_mut_ptr().add(first * MAPS) };
+        // SAFETY: as above: the `span` values from `start` lie inside `pot`, which nothing else
+        // borrows while this slice lives.
+        let pot = unsafe { std::slice::from_raw_parts_mut(start, span) };
         let words = add_rows_fixed::<INLINE>(whole.avx2, pot, stride, kernel, &whole.thr, fresh);
         if words != [0; 2] {
             let held = WholeCandidates {
@@ -1440,64 +1500,39 @@ fn zero_blocks(buf: &mut [f32], start: usize, len: usize) {
     }
 }
 
-/// Zero all of `buf`: what `fill(0)` does, in vector stores of `ZERO_BLOCK` values (AVX2 where
-/// the CPU has it) rather than the `memset` call that `fill` becomes, whose `rep stos` costs
-/// one instruction per byte for a layer's worth (conv2's 138 KB of potentials).
-#[inline]
-fn zero_all<T: Copy + Default>(avx2: bool, buf: &mut [T]) {
-    #[cfg(target_arch = "x86_64")]
-    if avx2 {
-        // SAFETY: `avx2` comes from `has_avx2`.
-        unsafe { simd::zero_all_avx2(buf) };
-        return;
-    }
-    let _ = avx2;
-    zero_all_body(buf);
-}
-
-/// The loop of `zero_all`, inlined into each of its compilations.
-#[allow(clippy::inline_always)]
-#[inline(always)]
-fn zero_all_body<T: Copy + Default>(buf: &mut [T]) {
-    // A block of zeros the compiler cannot see are zeros, so that it does not turn the loop
-    // back into `memset`.
-    let zeros = std::hint::black_box([T::default(); ZERO_BLOCK]);
-    let mut blocks = buf.chunks_exact_mut(ZERO_BLOCK);
-    for block in &mut blocks {
-        block.copy_from_slice(&zeros);
-    }
-    blocks.into_remainder().fill(T::default());
-}
-
 /// Zero the runs of potentials (`[row][col][map]`, rows `out_w` positions apart) of every
 /// footprint, in blocks of `ZERO_BLOCK` (see `zero_blocks`), or, for conv1's whole footprints,
 /// exactly their `FIXED_ROWS` rows of `FIXED_RUN`. Compiled for AVX2 where the CPU has it, so
 /// that a block is four stores and a whole footprint's row three.
 #[inline]
-fn zero_footprints(avx2: bool, pot: &mut [f32], inputs: &[Footprint], out_w: usize, maps: usize) {
-    #[cfg(target_arch = "x86_64")]
-    if avx2 {
-        // SAFETY: `avx2` comes from `has_avx2`.
-        unsafe { simd::zero_footprints_avx2(pot, inputs, out_w, maps) };
-        return;
+fn zero_footprints(
+    avx2: Option<Avx2>,
+    pot: &mut [f32],
+    inputs: &[Footprint],
+    out_w: usize,
+    maps: usize,
+) {
+    match avx2 {
+        Some(avx2) => avx2.vectorize(
+            #[inline(always)]
+            move || zero_footprints_body(pot, inputs, out_w, maps),
+        ),
+        None => zero_footprints_body(pot, inputs, out_w, maps),
     }
-    let _ = avx2;
-    zero_footprints_body(pot, inputs, out_w, maps);
 }
 
 /// Zero the whole footprints from the first potentials `wholes` (`ConvState::wholes`): each
 /// `FIXED_ROWS` rows of `FIXED_RUN` potentials, `stride` apart. Compiled for AVX2 where the
 /// CPU has it, so that a row is two vector stores and a half.
 #[inline]
-fn zero_wholes(avx2: bool, pot: &mut [f32], wholes: &[u32], stride: usize) {
-    #[cfg(target_arch = "x86_64")]
-    if avx2 {
-        // SAFETY: `avx2` comes from `has_avx2`.
-        unsafe { simd::zero_wholes_avx2(pot, wholes, stride) };
-        return;
+fn zero_wholes(avx2: Option<Avx2>, pot: &mut [f32], wholes: &[u32], stride: usize) {
+    match avx2 {
+        Some(avx2) => avx2.vectorize(
+            #[inline(always)]
+            move || zero_wholes_body(pot, wholes, stride),
+        ),
+        None => zero_wholes_body(pot, wholes, stride),
     }
-    let _ = avx2;
-    zero_wholes_body(pot, wholes, stride);
 }
 
 /// The loop of `zero_wholes`, inlined into each of its compilations.
@@ -1523,11 +1558,12 @@ fn zero_wholes_body(pot: &mut [f32], wholes: &[u32], stride: usize) {
             // SAFETY: row `r` ends at `first + r · stride + FIXED_RUN`, at most `room +
             // (FIXED_ROWS − 1) · stride + FIXED_RUN = pot.len()` (`first ≤ largest ≤ room`,
             // asserted above).
+            let row = unsafe { p.add(first + r * stride) };
+            // SAFETY: as above: the row's `FIXED_RUN` values are inside `pot`.
             unsafe {
-                p.add(first + r * stride)
-                    .cast::<[f32; FIXED_RUN]>()
+                row.cast::<[f32; FIXED_RUN]>()
                     .write_unaligned([0.0; FIXED_RUN]);
-            }
+            };
         }
     }
 }
@@ -1547,11 +1583,12 @@ fn zero_footprints_body(pot: &mut [f32], inputs: &[Footprint], out_w: usize, map
             let p = pot.as_mut_ptr();
             for r in 0..FIXED_ROWS {
                 // SAFETY: row `r` ends at or before `end`, inside `pot` (asserted above).
+                let row = unsafe { p.add(first + r * stride) };
+                // SAFETY: as above: the row's `FIXED_RUN` values are inside `pot`.
                 unsafe {
-                    p.add(first + r * stride)
-                        .cast::<[f32; FIXED_RUN]>()
+                    row.cast::<[f32; FIXED_RUN]>()
                         .write_unaligned([0.0; FIXED_RUN]);
-                }
+                };
             }
             continue;
         }
@@ -1652,7 +1689,7 @@ fn merge(a: &[u64], b: &[u64], out: &mut [u64]) {
 #[allow(clippy::too_many_arguments)]
 #[inline]
 fn gather(
-    avx2: bool,
+    avx2: Option<Avx2>,
     g: &ConvGeom,
     fired: Fired<'_>,
     base: &[u32],
@@ -1661,13 +1698,13 @@ fn gather(
     ox: usize,
     pot: &mut [f32],
 ) {
-    #[cfg(target_arch = "x86_64")]
-    if avx2 {
-        // SAFETY: `avx2` comes from `has_avx2`.
-        unsafe { simd::gather_avx2(g, fired, base, w, oy, ox, pot) };
-        return;
+    match avx2 {
+        Some(a) => a.vectorize(
+            #[inline(always)]
+            move || gather_body(Some(a), g, fired, base, w, oy, ox, pot),
+        ),
+        None => gather_body(None, g, fired, base, w, oy, ox, pot),
     }
-    gather_body(false, g, fired, base, w, oy, ox, pot);
 }
 
 /// The loop of `gather`, inlined into each of its compilations (always: inlined into the AVX2
@@ -1675,7 +1712,7 @@ fn gather(
 #[allow(clippy::too_many_arguments, clippy::inline_always)]
 #[inline(always)]
 fn gather_body(
-    avx2: bool,
+    avx2: Option<Avx2>,
     g: &ConvGeom,
     fired: Fired<'_>,
     base: &[u32],
@@ -1727,7 +1764,7 @@ const WAKE_LANES: usize = 65;
 #[allow(clippy::inline_always)]
 #[inline(always)]
 fn each_fired_run(
-    avx2: bool,
+    avx2: Option<Avx2>,
     g: &ConvGeom,
     fired: Fired<'_>,
     base: &[u32],
@@ -1780,7 +1817,7 @@ pub(crate) fn each_fired_input(
     g: &ConvGeom,
     fired: Fired<'_>,
     split: &[(u32, u32)],
-    avx2: bool,
+    avx2: Option<Avx2>,
     oy: usize,
     ox: usize,
     mut f: impl FnMut(usize, usize, usize),
@@ -1802,7 +1839,7 @@ pub(crate) fn each_fired_input(
 fn each_fired_lane(
     g: &ConvGeom,
     fired: Fired<'_>,
-    avx2: bool,
+    avx2: Option<Avx2>,
     oy: usize,
     ox: usize,
     mut f: impl FnMut(usize, usize),
@@ -1832,7 +1869,7 @@ fn each_fired_lane(
 fn each_short_lane(
     g: &ConvGeom,
     fired: Fired<'_>,
-    avx2: bool,
+    avx2: Option<Avx2>,
     oy: usize,
     ox: usize,
     mut f: impl FnMut(usize, usize),
@@ -1892,103 +1929,6 @@ fn push_candidates(
     unsafe { out.set_len(out.len() + n) };
 }
 
-/// Count one more fired input at the first `len` positions of `counts` (which holds `LANES`
-/// values); returns bit `d` set for each of them whose count is now at least `wake_at`
-/// (awake ones included). The other lanes are left as they are.
-#[inline]
-fn count_run(avx2: bool, counts: &mut [u16], len: usize, wake_at: u16) -> u32 {
-    assert!(
-        counts.len() == LANES && len <= LANES,
-        "one vector of counts"
-    );
-    #[cfg(target_arch = "x86_64")]
-    {
-        // SAFETY: the lengths are asserted above; `avx2` comes from `has_avx2`, and SSE2 is
-        // part of x86-64.
-        unsafe {
-            if avx2 {
-                simd::count_run_avx2(counts, len, wake_at)
-            } else {
-                simd::count_run_sse2(counts, len, wake_at)
-            }
-        }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        let _ = avx2;
-        count_run_scalar(counts, len, wake_at)
-    }
-}
-
-/// `count_run` for the `hits.len()` output rows of one input at once: row `r` counts at
-/// `counts[p0 + r · stride ..][..len]`, `hits[r]` gets its bits. Returns whether any is set.
-#[inline]
-fn count_rows(
-    avx2: bool,
-    counts: &mut [u16],
-    p0: usize,
-    stride: usize,
-    len: usize,
-    wake_at: u16,
-    hits: &mut [u32],
-) -> bool {
-    let rows = hits.len();
-    if rows == 0 {
-        return false;
-    }
-    assert!(
-        len <= LANES && p0 + (rows - 1) * stride + LANES <= counts.len(),
-        "rows of counts inside the layer"
-    );
-    #[cfg(target_arch = "x86_64")]
-    if avx2 {
-        // SAFETY: the rows are asserted above (each holds LANES counts) and the CPU has AVX2.
-        return unsafe {
-            simd::count_rows_avx2(counts.as_mut_ptr().add(p0), stride, len, wake_at, hits)
-        };
-    }
-    let mut any = 0;
-    for (r, h) in hits.iter_mut().enumerate() {
-        let p = p0 + r * stride;
-        *h = count_run(avx2, &mut counts[p..p + LANES], len, wake_at);
-        any |= *h;
-    }
-    any != 0
-}
-
-/// Bit `b` set where `stamps[b] == generation`, for up to 64 stamps.
-#[inline]
-pub(crate) fn fired_mask(avx2: bool, stamps: &[u32], generation: u32) -> u64 {
-    assert!(stamps.len() <= 64, "at most 64 stamps");
-    #[cfg(target_arch = "x86_64")]
-    if avx2 {
-        // SAFETY: `avx2` comes from `has_avx2`; the length is asserted above.
-        return unsafe { simd::fired_mask_avx2(stamps, generation) };
-    }
-    let _ = avx2;
-    fired_mask_scalar(stamps, generation)
-}
-
-/// The scalar version of `fired_mask`.
-fn fired_mask_scalar(stamps: &[u32], generation: u32) -> u64 {
-    let mut mask = 0;
-    for (b, &stamp) in stamps.iter().enumerate() {
-        mask |= u64::from(stamp == generation) << b;
-    }
-    mask
-}
-
-/// The scalar version of `count_run`.
-#[cfg_attr(target_arch = "x86_64", allow(dead_code))]
-fn count_run_scalar(counts: &mut [u16], len: usize, wake_at: u16) -> u32 {
-    let mut hits = 0;
-    for (d, n) in counts[..len].iter_mut().enumerate() {
-        *n += 1;
-        hits |= u32::from(*n >= wake_at) << d;
-    }
-    hits
-}
-
 /// The smallest float32 not below `x` (for `x ≥ 0`).
 fn round_up(x: f64) -> f32 {
     let y = x as f32;
@@ -2011,839 +1951,8 @@ fn round_down(x: f64) -> f32 {
     }
 }
 
-/// `pot += w`; returns whether any lane `l` went from below its threshold `thr` to at or above
-/// it, and if so bit `l % 8` of `masks[l / 8]` tells whether lane `l` did (else `masks` may be
-/// left as they were). One pass with explicit AVX2 (picked at run time) or SSE2 vectors;
-/// `masks` holds at least `ceil(len / 8)` bytes.
-#[inline]
-fn add_detect(avx2: bool, pot: &mut [f32], w: &[f32], thr: &[f32], masks: &mut [u8]) -> bool {
-    let n = pot.len();
-    assert!(
-        w.len() >= n && thr.len() >= n && masks.len() >= n.div_ceil(8),
-        "runs of equal length"
-    );
-    #[cfg(target_arch = "x86_64")]
-    {
-        // SAFETY: the lengths are asserted above; `avx2` comes from `has_avx2` (the CPU has
-        // it), and SSE2 is part of x86-64.
-        unsafe {
-            if avx2 {
-                simd::add_detect_avx2(pot, w, thr, masks)
-            } else {
-                simd::add_detect_sse2(pot, w, thr, masks)
-            }
-        }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        let _ = avx2;
-        add_detect_scalar(pot, w, thr, masks, 0)
-    }
-}
-
 /// Most output rows that `add_rows` takes at once.
 const FUSED_ROWS: usize = 16;
-
-/// Whether `rows ≥ 1` rows of `run` lanes lie inside `pot` and `w`: row `r`'s potentials from
-/// `p0 + r · p_stride` and its weights from `w0 − r · w_stride` (what the AVX2 row adders read
-/// and write without bounds checks).
-#[allow(clippy::too_many_arguments)]
-#[inline]
-fn rows_inside(
-    pot: &[f32],
-    p0: usize,
-    p_stride: usize,
-    w: &[f32],
-    w0: usize,
-    w_stride: usize,
-    run: usize,
-    rows: usize,
-) -> bool {
-    p0 + (rows - 1) * p_stride + run <= pot.len()
-        && w0 >= (rows - 1) * w_stride
-        && w0 + run <= w.len()
-}
-
-/// The one shape that `add_rows_fixed` takes: conv1's input spike away from the borders adds
-/// to `k = 5` output rows of `k × maps = 5 × 4` lanes each.
-const FIXED_ROWS: usize = 5;
-const FIXED_RUN: usize = 20;
-/// The weights of one input channel of such a layer (`k × k × maps`, engine layout).
-const FIXED_KERNEL: usize = FIXED_ROWS * FIXED_RUN;
-
-/// Proof that the CPU has AVX2: made only by `detect`, so that code holding one (`Whole`) may
-/// call the AVX2 kernels without asking again.
-#[derive(Debug, Clone, Copy)]
-struct Avx2(());
-
-impl Avx2 {
-    fn detect() -> Option<Self> {
-        has_avx2().then_some(Self(()))
-    }
-}
-
-/// `add_rows` for `FIXED_ROWS` rows of `FIXED_RUN` lanes (AVX2 only): row `r`'s potentials
-/// from `pot[r · p_stride]`, its weights the kernel's row `FIXED_ROWS − 1 − r` (`kernel`, one
-/// input channel's), the thresholds `thr`. The shape of nearly every conv1 input, compiled
-/// with its sizes known so that the rows are unrolled, the thresholds loaded once and the
-/// last 4 lanes of a row taken as one half vector (`add_rows` costs about 1.7 times its
-/// instructions on that shape). Returns the crossing lanes as `WholeCandidates` words (none
-/// set where none crossed).
-///
-/// `fresh` promises that no lane of these rows is at or above its threshold before the add
-/// (see `ConvState::add_whole` for when that holds): a lane then crossed exactly where it is at
-/// or above its threshold after the add, which spares the compare of the old potentials.
-///
-/// With `INLINE` the AVX2 body is inlined into the caller, which must then be compiled for
-/// AVX2 (`WindowState::take_valid`'s loop) for it to run as vectors; without, it is called.
-#[allow(clippy::inline_always)]
-#[inline(always)]
-fn add_rows_fixed<const INLINE: bool>(
-    avx2: Avx2,
-    pot: &mut [f32],
-    p_stride: usize,
-    kernel: &[f32; FIXED_KERNEL],
-    thr: &[f32; FIXED_RUN],
-    fresh: bool,
-) -> [u64; 2] {
-    assert!(
-        pot.len() >= (FIXED_ROWS - 1) * p_stride + FIXED_RUN,
-        "rows inside the layer"
-    );
-    #[cfg(target_arch = "x86_64")]
-    {
-        let _ = avx2;
-        // SAFETY: the rows are inside `pot` (asserted above), the kernel's and thresholds'
-        // lengths are their types', and `avx2` proves that the CPU has AVX2.
-        let (a, b) = unsafe {
-            if INLINE {
-                simd::add_rows_fixed_body(pot.as_mut_ptr(), p_stride, kernel, thr, fresh)
-            } else {
-                simd::add_rows_fixed_avx2(pot.as_mut_ptr(), p_stride, kernel, thr, fresh)
-            }
-        };
-        [a, b]
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        let _ = (avx2, fresh); // the same masks either way, where `fresh` holds
-        let mut words = [0; 2];
-        for r in 0..FIXED_ROWS {
-            let (p, k) = (r * p_stride, (FIXED_ROWS - 1 - r) * FIXED_RUN);
-            let mut bytes = [0u8; 4];
-            let w = &kernel[k..k + FIXED_RUN];
-            add_detect_scalar(&mut pot[p..p + FIXED_RUN], w, thr, &mut bytes, 0);
-            let mask = u64::from(u32::from_le_bytes(bytes));
-            words[r / WORD_ROWS] |= mask << (r % WORD_ROWS * FIXED_RUN);
-        }
-        words
-    }
-}
-
-/// `add_detect` for the `masks.len()` output rows of one input at once (AVX2 only): row `r`
-/// adds the run of weights at `w0 − r · w_stride` to the potentials at `p0 + r · p_stride`
-/// (runs of `thr.len() ≤ 32` lanes); `masks[r]` gets bit `l` where lane `l` of row `r`
-/// crossed. Returns whether any did. One call per input spike and no branch on the data
-/// between rows, so that the rows' loads overlap.
-#[allow(clippy::too_many_arguments)]
-#[inline]
-fn add_rows(
-    pot: &mut [f32],
-    p0: usize,
-    p_stride: usize,
-    w: &[f32],
-    w0: usize,
-    w_stride: usize,
-    thr: &[f32],
-    masks: &mut [u32],
-) -> bool {
-    let (run, rows) = (thr.len(), masks.len());
-    if rows == 0 {
-        return false;
-    }
-    assert!(
-        run <= 32 && rows_inside(pot, p0, p_stride, w, w0, w_stride, run, rows),
-        "rows inside the layer and the kernel"
-    );
-    #[cfg(target_arch = "x86_64")]
-    {
-        assert!(has_avx2(), "add_rows needs AVX2");
-        // SAFETY: the ranges are asserted above and the CPU has AVX2.
-        unsafe {
-            simd::add_rows_avx2(
-                pot.as_mut_ptr().add(p0),
-                p_stride,
-                w.as_ptr().add(w0),
-                w_stride,
-                thr,
-                masks,
-            )
-        }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        let mut any = false;
-        let mut bytes = [0u8; 4];
-        for (r, mask) in masks.iter_mut().enumerate() {
-            let (p, q) = (p0 + r * p_stride, w0 - r * w_stride);
-            any |= add_detect_scalar(&mut pot[p..p + run], &w[q..q + run], thr, &mut bytes, 0);
-            *mask = u32::from_le_bytes(bytes);
-        }
-        any
-    }
-}
-
-/// The scalar version, from lane `from` (a multiple of 8) to the end.
-#[inline]
-fn add_detect_scalar(
-    pot: &mut [f32],
-    w: &[f32],
-    thr: &[f32],
-    masks: &mut [u8],
-    from: usize,
-) -> bool {
-    let mut any = 0u8;
-    let chunks = from / 8..pot.len().div_ceil(8);
-    for (chunk, slot) in chunks.clone().zip(&mut masks[chunks]) {
-        let mut mask = 0u8;
-        for i in chunk * 8..(chunk * 8 + 8).min(pot.len()) {
-            let old = pot[i];
-            let new = old + w[i];
-            pot[i] = new;
-            mask |= u8::from(old < thr[i] && new >= thr[i]) << (i % 8);
-        }
-        *slot = mask;
-        any |= mask;
-    }
-    any != 0
-}
-
-#[cfg(target_arch = "x86_64")]
-mod simd {
-    //! The add-and-detect kernel with explicit vectors: per 8 lanes, loads of potentials,
-    //! weights and thresholds, one store, and a movemask byte (almost always 0).
-    use std::arch::x86_64::{
-        __m256, __m256i, _mm256_add_ps, _mm256_and_ps, _mm256_and_si256, _mm256_castps_si256,
-        _mm256_castsi256_ps, _mm256_cmp_ps, _mm256_cmpeq_epi32, _mm256_cmpgt_epi16,
-        _mm256_loadu_ps, _mm256_loadu_si256, _mm256_maskload_epi32, _mm256_maskload_ps,
-        _mm256_maskstore_ps, _mm256_movemask_epi8, _mm256_movemask_ps, _mm256_or_si256,
-        _mm256_packs_epi16, _mm256_packs_epi32, _mm256_permutevar8x32_epi32, _mm256_set1_epi16,
-        _mm256_set1_epi32, _mm256_setr_epi32, _mm256_setzero_si256, _mm256_storeu_ps,
-        _mm256_storeu_si256, _mm256_sub_epi16, _mm256_testz_si256, _mm256_zextsi128_si256,
-        _mm_add_ps, _mm_and_ps, _mm_and_si128, _mm_castps_si128, _mm_cmpge_ps, _mm_cmpgt_epi16,
-        _mm_cmplt_ps, _mm_loadu_ps, _mm_loadu_si128, _mm_movemask_epi8, _mm_movemask_ps,
-        _mm_packs_epi32, _mm_set1_epi16, _mm_setzero_si128, _mm_storeu_ps, _mm_storeu_si128,
-        _mm_sub_epi16, _CMP_GE_OQ, _CMP_LT_OQ,
-    };
-
-    /// Eight "on" lanes then eight "off": the window at `8 − r` enables the first `r` lanes.
-    static TAIL: [i32; 16] = [-1, -1, -1, -1, -1, -1, -1, -1, 0, 0, 0, 0, 0, 0, 0, 0];
-
-    /// Sixteen −1 then sixteen 0: the window at `16 − len` is −1 in the first `len` lanes
-    /// (subtracting it counts one more there).
-    static ONES: [i16; 32] = {
-        let mut a = [0i16; 32];
-        let mut i = 0;
-        while i < 16 {
-            a[i] = -1;
-            i += 1;
-        }
-        a
-    };
-
-    /// `super::gather` compiled for AVX2.
-    ///
-    /// # Safety
-    /// The CPU must support AVX2.
-    #[allow(clippy::too_many_arguments)]
-    #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn gather_avx2(
-        g: &super::ConvGeom,
-        fired: super::Fired<'_>,
-        base: &[u32],
-        w: &[f32],
-        oy: usize,
-        ox: usize,
-        pot: &mut [f32],
-    ) {
-        super::gather_body(true, g, fired, base, w, oy, ox, pot);
-    }
-
-    /// `super::zero_footprints` compiled for AVX2.
-    ///
-    /// # Safety
-    /// The CPU must support AVX2.
-    #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn zero_footprints_avx2(
-        pot: &mut [f32],
-        inputs: &[super::Footprint],
-        out_w: usize,
-        maps: usize,
-    ) {
-        super::zero_footprints_body(pot, inputs, out_w, maps);
-    }
-
-    /// `super::zero_wholes` compiled for AVX2.
-    ///
-    /// # Safety
-    /// The CPU must support AVX2.
-    #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn zero_wholes_avx2(pot: &mut [f32], wholes: &[u32], stride: usize) {
-        super::zero_wholes_body(pot, wholes, stride);
-    }
-
-    /// `super::zero_all` compiled for AVX2.
-    ///
-    /// # Safety
-    /// The CPU must support AVX2.
-    #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn zero_all_avx2<T: Copy + Default>(buf: &mut [T]) {
-        super::zero_all_body(buf);
-    }
-
-    /// # Safety
-    /// The CPU must support AVX2; `stamps` holds at most 64 values.
-    #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn fired_mask_avx2(stamps: &[u32], generation: u32) -> u64 {
-        let n = stamps.len();
-        let g = _mm256_set1_epi32(generation as i32);
-        let mut mask = 0u64;
-        let mut i = 0;
-        while i + 8 <= n {
-            // SAFETY: i + 8 <= n values.
-            let v = unsafe { _mm256_loadu_si256(stamps.as_ptr().add(i).cast()) };
-            let eq = _mm256_castsi256_ps(_mm256_cmpeq_epi32(v, g));
-            mask |= u64::from(_mm256_movemask_ps(eq) as u8) << i;
-            i += 8;
-        }
-        if i < n {
-            // The last 1-7 stamps in one masked vector (conv1's rows of 5 are nothing else);
-            // masked-off lanes read as 0 and are cleared from the mask whatever the generation.
-            let rem = n - i;
-            // SAFETY: TAIL has 16 values and 8 − rem is in 1..=7; enabled lanes are below n.
-            let eq = unsafe {
-                let lanes = _mm256_loadu_si256(TAIL.as_ptr().add(8 - rem).cast());
-                let v = _mm256_maskload_epi32(stamps.as_ptr().add(i).cast(), lanes);
-                _mm256_castsi256_ps(_mm256_cmpeq_epi32(v, g))
-            };
-            let bits = (_mm256_movemask_ps(eq) as u32) & ((1 << rem) - 1);
-            mask |= u64::from(bits) << i;
-        }
-        mask
-    }
-
-    /// The 2-bits-per-lane byte mask of 16-bit lanes, as 1 bit per lane.
-    #[inline]
-    fn lane_bits(mask: u32) -> u32 {
-        let mut m = mask & 0x5555_5555;
-        m = (m | (m >> 1)) & 0x3333_3333;
-        m = (m | (m >> 2)) & 0x0F0F_0F0F;
-        m = (m | (m >> 4)) & 0x00FF_00FF;
-        (m | (m >> 8)) & 0xFFFF
-    }
-
-    /// # Safety
-    /// The CPU must support AVX2; `counts` holds `LANES` (16) values and `len <= 16`.
-    #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn count_run_avx2(counts: &mut [u16], len: usize, wake_at: u16) -> u32 {
-        // SAFETY: 16 counts, and ONES has 32 values with 16 − len in 0..=16.
-        unsafe {
-            // Unaligned loads and stores: the casts need no alignment.
-            let p = counts.as_mut_ptr();
-            let inc = _mm256_loadu_si256(ONES.as_ptr().add(16 - len).cast());
-            let n = _mm256_sub_epi16(_mm256_loadu_si256(p.cast()), inc);
-            _mm256_storeu_si256(p.cast(), n);
-            let at = _mm256_set1_epi16(wake_at as i16 - 1);
-            let hit = _mm256_and_si256(_mm256_cmpgt_epi16(n, at), inc);
-            lane_bits(_mm256_movemask_epi8(hit) as u32)
-        }
-    }
-
-    /// Counts the rows first, keeping only the union of their lanes at or above `wake_at`:
-    /// nearly always none of the counted lanes is (every position short of waking), and the
-    /// rows' bit masks are then never built. Otherwise a second pass builds them from the
-    /// counts just stored.
-    ///
-    /// # Safety
-    /// The CPU must support AVX2; for every `r < hits.len()`, `counts + r · stride` holds
-    /// `LANES` (16) values; `len <= 16`.
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn count_rows_avx2(
-        counts: *mut u16,
-        stride: usize,
-        len: usize,
-        wake_at: u16,
-        hits: &mut [u32],
-    ) -> bool {
-        // SAFETY: ONES has 32 values and 16 − len is in 0..=16; the rows are the caller's.
-        unsafe {
-            let inc = _mm256_loadu_si256(ONES.as_ptr().add(16 - len).cast());
-            let at = _mm256_set1_epi16(wake_at as i16 - 1);
-            let mut reached = _mm256_setzero_si256();
-            for r in 0..hits.len() {
-                let p = counts.add(r * stride);
-                let n = _mm256_sub_epi16(_mm256_loadu_si256(p.cast()), inc);
-                _mm256_storeu_si256(p.cast(), n);
-                reached = _mm256_or_si256(reached, _mm256_cmpgt_epi16(n, at));
-            }
-            // Lanes past `len` belong to other positions, which this input did not count.
-            if _mm256_testz_si256(reached, inc) != 0 {
-                return false;
-            }
-            for (r, h) in hits.iter_mut().enumerate() {
-                let n = _mm256_loadu_si256(counts.add(r * stride).cast());
-                let hit = _mm256_and_si256(_mm256_cmpgt_epi16(n, at), inc);
-                *h = lane_bits(_mm256_movemask_epi8(hit) as u32);
-            }
-            true
-        }
-    }
-
-    /// Output rows of a whole footprint of Table 1's conv2, whose counting `count_spikes_avx2`
-    /// unrolls.
-    const CONV2_ROWS: usize = 10;
-
-    /// `super::ConvState::add_spikes` for a layer that wakes by count: per spike, its output
-    /// rows (`row_spans`, `col_spans`) counted one vector each by `count_rows_avx2` (inlined),
-    /// and only where some position reached its waking count the rest of `add_clipped`
-    /// (`add_counted`).
-    ///
-    /// # Safety
-    /// The CPU must support AVX2; the layer wakes by count (so `k <= LANES`).
-    #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn count_spikes_avx2(
-        s: &mut super::ConvState,
-        w: &[f32],
-        spikes: &[(u32, u32, u32)],
-    ) {
-        let out_w = s.geom.out_w;
-        // Written by `count_rows_avx2` for every row it counts before `add_counted` reads
-        // them: zeroed once, not per spike.
-        let mut hits = [0u32; super::FUSED_ROWS];
-        for &(c, iy, ix) in spikes {
-            let ([r0, rows], [c0, cols]) = (s.row_spans[iy as usize], s.col_spans[ix as usize]);
-            if cols == 0 {
-                continue;
-            }
-            let p0 = (r0 + c0) as usize;
-            s.inputs.push(super::Footprint {
-                first: p0 as u32,
-                rows: rows as u16,
-                cols: cols as u16,
-            });
-            let (rows, len) = (rows as usize, cols as usize);
-            s.touched_lanes += rows * len;
-            if rows == 0 {
-                continue;
-            }
-            let counts = &mut s.counts[p0..p0 + (rows - 1) * out_w + super::LANES];
-            assert!(len <= super::LANES, "one vector of counts per row");
-            let (p, wake_at) = (counts.as_mut_ptr(), s.wake_at);
-            // SAFETY: the CPU has AVX2 (this function's contract); each of the `rows` rows
-            // holds LANES counts (inside `counts`, whose range is checked above); len <= 16.
-            // A footprint of Table 1's conv2 (`k` = 10) unclipped by the layer's edges, most
-            // of them: counted by a copy with its rows unrolled.
-            let reached = if rows == CONV2_ROWS {
-                unsafe { count_rows_avx2(p, out_w, len, wake_at, &mut hits[..CONV2_ROWS]) }
-            } else {
-                unsafe { count_rows_avx2(p, out_w, len, wake_at, &mut hits[..rows]) }
-            };
-            if reached {
-                s.add_counted(w, c as usize, iy as usize, ix as usize, p0, &hits[..rows]);
-            }
-        }
-    }
-
-    /// # Safety
-    /// `counts` holds `LANES` (16) values and `len <= 16`.
-    pub(super) unsafe fn count_run_sse2(counts: &mut [u16], len: usize, wake_at: u16) -> u32 {
-        let mut mask = 0;
-        // SAFETY: 16 counts in two halves of 8, and ONES has 32 values with 16 − len in 0..=16.
-        unsafe {
-            let at = _mm_set1_epi16(wake_at as i16 - 1);
-            for half in 0..2 {
-                let p = counts.as_mut_ptr().add(8 * half);
-                let inc = _mm_loadu_si128(ONES.as_ptr().add(16 - len + 8 * half).cast());
-                let n = _mm_sub_epi16(_mm_loadu_si128(p.cast()), inc);
-                _mm_storeu_si128(p.cast(), n);
-                let hit = _mm_and_si128(_mm_cmpgt_epi16(n, at), inc);
-                mask |= (_mm_movemask_epi8(hit) as u32) << (16 * half);
-            }
-        }
-        lane_bits(mask)
-    }
-
-    /// The crossing mask of one vector of lanes.
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn crossed(old: __m256, new: __m256, t: __m256) -> i32 {
-        _mm256_movemask_ps(_mm256_and_ps(
-            _mm256_cmp_ps::<_CMP_LT_OQ>(old, t),
-            _mm256_cmp_ps::<_CMP_GE_OQ>(new, t),
-        ))
-    }
-
-    /// # Safety
-    /// The CPU must support AVX2; `w`, `thr` as long as `pot`, `masks` `ceil(len / 8)` bytes.
-    ///
-    /// Four vectors per step that record no masks while none of their lanes crossed (most runs
-    /// of conv2 and conv3 have none): at the first step that has some, the masks before it are
-    /// zero and `add_detect_rest_avx2` records the rest.
-    #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn add_detect_avx2(
-        pot: &mut [f32],
-        w: &[f32],
-        thr: &[f32],
-        masks: &mut [u8],
-    ) -> bool {
-        let n = pot.len();
-        let (p, wp, tp, mp) = (
-            pot.as_mut_ptr(),
-            w.as_ptr(),
-            thr.as_ptr(),
-            masks.as_mut_ptr(),
-        );
-        let mut i = 0;
-        while i + 32 <= n {
-            // SAFETY: i + 32 <= n, the slices hold n values and masks n / 8 bytes.
-            unsafe {
-                let (c0, c1, c2, c3) = (
-                    add_vector(p, wp, tp, i),
-                    add_vector(p, wp, tp, i + 8),
-                    add_vector(p, wp, tp, i + 16),
-                    add_vector(p, wp, tp, i + 24),
-                );
-                let any = _mm256_or_si256(_mm256_or_si256(c0, c1), _mm256_or_si256(c2, c3));
-                if _mm256_testz_si256(any, any) == 0 {
-                    let bits = |c: __m256i| _mm256_movemask_ps(_mm256_castsi256_ps(c)) as u32;
-                    let step = bits(c0) | bits(c1) << 8 | bits(c2) << 16 | bits(c3) << 24;
-                    add_detect_crossed_avx2(p, wp, tp, mp, n, i, step);
-                    return true;
-                }
-            }
-            i += 32;
-        }
-        // SAFETY: as for this function, from lane i (a multiple of 8).
-        let any = unsafe { add_detect_rest_avx2(p, wp, tp, mp, n, i) };
-        if any {
-            // SAFETY: i / 8 <= n / 8 bytes.
-            unsafe { std::ptr::write_bytes(mp, 0, i / 8) };
-        }
-        any
-    }
-
-    /// The rest of `add_detect_avx2` once the step of the 32 lanes from `i` had crossings
-    /// (`step`, their masks' 4 bytes): the masks before it are zero, its own are `step`, and
-    /// the lanes after it are added and recorded. Out of line, so that the loop of
-    /// `add_detect_avx2` saves no registers for it.
-    ///
-    /// # Safety
-    /// As for `add_detect_rest_avx2`, with `i + 32 <= n`.
-    #[cold]
-    #[inline(never)]
-    #[target_feature(enable = "avx2")]
-    unsafe fn add_detect_crossed_avx2(
-        p: *mut f32,
-        wp: *const f32,
-        tp: *const f32,
-        mp: *mut u8,
-        n: usize,
-        i: usize,
-        step: u32,
-    ) {
-        // SAFETY: masks hold ceil(n / 8) >= i / 8 + 4 bytes; the rest as the caller guarantees.
-        unsafe {
-            std::ptr::write_bytes(mp, 0, i / 8);
-            mp.add(i / 8)
-                .cast::<[u8; 4]>()
-                .write_unaligned(step.to_le_bytes());
-            add_detect_rest_avx2(p, wp, tp, mp, n, i + 32);
-        }
-    }
-
-    /// `pot += w` for the 8 lanes from `i`: which crossed `thr` (as `crossed_lanes`).
-    ///
-    /// # Safety
-    /// The CPU must support AVX2; `p`, `wp` and `tp` hold `i + 8` values.
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    unsafe fn add_vector(p: *mut f32, wp: *const f32, tp: *const f32, i: usize) -> __m256i {
-        // SAFETY: the caller guarantees the 8 lanes from i.
-        unsafe {
-            let old = _mm256_loadu_ps(p.add(i));
-            let new = _mm256_add_ps(old, _mm256_loadu_ps(wp.add(i)));
-            _mm256_storeu_ps(p.add(i), new);
-            crossed_lanes(old, new, _mm256_loadu_ps(tp.add(i)))
-        }
-    }
-
-    /// `add_detect_avx2` from lane `i` (a multiple of 8) on, recording every mask from byte
-    /// `i / 8`; returns whether any of these lanes crossed.
-    ///
-    /// # Safety
-    /// The CPU must support AVX2; `w`, `thr` and `pot` hold `n` values and `masks`
-    /// `ceil(n / 8)` bytes; `i <= n`.
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    unsafe fn add_detect_rest_avx2(
-        p: *mut f32,
-        wp: *const f32,
-        tp: *const f32,
-        mp: *mut u8,
-        n: usize,
-        mut i: usize,
-    ) -> bool {
-        let mut any = 0;
-        // Two vectors per step: fewer instructions on the loop.
-        while i + 16 <= n {
-            // SAFETY: i + 16 <= n, the slices hold n values and masks n / 8 bytes.
-            unsafe {
-                let old0 = _mm256_loadu_ps(p.add(i));
-                let new0 = _mm256_add_ps(old0, _mm256_loadu_ps(wp.add(i)));
-                _mm256_storeu_ps(p.add(i), new0);
-                let old1 = _mm256_loadu_ps(p.add(i + 8));
-                let new1 = _mm256_add_ps(old1, _mm256_loadu_ps(wp.add(i + 8)));
-                _mm256_storeu_ps(p.add(i + 8), new1);
-                let mask0 = crossed(old0, new0, _mm256_loadu_ps(tp.add(i)));
-                let mask1 = crossed(old1, new1, _mm256_loadu_ps(tp.add(i + 8)));
-                *mp.add(i / 8) = mask0 as u8;
-                *mp.add(i / 8 + 1) = mask1 as u8;
-                any |= mask0 | mask1;
-            }
-            i += 16;
-        }
-        if i + 8 <= n {
-            // SAFETY: i + 8 <= n, the slices hold n values and masks n / 8 bytes.
-            unsafe {
-                let old = _mm256_loadu_ps(p.add(i));
-                let new = _mm256_add_ps(old, _mm256_loadu_ps(wp.add(i)));
-                _mm256_storeu_ps(p.add(i), new);
-                let mask = crossed(old, new, _mm256_loadu_ps(tp.add(i)));
-                *mp.add(i / 8) = mask as u8;
-                any |= mask;
-            }
-            i += 8;
-        }
-        if i < n {
-            // The last 1-7 lanes in one masked vector (masked-off lanes are neither read nor
-            // written, and compare as 0 < 0: not crossed).
-            // SAFETY: TAIL has 16 values and 8 − (n − i) is in 1..=7; enabled lanes are below n.
-            unsafe {
-                let lanes = _mm256_loadu_si256(TAIL.as_ptr().add(8 - (n - i)).cast());
-                let old = _mm256_maskload_ps(p.add(i), lanes);
-                let new = _mm256_add_ps(old, _mm256_maskload_ps(wp.add(i), lanes));
-                _mm256_maskstore_ps(p.add(i), lanes, new);
-                let mask = crossed(old, new, _mm256_maskload_ps(tp.add(i), lanes));
-                *mp.add(i / 8) = mask as u8;
-                any |= mask;
-            }
-        }
-        any != 0
-    }
-
-    /// # Safety
-    /// The CPU must support AVX2; for every `r < masks.len()`, `pot + r · p_stride` and
-    /// `w − r · w_stride` hold `thr.len() ≤ 32` values.
-    #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn add_rows_avx2(
-        pot: *mut f32,
-        p_stride: usize,
-        w: *const f32,
-        w_stride: usize,
-        thr: &[f32],
-        masks: &mut [u32],
-    ) -> bool {
-        let n = thr.len();
-        let (full, rem) = (n / 8, n % 8);
-        let tp = thr.as_ptr();
-        // SAFETY: TAIL has 16 values and 8 − rem is in 1..=8.
-        let lanes = unsafe { _mm256_loadu_si256(TAIL.as_ptr().add(8 - rem).cast()) };
-        let mut any = 0u32;
-        for (r, slot) in masks.iter_mut().enumerate() {
-            // SAFETY: the caller guarantees both rows hold n values.
-            let (p, wp) = unsafe { (pot.add(r * p_stride), w.sub(r * w_stride)) };
-            let mut mask = 0u32;
-            for v in 0..full {
-                let i = 8 * v;
-                // SAFETY: i + 8 <= n values in each row and in thr.
-                unsafe {
-                    let old = _mm256_loadu_ps(p.add(i));
-                    let new = _mm256_add_ps(old, _mm256_loadu_ps(wp.add(i)));
-                    _mm256_storeu_ps(p.add(i), new);
-                    mask |= (crossed(old, new, _mm256_loadu_ps(tp.add(i))) as u32) << i;
-                }
-            }
-            if rem > 0 {
-                let i = 8 * full;
-                // SAFETY: the enabled lanes are below n (masked-off lanes are neither read nor
-                // written, and compare as 0 < 0: not crossed).
-                unsafe {
-                    let old = _mm256_maskload_ps(p.add(i), lanes);
-                    let new = _mm256_add_ps(old, _mm256_maskload_ps(wp.add(i), lanes));
-                    _mm256_maskstore_ps(p.add(i), lanes, new);
-                    mask |= (crossed(old, new, _mm256_maskload_ps(tp.add(i), lanes)) as u32) << i;
-                }
-            }
-            *slot = mask;
-            any |= mask;
-        }
-        any != 0
-    }
-
-    /// Which lanes crossed (all ones) and which did not (zero), of one vector.
-    #[inline]
-    #[target_feature(enable = "avx2")]
-    fn crossed_lanes(old: __m256, new: __m256, t: __m256) -> __m256i {
-        _mm256_castps_si256(_mm256_and_ps(
-            _mm256_cmp_ps::<_CMP_LT_OQ>(old, t),
-            _mm256_cmp_ps::<_CMP_GE_OQ>(new, t),
-        ))
-    }
-
-    /// `super::add_rows_fixed`: two full vectors and one half vector per row, whose crossing
-    /// lanes are packed to bytes (in lane order, by one permutation) for a single movemask per
-    /// row. With `fresh`, a lane crossed where its new potential is at or above its threshold.
-    /// Returns the two words of crossing lanes.
-    ///
-    /// # Safety
-    /// The CPU must support AVX2; for every `r < FIXED_ROWS`, `pot + r · p_stride` holds
-    /// `FIXED_RUN` values.
-    #[target_feature(enable = "avx2")]
-    pub(super) unsafe fn add_rows_fixed_avx2(
-        pot: *mut f32,
-        p_stride: usize,
-        kernel: &[f32; super::FIXED_KERNEL],
-        thr: &[f32; super::FIXED_RUN],
-        fresh: bool,
-    ) -> (u64, u64) {
-        // SAFETY: as for this function.
-        unsafe { add_rows_fixed_body(pot, p_stride, kernel, thr, fresh) }
-    }
-
-    /// The body of `add_rows_fixed_avx2`, inlined into each caller: compiled for AVX2 only
-    /// where the caller is (`add_rows_fixed` with `INLINE`), so that it is then inlined whole.
-    ///
-    /// # Safety
-    /// As for `add_rows_fixed_avx2`.
-    #[allow(clippy::inline_always)]
-    #[inline(always)]
-    pub(super) unsafe fn add_rows_fixed_body(
-        pot: *mut f32,
-        p_stride: usize,
-        kernel: &[f32; super::FIXED_KERNEL],
-        thr: &[f32; super::FIXED_RUN],
-        fresh: bool,
-    ) -> (u64, u64) {
-        const _: () = assert!(super::FIXED_RUN == 20, "two vectors and a half per row");
-        // SAFETY: thr holds FIXED_RUN values.
-        let (t0, t1, t2) = unsafe {
-            (
-                _mm256_loadu_ps(thr.as_ptr()),
-                _mm256_loadu_ps(thr.as_ptr().add(8)),
-                _mm_loadu_ps(thr.as_ptr().add(16)),
-            )
-        };
-        // After the packs, the 32-bit groups of bytes hold lanes 0-3, 8-11, 16-19, none, 4-7,
-        // 12-15, none, none: this puts them back in order.
-        let order = _mm256_setr_epi32(0, 4, 1, 5, 2, 3, 6, 7);
-        let mut words = [0u64; 2];
-        for r in 0..super::FIXED_ROWS {
-            // SAFETY: the caller guarantees that the row holds FIXED_RUN values; the kernel's
-            // row `FIXED_ROWS − 1 − r` is inside it.
-            let (c0, c1, c2) = unsafe {
-                let p = pot.add(r * p_stride);
-                let wp = kernel
-                    .as_ptr()
-                    .add((super::FIXED_ROWS - 1 - r) * super::FIXED_RUN);
-                let old0 = _mm256_loadu_ps(p);
-                let new0 = _mm256_add_ps(old0, _mm256_loadu_ps(wp));
-                _mm256_storeu_ps(p, new0);
-                let old1 = _mm256_loadu_ps(p.add(8));
-                let new1 = _mm256_add_ps(old1, _mm256_loadu_ps(wp.add(8)));
-                _mm256_storeu_ps(p.add(8), new1);
-                let old2 = _mm_loadu_ps(p.add(16));
-                let new2 = _mm_add_ps(old2, _mm_loadu_ps(wp.add(16)));
-                _mm_storeu_ps(p.add(16), new2);
-                if fresh {
-                    (
-                        _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GE_OQ>(new0, t0)),
-                        _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GE_OQ>(new1, t1)),
-                        _mm_castps_si128(_mm_cmpge_ps(new2, t2)),
-                    )
-                } else {
-                    let c2 = _mm_castps_si128(_mm_and_ps(
-                        _mm_cmplt_ps(old2, t2),
-                        _mm_cmpge_ps(new2, t2),
-                    ));
-                    (
-                        crossed_lanes(old0, new0, t0),
-                        crossed_lanes(old1, new1, t1),
-                        c2,
-                    )
-                }
-            };
-            let halves = _mm256_packs_epi32(c0, c1);
-            let tail = _mm256_zextsi128_si256(_mm_packs_epi32(c2, _mm_setzero_si128()));
-            let bytes = _mm256_permutevar8x32_epi32(_mm256_packs_epi16(halves, tail), order);
-            let mask = u64::from(_mm256_movemask_epi8(bytes) as u32);
-            words[r / super::WORD_ROWS] |= mask << (r % super::WORD_ROWS * super::FIXED_RUN);
-        }
-        (words[0], words[1])
-    }
-
-    /// # Safety
-    /// `w`, `thr` as long as `pot`, `masks` `ceil(len / 8)` bytes.
-    pub(super) unsafe fn add_detect_sse2(
-        pot: &mut [f32],
-        w: &[f32],
-        thr: &[f32],
-        masks: &mut [u8],
-    ) -> bool {
-        let n = pot.len();
-        let (p, wp, tp, mp) = (
-            pot.as_mut_ptr(),
-            w.as_ptr(),
-            thr.as_ptr(),
-            masks.as_mut_ptr(),
-        );
-        let mut any = 0;
-        let mut i = 0;
-        while i + 8 <= n {
-            let mut mask = 0;
-            for half in 0..2 {
-                let j = i + 4 * half;
-                // SAFETY: j + 4 <= n and the slices hold n values.
-                unsafe {
-                    let old = _mm_loadu_ps(p.add(j));
-                    let new = _mm_add_ps(old, _mm_loadu_ps(wp.add(j)));
-                    _mm_storeu_ps(p.add(j), new);
-                    let t = _mm_loadu_ps(tp.add(j));
-                    mask |= _mm_movemask_ps(_mm_and_ps(_mm_cmplt_ps(old, t), _mm_cmpge_ps(new, t)))
-                        << (4 * half);
-                }
-            }
-            // SAFETY: i / 8 < n / 8 bytes.
-            unsafe { *mp.add(i / 8) = mask as u8 };
-            any |= mask;
-            i += 8;
-        }
-        let tail = i < n && super::add_detect_scalar(pot, w, thr, masks, i);
-        any != 0 || tail
-    }
-}
-
-/// Whether the CPU has AVX2.
-pub(crate) fn has_avx2() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx2")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
-}
 
 #[cfg(test)]
 #[allow(clippy::float_cmp)] // exact equality is the property under test
@@ -2929,7 +2038,7 @@ mod tests {
             for density in [2u64, 3, 8] {
                 let stamps: Vec<u32> = (0..g.in_h * g.in_w)
                     .map(|_| {
-                        if rng() % density == 0 {
+                        if rng().is_multiple_of(density) {
                             7
                         } else {
                             (rng() % 7) as u32
@@ -3076,211 +2185,10 @@ mod tests {
             };
             for (oy, ox) in [(0, 0), (3, 7), (g.out_h - 1, g.out_w - 1), (g.out_h / 2, 1)] {
                 let (mut a, mut b) = (Vec::new(), Vec::new());
-                each_short_lane(&g, fired, has_avx2(), oy, ox, |iy, l| a.push((iy, l)));
-                each_fired_lane(&g, fired, has_avx2(), oy, ox, |iy, l| b.push((iy, l)));
+                each_short_lane(&g, fired, Avx2::detect(), oy, ox, |iy, l| a.push((iy, l)));
+                each_fired_lane(&g, fired, Avx2::detect(), oy, ox, |iy, l| b.push((iy, l)));
                 assert!(!b.is_empty());
                 assert_eq!(a, b, "{in_ch} channels, k {k}, ({oy}, {ox})");
-            }
-        }
-    }
-
-    /// `add_rows` (every run length it takes, several rows, strided) equals `add_detect_scalar`
-    /// row by row.
-    #[test]
-    fn add_rows_equals_scalar() {
-        if !has_avx2() {
-            return; // add_rows is only called where the CPU has AVX2
-        }
-        let mut rng = crate::network::xorshift(11u64);
-        let mut next = || {
-            let s = rng();
-            (s >> 40) as f32 / (1u64 << 20) as f32
-        };
-        let (p_stride, w_stride) = (40, 33);
-        for run in 1..=32 {
-            for rows in 1..=5 {
-                let pot: Vec<f32> = (0..rows * p_stride).map(|_| next() * 2.0).collect();
-                let w: Vec<f32> = (0..rows * w_stride).map(|_| next()).collect();
-                let thr: Vec<f32> = (0..run).map(|_| next() * 3.0).collect();
-                let (p0, w0) = (3, (rows - 1) * w_stride);
-                let mut a = pot.clone();
-                let mut masks = vec![0u32; rows];
-                let any = add_rows(&mut a, p0, p_stride, &w, w0, w_stride, &thr, &mut masks);
-                let mut b = pot.clone();
-                let mut any_b = false;
-                for (r, &mask) in masks.iter().enumerate() {
-                    let (p, q) = (p0 + r * p_stride, w0 - r * w_stride);
-                    let mut bytes = [0u8; 4];
-                    any_b |=
-                        add_detect_scalar(&mut b[p..p + run], &w[q..q + run], &thr, &mut bytes, 0);
-                    assert_eq!(mask, u32::from_le_bytes(bytes), "run {run}, row {r}");
-                }
-                assert_eq!((a, any), (b, any_b), "run {run}, rows {rows}");
-            }
-        }
-    }
-
-    /// `add_rows_fixed` equals `add_rows` on its shape, crossings in every lane included.
-    #[test]
-    fn add_rows_fixed_equals_add_rows() {
-        let Some(avx2) = Avx2::detect() else {
-            return; // add_rows_fixed is only called where the CPU has AVX2
-        };
-        let mut rng = crate::network::xorshift(13u64);
-        let mut next = || {
-            let s = rng();
-            (s >> 40) as f32 / (1u64 << 20) as f32
-        };
-        let p_stride = 47;
-        for round in 0..50 {
-            let pot: Vec<f32> = (0..FIXED_ROWS * p_stride).map(|_| next() * 2.0).collect();
-            let kernel: [f32; FIXED_KERNEL] = std::array::from_fn(|_| next());
-            let thr: [f32; FIXED_RUN] = std::array::from_fn(|_| next() * 3.0);
-            let p0 = round % 7;
-            // `fresh` only where its promise holds: every lane below its threshold or `−∞`.
-            let mut below = pot.clone();
-            for r in 0..FIXED_ROWS {
-                for (l, &t) in thr.iter().enumerate() {
-                    let v = &mut below[p0 + r * p_stride + l];
-                    *v = if (r * FIXED_RUN + l + round) % 7 == 3 {
-                        f32::NEG_INFINITY
-                    } else {
-                        let v = t * (next() / 16.0);
-                        if v < t {
-                            v
-                        } else {
-                            0.0
-                        }
-                    };
-                }
-            }
-            for (pot, fresh) in [(pot, false), (below.clone(), false), (below, true)] {
-                let (mut a, mut b) = (pot.clone(), pot.clone());
-                let words =
-                    add_rows_fixed::<false>(avx2, &mut a[p0..], p_stride, &kernel, &thr, fresh);
-                // Inlined (here into code not compiled for AVX2, where its intrinsics are
-                // called): the same.
-                let mut c = pot.clone();
-                let inlined =
-                    add_rows_fixed::<true>(avx2, &mut c[p0..], p_stride, &kernel, &thr, fresh);
-                assert_eq!(
-                    (&c, inlined),
-                    (&a, words),
-                    "inlined, round {round}, {fresh}"
-                );
-                // Row r reads the kernel's row FIXED_ROWS − 1 − r.
-                let w0 = (FIXED_ROWS - 1) * FIXED_RUN;
-                let mut masks = [0u32; FIXED_ROWS];
-                let any = add_rows(
-                    &mut b, p0, p_stride, &kernel, w0, FIXED_RUN, &thr, &mut masks,
-                );
-                let mut want = [0u64; 2];
-                for (r, &mask) in masks.iter().enumerate() {
-                    want[r / WORD_ROWS] |= u64::from(mask) << (r % WORD_ROWS * FIXED_RUN);
-                }
-                assert_eq!((&a, words), (&b, want), "round {round}, {fresh}");
-                assert_eq!(any, want != [0; 2]);
-            }
-        }
-    }
-
-    /// The vector kernels add and detect exactly like the scalar loop, at every length and
-    /// alignment.
-    #[test]
-    fn add_detect_equals_scalar() {
-        let mut rng = crate::network::xorshift(7u64);
-        let mut next = || {
-            let s = rng();
-            (s >> 40) as f32 / (1u64 << 20) as f32
-        };
-        // Long runs, whose first crossing (if any) comes in any step of the vector loops.
-        for n in 0..80 {
-            for (offset, cut) in
-                (0..3).flat_map(|o| [0, n / 3, n / 2, n - n.min(5)].map(|c| (o, c)))
-            {
-                let pot: Vec<f32> = (0..n + offset).map(|_| next() * 2.0).collect();
-                let w: Vec<f32> = (0..n + offset).map(|_| next()).collect();
-                let mut thr: Vec<f32> = (0..n + offset).map(|_| next() * 3.0).collect();
-                if let Some(t) = thr.last_mut() {
-                    *t = f32::INFINITY;
-                }
-                // No crossing before lane `cut`.
-                thr[offset..offset + cut].fill(f32::INFINITY);
-                let (mut a, mut b) = (pot.clone(), pot.clone());
-                // Masks hold garbage before (they are meaningful only when some lane crossed).
-                let (mut ma, mut mb) = (vec![0xa5u8; 16], vec![0u8; 16]);
-                let any_a = add_detect(
-                    has_avx2(),
-                    &mut a[offset..],
-                    &w[offset..],
-                    &thr[offset..],
-                    &mut ma,
-                );
-                let any_b =
-                    add_detect_scalar(&mut b[offset..], &w[offset..], &thr[offset..], &mut mb, 0);
-                assert_eq!((a, any_a), (b, any_b));
-                if any_b {
-                    assert_eq!(ma[..n.div_ceil(8)], mb[..n.div_ceil(8)]);
-                }
-                #[cfg(target_arch = "x86_64")]
-                {
-                    let mut c = pot.clone();
-                    let mut mc = vec![0u8; 16];
-                    // SAFETY: lengths as required.
-                    let any_c = unsafe {
-                        simd::add_detect_sse2(
-                            &mut c[offset..],
-                            &w[offset..],
-                            &thr[offset..],
-                            &mut mc,
-                        )
-                    };
-                    assert_eq!(any_c, any_b);
-                    assert_eq!(mc[..n.div_ceil(8)], mb[..n.div_ceil(8)]);
-                }
-                assert!(any_b == mb.iter().any(|&m| m != 0));
-            }
-        }
-    }
-
-    /// The vector counters count and report like the scalar loop, at every length, and leave
-    /// the lanes past the run alone.
-    #[test]
-    fn count_run_equals_scalar() {
-        for len in 0..=LANES {
-            for wake_at in [1u16, 2, 3, 7, AWAKE - 1] {
-                let start: Vec<u16> = (0..LANES as u16)
-                    .map(|i| if i % 5 == 4 { AWAKE | i } else { i % 4 })
-                    .collect();
-                let mut want = start.clone();
-                let hits = count_run_scalar(&mut want, len, wake_at);
-                assert_eq!(want[len..], start[len..]);
-                let mut got = start.clone();
-                assert_eq!(count_run(has_avx2(), &mut got, len, wake_at), hits);
-                assert_eq!(got, want);
-                #[cfg(target_arch = "x86_64")]
-                {
-                    let mut got = start.clone();
-                    // SAFETY: LANES counts, len ≤ LANES.
-                    let sse = unsafe { simd::count_run_sse2(&mut got, len, wake_at) };
-                    assert_eq!((sse, got), (hits, want));
-                }
-            }
-        }
-    }
-
-    /// The vector stamp test equals the scalar one at every length up to 64.
-    #[test]
-    fn fired_mask_equals_scalar() {
-        let stamps: Vec<u32> = (0..64u32).map(|i| (i * 7 + i / 5) % 3).collect();
-        for n in 0..=64 {
-            for generation in 0..3 {
-                let want = fired_mask_scalar(&stamps[..n], generation);
-                assert_eq!(fired_mask(has_avx2(), &stamps[..n], generation), want);
-                assert_eq!(
-                    want.count_ones() as usize,
-                    stamps[..n].iter().filter(|&&s| s == generation).count()
-                );
             }
         }
     }

@@ -205,10 +205,9 @@ impl PoolState {
         if self.fired[i] != generation {
             self.fired[i] = generation;
             // SAFETY: `i < n`, and `time` and `causes` hold at least `n` entries (above).
-            unsafe {
-                *self.time.get_unchecked_mut(i) = t;
-                *self.causes.get_unchecked_mut(i) = bit;
-            }
+            unsafe { *self.time.get_unchecked_mut(i) = t };
+            // SAFETY: as above.
+            unsafe { *self.causes.get_unchecked_mut(i) = bit };
             out.push((c.map, (rk >> 8) as u16 as u32, (ck >> 8) as u16 as u32));
         // SAFETY: as above.
         } else if unsafe { *self.time.get_unchecked(i) } == t {

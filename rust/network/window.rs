@@ -35,7 +35,6 @@ use super::batch::Spikes;
 use super::cause::{self, Causes};
 use super::config::NetworkConfig;
 #[cfg(target_arch = "x86_64")]
-use super::conv::has_avx2;
 use super::conv::{ConvState, Crossing, Fired};
 use super::detection::{detection, Detection};
 use super::geometry::Geometry;
@@ -44,6 +43,7 @@ use super::pool::{PoolSpike, PoolState};
 use super::winners::{Winner, Wta};
 use super::{ConvLayer, Layer};
 use crate::error::{Error, Result};
+use crate::simd::Avx2;
 
 /// A spike of a layer, as reported in traces.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -89,6 +89,8 @@ pub struct WindowState {
     wta: Wta,
     /// Layers run in inference: `Layer::index() < depth`.
     depth: usize,
+    /// Whether the CPU has AVX2 (asked once, at construction).
+    avx2: Option<Avx2>,
 }
 
 impl WindowState {
@@ -124,6 +126,7 @@ impl WindowState {
             training: None,
             wta: Wta::default(),
             depth: Layer::ALL.len(),
+            avx2: Avx2::detect(),
         }
     }
 
@@ -397,32 +400,24 @@ impl WindowState {
         Ok(())
     }
 
-    /// Whether `take_valid` may take these spikes: see `push_spikes`.
+    /// Whether `take_valid` may take these spikes: see `push_spikes`. Compiled for AVX2 where
+    /// the CPU has it, whose vectors compare 64-bit times and take the largest of unsigned
+    /// 16-bit coordinates in one instruction each (SSE2 has neither).
     fn all_valid(&self, net: &Network, t: &[u64], x: &[u16], y: &[u16]) -> bool {
-        #[cfg(target_arch = "x86_64")]
-        if has_avx2() {
-            // SAFETY: the CPU has AVX2 (asked just above).
-            return unsafe { self.all_valid_avx2(net, t, x, y) };
+        match self.avx2 {
+            Some(avx2) => avx2.vectorize(
+                #[inline(always)]
+                move || self.all_valid_body(net, t, x, y),
+            ),
+            None => self.all_valid_body(net, t, x, y),
         }
-        self.all_valid_body(net, t, x, y)
-    }
-
-    /// `all_valid` compiled for AVX2, whose vectors compare 64-bit times and take the largest
-    /// of unsigned 16-bit coordinates in one instruction each (SSE2 has neither).
-    ///
-    /// # Safety
-    /// The CPU must support AVX2.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    unsafe fn all_valid_avx2(&self, net: &Network, t: &[u64], x: &[u16], y: &[u16]) -> bool {
-        self.all_valid_body(net, t, x, y)
     }
 
     /// The checks of `all_valid`, inlined into each of its compilations.
     #[allow(clippy::inline_always)]
     #[inline(always)]
     fn all_valid_body(&self, net: &Network, t: &[u64], x: &[u16], y: &[u16]) -> bool {
-        let after = |first: u64| first >= self.t0 && self.last_t.map_or(true, |l| first >= l);
+        let after = |first: u64| first >= self.t0 && self.last_t.is_none_or(|l| first >= l);
         // Passes without early exits (the spikes are valid but for a rare error), in forms the
         // compiler vectorises: the count of times that go backwards, the largest coordinates.
         let backwards = t
@@ -440,7 +435,7 @@ impl WindowState {
             && self.made_for(net)
             && self.training.is_none()
             && self.pending_t.is_none()
-            && t.first().map_or(true, |&first| after(first))
+            && t.first().is_none_or(|&first| after(first))
             && in_order
             && inside
     }
@@ -452,38 +447,30 @@ impl WindowState {
     /// # Safety
     /// `all_valid` must have passed `t`, `x`, `y` (every spike inside the sensor, which
     /// `stamp` relies on).
-    unsafe fn take_valid(&mut self, net: &Network, t: &[u64], x: &[u16], y: &[u16]) {
-        #[cfg(target_arch = "x86_64")]
-        if has_avx2() {
-            // SAFETY: the CPU has AVX2 (asked just above); the spikes are valid (our caller's
-            // contract).
-            unsafe { self.take_valid_avx2(net, t, x, y) };
-            return;
-        }
-        // SAFETY: as above.
-        unsafe { self.take_valid_body::<false, false>(net, t, x, y) };
-    }
-
-    /// `take_valid` compiled for AVX2, so that conv1's fixed-shape vector add
-    /// (`add_rows_fixed`, AVX2 only) is inlined into the loop instead of called per input.
     ///
-    /// # Safety
-    /// The CPU must support AVX2, and `all_valid` must have passed the spikes.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    unsafe fn take_valid_avx2(&mut self, net: &Network, t: &[u64], x: &[u16], y: &[u16]) {
-        // SAFETY: our caller's contract; `WHOLE` as `has_whole` says.
-        unsafe {
-            if self.conv[0].has_whole() {
-                self.take_valid_body::<true, true>(net, t, x, y);
-            } else {
-                self.take_valid_body::<true, false>(net, t, x, y);
-            }
+    /// Where the CPU has AVX2 the loop is compiled for it, so that conv1's fixed-shape vector
+    /// add (`add_rows_fixed`, AVX2 only) is inlined into it instead of called per input.
+    unsafe fn take_valid(&mut self, net: &Network, t: &[u64], x: &[u16], y: &[u16]) {
+        match self.avx2 {
+            Some(avx2) => avx2.vectorize(
+                #[inline(always)]
+                move || {
+                    if self.conv[0].has_whole() {
+                        // SAFETY: our caller's contract; conv1 has whole inputs.
+                        unsafe { self.take_valid_body::<true, true>(net, t, x, y) };
+                    } else {
+                        // SAFETY: our caller's contract.
+                        unsafe { self.take_valid_body::<true, false>(net, t, x, y) };
+                    }
+                },
+            ),
+            // SAFETY: our caller's contract.
+            None => unsafe { self.take_valid_body::<false, false>(net, t, x, y) },
         }
     }
 
     /// The loop of `take_valid`, inlined into each of its compilations; `AVX2` where that is
-    /// compiled for AVX2, `WHOLE` (with `AVX2`) where conv1 has whole inputs, which its adds
+    /// compiled for AVX2 (`Avx2::vectorize`), `WHOLE` (with `AVX2`) where conv1 has whole inputs, which its adds
     /// then do not test per input.
     ///
     /// # Safety
