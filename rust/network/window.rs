@@ -38,10 +38,10 @@ use super::config::NetworkConfig;
 use super::conv::{ConvState, Crossing, Fired};
 use super::detection::{detection, Detection};
 use super::geometry::Geometry;
+use super::layer::{ConvLayer, Layer};
 use super::model::Network;
 use super::pool::{PoolSpike, PoolState};
 use super::winners::{Winner, Wta};
-use super::{ConvLayer, Layer};
 use crate::error::{Error, Result};
 use crate::simd::Avx2;
 
