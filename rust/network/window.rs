@@ -455,39 +455,26 @@ impl WindowState {
             Some(avx2) => avx2.vectorize(
                 #[inline(always)]
                 move || {
-                    if self.conv[0].has_whole() {
-                        // SAFETY: our caller's contract; conv1 has whole inputs.
-                        unsafe { self.take_valid_body::<true, true>(net, t, x, y) };
-                    } else {
-                        // SAFETY: our caller's contract.
-                        unsafe { self.take_valid_body::<true, false>(net, t, x, y) };
-                    }
+                    // SAFETY: our caller's contract.
+                    unsafe { self.take_valid_body(net, t, x, y) };
                 },
             ),
             // SAFETY: our caller's contract.
-            None => unsafe { self.take_valid_body::<false, false>(net, t, x, y) },
+            None => unsafe { self.take_valid_body(net, t, x, y) },
         }
     }
 
-    /// The loop of `take_valid`, inlined into each of its compilations; `AVX2` where that is
-    /// compiled for AVX2 (`Avx2::vectorize`), `WHOLE` (with `AVX2`) where conv1 has whole inputs, which its adds
-    /// then do not test per input.
+    /// The loop of `take_valid`, inlined into each of its compilations. (Copies of it for
+    /// conv1 with and without whole inputs, which spared the test per input, saved under 2 %
+    /// of instructions: not kept.)
     ///
     /// # Safety
-    /// As `take_valid`'s; `WHOLE` only where conv1's `has_whole`.
+    /// As `take_valid`'s.
     #[allow(clippy::inline_always)]
     #[inline(always)]
-    unsafe fn take_valid_body<const AVX2: bool, const WHOLE: bool>(
-        &mut self,
-        net: &Network,
-        t: &[u64],
-        x: &[u16],
-        y: &[u16],
-    ) {
+    unsafe fn take_valid_body(&mut self, net: &Network, t: &[u64], x: &[u16], y: &[u16]) {
         let w = net.conv_weights(ConvLayer::Conv1).engine();
-        if AVX2 {
-            self.conv[0].load_kernel(w);
-        }
+        self.conv[0].load_kernel(w);
         // One pass over the zipped columns (no bounds checks per spike): a spike of a later
         // time completes the group before it, whose inputs are then run up the network.
         let mut group_t = t.first().copied().unwrap_or(0);
@@ -503,14 +490,7 @@ impl WindowState {
             let (xs, ys) = (usize::from(sx), usize::from(sy));
             // SAFETY: inside the sensor (our caller's contract).
             if unsafe { self.stamp(ys * self.width + xs, st) } {
-                if AVX2 && WHOLE {
-                    // SAFETY: conv1 has whole inputs (our caller's contract).
-                    unsafe { self.conv[0].add_inline_whole(w, ys, xs) };
-                } else if AVX2 {
-                    self.conv[0].add_inline(w, ys, xs);
-                } else {
-                    self.conv[0].add(w, 0, ys, xs);
-                }
+                self.conv[0].add_inline(w, ys, xs);
                 added = true;
             }
         }

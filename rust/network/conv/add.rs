@@ -14,8 +14,7 @@ impl ConvState {
     #[allow(clippy::inline_always)]
     #[inline(always)]
     pub fn add(&mut self, w: &[f32], c: usize, iy: usize, ix: usize) {
-        // SAFETY: without `WHOLE`, `add_in` has no contract.
-        unsafe { self.add_in::<false, false>(w, c, iy, ix) };
+        self.add_in::<false>(w, c, iy, ix);
     }
 
     /// `add` of channel 0 from a caller compiled for AVX2 (see `add_rows_fixed`'s `INLINE`),
@@ -24,35 +23,13 @@ impl ConvState {
     #[allow(clippy::inline_always)]
     #[inline(always)]
     pub fn add_inline(&mut self, w: &[f32], iy: usize, ix: usize) {
-        // SAFETY: without `WHOLE`, `add_in` has no contract.
-        unsafe { self.add_in::<true, false>(w, 0, iy, ix) };
+        self.add_in::<true>(w, 0, iy, ix);
     }
 
-    /// `add_inline` for a layer that has whole inputs, without testing for them per input.
-    ///
-    /// # Safety
-    /// `has_whole` must be true (as it stays: `whole` is set by `new` alone).
+    /// `add`, with `add_rows_fixed`'s `INLINE`.
     #[allow(clippy::inline_always)]
     #[inline(always)]
-    pub unsafe fn add_inline_whole(&mut self, w: &[f32], iy: usize, ix: usize) {
-        // SAFETY: `add_in`'s contract is this function's.
-        unsafe { self.add_in::<true, true>(w, 0, iy, ix) };
-    }
-
-    /// `add`, with `add_rows_fixed`'s `INLINE`; `WHOLE` where the caller knows the layer has
-    /// whole inputs, so that `whole` is not tested.
-    ///
-    /// # Safety
-    /// With `WHOLE`, `has_whole` must be true; without it, none.
-    #[allow(clippy::inline_always)]
-    #[inline(always)]
-    pub(super) unsafe fn add_in<const INLINE: bool, const WHOLE: bool>(
-        &mut self,
-        w: &[f32],
-        c: usize,
-        iy: usize,
-        ix: usize,
-    ) {
+    fn add_in<const INLINE: bool>(&mut self, w: &[f32], c: usize, iy: usize, ix: usize) {
         // An input's footprint is whole where it is `oy < rows` rows below the first such row
         // and `ox < cols` columns right of the first such column (one wrapping compare each);
         // its footprint's first output position is then `(oy, ox)`. (`rows` is 0 while the
@@ -67,8 +44,6 @@ impl ConvState {
                     self.add_clipped(w, c, iy, ix);
                 }
             }
-            // SAFETY: with `WHOLE`, the caller guarantees `has_whole` (this function's contract).
-            None if WHOLE => unsafe { std::hint::unreachable_unchecked() },
             None => self.add_clipped(w, c, iy, ix),
         }
     }

@@ -63,38 +63,3 @@ pub(super) fn each_fired_lane(
         }
     }
 }
-
-/// `each_fired_lane` (the same calls in the same order) for `gather`, where a row of the
-/// receptive field holds at most 64 inputs (every layer of Table 1): each row's stamps tested
-/// as one word, without the loop over words. Kept beside `each_fired_lane` rather than as its
-/// fast path: that walk is also `exact`'s, inlined into `resolve`, and taking this one into it
-/// measured recipe 240x180 1 % at +0.9 % instructions (from how `resolve` was then compiled).
-#[allow(clippy::inline_always)]
-#[inline(always)]
-pub(super) fn each_short_lane(
-    g: &ConvGeom,
-    fired: Fired<'_>,
-    avx2: Option<Avx2>,
-    oy: usize,
-    ox: usize,
-    mut f: impl FnMut(usize, usize),
-) {
-    let cols = g.inputs_of(ox, g.in_w);
-    let len = cols.len() * fired.channels;
-    if len > 64 {
-        each_fired_lane(g, fired, avx2, oy, ox, f);
-        return;
-    }
-    let rows = g.inputs_of(oy, g.in_h);
-    let stride = fired.width * fired.channels;
-    let first = (rows.start * fired.width + cols.start) * fired.channels;
-    for (r, iy) in rows.enumerate() {
-        let from = first + r * stride;
-        let mut mask = fired_mask(avx2, &fired.stamps[from..from + len], fired.generation);
-        while mask != 0 {
-            let l = mask.trailing_zeros() as usize;
-            mask &= mask - 1;
-            f(iy, l);
-        }
-    }
-}

@@ -477,11 +477,6 @@ impl ConvState {
         }
     }
 
-    /// Whether the layer has whole inputs (`Whole`): fixed from `new` on.
-    pub fn has_whole(&self) -> bool {
-        self.whole.is_some()
-    }
-
     /// Copy channel 0's kernel of the engine-layout weights `w` for `add_inline` (where the
     /// layer has whole inputs): once before a run of its inputs, not per input.
     pub fn load_kernel(&mut self, w: &[f32]) {

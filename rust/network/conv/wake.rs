@@ -1,7 +1,7 @@
 //! Waking by count: a position that reached its waking count gets its float32 potentials
 //! gathered from the inputs that fired (see the module docs of `conv`).
 
-use super::fired::{each_fired_lane, each_short_lane};
+use super::fired::each_fired_lane;
 use super::{ConvState, Fired, AWAKE};
 use crate::network::geometry::ConvGeom;
 use crate::simd::{fired_mask, Avx2};
@@ -151,11 +151,11 @@ pub(super) fn each_fired_run(
     let run = |l: u32, iy: usize| l as usize + (iy + g.p_lo - oy) * g.k - shift;
     let len = cols.len() * fired.channels;
     if len <= 64 {
-        // A lane of `each_short_lane`, a trailing-zero count of a word, is at most 64, inside
+        // A lane of a row of at most 64 inputs (a trailing-zero count of a word) is inside
         // `WAKE_LANES` values: read without a test.
         let short: &[u32; WAKE_LANES] = base[..WAKE_LANES].try_into().expect("padded");
         if len == CONV2_LANES {
-            // `each_short_lane` for rows of a known length: each row's stamps tested in a
+            // `each_fired_lane` for rows of a known length: each row's stamps tested in a
             // fixed number of vectors, without the loop over them.
             let rows = g.inputs_of(oy, g.in_h);
             let stride = fired.width * fired.channels;
@@ -174,7 +174,7 @@ pub(super) fn each_fired_run(
             }
             return;
         }
-        each_short_lane(g, fired, avx2, oy, ox, |iy, l| f(run(short[l], iy)));
+        each_fired_lane(g, fired, avx2, oy, ox, |iy, l| f(run(short[l], iy)));
     } else {
         each_fired_lane(g, fired, avx2, oy, ox, |iy, l| f(run(base[l], iy)));
     }
