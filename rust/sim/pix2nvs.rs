@@ -306,15 +306,7 @@ impl Pix2Nvs {
     /// sets the reference.
     pub fn push(&mut self, frame: &Frame<'_>, t_us: u64, out: &mut Vec<Event>) -> Result<()> {
         frame.check(self.width, self.height, self.frames)?;
-        let t_prev = match self.last_t {
-            Some(prev) if t_us <= prev => {
-                return Err(Error::Simulation(format!(
-                    "frame {}: timestamp {t_us} us is not after the previous frame's {prev} us",
-                    self.frames
-                )))
-            }
-            prev => prev,
-        };
+        let t_prev = super::frame::after_previous(self.last_t, t_us, self.frames)?;
         self.frames += 1;
         self.last_t = Some(t_us);
         let (w, b) = (self.width, self.params.block_size);
