@@ -61,7 +61,7 @@ impl ConvState {
             return;
         }
         let rows = g.outputs_of(iy, g.out_h);
-        self.inputs.push(Footprint {
+        self.touched.inputs.push(Footprint {
             first: (rows.start * g.out_w + cols.start) as u32,
             rows: rows.len() as u16,
             cols: cols.len() as u16,
@@ -71,7 +71,7 @@ impl ConvState {
         let j0 = g.k - 1 - (ix + g.p_lo - cols.start);
         let dy0 = iy + g.p_lo - rows.start;
         if self.gated {
-            self.touched_lanes += rows.len() * cols.len();
+            self.touched.lanes += rows.len() * cols.len();
             // Count the input at every output row first (one vector pass where the CPU has
             // AVX2), then add it to the rows that have awake positions.
             let mut hit_rows = [0u32; FUSED_ROWS];
@@ -79,11 +79,11 @@ impl ConvState {
             let p0 = rows.start * g.out_w + cols.start;
             if !count_rows(
                 self.avx2,
-                &mut self.counts,
+                &mut self.count.counts,
                 p0,
                 g.out_w,
                 cols.len(),
-                self.wake_at,
+                self.count.wake_at,
                 hit_rows,
             ) {
                 return; // the common case: every position still short of waking
@@ -96,7 +96,7 @@ impl ConvState {
             }
         } else {
             let run = cols.len() * maps;
-            self.touched_lanes += rows.len() * run;
+            self.touched.lanes += rows.len() * run;
             if let Some(avx2) = self.avx2.filter(|_| run <= 32 && rows.len() <= FUSED_ROWS) {
                 // One vector pass over every row, then the candidates of the rows that had any.
                 let mut masks = [0u32; FUSED_ROWS];
@@ -106,7 +106,7 @@ impl ConvState {
                     ((c * g.k + dy0) * g.k + j0) * maps,
                 );
                 let (p_stride, w_stride) = (g.out_w * maps, g.k * maps);
-                let thr = &self.thr_lo[..run];
+                let thr = &self.thr.lo[..run];
                 if add_rows(
                     avx2,
                     &mut self.pot,
@@ -172,25 +172,27 @@ impl ConvState {
         // them: zeroed once, not per spike.
         let mut hits = [0u32; FUSED_ROWS];
         for &(c, iy, ix) in spikes {
-            let ([r0, rows], [c0, cols]) =
-                (self.row_spans[iy as usize], self.col_spans[ix as usize]);
+            let ([r0, rows], [c0, cols]) = (
+                self.count.row_spans[iy as usize],
+                self.count.col_spans[ix as usize],
+            );
             if cols == 0 {
                 continue;
             }
             let p0 = (r0 + c0) as usize;
-            self.inputs.push(Footprint {
+            self.touched.inputs.push(Footprint {
                 first: p0 as u32,
                 rows: rows as u16,
                 cols: cols as u16,
             });
             let (rows, len) = (rows as usize, cols as usize);
-            self.touched_lanes += rows * len;
+            self.touched.lanes += rows * len;
             if rows == 0 {
                 continue;
             }
-            let counts = &mut self.counts[p0..p0 + (rows - 1) * out_w + LANES];
+            let counts = &mut self.count.counts[p0..p0 + (rows - 1) * out_w + LANES];
             assert!(len <= LANES, "one vector of counts per row");
-            let wake_at = self.wake_at;
+            let wake_at = self.count.wake_at;
             // A footprint of Table 1's conv2 (`k` = 10) unclipped by the layer's edges, most
             // of them: counted by a copy with its rows unrolled.
             let reached = if rows == CONV2_ROWS {
@@ -260,7 +262,7 @@ impl ConvState {
         let Some(whole) = &self.whole else {
             unreachable!("add_whole without Whole")
         };
-        self.wholes.push((first * MAPS) as u32);
+        self.touched.wholes.push((first * MAPS) as u32);
         // With nothing of the group pending and nothing in the band, every neuron is below
         // `θ_lo` or latched: it starts at 0, below every `θ_lo` (`lo_positive`), reaches
         // `θ_lo` only by an add that makes it a candidate, and `resolve` latches each candidate
@@ -268,7 +270,7 @@ impl ConvState {
         // above (latched ones stay `−∞`): `add_rows_fixed`'s `fresh`.
         // (Tested together, without a branch each.)
         let pending = self.held.is_some() | !self.candidates.is_empty();
-        let fresh = !pending & self.band.is_empty() & self.lo_positive;
+        let fresh = !pending & self.band.is_empty() & self.thr.lo_positive;
         let kernel = if INLINE {
             debug_assert!(
                 c == 0 && whole.kernel[..] == w[..FIXED_KERNEL],
@@ -406,10 +408,10 @@ impl ConvState {
         while hits != 0 {
             let d = hits.trailing_zeros() as usize;
             hits &= hits - 1;
-            let n = self.counts[p0 + d];
+            let n = self.count.counts[p0 + d];
             if n & AWAKE == 0 {
-                if n == self.wake_at {
-                    self.waking.push((p0 + d) as u32);
+                if n == self.count.wake_at {
+                    self.count.waking.push((p0 + d) as u32);
                 }
                 continue;
             }
@@ -438,7 +440,7 @@ impl ConvState {
             self.avx2,
             &mut self.pot[start..start + run],
             &w[wstart..wstart + run],
-            &self.thr_lo[..run],
+            &self.thr.lo[..run],
             &mut self.masks,
         );
         if hit {

@@ -151,19 +151,8 @@ pub(crate) struct ConvState {
     /// zeros after them up to `WAKE_LANES` values, so that a lane of a row of at most 64 (a
     /// trailing-zero count) indexes a `WAKE_LANES` array without a test.
     wake_base: Vec<u32>,
-    /// Exact thresholds per map.
-    thr: Vec<f64>,
-    /// `θ_hi` per map: float32 sums at or above it have surely crossed.
-    thr_hi: Vec<f32>,
-    /// Filter thresholds `θ_lo` per map, tiled `k` times to match one row's run.
-    thr_lo: Vec<f32>,
-    /// Whether every `θ_lo` is above 0, the potential of a neuron without inputs (`add_whole`'s
-    /// `fresh` needs every neuron below `θ_lo` at rest).
-    lo_positive: bool,
-    /// Relative error bound `m` of the float32 sums.
-    margin: f64,
-    /// `(1 − m, 1 + m)`: the factors that bound an exact sum from its float32 one (`beats`).
-    bounds: (f64, f64),
+    /// The thresholds and the float32 filter's bounds (`set_thresholds`).
+    thr: Thresholds,
     /// Neurons `(pos, map)` whose float32 sum reached `θ_lo` in the current group.
     candidates: Vec<(u32, u32)>,
     /// Where `candidates` fall out of `(pos, map)` order, noted as each batch of them (one
@@ -192,16 +181,8 @@ pub(crate) struct ConvState {
     /// the candidates as `pos << 32 | map` keys sorted by position, and the merge's buffer.
     order: Vec<u64>,
     merged: Vec<u64>,
-    /// Where the inputs added this window landed (what the next window must zero).
-    inputs: Vec<Footprint>,
-    /// Potentials written this window by `inputs`, counted with repeats (the cost of
-    /// replaying them).
-    touched_lanes: usize,
-    /// The first potentials (first position · `MAPS`) of the whole footprints added this
-    /// window (`add_whole`'s, of `FIXED_ROWS` rows of `FIXED_RUN` lanes each), kept apart
-    /// from `inputs` so that pushing one is one value and zeroing it needs no test of its
-    /// shape (nor a multiplication).
-    wholes: Vec<u32>,
+    /// What this window wrote, for the next window's reset.
+    touched: Touched,
     /// Scratch: per 8 lanes of a run, which reached `θ_lo` (whole words of 64 lanes, read as
     /// such by `push_candidates`).
     masks: Vec<u8>,
@@ -215,6 +196,34 @@ pub(crate) struct ConvState {
     /// A choice forced by tests (`set_gated`) instead of the rule of `set_wake`.
     #[cfg(test)]
     forced: Option<bool>,
+    /// Waking by count: the inputs counted per position, and who wakes.
+    count: Counting,
+    /// Division by the output width (position → row, column).
+    split: Divider,
+    /// The inputs that `add_whole` takes (when the layer adds densely), where it may: the layer
+    /// has `FIXED_ROWS` rows of `FIXED_RUN` lanes and the CPU has AVX2.
+    whole: Option<Whole>,
+}
+
+/// Where this window's inputs landed: what the next window's reset zeroes (`reset.rs`).
+#[derive(Debug, Clone, Default)]
+struct Touched {
+    /// The footprints of the inputs added (but `wholes`).
+    inputs: Vec<Footprint>,
+    /// Potentials written by `inputs`, counted with repeats (the cost of replaying them).
+    lanes: usize,
+    /// The first potentials (first position · `MAPS`) of the whole footprints added
+    /// (`add_whole`'s, of `FIXED_ROWS` rows of `FIXED_RUN` lanes each), kept apart from
+    /// `inputs` so that pushing one is one value and zeroing it needs no test of its shape
+    /// (nor a multiplication).
+    wholes: Vec<u32>,
+    /// Positions awake (layers that wake by count).
+    awake: Vec<u32>,
+}
+
+/// The counts of a layer that wakes by count (see the module docs and `wake.rs`).
+#[derive(Debug, Clone)]
+struct Counting {
     /// Per position: how many of its inputs fired this window, `| AWAKE` once awake
     /// (`LANES` more at the end, never counted, so that a row's vector never reads past it).
     counts: Vec<u16>,
@@ -222,18 +231,30 @@ pub(crate) struct ConvState {
     wake_at: u16,
     /// Positions that reached `wake_at` in the current group (woken in `resolve`).
     waking: Vec<u32>,
-    /// Positions awake this window (what the next window must zero).
-    awake: Vec<u32>,
     /// Per input row `iy`: `[rows.start · out_w, rows.len()]` of the output rows whose
     /// kernel covers it (`outputs_of`); per input column: `[cols.start, cols.len()]`. What
     /// `count_spikes` reads instead of computing the two ranges per spike.
     row_spans: Vec<[u32; 2]>,
     col_spans: Vec<[u32; 2]>,
-    /// Division by the output width (position → row, column).
-    split: Divider,
-    /// The inputs that `add_whole` takes (when the layer adds densely), where it may: the layer
-    /// has `FIXED_ROWS` rows of `FIXED_RUN` lanes and the CPU has AVX2.
-    whole: Option<Whole>,
+}
+
+/// A layer's thresholds per map, and what the float32 filter derives from them (see the
+/// module docs): set per window by `ConvState::set_thresholds`.
+#[derive(Debug, Clone)]
+struct Thresholds {
+    /// Exact thresholds per map.
+    exact: Vec<f64>,
+    /// `θ_hi` per map: float32 sums at or above it have surely crossed.
+    hi: Vec<f32>,
+    /// Filter thresholds `θ_lo` per map, tiled `k` times to match one row's run.
+    lo: Vec<f32>,
+    /// Whether every `θ_lo` is above 0, the potential of a neuron without inputs (`add_whole`'s
+    /// `fresh` needs every neuron below `θ_lo` at rest).
+    lo_positive: bool,
+    /// Relative error bound `m` of the float32 sums.
+    margin: f64,
+    /// `(1 − m, 1 + m)`: the factors that bound an exact sum from its float32 one (`beats`).
+    bounds: (f64, f64),
 }
 
 /// The candidates of one whole input (`add_whole`): lane `l` of output row `r`'s run is bit
@@ -333,12 +354,14 @@ impl ConvState {
                     (c * geom.k * geom.k + geom.k - 1 - col) as u32
                 })
                 .collect(),
-            thr: vec![f64::INFINITY; geom.maps],
-            thr_hi: vec![f32::INFINITY; geom.maps],
-            thr_lo: vec![f32::INFINITY; geom.k * geom.maps],
-            lo_positive: true,
-            margin,
-            bounds: (1.0 - margin, 1.0 + margin),
+            thr: Thresholds {
+                exact: vec![f64::INFINITY; geom.maps],
+                hi: vec![f32::INFINITY; geom.maps],
+                lo: vec![f32::INFINITY; geom.k * geom.maps],
+                lo_positive: true,
+                margin,
+                bounds: (1.0 - margin, 1.0 + margin),
+            },
             candidates: Vec::new(),
             breaks: [0; MAX_RUNS],
             breaks_len: 0,
@@ -355,31 +378,30 @@ impl ConvState {
             crossed: Vec::new(),
             order: Vec::new(),
             merged: Vec::new(),
-            inputs: Vec::new(),
-            touched_lanes: 0,
-            wholes: Vec::new(),
+            touched: Touched::default(),
             masks: vec![0; (geom.k * geom.maps).div_ceil(64) * 8],
             avx2: Avx2::detect(),
             gated: false,
             can_gate: geom.k <= LANES && geom.kernel_len() < AWAKE.into(),
             #[cfg(test)]
             forced: None,
-            counts: vec![0; positions + LANES],
-            wake_at: 0,
-            waking: Vec::new(),
-            awake: Vec::new(),
-            row_spans: (0..geom.in_h)
-                .map(|iy| {
-                    let rows = geom.outputs_of(iy, geom.out_h);
-                    [(rows.start * geom.out_w) as u32, rows.len() as u32]
-                })
-                .collect(),
-            col_spans: (0..geom.in_w)
-                .map(|ix| {
-                    let cols = geom.outputs_of(ix, geom.out_w);
-                    [cols.start as u32, cols.len() as u32]
-                })
-                .collect(),
+            count: Counting {
+                counts: vec![0; positions + LANES],
+                wake_at: 0,
+                waking: Vec::new(),
+                row_spans: (0..geom.in_h)
+                    .map(|iy| {
+                        let rows = geom.outputs_of(iy, geom.out_h);
+                        [(rows.start * geom.out_w) as u32, rows.len() as u32]
+                    })
+                    .collect(),
+                col_spans: (0..geom.in_w)
+                    .map(|ix| {
+                        let cols = geom.outputs_of(ix, geom.out_w);
+                        [cols.start as u32, cols.len() as u32]
+                    })
+                    .collect(),
+            },
             split: Divider::new(geom.out_w),
             whole: Avx2::detect()
                 .filter(|_| geom.k == FIXED_ROWS && geom.k * geom.maps == FIXED_RUN)
@@ -417,7 +439,7 @@ impl ConvState {
     pub fn set_thresholds(&mut self, thresholds: impl Fn(usize) -> f32) {
         let maps = self.geom.maps;
         let mut same = true;
-        for (m, t) in self.thr.iter_mut().enumerate() {
+        for (m, t) in self.thr.exact.iter_mut().enumerate() {
             let new = f64::from(thresholds(m));
             same &= t.to_bits() == new.to_bits();
             *t = new;
@@ -427,20 +449,20 @@ impl ConvState {
             // conv3's, the same every window, are not tiled again.
             return;
         }
-        for (hi, &t) in self.thr_hi.iter_mut().zip(&self.thr) {
-            *hi = round_up(t * (1.0 + self.margin));
+        for (hi, &t) in self.thr.hi.iter_mut().zip(&self.thr.exact) {
+            *hi = round_up(t * (1.0 + self.thr.margin));
         }
-        let slack = (1.0 - self.margin).max(0.0);
-        for (lo, &t) in self.thr_lo.iter_mut().zip(&self.thr) {
+        let slack = (1.0 - self.thr.margin).max(0.0);
+        for (lo, &t) in self.thr.lo.iter_mut().zip(&self.thr.exact) {
             *lo = round_down(t * slack);
         }
         // The other `k − 1` tiles repeat the first.
-        for i in maps..self.thr_lo.len() {
-            self.thr_lo[i] = self.thr_lo[i - maps];
+        for i in maps..self.thr.lo.len() {
+            self.thr.lo[i] = self.thr.lo[i - maps];
         }
-        self.lo_positive = self.thr_lo[..maps].iter().all(|&lo| lo > 0.0);
+        self.thr.lo_positive = self.thr.lo[..maps].iter().all(|&lo| lo > 0.0);
         if let Some(whole) = &mut self.whole {
-            whole.thr.copy_from_slice(&self.thr_lo[..FIXED_RUN]);
+            whole.thr.copy_from_slice(&self.thr.lo[..FIXED_RUN]);
         }
     }
 
@@ -453,10 +475,10 @@ impl ConvState {
     /// zero whichever way the last window ran (a layer that wakes by count writes potentials
     /// only at awake positions, and zeroes them there), so both ways start from the same state.
     pub fn set_wake(&mut self, weights: &ConvWeights) {
-        let lo = 1.0 - self.margin;
+        let lo = 1.0 - self.thr.margin;
         let inputs = self.geom.kernel_len();
         let fewest = (0..self.geom.maps).fold(usize::MAX, |fewest, m| {
-            let target = self.thr[m] * lo;
+            let target = self.thr.exact[m] * lo;
             // A map lowers the fewest so far only where one input fewer reaches its target:
             // one sum read instead of a search, for nearly every map after the first.
             if fewest == 0 || (fewest <= inputs + 1 && !weights.reaches(m, fewest - 1, target)) {
@@ -466,7 +488,7 @@ impl ConvState {
             }
         });
         // Never 0 (a position with no input has no potential); beyond any count if unreachable.
-        self.wake_at = fewest.clamp(1, usize::from(AWAKE - 1)) as u16;
+        self.count.wake_at = fewest.clamp(1, usize::from(AWAKE - 1)) as u16;
         let rule = self.geom.maps >= WAKE_MAPS && fewest >= WAKE_WIDTHS * self.geom.k;
         #[cfg(test)]
         let rule = self.forced.unwrap_or(rule);
@@ -492,7 +514,7 @@ impl ConvState {
         !(self.candidates.is_empty()
             && self.held.is_none()
             && self.band.is_empty()
-            && self.waking.is_empty())
+            && self.count.waking.is_empty())
     }
 }
 

@@ -14,32 +14,45 @@ impl ConvState {
         let g = self.geom;
         let maps = g.maps;
         if self.gated {
-            for &pos in &self.awake {
+            for &pos in &self.touched.awake {
                 zero_blocks(&mut self.pot, pos as usize * maps, maps);
             }
-            if self.touched_lanes >= self.counts.len() {
-                zero_all(self.avx2, &mut self.counts);
+            if self.touched.lanes >= self.count.counts.len() {
+                zero_all(self.avx2, &mut self.count.counts);
             } else {
-                for f in &self.inputs {
+                for f in &self.touched.inputs {
                     for r in 0..usize::from(f.rows) {
                         // One vector of counts (`cols ≤ k ≤ LANES`; `counts` has `LANES` of
                         // padding); the lanes past the run are zero or zeroed here too.
                         let start = f.first as usize + r * g.out_w;
-                        self.counts[start..start + LANES].copy_from_slice(&[0; LANES]);
+                        self.count.counts[start..start + LANES].copy_from_slice(&[0; LANES]);
                     }
                 }
             }
-        } else if self.touched_lanes + self.wholes.len() * FIXED_ROWS * FIXED_RUN >= g.neurons() {
+        } else if self.touched.lanes + self.touched.wholes.len() * FIXED_ROWS * FIXED_RUN
+            >= g.neurons()
+        {
             zero_all(self.avx2, &mut self.pot);
         } else {
-            zero_footprints(self.avx2, &mut self.pot, &self.inputs, g.out_w, maps);
-            zero_wholes(self.avx2, &mut self.pot, &self.wholes, g.out_w * maps);
+            zero_footprints(
+                self.avx2,
+                &mut self.pot,
+                &self.touched.inputs,
+                g.out_w,
+                maps,
+            );
+            zero_wholes(
+                self.avx2,
+                &mut self.pot,
+                &self.touched.wholes,
+                g.out_w * maps,
+            );
         }
-        self.touched_lanes = 0;
-        self.inputs.clear();
-        self.wholes.clear();
-        self.awake.clear();
-        self.waking.clear();
+        self.touched.lanes = 0;
+        self.touched.inputs.clear();
+        self.touched.wholes.clear();
+        self.touched.awake.clear();
+        self.count.waking.clear();
         self.candidates.clear();
         self.clear_runs();
         self.held = None;

@@ -80,7 +80,7 @@ impl ConvState {
     ) {
         let exact = exact && F::EXACT;
         if let Some(held) = self.held {
-            if inhibit && self.band.is_empty() && self.waking.is_empty() {
+            if inhibit && self.band.is_empty() && self.count.waking.is_empty() {
                 // The common case of conv1: one input's candidates, and nothing else.
                 self.held = None;
                 self.fire_held(weights.canonical(), fired, exact, held, out);
@@ -88,7 +88,7 @@ impl ConvState {
             }
             self.list_held();
         }
-        if !self.waking.is_empty() {
+        if !self.count.waking.is_empty() {
             self.wake(weights.engine(), fired);
         }
         if self.candidates.is_empty() && self.band.is_empty() {
@@ -178,7 +178,7 @@ impl ConvState {
         map: u32,
     ) -> Option<Crossing> {
         let v32 = self.pot[pos as usize * self.geom.maps + map as usize];
-        let sure = self.thr_hi[map as usize];
+        let sure = self.thr.hi[map as usize];
         self.crossing_at(kernels, fired, pos, map, v32, sure)
     }
 
@@ -206,7 +206,7 @@ impl ConvState {
         };
         if v32 < sure {
             c.v = self.exact(kernels, fired, pos as usize, map as usize);
-            if c.v < self.thr[map as usize] {
+            if c.v < self.thr.exact[map as usize] {
                 self.band.push((pos, map));
                 return None;
             }
@@ -266,7 +266,7 @@ impl ConvState {
         held: WholeCandidates,
         out: &mut impl Fire,
     ) {
-        let thr_hi: [f32; MAPS] = self.thr_hi[..MAPS].try_into().expect("MAPS thresholds");
+        let thr_hi: [f32; MAPS] = self.thr.hi[..MAPS].try_into().expect("MAPS thresholds");
         // The walk of `WholeCandidates::positions`, written out (the iterator costs more), a
         // copy per word (their positions' slots from a constant), both reading the one copy of
         // the thresholds.
@@ -379,7 +379,7 @@ impl ConvState {
     ) -> bool {
         let (va, vb) = if a.v.is_nan() || b.v.is_nan() {
             let (sa, sb) = (f64::from(a.v32), f64::from(b.v32));
-            let (lo, hi) = self.bounds;
+            let (lo, hi) = self.thr.bounds;
             if sa * lo > sb * hi {
                 return true;
             }

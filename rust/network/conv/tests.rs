@@ -174,7 +174,8 @@ fn add_spikes_equals_add() {
                 b.add(w.engine(), c as usize, iy as usize, ix as usize);
             }
             let footprints = |s: &ConvState| {
-                s.inputs
+                s.touched
+                    .inputs
                     .iter()
                     .map(|f| (f.first, f.rows, f.cols))
                     .collect::<Vec<_>>()
@@ -183,11 +184,11 @@ fn add_spikes_equals_add() {
                 a.pot.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
                 b.pot.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
             );
-            assert_eq!(a.counts, b.counts);
+            assert_eq!(a.count.counts, b.count.counts);
             assert_eq!(a.candidates, b.candidates);
-            assert_eq!(a.waking, b.waking);
+            assert_eq!(a.count.waking, b.count.waking);
             assert_eq!(footprints(&a), footprints(&b));
-            assert_eq!(a.touched_lanes, b.touched_lanes);
+            assert_eq!(a.touched.lanes, b.touched.lanes);
             assert_eq!((a.breaks_len, a.pos_sorted), (b.breaks_len, b.pos_sorted));
             // Wake what reached its count, so that later batches add to awake positions.
             for &(c, iy, ix) in &spikes {
@@ -203,7 +204,10 @@ fn add_spikes_equals_add() {
             b.wake(w.engine(), fired);
         }
         if gated {
-            assert!(a.counts.iter().any(|&n| n & AWAKE != 0), "round {round}");
+            assert!(
+                a.count.counts.iter().any(|&n| n & AWAKE != 0),
+                "round {round}"
+            );
         }
     }
 }
@@ -253,8 +257,8 @@ fn filter_threshold_is_below_the_threshold() {
     let (g, _) = small(Padding::Same);
     let mut s = ConvState::new(g);
     s.set_thresholds(|m| [1.0, 3.0, 1e-30, f32::INFINITY][m]);
-    for (m, &t) in s.thr.iter().enumerate() {
-        assert!(f64::from(s.thr_lo[m]) <= t * (1.0 - 25.0 * 2f64.powi(-24)));
-        assert!(f64::from(s.thr_hi[m]) >= t * (1.0 + 25.0 * 2f64.powi(-24)));
+    for (m, &t) in s.thr.exact.iter().enumerate() {
+        assert!(f64::from(s.thr.lo[m]) <= t * (1.0 - 25.0 * 2f64.powi(-24)));
+        assert!(f64::from(s.thr.hi[m]) >= t * (1.0 + 25.0 * 2f64.powi(-24)));
     }
 }

@@ -15,16 +15,16 @@ impl ConvState {
     pub(super) fn wake(&mut self, w: &[f32], fired: Fired<'_>) {
         let g = self.geom;
         let maps = g.maps;
-        let waking = std::mem::take(&mut self.waking);
+        let waking = std::mem::take(&mut self.count.waking);
         for &pos in &waking {
             let p = pos as usize;
-            self.counts[p] |= AWAKE;
-            self.awake.push(pos);
+            self.count.counts[p] |= AWAKE;
+            self.touched.awake.push(pos);
             let (oy, ox) = self.split.div_rem(p);
             let pot = &mut self.pot[p * maps..(p + 1) * maps];
             gather(self.avx2, &g, fired, &self.wake_base, w, oy, ox, pot);
             let start = self.candidates.len();
-            let thr_lo = &self.thr_lo[..maps];
+            let thr_lo = &self.thr.lo[..maps];
             if let (Ok(v), Ok(lo)) = (
                 <&[f32; GATHER_MAPS]>::try_from(&*pot),
                 <&[f32; GATHER_MAPS]>::try_from(thr_lo),
@@ -48,8 +48,8 @@ impl ConvState {
             }
             self.note_run(start);
         }
-        self.waking = waking;
-        self.waking.clear();
+        self.count.waking = waking;
+        self.count.waking.clear();
     }
 }
 
