@@ -37,7 +37,7 @@ pub(crate) fn each_fired_input(
 /// Call `f(iy, lane)` for every input of output `(oy, ox)`'s receptive field that fired: input
 /// row `iy`, and `lane` its place in that row's inputs `[col][channel]` (clipped to the input).
 /// A row's inputs are contiguous: they are tested 64 at a time without branching, and only
-/// those that fired are visited, in memory order. Always inlined, so that `gather_avx2`'s
+/// those that fired are visited, in memory order. Always inlined, so that `gather`'s
 /// additions are compiled for AVX2 whichever code-generation unit holds it.
 #[allow(clippy::inline_always)]
 #[inline(always)]
