@@ -6,7 +6,9 @@
 #   benches/before_after.sh BASE [FILTER] [ROUNDS]
 #   benches/before_after.sh 9676e06 'network/240x180/1%$' 3
 #
-# Read the least time of each build's rounds; run it on a quiet machine.
+# Read the least time of each build's rounds; run it on a quiet machine. Both builds keep
+# Criterion's data in this checkout's target/, so each "change" line compares a run with the
+# other build's run just before it.
 set -euo pipefail
 base=${1:?usage: before_after.sh BASE [FILTER] [ROUNDS]}
 filter=${2:-'network/240x180/1%$'}
