@@ -135,7 +135,7 @@ pub struct PackedEvents<'a> {
 impl<'a> PackedEvents<'a> {
     /// Wrap packed records, checking only that the length is a whole number of records.
     pub fn new(bytes: &'a [u8]) -> Result<Self> {
-        if bytes.len() % PACKED_EVENT_SIZE != 0 {
+        if !bytes.len().is_multiple_of(PACKED_EVENT_SIZE) {
             return Err(Error::Shape {
                 name: "events",
                 expected: format!("a multiple of {PACKED_EVENT_SIZE} bytes"),
@@ -237,7 +237,7 @@ pub fn decode_packed(
     previous_t: Option<u64>,
     index_offset: usize,
 ) -> Result<Vec<Event>> {
-    if bytes.len() % PACKED_EVENT_SIZE != 0 {
+    if !bytes.len().is_multiple_of(PACKED_EVENT_SIZE) {
         return Err(Error::Shape {
             name: "events",
             expected: format!("a multiple of {PACKED_EVENT_SIZE} bytes"),

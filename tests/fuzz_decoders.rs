@@ -142,7 +142,7 @@ fn check_packets(format: PacketFormat, packets: &[Vec<u8>], arrival: u64) {
                 let mut last = before.1;
                 for e in new {
                     assert!(s.contains(e.x, e.y), "{format}: {e:?} outside {s:?}");
-                    assert!(last.map_or(true, |l| e.t >= l), "{format}: time goes back");
+                    assert!(last.is_none_or(|l| e.t >= l), "{format}: time goes back");
                     last = Some(e.t);
                 }
                 assert_eq!(decoder.last_t(), last, "{format}: last_t");

@@ -16,9 +16,10 @@
 
 use std::ops::Range;
 
-use super::conv::{each_fired_input, fired_mask, has_avx2, Fired};
+use super::conv::{each_fired_input, Fired};
 use super::geometry::{Divider, Geometry};
 use super::pool::PoolState;
+use crate::simd::{fired_mask, min_u16x4, Avx2};
 
 /// A half-open pixel box `(x0, y0, x1, y1)`.
 pub(crate) type PixelBox = (u16, u16, u16, u16);
@@ -44,24 +45,10 @@ impl Lanes {
     }
 }
 
+/// The lane-wise minimum of two boxes' lanes (the box that holds both, see `Lanes`).
 #[inline]
 fn union(a: Lanes, b: Lanes) -> Lanes {
-    #[cfg(target_arch = "x86_64")]
-    {
-        use std::arch::x86_64::{
-            _mm_cvtsi128_si64, _mm_cvtsi64_si128, _mm_sub_epi16, _mm_subs_epu16,
-        };
-        // SAFETY: SSE2 is part of x86-64. The unsigned minimum is a − (a −sat b).
-        unsafe {
-            let (va, vb) = (_mm_cvtsi64_si128(a.0 as i64), _mm_cvtsi64_si128(b.0 as i64));
-            Lanes(_mm_cvtsi128_si64(_mm_sub_epi16(va, _mm_subs_epu16(va, vb))) as u64)
-        }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        let lane = |v: u64, k: u32| (v >> (16 * k)) & 0xffff;
-        Lanes((0..4).fold(0, |m, k| m | lane(a.0, k).min(lane(b.0, k)) << (16 * k)))
-    }
+    Lanes(min_u16x4(a.0, b.0))
 }
 
 /// What the links are followed through: the window's pixels and pool layers.
@@ -99,7 +86,7 @@ pub(crate) struct Causes {
     /// and columns their fields read.
     strips: [Vec<(usize, usize, usize, usize)>; 2],
     /// Whether the CPU has AVX2 (asked once: the walk is compiled for it, see `conv3_box`).
-    avx2: bool,
+    avx2: Option<Avx2>,
 }
 
 impl Causes {
@@ -113,7 +100,7 @@ impl Causes {
             pool_w: geom.pool.map(|g| Divider::new(g.out_w)),
             merge: [0, 1].map(|l| geom.pool[l].k <= geom.conv[l].k + 1),
             strips: Default::default(),
-            avx2: has_avx2(),
+            avx2: Avx2::detect(),
         }
     }
 
@@ -126,53 +113,43 @@ impl Causes {
 
     /// The box of the pixels that caused conv3 neuron `pos` (any map) to fire at `t`, if any.
     ///
-    /// The walk is compiled twice, with `AVX2` a constant: where the CPU has AVX2, the functions
-    /// it goes through (`conv3_box_avx2`, `new_pool_box_avx2`) are compiled for it, so that the
-    /// stamp tests of the rows (`fired_mask`) are inlined into them instead of called.
+    /// The walk is compiled twice, with `avx2` a constant: where the CPU has AVX2, the functions
+    /// it goes through (`conv3_rows`, `new_pool_box`) are compiled for it (`Avx2::vectorize`),
+    /// so that the stamp tests of the rows (`fired_mask`) are inlined into them instead of
+    /// called.
     pub fn conv3_box(&mut self, w: &Window<'_>, pos: usize, t: u64) -> Option<PixelBox> {
-        #[cfg(target_arch = "x86_64")]
-        let b = if self.avx2 {
-            // SAFETY: `avx2` comes from `has_avx2`.
-            unsafe { self.conv3_box_avx2(w, pos, t) }
-        } else {
-            self.conv3_rows::<false>(w, pos, t)
+        let b = match self.avx2 {
+            Some(avx2) => avx2.vectorize(
+                #[inline(always)]
+                move || self.conv3_rows(Some(avx2), w, pos, t),
+            ),
+            None => self.conv3_rows(None, w, pos, t),
         };
-        #[cfg(not(target_arch = "x86_64"))]
-        let b = self.conv3_rows::<false>(w, pos, t);
         (b != EMPTY).then(|| b.pixel_box())
-    }
-
-    /// `conv_box` of conv3, compiled for AVX2.
-    ///
-    /// # Safety
-    /// The CPU must support AVX2.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    unsafe fn conv3_box_avx2(&mut self, w: &Window<'_>, pos: usize, t: u64) -> Lanes {
-        self.conv3_rows::<true>(w, pos, t)
     }
 
     /// `conv_box` of conv3 through `row_box`: its pool2 inputs are indexed as they lie.
     #[allow(clippy::inline_always)]
     #[inline(always)]
-    fn conv3_rows<const AVX2: bool>(&mut self, w: &Window<'_>, pos: usize, t: u64) -> Lanes {
+    fn conv3_rows(&mut self, avx2: Option<Avx2>, w: &Window<'_>, pos: usize, t: u64) -> Lanes {
         let g = w.geom.conv[2];
         let (oy, ox) = self.split[2].div_rem(pos);
         let cols = g.inputs_of(ox, g.in_w);
         let mut b = EMPTY;
         for iy in g.inputs_of(oy, g.in_h) {
-            self.row_box::<AVX2>(w, 2, iy, cols.clone(), t, &mut b);
+            self.row_box(avx2, w, 2, iy, cols.clone(), t, &mut b);
         }
         b
     }
 
     /// The box of the causes of conv layer `layer`'s neuron at `pos` firing at `t`: the inputs
     /// of its receptive field that fired at or before `t` (for pool boxes whose causes' fields
-    /// are not walked together). `AVX2` is true only where the CPU has it.
+    /// are not walked together). `avx2` is the token where the walk is compiled for AVX2.
     #[allow(clippy::inline_always)]
     #[inline(always)]
-    fn conv_box<const AVX2: bool>(
+    fn conv_box(
         &mut self,
+        avx2: Option<Avx2>,
         w: &Window<'_>,
         layer: usize,
         pos: usize,
@@ -199,7 +176,7 @@ impl Causes {
             (pool, below.times())
         };
         let mut b = EMPTY;
-        each_fired_input(&g, fired, w.splits[layer], AVX2, oy, ox, |c, iy, ix| {
+        each_fired_input(&g, fired, w.splits[layer], avx2, oy, ox, |c, iy, ix| {
             let i = (iy * fired.width + ix) * fired.channels + c;
             let tin = times[i];
             if tin > t {
@@ -211,7 +188,7 @@ impl Causes {
                     let (x, y) = (ix as u16, iy as u16);
                     Lanes::new(x, y, x + 1, y + 1)
                 } else {
-                    self.pool_box::<AVX2>(w, layer - 1, i, tin)
+                    self.pool_box(avx2, w, layer - 1, i, tin)
                 },
             );
         });
@@ -222,8 +199,9 @@ impl Causes {
     /// fired at `tq`: the neurons of its map in its block that fired at `tq`. Inlined, so that
     /// the common case, a box computed already, costs no call.
     #[inline]
-    fn pool_box<const AVX2: bool>(
+    fn pool_box(
         &mut self,
+        avx2: Option<Avx2>,
         w: &Window<'_>,
         layer: usize,
         i: usize,
@@ -233,41 +211,27 @@ impl Causes {
         if done == w.generation {
             return b;
         }
-        #[cfg(target_arch = "x86_64")]
-        if AVX2 {
-            // SAFETY: `AVX2` is true only where the CPU has it (`conv3_box`).
-            return unsafe { self.new_pool_box_avx2(w, layer, i, tq) };
+        match avx2 {
+            Some(a) => a.vectorize(
+                #[inline(always)]
+                move || self.new_pool_box(Some(a), w, layer, i, tq),
+            ),
+            None => self.new_pool_box_plain(w, layer, i, tq),
         }
-        self.new_pool_box_plain(w, layer, i, tq)
     }
 
     /// `new_pool_box` without AVX2.
     #[inline(never)]
     fn new_pool_box_plain(&mut self, w: &Window<'_>, layer: usize, i: usize, tq: u64) -> Lanes {
-        self.new_pool_box::<false>(w, layer, i, tq)
-    }
-
-    /// `new_pool_box` compiled for AVX2.
-    ///
-    /// # Safety
-    /// The CPU must support AVX2.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    unsafe fn new_pool_box_avx2(
-        &mut self,
-        w: &Window<'_>,
-        layer: usize,
-        i: usize,
-        tq: u64,
-    ) -> Lanes {
-        self.new_pool_box::<true>(w, layer, i, tq)
+        self.new_pool_box(None, w, layer, i, tq)
     }
 
     /// `pool_box` the first time in the window: compute it and keep it.
     #[allow(clippy::inline_always)]
     #[inline(always)]
-    fn new_pool_box<const AVX2: bool>(
+    fn new_pool_box(
         &mut self,
+        avx2: Option<Avx2>,
         w: &Window<'_>,
         layer: usize,
         i: usize,
@@ -278,13 +242,13 @@ impl Causes {
         let (qy, qx) = self.pool_w[layer].div_rem(q);
         let causes = w.pool[layer].causes_of(map, qy, qx);
         let b = if self.merge[layer] {
-            self.block_box::<AVX2>(w, layer, causes, qy, qx, tq)
+            self.block_box(avx2, w, layer, causes, qy, qx, tq)
         } else {
             let cg = w.geom.conv[layer];
             let mut b = EMPTY;
             for (dy, dx) in block_bits(self.side[layer], causes) {
                 let pos = (qy * pg.stride + dy) * cg.out_w + qx * pg.stride + dx;
-                b = union(b, self.conv_box::<AVX2>(w, layer, pos, tq));
+                b = union(b, self.conv_box(avx2, w, layer, pos, tq));
             }
             b
         };
@@ -304,8 +268,9 @@ impl Causes {
     /// the input keeps that), and so do those of the neurons between them, which are no causes.
     #[allow(clippy::inline_always)]
     #[inline(always)]
-    fn block_box<const AVX2: bool>(
+    fn block_box(
         &mut self,
+        avx2: Option<Avx2>,
         w: &Window<'_>,
         layer: usize,
         causes: &[u64],
@@ -342,7 +307,7 @@ impl Causes {
                     }
                 }
                 if lo < hi {
-                    self.row_box::<AVX2>(w, layer, iy, lo..hi, tq, &mut b);
+                    self.row_box(avx2, w, layer, iy, lo..hi, tq, &mut b);
                 }
             }
         }
@@ -357,8 +322,9 @@ impl Causes {
     /// looked for from each end of the row's fired ones.
     #[allow(clippy::inline_always)]
     #[inline(always)]
-    fn row_box<const AVX2: bool>(
+    fn row_box(
         &mut self,
+        avx2: Option<Avx2>,
         w: &Window<'_>,
         layer: usize,
         iy: usize,
@@ -373,7 +339,7 @@ impl Causes {
             // Lane of the first and of the last pixel of the row that fired by `t`.
             let (mut first, mut last) = (None, 0);
             for (chunk, s) in stamps.chunks(64).enumerate() {
-                let mut m = fired_mask(AVX2, s, w.generation);
+                let mut m = fired_mask(avx2, s, w.generation);
                 if first.is_none() {
                     while m != 0 {
                         let l = chunk * 64 + m.trailing_zeros() as usize;
@@ -406,13 +372,13 @@ impl Causes {
         let stamps = &below.stamps()[from..from + cols.len() * maps];
         let times = below.times();
         for (chunk, s) in stamps.chunks(64).enumerate() {
-            let mut m = fired_mask(AVX2, s, w.generation);
+            let mut m = fired_mask(avx2, s, w.generation);
             while m != 0 {
                 let i = from + chunk * 64 + m.trailing_zeros() as usize;
                 m &= m - 1;
                 let tin = times[i];
                 if tin <= t {
-                    *b = union(*b, self.pool_box::<AVX2>(w, layer - 1, i, tin));
+                    *b = union(*b, self.pool_box(avx2, w, layer - 1, i, tin));
                 }
             }
         }

@@ -266,8 +266,9 @@ impl NetworkConfig {
         }
     }
 
-    /// Check every field's range and that the layers' sizes compose (docs/model.md §2).
-    pub fn validate(&self) -> Result<()> {
+    /// Check every field's range ([`NetworkConfig::validate`] also checks that the layers'
+    /// sizes compose, in `geometry`, which this module does not import).
+    pub(super) fn check_fields(&self) -> Result<()> {
         if self.version != CONFIG_VERSION {
             return Err(Error::param(
                 "version",
@@ -333,9 +334,6 @@ impl NetworkConfig {
                 ),
             ));
         }
-        // The layer sizes must compose: this fails on kernels larger than their input under
-        // `valid` padding.
-        super::geometry::Geometry::new(self)?;
         Ok(())
     }
 

@@ -42,6 +42,17 @@ pub struct Geometry {
     pub pool: [PoolGeom; 2],
 }
 
+impl NetworkConfig {
+    /// Check every field's range and that the layers' sizes compose (docs/model.md §2).
+    pub fn validate(&self) -> Result<()> {
+        self.check_fields()?;
+        // The layer sizes must compose: this fails on kernels larger than their input under
+        // `valid` padding.
+        Geometry::new(self)?;
+        Ok(())
+    }
+}
+
 impl ConvGeom {
     fn new(
         layer: &'static str,

@@ -7,9 +7,9 @@ use rayon::prelude::*;
 use super::batch::WindowBatch;
 use super::config::PentEstimate;
 use super::detection::Detection;
+use super::layer::Layer;
 use super::model::{feed, Network};
 use super::window::{Spike, WindowState};
-use super::Layer;
 use crate::error::{Error, Result};
 
 /// What one window gave.

@@ -8,12 +8,12 @@ use super::batch::Spikes;
 use super::config::NetworkConfig;
 use super::gabor::gabor_kernels;
 use super::geometry::Geometry;
+use super::layer::ConvLayer;
 use super::pent::conv1_thresholds;
 use super::stdp::{self, Rates};
 use super::weights::ConvWeights;
 use super::window::WindowState;
 use super::winners::Winner;
-use super::ConvLayer;
 use crate::error::Result;
 
 /// Identifies a network's geometry to the [`WindowState`]s made for it.

@@ -99,7 +99,7 @@ impl Schedule {
     /// Count one trained window; double a⁺ when a period ends.
     pub fn window_done(&mut self) {
         self.seen += 1;
-        if self.seen % self.config.lr_every == 0 {
+        if self.seen.is_multiple_of(self.config.lr_every) {
             self.a_plus = (self.a_plus * 2.0).min(self.config.a_plus_max);
         }
     }

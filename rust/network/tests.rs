@@ -7,6 +7,7 @@
 use proptest::prelude::*;
 
 use super::*;
+use crate::error::Error;
 
 /// Spike times of a layer's neurons, `[map][row][col]`, `None` = silent.
 type Times = Vec<Vec<Vec<Option<u64>>>>;

@@ -8,10 +8,10 @@ use rand_pcg::Pcg64;
 
 use super::batch::WindowBatch;
 use super::inference::{check_sensor, n_in};
+use super::layer::ConvLayer;
 use super::model::{feed, Network};
 use super::stdp::{Convergence, Schedule};
 use super::window::WindowState;
-use super::ConvLayer;
 use crate::error::{Error, Result};
 
 /// How to walk the training windows.

@@ -35,15 +35,15 @@ use super::batch::Spikes;
 use super::cause::{self, Causes};
 use super::config::NetworkConfig;
 #[cfg(target_arch = "x86_64")]
-use super::conv::has_avx2;
 use super::conv::{ConvState, Crossing, Fired};
 use super::detection::{detection, Detection};
 use super::geometry::Geometry;
+use super::layer::{ConvLayer, Layer};
 use super::model::Network;
 use super::pool::{PoolSpike, PoolState};
 use super::winners::{Winner, Wta};
-use super::{ConvLayer, Layer};
 use crate::error::{Error, Result};
+use crate::simd::Avx2;
 
 /// A spike of a layer, as reported in traces.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -89,6 +89,8 @@ pub struct WindowState {
     wta: Wta,
     /// Layers run in inference: `Layer::index() < depth`.
     depth: usize,
+    /// Whether the CPU has AVX2 (asked once, at construction).
+    avx2: Option<Avx2>,
 }
 
 impl WindowState {
@@ -124,6 +126,7 @@ impl WindowState {
             training: None,
             wta: Wta::default(),
             depth: Layer::ALL.len(),
+            avx2: Avx2::detect(),
         }
     }
 
@@ -397,32 +400,24 @@ impl WindowState {
         Ok(())
     }
 
-    /// Whether `take_valid` may take these spikes: see `push_spikes`.
+    /// Whether `take_valid` may take these spikes: see `push_spikes`. Compiled for AVX2 where
+    /// the CPU has it, whose vectors compare 64-bit times and take the largest of unsigned
+    /// 16-bit coordinates in one instruction each (SSE2 has neither).
     fn all_valid(&self, net: &Network, t: &[u64], x: &[u16], y: &[u16]) -> bool {
-        #[cfg(target_arch = "x86_64")]
-        if has_avx2() {
-            // SAFETY: the CPU has AVX2 (asked just above).
-            return unsafe { self.all_valid_avx2(net, t, x, y) };
+        match self.avx2 {
+            Some(avx2) => avx2.vectorize(
+                #[inline(always)]
+                move || self.all_valid_body(net, t, x, y),
+            ),
+            None => self.all_valid_body(net, t, x, y),
         }
-        self.all_valid_body(net, t, x, y)
-    }
-
-    /// `all_valid` compiled for AVX2, whose vectors compare 64-bit times and take the largest
-    /// of unsigned 16-bit coordinates in one instruction each (SSE2 has neither).
-    ///
-    /// # Safety
-    /// The CPU must support AVX2.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    unsafe fn all_valid_avx2(&self, net: &Network, t: &[u64], x: &[u16], y: &[u16]) -> bool {
-        self.all_valid_body(net, t, x, y)
     }
 
     /// The checks of `all_valid`, inlined into each of its compilations.
     #[allow(clippy::inline_always)]
     #[inline(always)]
     fn all_valid_body(&self, net: &Network, t: &[u64], x: &[u16], y: &[u16]) -> bool {
-        let after = |first: u64| first >= self.t0 && self.last_t.map_or(true, |l| first >= l);
+        let after = |first: u64| first >= self.t0 && self.last_t.is_none_or(|l| first >= l);
         // Passes without early exits (the spikes are valid but for a rare error), in forms the
         // compiler vectorises: the count of times that go backwards, the largest coordinates.
         let backwards = t
@@ -440,7 +435,7 @@ impl WindowState {
             && self.made_for(net)
             && self.training.is_none()
             && self.pending_t.is_none()
-            && t.first().map_or(true, |&first| after(first))
+            && t.first().is_none_or(|&first| after(first))
             && in_order
             && inside
     }
@@ -452,55 +447,34 @@ impl WindowState {
     /// # Safety
     /// `all_valid` must have passed `t`, `x`, `y` (every spike inside the sensor, which
     /// `stamp` relies on).
+    ///
+    /// Where the CPU has AVX2 the loop is compiled for it, so that conv1's fixed-shape vector
+    /// add (`add_rows_fixed`, AVX2 only) is inlined into it instead of called per input.
     unsafe fn take_valid(&mut self, net: &Network, t: &[u64], x: &[u16], y: &[u16]) {
-        #[cfg(target_arch = "x86_64")]
-        if has_avx2() {
-            // SAFETY: the CPU has AVX2 (asked just above); the spikes are valid (our caller's
-            // contract).
-            unsafe { self.take_valid_avx2(net, t, x, y) };
-            return;
-        }
-        // SAFETY: as above.
-        unsafe { self.take_valid_body::<false, false>(net, t, x, y) };
-    }
-
-    /// `take_valid` compiled for AVX2, so that conv1's fixed-shape vector add
-    /// (`add_rows_fixed`, AVX2 only) is inlined into the loop instead of called per input.
-    ///
-    /// # Safety
-    /// The CPU must support AVX2, and `all_valid` must have passed the spikes.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    unsafe fn take_valid_avx2(&mut self, net: &Network, t: &[u64], x: &[u16], y: &[u16]) {
-        // SAFETY: our caller's contract; `WHOLE` as `has_whole` says.
-        unsafe {
-            if self.conv[0].has_whole() {
-                self.take_valid_body::<true, true>(net, t, x, y);
-            } else {
-                self.take_valid_body::<true, false>(net, t, x, y);
-            }
+        match self.avx2 {
+            Some(avx2) => avx2.vectorize(
+                #[inline(always)]
+                move || {
+                    // SAFETY: our caller's contract.
+                    unsafe { self.take_valid_body(net, t, x, y) };
+                },
+            ),
+            // SAFETY: our caller's contract.
+            None => unsafe { self.take_valid_body(net, t, x, y) },
         }
     }
 
-    /// The loop of `take_valid`, inlined into each of its compilations; `AVX2` where that is
-    /// compiled for AVX2, `WHOLE` (with `AVX2`) where conv1 has whole inputs, which its adds
-    /// then do not test per input.
+    /// The loop of `take_valid`, inlined into each of its compilations. (Copies of it for
+    /// conv1 with and without whole inputs, which spared the test per input, saved under 2 %
+    /// of instructions: not kept.)
     ///
     /// # Safety
-    /// As `take_valid`'s; `WHOLE` only where conv1's `has_whole`.
+    /// As `take_valid`'s.
     #[allow(clippy::inline_always)]
     #[inline(always)]
-    unsafe fn take_valid_body<const AVX2: bool, const WHOLE: bool>(
-        &mut self,
-        net: &Network,
-        t: &[u64],
-        x: &[u16],
-        y: &[u16],
-    ) {
+    unsafe fn take_valid_body(&mut self, net: &Network, t: &[u64], x: &[u16], y: &[u16]) {
         let w = net.conv_weights(ConvLayer::Conv1).engine();
-        if AVX2 {
-            self.conv[0].load_kernel(w);
-        }
+        self.conv[0].load_kernel(w);
         // One pass over the zipped columns (no bounds checks per spike): a spike of a later
         // time completes the group before it, whose inputs are then run up the network.
         let mut group_t = t.first().copied().unwrap_or(0);
@@ -516,14 +490,7 @@ impl WindowState {
             let (xs, ys) = (usize::from(sx), usize::from(sy));
             // SAFETY: inside the sensor (our caller's contract).
             if unsafe { self.stamp(ys * self.width + xs, st) } {
-                if AVX2 && WHOLE {
-                    // SAFETY: conv1 has whole inputs (our caller's contract).
-                    unsafe { self.conv[0].add_inline_whole(w, ys, xs) };
-                } else if AVX2 {
-                    self.conv[0].add_inline(w, ys, xs);
-                } else {
-                    self.conv[0].add(w, 0, ys, xs);
-                }
+                self.conv[0].add_inline(w, ys, xs);
                 added = true;
             }
         }

@@ -141,13 +141,58 @@ fn pooling_mode(name: &str) -> Result<Pooling> {
     }
 }
 
+/// Adds to a kernel's Python methods (`impl $kernel { ... }`, whose `inner` is a `Kernel`)
+/// `push_gray`, `push_bgr` and `push_float`, the same for every kernel and written once here.
+/// PyO3 takes one `#[pymethods]` block per class, so they join the kernel's own block.
+macro_rules! frame_kernel_methods {
+    (impl $kernel:ident { $($methods:tt)* }) => {
+        #[pymethods]
+        impl $kernel {
+            $($methods)*
+
+            /// Feed `(n, h, w)` uint8 gray frames; returns packed events.
+            fn push_gray<'py>(
+                &mut self,
+                py: Python<'py>,
+                frames: PyReadonlyArray3<'_, u8>,
+                timestamps_us: PyReadonlyArray1<'_, u64>,
+            ) -> PyResult<Bound<'py, PyArray1<u8>>> {
+                let batch = Batch::Gray(frames.as_array());
+                run_batch(py, &mut self.inner, &batch, &timestamps_us)
+            }
+
+            /// Feed `(n, h, w, 3)` uint8 BGR frames; returns packed events.
+            fn push_bgr<'py>(
+                &mut self,
+                py: Python<'py>,
+                frames: PyReadonlyArray4<'_, u8>,
+                timestamps_us: PyReadonlyArray1<'_, u64>,
+            ) -> PyResult<Bound<'py, PyArray1<u8>>> {
+                let batch = Batch::Bgr(frames.as_array());
+                run_batch(py, &mut self.inner, &batch, &timestamps_us)
+            }
+
+            /// Feed `(n, h, w)` float32 gray frames (0–255 scale); returns packed events.
+            fn push_float<'py>(
+                &mut self,
+                py: Python<'py>,
+                frames: PyReadonlyArray3<'_, f32>,
+                timestamps_us: PyReadonlyArray1<'_, u64>,
+            ) -> PyResult<Bound<'py, PyArray1<u8>>> {
+                let batch = Batch::Float(frames.as_array());
+                run_batch(py, &mut self.inner, &batch, &timestamps_us)
+            }
+        }
+    };
+}
+
 /// PIX2NVS fed batches of frames; keeps its state between calls.
 #[pyclass(module = "uavsnn._core")]
 pub struct Pix2NvsKernel {
     inner: Pix2Nvs,
 }
 
-#[pymethods]
+frame_kernel_methods! {
 impl Pix2NvsKernel {
     #[new]
     #[pyo3(signature = (width, height, *, threshold, n_max, reference, block_size, adaptive,
@@ -204,39 +249,7 @@ impl Pix2NvsKernel {
     fn frames_seen(&self) -> usize {
         self.inner.frames_seen()
     }
-
-    /// Feed `(n, h, w)` uint8 gray frames; returns packed events.
-    fn push_gray<'py>(
-        &mut self,
-        py: Python<'py>,
-        frames: PyReadonlyArray3<'_, u8>,
-        timestamps_us: PyReadonlyArray1<'_, u64>,
-    ) -> PyResult<Bound<'py, PyArray1<u8>>> {
-        let batch = Batch::Gray(frames.as_array());
-        run_batch(py, &mut self.inner, &batch, &timestamps_us)
-    }
-
-    /// Feed `(n, h, w, 3)` uint8 BGR frames; returns packed events.
-    fn push_bgr<'py>(
-        &mut self,
-        py: Python<'py>,
-        frames: PyReadonlyArray4<'_, u8>,
-        timestamps_us: PyReadonlyArray1<'_, u64>,
-    ) -> PyResult<Bound<'py, PyArray1<u8>>> {
-        let batch = Batch::Bgr(frames.as_array());
-        run_batch(py, &mut self.inner, &batch, &timestamps_us)
-    }
-
-    /// Feed `(n, h, w)` float32 gray frames (0–255 scale); returns packed events.
-    fn push_float<'py>(
-        &mut self,
-        py: Python<'py>,
-        frames: PyReadonlyArray3<'_, f32>,
-        timestamps_us: PyReadonlyArray1<'_, u64>,
-    ) -> PyResult<Bound<'py, PyArray1<u8>>> {
-        let batch = Batch::Float(frames.as_array());
-        run_batch(py, &mut self.inner, &batch, &timestamps_us)
-    }
+}
 }
 
 /// The DVS emulator fed batches of frames; keeps its state between calls.
@@ -245,7 +258,7 @@ pub struct DvsKernel {
     inner: DvsEmulator,
 }
 
-#[pymethods]
+frame_kernel_methods! {
 impl DvsKernel {
     #[new]
     #[pyo3(signature = (width, height, *, seed, threshold_on, threshold_off, threshold_sigma,
@@ -307,39 +320,6 @@ impl DvsKernel {
         self.inner.hot_pixels()
     }
 
-    /// Feed `(n, h, w)` uint8 gray frames; returns packed events.
-    fn push_gray<'py>(
-        &mut self,
-        py: Python<'py>,
-        frames: PyReadonlyArray3<'_, u8>,
-        timestamps_us: PyReadonlyArray1<'_, u64>,
-    ) -> PyResult<Bound<'py, PyArray1<u8>>> {
-        let batch = Batch::Gray(frames.as_array());
-        run_batch(py, &mut self.inner, &batch, &timestamps_us)
-    }
-
-    /// Feed `(n, h, w, 3)` uint8 BGR frames; returns packed events.
-    fn push_bgr<'py>(
-        &mut self,
-        py: Python<'py>,
-        frames: PyReadonlyArray4<'_, u8>,
-        timestamps_us: PyReadonlyArray1<'_, u64>,
-    ) -> PyResult<Bound<'py, PyArray1<u8>>> {
-        let batch = Batch::Bgr(frames.as_array());
-        run_batch(py, &mut self.inner, &batch, &timestamps_us)
-    }
-
-    /// Feed `(n, h, w)` float32 gray frames (0–255 scale); returns packed events.
-    fn push_float<'py>(
-        &mut self,
-        py: Python<'py>,
-        frames: PyReadonlyArray3<'_, f32>,
-        timestamps_us: PyReadonlyArray1<'_, u64>,
-    ) -> PyResult<Bound<'py, PyArray1<u8>>> {
-        let batch = Batch::Float(frames.as_array());
-        run_batch(py, &mut self.inner, &batch, &timestamps_us)
-    }
-
     /// Feed one `(h, w)` float32 gray frame at `t_us` with sub-frame samples: `patches` is a
     /// list of `(x0, y0, times_us, values)`, `values` `(len(times_us), ph, pw)` float32 luma
     /// of the patch at those times (strictly between the previous frame and this one).
@@ -386,6 +366,7 @@ impl DvsKernel {
         })?;
         Ok(bytes.into_pyarray(py))
     }
+}
 }
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {

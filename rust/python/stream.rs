@@ -40,7 +40,7 @@ fn pack_detections(found: &[StreamDetection]) -> Vec<u8> {
 
 /// Unchecked decoding of packed 13-byte event records (the detector validates them).
 fn unpack_events(bytes: &[u8], out: &mut Vec<Event>) -> Result<(), Error> {
-    if bytes.len() % PACKED_EVENT_SIZE != 0 {
+    if !bytes.len().is_multiple_of(PACKED_EVENT_SIZE) {
         return Err(Error::Shape {
             name: "events",
             expected: format!("a multiple of {PACKED_EVENT_SIZE} bytes"),

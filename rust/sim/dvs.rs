@@ -394,15 +394,7 @@ impl DvsEmulator {
         out: &mut Vec<Event>,
     ) -> Result<()> {
         frame.check(self.width, self.height, self.frames)?;
-        let t_prev = match self.last_t {
-            Some(prev) if t_us <= prev => {
-                return Err(Error::Simulation(format!(
-                    "frame {}: timestamp {t_us} us is not after the previous frame's {prev} us",
-                    self.frames
-                )))
-            }
-            prev => prev,
-        };
+        let t_prev = super::frame::after_previous(self.last_t, t_us, self.frames)?;
         if t_prev.is_none() && !patches.is_empty() {
             return Err(Error::Simulation(
                 "the first frame only sets the pixels' state: it takes no sub-frame samples".into(),

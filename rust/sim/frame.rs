@@ -67,6 +67,17 @@ impl Frame<'_> {
     }
 }
 
+/// The previous frame's time `last`, once frame `index` at `t_us` is checked to come strictly
+/// after it: the check both simulators make before a frame changes their state.
+pub(crate) fn after_previous(last: Option<u64>, t_us: u64, index: usize) -> Result<Option<u64>> {
+    match last {
+        Some(prev) if t_us <= prev => Err(Error::Simulation(format!(
+            "frame {index}: timestamp {t_us} us is not after the previous frame's {prev} us"
+        ))),
+        prev => Ok(prev),
+    }
+}
+
 /// How a pixel turns luma `Y` (0–255 scale) into the quantity whose changes make events.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Response {

@@ -280,7 +280,7 @@ impl Pix2Nvs {
             }
         };
         let b = params.block_size;
-        if params.compat && (width % b != 0 || height % b != 0) {
+        if params.compat && (!width.is_multiple_of(b) || !height.is_multiple_of(b)) {
             return Err(Error::param(
                 "block_size",
                 format!(
@@ -341,15 +341,7 @@ impl Pix2Nvs {
                     .to_string(),
             ));
         }
-        let t_prev = match self.last_t {
-            Some(prev) if t_us <= prev => {
-                return Err(Error::Simulation(format!(
-                    "frame {}: timestamp {t_us} us is not after the previous frame's {prev} us",
-                    self.frames
-                )))
-            }
-            prev => prev,
-        };
+        let t_prev = super::frame::after_previous(self.last_t, t_us, self.frames)?;
         self.frames += 1;
         self.last_t = Some(t_us);
         let (w, b) = (self.width, self.params.block_size);

@@ -152,7 +152,7 @@ impl PacketDecoder {
     }
 
     fn whole(&self, packet: &[u8], record: usize) -> Result<()> {
-        if packet.len() % record == 0 {
+        if packet.len().is_multiple_of(record) {
             Ok(())
         } else {
             Err(Error::Stream(format!(

@@ -55,7 +55,7 @@ impl WindowEngine for Echo {
         if let Some(&(pending_t, _, _)) = state.pending.last() {
             assert_eq!(pending_t, t, "a later time was pushed before settling");
         }
-        assert!(state.settled_t.map_or(true, |s| s < t), "time went back");
+        assert!(state.settled_t.is_none_or(|s| s < t), "time went back");
         state.pending.push((t, x, y));
         Ok(())
     }
