@@ -36,8 +36,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from uavsnn import _core
+from uavsnn._validate import check_sensor_size
 from uavsnn.errors import ParameterError, ShapeError
-from uavsnn.events import EVENT_DTYPE, _check_sensor_size, packed_bytes
+from uavsnn.events import EVENT_DTYPE, packed_bytes
 from uavsnn.network import WINDOW_DETECTION_DTYPE
 
 if TYPE_CHECKING:
@@ -128,7 +129,7 @@ class Detector:
                 )
             network = model
         width, height = int(network.config["width"]), int(network.config["height"])
-        if sensor_size is not None and _check_sensor_size(sensor_size) != (width, height):
+        if sensor_size is not None and check_sensor_size(sensor_size) != (width, height):
             raise ShapeError(
                 f"sensor_size {tuple(sensor_size)} differs from the network's input size "
                 f"{(width, height)}; downsample the events first (uavsnn.filters.downsample)"
