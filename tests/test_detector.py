@@ -21,11 +21,13 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+import uavsnn.detector
+import uavsnn.network
 from uavsnn import EVENT_DTYPE, EventError, ParameterError, Recording, ShapeError, StreamError
-from uavsnn.detector import DETECTION_DTYPE, Detector, WindowGrouper, merge_boxes
+from uavsnn.detector import WINDOW_DETECTION_DTYPE, Detector, WindowGrouper, merge_boxes
 from uavsnn.filters import downsample
 from uavsnn.io import write_npz
-from uavsnn.network import WINDOW_DETECTION_DTYPE, Network
+from uavsnn.network import DETECTION_DTYPE, Network
 from uavsnn.sources import FileSource, StdinSource
 from uavsnn.windows import make_windows
 
@@ -75,11 +77,18 @@ def stream(
 def batch(net: Network, events: np.ndarray, window_us: int, overlap: float) -> np.ndarray:
     windows = make_windows(Recording(events, SIZE), window_us, overlap)
     found = net.infer(windows, threads=1).detections
-    return np.sort(found.astype(DETECTION_DTYPE), order=ORDER)
+    return np.sort(found.astype(WINDOW_DETECTION_DTYPE), order=ORDER)
 
 
 def test_detection_dtype_is_the_batch_paths() -> None:
-    assert DETECTION_DTYPE == WINDOW_DETECTION_DTYPE
+    assert uavsnn.detector.WINDOW_DETECTION_DTYPE is uavsnn.network.WINDOW_DETECTION_DTYPE
+    # One window's detection has no window field; the old name warns and means the windowed one.
+    assert DETECTION_DTYPE.names == WINDOW_DETECTION_DTYPE.names[1:]
+    with pytest.warns(DeprecationWarning, match="WINDOW_DETECTION_DTYPE"):
+        old = uavsnn.detector.DETECTION_DTYPE
+    assert old is WINDOW_DETECTION_DTYPE
+    with pytest.raises(AttributeError):
+        _ = uavsnn.detector.NO_SUCH_NAME
 
 
 @given(
@@ -596,7 +605,7 @@ def box_rows(n: int) -> st.SearchStrategy:
 
 
 def as_detections(boxes: list[tuple[int, int, int, int]]) -> np.ndarray:
-    d = np.zeros(len(boxes), dtype=DETECTION_DTYPE)
+    d = np.zeros(len(boxes), dtype=WINDOW_DETECTION_DTYPE)
     b = np.array(boxes, dtype=np.int64).reshape(-1, 4)
     d["x0"], d["y0"] = b[:, 0], b[:, 1]
     d["x1"], d["y1"] = b[:, 0] + b[:, 2], b[:, 1] + b[:, 3]

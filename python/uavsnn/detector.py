@@ -36,8 +36,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from uavsnn import _core
+from uavsnn._validate import check_sensor_size
 from uavsnn.errors import ParameterError, ShapeError
-from uavsnn.events import EVENT_DTYPE, _check_sensor_size, packed_bytes
+from uavsnn.events import EVENT_DTYPE, packed_bytes
+from uavsnn.network import WINDOW_DETECTION_DTYPE
 from uavsnn.signature import RotorEstimate, rotor_signature
 from uavsnn.tracks import Tracker
 
@@ -45,10 +47,10 @@ if TYPE_CHECKING:
     from uavsnn.network import Network
 
 __all__ = [
-    "DETECTION_DTYPE",
     "MAX_LIVE_WINDOWS",
     "MAX_ROTOR_BOXES",
     "MAX_ROTOR_EVENTS",
+    "WINDOW_DETECTION_DTYPE",
     "Detector",
     "WindowGrouper",
     "WindowObject",
@@ -70,33 +72,30 @@ MAX_ROTOR_BOXES = 8
 #: window, the oldest are dropped and the windows that lost events get ``rotor=None``.
 MAX_ROTOR_EVENTS = 1 << 21
 
-#: One detection: the window index, the conv3 spike's time, map and position, the centre of its
-#: receptive field in sensor coordinates, and the box of the input spikes that caused it
-#: (half-open, ``x0 <= x < x1``). The same fields as ``Inference.detections``.
-DETECTION_DTYPE = np.dtype(
-    [
-        ("window", "<i8"),
-        ("t", "<u8"),
-        ("map", "<u2"),
-        ("row", "<u2"),
-        ("col", "<u2"),
-        ("x", "<f4"),
-        ("y", "<f4"),
-        ("x0", "<u2"),
-        ("y0", "<u2"),
-        ("x1", "<u2"),
-        ("y1", "<u2"),
-    ]
-)
+
+def __getattr__(name: str) -> object:
+    # ``DETECTION_DTYPE`` was this module's name for what uavsnn.network calls
+    # ``WINDOW_DETECTION_DTYPE``; uavsnn.network.DETECTION_DTYPE has no window field.
+    if name == "DETECTION_DTYPE":
+        import warnings
+
+        warnings.warn(
+            "uavsnn.detector.DETECTION_DTYPE is deprecated: use WINDOW_DETECTION_DTYPE "
+            "(uavsnn.network.DETECTION_DTYPE is one window's detection, without a window field)",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        return WINDOW_DETECTION_DTYPE
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-_NO_DETECTIONS = np.empty(0, dtype=DETECTION_DTYPE)
+_NO_DETECTIONS = np.empty(0, dtype=WINDOW_DETECTION_DTYPE)
 _NO_DETECTIONS.flags.writeable = False
 
 
 def _detections(packed: np.ndarray) -> np.ndarray:
     """View packed detection records; most pushes find none, and share one empty array."""
-    return packed.view(DETECTION_DTYPE) if len(packed) else _NO_DETECTIONS
+    return packed.view(WINDOW_DETECTION_DTYPE) if len(packed) else _NO_DETECTIONS
 
 
 class Detector:
@@ -150,7 +149,7 @@ class Detector:
                 )
             network = model
         width, height = int(network.config["width"]), int(network.config["height"])
-        if sensor_size is not None and _check_sensor_size(sensor_size) != (width, height):
+        if sensor_size is not None and check_sensor_size(sensor_size) != (width, height):
             raise ShapeError(
                 f"sensor_size {tuple(sensor_size)} differs from the network's input size "
                 f"{(width, height)}; downsample the events first (uavsnn.filters.downsample)"
@@ -189,7 +188,7 @@ class Detector:
                 included), sorted by time, not earlier than the previous chunk.
 
         Returns:
-            A structured array of :data:`DETECTION_DTYPE`, in time order.
+            A structured array of :data:`~uavsnn.network.WINDOW_DETECTION_DTYPE`, in time order.
 
         Raises:
             EventError: a wrong dtype, an event outside the sensor, or times out of order

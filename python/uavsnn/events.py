@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 
 from uavsnn import _core
+from uavsnn._validate import check_sensor_size
 from uavsnn.errors import EventError, ParameterError
 
 __all__ = ["EVENT_DTYPE", "LAYOUTS", "Recording", "convert", "packed_bytes"]
@@ -70,16 +71,6 @@ def packed_bytes(events: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(events).view(np.uint8)
 
 
-def _check_sensor_size(sensor_size: Any) -> tuple[int, int]:
-    try:
-        width, height = (int(v) for v in sensor_size)
-    except (TypeError, ValueError) as exc:
-        raise ParameterError(f"sensor_size must be (width, height), got {sensor_size!r}") from exc
-    if not (0 < width <= 65535 and 0 < height <= 65535):
-        raise ParameterError(f"sensor_size must be positive and < 65536, got {width}x{height}")
-    return width, height
-
-
 @dataclass(frozen=True)
 class Recording:
     """Events sorted by time, the sensor size ``(width, height)``, and free-form metadata.
@@ -93,7 +84,7 @@ class Recording:
     metadata: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        size = _check_sensor_size(self.sensor_size)
+        size = check_sensor_size(self.sensor_size)
         object.__setattr__(self, "sensor_size", size)
         buf = packed_bytes(self.events)
         _core.validate_events(buf, size[0], size[1])
@@ -119,11 +110,12 @@ class Recording:
         return int(self.events["t"][-1]) - int(self.events["t"][0])
 
 
-def _checked_recording(
+def recording_from_engine(
     events: np.ndarray, sensor_size: tuple[int, int], metadata: dict[str, Any]
 ) -> Recording:
     """A :class:`Recording` of events the engine has just produced valid (sorted, on the
-    sensor), without validating them a second time."""
+    sensor), without validating them a second time. Internal to the package (not in
+    ``__all__``): only for arrays the engine returned."""
     rec = object.__new__(Recording)
     object.__setattr__(rec, "events", events)
     object.__setattr__(rec, "sensor_size", sensor_size)
@@ -246,7 +238,7 @@ def convert(
     out["y"] = y
     out["p"] = _polarity(p)
     if sensor_size is not None:
-        width, height = _check_sensor_size(sensor_size)
+        width, height = check_sensor_size(sensor_size)
         off = (out["x"] >= width) | (out["y"] >= height)
         if off.any():
             i = _first_bad(off)

@@ -18,15 +18,9 @@ from __future__ import annotations
 from typing import Any
 
 from uavsnn import _core
+from uavsnn._validate import check_sensor_size, int_param
 from uavsnn.errors import ParameterError
-from uavsnn.events import (
-    EVENT_DTYPE,
-    Recording,
-    _check_sensor_size,
-    _checked_recording,
-    packed_bytes,
-)
-from uavsnn.windows import _int_param
+from uavsnn.events import EVENT_DTYPE, Recording, recording_from_engine, packed_bytes
 
 __all__ = ["denoise", "downsample"]
 
@@ -45,7 +39,7 @@ def denoise(recording: Recording, dt_us: int) -> Recording:
         ParameterError: ``dt_us`` below 1 µs, NaN or not a whole number.
     """
     rec = _recording(recording)
-    dt = _int_param("dt_us", dt_us, 1, (1 << 63) - 1)
+    dt = int_param("dt_us", dt_us, 1, (1 << 63) - 1)
     width, height = rec.sensor_size
     keep = _core.denoise_mask(packed_bytes(rec.events), width, height, dt)
     return Recording(rec.events[keep], rec.sensor_size, {**rec.metadata, "denoise_dt_us": dt})
@@ -59,10 +53,10 @@ def downsample(recording: Recording, target: tuple[int, int] = (240, 180)) -> Re
         ParameterError: a malformed ``target``.
     """
     rec = _recording(recording)
-    tw, th = _check_sensor_size(target)
+    tw, th = check_sensor_size(target)
     width, height = rec.sensor_size
     packed = _core.downsample_events(packed_bytes(rec.events), width, height, tw, th)
     metadata = {**rec.metadata, "downsampled_from": [width, height]}
     # The engine checked the source and kept its order; every kept event lies on the target:
     # the result needs no second validation pass.
-    return _checked_recording(packed.view(EVENT_DTYPE), (tw, th), metadata)
+    return recording_from_engine(packed.view(EVENT_DTYPE), (tw, th), metadata)

@@ -39,8 +39,9 @@ from typing import Any
 
 import numpy as np
 
+from uavsnn._validate import check_sensor_size
 from uavsnn.errors import EventError, ParameterError, RecordingFileError
-from uavsnn.events import EVENT_DTYPE, Recording, _check_sensor_size, convert
+from uavsnn.events import EVENT_DTYPE, Recording, convert
 
 __all__ = ["CAMERA_SENSOR_SIZES", "FAERY_FALLBACK_SIZE", "FORMATS", "read", "write_npz"]
 
@@ -83,7 +84,7 @@ def read(path: str | os.PathLike[str], sensor_size: tuple[int, int] | None = Non
         ParameterError: ``sensor_size`` is malformed or contradicts the file's own.
     """
     file = Path(path)
-    given = None if sensor_size is None else _check_sensor_size(sensor_size)
+    given = None if sensor_size is None else check_sensor_size(sensor_size)
     kind = FORMATS.get(file.suffix.lower())
     if kind is None:
         raise RecordingFileError(
@@ -135,7 +136,7 @@ def _read_npz(file: Path, given: tuple[int, int] | None) -> Recording:
     except EventError as exc:
         raise RecordingFileError(f"{file}: bad 'events' array: {exc}") from exc
     try:
-        sensor = _check_sensor_size(stored_size.tolist())
+        sensor = check_sensor_size(stored_size.tolist())
     except ParameterError as exc:
         raise RecordingFileError(f"{file}: bad 'sensor_size' array: {exc}") from exc
     if given is not None and given != sensor:

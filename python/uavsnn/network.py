@@ -28,6 +28,7 @@ import numpy as np
 import numpy.typing as npt
 
 from uavsnn import _core
+from uavsnn._validate import U64_MAX, check_int
 from uavsnn.errors import EventError, ParameterError, ShapeError
 
 __all__ = [
@@ -237,12 +238,8 @@ def _integers(name: str, values: Any, dtype: type[np.integer[Any]]) -> np.ndarra
 
 
 def _count(name: str, value: Any, *, minimum: int = 0) -> int:
-    """A non-negative integer parameter (``bool`` refused)."""
-    if isinstance(value, bool) or not isinstance(value, int | np.integer):
-        raise ParameterError(f"{name} must be an integer, got {value!r}")
-    if not minimum <= int(value) < 2**64:
-        raise ParameterError(f"{name} must be an integer >= {minimum}, got {value}")
-    return int(value)
+    """A non-negative integer parameter that fits the engine's ``u64`` (``bool`` refused)."""
+    return check_int(name, value, minimum, U64_MAX)
 
 
 def _spikes(columns: tuple[np.ndarray, ...], dtype: np.dtype) -> np.ndarray:

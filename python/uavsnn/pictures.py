@@ -16,10 +16,11 @@ from typing import Any
 import cv2
 import numpy as np
 
+from uavsnn._validate import check_int
 from uavsnn.errors import ParameterError, ShapeError
 from uavsnn.network import CONV_LAYERS, LAYERS, Network
 from uavsnn.scenes.preview import write_png
-from uavsnn.sim.preview import _BACKGROUND
+from uavsnn.sim.preview import BACKGROUND
 
 __all__ = [
     "confusion_image",
@@ -50,15 +51,8 @@ _PALETTE = [  # one colour per map or series (Tableau 10, BGR)
 _GAP = 4
 
 
-def _int(name: str, value: Any, low: int, high: int) -> int:
-    ok = not isinstance(value, bool) and isinstance(value, int | np.integer)
-    if not ok or not low <= value <= high:
-        raise ParameterError(f"{name} must be an integer in [{low}, {high}], got {value!r}")
-    return int(value)
-
-
 def _canvas(h: int, w: int) -> np.ndarray:
-    return np.full((h, w, 3), _BACKGROUND, dtype=np.uint8)
+    return np.full((h, w, 3), BACKGROUND, dtype=np.uint8)
 
 
 def _text(img: np.ndarray, s: str, at: tuple[int, int], size: float = 0.4, c: Any = _TEXT) -> None:
@@ -92,7 +86,7 @@ def _join(images: Sequence[np.ndarray], pad: int, vertical: bool) -> np.ndarray:
         ims.append(a.transpose(1, 0, 2) if vertical else a)
     if not ims:
         raise ParameterError("there are no images to join")
-    pad = _int("pad", pad, 0, 1000)
+    pad = check_int("pad", pad, 0, 1000)
     h, x = max(im.shape[0] for im in ims) + 2 * pad, pad
     out = _canvas(h, sum(im.shape[1] + pad for im in ims) + pad)
     for im in ims:
@@ -189,12 +183,12 @@ def feature_grid(
     ``cell`` x ``cell`` with its index above it, under a title bar. ``cols`` defaults to rows of
     equal length, at most ~1000 pixels wide."""
     f = _features(features, "features")
-    cell = _int("cell", cell, 4, 2000)
+    cell = check_int("cell", cell, 4, 2000)
     n = len(f)
     if cols is None:
         most = max(1, 1000 // (cell + _GAP))
         cols = math.ceil(n / math.ceil(n / most))
-    cols = min(n, _int("cols", cols, 1, 10_000))
+    cols = min(n, check_int("cols", cols, 1, 10_000))
     rows, step = math.ceil(n / cols), cell + _GAP
     sheet = _canvas(rows * (step + 12) + _GAP, cols * step + _GAP)
     for i, m in enumerate(f):
@@ -225,7 +219,7 @@ def feature_evolution(
     All snapshots must have the same number of maps."""
     if len(snapshots) == 0:
         raise ParameterError("snapshots is empty")
-    cell = _int("cell", cell, 4, 2000)
+    cell = check_int("cell", cell, 4, 2000)
     rows = [(str(label), _features(f, f"snapshot {label!r}")) for label, f in snapshots]
     if len({f.shape[0] for _, f in rows}) > 1:
         raise ShapeError(f"snapshots differ in map count: {[f.shape[0] for _, f in rows]}")
@@ -304,7 +298,7 @@ def detections_image(
     map index; the ground-truth box ``(x0, y0, x1, y1)`` (skipped if None or NaN) dashed green.
     Below the frame, a key; above it a title bar when ``title`` is not empty (so with no title
     the frame is the top-left ``h*scale`` x ``w*scale`` block)."""
-    scale = _int("scale", scale, 1, 32)
+    scale = check_int("scale", scale, 1, 32)
     img, span = _frame(frame, scale)
     entries = []  # the key's entries: only what is drawn
     if detections is not None and len(detections):
@@ -343,8 +337,8 @@ def spikes_image(
     """A layer's spikes (fields ``row, col, map``) on a dark ``shape_hw`` canvas, each a
     ``stride`` x ``stride`` block at ``stride * (row, col)`` (1 for the layer's own grid) coloured
     by map, scaled ``scale`` times; a footer gives the count and the maps' colours."""
-    h, w = (_int("shape_hw", v, 1, 100_000) for v in tuple(shape_hw))
-    stride, scale = _int("stride", stride, 1, 1000), _int("scale", scale, 1, 32)
+    h, w = (check_int("shape_hw", v, 1, 100_000) for v in tuple(shape_hw))
+    stride, scale = check_int("stride", stride, 1, 1000), check_int("scale", scale, 1, 32)
     s = _fields(spikes, ("row", "col", "map"), "spikes")
     rows, cols = s["row"].astype(np.int64) * stride, s["col"].astype(np.int64) * stride
     if len(s) and (rows.max() >= h or cols.max() >= w):
@@ -431,7 +425,10 @@ def line_chart(
     for name, v in ys.items():
         if v.shape != xs.shape:
             raise ShapeError(f"series {name!r} has shape {v.shape}, but x has {len(xs)} values")
-    width, height = _int("size[0]", size[0], 200, 8000), _int("size[1]", size[1], 150, 8000)
+    width, height = (
+        check_int("size[0]", size[0], 200, 8000),
+        check_int("size[1]", size[1], 150, 8000),
+    )
     x0, x1 = _span(xs)
     finite = np.concatenate([v[np.isfinite(v)] for v in ys.values()])
     if y_range is not None:
@@ -507,7 +504,7 @@ def confusion_image(
     heads = [f"actual {labels[0]}", f"actual {labels[1]}"]
     left, top, cw, ch = max(_width(s) for s in heads) + 16, 44, 150, 70
     img = _canvas(top + 2 * ch + 34, left + 2 * cw + 8)
-    dark, full = np.array(_BACKGROUND, float) + 16, np.array((200, 120, 30), float)
+    dark, full = np.array(BACKGROUND, float) + 16, np.array((200, 120, 30), float)
     for c, name in enumerate(labels):
         s = f"predicted {name}"
         _text(img, s, (left + c * cw + (cw - _width(s)) // 2, top - 10))

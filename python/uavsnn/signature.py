@@ -22,8 +22,9 @@ from typing import Any
 import numpy as np
 
 from uavsnn import _core
+from uavsnn._validate import check_sensor_size
 from uavsnn.errors import ParameterError
-from uavsnn.events import _check_sensor_size, packed_bytes
+from uavsnn.events import packed_bytes
 
 __all__ = ["DEFAULTS", "MAX_PIXELS", "RotorEstimate", "RotorSignature", "rotor_signature"]
 
@@ -107,7 +108,7 @@ class RotorSignature:
     @classmethod
     def for_sensor(cls, sensor_size: tuple[int, int], **params: Any) -> RotorSignature:
         """An estimator over a whole ``(width, height)`` sensor."""
-        width, height = _check_sensor_size(sensor_size)
+        width, height = check_sensor_size(sensor_size)
         return cls((0, 0, width, height), **params)
 
     def update(self, events: np.ndarray) -> None:

@@ -51,8 +51,9 @@ from urllib.parse import urlsplit
 import numpy as np
 
 from uavsnn import _core
+from uavsnn._validate import check_sensor_size
 from uavsnn.errors import ParameterError, StreamError, UavsnnError
-from uavsnn.events import EVENT_DTYPE, _check_sensor_size
+from uavsnn.events import EVENT_DTYPE
 
 __all__ = [
     "PACKET_FORMATS",
@@ -209,7 +210,7 @@ class StdinSource(EventSource):
             raise ParameterError(f"read_size must be >= {_RECORD}, got {read_size}")
         self.stream = stream if stream is not None else sys.stdin.buffer
         self.fmt = fmt
-        self.sensor_size = None if sensor_size is None else _check_sensor_size(sensor_size)
+        self.sensor_size = None if sensor_size is None else check_sensor_size(sensor_size)
         self.read_size = read_size
         self._lines = 0
         self._last_t = 0
@@ -327,7 +328,7 @@ class UdpSource(EventSource):
             raise ParameterError(f"max_packets must be >= 1, got {max_packets}")
         if idle_timeout is not None and not idle_timeout > 0:
             raise ParameterError(f"idle_timeout must be > 0 seconds, got {idle_timeout}")
-        width, height = _check_sensor_size(sensor_size)
+        width, height = check_sensor_size(sensor_size)
         self.sensor_size = (width, height)
         self.decoder = _core.PacketDecoder(fmt, width, height)
         self.max_packets = max_packets

@@ -32,6 +32,7 @@ from typing import Any
 
 import numpy as np
 
+from uavsnn._validate import check_int
 from uavsnn.errors import DatasetError, ModelFileError, ParameterError
 from uavsnn.network import CONV_LAYERS, Network, TrainReport, WindowsLike
 
@@ -127,9 +128,9 @@ def train(
     if n == 0:
         raise DatasetError("no training windows: the train split is empty")
     if windows_per_layer is not None:
-        windows_per_layer = _positive("windows_per_layer", windows_per_layer)
+        windows_per_layer = check_int("windows_per_layer", windows_per_layer, 1)
         epochs = math.ceil(windows_per_layer / n)
-    planned = windows_per_layer or n * _positive("epochs", epochs)
+    planned = windows_per_layer or n * check_int("epochs", epochs, 1)
     snapshots = int(snapshots)
     if snapshots < 0:
         raise ParameterError(f"snapshots must be >= 0, got {snapshots}")
@@ -228,12 +229,6 @@ def _check_layers(layers: Sequence[str]) -> list[str]:
             f"got {', '.join(names)}"
         )
     return names
-
-
-def _positive(name: str, value: Any) -> int:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer) or int(value) < 1:
-        raise ParameterError(f"{name} must be an integer >= 1, got {value!r}")
-    return int(value)
 
 
 def _snapshot_marks(planned: int, snapshots: int) -> list[int]:

@@ -17,7 +17,6 @@ The work is done by the Rust engine (``rust/windows.rs``) in one pass over the e
 from __future__ import annotations
 
 import math
-import numbers
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -26,12 +25,11 @@ from typing import Any
 import numpy as np
 
 from uavsnn import _core
+from uavsnn._validate import int_param
 from uavsnn.errors import ParameterError, ShapeError
 from uavsnn.events import Recording, packed_bytes
 
 __all__ = ["MEMORY_LIMIT", "Windows", "add_noise", "make_windows", "window_step"]
-
-_U64_MAX = (1 << 64) - 1
 
 
 def _physical_memory() -> int | None:
@@ -73,22 +71,6 @@ def _check_memory(n_events: int, length_us: int, overlap: float) -> None:
 _COLUMNS = ("t0", "offsets", "t", "x", "y", "n_preceding")
 
 
-def _int_param(name: str, value: Any, minimum: int, maximum: int = _U64_MAX) -> int:
-    """An integer parameter (an integral float is accepted), or :class:`ParameterError`."""
-    if isinstance(value, bool) or not isinstance(value, (numbers.Integral, numbers.Real)):
-        raise ParameterError(f"{name} must be an integer, got {value!r}")
-    if isinstance(value, numbers.Integral):
-        result = int(value)
-    else:
-        number = float(value)
-        if not math.isfinite(number) or number != math.floor(number):
-            raise ParameterError(f"{name} must be a whole number of microseconds, got {value!r}")
-        result = int(number)
-    if not minimum <= result <= maximum:
-        raise ParameterError(f"{name} must be in [{minimum}, {maximum}], got {result}")
-    return result
-
-
 def _overlap(value: Any) -> float:
     try:
         overlap = float(value)
@@ -118,7 +100,7 @@ def window_step(length_us: int, overlap: float = 0.0) -> int:
     """The step between window starts: ``length_us·(1 − overlap)`` rounded down to whole µs, at
     least 1 (a product within 1e-9 of an integer counts as that integer, so 10 ms at 90 % gives
     exactly 1 ms)."""
-    length = _int_param("length_us", length_us, 1, 1 << 62)
+    length = int_param("length_us", length_us, 1, 1 << 62)
     return int(_core.window_step(length, _overlap(overlap)))
 
 
@@ -161,7 +143,7 @@ class Windows:
         if not (0 < width <= 65535 and 0 < height <= 65535):
             raise ParameterError(f"sensor_size must be positive and < 65536, got {width}x{height}")
         object.__setattr__(self, "sensor_size", (width, height))
-        object.__setattr__(self, "length_us", _int_param("length_us", self.length_us, 1, 1 << 62))
+        object.__setattr__(self, "length_us", int_param("length_us", self.length_us, 1, 1 << 62))
         for name, dtype in (
             ("t0", np.uint64),
             ("offsets", np.int64),
@@ -311,9 +293,9 @@ def make_windows(
     """
     if not isinstance(recording, Recording):
         raise ParameterError(f"expected a Recording, got {type(recording).__name__}")
-    length = _int_param("length_us", length_us, 1, 1 << 62)
-    start = None if start_us is None else _int_param("start_us", start_us, 0, 1 << 62)
-    end = None if end_us is None else _int_param("end_us", end_us, 0, 1 << 62)
+    length = int_param("length_us", length_us, 1, 1 << 62)
+    start = None if start_us is None else int_param("start_us", start_us, 0, 1 << 62)
+    end = None if end_us is None else int_param("end_us", end_us, 0, 1 << 62)
     width, height = recording.sensor_size
     overlap = _overlap(overlap)
     _check_memory(len(recording.events), length, overlap)
@@ -356,7 +338,7 @@ def add_noise(windows: Windows, fraction: float, *, seed: int) -> tuple[Windows,
         raise ParameterError(f"fraction must be a number in [0, 1], got {fraction!r}") from exc
     if not (0.0 <= frac <= 1.0):
         raise ParameterError(f"fraction must be in [0, 1], got {fraction!r}")
-    seed_value = _int_param("seed", seed, 0)
+    seed_value = int_param("seed", seed, 0)
     width, height = windows.sensor_size
     columns, snr = _core.add_noise(
         width,

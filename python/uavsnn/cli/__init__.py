@@ -1,9 +1,11 @@
 """The ``uavsnn`` command line: one sub-command per step of the path (SPEC §6).
 
-Each sub-command lives in its own module of this package and exposes
+Each sub-command lives in the module of its name in this package and exposes
 ``register(subparsers) -> None``, which adds its parser and sets ``handler`` (a function of the
-parsed arguments returning an exit code) with ``parser.set_defaults(handler=...)``. Modules are
-discovered, so adding a command touches no other file.
+parsed arguments returning an exit code) with ``parser.set_defaults(handler=...)``. A module is
+imported only when its command is run (or asked for its ``--help``): ``uavsnn --help`` lists
+the commands from :data:`COMMANDS` without loading OpenCV, the renderer or the simulators, so
+adding a command adds its line there.
 
 Every failure a user can cause ends in one line on standard error and a documented exit code:
 2 for bad input (any :class:`uavsnn.UavsnnError`, a file that cannot be read or written, not
@@ -17,14 +19,26 @@ from __future__ import annotations
 import argparse
 import importlib
 import os
-import pkgutil
 import sys
 from pathlib import Path
 
 from uavsnn import __version__
 from uavsnn.errors import ParameterError, UavsnnError
 
-__all__ = ["main", "output_dir"]
+__all__ = ["COMMANDS", "main", "output_dir"]
+
+#: The sub-commands, each the name of its module, with the one line ``uavsnn --help`` shows.
+COMMANDS: dict[str, str] = {
+    "bench": "measure the engine's speed on this machine",
+    "dataset": "build and inspect labelled datasets of windows",
+    "demo": "the whole pipeline on a small built-in synthetic set, with a report",
+    "detect": "detect UAVs in a recording, standard input or a UDP event stream",
+    "evaluate": "score a model on a labelled test set",
+    "info": "sensor size, event count, duration and event rates of a recording",
+    "reproduce": "the paper's experiments at full size, written to RESULTS.md",
+    "simulate": "turn a video into events (PIX2NVS 'sim' or DVS emulation 'dvs')",
+    "train": "train a detector by STDP, one layer at a time",
+}
 
 #: Exit code of a command stopped by Ctrl-C (128 + SIGINT, as shells report it).
 EXIT_INTERRUPTED = 130
@@ -48,25 +62,29 @@ def output_dir(path: Path, flag: str) -> Path:
     return path
 
 
-def _build_parser() -> argparse.ArgumentParser:
+def _build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The parser, with ``command``'s module imported and its arguments defined (every command
+    when ``command`` is ``"*"``); the others are listed by name and help line only."""
     parser = argparse.ArgumentParser(
         prog="uavsnn",
         description="Drone detection on event-camera streams with an STDP-trained SNN.",
     )
     parser.add_argument("--version", action="version", version=f"uavsnn {__version__}")
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for info in sorted(pkgutil.iter_modules(__path__), key=lambda m: m.name):
-        module = importlib.import_module(f"{__name__}.{info.name}")
-        register = getattr(module, "register", None)
-        if register is not None:
-            register(subparsers)
+    for name, line in COMMANDS.items():
+        if command in (name, "*"):
+            importlib.import_module(f"{__name__}.{name}").register(subparsers)
+        else:
+            subparsers.add_parser(name, help=line)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``uavsnn`` command."""
-    parser = _build_parser()
-    args = parser.parse_args(argv)
+    words = sys.argv[1:] if argv is None else argv
+    # The top-level options take no value, so the first word that is not one names the command.
+    parser = _build_parser(next((w for w in words if not w.startswith("-")), None))
+    args = parser.parse_args(words)
     if args.command is None:
         parser.print_help()
         return 0

@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from uavsnn._validate import check_int
 from uavsnn.errors import ParameterError
 
 __all__ = [
@@ -53,15 +54,6 @@ def check_real(
     if high is not None and (v > high or (high_open and v == high)):
         raise ParameterError(f"{name} must be {'<' if high_open else '<='} {high}, got {v}")
     return v
-
-
-def check_int(name: str, value: Any, *, low: int, high: int) -> int:
-    """An integer in ``[low, high]``, as ``int``."""
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-        raise ParameterError(f"{name} must be an integer, got {value!r}")
-    if not low <= int(value) <= high:
-        raise ParameterError(f"{name} must be in [{low}, {high}], got {value}")
-    return int(value)
 
 
 def check_choice(name: str, value: Any, choices: tuple[str, ...]) -> str:

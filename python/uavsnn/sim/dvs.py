@@ -38,7 +38,7 @@ from uavsnn import _core
 from uavsnn.errors import SimulationError
 from uavsnn.events import EVENT_DTYPE
 from uavsnn.sim.checks import check_real, check_seed, check_size
-from uavsnn.sim.frames import FrameBatch, as_frame_batch, as_timestamps
+from uavsnn.sim.frames import as_frame_batch, push_frames
 
 __all__ = ["SCENE_PARAMS", "DvsEmulator", "DvsParams", "emulate_dvs"]
 
@@ -208,15 +208,7 @@ class DvsEmulator:
         """Feed frames (see :func:`emulate_dvs`) and return the events they make, sorted by
         time. The first frame ever fed only sets the pixels' state; each batch must continue in
         time after the previous one."""
-        batch = frames if isinstance(frames, FrameBatch) else as_frame_batch(frames)
-        times = as_timestamps(timestamps_us, len(batch))
-        if batch.size != self.sensor_size:
-            raise SimulationError(
-                f"frames are {batch.size[0]}x{batch.size[1]}, this sensor is "
-                f"{self.sensor_size[0]}x{self.sensor_size[1]}"
-            )
-        push = getattr(self._kernel, f"push_{batch.kind}")
-        return np.asarray(push(batch.array, times)).view(EVENT_DTYPE)
+        return push_frames(self._kernel, frames, timestamps_us, self.sensor_size, "this sensor is")
 
     def process_frame(
         self,

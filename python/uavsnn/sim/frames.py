@@ -16,8 +16,9 @@ from typing import Any, Literal
 import numpy as np
 
 from uavsnn.errors import SimulationError
+from uavsnn.events import EVENT_DTYPE
 
-__all__ = ["FrameBatch", "as_frame_batch", "as_timestamps"]
+__all__ = ["FrameBatch", "as_frame_batch", "as_timestamps", "push_frames"]
 
 #: BT.601 luma weights in OpenCV's B, G, R order.
 BT601_BGR = np.array([0.114, 0.587, 0.299], dtype=np.float32)
@@ -125,3 +126,20 @@ def as_timestamps(timestamps_us: Any, n: int) -> np.ndarray:
                 "frame times must increase strictly"
             )
     return t
+
+
+def push_frames(
+    kernel: Any, frames: Any, timestamps_us: Any, size: tuple[int, int], takes: str
+) -> np.ndarray:
+    """The ``process`` of the simulators: check ``frames`` and ``timestamps_us`` (see above)
+    against the frame ``size`` ``(width, height)`` that ``kernel`` takes, feed them to its
+    ``push_gray``, ``push_bgr`` or ``push_float``, and return the events they made, sorted by
+    time. ``takes`` words the wrong-size error (``"this sensor is"``)."""
+    batch = frames if isinstance(frames, FrameBatch) else as_frame_batch(frames)
+    times = as_timestamps(timestamps_us, len(batch))
+    if batch.size != size:
+        raise SimulationError(
+            f"frames are {batch.size[0]}x{batch.size[1]}, {takes} {size[0]}x{size[1]}"
+        )
+    push = getattr(kernel, f"push_{batch.kind}")
+    return np.asarray(push(batch.array, times)).view(EVENT_DTYPE)

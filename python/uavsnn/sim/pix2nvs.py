@@ -44,10 +44,9 @@ from typing import Any, Literal
 import numpy as np
 
 from uavsnn import _core
-from uavsnn.errors import ParameterError, SimulationError
-from uavsnn.events import EVENT_DTYPE
+from uavsnn.errors import ParameterError
 from uavsnn.sim.checks import check_choice, check_int, check_real, check_seed, check_size
-from uavsnn.sim.frames import FrameBatch, as_frame_batch, as_timestamps
+from uavsnn.sim.frames import as_frame_batch, push_frames
 
 __all__ = ["Pix2NvsParams", "Pix2NvsSimulator", "pix2nvs"]
 
@@ -186,15 +185,9 @@ class Pix2NvsSimulator:
         The first frame ever fed only sets the reference. Each batch must continue in time
         after the previous one.
         """
-        batch = frames if isinstance(frames, FrameBatch) else as_frame_batch(frames)
-        times = as_timestamps(timestamps_us, len(batch))
-        if batch.size != self.frame_size:
-            raise SimulationError(
-                f"frames are {batch.size[0]}x{batch.size[1]}, this simulator takes "
-                f"{self.frame_size[0]}x{self.frame_size[1]}"
-            )
-        push = getattr(self._kernel, f"push_{batch.kind}")
-        return np.asarray(push(batch.array, times)).view(EVENT_DTYPE)
+        return push_frames(
+            self._kernel, frames, timestamps_us, self.frame_size, "this simulator takes"
+        )
 
 
 def pix2nvs(

@@ -18,7 +18,8 @@ from uavsnn.sim.checks import check_int
 
 __all__ = ["event_frame", "event_strip", "write_preview"]
 
-_BACKGROUND = (32, 32, 32)
+BACKGROUND = (32, 32, 32)
+"""The colour (BGR) of silent pixels, shared with the pictures of uavsnn.pictures."""
 _ON = (40, 40, 255)
 _OFF = (255, 150, 40)
 _BOTH = (255, 60, 255)
@@ -33,7 +34,7 @@ def event_frame(events: np.ndarray, sensor_size: tuple[int, int]) -> np.ndarray:
     on[events["y"][polarity], events["x"][polarity]] = True
     off[events["y"][~polarity], events["x"][~polarity]] = True
     img = np.empty((h, w, 3), dtype=np.uint8)
-    img[:] = _BACKGROUND
+    img[:] = BACKGROUND
     img[on & ~off] = _ON
     img[off & ~on] = _OFF
     img[on & off] = _BOTH

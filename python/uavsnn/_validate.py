@@ -1,0 +1,55 @@
+"""Checks of parameters shared by the package's modules (internal: import from here, not from
+the modules that use them). Each failure is a :class:`~uavsnn.ParameterError` that names the
+parameter and the value."""
+
+from __future__ import annotations
+
+import math
+import numbers
+from typing import Any
+
+import numpy as np
+
+from uavsnn.errors import ParameterError
+
+U64_MAX = (1 << 64) - 1
+
+
+def check_int(name: str, value: Any, low: int = 0, high: int | None = None) -> int:
+    """An integer (``bool`` refused) in ``[low, high]`` (no upper bound when ``high`` is None),
+    as ``int``."""
+    if isinstance(value, bool) or not isinstance(value, int | np.integer):
+        raise ParameterError(f"{name} must be an integer, got {value!r}")
+    result = int(value)
+    if high is None and result < low:
+        raise ParameterError(f"{name} must be an integer >= {low}, got {result}")
+    if high is not None and not low <= result <= high:
+        raise ParameterError(f"{name} must be in [{low}, {high}], got {result}")
+    return result
+
+
+def int_param(name: str, value: Any, minimum: int, maximum: int = U64_MAX) -> int:
+    """An integer parameter (an integral float is accepted), or :class:`ParameterError`."""
+    if isinstance(value, bool) or not isinstance(value, (numbers.Integral, numbers.Real)):
+        raise ParameterError(f"{name} must be an integer, got {value!r}")
+    if isinstance(value, numbers.Integral):
+        result = int(value)
+    else:
+        number = float(value)
+        if not math.isfinite(number) or number != math.floor(number):
+            raise ParameterError(f"{name} must be a whole number of microseconds, got {value!r}")
+        result = int(number)
+    if not minimum <= result <= maximum:
+        raise ParameterError(f"{name} must be in [{minimum}, {maximum}], got {result}")
+    return result
+
+
+def check_sensor_size(sensor_size: Any) -> tuple[int, int]:
+    """A sensor size ``(width, height)``, each in ``[1, 65535]``."""
+    try:
+        width, height = (int(v) for v in sensor_size)
+    except (TypeError, ValueError) as exc:
+        raise ParameterError(f"sensor_size must be (width, height), got {sensor_size!r}") from exc
+    if not (0 < width <= 65535 and 0 < height <= 65535):
+        raise ParameterError(f"sensor_size must be positive and < 65536, got {width}x{height}")
+    return width, height
