@@ -20,7 +20,7 @@ from typing import Any
 from uavsnn import _core
 from uavsnn._validate import check_sensor_size, int_param
 from uavsnn.errors import ParameterError
-from uavsnn.events import EVENT_DTYPE, Recording, recording_from_engine, packed_bytes
+from uavsnn.events import EVENT_DTYPE, Recording, packed_bytes, recording_from_engine
 
 __all__ = ["denoise", "downsample"]
 
