@@ -170,6 +170,7 @@ def scene() -> np.ndarray:
 
 def test_batch_features_equal_what_the_streaming_detector_sees() -> None:
     net = small_net()
+    net.identification = model()
     events = scene()
     window_us = 10_000
     det = Detector(net, window_us=window_us, overlap=0.5, start_us=int(events["t"][0]))
@@ -197,6 +198,11 @@ def test_batch_features_equal_what_the_streaming_detector_sees() -> None:
     for (i, box, x), j, b, y in zip(streaming, batch.window, batch.boxes, batch.x, strict=True):
         assert (i, box) == (int(j), tuple(int(v) for v in b))
         np.testing.assert_array_equal(x, y)
+    # The streaming detector scores each object with the model, as the batch path does.
+    scored = [(o.uav_score, o.class_guess) for r in reports for o in r.objects]
+    expected = net.identification.scores(batch.x)
+    assert [s for s, _ in scored] == pytest.approx(expected.tolist(), rel=1e-12)
+    assert [g for _, g in scored] == ["uav" if s >= 0.3 else "other" for s in expected]
     # The flickering square's rotor is in the features (log of ~400 Hz, detected).
     rotor = batch.x[:, FEATURES.index("rotor_detected")] == 1
     assert rotor.any()

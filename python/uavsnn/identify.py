@@ -54,6 +54,7 @@ __all__ = [
     "fit_network",
     "object_features",
     "predict_logistic",
+    "rotor_coverage",
     "split_by_recording",
     "window_features",
 ]
@@ -457,3 +458,38 @@ def fit_network(
         "features": list(fitted.features),
     }
     return fitted, summary
+
+
+def rotor_coverage(feats: WindowFeatures, data: LabelledWindows) -> list[dict[str, Any]]:
+    """What the rotor cue can reach, by the UAV's size (``data.size_px``, bins of
+    :data:`uavsnn.evaluation.SIZE_BINS_PX`): UAV windows, those with an object meeting the
+    labelled box (the any-spike rule found it there), those where such an object's rotor
+    estimate had any vote, and those where it passed the rotor detection rule."""
+    import itertools
+
+    from uavsnn.evaluation import SIZE_BINS_PX
+
+    uav = np.asarray(data.label, dtype=bool)
+    hz = feats.x[:, FEATURES.index("rotor_log_hz")] > 0
+    found = feats.x[:, FEATURES.index("rotor_detected")] == 1
+    n = len(data)
+    met, voted, rotor = (np.zeros(n, bool) for _ in range(3))
+    met[feats.window[feats.label]] = True
+    voted[feats.window[feats.label & hz]] = True
+    rotor[feats.window[feats.label & found]] = True
+    size = np.asarray(data.size_px, dtype=np.float64)
+    out = []
+    for low, high in itertools.pairwise(SIZE_BINS_PX):
+        inside = uav & np.isfinite(size) & (size >= low) & (size < high)
+        if inside.any():
+            out.append(
+                {
+                    "low_px": float(low),
+                    "high_px": None if np.isinf(high) else float(high),
+                    "uav_windows": int(inside.sum()),
+                    "object_on_uav": int(met[inside].sum()),
+                    "rotor_votes": int(voted[inside].sum()),
+                    "rotor_detected": int(rotor[inside].sum()),
+                }
+            )
+    return out

@@ -146,6 +146,7 @@ def _identification(
         out = identification_figures(
             inference.detected, ident.window_scores(test), data, ident.threshold
         )
+    out["rotor_coverage"] = identify.rotor_coverage(test, data)
     if args.ablation is not None:
         train = load(args.dataset, "train")
         tune = load(args.ablation, "train")
@@ -180,6 +181,13 @@ def _print_identification(ident: dict[str, Any]) -> None:
                 f"  at {100 * point['false_alarm_target']:g} % false alarms: detection "
                 f"{100 * point['detection_rate']:.1f} % ({sizes})"
             )
+    for z in ident["rotor_coverage"]:
+        high = "inf" if z["high_px"] is None else f"{z['high_px']:g}"
+        print(
+            f"  UAV {z['low_px']:g}-{high} px: {z['uav_windows']} windows, object on the UAV "
+            f"{z['object_on_uav']}, rotor votes {z['rotor_votes']}, rotor detected "
+            f"{z['rotor_detected']}"
+        )
     for name, row in ident.get("ablation", {}).items():
         print(
             f"  ablation {name:6s}: accuracy {100 * row['accuracy']:.1f} %, detection at 1 % / "
