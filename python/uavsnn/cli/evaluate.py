@@ -48,6 +48,13 @@ def register(subparsers: Any) -> None:
         help="also refit identification on the dataset's train split with rotor, shape and all "
         "features, tuned on TUNE_DATASET's train split, and score each on the test split",
     )
+    p.add_argument(
+        "--roc",
+        type=Path,
+        metavar="PNG",
+        help="write the ROC of detection + identification to this PNG (a model with "
+        "identification)",
+    )
     p.add_argument("--json", action="store_true", help="print the figures as JSON")
     p.set_defaults(handler=_evaluate)
 
@@ -67,6 +74,21 @@ def _evaluate(args: argparse.Namespace) -> int:
     ident = _identification(args, network, data, result)
     if ident:
         figures["identification"] = ident
+    if args.roc is not None:
+        if "roc" not in ident:
+            raise ParameterError("--roc needs a model with identification (`uavsnn train`)")
+        from uavsnn import pictures
+
+        chart = pictures.line_chart(
+            ident["roc"]["false_alarm"],
+            {"any-spike + identification": ident["roc"]["detection"]},
+            title=f"ROC on {args.dataset.name}/{args.split}",
+            xlabel="UAV-free windows alarming",
+            ylabel="UAV windows detected",
+            y_range=(0.0, 1.0),
+            markers=False,
+        )
+        figures["roc_png"] = str(pictures.write_png(args.roc, chart))
     points = []
     static = None
     if args.noise or args.report:
