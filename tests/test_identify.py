@@ -262,6 +262,8 @@ def test_identification_figures_on_hand_made_windows() -> None:
     assert f["any_spike"]["confusion"] == [[100, 0], [100, 0]]
     assert f["identified"]["confusion"] == [[50, 50], [0, 100]]
     assert f["identified"]["accuracy"] == 0.75
+    # Big UAVs, then birds, then small UAVs, then balls: 0.5 * 0.5 + 0.5 * 1.0.
+    assert f["roc"]["area_reachable"] == pytest.approx(0.75)
     at1 = f["at_false_alarm"][0]
     assert at1["false_alarm_rate"] <= 0.01
     assert at1["detection_rate"] == 0.5
