@@ -220,6 +220,9 @@ def test_features_of_a_dataset_without_raw_events_are_refused() -> None:
     )  # fmt: skip
     with pytest.raises(DatasetError, match="raw events"):
         window_features(small_net(), data)
+    other = Network({"width": 48, "height": 30}, seed=0)
+    with pytest.raises(ShapeError, match="40x30 but the model's input is 48x30"):
+        window_features(other, data)
 
 
 # ---------------------------------------------------------------- the figures

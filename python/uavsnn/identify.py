@@ -155,8 +155,16 @@ def window_features(
 
     Raises:
         DatasetError: a dataset without raw events.
+        ShapeError: the dataset's sensor size is not the network's input.
     """
     from uavsnn.detector import merge_boxes
+
+    expected = (int(network.config["width"]), int(network.config["height"]))
+    if tuple(data.windows.sensor_size) != expected:
+        raise ShapeError(
+            f"the data's sensor is {data.windows.sensor_size[0]}x{data.windows.sensor_size[1]} "
+            f"but the model's input is {expected[0]}x{expected[1]}"
+        )
 
     if data.raw is None:
         raise DatasetError(
