@@ -31,7 +31,7 @@ import os
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -286,7 +286,7 @@ class Detector:
         recent = np.concatenate(self._recent) if closed and self._recent else None
         for report in closed:
             if recent is not None and report.objects and report.t0 >= self._lost_until:
-                report = _with_rotor(report, recent)
+                report = _with_rotor(report, recent, self._network.identification)
             out.append(self._tracker.update(report))
         if self._recent and self._grouper is not None:
             keep_from = self._grouper.open_since()
@@ -376,9 +376,10 @@ class Detector:
 @dataclass(frozen=True)
 class WindowObject:
     """One merged box of a window (see :func:`merge_boxes`), its track and rotor signature
-    (filled by :meth:`Detector.push_windows`; ``None`` when not measured), and the fields an
-    identification stage fills (``uav_score``, ``class_guess``: ``None`` until one exists,
-    uavsnn does not guess them)."""
+    (filled by :meth:`Detector.push_windows`; ``None`` when not measured), and the
+    identification's UAV score and class guess (``"uav"`` or ``"other"``; filled by
+    :meth:`Detector.push_windows` when the model has identification and the rotor was
+    measured, else ``None``)."""
 
     #: ``(x0, y0, x1, y1)``, half-open sensor pixels (``x0 <= x < x1``).
     box: tuple[int, int, int, int]
@@ -588,9 +589,13 @@ class WindowGrouper:
         return out
 
 
-def _with_rotor(report: WindowReport, events: np.ndarray) -> WindowReport:
+def _with_rotor(
+    report: WindowReport, events: np.ndarray, identification: Any = None
+) -> WindowReport:
     """``report`` with the rotor signature of its first :data:`MAX_ROTOR_BOXES` objects, from
-    the raw ``events`` (time order) that fall in the window and the object's box."""
+    the raw ``events`` (time order) that fall in the window and the object's box; with an
+    ``identification`` model (:class:`uavsnn.identify.Identifier`), their UAV score and class
+    guess too."""
     t = events["t"]
     inside = events[np.searchsorted(t, report.t0) : np.searchsorted(t, report.t1)]
     x, y = inside["x"], inside["y"]
@@ -600,4 +605,11 @@ def _with_rotor(report: WindowReport, events: np.ndarray) -> WindowReport:
         mask = (x >= x0) & (x < x1) & (y >= y0) & (y < y1)
         est = rotor_signature(inside[mask], (x0, y0, x1 - x0, y1 - y0))
         objects[i] = replace(obj, rotor=est)
+        if identification is not None:
+            from uavsnn.identify import object_features
+
+            x = object_features(obj.box, obj.spikes, inside[mask], rotor=est)
+            score = float(identification.scores(x[None, :])[0])
+            guess = "uav" if score >= identification.threshold else "other"
+            objects[i] = replace(objects[i], uav_score=score, class_guess=guess)
     return replace(report, objects=tuple(objects))

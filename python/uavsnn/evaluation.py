@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import itertools
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -39,6 +40,8 @@ from uavsnn.errors import DatasetError, ParameterError, ShapeError
 from uavsnn.network import Inference, Network
 
 __all__ = [
+    "FALSE_ALARM_RATES",
+    "RANGE_BINS_M",
     "SIZE_BINS_PX",
     "ClassFigures",
     "Evaluation",
@@ -51,7 +54,10 @@ __all__ = [
     "evaluate",
     "first_detection_boxes",
     "first_spike_in_box",
+    "identification_figures",
+    "roc_curve",
     "score",
+    "threshold_at_false_alarm",
 ]
 
 SIZE_BINS_PX: tuple[float, ...] = (0.0, 6.0, 12.0, 24.0, 48.0, float("inf"))
@@ -396,3 +402,133 @@ def first_spike_in_box(windows: Any, boxes: npt.ArrayLike) -> np.ndarray:
         firsts = np.minimum.reduceat(masked, offsets[nonempty])
         out[nonempty] = np.where(firsts == big, -1, firsts)
     return out
+
+
+# ------------------------------------------------------------ detection, then identification
+
+RANGE_BINS_M: tuple[float, ...] = (0.0, 5.0, 10.0, 20.0, 50.0, 100.0, 200.0, float("inf"))
+"""Edges of the range bins (metres) of :func:`identification_figures`."""
+
+FALSE_ALARM_RATES: tuple[float, ...] = (0.01, 0.05)
+"""The shares of UAV-free windows raising an alarm at which detection is reported."""
+
+
+def roc_curve(scores: npt.ArrayLike, actual: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+    """The ROC of a score (higher: more UAV-like; ``-inf``: never an alarm): false-alarm rates
+    and detection rates (float64), from the strictest threshold to the loosest, starting at
+    ``(0, 0)`` and ending where every window with a finite score alarms."""
+    s = np.asarray(scores, dtype=np.float64)
+    a = _bools("actual", actual)
+    if s.shape != a.shape:
+        raise ShapeError(f"scores has {s.size} windows, actual {a.size}")
+    if np.isnan(s).any():
+        raise ParameterError("scores hold NaN")
+    pos, neg = int(a.sum()), int((~a).sum())
+    if pos == 0 or neg == 0:
+        raise DatasetError("a ROC needs UAV and UAV-free windows")
+    finite = np.isfinite(s)
+    levels = np.unique(s[finite])[::-1]
+    tp = np.array([np.sum(a & finite & (s >= t)) for t in levels], dtype=np.float64)
+    fp = np.array([np.sum(~a & finite & (s >= t)) for t in levels], dtype=np.float64)
+    return np.concatenate([[0.0], fp / neg]), np.concatenate([[0.0], tp / pos])
+
+
+def threshold_at_false_alarm(scores: npt.ArrayLike, actual: npt.ArrayLike, rate: float) -> float:
+    """The lowest threshold at which at most ``rate`` of the UAV-free windows score at or above
+    it (windows scoring ``-inf`` never alarm)."""
+    if not 0 <= rate <= 1:
+        raise ParameterError(f"rate must be in [0, 1], got {rate}")
+    s = np.asarray(scores, dtype=np.float64)
+    a = _bools("actual", actual)
+    neg = np.sort(s[~a])[::-1]
+    if len(neg) == 0:
+        raise DatasetError("no UAV-free windows to set a false-alarm rate on")
+    k = int(np.floor(rate * len(neg) + 1e-9))
+    if k >= len(neg):
+        return float(np.nextafter(-np.inf, 0))
+    return float(np.nextafter(neg[k], np.inf))
+
+
+def _binned_rate(hit: np.ndarray, value: np.ndarray, edges: Sequence[float]) -> list[dict]:
+    out = []
+    for low, high in itertools.pairwise(edges):
+        inside = np.isfinite(value) & (value >= low) & (value < high)
+        if inside.any():
+            out.append(
+                {
+                    "low": float(low),
+                    "high": None if np.isinf(high) else float(high),
+                    "windows": int(inside.sum()),
+                    "detected": int(hit[inside].sum()),
+                    "rate": float(hit[inside].mean()),
+                }
+            )
+    return out
+
+
+def identification_figures(
+    detected: npt.ArrayLike,
+    scores: npt.ArrayLike,
+    data: LabelledWindows,
+    threshold: float,
+    *,
+    roc_points: int = 101,
+) -> dict[str, Any]:
+    """Both rules side by side on ``data``: the any-spike rule (``detected``) and detection +
+    identification (a window is UAV when ``detected`` and its UAV score (``scores``) is at
+    least ``threshold``). Each with its confusion matrix, accuracy and per-class calls; the
+    combined score's ROC (``roc_points`` points at most, and the area under it up to the
+    any-spike rule's own false-alarm rate); and at the
+    thresholds where :data:`FALSE_ALARM_RATES` of the UAV-free windows alarm, the detection
+    rate against size (``data.size_px``, :data:`SIZE_BINS_PX`) and range (``data.range_m``,
+    :data:`RANGE_BINS_M`) and the false alarms per class of other object. Those thresholds are
+    read off this set's UAV-free windows (points on its ROC), not tuned for it."""
+    fired = _bools("detected", detected)
+    s = np.asarray(scores, dtype=np.float64)
+    actual = np.asarray(data.label, dtype=bool)
+    if fired.shape != actual.shape or s.shape != actual.shape:
+        raise ShapeError(
+            f"detected has {fired.size} and scores {s.size} windows, the data {actual.size}"
+        )
+    combined = np.where(fired, s, -np.inf)
+
+    def rule(pred: np.ndarray) -> dict[str, Any]:
+        m = confusion_matrix(pred, actual)
+        return {
+            "confusion": m.tolist(),
+            "accuracy": accuracy(m),
+            "per_class": {str(c): float(pred[data.cls == c].mean()) for c in np.unique(data.cls)},
+        }
+
+    fa, pd = roc_curve(combined, actual)
+    keep = np.unique(np.linspace(0, len(fa) - 1, min(roc_points, len(fa))).round().astype(int))
+    others = [str(c) for c in np.unique(data.cls[~actual])]
+    at_fa = []
+    for rate in FALSE_ALARM_RATES:
+        t = threshold_at_false_alarm(combined, actual, rate)
+        alarm = combined >= t
+        at_fa.append(
+            {
+                "false_alarm_target": rate,
+                "threshold": t,
+                "false_alarm_rate": float(alarm[~actual].mean()),
+                "detection_rate": float(alarm[actual].mean()),
+                "by_size_px": _binned_rate(alarm[actual], data.size_px[actual], SIZE_BINS_PX),
+                "by_range_m": _binned_rate(alarm[actual], data.range_m[actual], RANGE_BINS_M),
+                "false_alarms_per_class": {
+                    c: float(alarm[~actual & (data.cls == c)].mean()) for c in others
+                },
+            }
+        )
+    return {
+        "threshold": float(threshold),
+        "any_spike": rule(fired),
+        "identified": rule(combined >= threshold),
+        "roc": {
+            "false_alarm": fa[keep].tolist(),
+            "detection": pd[keep].tolist(),
+            # Up to the any-spike rule's own false-alarm rate: windows it misses never alarm.
+            "area_reachable": float(np.sum(np.diff(fa) * (pd[1:] + pd[:-1]) / 2)),
+        },
+        "at_false_alarm": at_fa,
+    }

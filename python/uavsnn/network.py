@@ -29,7 +29,7 @@ import numpy.typing as npt
 
 from uavsnn import _core
 from uavsnn._validate import U64_MAX, check_int
-from uavsnn.errors import EventError, ParameterError, ShapeError
+from uavsnn.errors import EventError, ModelFileError, ParameterError, ShapeError
 
 __all__ = [
     "CONV_LAYERS",
@@ -306,11 +306,18 @@ class Network:
         except (TypeError, ValueError) as exc:
             raise ParameterError(f"config must be JSON-serialisable: {exc}") from exc
         self._core = _core.NetworkCore(text, _count("seed", seed))
+        #: The identification model (:class:`uavsnn.identify.Identifier`) or ``None``: then
+        #: only the any-spike rule decides. Saved and loaded with the model file.
+        self.identification: Any = None
+        #: What :meth:`load` noticed about the file (e.g. that it has no identification).
+        self.load_note: str | None = None
 
     @classmethod
     def _wrap(cls, core: _core.NetworkCore) -> Network:
         net = cls.__new__(cls)
         net._core = core
+        net.identification = None
+        net.load_note = None
         return net
 
     @property
@@ -480,18 +487,41 @@ class Network:
         )
 
     def save(self, path: str | os.PathLike[str]) -> None:
-        """Write a model file (``.npz``: weights + versioned config, no pickle), atomically."""
+        """Write a model file (``.npz``: weights + versioned config, no pickle), atomically;
+        with :attr:`identification`, its arrays too (``identify.*``, uncompressed entries the
+        engine's reader skips)."""
         self._core.save(os.fspath(path))
+        if self.identification is not None:
+            _add_arrays(os.fspath(path), self.identification.to_arrays())
 
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> Network:
         """Read a model file written by :meth:`save`; a corrupt, foreign or other-version file
-        raises :class:`~uavsnn.ModelFileError`."""
-        return cls._wrap(_core.NetworkCore.load(os.fspath(path)))
+        raises :class:`~uavsnn.ModelFileError`. A file without identification loads with
+        ``identification = None`` and a :attr:`load_note` saying only the any-spike rule
+        decides."""
+        from uavsnn.identify import Identifier
+
+        net = cls._wrap(_core.NetworkCore.load(os.fspath(path)))
+        try:
+            with np.load(os.fspath(path), allow_pickle=False) as arrays:
+                net.identification = Identifier.from_arrays(arrays)
+        except (OSError, ValueError) as exc:
+            if isinstance(exc, ModelFileError):
+                raise ModelFileError(f"{os.fspath(path)}: {exc}") from exc
+            raise ModelFileError(f"{os.fspath(path)}: cannot read its arrays: {exc}") from exc
+        if net.identification is None:
+            net.load_note = (
+                f"{os.fspath(path)} has no identification model: only the any-spike rule "
+                "decides (`uavsnn train` fits one)"
+            )
+        return net
 
     def copy(self) -> Network:
-        """An independent copy (same config and weights)."""
-        return self._wrap(self._core.copy())
+        """An independent copy (same config and weights, and identification)."""
+        net = self._wrap(self._core.copy())
+        net.identification = self.identification
+        return net
 
     def __eq__(self, other: object) -> bool:
         """Same config and bit-identical weights."""
@@ -506,6 +536,34 @@ class Network:
         c = self.config
         maps = "/".join(str(c[name]["maps"]) for name in CONV_LAYERS)
         return f"Network({c['width']}x{c['height']}, maps {maps}, {c['pent']['mode']})"
+
+
+def _add_arrays(path: str, arrays: Mapping[str, np.ndarray]) -> None:
+    """Rewrite the model file at ``path`` with ``arrays`` added (``.npy`` entries, stored),
+    atomically (a temporary file beside it, then a rename)."""
+    import io
+    import tempfile
+    import zipfile
+
+    with zipfile.ZipFile(path) as old:
+        entries = [(info.filename, old.read(info)) for info in old.infolist()]
+    names = {f"{name}.npy" for name in arrays}
+    folder = os.path.dirname(os.path.abspath(path))
+    fd, tmp = tempfile.mkstemp(dir=folder, prefix=".model-", suffix=".npz")
+    try:
+        with os.fdopen(fd, "wb") as out, zipfile.ZipFile(out, "w", zipfile.ZIP_STORED) as z:
+            for name, data in entries:
+                if name not in names:
+                    z.writestr(name, data)
+            for name, value in arrays.items():
+                buf = io.BytesIO()
+                np.save(buf, np.asarray(value), allow_pickle=False)
+                z.writestr(f"{name}.npy", buf.getvalue())
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
 
 
 def _check_finite(value: Any, path: str) -> None:

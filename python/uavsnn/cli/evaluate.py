@@ -41,6 +41,20 @@ def register(subparsers: Any) -> None:
         help=f"worker threads, at most {MAX_THREADS} (default: all cores)",
     )
     p.add_argument("--seed", type=int, default=0, help="seed of the added noise (0)")
+    p.add_argument(
+        "--ablation",
+        type=Path,
+        metavar="TUNE_DATASET",
+        help="also refit identification on the dataset's train split with rotor, shape and all "
+        "features, tuned on TUNE_DATASET's train split, and score each on the test split",
+    )
+    p.add_argument(
+        "--roc",
+        type=Path,
+        metavar="PNG",
+        help="write the ROC of detection + identification to this PNG (a model with "
+        "identification)",
+    )
     p.add_argument("--json", action="store_true", help="print the figures as JSON")
     p.set_defaults(handler=_evaluate)
 
@@ -57,6 +71,24 @@ def _evaluate(args: argparse.Namespace) -> int:
     )
     figures: dict[str, Any] = {"model": str(args.model), "dataset": str(args.dataset)}
     figures |= result.to_dict()
+    ident = _identification(args, network, data, result)
+    if ident:
+        figures["identification"] = ident
+    if args.roc is not None:
+        if "roc" not in ident:
+            raise ParameterError("--roc needs a model with identification (`uavsnn train`)")
+        from uavsnn import pictures
+
+        chart = pictures.line_chart(
+            ident["roc"]["false_alarm"],
+            {"any-spike + identification": ident["roc"]["detection"]},
+            title=f"ROC on {args.dataset.name}/{args.split}",
+            xlabel="UAV-free windows alarming",
+            ylabel="UAV windows detected",
+            y_range=(0.0, 1.0),
+            markers=False,
+        )
+        figures["roc_png"] = str(pictures.write_png(args.roc, chart))
     points = []
     static = None
     if args.noise or args.report:
@@ -85,6 +117,8 @@ def _evaluate(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(figures, indent=2))
         return 0
+    if network.load_note:
+        print(f"note: {network.load_note}")
     (tp, fn), (fp, tn) = result.confusion.tolist()
     print(f"accuracy {100 * result.accuracy:.1f} % on {result.windows} windows")
     print(f"confusion [[TP {tp}, FN {fn}], [FP {fp}, TN {tn}]]")
@@ -110,6 +144,75 @@ def _evaluate(args: argparse.Namespace) -> int:
             f"  noise {100 * point.fraction:5g} % ({point.snr_db:6.1f} dB) {point.mode:7s} "
             f"{100 * point.evaluation.accuracy:.1f} %"
         )
+    if ident:
+        _print_identification(ident)
     if args.report:
         print(f"wrote {figures['report']}")
     return 0
+
+
+def _identification(
+    args: argparse.Namespace, network: Network, data: Any, result: Any
+) -> dict[str, Any]:
+    """Detection + identification beside the any-spike rule (when the model has it)."""
+    from uavsnn import identify
+    from uavsnn.evaluation import identification_figures
+
+    out: dict[str, Any] = {}
+    if network.identification is None and args.ablation is None:
+        return out
+    inference = result.inference
+    test = identify.window_features(network, data, inference)
+    if network.identification is not None:
+        ident = network.identification
+        out = identification_figures(
+            inference.detected, ident.window_scores(test), data, ident.threshold
+        )
+    out["rotor_coverage"] = identify.rotor_coverage(test, data)
+    if args.ablation is not None:
+        train = load(args.dataset, "train")
+        tune = load(args.ablation, "train")
+        tune_inference = network.infer(tune.windows, threads=args.threads)
+        out["ablation"] = identify.ablation(
+            identify.window_features(network, train),
+            identify.window_features(network, tune, tune_inference),
+            test,
+            tune_detected=tune_inference.detected,
+            tune_label=tune.label,
+            test_detected=inference.detected,
+            test_label=data.label,
+        )
+    return out
+
+
+def _print_identification(ident: dict[str, Any]) -> None:
+    if "identified" in ident:
+        for name, label in (("any_spike", "any-spike rule"), ("identified", "+ identification")):
+            (tp, fn), (fp, tn) = ident[name]["confusion"]
+            print(
+                f"{label:18s} accuracy {100 * ident[name]['accuracy']:.1f} % "
+                f"[[TP {tp}, FN {fn}], [FP {fp}, TN {tn}]]"
+            )
+        for point in ident["at_false_alarm"]:
+            sizes = ", ".join(
+                f"{z['low']:g}-{z['high'] if z['high'] is not None else 'inf'} px "
+                f"{100 * z['rate']:.0f} %"
+                for z in point["by_size_px"]
+            )
+            print(
+                f"  at {100 * point['false_alarm_target']:g} % false alarms: detection "
+                f"{100 * point['detection_rate']:.1f} % ({sizes})"
+            )
+    for z in ident["rotor_coverage"]:
+        high = "inf" if z["high_px"] is None else f"{z['high_px']:g}"
+        print(
+            f"  UAV {z['low_px']:g}-{high} px: {z['uav_windows']} windows, object on the UAV "
+            f"{z['object_on_uav']}, rotor votes {z['rotor_votes']}, rotor detected "
+            f"{z['rotor_detected']}"
+        )
+    for name, row in ident.get("ablation", {}).items():
+        print(
+            f"  ablation {name:6s}: accuracy {100 * row['accuracy']:.1f} %, detection at 1 % / "
+            f"5 % false alarms {100 * row['detection_at_0.01']:.1f} / "
+            f"{100 * row['detection_at_0.05']:.1f} %"
+        )

@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from uavsnn.dataset import load
-from uavsnn.errors import ParameterError
+from uavsnn.errors import DatasetError, ParameterError
 from uavsnn.network import Network, default_config
 from uavsnn.training import apply_overrides, train
 
@@ -22,7 +22,9 @@ def register(subparsers: Any) -> None:
         help="train a detector by STDP, one layer at a time",
         description="Train conv2 then conv3 (and conv1 with --layers conv1,conv2,conv3) by "
         "winner-take-all STDP on the train split of a dataset made by `uavsnn dataset build`; "
-        "write the model file. No labels are used.",
+        "fit identification (a logistic regression on rotor, shape and activity features; "
+        "docs/identification.md) on the split's labels; write the model file. STDP uses no "
+        "labels.",
     )
     p.add_argument("dataset", type=Path, help="dataset folder (with manifest.json)")
     p.add_argument("-o", "--output", type=Path, required=True, help="model file to write (.npz)")
@@ -49,6 +51,15 @@ def register(subparsers: Any) -> None:
     p.add_argument("--seed", type=int, default=0, help="initial weights and shuffling (0)")
     p.add_argument("--checkpoint-dir", type=Path, help="write the model after each layer here")
     p.add_argument("--resume", action="store_true", help="continue from --checkpoint-dir")
+    p.add_argument(
+        "--tune",
+        type=Path,
+        help="a dataset of other recordings to tune identification on (its train split; "
+        "default: a quarter of the training recordings held out)",
+    )
+    p.add_argument(
+        "--no-identify", action="store_true", help="skip fitting identification after STDP"
+    )
     p.add_argument("--json", action="store_true", help="print the training summary as JSON")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.set_defaults(handler=_train)
@@ -72,6 +83,7 @@ def network_config(config_file: Path | None, settings: list[str]) -> dict[str, A
 def _train(args: argparse.Namespace) -> int:
     config = network_config(args.config, args.settings)  # bad flags fail before any work
     data = load(args.dataset, args.split)
+    tune = None if args.tune is None or args.no_identify else load(args.tune, "train")
     network = Network(config, seed=args.seed)
     result = train(
         network,
@@ -84,8 +96,15 @@ def _train(args: argparse.Namespace) -> int:
         resume=args.resume,
         progress=not args.quiet,
     )
-    network.save(args.output)
     summary: dict[str, Any] = {"model": str(args.output), "windows": len(data)}
+    if not args.no_identify:
+        from uavsnn import identify
+
+        try:
+            network.identification, summary["identify"] = identify.fit_network(network, data, tune)
+        except DatasetError as exc:  # the STDP result is kept: only the any-spike rule
+            summary["identify"] = {"skipped": str(exc)}
+    network.save(args.output)
     summary |= result.to_dict()
     if args.json:
         print(json.dumps(summary, indent=2))
@@ -98,5 +117,14 @@ def _train(args: argparse.Namespace) -> int:
             )
         for layer in summary["resumed"]:
             print(f"{layer}: from the checkpoint")
+        ident = summary.get("identify", {})
+        if "skipped" in ident:
+            print(f"identification skipped: {ident['skipped']}")
+        elif ident:
+            print(
+                f"identification: fitted on {ident['train_windows']} windows, tuned on "
+                f"{ident['tune_windows']} ({ident['tune']}): L2 {ident['l2']:g}, "
+                f"threshold {ident['threshold']:.3f}"
+            )
         print(f"wrote {args.output}")
     return 0

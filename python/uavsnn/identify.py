@@ -1,0 +1,503 @@
+"""Identification: after the any-spike rule finds a moving object, is it a UAV? (SPEC §3)
+
+Each window's conv3 detections are merged into objects (:func:`uavsnn.detector.merge_boxes`,
+as :class:`uavsnn.detector.WindowGrouper` groups them in the streaming path, so batch and
+streaming see the same boxes). Each object is described by :data:`FEATURES`, measured on the
+window's raw events (``[t0, t0 + L)``) inside its box:
+
+- rotor: the rotor signature (:func:`uavsnn.signature.rotor_signature`) — frequency, strength
+  and agreeing pixels, log-scaled, and whether it passed the estimator's threshold;
+- shape: the box's width, height, area (log), aspect ratio (log) and conv3 spike count (log);
+- activity: raw events per pixel of the box (log) and the ON/OFF balance.
+
+A logistic regression on standardised features (:func:`fit_logistic`: Newton's method with an
+L2 penalty, in NumPy) gives each object a UAV score in ``[0, 1]``; a window's score is its
+objects' largest (0 without one). The windows' tracks are not used: the windows of a dataset
+are not consecutive in time, so a window-level model cannot see them.
+
+The model (:class:`Identifier`) is stored in the model file beside the network as plain arrays
+(``identify.version``, ``identify.coef``, ``identify.mean``, ``identify.scale``,
+``identify.features``, ``identify.threshold``, ``identify.l2``; no pickle), see
+:meth:`uavsnn.network.Network.save`.
+
+::
+
+    ident = identify.fit(train_features, tune_features)     # WindowFeatures of two datasets
+    scores = ident.window_scores(identify.window_features(network, test))
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from uavsnn.errors import DatasetError, ModelFileError, ParameterError, ShapeError
+from uavsnn.signature import RotorEstimate, rotor_signature
+
+if TYPE_CHECKING:
+    from uavsnn.dataset import LabelledWindows
+    from uavsnn.network import Inference, Network
+
+__all__ = [
+    "FEATURES",
+    "GROUPS",
+    "VERSION",
+    "Identifier",
+    "WindowFeatures",
+    "ablation",
+    "fit",
+    "fit_logistic",
+    "fit_network",
+    "object_features",
+    "predict_logistic",
+    "rotor_coverage",
+    "split_by_recording",
+    "window_features",
+]
+
+#: The version of the stored arrays (``identify.version``).
+VERSION = 1
+
+FEATURES: tuple[str, ...] = (
+    "rotor_log_hz",
+    "rotor_strength",
+    "rotor_log_pixels",
+    "rotor_detected",
+    "log_width",
+    "log_height",
+    "log_area",
+    "log_aspect",
+    "log_spikes",
+    "log_events_per_px",
+    "on_balance",
+)
+"""The features of one object, in the order of the model's coefficients."""
+
+#: Feature groups of the ablation.
+GROUPS: dict[str, tuple[str, ...]] = {
+    "rotor": FEATURES[:4],
+    "shape": FEATURES[4:9],
+    "all": FEATURES,
+}
+
+_L2_GRID = (1e-3, 1e-2, 1e-1, 1.0, 10.0, 100.0)
+
+
+def object_features(
+    box: tuple[int, int, int, int],
+    spikes: int,
+    events: np.ndarray,
+    rotor: RotorEstimate | None = None,
+) -> np.ndarray:
+    """The :data:`FEATURES` (float64) of one object: ``box`` ``(x0, y0, x1, y1)`` half-open,
+    its conv3 ``spikes``, and the window's raw ``events`` (time order; only those inside the box
+    are used). ``rotor``: the box's rotor signature when already measured (else measured
+    here on the same events)."""
+    x0, y0, x1, y1 = (int(v) for v in box)
+    w, h = x1 - x0, y1 - y0
+    if w < 1 or h < 1:
+        raise ParameterError(f"an object's box must not be empty, got {box}")
+    x, y = events["x"], events["y"]
+    inside = events[(x >= x0) & (x < x1) & (y >= y0) & (y < y1)]
+    if rotor is None:
+        rotor = rotor_signature(inside, (x0, y0, w, h))
+    on = int(np.count_nonzero(inside["p"]))
+    n = len(inside)
+    return np.array(
+        [
+            math.log1p(rotor.frequency_hz),
+            rotor.strength,
+            math.log1p(rotor.pixels),
+            float(rotor.detected),
+            math.log(w),
+            math.log(h),
+            math.log(w * h),
+            math.log(w / h),
+            math.log1p(spikes),
+            math.log1p(n / (w * h)),
+            (2 * on - n) / n if n else 0.0,
+        ]
+    )
+
+
+@dataclass(frozen=True)
+class WindowFeatures:
+    """The objects of many windows: ``x`` ``(m, len(FEATURES))``, ``window`` ``(m,)`` (the
+    window each object belongs to), ``boxes`` ``(m, 4)``; ``windows``: how many windows;
+    ``label`` ``(m,)`` bool: for training, a UAV object (an object of a UAV window whose box
+    meets the labelled box), ``usable`` ``(m,)``: False for the objects of a UAV window that
+    miss its box (left out of a fit: they are not the UAV, nor known not to be one)."""
+
+    x: np.ndarray
+    window: np.ndarray
+    boxes: np.ndarray
+    windows: int
+    label: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
+    usable: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
+
+    def columns(self, names: Sequence[str]) -> WindowFeatures:
+        """The same objects with only the features ``names``."""
+        idx = [FEATURES.index(n) for n in names]
+        return WindowFeatures(
+            self.x[:, idx], self.window, self.boxes, self.windows, self.label, self.usable
+        )
+
+
+def window_features(
+    network: Network, data: LabelledWindows, inference: Inference | None = None
+) -> WindowFeatures:
+    """The features of every object of every window of ``data`` (a dataset of format 2, with
+    raw events), from ``network``'s detections (``inference`` when already run).
+
+    Raises:
+        DatasetError: a dataset without raw events.
+        ShapeError: the dataset's sensor size is not the network's input.
+    """
+    from uavsnn.detector import merge_boxes
+
+    expected = (int(network.config["width"]), int(network.config["height"]))
+    if tuple(data.windows.sensor_size) != expected:
+        raise ShapeError(
+            f"the data's sensor is {data.windows.sensor_size[0]}x{data.windows.sensor_size[1]} "
+            f"but the model's input is {expected[0]}x{expected[1]}"
+        )
+
+    if data.raw is None:
+        raise DatasetError(
+            "identification needs each window's raw events: rebuild the dataset "
+            "(`uavsnn dataset build`, format 2)"
+        )
+    if inference is None:
+        inference = network.infer(data.windows)
+    if len(inference) != len(data):
+        raise ShapeError(f"inference has {len(inference)} windows, the data {len(data)}")
+    length = int(data.raw.before_us)
+    found = inference.detections
+    order = np.argsort(found["window"], kind="stable")
+    found = found[order]
+    starts = np.searchsorted(found["window"], np.arange(len(data) + 1))
+    rows, which, boxes, label, usable = [], [], [], [], []
+    t0s = np.asarray(data.windows.t0, dtype=np.int64)
+    for i in np.flatnonzero(np.diff(starts) > 0):
+        objects = merge_boxes(found[starts[i] : starts[i + 1]])
+        raw = data.raw.window(int(i))
+        t = raw["t"].astype(np.int64)
+        t0 = int(t0s[i])
+        events = raw[np.searchsorted(t, t0) : np.searchsorted(t, t0 + length)]
+        truth = np.asarray(data.box[i], dtype=np.float64)
+        for obj in objects:
+            rows.append(object_features(obj.box, obj.spikes, events))
+            which.append(i)
+            boxes.append(obj.box)
+            meets = bool(
+                np.isfinite(truth).all()
+                and obj.box[0] < truth[2]
+                and truth[0] < obj.box[2]
+                and obj.box[1] < truth[3]
+                and truth[1] < obj.box[3]
+            )
+            is_uav = bool(data.label[i])
+            label.append(is_uav and meets)
+            usable.append(not is_uav or meets)
+    return WindowFeatures(
+        x=np.array(rows, dtype=np.float64).reshape(-1, len(FEATURES)),
+        window=np.array(which, dtype=np.int64),
+        boxes=np.array(boxes, dtype=np.int64).reshape(-1, 4),
+        windows=len(data),
+        label=np.array(label, dtype=bool),
+        usable=np.array(usable, dtype=bool),
+    )
+
+
+def fit_logistic(
+    x: np.ndarray, y: np.ndarray, *, l2: float = 1.0, iterations: int = 50
+) -> np.ndarray:
+    """Logistic regression by Newton's method: coefficients ``(d + 1,)``, the intercept last,
+    minimising the log loss plus ``l2 / 2 * |w|²`` (the intercept is not penalised). ``x``
+    ``(n, d)`` float, ``y`` ``(n,)`` bool.
+
+    Raises:
+        ShapeError, ParameterError: mismatched shapes, a negative ``l2``, non-finite features.
+    """
+    x = np.asarray(x, dtype=np.float64)
+    y = np.asarray(y)
+    if x.ndim != 2 or y.shape != (len(x),):
+        raise ShapeError(f"x must be (n, d) and y (n,), got {x.shape} and {y.shape}")
+    if y.dtype != np.bool_:
+        raise ParameterError(f"y must be boolean, got dtype {y.dtype}")
+    if not np.isfinite(x).all():
+        raise ParameterError("x holds NaN or infinite values")
+    if not (l2 >= 0 and math.isfinite(l2)):
+        raise ParameterError(f"l2 must be a finite number >= 0, got {l2}")
+    a = np.hstack([x, np.ones((len(x), 1))])
+    target = y.astype(np.float64)
+    penalty = np.full(a.shape[1], float(l2))
+    penalty[-1] = 1e-9  # the intercept: only enough to keep the system solvable
+    w = np.zeros(a.shape[1])
+    for _ in range(iterations):
+        p = _sigmoid(a @ w)
+        grad = a.T @ (p - target) + penalty * w
+        hess = (a * (p * (1 - p))[:, None]).T @ a + np.diag(penalty)
+        step = np.linalg.solve(hess + 1e-12 * np.eye(len(w)), grad)
+        w -= step
+        if np.max(np.abs(step)) < 1e-10:
+            break
+    return w
+
+
+def predict_logistic(coef: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """``sigmoid(x @ coef[:-1] + coef[-1])``."""
+    return _sigmoid(np.asarray(x, dtype=np.float64) @ coef[:-1] + coef[-1])
+
+
+def _sigmoid(z: np.ndarray) -> np.ndarray:
+    return 0.5 * (1.0 + np.tanh(0.5 * z))  # stable for large |z|
+
+
+@dataclass(frozen=True)
+class Identifier:
+    """A fitted identification model: UAV score of an object from its features."""
+
+    features: tuple[str, ...]
+    coef: np.ndarray
+    mean: np.ndarray
+    scale: np.ndarray
+    threshold: float
+    l2: float
+
+    def __post_init__(self) -> None:
+        d = len(self.features)
+        unknown = [f for f in self.features if f not in FEATURES]
+        if unknown:
+            raise ParameterError(f"unknown identification features {unknown}")
+        if self.coef.shape != (d + 1,) or self.mean.shape != (d,) or self.scale.shape != (d,):
+            raise ShapeError(f"identification arrays do not match {d} features")
+
+    def scores(self, x: np.ndarray) -> np.ndarray:
+        """UAV score of each object (rows of :data:`FEATURES`, or of :attr:`features`)."""
+        x = np.asarray(x, dtype=np.float64)
+        if x.ndim != 2:
+            raise ShapeError(f"features must be (m, d), got {x.shape}")
+        if x.shape[1] == len(FEATURES) and len(self.features) != len(FEATURES):
+            x = x[:, [FEATURES.index(f) for f in self.features]]
+        if x.shape[1] != len(self.features):
+            raise ShapeError(f"features must have {len(self.features)} columns, got {x.shape[1]}")
+        return predict_logistic(self.coef, (x - self.mean) / self.scale)
+
+    def window_scores(self, feats: WindowFeatures) -> np.ndarray:
+        """Per window, its objects' largest UAV score (0 for a window without an object)."""
+        out = np.zeros(feats.windows)
+        if len(feats.x):
+            np.maximum.at(out, feats.window, self.scores(feats.x))
+        return out
+
+    def to_arrays(self) -> dict[str, np.ndarray]:
+        """The arrays stored in a model file."""
+        return {
+            "identify.version": np.array(VERSION, dtype=np.int64),
+            "identify.features": np.array(self.features, dtype="<U32"),
+            "identify.coef": self.coef.astype(np.float64),
+            "identify.mean": self.mean.astype(np.float64),
+            "identify.scale": self.scale.astype(np.float64),
+            "identify.threshold": np.array(self.threshold, dtype=np.float64),
+            "identify.l2": np.array(self.l2, dtype=np.float64),
+        }
+
+    @classmethod
+    def from_arrays(cls, arrays: Any) -> Identifier | None:
+        """The model stored in ``arrays`` (a mapping, e.g. an ``np.load`` of a model file), or
+        ``None`` when it holds none.
+
+        Raises:
+            ModelFileError: another version, or arrays that do not fit together.
+        """
+        if "identify.version" not in arrays:
+            return None
+        version = int(np.asarray(arrays["identify.version"]))
+        if version != VERSION:
+            raise ModelFileError(
+                f"identification version {version}; this uavsnn reads version {VERSION}"
+            )
+        try:
+            return cls(
+                features=tuple(str(f) for f in np.asarray(arrays["identify.features"])),
+                coef=np.asarray(arrays["identify.coef"], dtype=np.float64),
+                mean=np.asarray(arrays["identify.mean"], dtype=np.float64),
+                scale=np.asarray(arrays["identify.scale"], dtype=np.float64),
+                threshold=float(np.asarray(arrays["identify.threshold"])),
+                l2=float(np.asarray(arrays["identify.l2"])),
+            )
+        except (KeyError, ValueError, ParameterError, ShapeError) as exc:
+            raise ModelFileError(f"its identification arrays are inconsistent: {exc}") from exc
+
+
+def _standardise(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    mean = x.mean(axis=0)
+    scale = x.std(axis=0)
+    return mean, np.where(scale > 1e-12, scale, 1.0)
+
+
+def _log_loss(p: np.ndarray, y: np.ndarray) -> float:
+    p = np.clip(p, 1e-12, 1 - 1e-12)
+    return float(-np.mean(np.where(y, np.log(p), np.log(1 - p))))
+
+
+def fit(
+    train: WindowFeatures,
+    tune: WindowFeatures,
+    *,
+    tune_detected: np.ndarray | None = None,
+    tune_label: np.ndarray | None = None,
+    features: Sequence[str] = FEATURES,
+    l2_grid: Sequence[float] = _L2_GRID,
+) -> Identifier:
+    """Fit an :class:`Identifier` on ``train``'s usable objects; choose the L2 weight (the
+    smallest log loss on ``tune``'s usable objects) and, when ``tune_detected`` (the any-spike
+    rule's calls) and ``tune_label`` (the windows' truth) are given, the threshold on the
+    window score that makes the combined rule most accurate on ``tune`` (else 0.5).
+    ``tune`` must come from other recordings than ``train`` and never from the test set.
+
+    Raises:
+        DatasetError: too few objects of either kind to fit.
+    """
+    names = tuple(features)
+    tr, tu = train.columns(names), tune.columns(names)
+    xs, ys = tr.x[tr.usable], tr.label[tr.usable]
+    if ys.sum() < 2 or (~ys).sum() < 2:
+        raise DatasetError(
+            f"identification needs at least 2 UAV and 2 other objects to fit, got "
+            f"{int(ys.sum())} and {int((~ys).sum())}"
+        )
+    mean, scale = _standardise(xs)
+    z = (xs - mean) / scale
+    zt = (tu.x[tu.usable] - mean) / scale
+    yt = tu.label[tu.usable]
+    best = None
+    for l2 in l2_grid:
+        coef = fit_logistic(z, ys, l2=float(l2))
+        loss = _log_loss(predict_logistic(coef, zt), yt) if len(yt) else 0.0
+        if best is None or loss < best[0]:
+            best = (loss, float(l2), coef)
+    assert best is not None
+    ident = Identifier(names, best[2], mean, scale, 0.5, best[1])
+    if tune_detected is not None and tune_label is not None:
+        score = np.where(np.asarray(tune_detected, bool), ident.window_scores(tu), -1.0)
+        label = np.asarray(tune_label, dtype=bool)
+        candidates = np.unique(np.concatenate([[0.5], score[score >= 0]]))
+        acc = [np.mean((score >= c) == label) for c in candidates]
+        threshold = float(candidates[int(np.argmax(acc))])
+        ident = Identifier(names, best[2], mean, scale, threshold, best[1])
+    return ident
+
+
+def ablation(
+    train: WindowFeatures,
+    tune: WindowFeatures,
+    test: WindowFeatures,
+    *,
+    tune_detected: np.ndarray,
+    tune_label: np.ndarray,
+    test_detected: np.ndarray,
+    test_label: np.ndarray,
+) -> dict[str, dict[str, float]]:
+    """For each feature group of :data:`GROUPS` (rotor alone, shape alone, all), a model fitted
+    as :func:`fit` does (train, then tune) and scored on ``test``: the combined rule's accuracy
+    at the tuned threshold and its detection rate where 1 % and 5 % of the UAV-free test
+    windows alarm."""
+    from uavsnn.evaluation import FALSE_ALARM_RATES, threshold_at_false_alarm
+
+    label = np.asarray(test_label, dtype=bool)
+    fired = np.asarray(test_detected, dtype=bool)
+    out = {}
+    for name, names in GROUPS.items():
+        ident = fit(train, tune, tune_detected=tune_detected, tune_label=tune_label, features=names)
+        score = np.where(fired, ident.window_scores(test), -np.inf)
+        row = {
+            "features": len(names),
+            "l2": ident.l2,
+            "threshold": ident.threshold,
+            "accuracy": float(np.mean((score >= ident.threshold) == label)),
+        }
+        for rate in FALSE_ALARM_RATES:
+            t = threshold_at_false_alarm(score, label, rate)
+            row[f"detection_at_{rate:g}"] = float(np.mean(score[label] >= t))
+        out[name] = row
+    return out
+
+
+def split_by_recording(
+    data: LabelledWindows, every: int = 4
+) -> tuple[LabelledWindows, LabelledWindows]:
+    """Split ``data`` by recording: every ``every``-th of its recordings (sorted by id) goes to
+    the second part (a tuning set), the rest to the first."""
+    ids = np.unique(data.recording)
+    held = np.isin(data.recording, ids[::every][: max(1, len(ids) // every)])
+    if held.all() or not held.any():
+        raise DatasetError(f"cannot hold out recordings from {len(ids)} recording(s)")
+    return data.select(np.flatnonzero(~held)), data.select(np.flatnonzero(held))
+
+
+def fit_network(
+    network: Network, train: LabelledWindows, tune: LabelledWindows | None = None
+) -> tuple[Identifier, dict[str, Any]]:
+    """Fit ``network``'s identification on ``train`` (a training split), tuned on ``tune``
+    (windows of other recordings; default: a quarter of ``train``'s recordings held out, see
+    :func:`split_by_recording`). Returns the model and a summary; does not attach it."""
+    held_out = tune is None
+    if tune is None:
+        train, tune = split_by_recording(train)
+    tune_inference = network.infer(tune.windows)
+    fitted = fit(
+        window_features(network, train),
+        window_features(network, tune, tune_inference),
+        tune_detected=tune_inference.detected,
+        tune_label=np.asarray(tune.label, dtype=bool),
+    )
+    summary = {
+        "train_windows": len(train),
+        "tune_windows": len(tune),
+        "tune": "held-out training recordings" if held_out else "a separate tuning set",
+        "l2": fitted.l2,
+        "threshold": fitted.threshold,
+        "features": list(fitted.features),
+    }
+    return fitted, summary
+
+
+def rotor_coverage(feats: WindowFeatures, data: LabelledWindows) -> list[dict[str, Any]]:
+    """What the rotor cue can reach, by the UAV's size (``data.size_px``, bins of
+    :data:`uavsnn.evaluation.SIZE_BINS_PX`): UAV windows, those with an object meeting the
+    labelled box (the any-spike rule found it there), those where such an object's rotor
+    estimate had any vote, and those where it passed the rotor detection rule."""
+    import itertools
+
+    from uavsnn.evaluation import SIZE_BINS_PX
+
+    uav = np.asarray(data.label, dtype=bool)
+    hz = feats.x[:, FEATURES.index("rotor_log_hz")] > 0
+    found = feats.x[:, FEATURES.index("rotor_detected")] == 1
+    n = len(data)
+    met, voted, rotor = (np.zeros(n, bool) for _ in range(3))
+    met[feats.window[feats.label]] = True
+    voted[feats.window[feats.label & hz]] = True
+    rotor[feats.window[feats.label & found]] = True
+    size = np.asarray(data.size_px, dtype=np.float64)
+    out = []
+    for low, high in itertools.pairwise(SIZE_BINS_PX):
+        inside = uav & np.isfinite(size) & (size >= low) & (size < high)
+        if inside.any():
+            out.append(
+                {
+                    "low_px": float(low),
+                    "high_px": None if np.isinf(high) else float(high),
+                    "uav_windows": int(inside.sum()),
+                    "object_on_uav": int(met[inside].sum()),
+                    "rotor_votes": int(voted[inside].sum()),
+                    "rotor_detected": int(rotor[inside].sum()),
+                }
+            )
+    return out
