@@ -420,6 +420,8 @@ def test_cli_reads_a_recording_file(model_file: Path, expected, tmp_path: Path) 
     assert done.returncode == 0, done.stderr.decode()
     assert parse_json_lines(done.stdout) == rows
     assert b"done" in done.stderr and b"events=700" in done.stderr
+    # The model has no identification stage: detect says that only the any-spike rule decides.
+    assert b"note: " in done.stderr and b"only the any-spike rule decides" in done.stderr
 
 
 def test_cli_downsamples_a_larger_recording(model_file: Path, net: Network, tmp_path: Path) -> None:

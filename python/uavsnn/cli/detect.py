@@ -7,8 +7,9 @@ receiving faery's or aestream's UDP packets (``--udp-format``; see :mod:`uavsnn.
 exact layouts). Standard output gets one line per window, as soon as the window closes: the
 decision, the count of conv3 spikes and their causal boxes merged into objects
 (:func:`uavsnn.detector.merge_boxes`), each with its track id (:mod:`uavsnn.tracks`) and its rotor
-signature when one is detected (:mod:`uavsnn.signature`), the UAV score and class left absent
-(``-``, JSON ``null``) until an identification stage fills them; ``--per-spike`` prints
+signature when one is detected (:mod:`uavsnn.signature`), and the UAV score and class guess of
+the model's identification stage (:mod:`uavsnn.identify`; ``-``, JSON ``null``, for a model
+without one, or an object beyond the rotor's limit); ``--per-spike`` prints
 every conv3 spike instead, as it is decided; ``--json`` makes JSON lines of either. A rate
 summary goes to standard error every ``--summary-every`` seconds and at the
 end. Malformed packets, and chunks the detector rejects (an event outside the sensor, time going
@@ -54,7 +55,8 @@ their causal boxes merged into objects (boxes that overlap or touch are replaced
 bounding box until none do), each with its centre and spike count, its track (an id linking
 it across windows; '7?' while the track is tentative, '7' once confirmed) and its rotor
 signature when one is detected (frequency/strength/agreeing pixels, else '-'); uav_score and
-class print as '-' (null in JSON) until an identification stage fills them. --per-spike prints every
+class come from the model's identification stage, '-' (null in JSON) for a model without one
+(a note on standard error says so). --per-spike prints every
 conv3 spike instead, as it is decided. --json makes JSON lines of either. A rate summary goes
 to standard error. Malformed packets, and chunks the detector rejects (events outside the
 sensor, time going backwards), are counted as drops and skipped.
@@ -346,6 +348,8 @@ def run(args: argparse.Namespace) -> int:
         if isinstance(source, UdpSource):
             host, port = source.address
             print(f"uavsnn detect: listening on udp://{host}:{port}", file=err, flush=True)
+        if network.load_note:
+            print(f"uavsnn detect: note: {network.load_note}", file=err, flush=True)
         summary = _Summary(args.summary_every, err)
         rejected = 0
 
