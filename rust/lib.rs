@@ -10,21 +10,22 @@
 //!
 //! # Map of the engine
 //!
-//! Lower modules never import higher ones (tests aside), except where noted.
+//! Lower modules never import higher ones (tests aside).
 //!
 //! | layer | modules | may use |
 //! |---|---|---|
 //! | binding | `python` (feature `python`) | the public API of everything below |
 //! | streams | [`stream`] | [`network`], [`events`], [`windows`] |
-//! | network API | `network::{inference, train, model_io}` | `network::{model, window}` |
-//! | model | `network::model` (weights, config, the states' pool) | `network::window` and below (\*) |
-//! | per-window engine | `network::window`, which drives `network::{conv, pool, cause, winners}` | `network::{conv, pool, geometry, layer, weights}`, `simd` |
+//! | network API | `network::{inference, train, model_io}` | `network::{states, window, model}` |
+//! | one-window entry points | `network::states` (`Network`'s states taken and given back, `run_window`, `stdp_step`) | `network::{window, model}` |
+//! | per-window engine | `network::window` (`WindowState`, and `Network = NetworkOf<WindowState>`), which drives `network::{conv, pool, cause, winners}` | `network::{model, conv, pool, geometry, layer, weights}`, `simd` |
+//! | model | `network::model` (`NetworkOf<S>`: weights, config, a pool of states of a type it does not know) | `network::{geometry, config, layer, weights, gabor, pent}` |
 //! | a conv layer | `network::conv` (`mod.rs` state and API; `add`, `wake`, `resolve`, `reset`, `fired`) | `network::{geometry, weights}`, `simd` |
 //! | shapes and names | `network::{geometry, config, layer, weights}` | each other one way: `geometry` → `config` |
 //! | the CPU | `simd` (crate-private): the `Avx2` token, the vector kernels and their scalar references | nothing of the engine |
 //!
-//! (\*) `network::model` and `network::window` still import each other: a `Network` keeps a
-//! pool of `WindowState`s, and a `WindowState` reads the `Network`'s weights.
+//! `network::model` holds the pool of states generically (`NetworkOf<S>`), so that the window,
+//! which reads the network's weights, imports the model and not the other way round.
 //!
 //! Only `simd` names `std::arch` or `#[target_feature]`; the engine reaches AVX2 code through
 //! its dispatchers with the `Option<Avx2>` its states hold, or through `Avx2::vectorize`.

@@ -8,8 +8,8 @@ use super::batch::WindowBatch;
 use super::config::PentEstimate;
 use super::detection::Detection;
 use super::layer::Layer;
-use super::model::{feed, Network};
-use super::window::{Spike, WindowState};
+use super::states::feed;
+use super::window::{Network, Spike, WindowState};
 use crate::error::{Error, Result};
 
 /// What one window gave.

@@ -37,6 +37,7 @@ mod model_io;
 mod npz;
 mod pent;
 mod pool;
+mod states;
 mod stdp;
 #[cfg(test)]
 mod tests;
@@ -55,7 +56,7 @@ pub use gabor::gabor_kernels;
 pub use geometry::{ConvGeom, Geometry, PoolGeom};
 pub use inference::{check_sensor, infer, WindowResult};
 pub use layer::{ConvLayer, Layer};
-pub use model::Network;
+pub use model::NetworkOf;
 pub use model_io::MODEL_FORMAT;
 pub use stdp::{Convergence, Rates, Schedule};
 
@@ -73,5 +74,5 @@ pub use train::{
     check_training, train_layer, training_order, TrainOptions, TrainProgress, TrainReport, Trainer,
 };
 pub use weights::ConvWeights;
-pub use window::{Spike, WindowState};
+pub use window::{Network, Spike, WindowState};
 pub use winners::Winner;

@@ -1,55 +1,60 @@
-//! [`Network`]: a validated config and the three conv layers' weights, with the one-window
-//! entry points of docs/model.md §7.
+//! [`NetworkOf`]: a validated config and the three conv layers' weights, and a pool of engine
+//! states of a type it does not know. The engine's [`Network`](super::Network) is
+//! `NetworkOf<WindowState>` (named in `window`); its one-window entry points of docs/model.md
+//! §7, which run a `WindowState`, are in `states`. So this module imports nothing of the
+//! engine's window, and the window imports it.
 
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Mutex;
 
-use super::batch::Spikes;
 use super::config::NetworkConfig;
 use super::gabor::gabor_kernels;
 use super::geometry::Geometry;
 use super::layer::ConvLayer;
 use super::pent::conv1_thresholds;
-use super::stdp::{self, Rates};
 use super::weights::ConvWeights;
-use super::window::WindowState;
-use super::winners::Winner;
 use crate::error::Result;
 
-/// Identifies a network's geometry to the [`WindowState`]s made for it.
+/// Identifies a network's geometry to the engine states made for it.
 static NEXT_ID: AtomicU64 = AtomicU64::new(1);
 
-/// The network: config, geometry and weights.
-#[derive(Debug, Clone)]
-pub struct Network {
+/// The network: config, geometry and weights, and a pool of engine states `S` kept between
+/// parallel calls (one per worker that used one; a clone starts with none). Used as
+/// [`Network`](super::Network), its one instance.
+#[derive(Debug)]
+pub struct NetworkOf<S> {
     id: u64,
     config: NetworkConfig,
     geom: Geometry,
     weights: [ConvWeights; 3],
     /// `K1[m]` of PENT: float64 sums of conv1's kernels.
     kernel_sums: Vec<f64>,
-    /// Engine states kept between parallel calls (one per worker that used one).
-    states: StatePool,
+    /// Engine states kept between parallel calls.
+    states: Mutex<Vec<S>>,
 }
 
-/// Engine states for reuse; a clone starts empty.
-#[derive(Debug, Default)]
-pub(crate) struct StatePool(Mutex<Vec<WindowState>>);
-
-impl Clone for StatePool {
+impl<S> Clone for NetworkOf<S> {
+    /// The same network, with no pooled states.
     fn clone(&self) -> Self {
-        Self::default()
+        Self {
+            id: self.id,
+            config: self.config.clone(),
+            geom: self.geom,
+            weights: self.weights.clone(),
+            kernel_sums: self.kernel_sums.clone(),
+            states: Mutex::default(),
+        }
     }
 }
 
-impl PartialEq for Network {
+impl<S> PartialEq for NetworkOf<S> {
     /// Same config and bit-identical weights.
     fn eq(&self, other: &Self) -> bool {
         self.config == other.config && self.weights == other.weights
     }
 }
 
-impl Network {
+impl<S> NetworkOf<S> {
     /// A network from a config: conv1 holds the Gabor kernels, conv2 and conv3 draw
     /// `N(mean, std)` clipped to `[0, 1]` from `seed`.
     pub fn new(config: NetworkConfig, seed: u64) -> Result<Self> {
@@ -86,7 +91,7 @@ impl Network {
             geom: *geom,
             weights,
             kernel_sums: Vec::new(),
-            states: StatePool::default(),
+            states: Mutex::default(),
         };
         net.update_kernel_sums();
         net
@@ -132,95 +137,20 @@ impl Network {
     }
 
     /// The pool of engine states reused by parallel calls.
-    pub(crate) fn state_pool(&self) -> &Mutex<Vec<WindowState>> {
-        &self.states.0
+    pub(crate) fn state_pool(&self) -> &Mutex<Vec<S>> {
+        &self.states
     }
 
-    /// Run `f` with an engine state from the pool (made if none is free), then give it back:
-    /// repeated one-window calls allocate nothing.
-    pub fn with_state<T>(&self, f: impl FnOnce(&mut WindowState) -> T) -> T {
-        let mut state = self.take_state();
-        let out = f(&mut state);
-        self.put_state(state);
-        out
+    /// A conv layer's geometry and its weights to update in place (what STDP does); what is
+    /// derived from them is brought up to date by [`Self::weights_changed`].
+    pub(crate) fn weights_mut(&mut self, layer: ConvLayer) -> (&Geometry, &mut ConvWeights) {
+        (&self.geom, &mut self.weights[layer.index()])
     }
 
-    /// An engine state from the pool, or a fresh one; give it back with [`Self::put_state`].
-    pub fn take_state(&self) -> WindowState {
-        let reused = self.states.0.lock().ok().and_then(|mut v| v.pop());
-        reused.unwrap_or_else(|| self.new_state())
-    }
-
-    /// Return a state to the pool for later calls (states of other networks are dropped).
-    pub fn put_state(&self, state: WindowState) {
-        if state.made_for(self) {
-            if let Ok(mut v) = self.states.0.lock() {
-                v.push(state);
-            }
-        }
-    }
-
-    /// A fresh engine state for this network (one per worker thread).
-    pub fn new_state(&self) -> WindowState {
-        WindowState::new(self)
-    }
-
-    /// Run one window's input spikes (sorted by time) through the network in inference mode.
-    /// `n_in` overrides PENT's `N_in` (default: the number of spikes given). Results are read
-    /// from `state`; with `record`, every layer's spikes are kept.
-    pub fn run_window(
-        &self,
-        state: &mut WindowState,
-        spikes: Spikes<'_>,
-        t0: u64,
-        n_in: Option<u64>,
-        record: bool,
-    ) -> Result<()> {
-        let thresholds = self.conv1_thresholds(n_in.unwrap_or(spikes.len() as u64));
-        state.set_record(record);
-        state.begin(self, t0, &thresholds)?;
-        feed(self, state, spikes)?;
-        state.finish(self)
-    }
-
-    /// One STDP training step of `layer` on one window (docs/model.md §6): run it, find the
-    /// winners, update their kernels with `rates`. Returns the winners in acceptance order.
-    pub fn stdp_step(
-        &mut self,
-        state: &mut WindowState,
-        layer: ConvLayer,
-        spikes: Spikes<'_>,
-        t0: u64,
-        n_in: Option<u64>,
-        rates: Rates,
-    ) -> Result<Vec<Winner>> {
-        let thresholds = self.conv1_thresholds(n_in.unwrap_or(spikes.len() as u64));
-        state.set_record(false);
-        state.begin_training(self, layer, t0, &thresholds)?;
-        feed(self, state, spikes)?;
-        state.finish(self)?;
-        self.apply_stdp(state, layer, rates);
-        Ok(state.winners().to_vec())
-    }
-
-    /// Apply STDP for the winners of the training window just finished in `state`.
-    pub(crate) fn apply_stdp(&mut self, state: &WindowState, layer: ConvLayer, rates: Rates) {
-        let g = self.geom.conv[layer.index()];
-        stdp::apply(
-            &mut self.weights[layer.index()],
-            &g,
-            state.winners(),
-            rates,
-            |c, row, col| state.input_fired_at(layer, c, row, col),
-        );
+    /// Bring what is derived from a layer's weights up to date after `weights_mut`.
+    pub(crate) fn weights_changed(&mut self, layer: ConvLayer) {
         if layer == ConvLayer::Conv1 {
             self.update_kernel_sums();
         }
     }
-}
-
-/// Push a window's spikes group by group (equal times together; see
-/// `WindowState::push_spikes`).
-pub(crate) fn feed(net: &Network, state: &mut WindowState, spikes: Spikes<'_>) -> Result<()> {
-    state.push_spikes(net, spikes)
 }

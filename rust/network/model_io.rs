@@ -16,8 +16,8 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use super::config::{NetworkConfig, CONFIG_VERSION};
 use super::layer::ConvLayer;
-use super::model::Network;
 use super::npz::{npy_bytes, parse_npy, unzip, zip_stored};
+use super::window::Network;
 use crate::error::{Error, Result};
 
 /// The format marker stored in every model file.

@@ -9,9 +9,9 @@ use rand_pcg::Pcg64;
 use super::batch::WindowBatch;
 use super::inference::{check_sensor, n_in};
 use super::layer::ConvLayer;
-use super::model::{feed, Network};
+use super::states::feed;
 use super::stdp::{Convergence, Schedule};
-use super::window::WindowState;
+use super::window::{Network, WindowState};
 use crate::error::{Error, Result};
 
 /// How to walk the training windows.

@@ -39,11 +39,15 @@ use super::conv::{ConvState, Crossing, Fired};
 use super::detection::{detection, Detection};
 use super::geometry::Geometry;
 use super::layer::{ConvLayer, Layer};
-use super::model::Network;
+use super::model::NetworkOf;
 use super::pool::{PoolSpike, PoolState};
 use super::winners::{Winner, Wta};
 use crate::error::{Error, Result};
 use crate::simd::Avx2;
+
+/// The network: config, geometry and weights, with a pool of the engine states that run its
+/// windows (see [`NetworkOf`]; its one-window entry points are in `states`).
+pub type Network = NetworkOf<WindowState>;
 
 /// A spike of a layer, as reported in traces.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -1,11 +1,9 @@
 //! The AVX2 (and SSE2) kernels of `simd`, with explicit vectors. Only `simd`'s dispatchers call
 //! them, each with the proof that the CPU has AVX2 (`Avx2`) where they need it.
 //!
-//! The one exemption from the crate's unsafe lints: a kernel's `unsafe` block covers one vector
-//! step (its loads, its store, the pointer offsets between them) whose range is stated once in
-//! its `SAFETY` comment, instead of one block per instruction. Outside this file every block
-//! holds one unsafe operation.
-#![allow(clippy::multiple_unsafe_ops_per_block)]
+//! Each `unsafe` block holds one unsafe operation (a pointer offset, a load, a store, a call)
+//! with its own `SAFETY` comment; the ranges a kernel reads and writes are stated once in its
+//! `# Safety` section, and each block says which part of them it touches.
 
 use super::{FIXED_KERNEL, FIXED_ROWS, FIXED_RUN, WORD_ROWS};
 use std::arch::x86_64::{
@@ -46,8 +44,10 @@ pub(super) unsafe fn fired_mask_avx2(stamps: &[u32], generation: u32) -> u64 {
     let mut mask = 0u64;
     let mut i = 0;
     while i + 8 <= n {
-        // SAFETY: i + 8 <= n values.
-        let v = unsafe { _mm256_loadu_si256(stamps.as_ptr().add(i).cast()) };
+        // SAFETY: i + 8 <= n values: the 8 from i are inside `stamps`.
+        let at = unsafe { stamps.as_ptr().add(i) };
+        // SAFETY: as above (an unaligned load).
+        let v = unsafe { _mm256_loadu_si256(at.cast()) };
         let eq = _mm256_castsi256_ps(_mm256_cmpeq_epi32(v, g));
         mask |= u64::from(_mm256_movemask_ps(eq) as u8) << i;
         i += 8;
@@ -56,12 +56,15 @@ pub(super) unsafe fn fired_mask_avx2(stamps: &[u32], generation: u32) -> u64 {
         // The last 1-7 stamps in one masked vector (conv1's rows of 5 are nothing else);
         // masked-off lanes read as 0 and are cleared from the mask whatever the generation.
         let rem = n - i;
-        // SAFETY: TAIL has 16 values and 8 − rem is in 1..=7; enabled lanes are below n.
-        let eq = unsafe {
-            let lanes = _mm256_loadu_si256(TAIL.as_ptr().add(8 - rem).cast());
-            let v = _mm256_maskload_epi32(stamps.as_ptr().add(i).cast(), lanes);
-            _mm256_castsi256_ps(_mm256_cmpeq_epi32(v, g))
-        };
+        // SAFETY: TAIL has 16 values and 8 − rem is in 1..=7: the 8 from it are inside TAIL.
+        let window = unsafe { TAIL.as_ptr().add(8 - rem) };
+        // SAFETY: as above.
+        let lanes = unsafe { _mm256_loadu_si256(window.cast()) };
+        // SAFETY: i < n: the first stamp read is inside `stamps`.
+        let at = unsafe { stamps.as_ptr().add(i) };
+        // SAFETY: the enabled lanes (the first rem) are below n; the others are not read.
+        let v = unsafe { _mm256_maskload_epi32(at.cast(), lanes) };
+        let eq = _mm256_castsi256_ps(_mm256_cmpeq_epi32(v, g));
         let bits = (_mm256_movemask_ps(eq) as u32) & ((1 << rem) - 1);
         mask |= u64::from(bits) << i;
     }
@@ -82,17 +85,20 @@ fn lane_bits(mask: u32) -> u32 {
 /// The CPU must support AVX2; `counts` holds `LANES` (16) values and `len <= 16`.
 #[target_feature(enable = "avx2")]
 pub(super) unsafe fn count_run_avx2(counts: &mut [u16], len: usize, wake_at: u16) -> u32 {
-    // SAFETY: 16 counts, and ONES has 32 values with 16 − len in 0..=16.
-    unsafe {
-        // Unaligned loads and stores: the casts need no alignment.
-        let p = counts.as_mut_ptr();
-        let inc = _mm256_loadu_si256(ONES.as_ptr().add(16 - len).cast());
-        let n = _mm256_sub_epi16(_mm256_loadu_si256(p.cast()), inc);
-        _mm256_storeu_si256(p.cast(), n);
-        let at = _mm256_set1_epi16(wake_at as i16 - 1);
-        let hit = _mm256_and_si256(_mm256_cmpgt_epi16(n, at), inc);
-        lane_bits(_mm256_movemask_epi8(hit) as u32)
-    }
+    // Unaligned loads and stores: the casts need no alignment.
+    let p = counts.as_mut_ptr();
+    // SAFETY: ONES has 32 values with 16 − len in 0..=16: the 16 from it are inside ONES.
+    let window = unsafe { ONES.as_ptr().add(16 - len) };
+    // SAFETY: as above.
+    let inc = unsafe { _mm256_loadu_si256(window.cast()) };
+    // SAFETY: `counts` holds 16 values.
+    let old = unsafe { _mm256_loadu_si256(p.cast()) };
+    let n = _mm256_sub_epi16(old, inc);
+    // SAFETY: as above.
+    unsafe { _mm256_storeu_si256(p.cast(), n) };
+    let at = _mm256_set1_epi16(wake_at as i16 - 1);
+    let hit = _mm256_and_si256(_mm256_cmpgt_epi16(n, at), inc);
+    lane_bits(_mm256_movemask_epi8(hit) as u32)
 }
 
 /// Counts the rows first, keeping only the union of their lanes at or above `wake_at`:
@@ -112,45 +118,58 @@ pub(super) unsafe fn count_rows_avx2(
     wake_at: u16,
     hits: &mut [u32],
 ) -> bool {
-    // SAFETY: ONES has 32 values and 16 − len is in 0..=16; the rows are the caller's.
-    unsafe {
-        let inc = _mm256_loadu_si256(ONES.as_ptr().add(16 - len).cast());
-        let at = _mm256_set1_epi16(wake_at as i16 - 1);
-        let mut reached = _mm256_setzero_si256();
-        for r in 0..hits.len() {
-            let p = counts.add(r * stride);
-            let n = _mm256_sub_epi16(_mm256_loadu_si256(p.cast()), inc);
-            _mm256_storeu_si256(p.cast(), n);
-            reached = _mm256_or_si256(reached, _mm256_cmpgt_epi16(n, at));
-        }
-        // Lanes past `len` belong to other positions, which this input did not count.
-        if _mm256_testz_si256(reached, inc) != 0 {
-            return false;
-        }
-        for (r, h) in hits.iter_mut().enumerate() {
-            let n = _mm256_loadu_si256(counts.add(r * stride).cast());
-            let hit = _mm256_and_si256(_mm256_cmpgt_epi16(n, at), inc);
-            *h = lane_bits(_mm256_movemask_epi8(hit) as u32);
-        }
-        true
+    // SAFETY: ONES has 32 values and 16 − len is in 0..=16: the 16 from it are inside ONES.
+    let window = unsafe { ONES.as_ptr().add(16 - len) };
+    // SAFETY: as above.
+    let inc = unsafe { _mm256_loadu_si256(window.cast()) };
+    let at = _mm256_set1_epi16(wake_at as i16 - 1);
+    let mut reached = _mm256_setzero_si256();
+    for r in 0..hits.len() {
+        // SAFETY: r < hits.len(): row r holds 16 counts (the caller's contract).
+        let p = unsafe { counts.add(r * stride) };
+        // SAFETY: as above.
+        let old = unsafe { _mm256_loadu_si256(p.cast()) };
+        let n = _mm256_sub_epi16(old, inc);
+        // SAFETY: as above.
+        unsafe { _mm256_storeu_si256(p.cast(), n) };
+        reached = _mm256_or_si256(reached, _mm256_cmpgt_epi16(n, at));
     }
+    // Lanes past `len` belong to other positions, which this input did not count.
+    if _mm256_testz_si256(reached, inc) != 0 {
+        return false;
+    }
+    for (r, h) in hits.iter_mut().enumerate() {
+        // SAFETY: r < hits.len(): row r holds 16 counts (the caller's contract).
+        let p = unsafe { counts.add(r * stride) };
+        // SAFETY: as above.
+        let n = unsafe { _mm256_loadu_si256(p.cast()) };
+        let hit = _mm256_and_si256(_mm256_cmpgt_epi16(n, at), inc);
+        *h = lane_bits(_mm256_movemask_epi8(hit) as u32);
+    }
+    true
 }
 
 /// # Safety
-/// `counts` holds `LANES` (16) values and `len <= 16`.
+/// `counts` holds `LANES` (16) values and `len <= 16`. (SSE2 is part of x86-64: the
+/// `target_feature` only lets the arithmetic intrinsics be called without `unsafe`.)
+#[target_feature(enable = "sse2")]
 pub(super) unsafe fn count_run_sse2(counts: &mut [u16], len: usize, wake_at: u16) -> u32 {
     let mut mask = 0;
-    // SAFETY: 16 counts in two halves of 8, and ONES has 32 values with 16 − len in 0..=16.
-    unsafe {
-        let at = _mm_set1_epi16(wake_at as i16 - 1);
-        for half in 0..2 {
-            let p = counts.as_mut_ptr().add(8 * half);
-            let inc = _mm_loadu_si128(ONES.as_ptr().add(16 - len + 8 * half).cast());
-            let n = _mm_sub_epi16(_mm_loadu_si128(p.cast()), inc);
-            _mm_storeu_si128(p.cast(), n);
-            let hit = _mm_and_si128(_mm_cmpgt_epi16(n, at), inc);
-            mask |= (_mm_movemask_epi8(hit) as u32) << (16 * half);
-        }
+    let at = _mm_set1_epi16(wake_at as i16 - 1);
+    for half in 0..2 {
+        // SAFETY: 16 counts in two halves of 8: the 8 from 8 · half are inside `counts`.
+        let p = unsafe { counts.as_mut_ptr().add(8 * half) };
+        // SAFETY: ONES has 32 values with 16 − len in 0..=16: the 8 from this one are inside.
+        let window = unsafe { ONES.as_ptr().add(16 - len + 8 * half) };
+        // SAFETY: as above.
+        let inc = unsafe { _mm_loadu_si128(window.cast()) };
+        // SAFETY: the 8 counts from p (above).
+        let old = unsafe { _mm_loadu_si128(p.cast()) };
+        let n = _mm_sub_epi16(old, inc);
+        // SAFETY: as above.
+        unsafe { _mm_storeu_si128(p.cast(), n) };
+        let hit = _mm_and_si128(_mm_cmpgt_epi16(n, at), inc);
+        mask |= (_mm_movemask_epi8(hit) as u32) << (16 * half);
     }
     lane_bits(mask)
 }
@@ -187,21 +206,21 @@ pub(super) unsafe fn add_detect_avx2(
     );
     let mut i = 0;
     while i + 32 <= n {
-        // SAFETY: i + 32 <= n, the slices hold n values and masks n / 8 bytes.
-        unsafe {
-            let (c0, c1, c2, c3) = (
-                add_vector(p, wp, tp, i),
-                add_vector(p, wp, tp, i + 8),
-                add_vector(p, wp, tp, i + 16),
-                add_vector(p, wp, tp, i + 24),
-            );
-            let any = _mm256_or_si256(_mm256_or_si256(c0, c1), _mm256_or_si256(c2, c3));
-            if _mm256_testz_si256(any, any) == 0 {
-                let bits = |c: __m256i| _mm256_movemask_ps(_mm256_castsi256_ps(c)) as u32;
-                let step = bits(c0) | bits(c1) << 8 | bits(c2) << 16 | bits(c3) << 24;
-                add_detect_crossed_avx2(p, wp, tp, mp, n, i, step);
-                return true;
-            }
+        // SAFETY: i + 32 <= n and the slices hold n values: lanes i..i + 8 are inside.
+        let c0 = unsafe { add_vector(p, wp, tp, i) };
+        // SAFETY: as above, lanes i + 8..i + 16.
+        let c1 = unsafe { add_vector(p, wp, tp, i + 8) };
+        // SAFETY: as above, lanes i + 16..i + 24.
+        let c2 = unsafe { add_vector(p, wp, tp, i + 16) };
+        // SAFETY: as above, lanes i + 24..i + 32.
+        let c3 = unsafe { add_vector(p, wp, tp, i + 24) };
+        let any = _mm256_or_si256(_mm256_or_si256(c0, c1), _mm256_or_si256(c2, c3));
+        if _mm256_testz_si256(any, any) == 0 {
+            let bits = |c: __m256i| _mm256_movemask_ps(_mm256_castsi256_ps(c)) as u32;
+            let step = bits(c0) | bits(c1) << 8 | bits(c2) << 16 | bits(c3) << 24;
+            // SAFETY: i + 32 <= n, the slices hold n values and masks ceil(n / 8) bytes.
+            unsafe { add_detect_crossed_avx2(p, wp, tp, mp, n, i, step) };
+            return true;
         }
         i += 32;
     }
@@ -233,14 +252,14 @@ unsafe fn add_detect_crossed_avx2(
     i: usize,
     step: u32,
 ) {
-    // SAFETY: masks hold ceil(n / 8) >= i / 8 + 4 bytes; the rest as the caller guarantees.
-    unsafe {
-        std::ptr::write_bytes(mp, 0, i / 8);
-        mp.add(i / 8)
-            .cast::<[u8; 4]>()
-            .write_unaligned(step.to_le_bytes());
-        add_detect_rest_avx2(p, wp, tp, mp, n, i + 32);
-    }
+    // SAFETY: masks hold ceil(n / 8) >= i / 8 + 4 bytes.
+    unsafe { std::ptr::write_bytes(mp, 0, i / 8) };
+    // SAFETY: as above: byte i / 8 is inside the masks.
+    let step_at = unsafe { mp.add(i / 8) }.cast::<[u8; 4]>();
+    // SAFETY: as above: the 4 bytes from i / 8 are inside the masks.
+    unsafe { step_at.write_unaligned(step.to_le_bytes()) };
+    // SAFETY: i + 32 <= n; the slices and masks as the caller guarantees.
+    unsafe { add_detect_rest_avx2(p, wp, tp, mp, n, i + 32) };
 }
 
 /// `pot += w` for the 8 lanes from `i`: which crossed `thr` (as `crossed_lanes`).
@@ -250,13 +269,20 @@ unsafe fn add_detect_crossed_avx2(
 #[inline]
 #[target_feature(enable = "avx2")]
 unsafe fn add_vector(p: *mut f32, wp: *const f32, tp: *const f32, i: usize) -> __m256i {
-    // SAFETY: the caller guarantees the 8 lanes from i.
-    unsafe {
-        let old = _mm256_loadu_ps(p.add(i));
-        let new = _mm256_add_ps(old, _mm256_loadu_ps(wp.add(i)));
-        _mm256_storeu_ps(p.add(i), new);
-        crossed_lanes(old, new, _mm256_loadu_ps(tp.add(i)))
-    }
+    // SAFETY: the caller guarantees the 8 lanes from i of `p`.
+    let p = unsafe { p.add(i) };
+    // SAFETY: as above, of `wp`.
+    let wp = unsafe { wp.add(i) };
+    // SAFETY: as above, of `tp`.
+    let tp = unsafe { tp.add(i) };
+    // SAFETY: the 8 lanes from p (above).
+    let old = unsafe { _mm256_loadu_ps(p) };
+    // SAFETY: the 8 lanes from wp (above).
+    let new = _mm256_add_ps(old, unsafe { _mm256_loadu_ps(wp) });
+    // SAFETY: the 8 lanes from p (above).
+    unsafe { _mm256_storeu_ps(p, new) };
+    // SAFETY: the 8 lanes from tp (above).
+    crossed_lanes(old, new, unsafe { _mm256_loadu_ps(tp) })
 }
 
 /// `add_detect_avx2` from lane `i` (a multiple of 8) on, recording every mask from byte
@@ -278,47 +304,89 @@ unsafe fn add_detect_rest_avx2(
     let mut any = 0;
     // Two vectors per step: fewer instructions on the loop.
     while i + 16 <= n {
-        // SAFETY: i + 16 <= n, the slices hold n values and masks n / 8 bytes.
-        unsafe {
-            let old0 = _mm256_loadu_ps(p.add(i));
-            let new0 = _mm256_add_ps(old0, _mm256_loadu_ps(wp.add(i)));
-            _mm256_storeu_ps(p.add(i), new0);
-            let old1 = _mm256_loadu_ps(p.add(i + 8));
-            let new1 = _mm256_add_ps(old1, _mm256_loadu_ps(wp.add(i + 8)));
-            _mm256_storeu_ps(p.add(i + 8), new1);
-            let mask0 = crossed(old0, new0, _mm256_loadu_ps(tp.add(i)));
-            let mask1 = crossed(old1, new1, _mm256_loadu_ps(tp.add(i + 8)));
-            *mp.add(i / 8) = mask0 as u8;
-            *mp.add(i / 8 + 1) = mask1 as u8;
-            any |= mask0 | mask1;
-        }
+        // i + 16 <= n, the slices hold n values and masks n / 8 bytes: each block below
+        // touches lanes i..i + 16 of a slice or bytes i / 8..i / 8 + 2 of the masks.
+        // SAFETY: as above.
+        let (p0, p1) = (unsafe { p.add(i) }, unsafe { p.add(i + 8) });
+        // SAFETY: as above.
+        let (w0, w1) = (unsafe { wp.add(i) }, unsafe { wp.add(i + 8) });
+        // SAFETY: as above.
+        let (t0, t1) = (unsafe { tp.add(i) }, unsafe { tp.add(i + 8) });
+        // SAFETY: as above.
+        let old0 = unsafe { _mm256_loadu_ps(p0) };
+        // SAFETY: as above.
+        let new0 = _mm256_add_ps(old0, unsafe { _mm256_loadu_ps(w0) });
+        // SAFETY: as above.
+        unsafe { _mm256_storeu_ps(p0, new0) };
+        // SAFETY: as above.
+        let old1 = unsafe { _mm256_loadu_ps(p1) };
+        // SAFETY: as above.
+        let new1 = _mm256_add_ps(old1, unsafe { _mm256_loadu_ps(w1) });
+        // SAFETY: as above.
+        unsafe { _mm256_storeu_ps(p1, new1) };
+        // SAFETY: as above.
+        let mask0 = crossed(old0, new0, unsafe { _mm256_loadu_ps(t0) });
+        // SAFETY: as above.
+        let mask1 = crossed(old1, new1, unsafe { _mm256_loadu_ps(t1) });
+        // SAFETY: as above.
+        let m0 = unsafe { mp.add(i / 8) };
+        // SAFETY: as above.
+        unsafe { *m0 = mask0 as u8 };
+        // SAFETY: as above.
+        let m1 = unsafe { mp.add(i / 8 + 1) };
+        // SAFETY: as above.
+        unsafe { *m1 = mask1 as u8 };
+        any |= mask0 | mask1;
         i += 16;
     }
     if i + 8 <= n {
-        // SAFETY: i + 8 <= n, the slices hold n values and masks n / 8 bytes.
-        unsafe {
-            let old = _mm256_loadu_ps(p.add(i));
-            let new = _mm256_add_ps(old, _mm256_loadu_ps(wp.add(i)));
-            _mm256_storeu_ps(p.add(i), new);
-            let mask = crossed(old, new, _mm256_loadu_ps(tp.add(i)));
-            *mp.add(i / 8) = mask as u8;
-            any |= mask;
-        }
+        // i + 8 <= n, the slices hold n values and masks n / 8 bytes: each block below
+        // touches lanes i..i + 8 of a slice or byte i / 8 of the masks.
+        // SAFETY: as above.
+        let (p0, w0, t0) = (unsafe { p.add(i) }, unsafe { wp.add(i) }, unsafe {
+            tp.add(i)
+        });
+        // SAFETY: as above.
+        let old = unsafe { _mm256_loadu_ps(p0) };
+        // SAFETY: as above.
+        let new = _mm256_add_ps(old, unsafe { _mm256_loadu_ps(w0) });
+        // SAFETY: as above.
+        unsafe { _mm256_storeu_ps(p0, new) };
+        // SAFETY: as above.
+        let mask = crossed(old, new, unsafe { _mm256_loadu_ps(t0) });
+        // SAFETY: as above.
+        let m0 = unsafe { mp.add(i / 8) };
+        // SAFETY: as above.
+        unsafe { *m0 = mask as u8 };
+        any |= mask;
         i += 8;
     }
     if i < n {
         // The last 1-7 lanes in one masked vector (masked-off lanes are neither read nor
         // written, and compare as 0 < 0: not crossed).
-        // SAFETY: TAIL has 16 values and 8 − (n − i) is in 1..=7; enabled lanes are below n.
-        unsafe {
-            let lanes = _mm256_loadu_si256(TAIL.as_ptr().add(8 - (n - i)).cast());
-            let old = _mm256_maskload_ps(p.add(i), lanes);
-            let new = _mm256_add_ps(old, _mm256_maskload_ps(wp.add(i), lanes));
-            _mm256_maskstore_ps(p.add(i), lanes, new);
-            let mask = crossed(old, new, _mm256_maskload_ps(tp.add(i), lanes));
-            *mp.add(i / 8) = mask as u8;
-            any |= mask;
-        }
+        // TAIL has 16 values and 8 − (n − i) is in 1..=7; lane i is inside each slice and
+        // byte i / 8 inside the masks; the enabled lanes are below n.
+        // SAFETY: as above.
+        let window = unsafe { TAIL.as_ptr().add(8 - (n - i)) };
+        // SAFETY: as above.
+        let lanes = unsafe { _mm256_loadu_si256(window.cast()) };
+        // SAFETY: as above.
+        let (p0, w0, t0) = (unsafe { p.add(i) }, unsafe { wp.add(i) }, unsafe {
+            tp.add(i)
+        });
+        // SAFETY: as above.
+        let old = unsafe { _mm256_maskload_ps(p0, lanes) };
+        // SAFETY: as above.
+        let new = _mm256_add_ps(old, unsafe { _mm256_maskload_ps(w0, lanes) });
+        // SAFETY: as above.
+        unsafe { _mm256_maskstore_ps(p0, lanes, new) };
+        // SAFETY: as above.
+        let mask = crossed(old, new, unsafe { _mm256_maskload_ps(t0, lanes) });
+        // SAFETY: as above.
+        let m0 = unsafe { mp.add(i / 8) };
+        // SAFETY: as above.
+        unsafe { *m0 = mask as u8 };
+        any |= mask;
     }
     any != 0
 }
@@ -338,33 +406,51 @@ pub(super) unsafe fn add_rows_avx2(
     let n = thr.len();
     let (full, rem) = (n / 8, n % 8);
     let tp = thr.as_ptr();
-    // SAFETY: TAIL has 16 values and 8 − rem is in 1..=8.
-    let lanes = unsafe { _mm256_loadu_si256(TAIL.as_ptr().add(8 - rem).cast()) };
+    // SAFETY: TAIL has 16 values and 8 − rem is in 1..=8: the 8 from it are inside TAIL.
+    let window = unsafe { TAIL.as_ptr().add(8 - rem) };
+    // SAFETY: as above.
+    let lanes = unsafe { _mm256_loadu_si256(window.cast()) };
     let mut any = 0u32;
     for (r, slot) in masks.iter_mut().enumerate() {
-        // SAFETY: the caller guarantees both rows hold n values.
-        let (p, wp) = unsafe { (pot.add(r * p_stride), w.sub(r * w_stride)) };
+        // SAFETY: the caller guarantees that row r of the potentials holds n values.
+        let p = unsafe { pot.add(r * p_stride) };
+        // SAFETY: as above, of the weights.
+        let wp = unsafe { w.sub(r * w_stride) };
         let mut mask = 0u32;
         for v in 0..full {
             let i = 8 * v;
-            // SAFETY: i + 8 <= n values in each row and in thr.
-            unsafe {
-                let old = _mm256_loadu_ps(p.add(i));
-                let new = _mm256_add_ps(old, _mm256_loadu_ps(wp.add(i)));
-                _mm256_storeu_ps(p.add(i), new);
-                mask |= (crossed(old, new, _mm256_loadu_ps(tp.add(i))) as u32) << i;
-            }
+            // i + 8 <= n values in each row and in thr: each block below touches lanes
+            // i..i + 8 of one of them.
+            // SAFETY: as above.
+            let (p0, w0, t0) = (unsafe { p.add(i) }, unsafe { wp.add(i) }, unsafe {
+                tp.add(i)
+            });
+            // SAFETY: as above.
+            let old = unsafe { _mm256_loadu_ps(p0) };
+            // SAFETY: as above.
+            let new = _mm256_add_ps(old, unsafe { _mm256_loadu_ps(w0) });
+            // SAFETY: as above.
+            unsafe { _mm256_storeu_ps(p0, new) };
+            // SAFETY: as above.
+            mask |= (crossed(old, new, unsafe { _mm256_loadu_ps(t0) }) as u32) << i;
         }
         if rem > 0 {
             let i = 8 * full;
-            // SAFETY: the enabled lanes are below n (masked-off lanes are neither read nor
-            // written, and compare as 0 < 0: not crossed).
-            unsafe {
-                let old = _mm256_maskload_ps(p.add(i), lanes);
-                let new = _mm256_add_ps(old, _mm256_maskload_ps(wp.add(i), lanes));
-                _mm256_maskstore_ps(p.add(i), lanes, new);
-                mask |= (crossed(old, new, _mm256_maskload_ps(tp.add(i), lanes)) as u32) << i;
-            }
+            // Lane i is inside each row and thr, and the enabled lanes are below n
+            // (masked-off lanes are neither read nor written, and compare as 0 < 0: not
+            // crossed).
+            // SAFETY: as above.
+            let (p0, w0, t0) = (unsafe { p.add(i) }, unsafe { wp.add(i) }, unsafe {
+                tp.add(i)
+            });
+            // SAFETY: as above.
+            let old = unsafe { _mm256_maskload_ps(p0, lanes) };
+            // SAFETY: as above.
+            let new = _mm256_add_ps(old, unsafe { _mm256_maskload_ps(w0, lanes) });
+            // SAFETY: as above.
+            unsafe { _mm256_maskstore_ps(p0, lanes, new) };
+            // SAFETY: as above.
+            mask |= (crossed(old, new, unsafe { _mm256_maskload_ps(t0, lanes) }) as u32) << i;
         }
         *slot = mask;
         any |= mask;
@@ -417,58 +503,100 @@ pub(super) unsafe fn add_rows_fixed_body(
     fresh: bool,
 ) -> (u64, u64) {
     const _: () = assert!(FIXED_RUN == 20, "two vectors and a half per row");
-    // SAFETY: thr holds FIXED_RUN values.
-    let (t0, t1, t2) = unsafe {
-        (
-            _mm256_loadu_ps(thr.as_ptr()),
-            _mm256_loadu_ps(thr.as_ptr().add(8)),
-            _mm_loadu_ps(thr.as_ptr().add(16)),
-        )
-    };
+    // Every intrinsic below needs the CPU to have AVX2 (the caller's contract); the
+    // thresholds' loads read thr's FIXED_RUN values.
+    // SAFETY: as above, lanes 0..8.
+    let t0 = unsafe { _mm256_loadu_ps(thr.as_ptr()) };
+    // SAFETY: as above: lanes 8 and 16 are inside thr.
+    let (thr1, thr2) = (unsafe { thr.as_ptr().add(8) }, unsafe {
+        thr.as_ptr().add(16)
+    });
+    // SAFETY: as above, lanes 8..16.
+    let t1 = unsafe { _mm256_loadu_ps(thr1) };
+    // SAFETY: as above, lanes 16..20.
+    let t2 = unsafe { _mm_loadu_ps(thr2) };
     // After the packs, the 32-bit groups of bytes hold lanes 0-3, 8-11, 16-19, none, 4-7,
     // 12-15, none, none: this puts them back in order.
     // SAFETY: the CPU has AVX2 (the caller's contract).
     let order = unsafe { _mm256_setr_epi32(0, 4, 1, 5, 2, 3, 6, 7) };
     let mut words = [0u64; 2];
     for r in 0..FIXED_ROWS {
-        // SAFETY: the caller guarantees that the row holds FIXED_RUN values; the kernel's
-        // row `FIXED_ROWS − 1 − r` is inside it.
-        let (c0, c1, c2) = unsafe {
-            let p = pot.add(r * p_stride);
-            let wp = kernel.as_ptr().add((FIXED_ROWS - 1 - r) * FIXED_RUN);
-            let old0 = _mm256_loadu_ps(p);
-            let new0 = _mm256_add_ps(old0, _mm256_loadu_ps(wp));
-            _mm256_storeu_ps(p, new0);
-            let old1 = _mm256_loadu_ps(p.add(8));
-            let new1 = _mm256_add_ps(old1, _mm256_loadu_ps(wp.add(8)));
-            _mm256_storeu_ps(p.add(8), new1);
-            let old2 = _mm_loadu_ps(p.add(16));
-            let new2 = _mm_add_ps(old2, _mm_loadu_ps(wp.add(16)));
-            _mm_storeu_ps(p.add(16), new2);
-            if fresh {
-                (
-                    _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GE_OQ>(new0, t0)),
-                    _mm256_castps_si256(_mm256_cmp_ps::<_CMP_GE_OQ>(new1, t1)),
-                    _mm_castps_si128(_mm_cmpge_ps(new2, t2)),
-                )
-            } else {
-                let c2 =
-                    _mm_castps_si128(_mm_and_ps(_mm_cmplt_ps(old2, t2), _mm_cmpge_ps(new2, t2)));
-                (
-                    crossed_lanes(old0, new0, t0),
-                    crossed_lanes(old1, new1, t1),
-                    c2,
-                )
-            }
+        // The caller guarantees that row r of the potentials holds FIXED_RUN values (lanes
+        // 0..8, 8..16 and 16..20 below); the kernel's row `FIXED_ROWS − 1 − r`, of as many,
+        // is inside it; the CPU has AVX2.
+        // SAFETY: as above.
+        let p = unsafe { pot.add(r * p_stride) };
+        // SAFETY: as above.
+        let wp = unsafe { kernel.as_ptr().add((FIXED_ROWS - 1 - r) * FIXED_RUN) };
+        // SAFETY: as above.
+        let (p1, p2) = (unsafe { p.add(8) }, unsafe { p.add(16) });
+        // SAFETY: as above.
+        let (wp1, wp2) = (unsafe { wp.add(8) }, unsafe { wp.add(16) });
+        // SAFETY: as above.
+        let old0 = unsafe { _mm256_loadu_ps(p) };
+        // SAFETY: as above.
+        let w0 = unsafe { _mm256_loadu_ps(wp) };
+        // SAFETY: as above.
+        let new0 = unsafe { _mm256_add_ps(old0, w0) };
+        // SAFETY: as above.
+        unsafe { _mm256_storeu_ps(p, new0) };
+        // SAFETY: as above.
+        let old1 = unsafe { _mm256_loadu_ps(p1) };
+        // SAFETY: as above.
+        let w1 = unsafe { _mm256_loadu_ps(wp1) };
+        // SAFETY: as above.
+        let new1 = unsafe { _mm256_add_ps(old1, w1) };
+        // SAFETY: as above.
+        unsafe { _mm256_storeu_ps(p1, new1) };
+        // SAFETY: as above.
+        let old2 = unsafe { _mm_loadu_ps(p2) };
+        // SAFETY: as above.
+        let w2 = unsafe { _mm_loadu_ps(wp2) };
+        // SAFETY: as above.
+        let new2 = unsafe { _mm_add_ps(old2, w2) };
+        // SAFETY: as above.
+        unsafe { _mm_storeu_ps(p2, new2) };
+        let (c0, c1, c2) = if fresh {
+            // SAFETY: as above.
+            let ge0 = unsafe { _mm256_cmp_ps::<_CMP_GE_OQ>(new0, t0) };
+            // SAFETY: as above.
+            let ge1 = unsafe { _mm256_cmp_ps::<_CMP_GE_OQ>(new1, t1) };
+            // SAFETY: as above.
+            let ge2 = unsafe { _mm_cmpge_ps(new2, t2) };
+            // SAFETY: as above.
+            let c0 = unsafe { _mm256_castps_si256(ge0) };
+            // SAFETY: as above.
+            let c1 = unsafe { _mm256_castps_si256(ge1) };
+            // SAFETY: as above.
+            let c2 = unsafe { _mm_castps_si128(ge2) };
+            (c0, c1, c2)
+        } else {
+            // SAFETY: as above.
+            let lt2 = unsafe { _mm_cmplt_ps(old2, t2) };
+            // SAFETY: as above.
+            let ge2 = unsafe { _mm_cmpge_ps(new2, t2) };
+            // SAFETY: as above.
+            let both2 = unsafe { _mm_and_ps(lt2, ge2) };
+            // SAFETY: as above.
+            let c0 = unsafe { crossed_lanes(old0, new0, t0) };
+            // SAFETY: as above.
+            let c1 = unsafe { crossed_lanes(old1, new1, t1) };
+            // SAFETY: as above.
+            let c2 = unsafe { _mm_castps_si128(both2) };
+            (c0, c1, c2)
         };
         // SAFETY: the CPU has AVX2 (the caller's contract).
         let halves = unsafe { _mm256_packs_epi32(c0, c1) };
         // SAFETY: as above.
         let zero = unsafe { _mm_setzero_si128() };
         // SAFETY: as above.
-        let tail = unsafe { _mm256_zextsi128_si256(_mm_packs_epi32(c2, zero)) };
+        let tail = unsafe { _mm_packs_epi32(c2, zero) };
         // SAFETY: as above.
-        let bytes = unsafe { _mm256_permutevar8x32_epi32(_mm256_packs_epi16(halves, tail), order) };
+        let tail = unsafe { _mm256_zextsi128_si256(tail) };
+        // SAFETY: as above.
+        let packed = unsafe { _mm256_packs_epi16(halves, tail) };
+        // SAFETY: as above.
+        let bytes = unsafe { _mm256_permutevar8x32_epi32(packed, order) };
         // SAFETY: as above.
         let mask = u64::from(unsafe { _mm256_movemask_epi8(bytes) } as u32);
         words[r / WORD_ROWS] |= mask << (r % WORD_ROWS * FIXED_RUN);
@@ -477,7 +605,9 @@ pub(super) unsafe fn add_rows_fixed_body(
 }
 
 /// # Safety
-/// `w`, `thr` as long as `pot`, `masks` `ceil(len / 8)` bytes.
+/// `w`, `thr` as long as `pot`, `masks` `ceil(len / 8)` bytes. (SSE2 is part of x86-64: the
+/// `target_feature` only lets the arithmetic intrinsics be called without `unsafe`.)
+#[target_feature(enable = "sse2")]
 pub(super) unsafe fn add_detect_sse2(
     pot: &mut [f32],
     w: &[f32],
@@ -497,18 +627,27 @@ pub(super) unsafe fn add_detect_sse2(
         let mut mask = 0;
         for half in 0..2 {
             let j = i + 4 * half;
-            // SAFETY: j + 4 <= n and the slices hold n values.
-            unsafe {
-                let old = _mm_loadu_ps(p.add(j));
-                let new = _mm_add_ps(old, _mm_loadu_ps(wp.add(j)));
-                _mm_storeu_ps(p.add(j), new);
-                let t = _mm_loadu_ps(tp.add(j));
-                mask |= _mm_movemask_ps(_mm_and_ps(_mm_cmplt_ps(old, t), _mm_cmpge_ps(new, t)))
-                    << (4 * half);
-            }
+            // j + 4 <= n and the slices hold n values: each block below touches lanes
+            // j..j + 4 of one of them.
+            // SAFETY: as above.
+            let (p0, w0, t0) = (unsafe { p.add(j) }, unsafe { wp.add(j) }, unsafe {
+                tp.add(j)
+            });
+            // SAFETY: as above.
+            let old = unsafe { _mm_loadu_ps(p0) };
+            // SAFETY: as above.
+            let new = _mm_add_ps(old, unsafe { _mm_loadu_ps(w0) });
+            // SAFETY: as above.
+            unsafe { _mm_storeu_ps(p0, new) };
+            // SAFETY: as above.
+            let t = unsafe { _mm_loadu_ps(t0) };
+            mask |= _mm_movemask_ps(_mm_and_ps(_mm_cmplt_ps(old, t), _mm_cmpge_ps(new, t)))
+                << (4 * half);
         }
-        // SAFETY: i / 8 < n / 8 bytes.
-        unsafe { *mp.add(i / 8) = mask as u8 };
+        // SAFETY: i / 8 < n / 8 bytes: byte i / 8 is inside the masks.
+        let m0 = unsafe { mp.add(i / 8) };
+        // SAFETY: as above.
+        unsafe { *m0 = mask as u8 };
         any |= mask;
         i += 8;
     }
@@ -524,7 +663,9 @@ pub(super) fn min_u16x4(a: u64, b: u64) -> u64 {
     // SAFETY: as above.
     let vb = unsafe { _mm_cvtsi64_si128(b as i64) };
     // SAFETY: as above.
-    let min = unsafe { _mm_sub_epi16(va, _mm_subs_epu16(va, vb)) };
+    let diff = unsafe { _mm_subs_epu16(va, vb) };
+    // SAFETY: as above.
+    let min = unsafe { _mm_sub_epi16(va, diff) };
     // SAFETY: as above.
     unsafe { _mm_cvtsi128_si64(min) as u64 }
 }

@@ -11,8 +11,25 @@ impl ConvState {
     /// potentials from the inputs that fired (engine-layout weights `w`), in the order of
     /// `each_fired_input`; maps at or above `θ_lo` become candidates. Out of line, so that
     /// `resolve`, which calls it for few groups, is compiled without it.
+    ///
+    /// Where the CPU has AVX2 the whole loop is compiled for it (`Avx2::vectorize`), once per
+    /// call rather than once per waking position, so that `gather`'s additions run as vectors
+    /// without a call (and its arguments' copy into a closure) per position.
     #[inline(never)]
     pub(super) fn wake(&mut self, w: &[f32], fired: Fired<'_>) {
+        match self.avx2 {
+            Some(avx2) => avx2.vectorize(
+                #[inline(always)]
+                move || self.wake_body(Some(avx2), w, fired),
+            ),
+            None => self.wake_body(None, w, fired),
+        }
+    }
+
+    /// The loop of `wake`, inlined into each of its compilations.
+    #[allow(clippy::inline_always)]
+    #[inline(always)]
+    fn wake_body(&mut self, avx2: Option<Avx2>, w: &[f32], fired: Fired<'_>) {
         let g = self.geom;
         let maps = g.maps;
         let waking = std::mem::take(&mut self.count.waking);
@@ -22,7 +39,7 @@ impl ConvState {
             self.touched.awake.push(pos);
             let (oy, ox) = self.split.div_rem(p);
             let pot = &mut self.pot[p * maps..(p + 1) * maps];
-            gather(self.avx2, &g, fired, &self.wake_base, w, oy, ox, pot);
+            gather(avx2, &g, fired, &self.wake_base, w, oy, ox, pot);
             let start = self.candidates.len();
             let thr_lo = &self.thr.lo[..maps];
             if let (Ok(v), Ok(lo)) = (
@@ -55,34 +72,11 @@ impl ConvState {
 
 /// Set `pot` (one position's maps) to the sum of the engine-layout weights `w` of every input of
 /// output `(oy, ox)`'s receptive field that fired, in the order of `each_fired_input`; `base`
-/// is `ConvState::wake_base`. Compiled for AVX2 where the CPU has it, so that the additions of
-/// one input's maps run as vectors.
-#[allow(clippy::too_many_arguments)]
-#[inline]
-pub(super) fn gather(
-    avx2: Option<Avx2>,
-    g: &ConvGeom,
-    fired: Fired<'_>,
-    base: &[u32],
-    w: &[f32],
-    oy: usize,
-    ox: usize,
-    pot: &mut [f32],
-) {
-    match avx2 {
-        Some(a) => a.vectorize(
-            #[inline(always)]
-            move || gather_body(Some(a), g, fired, base, w, oy, ox, pot),
-        ),
-        None => gather_body(None, g, fired, base, w, oy, ox, pot),
-    }
-}
-
-/// The loop of `gather`, inlined into each of its compilations (always: inlined into the AVX2
-/// one, its additions are compiled as AVX2 vectors).
+/// is `ConvState::wake_base`. Inlined into each compilation of `wake` (always: inlined into
+/// the AVX2 one, its additions are compiled as AVX2 vectors).
 #[allow(clippy::too_many_arguments, clippy::inline_always)]
 #[inline(always)]
-pub(super) fn gather_body(
+pub(super) fn gather(
     avx2: Option<Avx2>,
     g: &ConvGeom,
     fired: Fired<'_>,
