@@ -302,7 +302,7 @@ def noise_task(networks: dict[str, Network], data: Any, fraction: float, seed: i
 @dataclass
 class StreamResult:
     """What one stream gave: its name, every detection in time order
-    (:data:`~uavsnn.detector.DETECTION_DTYPE`), the source's and detector's counts, and the
+    (:data:`~uavsnn.detector.WINDOW_DETECTION_DTYPE`), the source's and detector's counts, and the
     error that ended it early (``None`` when it ran to its end)."""
 
     name: str
@@ -388,12 +388,14 @@ class _StreamWorker:
     def poll(self, wait_s: float) -> tuple[np.ndarray, dict[str, Any], bool]:
         """Detections found since the last poll (time order), the counts, and whether the
         stream has ended; waits up to ``wait_s`` for something to report."""
-        from uavsnn.detector import DETECTION_DTYPE
+        from uavsnn.detector import WINDOW_DETECTION_DTYPE
 
         with self._lock:
             if not self._found and not self._done:
                 self._lock.wait(wait_s)
-            found = np.concatenate(self._found) if self._found else np.empty(0, DETECTION_DTYPE)
+            found = (
+                np.concatenate(self._found) if self._found else np.empty(0, WINDOW_DETECTION_DTYPE)
+            )
             self._found = []
             done = self._done
             s = self.source.stats
@@ -493,9 +495,9 @@ def detect_streams(
 
 
 def _detection_dtype() -> np.dtype:
-    from uavsnn.detector import DETECTION_DTYPE
+    from uavsnn.detector import WINDOW_DETECTION_DTYPE
 
-    return DETECTION_DTYPE
+    return WINDOW_DETECTION_DTYPE
 
 
 def _actor_error(exc: BaseException) -> str:
