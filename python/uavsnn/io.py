@@ -326,20 +326,33 @@ def _decode_evt21(file: Path, offset: int) -> Iterator[np.ndarray]:
         yield out
 
 
+def _sensor_size(
+    file: Path,
+    geometry: tuple[int, int] | None,
+    given: tuple[int, int] | None,
+    camera: tuple[str, tuple[int, int]] | None,
+    metadata: dict[str, Any],
+) -> tuple[tuple[int, int], str]:
+    """The recording's sensor size and where it came from: the file's geometry (which a given
+    size must match), else the given size, else the camera named in the header (noted in
+    ``metadata``), else faery's fallback."""
+    if geometry is not None:
+        if given is not None and given != geometry:
+            raise ParameterError(f"{file}: sensor_size={given} contradicts the file's {geometry}")
+        return geometry, "file"
+    if given is not None:
+        return given, "argument"
+    if camera is not None:
+        metadata["camera"], sensor = camera
+        return sensor, "camera"
+    return FAERY_FALLBACK_SIZE, "fallback"
+
+
 def _read_evt21(file: Path, header: dict[str, str], given: tuple[int, int] | None) -> Recording:
     geometry = _format_geometry(header)
     camera = _camera_size(header)
     metadata: dict[str, Any] = {"path": str(file), "format": "evt"}
-    if geometry is not None:
-        sensor, source = geometry, "file"
-        if given is not None and given != sensor:
-            raise ParameterError(f"{file}: sensor_size={given} contradicts the file's {sensor}")
-    elif given is not None:
-        sensor, source = given, "argument"
-    elif camera is not None:
-        (metadata["camera"], sensor), source = camera, "camera"
-    else:
-        sensor, source = FAERY_FALLBACK_SIZE, "fallback"
+    sensor, source = _sensor_size(file, geometry, given, camera, metadata)
     try:
         chunks = _read_chunks(file, _decode_evt21(file, int(header["<data>"])))
     except RecordingFileError:
@@ -375,14 +388,7 @@ def _read_faery(file: Path, kind: str, size: int, given: tuple[int, int] | None)
         else:
             width, height = faery.events_stream_from_file(file).dimensions()
             geometry = (int(width), int(height))
-        if geometry is not None:
-            sensor, source = geometry, "file"
-            if given is not None and given != sensor:
-                raise ParameterError(f"{file}: sensor_size={given} contradicts the file's {sensor}")
-        elif given is not None:
-            sensor, source = given, "argument"
-        elif camera is not None:
-            (metadata["camera"], sensor), source = camera, "camera"
+        sensor, source = _sensor_size(file, geometry, given, camera, metadata)
         if kind == "csv":
             props = faery.CsvProperties.default()
             stream = faery.events_stream_from_file(
