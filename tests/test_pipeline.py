@@ -101,6 +101,11 @@ def test_reproduce_at_a_tiny_size(tmp_path: Path, capsys: pytest.CaptureFixture[
     results = json.loads((out / "results.json").read_text())
     assert set(results["table2"]) == {"dvs", "sim", "combined", "combined, Table 1 as published"}
     assert len(results["noise"]) == 2 * len(NOISE_FRACTIONS)
+    # Both rules: each network's identification fit is reported, fitted or skipped with why.
+    assert "| with identification |" in text
+    for entry in results["table2"].values():
+        fit = entry["identify_fit"]
+        assert ("skipped" in fit) == (entry["identification"] is None)
     # What the figures may depend on besides the code and the seed is written beside them.
     env = results["environment"]
     assert env["numpy"] == np.__version__ and env["python"] == platform.python_version()

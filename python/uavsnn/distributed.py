@@ -16,8 +16,8 @@ Ray is optional (``pip install 'uavsnn[ray]'``): this module imports it only whe
 connect, and ``import uavsnn`` never does. Without Ray every job runs serially through
 :data:`SERIAL`, the same code path with the same results.
 
-Networks are sent between processes as their config and weights (what a model file holds):
-importing this module registers that with :mod:`copyreg`.
+Networks are sent between processes as their config, weights and identification (what a model
+file holds): importing this module registers that with :mod:`copyreg`.
 """
 
 from __future__ import annotations
@@ -73,15 +73,19 @@ def _import_ray() -> Any:
 # ---------------------------------------------------------------------------- networks
 
 
-def _network_from_state(config: dict[str, Any], weights: dict[str, np.ndarray]) -> Network:
+def _network_from_state(
+    config: dict[str, Any], weights: dict[str, np.ndarray], identification: Any = None
+) -> Network:
     net = Network(config)
     for layer, w in weights.items():
         net.set_weights(layer, w)
+    net.identification = identification
     return net
 
 
 def _network_state(net: Network) -> tuple[Any, ...]:
-    return _network_from_state, (net.config, {layer: net.weights(layer) for layer in CONV_LAYERS})
+    weights = {layer: net.weights(layer) for layer in CONV_LAYERS}
+    return _network_from_state, (net.config, weights, net.identification)
 
 
 copyreg.pickle(Network, _network_state)

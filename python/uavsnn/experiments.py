@@ -10,14 +10,15 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, replace
 from importlib import metadata
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from uavsnn.dataset import LabelledWindows, RawEvents, read_manifest
 from uavsnn.distributed import SERIAL, Runner, noise_task
 from uavsnn.errors import DatasetError, ParameterError
-from uavsnn.evaluation import Evaluation, evaluate
-from uavsnn.network import CONV_LAYERS, Network, default_config
+from uavsnn.evaluation import Evaluation, evaluate, identification_figures
+from uavsnn.network import CONV_LAYERS, Inference, Network, default_config
 from uavsnn.training import apply_overrides
 from uavsnn.windows import Windows, add_noise
 
@@ -27,8 +28,10 @@ __all__ = [
     "PAPER_TABLE3",
     "RECIPE_SETTINGS",
     "NoisePoint",
+    "both_rules",
     "describe_cpu",
     "environment",
+    "fit_identification",
     "have_dataset",
     "mix_windows",
     "noise_level",
@@ -137,8 +140,8 @@ def recipe_config() -> dict[str, object]:
 
 
 def with_config(network: Network, **sections: dict[str, object]) -> Network:
-    """A new network with ``network``'s weights and its config updated section by section,
-    e.g. ``with_config(net, pent={"mode": "static"})``."""
+    """A new network with ``network``'s weights and identification, and its config updated
+    section by section, e.g. ``with_config(net, pent={"mode": "static"})``."""
     config = network.config
     for name, fields in sections.items():
         if name not in config or not isinstance(config[name], dict):
@@ -147,6 +150,7 @@ def with_config(network: Network, **sections: dict[str, object]) -> Network:
     out = Network(config)
     for layer in CONV_LAYERS:
         out.set_weights(layer, network.weights(layer))
+    out.identification = network.identification
     return out
 
 
@@ -195,17 +199,71 @@ class NoisePoint:
     snr_db: float
     mode: str
     evaluation: Evaluation
+    #: Both rules on the same noisy windows (:func:`both_rules`; the raw events get noise of
+    #: the same density), when the network has identification.
+    identified: dict[str, Any] | None = None
 
     def to_dict(self) -> dict[str, object]:
         """JSON-ready figures (no per-window arrays)."""
         e = self.evaluation
-        return {
+        out: dict[str, object] = {
             "fraction": self.fraction,
             "snr_db": None if not np.isfinite(self.snr_db) else self.snr_db,
             "mode": self.mode,
             "accuracy": e.accuracy,
             "confusion": e.confusion.tolist(),
         }
+        if self.identified is not None:
+            out["identified"] = _rule_summary(self.identified)
+        return out
+
+
+def _rule_summary(figures: dict[str, Any]) -> dict[str, Any]:
+    """The headline of :func:`both_rules`' figures: the combined rule's confusion and accuracy,
+    and the detection rate at each false-alarm target."""
+    return {
+        "accuracy": figures["identified"]["accuracy"],
+        "confusion": figures["identified"]["confusion"],
+        "detection_at_false_alarm": {
+            f"{p['false_alarm_target']:g}": p["detection_rate"] for p in figures["at_false_alarm"]
+        },
+    }
+
+
+def fit_identification(network: Network, train: LabelledWindows) -> dict[str, Any]:
+    """Fit ``network``'s identification on ``train`` (its training windows), tuned on a quarter
+    of their recordings held out (:func:`uavsnn.identify.fit_network`), and attach it. Returns
+    the fit's summary, or ``{"skipped": why}`` when these windows cannot fit one (no raw events,
+    or too few objects of a kind); the network then keeps the any-spike rule alone."""
+    from uavsnn import identify
+
+    try:
+        network.identification, summary = identify.fit_network(network, train)
+    except DatasetError as exc:
+        return {"skipped": str(exc)}
+    return summary
+
+
+def both_rules(
+    network: Network,
+    data: LabelledWindows,
+    inference: Inference,
+    *,
+    raw_noise: tuple[float, int] | None = None,
+) -> dict[str, Any] | None:
+    """The any-spike rule and detection + identification on ``data`` side by side
+    (:func:`uavsnn.evaluation.identification_figures`), from ``inference`` (``network`` on
+    ``data``'s windows); ``None`` when the network has no identification. ``raw_noise``: see
+    :func:`uavsnn.identify.window_features`."""
+    from uavsnn import identify
+
+    ident = network.identification
+    if ident is None:
+        return None
+    feats = identify.window_features(network, data, inference, raw_noise=raw_noise)
+    return identification_figures(
+        inference.detected, ident.window_scores(feats), data, ident.threshold
+    )
 
 
 def noise_level(
@@ -222,10 +280,18 @@ def noise_level(
     noisy, snr = with_noise(data, fraction, seed=seed) if fraction > 0 else (data, None)
     finite = snr[np.isfinite(snr)] if snr is not None else np.zeros(0)
     level = float(np.median(finite)) if finite.size else float("inf")
-    return [
-        NoisePoint(float(fraction), level, mode, evaluate(network, noisy, threads=threads))
-        for mode, network in networks.items()
-    ]
+    points = []
+    for mode, network in networks.items():
+        keep = network.identification is not None
+        e = evaluate(network, noisy, threads=threads, keep_inference=keep)
+        ident = None
+        if keep and e.inference is not None:
+            ident = both_rules(
+                network, noisy, e.inference, raw_noise=(fraction, seed) if fraction > 0 else None
+            )
+            e = replace(e, inference=None)
+        points.append(NoisePoint(float(fraction), level, mode, e, ident))
+    return points
 
 
 def noise_sweep(

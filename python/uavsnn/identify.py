@@ -54,6 +54,7 @@ __all__ = [
     "fit_network",
     "object_features",
     "predict_logistic",
+    "raw_noise_events",
     "rotor_coverage",
     "split_by_recording",
     "window_features",
@@ -148,10 +149,18 @@ class WindowFeatures:
 
 
 def window_features(
-    network: Network, data: LabelledWindows, inference: Inference | None = None
+    network: Network,
+    data: LabelledWindows,
+    inference: Inference | None = None,
+    *,
+    raw_noise: tuple[float, int] | None = None,
 ) -> WindowFeatures:
     """The features of every object of every window of ``data`` (a dataset of format 2, with
     raw events), from ``network``'s detections (``inference`` when already run).
+
+    ``raw_noise`` ``(fraction, seed)``: add uniform noise to each window's raw events before
+    measuring them, at the density :func:`uavsnn.windows.add_noise` adds to the windows
+    (:func:`raw_noise_events`), so that features of noisy windows see noisy events.
 
     Raises:
         DatasetError: a dataset without raw events.
@@ -185,6 +194,10 @@ def window_features(
     for i in np.flatnonzero(np.diff(starts) > 0):
         objects = merge_boxes(found[starts[i] : starts[i + 1]])
         raw = data.raw.window(int(i))
+        if raw_noise is not None:
+            raw = raw_noise_events(
+                raw, int(t0s[i]), length, data.windows.sensor_size, *raw_noise, window=int(i)
+            )
         t = raw["t"].astype(np.int64)
         t0 = int(t0s[i])
         events = raw[np.searchsorted(t, t0) : np.searchsorted(t, t0 + length)]
@@ -211,6 +224,43 @@ def window_features(
         label=np.array(label, dtype=bool),
         usable=np.array(usable, dtype=bool),
     )
+
+
+def raw_noise_events(
+    events: np.ndarray,
+    t0: int,
+    length_us: int,
+    sensor: tuple[int, int],
+    fraction: float,
+    seed: int,
+    *,
+    window: int,
+) -> np.ndarray:
+    """``events`` (one window's raw events, time order) with uniform noise added: in each of
+    ``[t0 − length_us, t0)`` and ``[t0, t0 + length_us)``, ``floor(fraction · W · H + 0.5)``
+    events at uniform pixels, times and polarities — the count :func:`uavsnn.windows.add_noise`
+    adds to a window and its preceding interval. Drawn from ``(seed, window)``, so the same
+    window gets the same noise; a different draw from the windows' own noise (that one is made
+    in the engine), of the same density. Returned in time order (stable: an event's
+    order among equal times is kept, the noise after the signal)."""
+    from uavsnn.events import EVENT_DTYPE
+
+    if not 0.0 <= fraction <= 1.0:
+        raise ParameterError(f"noise fraction must be in [0, 1], got {fraction!r}")
+    width, height = int(sensor[0]), int(sensor[1])
+    n = math.floor(fraction * width * height + 0.5)
+    if n == 0:
+        return events
+    rng = np.random.default_rng([int(seed), int(window)])
+    noise = np.zeros(2 * n, dtype=EVENT_DTYPE)
+    lo = max(int(t0) - int(length_us), 0)
+    noise["t"][:n] = rng.integers(lo, max(int(t0), lo + 1), n)
+    noise["t"][n:] = rng.integers(int(t0), int(t0) + int(length_us), n)
+    noise["x"] = rng.integers(0, width, 2 * n)
+    noise["y"] = rng.integers(0, height, 2 * n)
+    noise["p"] = rng.integers(0, 2, 2 * n)
+    out = np.concatenate([events, noise])
+    return out[np.argsort(out["t"], kind="stable")]
 
 
 def fit_logistic(

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -28,8 +29,10 @@ __all__ = [
     "confusion_table",
     "evaluation_markdown",
     "figures",
+    "identification_markdown",
     "noise_table",
     "picture_links",
+    "roc_chart",
 ]
 
 
@@ -217,6 +220,10 @@ CAPTIONS = {
     "snr": "Test accuracy against the signal-to-noise ratio of added noise (higher is "
     "cleaner), with PENT and with static thresholds, beside the paper's Table 3. 0.5 is chance "
     "on the balanced test set.",
+    "roc": "Detection + identification on the dvs test windows, one curve per network: the "
+    "share of UAV windows detected against the share of UAV-free windows alarming, as the "
+    "threshold on the UAV score moves. A window the any-spike rule misses never alarms, so each "
+    "curve ends at that rule's own point.",
 }
 
 
@@ -310,15 +317,107 @@ def evaluation_markdown(evaluation: Evaluation) -> str:
 
 
 def noise_table(points: Sequence[NoisePoint]) -> str:
-    """Accuracy per noise level and mode, with the paper's Table 3 beside it."""
+    """Accuracy per noise level and mode, with the paper's Table 3 beside it; for the modes whose
+    network has identification, a column for detection + identification beside the any-spike
+    rule's."""
     modes = list(dict.fromkeys(p.mode for p in points))
-    header = "| noise (share of pixels) | median SNR (dB) | " + " | ".join(modes) + " |"
-    rows = [header, "|---|---|" + "---|" * len(modes)]
+    with_ident = {p.mode for p in points if p.identified is not None}
+    columns = [(m, False) for m in modes] + [(m, True) for m in modes if m in with_ident]
+    names = [f"{m} + identification" if ident else m for m, ident in columns]
+    header = "| noise (share of pixels) | median SNR (dB) | " + " | ".join(names) + " |"
+    rows = [header, "|---|---|" + "---|" * len(columns)]
     for fraction in dict.fromkeys(p.fraction for p in points):
         level = next(p.snr_db for p in points if p.fraction == fraction)
-        accs = {p.mode: p.evaluation.accuracy for p in points if p.fraction == fraction}
+        here = {p.mode: p for p in points if p.fraction == fraction}
+        cells = []
+        for mode, ident in columns:
+            point = here[mode]
+            if ident:
+                acc = point.identified["identified"]["accuracy"] if point.identified else None
+            else:
+                acc = point.evaluation.accuracy
+            cells.append("–" if acc is None else f"{100 * acc:.1f} %")
         snr = "no noise" if not np.isfinite(level) else f"{level:.1f}"
-        cells = " | ".join(f"{100 * accs[m]:.1f} %" for m in modes)
-        rows.append(f"| {100 * fraction:g} % | {snr} | {cells} |")
+        rows.append(f"| {100 * fraction:g} % | {snr} | {' | '.join(cells)} |")
     paper = ", ".join(f"{snr:g} dB: {100 * acc:.0f} %" for snr, acc in PAPER_TABLE3.items())
     return "\n".join(rows) + f"\n\nThe paper's Table 3 (PENT): {paper}.\n"
+
+
+def _bin_name(low: float, high: float | None, unit: str) -> str:
+    return f"≥ {low:g} {unit}" if high is None else f"{low:g}–{high:g} {unit}"
+
+
+def identification_markdown(figures: dict[str, Any]) -> str:
+    """Both rules side by side (:func:`uavsnn.evaluation.identification_figures`' output): the
+    confusion and accuracy of each, the calls per class, and at the thresholds where 1 % and
+    5 % of the UAV-free windows alarm, the detection rate by size and by range and the false
+    alarms per class of other object."""
+    lines = [
+        f"Identification threshold {figures['threshold']:.3f} (chosen on held-out training "
+        "recordings). A window is called UAV by the any-spike rule when a conv3 neuron fires; "
+        "with identification, when also its best object's UAV score reaches the threshold.\n",
+        "| rule | TP | FN | FP | TN | accuracy |",
+        "|---|---|---|---|---|---|",
+    ]
+    for key, name in (("any_spike", "any-spike"), ("identified", "any-spike + identification")):
+        (tp, fn), (fp, tn) = figures[key]["confusion"]
+        acc = 100 * figures[key]["accuracy"]
+        lines.append(f"| {name} | {tp} | {fn} | {fp} | {tn} | **{acc:.1f} %** |")
+    lines += ["", "Called UAV, per class:\n", "| class | any-spike | + identification |"]
+    lines.append("|---|---|---|")
+    for cls, rate in figures["any_spike"]["per_class"].items():
+        other = figures["identified"]["per_class"][cls]
+        lines.append(f"| {cls} | {100 * rate:.1f} % | {100 * other:.1f} % |")
+    roc = figures["roc"]
+    lines.append(
+        f"\nROC of the combined score: it ends at the any-spike rule's own false-alarm rate "
+        f"({100 * roc['false_alarm'][-1]:.1f} %, detection {100 * roc['detection'][-1]:.1f} %); "
+        f"area up to there {roc['area_reachable']:.3f}.\n"
+    )
+    points = figures["at_false_alarm"]
+    head = " | ".join(f"at {100 * p['false_alarm_target']:g} % false alarms" for p in points)
+    for key, unit, what in (("by_size_px", "px", "size"), ("by_range_m", "m", "range")):
+        lines += [f"Detection by the UAV's {what}:\n", f"| {what} | UAV windows | {head} |"]
+        lines.append("|---|---|" + "---|" * len(points))
+        for k, b in enumerate(points[0][key]):
+            cells = " | ".join(
+                f"{p[key][k]['detected']} ({100 * p[key][k]['rate']:.1f} %)" for p in points
+            )
+            lines.append(f"| {_bin_name(b['low'], b['high'], unit)} | {b['windows']} | {cells} |")
+        lines.append("")
+    lines += ["False alarms per class of other object:\n", f"| class | {head} |"]
+    lines.append("|---|" + "---|" * len(points))
+    for cls in points[0]["false_alarms_per_class"]:
+        cells = " | ".join(f"{100 * p['false_alarms_per_class'][cls]:.1f} %" for p in points)
+        lines.append(f"| {cls} | {cells} |")
+    overall = "; ".join(
+        f"{100 * p['detection_rate']:.1f} % of the UAV windows at "
+        f"{100 * p['false_alarm_rate']:.1f} % false alarms"
+        for p in points
+    )
+    lines += ["", f"Overall detection: {overall}."]
+    return "\n".join(lines) + "\n"
+
+
+def roc_chart(rocs: dict[str, dict[str, Any]], title: str) -> np.ndarray:
+    """The ROC curves of :func:`identification_figures` outputs (``{name: figures["roc"]}``)
+    as one chart: detection rate against false-alarm rate."""
+    # One x axis, the union of the curves' false-alarm points; each curve is joined over its
+    # own points (a NaN is a point it was not measured at), its best detection at each.
+    xs = np.unique(np.concatenate([np.asarray(r["false_alarm"]) for r in rocs.values()]))
+    series = {}
+    for name, roc in rocs.items():
+        y = np.full(xs.shape, np.nan)
+        at = np.searchsorted(xs, np.asarray(roc["false_alarm"], dtype=np.float64))
+        np.fmax.at(y, at, np.asarray(roc["detection"], dtype=np.float64))
+        series[name] = y
+    return pictures.line_chart(
+        xs,
+        series,
+        title=title,
+        xlabel="UAV-free windows alarming",
+        ylabel="UAV windows detected",
+        y_range=(0.0, 1.0),
+        markers=False,
+        gaps=False,
+    )

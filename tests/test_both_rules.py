@@ -1,0 +1,169 @@
+"""Both rules side by side where the experiments report them (SPEC §3, §5): identification
+fitted in ``uavsnn.experiments``, kept through copies and Ray, scored under noise (with noise on
+the raw events too), and written by ``uavsnn.report``."""
+
+from __future__ import annotations
+
+import pickle
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from uavsnn import EVENT_DTYPE, Network
+from uavsnn.dataset import SceneSource, build, load
+from uavsnn.errors import ParameterError
+from uavsnn.experiments import (
+    both_rules,
+    fit_identification,
+    noise_level,
+    recipe_config,
+    static_twin,
+    with_config,
+)
+from uavsnn.identify import Identifier, raw_noise_events
+from uavsnn.report import identification_markdown, noise_table, roc_chart
+
+SENSOR = (240, 180)
+
+
+def _identifier() -> Identifier:
+    names = ("log_width", "log_height")
+    return Identifier(names, np.array([0.5, -0.25, 0.1]), np.zeros(2), np.ones(2), 0.4, 1.0)
+
+
+# ---------------------------------------------------------------- noise on the raw events
+
+
+def test_raw_noise_has_the_windows_density_and_is_repeatable() -> None:
+    rng = np.random.default_rng(0)
+    events = np.zeros(500, dtype=EVENT_DTYPE)
+    events["t"] = np.sort(rng.integers(50_000, 150_000, 500))
+    events["x"], events["y"] = rng.integers(0, 240, 500), rng.integers(0, 180, 500)
+    fraction = 0.01  # 432 events in each half of the 240x180 sensor's [t0 - L, t0 + L)
+    out = raw_noise_events(events, 100_000, 50_000, SENSOR, fraction, 7, window=3)
+    assert len(out) == 500 + 2 * 432
+    assert np.all(np.diff(out["t"].astype(np.int64)) >= 0)
+    t = out["t"].astype(np.int64)
+    assert t.min() >= 50_000 and t.max() < 150_000
+    # The signal's events are all there, in their order.
+    kept = out[np.isin(out, events)]
+    np.testing.assert_array_equal(np.sort(kept, order="t")["t"], events["t"])
+    assert out["x"].max() < 240 and out["y"].max() < 180
+    # Half before the window, half inside it.
+    added = len(out) - 500
+    inside = np.count_nonzero(t >= 100_000) - np.count_nonzero(events["t"] >= 100_000)
+    assert inside == added // 2
+    # The same window and seed: the same noise; another window: other noise.
+    again = raw_noise_events(events, 100_000, 50_000, SENSOR, fraction, 7, window=3)
+    np.testing.assert_array_equal(out, again)
+    other = raw_noise_events(events, 100_000, 50_000, SENSOR, fraction, 7, window=4)
+    assert not np.array_equal(out, other)
+    # No noise, no change; a bad fraction is a typed error.
+    assert raw_noise_events(events, 100_000, 50_000, SENSOR, 0.0, 7, window=3) is events
+    with pytest.raises(ParameterError):
+        raw_noise_events(events, 100_000, 50_000, SENSOR, 1.5, 7, window=3)
+
+
+# ---------------------------------------------------------------- the network's identification
+
+
+def test_identification_travels_with_copies_static_twins_and_pickles() -> None:
+    import uavsnn.distributed  # noqa: F401  (registers how networks are pickled)
+
+    net = Network({"width": 40, "height": 30})
+    net.identification = _identifier()
+    assert net.copy().identification is net.identification
+    assert with_config(net, pent={"mode": "static"}).identification is net.identification
+    back = pickle.loads(pickle.dumps(net))
+    assert back == net
+    np.testing.assert_array_equal(back.identification.coef, net.identification.coef)
+    assert back.identification.threshold == 0.4
+    bare = pickle.loads(pickle.dumps(Network({"width": 40, "height": 30})))
+    assert bare.identification is None
+
+
+@pytest.fixture(scope="module")
+def tiny(tmp_path_factory: pytest.TempPathFactory) -> tuple[Network, object, object]:
+    """A network trained a little on a small dvs set, with identification fitted."""
+    from uavsnn.training import train
+
+    root = tmp_path_factory.mktemp("both") / "set"
+    source = SceneSource("dvs", SENSOR, 200.0, 0.3)
+    build(root, "dvs", n_test=24, n_train=60, seed=21, dvs=source)
+    data, test = load(root, "train"), load(root, "test")
+    net = train(Network(recipe_config(), seed=0), data.windows, windows_per_layer=60).network
+    summary = fit_identification(net, data)
+    return net, summary, test
+
+
+def test_fit_identification_attaches_a_model_or_says_why_not(tiny) -> None:
+    net, summary, _ = tiny
+    if "skipped" in summary:
+        assert net.identification is None and "identification needs" in summary["skipped"]
+    else:
+        assert net.identification is not None
+        assert summary["tune"] == "held-out training recordings"
+        assert summary["train_windows"] + summary["tune_windows"] == 60
+    # A set without any UAV object cannot fit one: skipped, and the network keeps none.
+    fresh = net.copy()
+    fresh.identification = None
+    _, _, test = tiny
+    empty = test.select(np.flatnonzero(~np.asarray(test.label, bool)))
+    assert "skipped" in fit_identification(fresh, empty)
+    assert fresh.identification is None
+
+
+def test_noise_levels_score_both_rules_on_the_same_noisy_windows(tiny) -> None:
+    net, _, test = tiny
+    if net.identification is None:
+        net = net.copy()
+        net.identification = _identifier()
+    static, _ = static_twin(net, test.windows)
+    clean = noise_level({"pent": net, "static": static}, test, 0.0, seed=5)
+    noisy = noise_level({"pent": net, "static": static}, test, 0.02, seed=5)
+    for point in clean + noisy:
+        ident = point.identified
+        assert ident is not None
+        # The any-spike half of the figures is the evaluation's own.
+        assert ident["any_spike"]["confusion"] == point.evaluation.confusion.tolist()
+        assert sum(map(sum, ident["identified"]["confusion"])) == len(test)
+        assert point.to_dict()["identified"]["accuracy"] == ident["identified"]["accuracy"]
+    # At no noise the figures are both_rules' on the clean windows.
+    from uavsnn.evaluation import evaluate
+
+    e = evaluate(net, test, keep_inference=True)
+    assert both_rules(net, test, e.inference) == clean[0].identified
+    # Without identification: the any-spike rule only.
+    bare = net.copy()
+    bare.identification = None
+    assert noise_level({"pent": bare}, test, 0.02, seed=5)[0].identified is None
+    assert both_rules(bare, test, e.inference) is None
+    table = noise_table(clean + noisy)
+    assert "| pent + identification | static + identification |" in table
+    assert table.count("\n| ") == 2  # one row per level after the header
+
+
+# ---------------------------------------------------------------- the report
+
+
+def test_identification_markdown_and_roc_chart(tiny, tmp_path: Path) -> None:
+    from uavsnn import pictures
+
+    net, _, test = tiny
+    if net.identification is None:
+        net = net.copy()
+        net.identification = _identifier()
+    from uavsnn.evaluation import evaluate
+
+    figures = both_rules(net, test, evaluate(net, test, keep_inference=True).inference)
+    assert figures is not None
+    text = identification_markdown(figures)
+    (tp, fn), (fp, tn) = figures["identified"]["confusion"]
+    assert f"| any-spike + identification | {tp} | {fn} | {fp} | {tn} |" in text
+    assert "at 1 % false alarms" in text and "at 5 % false alarms" in text
+    for cls in figures["any_spike"]["per_class"]:
+        assert f"| {cls} |" in text
+    chart = roc_chart({"a": figures["roc"], "b": figures["roc"]}, "ROC")
+    assert chart.ndim == 3 and chart.shape[2] == 3
+    assert pictures.write_png(tmp_path / "roc.png", chart).stat().st_size > 0
