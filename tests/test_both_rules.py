@@ -167,3 +167,35 @@ def test_identification_markdown_and_roc_chart(tiny, tmp_path: Path) -> None:
     chart = roc_chart({"a": figures["roc"], "b": figures["roc"]}, "ROC")
     assert chart.ndim == 3 and chart.shape[2] == 3
     assert pictures.write_png(tmp_path / "roc.png", chart).stat().st_size > 0
+
+
+# ---------------------------------------------------------------- streaming
+
+
+def test_streaming_scores_every_object_of_a_window() -> None:
+    """A window with several objects gets a rotor, score and guess for each, equal to the
+    batch features' score (a name reused inside the loop once broke the second object)."""
+    from uavsnn.detector import WindowObject, WindowReport, _with_rotor
+    from uavsnn.identify import object_features
+
+    rng = np.random.default_rng(4)
+    events = np.zeros(3000, dtype=EVENT_DTYPE)
+    events["t"] = np.sort(rng.integers(0, 50_000, 3000))
+    events["x"], events["y"] = rng.integers(0, 40, 3000), rng.integers(0, 30, 3000)
+    events["p"] = rng.integers(0, 2, 3000)
+    boxes = [(2, 2, 12, 10), (20, 5, 36, 25), (0, 20, 8, 30)]
+    objects = tuple(WindowObject(b, 3 + k) for k, b in enumerate(boxes))
+    report = WindowReport(0, 0, 50_000, True, np.zeros(0), objects)
+    ident = Identifier(
+        ("log_width", "log_area", "log_events_per_px"),
+        np.array([0.8, -0.3, 0.5, 0.1]), np.zeros(3), np.ones(3), 0.5, 1.0,
+    )  # fmt: skip
+    out = _with_rotor(report, events, ident)
+    assert len(out.objects) == 3
+    for obj in out.objects:
+        assert obj.rotor is not None and obj.class_guess in ("uav", "other")
+        x0, y0, x1, y1 = obj.box
+        x, y = events["x"], events["y"]
+        inside = events[(x >= x0) & (x < x1) & (y >= y0) & (y < y1)]
+        expected = ident.scores(object_features(obj.box, obj.spikes, inside)[None, :])[0]
+        assert obj.uav_score == pytest.approx(float(expected), abs=0)

@@ -608,8 +608,8 @@ def _with_rotor(
         if identification is not None:
             from uavsnn.identify import object_features
 
-            x = object_features(obj.box, obj.spikes, inside[mask], rotor=est)
-            score = float(identification.scores(x[None, :])[0])
+            feats = object_features(obj.box, obj.spikes, inside[mask], rotor=est)
+            score = float(identification.scores(feats[None, :])[0])
             guess = "uav" if score >= identification.threshold else "other"
             objects[i] = replace(objects[i], uav_score=score, class_guess=guess)
     return replace(report, objects=tuple(objects))
