@@ -141,7 +141,11 @@ def test_noise_levels_score_both_rules_on_the_same_noisy_windows(tiny) -> None:
     assert both_rules(bare, test, e.inference) is None
     table = noise_table(clean + noisy)
     assert "| pent + identification | static + identification |" in table
-    assert table.count("\n| ") == 2  # one row per level after the header
+    first, _, second = table.partition("The paper's Table 3")
+    assert first.count("\n| ") == 2  # one row per level after the header
+    # Detection at fixed false-alarm rates, per mode and level, for both modes.
+    assert "| pent, at 1 % false alarms | pent, at 5 % false alarms | static, at 1 %" in second
+    assert second.count("\n| 0 % |") == 1 and second.count("\n| 2 % |") == 1
 
 
 # ---------------------------------------------------------------- the report
