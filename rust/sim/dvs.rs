@@ -207,7 +207,7 @@ struct Pixel {
 
 /// Per-frame constants shared by all pixels.
 #[derive(Debug, Clone)]
-struct Step {
+struct Step<'a> {
     t0: f64,
     t1: f64,
     /// The interval's ends in integer microseconds: event times are clamped to them (beyond
@@ -220,7 +220,7 @@ struct Step {
     /// Low-pass update factor at luma `i / eps_per_luma`, `i = 0..=256 · eps_per_luma`:
     /// exact at integer luma (8-bit gray input, one entry per level), interpolated linearly
     /// between sixteenths of a level for other input (relative error below 1e-4).
-    eps_table: Vec<f32>,
+    eps_table: &'a [f32],
     /// Entries of `eps_table` per unit of luma; 0: no table (computed per pixel).
     eps_per_luma: f32,
     refractory: f64,
@@ -244,6 +244,9 @@ pub struct DvsEmulator {
     pixels: Vec<Pixel>,
     rows: Vec<Row>,
     scratch: Vec<u32>,
+    /// The whole-frame low-pass table of the last interval: `(dt_us, entries per luma,
+    /// table)`, kept while frames come at a steady rate.
+    eps_cache: (u64, usize, Vec<f32>),
     last_t: Option<u64>,
     frames: usize,
 }
@@ -252,7 +255,10 @@ pub struct DvsEmulator {
 #[derive(Debug, Clone)]
 struct Row {
     rng: Pcg64Mcg,
+    /// The response to `luma`.
     response: Vec<f32>,
+    /// The last frame's luma on this row (NaN before the first frame): a float pixel whose
+    /// luma has not changed keeps its response without a logarithm.
     luma: Vec<f32>,
     events: Vec<Event>,
 }
@@ -336,11 +342,12 @@ impl DvsEmulator {
                 .map(|rng| Row {
                     rng,
                     response: vec![0.0; width],
-                    luma: vec![0.0; width],
+                    luma: vec![f32::NAN; width],
                     events: Vec::new(),
                 })
                 .collect(),
             scratch: Vec::new(),
+            eps_cache: (0, 0, Vec::new()),
             last_t: None,
             frames: 0,
         })
@@ -408,6 +415,7 @@ impl DvsEmulator {
         let shot_max_per_us = p.shot_noise_rate_hz * shot_max_factor * 1e-6;
         let w = self.width;
         let conv = &self.converter;
+        let model = self.response;
         let Some(t_prev) = t_prev else {
             let t0 = t_us as f64;
             self.pixels
@@ -415,7 +423,7 @@ impl DvsEmulator {
                 .zip(self.rows.par_iter_mut())
                 .enumerate()
                 .for_each(|(y, (px, row))| {
-                    conv.convert_row(frame, y, &mut row.response, None);
+                    convert_row(conv, model, frame, y, &mut row.response, &mut row.luma);
                     let rng = &mut row.rng;
                     for (q, &r) in px.iter_mut().zip(&row.response) {
                         q.lp = r;
@@ -432,19 +440,28 @@ impl DvsEmulator {
                 });
             return Ok(());
         };
-        let step = |t0: u64, t1: u64, per_luma: usize| {
-            let dt_s = (t1 - t0) as f64 * 1e-6;
-            let per_luma = if p.cutoff_hz > 0.0 { per_luma } else { 0 };
-            let eps_table: Vec<f32> = if per_luma > 0 {
+        // The whole frame's low-pass table, rebuilt only when the frame interval changes.
+        let per_luma = match frame {
+            _ if p.cutoff_hz <= 0.0 => 0,
+            Frame::Gray(_) => 1,
+            _ => 16,
+        };
+        let dt_us = t_us - t_prev;
+        if self.eps_cache.0 != dt_us || self.eps_cache.1 != per_luma {
+            let dt_s = dt_us as f64 * 1e-6;
+            self.eps_cache = (
+                dt_us,
+                per_luma,
                 (0..=256 * per_luma)
                     .map(|i| {
                         let y = i as f64 / per_luma as f64;
                         lowpass_eps(p.cutoff_hz, f64::from(p.cutoff_dark_luma), y, dt_s) as f32
                     })
-                    .collect()
-            } else {
-                Vec::new()
-            };
+                    .collect(),
+            );
+        }
+        let step = |t0: u64, t1: u64| {
+            let dt_s = (t1 - t0) as f64 * 1e-6;
             Step {
                 t0: t0 as f64,
                 t1: t1 as f64,
@@ -452,8 +469,8 @@ impl DvsEmulator {
                 t1_us: t1,
                 inv_dt: 1.0 / (t1 - t0) as f64,
                 dt_s,
-                eps_table,
-                eps_per_luma: per_luma as f32,
+                eps_table: &[],
+                eps_per_luma: 0.0,
                 refractory: p.refractory_us,
                 cutoff_hz: p.cutoff_hz,
                 dark_luma: f64::from(p.cutoff_dark_luma),
@@ -462,15 +479,11 @@ impl DvsEmulator {
                 max_factor: shot_max_factor,
             }
         };
-        let whole = step(
-            t_prev,
-            t_us,
-            if matches!(frame, Frame::Gray(_)) {
-                1
-            } else {
-                16
-            },
-        );
+        let whole = Step {
+            eps_table: &self.eps_cache.2,
+            eps_per_luma: per_luma as f32,
+            ..step(t_prev, t_us)
+        };
         // Each patch's sub-intervals: previous frame -> its samples -> this frame.
         let sub_steps: Vec<Vec<Step>> = patches
             .iter()
@@ -479,7 +492,7 @@ impl DvsEmulator {
                 edges.push(t_prev);
                 edges.extend_from_slice(patch.times);
                 edges.push(t_us);
-                edges.windows(2).map(|e| step(e[0], e[1], 0)).collect()
+                edges.windows(2).map(|e| step(e[0], e[1])).collect()
             })
             .collect();
         let response = self.response;
@@ -488,7 +501,7 @@ impl DvsEmulator {
             .zip(self.rows.par_iter_mut())
             .enumerate()
             .for_each(|(y, (px, row))| {
-                conv.convert_row(frame, y, &mut row.response, Some(&mut row.luma));
+                convert_row(conv, model, frame, y, &mut row.response, &mut row.luma);
                 row.events.clear();
                 // The patches crossing this row, by their first column.
                 let mut spans: Vec<(usize, usize)> = patches
@@ -649,6 +662,30 @@ pub struct SubSamples<'a> {
     pub values: &'a [f32],
 }
 
+/// Fill row `y`'s `response` and `luma` from `frame`. Float pixels whose luma is bit for bit
+/// the last frame's keep their response (most of a scene's background does not change from
+/// one frame to the next, and the logarithm is most of a static pixel's cost); 8-bit input
+/// reads tables.
+fn convert_row(
+    conv: &Converter,
+    model: Response,
+    frame: &Frame<'_>,
+    y: usize,
+    response: &mut [f32],
+    luma: &mut [f32],
+) {
+    if let Frame::GrayF32(v) = frame {
+        for ((r, l), &p) in response.iter_mut().zip(luma.iter_mut()).zip(v.row(y)) {
+            if p.to_bits() != l.to_bits() {
+                *l = p;
+                *r = model.eval(f64::from(p));
+            }
+        }
+    } else {
+        conv.convert_row(frame, y, response, Some(luma));
+    }
+}
+
 /// The photoreceptor low-pass update factor over `dt_s` seconds at luma `y`: a first-order
 /// filter with cutoff `cutoff_hz · (y + dark_luma) / (255 + dark_luma)` (v2e's intensity
 /// scaling has `dark_luma` 20), exact for any step.
@@ -677,8 +714,40 @@ fn pixel_step(
     y: u16,
     row: &mut Vec<Event>,
 ) {
+    // Most pixels of a scene: settled (`L` at the response, so the low-pass leaves it), out of
+    // their refractory period, no noise due, and only the leak moving `d` — short of a
+    // threshold. The same arithmetic as `pixel_change`'s quiet interval, without the rest.
+    if response.to_bits() == q.lp.to_bits()
+        && q.hold_until <= s.t0
+        && q.next_shot > s.t1
+        && q.next_hot > s.t1
+    {
+        let a = f64::from(q.lp);
+        let d_end = (a - f64::from(q.reference)) + q.leak_per_us * (s.t1 - s.t0);
+        if d_end < f64::from(q.th_on) && d_end > -f64::from(q.th_off) {
+            q.reference = (a - d_end) as f32;
+            return;
+        }
+    }
+    pixel_change(q, response, luma, s, rng, x, y, row);
+}
+
+/// [`pixel_step`] in general: the low-pass, the refractory period, threshold crossings and
+/// noise.
+#[inline(never)]
+fn pixel_change(
+    q: &mut Pixel,
+    response: f32,
+    luma: f32,
+    s: &Step,
+    rng: &mut Pcg64Mcg,
+    x: u16,
+    y: u16,
+    row: &mut Vec<Event>,
+) {
     let a = f64::from(q.lp);
-    let b = if s.cutoff_hz > 0.0 {
+    // A settled pixel (`L` already at the response) stays where it is: `a + eps · 0`.
+    let b = if s.cutoff_hz > 0.0 && response.to_bits() != q.lp.to_bits() {
         let eps = if s.eps_per_luma > 0.0 && (0.0..256.0).contains(&luma) {
             let u = luma * s.eps_per_luma;
             let i = u as usize;
@@ -949,6 +1018,41 @@ mod tests {
         assert_eq!(got, want);
         assert!(out.iter().all(|e| inside(&e)), "static pixels made events");
         assert!(out.windows(2).all(|w| w[0].t <= w[1].t));
+    }
+
+    #[test]
+    fn float_frames_match_8_bit_frames() {
+        // Float input keeps each pixel's response while its luma does not change; 8-bit input
+        // reads a table every frame. With integer luma and no low-pass (whose tables differ)
+        // both give the same events: pixels that stay, change, and come back.
+        let p = DvsParams {
+            leak_rate_hz: 50.0,
+            shot_noise_rate_hz: 20.0,
+            hot_pixel_fraction: 0.05,
+            refractory_us: 300.0,
+            cutoff_hz: 0.0,
+            ..DvsParams::default()
+        };
+        let (h, w) = (6, 9);
+        let frames: Vec<Array2<u8>> = (0..40u32)
+            .map(|k| {
+                Array2::from_shape_fn((h, w), |(y, x)| {
+                    let moving = (x + y) % 3 == 0 && (k / 4) % 2 == 1;
+                    (30 + 20 * ((x + 2 * y) % 7) + if moving { 60 } else { 0 }) as u8
+                })
+            })
+            .collect();
+        let times: Vec<u64> = (0..40).map(|k| k * 2_000).collect();
+        let mut a = DvsEmulator::new(p, w, h, 5).unwrap();
+        let mut b = DvsEmulator::new(p, w, h, 5).unwrap();
+        let (mut ea, mut eb) = (Vec::new(), Vec::new());
+        for (f, &t) in frames.iter().zip(&times) {
+            a.push(&Frame::Gray(f.view()), t, &mut ea).unwrap();
+            let g = f.mapv(f32::from);
+            b.push(&Frame::GrayF32(g.view()), t, &mut eb).unwrap();
+        }
+        assert!(ea.len() > 100, "{}", ea.len());
+        assert_eq!(ea, eb);
     }
 
     #[test]
