@@ -243,6 +243,7 @@ class Quadcopter(Model):
         self.static_scaled = [p._replace(points=p.points * self.k) for p in static]
         self.blade_hubs = np.repeat(self.hubs, 2, axis=0)
         self.heading = attitude(math.radians(obj.heading_deg))
+        self._bank: tuple[tuple[float, float] | None, np.ndarray] = (None, self.heading)
         self.spin = 2 * math.pi * obj.rate_hz
         # Neighbouring rotors turn in opposite directions; two blades each.
         self.turn = np.repeat([1.0, -1.0, 1.0, -1.0], 2)
@@ -267,10 +268,12 @@ class Quadcopter(Model):
         blades = [Part(q, BLADE_COLOR, BLADE_ALPHA) for q in quads * self.k]
         # Bank into the motion: about 2.5° per m/s, at most 25°.
         vx, vz = float(velocity[0]), float(velocity[2])
-        tilt_x = math.radians(max(-25.0, min(25.0, -2.5 * vx)))
-        tilt_z = math.radians(max(-25.0, min(25.0, 2.5 * vz)))
-        bank = attitude(0.0, tilt_x, tilt_z)
-        return self.static_scaled + blades, bank @ self.heading
+        if self._bank[0] != (vx, vz):
+            tilt_x = math.radians(max(-25.0, min(25.0, -2.5 * vx)))
+            tilt_z = math.radians(max(-25.0, min(25.0, 2.5 * vz)))
+            # The frame and its sub-frame samples share a velocity: kept for the next call.
+            self._bank = ((vx, vz), attitude(0.0, tilt_x, tilt_z) @ self.heading)
+        return self.static_scaled + blades, self._bank[1]
 
 
 class Bird(Model):
