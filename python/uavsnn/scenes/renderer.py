@@ -140,7 +140,7 @@ def _draw(
         fine = np.zeros(((py1 - py0) * ss, (px1 - px0) * ss), dtype=np.uint8)
         origin = (-px0 * fix, -py0 * fix)
         for i in members:
-            poly = fixed[bounds[i] : bounds[i + 1]]
+            poly: np.ndarray = fixed[bounds[i] : bounds[i + 1]]
             if parts[i].hull:
                 poly = cv2.convexHull(poly)
             # One call per polygon: OpenCV fills overlaps of one call's polygons even-odd.
