@@ -290,3 +290,21 @@ def test_process_frame_with_sub_frame_samples_and_bad_patches() -> None:
     assert emu.frames_seen == 2
     with pytest.raises(SimulationError):
         emu.process_frame(np.zeros((5, 8), np.float32), 2000)
+
+
+def test_the_gen3_preset_fires_about_1_88_on_events_per_off_event() -> None:
+    # A slow rise and fall of the same size: a Gen3-like pixel's ON threshold is its OFF
+    # threshold over 1.88, so it makes about 1.88 times as many ON as OFF events.
+    params = DvsParams.gen3(
+        threshold_sigma=0.0, leak_rate_hz=0.0, shot_noise_rate_hz=0.0, hot_pixel_fraction=0.0
+    )
+    assert params.refractory_us == 1.0 and params.threshold_on < params.threshold_off
+    ramp = np.geomspace(30.0, 250.0, 200)
+    levels = np.concatenate([ramp, ramp[::-1][1:]])
+    frames = np.repeat(levels[:, None, None], 4, axis=1).repeat(4, axis=2).astype(np.float32)
+    times = np.arange(len(frames), dtype=np.uint64) * 2_000
+    ev = emulate_dvs(frames, times, params=params)
+    on, off = int(ev["p"].sum()), int((~ev["p"].astype(bool)).sum())
+    assert off > 0 and 1.7 < on / off < 2.1, (on, off)
+    ratio = DvsParams().threshold_on / params.threshold_on
+    assert ratio == pytest.approx(1.88)

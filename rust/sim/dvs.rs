@@ -46,6 +46,10 @@ use super::seed;
 use crate::error::{Error, Result};
 use crate::events::Event;
 
+mod samples;
+
+pub use samples::SubSamples;
+
 /// Lowest threshold a mismatched pixel may get (v2e's clamp).
 pub const MIN_THRESHOLD: f32 = 0.01;
 
@@ -207,7 +211,7 @@ struct Pixel {
 
 /// Per-frame constants shared by all pixels.
 #[derive(Debug, Clone)]
-struct Step {
+struct Step<'a> {
     t0: f64,
     t1: f64,
     /// The interval's ends in integer microseconds: event times are clamped to them (beyond
@@ -220,7 +224,7 @@ struct Step {
     /// Low-pass update factor at luma `i / eps_per_luma`, `i = 0..=256 · eps_per_luma`:
     /// exact at integer luma (8-bit gray input, one entry per level), interpolated linearly
     /// between sixteenths of a level for other input (relative error below 1e-4).
-    eps_table: Vec<f32>,
+    eps_table: &'a [f32],
     /// Entries of `eps_table` per unit of luma; 0: no table (computed per pixel).
     eps_per_luma: f32,
     refractory: f64,
@@ -244,6 +248,9 @@ pub struct DvsEmulator {
     pixels: Vec<Pixel>,
     rows: Vec<Row>,
     scratch: Vec<u32>,
+    /// The whole-frame low-pass table of the last interval: `(dt_us, entries per luma,
+    /// table)`, kept while frames come at a steady rate.
+    eps_cache: (u64, usize, Vec<f32>),
     last_t: Option<u64>,
     frames: usize,
 }
@@ -252,7 +259,10 @@ pub struct DvsEmulator {
 #[derive(Debug, Clone)]
 struct Row {
     rng: Pcg64Mcg,
+    /// The response to `luma`.
     response: Vec<f32>,
+    /// The last frame's luma on this row (NaN before the first frame): a float pixel whose
+    /// luma has not changed keeps its response without a logarithm.
     luma: Vec<f32>,
     events: Vec<Event>,
 }
@@ -336,11 +346,12 @@ impl DvsEmulator {
                 .map(|rng| Row {
                     rng,
                     response: vec![0.0; width],
-                    luma: vec![0.0; width],
+                    luma: vec![f32::NAN; width],
                     events: Vec::new(),
                 })
                 .collect(),
             scratch: Vec::new(),
+            eps_cache: (0, 0, Vec::new()),
             last_t: None,
             frames: 0,
         })
@@ -408,6 +419,7 @@ impl DvsEmulator {
         let shot_max_per_us = p.shot_noise_rate_hz * shot_max_factor * 1e-6;
         let w = self.width;
         let conv = &self.converter;
+        let model = self.response;
         let Some(t_prev) = t_prev else {
             let t0 = t_us as f64;
             self.pixels
@@ -415,7 +427,7 @@ impl DvsEmulator {
                 .zip(self.rows.par_iter_mut())
                 .enumerate()
                 .for_each(|(y, (px, row))| {
-                    conv.convert_row(frame, y, &mut row.response, None);
+                    convert_row(conv, model, frame, y, &mut row.response, &mut row.luma);
                     let rng = &mut row.rng;
                     for (q, &r) in px.iter_mut().zip(&row.response) {
                         q.lp = r;
@@ -432,19 +444,28 @@ impl DvsEmulator {
                 });
             return Ok(());
         };
-        let step = |t0: u64, t1: u64, per_luma: usize| {
-            let dt_s = (t1 - t0) as f64 * 1e-6;
-            let per_luma = if p.cutoff_hz > 0.0 { per_luma } else { 0 };
-            let eps_table: Vec<f32> = if per_luma > 0 {
+        // The whole frame's low-pass table, rebuilt only when the frame interval changes.
+        let per_luma = match frame {
+            _ if p.cutoff_hz <= 0.0 => 0,
+            Frame::Gray(_) => 1,
+            _ => 16,
+        };
+        let dt_us = t_us - t_prev;
+        if self.eps_cache.0 != dt_us || self.eps_cache.1 != per_luma {
+            let dt_s = dt_us as f64 * 1e-6;
+            self.eps_cache = (
+                dt_us,
+                per_luma,
                 (0..=256 * per_luma)
                     .map(|i| {
                         let y = i as f64 / per_luma as f64;
                         lowpass_eps(p.cutoff_hz, f64::from(p.cutoff_dark_luma), y, dt_s) as f32
                     })
-                    .collect()
-            } else {
-                Vec::new()
-            };
+                    .collect(),
+            );
+        }
+        let step = |t0: u64, t1: u64| {
+            let dt_s = (t1 - t0) as f64 * 1e-6;
             Step {
                 t0: t0 as f64,
                 t1: t1 as f64,
@@ -452,8 +473,8 @@ impl DvsEmulator {
                 t1_us: t1,
                 inv_dt: 1.0 / (t1 - t0) as f64,
                 dt_s,
-                eps_table,
-                eps_per_luma: per_luma as f32,
+                eps_table: &[],
+                eps_per_luma: 0.0,
                 refractory: p.refractory_us,
                 cutoff_hz: p.cutoff_hz,
                 dark_luma: f64::from(p.cutoff_dark_luma),
@@ -462,15 +483,11 @@ impl DvsEmulator {
                 max_factor: shot_max_factor,
             }
         };
-        let whole = step(
-            t_prev,
-            t_us,
-            if matches!(frame, Frame::Gray(_)) {
-                1
-            } else {
-                16
-            },
-        );
+        let whole = Step {
+            eps_table: &self.eps_cache.2,
+            eps_per_luma: per_luma as f32,
+            ..step(t_prev, t_us)
+        };
         // Each patch's sub-intervals: previous frame -> its samples -> this frame.
         let sub_steps: Vec<Vec<Step>> = patches
             .iter()
@@ -479,7 +496,7 @@ impl DvsEmulator {
                 edges.push(t_prev);
                 edges.extend_from_slice(patch.times);
                 edges.push(t_us);
-                edges.windows(2).map(|e| step(e[0], e[1], 0)).collect()
+                edges.windows(2).map(|e| step(e[0], e[1])).collect()
             })
             .collect();
         let response = self.response;
@@ -488,7 +505,7 @@ impl DvsEmulator {
             .zip(self.rows.par_iter_mut())
             .enumerate()
             .for_each(|(y, (px, row))| {
-                conv.convert_row(frame, y, &mut row.response, Some(&mut row.luma));
+                convert_row(conv, model, frame, y, &mut row.response, &mut row.luma);
                 row.events.clear();
                 // The patches crossing this row, by their first column.
                 let mut spans: Vec<(usize, usize)> = patches
@@ -566,87 +583,30 @@ impl DvsEmulator {
         }
         Ok(())
     }
-
-    /// Patches on the sensor, disjoint, with strictly increasing times inside `(t0, t1)` and
-    /// one finite, non-negative value per time and pixel.
-    fn check_patches(&self, patches: &[SubSamples<'_>], t0: u64, t1: u64) -> Result<()> {
-        let bad = |i: usize, why: String| {
-            Err(Error::Simulation(format!(
-                "frame {}: sub-frame patch {i}: {why}",
-                self.frames
-            )))
-        };
-        for (i, pa) in patches.iter().enumerate() {
-            if pa.width == 0
-                || pa.height == 0
-                || pa.x0 + pa.width > self.width
-                || pa.y0 + pa.height > self.height
-            {
-                return bad(
-                    i,
-                    format!(
-                        "{}x{} at ({}, {}) does not lie on the {}x{} sensor",
-                        pa.width, pa.height, pa.x0, pa.y0, self.width, self.height
-                    ),
-                );
-            }
-            let mut prev = t0;
-            for &t in pa.times {
-                if t <= prev || t >= t1 {
-                    return bad(
-                        i,
-                        format!(
-                            "time {t} us is not strictly between {prev} us and the frame at \
-                             {t1} us"
-                        ),
-                    );
-                }
-                prev = t;
-            }
-            if pa.values.len() != pa.times.len() * pa.width * pa.height {
-                return bad(
-                    i,
-                    format!(
-                        "{} values for {} times of {}x{} pixels",
-                        pa.values.len(),
-                        pa.times.len(),
-                        pa.width,
-                        pa.height
-                    ),
-                );
-            }
-            if let Some(v) = pa.values.iter().find(|v| !(v.is_finite() && **v >= 0.0)) {
-                return bad(i, format!("luma must be finite and >= 0, got {v}"));
-            }
-            for (j, other) in patches[..i].iter().enumerate() {
-                let apart = pa.x0 >= other.x0 + other.width
-                    || other.x0 >= pa.x0 + pa.width
-                    || pa.y0 >= other.y0 + other.height
-                    || other.y0 >= pa.y0 + pa.height;
-                if !apart {
-                    return bad(i, format!("overlaps patch {j}"));
-                }
-            }
-        }
-        Ok(())
-    }
 }
 
-/// Luma of one rectangular patch of the sensor at times between two frames.
-#[derive(Debug, Clone, Copy)]
-pub struct SubSamples<'a> {
-    /// Left column of the patch.
-    pub x0: usize,
-    /// Top row of the patch.
-    pub y0: usize,
-    /// Columns.
-    pub width: usize,
-    /// Rows.
-    pub height: usize,
-    /// Sample times in microseconds, strictly increasing, strictly between the two frames.
-    pub times: &'a [u64],
-    /// Luma (0–255 scale, linear), `times.len()` row-major planes of `height × width`.
-    pub values: &'a [f32],
+/// Fill row `y`'s `response` and `luma` from `frame`. Float pixels whose luma is bit for bit
+/// the last frame's keep their response (most of a scene's background does not change from
+/// one frame to the next, and the logarithm is most of a static pixel's cost); 8-bit input
+/// reads tables.
+fn convert_row(
+    conv: &Converter,
+    model: Response,
+    frame: &Frame<'_>,
+    y: usize,
+    response: &mut [f32],
+    luma: &mut [f32],
+) {
+    if let Frame::GrayF32(v) = frame {
+        for ((r, l), &p) in response.iter_mut().zip(luma.iter_mut()).zip(v.row(y)) {
+            if p.to_bits() != l.to_bits() {
+                *l = p;
+                *r = model.eval(f64::from(p));
+            }
+        }
+    } else {
+        conv.convert_row(frame, y, response, Some(luma));
+    }
 }
 
 /// The photoreceptor low-pass update factor over `dt_s` seconds at luma `y`: a first-order
@@ -677,13 +637,47 @@ fn pixel_step(
     y: u16,
     row: &mut Vec<Event>,
 ) {
+    // Most pixels of a scene: settled (`L` at the response, so the low-pass leaves it), out of
+    // their refractory period, no noise due, and only the leak moving `d` — short of a
+    // threshold. The same arithmetic as `pixel_change`'s quiet interval, without the rest.
+    if response.to_bits() == q.lp.to_bits()
+        && q.hold_until <= s.t0
+        && q.next_shot > s.t1
+        && q.next_hot > s.t1
+    {
+        let a = f64::from(q.lp);
+        let d_end = (a - f64::from(q.reference)) + q.leak_per_us * (s.t1 - s.t0);
+        if d_end < f64::from(q.th_on) && d_end > -f64::from(q.th_off) {
+            q.reference = (a - d_end) as f32;
+            return;
+        }
+    }
+    pixel_change(q, response, luma, s, rng, x, y, row);
+}
+
+/// [`pixel_step`] in general: the low-pass, the refractory period, threshold crossings and
+/// noise.
+#[inline(never)]
+fn pixel_change(
+    q: &mut Pixel,
+    response: f32,
+    luma: f32,
+    s: &Step,
+    rng: &mut Pcg64Mcg,
+    x: u16,
+    y: u16,
+    row: &mut Vec<Event>,
+) {
     let a = f64::from(q.lp);
-    let b = if s.cutoff_hz > 0.0 {
+    // A settled pixel (`L` already at the response) stays where it is: `a + eps · 0`.
+    let b = if s.cutoff_hz > 0.0 && response.to_bits() != q.lp.to_bits() {
         let eps = if s.eps_per_luma > 0.0 && (0.0..256.0).contains(&luma) {
             let u = luma * s.eps_per_luma;
-            let i = u as usize;
-            let t = &s.eps_table;
-            f64::from(t[i] + (u - i as f32) * (t[i + 1] - t[i]))
+            // `u` is in [0, 4096): through `i32`, which x86 converts to in one instruction
+            // (a float's conversion to `usize` takes a dozen).
+            let i = u as i32 as usize;
+            let (lo, hi) = (s.eps_table[i], s.eps_table[i + 1]);
+            f64::from(lo + (u - i as f32) * (hi - lo))
         } else {
             lowpass_eps(s.cutoff_hz, s.dark_luma, f64::from(luma), s.dt_s)
         };
@@ -809,7 +803,12 @@ mod tests {
     use super::*;
     use ndarray::Array2;
 
-    fn run(params: DvsParams, frames: &[Array2<f32>], times: &[u64], seed: u64) -> Vec<Event> {
+    pub(super) fn run(
+        params: DvsParams,
+        frames: &[Array2<f32>],
+        times: &[u64],
+        seed: u64,
+    ) -> Vec<Event> {
         let (h, w) = frames[0].dim();
         let mut emu = DvsEmulator::new(params, w, h, seed).unwrap();
         let mut out = Vec::new();
@@ -894,116 +893,6 @@ mod tests {
         assert_eq!(a, b);
         assert_ne!(a, run(p, &frames, &times, 8));
         assert!(a.windows(2).all(|w| w[0].t <= w[1].t));
-    }
-
-    #[test]
-    fn sub_frame_samples_equal_frames_at_those_times() {
-        // A patch sampled between two frames gives exactly the events of full frames at the
-        // samples' times; outside the patch, the frames alone.
-        let p = DvsParams {
-            cutoff_hz: 2000.0,
-            cutoff_dark_luma: 1.0,
-            ..DvsParams::ideal()
-        };
-        let frame = |k: usize| {
-            Array2::from_shape_fn((4, 6), |(y, x)| {
-                (40.0 + 30.0 * ((x + 2 * y + 3 * k) % 5) as f32) * (1.0 + 0.5 * k as f32)
-            })
-        };
-        let all: Vec<Array2<f32>> = (0..4).map(frame).collect();
-        let full = run(p, &all, &[0, 100, 250, 400], 0);
-        let mut emu = DvsEmulator::new(p, 6, 4, 0).unwrap();
-        let mut out = Vec::new();
-        emu.push(&Frame::GrayF32(all[0].view()), 0, &mut out)
-            .unwrap();
-        let mut last = all[3].clone();
-        // Outside the patch (columns 2..5, rows 1..3) the pixels move from frame 0 to frame 3.
-        for y in 0..4 {
-            for x in 0..6 {
-                if !((2..5).contains(&x) && (1..3).contains(&y)) {
-                    last[(y, x)] = all[0][(y, x)];
-                }
-            }
-        }
-        let values: Vec<f32> = [1, 2]
-            .iter()
-            .flat_map(|&k| {
-                let f = &all[k];
-                (1..3).flat_map(move |y| (2..5).map(move |x| f[(y, x)]))
-            })
-            .collect();
-        let patch = SubSamples {
-            x0: 2,
-            y0: 1,
-            width: 3,
-            height: 2,
-            times: &[100, 250],
-            values: &values,
-        };
-        emu.push_with_samples(&Frame::GrayF32(last.view()), 400, &[patch], &mut out)
-            .unwrap();
-        let inside = |e: &&Event| (2..5).contains(&e.x) && (1..3).contains(&e.y);
-        let want: Vec<Event> = full.iter().filter(inside).copied().collect();
-        let got: Vec<Event> = out.iter().filter(inside).copied().collect();
-        assert!(!want.is_empty());
-        assert_eq!(got, want);
-        assert!(out.iter().all(|e| inside(&e)), "static pixels made events");
-        assert!(out.windows(2).all(|w| w[0].t <= w[1].t));
-    }
-
-    #[test]
-    fn rejects_bad_patches() {
-        let mut emu = DvsEmulator::new(DvsParams::ideal(), 4, 4, 0).unwrap();
-        let f = Array2::from_elem((4, 4), 10.0f32);
-        let mut out = Vec::new();
-        let v = [1.0f32; 4];
-        let ok = SubSamples {
-            x0: 0,
-            y0: 0,
-            width: 2,
-            height: 2,
-            times: &[5],
-            values: &v,
-        };
-        // The first frame takes none.
-        assert!(emu
-            .push_with_samples(&Frame::GrayF32(f.view()), 0, &[ok], &mut out)
-            .is_err());
-        emu.push(&Frame::GrayF32(f.view()), 0, &mut out).unwrap();
-        let bad = [
-            SubSamples { x0: 3, ..ok },
-            SubSamples { times: &[10], ..ok },
-            SubSamples { times: &[0], ..ok },
-            SubSamples {
-                values: &v[..3],
-                ..ok
-            },
-            SubSamples {
-                values: &[1.0, f32::NAN, 1.0, 1.0],
-                ..ok
-            },
-        ];
-        for b in bad {
-            assert!(emu
-                .push_with_samples(&Frame::GrayF32(f.view()), 10, &[b], &mut out)
-                .is_err());
-        }
-        assert!(emu
-            .push_with_samples(
-                &Frame::GrayF32(f.view()),
-                10,
-                &[ok, SubSamples { x0: 1, ..ok }],
-                &mut out
-            )
-            .is_err());
-        assert_eq!(emu.frames_seen(), 1);
-        emu.push_with_samples(
-            &Frame::GrayF32(f.view()),
-            10,
-            &[ok, SubSamples { x0: 2, ..ok }],
-            &mut out,
-        )
-        .unwrap();
     }
 
     #[test]

@@ -52,6 +52,11 @@ impl Frame<'_> {
                 "frame {index} has {} channels, expected 3 (BGR)",
                 v.shape()[2]
             ))),
+            // A pass without early exit first (4x fewer instructions); the search only when
+            // it fails.
+            Frame::GrayF32(v) if v.fold(true, |ok, &p| ok && (0.0..f32::INFINITY).contains(&p)) => {
+                Ok(())
+            }
             Frame::GrayF32(v) => match v.iter().position(|&p| !p.is_finite() || p < 0.0) {
                 Some(i) => Err(Error::Simulation(format!(
                     "frame {index}: pixel (x={}, y={}) has intensity {}, expected a finite \

@@ -143,6 +143,15 @@ class Model:
         self.event_camera = event_camera
         self.k = obj.size_m / self.nominal
         self.color = shade(obj.color, 1.0)
+        #: Parts that never change, scaled once: ``id(part) -> (part, scaled part)``.
+        self._scaled: dict[int, tuple[Part, Part]] = {}
+
+    def _fixed(self, parts: list[Part]) -> list[Part]:
+        """Mark ``parts`` (built once, returned by every ``_parts`` call) as fixed: scaled to
+        ``size_m`` once rather than at each instant. Returns them."""
+        for p in parts:
+            self._scaled[id(p)] = (p, p._replace(points=p.points * self.k))
+        return parts
 
     def heading_of(self, velocity: np.ndarray) -> float:
         """Face the direction of travel when moving, else the spec's heading."""
@@ -154,8 +163,15 @@ class Model:
     def parts(self, t: float, velocity: np.ndarray) -> tuple[list[Part], np.ndarray]:
         """The parts at time ``t`` (seconds), scaled to ``size_m``, and the body attitude."""
         parts, rot = self._parts(t, velocity)
-        k = self.k
-        return [p._replace(points=p.points * k) for p in parts], rot
+        k, scaled = self.k, self._scaled
+        out = []
+        for p in parts:
+            # The cache holds the part itself, so a hit on its id is the same part.
+            hit = scaled.get(id(p))
+            out.append(
+                hit[1] if hit is not None and hit[0] is p else p._replace(points=p.points * k)
+            )
+        return out, rot
 
     def _parts(self, t: float, velocity: np.ndarray) -> tuple[list[Part], np.ndarray]:
         raise NotImplementedError
@@ -224,6 +240,10 @@ class Quadcopter(Model):
             static.append(Part(disc(tuple(hub), self.prop_r, n=20), DISC_COLOR, alpha))
         static.insert(0, Part(body, self.color, hull=True))
         self.static = static
+        self.static_scaled = [p._replace(points=p.points * self.k) for p in static]
+        self.blade_hubs = np.repeat(self.hubs, 2, axis=0)
+        self.heading = attitude(math.radians(obj.heading_deg))
+        self._bank: tuple[tuple[float, float] | None, np.ndarray] = (None, self.heading)
         self.spin = 2 * math.pi * obj.rate_hz
         # Neighbouring rotors turn in opposite directions; two blades each.
         self.turn = np.repeat([1.0, -1.0, 1.0, -1.0], 2)
@@ -233,33 +253,36 @@ class Quadcopter(Model):
         """Two blades per rotor: the blade pass is twice the rotation rate."""
         return 2.0 * float(self.obj.rate_hz)
 
-    def _parts(self, t: float, velocity: np.ndarray) -> tuple[list[Part], np.ndarray]:
+    def parts(self, t: float, velocity: np.ndarray) -> tuple[list[Part], np.ndarray]:
+        """As :meth:`Model.parts`: the fixed parts scaled once, the eight blades built and
+        scaled as one array."""
         angle = self.turn * self.spin * t + self.offset  # (8,)
         d = np.stack([np.cos(angle), np.zeros(8), np.sin(angle)], axis=1)
         n = np.stack([-np.sin(angle), np.zeros(8), np.cos(angle)], axis=1) * (
             self.prop_r * BLADE_ROOT / 2
         )
-        hub = np.repeat(self.hubs, 2, axis=0)
+        hub = self.blade_hubs
         tip = hub + d * self.prop_r
         tip_w = BLADE_TIP / BLADE_ROOT
         quads = np.stack([hub - n, tip - tip_w * n, tip + tip_w * n, hub + n], axis=1)  # (8,4,3)
-        blades = [Part(q, BLADE_COLOR, BLADE_ALPHA) for q in quads]
+        blades = [Part(q, BLADE_COLOR, BLADE_ALPHA) for q in quads * self.k]
         # Bank into the motion: about 2.5° per m/s, at most 25°.
         vx, vz = float(velocity[0]), float(velocity[2])
-        tilt_x = math.radians(max(-25.0, min(25.0, -2.5 * vx)))
-        tilt_z = math.radians(max(-25.0, min(25.0, 2.5 * vz)))
-        bank = attitude(0.0, tilt_x, tilt_z)
-        return self.static + blades, bank @ attitude(math.radians(self.obj.heading_deg))
+        if self._bank[0] != (vx, vz):
+            tilt_x = math.radians(max(-25.0, min(25.0, -2.5 * vx)))
+            tilt_z = math.radians(max(-25.0, min(25.0, 2.5 * vz)))
+            # The frame and its sub-frame samples share a velocity: kept for the next call.
+            self._bank = ((vx, vz), attitude(0.0, tilt_x, tilt_z) @ self.heading)
+        return self.static_scaled + blades, self._bank[1]
 
 
 class Bird(Model):
     """A bird: body, head, tail and two-segment wings beating at ``rate_hz``; variant 1 (gull
     like) glides between bursts of beats."""
 
-    def _parts(self, t: float, velocity: np.ndarray) -> tuple[list[Part], np.ndarray]:
-        obj = self.obj
+    def __init__(self, obj: ObjectSpec, *, event_camera: bool = False) -> None:
+        super().__init__(obj, event_camera=event_camera)
         col = self.color
-        dark = shade(col, 0.6)
         body = Part(ellipsoid((0.0, 0.0, 0.0), (0.21, 0.06, 0.065)), col, hull=True)
         head = Part(ellipsoid((0.22, 0.03, 0.0), (0.055, 0.045, 0.04), n=8), col, hull=True)
         beak = Part(
@@ -269,8 +292,14 @@ class Bird(Model):
             np.array(
                 [[-0.17, 0.0, -0.03], [-0.32, 0.0, -0.07], [-0.32, 0.0, 0.07], [-0.17, 0.0, 0.03]]
             ),
-            dark,
+            shade(col, 0.6),
         )
+        self.fixed = self._fixed([tail, body, head, beak])
+
+    def _parts(self, t: float, velocity: np.ndarray) -> tuple[list[Part], np.ndarray]:
+        obj = self.obj
+        col = self.color
+        dark = shade(col, 0.6)
         phase = 2 * math.pi * obj.rate_hz * t + obj.phase
         beat = math.sin(phase)
         if obj.variant == 1:
@@ -279,7 +308,7 @@ class Bird(Model):
             beat *= gate
         up1 = math.radians(15 + 45 * beat)
         up2 = up1 + math.radians(20 * beat)
-        parts = [tail, body, head, beak]
+        parts = list(self.fixed)
         for side in (-1.0, 1.0):
             r1, r2 = 0.2, 0.25  # inner and outer wing: span = 2·(0.05 + r1 + r2) = 1
             root = np.array([0.0, 0.02, side * 0.05])
@@ -303,7 +332,14 @@ class Aircraft(Model):
     """A fixed-wing airliner or light aircraft: fuselage, swept wings, tailplane, fin,
     engines."""
 
+    def __init__(self, obj: ObjectSpec, *, event_camera: bool = False) -> None:
+        super().__init__(obj, event_camera=event_camera)
+        self.fixed = self._fixed(self._build())
+
     def _parts(self, t: float, velocity: np.ndarray) -> tuple[list[Part], np.ndarray]:
+        return list(self.fixed), attitude(self.heading_of(velocity))
+
+    def _build(self) -> list[Part]:
         col = self.color
         grey = (0.55, 0.55, 0.58)
         sweep = 0.12 if self.obj.variant == 0 else 0.0
@@ -348,7 +384,7 @@ class Aircraft(Model):
             [[-0.36, 0.04, 0.0], [-0.5, 0.04, 0.0], [-0.53, 0.19, 0.0], [-0.46, 0.19, 0.0]]
         )
         parts.append(Part(fin, shade(col, 0.8)))
-        return parts, attitude(self.heading_of(velocity))
+        return parts
 
 
 class Helicopter(Model):
@@ -361,7 +397,8 @@ class Helicopter(Model):
         n_blades = 2 + self.obj.variant % 4
         return float(self.obj.rate_hz) * max(10.0, n_blades)
 
-    def _parts(self, t: float, velocity: np.ndarray) -> tuple[list[Part], np.ndarray]:
+    def __init__(self, obj: ObjectSpec, *, event_camera: bool = False) -> None:
+        super().__init__(obj, event_camera=event_camera)
         col = self.color
         dark = (0.15, 0.15, 0.15)
         parts = [
@@ -384,6 +421,12 @@ class Helicopter(Model):
         parts.append(
             Part(disc(hub, 0.45, n=24), (0.3, 0.3, 0.3), 0.0 if self.event_camera else 0.12)
         )
+        self.fixed = self._fixed(parts)
+
+    def _parts(self, t: float, velocity: np.ndarray) -> tuple[list[Part], np.ndarray]:
+        dark = (0.15, 0.15, 0.15)
+        parts = list(self.fixed)
+        hub = (0.1, 0.15, 0.0)
         n_blades = 2 + self.obj.variant % 4
         spin = 2 * math.pi * self.obj.rate_hz * t + self.obj.phase
         for i in range(n_blades):
@@ -412,9 +455,13 @@ class Ball(Model):
 
     faces_camera = True
 
+    def __init__(self, obj: ObjectSpec, *, event_camera: bool = False) -> None:
+        super().__init__(obj, event_camera=event_camera)
+        self.fixed = self._fixed([Part(disc((0.0, 0.0, 0.0), 0.5, plane="xy", n=24), self.color)])
+
     def _parts(self, t: float, velocity: np.ndarray) -> tuple[list[Part], np.ndarray]:
         col = self.color
-        parts = [Part(disc((0.0, 0.0, 0.0), 0.5, plane="xy", n=24), col)]
+        parts = list(self.fixed)
         spin = 2 * math.pi * self.obj.rate_hz * t + self.obj.phase
         # The panel: a cap of 40° around a direction turning about a tilted axis.
         d = np.array([math.cos(spin), 0.35, math.sin(spin)])
@@ -434,10 +481,15 @@ class Ball(Model):
 class Insect(Model):
     """A flying insect: a slim body and two translucent wings beating at ``rate_hz``."""
 
+    def __init__(self, obj: ObjectSpec, *, event_camera: bool = False) -> None:
+        super().__init__(obj, event_camera=event_camera)
+        body = ellipsoid((0.0, 0.0, 0.0), (0.35, 0.07, 0.07), n=8)
+        self.fixed = self._fixed([Part(body, self.color, hull=True)])
+
     def _parts(self, t: float, velocity: np.ndarray) -> tuple[list[Part], np.ndarray]:
         beat = math.sin(2 * math.pi * self.obj.rate_hz * t + self.obj.phase)
         up = math.radians(10 + 60 * beat)
-        parts = [Part(ellipsoid((0.0, 0.0, 0.0), (0.35, 0.07, 0.07), n=8), self.color, hull=True)]
+        parts = list(self.fixed)
         for side in (-1.0, 1.0):
             c, s = _ring(10)
             r = 0.45
@@ -456,7 +508,8 @@ class Insect(Model):
 class Leaf(Model):
     """A leaf with its stalk, tumbling about a tilted axis at ``rate_hz`` as it falls."""
 
-    def _parts(self, t: float, velocity: np.ndarray) -> tuple[list[Part], np.ndarray]:
+    def __init__(self, obj: ObjectSpec, *, event_camera: bool = False) -> None:
+        super().__init__(obj, event_camera=event_camera)
         x = np.linspace(-0.5, 0.5, 9)
         half = 0.22 * np.sqrt(np.clip(1 - (2 * x) ** 2, 0, 1)) * (1.0 - 0.3 * x)
         outline = np.concatenate(
@@ -468,9 +521,12 @@ class Leaf(Model):
         stalk = np.array(
             [[-0.5, 0.0, -0.01], [-0.65, 0.0, -0.01], [-0.65, 0.0, 0.01], [-0.5, 0.0, 0.01]]
         )
+        self.fixed = self._fixed([Part(outline, self.color), Part(stalk, shade(self.color, 0.7))])
+
+    def _parts(self, t: float, velocity: np.ndarray) -> tuple[list[Part], np.ndarray]:
         a = 2 * math.pi * self.obj.rate_hz * t + self.obj.phase
         rot = attitude(0.4 * a + self.obj.phase, 1.3 * math.sin(a), a)
-        return [Part(outline, self.color), Part(stalk, shade(self.color, 0.7))], rot
+        return list(self.fixed), rot
 
 
 _MODELS: dict[str, type[Model]] = {

@@ -102,12 +102,8 @@ def _draw(
     xy = np.empty((len(pts), 2))
     xy[:, 0] = uv[0] + scale * pts[:, 0]
     xy[:, 1] = uv[1] - scale * pts[:, 1]  # screen y points down
-    box = (
-        float(xy[:, 0].min()),
-        float(xy[:, 1].min()),
-        float(xy[:, 0].max()),
-        float(xy[:, 1].max()),
-    )
+    (x0, y0), (x1, y1) = xy.min(axis=0).tolist(), xy.max(axis=0).tolist()
+    box = (x0, y0, x1, y1)
     if img is None:
         return box
     h, w, c = img.shape
@@ -119,6 +115,10 @@ def _draw(
     sizes = np.array([len(p.points) for p in parts])
     starts = np.concatenate([[0], np.cumsum(sizes)[:-1]])
     part_depth = (np.add.reduceat(pts[:, 2], starts) / sizes).tolist()
+    # Each part's bounds on the fine grid (its hull's, too: a hull's points are its own).
+    part_lo = np.minimum.reduceat(fixed, starts).tolist()
+    part_hi = np.maximum.reduceat(fixed, starts).tolist()
+    bounds = [*starts.tolist(), len(fixed)]
     groups: dict[tuple[tuple[float, float, float], float], list[int]] = {}
     for i, part in enumerate(parts):
         groups.setdefault((part.color, part.alpha), []).append(i)
@@ -130,23 +130,22 @@ def _draw(
     for key in sorted(groups, key=mean_depth, reverse=True):
         if key[1] <= 0:
             continue
-        polys: list[np.ndarray] = []
-        for i in groups[key]:
-            poly = fixed[starts[i] : starts[i] + sizes[i]]
-            polys.append(cv2.convexHull(poly).reshape(-1, 2) if parts[i].hull else poly)
-        allp = np.concatenate(polys)
-        lo, hi = allp.min(axis=0), allp.max(axis=0)
-        px0 = max(int(lo[0]) // fix - 1, 0)
-        py0 = max(int(lo[1]) // fix - 1, 0)
-        px1 = min(-(-int(hi[0]) // fix) + 2, w)
-        py1 = min(-(-int(hi[1]) // fix) + 2, h)
+        members = groups[key]
+        px0 = max(min(part_lo[i][0] for i in members) // fix - 1, 0)
+        py0 = max(min(part_lo[i][1] for i in members) // fix - 1, 0)
+        px1 = min(-(-max(part_hi[i][0] for i in members) // fix) + 2, w)
+        py1 = min(-(-max(part_hi[i][1] for i in members) // fix) + 2, h)
         if px1 <= px0 or py1 <= py0:
             continue
         fine = np.zeros(((py1 - py0) * ss, (px1 - px0) * ss), dtype=np.uint8)
-        origin = np.array([px0 * fix, py0 * fix], dtype=np.int32)
-        for outline in polys:
+        origin = (-px0 * fix, -py0 * fix)
+        for i in members:
+            poly: np.ndarray = fixed[bounds[i] : bounds[i + 1]]
+            if parts[i].hull:
+                poly = cv2.convexHull(poly)
             # One call per polygon: OpenCV fills overlaps of one call's polygons even-odd.
-            cv2.fillPoly(fine, [outline - origin], 255, cv2.LINE_8, shift=4)
+            # The offset is added in the points' own fixed-point units, before the shift.
+            cv2.fillPoly(fine, [poly], 255, cv2.LINE_8, shift=4, offset=origin)
         mask = cv2.resize(fine, (px1 - px0, py1 - py0), interpolation=cv2.INTER_AREA)
         a = mask.astype(np.float32) * np.float32(key[1] / 255.0)
         region = img[py0:py1, px0:px1]

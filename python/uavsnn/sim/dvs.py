@@ -40,7 +40,7 @@ from uavsnn.events import EVENT_DTYPE
 from uavsnn.sim.checks import check_real, check_seed, check_size
 from uavsnn.sim.frames import as_frame_batch, push_frames
 
-__all__ = ["SCENE_PARAMS", "DvsEmulator", "DvsParams", "emulate_dvs"]
+__all__ = ["GEN3_ON_OFF_RATIO", "SCENE_PARAMS", "DvsEmulator", "DvsParams", "emulate_dvs"]
 
 #: Highest rate accepted for any per-pixel noise process (one event per microsecond).
 MAX_RATE_HZ = 1e6
@@ -132,6 +132,28 @@ class DvsParams:
         base.update(overrides)
         return cls(**base)
 
+    @classmethod
+    def gen3(cls, **overrides: Any) -> DvsParams:
+        """A Prophesee Gen3-like sensor, from the spinner comparison of
+        ``docs/simulation.md``: the scene sensor's photoreceptor (3 kHz at white, proportional
+        to the light), a 1 µs refractory period and an ON threshold of the OFF threshold over
+        1.88 — the real camera's ON/OFF events per pixel for one passage of a dark arc
+        (:data:`GEN3_ON_OFF_RATIO`). Keyword arguments override fields."""
+        base: dict[str, Any] = {
+            "cutoff_hz": 3000.0,
+            "cutoff_dark_luma": 0.5,
+            "refractory_us": 1.0,
+            "threshold_on": 0.2 / GEN3_ON_OFF_RATIO,
+            "threshold_off": 0.2,
+        }
+        base.update(overrides)
+        return cls(**base)
+
+
+#: ON over OFF events per pixel of the Prophesee Gen3 spinner recording (15 and 8 for one
+#: passage of its dark arc; ``benches/python/spinner_compare.py``): its ON threshold is about
+#: its OFF threshold over this ratio.
+GEN3_ON_OFF_RATIO = 1.88
 
 #: The sensor of rendered scenes ("dvs" domain): v2e's defaults, with a photoreceptor whose
 #: bandwidth is proportional to the light — 3 kHz at white, about 2 kHz under a bright sky, tens
