@@ -19,6 +19,7 @@ from uavsnn.evaluation import (
 from uavsnn.events import Recording
 from uavsnn.identify import (
     FEATURES,
+    VERSION,
     Identifier,
     fit,
     fit_logistic,
@@ -108,7 +109,7 @@ def test_save_load_round_trip_with_identification(tmp_path: Path) -> None:
     np.testing.assert_array_equal(ident.scores(x), net.identification.scores(x))
     # No pickle in the file: every array loads with allow_pickle=False.
     with np.load(tmp_path / "m.npz", allow_pickle=False) as z:
-        assert int(z["identify.version"]) == 1
+        assert int(z["identify.version"]) == VERSION == 2
 
 
 def test_an_old_model_loads_with_the_any_spike_rule_and_a_note(tmp_path: Path) -> None:
@@ -129,8 +130,14 @@ def test_another_identification_version_is_refused(tmp_path: Path) -> None:
     _add_arrays(str(tmp_path / "m.npz"), {"identify.version": np.array(99)})
     with pytest.raises(ModelFileError, match="version 99"):
         Network.load(tmp_path / "m.npz")
+    # A version-1 model (fitted before the rotor-spectrum features) is refused, saying how to
+    # get a model that runs.
+    _add_arrays(str(tmp_path / "m.npz"), {"identify.version": np.array(1)})
+    with pytest.raises(ModelFileError, match=r"version 1; .* reads version 2.*refit"):
+        Network.load(tmp_path / "m.npz")
     _add_arrays(
-        str(tmp_path / "m.npz"), {"identify.version": np.array(1), "identify.coef": np.zeros(3)}
+        str(tmp_path / "m.npz"),
+        {"identify.version": np.array(VERSION), "identify.coef": np.zeros(3)},
     )
     with pytest.raises(ModelFileError, match="inconsistent"):
         Network.load(tmp_path / "m.npz")
@@ -190,10 +197,9 @@ def test_batch_features_equal_what_the_streaming_detector_sees() -> None:
     for r in reports:
         inside = events[np.searchsorted(t, r.t0) : np.searchsorted(t, r.t1)]
         for o in r.objects:
-            assert o.rotor is not None
-            streaming.append(
-                (by_t0[r.t0], o.box, object_features(o.box, o.spikes, inside, rotor=o.rotor))
-            )
+            assert o.rotor is not None and o.spectrum is not None
+            x = object_features(o.box, o.spikes, inside, rotor=o.rotor, spectrum=o.spectrum)
+            streaming.append((by_t0[r.t0], o.box, x))
     assert len(streaming) == len(batch.x) > 3
     for (i, box, x), j, b, y in zip(streaming, batch.window, batch.boxes, batch.x, strict=True):
         assert (i, box) == (int(j), tuple(int(v) for v in b))
@@ -208,6 +214,11 @@ def test_batch_features_equal_what_the_streaming_detector_sees() -> None:
     assert rotor.any()
     hz = np.expm1(batch.x[rotor, FEATURES.index("rotor_log_hz")])
     assert np.all(np.abs(hz - 400) < 12)
+    # So is its rate spectrum, over the window and the one before it.
+    line = batch.x[:, FEATURES.index("spectrum_detected")] == 1
+    assert line.any()
+    hz = np.expm1(batch.x[line, FEATURES.index("spectrum_log_hz")])
+    assert np.all(np.abs(hz - 400) < 8), hz
 
 
 def test_features_of_a_dataset_without_raw_events_are_refused() -> None:
