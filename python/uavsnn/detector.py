@@ -40,7 +40,7 @@ from uavsnn._validate import check_sensor_size
 from uavsnn.errors import ParameterError, ShapeError
 from uavsnn.events import EVENT_DTYPE, packed_bytes
 from uavsnn.network import WINDOW_DETECTION_DTYPE
-from uavsnn.signature import RotorEstimate, SpectrumEstimate, rotor_signature, rotor_spectrum
+from uavsnn.signature import RotorEstimate, rotor_signature
 from uavsnn.tracks import Tracker
 
 if TYPE_CHECKING:
@@ -68,9 +68,8 @@ MAX_LIVE_WINDOWS = 64
 MAX_ROTOR_BOXES = 8
 
 #: The most raw events :meth:`Detector.push_windows` keeps for the rotor signature of the
-#: windows still open and the rate spectrum's window length before them (13 bytes each:
-#: 26 MiB). When a stream is denser than that, the oldest are dropped and the windows that
-#: lost events get ``rotor=None`` and ``spectrum=None``.
+#: windows still open (13 bytes each: 26 MiB). When a stream is denser than that over one
+#: window, the oldest are dropped and the windows that lost events get ``rotor=None``.
 MAX_ROTOR_EVENTS = 1 << 21
 
 
@@ -286,15 +285,11 @@ class Detector:
         out = []
         recent = np.concatenate(self._recent) if closed and self._recent else None
         for report in closed:
-            # The rate spectrum reads the window and the one before it: [t0 - L, t1).
-            since = max(report.t0 - (report.t1 - report.t0), 0)
-            if recent is not None and report.objects and since >= self._lost_until:
+            if recent is not None and report.objects and report.t0 >= self._lost_until:
                 report = _with_rotor(report, recent, self._network.identification)
             out.append(self._tracker.update(report))
         if self._recent and self._grouper is not None:
             keep_from = self._grouper.open_since()
-            if keep_from is not None:
-                keep_from -= self.window_us
             while self._recent and (keep_from is None or self._recent[0]["t"][-1] < keep_from):
                 self._recent_n -= len(self._recent.pop(0))
         return out
@@ -399,10 +394,6 @@ class WindowObject:
     #: (:func:`uavsnn.signature.rotor_signature`), whether detected or not; ``None`` when not
     #: measured (see :data:`MAX_ROTOR_BOXES`, :data:`MAX_ROTOR_EVENTS`).
     rotor: RotorEstimate | None = None
-    #: The event-rate spectrum of the raw events inside :attr:`box` over the window and the
-    #: one before it, ``[t0 − L, t1)`` (:func:`uavsnn.signature.rotor_spectrum`); ``None``
-    #: when not measured, as :attr:`rotor`.
-    spectrum: SpectrumEstimate | None = None
 
     @property
     def centre(self) -> tuple[float, float]:
@@ -606,23 +597,19 @@ def _with_rotor(
     ``identification`` model (:class:`uavsnn.identify.Identifier`), their UAV score and class
     guess too."""
     t = events["t"]
-    end = np.searchsorted(t, report.t1)
-    inside = events[np.searchsorted(t, report.t0) : end]
-    history = events[np.searchsorted(t, max(report.t0 - (report.t1 - report.t0), 0)) : end]
+    inside = events[np.searchsorted(t, report.t0) : np.searchsorted(t, report.t1)]
     x, y = inside["x"], inside["y"]
-    hx, hy = history["x"], history["y"]
     objects = list(report.objects)
     for i, obj in enumerate(objects[:MAX_ROTOR_BOXES]):
         x0, y0, x1, y1 = obj.box
         mask = (x >= x0) & (x < x1) & (y >= y0) & (y < y1)
         est = rotor_signature(inside[mask], (x0, y0, x1 - x0, y1 - y0))
-        past = history[(hx >= x0) & (hx < x1) & (hy >= y0) & (hy < y1)]
-        spectrum = rotor_spectrum(past, (x0, y0, x1 - x0, y1 - y0))
-        objects[i] = replace(obj, rotor=est, spectrum=spectrum)
+        objects[i] = replace(obj, rotor=est)
         if identification is not None:
             from uavsnn.identify import object_features
 
-            feats = object_features(obj.box, obj.spikes, inside[mask], rotor=est, spectrum=spectrum)
+            # Not `x`: that name holds the event columns the next object's mask reads.
+            feats = object_features(obj.box, obj.spikes, inside[mask], rotor=est)
             score = float(identification.scores(feats[None, :])[0])
             guess = "uav" if score >= identification.threshold else "other"
             objects[i] = replace(objects[i], uav_score=score, class_guess=guess)

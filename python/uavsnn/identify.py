@@ -7,10 +7,6 @@ window's raw events (``[t0, t0 + L)``) inside its box:
 
 - rotor: the rotor signature (:func:`uavsnn.signature.rotor_signature`) — frequency, strength
   and agreeing pixels, log-scaled, and whether it passed the estimator's threshold;
-- rotor spectrum: the event-rate spectrum (:func:`uavsnn.signature.rotor_spectrum`) of the
-  events in the box over ``[t0 − L, t0 + L)`` (the window and the one before it, what the
-  streaming detector has seen when it decides) — peak frequency, prominence and agreeing
-  pixels, log-scaled, and whether it passed its threshold;
 - shape: the box's width, height, area (log), aspect ratio (log) and conv3 spike count (log);
 - activity: raw events per pixel of the box (log) and the ON/OFF balance.
 
@@ -40,7 +36,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from uavsnn.errors import DatasetError, ModelFileError, ParameterError, ShapeError
-from uavsnn.signature import RotorEstimate, SpectrumEstimate, rotor_signature, rotor_spectrum
+from uavsnn.signature import RotorEstimate, rotor_signature
 
 if TYPE_CHECKING:
     from uavsnn.dataset import LabelledWindows
@@ -63,19 +59,14 @@ __all__ = [
     "window_features",
 ]
 
-#: The version of the stored arrays (``identify.version``). Version 2 added the rotor-spectrum
-#: features; a version-1 model's coefficients do not fit them and it is refused.
-VERSION = 2
+#: The version of the stored arrays (``identify.version``).
+VERSION = 1
 
 FEATURES: tuple[str, ...] = (
     "rotor_log_hz",
     "rotor_strength",
     "rotor_log_pixels",
     "rotor_detected",
-    "spectrum_log_hz",
-    "spectrum_log_prominence",
-    "spectrum_log_pixels",
-    "spectrum_detected",
     "log_width",
     "log_height",
     "log_area",
@@ -87,28 +78,13 @@ FEATURES: tuple[str, ...] = (
 """The features of one object, in the order of the model's coefficients."""
 
 #: Feature groups of the ablation.
-_ROTOR = ("rotor_log_hz", "rotor_strength", "rotor_log_pixels", "rotor_detected")
-_SPECTRUM = (
-    "spectrum_log_hz",
-    "spectrum_log_prominence",
-    "spectrum_log_pixels",
-    "spectrum_detected",
-)
-_SHAPE = ("log_width", "log_height", "log_area", "log_aspect", "log_spikes")
 GROUPS: dict[str, tuple[str, ...]] = {
-    "rotor": _ROTOR + _SPECTRUM,
-    "edges": _ROTOR,
-    "spectrum": _SPECTRUM,
-    "shape": _SHAPE,
+    "rotor": FEATURES[:4],
+    "shape": FEATURES[4:9],
     "all": FEATURES,
 }
 
 _L2_GRID = (1e-3, 1e-2, 1e-1, 1.0, 10.0, 100.0)
-
-
-def _in_box(events: np.ndarray, x0: int, y0: int, x1: int, y1: int) -> np.ndarray:
-    x, y = events["x"], events["y"]
-    return events[(x >= x0) & (x < x1) & (y >= y0) & (y < y1)]
 
 
 def object_features(
@@ -116,26 +92,19 @@ def object_features(
     spikes: int,
     events: np.ndarray,
     rotor: RotorEstimate | None = None,
-    *,
-    history: np.ndarray | None = None,
-    spectrum: SpectrumEstimate | None = None,
 ) -> np.ndarray:
     """The :data:`FEATURES` (float64) of one object: ``box`` ``(x0, y0, x1, y1)`` half-open,
     its conv3 ``spikes``, and the window's raw ``events`` (time order; only those inside the box
     are used). ``rotor``: the box's rotor signature when already measured (else measured
-    here on the same events). ``history``: the raw events of ``[t0 − L, t0 + L)`` that the rate
-    spectrum is measured on (default: ``events``); ``spectrum``: that estimate when already
-    measured."""
+    here on the same events)."""
     x0, y0, x1, y1 = (int(v) for v in box)
     w, h = x1 - x0, y1 - y0
     if w < 1 or h < 1:
         raise ParameterError(f"an object's box must not be empty, got {box}")
-    inside = _in_box(events, x0, y0, x1, y1)
+    x, y = events["x"], events["y"]
+    inside = events[(x >= x0) & (x < x1) & (y >= y0) & (y < y1)]
     if rotor is None:
         rotor = rotor_signature(inside, (x0, y0, w, h))
-    if spectrum is None:
-        past = inside if history is None else _in_box(history, x0, y0, x1, y1)
-        spectrum = rotor_spectrum(past, (x0, y0, w, h))
     on = int(np.count_nonzero(inside["p"]))
     n = len(inside)
     return np.array(
@@ -144,10 +113,6 @@ def object_features(
             rotor.strength,
             math.log1p(rotor.pixels),
             float(rotor.detected),
-            math.log1p(spectrum.frequency_hz),
-            math.log1p(spectrum.prominence),
-            math.log1p(spectrum.pixels),
-            float(spectrum.detected),
             math.log(w),
             math.log(h),
             math.log(w * h),
@@ -222,12 +187,10 @@ def window_features(
         raw = data.raw.window(int(i))
         t = raw["t"].astype(np.int64)
         t0 = int(t0s[i])
-        end = np.searchsorted(t, t0 + length)
-        events = raw[np.searchsorted(t, t0) : end]
-        history = raw[np.searchsorted(t, t0 - length) : end]
+        events = raw[np.searchsorted(t, t0) : np.searchsorted(t, t0 + length)]
         truth = np.asarray(data.box[i], dtype=np.float64)
         for obj in objects:
-            rows.append(object_features(obj.box, obj.spikes, events, history=history))
+            rows.append(object_features(obj.box, obj.spikes, events))
             which.append(i)
             boxes.append(obj.box)
             meets = bool(
@@ -357,9 +320,7 @@ class Identifier:
         version = int(np.asarray(arrays["identify.version"]))
         if version != VERSION:
             raise ModelFileError(
-                f"identification version {version}; this uavsnn reads version {VERSION} "
-                "(refit it: `uavsnn train` on the same data, or drop its identify.* arrays "
-                "to run the any-spike rule alone)"
+                f"identification version {version}; this uavsnn reads version {VERSION}"
             )
         try:
             return cls(
@@ -511,8 +472,7 @@ def rotor_coverage(feats: WindowFeatures, data: LabelledWindows) -> list[dict[st
     """What the rotor cue can reach, by the UAV's size (``data.size_px``, bins of
     :data:`uavsnn.evaluation.SIZE_BINS_PX`): UAV windows, those with an object meeting the
     labelled box (the any-spike rule found it there), those where such an object's rotor
-    estimate had any vote, and those where it passed the rotor detection rule; for the rate
-    spectrum, those where such an object's spectrum passed its rule."""
+    estimate had any vote, and those where it passed the rotor detection rule."""
     import itertools
 
     from uavsnn.evaluation import SIZE_BINS_PX
@@ -520,10 +480,8 @@ def rotor_coverage(feats: WindowFeatures, data: LabelledWindows) -> list[dict[st
     uav = np.asarray(data.label, dtype=bool)
     hz = feats.x[:, FEATURES.index("rotor_log_hz")] > 0
     found = feats.x[:, FEATURES.index("rotor_detected")] == 1
-    line = feats.x[:, FEATURES.index("spectrum_detected")] == 1
     n = len(data)
-    met, voted, rotor, spectral = (np.zeros(n, bool) for _ in range(4))
-    spectral[feats.window[feats.label & line]] = True
+    met, voted, rotor = (np.zeros(n, bool) for _ in range(3))
     met[feats.window[feats.label]] = True
     voted[feats.window[feats.label & hz]] = True
     rotor[feats.window[feats.label & found]] = True
@@ -540,7 +498,6 @@ def rotor_coverage(feats: WindowFeatures, data: LabelledWindows) -> list[dict[st
                     "object_on_uav": int(met[inside].sum()),
                     "rotor_votes": int(voted[inside].sum()),
                     "rotor_detected": int(rotor[inside].sum()),
-                    "spectrum_detected": int(spectral[inside].sum()),
                 }
             )
     return out
