@@ -16,9 +16,18 @@ dataset window: the same hovering Phantom, changed one factor at a time (the lig
 speed, the range, a Tello instead), each recorded for 0.2 s, and the box of the drone over the
 100 ms before 0.15 s read by both rotor estimators (``uavsnn.signature``): the edge estimator
 on the 50 ms window (what identification read before), the rate spectrum on the same 50 ms,
-and the rate spectrum on the window and the 50 ms before it (what it reads now)::
+and both on the window and the 50 ms before it (the raw events a dataset keeps, what a
+streaming detector has seen when it decides)::
 
     python benches/python/drone_bird_spectra.py --factors
+
+``--dataset DIR`` reads the same on the UAV windows of a dataset's test split (``--split``): per
+window, the labelled box's events over ``[t0 − L, t0 + L)``, the scene's light level (from the
+manifest) and the box's speed (its centre's displacement to the next window of the recording),
+and both estimators on those events; then how many windows fall in each light and speed class
+and what the estimators find there::
+
+    python benches/python/drone_bird_spectra.py --dataset runs/b
 """
 
 from __future__ import annotations
@@ -79,9 +88,9 @@ def factors() -> None:
     t0, length = 100_000, 50_000
     print(
         "| case | box (px) | events in box, 100 ms | blade pass (Hz) | edges, 50 ms "
-        "| spectrum, 50 ms | spectrum, 100 ms |"
+        "| edges, 100 ms | spectrum, 50 ms | spectrum, 100 ms |"
     )
-    print("|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|")
     for name, kind, size, range_m, rev, speed, light in FACTORS:
         path = PathSpec("linear", (-speed * 0.1, 0.0, range_m), velocity=(speed, 0.0, 0.0))
         obj = ObjectSpec(kind, size, path, rate_hz=rev, heading_deg=30.0)
@@ -99,6 +108,7 @@ def factors() -> None:
         window = inside[(t >= t0) & (t < t0 + length)]
         box = (x0, y0, x1 - x0, y1 - y0)
         edge = rotor_signature(window, box)
+        edge_long = rotor_signature(history, box)
         short = rotor_spectrum(window, box)
         long = rotor_spectrum(history, box)
 
@@ -108,12 +118,77 @@ def factors() -> None:
                 + (" **yes**" if e.detected else "")  # type: ignore[attr-defined]
             )
 
+        def edges(e: object) -> str:
+            return (
+                f"{e.frequency_hz:.0f} Hz, {e.strength:.2f}, {e.pixels} px"  # type: ignore[attr-defined]
+                + (" **yes**" if e.detected else "")  # type: ignore[attr-defined]
+            )
+
         print(
             f"| {name} | {x1 - x0}×{y1 - y0} | {len(history)} | {2 * rev:g} "
-            f"| {edge.frequency_hz:.0f} Hz, {edge.strength:.2f}, {edge.pixels} px"
-            + (" **yes**" if edge.detected else "")
-            + f" | {spec(short)} | {spec(long)} |"
+            f"| {edges(edge)} | {edges(edge_long)} | {spec(short)} | {spec(long)} |"
         )
+
+
+def dataset(root: Path, split: str) -> None:
+    """The UAV windows of a dataset (see the module's documentation)."""
+    from uavsnn.dataset.format import load
+
+    d = load(root, split)
+    if d.raw is None:
+        raise SystemExit(f"{root} has no raw events (format 2 needed)")
+    light = {int(r["id"]): float(r["lighting"]) for r in d.manifest["recordings"]}
+    length = int(d.raw.before_us)
+    t0s = np.asarray(d.windows.t0, dtype=np.int64)
+    boxes = np.asarray(d.box, dtype=np.float64)
+    rows = []
+    for i in np.flatnonzero(np.asarray(d.label, dtype=bool)):
+        b = boxes[i]
+        if not np.isfinite(b).all():
+            continue
+        later = np.flatnonzero((d.recording == d.recording[i]) & (t0s > t0s[i]))
+        speed = float("nan")
+        if len(later):
+            j = later[np.argmin(t0s[later])]
+            if np.isfinite(boxes[j]).all():
+                shift = np.hypot(*((boxes[j, :2] + boxes[j, 2:]) - (b[:2] + b[2:])) / 2)
+                speed = float(shift / ((t0s[j] - t0s[i]) * 1e-6))
+        x0, y0 = int(np.floor(b[0])), int(np.floor(b[1]))
+        x1, y1 = max(int(np.ceil(b[2])), x0 + 1), max(int(np.ceil(b[3])), y0 + 1)
+        raw = d.raw.window(int(i))
+        t = raw["t"].astype(np.int64)
+        ev = raw[(t >= t0s[i] - length) & (t < t0s[i] + length)]
+        ev = ev[(ev["x"] >= x0) & (ev["x"] < x1) & (ev["y"] >= y0) & (ev["y"] < y1)]
+        box = (x0, y0, x1 - x0, y1 - y0)
+        window = ev[ev["t"].astype(np.int64) >= t0s[i]]
+        rows.append(
+            (
+                light[int(d.recording[i])],
+                speed,
+                len(ev) / (box[2] * box[3]),
+                rotor_signature(window, box).detected,
+                rotor_spectrum(ev, box),
+            )
+        )
+    print(f"{root} {split}: {len(rows)} UAV windows with a labelled box, L = {length} µs")
+    print(
+        "| light | box speed (px/s) | windows | events per box pixel, 100 ms (median) "
+        "| edges detected | spectrum detected | spectrum prominence >= 4 |"
+    )
+    print("|---|---|---|---|---|---|---|")
+    for lo, hi in ((0.0, 0.1), (0.1, 0.3), (0.3, 1.01)):
+        for slo, shi in ((0.0, 20.0), (20.0, 100.0), (100.0, np.inf)):
+            sel = [r for r in rows if lo <= r[0] < hi and np.isfinite(r[1]) and slo <= r[1] < shi]
+            if not sel:
+                continue
+            print(
+                f"| {lo:g}–{min(hi, 1.0):g} | {slo:g}–{shi:g} | {len(sel)} "
+                f"| {np.median([r[2] for r in sel]):.2f} | {sum(r[3] for r in sel)} "
+                f"| {sum(r[4].detected for r in sel)} "
+                f"| {sum(r[4].prominence >= 4 for r in sel)} |"
+            )
+    unknown = sum(not np.isfinite(r[1]) for r in rows)
+    print(f"(and {unknown} windows without a next window to measure the speed on)")
 
 
 def main() -> None:
@@ -121,7 +196,12 @@ def main() -> None:
     ap.add_argument("--png", type=Path, default=None)
     ap.add_argument("--duration", type=float, default=0.6)
     ap.add_argument("--factors", action="store_true", help="the factor table instead")
+    ap.add_argument("--dataset", type=Path, default=None, help="a dataset's UAV windows instead")
+    ap.add_argument("--split", default="test")
     args = ap.parse_args()
+    if args.dataset is not None:
+        dataset(args.dataset, args.split)
+        return
     if args.factors:
         factors()
         return

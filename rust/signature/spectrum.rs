@@ -254,12 +254,16 @@ impl RotorSpectrum {
             .collect();
         let mut cos = vec![0.0f32; k * bins];
         let mut sin = vec![0.0f32; k * bins];
+        // Each frequency's phasor turned bin by bin (in f64: the drift over 65,536 bins stays
+        // far below f32's resolution), instead of a sine and a cosine per entry.
         let dt = f64::from(config.bin_us) * 1e-6;
-        for j in 0..bins {
-            for (i, f) in grid.iter().enumerate() {
-                let phase = std::f64::consts::TAU * f * j as f64 * dt;
-                cos[j * k + i] = phase.cos() as f32;
-                sin[j * k + i] = phase.sin() as f32;
+        for (i, f) in grid.iter().enumerate() {
+            let (sin_step, cos_step) = (std::f64::consts::TAU * f * dt).sin_cos();
+            let (mut c, mut s) = (1.0f64, 0.0f64);
+            for j in 0..bins {
+                cos[j * k + i] = c as f32;
+                sin[j * k + i] = s as f32;
+                (c, s) = (c * cos_step - s * sin_step, s * cos_step + c * sin_step);
             }
         }
         Ok(Self {
