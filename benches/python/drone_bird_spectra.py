@@ -24,8 +24,9 @@ streaming detector has seen when it decides)::
 ``--dataset DIR`` reads the same on the UAV windows of a dataset's test split (``--split``): per
 window, the labelled box's events over ``[t0 − L, t0 + L)``, the scene's light level (from the
 manifest) and the box's speed (its centre's displacement to the next window of the recording),
-and both estimators on those events; then how many windows fall in each light and speed class
-and what the estimators find there::
+and both estimators on those events (the edge estimator also on the window alone, as
+identification reads it); then how many windows fall in each light and speed class and what
+the estimators find there::
 
     python benches/python/drone_bird_spectra.py --dataset runs/b
 """
@@ -168,14 +169,16 @@ def dataset(root: Path, split: str) -> None:
                 len(ev) / (box[2] * box[3]),
                 rotor_signature(window, box).detected,
                 rotor_spectrum(ev, box),
+                rotor_signature(ev, box).detected,
             )
         )
     print(f"{root} {split}: {len(rows)} UAV windows with a labelled box, L = {length} µs")
     print(
         "| light | box speed (px/s) | windows | events per box pixel, 100 ms (median) "
-        "| edges detected | spectrum detected | spectrum prominence >= 4 |"
+        "| edges detected, 50 ms | edges detected, 100 ms | spectrum detected "
+        "| spectrum prominence >= 4 |"
     )
-    print("|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|")
     for lo, hi in ((0.0, 0.1), (0.1, 0.3), (0.3, 1.01)):
         for slo, shi in ((0.0, 20.0), (20.0, 100.0), (100.0, np.inf)):
             sel = [r for r in rows if lo <= r[0] < hi and np.isfinite(r[1]) and slo <= r[1] < shi]
@@ -184,6 +187,7 @@ def dataset(root: Path, split: str) -> None:
             print(
                 f"| {lo:g}–{min(hi, 1.0):g} | {slo:g}–{shi:g} | {len(sel)} "
                 f"| {np.median([r[2] for r in sel]):.2f} | {sum(r[3] for r in sel)} "
+                f"| {sum(r[5] for r in sel)} "
                 f"| {sum(r[4].detected for r in sel)} "
                 f"| {sum(r[4].prominence >= 4 for r in sel)} |"
             )
