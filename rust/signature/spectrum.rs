@@ -34,9 +34,10 @@
 //!   frequency.
 //! - **detected**: `prominence >= threshold` and `pixels >= min_pixels`.
 //!
-//! The state is fixed at construction: `2 × area × span_us / bin_us` bytes of counts, 6 bytes per
-//! channel, `8 × freqs × span_us / bin_us` bytes of table. `estimate` allocates its own scratch
-//! (`freqs` numbers), never per event.
+//! The state is fixed at construction: `2 × area × span_us / bin_us` bytes of counts, 2 bytes of
+//! total per channel (two channels per pixel), `8 × (freqs + 4) × span_us / bin_us` bytes of
+//! table. `estimate` allocates its own scratch (a few numbers per frequency, per bin and per
+//! channel) once per call, never per event.
 
 use super::Region;
 use crate::error::{Error, Result};
