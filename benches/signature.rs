@@ -12,6 +12,9 @@
 //!   events per edge) over uniform noise at 10^4 events/s, 100 ms: the worst case, where every
 //!   third event is an edge and most edges vote; each pass clears the box, feeds it and reads
 //!   the estimate, as for one detection.
+//! - `spectrum/box/flicker` — the same box through the rate spectrum
+//!   (`uavsnn::signature::spectrum`): cleared, fed and read per pass (the estimate's DFT over
+//!   each counted channel is most of the cost, so the figure per event includes it).
 //!
 //! Criterion reports throughput in events per second (the cost per event is its inverse). Time it
 //! on a quiet machine: `cargo bench --bench signature`; `-- --quick` checks that it runs.
@@ -21,6 +24,7 @@ use std::time::Duration;
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use uavsnn::events::{Event, SensorSize};
 use uavsnn::network::Spikes;
+use uavsnn::signature::spectrum::{RotorSpectrum, SpectrumConfig};
 use uavsnn::signature::{Region, RotorConfig, RotorSignature};
 
 #[allow(dead_code)] // the bench uses part of it
@@ -88,6 +92,19 @@ fn bench(c: &mut Criterion) {
             boxed.clear();
             boxed.extend(flicker.as_slice());
             std::hint::black_box(boxed.estimate())
+        });
+    });
+
+    let mut spectrum = RotorSpectrum::new(
+        SpectrumConfig::default(),
+        Region::new(0, 0, 32, 32).expect("a region"),
+    )
+    .expect("defaults are valid");
+    g.bench_function("spectrum/box/flicker", |b| {
+        b.iter(|| {
+            spectrum.clear();
+            spectrum.extend(flicker.as_slice());
+            std::hint::black_box(spectrum.estimate())
         });
     });
     g.finish();

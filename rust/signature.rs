@@ -49,6 +49,8 @@
 use crate::error::{Error, Result};
 use crate::events::{Event, EventSource, SensorSize};
 
+pub mod spectrum;
+
 /// The largest number of pixels one estimator may follow (a 2048×2048 box, 128 MiB of state).
 pub const MAX_PIXELS: usize = 1 << 22;
 

@@ -315,3 +315,23 @@ def test_train_fits_identification_and_evaluate_reports_both_rules(
     assert main(["evaluate", str(bare), str(data)]) == 0
     assert "only the any-spike rule" in capsys.readouterr().out
     assert main(["evaluate", str(bare), str(data), "--roc", str(roc)]) == 2
+
+
+def test_streaming_scores_every_object_of_a_window() -> None:
+    # Two objects in one window: the second one's rotor and score are measured on its own
+    # events (the scorer once reused the name of the event columns for the first's features).
+    from uavsnn.detector import WindowObject, WindowReport, _with_rotor
+
+    events = scene()
+    ident = model()
+    objects = (WindowObject((28, 18, 34, 24), 3), WindowObject((2, 3, 20, 10), 2))
+    t0 = int(events["t"][0])
+    report = WindowReport(0, t0, t0 + 10_000, True, np.zeros(0), objects)
+    out = _with_rotor(report, events, ident)
+    t = events["t"].astype(np.int64)
+    inside = events[np.searchsorted(t, t0) : np.searchsorted(t, t0 + 10_000)]
+    for obj in out.objects:
+        assert obj.rotor is not None and obj.uav_score is not None
+        x = object_features(obj.box, obj.spikes, inside)
+        assert obj.uav_score == pytest.approx(float(ident.scores(x[None, :])[0]), rel=1e-12)
+    assert out.objects[0].rotor.detected and not out.objects[1].rotor.detected

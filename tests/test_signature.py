@@ -20,7 +20,16 @@ from hypothesis import strategies as st
 import uavsnn
 from uavsnn import EventError, ParameterError
 from uavsnn.events import EVENT_DTYPE
-from uavsnn.signature import DEFAULTS, MAX_PIXELS, RotorSignature, rotor_signature
+from uavsnn.signature import (
+    DEFAULTS,
+    MAX_PIXELS,
+    MAX_SPECTRUM_BYTES,
+    SPECTRUM_DEFAULTS,
+    RotorSignature,
+    RotorSpectrum,
+    rotor_signature,
+    rotor_spectrum,
+)
 
 SCRIPT = Path(__file__).resolve().parents[1] / "benches" / "python" / "rotor_noise.py"
 
@@ -185,6 +194,118 @@ def test_bad_events_are_event_errors():
     assert s.stats["events"] == 0
 
 
+# --- the rate spectrum ---------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("f", [50.0, 73.0, 150.0, 240.0, 410.0, 520.0, 777.0, 1000.0])
+def test_pulses_come_back_within_two_percent(gen, f):
+    # One event per cycle per pixel, one polarity: what the edge estimator cannot use.
+    rng = np.random.default_rng(2200 + int(f))
+    events = gen.pulses(f, 8, 100_000, 0.02, rng)
+    est = rotor_spectrum(events, (0, 0, 8, 1))
+    assert abs(est.frequency_hz - f) <= 0.02 * f, est
+    # Below about 100 Hz the harmonics of a 100 ms window fill the band (documented): each
+    # pixel's own peak may sit on any of them, and the median lies on the comb.
+    assert (est.detected and est.pixels >= 7) or f < 100.0, est
+    assert not rotor_signature(events, (0, 0, 8, 1)).detected
+
+
+@given(f=st.floats(50.0, 1000.0), jitter=st.floats(0.0, 0.03), seed=st.integers(2000, 2**32))
+def test_any_pulse_rate_in_the_band_comes_back(gen, f, jitter, seed):
+    events = gen.pulses(f, 4, 100_000, jitter, np.random.default_rng(seed))
+    est = rotor_spectrum(events, (0, 0, 4, 1))
+    assert abs(est.frequency_hz - f) <= 0.02 * f, est
+
+
+@pytest.mark.parametrize(("rev_s", "seed"), [(100.0, 2001), (240.0, 2002)])
+def test_emulated_propeller_gives_its_blade_pass_in_the_spectrum(gen, rev_s, seed):
+    events = gen.propeller(rev_s, duration_s=0.06, seed=seed)
+    est = rotor_spectrum(events, (0, 0, 24, 24))
+    assert abs(est.frequency_hz - 2 * rev_s) <= 0.02 * 2 * rev_s, est
+    assert est.detected, est
+
+
+def test_a_wing_beat_is_not_a_rotor_in_the_spectrum(gen):
+    events = gen.propeller(6.0, duration_s=0.1, seed=2003)
+    est = rotor_spectrum(events, (0, 0, 24, 24))
+    assert not est.detected, est
+
+
+def test_uniform_noise_raises_no_spectral_peak(gen):
+    threshold = float(SPECTRUM_DEFAULTS["threshold"])
+    worst, runs = 0.0, 0
+    for seed in range(2000, 2025):
+        rng = np.random.default_rng(seed)
+        for side in gen.SPECTRUM_SIDES:
+            for rate in gen.SPECTRUM_RATES:
+                est = rotor_spectrum(gen.noise(rate, side, 100_000, rng), (0, 0, side, side))
+                assert not est.detected, (seed, side, rate, est)
+                if est.pixels >= SPECTRUM_DEFAULTS["min_pixels"]:
+                    worst = max(worst, est.prominence)
+                runs += 1
+    assert runs == 25 * len(gen.SPECTRUM_SIDES) * len(gen.SPECTRUM_RATES)
+    # Well below the threshold, not just below it.
+    assert worst < threshold / 2, worst
+
+
+def test_spectrum_script_reports(gen, capsys):
+    gen.main(["--estimator", "spectrum", "--seeds", "2", "--first-seed", "3000",
+              "--window-ms", "20", "--propeller-ms", "5"])  # fmt: skip
+    out = capsys.readouterr().out
+    assert "| 2×2 | 1e+02 |" in out and "| 1000 |" in out and "| 250 | 500 |" in out
+
+
+def test_spectrum_state_is_fixed_and_events_are_counted(gen):
+    s = RotorSpectrum((10, 20, 8, 8), span_us=20_000)
+    before = s.state_bytes
+    events = gen.noise(1e5, 40, 50_000, np.random.default_rng(2300))
+    s.update(events)
+    s.estimate()
+    st = s.stats
+    assert s.state_bytes == before
+    assert st["events"] + st["outside"] + st["late"] + st["beyond"] == len(events)
+    assert st["beyond"] > 0 and st["outside"] > 0
+    chunks = RotorSpectrum((10, 20, 8, 8), span_us=20_000)
+    for part in np.array_split(events, 7):
+        chunks.update(part)
+    assert chunks.estimate() == s.estimate()
+    s.clear()
+    assert s.stats == {"events": 0, "outside": 0, "late": 0, "beyond": 0}
+    f, p = s.power()
+    # The band's grid and two points beyond each end.
+    assert len(f) == len(p) == SPECTRUM_DEFAULTS["freqs"] + 4 and not p.any()
+    assert f[2] == pytest.approx(SPECTRUM_DEFAULTS["f_min_hz"])
+    assert f[-3] == pytest.approx(SPECTRUM_DEFAULTS["f_max_hz"])
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "name"),
+    [
+        ({"bin_us": 0}, "bin_us"),
+        ({"span_us": 100}, "span_us"),
+        ({"f_min_hz": float("nan")}, "f_min_hz"),
+        ({"f_max_hz": 5000.0}, "f_max_hz"),
+        ({"freqs": 2}, "freqs"),
+        ({"min_events": 0}, "min_events"),
+        ({"agree": 2.0}, "agree"),
+        ({"threshold": -1.0}, "threshold"),
+        ({"min_pixels": -1}, "min_pixels"),
+        ({"bins": 3}, "bins"),
+        ({"freqs": "many"}, "numbers"),
+    ],
+)
+def test_bad_spectrum_parameters_are_parameter_errors(kwargs, name):
+    with pytest.raises(ParameterError, match=name):
+        RotorSpectrum((0, 0, 4, 4), **kwargs)
+
+
+def test_an_oversized_spectrum_is_refused_before_allocating():
+    with pytest.raises(ParameterError, match=str(MAX_SPECTRUM_BYTES)):
+        RotorSpectrum((0, 0, 2048, 2048))
+    with pytest.raises(EventError):
+        RotorSpectrum((0, 0, 4, 4)).update(np.zeros(3, dtype=np.int64))
+
+
 # --- the real spinner ----------------------------------------------------------------------
 
 
@@ -267,3 +388,7 @@ def test_spinner_rotation_by_two_methods_and_no_false_rotor(shared_data):
     for band in ((50.0, 1000.0), (5.0, 1000.0)):
         est = rotor_signature(events, (0, 0, 640, 480), f_min_hz=band[0], f_max_hz=band[1])
         assert not est.detected and est.votes == 0, (band, est)
+    # Nor does the rate spectrum over the ring's bounding box: each pixel sees one passage.
+    box = (int(x.min()), int(y.min()), int(x.max() - x.min()) + 1, int(y.max() - y.min()) + 1)
+    est = rotor_spectrum(events, box)
+    assert est.channels > 1000 and not est.detected, est

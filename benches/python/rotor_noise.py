@@ -23,6 +23,14 @@ Run from the repository root after ``maturin develop --release``::
 
 ``--figure`` draws both: the noise's largest strength against its rate, and the flicker's
 strength against its frequency at jitters of ±2 % and ±5 %, each with the threshold.
+
+``--estimator spectrum`` measures the event-rate spectrum (``uavsnn.signature.rotor_spectrum``)
+instead, the same way: noise in 2×2 to 64×64 boxes from 10² to 10⁶ events/s (the small boxes
+and low rates are its worst case: a few channels of a few events give a spiky spectrum), the
+largest prominence over all runs and over the runs with at least ``min_pixels`` agreeing pixels,
+and how many runs pass the rule; then one-event-per-cycle pixels and the emulated propeller::
+
+    python benches/python/rotor_noise.py --estimator spectrum [--seeds 200] [--threshold T ...]
 """
 
 from __future__ import annotations
@@ -32,7 +40,7 @@ import argparse
 import numpy as np
 
 from uavsnn.events import EVENT_DTYPE
-from uavsnn.signature import DEFAULTS, rotor_signature
+from uavsnn.signature import DEFAULTS, SPECTRUM_DEFAULTS, rotor_signature, rotor_spectrum
 
 RATES = (1e3, 1e4, 3e4, 1e5, 3e5, 1e6)
 SIDES = (16, 64)
@@ -111,6 +119,97 @@ def propeller(
     return emulate_dvs(frames, ts, seed=seed)
 
 
+SPECTRUM_SIDES = (2, 4, 16, 64)
+SPECTRUM_RATES = (1e2, 3e2, 1e3, 1e4, 1e5, 1e6)
+
+
+def pulses(f: float, pixels: int, window_us: int, jitter: float, rng: np.random.Generator):
+    """A row of ``pixels`` pixels, each giving one event per cycle at ``f`` Hz (own phase, one
+    polarity per pixel, each event jittered uniformly by ±``jitter`` of the period): what a
+    pixel under a blade of a small rotor gives."""
+    period = 1e6 / f
+    ts, xs, ps = [], [], []
+    for x in range(pixels):
+        t = rng.uniform(0, period) + np.arange(0.0, window_us, period)
+        t = t + rng.uniform(-jitter, jitter, t.size) * period
+        t = t[(t >= 0) & (t < window_us)]
+        ts.append(t)
+        xs.append(np.full(t.size, x))
+        ps.append(np.full(t.size, x % 2 == 0))
+    t = np.concatenate(ts)
+    order = np.argsort(t, kind="stable")
+    events = np.zeros(t.size, dtype=EVENT_DTYPE)
+    events["t"] = t[order].astype(np.uint64)
+    events["x"] = np.concatenate(xs)[order]
+    events["p"] = np.concatenate(ps)[order]
+    return events
+
+
+def spectrum_main(args: argparse.Namespace) -> None:
+    """The event-rate spectrum: noise, periodic pulses, the emulated propeller."""
+    window_us = int(args.window_ms * 1000)
+    thresholds = [float(SPECTRUM_DEFAULTS["threshold"]), *args.threshold]
+    min_pixels = int(SPECTRUM_DEFAULTS["min_pixels"])
+    print(f"noise: {args.seeds} seeds from {args.first_seed}, {args.window_ms:g} ms windows")
+    head = " | ".join(f"passes at {t:g}" for t in thresholds)
+    print(
+        "| box | rate (ev/s) | max prominence | max with >= min_pixels | p99 | max pixels "
+        f"| {head} |"
+    )
+    print("|---|---|---|---|---|---|" + "---|" * len(thresholds))
+    overall = 0.0
+    for side in SPECTRUM_SIDES:
+        for rate in SPECTRUM_RATES:
+            prom, pixels = [], []
+            for seed in range(args.first_seed, args.first_seed + args.seeds):
+                rng = np.random.default_rng(seed)
+                est = rotor_spectrum(noise(rate, side, window_us, rng), (0, 0, side, side))
+                prom.append(est.prominence)
+                pixels.append(est.pixels)
+            s, px = np.array(prom), np.array(pixels)
+            ruled = s[px >= min_pixels]
+            top = float(ruled.max()) if ruled.size else 0.0
+            overall = max(overall, top)
+            passes = " | ".join(
+                f"{int(((s >= t) & (px >= min_pixels)).sum())}/{s.size}" for t in thresholds
+            )
+            print(
+                f"| {side}×{side} | {rate:.0e} | {s.max():.2f} | {top:.2f} "
+                f"| {np.percentile(s, 99):.2f} | {px.max()} | {passes} |"
+            )
+    print(f"\nlargest noise prominence with >= {min_pixels} agreeing pixels: {overall:.2f}")
+
+    for jitter in (0.02, 0.05):
+        print(f"\npulses: 8 pixels, one event per cycle, jitter ±{jitter:g} of the period")
+        print("| f (Hz) | found (Hz) | error | prominence | pixels | detected |")
+        print("|---|---|---|---|---|---|")
+        for i, f in enumerate(FREQUENCIES):
+            rng = np.random.default_rng(10_000 + i)
+            est = rotor_spectrum(pulses(f, 8, window_us, jitter, rng), (0, 0, 8, 1))
+            err = (est.frequency_hz - f) / f
+            print(
+                f"| {f:g} | {est.frequency_hz:.1f} | {err:+.2%} | {est.prominence:.1f} "
+                f"| {est.pixels} | {est.detected} |"
+            )
+
+    print(
+        "\nemulated two-blade propeller, 24×24 box, dvs sensor model (seed 1), "
+        f"{args.propeller_ms:g} ms"
+    )
+    print(
+        "| rev/s | blade pass (Hz) | events | found (Hz) | error | prominence | pixels | detected |"
+    )
+    print("|---|---|---|---|---|---|---|---|")
+    for rev in PROPELLER_REV_S:
+        events = propeller(rev, duration_s=args.propeller_ms * 1e-3)
+        est = rotor_spectrum(events, (0, 0, 24, 24))
+        err = f"{(est.frequency_hz - 2 * rev) / (2 * rev):+.2%}" if est.frequency_hz else "–"
+        print(
+            f"| {rev:g} | {2 * rev:g} | {events.size} | {est.frequency_hz:.1f} | {err} "
+            f"| {est.prominence:.1f} | {est.pixels} | {est.detected} |"
+        )
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--seeds", type=int, default=200)
@@ -121,7 +220,11 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--jitter", type=float, default=0.02)
     parser.add_argument("--propeller-ms", type=float, default=100.0)
     parser.add_argument("--figure", default=None, help="write the figure to this PNG")
+    parser.add_argument("--estimator", choices=("edge", "spectrum"), default="edge")
     args = parser.parse_args(argv)
+    if args.estimator == "spectrum":
+        spectrum_main(args)
+        return
     window_us = int(args.window_ms * 1000)
     thresholds = [float(DEFAULTS["threshold"]), *args.threshold]
     min_pixels = int(DEFAULTS["min_pixels"])

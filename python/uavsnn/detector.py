@@ -608,6 +608,7 @@ def _with_rotor(
         if identification is not None:
             from uavsnn.identify import object_features
 
+            # Not `x`: that name holds the event columns the next object's mask reads.
             feats = object_features(obj.box, obj.spikes, inside[mask], rotor=est)
             score = float(identification.scores(feats[None, :])[0])
             guess = "uav" if score >= identification.threshold else "other"

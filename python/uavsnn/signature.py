@@ -26,7 +26,18 @@ from uavsnn._validate import check_sensor_size
 from uavsnn.errors import ParameterError
 from uavsnn.events import packed_bytes
 
-__all__ = ["DEFAULTS", "MAX_PIXELS", "RotorEstimate", "RotorSignature", "rotor_signature"]
+__all__ = [
+    "DEFAULTS",
+    "MAX_PIXELS",
+    "MAX_SPECTRUM_BYTES",
+    "SPECTRUM_DEFAULTS",
+    "RotorEstimate",
+    "RotorSignature",
+    "RotorSpectrum",
+    "SpectrumEstimate",
+    "rotor_signature",
+    "rotor_spectrum",
+]
 
 _D = _core.rotor_defaults()
 #: The estimator's default parameters (from the engine).
@@ -151,5 +162,136 @@ def rotor_signature(
     """The rotor signature of ``events`` (canonical dtype, time order) inside ``box``; ``params``
     as :class:`RotorSignature`'s."""
     estimator = RotorSignature(box, **params)
+    estimator.update(events)
+    return estimator.estimate()
+
+
+# --------------------------------------------------------------------------- rate spectrum
+
+_S = _core.spectrum_defaults()
+#: The spectrum estimator's default parameters (from the engine).
+SPECTRUM_DEFAULTS: dict[str, float | int] = {k: v for k, v in _S.items() if k != "max_state_bytes"}
+#: The largest state one spectrum estimator may hold, in bytes.
+MAX_SPECTRUM_BYTES: int = int(_S["max_state_bytes"])
+
+
+@dataclass(frozen=True)
+class SpectrumEstimate:
+    """The event-rate spectrum of a box (``docs/identification.md``, "The rate spectrum").
+
+    Attributes:
+        frequency_hz: the summed spectrum's peak (the lowest harmonic holding half the highest
+            power), 0.0 when no channel had ``min_events`` events.
+        prominence: the peak's power over the band's median power.
+        pixels: pixels with a channel (ON or OFF) whose own peak is within ``agree`` of it.
+        channels: channels (pixel and polarity) with at least ``min_events`` events.
+        events: events in those channels.
+        detected: ``prominence >= threshold`` and ``pixels >= min_pixels``.
+    """
+
+    frequency_hz: float
+    prominence: float
+    pixels: int
+    channels: int
+    events: int
+    detected: bool
+
+
+class RotorSpectrum:
+    """The per-pixel event-rate spectrum of a box, summed over its pixels (Rust,
+    ``rust/signature/spectrum.rs``): each pixel's ON and OFF events counted in ``bin_us`` bins
+    over at most ``span_us`` from the first event, then a Hann-windowed DFT per channel at
+    ``freqs`` log-spaced frequencies over the band.
+
+    Args:
+        box: ``(x0, y0, width, height)`` in sensor pixels.
+        bin_us: count bin (default 250 µs).
+        span_us: longest stretch followed from the first event (default 100 ms); later events
+            are counted as ``beyond`` and ignored.
+        f_min_hz, f_max_hz: the band (default 50–1000 Hz).
+        freqs: grid frequencies (default 256).
+        min_events: fewest events for a channel to count (default 3).
+        agree: relative distance of a channel's own peak for its pixel to agree (default 0.03).
+        threshold: detection threshold on the prominence (default: the documented one).
+        min_pixels: fewest agreeing pixels for a detection (default 2).
+
+    Raises:
+        ParameterError: a parameter out of range, an empty box, or a state above
+            :data:`MAX_SPECTRUM_BYTES`.
+    """
+
+    def __init__(self, box: tuple[int, int, int, int], **params: Any) -> None:
+        x0, y0, width, height = _box(box)
+        unknown = set(params) - set(SPECTRUM_DEFAULTS)
+        if unknown:
+            raise ParameterError(f"unknown rotor spectrum parameters {sorted(unknown)}")
+        p = {**SPECTRUM_DEFAULTS, **params}
+        try:
+            ints = {
+                k: int(p[k]) for k in ("bin_us", "span_us", "freqs", "min_events", "min_pixels")
+            }
+            floats = {k: float(p[k]) for k in ("f_min_hz", "f_max_hz", "agree", "threshold")}
+        except (TypeError, ValueError, OverflowError) as exc:
+            raise ParameterError(f"rotor spectrum parameters must be numbers: {exc}") from exc
+        self._inner = _core.RotorSpectrum(
+            x0,
+            y0,
+            width,
+            height,
+            ints["bin_us"],
+            ints["span_us"],
+            floats["f_min_hz"],
+            floats["f_max_hz"],
+            ints["freqs"],
+            ints["min_events"],
+            floats["agree"],
+            floats["threshold"],
+            ints["min_pixels"],
+        )
+
+    def update(self, events: np.ndarray) -> None:
+        """Feed events of the canonical dtype, in time order.
+
+        Raises:
+            EventError: not a 1-D array of the canonical dtype.
+        """
+        self._inner.update(packed_bytes(events))
+
+    def estimate(self) -> SpectrumEstimate:
+        """The estimate from everything fed since construction or the last :meth:`clear`."""
+        return SpectrumEstimate(*self._inner.estimate())
+
+    def power(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(frequencies_hz, power)``: the summed power spectrum on the grid."""
+        grid, power = self._inner.power()
+        return np.asarray(grid), np.asarray(power)
+
+    def clear(self) -> None:
+        """Forget every event (the state keeps its size)."""
+        self._inner.clear()
+
+    @property
+    def box(self) -> tuple[int, int, int, int]:
+        """``(x0, y0, width, height)``."""
+        return self._inner.box
+
+    @property
+    def stats(self) -> dict[str, int]:
+        """Events used, outside the box, late, and beyond ``span_us``."""
+        events, outside, late, beyond = self._inner.stats
+        return {"events": events, "outside": outside, "late": late, "beyond": beyond}
+
+    @property
+    def state_bytes(self) -> int:
+        """Bytes of state, fixed at construction."""
+        return self._inner.state_bytes
+
+
+def rotor_spectrum(
+    events: np.ndarray, box: tuple[int, int, int, int], **params: Any
+) -> SpectrumEstimate:
+    """The event-rate spectrum estimate of ``events`` (canonical dtype, time order) inside
+    ``box``; ``params`` as :class:`RotorSpectrum`'s."""
+    estimator = RotorSpectrum(box, **params)
     estimator.update(events)
     return estimator.estimate()

@@ -10,6 +10,7 @@ use pyo3::types::PyDict;
 use super::errors::detach;
 use crate::error::{Error, Result};
 use crate::events::PackedEvents;
+use crate::signature::spectrum::{RotorSpectrum, SpectrumConfig};
 use crate::signature::{Region, RotorConfig, RotorSignature};
 
 /// `(frequency_hz, strength, pixels, peak_votes, votes, intervals, detected)`.
@@ -145,8 +146,149 @@ impl PyRotorSignature {
     }
 }
 
+/// `(frequency_hz, prominence, pixels, channels, events, detected)`.
+type SpectrumTuple = (f64, f64, u32, u32, u64, bool);
+
+/// The spectrum estimator's defaults, as a dict (the single source of the Python defaults).
+#[pyfunction]
+fn spectrum_defaults(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
+    let c = SpectrumConfig::default();
+    let d = PyDict::new(py);
+    d.set_item("bin_us", c.bin_us)?;
+    d.set_item("span_us", c.span_us)?;
+    d.set_item("f_min_hz", c.f_min_hz)?;
+    d.set_item("f_max_hz", c.f_max_hz)?;
+    d.set_item("freqs", c.freqs)?;
+    d.set_item("min_events", c.min_events)?;
+    d.set_item("agree", c.agree)?;
+    d.set_item("threshold", c.threshold)?;
+    d.set_item("min_pixels", c.min_pixels)?;
+    d.set_item(
+        "max_state_bytes",
+        crate::signature::spectrum::MAX_STATE_BYTES,
+    )?;
+    Ok(d)
+}
+
+fn unsigned<T: TryFrom<i64>>(name: &'static str, value: i64, max: &str) -> Result<T> {
+    T::try_from(value).map_err(|_| Error::param(name, format!("must be in 0..={max}, got {value}")))
+}
+
+/// The event-rate spectrum estimator over the box `x0, y0, width, height`.
+#[pyclass(name = "RotorSpectrum", module = "uavsnn._core")]
+struct PyRotorSpectrum {
+    inner: RotorSpectrum,
+}
+
+#[pymethods]
+impl PyRotorSpectrum {
+    #[new]
+    #[pyo3(signature = (x0, y0, width, height, bin_us, span_us, f_min_hz, f_max_hz, freqs, min_events, agree, threshold, min_pixels))]
+    fn new(
+        py: Python<'_>,
+        x0: i64,
+        y0: i64,
+        width: i64,
+        height: i64,
+        bin_us: i64,
+        span_us: i64,
+        f_min_hz: f64,
+        f_max_hz: f64,
+        freqs: i64,
+        min_events: i64,
+        agree: f64,
+        threshold: f64,
+        min_pixels: i64,
+    ) -> PyResult<Self> {
+        let inner = detach(py, || {
+            let region = Region::new(
+                coordinate("box", x0)?,
+                coordinate("box", y0)?,
+                coordinate("box", width)?,
+                coordinate("box", height)?,
+            )?;
+            let config = SpectrumConfig {
+                bin_us: unsigned("bin_us", bin_us, "2**32-1")?,
+                span_us: unsigned("span_us", span_us, "2**64-1")?,
+                f_min_hz,
+                f_max_hz,
+                freqs: unsigned("freqs", freqs, "4096")?,
+                min_events: unsigned("min_events", min_events, "2**32-1")?,
+                agree,
+                threshold,
+                min_pixels: unsigned("min_pixels", min_pixels, "2**32-1")?,
+            };
+            RotorSpectrum::new(config, region)
+        })?;
+        Ok(Self { inner })
+    }
+
+    /// Feed packed canonical event records (a `uint8` view of the canonical dtype).
+    fn update(&mut self, py: Python<'_>, events: PyReadonlyArray1<'_, u8>) -> PyResult<()> {
+        let raw = events.as_slice()?;
+        let inner = &mut self.inner;
+        detach(py, || {
+            let packed = PackedEvents::new(raw)?;
+            inner.extend(&packed);
+            Ok(())
+        })
+    }
+
+    /// The estimate from everything fed so far.
+    fn estimate(&self, py: Python<'_>) -> PyResult<SpectrumTuple> {
+        let inner = &self.inner;
+        detach(py, || {
+            let s = inner.estimate();
+            Ok((
+                s.frequency_hz,
+                s.prominence,
+                s.pixels,
+                s.channels,
+                s.events,
+                s.detected,
+            ))
+        })
+    }
+
+    /// `(grid_hz, power)`: the summed power spectrum.
+    fn power(&self, py: Python<'_>) -> PyResult<(Vec<f64>, Vec<f64>)> {
+        let inner = &self.inner;
+        detach(py, || Ok((inner.grid().to_vec(), inner.power())))
+    }
+
+    /// Forget every event.
+    fn clear(&mut self, py: Python<'_>) -> PyResult<()> {
+        let inner = &mut self.inner;
+        detach(py, || {
+            inner.clear();
+            Ok(())
+        })
+    }
+
+    /// `(x0, y0, width, height)`.
+    #[getter]
+    fn r#box(&self) -> (u16, u16, u16, u16) {
+        let r = self.inner.region();
+        (r.x0, r.y0, r.width, r.height)
+    }
+
+    /// `(events, outside, late, beyond)` since construction or the last clear.
+    #[getter]
+    fn stats(&self) -> (u64, u64, u64, u64) {
+        let s = self.inner.stats();
+        (s.events, s.outside, s.late, s.beyond)
+    }
+
+    #[getter]
+    fn state_bytes(&self) -> usize {
+        self.inner.state_bytes()
+    }
+}
+
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyRotorSignature>()?;
+    m.add_class::<PyRotorSpectrum>()?;
+    m.add_function(wrap_pyfunction!(spectrum_defaults, m)?)?;
     m.add_function(wrap_pyfunction!(rotor_defaults, m)?)?;
     Ok(())
 }
