@@ -8,12 +8,15 @@ window's raw events (``[t0, t0 + L)``) inside its box:
 - rotor: the rotor signature (:func:`uavsnn.signature.rotor_signature`) — frequency, strength
   and agreeing pixels, log-scaled, and whether it passed the estimator's threshold;
 - shape: the box's width, height, area (log), aspect ratio (log) and conv3 spike count (log);
-- activity: raw events per pixel of the box (log) and the ON/OFF balance.
+- activity: raw events per pixel of the box (log) and the ON/OFF balance;
+- track: the statistics of the object's track so far (:data:`TRACK_FEATURES`): the windows of
+  each recording are fed in time order to a :class:`uavsnn.tracks.Tracker`, as the streaming
+  :class:`uavsnn.detector.Detector` feeds them (a window missing from the dataset counts as a
+  miss), and each object reads its track as it stands after its own window (causal).
 
 A logistic regression on standardised features (:func:`fit_logistic`: Newton's method with an
 L2 penalty, in NumPy) gives each object a UAV score in ``[0, 1]``; a window's score is its
-objects' largest (0 without one). The windows' tracks are not used: the windows of a dataset
-are not consecutive in time, so a window-level model cannot see them.
+objects' largest (0 without one).
 
 The model (:class:`Identifier`) is stored in the model file beside the network as plain arrays
 (``identify.version``, ``identify.coef``, ``identify.mean``, ``identify.scale``,
@@ -30,7 +33,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -41,10 +44,12 @@ from uavsnn.signature import RotorEstimate, rotor_signature
 if TYPE_CHECKING:
     from uavsnn.dataset import LabelledWindows
     from uavsnn.network import Inference, Network
+    from uavsnn.tracks import Track, Tracker
 
 __all__ = [
     "FEATURES",
     "GROUPS",
+    "TRACK_FEATURES",
     "VERSION",
     "Identifier",
     "WindowFeatures",
@@ -56,11 +61,26 @@ __all__ = [
     "predict_logistic",
     "rotor_coverage",
     "split_by_recording",
+    "track_features",
     "window_features",
+    "window_steps",
 ]
 
 #: The version of the stored arrays (``identify.version``).
 VERSION = 1
+
+#: The track group of :data:`FEATURES` (:func:`track_features`), from the object's track as it
+#: stands after its window (:class:`uavsnn.tracks.Track`).
+TRACK_FEATURES: tuple[str, ...] = (
+    "track_log_age_ms",
+    "track_log_hits",
+    "track_log_speed",
+    "track_straightness",
+    "track_log_turn_rate",
+    "track_log_speed_std",
+    "track_vertical_speed",
+    "track_rotor_strength",
+)
 
 FEATURES: tuple[str, ...] = (
     "rotor_log_hz",
@@ -74,6 +94,7 @@ FEATURES: tuple[str, ...] = (
     "log_spikes",
     "log_events_per_px",
     "on_balance",
+    *TRACK_FEATURES,
 )
 """The features of one object, in the order of the model's coefficients."""
 
@@ -81,10 +102,33 @@ FEATURES: tuple[str, ...] = (
 GROUPS: dict[str, tuple[str, ...]] = {
     "rotor": FEATURES[:4],
     "shape": FEATURES[4:9],
+    "track": TRACK_FEATURES,
+    "no_track": tuple(f for f in FEATURES if f not in TRACK_FEATURES),
     "all": FEATURES,
 }
 
 _L2_GRID = (1e-3, 1e-2, 1e-1, 1.0, 10.0, 100.0)
+
+
+def track_features(track: Track | None) -> list[float]:
+    """The :data:`TRACK_FEATURES` of an object whose track stands at ``track`` after its
+    window (zeros for an object without a track): age (log of ms), hits (log), filtered speed
+    (log of px/s), straightness, turn rate (log of rad/s), the segment speeds' standard
+    deviation (log of px/s), vertical speed (signed log of px/s; positive downwards) and the
+    mean rotor strength of its detections so far."""
+    if track is None:
+        return [0.0] * len(TRACK_FEATURES)
+    v = track.vertical_speed
+    return [
+        math.log1p(track.age_us / 1000),
+        math.log1p(track.hits),
+        math.log1p(track.speed),
+        track.straightness,
+        math.log1p(track.turn_rate),
+        math.log1p(track.speed_std),
+        math.copysign(math.log1p(abs(v)), v),
+        track.rotor_strength_mean,
+    ]
 
 
 def object_features(
@@ -92,11 +136,13 @@ def object_features(
     spikes: int,
     events: np.ndarray,
     rotor: RotorEstimate | None = None,
+    track: Track | None = None,
 ) -> np.ndarray:
     """The :data:`FEATURES` (float64) of one object: ``box`` ``(x0, y0, x1, y1)`` half-open,
     its conv3 ``spikes``, and the window's raw ``events`` (time order; only those inside the box
     are used). ``rotor``: the box's rotor signature when already measured (else measured
-    here on the same events)."""
+    here on the same events); ``track``: its track after this window (:func:`track_features`;
+    ``None``: no track)."""
     x0, y0, x1, y1 = (int(v) for v in box)
     w, h = x1 - x0, y1 - y0
     if w < 1 or h < 1:
@@ -120,6 +166,7 @@ def object_features(
             math.log1p(spikes),
             math.log1p(n / (w * h)),
             (2 * on - n) / n if n else 0.0,
+            *track_features(track),
         ]
     )
 
@@ -130,7 +177,10 @@ class WindowFeatures:
     window each object belongs to), ``boxes`` ``(m, 4)``; ``windows``: how many windows;
     ``label`` ``(m,)`` bool: for training, a UAV object (an object of a UAV window whose box
     meets the labelled box), ``usable`` ``(m,)``: False for the objects of a UAV window that
-    miss its box (left out of a fit: they are not the UAV, nor known not to be one)."""
+    miss its box (left out of a fit: they are not the UAV, nor known not to be one);
+    ``track`` ``(m,)`` int64: the object's track id, unique within its window's recording
+    (0: no track), and ``confirmed`` ``(m,)`` bool: its track is confirmed after this
+    window."""
 
     x: np.ndarray
     window: np.ndarray
@@ -138,26 +188,74 @@ class WindowFeatures:
     windows: int
     label: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
     usable: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
+    track: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    confirmed: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
 
     def columns(self, names: Sequence[str]) -> WindowFeatures:
         """The same objects with only the features ``names``."""
         idx = [FEATURES.index(n) for n in names]
-        return WindowFeatures(
-            self.x[:, idx], self.window, self.boxes, self.windows, self.label, self.usable
+        return replace(self, x=self.x[:, idx])
+
+
+def window_steps(data: LabelledWindows) -> tuple[np.ndarray, int]:
+    """The windows of ``data`` in stream order, and the step between window starts (µs).
+
+    Returns ``order`` (every window index, grouped by recording in ascending id, each
+    recording's windows by start time) and ``step``: the dataset's ``step_us``
+    (``manifest["parameters"]``) when it has one, else the greatest common divisor of the
+    gaps between successive starts within a recording (the window length when no recording
+    has two windows). A window's position in its recording's stream is
+    ``(t0 - first t0) // step``.
+
+    Raises:
+        DatasetError: two windows of one recording start at the same time (a stream holds
+            each window once), or a start off the recording's grid of ``step``.
+    """
+    t0 = np.asarray(data.windows.t0, dtype=np.int64)
+    rec = np.asarray(data.recording, dtype=np.int64)
+    order = np.lexsort((t0, rec))
+    same = rec[order][1:] == rec[order][:-1]
+    gaps = np.diff(t0[order])[same]
+    if np.any(gaps == 0):
+        i = int(np.flatnonzero(same & (np.diff(t0[order]) == 0))[0])
+        raise DatasetError(
+            f"recording {int(rec[order][i])} has two windows starting at {int(t0[order][i])} "
+            "us: tracks need each window of a recording once"
         )
+    step = (data.manifest or {}).get("parameters", {}).get("step_us")
+    if step is None:
+        step = int(np.gcd.reduce(gaps)) if len(gaps) else int(data.windows.length_us)
+    step = int(step)
+    if step < 1 or (len(gaps) and np.any(gaps % step)):
+        raise DatasetError(f"window starts are not on a grid of the {step} us step")
+    return order, step
 
 
 def window_features(
-    network: Network, data: LabelledWindows, inference: Inference | None = None
+    network: Network,
+    data: LabelledWindows,
+    inference: Inference | None = None,
+    *,
+    tracker: Tracker | None = None,
 ) -> WindowFeatures:
     """The features of every object of every window of ``data`` (a dataset of format 2, with
     raw events), from ``network``'s detections (``inference`` when already run).
 
+    The track features come from ``tracker`` (default: a new :class:`uavsnn.tracks.Tracker`;
+    it is reset before each recording): each recording's windows are fed to it in time order
+    (:func:`window_steps`), as :meth:`uavsnn.detector.Detector.push_windows` feeds a stream,
+    windows without an object included. A window the dataset left out counts as a window
+    without a detection. The tracker sees the rotor signature of the first
+    :data:`uavsnn.detector.MAX_ROTOR_BOXES` objects of a window, as the streaming detector
+    measures it.
+
     Raises:
-        DatasetError: a dataset without raw events.
+        DatasetError: a dataset without raw events, or windows that cannot form a stream
+            (:func:`window_steps`).
         ShapeError: the dataset's sensor size is not the network's input.
     """
-    from uavsnn.detector import merge_boxes
+    from uavsnn.detector import MAX_ROTOR_BOXES, WindowReport, merge_boxes
+    from uavsnn.tracks import Tracker
 
     expected = (int(network.config["width"]), int(network.config["height"]))
     if tuple(data.windows.sensor_size) != expected:
@@ -171,26 +269,64 @@ def window_features(
             "identification needs each window's raw events: rebuild the dataset "
             "(`uavsnn dataset build`, format 2)"
         )
+    if tracker is None:
+        tracker = Tracker()
+    elif not isinstance(tracker, Tracker):
+        raise ParameterError(f"tracker must be a uavsnn.tracks.Tracker, got {tracker!r}")
+    order, step = window_steps(data)
     if inference is None:
         inference = network.infer(data.windows)
     if len(inference) != len(data):
         raise ShapeError(f"inference has {len(inference)} windows, the data {len(data)}")
     length = int(data.raw.before_us)
+    window_us = int(data.windows.length_us)
+    min_detections = int(network.config["detection"]["min_detections"])
     found = inference.detections
-    order = np.argsort(found["window"], kind="stable")
-    found = found[order]
+    found = found[np.argsort(found["window"], kind="stable")]
     starts = np.searchsorted(found["window"], np.arange(len(data) + 1))
-    rows, which, boxes, label, usable = [], [], [], [], []
     t0s = np.asarray(data.windows.t0, dtype=np.int64)
-    for i in np.flatnonzero(np.diff(starts) > 0):
-        objects = merge_boxes(found[starts[i] : starts[i + 1]])
-        raw = data.raw.window(int(i))
-        t = raw["t"].astype(np.int64)
+    recording = np.asarray(data.recording, dtype=np.int64)
+    per_window: dict[int, list[tuple[Any, np.ndarray]]] = {}
+    first_t0, current = 0, None
+    for i in order.tolist():
+        if recording[i] != current:
+            current, first_t0 = recording[i], int(t0s[i])
+            tracker.reset()
         t0 = int(t0s[i])
-        events = raw[np.searchsorted(t, t0) : np.searchsorted(t, t0 + length)]
+        spikes = found[starts[i] : starts[i + 1]]
+        objects = merge_boxes(spikes)
+        events = None
+        if objects:
+            raw = data.raw.window(i)
+            t = raw["t"].astype(np.int64)
+            events = raw[np.searchsorted(t, t0) : np.searchsorted(t, t0 + length)]
+            objects = tuple(
+                replace(o, rotor=rotor_signature(_in_box(events, o.box), _xywh(o.box)))
+                if j < MAX_ROTOR_BOXES
+                else o
+                for j, o in enumerate(objects)
+            )
+        report = tracker.update(
+            WindowReport(
+                window=(t0 - first_t0) // step,
+                t0=t0,
+                t1=t0 + window_us,
+                detected=len(spikes) >= min_detections,
+                detections=spikes,
+                objects=objects,
+            )
+        )
+        if events is not None:
+            per_window[i] = [
+                (o, object_features(o.box, o.spikes, events, o.rotor, o.track))
+                for o in report.objects
+            ]
+    rows, which, boxes, label, usable, track, confirmed = [], [], [], [], [], [], []
+    for i in sorted(per_window):
         truth = np.asarray(data.box[i], dtype=np.float64)
-        for obj in objects:
-            rows.append(object_features(obj.box, obj.spikes, events))
+        is_uav = bool(data.label[i])
+        for obj, feats in per_window[i]:
+            rows.append(feats)
             which.append(i)
             boxes.append(obj.box)
             meets = bool(
@@ -200,9 +336,10 @@ def window_features(
                 and obj.box[1] < truth[3]
                 and truth[1] < obj.box[3]
             )
-            is_uav = bool(data.label[i])
             label.append(is_uav and meets)
             usable.append(not is_uav or meets)
+            track.append(0 if obj.track_id is None else obj.track_id)
+            confirmed.append(bool(obj.track_confirmed))
     return WindowFeatures(
         x=np.array(rows, dtype=np.float64).reshape(-1, len(FEATURES)),
         window=np.array(which, dtype=np.int64),
@@ -210,7 +347,19 @@ def window_features(
         windows=len(data),
         label=np.array(label, dtype=bool),
         usable=np.array(usable, dtype=bool),
+        track=np.array(track, dtype=np.int64),
+        confirmed=np.array(confirmed, dtype=bool),
     )
+
+
+def _xywh(box: tuple[int, int, int, int]) -> tuple[int, int, int, int]:
+    return box[0], box[1], box[2] - box[0], box[3] - box[1]
+
+
+def _in_box(events: np.ndarray, box: tuple[int, int, int, int]) -> np.ndarray:
+    x0, y0, x1, y1 = box
+    x, y = events["x"], events["y"]
+    return events[(x >= x0) & (x < x1) & (y >= y0) & (y < y1)]
 
 
 def fit_logistic(
