@@ -55,6 +55,13 @@ def register(subparsers: Any) -> None:
         help="write the ROC of detection + identification to this PNG (a model with "
         "identification)",
     )
+    p.add_argument(
+        "--tracks",
+        action="store_true",
+        help="also follow each recording's windows in time order with the tracker and report "
+        "the track-level figures: UAV recordings found, time to first alarm, false tracks per "
+        "minute of UAV-free recording (a dataset with raw events)",
+    )
     p.add_argument("--json", action="store_true", help="print the figures as JSON")
     p.set_defaults(handler=_evaluate)
 
@@ -71,9 +78,18 @@ def _evaluate(args: argparse.Namespace) -> int:
     )
     figures: dict[str, Any] = {"model": str(args.model), "dataset": str(args.dataset)}
     figures |= result.to_dict()
-    ident = _identification(args, network, data, result)
+    features = None
+    if args.tracks or network.identification is not None or args.ablation is not None:
+        from uavsnn import identify
+
+        features = identify.window_features(network, data, result.inference)
+    ident = _identification(args, network, data, result, features)
     if ident:
         figures["identification"] = ident
+    if args.tracks:
+        from uavsnn.track_eval import evaluate_tracks
+
+        figures["tracks"] = evaluate_tracks(network, data, features=features)
     if args.roc is not None:
         if "roc" not in ident:
             raise ParameterError("--roc needs a model with identification (`uavsnn train`)")
@@ -146,15 +162,18 @@ def _evaluate(args: argparse.Namespace) -> int:
         )
     if ident:
         _print_identification(ident)
+    if args.tracks:
+        _print_tracks(figures["tracks"])
     if args.report:
         print(f"wrote {figures['report']}")
     return 0
 
 
 def _identification(
-    args: argparse.Namespace, network: Network, data: Any, result: Any
+    args: argparse.Namespace, network: Network, data: Any, result: Any, test: Any
 ) -> dict[str, Any]:
-    """Detection + identification beside the any-spike rule (when the model has it)."""
+    """Detection + identification beside the any-spike rule (when the model has it); ``test``:
+    the data's features (``identify.window_features``)."""
     from uavsnn import identify
     from uavsnn.evaluation import identification_figures
 
@@ -162,7 +181,6 @@ def _identification(
     if network.identification is None and args.ablation is None:
         return out
     inference = result.inference
-    test = identify.window_features(network, data, inference)
     if network.identification is not None:
         ident = network.identification
         out = identification_figures(
@@ -215,4 +233,31 @@ def _print_identification(ident: dict[str, Any]) -> None:
             f"  ablation {name:6s}: accuracy {100 * row['accuracy']:.1f} %, detection at 1 % / "
             f"5 % false alarms {100 * row['detection_at_0.01']:.1f} / "
             f"{100 * row['detection_at_0.05']:.1f} %"
+        )
+
+
+def _print_tracks(tracks: dict[str, Any]) -> None:
+    print(
+        f"tracks: {tracks['recordings']} recordings ({tracks['uav_recordings']} with a UAV), "
+        f"{tracks['windows']} windows ({100 * tracks['window_coverage']:.1f} % of their steps), "
+        f"{60 * tracks['uav_free_minutes']:.2f} s UAV-free"
+    )
+    names = {"any_spike": "any-spike rule", "identified": "+ identification"}
+    for rule, f in tracks["rules"].items():
+        t = f["time_to_alarm_ms"]
+        delay = (
+            "-"
+            if t["median"] is None
+            else f"median {t['median']:.0f} ms, 90th percentile {t['p90']:.0f} ms"
+        )
+        per_minute = f["false_tracks_per_minute"]
+        rate = (
+            "-"
+            if per_minute is None
+            else f"{per_minute:.2f}/min (95 % bound {f['false_tracks_per_minute_upper95']:.2f})"
+        )
+        print(
+            f"  {names.get(rule, rule):18s} UAV recordings found {f['found']}/"
+            f"{tracks['uav_recordings']}, time to first alarm {delay}; false tracks "
+            f"{f['false_tracks']} {rate}, stray {f['stray_tracks']}"
         )
