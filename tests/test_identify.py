@@ -411,6 +411,18 @@ def test_train_fits_identification_and_evaluate_reports_both_rules(
     assert sum(map(sum, ident["identified"]["confusion"])) == 20
     assert [p["false_alarm_target"] for p in ident["at_false_alarm"]] == [0.01, 0.05]
     assert roc.exists() and roc.stat().st_size > 0
+    assert list(ident["feature_auc"]) == list(FEATURES)
+    # The ablation (tuned on the same set here: plumbing only), each group with its tracks.
+    assert (
+        main(["evaluate", str(model), str(data), "--json", "--tracks", "--ablation", str(data)])
+        == 0
+    )
+    figures = json.loads(capsys.readouterr().out)
+    ablation = figures["identification"]["ablation"]
+    assert list(ablation) == ["rotor", "shape", "track", "no_track", "all"]
+    assert ablation["track"]["features"] == 8 and ablation["no_track"]["features"] == 11
+    for row in ablation.values():
+        assert row["tracks"]["found"] <= figures["tracks"]["uav_recordings"]
     # Without identification: the any-spike rule, a note, and --roc refused.
     bare = tmp_path / "bare.npz"
     assert main([*args, "-o", str(bare), "--no-identify"]) == 0
@@ -418,3 +430,23 @@ def test_train_fits_identification_and_evaluate_reports_both_rules(
     assert main(["evaluate", str(bare), str(data)]) == 0
     assert "only the any-spike rule" in capsys.readouterr().out
     assert main(["evaluate", str(bare), str(data), "--roc", str(roc)]) == 2
+
+
+def test_feature_auc_on_hand_made_objects() -> None:
+    from uavsnn.identify import WindowFeatures, feature_auc
+
+    k = len(FEATURES)
+    x = np.zeros((6, k))
+    x[:, 0] = [3, 4, 5, 0, 1, 2]  # the UAVs larger: 1
+    x[:, 1] = [0, 1, 2, 3, 4, 5]  # smaller: 0
+    x[:, 2] = [1, 0, 1, 0, 1, 0]  # two of three either way, ties halved: 0.5 + ...
+    label = np.array([True, True, True, False, False, False])
+    usable = np.ones(6, bool)
+    feats = WindowFeatures(x, np.arange(6), np.zeros((6, 4)), 6, label, usable)
+    auc = feature_auc(feats)
+    assert auc[FEATURES[0]] == 1.0 and auc[FEATURES[1]] == 0.0
+    # Pairs (UAV, other): 1 > 0 in 2x2 = 4... of 9 pairs: wins 4, ties 4 (halved), losses 1.
+    assert auc[FEATURES[2]] == pytest.approx((4 + 0.5 * 4) / 9)
+    assert auc[FEATURES[3]] == 0.5  # all equal
+    # An unusable object does not count; without both kinds there is no area.
+    assert feature_auc(replace(feats, usable=label))[FEATURES[0]] is None

@@ -45,8 +45,9 @@ def register(subparsers: Any) -> None:
         "--ablation",
         type=Path,
         metavar="TUNE_DATASET",
-        help="also refit identification on the dataset's train split with rotor, shape and all "
-        "features, tuned on TUNE_DATASET's train split, and score each on the test split",
+        help="also refit identification on the dataset's train split with rotor, shape, track, "
+        "all but track, and all features, tuned on TUNE_DATASET's train split, and score each "
+        "on the test split (with --tracks: its track-level figures too)",
     )
     p.add_argument(
         "--roc",
@@ -187,6 +188,7 @@ def _identification(
             inference.detected, ident.window_scores(test), data, ident.threshold
         )
     out["rotor_coverage"] = identify.rotor_coverage(test, data)
+    out["feature_auc"] = identify.feature_auc(test)
     if args.ablation is not None:
         train = load(args.dataset, "train")
         tune = load(args.ablation, "train")
@@ -199,6 +201,7 @@ def _identification(
             tune_label=tune.label,
             test_detected=inference.detected,
             test_label=data.label,
+            test_data=data if args.tracks else None,
         )
     return out
 
@@ -229,10 +232,18 @@ def _print_identification(ident: dict[str, Any]) -> None:
             f"{z['rotor_detected']}"
         )
     for name, row in ident.get("ablation", {}).items():
+        tracks = ""
+        if "tracks" in row:
+            t = row["tracks"]
+            median = t["time_to_alarm_ms"]["median"]
+            tracks = (
+                f"; tracks: found {t['found']}, median alarm "
+                f"{'-' if median is None else f'{median:.0f} ms'}, false {t['false_tracks']}"
+            )
         print(
-            f"  ablation {name:6s}: accuracy {100 * row['accuracy']:.1f} %, detection at 1 % / "
+            f"  ablation {name:8s}: accuracy {100 * row['accuracy']:.1f} %, detection at 1 % / "
             f"5 % false alarms {100 * row['detection_at_0.01']:.1f} / "
-            f"{100 * row['detection_at_0.05']:.1f} %"
+            f"{100 * row['detection_at_0.05']:.1f} %{tracks}"
         )
 
 
