@@ -5,6 +5,7 @@ on a tiny built dataset through `uavsnn evaluate --tracks`."""
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -214,18 +215,28 @@ def test_bad_inputs_are_typed_errors() -> None:
         track_figures(data, bare)
 
 
-def test_evaluate_tracks_on_a_tiny_built_dataset(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
-) -> None:
-    from uavsnn.cli import main
-    from uavsnn.dataset import SceneSource, build, load
+@pytest.fixture(scope="module")
+def tiny(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    """A tiny dvs dataset (24 test windows) and an untrained 240x180 model."""
+    from uavsnn.dataset import SceneSource, build
 
+    tmp = tmp_path_factory.mktemp("tiny")
     root = build(
-        tmp_path / "set", "dvs", n_test=24, n_train=0, seed=5,
+        tmp / "set", "dvs", n_test=24, n_train=0, seed=5,
         dvs=SceneSource("dvs", (240, 180), 200.0, 0.4),
     ).root  # fmt: skip
-    model = tmp_path / "m.npz"
+    model = tmp / "m.npz"
     Network({"width": 240, "height": 180, "conv2": {"threshold": 10.0}}, seed=0).save(model)
+    return root, model
+
+
+def test_evaluate_tracks_on_a_tiny_built_dataset(
+    tiny: tuple[Path, Path], capsys: pytest.CaptureFixture[str]
+) -> None:
+    from uavsnn.cli import main
+    from uavsnn.dataset import load
+
+    root, model = tiny
     assert main(["evaluate", str(model), str(root), "--tracks", "--json"]) == 0
     tracks = json.loads(capsys.readouterr().out)["tracks"]
     test = load(root, "test")
@@ -246,3 +257,46 @@ def test_evaluate_tracks_on_a_tiny_built_dataset(
     text = capsys.readouterr().out
     assert f"tracks: {len(recordings)} recordings ({len(uav_recs)} with a UAV)" in text
     assert f"UAV recordings found {rule['found']}/{len(uav_recs)}" in text
+    # The default tracker's row of the bench's sweep is what evaluate reported.
+    sweep = _bench_script()
+    sweep.dataset_sweep(str(model), str(root), "test")
+    rows = capsys.readouterr().out.splitlines()
+    (row,) = [r for r in rows if r.startswith("| 24 | 3 of 5 |")]
+    assert f"| {rule['found']} of {len(uav_recs)} | " in row
+    assert f"| {rule['false_tracks']} | " in row
+
+
+def _bench_script():
+    import importlib.util
+    import sys
+
+    path = Path(__file__).resolve().parents[1] / "benches" / "python" / "track_noise.py"
+    spec = importlib.util.spec_from_file_location("track_noise", path)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules["track_noise"] = module
+    try:
+        spec.loader.exec_module(module)
+    finally:
+        sys.modules.pop("track_noise", None)
+    return module
+
+
+def test_a_dataset_without_raw_events_is_one_line_and_exit_2(
+    tiny: tuple[Path, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """--tracks needs each window's raw events: a dataset saved without them is refused."""
+    import shutil
+
+    from uavsnn.cli import main
+    from uavsnn.dataset import load
+    from uavsnn.dataset.format import read_manifest, save_split, write_manifest
+
+    root, model = tiny
+    bare = tmp_path / "bare"
+    shutil.copytree(root, bare)
+    save_split(bare / "test.npz", replace(load(root, "test"), raw=None))
+    write_manifest(bare, read_manifest(bare))  # the split's new hash
+    code = main(["evaluate", str(model), str(bare), "--tracks"])
+    err = capsys.readouterr().err
+    assert code == 2 and "raw events" in err and len(err.strip().splitlines()) == 1
