@@ -286,13 +286,14 @@ class Detector:
         recent = np.concatenate(self._recent) if closed and self._recent else None
         ident = self._network.identification
         for report in closed:
-            measured = recent is not None and report.objects and report.t0 >= self._lost_until
-            if measured:
-                report = _with_rotor(report, recent)
+            measured = report.objects and report.t0 >= self._lost_until
+            events = recent if measured else None
+            if events is not None:
+                report = _with_rotor(report, events)
             # The track first (its statistics so far include this window), then the score.
             report = self._tracker.update(report)
-            if measured and ident is not None:
-                report = _with_scores(report, recent, ident)
+            if events is not None and ident is not None:
+                report = _with_scores(report, events, ident)
             out.append(report)
         if self._recent and self._grouper is not None:
             keep_from = self._grouper.open_since()

@@ -154,6 +154,7 @@ def track_figures(
         if scores.shape != (m,):
             raise ShapeError(f"scores must be ({m},), got {scores.shape}")
     rules = RULES if scores is not None else RULES[:1]
+    limit = math.inf if threshold is None else float(threshold)
     order, step = window_steps(data)
     window_us = int(data.windows.length_us)
     t0 = np.asarray(data.windows.t0, dtype=np.int64)
@@ -191,7 +192,7 @@ def track_figures(
                 continue
             if alarm["any_spike"] is None:
                 alarm["any_spike"] = n - 1
-            if scores is not None and alarm["identified"] is None and total / n >= threshold:
+            if scores is not None and alarm["identified"] is None and total / n >= limit:
                 alarm["identified"] = n - 1
         for rule, a in alarm.items():
             if a is None:
@@ -247,13 +248,13 @@ def track_figures(
     rows = []
     for r in recordings:
         mine = rec == r
-        names, counts = np.unique(cls[mine], return_counts=True)
+        kinds, counts = np.unique(cls[mine], return_counts=True)
         row: dict[str, Any] = {
             "recording": r,
             "windows": int(mine.sum()),
             "steps": span[r],
             "uav_windows": int((mine & label).sum()),
-            "classes": {str(k): int(v) for k, v in zip(names, counts, strict=True)},
+            "classes": {str(k): int(v) for k, v in zip(kinds, counts, strict=True)},
             "uav_free_ms": free_us[r] / 1000,
         }
         for rule in rules:
