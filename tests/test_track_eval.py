@@ -119,6 +119,8 @@ def test_a_found_uav_a_false_bird_track_and_a_missed_uav() -> None:
     assert per[1]["any_spike"] == {"found": None, "time_to_alarm_ms": None, "false_tracks": 1}
     assert per[2]["any_spike"]["found"] is False
     assert per[1]["uav_free_ms"] == 525.0 and per[0]["uav_windows"] == 16
+    assert (per[0]["uav_windows_met"], per[2]["uav_windows_met"]) == (16, 0)
+    assert per[0]["uav_size_px"] is None  # no sizes labelled here
     table = track_table(f)
     assert "| any-spike | 1 of 2 | 100 / 100 | 1 |" in table and "identification" not in table
 

@@ -133,7 +133,8 @@ def track_figures(
     ``median``, ``p90``, ``max``), ``alarming_tracks``, ``false_tracks``,
     ``false_tracks_per_class`` (by the class labelled in the alarm window),
     ``false_tracks_per_minute``, ``false_tracks_per_minute_upper95``, ``stray_tracks``) and
-    ``per_recording`` (one row per recording).
+    ``per_recording`` (one row per recording, with ``uav_windows_met``: its UAV windows where
+    an object meets the labelled box, and ``uav_size_px``: the median labelled UAV size).
 
     Raises:
         ShapeError: ``feats`` or ``scores`` that do not fit ``data``.
@@ -245,9 +246,18 @@ def track_figures(
             ),
             "stray_tracks": stray[rule],
         }
+    # UAV windows with an object on the UAV (the tracker's raw material), per recording.
+    met = np.zeros(len(data), dtype=bool)
+    for j in range(m):
+        w = int(feats.window[j])
+        if label[w] and not met[w] and _meets(feats.boxes[j], truth[w]):
+            met[w] = True
+    size = np.asarray(data.size_px, dtype=np.float64)
     rows = []
     for r in recordings:
         mine = rec == r
+        sizes = size[mine & label]
+        sizes = sizes[np.isfinite(sizes)]
         kinds, counts = np.unique(cls[mine], return_counts=True)
         row: dict[str, Any] = {
             "recording": r,
@@ -256,6 +266,8 @@ def track_figures(
             "uav_windows": int((mine & label).sum()),
             "classes": {str(k): int(v) for k, v in zip(kinds, counts, strict=True)},
             "uav_free_ms": free_us[r] / 1000,
+            "uav_windows_met": int((mine & met).sum()),
+            "uav_size_px": float(np.median(sizes)) if len(sizes) else None,
         }
         for rule in rules:
             row[rule] = {

@@ -272,3 +272,18 @@ def _print_tracks(tracks: dict[str, Any]) -> None:
             f"{tracks['uav_recordings']}, time to first alarm {delay}; false tracks "
             f"{f['false_tracks']} {rate}, stray {f['stray_tracks']}"
         )
+    rows = {row["recording"]: row for row in tracks["per_recording"]}
+    missed = tracks["rules"]["any_spike"]["missed"]
+    if missed:
+        print(
+            "  UAV recordings the any-spike rule missed: "
+            + ", ".join(
+                f"{r} (UAV {_size(rows[r]['uav_size_px'])}, an object on it in "
+                f"{rows[r]['uav_windows_met']} of {rows[r]['uav_windows']} windows)"
+                for r in missed
+            )
+        )
+
+
+def _size(px: float | None) -> str:
+    return "size unknown" if px is None else f"{px:.1f} px"
