@@ -266,6 +266,12 @@ def test_evaluate_tracks_on_a_tiny_built_dataset(
     (row,) = [r for r in rows if r.startswith("| 24 | 3 of 5 |")]
     assert f"| {rule['found']} of {len(uav_recs)} | " in row
     assert f"| {rule['false_tracks']} | " in row
+    # Following half of the windows: fewer windows, a smaller share of the steps.
+    sweep.dataset_sweep(str(model), str(root), "test", keep=0.5, keep_seed=1)
+    head = capsys.readouterr().out.splitlines()[0]
+    kept = int(head.split(": ")[1].split(" windows")[0])
+    share = float(head.split("(")[1].split(" %")[0])
+    assert kept < 24 and share < 100 * tracks["window_coverage"]
 
 
 def _bench_script():
