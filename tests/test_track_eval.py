@@ -146,6 +146,13 @@ def test_identification_alarms_on_the_running_mean_of_the_track_scores() -> None
     )
     assert spike["false_tracks"] == 1 and spike["time_to_alarm_ms"]["median"] == 100.0
     assert "| any-spike + identification | 1 of 2 | 175 / 175 | 0 |" in track_table(f)
+    # The running max instead: the UAV alarms at confirmation (its first score 0.1 < 0.5, its
+    # fourth 0.9), window 7, 175 -> 125 ms; the bird's first 0.9 makes its track a false one.
+    g = track_figures(data, feats, scores, 0.5, track_score="max")
+    assert g["rules"]["identified"]["time_to_alarm_ms"]["median"] == 125.0
+    assert g["rules"]["identified"]["false_tracks"] == 1
+    with pytest.raises(ParameterError, match="track_score"):
+        track_figures(data, feats, scores, 0.5, track_score="median")
 
 
 def test_left_out_windows_count_as_misses() -> None:

@@ -45,10 +45,20 @@ if TYPE_CHECKING:
     from uavsnn.network import Inference, Network
     from uavsnn.tracks import Tracker
 
-__all__ = ["RULES", "evaluate_tracks", "poisson_upper", "track_figures", "track_table"]
+__all__ = [
+    "RULES",
+    "TRACK_SCORES",
+    "evaluate_tracks",
+    "poisson_upper",
+    "track_figures",
+    "track_table",
+]
 
 #: The rules a track can alarm by, in the order they are reported.
 RULES = ("any_spike", "identified")
+#: What the identified rule can compare with the threshold: the running mean (the default) or
+#: the running max of the track's object scores.
+TRACK_SCORES = ("mean", "max")
 
 _MINUTE_US = 60e6
 
@@ -120,11 +130,15 @@ def track_figures(
     feats: WindowFeatures,
     scores: np.ndarray | None = None,
     threshold: float | None = None,
+    *,
+    track_score: str = "mean",
 ) -> dict[str, Any]:
     """The track-level figures of the windows ``data`` whose tracked objects are ``feats``
     (:func:`uavsnn.identify.window_features` of the same windows: ``window``, ``boxes``,
     ``track`` and ``confirmed`` are used). ``scores`` ``(m,)``: each object's UAV score, and
     ``threshold`` the identifier's; without them only the any-spike rule is reported.
+    ``track_score``: what the identified rule compares with the threshold, the running
+    ``"mean"`` of the track's object scores (the default) or their running ``"max"``.
 
     Returns a plain dict (JSON-ready): ``windows``, ``recordings``, ``uav_recordings``,
     ``step_us``, ``window_us``, ``window_coverage`` (the windows present over the steps
@@ -154,6 +168,8 @@ def track_figures(
         scores = np.asarray(scores, dtype=np.float64)
         if scores.shape != (m,):
             raise ShapeError(f"scores must be ({m},), got {scores.shape}")
+    if track_score not in TRACK_SCORES:
+        raise ParameterError(f"track_score must be one of {TRACK_SCORES}, got {track_score!r}")
     rules = RULES if scores is not None else RULES[:1]
     limit = math.inf if threshold is None else float(threshold)
     order, step = window_steps(data)
@@ -185,15 +201,17 @@ def track_figures(
     alarming = dict.fromkeys(rules, 0)
     for (r, _tid), objs in tracks.items():
         alarm: dict[str, int | None] = dict.fromkeys(rules, None)
-        total = 0.0
+        total, best = 0.0, -math.inf
         for n, j in enumerate(objs, start=1):
             if scores is not None:
                 total += float(scores[j])
+                best = max(best, float(scores[j]))
             if not feats.confirmed[j]:
                 continue
             if alarm["any_spike"] is None:
                 alarm["any_spike"] = n - 1
-            if scores is not None and alarm["identified"] is None and total / n >= limit:
+            score = total / n if track_score == "mean" else best
+            if scores is not None and alarm["identified"] is None and score >= limit:
                 alarm["identified"] = n - 1
         for rule, a in alarm.items():
             if a is None:
@@ -289,6 +307,7 @@ def evaluate_tracks(
     *,
     features: WindowFeatures | None = None,
     tracker: Tracker | None = None,
+    track_score: str = "mean",
 ) -> dict[str, Any]:
     """:func:`track_figures` of ``network`` on ``data`` (a format-2 dataset split): its objects
     and tracks (``features`` when already made, else :func:`uavsnn.identify.window_features`
@@ -300,7 +319,9 @@ def evaluate_tracks(
     ident = network.identification
     if ident is None:
         return track_figures(data, features)
-    return track_figures(data, features, ident.scores(features.x), ident.threshold)
+    return track_figures(
+        data, features, ident.scores(features.x), ident.threshold, track_score=track_score
+    )
 
 
 _RULE_NAMES = {"any_spike": "any-spike", "identified": "any-spike + identification"}

@@ -63,6 +63,13 @@ def register(subparsers: Any) -> None:
         "the track-level figures: UAV recordings found, time to first alarm, false tracks per "
         "minute of UAV-free recording (a dataset with raw events)",
     )
+    p.add_argument(
+        "--track-score",
+        choices=("mean", "max"),
+        default="mean",
+        help="with --tracks and identification: a track alarms when confirmed and the running "
+        "mean (default) or max of its objects' UAV scores reaches the model's threshold",
+    )
     p.add_argument("--json", action="store_true", help="print the figures as JSON")
     p.set_defaults(handler=_evaluate)
 
@@ -90,7 +97,9 @@ def _evaluate(args: argparse.Namespace) -> int:
     if args.tracks:
         from uavsnn.track_eval import evaluate_tracks
 
-        figures["tracks"] = evaluate_tracks(network, data, features=features)
+        figures["tracks"] = evaluate_tracks(
+            network, data, features=features, track_score=args.track_score
+        )
     if args.roc is not None:
         if "roc" not in ident:
             raise ParameterError("--roc needs a model with identification (`uavsnn train`)")
