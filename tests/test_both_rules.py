@@ -179,7 +179,7 @@ def test_identification_markdown_and_roc_chart(tiny, tmp_path: Path) -> None:
 def test_streaming_scores_every_object_of_a_window() -> None:
     """A window with several objects gets a rotor, score and guess for each, equal to the
     batch features' score (a name reused inside the loop once broke the second object)."""
-    from uavsnn.detector import WindowObject, WindowReport, _with_rotor
+    from uavsnn.detector import WindowObject, WindowReport, _with_rotor, _with_scores
     from uavsnn.identify import object_features
 
     rng = np.random.default_rng(4)
@@ -194,7 +194,7 @@ def test_streaming_scores_every_object_of_a_window() -> None:
         ("log_width", "log_area", "log_events_per_px"),
         np.array([0.8, -0.3, 0.5, 0.1]), np.zeros(3), np.ones(3), 0.5, 1.0,
     )  # fmt: skip
-    out = _with_rotor(report, events, ident)
+    out = _with_scores(_with_rotor(report, events), events, ident)
     assert len(out.objects) == 3
     for obj in out.objects:
         assert obj.rotor is not None and obj.class_guess in ("uav", "other")

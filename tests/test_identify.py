@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -168,31 +169,37 @@ def scene() -> np.ndarray:
     return both[np.argsort(both["t"], kind="stable")]
 
 
-def test_batch_features_equal_what_the_streaming_detector_sees() -> None:
-    net = small_net()
-    net.identification = model()
-    events = scene()
+def streaming_and_batch(net: Network, events: np.ndarray, size: tuple[int, int]) -> tuple:
+    """The streaming detector's reports over ``events`` (in two chunks), and the batch
+    features of the same windows as a dataset (``window_features``), with that dataset."""
     window_us = 10_000
     det = Detector(net, window_us=window_us, overlap=0.5, start_us=int(events["t"][0]))
     reports = det.push_windows(events[: len(events) // 2])
     reports += det.push_windows(events[len(events) // 2 :]) + det.flush_windows()
-    windows = make_windows(Recording(events, SIZE), window_us, 0.5)
+    windows = make_windows(Recording(events, size), window_us, 0.5)
     n = len(windows)
     raw = RawEvents.of_recording(events, np.asarray(windows.t0), window_us, window_us)
     data = LabelledWindows(
         windows, np.zeros(n, bool), np.full(n, "none"), np.zeros(n, np.int64),
         np.full((n, 4), np.nan, np.float32), raw=raw,
     )  # fmt: skip
-    batch = window_features(net, data)
+    return reports, window_features(net, data), data
+
+
+def assert_streaming_equals_batch(
+    net: Network, events: np.ndarray, reports: list, batch, data: LabelledWindows
+) -> None:
+    """Each streamed object's features (rotor, shape, activity and track, as it saw them) equal
+    the batch row of the same window and box, and its score is the model's score of them."""
     t = events["t"].astype(np.int64)
+    by_t0 = {int(t0): i for i, t0 in enumerate(np.asarray(data.windows.t0))}
     streaming = []
-    by_t0 = {int(t0): i for i, t0 in enumerate(np.asarray(windows.t0))}
     for r in reports:
         inside = events[np.searchsorted(t, r.t0) : np.searchsorted(t, r.t1)]
         for o in r.objects:
             assert o.rotor is not None
             streaming.append(
-                (by_t0[r.t0], o.box, object_features(o.box, o.spikes, inside, rotor=o.rotor))
+                (by_t0[r.t0], o.box, object_features(o.box, o.spikes, inside, o.rotor, o.track))
             )
     assert len(streaming) == len(batch.x) > 3
     for (i, box, x), j, b, y in zip(streaming, batch.window, batch.boxes, batch.x, strict=True):
@@ -201,13 +208,109 @@ def test_batch_features_equal_what_the_streaming_detector_sees() -> None:
     # The streaming detector scores each object with the model, as the batch path does.
     scored = [(o.uav_score, o.class_guess) for r in reports for o in r.objects]
     expected = net.identification.scores(batch.x)
-    assert [s for s, _ in scored] == pytest.approx(expected.tolist(), rel=1e-12)
-    assert [g for _, g in scored] == ["uav" if s >= 0.3 else "other" for s in expected]
+    assert [s for s, _ in scored] == expected.tolist()
+    threshold = net.identification.threshold
+    assert [g for _, g in scored] == ["uav" if s >= threshold else "other" for s in expected]
+    # The batch rows carry the streamed track ids and confirmations.
+    ids = [(o.track_id or 0, bool(o.track_confirmed)) for r in reports for o in r.objects]
+    assert ids == list(zip(batch.track.tolist(), batch.confirmed.tolist(), strict=True))
+
+
+def test_batch_features_equal_what_the_streaming_detector_sees() -> None:
+    net = small_net()
+    net.identification = model()
+    events = scene()
+    reports, batch, data = streaming_and_batch(net, events, SIZE)
+    assert_streaming_equals_batch(net, events, reports, batch, data)
     # The flickering square's rotor is in the features (log of ~400 Hz, detected).
     rotor = batch.x[:, FEATURES.index("rotor_detected")] == 1
     assert rotor.any()
     hz = np.expm1(batch.x[rotor, FEATURES.index("rotor_log_hz")])
     assert np.all(np.abs(hz - 400) < 12)
+    # The track features: the flickering square is one track, a hit per window, confirmed at
+    # its third, and it does not move.
+    hits = np.expm1(batch.x[:, FEATURES.index("track_log_hits")])
+    np.testing.assert_allclose(hits, np.arange(1, len(hits) + 1))
+    assert set(batch.track.tolist()) == {1}
+    assert batch.confirmed[2:].all() and not batch.confirmed[:2].any()
+    assert np.all(batch.x[:, FEATURES.index("track_log_speed")] == 0)
+    # The track's mean rotor strength is the running mean of its objects' strengths.
+    strength = batch.x[:, FEATURES.index("rotor_strength")]
+    running = np.cumsum(strength) / np.arange(1, len(strength) + 1)
+    np.testing.assert_allclose(batch.x[:, FEATURES.index("track_rotor_strength")], running)
+
+
+def two_blobs(size: tuple[int, int]) -> np.ndarray:
+    """Two blobs in opposite corners of the sensor, the second drifting left."""
+    rng = np.random.default_rng(1)
+    n = 8000
+    ev = np.zeros(n, dtype=EVENT_DTYPE)
+    ev["t"] = 5_000 + np.arange(n) * 5
+    first = rng.random(n) < 0.5
+    drift = np.arange(n) * 10 // n
+    ev["x"] = np.where(first, 5, size[0] - 20 - drift) + rng.integers(0, 5, n)
+    ev["y"] = np.where(first, 5, size[1] - 15) + rng.integers(0, 5, n)
+    ev["p"] = rng.random(n) < 0.5
+    return ev
+
+
+def test_streaming_scores_every_object_of_a_window_with_two() -> None:
+    """Two objects in one window, each with its own track and score (the streaming path once
+    reused a name for the features and failed on the second object)."""
+    size = (120, 90)
+    config = {**small_net().config, "width": size[0], "height": size[1]}
+    net = Network(config, seed=3)
+    net.identification = model()
+    events = two_blobs(size)
+    reports, batch, data = streaming_and_batch(net, events, size)
+    assert max(len(r.objects) for r in reports) == 2
+    assert len({o.track_id for r in reports for o in r.objects}) >= 2
+    assert np.any(batch.x[:, FEATURES.index("track_log_speed")] > 0)
+    assert_streaming_equals_batch(net, events, reports, batch, data)
+
+
+def test_track_features_follow_recordings_in_time_order_whatever_the_dataset_order() -> None:
+    """The batch path orders each recording's windows by time and restarts the tracker for
+    each recording: the features of a shuffled dataset are the shuffled features; two copies
+    of the recording under two ids give two equal sets of tracks; and a window left out of the
+    dataset counts as a miss (the tracks' ages keep counting over it)."""
+    net = small_net()
+    events = scene()
+    _, batch, data = streaming_and_batch(net, events, SIZE)
+    n = len(data)
+    perm = np.random.default_rng(5).permutation(n)
+    shuffled = window_features(net, data.select(perm))
+    rows = {
+        (int(perm[w]), tuple(b)): x.tolist()
+        for w, b, x in zip(shuffled.window, shuffled.boxes.tolist(), shuffled.x, strict=True)
+    }
+    assert rows == {
+        (int(w), tuple(b)): x.tolist()
+        for w, b, x in zip(batch.window, batch.boxes.tolist(), batch.x, strict=True)
+    }
+    # Two recordings: the second a copy of the first under another id.
+    twice = data.select(np.concatenate([np.arange(n), np.arange(n)]))
+    twice = replace(twice, recording=np.repeat([0, 1], n))
+    both = window_features(net, twice)
+    half = len(batch.x)
+    np.testing.assert_array_equal(both.x[:half], both.x[half:])
+    np.testing.assert_array_equal(both.track[:half], both.track[half:])
+    # Leave out one window with an object: the next object's track is older by the gap and
+    # has one hit fewer.
+    gone = int(batch.window[3])
+    kept = window_features(net, data.select(np.delete(np.arange(n), gone)))
+    age = FEATURES.index("track_log_age_ms")
+    hits = FEATURES.index("track_log_hits")
+    after = np.flatnonzero(kept.window == gone)[0]  # the window after the gap, renumbered
+    assert kept.x[after, age] == batch.x[4, age]
+    assert np.expm1(kept.x[after, hits]) == pytest.approx(np.expm1(batch.x[4, hits]) - 1)
+
+
+def test_a_window_twice_in_one_recording_is_refused() -> None:
+    net = small_net()
+    _, _, data = streaming_and_batch(net, scene(), SIZE)
+    with pytest.raises(DatasetError, match="two windows starting at"):
+        window_features(net, data.select([0, 1, 1, 2]))
 
 
 def test_features_of_a_dataset_without_raw_events_are_refused() -> None:
@@ -308,6 +411,18 @@ def test_train_fits_identification_and_evaluate_reports_both_rules(
     assert sum(map(sum, ident["identified"]["confusion"])) == 20
     assert [p["false_alarm_target"] for p in ident["at_false_alarm"]] == [0.01, 0.05]
     assert roc.exists() and roc.stat().st_size > 0
+    assert list(ident["feature_auc"]) == list(FEATURES)
+    # The ablation (tuned on the same set here: plumbing only), each group with its tracks.
+    assert (
+        main(["evaluate", str(model), str(data), "--json", "--tracks", "--ablation", str(data)])
+        == 0
+    )
+    figures = json.loads(capsys.readouterr().out)
+    ablation = figures["identification"]["ablation"]
+    assert list(ablation) == ["rotor", "shape", "track", "no_track", "all"]
+    assert ablation["track"]["features"] == 8 and ablation["no_track"]["features"] == 11
+    for row in ablation.values():
+        assert row["tracks"]["found"] <= figures["tracks"]["uav_recordings"]
     # Without identification: the any-spike rule, a note, and --roc refused.
     bare = tmp_path / "bare.npz"
     assert main([*args, "-o", str(bare), "--no-identify"]) == 0
@@ -317,21 +432,21 @@ def test_train_fits_identification_and_evaluate_reports_both_rules(
     assert main(["evaluate", str(bare), str(data), "--roc", str(roc)]) == 2
 
 
-def test_streaming_scores_every_object_of_a_window() -> None:
-    # Two objects in one window: the second one's rotor and score are measured on its own
-    # events (the scorer once reused the name of the event columns for the first's features).
-    from uavsnn.detector import WindowObject, WindowReport, _with_rotor
+def test_feature_auc_on_hand_made_objects() -> None:
+    from uavsnn.identify import WindowFeatures, feature_auc
 
-    events = scene()
-    ident = model()
-    objects = (WindowObject((28, 18, 34, 24), 3), WindowObject((2, 3, 20, 10), 2))
-    t0 = int(events["t"][0])
-    report = WindowReport(0, t0, t0 + 10_000, True, np.zeros(0), objects)
-    out = _with_rotor(report, events, ident)
-    t = events["t"].astype(np.int64)
-    inside = events[np.searchsorted(t, t0) : np.searchsorted(t, t0 + 10_000)]
-    for obj in out.objects:
-        assert obj.rotor is not None and obj.uav_score is not None
-        x = object_features(obj.box, obj.spikes, inside)
-        assert obj.uav_score == pytest.approx(float(ident.scores(x[None, :])[0]), rel=1e-12)
-    assert out.objects[0].rotor.detected and not out.objects[1].rotor.detected
+    k = len(FEATURES)
+    x = np.zeros((6, k))
+    x[:, 0] = [3, 4, 5, 0, 1, 2]  # the UAVs larger: 1
+    x[:, 1] = [0, 1, 2, 3, 4, 5]  # smaller: 0
+    x[:, 2] = [1, 0, 1, 0, 1, 0]  # two of three either way, ties halved: 0.5 + ...
+    label = np.array([True, True, True, False, False, False])
+    usable = np.ones(6, bool)
+    feats = WindowFeatures(x, np.arange(6), np.zeros((6, 4)), 6, label, usable)
+    auc = feature_auc(feats)
+    assert auc[FEATURES[0]] == 1.0 and auc[FEATURES[1]] == 0.0
+    # Pairs (UAV, other): 1 > 0 in 2x2 = 4... of 9 pairs: wins 4, ties 4 (halved), losses 1.
+    assert auc[FEATURES[2]] == pytest.approx((4 + 0.5 * 4) / 9)
+    assert auc[FEATURES[3]] == 0.5  # all equal
+    # An unusable object does not count; without both kinds there is no area.
+    assert feature_auc(replace(feats, usable=label))[FEATURES[0]] is None

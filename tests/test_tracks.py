@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -12,7 +13,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from uavsnn import EVENT_DTYPE, Detector, Network, ParameterError
-from uavsnn.detector import _NO_DETECTIONS, WindowGrouper, WindowObject, WindowReport
+from uavsnn.detector import (
+    _NO_DETECTIONS,
+    WindowGrouper,
+    WindowObject,
+    WindowReport,
+    _with_rotor,
+)
 from uavsnn.tracks import Tracker, track_windows
 
 STEP = 25_000  # µs between window starts (50 ms windows, overlap 0.5)
@@ -63,6 +70,30 @@ def test_constant_velocity_keeps_one_id_and_measures_the_motion() -> None:
         True,
         True,
     ]
+
+
+def test_each_object_carries_its_track_so_far_and_the_rotor_mean() -> None:
+    """An object's ``track`` is its track after that window (causal: later windows do not
+    change it), and the track's rotor mean counts the objects whose rotor was measured."""
+    from uavsnn.signature import RotorEstimate
+
+    strengths = [0.2, None, 0.6, 0.1, None]
+    reps = []
+    for k, s in enumerate(strengths):
+        rotor = None if s is None else RotorEstimate(400.0, s, 9, 5, 6, 10, s >= 0.1)
+        obj = WindowObject(box=box_at(20 + 4 * k, 30), spikes=1, rotor=rotor)
+        reps.append(replace(report(k, []), objects=(obj,)))
+    result = track_windows(reps)
+    seen = [o.track for r in result.reports for o in r.objects]
+    assert [t.hits for t in seen] == [1, 2, 3, 4, 5]
+    assert [t.rotor_measured for t in seen] == [1, 1, 2, 3, 3]
+    assert [t.rotor_strength_mean for t in seen] == pytest.approx([0.2, 0.2, 0.4, 0.3, 0.3])
+    assert [t.confirmed for t in seen] == [False, False, True, True, True]
+    assert [t.speed for t in seen][:2] == [0.0, pytest.approx(160.0)]
+    assert result.tracks[0] == seen[-1]
+    # Without a track (the cap reached), no snapshot.
+    capped = Tracker(max_tracks=1).update(report(0, [box_at(10, 10), box_at(100, 100)]))
+    assert capped.objects[0].track is not None and capped.objects[1].track is None
 
 
 def test_hovering_and_zigzag_tracks_differ_in_their_statistics() -> None:
@@ -264,6 +295,8 @@ def test_streaming_in_any_chunks_equals_batch(net: Network, cuts: list[int], see
     plain = Detector(net, window_us=3_000, overlap=0.5)
     grouper = WindowGrouper.of(plain)
     untracked = grouper.add(events, plain.push(events)) + grouper.finish(plain.flush())
+    # The rotor signature the streaming detector measures, so that the tracks' rotor means agree.
+    untracked = [_with_rotor(r, events) for r in untracked]
     result = track_windows(untracked, Tracker(gate_px=8))
     assert key(reps) == key(list(result.reports))
     assert sorted(det.tracker.finish(), key=lambda t: t.id) == list(result.tracks)

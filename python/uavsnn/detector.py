@@ -41,7 +41,7 @@ from uavsnn.errors import ParameterError, ShapeError
 from uavsnn.events import EVENT_DTYPE, packed_bytes
 from uavsnn.network import WINDOW_DETECTION_DTYPE
 from uavsnn.signature import RotorEstimate, rotor_signature
-from uavsnn.tracks import Tracker
+from uavsnn.tracks import Track, Tracker
 
 if TYPE_CHECKING:
     from uavsnn.network import Network
@@ -284,10 +284,17 @@ class Detector:
     def _finish_reports(self, closed: list[WindowReport]) -> list[WindowReport]:
         out = []
         recent = np.concatenate(self._recent) if closed and self._recent else None
+        ident = self._network.identification
         for report in closed:
-            if recent is not None and report.objects and report.t0 >= self._lost_until:
-                report = _with_rotor(report, recent, self._network.identification)
-            out.append(self._tracker.update(report))
+            measured = report.objects and report.t0 >= self._lost_until
+            events = recent if measured else None
+            if events is not None:
+                report = _with_rotor(report, events)
+            # The track first (its statistics so far include this window), then the score.
+            report = self._tracker.update(report)
+            if events is not None and ident is not None:
+                report = _with_scores(report, events, ident)
+            out.append(report)
         if self._recent and self._grouper is not None:
             keep_from = self._grouper.open_since()
             while self._recent and (keep_from is None or self._recent[0]["t"][-1] < keep_from):
@@ -379,7 +386,7 @@ class WindowObject:
     (filled by :meth:`Detector.push_windows`; ``None`` when not measured), and the
     identification's UAV score and class guess (``"uav"`` or ``"other"``; filled by
     :meth:`Detector.push_windows` when the model has identification and the rotor was
-    measured, else ``None``)."""
+    measured, else ``None``; the score uses the track as it stands after this window)."""
 
     #: ``(x0, y0, x1, y1)``, half-open sensor pixels (``x0 <= x < x1``).
     box: tuple[int, int, int, int]
@@ -394,6 +401,9 @@ class WindowObject:
     #: (:func:`uavsnn.signature.rotor_signature`), whether detected or not; ``None`` when not
     #: measured (see :data:`MAX_ROTOR_BOXES`, :data:`MAX_ROTOR_EVENTS`).
     rotor: RotorEstimate | None = None
+    #: The object's track as it stands after this window (:meth:`uavsnn.tracks.Tracker.update`:
+    #: its age, hits, speed and path so far); ``None`` without a track.
+    track: Track | None = None
 
     @property
     def centre(self) -> tuple[float, float]:
@@ -589,28 +599,44 @@ class WindowGrouper:
         return out
 
 
-def _with_rotor(
-    report: WindowReport, events: np.ndarray, identification: Any = None
-) -> WindowReport:
-    """``report`` with the rotor signature of its first :data:`MAX_ROTOR_BOXES` objects, from
-    the raw ``events`` (time order) that fall in the window and the object's box; with an
-    ``identification`` model (:class:`uavsnn.identify.Identifier`), their UAV score and class
-    guess too."""
+def _window_events(report: WindowReport, events: np.ndarray) -> np.ndarray:
+    """The raw ``events`` (time order) that fall in ``report``'s window."""
     t = events["t"]
-    inside = events[np.searchsorted(t, report.t0) : np.searchsorted(t, report.t1)]
-    x, y = inside["x"], inside["y"]
+    return events[np.searchsorted(t, report.t0) : np.searchsorted(t, report.t1)]
+
+
+def _in_box(events: np.ndarray, box: tuple[int, int, int, int]) -> np.ndarray:
+    x0, y0, x1, y1 = box
+    x, y = events["x"], events["y"]
+    return events[(x >= x0) & (x < x1) & (y >= y0) & (y < y1)]
+
+
+def _with_rotor(report: WindowReport, events: np.ndarray) -> WindowReport:
+    """``report`` with the rotor signature of its first :data:`MAX_ROTOR_BOXES` objects, from
+    the raw ``events`` (time order) that fall in the window and the object's box."""
+    inside = _window_events(report, events)
     objects = list(report.objects)
     for i, obj in enumerate(objects[:MAX_ROTOR_BOXES]):
         x0, y0, x1, y1 = obj.box
-        mask = (x >= x0) & (x < x1) & (y >= y0) & (y < y1)
-        est = rotor_signature(inside[mask], (x0, y0, x1 - x0, y1 - y0))
+        est = rotor_signature(_in_box(inside, obj.box), (x0, y0, x1 - x0, y1 - y0))
         objects[i] = replace(obj, rotor=est)
-        if identification is not None:
-            from uavsnn.identify import object_features
+    return replace(report, objects=tuple(objects))
 
-            # Not `x`: that name holds the event columns the next object's mask reads.
-            feats = object_features(obj.box, obj.spikes, inside[mask], rotor=est)
-            score = float(identification.scores(feats[None, :])[0])
-            guess = "uav" if score >= identification.threshold else "other"
-            objects[i] = replace(objects[i], uav_score=score, class_guess=guess)
+
+def _with_scores(report: WindowReport, events: np.ndarray, identification: Any) -> WindowReport:
+    """``report`` with the UAV score and class guess of each object whose rotor was measured,
+    from an ``identification`` model (:class:`uavsnn.identify.Identifier`): its features
+    (:func:`uavsnn.identify.object_features`) on the raw ``events`` of the window inside its
+    box, its rotor signature and its track as they stand after this window."""
+    from uavsnn.identify import object_features
+
+    inside = _window_events(report, events)
+    objects = list(report.objects)
+    for i, obj in enumerate(objects):
+        if obj.rotor is None:
+            continue
+        feats = object_features(obj.box, obj.spikes, _in_box(inside, obj.box), obj.rotor, obj.track)
+        score = float(identification.scores(feats[None, :])[0])
+        guess = "uav" if score >= identification.threshold else "other"
+        objects[i] = replace(obj, uav_score=score, class_guess=guess)
     return replace(report, objects=tuple(objects))

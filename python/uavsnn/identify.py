@@ -8,12 +8,15 @@ window's raw events (``[t0, t0 + L)``) inside its box:
 - rotor: the rotor signature (:func:`uavsnn.signature.rotor_signature`) — frequency, strength
   and agreeing pixels, log-scaled, and whether it passed the estimator's threshold;
 - shape: the box's width, height, area (log), aspect ratio (log) and conv3 spike count (log);
-- activity: raw events per pixel of the box (log) and the ON/OFF balance.
+- activity: raw events per pixel of the box (log) and the ON/OFF balance;
+- track: the statistics of the object's track so far (:data:`TRACK_FEATURES`): the windows of
+  each recording are fed in time order to a :class:`uavsnn.tracks.Tracker`, as the streaming
+  :class:`uavsnn.detector.Detector` feeds them (a window missing from the dataset counts as a
+  miss), and each object reads its track as it stands after its own window (causal).
 
 A logistic regression on standardised features (:func:`fit_logistic`: Newton's method with an
 L2 penalty, in NumPy) gives each object a UAV score in ``[0, 1]``; a window's score is its
-objects' largest (0 without one). The windows' tracks are not used: the windows of a dataset
-are not consecutive in time, so a window-level model cannot see them.
+objects' largest (0 without one).
 
 The model (:class:`Identifier`) is stored in the model file beside the network as plain arrays
 (``identify.version``, ``identify.coef``, ``identify.mean``, ``identify.scale``,
@@ -30,7 +33,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -41,14 +44,17 @@ from uavsnn.signature import RotorEstimate, rotor_signature
 if TYPE_CHECKING:
     from uavsnn.dataset import LabelledWindows
     from uavsnn.network import Inference, Network
+    from uavsnn.tracks import Track, Tracker
 
 __all__ = [
     "FEATURES",
     "GROUPS",
+    "TRACK_FEATURES",
     "VERSION",
     "Identifier",
     "WindowFeatures",
     "ablation",
+    "feature_auc",
     "fit",
     "fit_logistic",
     "fit_network",
@@ -57,11 +63,26 @@ __all__ = [
     "raw_noise_events",
     "rotor_coverage",
     "split_by_recording",
+    "track_features",
     "window_features",
+    "window_steps",
 ]
 
 #: The version of the stored arrays (``identify.version``).
 VERSION = 1
+
+#: The track group of :data:`FEATURES` (:func:`track_features`), from the object's track as it
+#: stands after its window (:class:`uavsnn.tracks.Track`).
+TRACK_FEATURES: tuple[str, ...] = (
+    "track_log_age_ms",
+    "track_log_hits",
+    "track_log_speed",
+    "track_straightness",
+    "track_log_turn_rate",
+    "track_log_speed_std",
+    "track_vertical_speed",
+    "track_rotor_strength",
+)
 
 FEATURES: tuple[str, ...] = (
     "rotor_log_hz",
@@ -75,6 +96,7 @@ FEATURES: tuple[str, ...] = (
     "log_spikes",
     "log_events_per_px",
     "on_balance",
+    *TRACK_FEATURES,
 )
 """The features of one object, in the order of the model's coefficients."""
 
@@ -82,10 +104,33 @@ FEATURES: tuple[str, ...] = (
 GROUPS: dict[str, tuple[str, ...]] = {
     "rotor": FEATURES[:4],
     "shape": FEATURES[4:9],
+    "track": TRACK_FEATURES,
+    "no_track": tuple(f for f in FEATURES if f not in TRACK_FEATURES),
     "all": FEATURES,
 }
 
 _L2_GRID = (1e-3, 1e-2, 1e-1, 1.0, 10.0, 100.0)
+
+
+def track_features(track: Track | None) -> list[float]:
+    """The :data:`TRACK_FEATURES` of an object whose track stands at ``track`` after its
+    window (zeros for an object without a track): age (log of ms), hits (log), filtered speed
+    (log of px/s), straightness, turn rate (log of rad/s), the segment speeds' standard
+    deviation (log of px/s), vertical speed (signed log of px/s; positive downwards) and the
+    mean rotor strength of its detections so far."""
+    if track is None:
+        return [0.0] * len(TRACK_FEATURES)
+    v = track.vertical_speed
+    return [
+        math.log1p(track.age_us / 1000),
+        math.log1p(track.hits),
+        math.log1p(track.speed),
+        track.straightness,
+        math.log1p(track.turn_rate),
+        math.log1p(track.speed_std),
+        math.copysign(math.log1p(abs(v)), v),
+        track.rotor_strength_mean,
+    ]
 
 
 def object_features(
@@ -93,11 +138,13 @@ def object_features(
     spikes: int,
     events: np.ndarray,
     rotor: RotorEstimate | None = None,
+    track: Track | None = None,
 ) -> np.ndarray:
     """The :data:`FEATURES` (float64) of one object: ``box`` ``(x0, y0, x1, y1)`` half-open,
     its conv3 ``spikes``, and the window's raw ``events`` (time order; only those inside the box
     are used). ``rotor``: the box's rotor signature when already measured (else measured
-    here on the same events)."""
+    here on the same events); ``track``: its track after this window (:func:`track_features`;
+    ``None``: no track)."""
     x0, y0, x1, y1 = (int(v) for v in box)
     w, h = x1 - x0, y1 - y0
     if w < 1 or h < 1:
@@ -121,6 +168,7 @@ def object_features(
             math.log1p(spikes),
             math.log1p(n / (w * h)),
             (2 * on - n) / n if n else 0.0,
+            *track_features(track),
         ]
     )
 
@@ -131,7 +179,10 @@ class WindowFeatures:
     window each object belongs to), ``boxes`` ``(m, 4)``; ``windows``: how many windows;
     ``label`` ``(m,)`` bool: for training, a UAV object (an object of a UAV window whose box
     meets the labelled box), ``usable`` ``(m,)``: False for the objects of a UAV window that
-    miss its box (left out of a fit: they are not the UAV, nor known not to be one)."""
+    miss its box (left out of a fit: they are not the UAV, nor known not to be one);
+    ``track`` ``(m,)`` int64: the object's track id, unique within its window's recording
+    (0: no track), and ``confirmed`` ``(m,)`` bool: its track is confirmed after this
+    window."""
 
     x: np.ndarray
     window: np.ndarray
@@ -139,13 +190,47 @@ class WindowFeatures:
     windows: int
     label: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
     usable: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
+    track: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    confirmed: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
 
     def columns(self, names: Sequence[str]) -> WindowFeatures:
         """The same objects with only the features ``names``."""
         idx = [FEATURES.index(n) for n in names]
-        return WindowFeatures(
-            self.x[:, idx], self.window, self.boxes, self.windows, self.label, self.usable
+        return replace(self, x=self.x[:, idx])
+
+
+def window_steps(data: LabelledWindows) -> tuple[np.ndarray, int]:
+    """The windows of ``data`` in stream order, and the step between window starts (µs).
+
+    Returns ``order`` (every window index, grouped by recording in ascending id, each
+    recording's windows by start time) and ``step``: the dataset's ``step_us``
+    (``manifest["parameters"]``) when it has one, else the greatest common divisor of the
+    gaps between successive starts within a recording (the window length when no recording
+    has two windows). A window's position in its recording's stream is
+    ``(t0 - first t0) // step``.
+
+    Raises:
+        DatasetError: two windows of one recording start at the same time (a stream holds
+            each window once), or a start off the recording's grid of ``step``.
+    """
+    t0 = np.asarray(data.windows.t0, dtype=np.int64)
+    rec = np.asarray(data.recording, dtype=np.int64)
+    order = np.lexsort((t0, rec))
+    same = rec[order][1:] == rec[order][:-1]
+    gaps = np.diff(t0[order])[same]
+    if np.any(gaps == 0):
+        i = int(np.flatnonzero(same & (np.diff(t0[order]) == 0))[0])
+        raise DatasetError(
+            f"recording {int(rec[order][i])} has two windows starting at {int(t0[order][i])} "
+            "us: tracks need each window of a recording once"
         )
+    step = (data.manifest or {}).get("parameters", {}).get("step_us")
+    if step is None:
+        step = int(np.gcd.reduce(gaps)) if len(gaps) else int(data.windows.length_us)
+    step = int(step)
+    if step < 1 or (len(gaps) and np.any(gaps % step)):
+        raise DatasetError(f"window starts are not on a grid of the {step} us step")
+    return order, step
 
 
 def window_features(
@@ -153,6 +238,7 @@ def window_features(
     data: LabelledWindows,
     inference: Inference | None = None,
     *,
+    tracker: Tracker | None = None,
     raw_noise: tuple[float, int] | None = None,
 ) -> WindowFeatures:
     """The features of every object of every window of ``data`` (a dataset of format 2, with
@@ -162,11 +248,21 @@ def window_features(
     measuring them, at the density :func:`uavsnn.windows.add_noise` adds to the windows
     (:func:`raw_noise_events`), so that features of noisy windows see noisy events.
 
+    The track features come from ``tracker`` (default: a new :class:`uavsnn.tracks.Tracker`;
+    it is reset before each recording): each recording's windows are fed to it in time order
+    (:func:`window_steps`), as :meth:`uavsnn.detector.Detector.push_windows` feeds a stream,
+    windows without an object included. A window the dataset left out counts as a window
+    without a detection. The tracker sees the rotor signature of the first
+    :data:`uavsnn.detector.MAX_ROTOR_BOXES` objects of a window, as the streaming detector
+    measures it.
+
     Raises:
-        DatasetError: a dataset without raw events.
+        DatasetError: a dataset without raw events, or windows that cannot form a stream
+            (:func:`window_steps`).
         ShapeError: the dataset's sensor size is not the network's input.
     """
-    from uavsnn.detector import merge_boxes
+    from uavsnn.detector import MAX_ROTOR_BOXES, WindowReport, merge_boxes
+    from uavsnn.tracks import Tracker
 
     expected = (int(network.config["width"]), int(network.config["height"]))
     if tuple(data.windows.sensor_size) != expected:
@@ -180,30 +276,68 @@ def window_features(
             "identification needs each window's raw events: rebuild the dataset "
             "(`uavsnn dataset build`, format 2)"
         )
+    if tracker is None:
+        tracker = Tracker()
+    elif not isinstance(tracker, Tracker):
+        raise ParameterError(f"tracker must be a uavsnn.tracks.Tracker, got {tracker!r}")
+    order, step = window_steps(data)
     if inference is None:
         inference = network.infer(data.windows)
     if len(inference) != len(data):
         raise ShapeError(f"inference has {len(inference)} windows, the data {len(data)}")
     length = int(data.raw.before_us)
+    window_us = int(data.windows.length_us)
+    min_detections = int(network.config["detection"]["min_detections"])
     found = inference.detections
-    order = np.argsort(found["window"], kind="stable")
-    found = found[order]
+    found = found[np.argsort(found["window"], kind="stable")]
     starts = np.searchsorted(found["window"], np.arange(len(data) + 1))
-    rows, which, boxes, label, usable = [], [], [], [], []
     t0s = np.asarray(data.windows.t0, dtype=np.int64)
-    for i in np.flatnonzero(np.diff(starts) > 0):
-        objects = merge_boxes(found[starts[i] : starts[i + 1]])
-        raw = data.raw.window(int(i))
-        if raw_noise is not None:
-            raw = raw_noise_events(
-                raw, int(t0s[i]), length, data.windows.sensor_size, *raw_noise, window=int(i)
-            )
-        t = raw["t"].astype(np.int64)
+    recording = np.asarray(data.recording, dtype=np.int64)
+    per_window: dict[int, list[tuple[Any, np.ndarray]]] = {}
+    first_t0, current = 0, None
+    for i in order.tolist():
+        if recording[i] != current:
+            current, first_t0 = recording[i], int(t0s[i])
+            tracker.reset()
         t0 = int(t0s[i])
-        events = raw[np.searchsorted(t, t0) : np.searchsorted(t, t0 + length)]
+        spikes = found[starts[i] : starts[i + 1]]
+        objects = merge_boxes(spikes)
+        events = None
+        if objects:
+            raw = data.raw.window(i)
+            if raw_noise is not None:
+                raw = raw_noise_events(
+                    raw, t0, length, data.windows.sensor_size, *raw_noise, window=int(i)
+                )
+            t = raw["t"].astype(np.int64)
+            events = raw[np.searchsorted(t, t0) : np.searchsorted(t, t0 + length)]
+            objects = tuple(
+                replace(o, rotor=rotor_signature(_in_box(events, o.box), _xywh(o.box)))
+                if j < MAX_ROTOR_BOXES
+                else o
+                for j, o in enumerate(objects)
+            )
+        report = tracker.update(
+            WindowReport(
+                window=(t0 - first_t0) // step,
+                t0=t0,
+                t1=t0 + window_us,
+                detected=len(spikes) >= min_detections,
+                detections=spikes,
+                objects=objects,
+            )
+        )
+        if events is not None:
+            per_window[i] = [
+                (o, object_features(o.box, o.spikes, events, o.rotor, o.track))
+                for o in report.objects
+            ]
+    rows, which, boxes, label, usable, track, confirmed = [], [], [], [], [], [], []
+    for i in sorted(per_window):
         truth = np.asarray(data.box[i], dtype=np.float64)
-        for obj in objects:
-            rows.append(object_features(obj.box, obj.spikes, events))
+        is_uav = bool(data.label[i])
+        for obj, feats in per_window[i]:
+            rows.append(feats)
             which.append(i)
             boxes.append(obj.box)
             meets = bool(
@@ -213,9 +347,10 @@ def window_features(
                 and obj.box[1] < truth[3]
                 and truth[1] < obj.box[3]
             )
-            is_uav = bool(data.label[i])
             label.append(is_uav and meets)
             usable.append(not is_uav or meets)
+            track.append(0 if obj.track_id is None else obj.track_id)
+            confirmed.append(bool(obj.track_confirmed))
     return WindowFeatures(
         x=np.array(rows, dtype=np.float64).reshape(-1, len(FEATURES)),
         window=np.array(which, dtype=np.int64),
@@ -223,6 +358,8 @@ def window_features(
         windows=len(data),
         label=np.array(label, dtype=bool),
         usable=np.array(usable, dtype=bool),
+        track=np.array(track, dtype=np.int64),
+        confirmed=np.array(confirmed, dtype=bool),
     )
 
 
@@ -261,6 +398,16 @@ def raw_noise_events(
     noise["p"] = rng.integers(0, 2, 2 * n)
     out = np.concatenate([events, noise])
     return out[np.argsort(out["t"], kind="stable")]
+
+
+def _xywh(box: tuple[int, int, int, int]) -> tuple[int, int, int, int]:
+    return box[0], box[1], box[2] - box[0], box[3] - box[1]
+
+
+def _in_box(events: np.ndarray, box: tuple[int, int, int, int]) -> np.ndarray:
+    x0, y0, x1, y1 = box
+    x, y = events["x"], events["y"]
+    return events[(x >= x0) & (x < x1) & (y >= y0) & (y < y1)]
 
 
 def fit_logistic(
@@ -453,12 +600,16 @@ def ablation(
     tune_label: np.ndarray,
     test_detected: np.ndarray,
     test_label: np.ndarray,
-) -> dict[str, dict[str, float]]:
-    """For each feature group of :data:`GROUPS` (rotor alone, shape alone, all), a model fitted
-    as :func:`fit` does (train, then tune) and scored on ``test``: the combined rule's accuracy
-    at the tuned threshold and its detection rate where 1 % and 5 % of the UAV-free test
-    windows alarm."""
+    test_data: LabelledWindows | None = None,
+) -> dict[str, dict[str, Any]]:
+    """For each feature group of :data:`GROUPS` (rotor alone, shape alone, track alone, all
+    but the track, all), a model fitted as :func:`fit` does (train, then tune) and scored on
+    ``test``: the combined rule's accuracy at the tuned threshold and its detection rate where
+    1 % and 5 % of the UAV-free test windows alarm. With ``test_data`` (the windows ``test``
+    was made from), each row also holds ``tracks``: the track-level figures of the rule with
+    identification (:func:`uavsnn.track_eval.track_figures`)."""
     from uavsnn.evaluation import FALSE_ALARM_RATES, threshold_at_false_alarm
+    from uavsnn.track_eval import track_figures
 
     label = np.asarray(test_label, dtype=bool)
     fired = np.asarray(test_detected, dtype=bool)
@@ -466,7 +617,7 @@ def ablation(
     for name, names in GROUPS.items():
         ident = fit(train, tune, tune_detected=tune_detected, tune_label=tune_label, features=names)
         score = np.where(fired, ident.window_scores(test), -np.inf)
-        row = {
+        row: dict[str, Any] = {
             "features": len(names),
             "l2": ident.l2,
             "threshold": ident.threshold,
@@ -475,7 +626,31 @@ def ablation(
         for rate in FALSE_ALARM_RATES:
             t = threshold_at_false_alarm(score, label, rate)
             row[f"detection_at_{rate:g}"] = float(np.mean(score[label] >= t))
+        if test_data is not None:
+            figures = track_figures(test_data, test, ident.scores(test.x), ident.threshold)
+            row["tracks"] = figures["rules"]["identified"]
         out[name] = row
+    return out
+
+
+def feature_auc(feats: WindowFeatures) -> dict[str, float | None]:
+    """How well each feature of :data:`FEATURES` alone tells the usable UAV objects of
+    ``feats`` from the others: the area under its ROC (the Mann-Whitney statistic, ties
+    counted half). 0.5: no separation; above: UAV objects have the larger values; below: the
+    smaller. ``None`` without objects of both kinds. A feature whose area lies on opposite
+    sides of 0.5 on two sets tells them apart in opposite directions."""
+    x, y = feats.x[feats.usable], feats.label[feats.usable]
+    pos, neg = int(y.sum()), int((~y).sum())
+    out: dict[str, float | None] = {}
+    for i, name in enumerate(FEATURES):
+        if pos == 0 or neg == 0:
+            out[name] = None
+            continue
+        _, inverse, counts = np.unique(x[:, i], return_inverse=True, return_counts=True)
+        # Mid-ranks: the values' ranks, a tie sharing the mean of its ranks.
+        mid = np.cumsum(counts) - (counts - 1) / 2
+        ranks = mid[inverse.ravel()]
+        out[name] = float((ranks[y].sum() - pos * (pos + 1) / 2) / (pos * neg))
     return out
 
 

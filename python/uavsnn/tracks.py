@@ -22,7 +22,7 @@ import math
 from collections import deque
 from collections.abc import Iterable
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from uavsnn.errors import ParameterError
 
@@ -72,6 +72,9 @@ class Track:
             speeds (px/s).
         turn_rate: the mean absolute change of heading between successive segments of at
             least :data:`MIN_TURN_SEGMENT_PX`, per second of the second segment (rad/s).
+        rotor_measured: its detections whose rotor signature was measured (the object's
+            ``rotor`` was not ``None``).
+        rotor_strength_mean: the mean rotor strength of those detections (0 without one).
     """
 
     id: int
@@ -97,6 +100,8 @@ class Track:
     mean_speed: float
     speed_std: float
     turn_rate: float
+    rotor_measured: int
+    rotor_strength_mean: float
 
 
 class _Live:
@@ -125,13 +130,17 @@ class _Live:
         "path",
         "pos",
         "recent",
+        "rotor_n",
+        "rotor_sum",
         "sp_m2",
         "sp_mean",
         "turn_sum",
         "vel",
     )
 
-    def __init__(self, tid: int, window: int, t0: int, t1: int, box: tuple, z: tuple) -> None:
+    def __init__(
+        self, tid: int, window: int, t0: int, t1: int, box: tuple, z: tuple, rotor: Any
+    ) -> None:
         self.id = tid
         self.birth_window = window
         self.birth_us = t0
@@ -158,6 +167,14 @@ class _Live:
         self.n_turn = 0
         self.now_window = window
         self.now_end = t1
+        self.rotor_n = 0
+        self.rotor_sum = 0.0
+        self.add_rotor(rotor)
+
+    def add_rotor(self, rotor: Any) -> None:
+        if rotor is not None:
+            self.rotor_n += 1
+            self.rotor_sum += float(rotor.strength)
 
     def predict(self, tc: float) -> tuple[float, float]:
         dt = (tc - self.last_tc) / 1e6
@@ -192,6 +209,8 @@ class _Live:
             mean_speed=self.sp_mean,
             speed_std=math.sqrt(self.sp_m2 / self.n_seg) if self.n_seg else 0.0,
             turn_rate=self.turn_sum / self.n_turn if self.n_turn else 0.0,
+            rotor_measured=self.rotor_n,
+            rotor_strength_mean=self.rotor_sum / self.rotor_n if self.rotor_n else 0.0,
         )
 
 
@@ -282,7 +301,9 @@ class Tracker:
 
     def update(self, report: WindowReport) -> WindowReport:
         """Feed the next window (window indices must increase) and return it with each
-        object's ``track_id`` (and ``track_confirmed``) filled in.
+        object's ``track_id``, ``track_confirmed`` and ``track`` (a snapshot of its track as
+        it stands after this window: what is known of it so far) filled in. An object's
+        ``rotor`` (when measured) counts in its track's ``rotor_strength_mean``.
 
         Raises:
             ParameterError: a window not later than the previous one.
@@ -328,8 +349,9 @@ class Tracker:
             old = track_of[oi]
             if old is not None:
                 self._hit(old, k, report.t1, tc, obj.box, centres[oi])
+                old.add_rotor(obj.rotor)
             elif len(self._live) < self.max_tracks:
-                new = _Live(self._next_id, k, report.t0, report.t1, obj.box, centres[oi])
+                new = _Live(self._next_id, k, report.t0, report.t1, obj.box, centres[oi], obj.rotor)
                 self._next_id += 1
                 self._live.append(new)
                 track_of[oi] = new
@@ -337,7 +359,9 @@ class Tracker:
             else:
                 self.births_refused += 1
         new_objects = tuple(
-            o if t is None else replace(o, track_id=t.id, track_confirmed=t.confirmed)
+            o
+            if t is None
+            else replace(o, track_id=t.id, track_confirmed=t.confirmed, track=t.snapshot())
             for o, t in zip(objects, track_of, strict=True)
         )
         return replace(report, objects=new_objects)

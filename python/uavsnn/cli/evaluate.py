@@ -45,8 +45,9 @@ def register(subparsers: Any) -> None:
         "--ablation",
         type=Path,
         metavar="TUNE_DATASET",
-        help="also refit identification on the dataset's train split with rotor, shape and all "
-        "features, tuned on TUNE_DATASET's train split, and score each on the test split",
+        help="also refit identification on the dataset's train split with rotor, shape, track, "
+        "all but track, and all features, tuned on TUNE_DATASET's train split, and score each "
+        "on the test split (with --tracks: its track-level figures too)",
     )
     p.add_argument(
         "--roc",
@@ -54,6 +55,20 @@ def register(subparsers: Any) -> None:
         metavar="PNG",
         help="write the ROC of detection + identification to this PNG (a model with "
         "identification)",
+    )
+    p.add_argument(
+        "--tracks",
+        action="store_true",
+        help="also follow each recording's windows in time order with the tracker and report "
+        "the track-level figures: UAV recordings found, time to first alarm, false tracks per "
+        "minute of UAV-free recording (a dataset with raw events)",
+    )
+    p.add_argument(
+        "--track-score",
+        choices=("mean", "max"),
+        default="mean",
+        help="with --tracks and identification: a track alarms when confirmed and the running "
+        "mean (default) or max of its objects' UAV scores reaches the model's threshold",
     )
     p.add_argument("--json", action="store_true", help="print the figures as JSON")
     p.set_defaults(handler=_evaluate)
@@ -71,9 +86,20 @@ def _evaluate(args: argparse.Namespace) -> int:
     )
     figures: dict[str, Any] = {"model": str(args.model), "dataset": str(args.dataset)}
     figures |= result.to_dict()
-    ident = _identification(args, network, data, result)
+    features = None
+    if args.tracks or network.identification is not None or args.ablation is not None:
+        from uavsnn import identify
+
+        features = identify.window_features(network, data, result.inference)
+    ident = _identification(args, network, data, result, features)
     if ident:
         figures["identification"] = ident
+    if args.tracks:
+        from uavsnn.track_eval import evaluate_tracks
+
+        figures["tracks"] = evaluate_tracks(
+            network, data, features=features, track_score=args.track_score
+        )
     if args.roc is not None:
         if "roc" not in ident:
             raise ParameterError("--roc needs a model with identification (`uavsnn train`)")
@@ -146,15 +172,18 @@ def _evaluate(args: argparse.Namespace) -> int:
         )
     if ident:
         _print_identification(ident)
+    if args.tracks:
+        _print_tracks(figures["tracks"])
     if args.report:
         print(f"wrote {figures['report']}")
     return 0
 
 
 def _identification(
-    args: argparse.Namespace, network: Network, data: Any, result: Any
+    args: argparse.Namespace, network: Network, data: Any, result: Any, test: Any
 ) -> dict[str, Any]:
-    """Detection + identification beside the any-spike rule (when the model has it)."""
+    """Detection + identification beside the any-spike rule (when the model has it); ``test``:
+    the data's features (``identify.window_features``)."""
     from uavsnn import identify
     from uavsnn.evaluation import identification_figures
 
@@ -162,13 +191,13 @@ def _identification(
     if network.identification is None and args.ablation is None:
         return out
     inference = result.inference
-    test = identify.window_features(network, data, inference)
     if network.identification is not None:
         ident = network.identification
         out = identification_figures(
             inference.detected, ident.window_scores(test), data, ident.threshold
         )
     out["rotor_coverage"] = identify.rotor_coverage(test, data)
+    out["feature_auc"] = identify.feature_auc(test)
     if args.ablation is not None:
         train = load(args.dataset, "train")
         tune = load(args.ablation, "train")
@@ -181,6 +210,7 @@ def _identification(
             tune_label=tune.label,
             test_detected=inference.detected,
             test_label=data.label,
+            test_data=data if args.tracks else None,
         )
     return out
 
@@ -211,8 +241,58 @@ def _print_identification(ident: dict[str, Any]) -> None:
             f"{z['rotor_detected']}"
         )
     for name, row in ident.get("ablation", {}).items():
+        tracks = ""
+        if "tracks" in row:
+            t = row["tracks"]
+            median = t["time_to_alarm_ms"]["median"]
+            tracks = (
+                f"; tracks: found {t['found']}, median alarm "
+                f"{'-' if median is None else f'{median:.0f} ms'}, false {t['false_tracks']}"
+            )
         print(
-            f"  ablation {name:6s}: accuracy {100 * row['accuracy']:.1f} %, detection at 1 % / "
+            f"  ablation {name:8s}: accuracy {100 * row['accuracy']:.1f} %, detection at 1 % / "
             f"5 % false alarms {100 * row['detection_at_0.01']:.1f} / "
-            f"{100 * row['detection_at_0.05']:.1f} %"
+            f"{100 * row['detection_at_0.05']:.1f} %{tracks}"
         )
+
+
+def _print_tracks(tracks: dict[str, Any]) -> None:
+    print(
+        f"tracks: {tracks['recordings']} recordings ({tracks['uav_recordings']} with a UAV), "
+        f"{tracks['windows']} windows ({100 * tracks['window_coverage']:.1f} % of their steps), "
+        f"{60 * tracks['uav_free_minutes']:.2f} s UAV-free"
+    )
+    names = {"any_spike": "any-spike rule", "identified": "+ identification"}
+    for rule, f in tracks["rules"].items():
+        t = f["time_to_alarm_ms"]
+        delay = (
+            "-"
+            if t["median"] is None
+            else f"median {t['median']:.0f} ms, 90th percentile {t['p90']:.0f} ms"
+        )
+        per_minute = f["false_tracks_per_minute"]
+        rate = (
+            "-"
+            if per_minute is None
+            else f"{per_minute:.2f}/min (95 % bound {f['false_tracks_per_minute_upper95']:.2f})"
+        )
+        print(
+            f"  {names.get(rule, rule):18s} UAV recordings found {f['found']}/"
+            f"{tracks['uav_recordings']}, time to first alarm {delay}; false tracks "
+            f"{f['false_tracks']} {rate}, stray {f['stray_tracks']}"
+        )
+    rows = {row["recording"]: row for row in tracks["per_recording"]}
+    missed = tracks["rules"]["any_spike"]["missed"]
+    if missed:
+        print(
+            "  UAV recordings the any-spike rule missed: "
+            + ", ".join(
+                f"{r} (UAV {_size(rows[r]['uav_size_px'])}, an object on it in "
+                f"{rows[r]['uav_windows_met']} of {rows[r]['uav_windows']} windows)"
+                for r in missed
+            )
+        )
+
+
+def _size(px: float | None) -> str:
+    return "size unknown" if px is None else f"{px:.1f} px"

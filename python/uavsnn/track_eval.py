@@ -1,0 +1,356 @@
+"""Track-level evaluation (SPEC §5, "track level"): per recording, was the UAV found, when, and
+how many tracks raised a false alarm.
+
+The windows of each test recording are followed in time order, causally, as the streaming
+:class:`uavsnn.detector.Detector` would follow them: :func:`uavsnn.identify.window_features`
+merges each window's conv3 spikes into objects and links them with a
+:class:`uavsnn.tracks.Tracker` (a window the dataset left out counts as a window without a
+detection). Each track then raises its alarm under two rules:
+
+- **any-spike**: when the tracker confirms it (``confirm_hits`` of ``confirm_windows``);
+- **identified**: at the first window where it is confirmed *and* the running mean of its
+  objects' UAV scores so far (every object of the track up to and including that window)
+  is at least the identifier's threshold. The mean, not the largest score: a track's
+  objects are scored window by window, and the largest of many noisy scores grows with the
+  track's length, so a long bird track would pass a threshold tuned on single windows; the
+  running mean weighs every window the same and stays causal.
+
+From the alarms (:func:`track_figures`):
+
+- a UAV recording (one with a labelled UAV window) is **found** when an alarming track has,
+  at or after its alarm, an object meeting the labelled UAV box of a UAV window; the **time
+  to first alarm** is the end of the earliest such window minus the start of the
+  recording's first labelled UAV window, in event time;
+- a **false track** is an alarming track whose alarm window has no UAV; the rate divides
+  them by the **UAV-free time**: the union of the recordings' UAV-free windows
+  ``[t0, t0 + L)``. With few counts the one-sided 95 % Poisson upper bound is given beside;
+- a **stray track** alarms in a UAV window but never meets the UAV from its alarm on.
+
+    >>> figures = evaluate_tracks(network, test)          # test: a format-2 dataset split
+    >>> print(track_table(figures))
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from uavsnn.errors import ParameterError, ShapeError
+
+if TYPE_CHECKING:
+    from uavsnn.dataset import LabelledWindows
+    from uavsnn.identify import WindowFeatures
+    from uavsnn.network import Inference, Network
+    from uavsnn.tracks import Tracker
+
+__all__ = [
+    "RULES",
+    "TRACK_SCORES",
+    "evaluate_tracks",
+    "poisson_upper",
+    "track_figures",
+    "track_table",
+]
+
+#: The rules a track can alarm by, in the order they are reported.
+RULES = ("any_spike", "identified")
+#: What the identified rule can compare with the threshold: the running mean (the default) or
+#: the running max of the track's object scores.
+TRACK_SCORES = ("mean", "max")
+
+_MINUTE_US = 60e6
+
+
+def poisson_upper(count: int, confidence: float = 0.95) -> float:
+    """The one-sided upper confidence bound on a Poisson mean after observing ``count``
+    events: the mean at which ``count`` or fewer events have probability ``1 - confidence``
+    (for 0 events at 95 %: 2.996, the "rule of three")."""
+    if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 0:
+        raise ParameterError(f"count must be an integer >= 0, got {count!r}")
+    if not 0.0 < confidence < 1.0:
+        raise ParameterError(f"confidence must be in (0, 1), got {confidence}")
+    alpha = 1.0 - confidence
+
+    def cdf(lam: float) -> float:
+        term = total = math.exp(-lam)
+        for i in range(1, int(count) + 1):
+            term *= lam / i
+            total += term
+        return total
+
+    lo, hi = 0.0, 10.0 + 10.0 * count
+    for _ in range(200):
+        mid = (lo + hi) / 2
+        if cdf(mid) > alpha:
+            lo = mid
+        else:
+            hi = mid
+    return (lo + hi) / 2
+
+
+def _meets(box: np.ndarray, truth: np.ndarray) -> bool:
+    """A half-open object box meets a labelled box (NaN: no labelled object)."""
+    return bool(
+        np.isfinite(truth).all()
+        and box[0] < truth[2]
+        and truth[0] < box[2]
+        and box[1] < truth[3]
+        and truth[1] < box[3]
+    )
+
+
+def _union_us(starts: np.ndarray, length: int) -> int:
+    """The total length of the union of the intervals ``[s, s + length)``."""
+    total, end = 0, None
+    for s in np.sort(starts).tolist():
+        if end is None or s >= end:
+            total += length
+        else:
+            total += s + length - end
+        end = s + length
+    return total
+
+
+def _stats_ms(values_us: list[int]) -> dict[str, float | int | None]:
+    if not values_us:
+        return {"n": 0, "median": None, "p90": None, "max": None}
+    v = np.asarray(values_us, dtype=np.float64) / 1000
+    return {
+        "n": len(v),
+        "median": float(np.median(v)),
+        "p90": float(np.percentile(v, 90)),
+        "max": float(v.max()),
+    }
+
+
+def track_figures(
+    data: LabelledWindows,
+    feats: WindowFeatures,
+    scores: np.ndarray | None = None,
+    threshold: float | None = None,
+    *,
+    track_score: str = "mean",
+) -> dict[str, Any]:
+    """The track-level figures of the windows ``data`` whose tracked objects are ``feats``
+    (:func:`uavsnn.identify.window_features` of the same windows: ``window``, ``boxes``,
+    ``track`` and ``confirmed`` are used). ``scores`` ``(m,)``: each object's UAV score, and
+    ``threshold`` the identifier's; without them only the any-spike rule is reported.
+    ``track_score``: what the identified rule compares with the threshold, the running
+    ``"mean"`` of the track's object scores (the default) or their running ``"max"``.
+
+    Returns a plain dict (JSON-ready): ``windows``, ``recordings``, ``uav_recordings``,
+    ``step_us``, ``window_us``, ``window_coverage`` (the windows present over the steps
+    their recordings span), ``uav_free_minutes``, ``rules`` (per rule of :data:`RULES`:
+    ``found``, ``found_rate``, ``missed`` (recording ids), ``time_to_alarm_ms`` (``n``,
+    ``median``, ``p90``, ``max``), ``alarming_tracks``, ``false_tracks``,
+    ``false_tracks_per_class`` (by the class labelled in the alarm window),
+    ``false_tracks_per_minute``, ``false_tracks_per_minute_upper95``, ``stray_tracks``) and
+    ``per_recording`` (one row per recording, with ``uav_windows_met``: its UAV windows where
+    an object meets the labelled box, and ``uav_size_px``: the median labelled UAV size).
+
+    Raises:
+        ShapeError: ``feats`` or ``scores`` that do not fit ``data``.
+        ParameterError: ``scores`` without ``threshold`` or the other way round.
+        DatasetError: windows that cannot form streams (:func:`uavsnn.identify.window_steps`).
+    """
+    from uavsnn.identify import window_steps
+
+    if feats.windows != len(data):
+        raise ShapeError(f"the features are of {feats.windows} windows, the data has {len(data)}")
+    m = len(feats.window)
+    if len(feats.track) != m or len(feats.confirmed) != m or len(feats.boxes) != m:
+        raise ShapeError("the features carry no tracks: make them with identify.window_features")
+    if (scores is None) != (threshold is None):
+        raise ParameterError("give both scores and threshold, or neither")
+    if scores is not None:
+        scores = np.asarray(scores, dtype=np.float64)
+        if scores.shape != (m,):
+            raise ShapeError(f"scores must be ({m},), got {scores.shape}")
+    if track_score not in TRACK_SCORES:
+        raise ParameterError(f"track_score must be one of {TRACK_SCORES}, got {track_score!r}")
+    rules = RULES if scores is not None else RULES[:1]
+    limit = math.inf if threshold is None else float(threshold)
+    order, step = window_steps(data)
+    window_us = int(data.windows.length_us)
+    t0 = np.asarray(data.windows.t0, dtype=np.int64)
+    t1 = t0 + window_us
+    label = np.asarray(data.label, dtype=bool)
+    cls = np.asarray(data.cls)
+    rec = np.asarray(data.recording, dtype=np.int64)
+    truth = np.asarray(data.box, dtype=np.float64)
+    position = np.empty(len(data), dtype=np.int64)
+    position[order] = np.arange(len(data))
+
+    # Each track's objects in stream order (objects of one window keep their order).
+    obj_order = np.lexsort((np.arange(m), position[feats.window]))
+    tracks: dict[tuple[int, int], list[int]] = {}
+    for j in obj_order.tolist():
+        tid = int(feats.track[j])
+        if tid:
+            tracks.setdefault((int(rec[feats.window[j]]), tid), []).append(j)
+
+    recordings = np.unique(rec).tolist()
+    first_uav = {
+        r: int(t0[(rec == r) & label].min()) for r in recordings if (label & (rec == r)).any()
+    }
+    found: dict[str, dict[int, int]] = {rule: {} for rule in rules}
+    false: dict[str, dict[int, list[str]]] = {rule: {r: [] for r in recordings} for rule in rules}
+    stray = dict.fromkeys(rules, 0)
+    alarming = dict.fromkeys(rules, 0)
+    for (r, _tid), objs in tracks.items():
+        alarm: dict[str, int | None] = dict.fromkeys(rules, None)
+        total, best = 0.0, -math.inf
+        for n, j in enumerate(objs, start=1):
+            if scores is not None:
+                total += float(scores[j])
+                best = max(best, float(scores[j]))
+            if not feats.confirmed[j]:
+                continue
+            if alarm["any_spike"] is None:
+                alarm["any_spike"] = n - 1
+            score = total / n if track_score == "mean" else best
+            if scores is not None and alarm["identified"] is None and score >= limit:
+                alarm["identified"] = n - 1
+        for rule, a in alarm.items():
+            if a is None:
+                continue
+            alarming[rule] += 1
+            w = int(feats.window[objs[a]])
+            on_uav = [
+                int(t1[feats.window[j]])
+                for j in objs[a:]
+                if label[feats.window[j]] and _meets(feats.boxes[j], truth[feats.window[j]])
+            ]
+            if on_uav:
+                found[rule][r] = min(found[rule].get(r, on_uav[0]), on_uav[0])
+            if not label[w]:
+                false[rule][r].append(str(cls[w]))
+            elif not on_uav:
+                stray[rule] += 1
+
+    free_us = {r: _union_us(t0[(rec == r) & ~label], window_us) for r in recordings}
+    free_minutes = sum(free_us.values()) / _MINUTE_US
+    span = {r: int((t0[rec == r].max() - t0[rec == r].min()) // step + 1) for r in recordings}
+    out: dict[str, Any] = {
+        "windows": len(data),
+        "recordings": len(recordings),
+        "uav_recordings": len(first_uav),
+        "step_us": step,
+        "window_us": window_us,
+        "window_coverage": len(data) / sum(span.values()) if recordings else 0.0,
+        "uav_free_minutes": free_minutes,
+        "rules": {},
+    }
+    for rule in rules:
+        delays = [found[rule][r] - first_uav[r] for r in first_uav if r in found[rule]]
+        per_class: dict[str, int] = {}
+        for names in false[rule].values():
+            for name in names:
+                per_class[name] = per_class.get(name, 0) + 1
+        n_false = sum(per_class.values())
+        out["rules"][rule] = {
+            "found": len(delays),
+            "found_rate": len(delays) / len(first_uav) if first_uav else None,
+            "missed": [r for r in first_uav if r not in found[rule]],
+            "time_to_alarm_ms": _stats_ms(delays),
+            "alarming_tracks": alarming[rule],
+            "false_tracks": n_false,
+            "false_tracks_per_class": dict(sorted(per_class.items())),
+            "false_tracks_per_minute": n_false / free_minutes if free_minutes else None,
+            "false_tracks_per_minute_upper95": (
+                poisson_upper(n_false) / free_minutes if free_minutes else None
+            ),
+            "stray_tracks": stray[rule],
+        }
+    # UAV windows with an object on the UAV (the tracker's raw material), per recording.
+    met = np.zeros(len(data), dtype=bool)
+    for j in range(m):
+        w = int(feats.window[j])
+        if label[w] and not met[w] and _meets(feats.boxes[j], truth[w]):
+            met[w] = True
+    size = np.asarray(data.size_px, dtype=np.float64)
+    rows = []
+    for r in recordings:
+        mine = rec == r
+        sizes = size[mine & label]
+        sizes = sizes[np.isfinite(sizes)]
+        kinds, counts = np.unique(cls[mine], return_counts=True)
+        row: dict[str, Any] = {
+            "recording": r,
+            "windows": int(mine.sum()),
+            "steps": span[r],
+            "uav_windows": int((mine & label).sum()),
+            "classes": {str(k): int(v) for k, v in zip(kinds, counts, strict=True)},
+            "uav_free_ms": free_us[r] / 1000,
+            "uav_windows_met": int((mine & met).sum()),
+            "uav_size_px": float(np.median(sizes)) if len(sizes) else None,
+        }
+        for rule in rules:
+            row[rule] = {
+                "found": r in found[rule] if r in first_uav else None,
+                "time_to_alarm_ms": (
+                    (found[rule][r] - first_uav[r]) / 1000 if r in found[rule] else None
+                ),
+                "false_tracks": len(false[rule][r]),
+            }
+        rows.append(row)
+    out["per_recording"] = rows
+    return out
+
+
+def evaluate_tracks(
+    network: Network,
+    data: LabelledWindows,
+    inference: Inference | None = None,
+    *,
+    features: WindowFeatures | None = None,
+    tracker: Tracker | None = None,
+    track_score: str = "mean",
+) -> dict[str, Any]:
+    """:func:`track_figures` of ``network`` on ``data`` (a format-2 dataset split): its objects
+    and tracks (``features`` when already made, else :func:`uavsnn.identify.window_features`
+    with ``tracker``), and with the network's identification (when it has one) both rules."""
+    from uavsnn.identify import window_features
+
+    if features is None:
+        features = window_features(network, data, inference, tracker=tracker)
+    ident = network.identification
+    if ident is None:
+        return track_figures(data, features)
+    return track_figures(
+        data, features, ident.scores(features.x), ident.threshold, track_score=track_score
+    )
+
+
+_RULE_NAMES = {"any_spike": "any-spike", "identified": "any-spike + identification"}
+
+
+def _fmt(value: float | None, digits: int = 0) -> str:
+    return "–" if value is None else f"{value:,.{digits}f}"
+
+
+def track_table(figures: dict[str, Any]) -> str:
+    """A Markdown table of :func:`track_figures`' figures, one row per rule."""
+    minutes = figures["uav_free_minutes"]
+    lines = [
+        "| rule | UAV recordings found | time to first alarm, median / 90th pct (ms) "
+        "| false tracks | per minute of UAV-free recording (95 % upper bound) | stray tracks |",
+        "|---|---|---|---|---|---|",
+    ]
+    for rule, f in figures["rules"].items():
+        t = f["time_to_alarm_ms"]
+        lines.append(
+            f"| {_RULE_NAMES.get(rule, rule)} | {f['found']} of {figures['uav_recordings']} "
+            f"| {_fmt(t['median'])} / {_fmt(t['p90'])} | {f['false_tracks']} "
+            f"| {_fmt(f['false_tracks_per_minute'], 2)} "
+            f"({_fmt(f['false_tracks_per_minute_upper95'], 2)}) | {f['stray_tracks']} |"
+        )
+    lines.append("")
+    lines.append(
+        f"{figures['recordings']} recordings, {figures['windows']} windows "
+        f"({100 * figures['window_coverage']:.1f} % of the steps they span), "
+        f"{60 * minutes:.2f} s of UAV-free recording."
+    )
+    return "\n".join(lines)

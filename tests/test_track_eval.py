@@ -1,0 +1,317 @@
+"""Track-level evaluation (uavsnn.track_eval): recordings found, time to first alarm, false
+tracks per minute of UAV-free recording, on hand-made windows where the answer is known, and
+on a tiny built dataset through `uavsnn evaluate --tracks`."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from uavsnn import Network
+from uavsnn.dataset import LabelledWindows
+from uavsnn.detector import _NO_DETECTIONS, WindowObject, WindowReport
+from uavsnn.errors import ParameterError, ShapeError
+from uavsnn.identify import FEATURES, WindowFeatures, window_steps
+from uavsnn.track_eval import poisson_upper, track_figures, track_table
+from uavsnn.tracks import Tracker
+from uavsnn.windows import Windows
+
+STEP, L = 25_000, 50_000  # µs: 50 ms windows every 25 ms, as the datasets cut them
+SIZE = (240, 180)
+UAV_BOX = (100.0, 80.0, 110.0, 90.0)
+
+
+def labelled(rows: list[tuple[int, int, bool, str]], manifest: bool = True) -> LabelledWindows:
+    """Windows from ``(recording, k, uav, cls)`` rows: window ``k`` of a recording starts at
+    ``1 s + k * STEP``; a UAV window's labelled box is :data:`UAV_BOX`. The manifest gives the
+    step, as a built dataset's does (``manifest=False``: none)."""
+    n = len(rows)
+    rec = np.array([r[0] for r in rows], dtype=np.int64)
+    t0 = np.array([1_000_000 + r[1] * STEP for r in rows], dtype=np.uint64)
+    label = np.array([r[2] for r in rows], dtype=bool)
+    cls = np.array([r[3] for r in rows])
+    box = np.where(label[:, None], np.array(UAV_BOX), np.nan).astype(np.float32)
+    windows = Windows(SIZE, L, t0, np.zeros(n + 1, np.int64), [], [], [], np.zeros(n, np.int64))
+    info = {"parameters": {"step_us": STEP}} if manifest else {}
+    return LabelledWindows(windows, label, cls, rec, box, info)
+
+
+def tracked(data: LabelledWindows, objects: dict[int, list[tuple[int, int, int, int]]]):
+    """The objects (boxes per window index of ``data``) linked by a default :class:`Tracker`,
+    recording by recording in time order, as ``identify.window_features`` links them."""
+    order, step = window_steps(data)
+    tracker, current = Tracker(), None
+    out: dict[int, list] = {}
+    t0s = np.asarray(data.windows.t0, dtype=np.int64)
+    for i in order.tolist():
+        if data.recording[i] != current:
+            current, first = data.recording[i], int(t0s[i])
+            tracker.reset()
+        boxes = objects.get(i, [])
+        rep = tracker.update(
+            WindowReport(
+                window=(int(t0s[i]) - first) // step,
+                t0=int(t0s[i]),
+                t1=int(t0s[i]) + L,
+                detected=bool(boxes),
+                detections=_NO_DETECTIONS,
+                objects=tuple(WindowObject(box=b, spikes=1) for b in boxes),
+            )
+        )
+        out[i] = [(o.box, o.track_id or 0, bool(o.track_confirmed)) for o in rep.objects]
+    rows = [(i, *o) for i in sorted(out) for o in out[i]]
+    m = len(rows)
+    return WindowFeatures(
+        x=np.zeros((m, len(FEATURES))),
+        window=np.array([r[0] for r in rows], dtype=np.int64),
+        boxes=np.array([r[1] for r in rows], dtype=np.int64).reshape(-1, 4),
+        windows=len(data),
+        track=np.array([r[2] for r in rows], dtype=np.int64),
+        confirmed=np.array([r[3] for r in rows], dtype=bool),
+    )
+
+
+def on_uav(k: int) -> tuple[int, int, int, int]:
+    return (100 + k % 2, 80, 108 + k % 2, 88)
+
+
+def bird(k: int) -> tuple[int, int, int, int]:
+    return (20 + 3 * k, 40, 26 + 3 * k, 46)
+
+
+def scene() -> tuple[LabelledWindows, dict[int, list]]:
+    """Recording 0: 20 windows, the UAV labelled from window 4 on and detected in each of them.
+    Recording 1: 20 UAV-free windows, a bird detected in windows 2..10. Recording 2: a UAV
+    labelled in 10 windows, never detected."""
+    rows = [(0, k, k >= 4, "drone" if k >= 4 else "none") for k in range(20)]
+    rows += [(1, k, False, "bird" if 2 <= k <= 10 else "none") for k in range(20)]
+    rows += [(2, k, True, "drone") for k in range(10)]
+    objects = {k: [on_uav(k)] for k in range(4, 20)}
+    objects |= {20 + k: [bird(k)] for k in range(2, 11)}
+    return labelled(rows), objects
+
+
+def test_a_found_uav_a_false_bird_track_and_a_missed_uav() -> None:
+    data, objects = scene()
+    f = track_figures(data, tracked(data, objects))
+    assert (f["recordings"], f["uav_recordings"], f["windows"]) == (3, 2, 50)
+    assert f["step_us"] == STEP and f["window_coverage"] == 1.0
+    rule = f["rules"]["any_spike"]
+    assert "identified" not in f["rules"]
+    # Confirmed at its third hit, window 6: it ends at 6 * 25 + 50 = 200 ms, 100 ms after the
+    # first UAV window starts (window 4, 100 ms).
+    assert rule["found"] == 1 and rule["missed"] == [2] and rule["found_rate"] == 0.5
+    assert rule["time_to_alarm_ms"] == {"n": 1, "median": 100.0, "p90": 100.0, "max": 100.0}
+    # The bird's track is confirmed in window 4 of recording 1: one false track.
+    assert rule["false_tracks"] == 1 and rule["false_tracks_per_class"] == {"bird": 1}
+    assert rule["stray_tracks"] == 0 and rule["alarming_tracks"] == 2
+    # UAV-free: windows 0-3 of recording 0 (0 to 125 ms) and all of recording 1 (525 ms).
+    minutes = (125 + 525) / 60_000
+    assert f["uav_free_minutes"] == pytest.approx(minutes)
+    assert rule["false_tracks_per_minute"] == pytest.approx(1 / minutes)
+    assert rule["false_tracks_per_minute_upper95"] == pytest.approx(4.7439 / minutes, rel=1e-4)
+    per = {r["recording"]: r for r in f["per_recording"]}
+    assert per[0]["any_spike"] == {"found": True, "time_to_alarm_ms": 100.0, "false_tracks": 0}
+    assert per[1]["any_spike"] == {"found": None, "time_to_alarm_ms": None, "false_tracks": 1}
+    assert per[2]["any_spike"]["found"] is False
+    assert per[1]["uav_free_ms"] == 525.0 and per[0]["uav_windows"] == 16
+    assert (per[0]["uav_windows_met"], per[2]["uav_windows_met"]) == (16, 0)
+    assert per[0]["uav_size_px"] is None  # no sizes labelled here
+    table = track_table(f)
+    assert "| any-spike | 1 of 2 | 100 / 100 | 1 |" in table and "identification" not in table
+
+
+def test_identification_alarms_on_the_running_mean_of_the_track_scores() -> None:
+    data, objects = scene()
+    feats = tracked(data, objects)
+    on = np.isin(feats.window, np.arange(20))  # recording 0's objects: the UAV
+    # The UAV's first three objects score low, then high: the running mean reaches 0.5 at its
+    # sixth object (0.3 + 3 * 0.9 = 3.0 over 6), window 9, which ends at 275 ms.
+    uav_scores = np.where(np.arange(on.sum()) < 3, 0.1, 0.9)
+    # The bird's first object scores high and the others low: the largest score would pass,
+    # the mean at confirmation (0.9 + 0.1 + 0.1) / 3 does not, nor ever after.
+    bird_scores = np.where(np.arange((~on).sum()) < 1, 0.9, 0.1)
+    scores = np.empty(len(feats.window))
+    scores[on], scores[~on] = uav_scores, bird_scores
+    f = track_figures(data, feats, scores, 0.5)
+    ident, spike = f["rules"]["identified"], f["rules"]["any_spike"]
+    assert ident["found"] == 1 and ident["time_to_alarm_ms"]["median"] == 175.0
+    assert ident["false_tracks"] == 0 and ident["false_tracks_per_minute"] == 0.0
+    assert ident["false_tracks_per_minute_upper95"] == pytest.approx(
+        poisson_upper(0) / f["uav_free_minutes"]
+    )
+    assert spike["false_tracks"] == 1 and spike["time_to_alarm_ms"]["median"] == 100.0
+    assert "| any-spike + identification | 1 of 2 | 175 / 175 | 0 |" in track_table(f)
+    # The running max instead: the UAV alarms at confirmation (its first score 0.1 < 0.5, its
+    # fourth 0.9), window 7, 175 -> 125 ms; the bird's first 0.9 makes its track a false one.
+    g = track_figures(data, feats, scores, 0.5, track_score="max")
+    assert g["rules"]["identified"]["time_to_alarm_ms"]["median"] == 125.0
+    assert g["rules"]["identified"]["false_tracks"] == 1
+    with pytest.raises(ParameterError, match="track_score"):
+        track_figures(data, feats, scores, 0.5, track_score="median")
+
+
+def test_left_out_windows_count_as_misses() -> None:
+    """Every third window of a UAV recording in the dataset: the UAV is detected in each, but
+    3 hits in 5 windows never happen, so no track is confirmed and the UAV is missed; every
+    other window: confirmed at window 4 (hits at 0, 2, 4), alarm at 150 ms."""
+    for keep, found, delay in ((3, 0, None), (2, 1, 150.0)):
+        ks = list(range(0, 20, keep))
+        data = labelled([(0, k, True, "drone") for k in ks])
+        f = track_figures(data, tracked(data, {i: [on_uav(k)] for i, k in enumerate(ks)}))
+        assert f["window_coverage"] == pytest.approx(len(ks) / (ks[-1] + 1))
+        assert f["rules"]["any_spike"]["found"] == found
+        assert f["rules"]["any_spike"]["time_to_alarm_ms"]["median"] == delay
+        # Without the manifest's step, the step is the gaps' greatest common divisor.
+        bare = labelled([(0, k, True, "drone") for k in ks], manifest=False)
+        assert window_steps(bare)[1] == keep * STEP
+
+
+def test_a_track_beside_the_uav_is_stray_not_found() -> None:
+    data = labelled([(0, k, True, "drone") for k in range(10)])
+    f = track_figures(data, tracked(data, {k: [bird(k)] for k in range(10)}))
+    rule = f["rules"]["any_spike"]
+    assert rule["found"] == 0 and rule["stray_tracks"] == 1 and rule["false_tracks"] == 0
+    assert f["uav_free_minutes"] == 0 and rule["false_tracks_per_minute"] is None
+
+
+def test_the_earliest_of_two_tracks_on_the_uav_counts() -> None:
+    """Two tracks on the UAV in recording 0, the second confirmed later: the first alarm
+    counts; a recording's windows given in any order give the same figures."""
+    data = labelled([(0, k, True, "drone") for k in range(12)])
+    # Two still boxes 14 px apart, each meeting the UAV's box: one from window 2, one from 0.
+    objects = {k: [(96, 76, 104, 84)] for k in range(2, 12)}
+    for k in range(0, 12):
+        objects.setdefault(k, []).append((106, 86, 114, 94))
+    f = track_figures(data, tracked(data, objects))
+    rule = f["rules"]["any_spike"]
+    assert rule["alarming_tracks"] == 2 and rule["stray_tracks"] == 0
+    assert rule["time_to_alarm_ms"]["median"] == 100.0  # the second box's window 2 ends
+    perm = np.random.default_rng(0).permutation(len(data))
+    shuffled = data.select(perm)
+    back = {int(p): i for i, p in enumerate(perm)}
+    g = track_figures(shuffled, tracked(shuffled, {back[k]: boxes for k, boxes in objects.items()}))
+    assert g["rules"] == f["rules"]
+
+
+def test_poisson_upper_bounds() -> None:
+    # The one-sided 95 % bounds: chi-square(0.95, 2k + 2) / 2.
+    for k, bound in ((0, 2.9957), (1, 4.7439), (2, 6.2958), (5, 10.5130), (20, 29.0620)):
+        assert poisson_upper(k) == pytest.approx(bound, abs=1e-3)
+    assert poisson_upper(0, 0.9) == pytest.approx(2.3026, abs=1e-3)
+    for bad in (-1, 1.5, True):
+        with pytest.raises(ParameterError):
+            poisson_upper(bad)  # type: ignore[arg-type]
+    with pytest.raises(ParameterError):
+        poisson_upper(1, 1.0)
+
+
+def test_bad_inputs_are_typed_errors() -> None:
+    data, objects = scene()
+    feats = tracked(data, objects)
+    with pytest.raises(ParameterError, match="both scores and threshold"):
+        track_figures(data, feats, np.zeros(len(feats.window)))
+    with pytest.raises(ShapeError):
+        track_figures(data, feats, np.zeros(3), 0.5)
+    with pytest.raises(ShapeError, match="windows"):
+        track_figures(data.select(np.arange(10)), feats)
+    bare = WindowFeatures(feats.x, feats.window, feats.boxes, feats.windows)
+    with pytest.raises(ShapeError, match="no tracks"):
+        track_figures(data, bare)
+
+
+@pytest.fixture(scope="module")
+def tiny(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
+    """A tiny dvs dataset (24 test windows) and an untrained 240x180 model."""
+    from uavsnn.dataset import SceneSource, build
+
+    tmp = tmp_path_factory.mktemp("tiny")
+    root = build(
+        tmp / "set", "dvs", n_test=24, n_train=0, seed=5,
+        dvs=SceneSource("dvs", (240, 180), 200.0, 0.4),
+    ).root  # fmt: skip
+    model = tmp / "m.npz"
+    Network({"width": 240, "height": 180, "conv2": {"threshold": 10.0}}, seed=0).save(model)
+    return root, model
+
+
+def test_evaluate_tracks_on_a_tiny_built_dataset(
+    tiny: tuple[Path, Path], capsys: pytest.CaptureFixture[str]
+) -> None:
+    from uavsnn.cli import main
+    from uavsnn.dataset import load
+
+    root, model = tiny
+    assert main(["evaluate", str(model), str(root), "--tracks", "--json"]) == 0
+    tracks = json.loads(capsys.readouterr().out)["tracks"]
+    test = load(root, "test")
+    recordings = np.unique(test.recording)
+    assert tracks["windows"] == 24 and tracks["recordings"] == len(recordings)
+    uav_recs = {int(r) for r in recordings if test.label[test.recording == r].any()}
+    assert tracks["uav_recordings"] == len(uav_recs)
+    assert sum(r["windows"] for r in tracks["per_recording"]) == 24
+    assert list(tracks["rules"]) == ["any_spike"]  # no identification in this model
+    rule = tracks["rules"]["any_spike"]
+    assert rule["found"] + len(rule["missed"]) == len(uav_recs)
+    assert set(rule["missed"]) <= uav_recs
+    # The UAV-free time lies between the UAV-free windows' steps and their lengths.
+    free = int((~test.label).sum())
+    assert free * STEP <= 60e6 * tracks["uav_free_minutes"] <= free * L
+    # The text output says the same.
+    assert main(["evaluate", str(model), str(root), "--tracks"]) == 0
+    text = capsys.readouterr().out
+    assert f"tracks: {len(recordings)} recordings ({len(uav_recs)} with a UAV)" in text
+    assert f"UAV recordings found {rule['found']}/{len(uav_recs)}" in text
+    # The default tracker's row of the bench's sweep is what evaluate reported.
+    sweep = _bench_script()
+    sweep.dataset_sweep(str(model), str(root), "test")
+    rows = capsys.readouterr().out.splitlines()
+    (row,) = [r for r in rows if r.startswith("| 24 | 3 of 5 |")]
+    assert f"| {rule['found']} of {len(uav_recs)} | " in row
+    assert f"| {rule['false_tracks']} | " in row
+    # Following half of the windows: fewer windows, a smaller share of the steps.
+    sweep.dataset_sweep(str(model), str(root), "test", keep=0.5, keep_seed=1)
+    head = capsys.readouterr().out.splitlines()[0]
+    kept = int(head.split(": ")[1].split(" windows")[0])
+    share = float(head.split("(")[1].split(" %")[0])
+    assert kept < 24 and share < 100 * tracks["window_coverage"]
+
+
+def _bench_script():
+    import importlib.util
+    import sys
+
+    path = Path(__file__).resolve().parents[1] / "benches" / "python" / "track_noise.py"
+    spec = importlib.util.spec_from_file_location("track_noise", path)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules["track_noise"] = module
+    try:
+        spec.loader.exec_module(module)
+    finally:
+        sys.modules.pop("track_noise", None)
+    return module
+
+
+def test_a_dataset_without_raw_events_is_one_line_and_exit_2(
+    tiny: tuple[Path, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """--tracks needs each window's raw events: a dataset saved without them is refused."""
+    import shutil
+
+    from uavsnn.cli import main
+    from uavsnn.dataset import load
+    from uavsnn.dataset.format import read_manifest, save_split, write_manifest
+
+    root, model = tiny
+    bare = tmp_path / "bare"
+    shutil.copytree(root, bare)
+    save_split(bare / "test.npz", replace(load(root, "test"), raw=None))
+    write_manifest(bare, read_manifest(bare))  # the split's new hash
+    code = main(["evaluate", str(model), str(bare), "--tracks"])
+    err = capsys.readouterr().err
+    assert code == 2 and "raw events" in err and len(err.strip().splitlines()) == 1
