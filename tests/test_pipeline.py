@@ -103,6 +103,9 @@ def test_reproduce_at_a_tiny_size(tmp_path: Path, capsys: pytest.CaptureFixture[
     assert len(results["noise"]) == 2 * len(NOISE_FRACTIONS)
     # Both rules: each network's identification fit is reported, fitted or skipped with why.
     assert "| with identification |" in text
+    # Track level: the combined network's test recordings followed as streams.
+    assert "### Tracks" in text and "| any-spike |" in text
+    assert results["tracks"]["recordings"] == len(results["tracks"]["per_recording"])
     for entry in results["table2"].values():
         fit = entry["identify_fit"]
         assert ("skipped" in fit) == (entry["identification"] is None)
