@@ -203,3 +203,43 @@ def test_streaming_scores_every_object_of_a_window() -> None:
         inside = events[(x >= x0) & (x < x1) & (y >= y0) & (y < y1)]
         expected = ident.scores(object_features(obj.box, obj.spikes, inside)[None, :])[0]
         assert obj.uav_score == pytest.approx(float(expected), abs=0)
+
+
+# ---------------------------------------------------------------- the threshold's tuning
+
+
+def _one_object_per_window(x: np.ndarray, label: np.ndarray):
+    from uavsnn.identify import FEATURES, WindowFeatures
+
+    full = np.zeros((len(x), len(FEATURES)))
+    full[:, FEATURES.index("log_width")] = x
+    n = len(x)
+    return WindowFeatures(
+        full, np.arange(n), np.zeros((n, 4), np.int64), n, label, np.ones(n, bool)
+    )
+
+
+def test_the_threshold_does_not_follow_the_tuning_sets_share_of_uavs() -> None:
+    """The threshold maximises balanced accuracy: a tuning set with many more UAV-free windows
+    (the real footage's held-out recordings) must not push it to reject every window."""
+    from uavsnn.identify import fit
+
+    rng = np.random.default_rng(9)
+    n = 400
+    label = np.arange(n) < n // 2
+    x = np.where(label, 1.0, -1.0) + rng.normal(0, 1.0, n)  # overlapping classes
+    train = _one_object_per_window(x, label)
+    # The tuning set: the same kind of objects, four times as many UAV-free ones.
+    keep = np.concatenate([np.arange(n // 2, n)] * 4 + [np.arange(n // 8)])
+    tune = _one_object_per_window(x[keep], label[keep])
+    names = ("log_width",)
+    balanced = fit(
+        train, train, tune_detected=np.ones(n, bool), tune_label=label, features=names
+    ).threshold
+    skewed = fit(
+        train, tune, tune_detected=np.ones(len(keep), bool), tune_label=label[keep], features=names
+    ).threshold
+    # Both thresholds sit between the classes; the skewed set's is near the balanced one's.
+    scores = fit(train, train, features=names).window_scores(train)
+    assert np.mean(scores[label] >= skewed) > 0.5
+    assert abs(balanced - skewed) < 0.25

@@ -555,7 +555,9 @@ def fit(
     """Fit an :class:`Identifier` on ``train``'s usable objects; choose the L2 weight (the
     smallest log loss on ``tune``'s usable objects) and, when ``tune_detected`` (the any-spike
     rule's calls) and ``tune_label`` (the windows' truth) are given, the threshold on the
-    window score that makes the combined rule most accurate on ``tune`` (else 0.5).
+    window score that gives the combined rule the best balanced accuracy on ``tune`` (the mean
+    of its accuracy on UAV and on UAV-free windows, so that the tuning set's share of UAV
+    windows, which is not the test set's, does not move it; else 0.5).
     ``tune`` must come from other recordings than ``train`` and never from the test set.
 
     Raises:
@@ -585,10 +587,17 @@ def fit(
         score = np.where(np.asarray(tune_detected, bool), ident.window_scores(tu), -1.0)
         label = np.asarray(tune_label, dtype=bool)
         candidates = np.unique(np.concatenate([[0.5], score[score >= 0]]))
-        acc = [np.mean((score >= c) == label) for c in candidates]
+        acc = [_balanced_accuracy(score >= c, label) for c in candidates]
         threshold = float(candidates[int(np.argmax(acc))])
         ident = Identifier(names, best[2], mean, scale, threshold, best[1])
     return ident
+
+
+def _balanced_accuracy(pred: np.ndarray, label: np.ndarray) -> float:
+    """The mean of the accuracy on the positives and on the negatives (plain accuracy when
+    ``label`` holds one kind only)."""
+    kinds = [k for k in (label, ~label) if k.any()]
+    return float(np.mean([np.mean(pred[k] == label[k]) for k in kinds]))
 
 
 def ablation(

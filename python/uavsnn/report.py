@@ -406,6 +406,9 @@ def identification_markdown(figures: dict[str, Any]) -> str:
     points = figures["at_false_alarm"]
     head = " | ".join(f"at {100 * p['false_alarm_target']:g} % false alarms" for p in points)
     for key, unit, what in (("by_size_px", "px", "size"), ("by_range_m", "m", "range")):
+        if not points[0][key]:
+            lines += [f"No UAV window has a labelled {what}.\n"]
+            continue
         lines += [f"Detection by the UAV's {what}:\n", f"| {what} | UAV windows | {head} |"]
         lines.append("|---|---|" + "---|" * len(points))
         for k, b in enumerate(points[0][key]):
