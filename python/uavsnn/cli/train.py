@@ -22,7 +22,7 @@ def register(subparsers: Any) -> None:
         help="train a detector by STDP, one layer at a time",
         description="Train conv2 then conv3 (and conv1 with --layers conv1,conv2,conv3) by "
         "winner-take-all STDP on the train split of a dataset made by `uavsnn dataset build`; "
-        "fit identification (a logistic regression on rotor, shape and activity features; "
+        "fit identification (a logistic regression on rotor, shape, activity and track features; "
         "docs/identification.md) on the split's labels; write the model file. STDP uses no "
         "labels.",
     )
