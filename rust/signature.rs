@@ -503,7 +503,8 @@ mod tests {
         out
     }
 
-    fn noise(rate_hz: f64, side: u16, duration_us: u64, seed: u64) -> Vec<Event> {
+    /// Uniform random events in a `side`×`side` box (also the spectrum's tests' noise).
+    pub(super) fn noise(rate_hz: f64, side: u16, duration_us: u64, seed: u64) -> Vec<Event> {
         let mut rng = Pcg64::seed_from_u64(seed);
         let n = (rate_hz * duration_us as f64 * 1e-6) as usize;
         let mut out: Vec<Event> = (0..n)

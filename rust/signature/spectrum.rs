@@ -529,6 +529,7 @@ impl RotorSpectrum {
 
 #[cfg(test)]
 mod tests {
+    use super::super::tests::noise;
     use super::*;
     use rand::{Rng, SeedableRng};
     use rand_pcg::Pcg64;
@@ -565,21 +566,6 @@ mod tests {
                 t0 += period;
             }
         }
-        out.sort_by_key(|e| e.t);
-        out
-    }
-
-    fn noise(rate_hz: f64, side: u16, duration_us: u64, seed: u64) -> Vec<Event> {
-        let mut rng = Pcg64::seed_from_u64(seed);
-        let n = (rate_hz * duration_us as f64 * 1e-6) as usize;
-        let mut out: Vec<Event> = (0..n)
-            .map(|_| Event {
-                t: rng.random_range(0..duration_us),
-                x: rng.random_range(0..side),
-                y: rng.random_range(0..side),
-                p: rng.random(),
-            })
-            .collect();
         out.sort_by_key(|e| e.t);
         out
     }
