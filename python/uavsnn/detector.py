@@ -606,16 +606,9 @@ def _window_events(report: WindowReport, events: np.ndarray) -> np.ndarray:
 
 
 def _in_box(events: np.ndarray, box: tuple[int, int, int, int]) -> np.ndarray:
-    """The ``events`` inside the half-open ``box`` ``(x0, y0, x1, y1)`` (the one box mask of
-    the streaming and the batch identification paths)."""
     x0, y0, x1, y1 = box
     x, y = events["x"], events["y"]
     return events[(x >= x0) & (x < x1) & (y >= y0) & (y < y1)]
-
-
-def _xywh(box: tuple[int, int, int, int]) -> tuple[int, int, int, int]:
-    """``(x0, y0, x1, y1)`` as the rotor signature's ``(x0, y0, width, height)``."""
-    return box[0], box[1], box[2] - box[0], box[3] - box[1]
 
 
 def _with_rotor(report: WindowReport, events: np.ndarray) -> WindowReport:
@@ -624,7 +617,8 @@ def _with_rotor(report: WindowReport, events: np.ndarray) -> WindowReport:
     inside = _window_events(report, events)
     objects = list(report.objects)
     for i, obj in enumerate(objects[:MAX_ROTOR_BOXES]):
-        est = rotor_signature(_in_box(inside, obj.box), _xywh(obj.box))
+        x0, y0, x1, y1 = obj.box
+        est = rotor_signature(_in_box(inside, obj.box), (x0, y0, x1 - x0, y1 - y0))
         objects[i] = replace(obj, rotor=est)
     return replace(report, objects=tuple(objects))
 

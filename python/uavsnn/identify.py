@@ -38,7 +38,6 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from uavsnn.detector import _in_box, _xywh
 from uavsnn.errors import DatasetError, ModelFileError, ParameterError, ShapeError
 from uavsnn.signature import RotorEstimate, rotor_signature
 
@@ -150,7 +149,8 @@ def object_features(
     w, h = x1 - x0, y1 - y0
     if w < 1 or h < 1:
         raise ParameterError(f"an object's box must not be empty, got {box}")
-    inside = _in_box(events, (x0, y0, x1, y1))
+    x, y = events["x"], events["y"]
+    inside = events[(x >= x0) & (x < x1) & (y >= y0) & (y < y1)]
     if rotor is None:
         rotor = rotor_signature(inside, (x0, y0, w, h))
     on = int(np.count_nonzero(inside["p"]))
@@ -398,6 +398,16 @@ def raw_noise_events(
     noise["p"] = rng.integers(0, 2, 2 * n)
     out = np.concatenate([events, noise])
     return out[np.argsort(out["t"], kind="stable")]
+
+
+def _xywh(box: tuple[int, int, int, int]) -> tuple[int, int, int, int]:
+    return box[0], box[1], box[2] - box[0], box[3] - box[1]
+
+
+def _in_box(events: np.ndarray, box: tuple[int, int, int, int]) -> np.ndarray:
+    x0, y0, x1, y1 = box
+    x, y = events["x"], events["y"]
+    return events[(x >= x0) & (x < x1) & (y >= y0) & (y < y1)]
 
 
 def fit_logistic(
