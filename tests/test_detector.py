@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import uavsnn.detector
@@ -644,6 +644,63 @@ def test_merged_boxes_cover_every_box_and_never_touch(boxes, seed) -> None:
     assert all(
         o.uav_score is None and o.class_guess is None and o.track_id is None for o in objects
     )
+
+
+def merge_reference(d: np.ndarray) -> list[tuple[tuple[int, int, int, int], int]]:
+    """merge_boxes as first written (NumPy throughout): the rule its faster form must keep."""
+    if len(d) == 0:
+        return []
+    raw = np.stack([d[f].astype(np.int64) for f in ("x0", "y0", "x1", "y1")], axis=1)
+    boxes, counts = np.unique(raw, axis=0, return_counts=True)
+    while True:
+        merged_boxes, merged_counts = [], []
+        rest, rest_n = boxes, counts
+        while len(rest):
+            cur, n = rest[0].copy(), int(rest_n[0])
+            rest, rest_n = rest[1:], rest_n[1:]
+            while len(rest):
+                hit = (
+                    (rest[:, 0] <= cur[2])
+                    & (cur[0] <= rest[:, 2])
+                    & (rest[:, 1] <= cur[3])
+                    & (cur[1] <= rest[:, 3])
+                )
+                if not hit.any():
+                    break
+                cur[:2] = np.minimum(cur[:2], rest[hit, :2].min(axis=0))
+                cur[2:] = np.maximum(cur[2:], rest[hit, 2:].max(axis=0))
+                n += int(rest_n[hit].sum())
+                rest, rest_n = rest[~hit], rest_n[~hit]
+            merged_boxes.append(cur)
+            merged_counts.append(n)
+        stable = len(merged_boxes) == len(boxes)
+        boxes, counts = np.array(merged_boxes), np.array(merged_counts)
+        if stable:
+            break
+    order = sorted(range(len(boxes)), key=lambda i: (-counts[i], *boxes[i][:2].tolist()))
+    return [(tuple(int(v) for v in boxes[i]), int(counts[i])) for i in order]
+
+
+@given(boxes=box_rows(40))
+def test_merge_boxes_equals_the_reference_rule_for_a_few_boxes(boxes) -> None:
+    d = as_detections(boxes)
+    assert [(o.box, o.spikes) for o in merge_boxes(d)] == merge_reference(d)
+
+
+@settings(max_examples=30, deadline=None)
+@given(
+    boxes=st.lists(
+        st.tuples(st.integers(0, 300), st.integers(0, 300), st.integers(1, 6), st.integers(1, 6)),
+        min_size=uavsnn.detector._MERGE_IN_NUMPY_FROM + 1,
+        max_size=300,
+        unique=True,
+    ),
+    repeat=st.integers(1, 3),
+)
+def test_merge_boxes_equals_the_reference_rule_for_many_boxes(boxes, repeat) -> None:
+    # More distinct boxes than merge_boxes merges in plain Python: its NumPy passes.
+    d = as_detections(boxes * repeat)
+    assert [(o.box, o.spikes) for o in merge_boxes(d)] == merge_reference(d)
 
 
 def test_merge_rule_by_hand() -> None:

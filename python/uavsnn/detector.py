@@ -29,6 +29,7 @@ from __future__ import annotations
 import json
 import os
 import time
+from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
@@ -442,12 +443,66 @@ def merge_boxes(detections: np.ndarray) -> tuple[WindowObject, ...]:
     """
     if len(detections) == 0:
         return ()
-    raw = np.stack([detections[f].astype(np.int64) for f in ("x0", "y0", "x1", "y1")], axis=1)
-    boxes, counts = np.unique(raw, axis=0, return_counts=True)
+    # The distinct boxes in ascending (x0, y0, x1, y1) order, each with its spike count.
+    tally = Counter(zip(*(detections[f].tolist() for f in ("x0", "y0", "x1", "y1")), strict=True))
+    boxes = sorted(tally)
+    counts = [tally[b] for b in boxes]
+    if len(boxes) > _MERGE_IN_NUMPY_FROM:
+        merged = _merge_passes_numpy(boxes, counts)
+    else:
+        merged = _merge_passes(boxes, counts)
+    merged.sort(key=lambda bc: (-bc[1], bc[0][0], bc[0][1]))
+    return tuple(WindowObject(box=box, spikes=n) for box, n in merged)
+
+
+#: :func:`merge_boxes` merges up to this many distinct boxes in plain Python (a window holds a
+#: few, where NumPy's cost per call dominates) and more with NumPy (a pass makes
+#: ``O(boxes²)`` comparisons; vectorised, thousands of boxes stay fast). Both give the same
+#: objects.
+_MERGE_IN_NUMPY_FROM = 64
+
+_Box = tuple[int, int, int, int]
+
+
+def _merge_passes(boxes: list[_Box], counts: list[int]) -> list[tuple[_Box, int]]:
+    """:func:`merge_boxes`'s passes, in plain Python. A pass takes the first box left and
+    absorbs every box left that overlaps or touches it (all of them at once, then again
+    against the grown box) until none does, then moves on to the next box left. Passes repeat
+    until one merges nothing. Returns ``(box, spikes)`` in the last pass's order."""
     while True:
-        merged_boxes: list[np.ndarray] = []
+        merged: list[tuple[_Box, int]] = []
+        rest = list(zip(boxes, counts, strict=True))
+        while rest:
+            (x0, y0, x1, y1), n = rest.pop(0)
+            while rest:
+                hit, keep = [], []
+                for r in rest:
+                    b = r[0]
+                    if b[0] <= x1 and x0 <= b[2] and b[1] <= y1 and y0 <= b[3]:
+                        hit.append(r)
+                    else:
+                        keep.append(r)
+                if not hit:
+                    break
+                x0 = min(x0, *(b[0] for b, _ in hit))
+                y0 = min(y0, *(b[1] for b, _ in hit))
+                x1 = max(x1, *(b[2] for b, _ in hit))
+                y1 = max(y1, *(b[3] for b, _ in hit))
+                n += sum(c for _, c in hit)
+                rest = keep
+            merged.append(((x0, y0, x1, y1), n))
+        if len(merged) == len(boxes):  # a pass merged nothing: no two boxes touch
+            return merged
+        boxes, counts = [b for b, _ in merged], [c for _, c in merged]
+
+
+def _merge_passes_numpy(boxes: list[_Box], counts: list[int]) -> list[tuple[_Box, int]]:
+    """:func:`_merge_passes` with each comparison of a box against those left vectorised."""
+    rows, n_of = np.array(boxes, dtype=np.int64), np.array(counts, dtype=np.int64)
+    while True:
+        merged_rows: list[np.ndarray] = []
         merged_counts: list[int] = []
-        rest, rest_n = boxes, counts
+        rest, rest_n = rows, n_of
         while len(rest):
             cur, n = rest[0].copy(), int(rest_n[0])
             rest, rest_n = rest[1:], rest_n[1:]
@@ -464,18 +519,15 @@ def merge_boxes(detections: np.ndarray) -> tuple[WindowObject, ...]:
                 cur[2:] = np.maximum(cur[2:], rest[hit, 2:].max(axis=0))
                 n += int(rest_n[hit].sum())
                 rest, rest_n = rest[~hit], rest_n[~hit]
-            merged_boxes.append(cur)
+            merged_rows.append(cur)
             merged_counts.append(n)
-        stable = len(merged_boxes) == len(boxes)
-        boxes, counts = np.array(merged_boxes), np.array(merged_counts)
+        stable = len(merged_rows) == len(rows)
+        rows, n_of = np.array(merged_rows), np.array(merged_counts, dtype=np.int64)
         if stable:  # a pass merged nothing: no two boxes touch
-            break
-    order = sorted(range(len(boxes)), key=lambda i: (-counts[i], *boxes[i][:2].tolist()))
-    objects = []
-    for i in order:
-        x0, y0, x1, y1 = (int(v) for v in boxes[i])
-        objects.append(WindowObject(box=(x0, y0, x1, y1), spikes=int(counts[i])))
-    return tuple(objects)
+            return [
+                ((int(r[0]), int(r[1]), int(r[2]), int(r[3])), int(c))
+                for r, c in zip(rows, n_of, strict=True)
+            ]
 
 
 class WindowGrouper:
