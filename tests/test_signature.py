@@ -19,6 +19,7 @@ from hypothesis import strategies as st
 
 import uavsnn
 from uavsnn import EventError, ParameterError
+from uavsnn.boxes import in_box
 from uavsnn.events import EVENT_DTYPE
 from uavsnn.signature import (
     DEFAULTS,
@@ -27,6 +28,7 @@ from uavsnn.signature import (
     SPECTRUM_DEFAULTS,
     RotorSignature,
     RotorSpectrum,
+    measure_box,
     rotor_signature,
     rotor_spectrum,
 )
@@ -147,6 +149,35 @@ def test_streaming_in_chunks_equals_one_call(gen):
     for chunk in np.array_split(events, 7):
         s.update(chunk)
     assert s.estimate() == whole
+
+
+def test_measure_box_is_the_rotor_and_counts_of_the_events_in_the_box(gen):
+    """One pass over a window's events, unselected, gives what selecting the box's events first
+    gives: their rotor signature, their number and their ON events (chunks as one array)."""
+    rng = np.random.default_rng(2310)
+    flicker = gen.flicker(400.0, 6, 60_000, 2, 0.02, rng)
+    flicker["x"] += 20
+    flicker["y"] += 10
+    events = np.concatenate([flicker, gen.noise(3e4, 40, 60_000, rng)])
+    events = events[np.argsort(events["t"], kind="stable")]
+    for box in [(18, 9, 10, 8), (0, 0, 40, 40), (30, 30, 5, 5)]:
+        x0, y0, w, h = box
+        inside = in_box(events, (x0, y0, x0 + w, y0 + h))
+        expected = (rotor_signature(inside, box), len(inside), int(inside["p"].sum()))
+        assert measure_box(events, box) == expected
+        assert measure_box(np.array_split(events, 5), box) == expected
+        assert measure_box([], box) == (rotor_signature(events[:0], box), 0, 0)
+    assert measure_box(events, (18, 9, 10, 8))[0].detected
+    # Events out of time order are ignored by the estimator, as rotor_signature ignores them,
+    # and still counted.
+    shuffled = events[rng.permutation(len(events))]
+    inside = in_box(shuffled, (18, 9, 28, 17))
+    expected = (rotor_signature(inside, (18, 9, 10, 8)), len(inside), int(inside["p"].sum()))
+    assert measure_box(shuffled, (18, 9, 10, 8)) == expected
+    with pytest.raises(EventError):
+        measure_box([events, np.zeros(3)], (0, 0, 4, 4))
+    with pytest.raises(ParameterError, match="box"):
+        measure_box(events, (0, 0, 0, 4))
 
 
 @pytest.mark.parametrize(

@@ -16,6 +16,7 @@ The state is fixed when the estimator is made (32 bytes per pixel of the box, at
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -23,6 +24,7 @@ import numpy as np
 
 from uavsnn import _core
 from uavsnn._validate import check_sensor_size
+from uavsnn.boxes import box_mask
 from uavsnn.errors import ParameterError
 from uavsnn.events import packed_bytes
 
@@ -35,6 +37,7 @@ __all__ = [
     "RotorSignature",
     "RotorSpectrum",
     "SpectrumEstimate",
+    "measure_box",
     "rotor_signature",
     "rotor_spectrum",
 ]
@@ -164,6 +167,33 @@ def rotor_signature(
     estimator = RotorSignature(box, **params)
     estimator.update(events)
     return estimator.estimate()
+
+
+def measure_box(
+    events: np.ndarray | Sequence[np.ndarray], box: tuple[int, int, int, int], **params: Any
+) -> tuple[RotorEstimate, int, int]:
+    """An object's box measured in one pass: the rotor signature of the events inside ``box``
+    ``(x0, y0, width, height)`` (what :func:`rotor_signature` gives), the number of events
+    inside it and how many of them are ON.
+
+    ``events``: canonical events in time order, one array or the chunks of one stream in
+    order (each fed as it is, none copied). Nothing needs selecting first: the estimator
+    ignores the events outside the box. ``params`` as :class:`RotorSignature`'s.
+
+    Raises:
+        EventError: an array not of the canonical dtype.
+        ParameterError: as :class:`RotorSignature`.
+    """
+    estimator = RotorSignature(box, **params)
+    parts = (events,) if isinstance(events, np.ndarray) else events
+    x0, y0, width, height = estimator.box
+    inside = on = 0
+    for part in parts:
+        estimator.update(part)
+        mask = box_mask(part, (x0, y0, x0 + width, y0 + height))
+        inside += int(np.count_nonzero(mask))
+        on += int(np.count_nonzero(mask & part["p"]))
+    return estimator.estimate(), inside, on
 
 
 # --------------------------------------------------------------------------- rate spectrum

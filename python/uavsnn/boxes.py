@@ -1,0 +1,63 @@
+"""Boxes of sensor pixels, and the events inside one.
+
+A box here is half-open ``(x0, y0, x1, y1)``: the pixels with ``x0 <= x < x1`` and
+``y0 <= y < y1``, as the network's causal boxes and the objects merged from them
+(:func:`uavsnn.detector.merge_boxes`) give it. The rotor estimators of :mod:`uavsnn.signature`
+take a box as ``(x0, y0, width, height)`` instead (:func:`xywh`).
+
+    >>> inside = in_box(events, (10, 20, 34, 36))      # the events of that 24x16 box
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from uavsnn.errors import EventError, ParameterError
+
+__all__ = ["box_mask", "in_box", "xywh"]
+
+
+def _corners(box: object) -> tuple[int, int, int, int]:
+    try:
+        x0, y0, x1, y1 = (int(v) for v in box)  # type: ignore[attr-defined]
+    except (TypeError, ValueError) as exc:
+        raise ParameterError(f"box must be (x0, y0, x1, y1), got {box!r}") from exc
+    return x0, y0, x1, y1
+
+
+def xywh(box: tuple[int, int, int, int]) -> tuple[int, int, int, int]:
+    """``(x0, y0, x1, y1)`` as ``(x0, y0, width, height)``.
+
+    Raises:
+        ParameterError: ``box`` is not four integers.
+    """
+    x0, y0, x1, y1 = _corners(box)
+    return x0, y0, x1 - x0, y1 - y0
+
+
+def box_mask(events: np.ndarray, box: tuple[int, int, int, int]) -> np.ndarray:
+    """Which of ``events`` (a structured array with ``x`` and ``y`` fields, e.g. of
+    :data:`uavsnn.EVENT_DTYPE`) lie in ``box`` ``(x0, y0, x1, y1)``: a boolean array of their
+    length. An empty box (``x1 <= x0`` or ``y1 <= y0``) holds none.
+
+    Raises:
+        EventError: ``events`` has no ``x`` and ``y`` fields.
+        ParameterError: ``box`` is not four integers.
+    """
+    x0, y0, x1, y1 = _corners(box)
+    names = getattr(getattr(events, "dtype", None), "names", None) or ()
+    if "x" not in names or "y" not in names:
+        got = getattr(events, "dtype", type(events).__name__)
+        raise EventError(f"events must have x and y fields, got {got!r}")
+    x, y = events["x"], events["y"]
+    return (x >= x0) & (x < x1) & (y >= y0) & (y < y1)
+
+
+def in_box(events: np.ndarray, box: tuple[int, int, int, int]) -> np.ndarray:
+    """The events in ``box`` ``(x0, y0, x1, y1)``, in their order (a copy): ``events`` where
+    :func:`box_mask` holds.
+
+    Raises:
+        EventError, ParameterError: as :func:`box_mask`.
+    """
+    return events[box_mask(events, box)]
