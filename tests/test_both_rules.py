@@ -194,7 +194,7 @@ def test_streaming_scores_every_object_of_a_window() -> None:
         ("log_width", "log_area", "log_events_per_px"),
         np.array([0.8, -0.3, 0.5, 0.1]), np.zeros(3), np.ones(3), 0.5, 1.0,
     )  # fmt: skip
-    out = _with_scores(_with_rotor(report, events), events, ident)
+    out = _with_scores(*_with_rotor(report, [events]), ident)
     assert len(out.objects) == 3
     for obj in out.objects:
         assert obj.rotor is not None and obj.class_guess in ("uav", "other")

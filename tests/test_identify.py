@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 from pathlib import Path
 
@@ -25,8 +26,10 @@ from uavsnn.identify import (
     fit_logistic,
     object_features,
     predict_logistic,
+    track_features,
     window_features,
 )
+from uavsnn.signature import rotor_signature
 from uavsnn.windows import make_windows
 
 SIZE = (40, 30)
@@ -238,6 +241,57 @@ def test_batch_features_equal_what_the_streaming_detector_sees() -> None:
     strength = batch.x[:, FEATURES.index("rotor_strength")]
     running = np.cumsum(strength) / np.arange(1, len(strength) + 1)
     np.testing.assert_allclose(batch.x[:, FEATURES.index("track_rotor_strength")], running)
+
+
+def features_by_the_first_formulas(obj, events: np.ndarray) -> np.ndarray:
+    """An object's features as first written: its box's events selected by a mask, the rotor
+    signature measured on them, the counts taken from them (the track from the object)."""
+    x0, y0, x1, y1 = obj.box
+    w, h = x1 - x0, y1 - y0
+    x, y = events["x"], events["y"]
+    inside = events[(x >= x0) & (x < x1) & (y >= y0) & (y < y1)]
+    rotor = rotor_signature(inside, (x0, y0, w, h))
+    assert obj.rotor == rotor
+    n, on = len(inside), int(np.count_nonzero(inside["p"]))
+    shape = [math.log(w), math.log(h), math.log(w * h), math.log(w / h), math.log1p(obj.spikes)]
+    return np.array(
+        [
+            math.log1p(rotor.frequency_hz),
+            rotor.strength,
+            math.log1p(rotor.pixels),
+            float(rotor.detected),
+            *shape,
+            math.log1p(n / (w * h)),
+            (2 * on - n) / n if n else 0.0,
+            *track_features(obj.track),
+        ]
+    )
+
+
+@pytest.mark.parametrize("which", ["scene", "two_blobs"])
+def test_features_equal_the_first_formulas_bit_for_bit(which) -> None:
+    """The one-pass measurement (rotor and counts together, no selection of the box's events)
+    gives the features the first formulas give, in batch and streaming, bit for bit."""
+    if which == "scene":
+        size, events = SIZE, scene()
+        net = small_net()
+    else:
+        size = (120, 90)
+        events = two_blobs(size)
+        net = Network({**small_net().config, "width": size[0], "height": size[1]}, seed=3)
+    net.identification = model()
+    reports, batch, _ = streaming_and_batch(net, events, size)
+    t = events["t"].astype(np.int64)
+    window = [events[np.searchsorted(t, r.t0) : np.searchsorted(t, r.t1)] for r in reports]
+    rows = [
+        features_by_the_first_formulas(o, inside)
+        for r, inside in zip(reports, window, strict=True)
+        for o in r.objects
+    ]
+    assert len(rows) == len(batch.x) > 3
+    assert np.array_equal(np.array(rows), batch.x)
+    expected = net.identification.scores(np.array(rows))
+    assert [o.uav_score for r in reports for o in r.objects] == expected.tolist()
 
 
 def two_blobs(size: tuple[int, int]) -> np.ndarray:

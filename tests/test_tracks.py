@@ -296,7 +296,7 @@ def test_streaming_in_any_chunks_equals_batch(net: Network, cuts: list[int], see
     grouper = WindowGrouper.of(plain)
     untracked = grouper.add(events, plain.push(events)) + grouper.finish(plain.flush())
     # The rotor signature the streaming detector measures, so that the tracks' rotor means agree.
-    untracked = [_with_rotor(r, events) for r in untracked]
+    untracked = [_with_rotor(r, [events])[0] for r in untracked]
     result = track_windows(untracked, Tracker(gate_px=8))
     assert key(reps) == key(list(result.reports))
     assert sorted(det.tracker.finish(), key=lambda t: t.id) == list(result.tracks)

@@ -38,10 +38,11 @@ import numpy as np
 
 from uavsnn import _core
 from uavsnn._validate import check_sensor_size
+from uavsnn.boxes import xywh
 from uavsnn.errors import ParameterError, ShapeError
 from uavsnn.events import EVENT_DTYPE, packed_bytes
 from uavsnn.network import WINDOW_DETECTION_DTYPE
-from uavsnn.signature import RotorEstimate, rotor_signature
+from uavsnn.signature import RotorEstimate, measure_box
 from uavsnn.tracks import Track, Tracker
 
 if TYPE_CHECKING:
@@ -284,17 +285,15 @@ class Detector:
 
     def _finish_reports(self, closed: list[WindowReport]) -> list[WindowReport]:
         out = []
-        recent = np.concatenate(self._recent) if closed and self._recent else None
         ident = self._network.identification
         for report in closed:
-            measured = report.objects and report.t0 >= self._lost_until
-            events = recent if measured else None
-            if events is not None:
-                report = _with_rotor(report, events)
+            measured = None
+            if report.objects and report.t0 >= self._lost_until and self._recent:
+                report, measured = _with_rotor(report, self._recent)
             # The track first (its statistics so far include this window), then the score.
             report = self._tracker.update(report)
-            if events is not None and ident is not None:
-                report = _with_scores(report, events, ident)
+            if measured is not None and ident is not None:
+                report = _with_scores(report, measured, ident)
             out.append(report)
         if self._recent and self._grouper is not None:
             keep_from = self._grouper.open_since()
@@ -651,43 +650,43 @@ class WindowGrouper:
         return out
 
 
-def _window_events(report: WindowReport, events: np.ndarray) -> np.ndarray:
-    """The raw ``events`` (time order) that fall in ``report``'s window."""
-    t = events["t"]
-    return events[np.searchsorted(t, report.t0) : np.searchsorted(t, report.t1)]
-
-
-def _in_box(events: np.ndarray, box: tuple[int, int, int, int]) -> np.ndarray:
-    x0, y0, x1, y1 = box
-    x, y = events["x"], events["y"]
-    return events[(x >= x0) & (x < x1) & (y >= y0) & (y < y1)]
-
-
-def _with_rotor(report: WindowReport, events: np.ndarray) -> WindowReport:
+def _with_rotor(
+    report: WindowReport, chunks: Sequence[np.ndarray]
+) -> tuple[WindowReport, list[tuple[RotorEstimate, int, int]]]:
     """``report`` with the rotor signature of its first :data:`MAX_ROTOR_BOXES` objects, from
-    the raw ``events`` (time order) that fall in the window and the object's box."""
-    inside = _window_events(report, events)
+    the raw events of ``chunks`` (time order, each chunk and across them) that fall in the
+    window and the object's box; and for each of those objects, its rotor and the window's
+    events in its box and ON ones among them (:func:`uavsnn.signature.measure_box`).
+
+    The chunks are read in place: each one's slice in the window, nothing concatenated, and
+    each object's box in one pass over them."""
+    parts = []
+    for chunk in chunks:
+        t = chunk["t"]
+        if len(t) and t[-1] >= report.t0 and t[0] < report.t1:
+            parts.append(chunk[np.searchsorted(t, report.t0) : np.searchsorted(t, report.t1)])
+    measured = [measure_box(parts, xywh(o.box)) for o in report.objects[:MAX_ROTOR_BOXES]]
     objects = list(report.objects)
-    for i, obj in enumerate(objects[:MAX_ROTOR_BOXES]):
-        x0, y0, x1, y1 = obj.box
-        est = rotor_signature(_in_box(inside, obj.box), (x0, y0, x1 - x0, y1 - y0))
-        objects[i] = replace(obj, rotor=est)
-    return replace(report, objects=tuple(objects))
+    for i, (est, _, _) in enumerate(measured):
+        objects[i] = replace(objects[i], rotor=est)
+    return replace(report, objects=tuple(objects)), measured
 
 
-def _with_scores(report: WindowReport, events: np.ndarray, identification: Any) -> WindowReport:
+def _with_scores(
+    report: WindowReport, measured: list[tuple[RotorEstimate, int, int]], identification: Any
+) -> WindowReport:
     """``report`` with the UAV score and class guess of each object whose rotor was measured,
     from an ``identification`` model (:class:`uavsnn.identify.Identifier`): its features
-    (:func:`uavsnn.identify.object_features`) on the raw ``events`` of the window inside its
-    box, its rotor signature and its track as they stand after this window."""
+    (:func:`uavsnn.identify.object_features`) from its box, its rotor signature and event
+    counts in the window (``measured``, :func:`uavsnn.signature.measure_box`, one per object
+    from the first) and its track as they stand after this window."""
     from uavsnn.identify import object_features
 
-    inside = _window_events(report, events)
     objects = list(report.objects)
-    for i, obj in enumerate(objects):
+    for i, (obj, (_, n, on)) in enumerate(zip(objects, measured, strict=False)):
         if obj.rotor is None:
             continue
-        feats = object_features(obj.box, obj.spikes, _in_box(inside, obj.box), obj.rotor, obj.track)
+        feats = object_features(obj.box, obj.spikes, None, obj.rotor, obj.track, counts=(n, on))
         score = float(identification.scores(feats[None, :])[0])
         guess = "uav" if score >= identification.threshold else "other"
         objects[i] = replace(obj, uav_score=score, class_guess=guess)

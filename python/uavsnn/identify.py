@@ -38,8 +38,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from uavsnn.boxes import xywh
 from uavsnn.errors import DatasetError, ModelFileError, ParameterError, ShapeError
-from uavsnn.signature import RotorEstimate, rotor_signature
+from uavsnn.signature import RotorEstimate, measure_box
 
 if TYPE_CHECKING:
     from uavsnn.dataset import LabelledWindows
@@ -136,25 +137,31 @@ def track_features(track: Track | None) -> list[float]:
 def object_features(
     box: tuple[int, int, int, int],
     spikes: int,
-    events: np.ndarray,
+    events: np.ndarray | None,
     rotor: RotorEstimate | None = None,
     track: Track | None = None,
+    *,
+    counts: tuple[int, int] | None = None,
 ) -> np.ndarray:
     """The :data:`FEATURES` (float64) of one object: ``box`` ``(x0, y0, x1, y1)`` half-open,
     its conv3 ``spikes``, and the window's raw ``events`` (time order; only those inside the box
     are used). ``rotor``: the box's rotor signature when already measured (else measured
     here on the same events); ``track``: its track after this window (:func:`track_features`;
-    ``None``: no track)."""
+    ``None``: no track). ``counts``: ``(events, on)``, the window's events inside the box and
+    the ON ones among them, when already counted with the rotor
+    (:func:`uavsnn.signature.measure_box`); with both ``rotor`` and ``counts``, ``events`` is
+    not read (it may be ``None``)."""
     x0, y0, x1, y1 = (int(v) for v in box)
     w, h = x1 - x0, y1 - y0
     if w < 1 or h < 1:
         raise ParameterError(f"an object's box must not be empty, got {box}")
-    x, y = events["x"], events["y"]
-    inside = events[(x >= x0) & (x < x1) & (y >= y0) & (y < y1)]
-    if rotor is None:
-        rotor = rotor_signature(inside, (x0, y0, w, h))
-    on = int(np.count_nonzero(inside["p"]))
-    n = len(inside)
+    if rotor is not None and counts is not None:
+        n, on = (int(c) for c in counts)
+    elif events is None:
+        raise ParameterError("object_features needs the events unless rotor and counts are given")
+    else:
+        measured, n, on = measure_box(events, (x0, y0, w, h))
+        rotor = measured if rotor is None else rotor
     return np.array(
         [
             math.log1p(rotor.frequency_hz),
@@ -302,7 +309,7 @@ def window_features(
         t0 = int(t0s[i])
         spikes = found[starts[i] : starts[i + 1]]
         objects = merge_boxes(spikes)
-        events = None
+        measured = []
         if objects:
             raw = data.raw.window(i)
             if raw_noise is not None:
@@ -311,11 +318,11 @@ def window_features(
                 )
             t = raw["t"].astype(np.int64)
             events = raw[np.searchsorted(t, t0) : np.searchsorted(t, t0 + length)]
+            # Each object's rotor and event counts in one pass over the window's events.
+            measured = [measure_box(events, xywh(o.box)) for o in objects]
             objects = tuple(
-                replace(o, rotor=rotor_signature(_in_box(events, o.box), _xywh(o.box)))
-                if j < MAX_ROTOR_BOXES
-                else o
-                for j, o in enumerate(objects)
+                replace(o, rotor=m[0]) if j < MAX_ROTOR_BOXES else o
+                for j, (o, m) in enumerate(zip(objects, measured, strict=True))
             )
         report = tracker.update(
             WindowReport(
@@ -327,10 +334,10 @@ def window_features(
                 objects=objects,
             )
         )
-        if events is not None:
+        if measured:
             per_window[i] = [
-                (o, object_features(o.box, o.spikes, events, o.rotor, o.track))
-                for o in report.objects
+                (o, object_features(o.box, o.spikes, None, rotor, o.track, counts=(n, on)))
+                for o, (rotor, n, on) in zip(report.objects, measured, strict=True)
             ]
     rows, which, boxes, label, usable, track, confirmed = [], [], [], [], [], [], []
     for i in sorted(per_window):
@@ -398,16 +405,6 @@ def raw_noise_events(
     noise["p"] = rng.integers(0, 2, 2 * n)
     out = np.concatenate([events, noise])
     return out[np.argsort(out["t"], kind="stable")]
-
-
-def _xywh(box: tuple[int, int, int, int]) -> tuple[int, int, int, int]:
-    return box[0], box[1], box[2] - box[0], box[3] - box[1]
-
-
-def _in_box(events: np.ndarray, box: tuple[int, int, int, int]) -> np.ndarray:
-    x0, y0, x1, y1 = box
-    x, y = events["x"], events["y"]
-    return events[(x >= x0) & (x < x1) & (y >= y0) & (y < y1)]
 
 
 def fit_logistic(
