@@ -16,6 +16,13 @@ events in streaming) and as the ratio identification / network (the issue's targ
 0.5).
 
     python benches/python/bench_identify.py MODEL.npz DATASET [--split test] [--windows 400]
+
+Times on a busy machine mean little. ``--section NAME`` runs one of the four parts once
+(``network``, ``identification``, ``stream-network``, ``stream-full``) inside a call of
+``functools.reduce``, so that callgrind counts its instructions alone
+(``--collect-atstart=no --toggle-collect=functools_reduce``), and prints the events it
+consumed; ``benches/python/count_identify.py`` runs the four under callgrind and gives the
+same ratios in instructions.
 """
 
 from __future__ import annotations
@@ -26,6 +33,7 @@ for _var in ("RAYON_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MK
     os.environ[_var] = "1"
 
 import argparse  # noqa: E402
+import functools  # noqa: E402
 import itertools  # noqa: E402
 import json  # noqa: E402
 import time  # noqa: E402
@@ -72,6 +80,30 @@ def _stream(network: Network, streams: list[np.ndarray], full: bool) -> int:
     return objects
 
 
+SECTIONS = ("network", "identification", "stream-network", "stream-full")
+
+
+def _once(fn: Any) -> Any:
+    """``fn()`` called inside ``functools.reduce``: the C function callgrind's
+    ``--toggle-collect=functools_reduce`` counts, and nothing else here calls."""
+    return functools.reduce(lambda _, __: fn(), [None], None)
+
+
+def _section(name: str, network: Network, data: Any, spikes: int, recordings: int) -> dict:
+    """Run one part of the bench once (see the module's docstring): the events it consumed."""
+    if name in ("network", "identification"):
+        if name == "network":
+            _once(lambda: network.infer(data.windows, threads=1))
+        else:
+            inference = network.infer(data.windows, threads=1)
+            ident = network.identification
+            _once(lambda: ident.window_scores(identify.window_features(network, data, inference)))
+        return {"section": name, "events": spikes, "unit": "input spike"}
+    streams = _streams(data, recordings)
+    _once(lambda: _stream(network, streams, name == "stream-full"))
+    return {"section": name, "events": int(sum(len(s) for s in streams)), "unit": "raw event"}
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("model", type=Path)
@@ -80,6 +112,11 @@ def main() -> None:
     ap.add_argument("--windows", type=int, default=400, help="windows of the split (400)")
     ap.add_argument("--recordings", type=int, default=4, help="recordings streamed (4)")
     ap.add_argument("--json", action="store_true")
+    ap.add_argument(
+        "--section",
+        choices=SECTIONS,
+        help="run this part alone, once, inside functools.reduce (for callgrind)",
+    )
     args = ap.parse_args()
 
     network = Network.load(args.model)
@@ -89,6 +126,9 @@ def main() -> None:
     data = load(args.dataset, args.split)
     data = data.select(np.arange(min(args.windows, len(data))))
     spikes = int(np.diff(np.asarray(data.windows.offsets, dtype=np.int64)).sum())
+    if args.section is not None:
+        print(json.dumps(_section(args.section, network, data, spikes, args.recordings)))
+        return
 
     net_s, inference = _cpu(lambda: network.infer(data.windows, threads=1))
     feat_s, feats = _cpu(lambda: identify.window_features(network, data, inference))
