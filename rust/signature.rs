@@ -242,6 +242,10 @@ pub struct RotorStats {
     pub outside: u64,
     /// Events earlier than the latest seen (ignored).
     pub late: u64,
+    /// ON events inside the box, late ones included: of the `events + late` events inside the
+    /// box, whatever their order, this many are ON (the counts identification's features read
+    /// beside the estimate, so that nobody selects the box's events a second time).
+    pub on: u64,
 }
 
 /// Marks "no edge yet" in a pixel's edge times.
@@ -356,6 +360,7 @@ impl RotorSignature {
             self.stats.outside += 1;
             return;
         };
+        self.stats.on += u64::from(e.p);
         if e.t < self.last_t {
             self.stats.late += 1;
             return;
@@ -593,7 +598,8 @@ mod tests {
             RotorStats {
                 events: 1,
                 outside: 3,
-                late: 1
+                late: 1,
+                on: 1
             }
         );
         s.clear();
@@ -705,6 +711,11 @@ mod tests {
                 prop_assert_eq!(s.state_bytes(), bytes);
                 let st = s.stats();
                 prop_assert_eq!(st.events + st.outside + st.late, events.len() as u64);
+                let inside: Vec<&Event> = events.iter().filter(|e| {
+                    (x0..x0 + w).contains(&e.x) && (y0..y0 + h).contains(&e.y)
+                }).collect();
+                prop_assert_eq!(st.events + st.late, inside.len() as u64);
+                prop_assert_eq!(st.on, inside.iter().filter(|e| e.p).count() as u64);
                 prop_assert!((0.0..=1.0).contains(&est.strength));
                 prop_assert!(est.peak_votes <= est.votes && est.votes <= est.intervals);
                 prop_assert!(est.pixels as usize <= s.region().area());

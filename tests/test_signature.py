@@ -131,14 +131,29 @@ def test_state_is_fixed_and_events_are_counted(gen):
     inside = (
         (events["x"] >= 10) & (events["x"] < 18) & (events["y"] >= 20) & (events["y"] < 28)
     ).sum()
-    assert s.stats == {"events": int(inside), "outside": len(events) - int(inside), "late": 0}
+    on = int(
+        (
+            events["p"]
+            & (events["x"] >= 10)
+            & (events["x"] < 18)
+            & (events["y"] >= 20)
+            & (events["y"] < 28)
+        ).sum()
+    )
+    assert s.stats == {
+        "events": int(inside),
+        "outside": len(events) - int(inside),
+        "late": 0,
+        "on": on,
+    }
     assert s.state_bytes == size
     late = events[:5].copy()
     late["x"], late["y"] = 12, 22
+    late["p"] = [True, False, True, False, False]
     s.update(late)
-    assert s.stats["late"] == 5
+    assert s.stats["late"] == 5 and s.stats["on"] == on + 2
     s.clear()
-    assert s.stats == {"events": 0, "outside": 0, "late": 0}
+    assert s.stats == {"events": 0, "outside": 0, "late": 0, "on": 0}
     assert s.estimate() == uavsnn.RotorEstimate(0.0, 0.0, 0, 0, 0, 0, False)
 
 

@@ -24,7 +24,6 @@ import numpy as np
 
 from uavsnn import _core
 from uavsnn._validate import check_sensor_size
-from uavsnn.boxes import box_mask
 from uavsnn.errors import ParameterError
 from uavsnn.events import packed_bytes
 
@@ -149,9 +148,11 @@ class RotorSignature:
 
     @property
     def stats(self) -> dict[str, int]:
-        """Events used, outside the box, and late (earlier than the latest seen)."""
-        events, outside, late = self._inner.stats
-        return {"events": events, "outside": outside, "late": late}
+        """Events used, outside the box, and late (earlier than the latest seen, inside the
+        box); and ``on``: the ON events inside the box, late ones included (of the
+        ``events + late`` inside it)."""
+        events, outside, late, on = self._inner.stats
+        return {"events": events, "outside": outside, "late": late, "on": on}
 
     @property
     def state_bytes(self) -> int:
@@ -177,7 +178,7 @@ def measure_box(
     inside it and how many of them are ON.
 
     ``events``: canonical events in time order, one array or the chunks of one stream in
-    order (each fed as it is, none copied). Nothing needs selecting first: the estimator
+    order (fed as they are, not concatenated). Nothing needs selecting first: the estimator
     ignores the events outside the box. ``params`` as :class:`RotorSignature`'s.
 
     Raises:
@@ -185,15 +186,10 @@ def measure_box(
         ParameterError: as :class:`RotorSignature`.
     """
     estimator = RotorSignature(box, **params)
-    parts = (events,) if isinstance(events, np.ndarray) else events
-    x0, y0, width, height = estimator.box
-    inside = on = 0
-    for part in parts:
+    for part in (events,) if isinstance(events, np.ndarray) else events:
         estimator.update(part)
-        mask = box_mask(part, (x0, y0, x0 + width, y0 + height))
-        inside += int(np.count_nonzero(mask))
-        on += int(np.count_nonzero(mask & part["p"]))
-    return estimator.estimate(), inside, on
+    stats = estimator.stats  # the engine counts the box's events as it goes
+    return estimator.estimate(), stats["events"] + stats["late"], stats["on"]
 
 
 # --------------------------------------------------------------------------- rate spectrum

@@ -133,11 +133,11 @@ impl PyRotorSignature {
         (r.x0, r.y0, r.width, r.height)
     }
 
-    /// `(events, outside, late)` since construction or the last clear.
+    /// `(events, outside, late, on)` since construction or the last clear.
     #[getter]
-    fn stats(&self) -> (u64, u64, u64) {
+    fn stats(&self) -> (u64, u64, u64, u64) {
         let s = self.inner.stats();
-        (s.events, s.outside, s.late)
+        (s.events, s.outside, s.late, s.on)
     }
 
     #[getter]
