@@ -26,6 +26,7 @@ Example::
 
 from __future__ import annotations
 
+import bisect
 import json
 import os
 import time
@@ -664,7 +665,10 @@ def _with_rotor(
     for chunk in chunks:
         t = chunk["t"]
         if len(t) and t[-1] >= report.t0 and t[0] < report.t1:
-            parts.append(chunk[np.searchsorted(t, report.t0) : np.searchsorted(t, report.t1)])
+            # Binary searches on the times in place, only where the window cuts the chunk.
+            lo = 0 if t[0] >= report.t0 else bisect.bisect_left(t, report.t0)
+            hi = len(t) if t[-1] < report.t1 else bisect.bisect_left(t, report.t1)
+            parts.append(chunk[lo:hi])
     measured = [measure_box(parts, xywh(o.box)) for o in report.objects[:MAX_ROTOR_BOXES]]
     objects = list(report.objects)
     for i, (est, _, _) in enumerate(measured):

@@ -31,6 +31,7 @@ The model (:class:`Identifier`) is stored in the model file beside the network a
 
 from __future__ import annotations
 
+import bisect
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
@@ -316,8 +317,9 @@ def window_features(
                 raw = raw_noise_events(
                     raw, t0, length, data.windows.sensor_size, *raw_noise, window=int(i)
                 )
-            t = raw["t"].astype(np.int64)
-            events = raw[np.searchsorted(t, t0) : np.searchsorted(t, t0 + length)]
+            # A binary search on the times in place (np.searchsorted would copy them first).
+            t = raw["t"]
+            events = raw[bisect.bisect_left(t, t0) : bisect.bisect_left(t, t0 + length)]
             # Each object's rotor and event counts in one pass over the window's events.
             measured = [measure_box(events, xywh(o.box)) for o in objects]
             objects = tuple(
