@@ -1,0 +1,85 @@
+"""Smoke test of benches/python/bench_identify.py at a tiny size: each part of --section runs
+on the same windows as the timed bench (count_identify.py counts those parts under
+callgrind)."""
+
+from __future__ import annotations
+
+import functools
+import importlib.util
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from uavsnn import EVENT_DTYPE, Network
+from uavsnn.dataset import LabelledWindows
+from uavsnn.dataset.format import RawEvents
+from uavsnn.events import Recording
+from uavsnn.identify import FEATURES, Identifier
+from uavsnn.windows import make_windows
+
+BENCH = Path(__file__).resolve().parents[1] / "benches" / "python" / "bench_identify.py"
+SIZE = (40, 30)
+
+
+@pytest.fixture(scope="module")
+def bench():
+    spec = importlib.util.spec_from_file_location("bench_identify", BENCH)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules["bench_identify"] = module
+    spec.loader.exec_module(module)
+    yield module
+    sys.modules.pop("bench_identify", None)
+
+
+def tiny() -> tuple[Network, LabelledWindows]:
+    """An untrained network that fires on a drifting blob, with an identification model, and
+    the blob's windows as a dataset with raw events (one recording)."""
+    config = {
+        "width": SIZE[0],
+        "height": SIZE[1],
+        "pent": {"mode": "pent", "beta": 2.0, "theta_min": 1.5, "estimate": "preceding"},
+        "conv2": {"threshold": 3.0},
+        "conv3": {"threshold": 1.5},
+    }
+    net = Network(config, seed=3)
+    k = len(FEATURES)
+    net.identification = Identifier(
+        FEATURES, np.r_[np.full(k, 0.1), -0.5], np.zeros(k), np.ones(k), 0.5, 1.0
+    )
+    rng = np.random.default_rng(0)
+    n = 6000
+    ev = np.zeros(n, dtype=EVENT_DTYPE)
+    ev["t"] = 5_000 + np.arange(n) * 5
+    ev["x"] = 3 + np.arange(n) * 15 // n + rng.integers(0, 5, n)
+    ev["y"] = 4 + rng.integers(0, 5, n)
+    ev["p"] = rng.random(n) < 0.5
+    windows = make_windows(Recording(ev, SIZE), 10_000, 0.5)
+    m = len(windows)
+    raw = RawEvents.of_recording(ev, np.asarray(windows.t0), 10_000, 10_000)
+    data = LabelledWindows(
+        windows, np.zeros(m, bool), np.full(m, "none"), np.zeros(m, np.int64),
+        np.full((m, 4), np.nan, np.float32), raw=raw,
+    )  # fmt: skip
+    return net, data
+
+
+def test_each_section_runs_its_part_once_inside_functools_reduce(bench, monkeypatch) -> None:
+    net, data = tiny()
+    spikes = int(np.diff(np.asarray(data.windows.offsets, dtype=np.int64)).sum())
+    calls = []
+    reduce = functools.reduce
+
+    def counted(*args):
+        calls.append(1)
+        return reduce(*args)
+
+    monkeypatch.setattr(bench.functools, "reduce", counted)
+    out = {s: bench._section(s, net, data, spikes, 1) for s in bench.SECTIONS}
+    assert len(calls) == len(bench.SECTIONS)
+    assert out["network"]["events"] == out["identification"]["events"] == spikes > 0
+    raw = sum(len(s) for s in bench._streams(data, 1))
+    assert out["stream-network"]["events"] == out["stream-full"]["events"] == raw > 0
+    # The streamed windows hold objects (the full path measured, tracked and scored them).
+    assert bench._stream(net, bench._streams(data, 1), True) > 0
