@@ -261,9 +261,11 @@ def both_rules(
     if ident is None:
         return None
     feats = identify.window_features(network, data, inference, raw_noise=raw_noise)
-    return identification_figures(
+    figures = identification_figures(
         inference.detected, ident.window_scores(feats), data, ident.threshold
     )
+    figures["classes"] = identify.class_figures(ident, feats)
+    return figures
 
 
 def noise_level(

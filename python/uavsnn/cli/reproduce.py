@@ -136,6 +136,7 @@ def _identification_text(fit: dict[str, Any], figures: dict[str, Any] | None) ->
         f"\nIdentification fitted on {fit['train_windows']} training windows and tuned on "
         f"{fit['tune_windows']} of held-out training recordings (L2 {fit['l2']:g}).\n",
         report.identification_markdown(figures),
+        *([report.class_markdown(figures["classes"])] if "classes" in figures else []),
     ]
 
 
