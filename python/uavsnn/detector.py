@@ -160,13 +160,13 @@ class Detector:
             raise ParameterError(f"window_us must be at least 1 µs, got {window_us}")
         if start_us is not None and start_us < 0:
             raise ParameterError(f"start_us must be >= 0, got {start_us}")
-        weights = [
+        w1, w2, w3 = (
             np.ascontiguousarray(network.weights(layer), dtype=np.float32).ravel()
             for layer in ("conv1", "conv2", "conv3")
-        ]
+        )
         # The detector keeps its own copy of the weights, taken now.
         self._inner = _core.StreamDetector(
-            json.dumps(network.config), *weights, int(window_us), float(overlap), start_us
+            json.dumps(network.config), w1, w2, w3, int(window_us), float(overlap), start_us
         )
         self._network = network
         self._start_us = start_us
