@@ -20,6 +20,7 @@ from uavsnn.evaluation import (
 from uavsnn.events import Recording
 from uavsnn.identify import (
     FEATURES,
+    TRACK_FEATURES,
     Identifier,
     class_figures,
     fit,
@@ -565,7 +566,8 @@ def test_train_fits_identification_and_evaluate_reports_both_rules(
     figures = json.loads(capsys.readouterr().out)
     ablation = figures["identification"]["ablation"]
     assert list(ablation) == ["rotor", "shape", "track", "no_track", "all"]
-    assert ablation["track"]["features"] == 8 and ablation["no_track"]["features"] == 11
+    assert ablation["track"]["features"] == len(TRACK_FEATURES)
+    assert ablation["no_track"]["features"] == len(FEATURES) - len(TRACK_FEATURES)
     for row in ablation.values():
         assert row["tracks"]["found"] <= figures["tracks"]["uav_recordings"]
     # Without identification: the any-spike rule, a note, and --roc refused.
