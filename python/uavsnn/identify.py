@@ -104,8 +104,6 @@ TRACK_FEATURES: tuple[str, ...] = (
     "track_log_speed_std",
     "track_vertical_speed",
     "track_rotor_strength",
-    "track_area_log_std",
-    "track_vertical_accel",
 )
 
 FEATURES: tuple[str, ...] = (
@@ -140,9 +138,8 @@ def track_features(track: Track | None) -> list[float]:
     """The :data:`TRACK_FEATURES` of an object whose track stands at ``track`` after its
     window (zeros for an object without a track): age (log of ms), hits (log), filtered speed
     (log of px/s), straightness, turn rate (log of rad/s), the segment speeds' standard
-    deviation (log of px/s), vertical speed (signed log of px/s; positive downwards), the
-    mean rotor strength of its detections so far, the standard deviation of their boxes' log
-    area, and the vertical acceleration (signed log of px/s²; positive downwards)."""
+    deviation (log of px/s), vertical speed (signed log of px/s; positive downwards) and the
+    mean rotor strength of its detections so far."""
     if track is None:
         return [0.0] * len(TRACK_FEATURES)
     v = track.vertical_speed
@@ -155,8 +152,6 @@ def track_features(track: Track | None) -> list[float]:
         math.log1p(track.speed_std),
         math.copysign(math.log1p(abs(v)), v),
         track.rotor_strength_mean,
-        track.area_log_std,
-        math.copysign(math.log1p(abs(track.vertical_accel)), track.vertical_accel),
     ]
 
 

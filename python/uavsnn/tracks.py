@@ -75,12 +75,6 @@ class Track:
         rotor_measured: its detections whose rotor signature was measured (the object's
             ``rotor`` was not ``None``).
         rotor_strength_mean: the mean rotor strength of those detections (0 without one).
-        area_log_std: the (population) standard deviation of the log of its detections' box
-            areas (0 with one detection): how much its apparent size changes, as a flapping
-            wing's does.
-        vertical_accel: the mean change of vertical speed between successive segments, per
-            second between the segments' middles (px/s²; positive downwards, as a thrown
-            ball's under gravity; 0 before a third hit).
     """
 
     id: int
@@ -108,20 +102,14 @@ class Track:
     turn_rate: float
     rotor_measured: int
     rotor_strength_mean: float
-    area_log_std: float = 0.0
-    vertical_accel: float = 0.0
 
 
 class _Live:
     """A live track's state: fixed size (no history beyond the last hits' window mask)."""
 
     __slots__ = (
-        "acc_n",
-        "acc_sum",
         "alarm_us",
         "alarm_window",
-        "area_m2",
-        "area_mean",
         "birth_tc",
         "birth_us",
         "birth_window",
@@ -148,8 +136,6 @@ class _Live:
         "sp_mean",
         "turn_sum",
         "vel",
-        "vy_dt",
-        "vy_seg",
     )
 
     def __init__(
@@ -184,12 +170,6 @@ class _Live:
         self.rotor_n = 0
         self.rotor_sum = 0.0
         self.add_rotor(rotor)
-        self.area_mean = _log_area(box)
-        self.area_m2 = 0.0
-        self.vy_seg: float | None = None  # the latest segment's vertical speed, and its span
-        self.vy_dt = 0.0
-        self.acc_sum = 0.0
-        self.acc_n = 0
 
     def add_rotor(self, rotor: Any) -> None:
         if rotor is not None:
@@ -231,13 +211,7 @@ class _Live:
             turn_rate=self.turn_sum / self.n_turn if self.n_turn else 0.0,
             rotor_measured=self.rotor_n,
             rotor_strength_mean=self.rotor_sum / self.rotor_n if self.rotor_n else 0.0,
-            area_log_std=math.sqrt(self.area_m2 / self.hits),
-            vertical_accel=self.acc_sum / self.acc_n if self.acc_n else 0.0,
         )
-
-
-def _log_area(box: tuple) -> float:
-    return math.log(max((box[2] - box[0]) * (box[3] - box[1]), 1))
 
 
 def _iou(a: tuple, b: tuple) -> float:
@@ -417,15 +391,7 @@ class Tracker:
                 tr.turn_sum += turn / dt
                 tr.n_turn += 1
             tr.heading = heading
-        vy = (z[1] - tr.last_z[1]) / dt
-        if tr.vy_seg is not None:
-            tr.acc_sum += (vy - tr.vy_seg) / ((tr.vy_dt + dt) / 2)
-            tr.acc_n += 1
-        tr.vy_seg, tr.vy_dt = vy, dt
         tr.hits += 1
-        a = _log_area(box) - tr.area_mean
-        tr.area_mean += a / tr.hits
-        tr.area_m2 += a * (_log_area(box) - tr.area_mean)
         tr.last_window, tr.last_end, tr.last_tc, tr.last_z, tr.box = k, t1, tc, z, box
         tr.recent |= 1
         self._confirm(tr, k, t1)
