@@ -525,18 +525,21 @@ def fit_softmax(
     target = np.zeros((n, k))
     target[np.arange(n), y] = 1.0
     penalty = np.tile(np.r_[np.full(d1 - 1, float(l2)), 1e-6], k)
-    outer = (a[:, :, None] * a[:, None, :]).reshape(n, d1 * d1)
     coef = np.zeros(k * d1)
-    eye = np.eye(k)
+    hess = np.empty((k * d1, k * d1))
     for _ in range(iterations):
         p = predict_softmax(coef.reshape(k, d1), x)
         grad = ((p - target) * w[:, None]).T @ a
         grad = grad.ravel() + penalty * coef
-        # The Hessian's (class k, class l) block: A^T diag(w p_k (δ_kl - p_l)) A.
-        curv = w[:, None, None] * p[:, :, None] * (eye[None] - p[:, None, :])
-        hess = (curv.reshape(n, k * k).T @ outer).reshape(k, k, d1, d1)
-        hess = hess.transpose(0, 2, 1, 3).reshape(k * d1, k * d1) + np.diag(penalty)
-        step = np.linalg.solve(hess + 1e-12 * np.eye(k * d1), grad)
+        # The Hessian's (class i, class j) block: A^T diag(w p_i (δ_ij - p_j)) A, block by
+        # block so that memory stays O(n d) whatever the classes.
+        for i in range(k):
+            for j in range(i, k):
+                c = w * p[:, i] * ((i == j) - p[:, j])
+                block = a.T @ (a * c[:, None])
+                hess[i * d1 : (i + 1) * d1, j * d1 : (j + 1) * d1] = block
+                hess[j * d1 : (j + 1) * d1, i * d1 : (i + 1) * d1] = block.T
+        step = np.linalg.solve(hess + np.diag(penalty + 1e-12), grad)
         coef -= step
         if np.max(np.abs(step)) < 1e-10:
             break
