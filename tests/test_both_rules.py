@@ -22,7 +22,7 @@ from uavsnn.experiments import (
     with_config,
 )
 from uavsnn.identify import Identifier, raw_noise_events
-from uavsnn.report import identification_markdown, noise_table, roc_chart
+from uavsnn.report import class_markdown, identification_markdown, noise_table, roc_chart
 
 SENSOR = (240, 180)
 
@@ -151,6 +151,31 @@ def test_noise_levels_score_both_rules_on_the_same_noisy_windows(tiny) -> None:
 # ---------------------------------------------------------------- the report
 
 
+def test_class_markdown_names_each_class_and_its_mistakes() -> None:
+    figures = {
+        "classes": ["uav", "bird", "clutter"],
+        "objects": 10,
+        "accuracy": 0.6,
+        "balanced_accuracy": 0.5,
+        "per_class": {
+            "ball": {"objects": 2, "recall": 0.0},
+            "bird": {"objects": 4, "recall": 0.5},
+            "uav": {"objects": 4, "recall": 1.0},
+        },
+        "confusion": {
+            "ball": {"uav": 2},
+            "bird": {"bird": 2, "clutter": 1, "uav": 1},
+            "uav": {"uav": 4},
+        },
+    }
+    text = class_markdown(figures)
+    assert "| ball (not a class of the model) | 2 | 0.0 % | uav (100.0 %) |" in text
+    assert "| bird | 4 | 50.0 % | uav (25.0 %) |" in text  # a tie: the later name
+    assert "| uav | 4 | 100.0 % | - |" in text
+    assert "60.0 % right" in text
+    assert "No class model" in class_markdown({"classes": [], "objects": 0})
+
+
 def test_identification_markdown_and_roc_chart(tiny, tmp_path: Path) -> None:
     from uavsnn import pictures
 
@@ -168,6 +193,10 @@ def test_identification_markdown_and_roc_chart(tiny, tmp_path: Path) -> None:
     assert "at 1 % false alarms" in text and "at 5 % false alarms" in text
     for cls in figures["any_spike"]["per_class"]:
         assert f"| {cls} |" in text
+    classes = class_markdown(figures["classes"])
+    if figures["classes"]["classes"] and figures["classes"]["objects"]:
+        for cls, row in figures["classes"]["per_class"].items():
+            assert f"| {cls}" in classes and f"| {row['objects']} |" in classes
     chart = roc_chart({"a": figures["roc"], "b": figures["roc"]}, "ROC")
     assert chart.ndim == 3 and chart.shape[2] == 3
     assert pictures.write_png(tmp_path / "roc.png", chart).stat().st_size > 0

@@ -21,11 +21,15 @@ from uavsnn.evaluation import (
 from uavsnn.events import Recording
 from uavsnn.identify import (
     FEATURES,
+    TRACK_FEATURES,
     Identifier,
+    class_figures,
     fit,
     fit_logistic,
+    fit_softmax,
     object_features,
     predict_logistic,
+    predict_softmax,
     track_features,
     window_features,
 )
@@ -77,6 +81,81 @@ def test_bad_fit_inputs_are_typed_errors(x, y, l2, error) -> None:
         fit_logistic(x, y, l2=l2)
 
 
+def test_the_softmax_fit_separates_three_classes_and_weights_a_rare_one() -> None:
+    rng = np.random.default_rng(4)
+    centres = np.array([[0.0, 0.0], [3.0, 0.0], [0.0, 3.0]])
+    y = np.repeat([0, 1, 2], [300, 300, 12])  # class 2 is rare
+    x = centres[y] + rng.normal(size=(len(y), 2))
+    coef = fit_softmax(x, y, 3, l2=1e-2)
+    p = predict_softmax(coef, x)
+    np.testing.assert_allclose(p.sum(axis=1), 1.0)
+    assert np.mean(p.argmax(axis=1) == y) > 0.9
+    # Weighting each class by the inverse of its share finds more of the rare class.
+    w = (len(y) / (3 * np.bincount(y)))[y]
+    weighted = predict_softmax(fit_softmax(x, y, 3, l2=1e-2, weights=w), x).argmax(axis=1)
+    plain = p.argmax(axis=1)
+    assert np.sum(weighted[y == 2] == 2) > np.sum(plain[y == 2] == 2)
+
+
+def test_two_class_softmax_is_the_logistic_fit() -> None:
+    rng = np.random.default_rng(5)
+    x = rng.normal(size=(300, 3))
+    y = x[:, 0] - x[:, 2] + rng.normal(size=300) > 0
+    binary = predict_logistic(fit_logistic(x, y, l2=1.0), x)
+    # Two classes, each with half the penalty's weight vector: the same log-odds with l2 / 2
+    # on the difference; compare probabilities of a fit at 2 * l2.
+    two = predict_softmax(fit_softmax(x, y.astype(np.int64), 2, l2=2.0), x)[:, 1]
+    np.testing.assert_allclose(two, binary, atol=1e-4)
+
+
+@pytest.mark.parametrize(
+    ("x", "y", "k", "error"),
+    [
+        (np.zeros((3, 2)), np.zeros(4, np.int64), 2, ShapeError),
+        (np.zeros((3, 2)), np.zeros(3, bool), 2, ParameterError),
+        (np.zeros((3, 2)), np.array([0, 1, 2]), 2, ParameterError),
+        (np.zeros((3, 2)), np.zeros(3, np.int64), 1, ParameterError),
+        (np.full((3, 2), np.inf), np.zeros(3, np.int64), 2, ParameterError),
+    ],
+)
+def test_bad_softmax_inputs_are_typed_errors(x, y, k, error) -> None:
+    with pytest.raises(error):
+        fit_softmax(x, y, k)
+
+
+def test_fit_adds_a_class_model_from_the_objects_classes() -> None:
+    from uavsnn.identify import WindowFeatures
+
+    rng = np.random.default_rng(6)
+    kinds = np.repeat(["uav", "bird", "clutter", "ball", ""], [60, 40, 40, 3, 10])
+    centre = {"uav": 2.0, "bird": -2.0, "clutter": 0.0, "ball": 5.0, "": 0.0}
+    x = rng.normal(size=(len(kinds), len(FEATURES)))
+    x[:, 4] += [centre[k] for k in kinds]
+    x[:, 5] += [2.0 * (k == "clutter") for k in kinds]
+    m = len(kinds)
+    feats = WindowFeatures(
+        x, np.arange(m), np.zeros((m, 4)), m, kinds == "uav", kinds != "", cls=kinds
+    )
+    ident = fit(feats, feats)
+    # "ball" has fewer than MIN_CLASS_OBJECTS objects; "" is unknown: neither is a class.
+    assert ident.classes == ("uav", "bird", "clutter")
+    figures = class_figures(ident, feats)
+    assert figures["objects"] == 143 and set(figures["per_class"]) == {
+        "uav",
+        "bird",
+        "clutter",
+        "ball",
+    }
+    assert figures["per_class"]["ball"]["recall"] == 0.0  # never a guess
+    assert figures["balanced_accuracy"] > 0.8
+    assert sum(sum(r.values()) for r in figures["confusion"].values()) == 143
+    # Without classes, or asked not to, no class model.
+    assert fit(feats, feats, classes=False).class_coef is None
+    bare = WindowFeatures(x, np.arange(m), np.zeros((m, 4)), m, kinds == "uav", kinds != "")
+    assert fit(bare, bare).classes == ()
+    assert class_figures(fit(bare, bare), bare)["objects"] == 0
+
+
 def test_fit_refuses_a_set_without_both_kinds() -> None:
     from uavsnn.identify import WindowFeatures
 
@@ -112,7 +191,74 @@ def test_save_load_round_trip_with_identification(tmp_path: Path) -> None:
     np.testing.assert_array_equal(ident.scores(x), net.identification.scores(x))
     # No pickle in the file: every array loads with allow_pickle=False.
     with np.load(tmp_path / "m.npz", allow_pickle=False) as z:
-        assert int(z["identify.version"]) == 1
+        assert int(z["identify.version"]) == 2
+        assert "identify.classes" not in z  # no class model: none stored
+    assert ident.guess(x, np.array([0.1, 0.3, 0.5, 0.2, 0.9])) == [
+        "other",
+        "uav",
+        "uav",
+        "other",
+        "uav",
+    ]
+
+
+def with_classes(threshold: float = 0.3) -> Identifier:
+    k = len(FEATURES)
+    classes = ("uav", "bird", "clutter")
+    coef = np.zeros((len(classes), k + 1))
+    coef[1, 0], coef[2, 0] = 1.0, -1.0  # bird where the first feature is high, clutter low
+    return replace(model(threshold), classes=classes, class_coef=coef, class_l2=0.5)
+
+
+def test_the_class_model_round_trips_and_guesses_among_the_other_classes(
+    tmp_path: Path,
+) -> None:
+    net = small_net()
+    net.identification = with_classes()
+    net.save(tmp_path / "m.npz")
+    back = Network.load(tmp_path / "m.npz").identification
+    assert back.classes == ("uav", "bird", "clutter") and back.class_l2 == 0.5
+    np.testing.assert_array_equal(back.class_coef, net.identification.class_coef)
+    x = np.random.default_rng(3).normal(size=(40, len(FEATURES)))
+    p = back.class_probabilities(x)
+    np.testing.assert_allclose(p.sum(axis=1), 1.0)
+    scores = np.linspace(0.0, 1.0, len(x))
+    guesses = back.guess(x, scores)
+    assert back.guess(x) == back.guess(x, back.scores(x))
+    for s, g, row in zip(scores, guesses, p, strict=True):
+        if s >= back.threshold:
+            assert g == "uav"
+        else:  # the likelier of the two other classes, whatever the UAV column says
+            assert g == ("bird" if row[1] >= row[2] else "clutter")
+    assert {"uav", "bird", "clutter"} == set(guesses)
+
+
+def test_a_version_1_file_loads_without_a_class_model(tmp_path: Path) -> None:
+    from uavsnn.network import _add_arrays
+
+    net = small_net()
+    net.identification = model()
+    net.save(tmp_path / "m.npz")
+    _add_arrays(str(tmp_path / "m.npz"), {"identify.version": np.array(1)})
+    back = Network.load(tmp_path / "m.npz").identification
+    assert back.classes == () and back.class_coef is None
+    x = np.zeros((1, len(FEATURES)))
+    assert back.guess(x, np.array([0.0])) == ["other"]
+
+
+def test_an_inconsistent_class_model_is_refused(tmp_path: Path) -> None:
+    from uavsnn.network import _add_arrays
+
+    net = small_net()
+    net.identification = with_classes()
+    net.save(tmp_path / "m.npz")
+    _add_arrays(str(tmp_path / "m.npz"), {"identify.class_coef": np.zeros((2, 3))})
+    with pytest.raises(ModelFileError, match="inconsistent"):
+        Network.load(tmp_path / "m.npz")
+    with pytest.raises(ParameterError):
+        replace(model(), classes=("uav", "uav"), class_coef=np.zeros((2, len(FEATURES) + 1)))
+    with pytest.raises(ParameterError):
+        replace(model(), class_coef=np.zeros((2, len(FEATURES) + 1)))
 
 
 def test_an_old_model_loads_with_the_any_spike_rule_and_a_note(tmp_path: Path) -> None:
@@ -474,7 +620,8 @@ def test_train_fits_identification_and_evaluate_reports_both_rules(
     figures = json.loads(capsys.readouterr().out)
     ablation = figures["identification"]["ablation"]
     assert list(ablation) == ["rotor", "shape", "track", "no_track", "all"]
-    assert ablation["track"]["features"] == 8 and ablation["no_track"]["features"] == 11
+    assert ablation["track"]["features"] == len(TRACK_FEATURES)
+    assert ablation["no_track"]["features"] == len(FEATURES) - len(TRACK_FEATURES)
     for row in ablation.values():
         assert row["tracks"]["found"] <= figures["tracks"]["uav_recordings"]
     # Without identification: the any-spike rule, a note, and --roc refused.

@@ -115,6 +115,30 @@ def test_reproduce_at_a_tiny_size(tmp_path: Path, capsys: pytest.CaptureFixture[
     assert f"NumPy {np.__version__}" in text
 
 
+def test_a_dataset_of_another_sensor_or_size_is_not_reused(tmp_path: Path) -> None:
+    """reproduce reuses a dataset only when it was built with the same seed, sensor and
+    window counts (a rerun with --sensor 640x480 once would have reused the 240x180 set)."""
+    from uavsnn.dataset import build
+    from uavsnn.experiments import have_dataset
+
+    root = tmp_path / "set"
+    build(root, "dvs", n_test=4, n_train=0, seed=3, sensor=(64, 48))
+    assert have_dataset(root, 3)
+    assert have_dataset(root, 3, sensor_size=(64, 48), n_test=4, n_train=0)
+    assert not have_dataset(root, 4)
+    assert not have_dataset(root, 3, sensor_size=(240, 180))
+    assert not have_dataset(root, 3, n_test=8)
+    assert not have_dataset(root, 3, no_such_parameter=1)
+    assert not have_dataset(tmp_path / "nothing", 3)
+
+
+def test_reproduce_refuses_a_bad_sensor_before_writing(tmp_path: Path, capsys) -> None:
+    out = tmp_path / "repro"
+    assert main(["reproduce", "--out", str(out), "--sensor", "640by480", "--quiet"]) == 2
+    assert "sensor must be WIDTHxHEIGHT" in capsys.readouterr().err
+    assert not out.exists()
+
+
 def test_describe_cpu_tells_apart_cpus_of_one_name() -> None:
     zen3 = "processor\t: 0\nvendor_id\t: AuthenticAMD\ncpu family\t: 25\nmodel\t\t: 1\n"
     zen3 += "model name\t: AMD EPYC\nflags\t\t: fpu sse2 avx avx2 fma\n\nprocessor\t: 1\n"

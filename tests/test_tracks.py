@@ -367,6 +367,60 @@ def test_cli_prints_track_and_rotor(net: Network, tmp_path: Path) -> None:
     assert " track=1" in text and " rotor=" in text
 
 
+def test_tracks_carry_a_running_score_and_class_guess(net: Network, tmp_path: Path) -> None:
+    """Each scored object's track score is the running mean of its track's object scores, its
+    track class the guess from that mean and the mean class probabilities; detect --json
+    prints them with the class probabilities by name and the track's statistics."""
+    import json
+    import subprocess
+    import sys
+
+    from uavsnn.identify import FEATURES, Identifier
+
+    k = len(FEATURES)
+    class_coef = np.zeros((3, k + 1))
+    class_coef[1, FEATURES.index("log_width")] = 2.0  # wide: bird; narrow: clutter
+    net = net.copy()
+    net.identification = Identifier(
+        FEATURES, np.linspace(-0.5, 0.5, k + 1), np.full(k, 1.0), np.ones(k), 0.5, 1.0,
+        classes=("uav", "bird", "clutter"), class_coef=class_coef, class_l2=1.0,
+    )  # fmt: skip
+    events = blob_events(0, 3000)
+    reps = streamed(Detector(net, window_us=3_000, overlap=0.5), events, [])
+    seen: dict[int, list] = {}
+    scored = 0
+    for r in reps:
+        for o in r.objects:
+            if o.uav_score is None or o.track_id is None:
+                assert o.track_score is None and o.track_class is None
+                continue
+            scored += 1
+            seen.setdefault(o.track_id, []).append(o)
+            mine = seen[o.track_id]
+            mean = np.mean([m.uav_score for m in mine])
+            probs = np.mean([m.class_probabilities for m in mine], axis=0)
+            assert o.track_score == pytest.approx(mean, rel=1e-12)
+            assert (
+                o.track_class == net.identification.guess_from(np.array([mean]), probs[None, :])[0]
+            )
+            assert o.class_guess in ("uav", "bird", "clutter")
+    assert scored >= 3 and any(len(v) >= 3 for v in seen.values())
+    model = tmp_path / "model.npz"
+    net.save(model)
+    cmd = [sys.executable, "-m", "uavsnn", "detect", "-", "--model", str(model), "--window-ms", "3"]
+    done = subprocess.run([*cmd, "--json"], input=events.tobytes(), capture_output=True)
+    assert done.returncode == 0, done.stderr.decode()
+    rows = [json.loads(line) for line in done.stdout.decode().splitlines()]
+    objs = [o for row in rows for o in row["objects"] if o["uav_score"] is not None]
+    assert len(objs) == scored
+    for o in objs:
+        assert set(o["class_probabilities"]) == {"uav", "bird", "clutter"}
+        assert sum(o["class_probabilities"].values()) == pytest.approx(1.0)
+        if o["track"] is not None:
+            assert o["track_class"] in ("uav", "bird", "clutter")
+            assert o["track_stats"]["hits"] >= 1 and o["track_stats"]["age_us"] > 0
+
+
 def test_tracks_on_a_real_recording(shared_data: Path) -> None:
     """A real DVXplorer recording of a person (0.59 s), downsampled to 240x180, through the
     Detector with an untrained default network, in two chunks: tracks are produced, ids are

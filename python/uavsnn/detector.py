@@ -163,13 +163,13 @@ class Detector:
             raise ParameterError(f"window_us must be at least 1 µs, got {window_us}")
         if start_us is not None and start_us < 0:
             raise ParameterError(f"start_us must be >= 0, got {start_us}")
-        weights = [
+        w1, w2, w3 = (
             np.ascontiguousarray(network.weights(layer), dtype=np.float32).ravel()
             for layer in ("conv1", "conv2", "conv3")
-        ]
+        )
         # The detector keeps its own copy of the weights, taken now.
         self._inner = _core.StreamDetector(
-            json.dumps(network.config), *weights, int(window_us), float(overlap), start_us
+            json.dumps(network.config), w1, w2, w3, int(window_us), float(overlap), start_us
         )
         self._network = network
         self._start_us = start_us
@@ -180,6 +180,8 @@ class Detector:
         self._recent: list[np.ndarray] = []  # raw events of the open windows, in order
         self._recent_n = 0
         self._lost_until = 0  # events before this time were dropped from _recent
+        # Per live track: scored objects, the sum of their UAV scores and class probabilities.
+        self._identity: dict[int, tuple[int, float, np.ndarray]] = {}
 
     # ------------------------------------------------------------------ the stream
 
@@ -228,6 +230,7 @@ class Detector:
         self._tracker.reset()
         self._grouper = None
         self._recent, self._recent_n, self._lost_until = [], 0, 0
+        self._identity = {}
 
     # ------------------------------------------------------------------ one report per window
 
@@ -294,13 +297,32 @@ class Detector:
             # The track first (its statistics so far include this window), then the score.
             report = self._tracker.update(report)
             if measured is not None and ident is not None:
-                report = _with_scores(report, measured, ident)
+                report = self._with_track_identity(_with_scores(report, measured, ident), ident)
             out.append(report)
         if self._recent and self._grouper is not None:
             keep_from = self._grouper.open_since()
             while self._recent and (keep_from is None or self._recent[0]["t"][-1] < keep_from):
                 self._recent_n -= len(self._recent.pop(0))
         return out
+
+    def _with_track_identity(self, report: WindowReport, ident: Any) -> WindowReport:
+        """``report`` with each scored, tracked object's track score and class guess, from
+        the running sums of its track's scored objects (tracks no longer live are
+        forgotten)."""
+        live = {t.id for t in self._tracker.live}
+        self._identity = {k: v for k, v in self._identity.items() if k in live}
+        objects = list(report.objects)
+        for i, obj in enumerate(objects):
+            if obj.uav_score is None or obj.track_id is None or obj.class_probabilities is None:
+                continue
+            n, total, probs = self._identity.get(obj.track_id, (0, 0.0, 0.0))
+            n, total = n + 1, total + obj.uav_score
+            probs = probs + np.asarray(obj.class_probabilities, dtype=np.float64)
+            self._identity[obj.track_id] = (n, total, probs)
+            score = total / n
+            guess = ident.guess_from(np.array([score]), (probs / n)[None, :])[0]
+            objects[i] = replace(obj, track_score=score, track_class=guess)
+        return replace(report, objects=tuple(objects))
 
     # ------------------------------------------------------------------ properties
 
@@ -385,9 +407,11 @@ class Detector:
 class WindowObject:
     """One merged box of a window (see :func:`merge_boxes`), its track and rotor signature
     (filled by :meth:`Detector.push_windows`; ``None`` when not measured), and the
-    identification's UAV score and class guess (``"uav"`` or ``"other"``; filled by
-    :meth:`Detector.push_windows` when the model has identification and the rotor was
-    measured, else ``None``; the score uses the track as it stands after this window)."""
+    identification's UAV score and class guess (:meth:`uavsnn.identify.Identifier.guess`:
+    ``"uav"``, or the likeliest other class, ``"other"`` for a model without a class part),
+    for the object and for its track so far (filled by :meth:`Detector.push_windows` when the
+    model has identification and the rotor was measured, else ``None``; the score uses the
+    track as it stands after this window)."""
 
     #: ``(x0, y0, x1, y1)``, half-open sensor pixels (``x0 <= x < x1``).
     box: tuple[int, int, int, int]
@@ -405,6 +429,15 @@ class WindowObject:
     #: The object's track as it stands after this window (:meth:`uavsnn.tracks.Tracker.update`:
     #: its age, hits, speed and path so far); ``None`` without a track.
     track: Track | None = None
+    #: The mean UAV score of the track's scored objects so far, this one included (the
+    #: track-level rule of :mod:`uavsnn.track_eval` compares it with the threshold).
+    track_score: float | None = None
+    #: The object's probability of each class of the model's class part
+    #: (:attr:`uavsnn.identify.Identifier.classes`; empty without one).
+    class_probabilities: tuple[float, ...] | None = None
+    #: The track's class guess: :attr:`track_score` and the mean class probabilities of its
+    #: scored objects so far, through :meth:`uavsnn.identify.Identifier.guess_from`.
+    track_class: str | None = None
 
     @property
     def centre(self) -> tuple[float, float]:
@@ -691,7 +724,13 @@ def _with_scores(
         if obj.rotor is None:
             continue
         feats = object_features(obj.box, obj.spikes, None, obj.rotor, obj.track, counts=(n, on))
-        score = float(identification.scores(feats[None, :])[0])
-        guess = "uav" if score >= identification.threshold else "other"
-        objects[i] = replace(obj, uav_score=score, class_guess=guess)
+        score = identification.scores(feats[None, :])
+        probs = identification.class_probabilities(feats[None, :])
+        guess = identification.guess_from(score, probs)[0]
+        objects[i] = replace(
+            obj,
+            uav_score=float(score[0]),
+            class_guess=guess,
+            class_probabilities=tuple(float(v) for v in probs[0]),
+        )
     return replace(report, objects=tuple(objects))

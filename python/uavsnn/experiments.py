@@ -173,12 +173,25 @@ def static_twin(network: Network, windows: Windows) -> tuple[Network, float]:
     return with_config(network, pent={"mode": "static"}, conv1={"threshold": theta}), theta
 
 
-def have_dataset(root: str | Path, seed: int) -> bool:
-    """A finished dataset of ``seed`` is in ``root``, so a rerun of an experiment can reuse it."""
+def have_dataset(root: str | Path, seed: int, **parameters: Any) -> bool:
+    """A finished dataset of ``seed`` is in ``root``, built with ``parameters`` (names of the
+    manifest's ``parameters``, e.g. ``sensor_size=(640, 480)``, ``n_train=4000``; those not
+    given are not checked), so a rerun of an experiment can reuse it. A dataset of another
+    sensor size or window count is not reused."""
     try:
-        return bool(read_manifest(root)["seed"] == seed)
+        manifest = read_manifest(root)
     except DatasetError:
         return False
+    built = manifest.get("parameters", {})
+
+    def same(name: str, value: Any) -> bool:
+        if name not in built:
+            return False
+        if isinstance(value, (tuple, list)):
+            return list(built[name]) == list(value)
+        return bool(built[name] == value)
+
+    return manifest["seed"] == seed and all(same(k, v) for k, v in parameters.items())
 
 
 def with_noise(
@@ -261,9 +274,11 @@ def both_rules(
     if ident is None:
         return None
     feats = identify.window_features(network, data, inference, raw_noise=raw_noise)
-    return identification_figures(
+    figures = identification_figures(
         inference.detected, ident.window_scores(feats), data, ident.threshold
     )
+    figures["classes"] = identify.class_figures(ident, feats)
+    return figures
 
 
 def noise_level(

@@ -18,9 +18,17 @@ A logistic regression on standardised features (:func:`fit_logistic`: Newton's m
 L2 penalty, in NumPy) gives each object a UAV score in ``[0, 1]``; a window's score is its
 objects' largest (0 without one).
 
+A class guess comes beside the score (:meth:`Identifier.guess`): ``"uav"`` where the score
+reaches the threshold, else the most probable of the other classes the training windows name
+(``"bird"``, ``"insect"``, ``"ball"``, ``"airplane"``, ``"helicopter"``, ``"leaf"``...; an object
+of a window without a labelled object is ``"clutter"``) under a multinomial logistic regression
+on the same features (:func:`fit_softmax`; classes weighted equally, so that a rare class is not
+drowned by the common ones). Without that part (a model of version 1) the guess is ``"other"``.
+
 The model (:class:`Identifier`) is stored in the model file beside the network as plain arrays
 (``identify.version``, ``identify.coef``, ``identify.mean``, ``identify.scale``,
-``identify.features``, ``identify.threshold``, ``identify.l2``; no pickle), see
+``identify.features``, ``identify.threshold``, ``identify.l2``, and from version 2
+``identify.classes``, ``identify.class_coef``, ``identify.class_l2``; no pickle), see
 :meth:`uavsnn.network.Network.save`.
 
 ::
@@ -49,19 +57,25 @@ if TYPE_CHECKING:
     from uavsnn.tracks import Track, Tracker
 
 __all__ = [
+    "CLUTTER_CLASS",
     "FEATURES",
     "GROUPS",
+    "MIN_CLASS_OBJECTS",
     "TRACK_FEATURES",
+    "UAV_CLASS",
     "VERSION",
     "Identifier",
     "WindowFeatures",
     "ablation",
+    "class_figures",
     "feature_auc",
     "fit",
     "fit_logistic",
     "fit_network",
+    "fit_softmax",
     "object_features",
     "predict_logistic",
+    "predict_softmax",
     "raw_noise_events",
     "rotor_coverage",
     "split_by_recording",
@@ -70,8 +84,16 @@ __all__ = [
     "window_steps",
 ]
 
-#: The version of the stored arrays (``identify.version``).
-VERSION = 1
+#: The version of the stored arrays (``identify.version``): 2 adds the class model; version 1
+#: files still load (their class guess is ``"uav"`` or ``"other"``).
+VERSION = 2
+
+#: The class guess of an object called a UAV, and the class of a UAV object in training.
+UAV_CLASS = "uav"
+
+#: The training class of an object in a window without a labelled object (dataset class
+#: ``"none"``): something moved that is not a labelled object (texture, noise, a leaf's shadow).
+CLUTTER_CLASS = "clutter"
 
 #: The track group of :data:`FEATURES` (:func:`track_features`), from the object's track as it
 #: stands after its window (:class:`uavsnn.tracks.Track`).
@@ -200,6 +222,7 @@ class WindowFeatures:
     usable: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
     track: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     confirmed: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
+    cls: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype="<U12"))
 
     def columns(self, names: Sequence[str]) -> WindowFeatures:
         """The same objects with only the features ``names``."""
@@ -341,10 +364,11 @@ def window_features(
                 (o, object_features(o.box, o.spikes, None, rotor, o.track, counts=(n, on)))
                 for o, (rotor, n, on) in zip(report.objects, measured, strict=True)
             ]
-    rows, which, boxes, label, usable, track, confirmed = [], [], [], [], [], [], []
+    rows, which, boxes, label, usable, track, confirmed, cls = [], [], [], [], [], [], [], []
     for i in sorted(per_window):
         truth = np.asarray(data.box[i], dtype=np.float64)
         is_uav = bool(data.label[i])
+        named = str(data.cls[i])
         for obj, feats in per_window[i]:
             rows.append(feats)
             which.append(i)
@@ -358,6 +382,12 @@ def window_features(
             )
             label.append(is_uav and meets)
             usable.append(not is_uav or meets)
+            if is_uav:
+                cls.append(UAV_CLASS if meets else "")
+            elif named == "none":
+                cls.append(CLUTTER_CLASS)
+            else:
+                cls.append(named if meets else "")
             track.append(0 if obj.track_id is None else obj.track_id)
             confirmed.append(bool(obj.track_confirmed))
     return WindowFeatures(
@@ -369,6 +399,7 @@ def window_features(
         usable=np.array(usable, dtype=bool),
         track=np.array(track, dtype=np.int64),
         confirmed=np.array(confirmed, dtype=bool),
+        cls=np.array(cls, dtype="<U12"),
     )
 
 
@@ -454,9 +485,79 @@ def _sigmoid(z: np.ndarray) -> np.ndarray:
     return 0.5 * (1.0 + np.tanh(0.5 * z))  # stable for large |z|
 
 
+def fit_softmax(
+    x: np.ndarray,
+    y: np.ndarray,
+    classes: int,
+    *,
+    l2: float = 1.0,
+    weights: np.ndarray | None = None,
+    iterations: int = 50,
+) -> np.ndarray:
+    """Multinomial logistic regression by Newton's method: coefficients ``(classes, d + 1)``,
+    the intercepts last, minimising the weighted log loss plus ``l2 / 2 * |W|²`` (the
+    intercepts carry only a tiny penalty, enough to fix the one direction all classes share).
+    ``x`` ``(n, d)`` float, ``y`` ``(n,)`` int in ``[0, classes)``, ``weights`` ``(n,)``
+    (default: ones).
+
+    Raises:
+        ShapeError, ParameterError: mismatched shapes, a class out of range, a negative ``l2``
+            or weight, non-finite features.
+    """
+    x = np.asarray(x, dtype=np.float64)
+    y = np.asarray(y)
+    if x.ndim != 2 or y.shape != (len(x),):
+        raise ShapeError(f"x must be (n, d) and y (n,), got {x.shape} and {y.shape}")
+    if not np.issubdtype(y.dtype, np.integer):
+        raise ParameterError(f"y must hold class indices (integers), got dtype {y.dtype}")
+    if classes < 2 or (len(y) and (y.min() < 0 or y.max() >= classes)):
+        raise ParameterError(f"y must lie in [0, {classes}) with at least 2 classes")
+    if not np.isfinite(x).all():
+        raise ParameterError("x holds NaN or infinite values")
+    if not (l2 >= 0 and math.isfinite(l2)):
+        raise ParameterError(f"l2 must be a finite number >= 0, got {l2}")
+    w = np.ones(len(x)) if weights is None else np.asarray(weights, dtype=np.float64)
+    if w.shape != (len(x),) or not (np.isfinite(w).all() and (w >= 0).all()):
+        raise ParameterError("weights must be (n,), finite and >= 0")
+    n, d1, k = len(x), x.shape[1] + 1, int(classes)
+    a = np.hstack([x, np.ones((n, 1))])
+    target = np.zeros((n, k))
+    target[np.arange(n), y] = 1.0
+    penalty = np.tile(np.r_[np.full(d1 - 1, float(l2)), 1e-6], k)
+    coef = np.zeros(k * d1)
+    hess = np.empty((k * d1, k * d1))
+    for _ in range(iterations):
+        p = predict_softmax(coef.reshape(k, d1), x)
+        grad = ((p - target) * w[:, None]).T @ a
+        grad = grad.ravel() + penalty * coef
+        # The Hessian's (class i, class j) block: A^T diag(w p_i (δ_ij - p_j)) A, block by
+        # block so that memory stays O(n d) whatever the classes.
+        for i in range(k):
+            for j in range(i, k):
+                c = w * p[:, i] * ((i == j) - p[:, j])
+                block = a.T @ (a * c[:, None])
+                hess[i * d1 : (i + 1) * d1, j * d1 : (j + 1) * d1] = block
+                hess[j * d1 : (j + 1) * d1, i * d1 : (i + 1) * d1] = block.T
+        step = np.linalg.solve(hess + np.diag(penalty + 1e-12), grad)
+        coef -= step
+        if np.max(np.abs(step)) < 1e-10:
+            break
+    return coef.reshape(k, d1)
+
+
+def predict_softmax(coef: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Class probabilities ``(m, classes)``: ``softmax(x @ coef[:, :-1].T + coef[:, -1])``."""
+    z = np.asarray(x, dtype=np.float64) @ coef[:, :-1].T + coef[:, -1]
+    z -= z.max(axis=1, keepdims=True)
+    e = np.exp(z)
+    return e / e.sum(axis=1, keepdims=True)
+
+
 @dataclass(frozen=True)
 class Identifier:
-    """A fitted identification model: UAV score of an object from its features."""
+    """A fitted identification model: UAV score of an object from its features, and (when
+    ``classes`` is not empty) a class model for the class guess: ``class_coef``
+    ``(len(classes), d + 1)`` over the same standardised features (:func:`fit_softmax`)."""
 
     features: tuple[str, ...]
     coef: np.ndarray
@@ -464,6 +565,9 @@ class Identifier:
     scale: np.ndarray
     threshold: float
     l2: float
+    classes: tuple[str, ...] = ()
+    class_coef: np.ndarray | None = None
+    class_l2: float | None = None
 
     def __post_init__(self) -> None:
         d = len(self.features)
@@ -472,9 +576,18 @@ class Identifier:
             raise ParameterError(f"unknown identification features {unknown}")
         if self.coef.shape != (d + 1,) or self.mean.shape != (d,) or self.scale.shape != (d,):
             raise ShapeError(f"identification arrays do not match {d} features")
+        if self.classes:
+            if len(set(self.classes)) != len(self.classes) or len(self.classes) < 2:
+                raise ParameterError(f"classes must be 2 or more distinct names: {self.classes}")
+            if self.class_coef is None or self.class_coef.shape != (len(self.classes), d + 1):
+                raise ShapeError(
+                    f"the class model must be ({len(self.classes)}, {d + 1}), got "
+                    f"{None if self.class_coef is None else self.class_coef.shape}"
+                )
+        elif self.class_coef is not None:
+            raise ParameterError("a class model needs its class names")
 
-    def scores(self, x: np.ndarray) -> np.ndarray:
-        """UAV score of each object (rows of :data:`FEATURES`, or of :attr:`features`)."""
+    def _standardised(self, x: np.ndarray) -> np.ndarray:
         x = np.asarray(x, dtype=np.float64)
         if x.ndim != 2:
             raise ShapeError(f"features must be (m, d), got {x.shape}")
@@ -482,7 +595,44 @@ class Identifier:
             x = x[:, [FEATURES.index(f) for f in self.features]]
         if x.shape[1] != len(self.features):
             raise ShapeError(f"features must have {len(self.features)} columns, got {x.shape[1]}")
-        return predict_logistic(self.coef, (x - self.mean) / self.scale)
+        return (x - self.mean) / self.scale
+
+    def scores(self, x: np.ndarray) -> np.ndarray:
+        """UAV score of each object (rows of :data:`FEATURES`, or of :attr:`features`)."""
+        return predict_logistic(self.coef, self._standardised(x))
+
+    def class_probabilities(self, x: np.ndarray) -> np.ndarray:
+        """Each object's probability of each of :attr:`classes` ``(m, len(classes))``;
+        ``(m, 0)`` without a class model."""
+        z = self._standardised(x)
+        if self.class_coef is None:
+            return np.zeros((len(z), 0))
+        return predict_softmax(self.class_coef, z)
+
+    def guess(self, x: np.ndarray, scores: np.ndarray | None = None) -> list[str]:
+        """Each object's class guess: :data:`UAV_CLASS` where its UAV score (``scores``, else
+        computed) reaches :attr:`threshold`; else the most probable class other than
+        :data:`UAV_CLASS` of the class model, or ``"other"`` without one."""
+        x = np.asarray(x, dtype=np.float64)
+        s = self.scores(x) if scores is None else np.asarray(scores, dtype=np.float64)
+        return self.guess_from(s, self.class_probabilities(x))
+
+    def guess_from(self, scores: np.ndarray, probabilities: np.ndarray) -> list[str]:
+        """The guess of :meth:`guess` from UAV scores ``(m,)`` and class probabilities
+        ``(m, len(classes))`` already computed (or averaged, as a track's are)."""
+        s = np.asarray(scores, dtype=np.float64)
+        p = np.asarray(probabilities, dtype=np.float64)
+        if s.ndim != 1 or p.shape != (len(s), len(self.classes)):
+            raise ShapeError(
+                f"scores must be (m,) and probabilities (m, {len(self.classes)}), got "
+                f"{s.shape} and {p.shape}"
+            )
+        others = ["other"] * len(s)
+        if self.classes:
+            cols = [i for i, c in enumerate(self.classes) if c != UAV_CLASS]
+            best = np.argmax(p[:, cols], axis=1)
+            others = [self.classes[cols[int(b)]] for b in best]
+        return [UAV_CLASS if v >= self.threshold else o for v, o in zip(s, others, strict=True)]
 
     def window_scores(self, feats: WindowFeatures) -> np.ndarray:
         """Per window, its objects' largest UAV score (0 for a window without an object)."""
@@ -493,7 +643,7 @@ class Identifier:
 
     def to_arrays(self) -> dict[str, np.ndarray]:
         """The arrays stored in a model file."""
-        return {
+        out = {
             "identify.version": np.array(VERSION, dtype=np.int64),
             "identify.features": np.array(self.features, dtype="<U32"),
             "identify.coef": self.coef.astype(np.float64),
@@ -502,11 +652,18 @@ class Identifier:
             "identify.threshold": np.array(self.threshold, dtype=np.float64),
             "identify.l2": np.array(self.l2, dtype=np.float64),
         }
+        if self.class_coef is not None:
+            out["identify.classes"] = np.array(self.classes, dtype="<U32")
+            out["identify.class_coef"] = self.class_coef.astype(np.float64)
+            out["identify.class_l2"] = np.array(
+                np.nan if self.class_l2 is None else self.class_l2, dtype=np.float64
+            )
+        return out
 
     @classmethod
     def from_arrays(cls, arrays: Any) -> Identifier | None:
         """The model stored in ``arrays`` (a mapping, e.g. an ``np.load`` of a model file), or
-        ``None`` when it holds none.
+        ``None`` when it holds none. Reads versions 1 (no class model) and 2.
 
         Raises:
             ModelFileError: another version, or arrays that do not fit together.
@@ -514,11 +671,18 @@ class Identifier:
         if "identify.version" not in arrays:
             return None
         version = int(np.asarray(arrays["identify.version"]))
-        if version != VERSION:
+        if version not in (1, VERSION):
             raise ModelFileError(
-                f"identification version {version}; this uavsnn reads version {VERSION}"
+                f"identification version {version}; this uavsnn reads versions 1 to {VERSION}"
             )
         try:
+            classes: tuple[str, ...] = ()
+            class_coef, class_l2 = None, None
+            if version >= 2 and "identify.classes" in arrays:
+                classes = tuple(str(c) for c in np.asarray(arrays["identify.classes"]))
+                class_coef = np.asarray(arrays["identify.class_coef"], dtype=np.float64)
+                l2 = float(np.asarray(arrays["identify.class_l2"]))
+                class_l2 = None if math.isnan(l2) else l2
             return cls(
                 features=tuple(str(f) for f in np.asarray(arrays["identify.features"])),
                 coef=np.asarray(arrays["identify.coef"], dtype=np.float64),
@@ -526,6 +690,9 @@ class Identifier:
                 scale=np.asarray(arrays["identify.scale"], dtype=np.float64),
                 threshold=float(np.asarray(arrays["identify.threshold"])),
                 l2=float(np.asarray(arrays["identify.l2"])),
+                classes=classes,
+                class_coef=class_coef,
+                class_l2=class_l2,
             )
         except (KeyError, ValueError, ParameterError, ShapeError) as exc:
             raise ModelFileError(f"its identification arrays are inconsistent: {exc}") from exc
@@ -550,6 +717,7 @@ def fit(
     tune_label: np.ndarray | None = None,
     features: Sequence[str] = FEATURES,
     l2_grid: Sequence[float] = _L2_GRID,
+    classes: bool = True,
 ) -> Identifier:
     """Fit an :class:`Identifier` on ``train``'s usable objects; choose the L2 weight (the
     smallest log loss on ``tune``'s usable objects) and, when ``tune_detected`` (the any-spike
@@ -558,6 +726,12 @@ def fit(
     of its accuracy on UAV and on UAV-free windows, so that the tuning set's share of UAV
     windows, which is not the test set's, does not move it; else 0.5).
     ``tune`` must come from other recordings than ``train`` and never from the test set.
+
+    With ``classes`` (and objects of at least two classes in ``train``'s ``cls``, each class
+    with :data:`MIN_CLASS_OBJECTS` or more), also the class model of the class guess
+    (:func:`fit_softmax` on the same standardised features, each class weighted by the inverse
+    of its share so that every class weighs the same; the L2 weight with the smallest weighted
+    log loss on ``tune``'s objects of those classes).
 
     Raises:
         DatasetError: too few objects of either kind to fit.
@@ -587,9 +761,94 @@ def fit(
         label = np.asarray(tune_label, dtype=bool)
         candidates = np.unique(np.concatenate([[0.5], score[score >= 0]]))
         acc = [_balanced_accuracy(score >= c, label) for c in candidates]
-        threshold = float(candidates[int(np.argmax(acc))])
-        ident = Identifier(names, best[2], mean, scale, threshold, best[1])
+        ident = replace(ident, threshold=float(candidates[int(np.argmax(acc))]))
+    if classes:
+        found = _fit_classes(tr, tu, mean, scale, l2_grid)
+        if found is not None:
+            ident = replace(ident, classes=found[0], class_coef=found[1], class_l2=found[2])
     return ident
+
+
+#: Objects a class needs in the training windows to enter the class model.
+MIN_CLASS_OBJECTS = 5
+
+
+def _balanced_weights(y: np.ndarray, k: int) -> np.ndarray:
+    counts = np.bincount(y, minlength=k).astype(np.float64)
+    return (len(y) / (k * np.maximum(counts, 1)))[y]
+
+
+def _fit_classes(
+    train: WindowFeatures,
+    tune: WindowFeatures,
+    mean: np.ndarray,
+    scale: np.ndarray,
+    l2_grid: Sequence[float],
+) -> tuple[tuple[str, ...], np.ndarray, float] | None:
+    """The class model of :func:`fit`: ``(classes, coef, l2)``, or ``None`` when ``train``
+    names fewer than two classes with :data:`MIN_CLASS_OBJECTS` objects each."""
+    if len(train.cls) != len(train.x):
+        return None
+    names, counts = np.unique(train.cls[train.cls != ""], return_counts=True)
+    kept = [str(c) for c, m in zip(names, counts, strict=True) if m >= MIN_CLASS_OBJECTS]
+    kept.sort(key=lambda c: (c != UAV_CLASS, c))
+    if len(kept) < 2:
+        return None
+    index = {c: i for i, c in enumerate(kept)}
+    k = len(kept)
+
+    def part(feats: WindowFeatures) -> tuple[np.ndarray, np.ndarray]:
+        if len(feats.cls) != len(feats.x):
+            return np.zeros((0, feats.x.shape[1])), np.zeros(0, dtype=np.int64)
+        rows = np.isin(feats.cls, kept)
+        y = np.array([index[str(c)] for c in feats.cls[rows]], dtype=np.int64)
+        return (feats.x[rows] - mean) / scale, y
+
+    z, y = part(train)
+    zt, yt = part(tune)
+    weights, tune_weights = _balanced_weights(y, k), _balanced_weights(yt, k)
+    best = None
+    for l2 in l2_grid:
+        coef = fit_softmax(z, y, k, l2=float(l2), weights=weights)
+        loss = 0.0
+        if len(yt):
+            p = np.clip(predict_softmax(coef, zt)[np.arange(len(yt)), yt], 1e-12, 1.0)
+            loss = float(-np.sum(tune_weights * np.log(p)) / tune_weights.sum())
+        if best is None or loss < best[0]:
+            best = (loss, float(l2), coef)
+    assert best is not None
+    return tuple(kept), best[2], best[1]
+
+
+def class_figures(ident: Identifier, feats: WindowFeatures) -> dict[str, Any]:
+    """How the class guess (:meth:`Identifier.guess`) fares on the objects of ``feats`` whose
+    class is known (``feats.cls``): ``confusion`` (true class -> guess -> objects), per true
+    class its objects and the share guessed right (``recall``), the share of all of them
+    guessed right (``accuracy``) and the mean of the per-class shares over the classes the
+    model knows (``balanced_accuracy``); ``classes``: the model's classes (empty without a
+    class model: every guess is then ``"uav"`` or ``"other"``)."""
+    labelled = len(feats.cls) == len(feats.x)
+    known = feats.cls != "" if labelled else np.zeros(len(feats.x), bool)
+    truth = [str(c) for c in feats.cls[known]] if labelled else []
+    guesses = ident.guess(feats.x[known]) if truth else []
+    confusion: dict[str, dict[str, int]] = {}
+    for t, g in zip(truth, guesses, strict=True):
+        row = confusion.setdefault(t, {})
+        row[g] = row.get(g, 0) + 1
+    per_class = {
+        t: {"objects": sum(row.values()), "recall": row.get(t, 0) / sum(row.values())}
+        for t, row in sorted(confusion.items())
+    }
+    modelled = [v["recall"] for c, v in per_class.items() if c in ident.classes]
+    right = sum(row.get(t, 0) for t, row in confusion.items())
+    return {
+        "classes": list(ident.classes),
+        "objects": len(truth),
+        "accuracy": right / len(truth) if truth else None,
+        "balanced_accuracy": float(np.mean(modelled)) if modelled else None,
+        "per_class": per_class,
+        "confusion": {t: dict(sorted(row.items())) for t, row in sorted(confusion.items())},
+    }
 
 
 def _balanced_accuracy(pred: np.ndarray, label: np.ndarray) -> float:
@@ -623,7 +882,14 @@ def ablation(
     fired = np.asarray(test_detected, dtype=bool)
     out = {}
     for name, names in GROUPS.items():
-        ident = fit(train, tune, tune_detected=tune_detected, tune_label=tune_label, features=names)
+        ident = fit(
+            train,
+            tune,
+            tune_detected=tune_detected,
+            tune_label=tune_label,
+            features=names,
+            classes=False,
+        )
         score = np.where(fired, ident.window_scores(test), -np.inf)
         row: dict[str, Any] = {
             "features": len(names),

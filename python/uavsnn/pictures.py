@@ -400,8 +400,8 @@ def _ticks(lo: float, hi: float) -> tuple[np.ndarray, int]:
 
 
 def line_chart(
-    x: Sequence[float],
-    series: Mapping[str, Sequence[float]],
+    x: Sequence[float] | np.ndarray,
+    series: Mapping[str, Sequence[float] | np.ndarray],
     *,
     title: str,
     xlabel: str,

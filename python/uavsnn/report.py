@@ -26,6 +26,7 @@ from uavsnn.windows import add_noise
 __all__ = [
     "CAPTIONS",
     "caption",
+    "class_markdown",
     "confusion_table",
     "evaluation_markdown",
     "figures",
@@ -428,6 +429,32 @@ def identification_markdown(figures: dict[str, Any]) -> str:
         for p in points
     )
     lines += ["", f"Overall detection: {overall}."]
+    return "\n".join(lines) + "\n"
+
+
+def class_markdown(figures: dict[str, Any]) -> str:
+    """The class guess on the test objects whose class is known
+    (:func:`uavsnn.identify.class_figures`' output): per true class, its objects, the share
+    guessed right and what the rest were taken for."""
+    if not figures["classes"]:
+        return "No class model: the guess is uav or other.\n"
+    if not figures["objects"]:
+        return "No test object of a known class.\n"
+    lines = [
+        f"Class guess on the {figures['objects']} test objects of a known class (uav where the "
+        "UAV score reaches the threshold, else the likeliest other class of a multinomial "
+        "logistic regression on the same features; `uavsnn.identify.class_figures`): "
+        f"{100 * figures['accuracy']:.1f} % right, balanced over the model's classes "
+        f"{100 * figures['balanced_accuracy']:.1f} %.\n",
+        "| class | objects | guessed right | taken most often for |",
+        "|---|---|---|---|",
+    ]
+    for cls, row in figures["per_class"].items():
+        wrong = {g: n for g, n in figures["confusion"][cls].items() if g != cls}
+        most = max(wrong.items(), key=lambda kv: (kv[1], kv[0])) if wrong else None
+        taken = "-" if most is None else f"{most[0]} ({100 * most[1] / row['objects']:.1f} %)"
+        known = "" if cls in figures["classes"] else " (not a class of the model)"
+        lines.append(f"| {cls}{known} | {row['objects']} | {100 * row['recall']:.1f} % | {taken} |")
     return "\n".join(lines) + "\n"
 
 

@@ -81,7 +81,7 @@ def _overlap(value: Any) -> float:
     return overlap
 
 
-def _column(name: str, values: Any, dtype: type[np.generic]) -> np.ndarray:
+def _column(name: str, values: Any, dtype: type[np.integer[Any]]) -> np.ndarray:
     """A contiguous 1-D column of ``dtype``; values that do not fit are a ShapeError."""
     arr = np.asarray(values)
     if arr.ndim != 1:
@@ -178,7 +178,7 @@ class Windows:
             object.__setattr__(windows, name, value)
         return windows
 
-    def _columns(self) -> tuple[np.ndarray, ...]:
+    def _columns(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         return (self.t0, self.offsets, self.t, self.x, self.y)
 
     def __len__(self) -> int:

@@ -201,8 +201,33 @@ def _track(o: Any) -> str:
     return f"{o.track_id}{'' if o.track_confirmed else '?'}"
 
 
-def _window(w: Any, as_json: bool) -> str:
-    """One window's decision (the default output; docs/streaming.md "What detect prints")."""
+def _probabilities(o: Any, classes: tuple[str, ...]) -> dict[str, float] | None:
+    """The object's class probabilities by class name (``None`` when not scored or the model
+    has no class part)."""
+    if not o.class_probabilities or len(o.class_probabilities) != len(classes):
+        return None
+    return dict(zip(classes, o.class_probabilities, strict=True))
+
+
+def _track_stats(o: Any) -> dict[str, Any] | None:
+    """The object's track as it stands after the window (``None`` without a track)."""
+    tr = o.track
+    if tr is None:
+        return None
+    return {
+        "age_us": tr.age_us,
+        "hits": tr.hits,
+        "speed_px_s": tr.speed,
+        "velocity_px_s": list(tr.velocity),
+        "straightness": tr.straightness,
+        "turn_rate_rad_s": tr.turn_rate,
+        "first_alarm_us": tr.first_alarm_us,
+    }
+
+
+def _window(w: Any, as_json: bool, classes: tuple[str, ...] = ()) -> str:
+    """One window's decision (the default output; docs/streaming.md "What detect prints");
+    ``classes``: the names of the model's class probabilities."""
     if as_json:
         return json.dumps(
             {
@@ -218,8 +243,12 @@ def _window(w: Any, as_json: bool) -> str:
                         "spikes": o.spikes,
                         "uav_score": o.uav_score,
                         "class": o.class_guess,
+                        "class_probabilities": _probabilities(o, classes),
                         "track": o.track_id,
                         "track_confirmed": o.track_confirmed,
+                        "track_score": o.track_score,
+                        "track_class": o.track_class,
+                        "track_stats": _track_stats(o),
                         "rotor": _rotor(o),
                     }
                     for o in w.objects
@@ -237,7 +266,7 @@ def _window(w: Any, as_json: bool) -> str:
         line += (
             f" | box={x0},{y0},{x1},{y1} centre={cx:.1f},{cy:.1f} spikes={o.spikes} "
             f"uav_score={_absent(o.uav_score)} class={_absent(o.class_guess)} "
-            f"track={_track(o)} rotor="
+            f"track={_track(o)} track_class={_absent(o.track_class)} rotor="
             + (
                 "-"
                 if rotor is None
@@ -352,10 +381,12 @@ def run(args: argparse.Namespace) -> int:
             print(f"uavsnn detect: note: {network.load_note}", file=err, flush=True)
         summary = _Summary(args.summary_every, err)
         rejected = 0
+        ident = network.identification
+        classes = tuple(ident.classes) if ident is not None else ()
 
         def emit(closed: list[Any]) -> None:
             for w in closed:
-                print(_window(w, args.json), file=out, flush=True)
+                print(_window(w, args.json, classes), file=out, flush=True)
 
         def push(chunk: np.ndarray) -> None:
             if args.per_spike:

@@ -196,6 +196,7 @@ def _identification(
         out = identification_figures(
             inference.detected, ident.window_scores(test), data, ident.threshold
         )
+        out["classes"] = identify.class_figures(ident, test)
     out["rotor_coverage"] = identify.rotor_coverage(test, data)
     out["feature_auc"] = identify.feature_auc(test)
     if args.ablation is not None:
@@ -233,6 +234,17 @@ def _print_identification(ident: dict[str, Any]) -> None:
                 f"  at {100 * point['false_alarm_target']:g} % false alarms: detection "
                 f"{100 * point['detection_rate']:.1f} % ({sizes})"
             )
+    classes = ident.get("classes")
+    if classes and classes["classes"] and classes["objects"]:
+        recall = ", ".join(
+            f"{c} {100 * row['recall']:.0f} % of {row['objects']}"
+            for c, row in classes["per_class"].items()
+        )
+        print(
+            f"class guess on {classes['objects']} test objects of a known class: "
+            f"{100 * classes['accuracy']:.1f} % right, balanced "
+            f"{100 * classes['balanced_accuracy']:.1f} % ({recall})"
+        )
     for z in ident["rotor_coverage"]:
         high = "inf" if z["high_px"] is None else f"{z['high_px']:g}"
         print(

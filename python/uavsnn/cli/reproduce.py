@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from uavsnn import __version__, pictures, report
-from uavsnn.dataset import LabelledWindows, build, load
+from uavsnn.dataset import LabelledWindows, build, load, parse_sensor
 from uavsnn.distributed import (
     SERIAL,
     Runner,
@@ -79,13 +79,24 @@ def register(subparsers: Any) -> None:
         help=f"labelled real videos (default {_DEFAULT_VIDEOS} when it exists)",
     )
     p.add_argument("--no-real", action="store_true", help="skip the real-footage experiment")
+    p.add_argument(
+        "--sensor",
+        default="240x180",
+        metavar="WxH",
+        help="sensor size of every dataset and network (240x180, the paper's; also 346x260, "
+        "640x480, 1280x720: the scenes keep their field of view, so objects cover more pixels)",
+    )
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     add_ray_option(p, "the dataset builds, trainings and evaluations as tasks (the same figures)")
     p.set_defaults(handler=_reproduce)
 
 
 def _dataset(root: Path, domain: str, seed: int, progress: bool, **kwargs: Any) -> Path:
-    if not have_dataset(root, seed):
+    """Build ``domain``'s dataset in ``root``, unless the one there was built with the same seed,
+    sensor and window counts."""
+    same = {"sensor_size": kwargs["sensor"]} if "sensor" in kwargs else {}
+    same |= {k: kwargs[k] for k in ("n_train", "n_test") if k in kwargs}
+    if not have_dataset(root, seed, **same):
         build(root, domain, seed=seed, overwrite=True, progress=progress, **kwargs)
     return root
 
@@ -136,6 +147,7 @@ def _identification_text(fit: dict[str, Any], figures: dict[str, Any] | None) ->
         f"\nIdentification fitted on {fit['train_windows']} training windows and tuned on "
         f"{fit['tune_windows']} of held-out training recordings (L2 {fit['l2']:g}).\n",
         report.identification_markdown(figures),
+        *([report.class_markdown(figures["classes"])] if "classes" in figures else []),
     ]
 
 
@@ -150,6 +162,7 @@ def _tracks_text(figures: dict[str, Any]) -> str:
 
 def _reproduce(args: argparse.Namespace) -> int:
     started = time.perf_counter()
+    sensor = parse_sensor(args.sensor)
     out: Path = args.out
     out.mkdir(parents=True, exist_ok=True)
     progress = not args.quiet
@@ -158,6 +171,7 @@ def _reproduce(args: argparse.Namespace) -> int:
     env = environment()
     log: dict[str, Any] = {
         "uavsnn": __version__, "seed": seed, "command": command, "environment": env,
+        "sensor": list(sensor),
     }  # fmt: skip
 
     def step(msg: str) -> None:
@@ -167,22 +181,28 @@ def _reproduce(args: argparse.Namespace) -> int:
     step("dvs dataset")
     dvs_dir = _dataset(
         out / "data/dvs", "dvs", seed, progress, n_train=args.n_train, n_test=args.n_test,
-        runner=runner,
+        runner=runner, sensor=sensor,
     )  # fmt: skip
     step("sim dataset")
     sim_dir = _dataset(
-        out / "data/sim", "sim", seed, progress, n_train=args.n_train, n_test=200, runner=runner
-    )
+        out / "data/sim", "sim", seed, progress, n_train=args.n_train, n_test=200, runner=runner,
+        sensor=sensor,
+    )  # fmt: skip
     dvs_train, dvs_test = load(dvs_dir, "train"), load(dvs_dir, "test")
     sim_train = load(sim_dir, "train")
     combined = mix_windows([dvs_train, sim_train], args.n_train, seed=seed)
-    recipe = recipe_config()
+    size = {"width": sensor[0], "height": sensor[1]}
+    recipe = recipe_config() | size
     # name -> (config, training windows, model file)
     runs: dict[str, tuple[dict[str, Any], LabelledWindows, str]] = {
         "dvs": (recipe, dvs_train, "model-dvs.npz"),
         "sim": (recipe, sim_train, "model-sim.npz"),
         "combined": (recipe, combined, "model-combined.npz"),
-        "combined, Table 1 as published": (default_config(), combined, "model-combined-table1.npz"),
+        "combined, Table 1 as published": (
+            default_config() | size,
+            combined,
+            "model-combined-table1.npz",
+        ),
     }
     networks: dict[str, Network] = {}
     results: dict[str, Evaluation] = {}
@@ -241,8 +261,9 @@ def _reproduce(args: argparse.Namespace) -> int:
     if videos is not None and not args.no_real:
         step(f"real dataset from {videos}")
         real_dir = _dataset(
-            out / "data/real", "real", seed, progress, videos=videos, n_train=None, runner=runner
-        )
+            out / "data/real", "real", seed, progress, videos=videos, n_train=None, runner=runner,
+            sensor=sensor,
+        )  # fmt: skip
         real_train, real_test = load(real_dir, "train"), load(real_dir, "test")
         step("train and test on real footage")
         job = _train_all(runner, {"real": (recipe, real_train, "")}, seed, train_kwargs)["real"]
@@ -275,6 +296,7 @@ def _reproduce(args: argparse.Namespace) -> int:
         "# Results\n",
         f"Every figure below was produced by `{command}` (uavsnn {__version__}, seed {seed}) in "
         f"{log['seconds'] / 60:.1f} minutes; `results.json` beside this file holds them all. "
+        f"Sensor: {sensor[0]}x{sensor[1]} (every dataset and network). "
         f"Training windows per domain: {args.n_train}; STDP windows per layer: "
         f"{args.windows_per_layer}; test: the dvs test set of {len(dvs_test)} windows "
         "(half UAV), from recordings no network was trained on. The project's recipe is "

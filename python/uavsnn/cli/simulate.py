@@ -17,9 +17,7 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
-import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -98,28 +96,10 @@ def register(subparsers: Any) -> None:
 
 def write_recording(recording: Recording, path: Path) -> None:
     """Write ``recording`` as ``.npz`` (arrays ``events``, ``sensor_size``, and ``metadata`` as
-    JSON text) atomically; uses :func:`uavsnn.io.write_npz` when the package has it."""
-    try:
-        from uavsnn.io import write_npz  # type: ignore[import-not-found,attr-defined]
-    except ImportError:
-        write_npz = None
-    if write_npz is not None:
-        write_npz(recording, path)
-        return
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".npz", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            np.savez(
-                fh,
-                events=recording.events,
-                sensor_size=np.asarray(recording.sensor_size, dtype=np.int64),
-                metadata=np.asarray(json.dumps(recording.metadata)),
-            )
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    JSON text) atomically: :func:`uavsnn.io.write_npz`."""
+    from uavsnn.io import write_npz
+
+    write_npz(recording, path)
 
 
 def _scene(args: argparse.Namespace, size: tuple[int, int]) -> Recording:
