@@ -258,8 +258,8 @@ def test_pulses_come_back_within_two_percent(gen, f):
 
 @given(f=st.floats(55.0, 1000.0), jitter=st.floats(0.0, 0.03), seed=st.integers(2000, 2**32))
 def test_any_pulse_rate_in_the_band_comes_back(gen, f, jitter, seed):
-    # From 55 Hz: between 50 and 55 Hz, four pixels and up to 3 % jitter, the second or third
-    # harmonic wins about twice in a thousand draws (docs/identification.md, "Rate spectrum").
+    # From 55 Hz: just above 50 Hz, over four pixels with jitter, the second harmonic can win
+    # (docs/identification.md, "Rotor spectrum").
     events = gen.pulses(f, 4, 100_000, jitter, np.random.default_rng(seed))
     est = rotor_spectrum(events, (0, 0, 4, 1))
     assert abs(est.frequency_hz - f) <= 0.02 * f, est
