@@ -157,6 +157,14 @@ def test_bad_parameters_are_parameter_errors(kwargs):
         estimate_motion(np.zeros(0, dtype=EVENT_DTYPE), (0, 0, 4, 4), **kwargs)
 
 
+def test_unknown_parameters_are_parameter_errors():
+    empty = np.zeros(0, dtype=EVENT_DTYPE)
+    with pytest.raises(ParameterError, match="min_gian"):
+        compensated_rotor(empty, (0, 0, 4, 4), min_gian=0.1)
+    with pytest.raises(ParameterError):
+        compensated_rotor(empty, (0, 0, 4, 4), spectrum_params={"bins": 3})
+
+
 @pytest.mark.parametrize("box", [(0, 0, 0, 4), (0, 0, 4, -1), "box", (1, 2, 3)])
 def test_bad_boxes_are_parameter_errors(box):
     with pytest.raises(ParameterError):

@@ -424,6 +424,7 @@ def estimate_motion(
 
     Raises:
         ParameterError: a bad box or parameter.
+        EventError: events not a 1-D array of the canonical dtype.
     """
     x0, y0, width, height = _box(box)
     if width <= 0 or height <= 0:
@@ -512,8 +513,18 @@ def compensated_rotor(
     **motion_params: Any,
 ) -> CompensatedRotor:
     """The rotor estimators on ``events`` inside ``box`` after compensating the box's motion
-    (:func:`estimate_motion` unless ``motion`` is given; :func:`compensate_motion`)."""
+    (:func:`estimate_motion` with ``motion_params`` unless ``motion`` is given; then
+    :func:`compensate_motion`). ``edge_params`` and ``spectrum_params`` go to
+    :func:`rotor_signature` and :func:`rotor_spectrum`.
+
+    Raises:
+        ParameterError: a bad box or parameter, or an unknown motion parameter.
+        EventError: events not a 1-D array of the canonical dtype.
+    """
     box = _box(box)
+    unknown = set(motion_params) - set(MOTION_DEFAULTS)
+    if unknown:
+        raise ParameterError(f"unknown motion parameters {sorted(unknown)}")
     if motion is None:
         motion = estimate_motion(events, box, **motion_params)
     warped = compensate_motion(events, box, motion)
