@@ -12,6 +12,11 @@ its ``strength`` (its votes over every interval measured), and how many pixels a
 
 The state is fixed when the estimator is made (32 bytes per pixel of the box, at most
 ``MAX_PIXELS`` pixels) and the work runs in Rust without the GIL.
+
+:func:`compensated_rotor` runs both estimators on a box's events moved to the object's frame
+(its velocity by contrast maximisation, :func:`estimate_motion`), a NumPy measurement tool:
+``docs/identification.md``, "Motion-compensated rotor", says what it finds and why it is not a
+feature.
 """
 
 from __future__ import annotations
@@ -31,12 +36,19 @@ __all__ = [
     "DEFAULTS",
     "MAX_PIXELS",
     "MAX_SPECTRUM_BYTES",
+    "MOTION_DEFAULTS",
     "SPECTRUM_DEFAULTS",
+    "CompensatedRotor",
+    "MotionEstimate",
     "RotorEstimate",
     "RotorSignature",
     "RotorSpectrum",
     "SpectrumEstimate",
+    "compensate_motion",
+    "compensated_rotor",
+    "estimate_motion",
     "measure_box",
+    "motion_line",
     "rotor_signature",
     "rotor_spectrum",
 ]
@@ -321,3 +333,250 @@ def rotor_spectrum(
     estimator = RotorSpectrum(box, **params)
     estimator.update(events)
     return estimator.estimate()
+
+
+# --------------------------------------------------------------------------- motion compensation
+
+#: Defaults of :func:`estimate_motion` (``docs/identification.md``, "Motion-compensated rotor").
+MOTION_DEFAULTS: dict[str, float | int] = {
+    "min_events": 32,
+    "min_gain": 0.05,
+    "coarse_steps": 8,
+    "finest_px": 0.25,
+    "max_events": 4096,
+}
+
+
+@dataclass(frozen=True)
+class MotionEstimate:
+    """The image velocity of the events in a box, by contrast maximisation.
+
+    Attributes:
+        vx, vy: the velocity (px/s); 0.0 when the contrast gained is under ``min_gain``.
+        t_ref_us: the time the warped events are moved to (the middle of their span).
+        gain: the warped events' contrast at the velocity found over their contrast unwarped,
+            minus one (0.0 with too few events).
+        events: events in the box.
+    """
+
+    vx: float
+    vy: float
+    t_ref_us: float
+    gain: float
+    events: int
+
+    @property
+    def speed(self) -> float:
+        """``hypot(vx, vy)`` in px/s."""
+        return float(np.hypot(self.vx, self.vy))
+
+
+@dataclass(frozen=True)
+class CompensatedRotor:
+    """Both rotor estimators on a box's events moved to the object's frame.
+
+    Attributes:
+        motion: the velocity the events were compensated by.
+        edges: :func:`rotor_signature` of the warped events.
+        spectrum: :func:`rotor_spectrum` of the warped events.
+        kept: warped events that land in the box (and were read by the estimators).
+    """
+
+    motion: MotionEstimate
+    edges: RotorEstimate
+    spectrum: SpectrumEstimate
+    kept: int
+
+    @property
+    def detected(self) -> bool:
+        """Either estimator detected a rotor."""
+        return bool(self.edges.detected or self.spectrum.detected)
+
+
+def _in_box(events: np.ndarray, box: tuple[int, int, int, int]) -> np.ndarray:
+    packed_bytes(events)  # the canonical dtype, 1-D, or an EventError
+    x0, y0, width, height = box
+    x = events["x"].astype(np.int64)
+    y = events["y"].astype(np.int64)
+    return events[(x >= x0) & (x < x0 + width) & (y >= y0) & (y < y0 + height)]
+
+
+def _contrast(x: np.ndarray, y: np.ndarray, dt: np.ndarray, vx: float, vy: float) -> float:
+    """Sum of squares of the bilinearly splatted image of the events warped by ``(vx, vy)``
+    (box-local coordinates; the image is bounded by the box and its margin)."""
+    wx = x - vx * dt
+    wy = y - vy * dt
+    ix = np.floor(wx)
+    iy = np.floor(wy)
+    fx = wx - ix
+    fy = wy - iy
+    ix = ix.astype(np.int64)
+    iy = iy.astype(np.int64)
+    lo_x, lo_y = int(ix.min()), int(iy.min())
+    ix -= lo_x
+    iy -= lo_y
+    w = int(ix.max()) + 2
+    h = int(iy.max()) + 2
+    flat = iy * w + ix
+    size = w * h
+    image = np.bincount(flat, (1 - fx) * (1 - fy), size)
+    image += np.bincount(flat + 1, fx * (1 - fy), size)
+    image += np.bincount(flat + w, (1 - fx) * fy, size)
+    image += np.bincount(flat + w + 1, fx * fy, size)
+    return float(np.dot(image, image))
+
+
+def estimate_motion(
+    events: np.ndarray,
+    box: tuple[int, int, int, int],
+    *,
+    min_events: int = int(MOTION_DEFAULTS["min_events"]),
+    min_gain: float = float(MOTION_DEFAULTS["min_gain"]),
+    coarse_steps: int = int(MOTION_DEFAULTS["coarse_steps"]),
+    finest_px: float = float(MOTION_DEFAULTS["finest_px"]),
+    max_events: int = int(MOTION_DEFAULTS["max_events"]),
+) -> MotionEstimate:
+    """The image velocity of the events inside ``box`` (canonical dtype, time order).
+
+    The events are warped to the middle of their span, ``(x − vx (t − tm), y − vy (t − tm))``,
+    for a grid of velocities, and the velocity whose warped image is sharpest (largest sum of
+    squares of a bilinear splat) wins: contrast maximisation. The object is assumed to stay in
+    its box over the span, so the grid covers displacements up to the box's width and height
+    over the span, first in ``coarse_steps`` steps each way, then refined around the best by
+    halving the step down to ``finest_px`` of displacement. A velocity that sharpens the image
+    by less than ``min_gain`` (relative) is reported as 0: a still source stays unwarped.
+    Beyond ``max_events`` events in the box, an evenly strided subset of that many is used, so
+    the cost is bounded whatever the box holds.
+
+    Raises:
+        ParameterError: a bad box or parameter.
+        EventError: events not a 1-D array of the canonical dtype.
+    """
+    x0, y0, width, height = _box(box)
+    if width <= 0 or height <= 0:
+        raise ParameterError(f"box must have a positive width and height, got {box!r}")
+    if int(min_events) < 2 or not float(min_gain) >= 0.0 or int(coarse_steps) < 1:
+        raise ParameterError("min_events >= 2, min_gain >= 0 and coarse_steps >= 1 needed")
+    if int(max_events) < int(min_events):
+        raise ParameterError(f"max_events must be at least min_events, got {max_events!r}")
+    if not 0.0 < float(finest_px) <= 1.0:
+        raise ParameterError(f"finest_px must be in (0, 1], got {finest_px!r}")
+    ev = _in_box(events, (x0, y0, width, height))
+    if len(ev) == 0:
+        return MotionEstimate(0.0, 0.0, 0.0, 0.0, 0)
+    t = ev["t"].astype(np.float64)
+    t_ref = 0.5 * (t[0] + t[-1])
+    span_s = (t[-1] - t[0]) * 1e-6
+    if len(ev) < int(min_events) or span_s <= 0.0:
+        return MotionEstimate(0.0, 0.0, float(t_ref), 0.0, len(ev))
+    n = len(ev)
+    if n > int(max_events):
+        pick = (np.arange(int(max_events)) * n) // int(max_events)
+        ev, t = ev[pick], t[pick]
+    dt = (t - t_ref) * 1e-6
+    x = ev["x"].astype(np.float64) - x0
+    y = ev["y"].astype(np.float64) - y0
+    base = _contrast(x, y, dt, 0.0, 0.0)
+    # search in displacement over the span (px), then convert
+    best = (0.0, 0.0)
+    best_c = base
+    step_x = width / coarse_steps
+    step_y = height / coarse_steps
+    reach_x, reach_y = float(width), float(height)
+    cx, cy = 0.0, 0.0
+    while True:
+        nx = int(np.floor(reach_x / step_x + 1e-9))
+        ny = int(np.floor(reach_y / step_y + 1e-9))
+        for i in range(-nx, nx + 1):
+            for j in range(-ny, ny + 1):
+                dx, dy = cx + i * step_x, cy + j * step_y
+                if abs(dx) > width or abs(dy) > height:
+                    continue
+                c = _contrast(x, y, dt, dx / span_s, dy / span_s)
+                if c > best_c:
+                    best_c, best = c, (dx, dy)
+        if max(step_x, step_y) <= finest_px:
+            break
+        cx, cy = best
+        reach_x, reach_y = step_x, step_y
+        step_x, step_y = max(step_x / 2, finest_px / 2), max(step_y / 2, finest_px / 2)
+        step_x, step_y = min(step_x, reach_x), min(step_y, reach_y)
+    gain = best_c / base - 1.0 if base > 0 else 0.0
+    if gain < float(min_gain):
+        return MotionEstimate(0.0, 0.0, float(t_ref), float(gain), n)
+    return MotionEstimate(
+        float(best[0] / span_s), float(best[1] / span_s), float(t_ref), float(gain), n
+    )
+
+
+def compensate_motion(
+    events: np.ndarray, box: tuple[int, int, int, int], motion: MotionEstimate
+) -> np.ndarray:
+    """The events inside ``box`` moved to the object's frame at ``motion.t_ref_us``: each to
+    the pixel nearest ``(x − vx (t − tm), y − vy (t − tm))``, those that land outside the box
+    dropped. Times and order are kept. A still motion returns the box's events unchanged."""
+    x0, y0, width, height = _box(box)
+    ev = _in_box(events, (x0, y0, width, height))
+    if motion.vx == 0.0 and motion.vy == 0.0:
+        return ev
+    dt = (ev["t"].astype(np.float64) - motion.t_ref_us) * 1e-6
+    wx = np.floor(ev["x"].astype(np.float64) - motion.vx * dt + 0.5).astype(np.int64)
+    wy = np.floor(ev["y"].astype(np.float64) - motion.vy * dt + 0.5).astype(np.int64)
+    keep = (wx >= x0) & (wx < x0 + width) & (wy >= y0) & (wy < y0 + height)
+    out = ev[keep].copy()
+    out["x"] = wx[keep]
+    out["y"] = wy[keep]
+    return out
+
+
+def compensated_rotor(
+    events: np.ndarray,
+    box: tuple[int, int, int, int],
+    *,
+    motion: MotionEstimate | None = None,
+    edge_params: dict[str, Any] | None = None,
+    spectrum_params: dict[str, Any] | None = None,
+    **motion_params: Any,
+) -> CompensatedRotor:
+    """The rotor estimators on ``events`` inside ``box`` after compensating the box's motion
+    (:func:`estimate_motion` with ``motion_params`` unless ``motion`` is given; then
+    :func:`compensate_motion`). ``edge_params`` and ``spectrum_params`` go to
+    :func:`rotor_signature` and :func:`rotor_spectrum`.
+
+    Raises:
+        ParameterError: a bad box or parameter, or an unknown motion parameter.
+        EventError: events not a 1-D array of the canonical dtype.
+    """
+    box = _box(box)
+    unknown = set(motion_params) - set(MOTION_DEFAULTS)
+    if unknown:
+        raise ParameterError(f"unknown motion parameters {sorted(unknown)}")
+    if motion is None:
+        motion = estimate_motion(events, box, **motion_params)
+    warped = compensate_motion(events, box, motion)
+    return CompensatedRotor(
+        motion,
+        rotor_signature(warped, box, **(edge_params or {})),
+        rotor_spectrum(warped, box, **(spectrum_params or {})),
+        len(warped),
+    )
+
+
+def motion_line(
+    frequency_hz: float, motion: MotionEstimate, *, tol: float = 0.05, harmonics: int = 3
+) -> bool:
+    """Whether ``frequency_hz`` lies within ``tol`` (relative) of ``k·|vx|`` or ``k·|vy|``, the
+    velocity in px/s, for ``k`` = ½ and 1..``harmonics``.
+
+    In the object's frame an edge moving at ``v`` px/s crosses one sensor pixel every ``1/v``
+    seconds, so its compensated events repeat at ``|vx|`` and ``|vy|`` Hz (and, where a pixel
+    answers every other crossing, at half of it): a line there is the pixel grid, not a rotor.
+    """
+    if not frequency_hz > 0.0:
+        return False
+    factors = (0.5, *range(1, int(harmonics) + 1))
+    for v in (abs(motion.vx), abs(motion.vy)):
+        for k in factors:
+            if v > 0.0 and abs(frequency_hz - k * v) <= tol * k * v:
+                return True
+    return False
