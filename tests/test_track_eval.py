@@ -396,6 +396,29 @@ def test_evaluate_takes_a_confirmation_rule(
         assert len(err.strip().splitlines()) == 1 and "confirm" in err, args
 
 
+def test_the_confirm_rules_bench_prints_what_evaluate_reports(
+    tiny: tuple[Path, Path],
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from uavsnn.cli import main
+
+    root, model = tiny
+    assert main(["evaluate", str(model), str(root), "--tracks", "--json", "--confirm", "2/3"]) == 0
+    want = json.loads(capsys.readouterr().out)["tracks"]
+    bench = _bench_script("confirm_rules")
+    out = tmp_path / "rules.json"
+    argv = ["confirm_rules.py", str(model), str(root), "--split", "test", "--rules", "3/5,2/3"]
+    monkeypatch.setattr("sys.argv", [*argv, "--json", str(out)])
+    bench.main()
+    text = capsys.readouterr().out
+    got = json.loads(out.read_text())
+    assert list(got) == ["3/5", "2/3"] and got["2/3"]["rules"] == want["rules"]
+    rule = want["rules"]["any_spike"]
+    assert f"| 2/3 | any_spike | {rule['found']} of {want['uav_recordings']} |" in text
+
+
 def _bench_script(name: str = "track_noise"):
     import importlib.util
     import sys
