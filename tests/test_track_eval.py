@@ -282,6 +282,10 @@ def test_confirmation_rules_read_and_print() -> None:
     for bad in ((True, 5), (2.0, 3), (3, 5, (4, 3))):
         with pytest.raises(ParameterError, match=r"confirmation rule|integers"):
             Confirm(*bad)  # type: ignore[arg-type]
+    with pytest.raises(ParameterError, match="increase"):
+        confirm_flags([0, 2, 2], Confirm(2, 3))
+    with pytest.raises(ParameterError, match="both"):
+        confirm_flags([0, 1], Confirm(2, 3, fast=(1, 1)), np.ones(2))
 
 
 def test_poisson_upper_bounds() -> None:

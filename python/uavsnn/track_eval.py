@@ -133,6 +133,8 @@ def confirm_flags(
     ``threshold``). The same as the :class:`uavsnn.tracks.Tracker`'s ``confirmed`` for a plain
     rule (confirmation is a function of the hit windows only; linking never looks at it)."""
     steps = np.asarray(steps, dtype=np.int64)
+    if np.any(np.diff(steps) <= 0):
+        raise ParameterError("a track's hit windows must increase (one object per window)")
     if (mean_scores is None) != (threshold is None):
         raise ParameterError("give both mean_scores and threshold, or neither")
     limit = math.inf if threshold is None else float(threshold)
@@ -141,10 +143,11 @@ def confirm_flags(
     for n in range(len(steps)):
         if not confirmed:
             s = steps[n]
-            inside = int(np.count_nonzero(steps[: n + 1] > s - rule.windows))
+            # Hits in the last W windows: those of steps[: n + 1] (increasing) above s - W.
+            inside = n + 1 - int(np.searchsorted(steps[: n + 1], s - rule.windows, "right"))
             confirmed = inside >= rule.hits
             if not confirmed and rule.fast is not None and mean_scores is not None:
-                fast = int(np.count_nonzero(steps[: n + 1] > s - rule.fast[1]))
+                fast = n + 1 - int(np.searchsorted(steps[: n + 1], s - rule.fast[1], "right"))
                 confirmed = fast >= rule.fast[0] and float(mean_scores[n]) >= limit
         out[n] = confirmed
     return out
