@@ -394,7 +394,7 @@ def test_evaluate_takes_a_confirmation_rule(
     assert main(["evaluate", str(model), str(root), "--tracks", "--confirm", "2/3"]) == 0
     assert "tracks (confirmed at 2/3):" in capsys.readouterr().out
     for args in (["--tracks", "--confirm", "6/5"], ["--tracks", "--confirm", "x"],
-                 ["--confirm", "2/3"]):  # fmt: skip
+                 ["--confirm", "2/3"], ["--tracks", "--confirm", "2/3+3/5"]):  # fmt: skip
         assert main(["evaluate", str(model), str(root), *args]) == 2
         err = capsys.readouterr().err
         assert len(err.strip().splitlines()) == 1 and "confirm" in err, args

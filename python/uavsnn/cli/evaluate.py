@@ -91,6 +91,11 @@ def _evaluate(args: argparse.Namespace) -> int:
     if args.report is not None:
         output_dir(args.report, "--report")
     network = Network.load(args.model)
+    if confirm.fast is not None and network.identification is None:
+        raise ParameterError(
+            f"--confirm {confirm}: the score-aware rule needs a model with identification "
+            "(`uavsnn train`)"
+        )
     data = load(args.dataset, args.split)
     result = evaluate(
         network, data, threads=args.threads, balanced=not args.unbalanced, keep_inference=True
