@@ -16,7 +16,7 @@ from uavsnn.dataset import LabelledWindows
 from uavsnn.detector import _NO_DETECTIONS, WindowObject, WindowReport
 from uavsnn.errors import ParameterError, ShapeError
 from uavsnn.identify import FEATURES, WindowFeatures, window_steps
-from uavsnn.track_eval import poisson_upper, track_figures, track_table
+from uavsnn.track_eval import Confirm, confirm_flags, poisson_upper, track_figures, track_table
 from uavsnn.tracks import Tracker
 from uavsnn.windows import Windows
 
@@ -198,6 +198,96 @@ def test_the_earliest_of_two_tracks_on_the_uav_counts() -> None:
     assert g["rules"] == f["rules"]
 
 
+def test_the_tracker_rule_applied_again_gives_the_trackers_flags() -> None:
+    """Confirmation is a function of a track's hit windows: a Tracker with a rule and
+    confirm_flags on the same track's hits agree, hit by hit, for random hit patterns (a
+    still object, so that every hit joins the one track)."""
+    rng = np.random.default_rng(7)
+    for hits, windows in ((3, 5), (2, 3), (2, 2), (4, 5), (1, 1), (5, 8)):
+        for _ in range(20):
+            seen = np.flatnonzero(rng.random(40) < rng.uniform(0.2, 0.8))
+            tracker = Tracker(confirm_hits=hits, confirm_windows=windows, max_misses=64)
+            flags = []
+            for k in seen.tolist():
+                (obj,) = tracker.update(
+                    WindowReport(
+                        k,
+                        k * STEP,
+                        k * STEP + L,
+                        True,
+                        _NO_DETECTIONS,
+                        (WindowObject(box=on_uav(0), spikes=1),),
+                    )
+                ).objects
+                assert obj.track_id == 1
+                flags.append(bool(obj.track_confirmed))
+            assert confirm_flags(seen, Confirm(hits, windows)).tolist() == flags
+
+
+def test_the_figures_under_other_confirmation_rules() -> None:
+    """The scene's UAV is detected in every window from window 4 (100 ms): confirmed at its
+    k-th hit, its alarm is at the end of window 3 + k, (k - 1) * 25 + 50 ms after 100 ms."""
+    data, objects = scene()
+    feats = tracked(data, objects)
+    default = track_figures(data, feats)
+    again = track_figures(data, feats, confirm=Confirm(3, 5))
+    assert again["rules"] == default["rules"] and again["confirm"] == "3/5"
+    assert default["confirm"] is None  # the tracker's own flags
+    for text, delay in (("2/3", 75.0), ("2/2", 75.0), ("4/5", 125.0), ("1/1", 50.0)):
+        f = track_figures(data, feats, confirm=Confirm.parse(text))
+        assert f["rules"]["any_spike"]["time_to_alarm_ms"]["median"] == delay, text
+        assert f["confirm"] == text
+    with pytest.raises(ParameterError, match="Confirm"):
+        track_figures(data, feats, confirm=(2, 3))  # type: ignore[arg-type]
+
+
+def test_the_score_aware_rule_confirms_a_confident_track_early() -> None:
+    """Recording 0: the UAV in every window from window 4, scoring 0.9; recording 1: a bird in
+    windows 2 and 3 only, scoring 0.1 (threshold 0.5). 2 of 3 alarms on the UAV 25 ms earlier
+    than 3 of 5 and confirms the bird (a false track); 2/3+3/5 confirms the UAV at 2 of 3 (its
+    running mean is 0.9) and holds the bird to 3 of 5, which it never reaches."""
+    rows = [(0, k, k >= 4, "drone" if k >= 4 else "none") for k in range(20)]
+    rows += [(1, k, False, "bird" if k in (2, 3) else "none") for k in range(20)]
+    data = labelled(rows)
+    feats = tracked(data, {k: [on_uav(k)] for k in range(4, 20)} | {22: [bird(2)], 23: [bird(3)]})
+    scores = np.where(feats.window < 20, 0.9, 0.1)
+    want = {"3/5": (100.0, 0), "2/3": (75.0, 1), "2/3+3/5": (75.0, 0)}
+    for text, (delay, false) in want.items():
+        f = track_figures(data, feats, scores, 0.5, confirm=Confirm.parse(text))
+        rule = f["rules"]["any_spike"]
+        assert (rule["time_to_alarm_ms"]["median"], rule["false_tracks"]) == (delay, false), text
+        ident = f["rules"]["identified"]
+        assert (ident["time_to_alarm_ms"]["median"], ident["false_tracks"]) == (delay, 0), text
+    # A confident bird: the score-aware rule confirms it at 2 of 3 as well.
+    bold = track_figures(data, feats, np.full(len(scores), 0.9), 0.5, confirm=Confirm.parse(
+        "2/3+3/5"))  # fmt: skip
+    assert bold["rules"]["any_spike"]["false_tracks"] == 1
+    # Without scores the score-aware part never fires: 3 of 5.
+    plain = track_figures(data, feats, confirm=Confirm.parse("2/3+3/5"))
+    assert plain["rules"] == track_figures(data, feats, confirm=Confirm(3, 5))["rules"]
+
+
+@pytest.mark.parametrize(
+    "text", ["3", "3/", "0/5", "6/5", "3/65", "a/b", "-1/3", "2/3+3/5+1/1", "2/3+", ""]
+)
+def test_bad_confirmation_rules_are_parameter_errors(text: str) -> None:
+    with pytest.raises(ParameterError, match="confirmation rule"):
+        Confirm.parse(text)
+
+
+def test_confirmation_rules_read_and_print() -> None:
+    assert Confirm.parse(" 2/3 ") == Confirm(2, 3) and str(Confirm(2, 3)) == "2/3"
+    rule = Confirm.parse("2/2+3/5")
+    assert rule == Confirm(3, 5, fast=(2, 2)) and str(rule) == "2/2+3/5"
+    for bad in ((True, 5), (2.0, 3), (3, 5, (4, 3))):
+        with pytest.raises(ParameterError, match=r"confirmation rule|integers"):
+            Confirm(*bad)  # type: ignore[arg-type]
+    with pytest.raises(ParameterError, match="increase"):
+        confirm_flags([0, 2, 2], Confirm(2, 3))
+    with pytest.raises(ParameterError, match="both"):
+        confirm_flags([0, 1], Confirm(2, 3, fast=(1, 1)), np.ones(2))
+
+
 def test_poisson_upper_bounds() -> None:
     # The one-sided 95 % bounds: chi-square(0.95, 2k + 2) / 2.
     for k, bound in ((0, 2.9957), (1, 4.7439), (2, 6.2958), (5, 10.5130), (20, 29.0620)):
@@ -264,7 +354,10 @@ def test_evaluate_tracks_on_a_tiny_built_dataset(
     # The text output says the same.
     assert main(["evaluate", str(model), str(root), "--tracks"]) == 0
     text = capsys.readouterr().out
-    assert f"tracks: {len(recordings)} recordings ({len(uav_recs)} with a UAV)" in text
+    assert (
+        f"tracks (confirmed at 3/5): {len(recordings)} recordings ({len(uav_recs)} with a UAV)"
+        in text
+    )
     assert f"UAV recordings found {rule['found']}/{len(uav_recs)}" in text
     # The default tracker's row of the bench's sweep is what evaluate reported.
     sweep = _bench_script()
@@ -281,19 +374,68 @@ def test_evaluate_tracks_on_a_tiny_built_dataset(
     assert kept < 24 and share < 100 * tracks["window_coverage"]
 
 
-def _bench_script():
+def test_evaluate_takes_a_confirmation_rule(
+    tiny: tuple[Path, Path], capsys: pytest.CaptureFixture[str]
+) -> None:
+    """--confirm reaches the tracks and the JSON; bad rules are one line and exit 2."""
+    from uavsnn.cli import main
+
+    root, model = tiny
+    runs = {}
+    for rule in ("3/5", "1/1", None):
+        extra = [] if rule is None else ["--confirm", rule]
+        assert main(["evaluate", str(model), str(root), "--tracks", "--json", *extra]) == 0
+        runs[rule] = json.loads(capsys.readouterr().out)["tracks"]
+    assert runs[None]["confirm"] == runs["3/5"]["confirm"] == "3/5"
+    assert runs[None]["rules"] == runs["3/5"]["rules"] and runs["1/1"]["confirm"] == "1/1"
+    # Confirmed at the first hit, every track alarms: at least as many as at 3 of 5.
+    one, three = runs["1/1"]["rules"]["any_spike"], runs["3/5"]["rules"]["any_spike"]
+    assert one["alarming_tracks"] >= three["alarming_tracks"] and one["found"] >= three["found"]
+    assert main(["evaluate", str(model), str(root), "--tracks", "--confirm", "2/3"]) == 0
+    assert "tracks (confirmed at 2/3):" in capsys.readouterr().out
+    for args in (["--tracks", "--confirm", "6/5"], ["--tracks", "--confirm", "x"],
+                 ["--confirm", "2/3"], ["--tracks", "--confirm", "2/3+3/5"]):  # fmt: skip
+        assert main(["evaluate", str(model), str(root), *args]) == 2
+        err = capsys.readouterr().err
+        assert len(err.strip().splitlines()) == 1 and "confirm" in err, args
+
+
+def test_the_confirm_rules_bench_prints_what_evaluate_reports(
+    tiny: tuple[Path, Path],
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from uavsnn.cli import main
+
+    root, model = tiny
+    assert main(["evaluate", str(model), str(root), "--tracks", "--json", "--confirm", "2/3"]) == 0
+    want = json.loads(capsys.readouterr().out)["tracks"]
+    bench = _bench_script("confirm_rules")
+    out = tmp_path / "rules.json"
+    argv = ["confirm_rules.py", str(model), str(root), "--split", "test", "--rules", "3/5,2/3"]
+    monkeypatch.setattr("sys.argv", [*argv, "--json", str(out)])
+    bench.main()
+    text = capsys.readouterr().out
+    got = json.loads(out.read_text())
+    assert list(got) == ["3/5", "2/3"] and got["2/3"]["rules"] == want["rules"]
+    rule = want["rules"]["any_spike"]
+    assert f"| 2/3 | any_spike | {rule['found']} of {want['uav_recordings']} |" in text
+
+
+def _bench_script(name: str = "track_noise"):
     import importlib.util
     import sys
 
-    path = Path(__file__).resolve().parents[1] / "benches" / "python" / "track_noise.py"
-    spec = importlib.util.spec_from_file_location("track_noise", path)
+    path = Path(__file__).resolve().parents[1] / "benches" / "python" / f"{name}.py"
+    spec = importlib.util.spec_from_file_location(name, path)
     assert spec is not None and spec.loader is not None
     module = importlib.util.module_from_spec(spec)
-    sys.modules["track_noise"] = module
+    sys.modules[name] = module
     try:
         spec.loader.exec_module(module)
     finally:
-        sys.modules.pop("track_noise", None)
+        sys.modules.pop(name, None)
     return module
 
 

@@ -367,6 +367,41 @@ def test_cli_prints_track_and_rotor(net: Network, tmp_path: Path) -> None:
     assert " track=1" in text and " rotor=" in text
 
 
+def test_detect_takes_a_confirmation_rule(net: Network, tmp_path: Path) -> None:
+    """detect --confirm H/W: the printed tracks are those of a Detector whose Tracker
+    confirms at H of W; a bad or score-aware rule is one line on stderr and exit 2."""
+    import json
+    import subprocess
+    import sys
+
+    model = tmp_path / "model.npz"
+    net.save(model)
+    events = blob_events(0, 3000)
+    cmd = [sys.executable, "-m", "uavsnn", "detect", "-", "--model", str(model), "--window-ms", "3"]
+    seen = {}
+    for rule, (hits, windows) in (("1/1", (1, 1)), ("5/6", (5, 6))):
+        det = Detector(net, window_us=3_000, overlap=0.5, tracker=Tracker(
+            confirm_hits=hits, confirm_windows=windows))  # fmt: skip
+        reps = streamed(det, events, [])
+        done = subprocess.run(
+            [*cmd, "--json", "--confirm", rule], input=events.tobytes(), capture_output=True
+        )
+        assert done.returncode == 0, done.stderr.decode()
+        rows = [json.loads(line) for line in done.stdout.decode().splitlines()]
+        got = [[(o["track"], o["track_confirmed"]) for o in row["objects"]] for row in rows]
+        assert got == [[(o.track_id, o.track_confirmed) for o in r.objects] for r in reps]
+        seen[rule] = sum(c for row in got for _, c in row)
+    # Every tracked object is confirmed at 1 of 1; fewer at 5 of 6.
+    tracked_objects = sum(1 for r in reps for o in r.objects if o.track_id is not None)
+    assert seen["1/1"] == tracked_objects > seen["5/6"]
+    for bad in ("0/3", "4/3", "3", "2/3+3/5"):
+        done = subprocess.run([*cmd, "--confirm", bad], input=b"", capture_output=True)
+        err = done.stderr.decode().strip().splitlines()
+        assert done.returncode == 2 and len(err) == 1 and "confirm" in err[0], (bad, err)
+    done = subprocess.run([*cmd, "--confirm", "2/3", "--per-spike"], input=b"", capture_output=True)
+    assert done.returncode == 2 and "--per-spike" in done.stderr.decode()
+
+
 def test_tracks_carry_a_running_score_and_class_guess(net: Network, tmp_path: Path) -> None:
     """Each scored object's track score is the running mean of its track's object scores, its
     track class the guess from that mean and the mean class probabilities; detect --json

@@ -33,6 +33,7 @@ From the alarms (:func:`track_figures`):
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -48,6 +49,8 @@ if TYPE_CHECKING:
 __all__ = [
     "RULES",
     "TRACK_SCORES",
+    "Confirm",
+    "confirm_flags",
     "evaluate_tracks",
     "poisson_upper",
     "track_figures",
@@ -61,6 +64,93 @@ RULES = ("any_spike", "identified")
 TRACK_SCORES = ("mean", "max")
 
 _MINUTE_US = 60e6
+
+
+@dataclass(frozen=True)
+class Confirm:
+    """A confirmation rule: a track is confirmed when it has hits in at least ``hits`` of its
+    last ``windows`` windows (the :class:`uavsnn.tracks.Tracker`'s ``confirm_hits`` of
+    ``confirm_windows``), or, with ``fast`` ``(hits, windows)`` and object scores, as soon as
+    it has ``fast`` hits *and* the running mean UAV score of its objects so far reaches the
+    identifier's threshold (the score-aware rule). Causal: it looks at the track's hits and
+    scores up to the window at hand only.
+
+    Text form (:meth:`parse`): ``"3/5"``, or ``"2/3+3/5"`` for the score-aware rule that
+    confirms at 2 of 3 on a confident track and at 3 of 5 otherwise.
+    """
+
+    hits: int = 3
+    windows: int = 5
+    fast: tuple[int, int] | None = None
+
+    def __post_init__(self) -> None:
+        pairs = [(self.hits, self.windows)] + ([self.fast] if self.fast is not None else [])
+        for pair in pairs:
+            if not (isinstance(pair, tuple) and len(pair) == 2):
+                raise ParameterError(f"a confirmation rule is (hits, windows), got {pair!r}")
+            h, w = pair
+            for v in (h, w):
+                if isinstance(v, bool) or not isinstance(v, (int, np.integer)):
+                    raise ParameterError(f"hits and windows must be integers, got {pair!r}")
+            if not 1 <= h <= w <= 64:
+                raise ParameterError(
+                    f"a confirmation rule needs 1 <= hits <= windows <= 64, got {h}/{w}"
+                )
+
+    @classmethod
+    def parse(cls, text: str) -> Confirm:
+        """``"M/N"`` or ``"F/G+M/N"`` (score-aware: ``F`` of ``G`` on a confident track)."""
+        parts = str(text).strip().split("+")
+        pairs = []
+        for part in parts:
+            bits = part.strip().split("/")
+            if len(bits) != 2 or not all(b.strip().isdigit() for b in bits):
+                raise ParameterError(
+                    f"a confirmation rule is HITS/WINDOWS (e.g. 3/5) or FAST+HITS/WINDOWS "
+                    f"(e.g. 2/3+3/5), got {text!r}"
+                )
+            pairs.append((int(bits[0]), int(bits[1])))
+        if len(pairs) == 1:
+            return cls(*pairs[0])
+        if len(pairs) == 2:
+            return cls(*pairs[1], fast=pairs[0])
+        raise ParameterError(f"a confirmation rule has at most one '+', got {text!r}")
+
+    def __str__(self) -> str:
+        base = f"{self.hits}/{self.windows}"
+        return base if self.fast is None else f"{self.fast[0]}/{self.fast[1]}+{base}"
+
+
+def confirm_flags(
+    steps: np.ndarray,
+    rule: Confirm,
+    mean_scores: np.ndarray | None = None,
+    threshold: float | None = None,
+) -> np.ndarray:
+    """Whether a track is confirmed after each of its hits under ``rule``: ``steps`` the
+    window indices of its objects in stream order (one object per window, increasing),
+    ``mean_scores`` the running mean UAV score after each (for the score-aware part, with
+    ``threshold``). The same as the :class:`uavsnn.tracks.Tracker`'s ``confirmed`` for a plain
+    rule (confirmation is a function of the hit windows only; linking never looks at it)."""
+    steps = np.asarray(steps, dtype=np.int64)
+    if np.any(np.diff(steps) <= 0):
+        raise ParameterError("a track's hit windows must increase (one object per window)")
+    if (mean_scores is None) != (threshold is None):
+        raise ParameterError("give both mean_scores and threshold, or neither")
+    limit = math.inf if threshold is None else float(threshold)
+    out = np.zeros(len(steps), dtype=bool)
+    confirmed = False
+    for n in range(len(steps)):
+        if not confirmed:
+            s = steps[n]
+            # Hits in the last W windows: those of steps[: n + 1] (increasing) above s - W.
+            inside = n + 1 - int(np.searchsorted(steps[: n + 1], s - rule.windows, "right"))
+            confirmed = inside >= rule.hits
+            if not confirmed and rule.fast is not None and mean_scores is not None:
+                fast = n + 1 - int(np.searchsorted(steps[: n + 1], s - rule.fast[1], "right"))
+                confirmed = fast >= rule.fast[0] and float(mean_scores[n]) >= limit
+        out[n] = confirmed
+    return out
 
 
 def poisson_upper(count: int, confidence: float = 0.95) -> float:
@@ -132,6 +222,7 @@ def track_figures(
     threshold: float | None = None,
     *,
     track_score: str = "mean",
+    confirm: Confirm | None = None,
 ) -> dict[str, Any]:
     """The track-level figures of the windows ``data`` whose tracked objects are ``feats``
     (:func:`uavsnn.identify.window_features` of the same windows: ``window``, ``boxes``,
@@ -139,6 +230,9 @@ def track_figures(
     ``threshold`` the identifier's; without them only the any-spike rule is reported.
     ``track_score``: what the identified rule compares with the threshold, the running
     ``"mean"`` of the track's object scores (the default) or their running ``"max"``.
+    ``confirm``: the confirmation rule (:class:`Confirm`) to apply to the tracks' hits instead
+    of the ``confirmed`` flags the tracker set (its score-aware part needs ``scores``); the
+    figures then carry ``confirm`` (the rule as text; ``None``: the tracker's flags).
 
     Returns a plain dict (JSON-ready): ``windows``, ``recordings``, ``uav_recordings``,
     ``step_us``, ``window_us``, ``window_coverage`` (the windows present over the steps
@@ -170,6 +264,8 @@ def track_figures(
             raise ShapeError(f"scores must be ({m},), got {scores.shape}")
     if track_score not in TRACK_SCORES:
         raise ParameterError(f"track_score must be one of {TRACK_SCORES}, got {track_score!r}")
+    if confirm is not None and not isinstance(confirm, Confirm):
+        raise ParameterError(f"confirm must be a track_eval.Confirm, got {confirm!r}")
     rules = RULES if scores is not None else RULES[:1]
     limit = math.inf if threshold is None else float(threshold)
     order, step = window_steps(data)
@@ -199,14 +295,23 @@ def track_figures(
     false: dict[str, dict[int, list[str]]] = {rule: {r: [] for r in recordings} for rule in rules}
     stray = dict.fromkeys(rules, 0)
     alarming = dict.fromkeys(rules, 0)
+    first_t0 = {r: int(t0[rec == r].min()) for r in np.unique(rec).tolist()}
     for (r, _tid), objs in tracks.items():
         alarm: dict[str, int | None] = dict.fromkeys(rules, None)
+        if confirm is None:
+            confirmed = feats.confirmed[objs]
+        else:
+            steps = (t0[feats.window[objs]] - first_t0[r]) // step
+            means = None
+            if scores is not None:
+                means = np.cumsum(scores[objs]) / np.arange(1, len(objs) + 1)
+            confirmed = confirm_flags(steps, confirm, means, threshold)
         total, best = 0.0, -math.inf
         for n, j in enumerate(objs, start=1):
             if scores is not None:
                 total += float(scores[j])
                 best = max(best, float(scores[j]))
-            if not feats.confirmed[j]:
+            if not confirmed[n - 1]:
                 continue
             if alarm["any_spike"] is None:
                 alarm["any_spike"] = n - 1
@@ -241,6 +346,7 @@ def track_figures(
         "window_us": window_us,
         "window_coverage": len(data) / sum(span.values()) if recordings else 0.0,
         "uav_free_minutes": free_minutes,
+        "confirm": None if confirm is None else str(confirm),
         "rules": {},
     }
     for rule in rules:
@@ -308,6 +414,7 @@ def evaluate_tracks(
     features: WindowFeatures | None = None,
     tracker: Tracker | None = None,
     track_score: str = "mean",
+    confirm: Confirm | None = None,
 ) -> dict[str, Any]:
     """:func:`track_figures` of ``network`` on ``data`` (a format-2 dataset split): its objects
     and tracks (``features`` when already made, else :func:`uavsnn.identify.window_features`
@@ -318,9 +425,14 @@ def evaluate_tracks(
         features = window_features(network, data, inference, tracker=tracker)
     ident = network.identification
     if ident is None:
-        return track_figures(data, features)
+        return track_figures(data, features, confirm=confirm)
     return track_figures(
-        data, features, ident.scores(features.x), ident.threshold, track_score=track_score
+        data,
+        features,
+        ident.scores(features.x),
+        ident.threshold,
+        track_score=track_score,
+        confirm=confirm,
     )
 
 

@@ -30,6 +30,7 @@ import numpy as np
 
 from uavsnn.distributed import add_ray_option
 from uavsnn.errors import EventError, ParameterError, StreamError
+from uavsnn.track_eval import Confirm
 
 __all__ = ["register"]
 
@@ -137,6 +138,12 @@ def register(subparsers: Any) -> None:
         default=1.0,
         metavar="S",
         help="seconds between rate summaries on stderr (0: only at the end)",
+    )
+    p.add_argument(
+        "--confirm",
+        metavar="HITS/WINDOWS",
+        help="the track confirmation rule: a track is confirmed (its id printed without '?') "
+        "once it has objects in HITS of its last WINDOWS windows (default 3/5)",
     )
     add_ray_option(p, "one detector per stream, each in a Ray actor")
     p.set_defaults(handler=run)
@@ -333,6 +340,28 @@ def _check_args(args: argparse.Namespace) -> None:
         raise ParameterError("--downsample applies to files; '-' and UDP give --sensor-size")
     if args.max_packets is not None and args.max_packets < 1:
         raise ParameterError(f"--max-packets must be >= 1, got {args.max_packets}")
+    if args.confirm is not None:
+        if args.per_spike or args.more_sources or args.ray is not None:
+            raise ParameterError(
+                "--confirm sets the tracks of the window lines: not with --per-spike, several "
+                "sources or --ray (they print spikes, without tracks)"
+            )
+        rule = Confirm.parse(args.confirm)
+        if rule.fast is not None:
+            raise ParameterError(
+                f"--confirm {args.confirm}: detect takes HITS/WINDOWS; the score-aware rule "
+                "(FAST+HITS/WINDOWS) is measured by `uavsnn evaluate --tracks` only"
+            )
+
+
+def _tracker(text: str | None) -> Any:
+    """The tracker of ``--confirm`` (``None``: the detector's default one)."""
+    if text is None:
+        return None
+    from uavsnn.tracks import Tracker
+
+    rule = Confirm.parse(text)
+    return Tracker(confirm_hits=rule.hits, confirm_windows=rule.windows)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -373,6 +402,7 @@ def run(args: argparse.Namespace) -> int:
             window_us=round(args.window_ms * 1000),
             overlap=args.overlap,
             sensor_size=source.sensor_size,
+            tracker=_tracker(args.confirm),
         )
         if isinstance(source, UdpSource):
             host, port = source.address

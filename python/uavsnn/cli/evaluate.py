@@ -14,6 +14,7 @@ from uavsnn.errors import ParameterError
 from uavsnn.evaluation import evaluate
 from uavsnn.experiments import NOISE_FRACTIONS, noise_sweep, static_twin
 from uavsnn.network import MAX_THREADS, Network
+from uavsnn.track_eval import Confirm
 
 __all__ = ["register"]
 
@@ -70,6 +71,13 @@ def register(subparsers: Any) -> None:
         help="with --tracks and identification: a track alarms when confirmed and the running "
         "mean (default) or max of its objects' UAV scores reaches the model's threshold",
     )
+    p.add_argument(
+        "--confirm",
+        metavar="RULE",
+        help="with --tracks: the track confirmation rule, HITS/WINDOWS (default 3/5: hits in "
+        "3 of the last 5 windows), or FAST+HITS/WINDOWS (e.g. 2/3+3/5: a track whose running "
+        "mean UAV score reaches the model's threshold confirms at 2 of 3); recorded in --json",
+    )
     p.add_argument("--json", action="store_true", help="print the figures as JSON")
     p.set_defaults(handler=_evaluate)
 
@@ -77,9 +85,17 @@ def register(subparsers: Any) -> None:
 def _evaluate(args: argparse.Namespace) -> int:
     if args.threads is not None and not 1 <= args.threads <= MAX_THREADS:
         raise ParameterError(f"--threads must be from 1 to {MAX_THREADS}, got {args.threads}")
+    if args.confirm is not None and not args.tracks:
+        raise ParameterError("--confirm sets the track confirmation rule: it needs --tracks")
+    confirm = Confirm.parse("3/5" if args.confirm is None else args.confirm)
     if args.report is not None:
         output_dir(args.report, "--report")
     network = Network.load(args.model)
+    if confirm.fast is not None and network.identification is None:
+        raise ParameterError(
+            f"--confirm {confirm}: the score-aware rule needs a model with identification "
+            "(`uavsnn train`)"
+        )
     data = load(args.dataset, args.split)
     result = evaluate(
         network, data, threads=args.threads, balanced=not args.unbalanced, keep_inference=True
@@ -89,8 +105,10 @@ def _evaluate(args: argparse.Namespace) -> int:
     features = None
     if args.tracks or network.identification is not None or args.ablation is not None:
         from uavsnn import identify
+        from uavsnn.tracks import Tracker
 
-        features = identify.window_features(network, data, result.inference)
+        tracker = Tracker(confirm_hits=confirm.hits, confirm_windows=confirm.windows)
+        features = identify.window_features(network, data, result.inference, tracker=tracker)
     ident = _identification(args, network, data, result, features)
     if ident:
         figures["identification"] = ident
@@ -98,7 +116,7 @@ def _evaluate(args: argparse.Namespace) -> int:
         from uavsnn.track_eval import evaluate_tracks
 
         figures["tracks"] = evaluate_tracks(
-            network, data, features=features, track_score=args.track_score
+            network, data, features=features, track_score=args.track_score, confirm=confirm
         )
     if args.roc is not None:
         if "roc" not in ident:
@@ -270,7 +288,8 @@ def _print_identification(ident: dict[str, Any]) -> None:
 
 def _print_tracks(tracks: dict[str, Any]) -> None:
     print(
-        f"tracks: {tracks['recordings']} recordings ({tracks['uav_recordings']} with a UAV), "
+        f"tracks (confirmed at {tracks['confirm']}): {tracks['recordings']} recordings "
+        f"({tracks['uav_recordings']} with a UAV), "
         f"{tracks['windows']} windows ({100 * tracks['window_coverage']:.1f} % of their steps), "
         f"{60 * tracks['uav_free_minutes']:.2f} s UAV-free"
     )
