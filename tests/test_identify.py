@@ -345,8 +345,7 @@ def assert_streaming_equals_batch(
     streaming = []
     for r in reports:
         inside = events[np.searchsorted(t, r.t0) : np.searchsorted(t, r.t1)]
-        for o in r.objects:
-            assert o.rotor is not None
+        for o in scored_objects(r):
             streaming.append(
                 (by_t0[r.t0], o.box, object_features(o.box, o.spikes, inside, o.rotor, o.track))
             )
@@ -355,14 +354,24 @@ def assert_streaming_equals_batch(
         assert (i, box) == (int(j), tuple(int(v) for v in b))
         np.testing.assert_array_equal(x, y)
     # The streaming detector scores each object with the model, as the batch path does.
-    scored = [(o.uav_score, o.class_guess) for r in reports for o in r.objects]
+    scored = [(o.uav_score, o.class_guess) for r in reports for o in scored_objects(r)]
     expected = net.identification.scores(batch.x)
     assert [s for s, _ in scored] == expected.tolist()
     threshold = net.identification.threshold
     assert [g for _, g in scored] == ["uav" if s >= threshold else "other" for s in expected]
     # The batch rows carry the streamed track ids and confirmations.
-    ids = [(o.track_id or 0, bool(o.track_confirmed)) for r in reports for o in r.objects]
+    ids = [(o.track_id or 0, bool(o.track_confirmed)) for r in reports for o in scored_objects(r)]
     assert ids == list(zip(batch.track.tolist(), batch.confirmed.tolist(), strict=True))
+
+
+def scored_objects(report) -> list:
+    """The objects streaming measured and scored: the first MAX_ROTOR_BOXES; the others are
+    tracked only (no rotor, no score)."""
+    from uavsnn.detector import MAX_ROTOR_BOXES
+
+    for o in report.objects[MAX_ROTOR_BOXES:]:
+        assert o.rotor is None and o.uav_score is None
+    return [o for o in report.objects[:MAX_ROTOR_BOXES] if o.rotor is not None]
 
 
 def test_batch_features_equal_what_the_streaming_detector_sees() -> None:
@@ -466,6 +475,24 @@ def test_streaming_scores_every_object_of_a_window_with_two() -> None:
     assert max(len(r.objects) for r in reports) == 2
     assert len({o.track_id for r in reports for o in r.objects}) >= 2
     assert np.any(batch.x[:, FEATURES.index("track_log_speed")] > 0)
+    assert_streaming_equals_batch(net, events, reports, batch, data)
+
+
+def test_batch_measures_and_scores_only_the_objects_streaming_does(monkeypatch) -> None:
+    """Beyond MAX_ROTOR_BOXES objects in a window, streaming measures no rotor and gives no
+    score (the cap bounds a window's work); batch gives those objects no row, so both paths
+    score the same objects (batch once scored them all)."""
+    import uavsnn.detector
+
+    monkeypatch.setattr(uavsnn.detector, "MAX_ROTOR_BOXES", 1)
+    size = (120, 90)
+    net = Network({**small_net().config, "width": size[0], "height": size[1]}, seed=3)
+    net.identification = model()
+    events = two_blobs(size)
+    reports, batch, data = streaming_and_batch(net, events, size)
+    crowded = [r for r in reports if len(r.objects) == 2]
+    assert crowded and all(r.objects[1].uav_score is None for r in crowded)
+    assert len(batch.x) == sum(min(len(r.objects), 1) for r in reports)
     assert_streaming_equals_batch(net, events, reports, batch, data)
 
 

@@ -283,9 +283,9 @@ def window_features(
     it is reset before each recording): each recording's windows are fed to it in time order
     (:func:`window_steps`), as :meth:`uavsnn.detector.Detector.push_windows` feeds a stream,
     windows without an object included. A window the dataset left out counts as a window
-    without a detection. The tracker sees the rotor signature of the first
-    :data:`uavsnn.detector.MAX_ROTOR_BOXES` objects of a window, as the streaming detector
-    measures it.
+    without a detection. As the streaming detector, only the first
+    :data:`uavsnn.detector.MAX_ROTOR_BOXES` objects of a window (most spikes first) are
+    measured and get a row; the others are tracked only.
 
     Raises:
         DatasetError: a dataset without raw events, or windows that cannot form a stream
@@ -343,11 +343,13 @@ def window_features(
             # A binary search on the times in place (np.searchsorted would copy them first).
             t = raw["t"]
             events = raw[bisect.bisect_left(t, t0) : bisect.bisect_left(t, t0 + length)]
-            # Each object's rotor and event counts in one pass over the window's events.
-            measured = [measure_box(events, xywh(o.box)) for o in objects]
+            # Each object's rotor and event counts in one pass over the window's events; as
+            # the streaming detector, only the first MAX_ROTOR_BOXES objects are measured (and
+            # scored): the others are tracked only.
+            measured = [measure_box(events, xywh(o.box)) for o in objects[:MAX_ROTOR_BOXES]]
             objects = tuple(
-                replace(o, rotor=m[0]) if j < MAX_ROTOR_BOXES else o
-                for j, (o, m) in enumerate(zip(objects, measured, strict=True))
+                replace(o, rotor=measured[j][0]) if j < len(measured) else o
+                for j, o in enumerate(objects)
             )
         report = tracker.update(
             WindowReport(
@@ -362,7 +364,7 @@ def window_features(
         if measured:
             per_window[i] = [
                 (o, object_features(o.box, o.spikes, None, rotor, o.track, counts=(n, on)))
-                for o, (rotor, n, on) in zip(report.objects, measured, strict=True)
+                for o, (rotor, n, on) in zip(report.objects, measured, strict=False)
             ]
     rows, which, boxes, label, usable, track, confirmed, cls = [], [], [], [], [], [], [], []
     for i in sorted(per_window):
