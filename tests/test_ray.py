@@ -237,6 +237,42 @@ def model() -> Network:
     return Network(seed=4)
 
 
+def test_a_stream_worker_polls_without_touching_the_busy_detector(
+    model: Network, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """poll runs in the actor's other thread while push holds the detector (the engine call
+    releases the GIL): it must read the counters the worker thread left, never the detector
+    (a getter there raised "Already mutably borrowed" once in a while). No Ray needed."""
+    import threading
+
+    import uavsnn.detector
+    from uavsnn.distributed import _StreamWorker
+    from uavsnn.events import Recording
+    from uavsnn.io import write_npz
+
+    strangers: list[str] = []
+
+    class Watched(uavsnn.detector.Detector):
+        def __getattribute__(self, name: str) -> Any:
+            if not name.startswith("_") and not threading.current_thread().name.startswith(
+                "uavsnn-"
+            ):
+                strangers.append(name)
+            return super().__getattribute__(name)
+
+    monkeypatch.setattr(uavsnn.detector, "Detector", Watched)
+    path = tmp_path / "rec.npz"
+    write_npz(Recording(_events(20_000, 9), (240, 180)), path)
+    worker = _StreamWorker("cam", str(path), model, {"window_us": 20_000, "overlap": 0.5})
+    seen, done, found = 0, False, 0
+    while not done:
+        part, counts, done = worker.poll(0.05)
+        found += len(part)
+        seen = counts["events_seen"]
+    assert strangers == []
+    assert seen == 20_000 and counts["windows"] > 0 and counts["error"] is None
+
+
 def test_four_udp_streams_through_four_actors(runner: Any, model: Network) -> None:
     packets, per_packet = 30, 200
     streams = {f"cam{k}": _events(packets * per_packet, k) for k in range(4)}

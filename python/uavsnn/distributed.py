@@ -352,6 +352,11 @@ class _StreamWorker:
         self._lock = threading.Condition()
         self._found: list[np.ndarray] = []
         self._rejected = 0
+        # The detector's counters as the worker thread last read them: poll must not touch the
+        # detector itself, which push holds (its engine call releases the GIL; a getter from
+        # poll's thread then meets the borrow: "Already mutably borrowed").
+        self._seen = 0
+        self._windows = 0
         self._done = False
         self._error: str | None = None
         self._thread = threading.Thread(target=self._run, name=f"uavsnn-{name}", daemon=True)
@@ -369,12 +374,16 @@ class _StreamWorker:
                         with self._lock:
                             self._rejected += len(chunk)
                         continue
-                    if len(found):
-                        with self._lock:
+                    seen, windows = self.detector.events_seen, self.detector.windows_opened
+                    with self._lock:
+                        self._seen, self._windows = seen, windows
+                        if len(found):
                             self._found.append(found.copy())
                             self._lock.notify_all()
                 tail = self.detector.flush()
+                seen, windows = self.detector.events_seen, self.detector.windows_opened
                 with self._lock:
+                    self._seen, self._windows = seen, windows
                     if len(tail):
                         self._found.append(tail.copy())
         except Exception as exc:  # reported with the stream's name; the others go on
@@ -405,11 +414,11 @@ class _StreamWorker:
             s = self.source.stats
             counts = {
                 "events": s.events,
-                "events_seen": self.detector.events_seen,
+                "events_seen": self._seen,
                 "packets": s.packets,
                 "dropped": s.dropped,
                 "rejected_events": self._rejected,
-                "windows": self.detector.windows_opened,
+                "windows": self._windows,
                 "error": self._error,
             }
         return found, counts, done
