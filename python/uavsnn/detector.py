@@ -307,10 +307,13 @@ class Detector:
 
     def _with_track_identity(self, report: WindowReport, ident: Any) -> WindowReport:
         """``report`` with each scored, tracked object's track score and class guess, from
-        the running sums of its track's scored objects (tracks no longer live are
-        forgotten)."""
-        live = {t.id for t in self._tracker.live}
-        self._identity = {k: v for k, v in self._identity.items() if k in live}
+        the running sums of its track's scored objects. Track ids are never reused in a
+        stream, so the sums of ended tracks are only dropped, all at once, when they outnumber
+        the live tracks the tracker can hold (the live set is a snapshot of every track: too
+        dear to take each window)."""
+        if len(self._identity) > self._tracker.max_tracks:
+            live = {t.id for t in self._tracker.live}
+            self._identity = {k: v for k, v in self._identity.items() if k in live}
         objects = list(report.objects)
         for i, obj in enumerate(objects):
             if obj.uav_score is None or obj.track_id is None or obj.class_probabilities is None:
