@@ -49,6 +49,7 @@ import numpy as np
 
 from uavsnn.boxes import xywh
 from uavsnn.errors import DatasetError, ModelFileError, ParameterError, ShapeError
+from uavsnn.linear import fit_logistic, fit_softmax, predict_logistic, predict_softmax
 from uavsnn.signature import RotorEstimate, measure_box
 
 if TYPE_CHECKING:
@@ -440,119 +441,6 @@ def raw_noise_events(
     noise["p"] = rng.integers(0, 2, 2 * n)
     out = np.concatenate([events, noise])
     return out[np.argsort(out["t"], kind="stable")]
-
-
-def fit_logistic(
-    x: np.ndarray, y: np.ndarray, *, l2: float = 1.0, iterations: int = 50
-) -> np.ndarray:
-    """Logistic regression by Newton's method: coefficients ``(d + 1,)``, the intercept last,
-    minimising the log loss plus ``l2 / 2 * |w|²`` (the intercept is not penalised). ``x``
-    ``(n, d)`` float, ``y`` ``(n,)`` bool.
-
-    Raises:
-        ShapeError, ParameterError: mismatched shapes, a negative ``l2``, non-finite features.
-    """
-    x = np.asarray(x, dtype=np.float64)
-    y = np.asarray(y)
-    if x.ndim != 2 or y.shape != (len(x),):
-        raise ShapeError(f"x must be (n, d) and y (n,), got {x.shape} and {y.shape}")
-    if y.dtype != np.bool_:
-        raise ParameterError(f"y must be boolean, got dtype {y.dtype}")
-    if not np.isfinite(x).all():
-        raise ParameterError("x holds NaN or infinite values")
-    if not (l2 >= 0 and math.isfinite(l2)):
-        raise ParameterError(f"l2 must be a finite number >= 0, got {l2}")
-    a = np.hstack([x, np.ones((len(x), 1))])
-    target = y.astype(np.float64)
-    penalty = np.full(a.shape[1], float(l2))
-    penalty[-1] = 1e-9  # the intercept: only enough to keep the system solvable
-    w = np.zeros(a.shape[1])
-    for _ in range(iterations):
-        p = _sigmoid(a @ w)
-        grad = a.T @ (p - target) + penalty * w
-        hess = (a * (p * (1 - p))[:, None]).T @ a + np.diag(penalty)
-        step = np.linalg.solve(hess + 1e-12 * np.eye(len(w)), grad)
-        w -= step
-        if np.max(np.abs(step)) < 1e-10:
-            break
-    return w
-
-
-def predict_logistic(coef: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """``sigmoid(x @ coef[:-1] + coef[-1])``."""
-    return _sigmoid(np.asarray(x, dtype=np.float64) @ coef[:-1] + coef[-1])
-
-
-def _sigmoid(z: np.ndarray) -> np.ndarray:
-    return 0.5 * (1.0 + np.tanh(0.5 * z))  # stable for large |z|
-
-
-def fit_softmax(
-    x: np.ndarray,
-    y: np.ndarray,
-    classes: int,
-    *,
-    l2: float = 1.0,
-    weights: np.ndarray | None = None,
-    iterations: int = 50,
-) -> np.ndarray:
-    """Multinomial logistic regression by Newton's method: coefficients ``(classes, d + 1)``,
-    the intercepts last, minimising the weighted log loss plus ``l2 / 2 * |W|²`` (the
-    intercepts carry only a tiny penalty, enough to fix the one direction all classes share).
-    ``x`` ``(n, d)`` float, ``y`` ``(n,)`` int in ``[0, classes)``, ``weights`` ``(n,)``
-    (default: ones).
-
-    Raises:
-        ShapeError, ParameterError: mismatched shapes, a class out of range, a negative ``l2``
-            or weight, non-finite features.
-    """
-    x = np.asarray(x, dtype=np.float64)
-    y = np.asarray(y)
-    if x.ndim != 2 or y.shape != (len(x),):
-        raise ShapeError(f"x must be (n, d) and y (n,), got {x.shape} and {y.shape}")
-    if not np.issubdtype(y.dtype, np.integer):
-        raise ParameterError(f"y must hold class indices (integers), got dtype {y.dtype}")
-    if classes < 2 or (len(y) and (y.min() < 0 or y.max() >= classes)):
-        raise ParameterError(f"y must lie in [0, {classes}) with at least 2 classes")
-    if not np.isfinite(x).all():
-        raise ParameterError("x holds NaN or infinite values")
-    if not (l2 >= 0 and math.isfinite(l2)):
-        raise ParameterError(f"l2 must be a finite number >= 0, got {l2}")
-    w = np.ones(len(x)) if weights is None else np.asarray(weights, dtype=np.float64)
-    if w.shape != (len(x),) or not (np.isfinite(w).all() and (w >= 0).all()):
-        raise ParameterError("weights must be (n,), finite and >= 0")
-    n, d1, k = len(x), x.shape[1] + 1, int(classes)
-    a = np.hstack([x, np.ones((n, 1))])
-    target = np.zeros((n, k))
-    target[np.arange(n), y] = 1.0
-    penalty = np.tile(np.r_[np.full(d1 - 1, float(l2)), 1e-6], k)
-    coef = np.zeros(k * d1)
-    hess = np.empty((k * d1, k * d1))
-    for _ in range(iterations):
-        p = predict_softmax(coef.reshape(k, d1), x)
-        grad = ((p - target) * w[:, None]).T @ a
-        grad = grad.ravel() + penalty * coef
-        # The Hessian's (class i, class j) block: A^T diag(w p_i (δ_ij - p_j)) A, block by
-        # block so that memory stays O(n d) whatever the classes.
-        for i in range(k):
-            for j in range(i, k):
-                c = w * p[:, i] * ((i == j) - p[:, j])
-                block = a.T @ (a * c[:, None])
-                hess[i * d1 : (i + 1) * d1, j * d1 : (j + 1) * d1] = block
-                hess[j * d1 : (j + 1) * d1, i * d1 : (i + 1) * d1] = block.T
-        step = np.linalg.solve(hess + np.diag(penalty + 1e-12), grad)
-        coef -= step
-        if np.max(np.abs(step)) < 1e-10:
-            break
-    return coef.reshape(k, d1)
-
-
-def predict_softmax(coef: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """Class probabilities ``(m, classes)``: ``softmax(x @ coef[:, :-1].T + coef[:, -1])``."""
-    z = np.asarray(x, dtype=np.float64) @ coef[:, :-1].T + coef[:, -1]
-    z -= z.max(axis=1, keepdims=True)
-    e = np.exp(z)
-    return e / e.sum(axis=1, keepdims=True)
 
 
 @dataclass(frozen=True)
