@@ -23,9 +23,11 @@ from uavsnn.identify import (
     FEATURES,
     TRACK_FEATURES,
     Identifier,
+    best_threshold,
     class_figures,
     fit,
     fit_logistic,
+    fit_score,
     fit_softmax,
     object_features,
     predict_logistic,
@@ -165,6 +167,28 @@ def test_fit_refuses_a_set_without_both_kinds() -> None:
     )
     with pytest.raises(DatasetError):
         fit(feats, feats)
+
+
+def test_fit_score_keeps_the_l2_with_the_smallest_tuning_loss() -> None:
+    rng = np.random.default_rng(5)
+    x = rng.normal(size=(200, 3)) * [1.0, 10.0, 0.1] + [0.0, 5.0, -2.0]
+    y = x[:, 0] + 0.1 * rng.normal(size=200) > 0
+    xt, yt = x[:100], y[:100]
+    mean, scale, coef, l2 = fit_score(x[100:], y[100:], xt, yt, l2_grid=(0.01, 1e6))
+    np.testing.assert_allclose(mean, x[100:].mean(axis=0))
+    np.testing.assert_allclose(scale, x[100:].std(axis=0))
+    # a huge penalty flattens the score to the base rate: the small one must win on held-out data
+    assert l2 == 0.01
+    assert np.mean((predict_logistic(coef, (xt - mean) / scale) > 0.5) == yt) > 0.9
+
+
+def test_best_threshold_maximises_balanced_accuracy() -> None:
+    # 2 UAV windows, 6 others: plain accuracy would reject both UAVs at any threshold above 0.4
+    score = np.array([0.9, 0.45, 0.5, 0.3, 0.2, 0.1, -1.0, -1.0])
+    label = np.array([True, True, False, False, False, False, False, False])
+    assert best_threshold(score, label) == 0.45
+    # windows the any-spike rule did not call (negative) are never candidates
+    assert best_threshold(np.array([-1.0, -1.0]), np.array([True, False])) == 0.5
 
 
 # ---------------------------------------------------------------- the model file

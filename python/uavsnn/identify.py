@@ -68,11 +68,13 @@ __all__ = [
     "Identifier",
     "WindowFeatures",
     "ablation",
+    "best_threshold",
     "class_figures",
     "feature_auc",
     "fit",
     "fit_logistic",
     "fit_network",
+    "fit_score",
     "fit_softmax",
     "object_features",
     "predict_logistic",
@@ -634,29 +636,52 @@ def fit(
             f"identification needs at least 2 UAV and 2 other objects to fit, got "
             f"{int(ys.sum())} and {int((~ys).sum())}"
         )
-    mean, scale = _standardise(xs)
-    z = (xs - mean) / scale
-    zt = (tu.x[tu.usable] - mean) / scale
-    yt = tu.label[tu.usable]
-    best = None
-    for l2 in l2_grid:
-        coef = fit_logistic(z, ys, l2=float(l2))
-        loss = _log_loss(predict_logistic(coef, zt), yt) if len(yt) else 0.0
-        if best is None or loss < best[0]:
-            best = (loss, float(l2), coef)
-    assert best is not None
-    ident = Identifier(names, best[2], mean, scale, 0.5, best[1])
+    mean, scale, coef, l2 = fit_score(xs, ys, tu.x[tu.usable], tu.label[tu.usable], l2_grid)
+    ident = Identifier(names, coef, mean, scale, 0.5, l2)
     if tune_detected is not None and tune_label is not None:
         score = np.where(np.asarray(tune_detected, bool), ident.window_scores(tu), -1.0)
-        label = np.asarray(tune_label, dtype=bool)
-        candidates = np.unique(np.concatenate([[0.5], score[score >= 0]]))
-        acc = [_balanced_accuracy(score >= c, label) for c in candidates]
-        ident = replace(ident, threshold=float(candidates[int(np.argmax(acc))]))
+        ident = replace(ident, threshold=best_threshold(score, np.asarray(tune_label, bool)))
     if classes:
         found = _fit_classes(tr, tu, mean, scale, l2_grid)
         if found is not None:
             ident = replace(ident, classes=found[0], class_coef=found[1], class_l2=found[2])
     return ident
+
+
+def fit_score(
+    x: np.ndarray,
+    y: np.ndarray,
+    x_tune: np.ndarray,
+    y_tune: np.ndarray,
+    l2_grid: Sequence[float] = _L2_GRID,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    """The UAV score's fit of :func:`fit` on plain arrays: the features ``x`` ``(m, d)`` are
+    standardised (their mean and scale), a logistic regression (:func:`fit_logistic`) is fitted
+    to ``y`` for each L2 weight of ``l2_grid``, and the one with the smallest log loss on
+    ``(x_tune, y_tune)`` is kept. Returns ``(mean, scale, coef, l2)``."""
+    x = np.asarray(x, dtype=np.float64)
+    mean, scale = _standardise(x)
+    z = (x - mean) / scale
+    zt = (np.asarray(x_tune, dtype=np.float64) - mean) / scale
+    yt = np.asarray(y_tune, dtype=bool)
+    best = None
+    for l2 in l2_grid:
+        coef = fit_logistic(z, y, l2=float(l2))
+        loss = _log_loss(predict_logistic(coef, zt), yt) if len(yt) else 0.0
+        if best is None or loss < best[0]:
+            best = (loss, float(l2), coef)
+    assert best is not None
+    return mean, scale, best[2], best[1]
+
+
+def best_threshold(score: np.ndarray, label: np.ndarray) -> float:
+    """The threshold of :func:`fit` on window scores (``score``; negative for windows the
+    any-spike rule does not call UAV) that gives the best balanced accuracy against ``label``:
+    0.5 or one of the scores, the smallest of the best."""
+    score = np.asarray(score, dtype=np.float64)
+    candidates = np.unique(np.concatenate([[0.5], score[score >= 0]]))
+    acc = [_balanced_accuracy(score >= c, np.asarray(label, bool)) for c in candidates]
+    return float(candidates[int(np.argmax(acc))])
 
 
 #: Objects a class needs in the training windows to enter the class model.
