@@ -46,14 +46,29 @@ def _per_window(spikes: np.ndarray, windows: int) -> tuple[np.ndarray, np.ndarra
     return spikes, np.searchsorted(spikes["window"], np.arange(windows + 1))
 
 
+#: Windows whose spikes of every layer are recorded at once (conv1's are many at 640x480).
+CHUNK = 256
+
+
+def conv2_spikes(net: Network, data: LabelledWindows) -> np.ndarray:
+    """Every conv2 spike of ``data``'s windows (``window``: the index in ``data``)."""
+    parts = []
+    for chunk in np.array_split(np.arange(len(data)), max(1, -(-len(data) // CHUNK))):
+        spikes = net.infer(data.select(chunk).windows, spikes=True).spikes
+        assert spikes is not None
+        c2 = spikes["conv2"].copy()
+        c2["window"] = chunk[c2["window"]]
+        parts.append(c2)
+    return np.concatenate(parts)
+
+
 def objects(net: Network, data: LabelledWindows) -> Objects:
-    inference = net.infer(data.windows, spikes=True)
-    assert inference.spikes is not None
+    inference = net.infer(data.windows)
     feats = identify.window_features(net, data, inference)
     n3, n2 = int(net.config["conv3"]["maps"]), int(net.config["conv2"]["maps"])
     stride = int(net.config["pool1"]["stride"])
     det, det_at = _per_window(inference.detections, len(data))
-    c2, c2_at = _per_window(inference.spikes["conv2"], len(data))
+    c2, c2_at = _per_window(conv2_spikes(net, data), len(data))
     conv3, conv2 = np.zeros((len(feats.x), n3)), np.zeros((len(feats.x), n2))
     for row, (i, (x0, y0, x1, y1)) in enumerate(zip(feats.window, feats.boxes, strict=True)):
         d = det[det_at[i] : det_at[i + 1]]
