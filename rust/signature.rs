@@ -103,23 +103,7 @@ impl RotorConfig {
     /// the timestamps' resolution), `bins` is outside `3..=4096`, or `consistency`, `agree` or
     /// `threshold` is not finite or outside `[0, 1]`.
     pub fn validate(&self) -> Result<()> {
-        for (name, v) in [("f_min_hz", self.f_min_hz), ("f_max_hz", self.f_max_hz)] {
-            if !v.is_finite() || v <= 0.0 {
-                return Err(Error::param(
-                    name,
-                    format!("must be finite and > 0, got {v}"),
-                ));
-            }
-        }
-        if self.f_min_hz >= self.f_max_hz {
-            return Err(Error::param(
-                "f_min_hz",
-                format!(
-                    "must be below f_max_hz, got {} >= {}",
-                    self.f_min_hz, self.f_max_hz
-                ),
-            ));
-        }
+        validate_band(self.f_min_hz, self.f_max_hz)?;
         if self.f_max_hz > 500_000.0 {
             return Err(Error::param(
                 "f_max_hz",
@@ -142,6 +126,37 @@ impl RotorConfig {
             }
         }
         Ok(())
+    }
+}
+
+/// Check a frequency band (both estimators' `f_min_hz`, `f_max_hz`): both finite and positive,
+/// the lower below the upper.
+///
+/// # Errors
+///
+/// [`Error::InvalidParameter`] naming the frequency at fault.
+fn validate_band(f_min_hz: f64, f_max_hz: f64) -> Result<()> {
+    for (name, v) in [("f_min_hz", f_min_hz), ("f_max_hz", f_max_hz)] {
+        if !v.is_finite() || v <= 0.0 {
+            return Err(Error::param(
+                name,
+                format!("must be finite and > 0, got {v}"),
+            ));
+        }
+    }
+    if f_min_hz >= f_max_hz {
+        return Err(Error::param(
+            "f_min_hz",
+            format!("must be below f_max_hz, got {f_min_hz} >= {f_max_hz}"),
+        ));
+    }
+    Ok(())
+}
+
+/// Feed every event of `events` (any layout) to `push`, in order: both estimators' `extend`.
+fn feed<S: EventSource + ?Sized>(events: &S, mut push: impl FnMut(Event)) {
+    for i in 0..events.len() {
+        push(events.get(i));
     }
 }
 
@@ -403,9 +418,7 @@ impl RotorSignature {
 
     /// Feed a sequence of events (any layout: a slice, packed NumPy records).
     pub fn extend<S: EventSource + ?Sized>(&mut self, events: &S) {
-        for i in 0..events.len() {
-            self.push(events.get(i));
-        }
+        feed(events, |e| self.push(e));
     }
 
     /// The estimate from everything fed so far (costs one pass over the box's pixels).
@@ -522,6 +535,32 @@ mod tests {
             .collect();
         out.sort_by_key(|e| e.t);
         out
+    }
+
+    /// Events from `(t, x, y, p)` tuples, sorted by time when `sorted` (also the spectrum's
+    /// tests').
+    pub(super) fn events_of(raw: Vec<(u64, u16, u16, bool)>, sorted: bool) -> Vec<Event> {
+        let mut events: Vec<Event> = raw
+            .into_iter()
+            .map(|(t, x, y, p)| Event { t, x, y, p })
+            .collect();
+        if sorted {
+            events.sort_by_key(|e| e.t);
+        }
+        events
+    }
+
+    /// Assert that building from `config` failed with an invalid parameter named `name` (also
+    /// the spectrum's tests').
+    pub(super) fn assert_rejects<C: std::fmt::Debug, T: std::fmt::Debug>(
+        config: C,
+        built: Result<T>,
+        name: &str,
+    ) {
+        match built {
+            Err(Error::InvalidParameter { name: got, .. }) => assert_eq!(got, name),
+            other => panic!("{config:?}: {other:?}"),
+        }
     }
 
     fn run(events: &[Event], side: u16) -> Signature {
@@ -664,10 +703,7 @@ mod tests {
                 "threshold",
             ),
         ] {
-            match RotorSignature::new(config, region) {
-                Err(Error::InvalidParameter { name: got, .. }) => assert_eq!(got, name),
-                other => panic!("{config:?}: {other:?}"),
-            }
+            assert_rejects(config, RotorSignature::new(config, region), name);
         }
         assert!(Region::new(0, 0, 0, 4).is_err());
         assert!(Region::new(65_535, 0, 2, 4).is_err());
@@ -700,10 +736,7 @@ mod tests {
                 sorted in any::<bool>(),
                 x0 in 0u16..20, y0 in 0u16..20, w in 1u16..20, h in 1u16..20,
             ) {
-                let mut events: Vec<Event> = events.into_iter().map(|(t, x, y, p)| Event { t, x, y, p }).collect();
-                if sorted {
-                    events.sort_by_key(|e| e.t);
-                }
+                let events = events_of(events, sorted);
                 let mut s = RotorSignature::new(RotorConfig::default(), Region::new(x0, y0, w, h).unwrap()).unwrap();
                 let bytes = s.state_bytes();
                 s.extend(events.as_slice());

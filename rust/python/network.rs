@@ -49,7 +49,8 @@ fn pack_spike(out: &mut Vec<u8>, s: &Spike) {
     out.extend_from_slice(&s.v.to_le_bytes());
 }
 
-fn pack_detection(out: &mut Vec<u8>, d: &Detection) {
+/// Append one detection's packed record (`t u8, map row col u2, x y f4, box 4×u2`).
+pub(super) fn pack_detection(out: &mut Vec<u8>, d: &Detection) {
     out.extend_from_slice(&d.t.to_le_bytes());
     for v in [d.map, d.row, d.col] {
         out.extend_from_slice(&v.to_le_bytes());
@@ -149,7 +150,30 @@ struct BatchArgs<'a> {
     n_preceding: &'a [i64],
 }
 
-impl BatchArgs<'_> {
+impl<'a> BatchArgs<'a> {
+    /// The columns as slices: each must be contiguous (a typed error naming it otherwise).
+    fn new(
+        sensor: (usize, usize),
+        length_us: u64,
+        t0: &'a PyReadonlyArray1<'_, u64>,
+        offsets: &'a PyReadonlyArray1<'_, i64>,
+        t: &'a PyReadonlyArray1<'_, u64>,
+        x: &'a PyReadonlyArray1<'_, u16>,
+        y: &'a PyReadonlyArray1<'_, u16>,
+        n_preceding: &'a PyReadonlyArray1<'_, i64>,
+    ) -> PyResult<Self> {
+        Ok(Self {
+            sensor,
+            length_us,
+            t0: slice(t0, "t0")?,
+            offsets: slice(offsets, "offsets")?,
+            t: slice(t, "t")?,
+            x: slice(x, "x")?,
+            y: slice(y, "y")?,
+            n_preceding: slice(n_preceding, "n_preceding")?,
+        })
+    }
+
     /// The validated batch, for `net` (its sensor checked first).
     fn batch(&self, net: &Network) -> crate::Result<WindowBatch<'_>> {
         check_sensor(net, self.sensor)?;
@@ -335,16 +359,16 @@ impl NetworkCore {
         threads: Option<usize>,
         record: bool,
     ) -> PyResult<Bound<'py, PyTuple>> {
-        let args = BatchArgs {
-            sensor: sensor_size,
+        let args = BatchArgs::new(
+            sensor_size,
             length_us,
-            t0: slice(&t0, "t0")?,
-            offsets: slice(&offsets, "offsets")?,
-            t: slice(&t, "t")?,
-            x: slice(&x, "x")?,
-            y: slice(&y, "y")?,
-            n_preceding: slice(&n_preceding, "n_preceding")?,
-        };
+            &t0,
+            &offsets,
+            &t,
+            &x,
+            &y,
+            &n_preceding,
+        )?;
         let net = &self.net;
         let results = detach(py, || infer(net, &args.batch(net)?, threads, record))?;
         let n = results.len();
@@ -427,16 +451,16 @@ impl NetworkCore {
     ) -> PyResult<(Vec<f64>, Vec<f64>, u64, u64)> {
         let py = slf.py();
         let layer = parse_layer(py, layer)?;
-        let args = BatchArgs {
-            sensor: sensor_size,
+        let args = BatchArgs::new(
+            sensor_size,
             length_us,
-            t0: slice(&t0, "t0")?,
-            offsets: slice(&offsets, "offsets")?,
-            t: slice(&t, "t")?,
-            x: slice(&x, "x")?,
-            y: slice(&y, "y")?,
-            n_preceding: slice(&n_preceding, "n_preceding")?,
-        };
+            &t0,
+            &offsets,
+            &t,
+            &x,
+            &y,
+            &n_preceding,
+        )?;
         let options = TrainOptions {
             epochs,
             seed,

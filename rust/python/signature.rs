@@ -16,9 +16,63 @@ use crate::signature::{Region, RotorConfig, RotorSignature};
 /// `(frequency_hz, strength, pixels, peak_votes, votes, intervals, detected)`.
 type EstimateTuple = (f64, f64, u32, u64, u64, u64, bool);
 
-fn coordinate(name: &'static str, value: i64) -> Result<u16> {
-    u16::try_from(value)
-        .map_err(|_| Error::param(name, format!("must be in 0..=65535, got {value}")))
+/// `value` as a `T`, or an error naming `name` and the accepted `range`.
+fn convert<T: TryFrom<i64>>(name: &'static str, value: i64, range: &str) -> Result<T> {
+    T::try_from(value).map_err(|_| Error::param(name, format!("must be in {range}, got {value}")))
+}
+
+/// The box `x0, y0, width, height` as a [`Region`].
+fn box_region(x0: i64, y0: i64, width: i64, height: i64) -> Result<Region> {
+    let coordinate = |value| convert::<u16>("box", value, "0..=65535");
+    Region::new(
+        coordinate(x0)?,
+        coordinate(y0)?,
+        coordinate(width)?,
+        coordinate(height)?,
+    )
+}
+
+/// The `#[pymethods]` of an estimator class: its own methods, then those both classes share
+/// (`update`, `clear`, `box`, `state_bytes`; the inner estimator has the same methods).
+macro_rules! estimator_methods {
+    ($class:ty { $($own:tt)* }) => {
+        #[pymethods]
+        impl $class {
+            $($own)*
+
+            /// Feed packed canonical event records (a `uint8` view of the canonical dtype).
+            fn update(&mut self, py: Python<'_>, events: PyReadonlyArray1<'_, u8>) -> PyResult<()> {
+                let raw = events.as_slice()?;
+                let inner = &mut self.inner;
+                detach(py, || {
+                    let packed = PackedEvents::new(raw)?;
+                    inner.extend(&packed);
+                    Ok(())
+                })
+            }
+
+            /// Forget every event.
+            fn clear(&mut self, py: Python<'_>) -> PyResult<()> {
+                let inner = &mut self.inner;
+                detach(py, || {
+                    inner.clear();
+                    Ok(())
+                })
+            }
+
+            /// `(x0, y0, width, height)`.
+            #[getter]
+            fn r#box(&self) -> (u16, u16, u16, u16) {
+                let r = self.inner.region();
+                (r.x0, r.y0, r.width, r.height)
+            }
+
+            #[getter]
+            fn state_bytes(&self) -> usize {
+                self.inner.state_bytes()
+            }
+        }
+    };
 }
 
 /// The estimator's defaults, as a dict (the single source of the Python defaults).
@@ -43,8 +97,7 @@ struct PyRotorSignature {
     inner: RotorSignature,
 }
 
-#[pymethods]
-impl PyRotorSignature {
+estimator_methods!(PyRotorSignature {
     #[new]
     #[pyo3(signature = (x0, y0, width, height, f_min_hz, f_max_hz, bins, consistency, agree, threshold, min_pixels))]
     fn new(
@@ -62,42 +115,19 @@ impl PyRotorSignature {
         min_pixels: i64,
     ) -> PyResult<Self> {
         let inner = detach(py, || {
-            let region = Region::new(
-                coordinate("box", x0)?,
-                coordinate("box", y0)?,
-                coordinate("box", width)?,
-                coordinate("box", height)?,
-            )?;
+            let region = box_region(x0, y0, width, height)?;
             let config = RotorConfig {
                 f_min_hz,
                 f_max_hz,
-                bins: usize::try_from(bins).map_err(|_| {
-                    Error::param("bins", format!("must be in 3..=4096, got {bins}"))
-                })?,
+                bins: convert("bins", bins, "3..=4096")?,
                 consistency,
                 agree,
                 threshold,
-                min_pixels: u32::try_from(min_pixels).map_err(|_| {
-                    Error::param(
-                        "min_pixels",
-                        format!("must be in 0..=2**32-1, got {min_pixels}"),
-                    )
-                })?,
+                min_pixels: convert("min_pixels", min_pixels, "0..=2**32-1")?,
             };
             RotorSignature::new(config, region)
         })?;
         Ok(Self { inner })
-    }
-
-    /// Feed packed canonical event records (a `uint8` view of the canonical dtype).
-    fn update(&mut self, py: Python<'_>, events: PyReadonlyArray1<'_, u8>) -> PyResult<()> {
-        let raw = events.as_slice()?;
-        let inner = &mut self.inner;
-        detach(py, || {
-            let packed = PackedEvents::new(raw)?;
-            inner.extend(&packed);
-            Ok(())
-        })
     }
 
     /// The estimate from everything fed so far.
@@ -117,34 +147,13 @@ impl PyRotorSignature {
         })
     }
 
-    /// Forget every event.
-    fn clear(&mut self, py: Python<'_>) -> PyResult<()> {
-        let inner = &mut self.inner;
-        detach(py, || {
-            inner.clear();
-            Ok(())
-        })
-    }
-
-    /// `(x0, y0, width, height)`.
-    #[getter]
-    fn r#box(&self) -> (u16, u16, u16, u16) {
-        let r = self.inner.region();
-        (r.x0, r.y0, r.width, r.height)
-    }
-
     /// `(events, outside, late, on)` since construction or the last clear.
     #[getter]
     fn stats(&self) -> (u64, u64, u64, u64) {
         let s = self.inner.stats();
         (s.events, s.outside, s.late, s.on)
     }
-
-    #[getter]
-    fn state_bytes(&self) -> usize {
-        self.inner.state_bytes()
-    }
-}
+});
 
 /// `(frequency_hz, prominence, pixels, channels, events, detected)`.
 type SpectrumTuple = (f64, f64, u32, u32, u64, bool);
@@ -170,18 +179,13 @@ fn spectrum_defaults(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
     Ok(d)
 }
 
-fn unsigned<T: TryFrom<i64>>(name: &'static str, value: i64, max: &str) -> Result<T> {
-    T::try_from(value).map_err(|_| Error::param(name, format!("must be in 0..={max}, got {value}")))
-}
-
 /// The event-rate spectrum estimator over the box `x0, y0, width, height`.
 #[pyclass(name = "RotorSpectrum", module = "uavsnn._core")]
 struct PyRotorSpectrum {
     inner: RotorSpectrum,
 }
 
-#[pymethods]
-impl PyRotorSpectrum {
+estimator_methods!(PyRotorSpectrum {
     #[new]
     #[pyo3(signature = (x0, y0, width, height, bin_us, span_us, f_min_hz, f_max_hz, freqs, min_events, agree, threshold, min_pixels))]
     fn new(
@@ -201,37 +205,21 @@ impl PyRotorSpectrum {
         min_pixels: i64,
     ) -> PyResult<Self> {
         let inner = detach(py, || {
-            let region = Region::new(
-                coordinate("box", x0)?,
-                coordinate("box", y0)?,
-                coordinate("box", width)?,
-                coordinate("box", height)?,
-            )?;
+            let region = box_region(x0, y0, width, height)?;
             let config = SpectrumConfig {
-                bin_us: unsigned("bin_us", bin_us, "2**32-1")?,
-                span_us: unsigned("span_us", span_us, "2**64-1")?,
+                bin_us: convert("bin_us", bin_us, "0..=2**32-1")?,
+                span_us: convert("span_us", span_us, "0..=2**64-1")?,
                 f_min_hz,
                 f_max_hz,
-                freqs: unsigned("freqs", freqs, "4096")?,
-                min_events: unsigned("min_events", min_events, "2**32-1")?,
+                freqs: convert("freqs", freqs, "0..=4096")?,
+                min_events: convert("min_events", min_events, "0..=2**32-1")?,
                 agree,
                 threshold,
-                min_pixels: unsigned("min_pixels", min_pixels, "2**32-1")?,
+                min_pixels: convert("min_pixels", min_pixels, "0..=2**32-1")?,
             };
             RotorSpectrum::new(config, region)
         })?;
         Ok(Self { inner })
-    }
-
-    /// Feed packed canonical event records (a `uint8` view of the canonical dtype).
-    fn update(&mut self, py: Python<'_>, events: PyReadonlyArray1<'_, u8>) -> PyResult<()> {
-        let raw = events.as_slice()?;
-        let inner = &mut self.inner;
-        detach(py, || {
-            let packed = PackedEvents::new(raw)?;
-            inner.extend(&packed);
-            Ok(())
-        })
     }
 
     /// The estimate from everything fed so far.
@@ -256,34 +244,13 @@ impl PyRotorSpectrum {
         detach(py, || Ok((inner.grid().to_vec(), inner.power())))
     }
 
-    /// Forget every event.
-    fn clear(&mut self, py: Python<'_>) -> PyResult<()> {
-        let inner = &mut self.inner;
-        detach(py, || {
-            inner.clear();
-            Ok(())
-        })
-    }
-
-    /// `(x0, y0, width, height)`.
-    #[getter]
-    fn r#box(&self) -> (u16, u16, u16, u16) {
-        let r = self.inner.region();
-        (r.x0, r.y0, r.width, r.height)
-    }
-
     /// `(events, outside, late, beyond)` since construction or the last clear.
     #[getter]
     fn stats(&self) -> (u64, u64, u64, u64) {
         let s = self.inner.stats();
         (s.events, s.outside, s.late, s.beyond)
     }
-
-    #[getter]
-    fn state_bytes(&self) -> usize {
-        self.inner.state_bytes()
-    }
-}
+});
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyRotorSignature>()?;

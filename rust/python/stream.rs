@@ -9,6 +9,7 @@ use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1};
 use pyo3::prelude::*;
 
 use super::errors::{detach, map};
+use super::network::pack_detection;
 use crate::error::Error;
 use crate::events::{Event, SensorSize, PACKED_EVENT_SIZE};
 use crate::network::{Network, NetworkConfig};
@@ -22,18 +23,9 @@ const DETECTION_RECORD: usize = 8 + 8 + 3 * 2 + 2 * 4 + 4 * 2;
 fn pack_detections(found: &[StreamDetection]) -> Vec<u8> {
     let mut out = Vec::with_capacity(found.len() * DETECTION_RECORD);
     for f in found {
-        let d = &f.detection;
         // Window indices stay far below 2^63 (times are at most 2^62 µs).
         out.extend_from_slice(&(f.window as i64).to_le_bytes());
-        out.extend_from_slice(&d.t.to_le_bytes());
-        for v in [d.map, d.row, d.col] {
-            out.extend_from_slice(&v.to_le_bytes());
-        }
-        out.extend_from_slice(&d.x.to_le_bytes());
-        out.extend_from_slice(&d.y.to_le_bytes());
-        for v in [d.x0, d.y0, d.x1, d.y1] {
-            out.extend_from_slice(&v.to_le_bytes());
-        }
+        pack_detection(&mut out, &f.detection);
     }
     out
 }

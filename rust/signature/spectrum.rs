@@ -39,7 +39,7 @@
 //! table. `estimate` allocates its own scratch (a few numbers per frequency, per bin and per
 //! channel) once per call, never per event.
 
-use super::Region;
+use super::{feed, validate_band, Region};
 use crate::error::{Error, Result};
 use crate::events::{Event, EventSource};
 
@@ -123,23 +123,7 @@ impl SpectrumConfig {
                 ),
             ));
         }
-        for (name, v) in [("f_min_hz", self.f_min_hz), ("f_max_hz", self.f_max_hz)] {
-            if !v.is_finite() || v <= 0.0 {
-                return Err(Error::param(
-                    name,
-                    format!("must be finite and > 0, got {v}"),
-                ));
-            }
-        }
-        if self.f_min_hz >= self.f_max_hz {
-            return Err(Error::param(
-                "f_min_hz",
-                format!(
-                    "must be below f_max_hz, got {} >= {}",
-                    self.f_min_hz, self.f_max_hz
-                ),
-            ));
-        }
+        validate_band(self.f_min_hz, self.f_max_hz)?;
         let nyquist = 5e5 / f64::from(self.bin_us);
         if self.f_max_hz > nyquist {
             return Err(Error::param(
@@ -347,9 +331,7 @@ impl RotorSpectrum {
 
     /// Feed a sequence of events (any layout).
     pub fn extend<S: EventSource + ?Sized>(&mut self, events: &S) {
-        for i in 0..events.len() {
-            self.push(events.get(i));
-        }
+        feed(events, |e| self.push(e));
     }
 
     /// Bins covered from the first event to the latest (0 before any event).
@@ -365,11 +347,8 @@ impl RotorSpectrum {
         let k = self.grid.len();
         let mut total = vec![0.0f64; k];
         let mut peaks = vec![u16::MAX; self.per_channel.len()];
-        let Some(origin) = self.origin else {
-            return (total, peaks, 0, 0);
-        };
-        let n =
-            (((self.last_t - origin) / u64::from(self.config.bin_us)) as usize + 1).min(self.bins);
+        // Too few bins to transform (none before any event).
+        let n = self.covered();
         if n < 8 {
             return (total, peaks, 0, 0);
         }
@@ -529,7 +508,7 @@ impl RotorSpectrum {
 
 #[cfg(test)]
 mod tests {
-    use super::super::tests::noise;
+    use super::super::tests::{assert_rejects, events_of, noise};
     use super::*;
     use rand::{Rng, SeedableRng};
     use rand_pcg::Pcg64;
@@ -689,10 +668,7 @@ mod tests {
                 "threshold",
             ),
         ] {
-            match RotorSpectrum::new(config, region) {
-                Err(Error::InvalidParameter { name: got, .. }) => assert_eq!(got, name),
-                other => panic!("{config:?}: {other:?}"),
-            }
+            assert_rejects(config, RotorSpectrum::new(config, region), name);
         }
         assert!(RotorSpectrum::new(ok, Region::new(0, 0, 2048, 2048).unwrap()).is_err());
     }
@@ -724,10 +700,7 @@ mod tests {
                 sorted in any::<bool>(),
                 x0 in 0u16..6, y0 in 0u16..6, w in 1u16..8, h in 1u16..8,
             ) {
-                let mut events: Vec<Event> = events.into_iter().map(|(t, x, y, p)| Event { t, x, y, p }).collect();
-                if sorted {
-                    events.sort_by_key(|e| e.t);
-                }
+                let events = events_of(events, sorted);
                 let mut s = RotorSpectrum::new(SpectrumConfig::default(), Region::new(x0, y0, w, h).unwrap()).unwrap();
                 let bytes = s.state_bytes();
                 s.extend(events.as_slice());

@@ -83,6 +83,19 @@ pub(crate) fn after_previous(last: Option<u64>, t_us: u64, index: usize) -> Resu
     }
 }
 
+/// Check a sensor size for both simulators: at least 1×1, at most 65535×65535 (event
+/// coordinates are 16-bit). `what` names the size in the error.
+pub(crate) fn check_size(what: &'static str, width: usize, height: usize) -> Result<()> {
+    if width == 0 || height == 0 || width > usize::from(u16::MAX) || height > usize::from(u16::MAX)
+    {
+        return Err(Error::param(
+            what,
+            format!("must be between 1x1 and 65535x65535, got {width}x{height}"),
+        ));
+    }
+    Ok(())
+}
+
 /// How a pixel turns luma `Y` (0–255 scale) into the quantity whose changes make events.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Response {

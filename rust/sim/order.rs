@@ -8,6 +8,28 @@
 
 use crate::events::Event;
 
+/// [`gather_sorted`] over the event buffers of `items` (`events` of each: rows, bands), which
+/// keep their buffers (emptied, their capacity kept) for the next interval.
+pub fn gather_from<T, F>(
+    items: &mut [T],
+    events: F,
+    t0: u64,
+    t1: u64,
+    out: &mut Vec<Event>,
+    scratch: &mut Vec<u32>,
+) where
+    F: Fn(&mut T) -> &mut Vec<Event>,
+{
+    let mut parts: Vec<Vec<Event>> = items
+        .iter_mut()
+        .map(|item| std::mem::take(events(item)))
+        .collect();
+    gather_sorted(&mut parts, t0, t1, out, scratch);
+    for (item, part) in items.iter_mut().zip(parts) {
+        *events(item) = part;
+    }
+}
+
 /// Interleaved histograms of the counting sort.
 const LANES: usize = 4;
 
