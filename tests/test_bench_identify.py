@@ -25,12 +25,18 @@ SIZE = (40, 30)
 
 @pytest.fixture(scope="module")
 def bench():
+    # The bench imports its sibling _identify_args.py, as it does when run as a script.
+    sys.path.insert(0, str(BENCH.parent))
     spec = importlib.util.spec_from_file_location("bench_identify", BENCH)
     module = importlib.util.module_from_spec(spec)
     sys.modules["bench_identify"] = module
-    spec.loader.exec_module(module)
-    yield module
-    sys.modules.pop("bench_identify", None)
+    try:
+        spec.loader.exec_module(module)
+        yield module
+    finally:
+        sys.modules.pop("bench_identify", None)
+        sys.modules.pop("_identify_args", None)
+        sys.path.remove(str(BENCH.parent))
 
 
 def tiny() -> tuple[Network, LabelledWindows]:
