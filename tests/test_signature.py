@@ -8,10 +8,6 @@ seeds 0..199); the tests here use seeds from 2000 on.
 
 from __future__ import annotations
 
-import importlib.util
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 from hypothesis import given
@@ -33,17 +29,10 @@ from uavsnn.signature import (
     rotor_spectrum,
 )
 
-SCRIPT = Path(__file__).resolve().parents[1] / "benches" / "python" / "rotor_noise.py"
-
 
 @pytest.fixture(scope="module")
-def gen():
-    spec = importlib.util.spec_from_file_location("rotor_noise", SCRIPT)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["rotor_noise"] = module
-    spec.loader.exec_module(module)
-    yield module
-    sys.modules.pop("rotor_noise", None)
+def gen(bench_script):
+    return bench_script("rotor_noise")
 
 
 @pytest.mark.parametrize("f", [50.0, 73.0, 150.0, 260.0, 410.0, 520.0, 777.0, 1000.0])
