@@ -6,8 +6,12 @@ one with ``UAVSNN_HYPOTHESIS_PROFILE``.
 
 from __future__ import annotations
 
+import importlib.util
 import os
+import sys
+from collections.abc import Callable, Iterator
 from pathlib import Path
+from types import ModuleType
 
 import pytest
 from hypothesis import HealthCheck, settings
@@ -19,6 +23,7 @@ settings.register_profile("dev", max_examples=300, deadline=None)
 settings.load_profile(os.environ.get("UAVSNN_HYPOTHESIS_PROFILE", "ci"))
 
 SHARED_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
+BENCHES = Path(__file__).resolve().parents[1] / "benches" / "python"
 
 
 @pytest.fixture(scope="session")
@@ -27,3 +32,31 @@ def shared_data() -> Path:
     if not SHARED_DATA.is_dir():
         pytest.skip(f"real data not found at {SHARED_DATA} (it sits beside the project in CI)")
     return SHARED_DATA
+
+
+@pytest.fixture(scope="module")
+def bench_script() -> Iterator[Callable[[str], ModuleType]]:
+    """``bench_script(NAME)``: ``benches/python/NAME.py`` imported as module ``NAME``, once per
+    test module. Its folder is on ``sys.path`` while it loads, as when the script runs, for the
+    modules it shares with its siblings; it stays in ``sys.modules`` (dataclasses look their
+    module up) until the test module ends."""
+    loaded: dict[str, ModuleType] = {}
+
+    def load(name: str) -> ModuleType:
+        if name not in loaded:
+            spec = importlib.util.spec_from_file_location(name, BENCHES / f"{name}.py")
+            assert spec is not None and spec.loader is not None
+            module = importlib.util.module_from_spec(spec)
+            sys.modules[name] = module
+            sys.path.insert(0, str(BENCHES))
+            try:
+                spec.loader.exec_module(module)
+            finally:
+                sys.path.remove(str(BENCHES))
+            loaded[name] = module
+        return loaded[name]
+
+    yield load
+    for name, module in list(sys.modules.items()):
+        if Path(getattr(module, "__file__", None) or "").parent == BENCHES:
+            del sys.modules[name]

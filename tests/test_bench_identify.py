@@ -5,9 +5,6 @@ callgrind)."""
 from __future__ import annotations
 
 import functools
-import importlib.util
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -19,18 +16,12 @@ from uavsnn.events import Recording
 from uavsnn.identify import FEATURES, Identifier
 from uavsnn.windows import make_windows
 
-BENCH = Path(__file__).resolve().parents[1] / "benches" / "python" / "bench_identify.py"
 SIZE = (40, 30)
 
 
 @pytest.fixture(scope="module")
-def bench():
-    spec = importlib.util.spec_from_file_location("bench_identify", BENCH)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["bench_identify"] = module
-    spec.loader.exec_module(module)
-    yield module
-    sys.modules.pop("bench_identify", None)
+def bench(bench_script):
+    return bench_script("bench_identify")
 
 
 def tiny() -> tuple[Network, LabelledWindows]:

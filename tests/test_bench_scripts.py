@@ -3,27 +3,16 @@ readouts and features of benches/python/probe_readout.py."""
 
 from __future__ import annotations
 
-import importlib.util
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 from uavsnn.network import Network, default_config
 from uavsnn.training import apply_overrides
 
-BENCH = Path(__file__).resolve().parents[1] / "benches" / "python" / "bench_stream.py"
-
 
 @pytest.fixture(scope="module")
-def bench():
-    spec = importlib.util.spec_from_file_location("bench_stream", BENCH)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["bench_stream"] = module  # dataclasses look their module up
-    spec.loader.exec_module(module)
-    yield module
-    sys.modules.pop("bench_stream", None)
+def bench(bench_script):
+    return bench_script("bench_stream")
 
 
 def test_scene_latency_of_a_detected_recording(bench):
@@ -71,18 +60,13 @@ def test_report_lines(bench, capsys):
         assert line.startswith(start), (line, start)
 
 
-COMPARE = Path(__file__).resolve().parents[1] / "benches" / "python" / "compare_boxes.py"
-
-
-def test_compare_boxes_rebuilds_the_field_box_and_scores_it() -> None:
+def test_compare_boxes_rebuilds_the_field_box_and_scores_it(bench_script) -> None:
     import numpy as np
 
     from uavsnn.network import WINDOW_DETECTION_DTYPE, Inference
     from uavsnn.windows import Windows
 
-    spec = importlib.util.spec_from_file_location("compare_boxes", COMPARE)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    module = bench_script("compare_boxes")
     # One window on a 40x30 sensor: spikes at (2, 3) t=1, (5, 4) t=2 and (30, 25) t=9; one
     # detection of conv3 (0, 0) at t=2, whose field (default config) covers the whole sensor.
     config = apply_overrides(default_config(), ["width=40", "height=30"])
@@ -105,15 +89,9 @@ def test_compare_boxes_rebuilds_the_field_box_and_scores_it() -> None:
     assert (f["width_median"], f["height_median"]) == (4.0, 2.0)
 
 
-PROBE = Path(__file__).resolve().parents[1] / "benches" / "python" / "probe_readout.py"
-
-
 @pytest.fixture(scope="module")
-def probe():
-    spec = importlib.util.spec_from_file_location("probe_readout", PROBE)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+def probe(bench_script):
+    return bench_script("probe_readout")
 
 
 def test_probe_readouts_learn_what_is_there(probe):

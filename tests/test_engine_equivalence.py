@@ -20,7 +20,6 @@ than float32 can tell. Some networks use the real Gabor kernels in conv1.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -28,6 +27,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 from reference import dense
+from reference.columns import WindowColumns
 
 network = pytest.importorskip(
     "uavsnn.network", reason="the engine's uavsnn.network (issue 3) is not built in this checkout"
@@ -291,29 +291,6 @@ def test_default_conv1_holds_the_gabor_kernels() -> None:
 # Many windows at once: batch inference and training
 
 
-@dataclass(frozen=True)
-class WindowColumns:
-    """The columns of a ``uavsnn.windows.Windows`` that the network reads (docs/api.md)."""
-
-    sensor_size: tuple[int, int]
-    length_us: int
-    t0: np.ndarray
-    offsets: np.ndarray
-    t: np.ndarray
-    x: np.ndarray
-    y: np.ndarray
-    n_preceding: np.ndarray
-
-    def spikes(self, i: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Window ``i``'s input spikes ``(t, x, y)``."""
-        part = slice(self.offsets[i], self.offsets[i + 1])
-        return self.t[part], self.x[part], self.y[part]
-
-    def n_in(self, config: dict, i: int) -> int | None:
-        """PENT's N_in of window ``i`` for the reference: ``None`` means its own spike count."""
-        return int(self.n_preceding[i]) if config["pent"]["estimate"] == "preceding" else None
-
-
 @st.composite
 def window_batches(draw: st.DrawFn, config: dict, n_max: int = 5) -> WindowColumns:
     """Consecutive windows of one recording, each with its ``n_preceding``."""
@@ -321,17 +298,9 @@ def window_batches(draw: st.DrawFn, config: dict, n_max: int = 5) -> WindowColum
     start = draw(st.sampled_from([0, 7, 10**9]))
     n = draw(st.integers(1, n_max))
     parts = [draw(windows(config, t0=start + i * length)) for i in range(n)]
-    counts = [len(p[0]) for p in parts]
-    return WindowColumns(
-        sensor_size=(config["width"], config["height"]),
-        length_us=length,
-        t0=np.array([p[3] for p in parts], dtype=np.uint64),
-        offsets=np.concatenate([[0], np.cumsum(counts)]).astype(np.int64),
-        t=np.concatenate([p[0] for p in parts]).astype(np.uint64),
-        x=np.concatenate([p[1] for p in parts]).astype(np.uint16),
-        y=np.concatenate([p[2] for p in parts]).astype(np.uint16),
-        n_preceding=np.array(draw(st.lists(st.integers(0, 600), min_size=n, max_size=n))),
-    )
+    n_preceding = np.array(draw(st.lists(st.integers(0, 600), min_size=n, max_size=n)))
+    sensor_size = (config["width"], config["height"])
+    return WindowColumns.of_parts(parts, sensor_size, length, [p[3] for p in parts], n_preceding)
 
 
 def _by_window(spikes: np.ndarray, dtype: np.dtype, window: int) -> np.ndarray:

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import json
 import zipfile
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -13,6 +12,7 @@ import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
+from reference.columns import WindowColumns
 
 import uavsnn
 from uavsnn.network import (
@@ -26,44 +26,14 @@ from uavsnn.network import (
 )
 
 
-@dataclass(frozen=True)
-class FakeWindows:
-    """The columns of ``uavsnn.windows.Windows`` (that class lives on another branch)."""
-
-    sensor_size: tuple[int, int]
-    length_us: int
-    t0: np.ndarray
-    offsets: np.ndarray
-    t: np.ndarray
-    x: np.ndarray
-    y: np.ndarray
-    n_preceding: np.ndarray
-
-    def __len__(self) -> int:
-        return len(self.t0)
-
-    def spikes(self, i: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        a, b = self.offsets[i], self.offsets[i + 1]
-        return self.t[a:b], self.x[a:b], self.y[a:b]
-
-
 def make_windows(
     parts: list[tuple[np.ndarray, np.ndarray, np.ndarray]],
     sensor_size: tuple[int, int],
     length_us: int,
     t0: list[int],
-) -> FakeWindows:
-    lengths = [len(p[0]) for p in parts]
-    return FakeWindows(
-        sensor_size=sensor_size,
-        length_us=length_us,
-        t0=np.array(t0, dtype=np.uint64),
-        offsets=np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64),
-        t=np.concatenate([p[0] for p in parts]).astype(np.uint64),
-        x=np.concatenate([p[1] for p in parts]).astype(np.uint16),
-        y=np.concatenate([p[2] for p in parts]).astype(np.uint16),
-        n_preceding=np.array([max(0, n - 3) for n in lengths], dtype=np.int64),
-    )
+) -> WindowColumns:
+    n_preceding = np.array([max(0, len(p[0]) - 3) for p in parts], dtype=np.int64)
+    return WindowColumns.of_parts(parts, sensor_size, length_us, t0, n_preceding)
 
 
 def small_config(**changes: Any) -> dict[str, Any]:
@@ -427,7 +397,7 @@ def test_threads_do_not_change_results() -> None:
 # --------------------------------------------------------------------------- training
 
 
-def training_windows(seed: int, n: int) -> FakeWindows:
+def training_windows(seed: int, n: int) -> WindowColumns:
     rng = np.random.default_rng(seed)
     parts = [random_window(rng, 48, 36, 1000 * i, 1000, n_lines=10) for i in range(n)]
     return make_windows(parts, (48, 36), 1000, [1000 * i for i in range(n)])
@@ -623,17 +593,17 @@ def test_bad_windows_raise_typed_errors() -> None:
     net = Network(small_config())
     good = training_windows(1, 3)
     with pytest.raises(uavsnn.ShapeError, match="sensor_size"):
-        net.infer(FakeWindows(**(vars(good) | {"sensor_size": (40, 36)})))
+        net.infer(WindowColumns(**(vars(good) | {"sensor_size": (40, 36)})))
     with pytest.raises(uavsnn.ShapeError):
-        net.infer(FakeWindows(**(vars(good) | {"offsets": good.offsets[:-1]})))
+        net.infer(WindowColumns(**(vars(good) | {"offsets": good.offsets[:-1]})))
     with pytest.raises(uavsnn.ShapeError):
-        net.infer(FakeWindows(**(vars(good) | {"n_preceding": good.n_preceding[:1]})))
+        net.infer(WindowColumns(**(vars(good) | {"n_preceding": good.n_preceding[:1]})))
     with pytest.raises(uavsnn.EventError):
-        net.infer(FakeWindows(**(vars(good) | {"t": good.t.astype(np.float32)})))
+        net.infer(WindowColumns(**(vars(good) | {"t": good.t.astype(np.float32)})))
     with pytest.raises(uavsnn.EventError, match="outside its window"):
-        net.infer(FakeWindows(**(vars(good) | {"length_us": 10})))
+        net.infer(WindowColumns(**(vars(good) | {"length_us": 10})))
     with pytest.raises(uavsnn.ParameterError):
-        net.infer(FakeWindows(**(vars(good) | {"length_us": 0})))
+        net.infer(WindowColumns(**(vars(good) | {"length_us": 0})))
     with pytest.raises(uavsnn.ParameterError):
         net.infer(good, threads=0)
     with pytest.raises(uavsnn.ParameterError):

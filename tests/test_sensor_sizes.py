@@ -139,28 +139,18 @@ def test_real_footage_on_a_640x480_sensor_and_too_small_for_1280x720(tmp_path: P
     assert not (tmp_path / "big").exists() or not any((tmp_path / "big").iterdir())
 
 
-def _script(name: str):
-    import importlib.util
-    import sys
-
-    path = Path(__file__).resolve().parents[1] / "benches" / "python" / f"{name}.py"
-    spec = importlib.util.spec_from_file_location(name, path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module
-    spec.loader.exec_module(module)
-    return module
-
-
-def test_the_sensor_benchmark_and_the_raw_cost_script_run(capsys: pytest.CaptureFixture) -> None:
+def test_the_sensor_benchmark_and_the_raw_cost_script_run(
+    capsys: pytest.CaptureFixture, bench_script
+) -> None:
     import json
 
-    bench = _script("bench_sensor")
+    bench = bench_script("bench_sensor")
     argv = ["--scenes", "1", "--seconds", "0.02", "--sensor", "64x48", "--json"]
     assert bench.main(argv) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["64x48"]["frames"] == 10 and out["64x48"]["realtime_factor"] > 0
     assert len(out["machine_before"]["load_average"]) == 3
-    raw = _script("raw_cost").cost((64, 48), 4, 0.3, 0)
+    raw = bench_script("raw_cost").cost((64, 48), 4, 0.3, 0)
     assert raw["raw_MB_per_1000_windows"] > 0 and raw["raw_events_per_window"] > 0
 
 

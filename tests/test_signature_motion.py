@@ -10,10 +10,6 @@ table uses seeds 0..199 and 20000 on); the tests here use seeds from 2400 on.
 
 from __future__ import annotations
 
-import importlib.util
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -30,17 +26,10 @@ from uavsnn.signature import (
     rotor_spectrum,
 )
 
-SCRIPT = Path(__file__).resolve().parents[1] / "benches" / "python" / "rotor_noise.py"
-
 
 @pytest.fixture(scope="module")
-def gen():
-    spec = importlib.util.spec_from_file_location("rotor_noise_motion", SCRIPT)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["rotor_noise_motion"] = module
-    spec.loader.exec_module(module)
-    yield module
-    sys.modules.pop("rotor_noise_motion", None)
+def gen(bench_script):
+    return bench_script("rotor_noise")
 
 
 @pytest.mark.parametrize("f", [80.0, 240.0, 520.0])

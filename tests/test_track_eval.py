@@ -330,7 +330,7 @@ def tiny(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
 
 
 def test_evaluate_tracks_on_a_tiny_built_dataset(
-    tiny: tuple[Path, Path], capsys: pytest.CaptureFixture[str]
+    tiny: tuple[Path, Path], capsys: pytest.CaptureFixture[str], bench_script
 ) -> None:
     from uavsnn.cli import main
     from uavsnn.dataset import load
@@ -360,7 +360,7 @@ def test_evaluate_tracks_on_a_tiny_built_dataset(
     )
     assert f"UAV recordings found {rule['found']}/{len(uav_recs)}" in text
     # The default tracker's row of the bench's sweep is what evaluate reported.
-    sweep = _bench_script()
+    sweep = bench_script("track_noise")
     sweep.dataset_sweep(str(model), str(root), "test")
     rows = capsys.readouterr().out.splitlines()
     (row,) = [r for r in rows if r.startswith("| 24 | 3 of 5 |")]
@@ -405,13 +405,14 @@ def test_the_confirm_rules_bench_prints_what_evaluate_reports(
     tmp_path: Path,
     capsys: pytest.CaptureFixture[str],
     monkeypatch: pytest.MonkeyPatch,
+    bench_script,
 ) -> None:
     from uavsnn.cli import main
 
     root, model = tiny
     assert main(["evaluate", str(model), str(root), "--tracks", "--json", "--confirm", "2/3"]) == 0
     want = json.loads(capsys.readouterr().out)["tracks"]
-    bench = _bench_script("confirm_rules")
+    bench = bench_script("confirm_rules")
     out = tmp_path / "rules.json"
     argv = ["confirm_rules.py", str(model), str(root), "--split", "test", "--rules", "3/5,2/3"]
     monkeypatch.setattr("sys.argv", [*argv, "--json", str(out)])
@@ -421,22 +422,6 @@ def test_the_confirm_rules_bench_prints_what_evaluate_reports(
     assert list(got) == ["3/5", "2/3"] and got["2/3"]["rules"] == want["rules"]
     rule = want["rules"]["any_spike"]
     assert f"| 2/3 | any_spike | {rule['found']} of {want['uav_recordings']} |" in text
-
-
-def _bench_script(name: str = "track_noise"):
-    import importlib.util
-    import sys
-
-    path = Path(__file__).resolve().parents[1] / "benches" / "python" / f"{name}.py"
-    spec = importlib.util.spec_from_file_location(name, path)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[name] = module
-    try:
-        spec.loader.exec_module(module)
-    finally:
-        sys.modules.pop(name, None)
-    return module
 
 
 def test_a_dataset_without_raw_events_is_one_line_and_exit_2(

@@ -32,15 +32,14 @@ import os
 for _var in ("RAYON_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ[_var] = "1"
 
-import argparse  # noqa: E402
 import functools  # noqa: E402
 import itertools  # noqa: E402
 import json  # noqa: E402
 import time  # noqa: E402
-from pathlib import Path  # noqa: E402
 from typing import Any  # noqa: E402
 
 import numpy as np  # noqa: E402
+from _identify_args import SECTIONS, parser  # noqa: E402
 
 from uavsnn import Detector, Network, identify  # noqa: E402
 from uavsnn.dataset import load  # noqa: E402
@@ -80,9 +79,6 @@ def _stream(network: Network, streams: list[np.ndarray], full: bool) -> int:
     return objects
 
 
-SECTIONS = ("network", "identification", "stream-network", "stream-full")
-
-
 def _once(fn: Any) -> Any:
     """``fn()`` called inside ``functools.reduce``: the C function callgrind's
     ``--toggle-collect=functools_reduce`` counts, and nothing else here calls."""
@@ -105,13 +101,7 @@ def _section(name: str, network: Network, data: Any, spikes: int, recordings: in
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("model", type=Path)
-    ap.add_argument("dataset", type=Path)
-    ap.add_argument("--split", default="test")
-    ap.add_argument("--windows", type=int, default=400, help="windows of the split (400)")
-    ap.add_argument("--recordings", type=int, default=4, help="recordings streamed (4)")
-    ap.add_argument("--json", action="store_true")
+    ap = parser(__doc__)
     ap.add_argument(
         "--section",
         choices=SECTIONS,

@@ -27,8 +27,9 @@ import sys
 import tempfile
 from pathlib import Path
 
+from _identify_args import SECTIONS, parser
+
 BENCH = Path(__file__).with_name("bench_identify.py")
-SECTIONS = ("network", "identification", "stream-network", "stream-full")
 
 
 def count(section: str, args: argparse.Namespace) -> tuple[int, int]:
@@ -68,13 +69,7 @@ def count(section: str, args: argparse.Namespace) -> tuple[int, int]:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("model", type=Path)
-    ap.add_argument("dataset", type=Path)
-    ap.add_argument("--split", default="test")
-    ap.add_argument("--windows", type=int, default=400, help="windows of the split (400)")
-    ap.add_argument("--recordings", type=int, default=4, help="recordings streamed (4)")
-    ap.add_argument("--json", action="store_true")
+    ap = parser(__doc__)
     args = ap.parse_args()
     os.environ.setdefault("PYTHONHASHSEED", "0")
 

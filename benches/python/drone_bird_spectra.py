@@ -45,6 +45,7 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -267,15 +268,48 @@ def motion(light: float, vertical: float, rev: float, threshold: float | None) -
             )
 
 
-def dataset(root: Path, split: str) -> None:
-    """The UAV windows of a dataset (see the module's documentation)."""
+def labelled_split(root: Path, split: str) -> tuple[Any, dict[int, float], int]:
+    """A dataset's split (with raw events), each recording's light level (from the
+    manifest) and the raw events' length L before a window."""
     from uavsnn.dataset.format import load
 
     d = load(root, split)
     if d.raw is None:
         raise SystemExit(f"{root} has no raw events (format 2 needed)")
     light = {int(r["id"]): float(r["lighting"]) for r in d.manifest["recordings"]}
-    length = int(d.raw.before_us)
+    return d, light, int(d.raw.before_us)
+
+
+def box_speed(d: Any, t0s: np.ndarray, boxes: np.ndarray, i: int) -> float:
+    """Window ``i``'s box speed (px/s): its centre's displacement to the next window of the
+    recording; nan without a next window (or a box there)."""
+    later = np.flatnonzero((d.recording == d.recording[i]) & (t0s > t0s[i]))
+    if len(later):
+        j = later[np.argmin(t0s[later])]
+        if np.isfinite(boxes[j]).all():
+            b = boxes[i]
+            shift = np.hypot(*((boxes[j, :2] + boxes[j, 2:]) - (b[:2] + b[2:])) / 2)
+            return float(shift / ((t0s[j] - t0s[i]) * 1e-6))
+    return float("nan")
+
+
+def box_events(
+    d: Any, i: int, b: np.ndarray, start: int, stop: int
+) -> tuple[np.ndarray, tuple[int, int, int, int]]:
+    """Window ``i``'s raw events of ``[start, stop)`` in its labelled box ``b`` (x0, y0, x1,
+    y1, widened to whole pixels, at least one), and that box as (x, y, width, height)."""
+    x0, y0 = int(np.floor(b[0])), int(np.floor(b[1]))
+    x1, y1 = max(int(np.ceil(b[2])), x0 + 1), max(int(np.ceil(b[3])), y0 + 1)
+    raw = d.raw.window(int(i))
+    t = raw["t"].astype(np.int64)
+    ev = raw[(t >= start) & (t < stop)]
+    ev = ev[(ev["x"] >= x0) & (ev["x"] < x1) & (ev["y"] >= y0) & (ev["y"] < y1)]
+    return ev, (x0, y0, x1 - x0, y1 - y0)
+
+
+def dataset(root: Path, split: str) -> None:
+    """The UAV windows of a dataset (see the module's documentation)."""
+    d, light, length = labelled_split(root, split)
     t0s = np.asarray(d.windows.t0, dtype=np.int64)
     boxes = np.asarray(d.box, dtype=np.float64)
     rows = []
@@ -283,20 +317,8 @@ def dataset(root: Path, split: str) -> None:
         b = boxes[i]
         if not np.isfinite(b).all():
             continue
-        later = np.flatnonzero((d.recording == d.recording[i]) & (t0s > t0s[i]))
-        speed = float("nan")
-        if len(later):
-            j = later[np.argmin(t0s[later])]
-            if np.isfinite(boxes[j]).all():
-                shift = np.hypot(*((boxes[j, :2] + boxes[j, 2:]) - (b[:2] + b[2:])) / 2)
-                speed = float(shift / ((t0s[j] - t0s[i]) * 1e-6))
-        x0, y0 = int(np.floor(b[0])), int(np.floor(b[1]))
-        x1, y1 = max(int(np.ceil(b[2])), x0 + 1), max(int(np.ceil(b[3])), y0 + 1)
-        raw = d.raw.window(int(i))
-        t = raw["t"].astype(np.int64)
-        ev = raw[(t >= t0s[i] - length) & (t < t0s[i] + length)]
-        ev = ev[(ev["x"] >= x0) & (ev["x"] < x1) & (ev["y"] >= y0) & (ev["y"] < y1)]
-        box = (x0, y0, x1 - x0, y1 - y0)
+        speed = box_speed(d, t0s, boxes, int(i))
+        ev, box = box_events(d, int(i), b, t0s[i] - length, t0s[i] + length)
         window = ev[ev["t"].astype(np.int64) >= t0s[i]]
         rows.append(
             (
@@ -340,13 +362,7 @@ def dataset_motion(root: Path, split: str, limit: int | None) -> None:
     """Every labelled window of a dataset's split: both estimators, plain and compensated."""
     import time
 
-    from uavsnn.dataset.format import load
-
-    d = load(root, split)
-    if d.raw is None:
-        raise SystemExit(f"{root} has no raw events (format 2 needed)")
-    light = {int(r["id"]): float(r["lighting"]) for r in d.manifest["recordings"]}
-    length = int(d.raw.before_us)
+    d, light, length = labelled_split(root, split)
     t0s = np.asarray(d.windows.t0, dtype=np.int64)
     boxes = np.asarray(d.box, dtype=np.float64)
     todo = [i for i in range(len(t0s)) if np.isfinite(boxes[i]).all()]
@@ -356,21 +372,8 @@ def dataset_motion(root: Path, split: str, limit: int | None) -> None:
     start = time.process_time()
     estimate_s = 0.0
     for i in todo:
-        b = boxes[i]
-        later = np.flatnonzero((d.recording == d.recording[i]) & (t0s > t0s[i]))
-        speed = float("nan")
-        if len(later):
-            j = later[np.argmin(t0s[later])]
-            if np.isfinite(boxes[j]).all():
-                shift = np.hypot(*((boxes[j, :2] + boxes[j, 2:]) - (b[:2] + b[2:])) / 2)
-                speed = float(shift / ((t0s[j] - t0s[i]) * 1e-6))
-        x0, y0 = int(np.floor(b[0])), int(np.floor(b[1]))
-        x1, y1 = max(int(np.ceil(b[2])), x0 + 1), max(int(np.ceil(b[3])), y0 + 1)
-        raw = d.raw.window(int(i))
-        t = raw["t"].astype(np.int64)
-        ev = raw[(t >= t0s[i]) & (t < t0s[i] + length)]
-        ev = ev[(ev["x"] >= x0) & (ev["x"] < x1) & (ev["y"] >= y0) & (ev["y"] < y1)]
-        box = (x0, y0, x1 - x0, y1 - y0)
+        speed = box_speed(d, t0s, boxes, i)
+        ev, box = box_events(d, i, boxes[i], t0s[i], t0s[i] + length)
         tick = time.process_time()
         comp = compensated_rotor(ev, box)
         estimate_s += time.process_time() - tick

@@ -45,6 +45,8 @@ read plain and compensated over 50 ms::
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -73,6 +75,24 @@ def noise(rate: float, side: int, window_us: int, rng: np.random.Generator) -> n
     events["y"] = rng.integers(0, side, n)
     events["p"] = rng.integers(0, 2, n).astype(bool)
     return events
+
+
+def noise_estimates(
+    estimate: Callable[..., Any], rate: float, side: int, window_us: int, args: argparse.Namespace
+) -> list[Any]:
+    """``estimate`` (an estimator of :mod:`uavsnn.signature`) on the noise of each seed
+    (``--seeds`` from ``--first-seed``) in a ``side``×``side`` box."""
+    out = []
+    for seed in range(args.first_seed, args.first_seed + args.seeds):
+        rng = np.random.default_rng(seed)
+        out.append(estimate(noise(rate, side, window_us, rng), (0, 0, side, side)))
+    return out
+
+
+def pass_counts(s: np.ndarray, px: np.ndarray, thresholds: list[float], min_pixels: int) -> str:
+    """The table's cells: of the noise windows, how many reach each threshold with at least
+    ``min_pixels`` agreeing pixels."""
+    return " | ".join(f"{int(((s >= t) & (px >= min_pixels)).sum())}/{s.size}" for t in thresholds)
 
 
 def flicker(
@@ -312,19 +332,12 @@ def spectrum_main(args: argparse.Namespace) -> None:
     overall = 0.0
     for side in SPECTRUM_SIDES:
         for rate in SPECTRUM_RATES:
-            prom, pixels = [], []
-            for seed in range(args.first_seed, args.first_seed + args.seeds):
-                rng = np.random.default_rng(seed)
-                est = rotor_spectrum(noise(rate, side, window_us, rng), (0, 0, side, side))
-                prom.append(est.prominence)
-                pixels.append(est.pixels)
-            s, px = np.array(prom), np.array(pixels)
+            ests = noise_estimates(rotor_spectrum, rate, side, window_us, args)
+            s, px = np.array([e.prominence for e in ests]), np.array([e.pixels for e in ests])
             ruled = s[px >= min_pixels]
             top = float(ruled.max()) if ruled.size else 0.0
             overall = max(overall, top)
-            passes = " | ".join(
-                f"{int(((s >= t) & (px >= min_pixels)).sum())}/{s.size}" for t in thresholds
-            )
+            passes = pass_counts(s, px, thresholds, min_pixels)
             print(
                 f"| {side}×{side} | {rate:.0e} | {s.max():.2f} | {top:.2f} "
                 f"| {np.percentile(s, 99):.2f} | {px.max()} | {passes} |"
@@ -391,17 +404,10 @@ def main(argv: list[str] | None = None) -> None:
     worst: dict[str, list[float]] = {}
     for side in SIDES:
         for rate in RATES:
-            strengths, pixels = [], []
-            for seed in range(args.first_seed, args.first_seed + args.seeds):
-                rng = np.random.default_rng(seed)
-                est = rotor_signature(noise(rate, side, window_us, rng), (0, 0, side, side))
-                strengths.append(est.strength)
-                pixels.append(est.pixels)
-            s, px = np.array(strengths), np.array(pixels)
+            ests = noise_estimates(rotor_signature, rate, side, window_us, args)
+            s, px = np.array([e.strength for e in ests]), np.array([e.pixels for e in ests])
             worst.setdefault(f"noise, {side}x{side} box", []).append(float(s.max()))
-            passes = " | ".join(
-                f"{int(((s >= t) & (px >= min_pixels)).sum())}/{s.size}" for t in thresholds
-            )
+            passes = pass_counts(s, px, thresholds, min_pixels)
             print(
                 f"| {side}×{side} | {rate:.0e} | {s.max():.3f} | {np.percentile(s, 99):.3f} "
                 f"| {px.max()} | {passes} |"

@@ -91,7 +91,36 @@ def _box(box: object) -> tuple[int, int, int, int]:
     return x0, y0, width, height
 
 
-class RotorSignature:
+class _BoxEstimator:
+    """What both rotor estimators do the same way: one engine estimator over one box."""
+
+    _inner: _core.RotorSignature | _core.RotorSpectrum
+
+    def update(self, events: np.ndarray) -> None:
+        """Feed events of the canonical dtype, in time order (earlier ones are counted as late
+        and ignored).
+
+        Raises:
+            EventError: not a 1-D array of the canonical dtype.
+        """
+        self._inner.update(packed_bytes(events))
+
+    def clear(self) -> None:
+        """Forget every event (the state keeps its size)."""
+        self._inner.clear()
+
+    @property
+    def box(self) -> tuple[int, int, int, int]:
+        """``(x0, y0, width, height)``."""
+        return self._inner.box
+
+    @property
+    def state_bytes(self) -> int:
+        """Bytes of state, fixed at construction."""
+        return self._inner.state_bytes
+
+
+class RotorSignature(_BoxEstimator):
     """A rotor-signature estimator over one box of pixels (or a whole sensor).
 
     Args:
@@ -128,7 +157,9 @@ class RotorSignature:
             rest = (float(agree), float(threshold), int(min_pixels))
         except (TypeError, ValueError, OverflowError) as exc:
             raise ParameterError(f"rotor signature parameters must be numbers: {exc}") from exc
-        self._inner = _core.RotorSignature(x0, y0, width, height, *args, *rest)
+        self._inner: _core.RotorSignature = _core.RotorSignature(
+            x0, y0, width, height, *args, *rest
+        )
 
     @classmethod
     def for_sensor(cls, sensor_size: tuple[int, int], **params: Any) -> RotorSignature:
@@ -136,27 +167,9 @@ class RotorSignature:
         width, height = check_sensor_size(sensor_size)
         return cls((0, 0, width, height), **params)
 
-    def update(self, events: np.ndarray) -> None:
-        """Feed events of the canonical dtype, in time order (earlier ones are counted as late
-        and ignored).
-
-        Raises:
-            EventError: not a 1-D array of the canonical dtype.
-        """
-        self._inner.update(packed_bytes(events))
-
     def estimate(self) -> RotorEstimate:
         """The estimate from everything fed since construction or the last :meth:`clear`."""
         return RotorEstimate(*self._inner.estimate())
-
-    def clear(self) -> None:
-        """Forget every event (the state keeps its size)."""
-        self._inner.clear()
-
-    @property
-    def box(self) -> tuple[int, int, int, int]:
-        """``(x0, y0, width, height)``."""
-        return self._inner.box
 
     @property
     def stats(self) -> dict[str, int]:
@@ -165,11 +178,6 @@ class RotorSignature:
         ``events + late`` inside it)."""
         events, outside, late, on = self._inner.stats
         return {"events": events, "outside": outside, "late": late, "on": on}
-
-    @property
-    def state_bytes(self) -> int:
-        """Bytes of state, fixed at construction."""
-        return self._inner.state_bytes
 
 
 def rotor_signature(
@@ -235,7 +243,7 @@ class SpectrumEstimate:
     detected: bool
 
 
-class RotorSpectrum:
+class RotorSpectrum(_BoxEstimator):
     """The per-pixel event-rate spectrum of a box, summed over its pixels (Rust,
     ``rust/signature/spectrum.rs``): each pixel's ON and OFF events counted in ``bin_us`` bins
     over at most ``span_us`` from the first event, then a Hann-windowed DFT per channel at
@@ -271,7 +279,7 @@ class RotorSpectrum:
             floats = {k: float(p[k]) for k in ("f_min_hz", "f_max_hz", "agree", "threshold")}
         except (TypeError, ValueError, OverflowError) as exc:
             raise ParameterError(f"rotor spectrum parameters must be numbers: {exc}") from exc
-        self._inner = _core.RotorSpectrum(
+        self._inner: _core.RotorSpectrum = _core.RotorSpectrum(
             x0,
             y0,
             width,
@@ -287,14 +295,6 @@ class RotorSpectrum:
             ints["min_pixels"],
         )
 
-    def update(self, events: np.ndarray) -> None:
-        """Feed events of the canonical dtype, in time order.
-
-        Raises:
-            EventError: not a 1-D array of the canonical dtype.
-        """
-        self._inner.update(packed_bytes(events))
-
     def estimate(self) -> SpectrumEstimate:
         """The estimate from everything fed since construction or the last :meth:`clear`."""
         return SpectrumEstimate(*self._inner.estimate())
@@ -304,25 +304,11 @@ class RotorSpectrum:
         grid, power = self._inner.power()
         return np.asarray(grid), np.asarray(power)
 
-    def clear(self) -> None:
-        """Forget every event (the state keeps its size)."""
-        self._inner.clear()
-
-    @property
-    def box(self) -> tuple[int, int, int, int]:
-        """``(x0, y0, width, height)``."""
-        return self._inner.box
-
     @property
     def stats(self) -> dict[str, int]:
         """Events used, outside the box, late, and beyond ``span_us``."""
         events, outside, late, beyond = self._inner.stats
         return {"events": events, "outside": outside, "late": late, "beyond": beyond}
-
-    @property
-    def state_bytes(self) -> int:
-        """Bytes of state, fixed at construction."""
-        return self._inner.state_bytes
 
 
 def rotor_spectrum(
