@@ -1,6 +1,6 @@
-"""Smoke test of benches/python/bench_identify.py at a tiny size: each part of --section runs
+"""Smoke tests of benches/python/bench_identify.py at a tiny size: each part of --section runs
 on the same windows as the timed bench (count_identify.py counts those parts under
-callgrind)."""
+callgrind); and of benches/python/network_shape.py's spike counts per object."""
 
 from __future__ import annotations
 
@@ -74,3 +74,21 @@ def test_each_section_runs_its_part_once_inside_functools_reduce(bench, monkeypa
     assert out["stream-network"]["events"] == out["stream-full"]["events"] == raw > 0
     # The streamed windows hold objects (the full path measured, tracked and scored them).
     assert bench._stream(net, bench._streams(data, 1), True) > 0
+
+
+def test_network_shape_counts_each_objects_spikes_inside_its_box(bench_script, monkeypatch):
+    shape = bench_script("network_shape")
+    net, data = tiny()
+    found = shape.objects(net, data)
+    assert len(found.feats.x) > 0
+    # A merged box holds exactly its own conv3 detections: per map they add up to the object's
+    # spike count, which the identification's features hold as log1p.
+    spikes = np.expm1(found.feats.x[:, FEATURES.index("log_spikes")])
+    np.testing.assert_allclose(found.conv3.sum(axis=1), spikes, rtol=1e-9)
+    assert found.conv2.sum() > 0
+    # Recording conv2 two windows at a time gives the same counts as the default chunks.
+    monkeypatch.setattr(shape, "CHUNK", 2)
+    np.testing.assert_array_equal(shape.objects(net, data).conv2, found.conv2)
+    # Each variant's columns come out with one row per object.
+    for extra in shape.VARIANTS.values():
+        assert len(extra(found)) == len(found.feats.x)
