@@ -647,36 +647,39 @@ def test_merged_boxes_cover_every_box_and_never_touch(boxes, seed) -> None:
 
 
 def merge_reference(d: np.ndarray) -> list[tuple[tuple[int, int, int, int], int]]:
-    """merge_boxes as first written (NumPy throughout): the rule its faster form must keep."""
+    """merge_boxes's rule written another way: each detection a group; join at once every
+    group whose bounding box overlaps or touches another's (connected components, by label
+    propagation over the pairwise matrix), and again over the joined groups' boxes, until no
+    two boxes touch. The final groups do not depend on the order of the joins: a join only
+    puts together boxes that any grouping without two touching boxes holds together."""
     if len(d) == 0:
         return []
-    raw = np.stack([d[f].astype(np.int64) for f in ("x0", "y0", "x1", "y1")], axis=1)
-    boxes, counts = np.unique(raw, axis=0, return_counts=True)
+    boxes = np.stack([d[f].astype(np.int64) for f in ("x0", "y0", "x1", "y1")], axis=1)
+    counts = np.ones(len(d), dtype=np.int64)
     while True:
-        merged_boxes, merged_counts = [], []
-        rest, rest_n = boxes, counts
-        while len(rest):
-            cur, n = rest[0].copy(), int(rest_n[0])
-            rest, rest_n = rest[1:], rest_n[1:]
-            while len(rest):
-                hit = (
-                    (rest[:, 0] <= cur[2])
-                    & (cur[0] <= rest[:, 2])
-                    & (rest[:, 1] <= cur[3])
-                    & (cur[1] <= rest[:, 3])
-                )
-                if not hit.any():
-                    break
-                cur[:2] = np.minimum(cur[:2], rest[hit, :2].min(axis=0))
-                cur[2:] = np.maximum(cur[2:], rest[hit, 2:].max(axis=0))
-                n += int(rest_n[hit].sum())
-                rest, rest_n = rest[~hit], rest_n[~hit]
-            merged_boxes.append(cur)
-            merged_counts.append(n)
-        stable = len(merged_boxes) == len(boxes)
-        boxes, counts = np.array(merged_boxes), np.array(merged_counts)
-        if stable:
+        x0, y0, x1, y1 = (boxes[:, k] for k in range(4))
+        touch = (
+            (x0[:, None] <= x1[None, :])
+            & (x0[None, :] <= x1[:, None])
+            & (y0[:, None] <= y1[None, :])
+            & (y0[None, :] <= y1[:, None])
+        )
+        label = np.arange(len(boxes))
+        while True:
+            joined = np.where(touch, label[None, :], len(boxes)).min(axis=1)
+            if np.array_equal(joined, label):
+                break
+            label = joined
+        groups = np.unique(label)
+        if len(groups) == len(boxes):
             break
+        boxes = np.array(
+            [
+                [*boxes[label == g, :2].min(axis=0), *boxes[label == g, 2:].max(axis=0)]
+                for g in groups
+            ]
+        )
+        counts = np.array([counts[label == g].sum() for g in groups])
     order = sorted(range(len(boxes)), key=lambda i: (-counts[i], *boxes[i][:2].tolist()))
     return [(tuple(int(v) for v in boxes[i]), int(counts[i])) for i in order]
 
