@@ -174,6 +174,16 @@ def test_class_markdown_names_each_class_and_its_mistakes() -> None:
     assert "| uav | 4 | 100.0 % | - |" in text
     assert "60.0 % right" in text
     assert "No class model" in class_markdown({"classes": [], "objects": 0})
+    # Test objects of none of the model's classes: no balanced figure, and no error.
+    only_ball = {
+        **figures,
+        "objects": 2,
+        "accuracy": 0.0,
+        "balanced_accuracy": None,
+        "per_class": {"ball": figures["per_class"]["ball"]},
+        "confusion": {"ball": figures["confusion"]["ball"]},
+    }
+    assert "balanced over the model's classes – (none of them" in class_markdown(only_ball)
 
 
 def test_identification_markdown_and_roc_chart(tiny, tmp_path: Path) -> None:

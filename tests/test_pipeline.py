@@ -48,6 +48,17 @@ def test_train_then_evaluate(
     assert (report / "report.md").exists() and (report / "confusion.png").exists()
     text = (report / "report.md").read_text()
     assert f"{tp} (TP)" in text and "![confusion](confusion.png)" in text
+    # The text output gives the noise sweep for both rules where the model has identification.
+    assert main(["evaluate", str(model), str(dataset), "--noise"]) == 0
+    lines = [ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("  noise ")]
+    assert len(lines) == len(figures["noise"]) == 2 * len(NOISE_FRACTIONS)
+    assert any("with identification" in line for line in lines)  # the model has one
+    for line, point in zip(lines, figures["noise"], strict=True):
+        assert f"{100 * point['accuracy']:.1f} %" in line
+        ident = point.get("identified")
+        assert ("with identification" in line) == (ident is not None)
+        if ident is not None:
+            assert line.endswith(f"with identification {100 * ident['accuracy']:.1f} %")
 
 
 def test_commands_fail_cleanly_on_bad_input(

@@ -440,12 +440,18 @@ def class_markdown(figures: dict[str, Any]) -> str:
         return "No class model: the guess is uav or other.\n"
     if not figures["objects"]:
         return "No test object of a known class.\n"
+    balanced = figures["balanced_accuracy"]
     lines = [
         f"Class guess on the {figures['objects']} test objects of a known class (uav where the "
         "UAV score reaches the threshold, else the likeliest other class of a multinomial "
         "logistic regression on the same features; `uavsnn.identify.class_figures`): "
         f"{100 * figures['accuracy']:.1f} % right, balanced over the model's classes "
-        f"{100 * figures['balanced_accuracy']:.1f} %.\n",
+        + (
+            "– (none of them among these objects)"
+            if balanced is None
+            else f"{100 * balanced:.1f} %"
+        )
+        + ".\n",
         "| class | objects | guessed right | taken most often for |",
         "|---|---|---|---|",
     ]

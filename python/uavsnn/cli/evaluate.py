@@ -184,9 +184,12 @@ def _evaluate(args: argparse.Namespace) -> int:
         f"spikes/s ({result.ns_per_event:.0f} ns each)"
     )
     for point in points:
+        both = ""
+        if point.identified is not None:
+            both = f", with identification {100 * point.identified['identified']['accuracy']:.1f} %"
         print(
             f"  noise {100 * point.fraction:5g} % ({point.snr_db:6.1f} dB) {point.mode:7s} "
-            f"{100 * point.evaluation.accuracy:.1f} %"
+            f"{100 * point.evaluation.accuracy:.1f} %{both}"
         )
     if ident:
         _print_identification(ident)
@@ -258,10 +261,12 @@ def _print_identification(ident: dict[str, Any]) -> None:
             f"{c} {100 * row['recall']:.0f} % of {row['objects']}"
             for c, row in classes["per_class"].items()
         )
+        balanced = classes["balanced_accuracy"]  # None: no test object of a modelled class
         print(
             f"class guess on {classes['objects']} test objects of a known class: "
             f"{100 * classes['accuracy']:.1f} % right, balanced "
-            f"{100 * classes['balanced_accuracy']:.1f} % ({recall})"
+            + ("–" if balanced is None else f"{100 * balanced:.1f} %")
+            + f" ({recall})"
         )
     for z in ident["rotor_coverage"]:
         high = "inf" if z["high_px"] is None else f"{z['high_px']:g}"
