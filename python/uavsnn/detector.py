@@ -717,10 +717,10 @@ def _with_scores(
 ) -> WindowReport:
     """``report`` with the UAV score and class guess of each object whose rotor was measured,
     from an ``identification`` model (:class:`uavsnn.identify.Identifier`): its features
-    (:func:`uavsnn.identify.object_features`) from its box, its rotor signature and event
+    (:func:`uavsnn.features.object_features`) from its box, its rotor signature and event
     counts in the window (``measured``, :func:`uavsnn.signature.measure_box`, one per object
     from the first) and its track as they stand after this window."""
-    from uavsnn.identify import object_features
+    from uavsnn.features import object_features
 
     objects = list(report.objects)
     for i, (obj, (_, n, on)) in enumerate(zip(objects, measured, strict=False)):

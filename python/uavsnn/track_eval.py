@@ -2,7 +2,7 @@
 how many tracks raised a false alarm.
 
 The windows of each test recording are followed in time order, causally, as the streaming
-:class:`uavsnn.detector.Detector` would follow them: :func:`uavsnn.identify.window_features`
+:class:`uavsnn.detector.Detector` would follow them: :func:`uavsnn.features.window_features`
 merges each window's conv3 spikes into objects and links them with a
 :class:`uavsnn.tracks.Tracker` (a window the dataset left out counts as a window without a
 detection). Each track then raises its alarm under two rules:
@@ -42,7 +42,7 @@ from uavsnn.errors import ParameterError, ShapeError
 
 if TYPE_CHECKING:
     from uavsnn.dataset import LabelledWindows
-    from uavsnn.identify import WindowFeatures
+    from uavsnn.features import WindowFeatures
     from uavsnn.network import Inference, Network
     from uavsnn.tracks import Tracker
 
@@ -225,7 +225,7 @@ def track_figures(
     confirm: Confirm | None = None,
 ) -> dict[str, Any]:
     """The track-level figures of the windows ``data`` whose tracked objects are ``feats``
-    (:func:`uavsnn.identify.window_features` of the same windows: ``window``, ``boxes``,
+    (:func:`uavsnn.features.window_features` of the same windows: ``window``, ``boxes``,
     ``track`` and ``confirmed`` are used). ``scores`` ``(m,)``: each object's UAV score, and
     ``threshold`` the identifier's; without them only the any-spike rule is reported.
     ``track_score``: what the identified rule compares with the threshold, the running
@@ -247,9 +247,9 @@ def track_figures(
     Raises:
         ShapeError: ``feats`` or ``scores`` that do not fit ``data``.
         ParameterError: ``scores`` without ``threshold`` or the other way round.
-        DatasetError: windows that cannot form streams (:func:`uavsnn.identify.window_steps`).
+        DatasetError: windows that cannot form streams (:func:`uavsnn.features.window_steps`).
     """
-    from uavsnn.identify import window_steps
+    from uavsnn.features import window_steps
 
     if feats.windows != len(data):
         raise ShapeError(f"the features are of {feats.windows} windows, the data has {len(data)}")
@@ -417,9 +417,9 @@ def evaluate_tracks(
     confirm: Confirm | None = None,
 ) -> dict[str, Any]:
     """:func:`track_figures` of ``network`` on ``data`` (a format-2 dataset split): its objects
-    and tracks (``features`` when already made, else :func:`uavsnn.identify.window_features`
+    and tracks (``features`` when already made, else :func:`uavsnn.features.window_features`
     with ``tracker``), and with the network's identification (when it has one) both rules."""
-    from uavsnn.identify import window_features
+    from uavsnn.features import window_features
 
     if features is None:
         features = window_features(network, data, inference, tracker=tracker)

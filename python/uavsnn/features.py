@@ -1,0 +1,394 @@
+"""The objects identification describes, and their features (SPEC §3).
+
+Each window's conv3 detections are merged into objects (:func:`uavsnn.detector.merge_boxes`,
+as :class:`uavsnn.detector.WindowGrouper` groups them in the streaming path, so batch and
+streaming see the same boxes). Each object is described by :data:`FEATURES`, measured on the
+window's raw events (``[t0, t0 + L)``) inside its box:
+
+- rotor: the rotor signature (:func:`uavsnn.signature.rotor_signature`) — frequency, strength
+  and agreeing pixels, log-scaled, and whether it passed the estimator's threshold;
+- shape: the box's width, height, area (log), aspect ratio (log) and conv3 spike count (log);
+- activity: raw events per pixel of the box (log) and the ON/OFF balance;
+- track: the statistics of the object's track so far (:data:`TRACK_FEATURES`): the windows of
+  each recording are fed in time order to a :class:`uavsnn.tracks.Tracker`, as the streaming
+  :class:`uavsnn.detector.Detector` feeds them (a window missing from the dataset counts as a
+  miss), and each object reads its track as it stands after its own window (causal).
+
+For training, :func:`window_features` also labels each object (a UAV object, its class, or
+unusable) from its window's labelled box. :mod:`uavsnn.identify` fits and applies the model on
+these features, and re-exports every name of this module.
+"""
+
+from __future__ import annotations
+
+import bisect
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from uavsnn.boxes import xywh
+from uavsnn.errors import DatasetError, ParameterError, ShapeError
+from uavsnn.signature import RotorEstimate, measure_box
+
+if TYPE_CHECKING:
+    from uavsnn.dataset import LabelledWindows
+    from uavsnn.network import Inference, Network
+    from uavsnn.tracks import Track, Tracker
+
+__all__ = [
+    "CLUTTER_CLASS",
+    "FEATURES",
+    "TRACK_FEATURES",
+    "UAV_CLASS",
+    "WindowFeatures",
+    "object_features",
+    "raw_noise_events",
+    "track_features",
+    "window_features",
+    "window_steps",
+]
+
+#: The class guess of an object called a UAV, and the class of a UAV object in training.
+UAV_CLASS = "uav"
+
+#: The training class of an object in a window without a labelled object (dataset class
+#: ``"none"``): something moved that is not a labelled object (texture, noise, a leaf's shadow).
+CLUTTER_CLASS = "clutter"
+
+#: The track group of :data:`FEATURES` (:func:`track_features`), from the object's track as it
+#: stands after its window (:class:`uavsnn.tracks.Track`).
+TRACK_FEATURES: tuple[str, ...] = (
+    "track_log_age_ms",
+    "track_log_hits",
+    "track_log_speed",
+    "track_straightness",
+    "track_log_turn_rate",
+    "track_log_speed_std",
+    "track_vertical_speed",
+    "track_rotor_strength",
+)
+
+FEATURES: tuple[str, ...] = (
+    "rotor_log_hz",
+    "rotor_strength",
+    "rotor_log_pixels",
+    "rotor_detected",
+    "log_width",
+    "log_height",
+    "log_area",
+    "log_aspect",
+    "log_spikes",
+    "log_events_per_px",
+    "on_balance",
+    *TRACK_FEATURES,
+)
+"""The features of one object, in the order of the model's coefficients."""
+
+
+def track_features(track: Track | None) -> list[float]:
+    """The :data:`TRACK_FEATURES` of an object whose track stands at ``track`` after its
+    window (zeros for an object without a track): age (log of ms), hits (log), filtered speed
+    (log of px/s), straightness, turn rate (log of rad/s), the segment speeds' standard
+    deviation (log of px/s), vertical speed (signed log of px/s; positive downwards) and the
+    mean rotor strength of its detections so far."""
+    if track is None:
+        return [0.0] * len(TRACK_FEATURES)
+    v = track.vertical_speed
+    return [
+        math.log1p(track.age_us / 1000),
+        math.log1p(track.hits),
+        math.log1p(track.speed),
+        track.straightness,
+        math.log1p(track.turn_rate),
+        math.log1p(track.speed_std),
+        math.copysign(math.log1p(abs(v)), v),
+        track.rotor_strength_mean,
+    ]
+
+
+def object_features(
+    box: tuple[int, int, int, int],
+    spikes: int,
+    events: np.ndarray | None,
+    rotor: RotorEstimate | None = None,
+    track: Track | None = None,
+    *,
+    counts: tuple[int, int] | None = None,
+) -> np.ndarray:
+    """The :data:`FEATURES` (float64) of one object: ``box`` ``(x0, y0, x1, y1)`` half-open,
+    its conv3 ``spikes``, and the window's raw ``events`` (time order; only those inside the box
+    are used). ``rotor``: the box's rotor signature when already measured (else measured
+    here on the same events); ``track``: its track after this window (:func:`track_features`;
+    ``None``: no track). ``counts``: ``(events, on)``, the window's events inside the box and
+    the ON ones among them, when already counted with the rotor
+    (:func:`uavsnn.signature.measure_box`); with both ``rotor`` and ``counts``, ``events`` is
+    not read (it may be ``None``)."""
+    x0, y0, x1, y1 = (int(v) for v in box)
+    w, h = x1 - x0, y1 - y0
+    if w < 1 or h < 1:
+        raise ParameterError(f"an object's box must not be empty, got {box}")
+    if rotor is not None and counts is not None:
+        n, on = (int(c) for c in counts)
+    elif events is None:
+        raise ParameterError("object_features needs the events unless rotor and counts are given")
+    else:
+        measured, n, on = measure_box(events, (x0, y0, w, h))
+        rotor = measured if rotor is None else rotor
+    return np.array(
+        [
+            math.log1p(rotor.frequency_hz),
+            rotor.strength,
+            math.log1p(rotor.pixels),
+            float(rotor.detected),
+            math.log(w),
+            math.log(h),
+            math.log(w * h),
+            math.log(w / h),
+            math.log1p(spikes),
+            math.log1p(n / (w * h)),
+            (2 * on - n) / n if n else 0.0,
+            *track_features(track),
+        ]
+    )
+
+
+@dataclass(frozen=True)
+class WindowFeatures:
+    """The objects of many windows: ``x`` ``(m, len(FEATURES))``, ``window`` ``(m,)`` (the
+    window each object belongs to), ``boxes`` ``(m, 4)``; ``windows``: how many windows;
+    ``label`` ``(m,)`` bool: for training, a UAV object (an object of a UAV window whose box
+    meets the labelled box), ``usable`` ``(m,)``: False for the objects of a UAV window that
+    miss its box (left out of a fit: they are not the UAV, nor known not to be one);
+    ``track`` ``(m,)`` int64: the object's track id, unique within its window's recording
+    (0: no track), and ``confirmed`` ``(m,)`` bool: its track is confirmed after this
+    window."""
+
+    x: np.ndarray
+    window: np.ndarray
+    boxes: np.ndarray
+    windows: int
+    label: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
+    usable: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
+    track: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    confirmed: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
+    cls: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype="<U12"))
+
+    def columns(self, names: Sequence[str]) -> WindowFeatures:
+        """The same objects with only the features ``names``."""
+        idx = [FEATURES.index(n) for n in names]
+        return replace(self, x=self.x[:, idx])
+
+
+def window_steps(data: LabelledWindows) -> tuple[np.ndarray, int]:
+    """The windows of ``data`` in stream order, and the step between window starts (µs).
+
+    Returns ``order`` (every window index, grouped by recording in ascending id, each
+    recording's windows by start time) and ``step``: the dataset's ``step_us``
+    (``manifest["parameters"]``) when it has one, else the greatest common divisor of the
+    gaps between successive starts within a recording (the window length when no recording
+    has two windows). A window's position in its recording's stream is
+    ``(t0 - first t0) // step``.
+
+    Raises:
+        DatasetError: two windows of one recording start at the same time (a stream holds
+            each window once), or a start off the recording's grid of ``step``.
+    """
+    t0 = np.asarray(data.windows.t0, dtype=np.int64)
+    rec = np.asarray(data.recording, dtype=np.int64)
+    order = np.lexsort((t0, rec))
+    same = rec[order][1:] == rec[order][:-1]
+    gaps = np.diff(t0[order])[same]
+    if np.any(gaps == 0):
+        i = int(np.flatnonzero(same & (np.diff(t0[order]) == 0))[0])
+        raise DatasetError(
+            f"recording {int(rec[order][i])} has two windows starting at {int(t0[order][i])} "
+            "us: tracks need each window of a recording once"
+        )
+    step = (data.manifest or {}).get("parameters", {}).get("step_us")
+    if step is None:
+        step = int(np.gcd.reduce(gaps)) if len(gaps) else int(data.windows.length_us)
+    step = int(step)
+    if step < 1 or (len(gaps) and np.any(gaps % step)):
+        raise DatasetError(f"window starts are not on a grid of the {step} us step")
+    return order, step
+
+
+def window_features(
+    network: Network,
+    data: LabelledWindows,
+    inference: Inference | None = None,
+    *,
+    tracker: Tracker | None = None,
+    raw_noise: tuple[float, int] | None = None,
+) -> WindowFeatures:
+    """The features of every object of every window of ``data`` (a dataset of format 2, with
+    raw events), from ``network``'s detections (``inference`` when already run).
+
+    ``raw_noise`` ``(fraction, seed)``: add uniform noise to each window's raw events before
+    measuring them, at the density :func:`uavsnn.windows.add_noise` adds to the windows
+    (:func:`raw_noise_events`), so that features of noisy windows see noisy events.
+
+    The track features come from ``tracker`` (default: a new :class:`uavsnn.tracks.Tracker`;
+    it is reset before each recording): each recording's windows are fed to it in time order
+    (:func:`window_steps`), as :meth:`uavsnn.detector.Detector.push_windows` feeds a stream,
+    windows without an object included. A window the dataset left out counts as a window
+    without a detection. As the streaming detector, only the first
+    :data:`uavsnn.detector.MAX_ROTOR_BOXES` objects of a window (most spikes first) are
+    measured and get a row; the others are tracked only.
+
+    Raises:
+        DatasetError: a dataset without raw events, or windows that cannot form a stream
+            (:func:`window_steps`).
+        ShapeError: the dataset's sensor size is not the network's input.
+    """
+    from uavsnn.detector import MAX_ROTOR_BOXES, WindowReport, merge_boxes
+    from uavsnn.tracks import Tracker
+
+    expected = (int(network.config["width"]), int(network.config["height"]))
+    if tuple(data.windows.sensor_size) != expected:
+        raise ShapeError(
+            f"the data's sensor is {data.windows.sensor_size[0]}x{data.windows.sensor_size[1]} "
+            f"but the model's input is {expected[0]}x{expected[1]}"
+        )
+
+    if data.raw is None:
+        raise DatasetError(
+            "identification needs each window's raw events: rebuild the dataset "
+            "(`uavsnn dataset build`, format 2)"
+        )
+    if tracker is None:
+        tracker = Tracker()
+    elif not isinstance(tracker, Tracker):
+        raise ParameterError(f"tracker must be a uavsnn.tracks.Tracker, got {tracker!r}")
+    order, step = window_steps(data)
+    if inference is None:
+        inference = network.infer(data.windows)
+    if len(inference) != len(data):
+        raise ShapeError(f"inference has {len(inference)} windows, the data {len(data)}")
+    length = int(data.raw.before_us)
+    window_us = int(data.windows.length_us)
+    min_detections = int(network.config["detection"]["min_detections"])
+    found = inference.detections
+    found = found[np.argsort(found["window"], kind="stable")]
+    starts = np.searchsorted(found["window"], np.arange(len(data) + 1))
+    t0s = np.asarray(data.windows.t0, dtype=np.int64)
+    recording = np.asarray(data.recording, dtype=np.int64)
+    per_window: dict[int, list[tuple[Any, np.ndarray]]] = {}
+    first_t0, current = 0, None
+    for i in order.tolist():
+        if recording[i] != current:
+            current, first_t0 = recording[i], int(t0s[i])
+            tracker.reset()
+        t0 = int(t0s[i])
+        spikes = found[starts[i] : starts[i + 1]]
+        objects = merge_boxes(spikes)
+        measured = []
+        if objects:
+            raw = data.raw.window(i)
+            if raw_noise is not None:
+                raw = raw_noise_events(
+                    raw, t0, length, data.windows.sensor_size, *raw_noise, window=int(i)
+                )
+            # A binary search on the times in place (np.searchsorted would copy them first).
+            t = raw["t"]
+            events = raw[bisect.bisect_left(t, t0) : bisect.bisect_left(t, t0 + length)]
+            # Each object's rotor and event counts in one pass over the window's events; as
+            # the streaming detector, only the first MAX_ROTOR_BOXES objects are measured (and
+            # scored): the others are tracked only.
+            measured = [measure_box(events, xywh(o.box)) for o in objects[:MAX_ROTOR_BOXES]]
+            objects = tuple(
+                replace(o, rotor=measured[j][0]) if j < len(measured) else o
+                for j, o in enumerate(objects)
+            )
+        report = tracker.update(
+            WindowReport(
+                window=(t0 - first_t0) // step,
+                t0=t0,
+                t1=t0 + window_us,
+                detected=len(spikes) >= min_detections,
+                detections=spikes,
+                objects=objects,
+            )
+        )
+        if measured:
+            per_window[i] = [
+                (o, object_features(o.box, o.spikes, None, rotor, o.track, counts=(n, on)))
+                for o, (rotor, n, on) in zip(report.objects, measured, strict=False)
+            ]
+    rows, which, boxes, label, usable, track, confirmed, cls = [], [], [], [], [], [], [], []
+    for i in sorted(per_window):
+        truth = np.asarray(data.box[i], dtype=np.float64)
+        is_uav = bool(data.label[i])
+        named = str(data.cls[i])
+        for obj, feats in per_window[i]:
+            rows.append(feats)
+            which.append(i)
+            boxes.append(obj.box)
+            meets = bool(
+                np.isfinite(truth).all()
+                and obj.box[0] < truth[2]
+                and truth[0] < obj.box[2]
+                and obj.box[1] < truth[3]
+                and truth[1] < obj.box[3]
+            )
+            label.append(is_uav and meets)
+            usable.append(not is_uav or meets)
+            if is_uav:
+                cls.append(UAV_CLASS if meets else "")
+            elif named == "none":
+                cls.append(CLUTTER_CLASS)
+            else:
+                cls.append(named if meets else "")
+            track.append(0 if obj.track_id is None else obj.track_id)
+            confirmed.append(bool(obj.track_confirmed))
+    return WindowFeatures(
+        x=np.array(rows, dtype=np.float64).reshape(-1, len(FEATURES)),
+        window=np.array(which, dtype=np.int64),
+        boxes=np.array(boxes, dtype=np.int64).reshape(-1, 4),
+        windows=len(data),
+        label=np.array(label, dtype=bool),
+        usable=np.array(usable, dtype=bool),
+        track=np.array(track, dtype=np.int64),
+        confirmed=np.array(confirmed, dtype=bool),
+        cls=np.array(cls, dtype="<U12"),
+    )
+
+
+def raw_noise_events(
+    events: np.ndarray,
+    t0: int,
+    length_us: int,
+    sensor: tuple[int, int],
+    fraction: float,
+    seed: int,
+    *,
+    window: int,
+) -> np.ndarray:
+    """``events`` (one window's raw events, time order) with uniform noise added: in each of
+    ``[t0 − length_us, t0)`` and ``[t0, t0 + length_us)``, ``floor(fraction · W · H + 0.5)``
+    events at uniform pixels, times and polarities — the count :func:`uavsnn.windows.add_noise`
+    adds to a window and its preceding interval. Drawn from ``(seed, window)``, so the same
+    window gets the same noise; a different draw from the windows' own noise (that one is made
+    in the engine), of the same density. Returned in time order (stable: an event's
+    order among equal times is kept, the noise after the signal)."""
+    from uavsnn.events import EVENT_DTYPE
+
+    if not 0.0 <= fraction <= 1.0:
+        raise ParameterError(f"noise fraction must be in [0, 1], got {fraction!r}")
+    width, height = int(sensor[0]), int(sensor[1])
+    n = math.floor(fraction * width * height + 0.5)
+    if n == 0:
+        return events
+    rng = np.random.default_rng([int(seed), int(window)])
+    noise = np.zeros(2 * n, dtype=EVENT_DTYPE)
+    lo = max(int(t0) - int(length_us), 0)
+    noise["t"][:n] = rng.integers(lo, max(int(t0), lo + 1), n)
+    noise["t"][n:] = rng.integers(int(t0), int(t0) + int(length_us), n)
+    noise["x"] = rng.integers(0, width, 2 * n)
+    noise["y"] = rng.integers(0, height, 2 * n)
+    noise["p"] = rng.integers(0, 2, 2 * n)
+    out = np.concatenate([events, noise])
+    return out[np.argsort(out["t"], kind="stable")]
