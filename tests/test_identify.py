@@ -675,6 +675,30 @@ def test_train_fits_identification_and_evaluate_reports_both_rules(
     assert ablation["no_track"]["features"] == len(FEATURES) - len(TRACK_FEATURES)
     for row in ablation.values():
         assert row["tracks"]["found"] <= figures["tracks"]["uav_recordings"]
+    # The ablation's tracks follow --confirm and --track-score as the main figures do: with
+    # every feature, fitted and tuned on the sets `train` used, its model is the stored one.
+    rule = ["--confirm", "1/2+3/5", "--track-score", "max"]
+    assert (
+        main(
+            [
+                "evaluate",
+                str(model),
+                str(data),
+                "--json",
+                "--tracks",
+                *rule,
+                "--ablation",
+                str(data),
+            ]
+        )
+        == 0
+    )
+    figures = json.loads(capsys.readouterr().out)
+    assert figures["tracks"]["confirm"] == "1/2+3/5"
+    assert (
+        figures["identification"]["ablation"]["all"]["tracks"]
+        == (figures["tracks"]["rules"]["identified"])
+    )
     # Without identification: the any-spike rule, a note, and --roc refused.
     bare = tmp_path / "bare.npz"
     assert main([*args, "-o", str(bare), "--no-identify"]) == 0

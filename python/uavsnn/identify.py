@@ -52,6 +52,7 @@ from uavsnn.linear import fit_logistic, fit_softmax, predict_logistic, predict_s
 if TYPE_CHECKING:
     from uavsnn.dataset import LabelledWindows
     from uavsnn.network import Network
+    from uavsnn.track_eval import Confirm
 
 __all__ = [
     "CLUTTER_CLASS",
@@ -437,13 +438,16 @@ def ablation(
     test_detected: np.ndarray,
     test_label: np.ndarray,
     test_data: LabelledWindows | None = None,
+    track_score: str = "mean",
+    confirm: Confirm | None = None,
 ) -> dict[str, dict[str, Any]]:
     """For each feature group of :data:`GROUPS` (rotor alone, shape alone, track alone, all
     but the track, all), a model fitted as :func:`fit` does (train, then tune) and scored on
     ``test``: the combined rule's accuracy at the tuned threshold and its detection rate where
     1 % and 5 % of the UAV-free test windows alarm. With ``test_data`` (the windows ``test``
     was made from), each row also holds ``tracks``: the track-level figures of the rule with
-    identification (:func:`uavsnn.track_eval.track_figures`)."""
+    identification (:func:`uavsnn.track_eval.track_figures` with ``track_score`` and
+    ``confirm``, as the main figures use them)."""
     from uavsnn.evaluation import FALSE_ALARM_RATES, threshold_at_false_alarm
     from uavsnn.track_eval import track_figures
 
@@ -470,7 +474,14 @@ def ablation(
             t = threshold_at_false_alarm(score, label, rate)
             row[f"detection_at_{rate:g}"] = float(np.mean(score[label] >= t))
         if test_data is not None:
-            figures = track_figures(test_data, test, ident.scores(test.x), ident.threshold)
+            figures = track_figures(
+                test_data,
+                test,
+                ident.scores(test.x),
+                ident.threshold,
+                track_score=track_score,
+                confirm=confirm,
+            )
             row["tracks"] = figures["rules"]["identified"]
         out[name] = row
     return out

@@ -109,7 +109,7 @@ def _evaluate(args: argparse.Namespace) -> int:
 
         tracker = Tracker(confirm_hits=confirm.hits, confirm_windows=confirm.windows)
         features = identify.window_features(network, data, result.inference, tracker=tracker)
-    ident = _identification(args, network, data, result, features)
+    ident = _identification(args, network, data, result, features, confirm)
     if ident:
         figures["identification"] = ident
     if args.tracks:
@@ -201,10 +201,11 @@ def _evaluate(args: argparse.Namespace) -> int:
 
 
 def _identification(
-    args: argparse.Namespace, network: Network, data: Any, result: Any, test: Any
+    args: argparse.Namespace, network: Network, data: Any, result: Any, test: Any, confirm: Any
 ) -> dict[str, Any]:
     """Detection + identification beside the any-spike rule (when the model has it); ``test``:
-    the data's features (``identify.window_features``)."""
+    the data's features (``identify.window_features``); ``confirm``: the track confirmation
+    rule of ``--confirm``, which the ablation's track figures use as the main ones do."""
     from uavsnn import identify
     from uavsnn.evaluation import identification_figures
 
@@ -233,6 +234,8 @@ def _identification(
             test_detected=inference.detected,
             test_label=data.label,
             test_data=data if args.tracks else None,
+            track_score=args.track_score,
+            confirm=confirm,
         )
     return out
 
