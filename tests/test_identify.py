@@ -14,7 +14,9 @@ from uavsnn.dataset import LabelledWindows
 from uavsnn.dataset.format import RawEvents
 from uavsnn.errors import DatasetError, ModelFileError, ParameterError, ShapeError
 from uavsnn.evaluation import (
+    detection_at_false_alarm,
     identification_figures,
+    roc_area,
     roc_curve,
     threshold_at_false_alarm,
 )
@@ -592,8 +594,13 @@ def test_roc_and_detection_at_a_false_alarm_rate_on_hand_made_scores() -> None:
     t = threshold_at_false_alarm(scores, actual, 0.25)
     assert 0.2 < t < 0.3
     assert np.mean(scores[actual] >= t) == 0.75
+    assert detection_at_false_alarm(scores, actual, 0.25) == 0.75
     # 0 %: just above the highest UAV-free score.
     assert 0.85 < threshold_at_false_alarm(scores, actual, 0.0) < 0.9
+    assert detection_at_false_alarm(scores, actual, 0.0) == 0.25
+    # Of the 16 (UAV, other) pairs the UAV wins 4 + 3 + 3, and -inf against -inf is a tie.
+    assert roc_area(scores, actual) == 10.5 / 16
+    assert roc_area(scores[actual], actual[actual]) is None
     with pytest.raises(ParameterError):
         threshold_at_false_alarm(scores, actual, 1.5)
     with pytest.raises(ShapeError):

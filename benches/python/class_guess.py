@@ -24,7 +24,7 @@ import numpy as np  # noqa: E402
 
 from uavsnn import Network, identify  # noqa: E402
 from uavsnn.dataset import load  # noqa: E402
-from uavsnn.evaluation import FALSE_ALARM_RATES, threshold_at_false_alarm  # noqa: E402
+from uavsnn.evaluation import FALSE_ALARM_RATES, detection_at_false_alarm  # noqa: E402
 
 
 def main() -> None:
@@ -50,8 +50,7 @@ def main() -> None:
         np.maximum.at(w, feats.window, s)
         w = np.where(inference.detected, w, -np.inf)
         detection[name] = {
-            f"{r:g}": float(np.mean(w[label] >= threshold_at_false_alarm(w, label, r)))
-            for r in FALSE_ALARM_RATES
+            f"{r:g}": detection_at_false_alarm(w, label, r) for r in FALSE_ALARM_RATES
         }
     out = {"classes": list(ident.classes), "figures": figures, "detection": detection}
     if args.json:

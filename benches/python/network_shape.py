@@ -27,7 +27,11 @@ import numpy as np  # noqa: E402
 
 from uavsnn import Network, identify  # noqa: E402
 from uavsnn.dataset import LabelledWindows, load  # noqa: E402
-from uavsnn.evaluation import FALSE_ALARM_RATES, threshold_at_false_alarm  # noqa: E402
+from uavsnn.evaluation import (  # noqa: E402
+    FALSE_ALARM_RATES,
+    detection_at_false_alarm,
+    roc_area,
+)
 
 
 @dataclass(frozen=True)
@@ -97,13 +101,6 @@ VARIANTS = {
 }
 
 
-def _auc(score: np.ndarray, label: np.ndarray) -> float:
-    _, inverse, counts = np.unique(score, return_inverse=True, return_counts=True)
-    ranks = (np.cumsum(counts) - (counts - 1) / 2)[inverse.ravel()]
-    pos, neg = int(label.sum()), int((~label).sum())
-    return float((ranks[label].sum() - pos * (pos + 1) / 2) / (pos * neg))
-
-
 def score_variant(extra, train: Objects, tune: Objects, test: Objects) -> dict[str, float]:
     def columns(o: Objects) -> np.ndarray:
         return np.hstack([o.feats.x, extra(o)])
@@ -129,9 +126,8 @@ def score_variant(extra, train: Objects, tune: Objects, test: Objects) -> dict[s
         "accuracy": float(np.mean((score >= threshold) == test.label)),
     }
     for rate in FALSE_ALARM_RATES:
-        t = threshold_at_false_alarm(score, test.label, rate)
-        row[f"detection_at_{rate:g}"] = float(np.mean(score[test.label] >= t))
-    row["object_auc"] = _auc(objects[te.usable], te.label[te.usable])
+        row[f"detection_at_{rate:g}"] = detection_at_false_alarm(score, test.label, rate)
+    row["object_auc"] = roc_area(objects[te.usable], te.label[te.usable])
     return row
 
 

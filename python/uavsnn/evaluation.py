@@ -51,10 +51,12 @@ __all__ = [
     "centre_distance",
     "check_test_set",
     "confusion_matrix",
+    "detection_at_false_alarm",
     "evaluate",
     "first_detection_boxes",
     "first_spike_in_box",
     "identification_figures",
+    "roc_area",
     "roc_curve",
     "score",
     "threshold_at_false_alarm",
@@ -431,6 +433,28 @@ def roc_curve(scores: npt.ArrayLike, actual: npt.ArrayLike) -> tuple[np.ndarray,
     tp = np.array([np.sum(a & finite & (s >= t)) for t in levels], dtype=np.float64)
     fp = np.array([np.sum(~a & finite & (s >= t)) for t in levels], dtype=np.float64)
     return np.concatenate([[0.0], fp / neg]), np.concatenate([[0.0], tp / pos])
+
+
+def roc_area(scores: npt.ArrayLike, actual: npt.ArrayLike) -> float | None:
+    """The area under the ROC of ``scores`` against ``actual``: the Mann-Whitney statistic, the
+    chance that a UAV scores above a UAV-free one, ties counted half. ``None`` without both
+    kinds."""
+    s = np.asarray(scores, dtype=np.float64)
+    a = _bools("actual", actual)
+    pos, neg = int(a.sum()), int((~a).sum())
+    if pos == 0 or neg == 0:
+        return None
+    _, inverse, counts = np.unique(s, return_inverse=True, return_counts=True)
+    # Mid-ranks: the values' ranks, a tie sharing the mean of its ranks.
+    ranks = (np.cumsum(counts) - (counts - 1) / 2)[inverse.ravel()]
+    return float((ranks[a].sum() - pos * (pos + 1) / 2) / (pos * neg))
+
+
+def detection_at_false_alarm(scores: npt.ArrayLike, actual: npt.ArrayLike, rate: float) -> float:
+    """The share of the UAV windows scoring at or above :func:`threshold_at_false_alarm`."""
+    s = np.asarray(scores, dtype=np.float64)
+    a = _bools("actual", actual)
+    return float(np.mean(s[a] >= threshold_at_false_alarm(s, a, rate)))
 
 
 def threshold_at_false_alarm(scores: npt.ArrayLike, actual: npt.ArrayLike, rate: float) -> float:

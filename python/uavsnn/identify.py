@@ -448,7 +448,7 @@ def ablation(
     was made from), each row also holds ``tracks``: the track-level figures of the rule with
     identification (:func:`uavsnn.track_eval.track_figures` with ``track_score`` and
     ``confirm``, as the main figures use them)."""
-    from uavsnn.evaluation import FALSE_ALARM_RATES, threshold_at_false_alarm
+    from uavsnn.evaluation import FALSE_ALARM_RATES, detection_at_false_alarm
     from uavsnn.track_eval import track_figures
 
     label = np.asarray(test_label, dtype=bool)
@@ -471,8 +471,7 @@ def ablation(
             "accuracy": float(np.mean((score >= ident.threshold) == label)),
         }
         for rate in FALSE_ALARM_RATES:
-            t = threshold_at_false_alarm(score, label, rate)
-            row[f"detection_at_{rate:g}"] = float(np.mean(score[label] >= t))
+            row[f"detection_at_{rate:g}"] = detection_at_false_alarm(score, label, rate)
         if test_data is not None:
             figures = track_figures(
                 test_data,
@@ -493,19 +492,10 @@ def feature_auc(feats: WindowFeatures) -> dict[str, float | None]:
     counted half). 0.5: no separation; above: UAV objects have the larger values; below: the
     smaller. ``None`` without objects of both kinds. A feature whose area lies on opposite
     sides of 0.5 on two sets tells them apart in opposite directions."""
-    x, y = feats.x[feats.usable], feats.label[feats.usable]
-    pos, neg = int(y.sum()), int((~y).sum())
-    out: dict[str, float | None] = {}
-    for i, name in enumerate(FEATURES):
-        if pos == 0 or neg == 0:
-            out[name] = None
-            continue
-        _, inverse, counts = np.unique(x[:, i], return_inverse=True, return_counts=True)
-        # Mid-ranks: the values' ranks, a tie sharing the mean of its ranks.
-        mid = np.cumsum(counts) - (counts - 1) / 2
-        ranks = mid[inverse.ravel()]
-        out[name] = float((ranks[y].sum() - pos * (pos + 1) / 2) / (pos * neg))
-    return out
+    from uavsnn.evaluation import roc_area
+
+    x, y = feats.x[feats.usable], np.asarray(feats.label[feats.usable], dtype=bool)
+    return {name: roc_area(x[:, i], y) for i, name in enumerate(FEATURES)}
 
 
 def split_by_recording(
