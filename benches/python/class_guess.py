@@ -22,7 +22,7 @@ import json  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from uavsnn import Network, identify  # noqa: E402
+from uavsnn import Network, identify, report  # noqa: E402
 from uavsnn.dataset import load  # noqa: E402
 from uavsnn.evaluation import FALSE_ALARM_RATES, detection_at_false_alarm  # noqa: E402
 
@@ -59,7 +59,7 @@ def main() -> None:
     print(
         f"{args.model}: {figures['objects']} test objects of a known class, "
         f"{100 * figures['accuracy']:.1f} % right, balanced "
-        f"{100 * figures['balanced_accuracy']:.1f} % over {len(ident.classes)} classes"
+        f"{report.percent(figures['balanced_accuracy'])} over {len(ident.classes)} classes"
     )
     for cls, row in figures["per_class"].items():
         print(

@@ -32,6 +32,7 @@ __all__ = [
     "figures",
     "identification_markdown",
     "noise_table",
+    "percent",
     "picture_links",
     "roc_chart",
 ]
@@ -255,6 +256,11 @@ def confusion_table(matrix: np.ndarray) -> str:
     )
 
 
+def percent(share: float | None) -> str:
+    """``"34.3 %"`` for a share of 0.343; ``"–"`` for a figure that is undefined (``None``)."""
+    return "–" if share is None else f"{100 * share:.1f} %"
+
+
 def _share(figures: ClassFigures) -> str:
     """``"12 (34.3 %)"``: windows called UAV, and their share; ``"-"`` for no windows."""
     if not figures.windows:
@@ -337,7 +343,7 @@ def noise_table(points: Sequence[NoisePoint]) -> str:
                 acc = point.identified["identified"]["accuracy"] if point.identified else None
             else:
                 acc = point.evaluation.accuracy
-            cells.append("–" if acc is None else f"{100 * acc:.1f} %")
+            cells.append(percent(acc))
         snr = "no noise" if not np.isfinite(level) else f"{level:.1f}"
         rows.append(f"| {100 * fraction:g} % | {snr} | {' | '.join(cells)} |")
     paper = ", ".join(f"{snr:g} dB: {100 * acc:.0f} %" for snr, acc in PAPER_TABLE3.items())
@@ -446,12 +452,8 @@ def class_markdown(figures: dict[str, Any]) -> str:
         "UAV score reaches the threshold, else the likeliest other class of a multinomial "
         "logistic regression on the same features; `uavsnn.identify.class_figures`): "
         f"{100 * figures['accuracy']:.1f} % right, balanced over the model's classes "
-        + (
-            "– (none of them among these objects)"
-            if balanced is None
-            else f"{100 * balanced:.1f} %"
-        )
-        + ".\n",
+        f"{percent(balanced)}{' (none of them among these objects)' if balanced is None else ''}"
+        ".\n",
         "| class | objects | guessed right | taken most often for |",
         "|---|---|---|---|",
     ]

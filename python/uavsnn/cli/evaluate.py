@@ -201,7 +201,12 @@ def _evaluate(args: argparse.Namespace) -> int:
 
 
 def _identification(
-    args: argparse.Namespace, network: Network, data: Any, result: Any, test: Any, confirm: Any
+    args: argparse.Namespace,
+    network: Network,
+    data: Any,
+    result: Any,
+    test: Any,
+    confirm: Confirm,
 ) -> dict[str, Any]:
     """Detection + identification beside the any-spike rule (when the model has it); ``test``:
     the data's features (``identify.window_features``); ``confirm``: the track confirmation
@@ -264,12 +269,10 @@ def _print_identification(ident: dict[str, Any]) -> None:
             f"{c} {100 * row['recall']:.0f} % of {row['objects']}"
             for c, row in classes["per_class"].items()
         )
-        balanced = classes["balanced_accuracy"]  # None: no test object of a modelled class
         print(
             f"class guess on {classes['objects']} test objects of a known class: "
             f"{100 * classes['accuracy']:.1f} % right, balanced "
-            + ("–" if balanced is None else f"{100 * balanced:.1f} %")
-            + f" ({recall})"
+            f"{report.percent(classes['balanced_accuracy'])} ({recall})"
         )
     for z in ident["rotor_coverage"]:
         high = "inf" if z["high_px"] is None else f"{z['high_px']:g}"
