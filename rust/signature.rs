@@ -45,6 +45,14 @@
 //!
 //! Events outside the box are counted and ignored; an event earlier than the latest one seen is
 //! counted as late and ignored (the estimator never panics, whatever the sequence).
+//!
+//! # The box's event rate
+//!
+//! Beside the estimate, the estimator can count its box's events over time
+//! ([`RotorSignature::count_rate`]: bins of a fixed width from a start time). Identification
+//! reads how strongly that rate swings within a window (`uavsnn.features.rate_swing`); counting
+//! it here costs a division per event inside the box and nothing per event outside it, where a
+//! second pass would cost a box check per event of the window.
 
 use crate::error::{Error, Result};
 use crate::events::{Event, EventSource, SensorSize};
@@ -53,6 +61,47 @@ pub mod spectrum;
 
 /// The largest number of pixels one estimator may follow (a 2048×2048 box, 128 MiB of state).
 pub const MAX_PIXELS: usize = 1 << 22;
+
+/// The most rate bins one estimator may count ([`RotorSignature::count_rate`]).
+pub const MAX_RATE_BINS: usize = 4096;
+
+/// How strongly a box's event rate swings beyond shot noise, from its events per time bin
+/// (identification's `log_rate_swing` feature; `uavsnn.features.rate_swing`).
+///
+/// The counts are divided by a straight line fitted to them (least squares, kept above 5 % of
+/// their mean), so a steady rise or fall is no swing, and less 1; `v` is the variance of what
+/// is left. Poisson counts of mean `m` give `v ≈ 1 / m` by chance alone, so the swing is
+/// `sqrt(max(v − 1 / m̄, 0))` with `m̄` the line's mean. 0 with fewer than three bins or no
+/// event.
+pub fn rate_swing(counts: &[u32]) -> f64 {
+    let n = counts.len();
+    let total: f64 = counts.iter().map(|&c| f64::from(c)).sum();
+    if n < 3 || total <= 0.0 {
+        return 0.0;
+    }
+    let nf = n as f64;
+    let mean = total / nf;
+    let centre = (nf - 1.0) / 2.0;
+    let (mut cross, mut square) = (0.0, 0.0);
+    for (k, &c) in counts.iter().enumerate() {
+        let u = k as f64 - centre;
+        cross += u * f64::from(c);
+        square += u * u;
+    }
+    let slope = cross / square;
+    let line = |k: usize| (mean + (k as f64 - centre) * slope).max(0.05 * mean);
+    let (mut line_sum, mut rel_sum, mut rel_square) = (0.0, 0.0, 0.0);
+    for (k, &c) in counts.iter().enumerate() {
+        let w = line(k);
+        let r = f64::from(c) / w - 1.0;
+        line_sum += w;
+        rel_sum += r;
+        rel_square += r * r;
+    }
+    let rel_mean = rel_sum / nf;
+    let variance = (rel_square / nf - rel_mean * rel_mean).max(0.0);
+    (variance - nf / line_sum).max(0.0).sqrt()
+}
 
 /// The default detection threshold on [`Signature::strength`] (see the module's documentation
 /// and `docs/identification.md` for how it was chosen).
@@ -305,6 +354,15 @@ pub struct RotorSignature {
     votes: u64,
     last_t: u64,
     stats: RotorStats,
+    /// The box's in-order events per time bin of `rate_bin_us` from `rate_start_us` (empty:
+    /// not counted; `rate_start_us` is then `u64::MAX`, so no event reaches a bin).
+    rate: Vec<u32>,
+    rate_start_us: u64,
+    rate_bin_us: u64,
+    /// The bin the latest in-order event fell in (`usize::MAX` before the first bin) and the
+    /// start of the next one: a division per bin entered, not per event.
+    rate_at: usize,
+    rate_edge: u64,
 }
 
 impl RotorSignature {
@@ -332,7 +390,50 @@ impl RotorSignature {
             votes: 0,
             last_t: 0,
             stats: RotorStats::default(),
+            rate: Vec::new(),
+            rate_start_us: u64::MAX,
+            rate_bin_us: 1,
+            rate_at: usize::MAX,
+            rate_edge: u64::MAX,
         })
+    }
+
+    /// Count the box's events from now on in `bins` bins of `bin_us` µs from `start_us`: bin
+    /// `k` holds the in-order events inside the box with `start_us + k·bin_us <= t < start_us +
+    /// (k + 1)·bin_us` (late events, and events before or after the bins, are not counted).
+    /// The counts start at zero; [`clear`](Self::clear) zeroes them and keeps the bins.
+    ///
+    /// # Errors
+    ///
+    /// [`Error::InvalidParameter`] when `bin_us` is 0 or `bins` is outside
+    /// `1..=`[`MAX_RATE_BINS`].
+    pub fn count_rate(&mut self, start_us: u64, bin_us: u64, bins: usize) -> Result<()> {
+        if bin_us == 0 {
+            return Err(Error::param("bin_us", "must be >= 1, got 0"));
+        }
+        if !(1..=MAX_RATE_BINS).contains(&bins) {
+            return Err(Error::param(
+                "bins",
+                format!("must be in 1..={MAX_RATE_BINS}, got {bins}"),
+            ));
+        }
+        self.rate = vec![0; bins];
+        self.rate_start_us = start_us;
+        self.rate_bin_us = bin_us;
+        self.rate_at = usize::MAX;
+        self.rate_edge = start_us;
+        Ok(())
+    }
+
+    /// [`rate_swing`] of the box's rate bins.
+    pub fn rate_swing(&self) -> f64 {
+        rate_swing(&self.rate)
+    }
+
+    /// The box's events per rate bin since [`count_rate`](Self::count_rate) (empty when the
+    /// rate is not counted).
+    pub fn rate(&self) -> &[u32] {
+        &self.rate
     }
 
     /// The configuration.
@@ -353,7 +454,7 @@ impl RotorSignature {
     /// Bytes of state held (fixed at construction).
     pub fn state_bytes(&self) -> usize {
         self.pixels.capacity() * std::mem::size_of::<Pixel>()
-            + self.count.capacity() * std::mem::size_of::<u32>()
+            + (self.count.capacity() + self.rate.capacity()) * std::mem::size_of::<u32>()
             + self.sum.capacity() * std::mem::size_of::<f64>()
     }
 
@@ -366,6 +467,9 @@ impl RotorSignature {
         self.votes = 0;
         self.last_t = 0;
         self.stats = RotorStats::default();
+        self.rate.fill(0);
+        self.rate_at = usize::MAX;
+        self.rate_edge = self.rate_start_us;
     }
 
     /// Feed one event.
@@ -382,6 +486,18 @@ impl RotorSignature {
         }
         self.last_t = e.t;
         self.stats.events += 1;
+        if e.t >= self.rate_edge {
+            // The first event of a later bin (times only grow here: late events left above).
+            let bin = (e.t - self.rate_start_us) / self.rate_bin_us;
+            self.rate_at = usize::try_from(bin).unwrap_or(usize::MAX);
+            self.rate_edge = bin
+                .saturating_add(1)
+                .saturating_mul(self.rate_bin_us)
+                .saturating_add(self.rate_start_us);
+        }
+        if let Some(c) = self.rate.get_mut(self.rate_at) {
+            *c += 1;
+        }
         let px = &mut self.pixels[i];
         let polarity = 1 + u8::from(e.p);
         let before = px.polarity;
@@ -721,6 +837,56 @@ mod tests {
         assert_eq!(s.state_bytes(), before);
     }
 
+    #[test]
+    fn rate_swing_is_the_swing_beyond_shot_noise() {
+        for none in [&[][..], &[5, 9], &[0; 10], &[40; 10]] {
+            assert_eq!(rate_swing(none).to_bits(), 0f64.to_bits(), "{none:?}");
+        }
+        let ramp: Vec<u32> = (0..10).map(|k| 20 + 6 * k).collect();
+        assert!(rate_swing(&ramp) < 1e-6);
+        for a in [0.3, 0.6] {
+            let wave: Vec<u32> = (0..10)
+                .map(|k| (1e6 * (1.0 + a * (std::f64::consts::FRAC_PI_2 * k as f64).sin())) as u32)
+                .collect();
+            let s = rate_swing(&wave);
+            assert!((s / (a / 2f64.sqrt()) - 1.0).abs() < 0.1, "{a}: {s}");
+        }
+    }
+
+    #[test]
+    fn rate_counts_the_box_in_order_events_per_bin() {
+        let mut s =
+            RotorSignature::new(RotorConfig::default(), Region::new(0, 0, 4, 4).unwrap()).unwrap();
+        assert!(s.rate().is_empty());
+        let bytes = s.state_bytes();
+        s.count_rate(1000, 10, 3).unwrap();
+        assert_eq!(s.state_bytes(), bytes + 12);
+        // t: before the bins, on each bin's edges, late, outside the box, after the bins.
+        for (t, x) in [
+            (999, 0),
+            (1000, 0),
+            (1009, 1),
+            (1010, 2),
+            (1005, 3),
+            (1025, 9),
+            (1029, 3),
+            (1030, 0),
+        ] {
+            s.push(Event {
+                t,
+                x,
+                y: 0,
+                p: true,
+            });
+        }
+        assert_eq!(s.rate(), &[2, 1, 1]);
+        s.clear();
+        assert_eq!(s.rate(), &[0, 0, 0]);
+        assert!(s.count_rate(0, 0, 3).is_err());
+        assert!(s.count_rate(0, 1, 0).is_err());
+        assert!(s.count_rate(0, 1, MAX_RATE_BINS + 1).is_err());
+    }
+
     mod properties {
         use super::*;
         use proptest::prelude::*;
@@ -753,6 +919,33 @@ mod tests {
                 prop_assert!(est.peak_votes <= est.votes && est.votes <= est.intervals);
                 prop_assert!(est.pixels as usize <= s.region().area());
                 prop_assert!(est.frequency_hz == 0.0 || (50.0 / 1.11..=1100.1).contains(&est.frequency_hz));
+            }
+
+            /// The rate bins hold, bin by bin, the box's in-order events (those `events` counts)
+            /// whose time falls in the bin; their sum never exceeds `events`.
+            #[test]
+            fn rate_bins_count_the_in_order_events_of_the_box(
+                events in proptest::collection::vec((0u64..2000, 0u16..12, 0u16..12, any::<bool>()), 0..300),
+                sorted in any::<bool>(),
+                start in 0u64..1500, bin in 1u64..300, bins in 1usize..12,
+            ) {
+                let events = events_of(events, sorted);
+                let mut s = RotorSignature::new(RotorConfig::default(), Region::new(2, 3, 6, 5).unwrap()).unwrap();
+                s.count_rate(start, bin, bins).unwrap();
+                s.extend(events.as_slice());
+                let mut expected = vec![0u32; bins];
+                let mut latest = 0u64;
+                for e in &events {
+                    if !((2..8).contains(&e.x) && (3..8).contains(&e.y)) || e.t < latest {
+                        continue;
+                    }
+                    latest = e.t;
+                    if e.t >= start && ((e.t - start) / bin) < bins as u64 {
+                        expected[((e.t - start) / bin) as usize] += 1;
+                    }
+                }
+                prop_assert_eq!(s.rate(), expected.as_slice());
+                prop_assert!(s.rate().iter().map(|&c| u64::from(c)).sum::<u64>() <= s.stats().events);
             }
 
             /// A single pixel with an exact period anywhere in the band comes back within 2 %.

@@ -240,7 +240,8 @@ def test_streaming_scores_every_object_of_a_window() -> None:
         x0, y0, x1, y1 = obj.box
         x, y = events["x"], events["y"]
         inside = events[(x >= x0) & (x < x1) & (y >= y0) & (y < y1)]
-        expected = ident.scores(object_features(obj.box, obj.spikes, inside)[None, :])[0]
+        feats = object_features(obj.box, obj.spikes, inside, window=(0, 50_000))
+        expected = ident.scores(feats[None, :])[0]
         assert obj.uav_score == pytest.approx(float(expected), abs=0)
 
 

@@ -8,6 +8,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from uavsnn import EVENT_DTYPE, Detector, Network
 from uavsnn.dataset import LabelledWindows
@@ -34,6 +36,7 @@ from uavsnn.identify import (
     object_features,
     predict_logistic,
     predict_softmax,
+    rate_swing,
     track_features,
     window_features,
 )
@@ -372,9 +375,9 @@ def assert_streaming_equals_batch(
     for r in reports:
         inside = events[np.searchsorted(t, r.t0) : np.searchsorted(t, r.t1)]
         for o in scored_objects(r):
-            streaming.append(
-                (by_t0[r.t0], o.box, object_features(o.box, o.spikes, inside, o.rotor, o.track))
-            )
+            window = (r.t0, r.t1 - r.t0)
+            feats = object_features(o.box, o.spikes, inside, o.rotor, o.track, window=window)
+            streaming.append((by_t0[r.t0], o.box, feats))
     assert len(streaming) == len(batch.x) > 3
     for (i, box, x), j, b, y in zip(streaming, batch.window, batch.boxes, batch.x, strict=True):
         assert (i, box) == (int(j), tuple(int(v) for v in b))
@@ -424,9 +427,10 @@ def test_batch_features_equal_what_the_streaming_detector_sees() -> None:
     np.testing.assert_allclose(batch.x[:, FEATURES.index("track_rotor_strength")], running)
 
 
-def features_by_the_first_formulas(obj, events: np.ndarray) -> np.ndarray:
+def features_by_the_first_formulas(obj, events: np.ndarray, t0: int, t1: int) -> np.ndarray:
     """An object's features as first written: its box's events selected by a mask, the rotor
-    signature measured on them, the counts taken from them (the track from the object)."""
+    signature measured on them, the counts taken from them, the rate per 5 ms bin over the
+    window ``[t0, t1)`` by a NumPy histogram (the track from the object)."""
     x0, y0, x1, y1 = obj.box
     w, h = x1 - x0, y1 - y0
     x, y = events["x"], events["y"]
@@ -434,6 +438,8 @@ def features_by_the_first_formulas(obj, events: np.ndarray) -> np.ndarray:
     rotor = rotor_signature(inside, (x0, y0, w, h))
     assert obj.rotor == rotor
     n, on = len(inside), int(np.count_nonzero(inside["p"]))
+    edges = np.arange((t1 - t0) // 5000 + 1) * 5000
+    rate, _ = np.histogram(inside["t"].astype(np.int64) - t0, bins=edges)
     shape = [math.log(w), math.log(h), math.log(w * h), math.log(w / h), math.log1p(obj.spikes)]
     return np.array(
         [
@@ -444,6 +450,7 @@ def features_by_the_first_formulas(obj, events: np.ndarray) -> np.ndarray:
             *shape,
             math.log1p(n / (w * h)),
             (2 * on - n) / n if n else 0.0,
+            math.log1p(rate_swing(rate)),
             *track_features(obj.track),
         ]
     )
@@ -465,7 +472,7 @@ def test_features_equal_the_first_formulas_bit_for_bit(which) -> None:
     t = events["t"].astype(np.int64)
     window = [events[np.searchsorted(t, r.t0) : np.searchsorted(t, r.t1)] for r in reports]
     rows = [
-        features_by_the_first_formulas(o, inside)
+        features_by_the_first_formulas(o, inside, r.t0, r.t1)
         for r, inside in zip(reports, window, strict=True)
         for o in r.objects
     ]
@@ -733,3 +740,31 @@ def test_feature_auc_on_hand_made_objects() -> None:
     assert auc[FEATURES[3]] == 0.5  # all equal
     # An unusable object does not count; without both kinds there is no area.
     assert feature_auc(replace(feats, usable=label))[FEATURES[0]] is None
+
+
+def test_rate_swing_is_the_swing_of_the_rate_beyond_shot_noise() -> None:
+    """A steady or steadily rising rate does not swing; a rate that rises and falls by a share
+    ``a`` of its mean swings by about ``a / sqrt(2)``; Poisson counts of a steady rate swing
+    by little, and less the more events they hold; too few bins or no event give 0."""
+    k = np.arange(10)
+    assert rate_swing(np.full(10, 40)) == 0.0
+    assert rate_swing(20 + 6 * k) == pytest.approx(0.0, abs=1e-6)
+    for a in (0.3, 0.6):
+        wave = 1e6 * (1 + a * np.sin(2 * np.pi * k / 4))  # 20 ms periods in 5 ms bins
+        assert rate_swing(wave.astype(np.int64)) == pytest.approx(a / np.sqrt(2), rel=0.1)
+    rng = np.random.default_rng(4)
+    for mean, bound in ((20, 0.2), (2000, 0.02)):
+        swings = [rate_swing(rng.poisson(mean, 10)) for _ in range(200)]
+        assert np.median(swings) < bound
+    wing = 20 * (1 + 0.5 * np.sin(2 * np.pi * k / 4))
+    assert np.median([rate_swing(rng.poisson(wing)) for _ in range(200)]) > 0.2
+    assert rate_swing([]) == rate_swing([5, 9]) == rate_swing(np.zeros(10)) == 0.0
+    for bad in ([-1, 3, 4], [0.5, 2, 3], [2**32, 1, 1]):
+        with pytest.raises(ParameterError, match="rate counts"):
+            rate_swing(bad)
+
+
+@given(st.lists(st.integers(0, 2**32 - 1), min_size=0, max_size=40))
+def test_rate_swing_is_finite_and_not_negative(counts) -> None:
+    s = rate_swing(counts)
+    assert np.isfinite(s) and s >= 0.0

@@ -17,6 +17,7 @@ import uavsnn
 from uavsnn import EventError, ParameterError
 from uavsnn.boxes import in_box
 from uavsnn.events import EVENT_DTYPE
+from uavsnn.features import rate_swing
 from uavsnn.signature import (
     DEFAULTS,
     MAX_PIXELS,
@@ -171,16 +172,36 @@ def test_measure_box_is_the_rotor_and_counts_of_the_events_in_the_box(gen):
         x0, y0, w, h = box
         inside = in_box(events, (x0, y0, x0 + w, y0 + h))
         expected = (rotor_signature(inside, box), len(inside), int(inside["p"].sum()))
-        assert measure_box(events, box) == expected
-        assert measure_box(np.array_split(events, 5), box) == expected
-        assert measure_box([], box) == (rotor_signature(events[:0], box), 0, 0)
+        assert measure_box(events, box)[:3] == expected
+        assert measure_box(np.array_split(events, 5), box)[:3] == expected
+        assert measure_box([], box)[:3] == (rotor_signature(events[:0], box), 0, 0)
+        assert measure_box(events, box).rate_swing == 0.0
+        # The rate: the box's events per 7 ms bin from 3 ms on, as a NumPy histogram counts
+        # them, and its swing.
+        rate, _ = np.histogram(inside["t"].astype(np.int64), bins=3000 + 7000 * np.arange(9))
+        for part in (events, np.array_split(events, 5)):
+            estimator = RotorSignature(box)
+            estimator.count_rate(3000, 7000, 8)
+            for chunk in (part,) if isinstance(part, np.ndarray) else part:
+                estimator.update(chunk)
+            np.testing.assert_array_equal(estimator.rate, rate)
+            measured = measure_box(part, box, rate=(3000, 7000, 8))
+            assert measured[:3] == expected
+            assert measured.rate_swing == rate_swing(rate) == estimator.rate_swing
+            estimator.clear()
+            assert estimator.rate.tolist() == [0] * 8 and estimator.rate_swing == 0.0
+        assert measure_box([], box, rate=(3000, 7000, 8)).rate_swing == 0.0
     assert measure_box(events, (18, 9, 10, 8))[0].detected
+    with pytest.raises(ParameterError, match="bin_us"):
+        measure_box(events, (18, 9, 10, 8), rate=(0, 0, 8))
+    with pytest.raises(ParameterError, match="bins"):
+        measure_box(events, (18, 9, 10, 8), rate=(0, 10, 5000))
     # Events out of time order are ignored by the estimator, as rotor_signature ignores them,
     # and still counted.
     shuffled = events[rng.permutation(len(events))]
     inside = in_box(shuffled, (18, 9, 28, 17))
     expected = (rotor_signature(inside, (18, 9, 10, 8)), len(inside), int(inside["p"].sum()))
-    assert measure_box(shuffled, (18, 9, 10, 8)) == expected
+    assert measure_box(shuffled, (18, 9, 10, 8))[:3] == expected
     with pytest.raises(EventError):
         measure_box([events, np.zeros(3)], (0, 0, 4, 4))
     with pytest.raises(ParameterError, match="box"):

@@ -42,8 +42,9 @@ from uavsnn._validate import check_sensor_size
 from uavsnn.boxes import xywh
 from uavsnn.errors import ParameterError, ShapeError
 from uavsnn.events import EVENT_DTYPE, packed_bytes
+from uavsnn.features import RATE_BIN_US, rate_bins
 from uavsnn.network import WINDOW_DETECTION_DTYPE
-from uavsnn.signature import RotorEstimate, measure_box
+from uavsnn.signature import BoxMeasure, RotorEstimate, measure_box
 from uavsnn.tracks import Track, Tracker
 
 if TYPE_CHECKING:
@@ -689,7 +690,7 @@ class WindowGrouper:
 
 def _with_rotor(
     report: WindowReport, chunks: Sequence[np.ndarray]
-) -> tuple[WindowReport, list[tuple[RotorEstimate, int, int]]]:
+) -> tuple[WindowReport, list[BoxMeasure]]:
     """``report`` with the rotor signature of its first :data:`MAX_ROTOR_BOXES` objects, from
     the raw events of ``chunks`` (time order, each chunk and across them) that fall in the
     window and the object's box; and for each of those objects, its rotor and the window's
@@ -705,15 +706,18 @@ def _with_rotor(
             lo = 0 if t[0] >= report.t0 else bisect.bisect_left(t, report.t0)
             hi = len(t) if t[-1] < report.t1 else bisect.bisect_left(t, report.t1)
             parts.append(chunk[lo:hi])
-    measured = [measure_box(parts, xywh(o.box)) for o in report.objects[:MAX_ROTOR_BOXES]]
+    rate = (report.t0, RATE_BIN_US, rate_bins(report.t1 - report.t0))
+    measured = [
+        measure_box(parts, xywh(o.box), rate=rate) for o in report.objects[:MAX_ROTOR_BOXES]
+    ]
     objects = list(report.objects)
-    for i, (est, _, _) in enumerate(measured):
-        objects[i] = replace(objects[i], rotor=est)
+    for i, m in enumerate(measured):
+        objects[i] = replace(objects[i], rotor=m.rotor)
     return replace(report, objects=tuple(objects)), measured
 
 
 def _with_scores(
-    report: WindowReport, measured: list[tuple[RotorEstimate, int, int]], identification: Any
+    report: WindowReport, measured: list[BoxMeasure], identification: Any
 ) -> WindowReport:
     """``report`` with the UAV score and class guess of each object whose rotor was measured,
     from an ``identification`` model (:class:`uavsnn.identify.Identifier`): its features
@@ -723,10 +727,10 @@ def _with_scores(
     from uavsnn.features import object_features
 
     objects = list(report.objects)
-    for i, (obj, (_, n, on)) in enumerate(zip(objects, measured, strict=False)):
+    for i, (obj, m) in enumerate(zip(objects, measured, strict=False)):
         if obj.rotor is None:
             continue
-        feats = object_features(obj.box, obj.spikes, None, obj.rotor, obj.track, counts=(n, on))
+        feats = object_features(obj.box, obj.spikes, None, obj.rotor, obj.track, counts=m[1:])
         score = identification.scores(feats[None, :])
         probs = identification.class_probabilities(feats[None, :])
         guess = identification.guess_from(score, probs)[0]

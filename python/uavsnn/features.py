@@ -28,7 +28,9 @@ from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import numpy.typing as npt
 
+from uavsnn import _core
 from uavsnn.boxes import xywh
 from uavsnn.errors import DatasetError, ParameterError, ShapeError
 from uavsnn.signature import RotorEstimate, measure_box
@@ -41,10 +43,13 @@ if TYPE_CHECKING:
 __all__ = [
     "CLUTTER_CLASS",
     "FEATURES",
+    "RATE_BIN_US",
     "TRACK_FEATURES",
     "UAV_CLASS",
     "WindowFeatures",
     "object_features",
+    "rate_bins",
+    "rate_swing",
     "raw_noise_events",
     "track_features",
     "window_features",
@@ -71,6 +76,43 @@ TRACK_FEATURES: tuple[str, ...] = (
     "track_rotor_strength",
 )
 
+#: The width of the bins in which an object's events are counted over its window, µs
+#: (:func:`rate_swing`): ten bins over the default 50 ms window.
+RATE_BIN_US = 5000
+
+
+def rate_bins(length_us: int) -> int:
+    """How many :data:`RATE_BIN_US` bins a window of ``length_us`` µs is counted in (at least
+    one; the events of a last, partial bin are not counted)."""
+    return max(1, int(length_us) // RATE_BIN_US)
+
+
+def rate_swing(counts: npt.ArrayLike) -> float:
+    """How strongly an object's event rate swings within its window, beyond shot noise.
+
+    ``counts``: the object's events per bin (:data:`RATE_BIN_US`) over the window. They are
+    divided by a straight line fitted to them (least squares; kept above 5 % of their mean), so
+    that a steady rise or fall is not a swing, and less 1; ``v`` is the variance of what is
+    left. Poisson counts of mean ``m`` would give ``v`` about ``1 / m`` by chance alone, so the
+    swing is ``sqrt(max(v - 1 / m, 0))``: 0 for a steady rate of any size, about the relative
+    amplitude of a rate that rises and falls within the window (a wing stroke, a bounce, a
+    blade that passes a few times per window). 0 with fewer than three bins or no event.
+    Computed by the engine (``rust/signature.rs``), which also gives it for a box measured with
+    its rate (:func:`uavsnn.signature.measure_box`).
+
+    Raises:
+        ParameterError: counts that are not whole numbers in ``0..2**32``.
+    """
+    c = np.asarray(counts)
+    if c.size and (
+        c.dtype.kind not in "iubf"
+        or not np.all(np.isfinite(c) & (c >= 0) & (c <= np.iinfo(np.uint32).max))
+        or (c.dtype.kind == "f" and not np.all(c == np.floor(c)))
+    ):
+        raise ParameterError(f"rate counts must be whole numbers in 0..2**32, got {c!r}")
+    return float(_core.rate_swing(c.astype(np.uint32).ravel().tolist()))
+
+
 FEATURES: tuple[str, ...] = (
     "rotor_log_hz",
     "rotor_strength",
@@ -83,6 +125,7 @@ FEATURES: tuple[str, ...] = (
     "log_spikes",
     "log_events_per_px",
     "on_balance",
+    "log_rate_swing",
     *TRACK_FEATURES,
 )
 """The features of one object, in the order of the model's coefficients."""
@@ -116,26 +159,41 @@ def object_features(
     rotor: RotorEstimate | None = None,
     track: Track | None = None,
     *,
-    counts: tuple[int, int] | None = None,
+    counts: tuple[int, int, float] | None = None,
+    window: tuple[int, int] | None = None,
 ) -> np.ndarray:
     """The :data:`FEATURES` (float64) of one object: ``box`` ``(x0, y0, x1, y1)`` half-open,
     its conv3 ``spikes``, and the window's raw ``events`` (time order; only those inside the box
     are used). ``rotor``: the box's rotor signature when already measured (else measured
     here on the same events); ``track``: its track after this window (:func:`track_features`;
-    ``None``: no track). ``counts``: ``(events, on)``, the window's events inside the box and
-    the ON ones among them, when already counted with the rotor
-    (:func:`uavsnn.signature.measure_box`); with both ``rotor`` and ``counts``, ``events`` is
-    not read (it may be ``None``)."""
+    ``None``: no track). ``counts``: ``(events, on, swing)``, the window's events inside the
+    box, the ON ones among them and the :func:`rate_swing` of its events per bin of
+    :data:`RATE_BIN_US` over the window, when already measured with the rotor
+    (:func:`uavsnn.signature.measure_box`); with both
+    ``rotor`` and ``counts``, ``events`` is not read (it may be ``None``). ``window``: the
+    window's ``(t0, length_us)``, needed to count the rate when it is measured here from
+    ``events``.
+
+    Raises:
+        ParameterError: an empty box, or neither ``counts`` (with ``rotor``) nor ``events``
+            and ``window``.
+    """
     x0, y0, x1, y1 = (int(v) for v in box)
     w, h = x1 - x0, y1 - y0
     if w < 1 or h < 1:
         raise ParameterError(f"an object's box must not be empty, got {box}")
     if rotor is not None and counts is not None:
-        n, on = (int(c) for c in counts)
-    elif events is None:
-        raise ParameterError("object_features needs the events unless rotor and counts are given")
+        n, on, swing = int(counts[0]), int(counts[1]), float(counts[2])
+    elif events is None or window is None:
+        raise ParameterError(
+            "object_features needs the events and the window's (t0, length_us) unless rotor "
+            "and counts are given"
+        )
     else:
-        measured, n, on = measure_box(events, (x0, y0, w, h))
+        t0, length_us = (int(v) for v in window)
+        measured, n, on, swing = measure_box(
+            events, (x0, y0, w, h), rate=(t0, RATE_BIN_US, rate_bins(length_us))
+        )
         rotor = measured if rotor is None else rotor
     return np.array(
         [
@@ -150,6 +208,7 @@ def object_features(
             math.log1p(spikes),
             math.log1p(n / (w * h)),
             (2 * on - n) / n if n else 0.0,
+            math.log1p(swing),
             *track_features(track),
         ]
     )
@@ -298,7 +357,10 @@ def window_features(
             # Each object's rotor and event counts in one pass over the window's events; as
             # the streaming detector, only the first MAX_ROTOR_BOXES objects are measured (and
             # scored): the others are tracked only.
-            measured = [measure_box(events, xywh(o.box)) for o in objects[:MAX_ROTOR_BOXES]]
+            rate = (t0, RATE_BIN_US, rate_bins(window_us))
+            measured = [
+                measure_box(events, xywh(o.box), rate=rate) for o in objects[:MAX_ROTOR_BOXES]
+            ]
             objects = tuple(
                 replace(o, rotor=measured[j][0]) if j < len(measured) else o
                 for j, o in enumerate(objects)
@@ -315,8 +377,8 @@ def window_features(
         )
         if measured:
             per_window[i] = [
-                (o, object_features(o.box, o.spikes, None, rotor, o.track, counts=(n, on)))
-                for o, (rotor, n, on) in zip(report.objects, measured, strict=False)
+                (o, object_features(o.box, o.spikes, None, m.rotor, o.track, counts=m[1:]))
+                for o, m in zip(report.objects, measured, strict=False)
             ]
     rows, which, boxes, label, usable, track, confirmed, cls = [], [], [], [], [], [], [], []
     for i in sorted(per_window):

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -38,6 +38,7 @@ __all__ = [
     "MAX_SPECTRUM_BYTES",
     "MOTION_DEFAULTS",
     "SPECTRUM_DEFAULTS",
+    "BoxMeasure",
     "CompensatedRotor",
     "MotionEstimate",
     "RotorEstimate",
@@ -179,6 +180,34 @@ class RotorSignature(_BoxEstimator):
         events, outside, late, on = self._inner.stats
         return {"events": events, "outside": outside, "late": late, "on": on}
 
+    def count_rate(self, start_us: int, bin_us: int, bins: int) -> None:
+        """Count the box's events from now on in ``bins`` bins of ``bin_us`` µs from
+        ``start_us`` (:attr:`rate`); bin ``k`` holds the in-order events inside the box with
+        ``start_us + k * bin_us <= t < start_us + (k + 1) * bin_us``. :meth:`clear` zeroes the
+        counts and keeps the bins.
+
+        Raises:
+            ParameterError: ``bin_us`` below 1, ``bins`` outside ``1..=4096``, or a negative
+                ``start_us``.
+        """
+        try:
+            args = (int(start_us), int(bin_us), int(bins))
+        except (TypeError, ValueError, OverflowError) as exc:
+            raise ParameterError(f"rate bins must be integers: {exc}") from exc
+        self._inner.count_rate(*args)
+
+    @property
+    def rate(self) -> np.ndarray:
+        """The box's events per rate bin (:meth:`count_rate`), ``uint32``; empty when the
+        rate is not counted."""
+        return np.asarray(self._inner.rate, dtype=np.uint32)
+
+    @property
+    def rate_swing(self) -> float:
+        """How strongly :attr:`rate` swings beyond shot noise
+        (:func:`uavsnn.features.rate_swing`; 0.0 when the rate is not counted)."""
+        return self._inner.rate_swing
+
 
 def rotor_signature(
     events: np.ndarray, box: tuple[int, int, int, int], **params: Any
@@ -191,11 +220,17 @@ def rotor_signature(
 
 
 def measure_box(
-    events: np.ndarray | Sequence[np.ndarray], box: tuple[int, int, int, int], **params: Any
-) -> tuple[RotorEstimate, int, int]:
+    events: np.ndarray | Sequence[np.ndarray],
+    box: tuple[int, int, int, int],
+    *,
+    rate: tuple[int, int, int] | None = None,
+    **params: Any,
+) -> BoxMeasure:
     """An object's box measured in one pass: the rotor signature of the events inside ``box``
     ``(x0, y0, width, height)`` (what :func:`rotor_signature` gives), the number of events
-    inside it and how many of them are ON.
+    inside it and how many of them are ON, and with ``rate`` ``(start_us, bin_us, bins)`` how
+    strongly its events per time bin swing (:meth:`RotorSignature.count_rate`,
+    :func:`uavsnn.features.rate_swing`; else 0.0).
 
     ``events``: canonical events in time order, one array or the chunks of one stream in
     order (fed as they are, not concatenated). Nothing needs selecting first: the estimator
@@ -203,13 +238,31 @@ def measure_box(
 
     Raises:
         EventError: an array not of the canonical dtype.
-        ParameterError: as :class:`RotorSignature`.
+        ParameterError: as :class:`RotorSignature` and :meth:`RotorSignature.count_rate`.
     """
     estimator = RotorSignature(box, **params)
+    if rate is not None:
+        estimator.count_rate(*rate)
     for part in (events,) if isinstance(events, np.ndarray) else events:
         estimator.update(part)
     stats = estimator.stats  # the engine counts the box's events as it goes
-    return estimator.estimate(), stats["events"] + stats["late"], stats["on"]
+    n = stats["events"] + stats["late"]
+    swing = estimator.rate_swing if rate is not None else 0.0
+    return BoxMeasure(estimator.estimate(), n, stats["on"], swing)
+
+
+class BoxMeasure(NamedTuple):
+    """What :func:`measure_box` measures of a box."""
+
+    #: The rotor signature of the box's events.
+    rotor: RotorEstimate
+    #: Events inside the box (late ones included).
+    events: int
+    #: ON events among them.
+    on: int
+    #: How strongly its events per rate bin swing (:func:`uavsnn.features.rate_swing`; 0.0
+    #: without ``rate``).
+    rate_swing: float
 
 
 # --------------------------------------------------------------------------- rate spectrum

@@ -91,6 +91,12 @@ fn rotor_defaults(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
     Ok(d)
 }
 
+/// How strongly a rate of `counts` events per bin swings beyond shot noise.
+#[pyfunction]
+fn rate_swing(counts: Vec<u32>) -> f64 {
+    crate::signature::rate_swing(&counts)
+}
+
 /// A rotor-signature estimator over the box `x0, y0, width, height`.
 #[pyclass(name = "RotorSignature", module = "uavsnn._core")]
 struct PyRotorSignature {
@@ -152,6 +158,29 @@ estimator_methods!(PyRotorSignature {
     fn stats(&self) -> (u64, u64, u64, u64) {
         let s = self.inner.stats();
         (s.events, s.outside, s.late, s.on)
+    }
+
+    /// Count the box's events in `bins` bins of `bin_us` from `start_us` from now on.
+    fn count_rate(&mut self, py: Python<'_>, start_us: i64, bin_us: i64, bins: i64) -> PyResult<()> {
+        let inner = &mut self.inner;
+        detach(py, || {
+            let start_us = convert::<u64>("start_us", start_us, "0..=2**63-1")?;
+            let bin_us = convert::<u64>("bin_us", bin_us, "1..=2**63-1")?;
+            let bins = convert::<usize>("bins", bins, "1..=4096")?;
+            inner.count_rate(start_us, bin_us, bins)
+        })
+    }
+
+    /// The box's events per rate bin (empty when the rate is not counted).
+    #[getter]
+    fn rate(&self) -> Vec<u32> {
+        self.inner.rate().to_vec()
+    }
+
+    /// The swing of those bins (`rate_swing`).
+    #[getter]
+    fn rate_swing(&self) -> f64 {
+        self.inner.rate_swing()
     }
 });
 
@@ -257,5 +286,6 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyRotorSpectrum>()?;
     m.add_function(wrap_pyfunction!(spectrum_defaults, m)?)?;
     m.add_function(wrap_pyfunction!(rotor_defaults, m)?)?;
+    m.add_function(wrap_pyfunction!(rate_swing, m)?)?;
     Ok(())
 }
