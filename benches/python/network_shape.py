@@ -101,9 +101,13 @@ VARIANTS = {
 }
 
 
-def score_variant(extra, train: Objects, tune: Objects, test: Objects) -> dict[str, float]:
-    def columns(o: Objects) -> np.ndarray:
-        return np.hstack([o.feats.x, extra(o)])
+def score_variant(extra, train, tune, test, base=None) -> dict[str, float]:
+    """The figures of a score fitted on ``base(o)`` (default: every feature, ``o.feats.x``)
+    with ``extra(o)``'s columns added; ``train``, ``tune`` and ``test`` are :class:`Objects`
+    or any object with ``feats``, ``detected`` and ``label``."""
+
+    def columns(o) -> np.ndarray:
+        return np.hstack([o.feats.x if base is None else base(o), extra(o)])
 
     xs = {name: columns(o) for name, o in (("train", train), ("tune", tune), ("test", test))}
     tr, tu, te = train.feats, tune.feats, test.feats
@@ -111,7 +115,7 @@ def score_variant(extra, train: Objects, tune: Objects, test: Objects) -> dict[s
         xs["train"][tr.usable], tr.label[tr.usable], xs["tune"][tu.usable], tu.label[tu.usable]
     )
 
-    def window_score(o: Objects, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def window_score(o, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         objects = identify.predict_logistic(coef, (x - mean) / scale)
         best = np.zeros(o.feats.windows)
         np.maximum.at(best, o.feats.window, objects)

@@ -1,0 +1,166 @@
+"""What does the swing of an object's event rate add to identification, and over which span?
+
+``log_rate_swing`` (``uavsnn.features.rate_swing``) is how strongly an object's event rate
+rises and falls within its window, beyond shot noise: its events in the network's box, in
+bins of 5 ms over the window ``[t0, t0 + L)``. This script fits the UAV score as
+``uavsnn train`` does (the train split less a quarter of its recordings; L2 and threshold
+tuned on that quarter) on the identification's features without it and with it, and with
+each of three longer spans added instead, all causal and from the network's own box:
+
+- ``100 ms``: the same swing over ``[t0 - L, t0 + L)`` (the window and the one before it,
+  the raw events a format-2 dataset keeps), 20 bins;
+- ``track mean``: the mean window swing of the object's track so far;
+- ``track series``: along the track, the counts in 5 ms bins inside the box of the track's
+  latest hit covering each bin (each hit fills the bins of its ``[t0 - L, t0 + L)``), over at
+  most the last 500 ms, around a 250 ms running mean, in 3–40 Hz (where a bird's wing beat
+  lies; ``wingbeat_probe.spectrum``); zero while the series is shorter than 200 ms or has a
+  gap.
+
+It prints each column's ROC area alone on the three parts (UAV objects against the others;
+below 0.5 means UAV objects swing less, so it gives ``1 - area`` of the swing), then, on the
+test split, the accuracy of the combined rule at the tuned threshold, detection where 1 % and
+5 % of the UAV-free windows alarm, and the object ROC area.
+
+    python benches/python/rate_swing.py MODEL.npz DATASET [--json]
+"""
+
+from __future__ import annotations
+
+import os
+
+for _var in ("RAYON_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ[_var] = "1"
+
+import argparse  # noqa: E402
+import json  # noqa: E402
+import sys  # noqa: E402
+from dataclasses import dataclass  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from network_shape import score_variant  # noqa: E402
+from wingbeat_probe import swing  # noqa: E402
+
+from uavsnn import Network, identify  # noqa: E402
+from uavsnn.dataset import LabelledWindows, load  # noqa: E402
+from uavsnn.evaluation import roc_area  # noqa: E402
+from uavsnn.features import FEATURES, RATE_BIN_US, rate_swing  # noqa: E402
+
+SERIES_US = 500_000
+MIN_SERIES_US = 200_000
+#: The longer spans measured, in the order of :attr:`Objects.spans`' columns.
+SPANS = ("100 ms", "track mean", "track series")
+
+
+@dataclass(frozen=True)
+class Objects:
+    feats: identify.WindowFeatures
+    spans: np.ndarray
+    detected: np.ndarray
+    label: np.ndarray
+
+
+def _counts(events: np.ndarray, box, lo: int, n_bins: int) -> np.ndarray:
+    x0, y0, x1, y1 = box
+    m = (events["x"] >= x0) & (events["x"] < x1) & (events["y"] >= y0) & (events["y"] < y1)
+    b = (events["t"][m].astype(np.int64) - lo) // RATE_BIN_US
+    b = b[(b >= 0) & (b < n_bins)]
+    return np.bincount(b, minlength=n_bins).astype(np.float64)
+
+
+def objects(net: Network, data: LabelledWindows) -> Objects:
+    inference = net.infer(data.windows)
+    feats = identify.window_features(net, data, inference)
+    raw = data.raw
+    assert raw is not None
+    length = int(data.windows.length_us)
+    t0s = np.asarray(data.windows.t0, dtype=np.int64)
+    rec = np.asarray(data.recording, dtype=np.int64)
+    rows = np.lexsort((np.arange(len(feats.window)), t0s[feats.window], rec[feats.window]))
+    out = np.zeros((len(feats.window), len(SPANS)))
+    history: dict[tuple[int, int], list[float]] = {}
+    series: dict[tuple[int, int], dict[int, float]] = {}
+    n_bins = (raw.before_us + length) // RATE_BIN_US
+    own = raw.before_us // RATE_BIN_US
+    for r in rows.tolist():
+        i = int(feats.window[r])
+        t0 = int(t0s[i])
+        lo = t0 - raw.before_us
+        counts = _counts(raw.window(i), feats.boxes[r], lo, n_bins)
+        out[r, 0] = rate_swing(counts)
+        key = (int(rec[i]), int(feats.track[r]))
+        if key[1] == 0:
+            continue
+        past = history.setdefault(key, [])
+        past.append(rate_swing(counts[own:]))
+        out[r, 1] = float(np.mean(past))
+        bins = series.setdefault(key, {})
+        first = lo // RATE_BIN_US
+        for k, c in enumerate(counts):
+            bins[first + k] = c
+        end = (t0 + length) // RATE_BIN_US
+        keys = range(max(min(bins), end - SERIES_US // RATE_BIN_US), end)
+        if len(keys) * RATE_BIN_US >= MIN_SERIES_US and all(k in bins for k in keys):
+            rate = np.array([bins[k] for k in keys])
+            out[r, 2] = swing(rate, RATE_BIN_US / 1000, (3.0, 40.0), 250.0)
+    return Objects(feats, out, inference.detected, np.asarray(data.label, dtype=bool))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("model")
+    parser.add_argument("dataset")
+    parser.add_argument("--json", action="store_true")
+    args = parser.parse_args()
+    net = Network.load(args.model)
+    train, tune = identify.split_by_recording(load(args.dataset, "train"))
+    parts = {name: objects(net, d) for name, d in (("train", train), ("tune", tune))}
+    parts["test"] = objects(net, load(args.dataset, "test"))
+    k = FEATURES.index("log_rate_swing")
+    without = [i for i in range(len(FEATURES)) if i != k]
+
+    def alone(o: Objects, column: np.ndarray) -> float | None:
+        area = roc_area(-column[o.feats.usable], o.feats.label[o.feats.usable])
+        return None if area is None else float(area)
+
+    aucs = {
+        split: {
+            "window (log_rate_swing)": alone(o, o.feats.x[:, k]),
+            **{n: alone(o, o.spans[:, j]) for j, n in enumerate(SPANS)},
+        }
+        for split, o in parts.items()
+    }
+    nothing = lambda o: np.zeros((len(o.feats.x), 0))  # noqa: E731
+    base = lambda o: o.feats.x[:, without]  # noqa: E731
+    variants = {
+        "without log_rate_swing": score_variant(nothing, *parts.values(), base=base),
+        "FEATURES (with it)": score_variant(nothing, *parts.values()),
+    }
+    for j, n in enumerate(SPANS):
+        variants[f"+ {n}"] = score_variant(
+            lambda o, j=j: np.log1p(o.spans[:, [j]]), *parts.values()
+        )
+    if args.json:
+        print(json.dumps({"auc_alone": aucs, **variants}))
+        return
+    print(", ".join(f"{k}: {len(v.feats.x)} objects" for k, v in parts.items()))
+    print("| swing over | " + " | ".join(aucs) + " |")
+    print("|---|" + "---|" * len(aucs))
+    for n in aucs["train"]:
+        print(f"| {n} | " + " | ".join(f"{aucs[s][n]:.3f}" for s in aucs) + " |")
+    print()
+    print("| columns | | L2 | accuracy | detection at 1 % / 5 % false alarms | object ROC area |")
+    print("|---|---|---|---|---|---|")
+    for name, r in variants.items():
+        print(
+            f"| {name} | {r['columns']} | {r['l2']:g} | {100 * r['accuracy']:.1f} % | "
+            f"{100 * r['detection_at_0.01']:.1f} / {100 * r['detection_at_0.05']:.1f} % | "
+            f"{r['object_auc']:.3f} |"
+        )
+
+
+if __name__ == "__main__":
+    main()
