@@ -1,6 +1,7 @@
 """Smoke tests of benches/python/bench_identify.py at a tiny size: each part of --section runs
 on the same windows as the timed bench (count_identify.py counts those parts under
-callgrind); and of benches/python/network_shape.py's spike counts per object."""
+callgrind); of benches/python/network_shape.py's spike counts per object; of
+benches/python/rate_swing.py's bins and wingbeat_probe.py's spectrum."""
 
 from __future__ import annotations
 
@@ -92,3 +93,52 @@ def test_network_shape_counts_each_objects_spikes_inside_its_box(bench_script, m
     # Each variant's columns come out with one row per object.
     for extra in shape.VARIANTS.values():
         assert len(extra(found)) == len(found.feats.x)
+
+
+def test_rate_swing_bench_counts_the_bins_the_feature_counts(bench_script):
+    """benches/python/rate_swing.py counts each object's box with NumPy over the window and the
+    one before it; the window's own bins give the engine's feature exactly: the first object of
+    each track has the feature's swing as its track mean."""
+    bench = bench_script("rate_swing")
+    rng = np.random.default_rng(5)
+    t = np.sort(rng.uniform(5_000, 305_000, 120_000))
+    t = t[rng.random(len(t)) < 0.5 + 0.45 * np.sin(2 * np.pi * 60 * t / 1e6)]  # 60 Hz swing
+    ev = np.zeros(len(t), dtype=EVENT_DTYPE)
+    ev["t"] = t.astype(np.uint64)
+    ev["x"] = 5 + (t - 5_000).astype(np.int64) * 15 // 300_000 + rng.integers(0, 5, len(t))
+    ev["y"] = 4 + rng.integers(0, 5, len(t))
+    ev["p"] = rng.random(len(t)) < 0.5
+    windows = make_windows(Recording(ev, SIZE), 50_000, 0.5)
+    m = len(windows)
+    data = LabelledWindows(
+        windows, np.zeros(m, bool), np.full(m, "none"), np.zeros(m, np.int64),
+        np.full((m, 4), np.nan, np.float32),
+        raw=RawEvents.of_recording(ev, np.asarray(windows.t0), 50_000, 50_000),
+    )  # fmt: skip
+    net = tiny()[0]
+    found = bench.objects(net, data)
+    swing = np.expm1(found.feats.x[:, FEATURES.index("log_rate_swing")])
+    assert len(swing) > 2 and np.all(swing > 0)
+    first = {}
+    for r in np.argsort(found.feats.window, kind="stable"):
+        first.setdefault(int(found.feats.track[r]), int(r))
+    rows = [r for track, r in first.items() if track != 0]
+    assert rows
+    np.testing.assert_allclose(found.spans[rows, 1], swing[rows], rtol=1e-12)
+    assert np.all(np.isfinite(found.spans)) and np.all(found.spans >= 0)
+
+
+def test_wingbeat_probe_finds_a_rate_that_rises_and_falls(bench_script):
+    """The probe's spectrum: a rate swinging by 40 % at 12 Hz gives its line at 12 Hz and a
+    swing near 0.4 / sqrt(2); a steady Poisson rate of the same mean gives almost none."""
+    probe = bench_script("wingbeat_probe")
+    rng = np.random.default_rng(2)
+    t = np.arange(200) * 5.0  # 1 s in 5 ms bins
+    wave = rng.poisson(400 * (1 + 0.4 * np.sin(2 * np.pi * 12 * t / 1000)))
+    swing, prominence, peak = probe.spectrum(wave, 5.0, (3.0, 40.0), 250.0)
+    assert peak == pytest.approx(12.0, abs=1.0)
+    assert swing == pytest.approx(0.4 / np.sqrt(2), rel=0.15)
+    assert prominence > 20
+    steady, _, _ = probe.spectrum(rng.poisson(400, 200), 5.0, (3.0, 40.0), 250.0)
+    assert steady < 0.03
+    assert probe.spectrum(np.zeros(200), 5.0, (3.0, 40.0), 250.0) == (0.0, 0.0, 0.0)
