@@ -231,6 +231,27 @@ def test_save_load_round_trip_with_identification(tmp_path: Path) -> None:
     ]
 
 
+def test_a_model_fitted_before_the_rate_swing_scores_with_its_own_features(
+    tmp_path: Path,
+) -> None:
+    """A model file whose feature list lacks ``log_rate_swing`` (written before it joined
+    FEATURES) loads and scores today's rows on its own columns: the swing never reaches it."""
+    old = tuple(f for f in FEATURES if f != "log_rate_swing")
+    k = len(old)
+    rng = np.random.default_rng(3)
+    ident = Identifier(old, rng.normal(size=k + 1), rng.normal(size=k), np.ones(k), 0.4, 1.0)
+    net = small_net()
+    net.identification = ident
+    net.save(tmp_path / "old.npz")
+    back = Network.load(tmp_path / "old.npz").identification
+    assert back is not None and back.features == old
+    x = rng.normal(size=(6, len(FEATURES)))
+    expected = ident.scores(np.delete(x, FEATURES.index("log_rate_swing"), axis=1))
+    np.testing.assert_array_equal(back.scores(x), expected)
+    x[:, FEATURES.index("log_rate_swing")] += 5.0
+    np.testing.assert_array_equal(back.scores(x), expected)
+
+
 def with_classes(threshold: float = 0.3) -> Identifier:
     k = len(FEATURES)
     classes = ("uav", "bird", "clutter")
