@@ -65,6 +65,13 @@ pub const MAX_PIXELS: usize = 1 << 22;
 /// The most rate bins one estimator may count ([`RotorSignature::count_rate`]).
 pub const MAX_RATE_BINS: usize = 4096;
 
+/// Add `n` to `bins[at]` (saturating), if there is such a bin.
+fn add_saturating(bins: &mut [u32], at: usize, n: u64) {
+    if let Some(c) = bins.get_mut(at) {
+        *c = c.saturating_add(u32::try_from(n).unwrap_or(u32::MAX));
+    }
+}
+
 /// How strongly a box's event rate swings beyond shot noise, from its events per time bin
 /// (identification's `log_rate_swing` feature; `uavsnn.features.rate_swing`).
 ///
@@ -359,10 +366,12 @@ pub struct RotorSignature {
     rate: Vec<u32>,
     rate_start_us: u64,
     rate_bin_us: u64,
-    /// The bin the latest in-order event fell in (`usize::MAX` before the first bin) and the
-    /// start of the next one: a division per bin entered, not per event.
+    /// The bin the latest in-order event fell in (`usize::MAX` before the first bin), the
+    /// start of the next one, and `stats.events` when it was entered: an event costs one
+    /// comparison, and the bin's count is written when the next bin is entered (or read).
     rate_at: usize,
     rate_edge: u64,
+    rate_mark: u64,
 }
 
 impl RotorSignature {
@@ -395,6 +404,7 @@ impl RotorSignature {
             rate_bin_us: 1,
             rate_at: usize::MAX,
             rate_edge: u64::MAX,
+            rate_mark: 0,
         })
     }
 
@@ -422,18 +432,39 @@ impl RotorSignature {
         self.rate_bin_us = bin_us;
         self.rate_at = usize::MAX;
         self.rate_edge = start_us;
+        self.rate_mark = self.stats.events;
         Ok(())
     }
 
     /// [`rate_swing`] of the box's rate bins.
     pub fn rate_swing(&self) -> f64 {
-        rate_swing(&self.rate)
+        rate_swing(&self.rate())
     }
 
     /// The box's events per rate bin since [`count_rate`](Self::count_rate) (empty when the
     /// rate is not counted).
-    pub fn rate(&self) -> &[u32] {
-        &self.rate
+    pub fn rate(&self) -> Vec<u32> {
+        let mut rate = self.rate.clone();
+        add_saturating(&mut rate, self.rate_at, self.stats.events - self.rate_mark);
+        rate
+    }
+
+    /// The first in-order event at `t` of a later rate bin (times only grow here): the bin
+    /// left gets its count, and `t`'s bin becomes the current one.
+    #[cold]
+    fn enter_rate_bin(&mut self, t: u64) {
+        add_saturating(
+            &mut self.rate,
+            self.rate_at,
+            self.stats.events - self.rate_mark,
+        );
+        let bin = (t - self.rate_start_us) / self.rate_bin_us;
+        self.rate_at = usize::try_from(bin).unwrap_or(usize::MAX);
+        self.rate_edge = bin
+            .saturating_add(1)
+            .saturating_mul(self.rate_bin_us)
+            .saturating_add(self.rate_start_us);
+        self.rate_mark = self.stats.events;
     }
 
     /// The configuration.
@@ -470,6 +501,7 @@ impl RotorSignature {
         self.rate.fill(0);
         self.rate_at = usize::MAX;
         self.rate_edge = self.rate_start_us;
+        self.rate_mark = 0;
     }
 
     /// Feed one event.
@@ -485,19 +517,10 @@ impl RotorSignature {
             return;
         }
         self.last_t = e.t;
-        self.stats.events += 1;
         if e.t >= self.rate_edge {
-            // The first event of a later bin (times only grow here: late events left above).
-            let bin = (e.t - self.rate_start_us) / self.rate_bin_us;
-            self.rate_at = usize::try_from(bin).unwrap_or(usize::MAX);
-            self.rate_edge = bin
-                .saturating_add(1)
-                .saturating_mul(self.rate_bin_us)
-                .saturating_add(self.rate_start_us);
+            self.enter_rate_bin(e.t);
         }
-        if let Some(c) = self.rate.get_mut(self.rate_at) {
-            *c += 1;
-        }
+        self.stats.events += 1;
         let px = &mut self.pixels[i];
         let polarity = 1 + u8::from(e.p);
         let before = px.polarity;
@@ -879,9 +902,9 @@ mod tests {
                 p: true,
             });
         }
-        assert_eq!(s.rate(), &[2, 1, 1]);
+        assert_eq!(s.rate(), [2, 1, 1]);
         s.clear();
-        assert_eq!(s.rate(), &[0, 0, 0]);
+        assert_eq!(s.rate(), [0, 0, 0]);
         assert!(s.count_rate(0, 0, 3).is_err());
         assert!(s.count_rate(0, 1, 0).is_err());
         assert!(s.count_rate(0, 1, MAX_RATE_BINS + 1).is_err());
@@ -944,7 +967,7 @@ mod tests {
                         expected[((e.t - start) / bin) as usize] += 1;
                     }
                 }
-                prop_assert_eq!(s.rate(), expected.as_slice());
+                prop_assert_eq!(s.rate(), expected);
                 prop_assert!(s.rate().iter().map(|&c| u64::from(c)).sum::<u64>() <= s.stats().events);
             }
 

@@ -174,7 +174,7 @@ estimator_methods!(PyRotorSignature {
     /// The box's events per rate bin (empty when the rate is not counted).
     #[getter]
     fn rate(&self) -> Vec<u32> {
-        self.inner.rate().to_vec()
+        self.inner.rate()
     }
 
     /// The swing of those bins (`rate_swing`).
