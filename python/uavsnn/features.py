@@ -8,7 +8,8 @@ window's raw events (``[t0, t0 + L)``) inside its box:
 - rotor: the rotor signature (:func:`uavsnn.signature.rotor_signature`) — frequency, strength
   and agreeing pixels, log-scaled, and whether it passed the estimator's threshold;
 - shape: the box's width, height, area (log), aspect ratio (log) and conv3 spike count (log);
-- activity: raw events per pixel of the box (log) and the ON/OFF balance;
+- activity: raw events per pixel of the box (log), the ON/OFF balance and how strongly the
+  box's event rate swings within the window (:func:`rate_swing`, log);
 - track: the statistics of the object's track so far (:data:`TRACK_FEATURES`): the windows of
   each recording are fed in time order to a :class:`uavsnn.tracks.Tracker`, as the streaming
   :class:`uavsnn.detector.Detector` feeds them (a window missing from the dataset counts as a
