@@ -16,7 +16,9 @@ each of three longer spans added instead, all causal and from the network's own 
   lies; ``wingbeat_probe.spectrum``); zero while the series is shorter than 200 ms or has a
   gap.
 
-It prints each column's ROC area alone on the three parts (UAV objects against the others;
+It prints the swing of the test split's objects by class (median, the share with none, and
+the median events in their boxes),
+each column's ROC area alone on the three parts (UAV objects against the others;
 below 0.5 means UAV objects swing less, so it gives ``1 - area`` of the swing), then, on the
 test split, the accuracy of the combined rule at the tuned threshold, detection where 1 % and
 5 % of the UAV-free windows alarm, and the object ROC area; and last the same fits' detection
@@ -147,10 +149,36 @@ def main() -> None:
         n: score_variant(e, train_part, tune_part, tune_part, base=b)
         for n, (e, b) in columns.items()
     }
+    test_feats = parts["test"].feats
+    swing = np.expm1(test_feats.x[:, k])
+    events = np.expm1(test_feats.x[:, FEATURES.index("log_events_per_px")]) * np.exp(
+        test_feats.x[:, FEATURES.index("log_area")]
+    )
+    by_class = {
+        str(c): {
+            "objects": int(m.sum()),
+            "median": float(np.median(swing[m])),
+            "zero": float(np.mean(swing[m] == 0)),
+            "events": float(np.median(events[m])),
+        }
+        for c in np.unique(test_feats.cls[test_feats.cls != ""])
+        for m in [test_feats.cls == c]
+    }
     if args.json:
-        print(json.dumps({"auc_alone": aucs, **variants, "on_tune": on_tune}))
+        print(json.dumps({"auc_alone": aucs, **variants, "on_tune": on_tune, "test": by_class}))
         return
     print(", ".join(f"{k}: {len(v.feats.x)} objects" for k, v in parts.items()))
+    print(
+        "| test objects of each class | objects | swing, median | share with no swing "
+        "| events in the box, median |"
+    )
+    print("|---|---|---|---|---|")
+    for c, v in by_class.items():
+        print(
+            f"| {c} | {v['objects']} | {v['median']:.3f} | {100 * v['zero']:.0f} % "
+            f"| {v['events']:.0f} |"
+        )
+    print()
     print("| swing over | " + " | ".join(aucs) + " |")
     print("|---|" + "---|" * len(aucs))
     for n in aucs["train"]:
