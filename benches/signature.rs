@@ -12,6 +12,9 @@
 //!   events per edge) over uniform noise at 10^4 events/s, 100 ms: the worst case, where every
 //!   third event is an edge and most edges vote; each pass clears the box, feeds it and reads
 //!   the estimate, as for one detection.
+//! - `signature/box/flicker+rate` — the same, with the box's events also counted in 5 ms bins
+//!   (`count_rate`, as identification's `log_rate_swing` asks for) and their swing read: the
+//!   bins' cost beside the line above.
 //! - `spectrum/box/flicker` — the same box through the rate spectrum
 //!   (`uavsnn::signature::spectrum`): cleared, fed and read per pass (the estimate's DFT over
 //!   each counted channel is most of the cost, so the figure per event includes it).
@@ -33,6 +36,9 @@ use common::{network, windows};
 #[path = "common/rotor.rs"]
 mod rotor;
 use rotor::{as_events, flicker_box};
+
+/// The bins identification counts a box's events in (`uavsnn.features.RATE_BIN_US`).
+const RATE_BIN_US: u64 = 5000;
 
 fn bench(c: &mut Criterion) {
     let (width, height, density) = (240, 180, 0.01);
@@ -92,6 +98,20 @@ fn bench(c: &mut Criterion) {
             boxed.clear();
             boxed.extend(flicker.as_slice());
             std::hint::black_box(boxed.estimate())
+        });
+    });
+
+    let start = flicker.first().map_or(0, |e| e.t);
+    let bins = usize::try_from((flicker.last().map_or(0, |e| e.t) - start) / RATE_BIN_US + 1)
+        .expect("a few bins");
+    boxed
+        .count_rate(start, RATE_BIN_US, bins)
+        .expect("valid bins");
+    g.bench_function("signature/box/flicker+rate", |b| {
+        b.iter(|| {
+            boxed.clear();
+            boxed.extend(flicker.as_slice());
+            std::hint::black_box((boxed.estimate(), boxed.rate_swing()))
         });
     });
 
