@@ -50,6 +50,7 @@ from wingbeat_probe import swing  # noqa: E402
 from uavsnn import Network, identify  # noqa: E402
 from uavsnn.dataset import LabelledWindows, load  # noqa: E402
 from uavsnn.evaluation import roc_area  # noqa: E402
+from uavsnn.experiments import mix_windows  # noqa: E402
 from uavsnn.features import FEATURES, RATE_BIN_US, rate_swing  # noqa: E402
 
 SERIES_US = 500_000
@@ -116,10 +117,25 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("model")
     parser.add_argument("dataset")
+    parser.add_argument(
+        "--mix",
+        metavar="DIR",
+        help="fit on DATASET's training windows mixed with DIR's, as `uavsnn reproduce` fits "
+        "the combined network (DIR: its sim dataset)",
+    )
+    parser.add_argument(
+        "--other",
+        metavar="DIR",
+        help="also score the fits without and with the swing on DIR's train split (recordings "
+        "of another seed, that no fit saw)",
+    )
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
     net = Network.load(args.model)
-    train, tune = identify.split_by_recording(load(args.dataset, "train"))
+    fit_on = load(args.dataset, "train")
+    if args.mix:
+        fit_on = mix_windows([fit_on, load(args.mix, "train")], len(fit_on), seed=0)
+    train, tune = identify.split_by_recording(fit_on)
     parts = {name: objects(net, d) for name, d in (("train", train), ("tune", tune))}
     parts["test"] = objects(net, load(args.dataset, "test"))
     k = FEATURES.index("log_rate_swing")
@@ -149,6 +165,14 @@ def main() -> None:
         n: score_variant(e, train_part, tune_part, tune_part, base=b)
         for n, (e, b) in columns.items()
     }
+    on_other = {}
+    if args.other:
+        other = objects(net, load(args.other, "train"))
+        any_spike = float(np.mean(other.detected == other.label))
+        on_other = {"any-spike accuracy": any_spike}
+        for n in ("without log_rate_swing", "FEATURES (with it)"):
+            e, b = columns[n]
+            on_other[n] = score_variant(e, train_part, tune_part, other, base=b)
     test_feats = parts["test"].feats
     swing = np.expm1(test_feats.x[:, k])
     events = np.expm1(test_feats.x[:, FEATURES.index("log_events_per_px")]) * np.exp(
@@ -165,7 +189,17 @@ def main() -> None:
         for m in [test_feats.cls == c]
     }
     if args.json:
-        print(json.dumps({"auc_alone": aucs, **variants, "on_tune": on_tune, "test": by_class}))
+        print(
+            json.dumps(
+                {
+                    "auc_alone": aucs,
+                    **variants,
+                    "on_tune": on_tune,
+                    "on_other": on_other,
+                    "test": by_class,
+                }
+            )
+        )
         return
     print(", ".join(f"{k}: {len(v.feats.x)} objects" for k, v in parts.items()))
     print(
@@ -192,6 +226,18 @@ def main() -> None:
             f"{100 * r['detection_at_0.01']:.1f} / {100 * r['detection_at_0.05']:.1f} % | "
             f"{r['object_auc']:.3f} |"
         )
+    if on_other:
+        print()
+        print(
+            f"On {args.other}'s train split (any-spike {100 * on_other['any-spike accuracy']:.1f}"
+            " %): | columns | accuracy | detection at 1 % / 5 % false alarms | object ROC area |"
+        )
+        for name in ("without log_rate_swing", "FEATURES (with it)"):
+            r = on_other[name]
+            print(
+                f"| {name} | {100 * r['accuracy']:.1f} % | {100 * r['detection_at_0.01']:.1f} / "
+                f"{100 * r['detection_at_0.05']:.1f} % | {r['object_auc']:.3f} |"
+            )
     print()
     print("On the tuning part: | columns | detection at 1 % / 5 % false alarms | object ROC area |")
     for name, r in on_tune.items():
