@@ -129,13 +129,22 @@ def main() -> None:
         help="also score the fits without and with the swing on DIR's train split (recordings "
         "of another seed, that no fit saw)",
     )
+    parser.add_argument(
+        "--tune",
+        metavar="DIR",
+        help="tune on DIR's train split (as `uavsnn train --tune DIR`) instead of a quarter of "
+        "the training recordings held out",
+    )
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
     net = Network.load(args.model)
     fit_on = load(args.dataset, "train")
     if args.mix:
         fit_on = mix_windows([fit_on, load(args.mix, "train")], len(fit_on), seed=0)
-    train, tune = identify.split_by_recording(fit_on)
+    if args.tune:
+        train, tune = fit_on, load(args.tune, "train")
+    else:
+        train, tune = identify.split_by_recording(fit_on)
     parts = {name: objects(net, d) for name, d in (("train", train), ("tune", tune))}
     parts["test"] = objects(net, load(args.dataset, "test"))
     k = FEATURES.index("log_rate_swing")
@@ -230,13 +239,15 @@ def main() -> None:
         print()
         print(
             f"On {args.other}'s train split (any-spike {100 * on_other['any-spike accuracy']:.1f}"
-            " %): | columns | accuracy | detection at 1 % / 5 % false alarms | object ROC area |"
+            " %): | columns | threshold | accuracy | detection at 1 % / 5 % false alarms "
+            "| object ROC area |"
         )
         for name in ("without log_rate_swing", "FEATURES (with it)"):
             r = on_other[name]
             print(
-                f"| {name} | {100 * r['accuracy']:.1f} % | {100 * r['detection_at_0.01']:.1f} / "
-                f"{100 * r['detection_at_0.05']:.1f} % | {r['object_auc']:.3f} |"
+                f"| {name} | {r['threshold']:.3f} | {100 * r['accuracy']:.1f} % | "
+                f"{100 * r['detection_at_0.01']:.1f} / {100 * r['detection_at_0.05']:.1f} % | "
+                f"{r['object_auc']:.3f} |"
             )
     print()
     print("On the tuning part: | columns | detection at 1 % / 5 % false alarms | object ROC area |")
