@@ -46,69 +46,20 @@
 //! Events outside the box are counted and ignored; an event earlier than the latest one seen is
 //! counted as late and ignored (the estimator never panics, whatever the sequence).
 //!
-//! # The box's event rate
-//!
 //! Beside the estimate, the estimator can count its box's events over time
-//! ([`RotorSignature::count_rate`]: bins of a fixed width from a start time). Identification
-//! reads how strongly that rate swings within a window (`uavsnn.features.rate_swing`); counting
-//! it here costs a division per event inside the box and nothing per event outside it, where a
-//! second pass would cost a box check per event of the window.
+//! ([`RotorSignature::count_rate`]; the module [`rate`]).
 
 use crate::error::{Error, Result};
 use crate::events::{Event, EventSource, SensorSize};
 
+pub mod rate;
 pub mod spectrum;
+
+use rate::RateBins;
+pub use rate::{rate_swing, MAX_RATE_BINS};
 
 /// The largest number of pixels one estimator may follow (a 2048×2048 box, 128 MiB of state).
 pub const MAX_PIXELS: usize = 1 << 22;
-
-/// The most rate bins one estimator may count ([`RotorSignature::count_rate`]).
-pub const MAX_RATE_BINS: usize = 4096;
-
-/// Add `n` to `bins[at]` (saturating), if there is such a bin.
-fn add_saturating(bins: &mut [u32], at: usize, n: u64) {
-    if let Some(c) = bins.get_mut(at) {
-        *c = c.saturating_add(u32::try_from(n).unwrap_or(u32::MAX));
-    }
-}
-
-/// How strongly a box's event rate swings beyond shot noise, from its events per time bin
-/// (identification's `log_rate_swing` feature; `uavsnn.features.rate_swing`).
-///
-/// The counts are divided by a straight line fitted to them (least squares, kept above 5 % of
-/// their mean), so a steady rise or fall is no swing, and less 1; `v` is the variance of what
-/// is left. Poisson counts of mean `m` give `v ≈ 1 / m` by chance alone, so the swing is
-/// `sqrt(max(v − 1 / m̄, 0))` with `m̄` the line's mean. 0 with fewer than three bins or no
-/// event.
-pub fn rate_swing(counts: &[u32]) -> f64 {
-    let n = counts.len();
-    let total: f64 = counts.iter().map(|&c| f64::from(c)).sum();
-    if n < 3 || total <= 0.0 {
-        return 0.0;
-    }
-    let nf = n as f64;
-    let mean = total / nf;
-    let centre = (nf - 1.0) / 2.0;
-    let (mut cross, mut square) = (0.0, 0.0);
-    for (k, &c) in counts.iter().enumerate() {
-        let u = k as f64 - centre;
-        cross += u * f64::from(c);
-        square += u * u;
-    }
-    let slope = cross / square;
-    let line = |k: usize| (mean + (k as f64 - centre) * slope).max(0.05 * mean);
-    let (mut line_sum, mut rel_sum, mut rel_square) = (0.0, 0.0, 0.0);
-    for (k, &c) in counts.iter().enumerate() {
-        let w = line(k);
-        let r = f64::from(c) / w - 1.0;
-        line_sum += w;
-        rel_sum += r;
-        rel_square += r * r;
-    }
-    let rel_mean = rel_sum / nf;
-    let variance = (rel_square / nf - rel_mean * rel_mean).max(0.0);
-    (variance - nf / line_sum).max(0.0).sqrt()
-}
 
 /// The default detection threshold on [`Signature::strength`] (see the module's documentation
 /// and `docs/identification.md` for how it was chosen).
@@ -361,17 +312,9 @@ pub struct RotorSignature {
     votes: u64,
     last_t: u64,
     stats: RotorStats,
-    /// The box's in-order events per time bin of `rate_bin_us` from `rate_start_us` (empty:
-    /// not counted; `rate_start_us` is then `u64::MAX`, so no event reaches a bin).
-    rate: Vec<u32>,
-    rate_start_us: u64,
-    rate_bin_us: u64,
-    /// The bin the latest in-order event fell in (`usize::MAX` before the first bin), the
-    /// start of the next one, and `stats.events` when it was entered: an event costs one
-    /// comparison, and the bin's count is written when the next bin is entered (or read).
-    rate_at: usize,
-    rate_edge: u64,
-    rate_mark: u64,
+    /// The box's in-order events per time bin ([`count_rate`](Self::count_rate); none
+    /// counted until then).
+    rate: RateBins,
 }
 
 impl RotorSignature {
@@ -399,12 +342,7 @@ impl RotorSignature {
             votes: 0,
             last_t: 0,
             stats: RotorStats::default(),
-            rate: Vec::new(),
-            rate_start_us: u64::MAX,
-            rate_bin_us: 1,
-            rate_at: usize::MAX,
-            rate_edge: u64::MAX,
-            rate_mark: 0,
+            rate: RateBins::off(),
         })
     }
 
@@ -418,21 +356,7 @@ impl RotorSignature {
     /// [`Error::InvalidParameter`] when `bin_us` is 0 or `bins` is outside
     /// `1..=`[`MAX_RATE_BINS`].
     pub fn count_rate(&mut self, start_us: u64, bin_us: u64, bins: usize) -> Result<()> {
-        if bin_us == 0 {
-            return Err(Error::param("bin_us", "must be >= 1, got 0"));
-        }
-        if !(1..=MAX_RATE_BINS).contains(&bins) {
-            return Err(Error::param(
-                "bins",
-                format!("must be in 1..={MAX_RATE_BINS}, got {bins}"),
-            ));
-        }
-        self.rate = vec![0; bins];
-        self.rate_start_us = start_us;
-        self.rate_bin_us = bin_us;
-        self.rate_at = usize::MAX;
-        self.rate_edge = start_us;
-        self.rate_mark = self.stats.events;
+        self.rate = RateBins::new(start_us, bin_us, bins, self.stats.events)?;
         Ok(())
     }
 
@@ -444,27 +368,7 @@ impl RotorSignature {
     /// The box's events per rate bin since [`count_rate`](Self::count_rate) (empty when the
     /// rate is not counted).
     pub fn rate(&self) -> Vec<u32> {
-        let mut rate = self.rate.clone();
-        add_saturating(&mut rate, self.rate_at, self.stats.events - self.rate_mark);
-        rate
-    }
-
-    /// The first in-order event at `t` of a later rate bin (times only grow here): the bin
-    /// left gets its count, and `t`'s bin becomes the current one.
-    #[cold]
-    fn enter_rate_bin(&mut self, t: u64) {
-        add_saturating(
-            &mut self.rate,
-            self.rate_at,
-            self.stats.events - self.rate_mark,
-        );
-        let bin = (t - self.rate_start_us) / self.rate_bin_us;
-        self.rate_at = usize::try_from(bin).unwrap_or(usize::MAX);
-        self.rate_edge = bin
-            .saturating_add(1)
-            .saturating_mul(self.rate_bin_us)
-            .saturating_add(self.rate_start_us);
-        self.rate_mark = self.stats.events;
+        self.rate.counts(self.stats.events)
     }
 
     /// The configuration.
@@ -498,10 +402,7 @@ impl RotorSignature {
         self.votes = 0;
         self.last_t = 0;
         self.stats = RotorStats::default();
-        self.rate.fill(0);
-        self.rate_at = usize::MAX;
-        self.rate_edge = self.rate_start_us;
-        self.rate_mark = 0;
+        self.rate.clear();
     }
 
     /// Feed one event.
@@ -517,8 +418,8 @@ impl RotorSignature {
             return;
         }
         self.last_t = e.t;
-        if e.t >= self.rate_edge {
-            self.enter_rate_bin(e.t);
+        if self.rate.enters(e.t) {
+            self.rate.enter(e.t, self.stats.events);
         }
         self.stats.events += 1;
         let px = &mut self.pixels[i];
@@ -858,22 +759,6 @@ mod tests {
         assert_eq!(before, 16 * 16 * 32 + 64 * 12);
         s.extend(noise(1e6, 20, 100_000, 3).as_slice());
         assert_eq!(s.state_bytes(), before);
-    }
-
-    #[test]
-    fn rate_swing_is_the_swing_beyond_shot_noise() {
-        for none in [&[][..], &[5, 9], &[0; 10], &[40; 10]] {
-            assert_eq!(rate_swing(none).to_bits(), 0f64.to_bits(), "{none:?}");
-        }
-        let ramp: Vec<u32> = (0..10).map(|k| 20 + 6 * k).collect();
-        assert!(rate_swing(&ramp) < 1e-6);
-        for a in [0.3, 0.6] {
-            let wave: Vec<u32> = (0..10)
-                .map(|k| (1e6 * (1.0 + a * (std::f64::consts::FRAC_PI_2 * k as f64).sin())) as u32)
-                .collect();
-            let s = rate_swing(&wave);
-            assert!((s / (a / 2f64.sqrt()) - 1.0).abs() < 0.1, "{a}: {s}");
-        }
     }
 
     #[test]
