@@ -42,7 +42,7 @@ from uavsnn._validate import check_sensor_size
 from uavsnn.boxes import xywh
 from uavsnn.errors import ParameterError, ShapeError
 from uavsnn.events import EVENT_DTYPE, packed_bytes
-from uavsnn.features import RATE_BIN_US, rate_bins
+from uavsnn.features import rate_bins
 from uavsnn.network import WINDOW_DETECTION_DTYPE
 from uavsnn.signature import BoxMeasure, RotorEstimate, measure_box
 from uavsnn.tracks import Track, Tracker
@@ -706,7 +706,7 @@ def _with_rotor(
             lo = 0 if t[0] >= report.t0 else bisect.bisect_left(t, report.t0)
             hi = len(t) if t[-1] < report.t1 else bisect.bisect_left(t, report.t1)
             parts.append(chunk[lo:hi])
-    rate = (report.t0, RATE_BIN_US, rate_bins(report.t1 - report.t0))
+    rate = rate_bins(report.t0, report.t1 - report.t0)
     measured = [
         measure_box(parts, xywh(o.box), rate=rate) for o in report.objects[:MAX_ROTOR_BOXES]
     ]

@@ -82,10 +82,11 @@ TRACK_FEATURES: tuple[str, ...] = (
 RATE_BIN_US = 5000
 
 
-def rate_bins(length_us: int) -> int:
-    """How many :data:`RATE_BIN_US` bins a window of ``length_us`` µs is counted in (at least
-    one; the events of a last, partial bin are not counted)."""
-    return max(1, int(length_us) // RATE_BIN_US)
+def rate_bins(t0: int, length_us: int) -> tuple[int, int, int]:
+    """The bins a window ``[t0, t0 + length_us)`` is counted in for :func:`rate_swing`, as
+    :func:`uavsnn.signature.measure_box`'s ``rate``: ``(t0, RATE_BIN_US, bins)``, at least one
+    bin (the events of a last, partial bin are not counted)."""
+    return int(t0), RATE_BIN_US, max(1, int(length_us) // RATE_BIN_US)
 
 
 def rate_swing(counts: npt.ArrayLike) -> float:
@@ -191,10 +192,7 @@ def object_features(
             "and counts are given"
         )
     else:
-        t0, length_us = (int(v) for v in window)
-        measured, n, on, swing = measure_box(
-            events, (x0, y0, w, h), rate=(t0, RATE_BIN_US, rate_bins(length_us))
-        )
+        measured, n, on, swing = measure_box(events, (x0, y0, w, h), rate=rate_bins(*window))
         rotor = measured if rotor is None else rotor
     return np.array(
         [
@@ -358,7 +356,7 @@ def window_features(
             # Each object's rotor and event counts in one pass over the window's events; as
             # the streaming detector, only the first MAX_ROTOR_BOXES objects are measured (and
             # scored): the others are tracked only.
-            rate = (t0, RATE_BIN_US, rate_bins(window_us))
+            rate = rate_bins(t0, window_us)
             measured = [
                 measure_box(events, xywh(o.box), rate=rate) for o in objects[:MAX_ROTOR_BOXES]
             ]

@@ -247,8 +247,7 @@ def measure_box(
         estimator.update(part)
     stats = estimator.stats  # the engine counts the box's events as it goes
     n = stats["events"] + stats["late"]
-    swing = estimator.rate_swing if rate is not None else 0.0
-    return BoxMeasure(estimator.estimate(), n, stats["on"], swing)
+    return BoxMeasure(estimator.estimate(), n, stats["on"], estimator.rate_swing)
 
 
 class BoxMeasure(NamedTuple):
