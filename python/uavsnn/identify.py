@@ -452,10 +452,10 @@ def ablation(
     ``test``: the combined rule's accuracy at the tuned threshold and its detection rate where
     1 % and 5 % of the UAV-free test windows alarm. With ``test_data`` (the windows ``test``
     was made from), each row also holds ``tracks``: the track-level figures of the rule with
-    identification (:func:`uavsnn.track_eval.track_figures` with ``track_score`` and
+    identification (:func:`uavsnn.track_eval.identified_track_figures` with ``track_score`` and
     ``confirm``, as the main figures use them)."""
     from uavsnn.evaluation import FALSE_ALARM_RATES, detection_at_false_alarm
-    from uavsnn.track_eval import track_figures
+    from uavsnn.track_eval import identified_track_figures
 
     label = np.asarray(test_label, dtype=bool)
     fired = np.asarray(test_detected, dtype=bool)
@@ -479,13 +479,8 @@ def ablation(
         for rate in FALSE_ALARM_RATES:
             row[f"detection_at_{rate:g}"] = detection_at_false_alarm(score, label, rate)
         if test_data is not None:
-            figures = track_figures(
-                test_data,
-                test,
-                ident.scores(test.x),
-                ident.threshold,
-                track_score=track_score,
-                confirm=confirm,
+            figures = identified_track_figures(
+                test_data, test, ident, track_score=track_score, confirm=confirm
             )
             row["tracks"] = figures["rules"]["identified"]
         out[name] = row

@@ -43,6 +43,7 @@ from uavsnn.errors import ParameterError, ShapeError
 if TYPE_CHECKING:
     from uavsnn.dataset import LabelledWindows
     from uavsnn.features import WindowFeatures
+    from uavsnn.identify import Identifier
     from uavsnn.network import Inference, Network
     from uavsnn.tracks import Tracker
 
@@ -52,6 +53,7 @@ __all__ = [
     "Confirm",
     "confirm_flags",
     "evaluate_tracks",
+    "identified_track_figures",
     "poisson_upper",
     "track_figures",
     "track_table",
@@ -423,14 +425,29 @@ def evaluate_tracks(
 
     if features is None:
         features = window_features(network, data, inference, tracker=tracker)
-    ident = network.identification
-    if ident is None:
-        return track_figures(data, features, confirm=confirm)
+    return identified_track_figures(
+        data, features, network.identification, track_score=track_score, confirm=confirm
+    )
+
+
+def identified_track_figures(
+    data: LabelledWindows,
+    feats: WindowFeatures,
+    identifier: Identifier | None,
+    *,
+    track_score: str = "mean",
+    confirm: Confirm | None = None,
+) -> dict[str, Any]:
+    """:func:`track_figures` of both rules, with ``identifier``'s scores of ``feats`` and its
+    threshold (:class:`uavsnn.identify.Identifier`, whose features ``feats`` holds); with
+    ``identifier`` ``None``, of the any-spike rule alone."""
+    if identifier is None:
+        return track_figures(data, feats, confirm=confirm)
     return track_figures(
         data,
-        features,
-        ident.scores(features.x),
-        ident.threshold,
+        feats,
+        identifier.scores(feats.x),
+        identifier.threshold,
         track_score=track_score,
         confirm=confirm,
     )
