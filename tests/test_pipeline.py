@@ -120,6 +120,12 @@ def test_reproduce_at_a_tiny_size(tmp_path: Path, capsys: pytest.CaptureFixture[
     for entry in results["table2"].values():
         fit = entry["identify_fit"]
         assert ("skipped" in fit) == (entry["identification"] is None)
+        # Tuned on recordings of another seed (SPEC §5), never on a quarter of its own.
+        assert fit.get("tune", "a separate tuning set") == "a separate tuning set"
+    assert results["tune_seed"] == 1
+    for domain in ("dvs", "sim"):
+        manifest = json.loads((out / f"data/tune-{domain}/manifest.json").read_text())
+        assert manifest["seed"] == 1 and manifest["parameters"]["n_train"] == 16
     # What the figures may depend on besides the code and the seed is written beside them.
     env = results["environment"]
     assert env["numpy"] == np.__version__ and env["python"] == platform.python_version()
@@ -147,6 +153,23 @@ def test_reproduce_refuses_a_bad_sensor_before_writing(tmp_path: Path, capsys) -
     out = tmp_path / "repro"
     assert main(["reproduce", "--out", str(out), "--sensor", "640by480", "--quiet"]) == 2
     assert "sensor must be WIDTHxHEIGHT" in capsys.readouterr().err
+    assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--seed", "3", "--tune-seed", "3"], "--tune-seed must be a non-negative seed other"),
+        (["--tune-seed", "-1"], "--tune-seed must be a non-negative seed other"),
+        (["--n-tune", "1"], "--n-tune must be at least 2"),
+    ],
+)
+def test_reproduce_refuses_to_tune_on_the_test_seed(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], extra: list[str], message: str
+) -> None:
+    out = tmp_path / "repro"
+    assert main(["reproduce", "--out", str(out), "--quiet", *extra]) == 2
+    assert message in capsys.readouterr().err
     assert not out.exists()
 
 

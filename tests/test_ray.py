@@ -205,6 +205,8 @@ def test_ray_reproduce_gives_the_serial_figures(runner: Any, tmp_path: Path) -> 
     build(data / "dvs", "dvs", n_test=20, n_train=30, seed=0, dvs=DVS)
     sim = SceneSource("sim", (320, 240), 30.0, 1.0)
     build(data / "sim", "sim", n_test=10, n_train=30, seed=0, sim=sim)
+    build(data / "tune-dvs", "dvs", n_test=2, n_train=30, seed=1, dvs=DVS)
+    build(data / "tune-sim", "sim", n_test=2, n_train=30, seed=1, sim=sim)
     figures = []
     for name, extra in (("serial", []), ("ray", ["--ray"])):
         out = tmp_path / name

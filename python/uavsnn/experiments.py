@@ -243,15 +243,18 @@ def _rule_summary(figures: dict[str, Any]) -> dict[str, Any]:
     }
 
 
-def fit_identification(network: Network, train: LabelledWindows) -> dict[str, Any]:
-    """Fit ``network``'s identification on ``train`` (its training windows), tuned on a quarter
-    of their recordings held out (:func:`uavsnn.identify.fit_network`), and attach it. Returns
-    the fit's summary, or ``{"skipped": why}`` when these windows cannot fit one (no raw events,
-    or too few objects of a kind); the network then keeps the any-spike rule alone."""
+def fit_identification(
+    network: Network, train: LabelledWindows, tune: LabelledWindows | None = None
+) -> dict[str, Any]:
+    """Fit ``network``'s identification on ``train`` (its training windows), tuned on ``tune``
+    (windows of other recordings; default: a quarter of ``train``'s recordings held out, see
+    :func:`uavsnn.identify.fit_network`), and attach it. Returns the fit's summary, or
+    ``{"skipped": why}`` when these windows cannot fit one (no raw events, or too few objects of
+    a kind); the network then keeps the any-spike rule alone."""
     from uavsnn import identify
 
     try:
-        network.identification, summary = identify.fit_network(network, train)
+        network.identification, summary = identify.fit_network(network, train, tune)
     except DatasetError as exc:
         return {"skipped": str(exc)}
     return summary

@@ -389,9 +389,10 @@ def identification_markdown(figures: dict[str, Any]) -> str:
     5 % of the UAV-free windows alarm, the detection rate by size and by range and the false
     alarms per class of other object."""
     lines = [
-        f"Identification threshold {figures['threshold']:.3f} (chosen on held-out training "
-        "recordings). A window is called UAV by the any-spike rule when a conv3 neuron fires; "
-        "with identification, when also its best object's UAV score reaches the threshold.\n",
+        f"Identification threshold {figures['threshold']:.3f} (chosen on recordings none of "
+        "these figures is measured on). A window is called UAV by the any-spike rule when a "
+        "conv3 neuron fires; with identification, when also its best object's UAV score "
+        "reaches the threshold.\n",
         "| rule | TP | FN | FP | TN | accuracy |",
         "|---|---|---|---|---|---|",
     ]
