@@ -283,3 +283,131 @@ def test_the_threshold_does_not_follow_the_tuning_sets_share_of_uavs() -> None:
     scores = fit(train, train, features=names).window_scores(train)
     assert np.mean(scores[label] >= skewed) > 0.5
     assert abs(balanced - skewed) < 0.25
+
+
+# ---------------------------------------------------------------- operating points set beforehand
+
+
+def test_alarm_thresholds_hold_the_tuning_sets_false_alarm_share() -> None:
+    """fit sets a threshold for each share of FALSE_ALARM_RATES on the tuning windows: at it,
+    at most that share of the tuning set's UAV-free windows alarm (windows the any-spike rule
+    misses never do), and one more alarm would pass the share."""
+    from uavsnn.evaluation import FALSE_ALARM_RATES
+    from uavsnn.identify import fit
+
+    rng = np.random.default_rng(3)
+    n = 600
+    label = np.arange(n) % 2 == 0
+    x = np.where(label, 1.0, -1.0) + rng.normal(0, 1.2, n)
+    train = _one_object_per_window(x, label)
+    tune = _one_object_per_window(x[::-1].copy(), label[::-1].copy())
+    detected = rng.random(n) < 0.8
+    ident = fit(
+        train, tune, tune_detected=detected, tune_label=label[::-1], features=("log_width",)
+    )
+    assert [rate for rate, _ in ident.alarm_thresholds] == list(FALSE_ALARM_RATES)
+    score = np.where(detected, ident.window_scores(tune), -np.inf)
+    free = score[~label[::-1]]
+    for rate, threshold in ident.alarm_thresholds:
+        alarms = int((free >= threshold).sum())
+        assert alarms <= rate * len(free)
+        # The next UAV-free window below the threshold would be one alarm too many.
+        below = np.sort(free[(free < threshold) & np.isfinite(free)])
+        assert len(below) == 0 or alarms + 1 > rate * len(free)
+    # The stricter share needs the higher threshold.
+    (_, t1), (_, t5) = ident.alarm_thresholds
+    assert t1 >= t5
+    # Switching to one: the same model, that threshold.
+    assert ident.at_false_alarm(0.01).threshold == t1
+    assert ident.at_false_alarm(0.01).coef is ident.coef
+    with pytest.raises(ParameterError, match=r"not tuned for a false-alarm share of 0\.02"):
+        ident.at_false_alarm(0.02)
+    # Without tuning windows there are none, and the error says so.
+    bare = fit(train, tune, features=("log_width",))
+    assert bare.alarm_thresholds == ()
+    with pytest.raises(ParameterError, match=r"tuned shares: none"):
+        bare.at_false_alarm(0.01)
+
+
+def test_alarm_thresholds_pass_every_detection_when_the_share_allows_it() -> None:
+    """When the any-spike rule raises fewer false alarms on the tuning set than the share
+    allows, the operating point is 'every detection alarms' (0.0), not a negative score."""
+    from uavsnn.identify import fit
+
+    n = 200
+    label = np.arange(n) % 2 == 0
+    x = np.where(label, 1.0, -1.0)
+    train = _one_object_per_window(x, label)
+    detected = label.copy()  # the rule calls no UAV-free window
+    ident = fit(train, train, tune_detected=detected, tune_label=label, features=("log_width",))
+    assert [t for _, t in ident.alarm_thresholds] == [0.0, 0.0]
+
+
+@pytest.mark.parametrize(
+    "pairs",
+    [((0.0, 0.5),), ((1.0, 0.5),), ((0.01, float("nan")),), ((0.01, 0.5), (0.01, 0.6))],
+)
+def test_bad_alarm_thresholds_are_refused(pairs) -> None:
+    base = _identifier()
+    with pytest.raises(ParameterError, match="alarm thresholds"):
+        Identifier(
+            base.features, base.coef, base.mean, base.scale, 0.4, 1.0, alarm_thresholds=pairs
+        )
+
+
+def test_alarm_thresholds_travel_in_the_model_file(tmp_path: Path) -> None:
+    from dataclasses import replace
+
+    net = Network({"width": 40, "height": 30})
+    net.identification = replace(_identifier(), alarm_thresholds=((0.01, 0.9), (0.05, 0.7)))
+    net.save(tmp_path / "m.npz")
+    back = Network.load(tmp_path / "m.npz")
+    assert back.identification is not None
+    assert back.identification.alarm_thresholds == ((0.01, 0.9), (0.05, 0.7))
+    # A file written before them loads with none.
+    net.identification = _identifier()
+    net.save(tmp_path / "old.npz")
+    old = Network.load(tmp_path / "old.npz").identification
+    assert old is not None and old.alarm_thresholds == ()
+
+
+def test_figures_at_the_thresholds_set_beforehand(tiny) -> None:
+    """identification_figures measures the shares and detection at the tuned thresholds; its
+    ROC-read points are unchanged by them; the report writes a row for each."""
+    from dataclasses import replace
+
+    from uavsnn.evaluation import evaluate
+
+    net, _, test = tiny
+    net = net.copy()
+    net.identification = replace(
+        net.identification or _identifier(), alarm_thresholds=((0.01, 0.8), (0.05, 0.3))
+    )
+    inference = evaluate(net, test, keep_inference=True).inference
+    figures = both_rules(net, test, inference)
+    assert figures is not None
+    plain = both_rules(_without_alarms(net), test, inference)
+    assert plain is not None and "at_tuned_false_alarm" not in plain
+    assert plain["at_false_alarm"] == figures["at_false_alarm"]
+    from uavsnn import identify
+
+    scores = net.identification.window_scores(identify.window_features(net, test, inference))
+    combined = np.where(inference.detected, scores, -np.inf)
+    actual = np.asarray(test.label, bool)
+    for point, (rate, threshold) in zip(
+        figures["at_tuned_false_alarm"], net.identification.alarm_thresholds, strict=True
+    ):
+        assert point["false_alarm_target"] == rate and point["threshold"] == threshold
+        assert point["false_alarm_rate"] == np.mean(combined[~actual] >= threshold)
+        assert point["detection_rate"] == np.mean(combined[actual] >= threshold)
+    text = identification_markdown(figures)
+    assert "| 1 % false alarms | 0.800 |" in text and "| 5 % false alarms | 0.300 |" in text
+
+
+def _without_alarms(net: Network) -> Network:
+    from dataclasses import replace
+
+    out = net.copy()
+    assert out.identification is not None
+    out.identification = replace(out.identification, alarm_thresholds=())
+    return out

@@ -754,6 +754,40 @@ def test_cli_prints_one_line_per_window(model_file: Path, net: Network, expected
     assert " | box=" in hit and "uav_score=- class=- track=" in hit
 
 
+def test_cli_false_alarm_sets_the_operating_point(net: Network, expected, tmp_path: Path) -> None:
+    """--false-alarm SHARE scores with the threshold the model was tuned to for that share:
+    one near 1 calls no object a UAV, 0.0 calls every one; a share the model was not tuned
+    for, or a model without identification, is refused with why."""
+    from uavsnn.identify import Identifier
+
+    events, _ = expected
+    ident = Identifier(
+        ("log_width", "log_height"), np.array([0.2, 0.1, 0.1]), np.zeros(2), np.ones(2), 0.5,
+        1.0, alarm_thresholds=((0.01, 0.999999), (0.05, 0.0)),
+    )  # fmt: skip
+    model = net.copy()
+    model.identification = ident
+    path = tmp_path / "ident.npz"
+    model.save(path)
+    args = ["-", "--model", str(path), "--window-ms", "3", "--json"]
+    classes = {}
+    for share in ("0.01", "0.05"):
+        done = run_cli(detect_cmd(*args, "--false-alarm", share), stdin=events.tobytes())
+        assert done.returncode == 0, done.stderr.decode()
+        rows = [json.loads(line) for line in done.stdout.decode().splitlines()]
+        classes[share] = [o["class"] for r in rows for o in r["objects"]]
+    assert classes["0.01"] and "uav" not in classes["0.01"]
+    assert set(classes["0.05"]) == {"uav"}
+    refused = run_cli(detect_cmd(*args, "--false-alarm", "0.02"), stdin=b"")
+    assert (
+        refused.returncode == 2 and b"not tuned for a false-alarm share of 0.02" in refused.stderr
+    )
+    bare = tmp_path / "bare.npz"
+    net.save(bare)
+    none = run_cli(detect_cmd("-", "--model", str(bare), "--false-alarm", "0.01"), stdin=b"")
+    assert none.returncode == 2 and b"has no identification" in none.stderr
+
+
 def test_printed_centre_lies_in_its_box(shared_data: Path, tmp_path: Path) -> None:
     """The field centre (x, y) of a conv3 spike is the middle of its receptive field, which
     covers most of the sensor: on a real recording it mostly lies outside the spike's causal

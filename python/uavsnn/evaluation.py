@@ -496,6 +496,7 @@ def identification_figures(
     data: LabelledWindows,
     threshold: float,
     *,
+    alarm_thresholds: Sequence[tuple[float, float]] = (),
     roc_points: int = 101,
 ) -> dict[str, Any]:
     """Both rules side by side on ``data``: the any-spike rule (``detected``) and detection +
@@ -506,7 +507,12 @@ def identification_figures(
     thresholds where :data:`FALSE_ALARM_RATES` of the UAV-free windows alarm, the detection
     rate against size (``data.size_px``, :data:`SIZE_BINS_PX`) and range (``data.range_m``,
     :data:`RANGE_BINS_M`) and the false alarms per class of other object. Those thresholds are
-    read off this set's UAV-free windows (points on its ROC), not tuned for it."""
+    read off this set's UAV-free windows (points on its ROC), not tuned for it.
+
+    ``alarm_thresholds`` (:attr:`uavsnn.identify.Identifier.alarm_thresholds`: thresholds set
+    on other recordings for a false-alarm share) adds ``"at_tuned_false_alarm"``: the same
+    figures at each of those thresholds, where this set's false-alarm share is measured, not
+    chosen — what a user who sets the threshold beforehand gets."""
     fired = _bools("detected", detected)
     s = np.asarray(scores, dtype=np.float64)
     actual = np.asarray(data.label, dtype=bool)
@@ -527,24 +533,23 @@ def identification_figures(
     fa, pd = roc_curve(combined, actual)
     keep = np.unique(np.linspace(0, len(fa) - 1, min(roc_points, len(fa))).round().astype(int))
     others = [str(c) for c in np.unique(data.cls[~actual])]
-    at_fa = []
-    for rate in FALSE_ALARM_RATES:
-        t = threshold_at_false_alarm(combined, actual, rate)
+
+    def at(rate: float, t: float) -> dict[str, Any]:
         alarm = combined >= t
-        at_fa.append(
-            {
-                "false_alarm_target": rate,
-                "threshold": t,
-                "false_alarm_rate": float(alarm[~actual].mean()),
-                "detection_rate": float(alarm[actual].mean()),
-                "by_size_px": _binned_rate(alarm[actual], data.size_px[actual], SIZE_BINS_PX),
-                "by_range_m": _binned_rate(alarm[actual], data.range_m[actual], RANGE_BINS_M),
-                "false_alarms_per_class": {
-                    c: float(alarm[~actual & (data.cls == c)].mean()) for c in others
-                },
-            }
-        )
-    return {
+        return {
+            "false_alarm_target": rate,
+            "threshold": t,
+            "false_alarm_rate": float(alarm[~actual].mean()),
+            "detection_rate": float(alarm[actual].mean()),
+            "by_size_px": _binned_rate(alarm[actual], data.size_px[actual], SIZE_BINS_PX),
+            "by_range_m": _binned_rate(alarm[actual], data.range_m[actual], RANGE_BINS_M),
+            "false_alarms_per_class": {
+                c: float(alarm[~actual & (data.cls == c)].mean()) for c in others
+            },
+        }
+
+    at_fa = [at(r, threshold_at_false_alarm(combined, actual, r)) for r in FALSE_ALARM_RATES]
+    out = {
         "threshold": float(threshold),
         "any_spike": rule(fired),
         "identified": rule(combined >= threshold),
@@ -556,3 +561,6 @@ def identification_figures(
         },
         "at_false_alarm": at_fa,
     }
+    if alarm_thresholds:
+        out["at_tuned_false_alarm"] = [at(float(r), float(t)) for r, t in alarm_thresholds]
+    return out

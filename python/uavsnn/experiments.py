@@ -278,7 +278,11 @@ def both_rules(
         return None
     feats = identify.window_features(network, data, inference, raw_noise=raw_noise)
     figures = identification_figures(
-        inference.detected, ident.window_scores(feats), data, ident.threshold
+        inference.detected,
+        ident.window_scores(feats),
+        data,
+        ident.threshold,
+        alarm_thresholds=ident.alarm_thresholds,
     )
     figures["classes"] = identify.class_figures(ident, feats)
     return figures

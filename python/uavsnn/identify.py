@@ -16,7 +16,8 @@ drowned by the common ones). Without that part (a model of version 1) the guess 
 The model (:class:`Identifier`) is stored in the model file beside the network as plain arrays
 (``identify.version``, ``identify.coef``, ``identify.mean``, ``identify.scale``,
 ``identify.features``, ``identify.threshold``, ``identify.l2``, and from version 2
-``identify.classes``, ``identify.class_coef``, ``identify.class_l2``; no pickle), see
+``identify.classes``, ``identify.class_coef``, ``identify.class_l2``, and when tuned on windows
+``identify.alarm_rates`` and ``identify.alarm_thresholds``; no pickle), see
 :meth:`uavsnn.network.Network.save`.
 
 ::
@@ -110,7 +111,15 @@ _L2_GRID = (1e-3, 1e-2, 1e-1, 1.0, 10.0, 100.0)
 class Identifier:
     """A fitted identification model: UAV score of an object from its features, and (when
     ``classes`` is not empty) a class model for the class guess: ``class_coef``
-    ``(len(classes), d + 1)`` over the same standardised features (:func:`fit_softmax`)."""
+    ``(len(classes), d + 1)`` over the same standardised features (:func:`fit_softmax`).
+
+    ``threshold`` is the operating point the model was tuned for (the best balanced accuracy of
+    the combined rule on the tuning windows). ``alarm_thresholds``: further operating points
+    set on the same tuning windows, ``(false-alarm share, threshold)`` pairs: at that threshold,
+    at most that share of the tuning set's UAV-free windows alarms
+    (:data:`uavsnn.evaluation.FALSE_ALARM_RATES`); :meth:`at_false_alarm` switches to one.
+    Whether the share carries to other recordings is what
+    :func:`uavsnn.evaluation.identification_figures` measures."""
 
     features: tuple[str, ...]
     coef: np.ndarray
@@ -121,9 +130,18 @@ class Identifier:
     classes: tuple[str, ...] = ()
     class_coef: np.ndarray | None = None
     class_l2: float | None = None
+    alarm_thresholds: tuple[tuple[float, float], ...] = ()
 
     def __post_init__(self) -> None:
         d = len(self.features)
+        for rate, threshold in self.alarm_thresholds:
+            if not (0.0 < rate < 1.0 and math.isfinite(threshold)):
+                raise ParameterError(
+                    f"alarm thresholds must pair a false-alarm share in (0, 1) with a finite "
+                    f"threshold, got ({rate}, {threshold})"
+                )
+        if len({rate for rate, _ in self.alarm_thresholds}) != len(self.alarm_thresholds):
+            raise ParameterError(f"alarm thresholds name a share twice: {self.alarm_thresholds}")
         unknown = [f for f in self.features if f not in FEATURES]
         if unknown:
             raise ParameterError(f"unknown identification features {unknown}")
@@ -139,6 +157,22 @@ class Identifier:
                 )
         elif self.class_coef is not None:
             raise ParameterError("a class model needs its class names")
+
+    def at_false_alarm(self, rate: float) -> Identifier:
+        """This model with its threshold set where ``rate`` of the tuning set's UAV-free windows
+        alarmed (one of :attr:`alarm_thresholds`' shares), e.g. ``ident.at_false_alarm(0.01)``.
+
+        Raises:
+            ParameterError: the model was not tuned for that share (see :attr:`alarm_thresholds`).
+        """
+        for share, threshold in self.alarm_thresholds:
+            if math.isclose(share, rate, rel_tol=0.0, abs_tol=1e-12):
+                return replace(self, threshold=threshold)
+        have = ", ".join(f"{share:g}" for share, _ in self.alarm_thresholds) or "none"
+        raise ParameterError(
+            f"this identification was not tuned for a false-alarm share of {rate!r} "
+            f"(tuned shares: {have})"
+        )
 
     def _standardised(self, x: np.ndarray) -> np.ndarray:
         x = np.asarray(x, dtype=np.float64)
@@ -211,6 +245,10 @@ class Identifier:
             out["identify.class_l2"] = np.array(
                 np.nan if self.class_l2 is None else self.class_l2, dtype=np.float64
             )
+        if self.alarm_thresholds:
+            rates, thresholds = zip(*self.alarm_thresholds, strict=True)
+            out["identify.alarm_rates"] = np.array(rates, dtype=np.float64)
+            out["identify.alarm_thresholds"] = np.array(thresholds, dtype=np.float64)
         return out
 
     @classmethod
@@ -236,6 +274,15 @@ class Identifier:
                 class_coef = np.asarray(arrays["identify.class_coef"], dtype=np.float64)
                 l2 = float(np.asarray(arrays["identify.class_l2"]))
                 class_l2 = None if math.isnan(l2) else l2
+            alarms: tuple[tuple[float, float], ...] = ()
+            if "identify.alarm_rates" in arrays:
+                rates = np.asarray(arrays["identify.alarm_rates"], dtype=np.float64)
+                thresholds = np.asarray(arrays["identify.alarm_thresholds"], dtype=np.float64)
+                if rates.ndim != 1 or rates.shape != thresholds.shape:
+                    raise ShapeError(
+                        f"alarm rates {rates.shape} and thresholds {thresholds.shape} differ"
+                    )
+                alarms = tuple(zip(rates.tolist(), thresholds.tolist(), strict=True))
             return cls(
                 features=tuple(str(f) for f in np.asarray(arrays["identify.features"])),
                 coef=np.asarray(arrays["identify.coef"], dtype=np.float64),
@@ -246,6 +293,7 @@ class Identifier:
                 classes=classes,
                 class_coef=class_coef,
                 class_l2=class_l2,
+                alarm_thresholds=alarms,
             )
         except (KeyError, ValueError, ParameterError, ShapeError) as exc:
             raise ModelFileError(f"its identification arrays are inconsistent: {exc}") from exc
@@ -277,7 +325,9 @@ def fit(
     rule's calls) and ``tune_label`` (the windows' truth) are given, the threshold on the
     window score that gives the combined rule the best balanced accuracy on ``tune`` (the mean
     of its accuracy on UAV and on UAV-free windows, so that the tuning set's share of UAV
-    windows, which is not the test set's, does not move it; else 0.5).
+    windows, which is not the test set's, does not move it; else 0.5), and the thresholds at
+    which at most :data:`uavsnn.evaluation.FALSE_ALARM_RATES` of ``tune``'s UAV-free windows
+    alarm (:attr:`Identifier.alarm_thresholds`).
     ``tune`` must come from other recordings than ``train`` and never from the test set.
 
     With ``classes`` (and objects of at least two classes in ``train``'s ``cls``, each class
@@ -300,8 +350,19 @@ def fit(
     mean, scale, coef, l2 = fit_score(xs, ys, tu.x[tu.usable], tu.label[tu.usable], l2_grid)
     ident = Identifier(names, coef, mean, scale, 0.5, l2)
     if tune_detected is not None and tune_label is not None:
+        from uavsnn.evaluation import FALSE_ALARM_RATES, threshold_at_false_alarm
+
+        label = np.asarray(tune_label, bool)
         score = np.where(np.asarray(tune_detected, bool), ident.window_scores(tu), -1.0)
-        ident = replace(ident, threshold=best_threshold(score, np.asarray(tune_label, bool)))
+        alarms: tuple[tuple[float, float], ...] = ()
+        if (~label).any():
+            # A window the any-spike rule misses scores -1 and never alarms; where the share
+            # would need more windows than the rule calls, every detection alarms.
+            alarms = tuple(
+                (rate, max(threshold_at_false_alarm(score, label, rate), 0.0))
+                for rate in FALSE_ALARM_RATES
+            )
+        ident = replace(ident, threshold=best_threshold(score, label), alarm_thresholds=alarms)
     if classes:
         found = _fit_classes(tr, tu, mean, scale, l2_grid)
         if found is not None:
@@ -533,6 +594,7 @@ def fit_network(
         "tune": "held-out training recordings" if held_out else "a separate tuning set",
         "l2": fitted.l2,
         "threshold": fitted.threshold,
+        "alarm_thresholds": [list(pair) for pair in fitted.alarm_thresholds],
         "features": list(fitted.features),
     }
     return fitted, summary

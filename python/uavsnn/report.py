@@ -387,7 +387,8 @@ def identification_markdown(figures: dict[str, Any]) -> str:
     """Both rules side by side (:func:`uavsnn.evaluation.identification_figures`' output): the
     confusion and accuracy of each, the calls per class, and at the thresholds where 1 % and
     5 % of the UAV-free windows alarm, the detection rate by size and by range and the false
-    alarms per class of other object."""
+    alarms per class of other object; and at the thresholds tuned beforehand for those shares
+    (when the model has them), the shares and detection measured here."""
     lines = [
         f"Identification threshold {figures['threshold']:.3f} (chosen on recordings none of "
         "these figures is measured on). A window is called UAV by the any-spike rule when a "
@@ -436,6 +437,20 @@ def identification_markdown(figures: dict[str, Any]) -> str:
         for p in points
     )
     lines += ["", f"Overall detection: {overall}."]
+    tuned = figures.get("at_tuned_false_alarm", [])
+    if tuned:
+        lines += [
+            "\nAt thresholds set beforehand, where a share of the tuning recordings' UAV-free "
+            "windows alarmed (`Identifier.alarm_thresholds`; what a user who fixes the "
+            "operating point gets here):\n",
+            "| set for | threshold | false alarms here | detection here |",
+            "|---|---|---|---|",
+        ]
+        lines += [
+            f"| {100 * p['false_alarm_target']:g} % false alarms | {p['threshold']:.3f} | "
+            f"{100 * p['false_alarm_rate']:.1f} % | {100 * p['detection_rate']:.1f} % |"
+            for p in tuned
+        ]
     return "\n".join(lines) + "\n"
 
 

@@ -145,6 +145,14 @@ def register(subparsers: Any) -> None:
         help="the track confirmation rule: a track is confirmed (its id printed without '?') "
         "once it has objects in HITS of its last WINDOWS windows (default 3/5)",
     )
+    p.add_argument(
+        "--false-alarm",
+        type=float,
+        metavar="SHARE",
+        help="identification's operating point: the threshold at which this share of the "
+        "tuning recordings' UAV-free windows alarmed (0.01 or 0.05, as the model was tuned; "
+        "default: the threshold of the best balanced accuracy)",
+    )
     add_ray_option(p, "one detector per stream, each in a Ray actor")
     p.set_defaults(handler=run)
 
@@ -340,6 +348,10 @@ def _check_args(args: argparse.Namespace) -> None:
         raise ParameterError("--downsample applies to files; '-' and UDP give --sensor-size")
     if args.max_packets is not None and args.max_packets < 1:
         raise ParameterError(f"--max-packets must be >= 1, got {args.max_packets}")
+    if args.false_alarm is not None and (args.more_sources or args.ray is not None):
+        raise ParameterError(
+            "--false-alarm sets one detector's identification: not with several sources or --ray"
+        )
     if args.confirm is not None:
         if args.per_spike or args.more_sources or args.ray is not None:
             raise ParameterError(
@@ -374,6 +386,13 @@ def run(args: argparse.Namespace) -> int:
     if args.more_sources or args.ray is not None:
         return _run_many(args)
     network = Network.load(args.model)
+    if args.false_alarm is not None:
+        if network.identification is None:
+            raise ParameterError(
+                f"--false-alarm sets identification's threshold; {args.model} has no "
+                "identification (fit one with `uavsnn train`)"
+            )
+        network.identification = network.identification.at_false_alarm(args.false_alarm)
     model_size = (int(network.config["width"]), int(network.config["height"]))
     # '-' and UDP carry no sensor size: default to the model's; a file has its own.
     live = args.source == "-" or args.source.startswith("udp://")

@@ -221,7 +221,11 @@ def _identification(
     if network.identification is not None:
         ident = network.identification
         out = identification_figures(
-            inference.detected, ident.window_scores(test), data, ident.threshold
+            inference.detected,
+            ident.window_scores(test),
+            data,
+            ident.threshold,
+            alarm_thresholds=ident.alarm_thresholds,
         )
         out["classes"] = identify.class_figures(ident, test)
     out["rotor_coverage"] = identify.rotor_coverage(test, data)
@@ -262,6 +266,13 @@ def _print_identification(ident: dict[str, Any]) -> None:
             print(
                 f"  at {100 * point['false_alarm_target']:g} % false alarms: detection "
                 f"{100 * point['detection_rate']:.1f} % ({sizes})"
+            )
+        for point in ident.get("at_tuned_false_alarm", []):
+            print(
+                f"  at the threshold tuned for {100 * point['false_alarm_target']:g} % false "
+                f"alarms ({point['threshold']:.3f}): false alarms "
+                f"{100 * point['false_alarm_rate']:.1f} %, detection "
+                f"{100 * point['detection_rate']:.1f} %"
             )
     classes = ident.get("classes")
     if classes and classes["classes"] and classes["objects"]:

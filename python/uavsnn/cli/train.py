@@ -125,6 +125,10 @@ def _train(args: argparse.Namespace) -> int:
                 f"identification: fitted on {ident['train_windows']} windows, tuned on "
                 f"{ident['tune_windows']} ({ident['tune']}): L2 {ident['l2']:g}, "
                 f"threshold {ident['threshold']:.3f}"
+                + "".join(
+                    f", {100 * rate:g} % false alarms at {t:.3f}"
+                    for rate, t in ident.get("alarm_thresholds", [])
+                )
             )
         print(f"wrote {args.output}")
     return 0
