@@ -400,8 +400,20 @@ def test_figures_at_the_thresholds_set_beforehand(tiny) -> None:
         assert point["false_alarm_target"] == rate and point["threshold"] == threshold
         assert point["false_alarm_rate"] == np.mean(combined[~actual] >= threshold)
         assert point["detection_rate"] == np.mean(combined[actual] >= threshold)
+        # Each share with its interval over the recordings (evaluation.recording_interval).
+        from uavsnn.evaluation import recording_interval
+
+        rec = np.asarray(test.recording)
+        assert point["false_alarm_interval"] == list(
+            recording_interval(combined[~actual] >= threshold, rec[~actual])
+        )
+        assert point["detection_interval"] == list(
+            recording_interval(combined[actual] >= threshold, rec[actual])
+        )
     text = identification_markdown(figures)
     assert "| 1 % false alarms | 0.800 |" in text and "| 5 % false alarms | 0.300 |" in text
+    lo, hi = figures["at_tuned_false_alarm"][0]["false_alarm_interval"]
+    assert f"({100 * lo:.1f}–{100 * hi:.1f})" in text
 
 
 def _without_alarms(net: Network) -> Network:

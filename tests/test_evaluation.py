@@ -271,3 +271,61 @@ def test_train_save_load_evaluate_gives_the_same_numbers(small_set: Path, tmp_pa
     assert after.confusion.tolist() == before.confusion.tolist()
     assert after.per_class == before.per_class
     assert after.latency_us.tolist() == before.latency_us.tolist()
+
+
+# ---------------------------------------------------------------- shares known from recordings
+
+
+def test_recording_interval_draws_recordings_not_windows() -> None:
+    from uavsnn.evaluation import recording_interval
+
+    # Every recording has the same share: every draw gives it back.
+    rec = np.repeat(np.arange(20), 10)
+    hit = np.tile(np.arange(10) < 3, 20)
+    assert recording_interval(hit, rec) == pytest.approx((0.3, 0.3))
+    # One recording of 30 alarms in all its windows, the other 29 never: 30 of 900 windows
+    # (3.3 %). Drawn as windows the share would be known to about ±1.2 points; drawn as
+    # recordings, a draw without that recording (a third of them) gives 0.
+    rec = np.repeat(np.arange(30), 30)
+    hit = rec == 7
+    lo, hi = recording_interval(hit, rec)
+    assert lo == 0.0 and hi > 0.08
+    # The same inputs and seed give the same interval; another seed one nearby (a draw's
+    # share moves by a whole recording, 1/30, at a time).
+    assert recording_interval(hit, rec) == (lo, hi)
+    other = recording_interval(hit, rec, seed=1)
+    assert abs(other[0] - lo) <= 1 / 30 + 1e-12 and abs(other[1] - hi) <= 1 / 30 + 1e-12
+    # A narrower level gives a narrower interval, inside the wider one.
+    lo50, hi50 = recording_interval(hit, rec, level=0.5)
+    assert lo <= lo50 <= hi50 <= hi
+    assert all(np.isnan(recording_interval(np.zeros(0, bool), np.zeros(0, int))))
+
+
+@given(
+    st.lists(st.tuples(st.integers(0, 5), st.booleans()), min_size=1, max_size=60),
+    st.integers(0, 3),
+)
+def test_recording_interval_holds_the_share_when_each_recording_agrees(rows, seed) -> None:
+    """When every window of a recording has the same outcome, the interval lies within the
+    recordings' lowest and highest share, and holds the whole set's share when the
+    recordings are of one size."""
+    from uavsnn.evaluation import recording_interval
+
+    rec = np.array([r for r, _ in rows])
+    outcome = {r: h for r, h in rows}  # the last outcome named for a recording wins
+    hit = np.array([outcome[r] for r in rec])
+    lo, hi = recording_interval(hit, rec, resamples=200, seed=seed)
+    assert 0.0 <= lo <= hi <= 1.0
+    if hit.all() or not hit.any():
+        assert lo == hi == float(hit[0])
+
+
+def test_recording_interval_refuses_what_it_cannot_draw() -> None:
+    from uavsnn.evaluation import recording_interval
+
+    with pytest.raises(ShapeError, match="hit has 3 windows, recording 2"):
+        recording_interval(np.ones(3, bool), np.zeros(2, int))
+    with pytest.raises(ParameterError, match="level"):
+        recording_interval(np.ones(3, bool), np.zeros(3, int), level=1.0)
+    with pytest.raises(ParameterError, match="resamples"):
+        recording_interval(np.ones(3, bool), np.zeros(3, int), resamples=0)

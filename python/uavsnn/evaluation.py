@@ -27,6 +27,7 @@ fire (:attr:`uavsnn.network.Inference.detected`). Beside the confusion matrix
 from __future__ import annotations
 
 import itertools
+import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -56,6 +57,7 @@ __all__ = [
     "first_detection_boxes",
     "first_spike_in_box",
     "identification_figures",
+    "recording_interval",
     "roc_area",
     "roc_curve",
     "score",
@@ -473,6 +475,53 @@ def threshold_at_false_alarm(scores: npt.ArrayLike, actual: npt.ArrayLike, rate:
     return float(np.nextafter(neg[k], np.inf))
 
 
+#: Resamples of :func:`recording_interval`, and how many are drawn at once (memory bound).
+INTERVAL_RESAMPLES = 2000
+_RESAMPLE_CHUNK = 100
+
+
+def recording_interval(
+    hit: npt.ArrayLike,
+    recording: npt.ArrayLike,
+    *,
+    level: float = 0.95,
+    resamples: int = INTERVAL_RESAMPLES,
+    seed: int = 0,
+) -> tuple[float, float]:
+    """The ``level`` interval of the share of ``hit`` windows when the recordings are drawn
+    again: whole recordings with replacement, as many as there are (a percentile bootstrap
+    over recordings). Windows of one recording are not independent — a recording of a
+    helicopter alarms in most of its windows or in none — so the recordings, not the windows,
+    set how well a share is known. ``(nan, nan)`` for no windows. The same inputs and ``seed``
+    give the same interval.
+
+    Raises:
+        ShapeError: ``hit`` and ``recording`` differ in length.
+        ParameterError: ``level`` outside (0, 1) or ``resamples`` < 1.
+    """
+    h = _bools("hit", hit)
+    rec = np.asarray(recording)
+    if h.shape != rec.shape:
+        raise ShapeError(f"hit has {h.size} windows, recording {rec.size}")
+    if not 0 < level < 1:
+        raise ParameterError(f"level must be in (0, 1), got {level}")
+    if isinstance(resamples, bool) or not isinstance(resamples, int) or resamples < 1:
+        raise ParameterError(f"resamples must be an integer >= 1, got {resamples!r}")
+    if h.size == 0:
+        return (math.nan, math.nan)
+    _, which = np.unique(rec, return_inverse=True)
+    hits = np.bincount(which, weights=h).astype(np.float64)
+    windows = np.bincount(which).astype(np.float64)
+    r = len(windows)
+    rng = np.random.default_rng(seed)
+    shares = []
+    for start in range(0, resamples, _RESAMPLE_CHUNK):
+        pick = rng.integers(0, r, size=(min(_RESAMPLE_CHUNK, resamples - start), r))
+        shares.append(hits[pick].sum(axis=1) / windows[pick].sum(axis=1))
+    lo, hi = np.percentile(np.concatenate(shares), [50 * (1 - level), 50 * (1 + level)])
+    return (float(lo), float(hi))
+
+
 def _binned_rate(hit: np.ndarray, value: np.ndarray, edges: Sequence[float]) -> list[dict]:
     out = []
     for low, high in itertools.pairwise(edges):
@@ -512,7 +561,9 @@ def identification_figures(
     ``alarm_thresholds`` (:attr:`uavsnn.identify.Identifier.alarm_thresholds`: thresholds set
     on other recordings for a false-alarm share) adds ``"at_tuned_false_alarm"``: the same
     figures at each of those thresholds, where this set's false-alarm share is measured, not
-    chosen — what a user who sets the threshold beforehand gets."""
+    chosen — what a user who sets the threshold beforehand gets — with the 95 % intervals of
+    the false-alarm share and of the detection over this set's recordings
+    (:func:`recording_interval`: ``"false_alarm_interval"``, ``"detection_interval"``)."""
     fired = _bools("detected", detected)
     s = np.asarray(scores, dtype=np.float64)
     actual = np.asarray(data.label, dtype=bool)
@@ -562,5 +613,13 @@ def identification_figures(
         "at_false_alarm": at_fa,
     }
     if alarm_thresholds:
-        out["at_tuned_false_alarm"] = [at(float(r), float(t)) for r, t in alarm_thresholds]
+        rec = np.asarray(data.recording)
+        tuned = []
+        for r, t in alarm_thresholds:
+            point = at(float(r), float(t))
+            alarm = combined >= float(t)
+            point["false_alarm_interval"] = list(recording_interval(alarm[~actual], rec[~actual]))
+            point["detection_interval"] = list(recording_interval(alarm[actual], rec[actual]))
+            tuned.append(point)
+        out["at_tuned_false_alarm"] = tuned
     return out

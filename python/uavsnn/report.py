@@ -9,6 +9,7 @@ evaluation into Markdown tables. ``uavsnn demo``, ``uavsnn evaluate --report`` a
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -383,6 +384,14 @@ def _bin_name(low: float, high: float | None, unit: str) -> str:
     return f"≥ {low:g} {unit}" if high is None else f"{low:g}–{high:g} {unit}"
 
 
+def _with_interval(share: float, interval: Sequence[float] | None) -> str:
+    """``share`` in per cent, with its interval in brackets when there is one."""
+    text = f"{100 * share:.1f} %"
+    if interval is None or any(math.isnan(v) for v in interval):
+        return text
+    return f"{text} ({100 * interval[0]:.1f}–{100 * interval[1]:.1f})"
+
+
 def identification_markdown(figures: dict[str, Any]) -> str:
     """Both rules side by side (:func:`uavsnn.evaluation.identification_figures`' output): the
     confusion and accuracy of each, the calls per class, and at the thresholds where 1 % and
@@ -442,13 +451,16 @@ def identification_markdown(figures: dict[str, Any]) -> str:
         lines += [
             "\nAt thresholds set beforehand, where a share of the tuning recordings' UAV-free "
             "windows alarmed (`Identifier.alarm_thresholds`; what a user who fixes the "
-            "operating point gets here):\n",
+            "operating point gets here). In brackets, the 95 % interval when this set's "
+            "recordings are drawn again (`evaluation.recording_interval`): windows of one "
+            "recording alarm together, so the recordings set how well a share is known.\n",
             "| set for | threshold | false alarms here | detection here |",
             "|---|---|---|---|",
         ]
         lines += [
             f"| {100 * p['false_alarm_target']:g} % false alarms | {p['threshold']:.3f} | "
-            f"{100 * p['false_alarm_rate']:.1f} % | {100 * p['detection_rate']:.1f} % |"
+            f"{_with_interval(p['false_alarm_rate'], p.get('false_alarm_interval'))} | "
+            f"{_with_interval(p['detection_rate'], p.get('detection_interval'))} |"
             for p in tuned
         ]
     return "\n".join(lines) + "\n"

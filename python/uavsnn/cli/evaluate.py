@@ -268,11 +268,12 @@ def _print_identification(ident: dict[str, Any]) -> None:
                 f"{100 * point['detection_rate']:.1f} % ({sizes})"
             )
         for point in ident.get("at_tuned_false_alarm", []):
+            lo, hi = point["false_alarm_interval"]
             print(
                 f"  at the threshold tuned for {100 * point['false_alarm_target']:g} % false "
                 f"alarms ({point['threshold']:.3f}): false alarms "
-                f"{100 * point['false_alarm_rate']:.1f} %, detection "
-                f"{100 * point['detection_rate']:.1f} %"
+                f"{100 * point['false_alarm_rate']:.1f} % (95 % interval over recordings "
+                f"{100 * lo:.1f}-{100 * hi:.1f}), detection {100 * point['detection_rate']:.1f} %"
             )
     classes = ident.get("classes")
     if classes and classes["classes"] and classes["objects"]:
