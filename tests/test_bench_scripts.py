@@ -122,3 +122,24 @@ def test_probe_features_of_a_small_set(probe, tmp_path):
     assert conv3.sum() == net.shapes["conv3"][0] + 2 + 3
     assert np.isfinite(x).all()
     assert rule.tolist() == net.infer(data.windows).detected.tolist()
+
+
+def test_identify_draws_joins_training_sets_keeping_recordings_apart(bench_script, tmp_path):
+    from uavsnn.dataset import SceneSource, build, load
+
+    draws = bench_script("identify_draws")
+    source = SceneSource("dvs", (240, 180), 200.0, 0.3)
+    for seed in (1, 2):
+        build(tmp_path / f"s{seed}", "dvs", n_test=2, n_train=12, seed=seed, dvs=source)
+    a, b = (load(tmp_path / f"s{seed}", "train") for seed in (1, 2))
+    both = draws.joined(f"{tmp_path / 's1'},{tmp_path / 's2'}")
+    assert len(both) == len(a) + len(b)
+    # Every window of both sets, each set's recordings apart from the other's.
+    assert sorted(both.windows.t0.tolist()) == sorted(a.windows.t0.tolist() + b.windows.t0.tolist())
+    assert len(np.unique(both.recording)) == len(np.unique(a.recording)) + len(
+        np.unique(b.recording)
+    )
+    assert len(draws.joined(str(tmp_path / "s1"))) == len(a)
+    build(tmp_path / "s3", "dvs", n_test=2, n_train=6, seed=3, dvs=source)
+    with pytest.raises(SystemExit, match="of one size"):
+        draws.joined(f"{tmp_path / 's1'},{tmp_path / 's3'}")

@@ -8,7 +8,8 @@ split, and scores each fit on every ``--score`` dataset's train split (recording
 seeds, that no fit or tuning saw). For each it prints the any-spike rule's accuracy and the
 combined rule's, the detection where 1 % and 5 % of the scored set's UAV-free windows alarm
 (read off its ROC), and at the thresholds set beforehand for 1 % and 5 %: the false-alarm share
-on the scored set, the detection, and the false alarms per class of other object.
+on the scored set (with its 95 % interval over the set's recordings), the detection, and the
+false alarms per class of other object.
 
     python benches/python/identify_draws.py MODEL.npz --tune runs/tune1 \\
         --fit runs/reproduce/data/dvs --fit runs/reproduce/data/dvs,runs/tune2 \\
@@ -68,11 +69,13 @@ def scored(net: Network, ident: identify.Identifier, data: LabelledWindows) -> d
             {
                 "target": p["false_alarm_target"],
                 "false_alarms": p["false_alarm_rate"],
+                "false_alarm_interval": p["false_alarm_interval"],
                 "detection": p["detection_rate"],
                 "per_class": p["false_alarms_per_class"],
             }
             for p in f["at_tuned_false_alarm"]
         ],
+        "uav_free_recordings": len(np.unique(np.asarray(data.recording)[uav_free])),
         "uav_free_windows": {
             str(c): int(np.sum(uav_free & (data.cls == c))) for c in np.unique(data.cls[uav_free])
         },
@@ -121,10 +124,12 @@ def main() -> None:
                     for c, v in p["per_class"].items()
                     if v > 0
                 )
+                lo, hi = p["false_alarm_interval"]
                 print(
                     f"    set for {100 * p['target']:g} %: false alarms "
-                    f"{100 * p['false_alarms']:.1f} %, detection {100 * p['detection']:.1f} % "
-                    f"({classes})"
+                    f"{100 * p['false_alarms']:.1f} % ({100 * lo:.1f}-{100 * hi:.1f} over "
+                    f"{s['uav_free_recordings']} UAV-free recordings), detection "
+                    f"{100 * p['detection']:.1f} % ({classes})"
                 )
 
 
