@@ -34,8 +34,7 @@ import numpy as np  # noqa: E402
 
 from uavsnn import Network, identify  # noqa: E402
 from uavsnn.dataset import LabelledWindows, load  # noqa: E402
-from uavsnn.evaluation import identification_figures  # noqa: E402
-from uavsnn.experiments import mix_windows  # noqa: E402
+from uavsnn.experiments import both_rules, mix_windows  # noqa: E402
 
 
 def joined(spec: str) -> LabelledWindows:
@@ -52,14 +51,10 @@ def scored(net: Network, ident: identify.Identifier, data: LabelledWindows) -> d
     """Both rules on ``data`` with ``ident`` (:func:`identification_figures`), trimmed to what
     this script prints."""
     inference = net.infer(data.windows, threads=1)
-    feats = identify.window_features(net, data, inference)
-    f = identification_figures(
-        inference.detected,
-        ident.window_scores(feats),
-        data,
-        ident.threshold,
-        alarm_thresholds=ident.alarm_thresholds,
-    )
+    scoring = net.copy()
+    scoring.identification = ident
+    f = both_rules(scoring, data, inference)
+    assert f is not None
     uav_free = ~np.asarray(data.label, bool)
     return {
         "any_spike": f["any_spike"]["accuracy"],

@@ -10,7 +10,7 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, replace
 from importlib import metadata
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -21,6 +21,9 @@ from uavsnn.evaluation import Evaluation, evaluate, identification_figures
 from uavsnn.network import CONV_LAYERS, Inference, Network, default_config
 from uavsnn.training import apply_overrides
 from uavsnn.windows import Windows, add_noise
+
+if TYPE_CHECKING:
+    from uavsnn.features import WindowFeatures
 
 __all__ = [
     "NOISE_FRACTIONS",
@@ -266,17 +269,21 @@ def both_rules(
     inference: Inference,
     *,
     raw_noise: tuple[float, int] | None = None,
+    feats: WindowFeatures | None = None,
 ) -> dict[str, Any] | None:
     """The any-spike rule and detection + identification on ``data`` side by side
-    (:func:`uavsnn.evaluation.identification_figures`), from ``inference`` (``network`` on
-    ``data``'s windows); ``None`` when the network has no identification. ``raw_noise``: see
-    :func:`uavsnn.identify.window_features`."""
+    (:func:`uavsnn.evaluation.identification_figures`, at the model's threshold and at the
+    operating points it was tuned for) and the class guess's figures, from ``inference``
+    (``network`` on ``data``'s windows); ``None`` when the network has no identification.
+    ``raw_noise``: see :func:`uavsnn.identify.window_features`; ``feats``: those features when
+    already computed (then ``raw_noise`` is not used)."""
     from uavsnn import identify
 
     ident = network.identification
     if ident is None:
         return None
-    feats = identify.window_features(network, data, inference, raw_noise=raw_noise)
+    if feats is None:
+        feats = identify.window_features(network, data, inference, raw_noise=raw_noise)
     figures = identification_figures(
         inference.detected,
         ident.window_scores(feats),

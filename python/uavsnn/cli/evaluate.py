@@ -12,7 +12,7 @@ from uavsnn.cli import output_dir
 from uavsnn.dataset import load
 from uavsnn.errors import ParameterError
 from uavsnn.evaluation import evaluate
-from uavsnn.experiments import NOISE_FRACTIONS, noise_sweep, static_twin
+from uavsnn.experiments import NOISE_FRACTIONS, both_rules, noise_sweep, static_twin
 from uavsnn.network import MAX_THREADS, Network
 from uavsnn.track_eval import Confirm
 
@@ -212,22 +212,11 @@ def _identification(
     the data's features (``identify.window_features``); ``confirm``: the track confirmation
     rule of ``--confirm``, which the ablation's track figures use as the main ones do."""
     from uavsnn import identify
-    from uavsnn.evaluation import identification_figures
 
-    out: dict[str, Any] = {}
     if network.identification is None and args.ablation is None:
-        return out
+        return {}
     inference = result.inference
-    if network.identification is not None:
-        ident = network.identification
-        out = identification_figures(
-            inference.detected,
-            ident.window_scores(test),
-            data,
-            ident.threshold,
-            alarm_thresholds=ident.alarm_thresholds,
-        )
-        out["classes"] = identify.class_figures(ident, test)
+    out = both_rules(network, data, inference, feats=test) or {}
     out["rotor_coverage"] = identify.rotor_coverage(test, data)
     out["feature_auc"] = identify.feature_auc(test)
     if args.ablation is not None:
