@@ -155,6 +155,41 @@ def test_identification_alarms_on_the_running_mean_of_the_track_scores() -> None
         track_figures(data, feats, scores, 0.5, track_score="median")
 
 
+def test_tracks_at_the_operating_points_set_beforehand() -> None:
+    """identified_track_figures adds the identified rule at each of the identifier's
+    operating points, each as track_figures gives it at that threshold, named in the table."""
+    from uavsnn.identify import Identifier
+    from uavsnn.track_eval import identified_track_figures, rule_name
+
+    data, objects = scene()
+    feats = tracked(data, objects)
+    on = np.isin(feats.window, np.arange(20))
+    # One feature carries the scores: logit 2 (0.88) on the UAV, -1 (0.27) on the bird.
+    x = np.zeros((len(feats.window), len(FEATURES)))
+    x[:, 0] = np.where(on, 2.0, -1.0)
+    feats = replace(feats, x=x)
+    ident = Identifier(
+        (FEATURES[0],), np.array([1.0, 0.0]), np.zeros(1), np.ones(1), 0.5, 1.0,
+        alarm_thresholds=((0.01, 0.95), (0.05, 0.2)),
+    )  # fmt: skip
+    f = identified_track_figures(data, feats, ident)
+    assert list(f["rules"]) == [
+        "any_spike",
+        "identified",
+        "identified_at_0.01",
+        "identified_at_0.05",
+    ]
+    scores = ident.scores(feats.x)
+    for rule, threshold in (("identified_at_0.01", 0.95), ("identified_at_0.05", 0.2)):
+        alone = track_figures(data, feats, scores, threshold)["rules"]["identified"]
+        assert f["rules"][rule] == alone
+    # 0.95: no track alarms; 0.2: the bird's track alarms as the any-spike rule's does.
+    assert f["rules"]["identified_at_0.01"]["found"] == 0
+    assert f["rules"]["identified_at_0.05"] == f["rules"]["any_spike"]
+    assert rule_name("identified_at_0.01") == "+ identification, set for 1 % false alarms"
+    assert "| + identification, set for 5 % false alarms | 1 of 2 |" in track_table(f)
+
+
 def test_left_out_windows_count_as_misses() -> None:
     """Every third window of a UAV recording in the dataset: the UAV is detected in each, but
     3 hits in 5 windows never happen, so no track is confirmed and the UAV is missed; every

@@ -55,6 +55,7 @@ __all__ = [
     "evaluate_tracks",
     "identified_track_figures",
     "poisson_upper",
+    "rule_name",
     "track_figures",
     "track_table",
 ]
@@ -439,21 +440,33 @@ def identified_track_figures(
     confirm: Confirm | None = None,
 ) -> dict[str, Any]:
     """:func:`track_figures` of both rules, with ``identifier``'s scores of ``feats`` and its
-    threshold (:class:`uavsnn.identify.Identifier`, whose features ``feats`` holds); with
-    ``identifier`` ``None``, of the any-spike rule alone."""
+    threshold (:class:`uavsnn.identify.Identifier`, whose features ``feats`` holds), and of
+    the identified rule at each of its operating points set beforehand
+    (:attr:`~uavsnn.identify.Identifier.alarm_thresholds`; rule ``"identified_at_0.01"`` for
+    the threshold set for 1 % false alarms, and so on); with ``identifier`` ``None``, of the
+    any-spike rule alone."""
     if identifier is None:
         return track_figures(data, feats, confirm=confirm)
-    return track_figures(
-        data,
-        feats,
-        identifier.scores(feats.x),
-        identifier.threshold,
-        track_score=track_score,
-        confirm=confirm,
+    scores = identifier.scores(feats.x)
+    figures = track_figures(
+        data, feats, scores, identifier.threshold, track_score=track_score, confirm=confirm
     )
+    for rate, threshold in identifier.alarm_thresholds:
+        at = track_figures(data, feats, scores, threshold, track_score=track_score, confirm=confirm)
+        figures["rules"][f"identified_at_{rate:g}"] = at["rules"]["identified"]
+    return figures
 
 
 _RULE_NAMES = {"any_spike": "any-spike", "identified": "any-spike + identification"}
+
+
+def rule_name(rule: str) -> str:
+    """How a rule of :func:`track_figures` (or :func:`identified_track_figures`) is named in
+    tables: ``"identified_at_0.01"`` is the identified rule at the threshold set for 1 %
+    false alarms."""
+    if rule.startswith("identified_at_"):
+        return f"+ identification, set for {100 * float(rule.rsplit('_', 1)[1]):g} % false alarms"
+    return _RULE_NAMES.get(rule, rule)
 
 
 def _fmt(value: float | None, digits: int = 0) -> str:
@@ -471,7 +484,7 @@ def track_table(figures: dict[str, Any]) -> str:
     for rule, f in figures["rules"].items():
         t = f["time_to_alarm_ms"]
         lines.append(
-            f"| {_RULE_NAMES.get(rule, rule)} | {f['found']} of {figures['uav_recordings']} "
+            f"| {rule_name(rule)} | {f['found']} of {figures['uav_recordings']} "
             f"| {_fmt(t['median'])} / {_fmt(t['p90'])} | {f['false_tracks']} "
             f"| {_fmt(f['false_tracks_per_minute'], 2)} "
             f"({_fmt(f['false_tracks_per_minute_upper95'], 2)}) | {f['stray_tracks']} |"

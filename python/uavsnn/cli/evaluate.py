@@ -14,7 +14,7 @@ from uavsnn.errors import ParameterError
 from uavsnn.evaluation import evaluate
 from uavsnn.experiments import NOISE_FRACTIONS, both_rules, noise_sweep, static_twin
 from uavsnn.network import MAX_THREADS, Network
-from uavsnn.track_eval import Confirm
+from uavsnn.track_eval import Confirm, rule_name
 
 __all__ = ["register"]
 
@@ -305,7 +305,6 @@ def _print_tracks(tracks: dict[str, Any]) -> None:
         f"{tracks['windows']} windows ({100 * tracks['window_coverage']:.1f} % of their steps), "
         f"{60 * tracks['uav_free_minutes']:.2f} s UAV-free"
     )
-    names = {"any_spike": "any-spike rule", "identified": "+ identification"}
     for rule, f in tracks["rules"].items():
         t = f["time_to_alarm_ms"]
         delay = (
@@ -320,7 +319,7 @@ def _print_tracks(tracks: dict[str, Any]) -> None:
             else f"{per_minute:.2f}/min (95 % bound {f['false_tracks_per_minute_upper95']:.2f})"
         )
         print(
-            f"  {names.get(rule, rule):18s} UAV recordings found {f['found']}/"
+            f"  {rule_name(rule):18s} UAV recordings found {f['found']}/"
             f"{tracks['uav_recordings']}, time to first alarm {delay}; false tracks "
             f"{f['false_tracks']} {rate}, stray {f['stray_tracks']}"
         )
