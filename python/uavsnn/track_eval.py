@@ -165,13 +165,16 @@ def poisson_upper(count: int, confidence: float = 0.95) -> float:
     if not 0.0 < confidence < 1.0:
         raise ParameterError(f"confidence must be in (0, 1), got {confidence}")
     alpha = 1.0 - confidence
+    k = np.arange(int(count) + 1, dtype=np.float64)
+    log_factorial = np.array([math.lgamma(v + 1.0) for v in k])
 
     def cdf(lam: float) -> float:
-        term = total = math.exp(-lam)
-        for i in range(1, int(count) + 1):
-            term *= lam / i
-            total += term
-        return total
+        # In logs: exp(-lam) alone underflows to 0 from lam ~ 745 (about 700 events).
+        if lam <= 0.0:
+            return 1.0
+        terms = -lam + k * math.log(lam) - log_factorial
+        top = float(terms.max())
+        return math.exp(top) * float(np.exp(terms - top).sum())
 
     lo, hi = 0.0, 10.0 + 10.0 * count
     for _ in range(200):
