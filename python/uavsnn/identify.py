@@ -106,6 +106,10 @@ GROUPS: dict[str, tuple[str, ...]] = {
 
 _L2_GRID = (1e-3, 1e-2, 1e-1, 1.0, 10.0, 100.0)
 
+#: What :func:`fit_network`'s summary says it was tuned on (its ``"tune"``).
+HELD_OUT_TUNING = "held-out training recordings"
+SEPARATE_TUNING = "a separate tuning set"
+
 
 @dataclass(frozen=True)
 class Identifier:
@@ -591,7 +595,7 @@ def fit_network(
     summary = {
         "train_windows": len(train),
         "tune_windows": len(tune),
-        "tune": "held-out training recordings" if held_out else "a separate tuning set",
+        "tune": HELD_OUT_TUNING if held_out else SEPARATE_TUNING,
         "l2": fitted.l2,
         "threshold": fitted.threshold,
         "alarm_thresholds": [list(pair) for pair in fitted.alarm_thresholds],

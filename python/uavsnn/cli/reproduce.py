@@ -26,7 +26,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from uavsnn import __version__, pictures, report
+from uavsnn import __version__, identify, pictures, report
 from uavsnn.dataset import LabelledWindows, build, load, parse_sensor
 from uavsnn.distributed import (
     SERIAL,
@@ -172,7 +172,7 @@ def _identification_text(
     """``tuned_on``: what the separate tuning windows are, when the fit had some."""
     if figures is None:
         return [f"\nNo identification: {fit.get('skipped', 'not fitted')}.\n"]
-    if fit["tune"] == "held-out training recordings":
+    if fit["tune"] == identify.HELD_OUT_TUNING:
         tuned_on = "a quarter of the training recordings held out (not fitted on)"
     return [
         f"\nIdentification fitted on {fit['train_windows']} training windows and tuned on "
