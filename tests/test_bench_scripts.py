@@ -143,37 +143,3 @@ def test_identify_draws_joins_training_sets_keeping_recordings_apart(bench_scrip
     build(tmp_path / "s3", "dvs", n_test=2, n_train=6, seed=3, dvs=source)
     with pytest.raises(SystemExit, match="of one size"):
         draws.joined(f"{tmp_path / 's1'},{tmp_path / 's3'}")
-
-
-def test_false_alarms_counts_windows_and_tracks_per_rule(bench_script):
-    from uavsnn.detector import WindowObject, WindowReport
-
-    fa = bench_script("false_alarms")
-    none = np.zeros(0)
-
-    def obj(score, track, confirmed, track_score):
-        return WindowObject(
-            (0, 0, 4, 4), 1, uav_score=score, track_id=track, track_confirmed=confirmed,
-            track_score=track_score,
-        )  # fmt: skip
-
-    reports = [
-        # Detected: one object scoring 0.9 on a tentative track, one scoring 0.3.
-        WindowReport(0, 0, 50, True, none, (obj(0.9, 1, False, 0.9), obj(0.3, 2, True, 0.3))),
-        # Not detected: nothing alarms, whatever its objects.
-        WindowReport(1, 25, 75, False, none, (obj(0.99, 1, True, 0.95),)),
-        # Detected: track 1 now confirmed at a mean of 0.7; an object without a score.
-        WindowReport(2, 50, 100, True, none, (obj(0.5, 1, True, 0.7), obj(None, 3, True, None))),
-    ]
-    rules = {"any_spike": None, "strict": 0.8, "loose": 0.4}
-    got = fa.alarms(reports, rules)
-    assert got["alarming"] == {"any_spike": 2, "strict": 1, "loose": 2}
-    # any-spike: every confirmed track of a detected window (2, 1, 3); strict: none reaches
-    # 0.8 when confirmed; loose: track 1 (0.7).
-    assert got["tracks"] == {"any_spike": 3, "strict": 0, "loose": 1}
-    # The scenes: the same for a seed, UAV-free kinds about 70 / 30, seeds of their own.
-    drawn = fa.scenes(0, 200)
-    assert drawn == fa.scenes(0, 200) and drawn != fa.scenes(1, 200)
-    assert {k for k, _ in drawn} == {"object", "empty"}
-    assert 0.6 < sum(k == "object" for k, _ in drawn) / 200 < 0.8
-    assert len({s for _, s in drawn}) == 200

@@ -106,6 +106,7 @@ def test_demo_is_well_above_chance_on_held_out_windows(tmp_path: Path) -> None:
 def test_reproduce_at_a_tiny_size(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "repro"
     args = ["reproduce", "--out", str(out), "--n-train", "16", "--n-test", "20"]
+    args += ["--free-minutes", "0.05"]
     assert main([*args, "--windows-per-layer", "32", "--no-real", "--quiet"]) == 0
     text = (out / "RESULTS.md").read_text()
     assert "## Table 2" in text and "| combined |" in text and "## Table 3" in text
@@ -123,6 +124,11 @@ def test_reproduce_at_a_tiny_size(tmp_path: Path, capsys: pytest.CaptureFixture[
         # Tuned on recordings of another seed (SPEC §5), never on a quarter of its own.
         assert fit.get("tune", "a separate tuning set") == "a separate tuning set"
     assert results["tune_seed"] == 1
+    # False alarms over fresh UAV-free recording (3 recordings of 1 s here).
+    assert results["false_alarms"]["recordings"] == 3
+    assert "### False alarms over" in text and set(results["false_alarms"]["rules"]) <= {
+        "any_spike", "identified", "identified_at_0.01", "identified_at_0.05",
+    }  # fmt: skip
     for domain in ("dvs", "sim"):
         manifest = json.loads((out / f"data/tune-{domain}/manifest.json").read_text())
         assert manifest["seed"] == 1 and manifest["parameters"]["n_train"] == 16
@@ -162,6 +168,7 @@ def test_reproduce_refuses_a_bad_sensor_before_writing(tmp_path: Path, capsys) -
         (["--seed", "3", "--tune-seed", "3"], "--tune-seed must be a non-negative seed other"),
         (["--tune-seed", "-1"], "--tune-seed must be a non-negative seed other"),
         (["--n-tune", "1"], "--n-tune must be at least 2"),
+        (["--free-minutes", "-1"], "--free-minutes must be in"),
     ],
 )
 def test_reproduce_refuses_to_tune_on_the_test_seed(

@@ -212,13 +212,15 @@ def test_ray_reproduce_gives_the_serial_figures(runner: Any, tmp_path: Path) -> 
         out = tmp_path / name
         shutil.copytree(data, out / "data")
         argv = ["reproduce", "--out", str(out), "--n-train", "30", "--n-test", "20"]
-        argv += ["--windows-per-layer", "30", "--no-real", "--quiet", *extra]
+        argv += ["--windows-per-layer", "30", "--no-real", "--quiet", "--free-minutes", "0.05"]
+        argv += extra
         assert main(argv) == 0
         figures.append(_figures(json.loads((out / "results.json").read_text())))
         for model in ("model-dvs.npz", "model-combined.npz"):
             assert Network.load(out / model) == Network.load(tmp_path / "serial" / model)
     assert figures[0] == figures[1]
     assert len(figures[1]["noise"]) == 18 and "table2" in figures[1]
+    assert figures[1]["false_alarms"]["recordings"] == 3
 
 
 # -- many streams ---------------------------------------------------------------------------

@@ -1,0 +1,206 @@
+"""False alarms over long UAV-free recording, as the streaming detector raises them (SPEC §5:
+"false tracks per minute of UAV-free recording").
+
+A test split holds about half a minute of UAV-free recording, too little to show a rate of
+false tracks below several per minute (docs/identification.md, "Tuned on other seeds"). Here
+fresh UAV-free dvs recordings are rendered — the datasets' own scenes (:func:`uav_free_scenes`:
+"object" 70 %, "empty" 30 %), under a key no dataset split uses, so none is a recording a model
+was trained or tuned on — and each is streamed through :class:`uavsnn.detector.Detector`
+(``push_windows``: the tracker and identification as ``uavsnn detect`` runs them; a new stream
+per recording). Per rule (:func:`alarm_rules`: the any-spike rule, identification at the
+model's threshold and at each operating point set beforehand) it counts:
+
+- windows that alarm (any-spike: the window is detected; with identification at a threshold:
+  also its best object's UAV score reaches it), over every window of the recordings;
+- tracks that alarm (any-spike: confirmed; with identification: confirmed while the running
+  mean of the track's object scores reaches the threshold, as :mod:`uavsnn.track_eval`'s
+  identified rule), per minute, with the 95 % upper bound
+  (:func:`uavsnn.track_eval.poisson_upper`) and by the kind of the scene's object.
+
+::
+
+    figures = false_alarm_figures(network, minutes=10, seed=0)   # or runner=RayRunner()
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
+
+from uavsnn.dataset.splits import DOMAIN_KEY, keyed_rng, keyed_seed
+from uavsnn.distributed import SERIAL, Runner
+from uavsnn.errors import ParameterError
+from uavsnn.track_eval import poisson_upper, rule_name
+
+if TYPE_CHECKING:
+    from uavsnn.detector import WindowReport
+    from uavsnn.network import Network
+
+__all__ = [
+    "FREE_KEY",
+    "alarm_rules",
+    "count_alarms",
+    "false_alarm_figures",
+    "false_alarm_table",
+    "stream_batch",
+    "summarise",
+    "uav_free_scenes",
+]
+
+#: The key under a seed that no dataset split uses (``uavsnn.dataset.splits.SPLIT_KEY``: 1, 2).
+FREE_KEY = 9
+#: Recordings per unit of work (a Ray task).
+BATCH = 20
+#: Events per chunk pushed into the detector, as a live stream arrives in pieces.
+CHUNK = 20_000
+#: The most minutes of recording one call renders.
+MAX_MINUTES = 600.0
+
+
+def uav_free_scenes(seed: int, recordings: int) -> list[tuple[str, int]]:
+    """The kind and seed of each UAV-free recording: ``"object"`` 70 %, ``"empty"`` 30 %, as a
+    dataset draws its UAV-free scenes, keyed by ``(seed, dvs, FREE_KEY, ...)``."""
+    dkey = DOMAIN_KEY["dvs"]
+    kinds = keyed_rng(seed, dkey, FREE_KEY, 0)
+    out = []
+    for i in range(recordings):
+        kind = "object" if kinds.random() < 0.7 else "empty"
+        out.append((kind, keyed_seed(seed, dkey, FREE_KEY, 1, i)))
+    return out
+
+
+def alarm_rules(network: Network) -> dict[str, float | None]:
+    """Rule name -> threshold (``None``: the any-spike rule), named as
+    :func:`uavsnn.track_eval.identified_track_figures` names them."""
+    rules: dict[str, float | None] = {"any_spike": None}
+    ident = network.identification
+    if ident is not None:
+        rules["identified"] = ident.threshold
+        for rate, threshold in ident.alarm_thresholds:
+            rules[f"identified_at_{rate:g}"] = threshold
+    return rules
+
+
+def count_alarms(reports: Sequence[WindowReport], rules: dict[str, float | None]) -> dict:
+    """Per rule, the windows (``"alarming"``) and the tracks (``"tracks"``) that alarm among
+    ``reports``, the windows of one stream."""
+    windows = dict.fromkeys(rules, 0)
+    tracks: dict[str, set[int]] = {rule: set() for rule in rules}
+    for report in reports:
+        if not report.detected:
+            continue
+        scores = [o.uav_score for o in report.objects if o.uav_score is not None]
+        for rule, threshold in rules.items():
+            if threshold is None or (scores and max(scores) >= threshold):
+                windows[rule] += 1
+        for o in report.objects:
+            if o.track_id is None or not o.track_confirmed:
+                continue
+            for rule, threshold in rules.items():
+                score = o.track_score
+                if threshold is None or (score is not None and score >= threshold):
+                    tracks[rule].add(o.track_id)
+    return {"alarming": windows, "tracks": {rule: len(ids) for rule, ids in tracks.items()}}
+
+
+def stream_batch(network: Network, scenes: Sequence[tuple[str, int]]) -> list[dict[str, Any]]:
+    """Each scene of ``scenes`` rendered at the network's sensor size and streamed through a
+    fresh detector: its object's kind, length, windows and :func:`count_alarms` (the unit of
+    work of :func:`false_alarm_figures`)."""
+    from uavsnn.dataset.synthetic import default_source, synthetic_recording
+    from uavsnn.detector import Detector
+
+    size = (int(network.config["width"]), int(network.config["height"]))
+    source = default_source("dvs", size)
+    rules = alarm_rules(network)
+    rows = []
+    for kind, seed in scenes:
+        lr = synthetic_recording(source, kind, seed)
+        events = lr.recording.events
+        detector = Detector(network, sensor_size=size, start_us=0)
+        reports = []
+        for start in range(0, len(events), CHUNK):
+            reports += detector.push_windows(events[start : start + CHUNK])
+        reports += detector.flush_windows()
+        objects = lr.info.get("objects") or [{"kind": "none"}]
+        rows.append(
+            {
+                "kind": str(objects[0]["kind"]),
+                "seconds": lr.end_us / 1e6,
+                "windows": len(reports),
+                **count_alarms(reports, rules),
+            }
+        )
+    return rows
+
+
+def summarise(rows: Sequence[dict[str, Any]], rules: dict[str, float | None]) -> dict[str, Any]:
+    """The figures of :func:`false_alarm_figures` from :func:`stream_batch`'s rows."""
+    minutes = sum(r["seconds"] for r in rows) / 60
+    windows = sum(r["windows"] for r in rows)
+    out: dict[str, Any] = {
+        "recordings": len(rows), "minutes": minutes, "windows": windows, "rules": {},
+    }  # fmt: skip
+    for rule, threshold in rules.items():
+        false = sum(r["tracks"][rule] for r in rows)
+        per_kind: dict[str, int] = {}
+        for r in rows:
+            if r["tracks"][rule]:
+                per_kind[r["kind"]] = per_kind.get(r["kind"], 0) + r["tracks"][rule]
+        out["rules"][rule] = {
+            "threshold": threshold,
+            "window_alarm_share": sum(r["alarming"][rule] for r in rows) / max(1, windows),
+            "false_tracks": false,
+            "false_tracks_per_minute": false / minutes if minutes else None,
+            "false_tracks_per_minute_upper95": poisson_upper(false) / minutes if minutes else None,
+            "recordings_with_a_false_track": sum(1 for r in rows if r["tracks"][rule]),
+            "false_tracks_per_kind": dict(sorted(per_kind.items())),
+        }
+    return out
+
+
+def false_alarm_figures(
+    network: Network, *, minutes: float, seed: int = 0, runner: Runner = SERIAL
+) -> dict[str, Any]:
+    """The false alarms of ``network`` over ``minutes`` of fresh UAV-free recording (dvs scenes
+    of 1 s at its sensor size; the module's docs give the rules), in units of :data:`BATCH`
+    recordings on ``runner``. The same network, minutes and seed give the same figures on any
+    runner.
+
+    Raises:
+        ParameterError: ``minutes`` outside (0, :data:`MAX_MINUTES`] or a negative ``seed``.
+    """
+    from uavsnn.dataset.synthetic import default_source
+
+    if not isinstance(minutes, (int, float)) or not 0 < minutes <= MAX_MINUTES:
+        raise ParameterError(f"minutes must be in (0, {MAX_MINUTES:g}], got {minutes!r}")
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise ParameterError(f"seed must be a non-negative integer, got {seed!r}")
+    seconds = default_source("dvs").duration_s
+    scenes = uav_free_scenes(seed, max(1, round(minutes * 60 / seconds)))
+    shared = runner.put(network)
+    batches = [(shared, scenes[i : i + BATCH]) for i in range(0, len(scenes), BATCH)]
+    rows = [row for batch in runner.imap(stream_batch, batches) for row in batch]
+    return summarise(rows, alarm_rules(network)) | {"seed": seed}
+
+
+def false_alarm_table(figures: dict[str, Any]) -> str:
+    """A Markdown table of :func:`false_alarm_figures`, one row per rule."""
+    lines = [
+        "| rule | windows alarming | false tracks | per minute (95 % upper bound) | "
+        "recordings with one | object kinds behind them |",
+        "|---|---|---|---|---|---|",
+    ]
+    for rule, f in figures["rules"].items():
+        kinds = ", ".join(f"{k} {n}" for k, n in f["false_tracks_per_kind"].items()) or "–"
+        lines.append(
+            f"| {rule_name(rule)} | {100 * f['window_alarm_share']:.2f} % | {f['false_tracks']} "
+            f"| {f['false_tracks_per_minute']:.2f} ({f['false_tracks_per_minute_upper95']:.2f}) "
+            f"| {f['recordings_with_a_false_track']} | {kinds} |"
+        )
+    lines.append("")
+    lines.append(
+        f"{figures['recordings']} UAV-free recordings (seed {figures['seed']}), "
+        f"{figures['minutes']:.2f} minutes, {figures['windows']} windows."
+    )
+    return "\n".join(lines)
