@@ -220,7 +220,7 @@ def test_ray_reproduce_gives_the_serial_figures(runner: Any, tmp_path: Path) -> 
             assert Network.load(out / model) == Network.load(tmp_path / "serial" / model)
     assert figures[0] == figures[1]
     assert len(figures[1]["noise"]) == 18 and "table2" in figures[1]
-    assert figures[1]["false_alarms"]["recordings"] == 3
+    assert figures[1]["false_alarms"]["dvs"]["recordings"] == 3
 
 
 # -- many streams ---------------------------------------------------------------------------
