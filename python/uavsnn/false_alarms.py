@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING, Any
 from uavsnn.dataset.splits import DOMAIN_KEY, keyed_rng, keyed_seed
 from uavsnn.distributed import SERIAL, Runner
 from uavsnn.errors import ParameterError
-from uavsnn.track_eval import poisson_upper, rule_name
+from uavsnn.track_eval import at_rule, poisson_upper, rule_name
 
 if TYPE_CHECKING:
     from uavsnn.detector import WindowReport
@@ -77,7 +77,7 @@ def alarm_rules(network: Network) -> dict[str, float | None]:
     if ident is not None:
         rules["identified"] = ident.threshold
         for rate, threshold in ident.alarm_thresholds:
-            rules[f"identified_at_{rate:g}"] = threshold
+            rules[at_rule(rate)] = threshold
     return rules
 
 

@@ -545,7 +545,12 @@ def ablation(
             row[f"detection_at_{rate:g}"] = detection_at_false_alarm(score, label, rate)
         if test_data is not None:
             figures = identified_track_figures(
-                test_data, test, ident, track_score=track_score, confirm=confirm
+                test_data,
+                test,
+                ident,
+                track_score=track_score,
+                confirm=confirm,
+                operating_points=False,
             )
             row["tracks"] = figures["rules"]["identified"]
         out[name] = row

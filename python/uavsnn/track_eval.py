@@ -51,6 +51,7 @@ __all__ = [
     "RULES",
     "TRACK_SCORES",
     "Confirm",
+    "at_rule",
     "confirm_flags",
     "evaluate_tracks",
     "identified_track_figures",
@@ -441,34 +442,40 @@ def identified_track_figures(
     *,
     track_score: str = "mean",
     confirm: Confirm | None = None,
+    operating_points: bool = True,
 ) -> dict[str, Any]:
     """:func:`track_figures` of both rules, with ``identifier``'s scores of ``feats`` and its
-    threshold (:class:`uavsnn.identify.Identifier`, whose features ``feats`` holds), and of
-    the identified rule at each of its operating points set beforehand
-    (:attr:`~uavsnn.identify.Identifier.alarm_thresholds`; rule ``"identified_at_0.01"`` for
-    the threshold set for 1 % false alarms, and so on); with ``identifier`` ``None``, of the
-    any-spike rule alone."""
+    threshold (:class:`uavsnn.identify.Identifier`, whose features ``feats`` holds), and with
+    ``operating_points`` of the identified rule at each of its operating points set beforehand
+    (:attr:`~uavsnn.identify.Identifier.alarm_thresholds`; rule :func:`at_rule` of the share);
+    with ``identifier`` ``None``, of the any-spike rule alone."""
     if identifier is None:
         return track_figures(data, feats, confirm=confirm)
     scores = identifier.scores(feats.x)
     figures = track_figures(
         data, feats, scores, identifier.threshold, track_score=track_score, confirm=confirm
     )
-    for rate, threshold in identifier.alarm_thresholds:
+    for rate, threshold in identifier.alarm_thresholds if operating_points else ():
         at = track_figures(data, feats, scores, threshold, track_score=track_score, confirm=confirm)
-        figures["rules"][f"identified_at_{rate:g}"] = at["rules"]["identified"]
+        figures["rules"][at_rule(rate)] = at["rules"]["identified"]
     return figures
 
 
 _RULE_NAMES = {"any_spike": "any-spike", "identified": "any-spike + identification"}
+_AT = "identified_at_"
+
+
+def at_rule(rate: float) -> str:
+    """The name of the identified rule at the threshold set for a false-alarm share ``rate``
+    (:attr:`uavsnn.identify.Identifier.alarm_thresholds`): ``"identified_at_0.01"`` for 1 %."""
+    return f"{_AT}{rate:g}"
 
 
 def rule_name(rule: str) -> str:
-    """How a rule of :func:`track_figures` (or :func:`identified_track_figures`) is named in
-    tables: ``"identified_at_0.01"`` is the identified rule at the threshold set for 1 %
-    false alarms."""
-    if rule.startswith("identified_at_"):
-        return f"+ identification, set for {100 * float(rule.rsplit('_', 1)[1]):g} % false alarms"
+    """How a rule of :func:`track_figures` (or :func:`identified_track_figures`, or
+    :func:`at_rule`) is named in tables."""
+    if rule.startswith(_AT):
+        return f"+ identification, set for {100 * float(rule[len(_AT) :]):g} % false alarms"
     return _RULE_NAMES.get(rule, rule)
 
 
