@@ -585,9 +585,11 @@ def identification_figures(
     keep = np.unique(np.linspace(0, len(fa) - 1, min(roc_points, len(fa))).round().astype(int))
     others = [str(c) for c in np.unique(data.cls[~actual])]
 
-    def at(rate: float, t: float) -> dict[str, Any]:
+    rec = np.asarray(data.recording)
+
+    def at(rate: float, t: float, intervals: bool = False) -> dict[str, Any]:
         alarm = combined >= t
-        return {
+        point = {
             "false_alarm_target": rate,
             "threshold": t,
             "false_alarm_rate": float(alarm[~actual].mean()),
@@ -598,6 +600,10 @@ def identification_figures(
                 c: float(alarm[~actual & (data.cls == c)].mean()) for c in others
             },
         }
+        if intervals:
+            point["false_alarm_interval"] = list(recording_interval(alarm[~actual], rec[~actual]))
+            point["detection_interval"] = list(recording_interval(alarm[actual], rec[actual]))
+        return point
 
     at_fa = [at(r, threshold_at_false_alarm(combined, actual, r)) for r in FALSE_ALARM_RATES]
     out = {
@@ -613,13 +619,7 @@ def identification_figures(
         "at_false_alarm": at_fa,
     }
     if alarm_thresholds:
-        rec = np.asarray(data.recording)
-        tuned = []
-        for r, t in alarm_thresholds:
-            point = at(float(r), float(t))
-            alarm = combined >= float(t)
-            point["false_alarm_interval"] = list(recording_interval(alarm[~actual], rec[~actual]))
-            point["detection_interval"] = list(recording_interval(alarm[actual], rec[actual]))
-            tuned.append(point)
-        out["at_tuned_false_alarm"] = tuned
+        out["at_tuned_false_alarm"] = [
+            at(float(r), float(t), intervals=True) for r, t in alarm_thresholds
+        ]
     return out
