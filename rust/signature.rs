@@ -50,16 +50,15 @@
 //! ([`RotorSignature::count_rate`]; the module [`rate`]).
 
 use crate::error::{Error, Result};
-use crate::events::{Event, EventSource, SensorSize};
+use crate::events::{Event, EventSource};
 
 pub mod rate;
+pub mod region;
 pub mod spectrum;
 
 use rate::RateBins;
 pub use rate::{rate_swing, MAX_RATE_BINS};
-
-/// The largest number of pixels one estimator may follow (a 2048×2048 box, 128 MiB of state).
-pub const MAX_PIXELS: usize = 1 << 22;
+pub use region::{Region, MAX_PIXELS};
 
 /// The default detection threshold on [`Signature::strength`] (see the module's documentation
 /// and `docs/identification.md` for how it was chosen).
@@ -164,74 +163,6 @@ fn validate_band(f_min_hz: f64, f_max_hz: f64) -> Result<()> {
 fn feed<S: EventSource + ?Sized>(events: &S, mut push: impl FnMut(Event)) {
     for i in 0..events.len() {
         push(events.get(i));
-    }
-}
-
-/// The rectangle of pixels an estimator follows: columns `x0..x0 + width`, rows `y0..y0 + height`.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct Region {
-    pub x0: u16,
-    pub y0: u16,
-    pub width: u16,
-    pub height: u16,
-}
-
-impl Region {
-    /// A region, rejecting an empty one, one that overflows the 16-bit coordinates, or one of more
-    /// than [`MAX_PIXELS`] pixels.
-    ///
-    /// # Errors
-    ///
-    /// [`Error::InvalidParameter`] (`box`) for the cases above.
-    pub fn new(x0: u16, y0: u16, width: u16, height: u16) -> Result<Self> {
-        if width == 0 || height == 0 {
-            return Err(Error::param(
-                "box",
-                format!("width and height must be positive, got {width}x{height}"),
-            ));
-        }
-        if x0 as u32 + width as u32 > 65_536 || y0 as u32 + height as u32 > 65_536 {
-            return Err(Error::param(
-                "box",
-                format!("({x0}, {y0}) + {width}x{height} leaves the 16-bit coordinates"),
-            ));
-        }
-        let area = width as usize * height as usize;
-        if area > MAX_PIXELS {
-            return Err(Error::param(
-                "box",
-                format!("{width}x{height} = {area} pixels is above the cap of {MAX_PIXELS}"),
-            ));
-        }
-        Ok(Self {
-            x0,
-            y0,
-            width,
-            height,
-        })
-    }
-
-    /// The whole sensor.
-    ///
-    /// # Errors
-    ///
-    /// As [`Region::new`].
-    pub fn sensor(sensor: SensorSize) -> Result<Self> {
-        Self::new(0, 0, sensor.width, sensor.height)
-    }
-
-    /// Number of pixels.
-    pub fn area(self) -> usize {
-        self.width as usize * self.height as usize
-    }
-
-    /// Row-major index of a pixel inside the region, or `None` outside it.
-    #[inline]
-    fn index(self, x: u16, y: u16) -> Option<usize> {
-        let dx = x.wrapping_sub(self.x0);
-        let dy = y.wrapping_sub(self.y0);
-        (x >= self.x0 && y >= self.y0 && dx < self.width && dy < self.height)
-            .then(|| dy as usize * self.width as usize + dx as usize)
     }
 }
 
@@ -745,10 +676,6 @@ mod tests {
         ] {
             assert_rejects(config, RotorSignature::new(config, region), name);
         }
-        assert!(Region::new(0, 0, 0, 4).is_err());
-        assert!(Region::new(65_535, 0, 2, 4).is_err());
-        assert!(Region::new(0, 0, 4096, 2048).is_err());
-        assert!(Region::new(65_534, 0, 2, 4).is_ok());
     }
 
     #[test]
