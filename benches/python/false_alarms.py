@@ -23,15 +23,13 @@ from concurrent.futures import ProcessPoolExecutor  # noqa: E402
 from typing import Any  # noqa: E402
 
 from uavsnn import Network  # noqa: E402
-from uavsnn.dataset.synthetic import default_source  # noqa: E402
 from uavsnn.false_alarms import (  # noqa: E402
-    BATCH,
     MAX_MINUTES,
     alarm_rules,
     false_alarm_table,
+    scene_batches,
     stream_batch,
     summarise,
-    uav_free_scenes,
 )
 
 #: The most worker processes (each holds a model and one recording at a time).
@@ -63,9 +61,7 @@ def main() -> None:
     if not 0 < args.minutes <= MAX_MINUTES:
         parser.error(f"--minutes must be in (0, {MAX_MINUTES:g}]")
     network = Network.load(args.model)
-    seconds = default_source("dvs").duration_s
-    scenes = uav_free_scenes(args.seed, max(1, round(args.minutes * 60 / seconds)))
-    batches = [scenes[i : i + BATCH] for i in range(0, len(scenes), BATCH)]
+    batches = scene_batches(args.minutes, args.seed)
     with ProcessPoolExecutor(args.workers, initializer=_load, initargs=(args.model,)) as pool:
         rows = [row for batch in pool.map(_batch, batches) for row in batch]
     out = summarise(rows, alarm_rules(network)) | {"seed": args.seed}

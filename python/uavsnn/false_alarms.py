@@ -42,6 +42,7 @@ __all__ = [
     "count_alarms",
     "false_alarm_figures",
     "false_alarm_table",
+    "scene_batches",
     "stream_batch",
     "summarise",
     "uav_free_scenes",
@@ -159,13 +160,9 @@ def summarise(rows: Sequence[dict[str, Any]], rules: dict[str, float | None]) ->
     return out
 
 
-def false_alarm_figures(
-    network: Network, *, minutes: float, seed: int = 0, runner: Runner = SERIAL
-) -> dict[str, Any]:
-    """The false alarms of ``network`` over ``minutes`` of fresh UAV-free recording (dvs scenes
-    of 1 s at its sensor size; the module's docs give the rules), in units of :data:`BATCH`
-    recordings on ``runner``. The same network, minutes and seed give the same figures on any
-    runner.
+def scene_batches(minutes: float, seed: int) -> list[list[tuple[str, int]]]:
+    """The :func:`uav_free_scenes` of ``minutes`` of recording (dvs scenes of 1 s), in units of
+    :data:`BATCH` (what :func:`stream_batch` takes).
 
     Raises:
         ParameterError: ``minutes`` outside (0, :data:`MAX_MINUTES`] or a negative ``seed``.
@@ -178,9 +175,24 @@ def false_alarm_figures(
         raise ParameterError(f"seed must be a non-negative integer, got {seed!r}")
     seconds = default_source("dvs").duration_s
     scenes = uav_free_scenes(seed, max(1, round(minutes * 60 / seconds)))
+    return [scenes[i : i + BATCH] for i in range(0, len(scenes), BATCH)]
+
+
+def false_alarm_figures(
+    network: Network, *, minutes: float, seed: int = 0, runner: Runner = SERIAL
+) -> dict[str, Any]:
+    """The false alarms of ``network`` over ``minutes`` of fresh UAV-free recording (dvs scenes
+    of 1 s at its sensor size; the module's docs give the rules), in units of :data:`BATCH`
+    recordings on ``runner``. The same network, minutes and seed give the same figures on any
+    runner.
+
+    Raises:
+        ParameterError: as :func:`scene_batches`.
+    """
+    batches = scene_batches(minutes, seed)
     shared = runner.put(network)
-    batches = [(shared, scenes[i : i + BATCH]) for i in range(0, len(scenes), BATCH)]
-    rows = [row for batch in runner.imap(stream_batch, batches) for row in batch]
+    units = runner.imap(stream_batch, [(shared, batch) for batch in batches])
+    rows = [row for unit in units for row in unit]
     return summarise(rows, alarm_rules(network)) | {"seed": seed}
 
 
