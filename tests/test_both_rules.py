@@ -291,7 +291,7 @@ def test_the_threshold_does_not_follow_the_tuning_sets_share_of_uavs() -> None:
 def test_alarm_thresholds_hold_the_tuning_sets_false_alarm_share() -> None:
     """fit sets a threshold for each share of FALSE_ALARM_RATES on the tuning windows: at it,
     at most that share of the tuning set's UAV-free windows alarm (windows the any-spike rule
-    misses never do), and one more alarm would pass the share."""
+    misses never do), and the next score below it would pass the share."""
     from uavsnn.evaluation import FALSE_ALARM_RATES
     from uavsnn.identify import fit
 
@@ -311,9 +311,10 @@ def test_alarm_thresholds_hold_the_tuning_sets_false_alarm_share() -> None:
     for rate, threshold in ident.alarm_thresholds:
         alarms = int((free >= threshold).sum())
         assert alarms <= rate * len(free)
-        # The next UAV-free window below the threshold would be one alarm too many.
-        below = np.sort(free[(free < threshold) & np.isfinite(free)])
-        assert len(below) == 0 or alarms + 1 > rate * len(free)
+        # The next UAV-free score below the threshold would be too many alarms (with every
+        # window tied at it: a tree model's scores take few values).
+        below = free[(free < threshold) & np.isfinite(free)]
+        assert len(below) == 0 or alarms + np.sum(free == below.max()) > rate * len(free)
     # The stricter share needs the higher threshold.
     (_, t1), (_, t5) = ident.alarm_thresholds
     assert t1 >= t5

@@ -336,6 +336,97 @@ def test_another_identification_version_is_refused(tmp_path: Path) -> None:
         Network.load(tmp_path / "m.npz")
 
 
+def with_trees() -> Identifier:
+    from uavsnn.trees import Trees
+
+    k = len(FEATURES)
+    trees = Trees(
+        np.array([[0, k - 1], [3, 0]]),
+        np.array([[0.0, 0.5], [-0.25, 1.0]]),
+        np.array([[-1.0, 0.0, 1.0, 2.0], [0.5, -0.5, 0.25, 0.0]]),
+        -0.2,
+    )
+    return replace(model(), trees=trees)
+
+
+def test_trees_round_trip_as_version_3_and_give_the_score(tmp_path: Path) -> None:
+    net = small_net()
+    net.identification = with_trees()
+    net.save(tmp_path / "m.npz")
+    with np.load(tmp_path / "m.npz", allow_pickle=False) as z:
+        assert int(z["identify.version"]) == 3
+        assert z["identify.tree_leaf"].shape == (2, 4)
+    back = Network.load(tmp_path / "m.npz").identification
+    assert back is not None and back.trees is not None
+    x = np.random.default_rng(2).normal(size=(7, len(FEATURES)))
+    expected = with_trees().trees.predict((x - back.mean) / back.scale)
+    np.testing.assert_array_equal(back.scores(x), expected)
+    assert not np.allclose(back.scores(x), replace(back, trees=None).scores(x))
+    # a split on a column the model does not have is refused, in memory and in a file
+    bad = replace(with_trees().trees, feature=np.array([[0, len(FEATURES)], [0, 0]]))
+    with pytest.raises(ShapeError):
+        replace(model(), trees=bad)
+    from uavsnn.network import _add_arrays
+
+    _add_arrays(str(tmp_path / "m.npz"), {"identify.tree_leaf": np.zeros((2, 3))})
+    with pytest.raises(ModelFileError, match="inconsistent"):
+        Network.load(tmp_path / "m.npz")
+
+
+def interaction_features(m: int, seed: int, linear: bool):
+    """Objects whose UAV label is an interaction of two features (or, with ``linear``, their
+    sum), as :class:`WindowFeatures`."""
+    from uavsnn.identify import WindowFeatures
+
+    rng = np.random.default_rng(seed)
+    x = rng.normal(size=(m, len(FEATURES)))
+    y = x[:, 4] + x[:, 5] > 0 if linear else (x[:, 4] > 0) != (x[:, 5] > 0)
+    return WindowFeatures(x, np.arange(m), np.zeros((m, 4)), m, y, np.ones(m, bool))
+
+
+def test_fit_keeps_trees_where_they_predict_the_tuning_objects_better() -> None:
+    from uavsnn.identify import model_name
+
+    train, tune = interaction_features(1500, 0, False), interaction_features(600, 1, False)
+    auto = fit(train, tune, classes=False)
+    assert auto.trees is not None and model_name(auto).startswith("trees (")
+    test = interaction_features(600, 2, False)
+    assert np.mean((auto.scores(test.x) > 0.5) == test.label) > 0.9
+    assert fit(train, tune, classes=False, model="logistic").trees is None
+    # where the rule is linear, the logistic fit predicts as well and is kept
+    train, tune = interaction_features(1500, 3, True), interaction_features(600, 4, True)
+    assert fit(train, tune, classes=False).trees is None
+    assert model_name(fit(train, tune, classes=False)) == "logistic"
+    assert fit(train, tune, classes=False, model="trees").trees is not None
+
+
+def test_auto_never_keeps_trees_without_a_tree(monkeypatch) -> None:
+    """Trees stopped before their first tree (the tuning loss rose from the start) give every
+    object the base rate: a score that ranks nothing, which auto must not keep."""
+    from uavsnn import identify
+    from uavsnn.trees import Trees
+
+    none = Trees(np.zeros((0, 2), np.int64), np.zeros((0, 2)), np.zeros((0, 4)), 0.3)
+    monkeypatch.setattr(identify, "fit_tree_score", lambda *args, **kwargs: (none, 0.1))
+    train, tune = interaction_features(400, 0, False), interaction_features(200, 1, False)
+    assert fit(train, tune, classes=False).trees is None
+    assert fit(train, tune, classes=False, model="trees").trees is none
+
+
+def test_bad_model_choices_are_typed_errors() -> None:
+    from uavsnn.identify import WindowFeatures
+
+    train = interaction_features(100, 5, True)
+    with pytest.raises(ParameterError, match="model must be"):
+        fit(train, train, model="forest")
+    unusable = WindowFeatures(
+        train.x, train.window, train.boxes, train.windows, train.label, np.zeros(100, bool)
+    )
+    with pytest.raises(DatasetError, match="tuning objects"):
+        fit(train, unusable, model="trees")
+    assert fit(train, unusable).trees is None  # auto: nothing to choose on, the logistic fit
+
+
 # ---------------------------------------------------------------- batch equals streaming
 
 

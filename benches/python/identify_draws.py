@@ -2,7 +2,8 @@
 share set on one draw of recordings hold on another?
 
 Fits a network's identification as ``uavsnn train --tune`` does (``identify.fit_network``: L2,
-threshold and the operating points set beforehand on the tuning windows), once on each list of
+threshold and the operating points set beforehand on the tuning windows), with each ``--model``
+(``identify.MODELS``; default ``auto``), once on each list of
 ``--fit`` datasets (their train splits, mixed whole), tuned on the ``--tune`` dataset's train
 split, and scores each fit on every ``--score`` dataset's train split (recordings of other
 seeds, that no fit or tuning saw). For each it prints the any-spike rule's accuracy and the
@@ -15,8 +16,9 @@ false alarms per class of other object.
         --fit runs/reproduce/data/dvs --fit runs/reproduce/data/dvs,runs/tune2 \\
         --score runs/tune3 [--json]
 
-A ``--fit`` value is one dataset or several joined by commas (their windows concatenated, each
-recording kept apart). Choose on the ``--score`` sets, never on a test split.
+A ``--fit`` or ``--tune`` value is one dataset or several joined by commas (their windows
+concatenated, each recording kept apart). Choose on the ``--score`` sets, never on a test
+split.
 """
 
 from __future__ import annotations
@@ -81,30 +83,50 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("model")
     parser.add_argument("--fit", action="append", required=True, metavar="DIR[,DIR...]")
-    parser.add_argument("--tune", required=True, metavar="DIR")
+    parser.add_argument("--tune", required=True, metavar="DIR[,DIR...]")
     parser.add_argument("--score", action="append", required=True, metavar="DIR")
+    parser.add_argument(
+        "--model",
+        dest="models",
+        action="append",
+        choices=identify.MODELS,
+        help="the UAV score's model (identify.fit's; repeat to compare; default auto)",
+    )
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
     net = Network.load(args.model)
-    tune = load(args.tune, "train")
+    tune = joined(args.tune)
+    tune_inference = net.infer(tune.windows, threads=1)
+    tune_feats = identify.window_features(net, tune, tune_inference)
     scores = {d: load(d, "train") for d in args.score}
     out: dict[str, Any] = {}
     for spec in args.fit:
         train = joined(spec)
-        ident, summary = identify.fit_network(net, train, tune)
-        out[spec] = {
-            "train_windows": len(train),
-            "l2": summary["l2"],
-            "threshold": summary["threshold"],
-            "alarm_thresholds": summary["alarm_thresholds"],
-            "scored": {d: scored(net, ident, data) for d, data in scores.items()},
-        }
+        train_feats = identify.window_features(net, train)
+        for kind in args.models or ["auto"]:
+            # as identify.fit_network fits, with the features computed once for every model
+            ident = identify.fit(
+                train_feats,
+                tune_feats,
+                tune_detected=tune_inference.detected,
+                tune_label=np.asarray(tune.label, dtype=bool),
+                model=kind,
+            )
+            out[f"{spec} [{kind}]"] = {
+                "train_windows": len(train),
+                "model": identify.model_name(ident),
+                "l2": ident.l2,
+                "threshold": ident.threshold,
+                "alarm_thresholds": [list(pair) for pair in ident.alarm_thresholds],
+                "scored": {d: scored(net, ident, data) for d, data in scores.items()},
+            }
     if args.json:
         print(json.dumps(out, indent=2))
         return
     for spec, fit in out.items():
         print(
-            f"fitted on {spec} ({fit['train_windows']} windows): L2 {fit['l2']:g}, threshold "
+            f"fitted on {spec} ({fit['train_windows']} windows; {fit['model']}): L2 "
+            f"{fit['l2']:g}, threshold "
             f"{fit['threshold']:.3f}, set beforehand "
             + ", ".join(f"{100 * r:g} % at {t:.3f}" for r, t in fit["alarm_thresholds"])
         )

@@ -247,17 +247,22 @@ def _rule_summary(figures: dict[str, Any]) -> dict[str, Any]:
 
 
 def fit_identification(
-    network: Network, train: LabelledWindows, tune: LabelledWindows | None = None
+    network: Network,
+    train: LabelledWindows,
+    tune: LabelledWindows | None = None,
+    *,
+    model: str = "auto",
 ) -> dict[str, Any]:
     """Fit ``network``'s identification on ``train`` (its training windows), tuned on ``tune``
     (windows of other recordings; default: a quarter of ``train``'s recordings held out, see
     :func:`uavsnn.identify.fit_network`), and attach it. Returns the fit's summary, or
     ``{"skipped": why}`` when these windows cannot fit one (no raw events, or too few objects of
-    a kind); the network then keeps the any-spike rule alone."""
+    a kind); the network then keeps the any-spike rule alone. ``model``: the UAV score's
+    (:data:`uavsnn.identify.MODELS`)."""
     from uavsnn import identify
 
     try:
-        network.identification, summary = identify.fit_network(network, train, tune)
+        network.identification, summary = identify.fit_network(network, train, tune, model=model)
     except DatasetError as exc:
         return {"skipped": str(exc)}
     return summary

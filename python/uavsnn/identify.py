@@ -1,10 +1,11 @@
 """Identification: after the any-spike rule finds a moving object, is it a UAV? (SPEC §3)
 
 Each object of a window is described by :data:`FEATURES` (rotor, shape, activity and track;
-:mod:`uavsnn.features`, whose names this module re-exports). A logistic regression on
-standardised features (:func:`fit_logistic`: Newton's method with an L2 penalty, in NumPy)
-gives each object a UAV score in ``[0, 1]``; a window's score is its objects' largest (0
-without one).
+:mod:`uavsnn.features`, whose names this module re-exports). A light model on standardised
+features gives each object a UAV score in ``[0, 1]``; a window's score is its objects' largest
+(0 without one). The model is a logistic regression (:func:`fit_logistic`: Newton's method
+with an L2 penalty, in NumPy) or boosted oblivious trees (:func:`uavsnn.trees.fit_trees`),
+whichever ranks the tuning objects better (:func:`fit`'s ``model``).
 
 A class guess comes beside the score (:meth:`Identifier.guess`): ``"uav"`` where the score
 reaches the threshold, else the most probable of the other classes the training windows name
@@ -17,8 +18,9 @@ The model (:class:`Identifier`) is stored in the model file beside the network a
 (``identify.version``, ``identify.coef``, ``identify.mean``, ``identify.scale``,
 ``identify.features``, ``identify.threshold``, ``identify.l2``, and from version 2
 ``identify.classes``, ``identify.class_coef``, ``identify.class_l2``, and when tuned on windows
-``identify.alarm_rates`` and ``identify.alarm_thresholds``; no pickle), see
-:meth:`uavsnn.network.Network.save`.
+``identify.alarm_rates`` and ``identify.alarm_thresholds``; version 3 adds the trees,
+``identify.tree_feature``, ``identify.tree_threshold``, ``identify.tree_leaf`` and
+``identify.tree_base``; no pickle), see :meth:`uavsnn.network.Network.save`.
 
 ::
 
@@ -52,6 +54,7 @@ from uavsnn.features import (
     window_steps,
 )
 from uavsnn.linear import fit_logistic, fit_softmax, predict_logistic, predict_softmax
+from uavsnn.trees import Trees, fit_trees
 
 if TYPE_CHECKING:
     from uavsnn.dataset import LabelledWindows
@@ -63,8 +66,12 @@ __all__ = [
     "FEATURES",
     "GROUPS",
     "MIN_CLASS_OBJECTS",
+    "MODELS",
     "RATE_BIN_US",
     "TRACK_FEATURES",
+    "TREE_COUNT",
+    "TREE_GRID",
+    "TREE_RATE",
     "UAV_CLASS",
     "VERSION",
     "Identifier",
@@ -78,6 +85,8 @@ __all__ = [
     "fit_network",
     "fit_score",
     "fit_softmax",
+    "fit_tree_score",
+    "model_name",
     "object_features",
     "predict_logistic",
     "predict_softmax",
@@ -91,9 +100,20 @@ __all__ = [
     "window_steps",
 ]
 
-#: The version of the stored arrays (``identify.version``): 2 adds the class model; version 1
-#: files still load (their class guess is ``"uav"`` or ``"other"``).
-VERSION = 2
+#: The newest version of the stored arrays (``identify.version``) this reads: 2 adds the class
+#: model, 3 the trees. A model without trees is written as version 2, which older uavsnn read;
+#: version 1 files still load (their class guess is ``"uav"`` or ``"other"``).
+VERSION = 3
+
+#: The UAV score models :func:`fit` may choose (its ``model``; ``"auto"``: the one whose scores
+#: rank the tuning objects better, by their ROC area).
+MODELS = ("auto", "logistic", "trees")
+
+#: The tree settings :func:`fit` tries (``(depth, l2)``; each with up to :data:`TREE_COUNT`
+#: trees at a learning rate of :data:`TREE_RATE`, the count chosen on the tuning objects).
+TREE_GRID: tuple[tuple[int, float], ...] = ((2, 1.0), (3, 1.0), (4, 1.0))
+TREE_COUNT = 300
+TREE_RATE = 0.1
 
 #: Feature groups of the ablation.
 GROUPS: dict[str, tuple[str, ...]] = {
@@ -117,6 +137,11 @@ class Identifier:
     ``classes`` is not empty) a class model for the class guess: ``class_coef``
     ``(len(classes), d + 1)`` over the same standardised features (:func:`fit_softmax`).
 
+    The UAV score is the logistic regression ``coef`` ``(d + 1,)`` on the standardised
+    features, or, when ``trees`` is set (:class:`uavsnn.trees.Trees` over the same
+    standardised columns), the trees' (``coef`` is then the logistic fit they were chosen
+    over, kept for the record).
+
     ``threshold`` is the operating point the model was tuned for (the best balanced accuracy of
     the combined rule on the tuning windows). ``alarm_thresholds``: further operating points
     set on the same tuning windows, ``(false-alarm share, threshold)`` pairs: at that threshold,
@@ -135,6 +160,7 @@ class Identifier:
     class_coef: np.ndarray | None = None
     class_l2: float | None = None
     alarm_thresholds: tuple[tuple[float, float], ...] = ()
+    trees: Trees | None = None
 
     def __post_init__(self) -> None:
         d = len(self.features)
@@ -161,6 +187,8 @@ class Identifier:
                 )
         elif self.class_coef is not None:
             raise ParameterError("a class model needs its class names")
+        if self.trees is not None and self.trees.columns > d:
+            raise ShapeError(f"the trees split on column {self.trees.columns - 1} of {d} features")
 
     def at_false_alarm(self, rate: float) -> Identifier:
         """This model with its threshold set where ``rate`` of the tuning set's UAV-free windows
@@ -190,7 +218,10 @@ class Identifier:
 
     def scores(self, x: np.ndarray) -> np.ndarray:
         """UAV score of each object (rows of :data:`FEATURES`, or of :attr:`features`)."""
-        return predict_logistic(self.coef, self._standardised(x))
+        z = self._standardised(x)
+        if self.trees is not None:
+            return self.trees.predict(z)
+        return predict_logistic(self.coef, z)
 
     def class_probabilities(self, x: np.ndarray) -> np.ndarray:
         """Each object's probability of each of :attr:`classes` ``(m, len(classes))``;
@@ -235,7 +266,7 @@ class Identifier:
     def to_arrays(self) -> dict[str, np.ndarray]:
         """The arrays stored in a model file."""
         out = {
-            "identify.version": np.array(VERSION, dtype=np.int64),
+            "identify.version": np.array(2 if self.trees is None else VERSION, dtype=np.int64),
             "identify.features": np.array(self.features, dtype="<U32"),
             "identify.coef": self.coef.astype(np.float64),
             "identify.mean": self.mean.astype(np.float64),
@@ -253,12 +284,17 @@ class Identifier:
             rates, thresholds = zip(*self.alarm_thresholds, strict=True)
             out["identify.alarm_rates"] = np.array(rates, dtype=np.float64)
             out["identify.alarm_thresholds"] = np.array(thresholds, dtype=np.float64)
+        if self.trees is not None:
+            out["identify.tree_feature"] = self.trees.feature.astype(np.int64)
+            out["identify.tree_threshold"] = self.trees.threshold.astype(np.float64)
+            out["identify.tree_leaf"] = self.trees.leaf.astype(np.float64)
+            out["identify.tree_base"] = np.array(self.trees.base, dtype=np.float64)
         return out
 
     @classmethod
     def from_arrays(cls, arrays: Any) -> Identifier | None:
         """The model stored in ``arrays`` (a mapping, e.g. an ``np.load`` of a model file), or
-        ``None`` when it holds none. Reads versions 1 (no class model) and 2.
+        ``None`` when it holds none. Reads versions 1 (no class model), 2 and 3 (trees).
 
         Raises:
             ModelFileError: another version, or arrays that do not fit together.
@@ -266,7 +302,7 @@ class Identifier:
         if "identify.version" not in arrays:
             return None
         version = int(np.asarray(arrays["identify.version"]))
-        if version not in (1, VERSION):
+        if version not in (1, 2, VERSION):
             raise ModelFileError(
                 f"identification version {version}; this uavsnn reads versions 1 to {VERSION}"
             )
@@ -287,6 +323,14 @@ class Identifier:
                         f"alarm rates {rates.shape} and thresholds {thresholds.shape} differ"
                     )
                 alarms = tuple(zip(rates.tolist(), thresholds.tolist(), strict=True))
+            trees = None
+            if version >= 3 and "identify.tree_feature" in arrays:
+                trees = Trees(
+                    feature=np.asarray(arrays["identify.tree_feature"], dtype=np.int64),
+                    threshold=np.asarray(arrays["identify.tree_threshold"], dtype=np.float64),
+                    leaf=np.asarray(arrays["identify.tree_leaf"], dtype=np.float64),
+                    base=float(np.asarray(arrays["identify.tree_base"])),
+                )
             return cls(
                 features=tuple(str(f) for f in np.asarray(arrays["identify.features"])),
                 coef=np.asarray(arrays["identify.coef"], dtype=np.float64),
@@ -298,6 +342,7 @@ class Identifier:
                 class_coef=class_coef,
                 class_l2=class_l2,
                 alarm_thresholds=alarms,
+                trees=trees,
             )
         except (KeyError, ValueError, ParameterError, ShapeError) as exc:
             raise ModelFileError(f"its identification arrays are inconsistent: {exc}") from exc
@@ -323,13 +368,19 @@ def fit(
     features: Sequence[str] = FEATURES,
     l2_grid: Sequence[float] = _L2_GRID,
     classes: bool = True,
+    model: str = "auto",
 ) -> Identifier:
     """Fit an :class:`Identifier` on ``train``'s usable objects; choose the L2 weight (the
-    smallest log loss on ``tune``'s usable objects) and, when ``tune_detected`` (the any-spike
-    rule's calls) and ``tune_label`` (the windows' truth) are given, the threshold on the
-    window score that gives the combined rule the best balanced accuracy on ``tune`` (the mean
-    of its accuracy on UAV and on UAV-free windows, so that the tuning set's share of UAV
-    windows, which is not the test set's, does not move it; else 0.5), and the thresholds at
+    smallest log loss on ``tune``'s usable objects); with ``model`` ``"trees"`` or ``"auto"``
+    also fit boosted trees (:func:`fit_tree_score`), kept with ``"trees"`` and with
+    ``"auto"`` when they keep at least one tree and their scores have the larger ROC area on
+    ``tune``'s usable objects (a ranking, not a calibration: every threshold is set on the
+    tuning windows afterwards); and, when
+    ``tune_detected`` (the any-spike rule's calls) and ``tune_label`` (the windows' truth) are
+    given, the threshold on the window score that gives the combined rule the best balanced
+    accuracy on ``tune`` (the mean of its accuracy on UAV and on UAV-free windows, so that the
+    tuning set's share of UAV windows, which is not the test set's, does not move it; else
+    0.5), and the thresholds at
     which at most :data:`uavsnn.evaluation.FALSE_ALARM_RATES` of ``tune``'s UAV-free windows
     alarm (:attr:`Identifier.alarm_thresholds`).
     ``tune`` must come from other recordings than ``train`` and never from the test set.
@@ -341,8 +392,12 @@ def fit(
     log loss on ``tune``'s objects of those classes).
 
     Raises:
-        DatasetError: too few objects of either kind to fit.
+        DatasetError: too few objects of either kind to fit, or ``"trees"`` without usable
+            tuning objects (their count is chosen on them).
+        ParameterError: ``model`` not one of :data:`MODELS`.
     """
+    if model not in MODELS:
+        raise ParameterError(f"model must be one of {MODELS}, got {model!r}")
     names = tuple(features)
     tr, tu = train.columns(names), tune.columns(names)
     xs, ys = tr.x[tr.usable], tr.label[tr.usable]
@@ -351,8 +406,17 @@ def fit(
             f"identification needs at least 2 UAV and 2 other objects to fit, got "
             f"{int(ys.sum())} and {int((~ys).sum())}"
         )
-    mean, scale, coef, l2 = fit_score(xs, ys, tu.x[tu.usable], tu.label[tu.usable], l2_grid)
-    ident = Identifier(names, coef, mean, scale, 0.5, l2)
+    xt, yt = tu.x[tu.usable], tu.label[tu.usable]
+    mean, scale, coef, l2 = fit_score(xs, ys, xt, yt, l2_grid)
+    trees = None
+    if model == "trees" and len(yt) == 0:
+        raise DatasetError("boosted trees need usable tuning objects to choose their count")
+    if model != "logistic" and len(yt):
+        zt = (xt - mean) / scale
+        trees, _ = fit_tree_score((xs - mean) / scale, ys, zt, yt)
+        if model == "auto" and not _ranks_better(trees, coef, zt, yt):
+            trees = None
+    ident = Identifier(names, coef, mean, scale, 0.5, l2, trees=trees)
     if tune_detected is not None and tune_label is not None:
         from uavsnn.evaluation import FALSE_ALARM_RATES, threshold_at_false_alarm
 
@@ -398,6 +462,51 @@ def fit_score(
             best = (loss, float(l2), coef)
     assert best is not None
     return mean, scale, best[2], best[1]
+
+
+def _ranks_better(trees: Trees, coef: np.ndarray, z: np.ndarray, y: np.ndarray) -> bool:
+    """Whether ``trees`` (at least one) rank the objects ``z`` by ``y`` better than the
+    logistic fit ``coef``: the larger ROC area (:func:`uavsnn.evaluation.roc_area`)."""
+    from uavsnn.evaluation import roc_area
+
+    if len(trees.feature) == 0:
+        return False
+    area_trees, area_logistic = (
+        roc_area(trees.predict(z), y),
+        roc_area(predict_logistic(coef, z), y),
+    )
+    return area_trees is not None and area_logistic is not None and area_trees > area_logistic
+
+
+def fit_tree_score(
+    z: np.ndarray,
+    y: np.ndarray,
+    z_tune: np.ndarray,
+    y_tune: np.ndarray,
+    grid: Sequence[tuple[int, float]] = TREE_GRID,
+) -> tuple[Trees, float]:
+    """Boosted trees for the UAV score on standardised features ``z`` and labels ``y``: for
+    each ``(depth, l2)`` of ``grid``, up to :data:`TREE_COUNT` trees at :data:`TREE_RATE`, as
+    many kept as give the smallest log loss on ``(z_tune, y_tune)``; returns the setting with
+    the smallest such loss and that loss."""
+    best: tuple[float, Trees] | None = None
+    for depth, l2 in grid:
+        model = fit_trees(
+            z,
+            y,
+            x_tune=z_tune,
+            y_tune=y_tune,
+            depth=depth,
+            trees=TREE_COUNT,
+            learning_rate=TREE_RATE,
+            l2=l2,
+        )
+        loss = _log_loss(model.predict(z_tune), np.asarray(y_tune, bool))
+        if best is None or loss < best[0]:
+            best = (loss, model)
+    if best is None:
+        raise ParameterError("the tree grid is empty")
+    return best[1], best[0]
 
 
 def best_threshold(score: np.ndarray, label: np.ndarray) -> float:
@@ -511,6 +620,7 @@ def ablation(
     test_data: LabelledWindows | None = None,
     track_score: str = "mean",
     confirm: Confirm | None = None,
+    model: str = "auto",
 ) -> dict[str, dict[str, Any]]:
     """For each feature group of :data:`GROUPS` (rotor alone, shape alone, track alone, all
     but the track, all), a model fitted as :func:`fit` does (train, then tune) and scored on
@@ -518,7 +628,7 @@ def ablation(
     1 % and 5 % of the UAV-free test windows alarm. With ``test_data`` (the windows ``test``
     was made from), each row also holds ``tracks``: the track-level figures of the rule with
     identification (:func:`uavsnn.track_eval.identified_track_figures` with ``track_score`` and
-    ``confirm``, as the main figures use them)."""
+    ``confirm``, as the main figures use them). ``model``: :func:`fit`'s."""
     from uavsnn.evaluation import FALSE_ALARM_RATES, detection_at_false_alarm
     from uavsnn.track_eval import identified_track_figures
 
@@ -533,6 +643,7 @@ def ablation(
             tune_label=tune_label,
             features=names,
             classes=False,
+            model=model,
         )
         score = np.where(fired, ident.window_scores(test), -np.inf)
         row: dict[str, Any] = {
@@ -582,11 +693,16 @@ def split_by_recording(
 
 
 def fit_network(
-    network: Network, train: LabelledWindows, tune: LabelledWindows | None = None
+    network: Network,
+    train: LabelledWindows,
+    tune: LabelledWindows | None = None,
+    *,
+    model: str = "auto",
 ) -> tuple[Identifier, dict[str, Any]]:
     """Fit ``network``'s identification on ``train`` (a training split), tuned on ``tune``
     (windows of other recordings; default: a quarter of ``train``'s recordings held out, see
-    :func:`split_by_recording`). Returns the model and a summary; does not attach it."""
+    :func:`split_by_recording`), with :func:`fit`'s ``model``. Returns the model and a
+    summary; does not attach it."""
     held_out = tune is None
     if tune is None:
         train, tune = split_by_recording(train)
@@ -596,17 +712,28 @@ def fit_network(
         window_features(network, tune, tune_inference),
         tune_detected=tune_inference.detected,
         tune_label=np.asarray(tune.label, dtype=bool),
+        model=model,
     )
     summary = {
         "train_windows": len(train),
         "tune_windows": len(tune),
         "tune": HELD_OUT_TUNING if held_out else SEPARATE_TUNING,
+        "model": model_name(fitted),
         "l2": fitted.l2,
         "threshold": fitted.threshold,
         "alarm_thresholds": [list(pair) for pair in fitted.alarm_thresholds],
         "features": list(fitted.features),
     }
     return fitted, summary
+
+
+def model_name(ident: Identifier) -> str:
+    """What gives ``ident``'s UAV score, in words: ``"logistic"`` or ``"trees (T of depth
+    D)"``."""
+    if ident.trees is None:
+        return "logistic"
+    count, depth = ident.trees.feature.shape
+    return f"trees ({count} of depth {depth})"
 
 
 def rotor_coverage(feats: WindowFeatures, data: LabelledWindows) -> list[dict[str, Any]]:

@@ -184,7 +184,8 @@ def _identification_text(
         tuned_on = "a quarter of the training recordings held out (not fitted on)"
     return [
         f"\nIdentification fitted on {fit['train_windows']} training windows and tuned on "
-        f"{fit['tune_windows']} windows of {tuned_on} (L2 {fit['l2']:g}, threshold "
+        f"{fit['tune_windows']} windows of {tuned_on} (UAV score: "
+        f"{fit.get('model', 'logistic')}; L2 {fit['l2']:g}, threshold "
         f"{fit['threshold']:.3f}).\n",
         report.identification_markdown(figures),
         *([report.class_markdown(figures["classes"])] if "classes" in figures else []),

@@ -58,6 +58,13 @@ def register(subparsers: Any) -> None:
         "default: a quarter of the training recordings held out)",
     )
     p.add_argument(
+        "--identify-model",
+        choices=("auto", "logistic", "trees"),
+        default="auto",
+        help="the UAV score's model: a logistic regression, boosted trees, or whichever "
+        "predicts the tuning objects better (auto, the default)",
+    )
+    p.add_argument(
         "--no-identify", action="store_true", help="skip fitting identification after STDP"
     )
     p.add_argument("--json", action="store_true", help="print the training summary as JSON")
@@ -101,7 +108,9 @@ def _train(args: argparse.Namespace) -> int:
         from uavsnn import identify
 
         try:
-            network.identification, summary["identify"] = identify.fit_network(network, data, tune)
+            network.identification, summary["identify"] = identify.fit_network(
+                network, data, tune, model=args.identify_model
+            )
         except DatasetError as exc:  # the STDP result is kept: only the any-spike rule
             summary["identify"] = {"skipped": str(exc)}
     network.save(args.output)
@@ -122,8 +131,9 @@ def _train(args: argparse.Namespace) -> int:
             print(f"identification skipped: {ident['skipped']}")
         elif ident:
             print(
-                f"identification: fitted on {ident['train_windows']} windows, tuned on "
-                f"{ident['tune_windows']} ({ident['tune']}): L2 {ident['l2']:g}, "
+                f"identification ({ident['model']}): fitted on {ident['train_windows']} "
+                f"windows, tuned on {ident['tune_windows']} ({ident['tune']}): L2 "
+                f"{ident['l2']:g}, "
                 f"threshold {ident['threshold']:.3f}"
                 + "".join(
                     f", {100 * rate:g} % false alarms at {t:.3f}"
