@@ -18,7 +18,7 @@ import numpy as np
 
 from uavsnn.errors import ParameterError, ShapeError
 
-__all__ = ["fit_logistic", "fit_softmax", "predict_logistic", "predict_softmax"]
+__all__ = ["fit_logistic", "fit_softmax", "labelled", "predict_logistic", "predict_softmax"]
 
 
 def fit_logistic(
@@ -31,14 +31,7 @@ def fit_logistic(
     Raises:
         ShapeError, ParameterError: mismatched shapes, a negative ``l2``, non-finite features.
     """
-    x = np.asarray(x, dtype=np.float64)
-    y = np.asarray(y)
-    if x.ndim != 2 or y.shape != (len(x),):
-        raise ShapeError(f"x must be (n, d) and y (n,), got {x.shape} and {y.shape}")
-    if y.dtype != np.bool_:
-        raise ParameterError(f"y must be boolean, got dtype {y.dtype}")
-    if not np.isfinite(x).all():
-        raise ParameterError("x holds NaN or infinite values")
+    x, y = labelled(x, y)
     if not (l2 >= 0 and math.isfinite(l2)):
         raise ParameterError(f"l2 must be a finite number >= 0, got {l2}")
     a = np.hstack([x, np.ones((len(x), 1))])
@@ -55,6 +48,24 @@ def fit_logistic(
         if np.max(np.abs(step)) < 1e-10:
             break
     return w
+
+
+def labelled(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``x`` as float64 ``(n, d)`` and ``y`` as given, checked for a binary fit: ``y`` ``(n,)``
+    boolean, ``x`` finite.
+
+    Raises:
+        ShapeError, ParameterError: mismatched shapes, non-boolean ``y``, non-finite ``x``.
+    """
+    x = np.asarray(x, dtype=np.float64)
+    y = np.asarray(y)
+    if x.ndim != 2 or y.shape != (len(x),):
+        raise ShapeError(f"x must be (n, d) and y (n,), got {x.shape} and {y.shape}")
+    if y.dtype != np.bool_:
+        raise ParameterError(f"y must be boolean, got dtype {y.dtype}")
+    if not np.isfinite(x).all():
+        raise ParameterError("x holds NaN or infinite values")
+    return x, y
 
 
 def predict_logistic(coef: np.ndarray, x: np.ndarray) -> np.ndarray:

@@ -31,6 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from uavsnn.errors import ParameterError, ShapeError
+from uavsnn.linear import labelled
 
 __all__ = ["MAX_DEPTH", "MAX_TREES", "Trees", "fit_trees"]
 
@@ -144,14 +145,9 @@ def fit_trees(
         ShapeError, ParameterError: mismatched shapes, non-boolean ``y``, non-finite features,
             or settings out of range.
     """
-    x = np.asarray(x, dtype=np.float64)
-    y = np.asarray(y)
-    if x.ndim != 2 or y.shape != (len(x),):
-        raise ShapeError(f"x must be (n, d) and y (n,), got {x.shape} and {y.shape}")
-    if y.dtype != np.bool_:
-        raise ParameterError(f"y must be boolean, got dtype {y.dtype}")
-    if len(x) == 0 or not np.isfinite(x).all():
-        raise ParameterError("x must hold at least one row and only finite values")
+    x, y = labelled(x, y)
+    if len(x) == 0:
+        raise ParameterError("x must hold at least one row")
     if not (isinstance(depth, int) and 1 <= depth <= MAX_DEPTH):
         raise ParameterError(f"depth must be an integer in [1, {MAX_DEPTH}], got {depth!r}")
     if not (isinstance(trees, int) and 0 <= trees <= MAX_TREES):
@@ -169,9 +165,7 @@ def fit_trees(
             raise ShapeError(
                 f"x_tune must be (m, {x.shape[1]}) and y_tune (m,), got {xt.shape} and {yt.shape}"
             )
-        if yt.dtype != np.bool_ or not np.isfinite(xt).all():
-            raise ParameterError("y_tune must be boolean and x_tune finite")
-        tune = (xt, yt)
+        tune = labelled(xt, yt)
 
     n, d = x.shape
     cuts = [_cuts(x[:, j], bins) for j in range(d)]
