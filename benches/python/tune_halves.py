@@ -1,0 +1,55 @@
+"""Where a tuned threshold comes from: a model's identification on each of its tuning sets alone.
+
+For each ``--tune`` dataset (its train split: the tuning windows ``uavsnn reproduce`` draws
+from, e.g. ``data/tune-dvs`` and ``data/tune-sim`` for the combined network), prints the
+any-spike rule's balanced accuracy, the threshold ``identify.best_threshold`` would choose on
+that set alone and its balanced accuracy, the balanced accuracy at the model's own threshold,
+and the shares of UAV and UAV-free windows the network fires on. Tuning data only: no test
+split is read.
+
+    python benches/python/tune_halves.py runs/reproduce/model-combined.npz \\
+        --tune runs/reproduce/data/tune-dvs --tune runs/reproduce/data/tune-sim
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+
+from uavsnn import Network, identify
+from uavsnn.dataset import load
+
+
+def balanced(call: np.ndarray, label: np.ndarray) -> float:
+    """The mean of the share of UAV windows called and of UAV-free windows not called."""
+    return float(0.5 * (call[label].mean() + (~call[~label]).mean()))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("model")
+    parser.add_argument("--tune", action="append", required=True, metavar="DIR")
+    args = parser.parse_args()
+    net = Network.load(args.model)
+    ident = net.identification
+    if ident is None:
+        raise SystemExit(f"{args.model}: no identification to look at")
+    print(f"{args.model}: {identify.model_name(ident)}, threshold {ident.threshold:.3f}")
+    for path in args.tune:
+        data = load(path, "train")
+        inference = net.infer(data.windows)
+        fired = np.asarray(inference.detected, bool)
+        label = np.asarray(data.label, bool)
+        score = np.where(fired, ident.window_scores(identify.window_features(net, data)), -1.0)
+        best = identify.best_threshold(score, label)
+        print(
+            f"  {path}: any-spike {balanced(fired, label):.3f}; best threshold on it alone "
+            f"{best:.3f} -> {balanced(score >= best, label):.3f}; at the model's "
+            f"{balanced(score >= ident.threshold, label):.3f}; fired on {fired[label].mean():.3f}"
+            f" of UAV windows, {fired[~label].mean():.3f} of UAV-free ones"
+        )
+
+
+if __name__ == "__main__":
+    main()
