@@ -142,3 +142,12 @@ def test_wingbeat_probe_finds_a_rate_that_rises_and_falls(bench_script):
     steady, _, _ = probe.spectrum(rng.poisson(400, 200), 5.0, (3.0, 40.0), 250.0)
     assert steady < 0.03
     assert probe.spectrum(np.zeros(200), 5.0, (3.0, 40.0), 250.0) == (0.0, 0.0, 0.0)
+
+
+def test_tune_halves_balanced_accuracy_weighs_both_kinds_alike(bench_script):
+    halves = bench_script("tune_halves")
+    label = np.array([True, True, True, True, False, False])
+    # 3 of 4 UAV windows called, 1 of 2 UAV-free windows left alone
+    call = np.array([True, True, True, False, True, False])
+    assert halves.balanced(call, label) == 0.5 * (0.75 + 0.5)
+    assert halves.balanced(label, label) == 1.0 and halves.balanced(~label, label) == 0.0
