@@ -18,7 +18,14 @@ import numpy as np
 
 from uavsnn.errors import ParameterError, ShapeError
 
-__all__ = ["fit_logistic", "fit_softmax", "labelled", "predict_logistic", "predict_softmax"]
+__all__ = [
+    "fit_logistic",
+    "fit_softmax",
+    "labelled",
+    "predict_logistic",
+    "predict_softmax",
+    "sigmoid",
+]
 
 
 def fit_logistic(
@@ -40,7 +47,7 @@ def fit_logistic(
     penalty[-1] = 1e-9  # the intercept: only enough to keep the system solvable
     w = np.zeros(a.shape[1])
     for _ in range(iterations):
-        p = _sigmoid(a @ w)
+        p = sigmoid(a @ w)
         grad = a.T @ (p - target) + penalty * w
         hess = (a * (p * (1 - p))[:, None]).T @ a + np.diag(penalty)
         step = np.linalg.solve(hess + 1e-12 * np.eye(len(w)), grad)
@@ -70,11 +77,12 @@ def labelled(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def predict_logistic(coef: np.ndarray, x: np.ndarray) -> np.ndarray:
     """``sigmoid(x @ coef[:-1] + coef[-1])``."""
-    return _sigmoid(np.asarray(x, dtype=np.float64) @ coef[:-1] + coef[-1])
+    return sigmoid(np.asarray(x, dtype=np.float64) @ coef[:-1] + coef[-1])
 
 
-def _sigmoid(z: np.ndarray) -> np.ndarray:
-    return 0.5 * (1.0 + np.tanh(0.5 * z))  # stable for large |z|
+def sigmoid(z: np.ndarray) -> np.ndarray:
+    """The logistic function ``1 / (1 + e^-z)``, stable for large ``|z|``."""
+    return 0.5 * (1.0 + np.tanh(0.5 * z))
 
 
 def fit_softmax(

@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from uavsnn.errors import ParameterError, ShapeError
-from uavsnn.linear import labelled
+from uavsnn.linear import labelled, sigmoid
 
 __all__ = ["MAX_DEPTH", "MAX_TREES", "Trees", "fit_trees"]
 
@@ -43,10 +43,6 @@ MAX_TREES = 10_000
 
 #: Rows :meth:`Trees.raw` compares at once: ``(rows, trees, depth)`` booleans, a few MB.
 _ROWS = 1024
-
-
-def _sigmoid(z: np.ndarray) -> np.ndarray:
-    return 0.5 * (1.0 + np.tanh(0.5 * z))
 
 
 @dataclass(frozen=True)
@@ -107,7 +103,7 @@ class Trees:
 
     def predict(self, x: np.ndarray) -> np.ndarray:
         """The probability of each row of ``x`` ``(n, d)``."""
-        return _sigmoid(self.raw(x))
+        return sigmoid(self.raw(x))
 
 
 def _cuts(column: np.ndarray, bins: int) -> np.ndarray:
@@ -190,7 +186,7 @@ def fit_trees(
     thresholds = np.zeros((trees, depth))
     leaves = np.zeros((trees, 1 << depth))
     for t in range(trees):
-        p = _sigmoid(raw)
+        p = sigmoid(raw)
         g, h = p - target, np.maximum(p * (1 - p), 1e-12)
         node = np.zeros(n, dtype=np.int64)
         for level in range(depth):
