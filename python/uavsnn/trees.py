@@ -165,7 +165,7 @@ def fit_trees(
 
     n, d = x.shape
     cuts = [_cuts(x[:, j], bins) for j in range(d)]
-    width = max(1, max(len(c) for c in cuts) + 1)
+    width = max(len(c) for c in cuts) + 1
     # binned[i, j]: how many of column j's cuts lie below x[i, j], so "x > cut k" is "bin > k"
     binned = np.stack(
         [np.searchsorted(cuts[j], x[:, j], side="left") for j in range(d)], axis=1

@@ -185,7 +185,7 @@ def _identification_text(
     return [
         f"\nIdentification fitted on {fit['train_windows']} training windows and tuned on "
         f"{fit['tune_windows']} windows of {tuned_on} (UAV score: "
-        f"{fit.get('model', 'logistic')}; L2 {fit['l2']:g}, threshold "
+        f"{fit['model']}; L2 {fit['l2']:g}, threshold "
         f"{fit['threshold']:.3f}).\n",
         report.identification_markdown(figures),
         *([report.class_markdown(figures["classes"])] if "classes" in figures else []),

@@ -7,6 +7,7 @@ import json
 from pathlib import Path
 from typing import Any
 
+from uavsnn import identify
 from uavsnn.dataset import load
 from uavsnn.errors import DatasetError, ParameterError
 from uavsnn.network import Network, default_config
@@ -59,10 +60,10 @@ def register(subparsers: Any) -> None:
     )
     p.add_argument(
         "--identify-model",
-        choices=("auto", "logistic", "trees"),
+        choices=identify.MODELS,
         default="auto",
         help="the UAV score's model: a logistic regression, boosted trees, or whichever "
-        "predicts the tuning objects better (auto, the default)",
+        "ranks the tuning objects better (auto, the default)",
     )
     p.add_argument(
         "--no-identify", action="store_true", help="skip fitting identification after STDP"
@@ -105,8 +106,6 @@ def _train(args: argparse.Namespace) -> int:
     )
     summary: dict[str, Any] = {"model": str(args.output), "windows": len(data)}
     if not args.no_identify:
-        from uavsnn import identify
-
         try:
             network.identification, summary["identify"] = identify.fit_network(
                 network, data, tune, model=args.identify_model
