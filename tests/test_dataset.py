@@ -29,7 +29,9 @@ from uavsnn.dataset import (
 from uavsnn.dataset.format import write_manifest
 from uavsnn.dataset.labels import AMBIGUOUS, OK, UNSCORED
 from uavsnn.dataset.real import crop_box
-from uavsnn.scenes import LABEL_DTYPE
+from uavsnn.dataset.synthetic import stratified_object
+from uavsnn.distributed import SerialRunner
+from uavsnn.scenes import LABEL_DTYPE, object_shares
 from uavsnn.sim import crop_to_aspect, probe_video
 
 # Small recordings so that a build takes seconds: 0.3 s at 200 fps for dvs, 1 s at 30 fps for
@@ -176,6 +178,7 @@ def test_manifest_fields(dvs_set: Path) -> None:
     p = m["parameters"]
     assert p["window_ms"] == 50.0 and p["overlap"] == 0.5 and p["sensor_size"] == [240, 180]
     assert p["n_test"] == 20 and p["n_train"] == 16 and p["min_visible_fraction"] == 0.5
+    assert p["object_scenes"] == "drawn"
     assert p["sources"][0]["simulator_params"]["threshold_on"] > 0
     for name in ("test", "train"):
         s = m["splits"][name]
@@ -201,6 +204,65 @@ def test_same_seed_same_dataset_other_seed_other(dvs_set: Path, tmp_path: Path) 
         for k in a.files:
             assert np.array_equal(a[k], b[k], equal_nan=a[k].dtype.kind == "f"), k
     assert not np.array_equal(np.load(dvs_set / "test.npz")["t"], np.load(other / "test.npz")["t"])
+
+
+@given(
+    st.lists(st.floats(0.01, 1.0), min_size=1, max_size=8),
+    st.integers(0, 300),
+)
+def test_stratified_objects_keep_every_kind_within_one_of_its_share(
+    weights: list[float], n: int
+) -> None:
+    shares = {f"k{i}": w for i, w in enumerate(weights)}
+    p = np.array(weights) / sum(weights)
+    kinds = [stratified_object(shares, j) for j in range(n + 1)]
+    for m in range(1, n + 2):
+        count = np.array([kinds[:m].count(k) for k in shares])
+        assert np.abs(count - m * p).max() < 1.0
+
+
+def test_stratified_object_rejects_bad_shares() -> None:
+    for shares, j in (({}, 0), ({"a": -1.0}, 0), ({"a": 0.0}, 0), ({"a": float("nan")}, 0),
+                      ({"a": 1.0}, -1)):  # fmt: skip
+        with pytest.raises(ParameterError):
+            stratified_object(shares, j)
+
+
+class _Guessing(SerialRunner):
+    """Starts recordings ahead as a cluster does (deferred: a wrong guess costs nothing)."""
+
+    ahead = 4
+
+    def __init__(self) -> None:
+        self.submitted: list[tuple] = []
+
+    def submit(self, fn, *args):  # type: ignore[no-untyped-def]
+        self.submitted.append(args[2:])
+        return super().submit(fn, *args)
+
+
+def test_a_stratified_split_holds_every_object_kind_in_its_share(tmp_path: Path) -> None:
+    guessing = _Guessing()
+    small = SceneSource("dvs", (96, 72), 200.0, 0.3, sensor=(96, 72))
+    args = {"n_test": 2, "n_train": 300, "seed": 5, "dvs": small, "sensor": (96, 72)}
+    root = build(tmp_path / "strat", "dvs", runner=guessing, stratify=True, **args).root
+    m = json.loads((root / "manifest.json").read_text())
+    assert m["parameters"]["object_scenes"] == "stratified"
+    train = set(m["splits"]["train"]["recordings"])
+    first = [r["objects"][0]["kind"] for r in m["recordings"]
+             if r["kind"] == "object" and r["id"] in train]  # fmt: skip
+    shares = object_shares("dvs")
+    assert len(first) >= 13 and set(first) == set(shares)  # a helicopter every 13 scenes
+    for kind, share in shares.items():
+        assert abs(first.count(kind) - share * len(first)) < 1.0, kind
+    # The guesses started ahead do not change the dataset: the serial build's.
+    serial = build(tmp_path / "serial", "dvs", stratify=True, **args).root
+    for split in ("test", "train"):
+        a, b = np.load(root / f"{split}.npz"), np.load(serial / f"{split}.npz")
+        for k in a.files:
+            assert np.array_equal(a[k], b[k], equal_nan=a[k].dtype.kind == "f"), k
+    # ... and were mostly right, object kinds included.
+    assert len(guessing.submitted) < 1.3 * len(m["recordings"])
 
 
 def test_round_trip_through_the_file(dvs_set: Path, tmp_path: Path) -> None:
@@ -421,6 +483,7 @@ def test_bad_build_arguments_raise_parameter_errors(tmp_path: Path) -> None:
         {"min_fraction": 0.0},
         {"window_ms": 500.0},  # longer than the 0.3 s recordings
         {"n_train": None},  # "all windows" is only for real footage
+        {"domain": "real", "videos": tmp_path, "stratify": True},  # no rendered scenes
     ]
     for i, case in enumerate(cases):
         args = {"domain": "dvs", "dvs": DVS, "n_test": 4, "n_train": 0} | case

@@ -22,6 +22,7 @@ from uavsnn.scenes import (
     PathSpec,
     SceneSpec,
     contact_sheet,
+    object_shares,
     render,
     sample_spec,
     scene_labels,
@@ -324,6 +325,51 @@ def test_sampler_is_deterministic() -> None:
     a = sample_spec("dvs", "object", np.random.default_rng(3))
     b = sample_spec("dvs", "object", np.random.default_rng(3))
     assert a == b
+
+
+@pytest.mark.parametrize("domain", ["dvs", "sim"])
+def test_object_shares_are_what_object_scenes_draw(domain: str) -> None:
+    shares = object_shares(domain)
+    assert set(shares) == {"bird", "aircraft", "helicopter", "ball", "insect", "leaf"}
+    assert sum(shares.values()) == pytest.approx(1.0)
+    n = 3000
+    first = [sample_spec(domain, "object", np.random.default_rng(s)).objects[0].kind
+             for s in range(n)]  # fmt: skip
+    for kind, share in shares.items():
+        # Binomial: 4 standard deviations.
+        assert abs(first.count(kind) / n - share) < 4 * np.sqrt(share * (1 - share) / n), kind
+
+
+def test_an_object_kind_draws_its_background_as_object_scenes_do() -> None:
+    n = 1500
+    drawn = [sample_spec("dvs", "object", np.random.default_rng(s)) for s in range(6000)]
+    balls = [s for s in drawn if s.objects[0].kind == "ball"]
+    indoor_drawn = np.mean([s.background.kind == "hall" for s in balls])
+    given = [
+        sample_spec("dvs", "object", np.random.default_rng(s), object_kind="ball") for s in range(n)
+    ]
+    assert all(s.objects[0].kind == "ball" for s in given)
+    indoor_given = np.mean([s.background.kind == "hall" for s in given])
+    assert indoor_drawn > 0.6  # mostly indoors, against the 45 % of all dvs scenes
+    assert abs(indoor_given - indoor_drawn) < 0.06
+    helicopters = [
+        sample_spec("dvs", "object", np.random.default_rng(s), object_kind="helicopter")
+        for s in range(200)
+    ]
+    assert all(s.objects[0].kind == "helicopter" for s in helicopters)
+    assert all(s.background.kind != "hall" for s in helicopters)
+    # A second object now and then, as in any object scene, never a UAV.
+    assert 0 < sum(len(s.objects) > 1 for s in given) < n / 4
+    assert not any(o.is_uav for s in given for o in s.objects)
+
+
+def test_bad_object_kinds() -> None:
+    rng = np.random.default_rng(0)
+    for kind, obj in (("uav", "ball"), ("object", "tello"), ("object", "kite"), ("ball", "ball")):
+        with pytest.raises(ParameterError, match="object_kind"):
+            sample_spec("dvs", kind, rng, object_kind=obj)
+    with pytest.raises(ParameterError, match="domain"):
+        object_shares("film")
 
 
 # -- bad input --------------------------------------------------------------------------------

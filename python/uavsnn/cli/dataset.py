@@ -78,6 +78,13 @@ def register(subparsers: Any) -> None:
         help="sim and real: PIX2NVS as the released program runs, quirks included "
         "(Pix2NvsParams.original(); docs/simulation.md)",
     )
+    b.add_argument(
+        "--stratify",
+        action="store_true",
+        help="rendered scenes of non-UAV objects take each kind (bird, aircraft, helicopter, "
+        "ball, insect, leaf) in its share instead of at random: for tuning sets, which must "
+        "hold every kind",
+    )
     b.add_argument("--overwrite", action="store_true", help="replace a dataset in OUT_DIR")
     b.add_argument("--json", action="store_true", help="print the summary as JSON")
     b.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -173,6 +180,7 @@ def _build(args: argparse.Namespace) -> int:
         overwrite=args.overwrite,
         progress=_progress(args.quiet),
         runner=runner_for(args.ray),
+        stratify=args.stratify,
     )
     return _done(paths, args.json)
 

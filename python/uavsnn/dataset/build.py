@@ -192,6 +192,7 @@ def build(
     overwrite: bool = False,
     progress: bool | Progress = False,
     runner: Runner | None = None,
+    stratify: bool = False,
 ) -> DatasetPaths:
     """Build a dataset in ``out_dir``: ``test.npz`` (``n_test`` windows, half with a UAV),
     ``train.npz`` (``n_train`` windows, balanced the same way; all usable windows of the train
@@ -211,6 +212,9 @@ def build(
     least the sensor's size once cropped to its aspect ratio.
     ``runner`` simulates the recordings: in this process by default, or as Ray tasks
     (:func:`uavsnn.distributed.connect`); the dataset is the same either way.
+    ``stratify``: the rendered scenes of non-UAV objects take each kind of object in its share
+    (:func:`uavsnn.scenes.object_shares`) instead of drawing it, so that a small set — a
+    tuning set — holds every kind (manifest: ``"object_scenes": "stratified"``).
 
     Raises:
         ParameterError: impossible arguments.
@@ -223,6 +227,8 @@ def build(
     sensor = parse_sensor(sensor)
     if n_train is None and domain != "real":
         raise ParameterError("n_train=None (all windows) is only for the real domain")
+    if stratify and domain == "real":
+        raise ParameterError("stratify is for rendered scenes; the real domain has none")
     window = WindowCut(round(window_ms * 1000), float(overlap), float(min_fraction))
     # Only the sources the domain uses are made and checked.
     uses = {"dvs": ("dvs",), "sim": ("sim",), "real": (), "combined": ("dvs", "sim")}[domain]
@@ -248,7 +254,7 @@ def build(
         raise DatasetError(f"video folder {video_dir} does not exist or is not a folder")
     root = _prepare(out_dir, overwrite)
     report = _reporter(progress)
-    rec = Recorder(seed, window, report, runner)
+    rec = Recorder(seed, window, report, runner, stratify=stratify)
     if domain in ("dvs", "sim"):
         source = dvs if domain == "dvs" else sim
         if source is None:  # made above; for the type checker
@@ -291,6 +297,7 @@ def build(
             "n_train": n_train,
             "test_fraction": test_fraction if domain in ("real", "combined") else None,
             "pool_factor": POOL_FACTOR,
+            "object_scenes": "stratified" if stratify else "drawn",
             "sources": sources,
         },
         "splits": {

@@ -190,12 +190,21 @@ def balanced(label: np.ndarray, n: int, rng: np.random.Generator, what: str) -> 
 class Recorder:
     """One build's seed, window settings and progress, and the manifest entries of the
     recordings it makes (their ids are their positions). ``runner`` runs the per-recording
-    work (:mod:`uavsnn.distributed`; default: in this process)."""
+    work (:mod:`uavsnn.distributed`; default: in this process). ``stratify``: synthetic
+    splits give their object scenes each kind of object in its share
+    (:func:`uavsnn.dataset.synthetic.synthetic_split`)."""
 
     def __init__(
-        self, seed: int, cut: WindowCut, progress: Progress, runner: Runner | None = None
+        self,
+        seed: int,
+        cut: WindowCut,
+        progress: Progress,
+        runner: Runner | None = None,
+        *,
+        stratify: bool = False,
     ) -> None:
         self.seed = seed
+        self.stratify = stratify
         self.cut = cut
         self.progress = progress
         self.runner = runner if runner is not None else SERIAL

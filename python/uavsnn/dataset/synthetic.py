@@ -45,7 +45,7 @@ from uavsnn.dataset.splits import (
 )
 from uavsnn.errors import DatasetError, ParameterError
 from uavsnn.events import Recording
-from uavsnn.scenes import record, render, sample_spec
+from uavsnn.scenes import object_shares, record, render, sample_spec
 from uavsnn.sim import SCENE_PARAMS, DvsParams, Pix2NvsParams, Pix2NvsSimulator, crop_to_aspect
 from uavsnn.windows import Windows
 
@@ -55,6 +55,7 @@ __all__ = [
     "SceneSource",
     "default_source",
     "sim_render_size",
+    "stratified_object",
     "synthetic_recording",
     "synthetic_split",
     "synthetic_windows",
@@ -169,9 +170,11 @@ class LabelledRecording:
         return int(t[-1]) + int(t[-1] - t[-2])
 
 
-def synthetic_recording(source: SceneSource, kind: str, seed: int) -> LabelledRecording:
-    """Sample a scene of ``kind`` (see :func:`uavsnn.scenes.sample_spec`), render it and
-    simulate its events, all from ``seed``."""
+def synthetic_recording(
+    source: SceneSource, kind: str, seed: int, object_kind: str | None = None
+) -> LabelledRecording:
+    """Sample a scene of ``kind`` (and ``object_kind``; see :func:`uavsnn.scenes.sample_spec`),
+    render it and simulate its events, all from ``seed``."""
     spec_seq, render_seq, _ = np.random.SeedSequence(seed).spawn(3)
     spec = sample_spec(
         source.domain,
@@ -180,6 +183,7 @@ def synthetic_recording(source: SceneSource, kind: str, seed: int) -> LabelledRe
         size=source.size,
         fps=source.fps,
         duration_s=source.duration_s,
+        object_kind=object_kind,
     )
     render_seed = int(render_seq.generate_state(1)[0])
     if source.domain == "dvs":
@@ -228,12 +232,12 @@ def synthetic_recording(source: SceneSource, kind: str, seed: int) -> LabelledRe
 
 
 def synthetic_windows(
-    source: SceneSource, cut: WindowCut, kind: str, seed: int
+    source: SceneSource, cut: WindowCut, kind: str, seed: int, object_kind: str | None = None
 ) -> tuple[dict[str, Any], Windows, WindowLabels, RawEvents]:
     """One recording of a synthetic split, as its pool takes it: the manifest entry, the
     usable windows with their labels, and the raw events behind those windows (the unit of
     work a build runs, here or as a Ray task)."""
-    lr = synthetic_recording(source, kind, seed)
+    lr = synthetic_recording(source, kind, seed, object_kind)
     windows = cut.cut(lr.recording, lr.end_us)
     labels = cut.label(windows.t0, lr.timestamps_us, lr.labels, lr.labelled)
     entry = {
@@ -257,6 +261,32 @@ def _next_kind(
     return "object" if kinds.random() < 0.7 else "empty"
 
 
+def stratified_object(shares: dict[str, float], j: int) -> str:
+    """The object kind of the ``j``-th object scene (from 0) of a stratified split, by
+    Balinski and Young's quota method: among the kinds still below their share of the first
+    ``j + 1`` scenes, the one with the largest share per scene it would then have (ties to the
+    first in ``shares``). After any number of scenes every kind's count is within one of its
+    share: a helicopter of 7.7 % comes once in every 13 scenes, not when chance allows."""
+    if j < 0:
+        raise ParameterError(f"j must be >= 0, got {j}")
+    names = list(shares)
+    p = np.array([shares[n] for n in names], dtype=np.float64)
+    if len(p) == 0 or not (np.isfinite(p).all() and (p >= 0).all() and p.sum() > 0):
+        raise ParameterError(f"shares must be finite, >= 0 and not all 0, got {shares!r}")
+    p = p / p.sum()
+    count = np.zeros(len(p))
+    for n in range(1, j + 2):
+        # The shares below quota sum to one scene, so at least one kind is eligible.
+        eligible = count < n * p - 1e-12
+        pick = int(np.argmax(np.where(eligible, p / (count + 1), -1.0)))
+        count[pick] += 1
+    return names[pick]
+
+
+#: A recording's scene: its kind and, for a stratified split's object scenes, its object.
+Scene = tuple[str, str | None]
+
+
 class _Ahead:
     """Recordings started before the build knows it needs them, so that a cluster has work.
 
@@ -273,9 +303,11 @@ class _Ahead:
         source: SceneSource,
         seed_of: Callable[[int], int],
         need: tuple[int, int],
+        object_of: Callable[[int], str | None],
     ) -> None:
         self.rec, self.source, self.seed_of, self.need = rec, source, seed_of, need
-        self.pending: dict[tuple[int, str], Any] = {}
+        self.object_of = object_of
+        self.pending: dict[tuple[int, Scene], Any] = {}
         n = len(rec.cut.starts(round(source.duration_s * 1e6)))
         # Windows (UAV, other) a recording of each kind adds: priors until one is seen.
         self.gain: dict[str, list[float]] = {
@@ -284,29 +316,34 @@ class _Ahead:
             "empty": [0.0, float(n), 0],
         }
 
-    def _start(self, i: int, kind: str) -> None:
-        if (i, kind) not in self.pending:
-            self.pending[(i, kind)] = self.rec.runner.submit(
-                synthetic_windows, self.source, self.rec.cut, kind, self.seed_of(i)
+    def _start(self, i: int, scene: Scene) -> None:
+        if (i, scene) not in self.pending:
+            self.pending[(i, scene)] = self.rec.runner.submit(
+                synthetic_windows, self.source, self.rec.cut, scene[0], self.seed_of(i), scene[1]
             )
 
+    def scene(self, kind: str, objects: int) -> Scene:
+        """The scene of a ``kind`` recording after ``objects`` object scenes."""
+        return (kind, self.object_of(objects) if kind == "object" else None)
+
     def get(
-        self, i: int, kind: str, pos: int, neg: int, kinds: np.random.Generator
+        self, i: int, kind: str, objects: int, pos: int, neg: int, kinds: np.random.Generator
     ) -> tuple[dict[str, Any], Windows, WindowLabels, RawEvents]:
         runner = self.rec.runner
-        want = (i, kind)
-        self._start(i, kind)
+        want = (i, self.scene(kind, objects))
+        self._start(*want)
         if runner.ahead:
             guess = copy.deepcopy(kinds)
             p, q = float(pos), float(neg)
             for j in range(i + 1, i + 1 + runner.ahead):
                 g = self.gain[kind]
                 p, q = p + g[0], q + g[1]
+                objects += int(kind == "object")
                 if p >= self.need[0] and q >= self.need[1]:
                     break
                 kind_j = _next_kind(p, q, *self.need, guess)
                 if len(self.pending) <= runner.ahead:
-                    self._start(j, kind_j)
+                    self._start(j, self.scene(kind_j, objects))
                 kind = kind_j
         out = runner.result(self.pending.pop(want))
         stale = [key for key in self.pending if key[0] <= i]
@@ -331,7 +368,9 @@ def synthetic_split(rec: Recorder, source: SceneSource, split: str, n: int) -> L
 
     The next recording is a ``"uav"`` scene while UAV windows are the scarcer, else an
     ``"object"`` (70 %) or ``"empty"`` (30 %) scene. Recording ``i`` of a split is seeded by
-    ``(seed, domain, split, i)`` alone.
+    ``(seed, domain, split, i)`` alone. With ``rec.stratify``, the object scenes take their
+    object's kind in turn by :func:`uavsnn.scenes.object_shares` (:func:`stratified_object`)
+    instead of drawing it, so that a small split (a tuning set) holds every kind in its share.
 
     Raises:
         DatasetError: ``STALL`` recordings in a row added nothing that was needed.
@@ -341,14 +380,22 @@ def synthetic_split(rec: Recorder, source: SceneSource, split: str, n: int) -> L
     dkey, skey = DOMAIN_KEY[source.domain], SPLIT_KEY[split]
     kinds = keyed_rng(rec.seed, dkey, skey, 0)
     pool = Pool()
+    shares = object_shares(source.domain)
     ahead = _Ahead(
-        rec, source, lambda i: keyed_seed(rec.seed, dkey, skey, 1, i), (need_pos, need_neg)
+        rec,
+        source,
+        lambda i: keyed_seed(rec.seed, dkey, skey, 1, i),
+        (need_pos, need_neg),
+        (lambda j: stratified_object(shares, j)) if rec.stratify else (lambda j: None),
     )
-    stall, i = 0, 0
+    stall, i, objects = 0, 0, 0
     try:
         while pool.positives < need_pos or pool.negatives < need_neg:
             kind = _next_kind(pool.positives, pool.negatives, need_pos, need_neg, kinds)
-            entry, windows, labels, raw = ahead.get(i, kind, pool.positives, pool.negatives, kinds)
+            entry, windows, labels, raw = ahead.get(
+                i, kind, objects, pool.positives, pool.negatives, kinds
+            )
+            objects += int(kind == "object")
             rec_id = rec.record(
                 {
                     "name": f"{source.domain}-{split}-{i:05d}",

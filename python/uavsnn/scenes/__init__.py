@@ -14,7 +14,7 @@ from __future__ import annotations
 from uavsnn.scenes.preview import contact_sheet, write_png
 from uavsnn.scenes.record import Recorded, record, spec_from_dict, spec_to_dict
 from uavsnn.scenes.renderer import LABEL_DTYPE, render, scene_labels
-from uavsnn.scenes.sampler import SCENE_KINDS, default_format, sample_spec
+from uavsnn.scenes.sampler import SCENE_KINDS, default_format, object_shares, sample_spec
 from uavsnn.scenes.spec import (
     BACKGROUNDS,
     CLASS_OF_KIND,
@@ -44,6 +44,7 @@ __all__ = [
     "SceneSpec",
     "contact_sheet",
     "default_format",
+    "object_shares",
     "record",
     "render",
     "sample_spec",

@@ -25,7 +25,7 @@ from uavsnn.scenes.spec import (
     SceneSpec,
 )
 
-__all__ = ["SCENE_KINDS", "default_format", "sample_spec"]
+__all__ = ["SCENE_KINDS", "default_format", "object_shares", "sample_spec"]
 
 #: Scene kinds: one UAV (sometimes with a distractor), one non-UAV object, or nothing.
 SCENE_KINDS = ("uav", "object", "empty")
@@ -45,6 +45,36 @@ _OUTDOOR_OBJECTS = (
     ("leaf", 0.14),
 )
 _INDOOR_OBJECTS = (("ball", 0.45), ("insect", 0.3), ("leaf", 0.15), ("bird", 0.1))
+_BACKGROUNDS: dict[str, tuple[tuple[str, float], ...]] = {
+    "dvs": (("hall", 0.45), ("sky", 0.3), ("ground", 0.25)),
+    "sim": (("sky", 0.4), ("ground", 0.4), ("hall", 0.2)),
+}
+
+
+def _objects_in(background: str) -> tuple[tuple[str, float], ...]:
+    return _INDOOR_OBJECTS if background == "hall" else _OUTDOOR_OBJECTS
+
+
+def _share(table: tuple[tuple[str, float], ...], name: str) -> float:
+    return sum(w for n, w in table if n == name) / sum(w for _, w in table)
+
+
+def object_shares(domain: str) -> dict[str, float]:
+    """The share of each non-UAV object kind among the objects of the ``"object"`` scenes that
+    :func:`sample_spec` draws for ``domain`` (the object it is drawn for, not a second one):
+    each background's share times the kind's share in that background's table. They sum to
+    1; a split that draws its object scenes by these shares (``object_kind``) keeps the
+    domain's mix of objects and backgrounds."""
+    if domain not in _BACKGROUNDS:
+        raise ParameterError(f"domain must be one of {DOMAINS}, got {domain!r}")
+    shares: dict[str, float] = {}
+    backgrounds = _BACKGROUNDS[domain]
+    for bg, _ in backgrounds:
+        for name, _ in _objects_in(bg):
+            shares[name] = shares.get(name, 0.0) + _share(backgrounds, bg) * _share(
+                _objects_in(bg), name
+            )
+    return shares
 
 
 def _v3(x: np.ndarray | tuple[float, ...]) -> tuple[float, float, float]:
@@ -96,12 +126,13 @@ def _lighting(rng: np.random.Generator, domain: str, indoor: bool) -> Lighting:
     )
 
 
-def _background(rng: np.random.Generator, domain: str) -> Background:
-    table = (
-        (("hall", 0.45), ("sky", 0.3), ("ground", 0.25))
-        if domain == "dvs"
-        else (("sky", 0.4), ("ground", 0.4), ("hall", 0.2))
-    )
+def _background(
+    rng: np.random.Generator, domain: str, object_kind: str | None = None
+) -> Background:
+    table = _BACKGROUNDS[domain]
+    if object_kind is not None:
+        # Given the object, each background in proportion to how often it holds that object.
+        table = tuple((bg, w * _share(_objects_in(bg), object_kind)) for bg, w in table)
     kind = _pick(rng, table)
     speed = float(rng.uniform(0.03, 0.4)) * (1 if rng.random() < 0.5 else -1)
     return Background(
@@ -413,6 +444,7 @@ def sample_spec(
     duration_s: float | None = None,
     min_object_px: float = 3.0,
     sensor_width: int = 240,
+    object_kind: str | None = None,
 ) -> SceneSpec:
     """A random scene of ``kind`` for ``domain``.
 
@@ -431,6 +463,12 @@ def sample_spec(
     size in pixels, grows with the width. A "dvs" scene is laid out for a 4:3 frame of the
     given width, of which a wider sensor (1280×720) sees the middle rows, with the same optical
     axis.
+
+    ``object_kind`` (``kind="object"`` only; one of :func:`object_shares`): the scene's object
+    is of that kind, and its background is drawn as the object scenes that hold one are
+    (a ball is mostly indoors, a helicopter always outdoors); the rest is drawn as for any
+    object scene, a second object included. A split that picks each object scene's kind by
+    :func:`object_shares` gets every kind in its share instead of leaving it to chance.
     """
     if not isinstance(rng, np.random.Generator):
         raise ParameterError(f"rng must be a numpy Generator, got {type(rng).__name__}")
@@ -441,11 +479,16 @@ def sample_spec(
     if not (math.isfinite(min_object_px) and min_object_px > 0):
         raise ParameterError(f"min_object_px must be > 0, got {min_object_px!r}")
     d_size, d_fps, d_duration = default_format(domain)
+    if object_kind is not None and (kind != "object" or object_kind not in object_shares(domain)):
+        raise ParameterError(
+            f"object_kind is for kind='object' and one of {tuple(object_shares(domain))}, "
+            f"got kind={kind!r}, object_kind={object_kind!r}"
+        )
     width, height = size if size is not None else d_size
     if fps is None:
         fps = d_fps if d_fps is not None else float(rng.choice([30.0, 60.0]))
     duration = duration_s if duration_s is not None else d_duration
-    background = _background(rng, domain)
+    background = _background(rng, domain, object_kind)
     if kind in ("aircraft", "helicopter") and background.kind == "hall":
         background = replace(background, kind="sky")
     fov = float(rng.uniform(45, 70) if domain == "dvs" else rng.uniform(35, 70))
@@ -477,7 +520,7 @@ def sample_spec(
         if rng.random() < 0.25:
             kinds.append(_pick(rng, others))
     elif kind == "object":
-        kinds.append(_pick(rng, others))
+        kinds.append(object_kind if object_kind is not None else _pick(rng, others))
         if rng.random() < 0.15:
             kinds.append(_pick(rng, others))
     elif kind != "empty":
