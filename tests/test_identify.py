@@ -26,6 +26,7 @@ from uavsnn.events import Recording
 from uavsnn.identify import (
     FEATURES,
     TRACK_FEATURES,
+    UAV_CLASS,
     Identifier,
     best_threshold,
     class_figures,
@@ -411,6 +412,35 @@ def test_auto_never_keeps_trees_without_a_tree(monkeypatch) -> None:
     train, tune = interaction_features(400, 0, False), interaction_features(200, 1, False)
     assert fit(train, tune, classes=False).trees is None
     assert fit(train, tune, classes=False, model="trees").trees is none
+
+
+def named(feats, classes: list[str]):
+    """``feats`` with its non-UAV objects named by ``classes`` in turn."""
+    cls = np.array([UAV_CLASS] * len(feats.label), dtype="<U12")
+    others = np.flatnonzero(~feats.label)
+    cls[others] = [classes[i % len(classes)] for i in range(len(others))]
+    return replace(feats, cls=cls)
+
+
+def test_auto_keeps_the_logistic_score_when_the_tuning_set_lacks_a_class() -> None:
+    from uavsnn.identify import missing_classes
+
+    train = named(interaction_features(1500, 0, False), ["bird", "helicopter"])
+    tune = named(interaction_features(600, 1, False), ["bird", "helicopter"])
+    assert missing_classes(train, tune) == ()
+    assert fit(train, tune, classes=False).trees is not None
+    lacking = named(interaction_features(600, 1, False), ["bird"])
+    assert missing_classes(train, lacking) == ("helicopter",)
+    assert fit(train, lacking, classes=False).trees is None
+    assert fit(train, lacking, classes=False, model="trees").trees is not None  # asked for
+    # A class of fewer than MIN_CLASS_OBJECTS training objects, or unusable objects, do not
+    # count; nor do sets without classes.
+    few = replace(train, cls=np.where(np.arange(1500) == np.flatnonzero(~train.label)[1],
+                                      "kite", train.cls))  # fmt: skip
+    assert missing_classes(few, tune) == ()
+    unusable = replace(tune, usable=tune.cls != "helicopter")
+    assert missing_classes(train, unusable) == ("helicopter",)
+    assert missing_classes(interaction_features(50, 2, False), tune) == ()
 
 
 def test_bad_model_choices_are_typed_errors() -> None:

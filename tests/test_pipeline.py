@@ -35,6 +35,23 @@ def test_train_then_evaluate(
     assert set(summary["layers"]) == {"conv2", "conv3"} and model.exists()
     assert summary["layers"]["conv2"]["windows_seen"] >= 100
 
+    # The same network, its identification fitted again without STDP.
+    again = tmp_path / "again.npz"
+    only = ["train", str(dataset), "-o", str(again), "--identify-only", str(model)]
+    assert main([*only, "--identify-model", "logistic", "--json"]) == 0
+    refit = json.loads(capsys.readouterr().out)
+    assert refit["network"] == str(model) and refit["identify"]["model"] == "logistic"
+    assert isinstance(refit["identify"]["tune_lacks"], list)
+    with np.load(model) as a, np.load(again) as b:
+        weights = [k for k in a.files if not k.startswith("identify.")]
+        assert weights and all(np.array_equal(a[k], b[k]) for k in weights)
+    assert Network.load(again).identification is not None
+    for bad in (["--no-identify"], ["--set", "conv2.threshold=9"], ["--resume"]):
+        assert main([*only, *bad, "--quiet"]) == 2
+        assert "--identify-only" in capsys.readouterr().err
+    missing = ["train", str(dataset), "-o", str(again), "--identify-only", str(tmp_path / "no")]
+    assert main(missing) == 2 and "error" in capsys.readouterr().err
+
     report = tmp_path / "report"
     assert (
         main(["evaluate", str(model), str(dataset), "--json", "--noise", "--report", str(report)])

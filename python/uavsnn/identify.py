@@ -86,6 +86,7 @@ __all__ = [
     "fit_score",
     "fit_softmax",
     "fit_tree_score",
+    "missing_classes",
     "model_name",
     "object_features",
     "predict_logistic",
@@ -384,6 +385,10 @@ def fit(
     which at most :data:`uavsnn.evaluation.FALSE_ALARM_RATES` of ``tune``'s UAV-free windows
     alarm (:attr:`Identifier.alarm_thresholds`).
     ``tune`` must come from other recordings than ``train`` and never from the test set.
+    ``"auto"`` keeps the logistic score, without fitting trees, when ``tune``'s usable objects
+    lack a class ``train``'s name (:func:`missing_classes`): a tuning set cannot judge how a
+    model scores a class it does not hold, and the trees extrapolate to an unseen class worse
+    than the logistic score (measured at 640×480, docs/identification.md).
 
     With ``classes`` (and objects of at least two classes in ``train``'s ``cls``, each class
     with :data:`MIN_CLASS_OBJECTS` or more), also the class model of the class guess
@@ -411,6 +416,8 @@ def fit(
     trees = None
     if model == "trees" and len(yt) == 0:
         raise DatasetError("boosted trees need usable tuning objects to choose their count")
+    if model == "auto" and missing_classes(tr, tu):
+        model = "logistic"
     if model != "logistic" and len(yt):
         zt = (xt - mean) / scale
         trees, _ = fit_tree_score((xs - mean) / scale, ys, zt, yt)
@@ -436,6 +443,21 @@ def fit(
         if found is not None:
             ident = replace(ident, classes=found[0], class_coef=found[1], class_l2=found[2])
     return ident
+
+
+def missing_classes(train: WindowFeatures, tune: WindowFeatures) -> tuple[str, ...]:
+    """The classes of other objects (``cls``, UAV and unnamed objects aside) that at least
+    :data:`MIN_CLASS_OBJECTS` of ``train``'s usable objects have and none of ``tune``'s usable
+    objects has, sorted: what a tuning set cannot judge. Empty when either has no classes."""
+    if len(train.cls) != len(train.x) or len(tune.cls) != len(tune.x):
+        return ()
+    names, counts = np.unique(train.cls[train.usable], return_counts=True)
+    have = set(tune.cls[tune.usable].tolist())
+    return tuple(
+        str(c)
+        for c, m in zip(names, counts, strict=True)
+        if c not in ("", UAV_CLASS) and m >= MIN_CLASS_OBJECTS and c not in have
+    )
 
 
 def fit_score(
@@ -707,9 +729,11 @@ def fit_network(
     if tune is None:
         train, tune = split_by_recording(train)
     tune_inference = network.infer(tune.windows)
+    train_feats = window_features(network, train)
+    tune_feats = window_features(network, tune, tune_inference)
     fitted = fit(
-        window_features(network, train),
-        window_features(network, tune, tune_inference),
+        train_feats,
+        tune_feats,
         tune_detected=tune_inference.detected,
         tune_label=np.asarray(tune.label, dtype=bool),
         model=model,
@@ -718,6 +742,7 @@ def fit_network(
         "train_windows": len(train),
         "tune_windows": len(tune),
         "tune": HELD_OUT_TUNING if held_out else SEPARATE_TUNING,
+        "tune_lacks": list(missing_classes(train_feats, tune_feats)),
         "model": model_name(fitted),
         "l2": fitted.l2,
         "threshold": fitted.threshold,

@@ -68,6 +68,13 @@ def register(subparsers: Any) -> None:
     p.add_argument(
         "--no-identify", action="store_true", help="skip fitting identification after STDP"
     )
+    p.add_argument(
+        "--identify-only",
+        type=Path,
+        metavar="MODEL",
+        help="no STDP: take MODEL's network as it is and fit its identification again on "
+        "DATASET (with --tune), e.g. on a new tuning set; the result is written to -o",
+    )
     p.add_argument("--json", action="store_true", help="print the training summary as JSON")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.set_defaults(handler=_train)
@@ -89,6 +96,8 @@ def network_config(config_file: Path | None, settings: list[str]) -> dict[str, A
 
 
 def _train(args: argparse.Namespace) -> int:
+    if args.identify_only is not None:
+        return _identify_only(args)
     config = network_config(args.config, args.settings)  # bad flags fail before any work
     data = load(args.dataset, args.split)
     tune = None if args.tune is None or args.no_identify else load(args.tune, "train")
@@ -125,19 +134,54 @@ def _train(args: argparse.Namespace) -> int:
             )
         for layer in summary["resumed"]:
             print(f"{layer}: from the checkpoint")
-        ident = summary.get("identify", {})
-        if "skipped" in ident:
-            print(f"identification skipped: {ident['skipped']}")
-        elif ident:
-            print(
-                f"identification ({ident['model']}): fitted on {ident['train_windows']} "
-                f"windows, tuned on {ident['tune_windows']} ({ident['tune']}): L2 "
-                f"{ident['l2']:g}, "
-                f"threshold {ident['threshold']:.3f}"
-                + "".join(
-                    f", {100 * rate:g} % false alarms at {t:.3f}"
-                    for rate, t in ident.get("alarm_thresholds", [])
-                )
-            )
+        _print_identification(summary.get("identify", {}))
         print(f"wrote {args.output}")
+    return 0
+
+
+def _print_identification(ident: dict[str, Any]) -> None:
+    if "skipped" in ident:
+        print(f"identification skipped: {ident['skipped']}")
+    elif ident:
+        print(
+            f"identification ({ident['model']}): fitted on {ident['train_windows']} "
+            f"windows, tuned on {ident['tune_windows']} ({ident['tune']}): L2 "
+            f"{ident['l2']:g}, "
+            f"threshold {ident['threshold']:.3f}"
+            + "".join(
+                f", {100 * rate:g} % false alarms at {t:.3f}"
+                for rate, t in ident.get("alarm_thresholds", [])
+            )
+        )
+        if ident.get("tune_lacks"):
+            print(
+                f"note: the tuning windows hold no {', '.join(ident['tune_lacks'])} object, "
+                "which the training windows have: the thresholds were set without them (auto "
+                "keeps the logistic score); `uavsnn dataset build --stratify` makes a tuning "
+                "set with every kind of object"
+            )
+
+
+def _identify_only(args: argparse.Namespace) -> int:
+    """``--identify-only MODEL``: MODEL's network, its identification fitted again."""
+    if args.no_identify:
+        raise ParameterError("--identify-only fits identification; --no-identify skips it")
+    if args.resume or args.checkpoint_dir is not None or args.config is not None or args.settings:
+        raise ParameterError(
+            "--identify-only trains no layer: --config, --set, --checkpoint-dir and --resume "
+            "do not apply"
+        )
+    network = Network.load(args.identify_only)
+    data = load(args.dataset, args.split)
+    tune = None if args.tune is None else load(args.tune, "train")
+    network.identification, ident = identify.fit_network(
+        network, data, tune, model=args.identify_model
+    )
+    network.save(args.output)
+    summary = {"model": str(args.output), "network": str(args.identify_only), "identify": ident}
+    if args.json:
+        print(json.dumps(summary, indent=2))
+    else:
+        _print_identification(ident)
+        print(f"wrote {args.output} (the network of {args.identify_only})")
     return 0
