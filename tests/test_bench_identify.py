@@ -151,3 +151,29 @@ def test_tune_halves_balanced_accuracy_weighs_both_kinds_alike(bench_script):
     call = np.array([True, True, True, False, True, False])
     assert halves.balanced(call, label) == 0.5 * (0.75 + 0.5)
     assert halves.balanced(label, label) == 1.0 and halves.balanced(~label, label) == 0.0
+
+
+def test_tune_spread_sets_points_on_redrawn_recordings(bench_script):
+    spread = bench_script("tune_spread")
+    # UAV-free recordings 0..9 of 10 windows each, recording k scoring k / 10; UAV windows
+    # (recording 99) never count.
+    recording = np.concatenate([np.repeat(np.arange(10), 10), np.full(5, 99)])
+    label = recording == 99
+    score = np.where(label, 0.99, recording / 10.0)
+    # On the whole set: 10 % of 100 windows may alarm, so the threshold lies just above
+    # recording 8's score and only recording 9 alarms; 1 % alarms on part of recording 9.
+    own = spread.point(score, label, 0.10)
+    assert 0.8 < own <= 0.9 + 1e-12 and (score[~label] >= own).mean() == 0.10
+    again = spread.redrawn_thresholds(score, label, recording, (0.01, 0.10), 300, seed=4)
+    assert again.shape == (300, 2)
+    # A redraw holding recording 9 twice sets the 10 % point at 0.9; one without it lower.
+    assert again[:, 1].max() > 0.9 - 1e-9 and again[:, 1].min() < 0.8
+    assert np.array_equal(
+        again, spread.redrawn_thresholds(score, label, recording, (0.01, 0.10), 300, seed=4)
+    )
+    # Windows the any-spike rule misses score -1: the point never goes below 0.
+    assert spread.point(np.full(20, -1.0), np.zeros(20, bool), 0.05) == 0.0
+    # One UAV-free recording: every redraw is the set itself.
+    one = recording < 1
+    same = spread.redrawn_thresholds(score[one], label[one], recording[one], (0.05,), 20)
+    assert np.all(same == spread.point(score[one], label[one], 0.05))
