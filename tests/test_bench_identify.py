@@ -177,3 +177,21 @@ def test_tune_spread_sets_points_on_redrawn_recordings(bench_script):
     one = recording < 1
     same = spread.redrawn_thresholds(score[one], label[one], recording[one], (0.05,), 20)
     assert np.all(same == spread.point(score[one], label[one], 0.05))
+
+
+def test_class_ranking_gives_each_class_its_own_area(bench_script):
+    ranking = bench_script("class_ranking")
+    label = np.array([True, True, False, False, False, False, False])
+    cls = np.array(["uav", "uav", "bird", "bird", "helicopter", "helicopter", ""])
+    score = np.array([0.9, 0.6, 0.1, 0.2, 0.95, 0.7, 0.99])
+    usable = np.ones(7, bool)
+    areas = ranking.class_areas(score, label, cls, usable)
+    # Birds rank below both UAVs; each helicopter ranks above one UAV; unnamed objects are left out.
+    assert areas == {"bird": 1.0, "helicopter": 0.25}
+    usable[4] = False  # the helicopter above both UAVs
+    assert ranking.class_areas(score, label, cls, usable)["helicopter"] == 0.5
+    assert ranking.class_areas(score, ~np.ones(7, bool), cls, np.ones(7, bool)) == {
+        "bird": None,
+        "helicopter": None,
+        "uav": None,
+    }
