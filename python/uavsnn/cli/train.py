@@ -23,9 +23,10 @@ def register(subparsers: Any) -> None:
         help="train a detector by STDP, one layer at a time",
         description="Train conv2 then conv3 (and conv1 with --layers conv1,conv2,conv3) by "
         "winner-take-all STDP on the train split of a dataset made by `uavsnn dataset build`; "
-        "fit identification (a logistic regression on rotor, shape, activity and track features; "
-        "docs/identification.md) on the split's labels; write the model file. STDP uses no "
-        "labels.",
+        "fit identification (a logistic regression or boosted trees on rotor, shape, activity and "
+        "track features, docs/identification.md) on the split's labels, tuned on --tune (build "
+        "it with `uavsnn dataset build --stratify`) or on held-out recordings; write the model "
+        "file. STDP uses no labels.",
     )
     p.add_argument("dataset", type=Path, help="dataset folder (with manifest.json)")
     p.add_argument("-o", "--output", type=Path, required=True, help="model file to write (.npz)")
