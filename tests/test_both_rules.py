@@ -5,6 +5,7 @@ the raw events too), and written by ``uavsnn.report``."""
 from __future__ import annotations
 
 import pickle
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -184,15 +185,34 @@ def test_class_markdown_names_each_class_and_its_mistakes() -> None:
         "confusion": {"ball": figures["confusion"]["ball"]},
     }
     assert "balanced over the model's classes – (none of them" in class_markdown(only_ball)
+    # At a point set beforehand with a higher threshold, fewer objects are guessed uav.
+    strict = {
+        **figures,
+        "false_alarm_target": 0.05,
+        "accuracy": 0.5,
+        "balanced_accuracy": 0.6,
+        "per_class": {
+            "ball": {"objects": 2, "recall": 0.0},
+            "bird": {"objects": 4, "recall": 0.75},
+            "uav": {"objects": 4, "recall": 0.5},
+        },
+    }
+    text = class_markdown(figures, [strict])
+    assert "| class | objects | guessed right | taken most often for | right, set for 5 % |" in text
+    assert "| bird | 4 | 50.0 % | uav (25.0 %) | 75.0 % |" in text
+    assert "| uav | 4 | 100.0 % | - | 50.0 % |" in text
+    assert "at the threshold set for 5 % false alarms 50.0 %, balanced 60.0 %" in text
+    assert class_markdown(figures, []) == class_markdown(figures)
 
 
 def test_identification_markdown_and_roc_chart(tiny, tmp_path: Path) -> None:
     from uavsnn import pictures
 
     net, _, test = tiny
-    if net.identification is None:
-        net = net.copy()
-        net.identification = _identifier()
+    base = net.identification if net.identification is not None else _identifier()
+    net = net.copy()
+    # Points set beforehand on either side of the model's threshold.
+    net.identification = replace(base, alarm_thresholds=((0.01, 0.95), (0.05, 0.05)))
     from uavsnn.evaluation import evaluate
 
     figures = both_rules(net, test, evaluate(net, test, keep_inference=True).inference)
@@ -207,6 +227,22 @@ def test_identification_markdown_and_roc_chart(tiny, tmp_path: Path) -> None:
     if figures["classes"]["classes"] and figures["classes"]["objects"]:
         for cls, row in figures["classes"]["per_class"].items():
             assert f"| {cls}" in classes and f"| {row['objects']} |" in classes
+    # The class guess at each point set beforehand follows that point's UAV decision.
+    ident = net.identification
+    points = figures["classes_at_tuned"]
+    assert points and [p["false_alarm_target"] for p in points] == [
+        r for r, _ in ident.alarm_thresholds
+    ]
+    for point in points:
+        assert point["objects"] == figures["classes"]["objects"]
+        strict = ident.at_false_alarm(point["false_alarm_target"])
+        for cls, row in point["confusion"].items():
+            uav_here = row.get("uav", 0)
+            uav_there = figures["classes"]["confusion"][cls].get("uav", 0)
+            if strict.threshold >= ident.threshold:
+                assert uav_here <= uav_there
+            else:
+                assert uav_here >= uav_there
     chart = roc_chart({"a": figures["roc"], "b": figures["roc"]}, "ROC")
     assert chart.ndim == 3 and chart.shape[2] == 3
     assert pictures.write_png(tmp_path / "roc.png", chart).stat().st_size > 0

@@ -278,7 +278,8 @@ def both_rules(
 ) -> dict[str, Any] | None:
     """The any-spike rule and detection + identification on ``data`` side by side
     (:func:`uavsnn.evaluation.identification_figures`, at the model's threshold and at the
-    operating points it was tuned for) and the class guess's figures, from ``inference``
+    operating points it was tuned for) and the class guess's figures (``classes``, and
+    ``classes_at_tuned`` at each of those points), from ``inference``
     (``network`` on ``data``'s windows); ``None`` when the network has no identification.
     ``raw_noise``: see :func:`uavsnn.identify.window_features`; ``feats``: those features when
     already computed (then ``raw_noise`` is not used)."""
@@ -297,6 +298,12 @@ def both_rules(
         alarm_thresholds=ident.alarm_thresholds,
     )
     figures["classes"] = identify.class_figures(ident, feats)
+    # The guess follows the UAV decision: at each point set beforehand, "uav" where the score
+    # reaches that point's threshold.
+    figures["classes_at_tuned"] = [
+        {"false_alarm_target": rate, **identify.class_figures(ident.at_false_alarm(rate), feats)}
+        for rate, _ in ident.alarm_thresholds
+    ]
     return figures
 
 

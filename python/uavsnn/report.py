@@ -466,14 +466,17 @@ def identification_markdown(figures: dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def class_markdown(figures: dict[str, Any]) -> str:
+def class_markdown(figures: dict[str, Any], at_points: list[dict[str, Any]] | None = None) -> str:
     """The class guess on the test objects whose class is known
     (:func:`uavsnn.identify.class_figures`' output): per true class, its objects, the share
-    guessed right and what the rest were taken for."""
+    guessed right and what the rest were taken for; with ``at_points`` (the same figures at
+    operating points set beforehand, each with its ``false_alarm_target``), the share guessed
+    right at each point too."""
     if not figures["classes"]:
         return "No class model: the guess is uav or other.\n"
     if not figures["objects"]:
         return "No test object of a known class.\n"
+    points = at_points or []
     balanced = figures["balanced_accuracy"]
     lines = [
         f"Class guess on the {figures['objects']} test objects of a known class (uav where the "
@@ -481,16 +484,25 @@ def class_markdown(figures: dict[str, Any]) -> str:
         "logistic regression on the same features; `uavsnn.identify.class_figures`): "
         f"{100 * figures['accuracy']:.1f} % right, balanced over the model's classes "
         f"{percent(balanced)}{' (none of them among these objects)' if balanced is None else ''}"
-        ".\n",
-        "| class | objects | guessed right | taken most often for |",
-        "|---|---|---|---|",
+        + "".join(
+            f"; at the threshold set for {100 * p['false_alarm_target']:g} % false alarms "
+            f"{100 * p['accuracy']:.1f} %, balanced {percent(p['balanced_accuracy'])}"
+            for p in points
+        )
+        + ".\n",
+        "| class | objects | guessed right | taken most often for |"
+        + "".join(f" right, set for {100 * p['false_alarm_target']:g} % |" for p in points),
+        "|---|---|---|---|" + "---|" * len(points),
     ]
     for cls, row in figures["per_class"].items():
         wrong = {g: n for g, n in figures["confusion"][cls].items() if g != cls}
         most = max(wrong.items(), key=lambda kv: (kv[1], kv[0])) if wrong else None
         taken = "-" if most is None else f"{most[0]} ({100 * most[1] / row['objects']:.1f} %)"
         known = "" if cls in figures["classes"] else " (not a class of the model)"
-        lines.append(f"| {cls}{known} | {row['objects']} | {100 * row['recall']:.1f} % | {taken} |")
+        at = "".join(f" {100 * p['per_class'][cls]['recall']:.1f} % |" for p in points)
+        lines.append(
+            f"| {cls}{known} | {row['objects']} | {100 * row['recall']:.1f} % | {taken} |{at}"
+        )
     return "\n".join(lines) + "\n"
 
 

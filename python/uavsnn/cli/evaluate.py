@@ -275,6 +275,12 @@ def _print_identification(ident: dict[str, Any]) -> None:
             f"{100 * classes['accuracy']:.1f} % right, balanced "
             f"{report.percent(classes['balanced_accuracy'])} ({recall})"
         )
+        for point in ident.get("classes_at_tuned", []):
+            print(
+                f"  at the threshold tuned for {100 * point['false_alarm_target']:g} % false "
+                f"alarms: {100 * point['accuracy']:.1f} % right, balanced "
+                f"{report.percent(point['balanced_accuracy'])}"
+            )
     for z in ident["rotor_coverage"]:
         high = "inf" if z["high_px"] is None else f"{z['high_px']:g}"
         print(

@@ -190,7 +190,11 @@ def _identification_text(
         f"{fit['model']}; L2 {fit['l2']:g}, threshold "
         f"{fit['threshold']:.3f}).\n",
         report.identification_markdown(figures),
-        *([report.class_markdown(figures["classes"])] if "classes" in figures else []),
+        *(
+            [report.class_markdown(figures["classes"], figures.get("classes_at_tuned"))]
+            if "classes" in figures
+            else []
+        ),
     ]
 
 
