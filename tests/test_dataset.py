@@ -241,7 +241,9 @@ class _Guessing(SerialRunner):
         return super().submit(fn, *args)
 
 
-def test_a_stratified_split_holds_every_object_kind_in_its_share(tmp_path: Path) -> None:
+def test_a_stratified_split_holds_every_object_kind_in_its_share(
+    tmp_path: Path, capsys: pytest.CaptureFixture
+) -> None:
     guessing = _Guessing()
     small = SceneSource("dvs", (96, 72), 200.0, 0.3, sensor=(96, 72))
     args = {"n_test": 2, "n_train": 300, "seed": 5, "dvs": small, "sensor": (96, 72)}
@@ -263,6 +265,8 @@ def test_a_stratified_split_holds_every_object_kind_in_its_share(tmp_path: Path)
             assert np.array_equal(a[k], b[k], equal_nan=a[k].dtype.kind == "f"), k
     # ... and were mostly right, object kinds included.
     assert len(guessing.submitted) < 1.3 * len(m["recordings"])
+    assert main(["dataset", "info", str(root)]) == 0
+    assert "object scenes stratified" in capsys.readouterr().out
 
 
 def test_round_trip_through_the_file(dvs_set: Path, tmp_path: Path) -> None:

@@ -139,9 +139,10 @@ def _print(summary: dict[str, Any], as_json: bool) -> None:
         return
     print(f"{summary['root']}: {summary['domain']} — {summary['source']} (seed {summary['seed']})")
     p = summary["parameters"]
+    stratified = ", object scenes stratified" if p.get("object_scenes") == "stratified" else ""
     print(
         f"  windows of {p['window_ms']} ms, overlap {p['overlap']}, sensor "
-        f"{p['sensor_size'][0]}x{p['sensor_size'][1]}"
+        f"{p['sensor_size'][0]}x{p['sensor_size'][1]}{stratified}"
     )
     for name, s in summary["splits"].items():
         classes = ", ".join(f"{k} {v}" for k, v in sorted(s["classes"].items()))
