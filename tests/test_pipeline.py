@@ -90,6 +90,9 @@ def test_commands_fail_cleanly_on_bad_input(
     Network({"width": 120, "height": 90}, seed=0).save(model)
     assert main(["evaluate", str(model), str(dataset)]) == 2
     assert "sensor is 240x180 but the model's input is 120x90" in capsys.readouterr().err
+    refit = tmp_path / "refit.npz"
+    assert main(["train", str(dataset), "-o", str(refit), "--identify-only", str(model)]) == 2
+    assert "120x90" in capsys.readouterr().err and not refit.exists()
     assert main(["evaluate", str(tmp_path / "missing.npz"), str(dataset)]) == 2
 
 
