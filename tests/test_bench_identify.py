@@ -14,7 +14,7 @@ from uavsnn import EVENT_DTYPE, Network
 from uavsnn.dataset import LabelledWindows
 from uavsnn.dataset.format import RawEvents
 from uavsnn.events import Recording
-from uavsnn.identify import FEATURES, Identifier
+from uavsnn.identify import FEATURES, Identifier, alarm_threshold
 from uavsnn.windows import make_windows
 
 SIZE = (40, 30)
@@ -162,7 +162,7 @@ def test_tune_spread_sets_points_on_redrawn_recordings(bench_script):
     score = np.where(label, 0.99, recording / 10.0)
     # On the whole set: 10 % of 100 windows may alarm, so the threshold lies just above
     # recording 8's score and only recording 9 alarms; 1 % alarms on part of recording 9.
-    own = spread.point(score, label, 0.10)
+    own = alarm_threshold(score, label, 0.10)
     assert 0.8 < own <= 0.9 + 1e-12 and (score[~label] >= own).mean() == 0.10
     again = spread.redrawn_thresholds(score, label, recording, (0.01, 0.10), 300, seed=4)
     assert again.shape == (300, 2)
@@ -172,11 +172,11 @@ def test_tune_spread_sets_points_on_redrawn_recordings(bench_script):
         again, spread.redrawn_thresholds(score, label, recording, (0.01, 0.10), 300, seed=4)
     )
     # Windows the any-spike rule misses score -1: the point never goes below 0.
-    assert spread.point(np.full(20, -1.0), np.zeros(20, bool), 0.05) == 0.0
+    assert alarm_threshold(np.full(20, -1.0), np.zeros(20, bool), 0.05) == 0.0
     # One UAV-free recording: every redraw is the set itself.
     one = recording < 1
     same = spread.redrawn_thresholds(score[one], label[one], recording[one], (0.05,), 20)
-    assert np.all(same == spread.point(score[one], label[one], 0.05))
+    assert np.all(same == alarm_threshold(score[one], label[one], 0.05))
 
 
 def test_class_ranking_gives_each_class_its_own_area(bench_script):

@@ -21,6 +21,19 @@ from uavsnn import Network, identify
 from uavsnn.dataset import load
 
 
+def tuning_scores(net: Network, path: str) -> tuple[np.ndarray, ...]:
+    """A dataset's train split through ``net``: per window the any-spike rule's call, the score
+    of "any-spike AND UAV score" that ``identify.fit`` sets its thresholds on (-1 where the rule
+    does not fire), the truth and the recording."""
+    ident = net.identification
+    if ident is None:
+        raise SystemExit("the model has no identification to look at")
+    data = load(path, "train")
+    fired = np.asarray(net.infer(data.windows).detected, bool)
+    score = np.where(fired, ident.window_scores(identify.window_features(net, data)), -1.0)
+    return fired, score, np.asarray(data.label, bool), np.asarray(data.recording)
+
+
 def balanced(call: np.ndarray, label: np.ndarray) -> float:
     """The mean of the share of UAV windows called and of UAV-free windows not called."""
     return float(0.5 * (call[label].mean() + (~call[~label]).mean()))
@@ -37,11 +50,7 @@ def main() -> None:
         raise SystemExit(f"{args.model}: no identification to look at")
     print(f"{args.model}: {identify.model_name(ident)}, threshold {ident.threshold:.3f}")
     for path in args.tune:
-        data = load(path, "train")
-        inference = net.infer(data.windows)
-        fired = np.asarray(inference.detected, bool)
-        label = np.asarray(data.label, bool)
-        score = np.where(fired, ident.window_scores(identify.window_features(net, data)), -1.0)
+        fired, score, label, _ = tuning_scores(net, path)
         best = identify.best_threshold(score, label)
         print(
             f"  {path}: any-spike {balanced(fired, label):.3f}; best threshold on it alone "

@@ -21,18 +21,17 @@ scored set's. The fit itself (L2 weight, trees) is not redone; only the operatin
 from __future__ import annotations
 
 import argparse
+import sys
+from pathlib import Path
 
 import numpy as np
 
 from uavsnn import Network, identify
-from uavsnn.dataset import load
-from uavsnn.evaluation import FALSE_ALARM_RATES, recording_interval, threshold_at_false_alarm
+from uavsnn.evaluation import FALSE_ALARM_RATES, recording_interval
+from uavsnn.identify import alarm_threshold
 
-
-def point(score: np.ndarray, label: np.ndarray, rate: float) -> float:
-    """The operating point ``identify.fit`` sets: at most ``rate`` of the UAV-free windows
-    alarm; never below 0 (windows the any-spike rule misses score -1 and never alarm)."""
-    return max(threshold_at_false_alarm(score, label, rate), 0.0)
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from tune_halves import tuning_scores
 
 
 def redrawn_thresholds(
@@ -54,17 +53,8 @@ def redrawn_thresholds(
     for d in range(draws):
         pick = np.concatenate([groups[k] for k in rng.integers(0, len(groups), len(groups))])
         alarm = np.zeros(len(pick), bool)
-        out[d] = [point(pick, alarm, rate) for rate in rates]
+        out[d] = [alarm_threshold(pick, alarm, rate) for rate in rates]
     return out
-
-
-def _scores(net: Network, path: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    ident = net.identification
-    assert ident is not None
-    data = load(path, "train")
-    fired = np.asarray(net.infer(data.windows).detected, bool)
-    score = np.where(fired, ident.window_scores(identify.window_features(net, data)), -1.0)
-    return score, np.asarray(data.label, bool), np.asarray(data.recording)
 
 
 def main() -> None:
@@ -81,8 +71,8 @@ def main() -> None:
     if ident is None:
         raise SystemExit(f"{args.model}: no identification to look at")
     rates = tuple(FALSE_ALARM_RATES)
-    score, label, recording = _scores(net, args.tune)
-    own = [point(score, label, rate) for rate in rates]
+    _, score, label, recording = tuning_scores(net, args.tune)
+    own = [alarm_threshold(score, label, rate) for rate in rates]
     again = redrawn_thresholds(score, label, recording, rates, args.draws)
     free = len(np.unique(recording[~label]))
     print(
@@ -93,7 +83,7 @@ def main() -> None:
         lo, hi = np.percentile(again[:, k], [2.5, 97.5])
         print(f"  set for {100 * rate:g} %: threshold {own[k]:.3f} (redrawn: {lo:.3f}-{hi:.3f})")
     for path in args.score:
-        s, y, rec = _scores(net, path)
+        _, s, y, rec = tuning_scores(net, path)
         print(
             f"  {path}: {int((~y).sum())} UAV-free windows of {len(np.unique(rec[~y]))} recordings"
         )

@@ -77,6 +77,7 @@ __all__ = [
     "Identifier",
     "WindowFeatures",
     "ablation",
+    "alarm_threshold",
     "best_threshold",
     "class_figures",
     "feature_auc",
@@ -425,17 +426,14 @@ def fit(
             trees = None
     ident = Identifier(names, coef, mean, scale, 0.5, l2, trees=trees)
     if tune_detected is not None and tune_label is not None:
-        from uavsnn.evaluation import FALSE_ALARM_RATES, threshold_at_false_alarm
+        from uavsnn.evaluation import FALSE_ALARM_RATES
 
         label = np.asarray(tune_label, bool)
         score = np.where(np.asarray(tune_detected, bool), ident.window_scores(tu), -1.0)
         alarms: tuple[tuple[float, float], ...] = ()
         if (~label).any():
-            # A window the any-spike rule misses scores -1 and never alarms; where the share
-            # would need more windows than the rule calls, every detection alarms.
             alarms = tuple(
-                (rate, max(threshold_at_false_alarm(score, label, rate), 0.0))
-                for rate in FALSE_ALARM_RATES
+                (rate, alarm_threshold(score, label, rate)) for rate in FALSE_ALARM_RATES
             )
         ident = replace(ident, threshold=best_threshold(score, label), alarm_thresholds=alarms)
     if classes:
@@ -529,6 +527,16 @@ def fit_tree_score(
     if best is None:
         raise ParameterError("the tree grid is empty")
     return best[1], best[0]
+
+
+def alarm_threshold(score: np.ndarray, label: np.ndarray, rate: float) -> float:
+    """The operating point of :func:`fit` on window scores (``score``; -1 for windows the
+    any-spike rule does not call UAV): the threshold at which at most ``rate`` of the UAV-free
+    windows of ``label`` alarm. A window the rule misses never alarms; where the share would
+    need more windows than the rule calls, the point is 0.0 and every detection alarms."""
+    from uavsnn.evaluation import threshold_at_false_alarm
+
+    return max(threshold_at_false_alarm(score, label, rate), 0.0)
 
 
 def best_threshold(score: np.ndarray, label: np.ndarray) -> float:
