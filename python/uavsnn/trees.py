@@ -188,13 +188,14 @@ def fit_trees(
     for t in range(trees):
         p = sigmoid(raw)
         g, h = p - target, np.maximum(p * (1 - p), 1e-12)
+        g_each, h_each = np.repeat(g, d), np.repeat(h, d)  # one weight per (row, column)
         node = np.zeros(n, dtype=np.int64)
         for level in range(depth):
             nodes = 1 << level
             index = (node[:, None] * (d * width) + flat).ravel()
             size = nodes * d * width
-            gh = np.bincount(index, np.repeat(g, d), minlength=size).reshape(nodes, d, width)
-            hh = np.bincount(index, np.repeat(h, d), minlength=size).reshape(nodes, d, width)
+            gh = np.bincount(index, g_each, minlength=size).reshape(nodes, d, width)
+            hh = np.bincount(index, h_each, minlength=size).reshape(nodes, d, width)
             gl, hl = np.cumsum(gh, axis=2), np.cumsum(hh, axis=2)
             gt, ht = gl[:, :, -1:], hl[:, :, -1:]
             gain = (gl**2 / (hl + l2) + (gt - gl) ** 2 / (ht - hl + l2)).sum(axis=0)
