@@ -366,6 +366,26 @@ def test_alarm_thresholds_hold_the_tuning_sets_false_alarm_share() -> None:
         bare.at_false_alarm(0.01)
 
 
+@pytest.mark.parametrize(
+    ("pairs", "minutes", "message"),
+    [
+        (((0.0, 0.5),), 10.0, "positive rate of false tracks"),
+        (((0.1, float("nan")),), 10.0, "finite threshold"),
+        (((0.1, 0.5), (0.1, 0.6)), 10.0, "name a rate twice"),
+        (((0.1, 0.5),), 0.0, "track_alarm_minutes must be positive"),
+        ((), 10.0, "0 without"),
+    ],
+)
+def test_track_alarm_thresholds_are_checked(pairs, minutes, message) -> None:
+    from uavsnn.identify import Identifier
+
+    with pytest.raises(ParameterError, match=message):
+        Identifier(
+            ("log_width",), np.zeros(2), np.zeros(1), np.ones(1), 0.5, 1.0,
+            track_alarm_thresholds=pairs, track_alarm_minutes=minutes,
+        )  # fmt: skip
+
+
 def test_alarm_thresholds_pass_every_detection_when_the_share_allows_it() -> None:
     """When the any-spike rule raises fewer false alarms on the tuning set than the share
     allows, the operating point is 'every detection alarms' (0.0), not a negative score."""

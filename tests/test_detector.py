@@ -788,6 +788,38 @@ def test_cli_false_alarm_sets_the_operating_point(net: Network, expected, tmp_pa
     assert none.returncode == 2 and b"has no identification" in none.stderr
 
 
+def test_cli_false_tracks_sets_the_track_operating_point(
+    net: Network, expected, tmp_path: Path
+) -> None:
+    """--false-tracks RATE scores with the threshold the model was tuned to for that many
+    false tracks per minute; a rate it was not tuned for, or with --false-alarm, is refused."""
+    from uavsnn.identify import Identifier
+
+    events, _ = expected
+    ident = Identifier(
+        ("log_width", "log_height"), np.array([0.2, 0.1, 0.1]), np.zeros(2), np.ones(2), 0.5,
+        1.0, alarm_thresholds=((0.01, 0.5),), track_alarm_thresholds=((0.1, 0.999999), (1.0, 0.0)),
+        track_alarm_minutes=10.0,
+    )  # fmt: skip
+    model = net.copy()
+    model.identification = ident
+    path = tmp_path / "ident.npz"
+    model.save(path)
+    args = ["-", "--model", str(path), "--window-ms", "3", "--json"]
+    classes = {}
+    for rate in ("0.1", "1"):
+        done = run_cli(detect_cmd(*args, "--false-tracks", rate), stdin=events.tobytes())
+        assert done.returncode == 0, done.stderr.decode()
+        rows = [json.loads(line) for line in done.stdout.decode().splitlines()]
+        classes[rate] = [o["class"] for r in rows for o in r["objects"]]
+    assert classes["0.1"] and "uav" not in classes["0.1"]
+    assert set(classes["1"]) == {"uav"}
+    refused = run_cli(detect_cmd(*args, "--false-tracks", "0.5"), stdin=b"")
+    assert refused.returncode == 2 and b"not tuned for 0.5 false tracks" in refused.stderr
+    both = run_cli(detect_cmd(*args, "--false-tracks", "1", "--false-alarm", "0.01"), stdin=b"")
+    assert both.returncode == 2 and b"give one" in both.stderr
+
+
 def test_printed_centre_lies_in_its_box(shared_data: Path, tmp_path: Path) -> None:
     """The field centre (x, y) of a conv3 spike is the middle of its receptive field, which
     covers most of the sensor: on a real recording it mostly lies outside the spike's causal

@@ -3,19 +3,26 @@ rules on handmade windows, the scenes, and a tiny run end to end."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from uavsnn import Network
 from uavsnn.detector import WindowObject, WindowReport
 from uavsnn.errors import ParameterError
 from uavsnn.false_alarms import (
+    TUNE_KEY,
     alarm_rules,
     count_alarms,
     false_alarm_figures,
     false_alarm_table,
     stream_batch,
     summarise,
+    track_alarm_threshold,
+    tune_track_alarms,
     uav_free_scenes,
 )
 
@@ -82,3 +89,101 @@ def test_a_tiny_run_end_to_end() -> None:
 def test_bad_arguments_are_parameter_errors(kwargs, message) -> None:
     with pytest.raises(ParameterError, match=message):
         false_alarm_figures(Network(seed=0), **kwargs)
+
+
+# ---------------------------------------------------------------- track alarm thresholds
+
+
+def test_peaks_give_the_tracks_that_alarm_at_any_threshold() -> None:
+    """count_alarms' peaks: each confirmed, scored track's highest running mean while
+    confirmed in a detected window; the tracks alarming at a threshold are those whose peak
+    reaches it."""
+    none = np.zeros(0)
+    reports = [
+        WindowReport(0, 0, 50, True, none, (_obj(0.9, 1, False, 0.9), _obj(0.3, 2, True, 0.3))),
+        WindowReport(1, 25, 75, False, none, (_obj(0.99, 1, True, 0.95),)),
+        WindowReport(2, 50, 100, True, none, (_obj(0.5, 1, True, 0.7), _obj(0.2, 2, True, 0.25))),
+        WindowReport(3, 75, 125, True, none, (_obj(None, 3, True, None),)),
+    ]
+    rules = {f"at {t}": t for t in (0.2, 0.3, 0.5, 0.7, 0.71, 0.95)}
+    got = count_alarms(reports, rules)
+    # Track 1's 0.9 was tentative and its 0.95 in a window not detected; track 2 peaked at
+    # 0.3; track 3 has no score.
+    assert got["track_peaks"] == [0.7, 0.3]
+    for rule, t in rules.items():
+        assert got["tracks"][rule] == sum(p >= t for p in got["track_peaks"])
+
+
+@given(
+    peaks=st.lists(st.floats(0.0, 1.0), max_size=40),
+    minutes=st.floats(0.5, 60.0),
+    rate=st.sampled_from([0.05, 0.1, 0.5, 1.0, 3.0]),
+)
+def test_track_alarm_threshold_is_the_lowest_that_holds_the_rate(peaks, minutes, rate) -> None:
+    threshold = track_alarm_threshold(peaks, minutes, rate)
+    alarms = sum(p >= threshold for p in peaks)
+    assert 0.0 <= threshold and alarms <= rate * minutes + 1e-9
+    # Any lower threshold that lets one more peak through breaks the rate.
+    below = [p for p in peaks if p < threshold]
+    if below:
+        assert alarms + sum(p == max(below) for p in peaks) > rate * minutes
+
+
+def test_track_alarm_threshold_refuses_bad_input() -> None:
+    assert track_alarm_threshold([0.5, 0.4], 10.0, 0.1) == np.nextafter(0.4, 1.0)
+    assert track_alarm_threshold([0.5], 10.0, 0.1) == 0.0  # one track in 10 minutes allowed
+    for minutes, rate in ((0.0, 0.1), (10.0, -1.0), (float("inf"), 0.1), (10.0, float("nan"))):
+        with pytest.raises(ParameterError, match="must be positive and finite"):
+            track_alarm_threshold([0.5], minutes, rate)
+    with pytest.raises(ParameterError, match="finite"):
+        track_alarm_threshold([float("nan")], 10.0, 0.1)
+
+
+def _identified(net: Network) -> Network:
+    from uavsnn.identify import Identifier
+
+    model = net.copy()
+    model.identification = Identifier(
+        ("log_width", "log_height"), np.array([0.2, 0.4, 0.3]), np.zeros(2), np.ones(2), 0.5, 1.0,
+    )  # fmt: skip
+    return model
+
+
+def test_tune_track_alarms_sets_thresholds_on_recordings_of_its_own(tmp_path: Path) -> None:
+    """The thresholds are track_alarm_threshold of the peaks of TUNE_KEY's recordings (never
+    FREE_KEY's, which false_alarm_figures measures on); the model switches to one with
+    at_false_tracks, keeps them through a save and load, and false_alarm_figures then
+    measures each as a rule."""
+    from uavsnn.network import default_config
+    from uavsnn.training import apply_overrides
+
+    # Untrained, with thresholds low enough that its tracks confirm (5 here; rate 40 per
+    # minute allows 2 of them in 0.05 minutes, so the threshold lies between two peaks).
+    config = apply_overrides(default_config(), ["conv2.threshold=5", "conv3.threshold=1"])
+    net = _identified(Network(config, seed=0))
+    tuned, summary = tune_track_alarms(net, minutes=0.05, seed=3, rates=(0.1, 40.0))
+    scenes = uav_free_scenes(3, 3, TUNE_KEY)
+    assert not set(scenes) & set(uav_free_scenes(3, 3))
+    rows = stream_batch(net, scenes)
+    peaks = [p for r in rows for p in r["track_peaks"]]
+    minutes = sum(r["seconds"] for r in rows) / 60
+    want = tuple((r, track_alarm_threshold(peaks, minutes, r)) for r in (0.1, 40.0))
+    assert len(peaks) >= 3 and tuned.track_alarm_thresholds == want
+    assert 0 < want[1][1] < want[0][1]
+    assert tuned.track_alarm_minutes == pytest.approx(0.05)
+    assert summary["confirmed_tracks"] == len(peaks) and summary["seed"] == 3
+    assert tuned.at_false_tracks(0.1).threshold == want[0][1]
+    with pytest.raises(ParameterError, match=r"not tuned for 0\.5 false tracks per minute"):
+        tuned.at_false_tracks(0.5)
+    model = net.copy()
+    model.identification = tuned
+    model.save(tmp_path / "m.npz")
+    loaded = Network.load(tmp_path / "m.npz").identification
+    assert loaded is not None and loaded.track_alarm_thresholds == want
+    assert loaded.track_alarm_minutes == tuned.track_alarm_minutes
+    rules = alarm_rules(model)
+    assert rules["identified_tracks_at_0.1"] == want[0][1]
+    with pytest.raises(ParameterError, match="need a network with identification"):
+        tune_track_alarms(Network(seed=0), minutes=0.05, seed=3)
+    with pytest.raises(ParameterError, match="rates must be"):
+        tune_track_alarms(net, minutes=0.05, seed=3, rates=(0.1, 0.1))

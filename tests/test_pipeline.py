@@ -49,6 +49,19 @@ def test_train_then_evaluate(
     for bad in (["--no-identify"], ["--set", "conv2.threshold=9"], ["--resume"]):
         assert main([*only, *bad, "--quiet"]) == 2
         assert "--identify-only" in capsys.readouterr().err
+    # Track alarm thresholds set on a few streamed UAV-free recordings of seed 5.
+    tracked = tmp_path / "tracked.npz"
+    track = ["train", str(dataset), "-o", str(tracked), "--identify-only", str(model)]
+    assert main([*track, "--track-minutes", "0.05", "--track-seed", "5", "--json"]) == 0
+    tracks = json.loads(capsys.readouterr().out)["identify"]["tracks"]
+    assert tracks["seed"] == 5 and tracks["recordings"] == 3
+    ident = Network.load(tracked).identification
+    assert ident is not None and ident.track_alarm_minutes == pytest.approx(0.05)
+    assert [list(p) for p in ident.track_alarm_thresholds] == tracks["track_alarm_thresholds"]
+    assert [r for r, _ in ident.track_alarm_thresholds] == [0.1, 1.0]
+    for bad in (["--track-minutes", "-1"], ["--track-minutes", "1", "--no-identify"], ["--ray"]):
+        assert main([*track, *bad, "--quiet"]) == 2
+        assert "--track-minutes" in capsys.readouterr().err
     missing = ["train", str(dataset), "-o", str(again), "--identify-only", str(tmp_path / "no")]
     assert main(missing) == 2 and "error" in capsys.readouterr().err
 
@@ -125,8 +138,9 @@ def test_demo_is_well_above_chance_on_held_out_windows(tmp_path: Path) -> None:
 
 def test_reproduce_at_a_tiny_size(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "repro"
-    args = ["reproduce", "--out", str(out), "--n-train", "16", "--n-test", "20"]
-    args += ["--free-minutes", "0.05"]
+    # 40 training windows: enough objects of both kinds to fit identification.
+    args = ["reproduce", "--out", str(out), "--n-train", "40", "--n-test", "20"]
+    args += ["--free-minutes", "0.05", "--track-minutes", "0.05"]
     assert main([*args, "--windows-per-layer", "32", "--no-real", "--quiet"]) == 0
     text = (out / "RESULTS.md").read_text()
     assert "## Table 2" in text and "| combined |" in text and "## Table 3" in text
@@ -150,10 +164,23 @@ def test_reproduce_at_a_tiny_size(tmp_path: Path, capsys: pytest.CaptureFixture[
     for free in results["false_alarms"].values():
         assert free["recordings"] == 3 and set(free["rules"]) <= {
             "any_spike", "identified", "identified_at_0.01", "identified_at_0.05",
+            "identified_tracks_at_0.1", "identified_tracks_at_1",
         }  # fmt: skip
+    # Track alarm thresholds set on 3 recordings of the tuning seed, for the networks with
+    # identification among the streamed ones.
+    tuned = []
+    for name in ("combined", "dvs"):
+        fit = results["table2"][name]["identify_fit"]
+        assert ("tracks" in fit) == ("skipped" not in fit)
+        if "tracks" in fit:
+            assert fit["tracks"]["seed"] == 1 and fit["tracks"]["recordings"] == 3
+            assert "identified_tracks_at_0.1" in results["false_alarms"][name]["rules"]
+            assert f"The {name} network's track alarm thresholds" in text
+            tuned.append(name)
+    assert tuned
     for domain in ("dvs", "sim"):
         manifest = json.loads((out / f"data/tune-{domain}/manifest.json").read_text())
-        assert manifest["seed"] == 1 and manifest["parameters"]["n_train"] == 16
+        assert manifest["seed"] == 1 and manifest["parameters"]["n_train"] == 40
     # What the figures may depend on besides the code and the seed is written beside them.
     env = results["environment"]
     assert env["numpy"] == np.__version__ and env["python"] == platform.python_version()
@@ -191,6 +218,7 @@ def test_reproduce_refuses_a_bad_sensor_before_writing(tmp_path: Path, capsys) -
         (["--tune-seed", "-1"], "--tune-seed must be a non-negative seed other"),
         (["--n-tune", "1"], "--n-tune must be at least 2"),
         (["--free-minutes", "-1"], "--free-minutes must be in"),
+        (["--track-minutes", "601"], "--track-minutes must be in"),
     ],
 )
 def test_reproduce_refuses_to_tune_on_the_test_seed(

@@ -24,20 +24,24 @@ model's threshold and at each operating point set beforehand) it counts:
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
 from uavsnn.dataset.splits import DOMAIN_KEY, keyed_rng, keyed_seed
 from uavsnn.distributed import SERIAL, Runner
 from uavsnn.errors import ParameterError
-from uavsnn.track_eval import at_rule, poisson_upper, rule_name
+from uavsnn.track_eval import at_rule, poisson_upper, rule_name, tracks_at_rule
 
 if TYPE_CHECKING:
     from uavsnn.detector import WindowReport
+    from uavsnn.identify import Identifier
     from uavsnn.network import Network
 
 __all__ = [
     "FREE_KEY",
+    "TRACK_ALARM_RATES",
+    "TUNE_KEY",
     "alarm_rules",
     "count_alarms",
     "false_alarm_figures",
@@ -45,11 +49,19 @@ __all__ = [
     "scene_batches",
     "stream_batch",
     "summarise",
+    "track_alarm_threshold",
+    "tune_track_alarms",
     "uav_free_scenes",
 ]
 
 #: The key under a seed that no dataset split uses (``uavsnn.dataset.splits.SPLIT_KEY``: 1, 2).
 FREE_KEY = 9
+#: The key of the recordings track alarm thresholds are set on (:func:`tune_track_alarms`):
+#: never :data:`FREE_KEY`'s, so a threshold is never measured on the recordings it was set on.
+TUNE_KEY = 10
+#: False tracks per minute that :func:`tune_track_alarms` sets thresholds for by default: the
+#: target of SPEC §5's issue (one per 10 minutes) and ten times it.
+TRACK_ALARM_RATES = (0.1, 1.0)
 #: Recordings per unit of work (a Ray task).
 BATCH = 20
 #: Events per chunk pushed into the detector, as a live stream arrives in pieces.
@@ -58,15 +70,16 @@ CHUNK = 20_000
 MAX_MINUTES = 600.0
 
 
-def uav_free_scenes(seed: int, recordings: int) -> list[tuple[str, int]]:
+def uav_free_scenes(seed: int, recordings: int, key: int = FREE_KEY) -> list[tuple[str, int]]:
     """The kind and seed of each UAV-free recording: ``"object"`` 70 %, ``"empty"`` 30 %, as a
-    dataset draws its UAV-free scenes, keyed by ``(seed, dvs, FREE_KEY, ...)``."""
+    dataset draws its UAV-free scenes, keyed by ``(seed, dvs, key, ...)`` (:data:`FREE_KEY`
+    for measuring, :data:`TUNE_KEY` for setting track alarm thresholds)."""
     dkey = DOMAIN_KEY["dvs"]
-    kinds = keyed_rng(seed, dkey, FREE_KEY, 0)
+    kinds = keyed_rng(seed, dkey, key, 0)
     out = []
     for i in range(recordings):
         kind = "object" if kinds.random() < 0.7 else "empty"
-        out.append((kind, keyed_seed(seed, dkey, FREE_KEY, 1, i)))
+        out.append((kind, keyed_seed(seed, dkey, key, 1, i)))
     return out
 
 
@@ -79,14 +92,21 @@ def alarm_rules(network: Network) -> dict[str, float | None]:
         rules["identified"] = ident.threshold
         for rate, threshold in ident.alarm_thresholds:
             rules[at_rule(rate)] = threshold
+        for rate, threshold in ident.track_alarm_thresholds:
+            rules[tracks_at_rule(rate)] = threshold
     return rules
 
 
 def count_alarms(reports: Sequence[WindowReport], rules: dict[str, float | None]) -> dict:
     """Per rule, the windows (``"alarming"``) and the tracks (``"tracks"``) that alarm among
-    ``reports``, the windows of one stream."""
+    ``reports``, the windows of one stream; and ``"track_peaks"``: for each confirmed track
+    with a score, the highest :attr:`~uavsnn.detector.WindowObject.track_score` it reached
+    while confirmed in a detected window, largest first. With identification at a threshold
+    ``θ``, the tracks that alarm are those whose peak reaches ``θ``
+    (:func:`track_alarm_threshold` reads the threshold off them)."""
     windows = dict.fromkeys(rules, 0)
     tracks: dict[str, set[int]] = {rule: set() for rule in rules}
+    peaks: dict[int, float] = {}
     for report in reports:
         if not report.detected:
             continue
@@ -97,11 +117,41 @@ def count_alarms(reports: Sequence[WindowReport], rules: dict[str, float | None]
         for o in report.objects:
             if o.track_id is None or not o.track_confirmed:
                 continue
+            score = o.track_score
+            if score is not None:
+                peaks[o.track_id] = max(peaks.get(o.track_id, -math.inf), score)
             for rule, threshold in rules.items():
-                score = o.track_score
                 if threshold is None or (score is not None and score >= threshold):
                     tracks[rule].add(o.track_id)
-    return {"alarming": windows, "tracks": {rule: len(ids) for rule, ids in tracks.items()}}
+    return {
+        "alarming": windows,
+        "tracks": {rule: len(ids) for rule, ids in tracks.items()},
+        "track_peaks": sorted(peaks.values(), reverse=True),
+    }
+
+
+def track_alarm_threshold(peaks: Sequence[float], minutes: float, rate: float) -> float:
+    """The lowest threshold at which at most ``rate`` false tracks per minute alarm over
+    ``minutes`` of UAV-free recording whose confirmed tracks peaked at ``peaks``
+    (:func:`count_alarms`): with ``k = floor(rate × minutes)``, just above the ``k + 1``-th
+    highest peak, so that ``k`` tracks reach it; 0.0 (every confirmed track alarms) when
+    there are ``k`` tracks or fewer. A rate below one track over ``minutes`` (``k = 0``) asks
+    that no track of them alarm.
+
+    Raises:
+        ParameterError: ``minutes`` or ``rate`` not positive and finite, or a peak not finite.
+    """
+    for name, value in (("minutes", minutes), ("rate", rate)):
+        if not isinstance(value, (int, float)) or not (0 < value < math.inf):
+            raise ParameterError(f"{name} must be positive and finite, got {value!r}")
+    values = sorted((float(p) for p in peaks), reverse=True)
+    if not all(math.isfinite(p) for p in values):
+        raise ParameterError("track peaks must be finite")
+    # The tolerance keeps a product such as 0.1 × 10 from falling just below its integer.
+    k = math.floor(rate * minutes + 1e-9)
+    if len(values) <= k:
+        return 0.0
+    return max(math.nextafter(values[k], math.inf), 0.0)
 
 
 def stream_batch(network: Network, scenes: Sequence[tuple[str, int]]) -> list[dict[str, Any]]:
@@ -141,6 +191,7 @@ def summarise(rows: Sequence[dict[str, Any]], rules: dict[str, float | None]) ->
     windows = sum(r["windows"] for r in rows)
     out: dict[str, Any] = {
         "recordings": len(rows), "minutes": minutes, "windows": windows, "rules": {},
+        "track_peaks": sorted((p for r in rows for p in r["track_peaks"]), reverse=True),
     }  # fmt: skip
     for rule, threshold in rules.items():
         false = sum(r["tracks"][rule] for r in rows)
@@ -160,9 +211,9 @@ def summarise(rows: Sequence[dict[str, Any]], rules: dict[str, float | None]) ->
     return out
 
 
-def scene_batches(minutes: float, seed: int) -> list[list[tuple[str, int]]]:
-    """The :func:`uav_free_scenes` of ``minutes`` of recording (dvs scenes of 1 s), in units of
-    :data:`BATCH` (what :func:`stream_batch` takes).
+def scene_batches(minutes: float, seed: int, key: int = FREE_KEY) -> list[list[tuple[str, int]]]:
+    """The :func:`uav_free_scenes` of ``minutes`` of recording (dvs scenes of 1 s) under
+    ``key``, in units of :data:`BATCH` (what :func:`stream_batch` takes).
 
     Raises:
         ParameterError: ``minutes`` outside (0, :data:`MAX_MINUTES`] or a negative ``seed``.
@@ -174,7 +225,7 @@ def scene_batches(minutes: float, seed: int) -> list[list[tuple[str, int]]]:
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise ParameterError(f"seed must be a non-negative integer, got {seed!r}")
     seconds = default_source("dvs").duration_s
-    scenes = uav_free_scenes(seed, max(1, round(minutes * 60 / seconds)))
+    scenes = uav_free_scenes(seed, max(1, round(minutes * 60 / seconds)), key)
     return [scenes[i : i + BATCH] for i in range(0, len(scenes), BATCH)]
 
 
@@ -194,6 +245,53 @@ def false_alarm_figures(
     units = runner.imap(stream_batch, [(shared, batch) for batch in batches])
     rows = [row for unit in units for row in unit]
     return summarise(rows, alarm_rules(network)) | {"seed": seed}
+
+
+def tune_track_alarms(
+    network: Network,
+    *,
+    minutes: float,
+    seed: int,
+    rates: Sequence[float] = TRACK_ALARM_RATES,
+    runner: Runner = SERIAL,
+) -> tuple[Identifier, dict[str, Any]]:
+    """``network``'s identification with track alarm thresholds
+    (:attr:`uavsnn.identify.Identifier.track_alarm_thresholds`) set for ``rates`` false tracks
+    per minute on ``minutes`` of fresh UAV-free recording streamed as
+    :func:`false_alarm_figures` streams it, but under :data:`TUNE_KEY`: recordings that
+    :func:`false_alarm_figures` never measures, whatever the seeds
+    (:func:`track_alarm_threshold` on the confirmed tracks' peak scores). Returns the model
+    (not attached) and a summary: ``seed``, ``minutes``, ``recordings``, ``confirmed_tracks``
+    (those with a score) and ``track_alarm_thresholds``.
+
+    Raises:
+        ParameterError: a network without identification, bad ``minutes``, ``seed`` or
+            ``rates``.
+    """
+    from dataclasses import replace
+
+    ident = network.identification
+    if ident is None:
+        raise ParameterError("track alarm thresholds need a network with identification")
+    rates = [float(r) for r in rates]
+    if not rates or not all(0 < r < math.inf for r in rates) or len(set(rates)) != len(rates):
+        raise ParameterError(f"rates must be distinct, positive and finite, got {rates!r}")
+    batches = scene_batches(minutes, seed, TUNE_KEY)
+    shared = runner.put(network)
+    units = runner.imap(stream_batch, [(shared, batch) for batch in batches])
+    rows = [row for unit in units for row in unit]
+    streamed = sum(r["seconds"] for r in rows) / 60
+    peaks = [p for r in rows for p in r["track_peaks"]]
+    pairs = tuple((rate, track_alarm_threshold(peaks, streamed, rate)) for rate in rates)
+    tuned = replace(ident, track_alarm_thresholds=pairs, track_alarm_minutes=streamed)
+    summary = {
+        "seed": seed,
+        "minutes": streamed,
+        "recordings": len(rows),
+        "confirmed_tracks": len(peaks),
+        "track_alarm_thresholds": [list(pair) for pair in pairs],
+    }
+    return tuned, summary
 
 
 def false_alarm_table(figures: dict[str, Any]) -> str:

@@ -18,7 +18,9 @@ The model (:class:`Identifier`) is stored in the model file beside the network a
 (``identify.version``, ``identify.coef``, ``identify.mean``, ``identify.scale``,
 ``identify.features``, ``identify.threshold``, ``identify.l2``, and from version 2
 ``identify.classes``, ``identify.class_coef``, ``identify.class_l2``, and when tuned on windows
-``identify.alarm_rates`` and ``identify.alarm_thresholds``; version 3 adds the trees,
+``identify.alarm_rates`` and ``identify.alarm_thresholds``, when tuned on streamed recording
+``identify.track_alarm_rates``, ``identify.track_alarm_thresholds`` and
+``identify.track_alarm_minutes``; version 3 adds the trees,
 ``identify.tree_feature``, ``identify.tree_threshold``, ``identify.tree_leaf`` and
 ``identify.tree_base``; no pickle), see :meth:`uavsnn.network.Network.save`.
 
@@ -150,7 +152,12 @@ class Identifier:
     at most that share of the tuning set's UAV-free windows alarms
     (:data:`uavsnn.evaluation.FALSE_ALARM_RATES`); :meth:`at_false_alarm` switches to one.
     Whether the share carries to other recordings is what
-    :func:`uavsnn.evaluation.identification_figures` measures."""
+    :func:`uavsnn.evaluation.identification_figures` measures.
+
+    ``track_alarm_thresholds``: operating points of the track-level rule, ``(false tracks per
+    minute, threshold)`` pairs set on ``track_alarm_minutes`` of streamed UAV-free recording
+    (:func:`uavsnn.false_alarms.tune_track_alarms`): at that threshold, at most that many
+    confirmed tracks per minute of it alarmed; :meth:`at_false_tracks` switches to one."""
 
     features: tuple[str, ...]
     coef: np.ndarray
@@ -163,6 +170,8 @@ class Identifier:
     class_l2: float | None = None
     alarm_thresholds: tuple[tuple[float, float], ...] = ()
     trees: Trees | None = None
+    track_alarm_thresholds: tuple[tuple[float, float], ...] = ()
+    track_alarm_minutes: float = 0.0
 
     def __post_init__(self) -> None:
         d = len(self.features)
@@ -174,6 +183,21 @@ class Identifier:
                 )
         if len({rate for rate, _ in self.alarm_thresholds}) != len(self.alarm_thresholds):
             raise ParameterError(f"alarm thresholds name a share twice: {self.alarm_thresholds}")
+        tracks = self.track_alarm_thresholds
+        for rate, threshold in tracks:
+            if not (0.0 < rate < math.inf and math.isfinite(threshold)):
+                raise ParameterError(
+                    f"track alarm thresholds must pair a positive rate of false tracks per "
+                    f"minute with a finite threshold, got ({rate}, {threshold})"
+                )
+        if len({rate for rate, _ in tracks}) != len(tracks):
+            raise ParameterError(f"track alarm thresholds name a rate twice: {tracks}")
+        minutes = self.track_alarm_minutes
+        if not (math.isfinite(minutes) and (minutes > 0) == bool(tracks) and minutes >= 0):
+            raise ParameterError(
+                f"track_alarm_minutes must be positive with track alarm thresholds and 0 "
+                f"without, got {minutes!r}"
+            )
         unknown = [f for f in self.features if f not in FEATURES]
         if unknown:
             raise ParameterError(f"unknown identification features {unknown}")
@@ -206,6 +230,23 @@ class Identifier:
         raise ParameterError(
             f"this identification was not tuned for a false-alarm share of {rate!r} "
             f"(tuned shares: {have})"
+        )
+
+    def at_false_tracks(self, rate: float) -> Identifier:
+        """This model with its threshold set where ``rate`` confirmed tracks per minute of the
+        streamed UAV-free tuning recordings alarmed (one of :attr:`track_alarm_thresholds`'
+        rates), e.g. ``ident.at_false_tracks(0.1)``.
+
+        Raises:
+            ParameterError: the model was not tuned for that rate.
+        """
+        for have, threshold in self.track_alarm_thresholds:
+            if math.isclose(have, rate, rel_tol=1e-12, abs_tol=0.0):
+                return replace(self, threshold=threshold)
+        tuned = ", ".join(f"{r:g}" for r, _ in self.track_alarm_thresholds) or "none"
+        raise ParameterError(
+            f"this identification was not tuned for {rate!r} false tracks per minute "
+            f"(tuned rates: {tuned})"
         )
 
     def _standardised(self, x: np.ndarray) -> np.ndarray:
@@ -286,6 +327,13 @@ class Identifier:
             rates, thresholds = zip(*self.alarm_thresholds, strict=True)
             out["identify.alarm_rates"] = np.array(rates, dtype=np.float64)
             out["identify.alarm_thresholds"] = np.array(thresholds, dtype=np.float64)
+        if self.track_alarm_thresholds:
+            rates, thresholds = zip(*self.track_alarm_thresholds, strict=True)
+            out["identify.track_alarm_rates"] = np.array(rates, dtype=np.float64)
+            out["identify.track_alarm_thresholds"] = np.array(thresholds, dtype=np.float64)
+            out["identify.track_alarm_minutes"] = np.array(
+                self.track_alarm_minutes, dtype=np.float64
+            )
         if self.trees is not None:
             out["identify.tree_feature"] = self.trees.feature.astype(np.int64)
             out["identify.tree_threshold"] = self.trees.threshold.astype(np.float64)
@@ -316,15 +364,13 @@ class Identifier:
                 class_coef = np.asarray(arrays["identify.class_coef"], dtype=np.float64)
                 l2 = float(np.asarray(arrays["identify.class_l2"]))
                 class_l2 = None if math.isnan(l2) else l2
-            alarms: tuple[tuple[float, float], ...] = ()
-            if "identify.alarm_rates" in arrays:
-                rates = np.asarray(arrays["identify.alarm_rates"], dtype=np.float64)
-                thresholds = np.asarray(arrays["identify.alarm_thresholds"], dtype=np.float64)
-                if rates.ndim != 1 or rates.shape != thresholds.shape:
-                    raise ShapeError(
-                        f"alarm rates {rates.shape} and thresholds {thresholds.shape} differ"
-                    )
-                alarms = tuple(zip(rates.tolist(), thresholds.tolist(), strict=True))
+            alarms = _pairs(arrays, "identify.alarm_rates", "identify.alarm_thresholds")
+            track_alarms = _pairs(
+                arrays, "identify.track_alarm_rates", "identify.track_alarm_thresholds"
+            )
+            minutes = 0.0
+            if track_alarms:
+                minutes = float(np.asarray(arrays["identify.track_alarm_minutes"]))
             trees = None
             if version >= 3 and "identify.tree_feature" in arrays:
                 trees = Trees(
@@ -345,9 +391,29 @@ class Identifier:
                 class_l2=class_l2,
                 alarm_thresholds=alarms,
                 trees=trees,
+                track_alarm_thresholds=track_alarms,
+                track_alarm_minutes=minutes,
             )
         except (KeyError, ValueError, ParameterError, ShapeError) as exc:
             raise ModelFileError(f"its identification arrays are inconsistent: {exc}") from exc
+
+
+def _pairs(arrays: Any, rates_key: str, thresholds_key: str) -> tuple[tuple[float, float], ...]:
+    """The ``(rate, threshold)`` pairs stored as two arrays (none when absent).
+
+    Raises:
+        ShapeError: arrays that are not of one length.
+        KeyError: the thresholds missing beside the rates.
+    """
+    if rates_key not in arrays:
+        return ()
+    rates = np.asarray(arrays[rates_key], dtype=np.float64)
+    thresholds = np.asarray(arrays[thresholds_key], dtype=np.float64)
+    if rates.ndim != 1 or rates.shape != thresholds.shape:
+        raise ShapeError(
+            f"{rates_key} {rates.shape} and {thresholds_key} {thresholds.shape} differ"
+        )
+    return tuple(zip(rates.tolist(), thresholds.tolist(), strict=True))
 
 
 def _standardise(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -59,6 +59,7 @@ __all__ = [
     "rule_name",
     "track_figures",
     "track_table",
+    "tracks_at_rule",
 ]
 
 #: The rules a track can alarm by, in the order they are reported.
@@ -447,22 +448,27 @@ def identified_track_figures(
     """:func:`track_figures` of both rules, with ``identifier``'s scores of ``feats`` and its
     threshold (:class:`uavsnn.identify.Identifier`, whose features ``feats`` holds), and with
     ``operating_points`` of the identified rule at each of its operating points set beforehand
-    (:attr:`~uavsnn.identify.Identifier.alarm_thresholds`; rule :func:`at_rule` of the share);
-    with ``identifier`` ``None``, of the any-spike rule alone."""
+    (:attr:`~uavsnn.identify.Identifier.alarm_thresholds`; rule :func:`at_rule` of the share,
+    and :attr:`~uavsnn.identify.Identifier.track_alarm_thresholds`; rule
+    :func:`tracks_at_rule` of the rate); with ``identifier`` ``None``, of the any-spike rule
+    alone."""
     if identifier is None:
         return track_figures(data, feats, confirm=confirm)
     scores = identifier.scores(feats.x)
     figures = track_figures(
         data, feats, scores, identifier.threshold, track_score=track_score, confirm=confirm
     )
-    for rate, threshold in identifier.alarm_thresholds if operating_points else ():
+    points = [(at_rule(rate), t) for rate, t in identifier.alarm_thresholds]
+    points += [(tracks_at_rule(rate), t) for rate, t in identifier.track_alarm_thresholds]
+    for rule, threshold in points if operating_points else ():
         at = track_figures(data, feats, scores, threshold, track_score=track_score, confirm=confirm)
-        figures["rules"][at_rule(rate)] = at["rules"]["identified"]
+        figures["rules"][rule] = at["rules"]["identified"]
     return figures
 
 
 _RULE_NAMES = {"any_spike": "any-spike", "identified": "any-spike + identification"}
 _AT = "identified_at_"
+_TRACKS_AT = "identified_tracks_at_"
 
 
 def at_rule(rate: float) -> str:
@@ -471,11 +477,21 @@ def at_rule(rate: float) -> str:
     return f"{_AT}{rate:g}"
 
 
+def tracks_at_rule(rate: float) -> str:
+    """The name of the identified rule at the threshold set for ``rate`` false tracks per
+    minute (:attr:`uavsnn.identify.Identifier.track_alarm_thresholds`):
+    ``"identified_tracks_at_0.1"``."""
+    return f"{_TRACKS_AT}{rate:g}"
+
+
 def rule_name(rule: str) -> str:
     """How a rule of :func:`track_figures` (or :func:`identified_track_figures`, or
-    :func:`at_rule`) is named in tables."""
+    :func:`at_rule`, or :func:`tracks_at_rule`) is named in tables."""
     if rule.startswith(_AT):
         return f"+ identification, set for {100 * float(rule[len(_AT) :]):g} % false alarms"
+    if rule.startswith(_TRACKS_AT):
+        rate = float(rule[len(_TRACKS_AT) :])
+        return f"+ identification, set for {rate:g} false tracks per minute"
     return _RULE_NAMES.get(rule, rule)
 
 

@@ -153,6 +153,14 @@ def register(subparsers: Any) -> None:
         "tuning recordings' UAV-free windows alarmed (0.01 or 0.05, as the model was tuned; "
         "default: the threshold of the best balanced accuracy)",
     )
+    p.add_argument(
+        "--false-tracks",
+        type=float,
+        metavar="RATE",
+        help="identification's operating point for tracks: the threshold at which this many "
+        "confirmed tracks per minute of streamed UAV-free recording alarmed (0.1 or 1, as the "
+        "model was tuned with `uavsnn train --track-minutes`)",
+    )
     add_ray_option(p, "one detector per stream, each in a Ray actor")
     p.set_defaults(handler=run)
 
@@ -348,10 +356,13 @@ def _check_args(args: argparse.Namespace) -> None:
         raise ParameterError("--downsample applies to files; '-' and UDP give --sensor-size")
     if args.max_packets is not None and args.max_packets < 1:
         raise ParameterError(f"--max-packets must be >= 1, got {args.max_packets}")
-    if args.false_alarm is not None and (args.more_sources or args.ray is not None):
-        raise ParameterError(
-            "--false-alarm sets one detector's identification: not with several sources or --ray"
-        )
+    for flag, value in (("--false-alarm", args.false_alarm), ("--false-tracks", args.false_tracks)):
+        if value is not None and (args.more_sources or args.ray is not None):
+            raise ParameterError(
+                f"{flag} sets one detector's identification: not with several sources or --ray"
+            )
+    if args.false_alarm is not None and args.false_tracks is not None:
+        raise ParameterError("--false-alarm and --false-tracks each set the threshold: give one")
     if args.confirm is not None:
         if args.per_spike or args.more_sources or args.ray is not None:
             raise ParameterError(
@@ -386,13 +397,19 @@ def run(args: argparse.Namespace) -> int:
     if args.more_sources or args.ray is not None:
         return _run_many(args)
     network = Network.load(args.model)
-    if args.false_alarm is not None:
-        if network.identification is None:
+    if args.false_alarm is not None or args.false_tracks is not None:
+        flag = "--false-alarm" if args.false_alarm is not None else "--false-tracks"
+        ident = network.identification
+        if ident is None:
             raise ParameterError(
-                f"--false-alarm sets identification's threshold; {args.model} has no "
+                f"{flag} sets identification's threshold; {args.model} has no "
                 "identification (fit one with `uavsnn train`)"
             )
-        network.identification = network.identification.at_false_alarm(args.false_alarm)
+        network.identification = (
+            ident.at_false_alarm(args.false_alarm)
+            if args.false_alarm is not None
+            else ident.at_false_tracks(args.false_tracks)
+        )
     model_size = (int(network.config["width"]), int(network.config["height"]))
     # '-' and UDP carry no sensor size: default to the model's; a file has its own.
     live = args.source == "-" or args.source.startswith("udp://")

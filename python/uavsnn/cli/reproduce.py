@@ -51,13 +51,21 @@ from uavsnn.experiments import (
     recipe_config,
     static_twin,
 )
-from uavsnn.false_alarms import MAX_MINUTES, false_alarm_figures, false_alarm_table
+from uavsnn.false_alarms import (
+    MAX_MINUTES,
+    false_alarm_figures,
+    false_alarm_table,
+    tune_track_alarms,
+)
 from uavsnn.network import Network, default_config
 from uavsnn.track_eval import evaluate_tracks, track_table
 
 __all__ = ["register"]
 
 _DEFAULT_VIDEOS = Path("../shared/data/svanstrom-dev")
+#: The networks whose false alarms are streamed (and track alarm thresholds set): the paper's
+#: system (combined) and the dvs network.
+STREAMED = ("combined", "dvs")
 
 
 def register(subparsers: Any) -> None:
@@ -89,6 +97,15 @@ def register(subparsers: Any) -> None:
         default=10.0,
         help="minutes of fresh UAV-free recording streamed through the combined and dvs "
         "networks for their false alarms per minute (uavsnn.false_alarms; 0: none; default 10)",
+    )
+    p.add_argument(
+        "--track-minutes",
+        type=float,
+        default=10.0,
+        help="minutes of fresh UAV-free recording of the tuning seed streamed through the "
+        "combined and dvs networks to set their track alarm thresholds on "
+        "(uavsnn.false_alarms.tune_track_alarms; never the --free-minutes recordings; 0: none; "
+        "default 10)",
     )
     p.add_argument(
         "--windows-per-layer", type=int, default=20000, help="STDP windows per layer (20000)"
@@ -207,6 +224,23 @@ def _tracks_text(figures: dict[str, Any]) -> str:
     )
 
 
+def _track_points_text(fit: dict[str, Any], name: str) -> str:
+    """What the track alarm thresholds of ``name``'s fit were set on, or nothing."""
+    tracks = fit.get("tracks")
+    if not tracks:
+        return ""
+    points = ", ".join(
+        f"{rate:g} false tracks per minute at {threshold:.3f}"
+        for rate, threshold in tracks["track_alarm_thresholds"]
+    )
+    return (
+        f"\nThe {name} network's track alarm thresholds (rules 'set for … false tracks per "
+        f"minute'): set on {tracks['minutes']:.2f} minutes of other UAV-free recordings of seed "
+        f"{tracks['seed']} ({tracks['confirmed_tracks']} confirmed tracks; "
+        "`uavsnn.false_alarms.tune_track_alarms`): " + points + ".\n"
+    )
+
+
 def _reproduce(args: argparse.Namespace) -> int:
     started = time.perf_counter()
     sensor = parse_sensor(args.sensor)
@@ -219,10 +253,10 @@ def _reproduce(args: argparse.Namespace) -> int:
         )
     if n_tune < 2:
         raise ParameterError(f"--n-tune must be at least 2, got {n_tune}")
-    if not 0 <= args.free_minutes <= MAX_MINUTES:
-        raise ParameterError(
-            f"--free-minutes must be in [0, {MAX_MINUTES:g}], got {args.free_minutes}"
-        )
+    spans = (("--free-minutes", args.free_minutes), ("--track-minutes", args.track_minutes))
+    for flag, minutes in spans:
+        if not 0 <= minutes <= MAX_MINUTES:
+            raise ParameterError(f"{flag} must be in [0, {MAX_MINUTES:g}], got {minutes}")
     out: Path = args.out
     out.mkdir(parents=True, exist_ok=True)
     progress = not args.quiet
@@ -302,6 +336,11 @@ def _reproduce(args: argparse.Namespace) -> int:
         trainings[name] = runner.result(jobs[name])
         net = trainings[name].network
         fits[name] = fit_identification(net, train_data, tunes[name])
+        if name in STREAMED and args.track_minutes and net.identification is not None:
+            step(f"track alarm thresholds of {name} ({args.track_minutes:g} minutes streamed)")
+            net.identification, fits[name]["tracks"] = tune_track_alarms(
+                net, minutes=args.track_minutes, seed=tune_seed, runner=runner
+            )
         net.save(out / model_file)
         networks[name] = net
         evaluations[name] = runner.submit(evaluate_task, net, test_ref, {"keep_inference": True})
@@ -326,7 +365,7 @@ def _reproduce(args: argparse.Namespace) -> int:
             name: false_alarm_figures(
                 networks[name], minutes=args.free_minutes, seed=seed, runner=runner
             )
-            for name in ("combined", "dvs")
+            for name in STREAMED
         }
         free_text = [
             f"\n### False alarms over {args.free_minutes:g} minutes of UAV-free recording\n",
@@ -426,6 +465,7 @@ def _reproduce(args: argparse.Namespace) -> int:
         *_identification_text(fits["combined"], idents["combined"], tuned_on),
         "\n### Tracks: the test recordings followed as streams (combined network)\n",
         _tracks_text(tracks),
+        *[_track_points_text(fits[name], name) for name in STREAMED],
         *free_text,
         "\n## Table 3 and PENT: accuracy against added noise (combined network)\n",
         f"Static threshold {theta:.2f}: the one PENT sets for the median clean training window. "

@@ -9,7 +9,9 @@ from typing import Any
 
 from uavsnn import identify
 from uavsnn.dataset import load
+from uavsnn.distributed import add_ray_option, runner_for
 from uavsnn.errors import DatasetError, ParameterError
+from uavsnn.false_alarms import MAX_MINUTES, TRACK_ALARM_RATES, tune_track_alarms
 from uavsnn.network import Network, default_config
 from uavsnn.training import apply_overrides, train
 
@@ -76,6 +78,24 @@ def register(subparsers: Any) -> None:
         help="no STDP: take MODEL's network as it is and fit its identification again on "
         "DATASET (with --tune), e.g. on a new tuning set; the result is written to -o",
     )
+    p.add_argument(
+        "--track-minutes",
+        type=float,
+        default=0.0,
+        help="also stream this many minutes of fresh UAV-free dvs recording through the "
+        "detector and set track alarm thresholds on it, for "
+        + " and ".join(f"{r:g}" for r in TRACK_ALARM_RATES)
+        + " false tracks per minute (uavsnn.false_alarms.tune_track_alarms; 0: none, the "
+        "default)",
+    )
+    p.add_argument(
+        "--track-seed",
+        type=int,
+        default=None,
+        help="seed of the --track-minutes recordings (default: the --tune set's, else the "
+        "training set's; they are never the recordings false-alarm figures are measured on)",
+    )
+    add_ray_option(p, "the --track-minutes recordings")
     p.add_argument("--json", action="store_true", help="print the training summary as JSON")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.set_defaults(handler=_train)
@@ -96,7 +116,40 @@ def network_config(config_file: Path | None, settings: list[str]) -> dict[str, A
     return apply_overrides(base, settings)
 
 
+def _check_track_flags(args: argparse.Namespace) -> None:
+    """Refuse bad --track-minutes / --track-seed before any work."""
+    if not 0 <= args.track_minutes <= MAX_MINUTES:
+        raise ParameterError(
+            f"--track-minutes must be in [0, {MAX_MINUTES:g}], got {args.track_minutes}"
+        )
+    if args.track_minutes and args.no_identify:
+        raise ParameterError("--track-minutes sets identification's thresholds: not with "
+                             "--no-identify")  # fmt: skip
+    if args.track_seed is not None and args.track_seed < 0:
+        raise ParameterError(f"--track-seed must be non-negative, got {args.track_seed}")
+    if args.ray is not None and not args.track_minutes:
+        raise ParameterError("--ray runs the --track-minutes recordings: give --track-minutes")
+
+
+def _tune_tracks(
+    network: Network, args: argparse.Namespace, data: Any, tune: Any
+) -> dict[str, Any] | None:
+    """Set the track alarm thresholds of ``network``'s identification on --track-minutes of
+    streamed recording; their summary (``None`` when not asked or without identification)."""
+    if not args.track_minutes or network.identification is None:
+        return None
+    seed = args.track_seed
+    if seed is None:
+        seed = int((tune if tune is not None else data).manifest.get("seed", 0))
+    runner = runner_for(args.ray)
+    network.identification, summary = tune_track_alarms(
+        network, minutes=args.track_minutes, seed=seed, runner=runner
+    )
+    return summary
+
+
 def _train(args: argparse.Namespace) -> int:
+    _check_track_flags(args)
     if args.identify_only is not None:
         return _identify_only(args)
     config = network_config(args.config, args.settings)  # bad flags fail before any work
@@ -122,6 +175,9 @@ def _train(args: argparse.Namespace) -> int:
             )
         except DatasetError as exc:  # the STDP result is kept: only the any-spike rule
             summary["identify"] = {"skipped": str(exc)}
+        tracks = _tune_tracks(network, args, data, tune)
+        if tracks is not None:
+            summary["identify"]["tracks"] = tracks
     network.save(args.output)
     summary |= result.to_dict()
     if args.json:
@@ -154,6 +210,17 @@ def _print_identification(ident: dict[str, Any]) -> None:
                 for rate, t in ident.get("alarm_thresholds", [])
             )
         )
+        tracks = ident.get("tracks")
+        if tracks:
+            print(
+                f"track alarm thresholds on {tracks['minutes']:.2f} minutes of UAV-free "
+                f"recording (seed {tracks['seed']}, {tracks['confirmed_tracks']} confirmed "
+                "tracks): "
+                + ", ".join(
+                    f"{rate:g} false tracks per minute at {t:.3f}"
+                    for rate, t in tracks["track_alarm_thresholds"]
+                )
+            )
         if ident.get("tune_lacks"):
             print(
                 f"note: the tuning windows hold no {', '.join(ident['tune_lacks'])} object, "
@@ -178,6 +245,9 @@ def _identify_only(args: argparse.Namespace) -> int:
     network.identification, ident = identify.fit_network(
         network, data, tune, model=args.identify_model
     )
+    tracks = _tune_tracks(network, args, data, tune)
+    if tracks is not None:
+        ident["tracks"] = tracks
     network.save(args.output)
     summary = {"model": str(args.output), "network": str(args.identify_only), "identify": ident}
     if args.json:
