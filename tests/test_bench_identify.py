@@ -195,3 +195,20 @@ def test_class_ranking_gives_each_class_its_own_area(bench_script):
         "helicopter": None,
         "uav": None,
     }
+
+
+def test_track_roc_counts_false_tracks_from_the_peaks(bench_script):
+    roc = bench_script("track_roc")
+    free = {"minutes": 2.0, "track_peaks": [0.9, 0.8, 0.8, 0.3]}
+    assert roc.false_tracks(free, 0.8) == 1.5 and roc.false_tracks(free, 0.95) == 0.0
+    calls = []
+
+    def found(threshold):
+        calls.append(threshold)
+        return {"found": int(10 * threshold), "time_to_alarm_ms": {"median": None}}
+
+    other = {"minutes": 1.0, "track_peaks": [0.85]}
+    table = roc.rows(found, [free, other], [("a", 0.8), ("b", 0.5)])
+    assert calls == [0.8, 0.5]
+    assert [r["found"] for r in table] == [8, 5]
+    assert [r["false_tracks_per_minute"] for r in table] == [[1.5, 1.0], [1.5, 1.0]]
