@@ -6,7 +6,8 @@ found and their time to first alarm (``uavsnn.track_eval.track_figures``, as ``u
 --tracks`` follows them), beside the false tracks per minute of streamed UAV-free recording
 (the ``track_peaks`` of ``benches/python/false_alarms.py --json`` files, one per ``--free``).
 The thresholds: the model's own track alarm thresholds (set beforehand on other recordings,
-``uavsnn train --track-minutes``), and for each ``--rate`` the threshold read off the first
+``uavsnn train --track-minutes``) and window operating points (set on the tuning windows), and
+for each ``--rate`` the threshold read off the first
 ``--free`` file (``false_alarms.track_alarm_threshold``), as a ROC's points are read off the
 set they are measured on: no user can set those beforehand.
 
@@ -86,6 +87,7 @@ def main() -> None:
 
     first = frees[0]
     points = [(f"set for {r:g} per minute", t) for r, t in ident.track_alarm_thresholds]
+    points += [(f"set for {100 * r:g} % of windows", t) for r, t in ident.alarm_thresholds]
     points += [
         (f"read off for {r:g} per minute", track_alarm_threshold(first["track_peaks"],
                                                                   first["minutes"], r))

@@ -230,14 +230,13 @@ def _track_points_text(fit: dict[str, Any], name: str) -> str:
     if not tracks:
         return ""
     points = ", ".join(
-        f"{rate:g} false tracks per minute at {threshold:.3f}"
-        for rate, threshold in tracks["track_alarm_thresholds"]
+        f"{threshold:.3f} for {rate:g}" for rate, threshold in tracks["track_alarm_thresholds"]
     )
     return (
-        f"\nThe {name} network's track alarm thresholds (rules 'set for … false tracks per "
-        f"minute'): set on {tracks['minutes']:.2f} minutes of other UAV-free recordings of seed "
+        f"\nThe {name} network's track alarm thresholds (the rules 'set for … false tracks per "
+        f"minute'), set on {tracks['minutes']:.2f} minutes of other UAV-free recordings of seed "
         f"{tracks['seed']} ({tracks['confirmed_tracks']} confirmed tracks; "
-        "`uavsnn.false_alarms.tune_track_alarms`): " + points + ".\n"
+        "`uavsnn.false_alarms.tune_track_alarms`): " + points + " false tracks per minute."
     )
 
 
