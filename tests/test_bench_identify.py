@@ -212,3 +212,14 @@ def test_track_roc_counts_false_tracks_from_the_peaks(bench_script):
     assert calls == [0.8, 0.5]
     assert [r["found"] for r in table] == [8, 5]
     assert [r["false_tracks_per_minute"] for r in table] == [[1.5, 1.0], [1.5, 1.0]]
+
+
+def test_stream_points_set_a_share_of_streamed_windows(bench_script):
+    points = bench_script("stream_points")
+    free = {"windows": 10, "window_peaks": [0.9, 0.8, 0.8, 0.3]}
+    assert list(points.window_scores(free)) == [0.9, 0.8, 0.8, 0.3, *[-1.0] * 6]
+    # 10 % of 10 windows: one may alarm, so the point lies just above the second peak.
+    t = points.stream_point(free, 0.1)
+    assert 0.8 < t <= 0.9 and points.share(free, t) == 0.1
+    # 50 %: more than every detection allows: 0.0, every scored window alarms.
+    assert points.stream_point(free, 0.5) == 0.0 and points.share(free, 0.0) == 0.4

@@ -110,8 +110,11 @@ def test_peaks_give_the_tracks_that_alarm_at_any_threshold() -> None:
     # Track 1's 0.9 was tentative and its 0.95 in a window not detected; track 2 peaked at
     # 0.3; track 3 has no score.
     assert got["track_peaks"] == [0.7, 0.3]
+    # Windows 0 and 2 are detected with scores (0.9, 0.5); window 3 has none scored.
+    assert got["window_peaks"] == [0.9, 0.5]
     for rule, t in rules.items():
         assert got["tracks"][rule] == sum(p >= t for p in got["track_peaks"])
+        assert got["alarming"][rule] == sum(p >= t for p in got["window_peaks"])
 
 
 @given(

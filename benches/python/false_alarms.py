@@ -8,6 +8,7 @@ runs the same for the combined network (``--free-minutes``); this script runs it
 file, on ``--workers`` processes.
 
     python benches/python/false_alarms.py MODEL.npz [--minutes 10] [--seed 0] [--workers 2]
+        [--tune-key] [--json]
 """
 
 from __future__ import annotations
@@ -24,7 +25,9 @@ from typing import Any  # noqa: E402
 
 from uavsnn import Network  # noqa: E402
 from uavsnn.false_alarms import (  # noqa: E402
+    FREE_KEY,
     MAX_MINUTES,
+    TUNE_KEY,
     alarm_rules,
     false_alarm_table,
     scene_batches,
@@ -54,6 +57,12 @@ def main() -> None:
     parser.add_argument("--minutes", type=float, default=10.0, help="of UAV-free recording (10)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--workers", type=int, default=2, help=f"processes, 1 to {MAX_WORKERS}")
+    parser.add_argument(
+        "--tune-key",
+        action="store_true",
+        help="the recordings operating points are set on (false_alarms.TUNE_KEY), not the ones "
+        "false alarms are measured on",
+    )
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
     if not 1 <= args.workers <= MAX_WORKERS:
@@ -61,10 +70,10 @@ def main() -> None:
     if not 0 < args.minutes <= MAX_MINUTES:
         parser.error(f"--minutes must be in (0, {MAX_MINUTES:g}]")
     network = Network.load(args.model)
-    batches = scene_batches(args.minutes, args.seed)
+    batches = scene_batches(args.minutes, args.seed, TUNE_KEY if args.tune_key else FREE_KEY)
     with ProcessPoolExecutor(args.workers, initializer=_load, initargs=(args.model,)) as pool:
         rows = [row for batch in pool.map(_batch, batches) for row in batch]
-    out = summarise(rows, alarm_rules(network)) | {"seed": args.seed}
+    out = summarise(rows, alarm_rules(network)) | {"seed": args.seed, "tune_key": args.tune_key}
     if args.json:
         print(json.dumps(out, indent=2))
     else:

@@ -99,18 +99,22 @@ def alarm_rules(network: Network) -> dict[str, float | None]:
 
 def count_alarms(reports: Sequence[WindowReport], rules: dict[str, float | None]) -> dict:
     """Per rule, the windows (``"alarming"``) and the tracks (``"tracks"``) that alarm among
-    ``reports``, the windows of one stream; and ``"track_peaks"``: for each confirmed track
-    with a score, the highest :attr:`~uavsnn.detector.WindowObject.track_score` it reached
-    while confirmed in a detected window, largest first. With identification at a threshold
-    ``θ``, the tracks that alarm are those whose peak reaches ``θ``
-    (:func:`track_alarm_threshold` reads the threshold off them)."""
+    ``reports``, the windows of one stream; ``"track_peaks"``: for each confirmed track with a
+    score, the highest :attr:`~uavsnn.detector.WindowObject.track_score` it reached while
+    confirmed in a detected window, largest first; and ``"window_peaks"``: each detected
+    window's highest object score (windows without a scored object left out), largest first.
+    With identification at a threshold ``θ``, the tracks and the windows that alarm are those
+    whose peak reaches ``θ`` (:func:`track_alarm_threshold` reads a threshold off them)."""
     windows = dict.fromkeys(rules, 0)
     tracks: dict[str, set[int]] = {rule: set() for rule in rules}
     peaks: dict[int, float] = {}
+    window_peaks: list[float] = []
     for report in reports:
         if not report.detected:
             continue
         scores = [o.uav_score for o in report.objects if o.uav_score is not None]
+        if scores:
+            window_peaks.append(max(scores))
         for rule, threshold in rules.items():
             if threshold is None or (scores and max(scores) >= threshold):
                 windows[rule] += 1
@@ -127,6 +131,7 @@ def count_alarms(reports: Sequence[WindowReport], rules: dict[str, float | None]
         "alarming": windows,
         "tracks": {rule: len(ids) for rule, ids in tracks.items()},
         "track_peaks": sorted(peaks.values(), reverse=True),
+        "window_peaks": sorted(window_peaks, reverse=True),
     }
 
 
@@ -192,6 +197,7 @@ def summarise(rows: Sequence[dict[str, Any]], rules: dict[str, float | None]) ->
     out: dict[str, Any] = {
         "recordings": len(rows), "minutes": minutes, "windows": windows, "rules": {},
         "track_peaks": sorted((p for r in rows for p in r["track_peaks"]), reverse=True),
+        "window_peaks": sorted((p for r in rows for p in r["window_peaks"]), reverse=True),
     }  # fmt: skip
     for rule, threshold in rules.items():
         false = sum(r["tracks"][rule] for r in rows)
