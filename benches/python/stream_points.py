@@ -75,10 +75,11 @@ def main() -> None:
         data = load(args.dataset, args.split)
         fired = np.asarray(net.infer(data.windows).detected, bool)
         score = np.where(fired, ident.window_scores(identify.window_features(net, data)), -1.0)
-        test = (score, np.asarray(data.label, bool))
+        test = (score, np.asarray(data.label, bool), np.asarray(data.recording))
     columns = [f"seed {f['seed']}" for f in frees]
     if test is not None:
         columns.append(f"{args.split}: false alarms / detection")
+        columns.append(f"{args.split}: UAV-free windows alarming (recordings)")
     print(f"| point | threshold | {' | '.join(columns)} |")
     print("|---|---|" + "---|" * len(columns))
     points = [(f"tuning windows, {100 * r:g} %", t) for r, t in ident.alarm_thresholds]
@@ -89,9 +90,12 @@ def main() -> None:
     for name, threshold in points:
         cells = [f"{100 * share(f, threshold):.2f} %" for f in frees]
         if test is not None:
-            score, label = test
+            score, label, recording = test
             alarm = score >= threshold
             cells.append(f"{100 * alarm[~label].mean():.1f} % / {100 * alarm[label].mean():.1f} %")
+            hot = np.unique(recording[alarm & ~label])
+            free = np.unique(recording[~label])
+            cells.append(f"{int((alarm & ~label).sum())} ({len(hot)} of {len(free)})")
         print(f"| {name} | {threshold:.3f} | {' | '.join(cells)} |")
 
 
