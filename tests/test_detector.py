@@ -754,6 +754,23 @@ def test_cli_prints_one_line_per_window(model_file: Path, net: Network, expected
     assert " | box=" in hit and "uav_score=- class=- track=" in hit
 
 
+def _classes_at(net, ident, tmp_path, events, flag, values):
+    """``net`` with identification ``ident`` saved, and ``detect --json`` run at ``flag`` of
+    each of ``values``: the detect arguments and each value's class guesses."""
+    model = net.copy()
+    model.identification = ident
+    path = tmp_path / "ident.npz"
+    model.save(path)
+    args = ["-", "--model", str(path), "--window-ms", "3", "--json"]
+    classes = {}
+    for value in values:
+        done = run_cli(detect_cmd(*args, flag, value), stdin=events.tobytes())
+        assert done.returncode == 0, done.stderr.decode()
+        rows = [json.loads(line) for line in done.stdout.decode().splitlines()]
+        classes[value] = [o["class"] for r in rows for o in r["objects"]]
+    return args, classes
+
+
 def test_cli_false_alarm_sets_the_operating_point(net: Network, expected, tmp_path: Path) -> None:
     """--false-alarm SHARE scores with the threshold the model was tuned to for that share:
     one near 1 calls no object a UAV, 0.0 calls every one; a share the model was not tuned
@@ -765,17 +782,7 @@ def test_cli_false_alarm_sets_the_operating_point(net: Network, expected, tmp_pa
         ("log_width", "log_height"), np.array([0.2, 0.1, 0.1]), np.zeros(2), np.ones(2), 0.5,
         1.0, alarm_thresholds=((0.01, 0.999999), (0.05, 0.0)),
     )  # fmt: skip
-    model = net.copy()
-    model.identification = ident
-    path = tmp_path / "ident.npz"
-    model.save(path)
-    args = ["-", "--model", str(path), "--window-ms", "3", "--json"]
-    classes = {}
-    for share in ("0.01", "0.05"):
-        done = run_cli(detect_cmd(*args, "--false-alarm", share), stdin=events.tobytes())
-        assert done.returncode == 0, done.stderr.decode()
-        rows = [json.loads(line) for line in done.stdout.decode().splitlines()]
-        classes[share] = [o["class"] for r in rows for o in r["objects"]]
+    args, classes = _classes_at(net, ident, tmp_path, events, "--false-alarm", ("0.01", "0.05"))
     assert classes["0.01"] and "uav" not in classes["0.01"]
     assert set(classes["0.05"]) == {"uav"}
     refused = run_cli(detect_cmd(*args, "--false-alarm", "0.02"), stdin=b"")
@@ -801,17 +808,7 @@ def test_cli_false_tracks_sets_the_track_operating_point(
         1.0, alarm_thresholds=((0.01, 0.5),), track_alarm_thresholds=((0.1, 0.999999), (1.0, 0.0)),
         track_alarm_minutes=10.0,
     )  # fmt: skip
-    model = net.copy()
-    model.identification = ident
-    path = tmp_path / "ident.npz"
-    model.save(path)
-    args = ["-", "--model", str(path), "--window-ms", "3", "--json"]
-    classes = {}
-    for rate in ("0.1", "1"):
-        done = run_cli(detect_cmd(*args, "--false-tracks", rate), stdin=events.tobytes())
-        assert done.returncode == 0, done.stderr.decode()
-        rows = [json.loads(line) for line in done.stdout.decode().splitlines()]
-        classes[rate] = [o["class"] for r in rows for o in r["objects"]]
+    args, classes = _classes_at(net, ident, tmp_path, events, "--false-tracks", ("0.1", "1"))
     assert classes["0.1"] and "uav" not in classes["0.1"]
     assert set(classes["1"]) == {"uav"}
     refused = run_cli(detect_cmd(*args, "--false-tracks", "0.5"), stdin=b"")

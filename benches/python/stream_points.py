@@ -17,10 +17,10 @@ beforehand).
 from __future__ import annotations
 
 import argparse
-import json
 from typing import Any
 
 import numpy as np
+from track_roc import load_streamed
 
 from uavsnn import Network, identify
 from uavsnn.dataset import load
@@ -61,13 +61,7 @@ def main() -> None:
     ident = net.identification
     if ident is None:
         raise SystemExit(f"{args.model}: no identification to look at")
-    sets = []
-    for path in [args.tune, *args.free]:
-        with open(path, encoding="utf-8") as f:
-            sets.append(json.load(f))
-        if "window_peaks" not in sets[-1]:
-            raise SystemExit(f"{path}: no window_peaks (false_alarms.py --json of this uavsnn)")
-    tune, frees = sets[0], sets[1:]
+    tune, *frees = load_streamed([args.tune, *args.free], "window_peaks")
     if not tune.get("tune_key"):
         raise SystemExit(f"{args.tune}: not streamed with --tune-key")
     test = None

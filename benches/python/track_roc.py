@@ -32,6 +32,18 @@ from uavsnn.track_eval import track_figures
 RATES = (0.1, 0.2, 0.5, 1.0, 2.0, 5.0)
 
 
+def load_streamed(paths: list[str], key: str) -> list[dict[str, Any]]:
+    """The ``false_alarms.py --json`` files at ``paths``, each of which must hold ``key``
+    (``track_peaks`` or ``window_peaks``: written by this uavsnn)."""
+    out = []
+    for path in paths:
+        with open(path, encoding="utf-8") as f:
+            out.append(json.load(f))
+        if key not in out[-1]:
+            raise SystemExit(f"{path}: no {key} (false_alarms.py --json of this uavsnn)")
+    return out
+
+
 def false_tracks(free: dict[str, Any], threshold: float) -> float:
     """False tracks per minute of one streamed set at ``threshold``: its confirmed tracks
     whose peak score reaches it."""
@@ -71,12 +83,7 @@ def main() -> None:
     ident = net.identification
     if ident is None:
         raise SystemExit(f"{args.model}: no identification to look at")
-    frees = []
-    for path in args.free:
-        with open(path, encoding="utf-8") as f:
-            frees.append(json.load(f))
-        if "track_peaks" not in frees[-1]:
-            raise SystemExit(f"{path}: no track_peaks (false_alarms.py --json of this uavsnn)")
+    frees = load_streamed(args.free, "track_peaks")
     data = load(args.dataset, args.split)
     feats = identify.window_features(net, data)
     scores = ident.scores(feats.x)
