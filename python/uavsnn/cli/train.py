@@ -123,8 +123,9 @@ def _check_track_flags(args: argparse.Namespace) -> None:
             f"--track-minutes must be in [0, {MAX_MINUTES:g}], got {args.track_minutes}"
         )
     if args.track_minutes and args.no_identify:
-        raise ParameterError("--track-minutes sets identification's thresholds: not with "
-                             "--no-identify")  # fmt: skip
+        raise ParameterError(
+            "--track-minutes sets identification's thresholds: not with --no-identify"
+        )
     if args.track_seed is not None and args.track_seed < 0:
         raise ParameterError(f"--track-seed must be non-negative, got {args.track_seed}")
     if args.ray is not None and not args.track_minutes:
