@@ -190,3 +190,19 @@ def test_tune_track_alarms_sets_thresholds_on_recordings_of_its_own(tmp_path: Pa
         tune_track_alarms(Network(seed=0), minutes=0.05, seed=3)
     with pytest.raises(ParameterError, match="rates must be"):
         tune_track_alarms(net, minutes=0.05, seed=3, rates=(0.1, 0.1))
+
+
+def test_stream_batch_follows_the_confirmation_rule_it_is_given() -> None:
+    """A looser rule confirms at least the tracks the default one does, and on this untrained
+    network with low thresholds strictly more; the default is the tracker's (3 of 5)."""
+    from uavsnn.network import default_config
+    from uavsnn.training import apply_overrides
+
+    config = apply_overrides(default_config(), ["conv2.threshold=5", "conv3.threshold=1"])
+    net = _identified(Network(config, seed=0))
+    scenes = uav_free_scenes(3, 3, TUNE_KEY)
+    default = stream_batch(net, scenes)
+    assert stream_batch(net, scenes, (3, 5)) == default
+    loose = stream_batch(net, scenes, (1, 1))
+    n_default = sum(len(r["track_peaks"]) for r in default)
+    assert sum(len(r["track_peaks"]) for r in loose) > n_default >= 3

@@ -34,6 +34,7 @@ from uavsnn.false_alarms import (  # noqa: E402
     stream_batch,
     summarise,
 )
+from uavsnn.track_eval import Confirm  # noqa: E402
 
 #: The most worker processes (each holds a model and one recording at a time).
 MAX_WORKERS = 8
@@ -46,9 +47,10 @@ def _load(model: str) -> None:
     _model = Network.load(model)
 
 
-def _batch(scenes: list[tuple[str, int]]) -> list[dict[str, Any]]:
+def _batch(work: tuple[list[tuple[str, int]], tuple[int, int] | None]) -> list[dict[str, Any]]:
     assert _model is not None
-    return stream_batch(_model, scenes)
+    scenes, confirm = work
+    return stream_batch(_model, scenes, confirm)
 
 
 def main() -> None:
@@ -63,17 +65,30 @@ def main() -> None:
         help="the recordings operating points are set on (false_alarms.TUNE_KEY), not the ones "
         "false alarms are measured on",
     )
+    parser.add_argument(
+        "--confirm",
+        metavar="HITS/WINDOWS",
+        help="the tracker's confirmation rule (default 3/5, the detector's)",
+    )
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
     if not 1 <= args.workers <= MAX_WORKERS:
         parser.error(f"--workers must be 1 to {MAX_WORKERS}")
     if not 0 < args.minutes <= MAX_MINUTES:
         parser.error(f"--minutes must be in (0, {MAX_MINUTES:g}]")
+    confirm = None
+    if args.confirm is not None:
+        rule = Confirm.parse(args.confirm)
+        if rule.fast is not None:
+            parser.error("--confirm takes HITS/WINDOWS (the detector has no score-aware rule)")
+        confirm = (rule.hits, rule.windows)
     network = Network.load(args.model)
     batches = scene_batches(args.minutes, args.seed, TUNE_KEY if args.tune_key else FREE_KEY)
     with ProcessPoolExecutor(args.workers, initializer=_load, initargs=(args.model,)) as pool:
-        rows = [row for batch in pool.map(_batch, batches) for row in batch]
-    out = summarise(rows, alarm_rules(network)) | {"seed": args.seed, "tune_key": args.tune_key}
+        rows = [row for batch in pool.map(_batch, [(b, confirm) for b in batches]) for row in batch]
+    out = summarise(rows, alarm_rules(network)) | {
+        "seed": args.seed, "tune_key": args.tune_key, "confirm": args.confirm or "3/5",
+    }  # fmt: skip
     if args.json:
         print(json.dumps(out, indent=2))
     else:

@@ -26,7 +26,8 @@ import numpy as np
 from uavsnn import Network, identify
 from uavsnn.dataset import load
 from uavsnn.false_alarms import track_alarm_threshold
-from uavsnn.track_eval import track_figures
+from uavsnn.track_eval import Confirm, track_figures
+from uavsnn.tracks import Tracker
 
 #: False tracks per minute read off the first streamed set by default.
 RATES = (0.1, 0.2, 0.5, 1.0, 2.0, 5.0)
@@ -77,6 +78,12 @@ def main() -> None:
     parser.add_argument("--split", default="test")
     parser.add_argument("--free", action="append", required=True, metavar="JSON")
     parser.add_argument("--rate", type=float, action="append", help=f"per minute ({RATES})")
+    parser.add_argument(
+        "--confirm",
+        default="3/5",
+        metavar="HITS/WINDOWS",
+        help="the tracker's confirmation rule, as the --free files were streamed (3/5)",
+    )
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
     net = Network.load(args.model)
@@ -84,8 +91,15 @@ def main() -> None:
     if ident is None:
         raise SystemExit(f"{args.model}: no identification to look at")
     frees = load_streamed(args.free, "track_peaks")
+    rule = Confirm.parse(args.confirm)
+    if rule.fast is not None:
+        raise SystemExit("--confirm takes HITS/WINDOWS")
+    for path, free in zip(args.free, frees, strict=True):
+        if free.get("confirm", "3/5") != str(rule):
+            raise SystemExit(f"{path} was streamed with --confirm {free.get('confirm')}")
     data = load(args.dataset, args.split)
-    feats = identify.window_features(net, data)
+    tracker = Tracker(confirm_hits=rule.hits, confirm_windows=rule.windows)
+    feats = identify.window_features(net, data, tracker=tracker)
     scores = ident.scores(feats.x)
     uav = int(np.unique(np.asarray(data.recording)[np.asarray(data.label, bool)]).size)
 

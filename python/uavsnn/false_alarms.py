@@ -159,12 +159,18 @@ def track_alarm_threshold(peaks: Sequence[float], minutes: float, rate: float) -
     return max(math.nextafter(values[k], math.inf), 0.0)
 
 
-def stream_batch(network: Network, scenes: Sequence[tuple[str, int]]) -> list[dict[str, Any]]:
+def stream_batch(
+    network: Network,
+    scenes: Sequence[tuple[str, int]],
+    confirm: tuple[int, int] | None = None,
+) -> list[dict[str, Any]]:
     """Each scene of ``scenes`` rendered at the network's sensor size and streamed through a
     fresh detector: its object's kind, length, windows and :func:`count_alarms` (the unit of
-    work of :func:`false_alarm_figures`)."""
+    work of :func:`false_alarm_figures`). ``confirm`` ``(hits, windows)``: the tracker's
+    confirmation rule (default: the :class:`~uavsnn.tracks.Tracker`'s, 3 of 5)."""
     from uavsnn.dataset.synthetic import default_source, synthetic_recording
     from uavsnn.detector import Detector
+    from uavsnn.tracks import Tracker
 
     size = (int(network.config["width"]), int(network.config["height"]))
     source = default_source("dvs", size)
@@ -173,7 +179,10 @@ def stream_batch(network: Network, scenes: Sequence[tuple[str, int]]) -> list[di
     for kind, seed in scenes:
         lr = synthetic_recording(source, kind, seed)
         events = lr.recording.events
-        detector = Detector(network, sensor_size=size, start_us=0)
+        tracker = None
+        if confirm is not None:
+            tracker = Tracker(confirm_hits=confirm[0], confirm_windows=confirm[1])
+        detector = Detector(network, sensor_size=size, start_us=0, tracker=tracker)
         reports = []
         for start in range(0, len(events), CHUNK):
             reports += detector.push_windows(events[start : start + CHUNK])
