@@ -815,6 +815,11 @@ def test_cli_false_tracks_sets_the_track_operating_point(
     assert refused.returncode == 2 and b"not tuned for 0.5 false tracks" in refused.stderr
     both = run_cli(detect_cmd(*args, "--false-tracks", "1", "--false-alarm", "0.01"), stdin=b"")
     assert both.returncode == 2 and b"give one" in both.stderr
+    # The points were set with the default 3 of 5: another rule is refused with why.
+    other = run_cli(detect_cmd(*args, "--false-tracks", "1", "--confirm", "2/5"), stdin=b"")
+    assert other.returncode == 2 and b"set with --confirm 3/5, not 2/5" in other.stderr
+    same = run_cli(detect_cmd(*args, "--false-tracks", "1", "--confirm", "3/5"), stdin=b"")
+    assert same.returncode == 0, same.stderr.decode()
 
 
 def test_printed_centre_lies_in_its_box(shared_data: Path, tmp_path: Path) -> None:

@@ -206,3 +206,29 @@ def test_stream_batch_follows_the_confirmation_rule_it_is_given() -> None:
     loose = stream_batch(net, scenes, (1, 1))
     n_default = sum(len(r["track_peaks"]) for r in default)
     assert sum(len(r["track_peaks"]) for r in loose) > n_default >= 3
+
+
+def test_track_points_hold_for_the_confirmation_rule_they_were_set_with(tmp_path: Path) -> None:
+    """Points set on a 1-of-1 stream are recorded with that rule, kept through a save and
+    load, and counted only in streams that follow it; a bad rule is refused."""
+    from uavsnn.network import default_config
+    from uavsnn.training import apply_overrides
+
+    config = apply_overrides(default_config(), ["conv2.threshold=5", "conv3.threshold=1"])
+    net = _identified(Network(config, seed=0))
+    tuned, summary = tune_track_alarms(net, minutes=0.05, seed=3, confirm=(1, 1))
+    assert tuned.track_alarm_confirm == (1, 1) and summary["confirm"] == "1/1"
+    loose = stream_batch(net, uav_free_scenes(3, 3, TUNE_KEY), (1, 1))
+    peaks = [p for r in loose for p in r["track_peaks"]]
+    assert tuned.track_alarm_thresholds[0][1] == track_alarm_threshold(peaks, 0.05, 0.1)
+    model = net.copy()
+    model.identification = tuned
+    model.save(tmp_path / "m.npz")
+    loaded = Network.load(tmp_path / "m.npz")
+    assert loaded.identification is not None
+    assert loaded.identification.track_alarm_confirm == (1, 1)
+    assert "identified_tracks_at_0.1" not in alarm_rules(loaded)  # a 3-of-5 stream
+    assert "identified_tracks_at_0.1" in alarm_rules(loaded, (1, 1))
+    for bad in ((0, 5), (5, 3), (2,)):
+        with pytest.raises(ParameterError):
+            tune_track_alarms(net, minutes=0.05, seed=3, confirm=bad)

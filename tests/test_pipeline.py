@@ -59,9 +59,20 @@ def test_train_then_evaluate(
     assert ident is not None and ident.track_alarm_minutes == pytest.approx(0.05)
     assert [list(p) for p in ident.track_alarm_thresholds] == tracks["track_alarm_thresholds"]
     assert [r for r, _ in ident.track_alarm_thresholds] == [0.1, 1.0]
-    for bad in (["--track-minutes", "-1"], ["--track-minutes", "1", "--no-identify"], ["--ray"]):
+    assert ident.track_alarm_confirm == (3, 5) and tracks["confirm"] == "3/5"
+    assert main([*track, "--track-minutes", "0.05", "--track-confirm", "2/5", "--quiet"]) == 0
+    capsys.readouterr()
+    ident = Network.load(tracked).identification
+    assert ident is not None and ident.track_alarm_confirm == (2, 5)
+    for bad in (
+        ["--track-minutes", "-1"],
+        ["--track-minutes", "1", "--no-identify"],
+        ["--ray"],
+        ["--track-confirm", "2/5"],
+        ["--track-minutes", "1", "--track-confirm", "2/3+3/5"],
+    ):
         assert main([*track, *bad, "--quiet"]) == 2
-        assert "--track-minutes" in capsys.readouterr().err
+        assert "--track-" in capsys.readouterr().err
     missing = ["train", str(dataset), "-o", str(again), "--identify-only", str(tmp_path / "no")]
     assert main(missing) == 2 and "error" in capsys.readouterr().err
 

@@ -189,6 +189,17 @@ def test_tracks_at_the_operating_points_set_beforehand() -> None:
     assert f["rules"]["identified_at_0.05"] == f["rules"]["any_spike"]
     assert rule_name("identified_at_0.01") == "+ identification, set for 1 % false alarms"
     assert "| + identification, set for 5 % false alarms | 1 of 2 |" in track_table(f)
+    # Track points: reported where they were set with the rule in force (3 of 5 here).
+    tracks = replace(ident, track_alarm_thresholds=((0.1, 0.95),), track_alarm_minutes=10.0)
+    f = identified_track_figures(data, feats, tracks)
+    assert f["rules"]["identified_tracks_at_0.1"] == f["rules"]["identified_at_0.01"]
+    assert rule_name("identified_tracks_at_0.1") == (
+        "+ identification, set for 0.1 false tracks per minute"
+    )
+    other = replace(tracks, track_alarm_confirm=(2, 5))
+    assert "identified_tracks_at_0.1" not in identified_track_figures(data, feats, other)["rules"]
+    with_rule = identified_track_figures(data, feats, other, confirm=Confirm(2, 5))
+    assert "identified_tracks_at_0.1" in with_rule["rules"]
 
 
 def test_left_out_windows_count_as_misses() -> None:

@@ -25,6 +25,7 @@ from typing import Any  # noqa: E402
 
 from uavsnn import Network  # noqa: E402
 from uavsnn.false_alarms import (  # noqa: E402
+    DEFAULT_CONFIRM,
     FREE_KEY,
     MAX_MINUTES,
     TUNE_KEY,
@@ -86,7 +87,7 @@ def main() -> None:
     batches = scene_batches(args.minutes, args.seed, TUNE_KEY if args.tune_key else FREE_KEY)
     with ProcessPoolExecutor(args.workers, initializer=_load, initargs=(args.model,)) as pool:
         rows = [row for batch in pool.map(_batch, [(b, confirm) for b in batches]) for row in batch]
-    out = summarise(rows, alarm_rules(network)) | {
+    out = summarise(rows, alarm_rules(network, confirm or DEFAULT_CONFIRM)) | {
         "seed": args.seed, "tune_key": args.tune_key, "confirm": args.confirm or "3/5",
     }  # fmt: skip
     if args.json:

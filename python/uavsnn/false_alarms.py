@@ -39,6 +39,7 @@ if TYPE_CHECKING:
     from uavsnn.network import Network
 
 __all__ = [
+    "DEFAULT_CONFIRM",
     "FREE_KEY",
     "TRACK_ALARM_RATES",
     "TUNE_KEY",
@@ -59,6 +60,9 @@ FREE_KEY = 9
 #: The key of the recordings track alarm thresholds are set on (:func:`tune_track_alarms`):
 #: never :data:`FREE_KEY`'s, so a threshold is never measured on the recordings it was set on.
 TUNE_KEY = 10
+#: The detector's confirmation rule (:class:`uavsnn.tracks.Tracker`'s default), ``(hits,
+#: windows)``.
+DEFAULT_CONFIRM = (3, 5)
 #: False tracks per minute that :func:`tune_track_alarms` sets thresholds for by default: the
 #: target of SPEC §5's issue (one per 10 minutes) and ten times it.
 TRACK_ALARM_RATES = (0.1, 1.0)
@@ -83,17 +87,22 @@ def uav_free_scenes(seed: int, recordings: int, key: int = FREE_KEY) -> list[tup
     return out
 
 
-def alarm_rules(network: Network) -> dict[str, float | None]:
+def alarm_rules(
+    network: Network, confirm: tuple[int, int] = DEFAULT_CONFIRM
+) -> dict[str, float | None]:
     """Rule name -> threshold (``None``: the any-spike rule), named as
-    :func:`uavsnn.track_eval.identified_track_figures` names them."""
+    :func:`uavsnn.track_eval.identified_track_figures` names them. The track alarm thresholds
+    are rules only where they were set with the confirmation rule ``confirm`` the stream
+    follows."""
     rules: dict[str, float | None] = {"any_spike": None}
     ident = network.identification
     if ident is not None:
         rules["identified"] = ident.threshold
         for rate, threshold in ident.alarm_thresholds:
             rules[at_rule(rate)] = threshold
-        for rate, threshold in ident.track_alarm_thresholds:
-            rules[tracks_at_rule(rate)] = threshold
+        if tuple(ident.track_alarm_confirm) == tuple(confirm):
+            for rate, threshold in ident.track_alarm_thresholds:
+                rules[tracks_at_rule(rate)] = threshold
     return rules
 
 
@@ -174,7 +183,7 @@ def stream_batch(
 
     size = (int(network.config["width"]), int(network.config["height"]))
     source = default_source("dvs", size)
-    rules = alarm_rules(network)
+    rules = alarm_rules(network, DEFAULT_CONFIRM if confirm is None else confirm)
     rows = []
     for kind, seed in scenes:
         lr = synthetic_recording(source, kind, seed)
@@ -268,6 +277,7 @@ def tune_track_alarms(
     minutes: float,
     seed: int,
     rates: Sequence[float] = TRACK_ALARM_RATES,
+    confirm: tuple[int, int] = DEFAULT_CONFIRM,
     runner: Runner = SERIAL,
 ) -> tuple[Identifier, dict[str, Any]]:
     """``network``'s identification with track alarm thresholds
@@ -275,9 +285,11 @@ def tune_track_alarms(
     per minute on ``minutes`` of fresh UAV-free recording streamed as
     :func:`false_alarm_figures` streams it, but under :data:`TUNE_KEY`: recordings that
     :func:`false_alarm_figures` never measures, whatever the seeds
-    (:func:`track_alarm_threshold` on the confirmed tracks' peak scores). Returns the model
-    (not attached) and a summary: ``seed``, ``minutes``, ``recordings``, ``confirmed_tracks``
-    (those with a score) and ``track_alarm_thresholds``.
+    (:func:`track_alarm_threshold` on the confirmed tracks' peak scores), the tracker
+    confirming tracks by ``confirm`` ``(hits, windows)``, which the model records
+    (:attr:`~uavsnn.identify.Identifier.track_alarm_confirm`). Returns the model (not
+    attached) and a summary: ``seed``, ``minutes``, ``recordings``, ``confirmed_tracks``
+    (those with a score), ``confirm`` (as text) and ``track_alarm_thresholds``.
 
     Raises:
         ParameterError: a network without identification, bad ``minutes``, ``seed`` or
@@ -291,22 +303,43 @@ def tune_track_alarms(
     rates = [float(r) for r in rates]
     if not rates or not all(0 < r < math.inf for r in rates) or len(set(rates)) != len(rates):
         raise ParameterError(f"rates must be distinct, positive and finite, got {rates!r}")
+    confirm = _confirm_pair(confirm)
     batches = scene_batches(minutes, seed, TUNE_KEY)
     shared = runner.put(network)
-    units = runner.imap(stream_batch, [(shared, batch) for batch in batches])
+    units = runner.imap(stream_batch, [(shared, batch, confirm) for batch in batches])
     rows = [row for unit in units for row in unit]
     streamed = sum(r["seconds"] for r in rows) / 60
     peaks = [p for r in rows for p in r["track_peaks"]]
     pairs = tuple((rate, track_alarm_threshold(peaks, streamed, rate)) for rate in rates)
-    tuned = replace(ident, track_alarm_thresholds=pairs, track_alarm_minutes=streamed)
+    tuned = replace(
+        ident,
+        track_alarm_thresholds=pairs,
+        track_alarm_minutes=streamed,
+        track_alarm_confirm=confirm,
+    )
     summary = {
         "seed": seed,
         "minutes": streamed,
         "recordings": len(rows),
         "confirmed_tracks": len(peaks),
+        "confirm": f"{confirm[0]}/{confirm[1]}",
         "track_alarm_thresholds": [list(pair) for pair in pairs],
     }
     return tuned, summary
+
+
+def _confirm_pair(confirm: Any) -> tuple[int, int]:
+    """``confirm`` as a checked ``(hits, windows)`` pair.
+
+    Raises:
+        ParameterError: not two integers with 1 <= hits <= windows <= 64.
+    """
+    from uavsnn.track_eval import Confirm
+
+    if not isinstance(confirm, tuple) or len(confirm) != 2:
+        raise ParameterError(f"confirm must be (hits, windows), got {confirm!r}")
+    rule = Confirm(*confirm)
+    return (int(rule.hits), int(rule.windows))
 
 
 def false_alarm_table(figures: dict[str, Any]) -> str:

@@ -19,9 +19,9 @@ The model (:class:`Identifier`) is stored in the model file beside the network a
 ``identify.features``, ``identify.threshold``, ``identify.l2``, and from version 2
 ``identify.classes``, ``identify.class_coef``, ``identify.class_l2``, and when tuned on windows
 ``identify.alarm_rates`` and ``identify.alarm_thresholds``, when tuned on streamed recording
-``identify.track_alarm_rates``, ``identify.track_alarm_thresholds`` and
-``identify.track_alarm_minutes``; version 3 adds the trees,
-``identify.tree_feature``, ``identify.tree_threshold``, ``identify.tree_leaf`` and
+``identify.track_alarm_rates``, ``identify.track_alarm_thresholds``,
+``identify.track_alarm_minutes`` and ``identify.track_alarm_confirm``; version 3 adds the
+trees, ``identify.tree_feature``, ``identify.tree_threshold``, ``identify.tree_leaf`` and
 ``identify.tree_base``; no pickle), see :meth:`uavsnn.network.Network.save`.
 
 ::
@@ -157,7 +157,9 @@ class Identifier:
     ``track_alarm_thresholds``: operating points of the track-level rule, ``(false tracks per
     minute, threshold)`` pairs set on ``track_alarm_minutes`` of streamed UAV-free recording
     (:func:`uavsnn.false_alarms.tune_track_alarms`): at that threshold, at most that many
-    confirmed tracks per minute of it alarmed; :meth:`at_false_tracks` switches to one."""
+    confirmed tracks per minute of it alarmed; :meth:`at_false_tracks` switches to one.
+    ``track_alarm_confirm``: the tracker's confirmation rule ``(hits, windows)`` they were set
+    with (the points hold for that rule only; 3 of 5, the detector's, by default)."""
 
     features: tuple[str, ...]
     coef: np.ndarray
@@ -172,6 +174,7 @@ class Identifier:
     trees: Trees | None = None
     track_alarm_thresholds: tuple[tuple[float, float], ...] = ()
     track_alarm_minutes: float = 0.0
+    track_alarm_confirm: tuple[int, int] = (3, 5)
 
     def __post_init__(self) -> None:
         d = len(self.features)
@@ -192,6 +195,17 @@ class Identifier:
                 )
         if len({rate for rate, _ in tracks}) != len(tracks):
             raise ParameterError(f"track alarm thresholds name a rate twice: {tracks}")
+        confirm = self.track_alarm_confirm
+        if not (
+            isinstance(confirm, tuple)
+            and len(confirm) == 2
+            and all(isinstance(v, int) and not isinstance(v, bool) for v in confirm)
+            and 1 <= confirm[0] <= confirm[1] <= 64
+        ):
+            raise ParameterError(
+                f"track_alarm_confirm must be (hits, windows) with 1 <= hits <= windows <= 64, "
+                f"got {confirm!r}"
+            )
         minutes = self.track_alarm_minutes
         if not (math.isfinite(minutes) and (minutes > 0) == bool(tracks) and minutes >= 0):
             raise ParameterError(
@@ -334,6 +348,7 @@ class Identifier:
             out["identify.track_alarm_minutes"] = np.array(
                 self.track_alarm_minutes, dtype=np.float64
             )
+            out["identify.track_alarm_confirm"] = np.array(self.track_alarm_confirm, dtype=np.int64)
         if self.trees is not None:
             out["identify.tree_feature"] = self.trees.feature.astype(np.int64)
             out["identify.tree_threshold"] = self.trees.threshold.astype(np.float64)
@@ -368,9 +383,14 @@ class Identifier:
             track_alarms = _pairs(
                 arrays, "identify.track_alarm_rates", "identify.track_alarm_thresholds"
             )
-            minutes = 0.0
+            minutes, confirm = 0.0, (3, 5)
             if track_alarms:
                 minutes = float(np.asarray(arrays["identify.track_alarm_minutes"]))
+                if "identify.track_alarm_confirm" in arrays:
+                    pair = np.asarray(arrays["identify.track_alarm_confirm"]).tolist()
+                    if not isinstance(pair, list) or len(pair) != 2:
+                        raise ShapeError(f"identify.track_alarm_confirm must be 2 values: {pair}")
+                    confirm = (int(pair[0]), int(pair[1]))
             trees = None
             if version >= 3 and "identify.tree_feature" in arrays:
                 trees = Trees(
@@ -393,6 +413,7 @@ class Identifier:
                 trees=trees,
                 track_alarm_thresholds=track_alarms,
                 track_alarm_minutes=minutes,
+                track_alarm_confirm=confirm,
             )
         except (KeyError, ValueError, ParameterError, ShapeError) as exc:
             raise ModelFileError(f"its identification arrays are inconsistent: {exc}") from exc

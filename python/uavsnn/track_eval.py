@@ -450,8 +450,9 @@ def identified_track_figures(
     ``operating_points`` of the identified rule at each of its operating points set beforehand
     (:attr:`~uavsnn.identify.Identifier.alarm_thresholds`; rule :func:`at_rule` of the share,
     and :attr:`~uavsnn.identify.Identifier.track_alarm_thresholds`; rule
-    :func:`tracks_at_rule` of the rate); with ``identifier`` ``None``, of the any-spike rule
-    alone."""
+    :func:`tracks_at_rule` of the rate, where ``confirm`` (``None``: the tracker's 3 of 5, as
+    ``feats`` were made) is the rule they were set with); with ``identifier`` ``None``, of the
+    any-spike rule alone."""
     if identifier is None:
         return track_figures(data, feats, confirm=confirm)
     scores = identifier.scores(feats.x)
@@ -459,7 +460,10 @@ def identified_track_figures(
         data, feats, scores, identifier.threshold, track_score=track_score, confirm=confirm
     )
     points = [(at_rule(rate), t) for rate, t in identifier.alarm_thresholds]
-    points += [(tracks_at_rule(rate), t) for rate, t in identifier.track_alarm_thresholds]
+    # The track points hold for the confirmation rule they were set with only.
+    in_force = (3, 5) if confirm is None else (confirm.hits, confirm.windows)
+    if (confirm is None or confirm.fast is None) and in_force == identifier.track_alarm_confirm:
+        points += [(tracks_at_rule(rate), t) for rate, t in identifier.track_alarm_thresholds]
     for rule, threshold in points if operating_points else ():
         at = track_figures(data, feats, scores, threshold, track_score=track_score, confirm=confirm)
         figures["rules"][rule] = at["rules"]["identified"]

@@ -159,7 +159,8 @@ def register(subparsers: Any) -> None:
         metavar="RATE",
         help="identification's operating point for tracks: the threshold at which this many "
         "confirmed tracks per minute of streamed UAV-free recording alarmed (0.1 or 1, as the "
-        "model was tuned with `uavsnn train --track-minutes`)",
+        "model was tuned with `uavsnn train --track-minutes`), with the confirmation rule they "
+        "were set with",
     )
     add_ray_option(p, "one detector per stream, each in a Ray actor")
     p.set_defaults(handler=run)
@@ -410,6 +411,15 @@ def run(args: argparse.Namespace) -> int:
             if args.false_alarm is not None
             else ident.at_false_tracks(args.false_tracks)
         )
+        if args.false_tracks is not None:
+            # The track points hold for the confirmation rule they were set with.
+            stored = "{}/{}".format(*ident.track_alarm_confirm)
+            if args.confirm is not None and str(Confirm.parse(args.confirm)) != stored:
+                raise ParameterError(
+                    f"--false-tracks {args.false_tracks:g}: {args.model}'s track points were "
+                    f"set with --confirm {stored}, not {args.confirm}"
+                )
+            args.confirm = stored
     model_size = (int(network.config["width"]), int(network.config["height"]))
     # '-' and UDP carry no sensor size: default to the model's; a file has its own.
     live = args.source == "-" or args.source.startswith("udp://")

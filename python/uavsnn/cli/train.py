@@ -13,6 +13,7 @@ from uavsnn.distributed import add_ray_option, runner_for
 from uavsnn.errors import DatasetError, ParameterError
 from uavsnn.false_alarms import MAX_MINUTES, TRACK_ALARM_RATES, tune_track_alarms
 from uavsnn.network import Network, default_config
+from uavsnn.track_eval import Confirm
 from uavsnn.training import apply_overrides, train
 
 __all__ = ["register"]
@@ -95,6 +96,14 @@ def register(subparsers: Any) -> None:
         help="seed of the --track-minutes recordings (default: the --tune set's, else the "
         "training set's; they are never the recordings false-alarm figures are measured on)",
     )
+    p.add_argument(
+        "--track-confirm",
+        default=None,
+        metavar="HITS/WINDOWS",
+        help="the tracker's confirmation rule for the --track-minutes recordings, which the "
+        "points then hold for (`uavsnn detect --false-tracks` follows it; default 3/5, the "
+        "detector's)",
+    )
     add_ray_option(p, "the --track-minutes recordings")
     p.add_argument("--json", action="store_true", help="print the training summary as JSON")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
@@ -130,6 +139,14 @@ def _check_track_flags(args: argparse.Namespace) -> None:
         raise ParameterError(f"--track-seed must be non-negative, got {args.track_seed}")
     if args.ray is not None and not args.track_minutes:
         raise ParameterError("--ray runs the --track-minutes recordings: give --track-minutes")
+    if args.track_confirm is not None:
+        if not args.track_minutes:
+            raise ParameterError("--track-confirm applies to --track-minutes: give it too")
+        if Confirm.parse(args.track_confirm).fast is not None:
+            raise ParameterError(
+                f"--track-confirm {args.track_confirm}: HITS/WINDOWS (the detector has no "
+                "score-aware rule)"
+            )
 
 
 def _tune_tracks(
@@ -142,9 +159,14 @@ def _tune_tracks(
     seed = args.track_seed
     if seed is None:
         seed = int((tune if tune is not None else data).manifest.get("seed", 0))
+    rule = Confirm.parse(args.track_confirm or "3/5")
     runner = runner_for(args.ray)
     network.identification, summary = tune_track_alarms(
-        network, minutes=args.track_minutes, seed=seed, runner=runner
+        network,
+        minutes=args.track_minutes,
+        seed=seed,
+        confirm=(rule.hits, rule.windows),
+        runner=runner,
     )
     return summary
 
@@ -215,8 +237,8 @@ def _print_identification(ident: dict[str, Any]) -> None:
         if tracks:
             print(
                 f"track alarm thresholds on {tracks['minutes']:.2f} minutes of UAV-free "
-                f"recording (seed {tracks['seed']}, {tracks['confirmed_tracks']} confirmed "
-                "tracks): "
+                f"recording (seed {tracks['seed']}, {tracks['confirmed_tracks']} tracks "
+                f"confirmed at {tracks['confirm']}): "
                 + ", ".join(
                     f"{rate:g} false tracks per minute at {t:.3f}"
                     for rate, t in tracks["track_alarm_thresholds"]
