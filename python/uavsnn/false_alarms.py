@@ -31,7 +31,14 @@ from typing import TYPE_CHECKING, Any
 from uavsnn.dataset.splits import DOMAIN_KEY, keyed_rng, keyed_seed
 from uavsnn.distributed import SERIAL, Runner
 from uavsnn.errors import ParameterError
-from uavsnn.track_eval import at_rule, poisson_upper, rule_name, tracks_at_rule
+from uavsnn.track_eval import (
+    DEFAULT_CONFIRM,
+    Confirm,
+    at_rule,
+    poisson_upper,
+    rule_name,
+    tracks_at_rule,
+)
 
 if TYPE_CHECKING:
     from uavsnn.detector import WindowReport
@@ -60,9 +67,6 @@ FREE_KEY = 9
 #: The key of the recordings track alarm thresholds are set on (:func:`tune_track_alarms`):
 #: never :data:`FREE_KEY`'s, so a threshold is never measured on the recordings it was set on.
 TUNE_KEY = 10
-#: The detector's confirmation rule (:class:`uavsnn.tracks.Tracker`'s default), ``(hits,
-#: windows)``.
-DEFAULT_CONFIRM = (3, 5)
 #: False tracks per minute that :func:`tune_track_alarms` sets thresholds for by default: the
 #: target of SPEC §5's issue (one per 10 minutes) and ten times it.
 TRACK_ALARM_RATES = (0.1, 1.0)
@@ -253,6 +257,19 @@ def scene_batches(minutes: float, seed: int, key: int = FREE_KEY) -> list[list[t
     return [scenes[i : i + BATCH] for i in range(0, len(scenes), BATCH)]
 
 
+def _streamed_rows(
+    network: Network,
+    batches: list[list[tuple[str, int]]],
+    confirm: tuple[int, int] | None,
+    runner: Runner,
+) -> list[dict[str, Any]]:
+    """:func:`stream_batch`'s rows of every batch, in order, each batch a unit of work on
+    ``runner``."""
+    shared = runner.put(network)
+    units = runner.imap(stream_batch, [(shared, batch, confirm) for batch in batches])
+    return [row for unit in units for row in unit]
+
+
 def false_alarm_figures(
     network: Network, *, minutes: float, seed: int = 0, runner: Runner = SERIAL
 ) -> dict[str, Any]:
@@ -264,10 +281,7 @@ def false_alarm_figures(
     Raises:
         ParameterError: as :func:`scene_batches`.
     """
-    batches = scene_batches(minutes, seed)
-    shared = runner.put(network)
-    units = runner.imap(stream_batch, [(shared, batch) for batch in batches])
-    rows = [row for unit in units for row in unit]
+    rows = _streamed_rows(network, scene_batches(minutes, seed), None, runner)
     return summarise(rows, alarm_rules(network)) | {"seed": seed}
 
 
@@ -303,11 +317,9 @@ def tune_track_alarms(
     rates = [float(r) for r in rates]
     if not rates or not all(0 < r < math.inf for r in rates) or len(set(rates)) != len(rates):
         raise ParameterError(f"rates must be distinct, positive and finite, got {rates!r}")
-    confirm = _confirm_pair(confirm)
-    batches = scene_batches(minutes, seed, TUNE_KEY)
-    shared = runner.put(network)
-    units = runner.imap(stream_batch, [(shared, batch, confirm) for batch in batches])
-    rows = [row for unit in units for row in unit]
+    rule = Confirm.of_pair(confirm)
+    confirm = rule.pair
+    rows = _streamed_rows(network, scene_batches(minutes, seed, TUNE_KEY), confirm, runner)
     streamed = sum(r["seconds"] for r in rows) / 60
     peaks = [p for r in rows for p in r["track_peaks"]]
     pairs = tuple((rate, track_alarm_threshold(peaks, streamed, rate)) for rate in rates)
@@ -322,24 +334,10 @@ def tune_track_alarms(
         "minutes": streamed,
         "recordings": len(rows),
         "confirmed_tracks": len(peaks),
-        "confirm": f"{confirm[0]}/{confirm[1]}",
+        "confirm": str(rule),
         "track_alarm_thresholds": [list(pair) for pair in pairs],
     }
     return tuned, summary
-
-
-def _confirm_pair(confirm: Any) -> tuple[int, int]:
-    """``confirm`` as a checked ``(hits, windows)`` pair.
-
-    Raises:
-        ParameterError: not two integers with 1 <= hits <= windows <= 64.
-    """
-    from uavsnn.track_eval import Confirm
-
-    if not isinstance(confirm, tuple) or len(confirm) != 2:
-        raise ParameterError(f"confirm must be (hits, windows), got {confirm!r}")
-    rule = Confirm(*confirm)
-    return (int(rule.hits), int(rule.windows))
 
 
 def false_alarm_table(figures: dict[str, Any]) -> str:

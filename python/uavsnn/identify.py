@@ -56,12 +56,12 @@ from uavsnn.features import (
     window_steps,
 )
 from uavsnn.linear import fit_logistic, fit_softmax, predict_logistic, predict_softmax
+from uavsnn.track_eval import DEFAULT_CONFIRM, Confirm
 from uavsnn.trees import Trees, fit_trees
 
 if TYPE_CHECKING:
     from uavsnn.dataset import LabelledWindows
     from uavsnn.network import Network
-    from uavsnn.track_eval import Confirm
 
 __all__ = [
     "CLUTTER_CLASS",
@@ -174,7 +174,7 @@ class Identifier:
     trees: Trees | None = None
     track_alarm_thresholds: tuple[tuple[float, float], ...] = ()
     track_alarm_minutes: float = 0.0
-    track_alarm_confirm: tuple[int, int] = (3, 5)
+    track_alarm_confirm: tuple[int, int] = DEFAULT_CONFIRM
 
     def __post_init__(self) -> None:
         d = len(self.features)
@@ -196,16 +196,9 @@ class Identifier:
         if len({rate for rate, _ in tracks}) != len(tracks):
             raise ParameterError(f"track alarm thresholds name a rate twice: {tracks}")
         confirm = self.track_alarm_confirm
-        if not (
-            isinstance(confirm, tuple)
-            and len(confirm) == 2
-            and all(isinstance(v, int) and not isinstance(v, bool) for v in confirm)
-            and 1 <= confirm[0] <= confirm[1] <= 64
-        ):
-            raise ParameterError(
-                f"track_alarm_confirm must be (hits, windows) with 1 <= hits <= windows <= 64, "
-                f"got {confirm!r}"
-            )
+        if not isinstance(confirm, tuple) or any(type(v) is not int for v in confirm):
+            raise ParameterError(f"track_alarm_confirm must be a tuple of ints, got {confirm!r}")
+        Confirm.of_pair(confirm)  # a pair with 1 <= hits <= windows <= 64
         minutes = self.track_alarm_minutes
         if not (math.isfinite(minutes) and (minutes > 0) == bool(tracks) and minutes >= 0):
             raise ParameterError(
@@ -383,7 +376,7 @@ class Identifier:
             track_alarms = _pairs(
                 arrays, "identify.track_alarm_rates", "identify.track_alarm_thresholds"
             )
-            minutes, confirm = 0.0, (3, 5)
+            minutes, confirm = 0.0, DEFAULT_CONFIRM
             if track_alarms:
                 minutes = float(np.asarray(arrays["identify.track_alarm_minutes"]))
                 if "identify.track_alarm_confirm" in arrays:

@@ -48,6 +48,7 @@ if TYPE_CHECKING:
     from uavsnn.tracks import Tracker
 
 __all__ = [
+    "DEFAULT_CONFIRM",
     "RULES",
     "TRACK_SCORES",
     "Confirm",
@@ -69,6 +70,9 @@ RULES = ("any_spike", "identified")
 TRACK_SCORES = ("mean", "max")
 
 _MINUTE_US = 60e6
+#: The detector's confirmation rule, ``(hits, windows)``: :class:`Confirm`'s default (and the
+#: :class:`uavsnn.tracks.Tracker`'s).
+DEFAULT_CONFIRM = (3, 5)
 
 
 @dataclass(frozen=True)
@@ -84,8 +88,8 @@ class Confirm:
     confirms at 2 of 3 on a confident track and at 3 of 5 otherwise.
     """
 
-    hits: int = 3
-    windows: int = 5
+    hits: int = DEFAULT_CONFIRM[0]
+    windows: int = DEFAULT_CONFIRM[1]
     fast: tuple[int, int] | None = None
 
     def __post_init__(self) -> None:
@@ -101,6 +105,22 @@ class Confirm:
                 raise ParameterError(
                     f"a confirmation rule needs 1 <= hits <= windows <= 64, got {h}/{w}"
                 )
+
+    @classmethod
+    def of_pair(cls, pair: Any) -> Confirm:
+        """The plain rule of a ``(hits, windows)`` pair, checked as any rule is.
+
+        Raises:
+            ParameterError: not a pair of integers with 1 <= hits <= windows <= 64.
+        """
+        if not (isinstance(pair, tuple) and len(pair) == 2):
+            raise ParameterError(f"a confirmation rule is (hits, windows), got {pair!r}")
+        return cls(*pair)
+
+    @property
+    def pair(self) -> tuple[int, int]:
+        """``(hits, windows)`` as plain integers."""
+        return (int(self.hits), int(self.windows))
 
     @classmethod
     def parse(cls, text: str) -> Confirm:
@@ -461,7 +481,7 @@ def identified_track_figures(
     )
     points = [(at_rule(rate), t) for rate, t in identifier.alarm_thresholds]
     # The track points hold for the confirmation rule they were set with only.
-    in_force = (3, 5) if confirm is None else (confirm.hits, confirm.windows)
+    in_force = DEFAULT_CONFIRM if confirm is None else confirm.pair
     if (confirm is None or confirm.fast is None) and in_force == identifier.track_alarm_confirm:
         points += [(tracks_at_rule(rate), t) for rate, t in identifier.track_alarm_thresholds]
     for rule, threshold in points if operating_points else ():

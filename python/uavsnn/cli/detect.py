@@ -413,7 +413,7 @@ def run(args: argparse.Namespace) -> int:
         )
         if args.false_tracks is not None:
             # The track points hold for the confirmation rule they were set with.
-            stored = "{}/{}".format(*ident.track_alarm_confirm)
+            stored = str(Confirm.of_pair(ident.track_alarm_confirm))
             if args.confirm is not None and str(Confirm.parse(args.confirm)) != stored:
                 raise ParameterError(
                     f"--false-tracks {args.false_tracks:g}: {args.model}'s track points were "
