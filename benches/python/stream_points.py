@@ -21,8 +21,9 @@ from typing import Any
 
 import numpy as np
 from track_roc import load_streamed
+from tune_halves import load_identified
 
-from uavsnn import Network, identify
+from uavsnn import identify
 from uavsnn.dataset import load
 from uavsnn.evaluation import FALSE_ALARM_RATES
 
@@ -57,10 +58,7 @@ def main() -> None:
     parser.add_argument("--dataset", help="a dataset whose --split is measured too")
     parser.add_argument("--split", default="test")
     args = parser.parse_args()
-    net = Network.load(args.model)
-    ident = net.identification
-    if ident is None:
-        raise SystemExit(f"{args.model}: no identification to look at")
+    net, ident = load_identified(args.model)
     tune, *frees = load_streamed([args.tune, *args.free], "window_peaks")
     if not tune.get("tune_key"):
         raise SystemExit(f"{args.tune}: not streamed with --tune-key")

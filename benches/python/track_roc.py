@@ -22,8 +22,9 @@ import json
 from typing import Any
 
 import numpy as np
+from tune_halves import load_identified
 
-from uavsnn import Network, identify
+from uavsnn import identify
 from uavsnn.dataset import load
 from uavsnn.false_alarms import track_alarm_threshold
 from uavsnn.track_eval import Confirm, track_figures
@@ -86,10 +87,7 @@ def main() -> None:
     )
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
-    net = Network.load(args.model)
-    ident = net.identification
-    if ident is None:
-        raise SystemExit(f"{args.model}: no identification to look at")
+    net, ident = load_identified(args.model)
     frees = load_streamed(args.free, "track_peaks")
     rule = Confirm.parse(args.confirm)
     if rule.fast is not None:

@@ -19,6 +19,15 @@ import numpy as np
 
 from uavsnn import Network, identify
 from uavsnn.dataset import load
+from uavsnn.identify import Identifier
+
+
+def load_identified(path: str) -> tuple[Network, Identifier]:
+    """The model at ``path`` and its identification; exits with why when it has none."""
+    net = Network.load(path)
+    if net.identification is None:
+        raise SystemExit(f"{path}: no identification to look at")
+    return net, net.identification
 
 
 def tuning_scores(net: Network, path: str) -> tuple[np.ndarray, ...]:
@@ -44,10 +53,7 @@ def main() -> None:
     parser.add_argument("model")
     parser.add_argument("--tune", action="append", required=True, metavar="DIR")
     args = parser.parse_args()
-    net = Network.load(args.model)
-    ident = net.identification
-    if ident is None:
-        raise SystemExit(f"{args.model}: no identification to look at")
+    net, ident = load_identified(args.model)
     print(f"{args.model}: {identify.model_name(ident)}, threshold {ident.threshold:.3f}")
     for path in args.tune:
         fired, score, label, _ = tuning_scores(net, path)

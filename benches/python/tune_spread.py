@@ -26,12 +26,12 @@ from pathlib import Path
 
 import numpy as np
 
-from uavsnn import Network, identify
+from uavsnn import identify
 from uavsnn.evaluation import FALSE_ALARM_RATES, recording_interval
 from uavsnn.identify import alarm_threshold
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from tune_halves import tuning_scores
+from tune_halves import load_identified, tuning_scores
 
 
 def redrawn_thresholds(
@@ -66,10 +66,7 @@ def main() -> None:
     args = parser.parse_args()
     if not 1 <= args.draws <= 10_000:
         raise SystemExit(f"--draws must be in 1..10000, got {args.draws}")
-    net = Network.load(args.model)
-    ident = net.identification
-    if ident is None:
-        raise SystemExit(f"{args.model}: no identification to look at")
+    net, ident = load_identified(args.model)
     rates = tuple(FALSE_ALARM_RATES)
     _, score, label, recording = tuning_scores(net, args.tune)
     own = [alarm_threshold(score, label, rate) for rate in rates]
