@@ -6,13 +6,16 @@ one with ``UAVSNN_HYPOTHESIS_PROFILE``.
 
 from __future__ import annotations
 
+import csv
 import importlib.util
 import os
 import sys
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from types import ModuleType
 
+import cv2
+import numpy as np
 import pytest
 from hypothesis import HealthCheck, settings
 
@@ -60,3 +63,44 @@ def bench_script() -> Iterator[Callable[[str], ModuleType]]:
     for name, module in list(sys.modules.items()):
         if Path(getattr(module, "__file__", None) or "").parent == BENCHES:
             del sys.modules[name]
+
+
+def _write_clip(
+    folder: Path,
+    name: str,
+    boxes: Sequence[tuple[int, int] | None],
+    *,
+    rows: int | None = None,
+    size: tuple[int, int] = (320, 256),
+    square: tuple[int, int] = (12, 8),
+    dark: int = 20,
+) -> None:
+    """A clip in the Svanström layout: ``folder/name.avi`` (MJPG, 30 fps, ``size``) of a dark
+    ``square`` (w, h) at ``boxes[k]`` (its top-left corner; ``None``: not in frame ``k``) on a
+    bright sky, and ``name.csv`` with a row for each of the first ``rows`` frames (default:
+    every frame), its box or empty."""
+    w, h = size
+    writer = cv2.VideoWriter(
+        str(folder / f"{name}.avi"), cv2.VideoWriter_fourcc(*"MJPG"), 30.0, size
+    )
+    for box in boxes:
+        frame = np.full((h, w, 3), 200, dtype=np.uint8)
+        if box is not None:
+            x, y = box
+            frame[y : y + square[1], x : x + square[0]] = dark
+        writer.write(frame)
+    writer.release()
+    with (folder / f"{name}.csv").open("w", newline="") as f:
+        out = csv.writer(f)
+        out.writerow(["frame", "x", "y", "w", "h"])
+        for k in range(len(boxes) if rows is None else rows):
+            b = boxes[k]
+            out.writerow([k + 1, "", "", "", ""] if b is None else [k + 1, b[0], b[1], *square])
+
+
+@pytest.fixture(scope="session")
+def write_clip() -> Callable[..., None]:
+    """``write_clip(folder, name, boxes, *, rows=None, size=(320, 256), square=(12, 8),
+    dark=20)``: a labelled clip in the Svanström layout (a dark square moving over a bright
+    sky)."""
+    return _write_clip

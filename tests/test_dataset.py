@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-import csv
 import json
+from collections.abc import Callable
 from pathlib import Path
 
 import cv2
@@ -313,31 +313,8 @@ def test_sim_and_combined_builds(tmp_path: Path) -> None:
 # -- real footage (svanström layout) ---------------------------------------------------------
 
 
-def _write_clip(
-    folder: Path, name: str, n: int, boxes: list[tuple[int, int] | None], rows: int
-) -> None:
-    """A 320×256 clip of a dark 12×8 square moving across a bright sky, and its box file with
-    ``rows`` rows (``None`` in ``boxes``: no target in that frame)."""
-    writer = cv2.VideoWriter(
-        str(folder / f"{name}.avi"), cv2.VideoWriter_fourcc(*"MJPG"), 30.0, (320, 256)
-    )
-    for k in range(n):
-        frame = np.full((256, 320, 3), 200, dtype=np.uint8)
-        if boxes[k] is not None:
-            x, y = boxes[k]
-            frame[y : y + 8, x : x + 12] = 20
-        writer.write(frame)
-    writer.release()
-    with (folder / f"{name}.csv").open("w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(["frame", "x", "y", "w", "h"])
-        for k in range(rows):
-            b = boxes[k]
-            w.writerow([k + 1, "", "", "", ""] if b is None else [k + 1, b[0], b[1], 12, 8])
-
-
 @pytest.fixture(scope="module")
-def videos(tmp_path_factory: pytest.TempPathFactory) -> Path:
+def videos(tmp_path_factory: pytest.TempPathFactory, write_clip: Callable[..., None]) -> Path:
     folder = tmp_path_factory.mktemp("videos")
     n = 45
     for i, cls in enumerate(("DRONE", "DRONE", "BIRD", "BIRD", "AIRPLANE")):
@@ -345,7 +322,7 @@ def videos(tmp_path_factory: pytest.TempPathFactory) -> Path:
         boxes: list[tuple[int, int] | None] = list(path)
         if i == 0:
             boxes[20:25] = [None] * 5  # the target is lost for a moment
-        _write_clip(folder, f"V_{cls}_{i + 1:03d}", n, boxes, rows=n - 6 if i == 0 else n)
+        write_clip(folder, f"V_{cls}_{i + 1:03d}", boxes, rows=n - 6 if i == 0 else n)
     (folder / "notes.txt").write_text("not a clip")
     return folder
 

@@ -6,17 +6,16 @@ those that check that uavsnn never needs it."""
 
 from __future__ import annotations
 
-import csv
 import json
 import shutil
 import socket
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-import cv2
 import numpy as np
 import pytest
 
@@ -136,28 +135,14 @@ def test_ray_build_is_the_serial_build(runner: Any, tmp_path: Path) -> None:
     assert len(read_manifest(on_ray)["recordings"]) > 2  # several tasks, some in flight at once
 
 
-def _write_clip(folder: Path, name: str, n: int, dx: int) -> None:
-    """A 320×256 clip of a dark square crossing a bright sky, and its box file."""
-    writer = cv2.VideoWriter(
-        str(folder / f"{name}.avi"), cv2.VideoWriter_fourcc(*"MJPG"), 30.0, (320, 256)
-    )
-    with (folder / f"{name}.csv").open("w", newline="") as f:
-        rows = csv.writer(f)
-        rows.writerow(["frame", "x", "y", "w", "h"])
-        for k in range(n):
-            frame = np.full((256, 320, 3), 200, dtype=np.uint8)
-            x, y = 40 + dx * k, 60 + 2 * k
-            frame[y : y + 8, x : x + 12] = 20
-            writer.write(frame)
-            rows.writerow([k + 1, x, y, 12, 8])
-    writer.release()
-
-
-def test_ray_build_of_real_footage_is_the_serial_build(runner: Any, tmp_path: Path) -> None:
+def test_ray_build_of_real_footage_is_the_serial_build(
+    runner: Any, tmp_path: Path, write_clip: Callable[..., None]
+) -> None:
     videos = tmp_path / "videos"
     videos.mkdir()
     for i, cls in enumerate(("DRONE", "DRONE", "BIRD", "BIRD", "AIRPLANE")):
-        _write_clip(videos, f"V_{cls}_{i + 1:03d}", 30, 4 + i)
+        path = [(40 + (4 + i) * k, 60 + 2 * k) for k in range(30)]
+        write_clip(videos, f"V_{cls}_{i + 1:03d}", path)
     kwargs: dict[str, Any] = {"videos": videos, "n_test": 10, "n_train": None, "seed": 1}
     serial = build(tmp_path / "serial", "real", **kwargs).root
     on_ray = build(tmp_path / "ray", "real", runner=runner, **kwargs).root

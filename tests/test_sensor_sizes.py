@@ -3,10 +3,9 @@ and sizes that are refused before anything is written."""
 
 from __future__ import annotations
 
-import csv
+from collections.abc import Callable
 from pathlib import Path
 
-import cv2
 import numpy as np
 import pytest
 
@@ -106,26 +105,17 @@ def test_dvs_builds_on_large_sensors(sensor: tuple[int, int], tmp_path: Path) ->
     assert not (tmp_path / "other").exists()
 
 
-def _clip(folder: Path, name: str, size: tuple[int, int], n: int = 12) -> None:
-    w, h = size
-    writer = cv2.VideoWriter(str(folder / f"{name}.avi"), cv2.VideoWriter_fourcc(*"MJPG"), 30, size)
-    with (folder / f"{name}.csv").open("w", newline="") as f:
-        rows = csv.writer(f)
-        rows.writerow(["frame", "x", "y", "w", "h"])
-        for k in range(n):
-            frame = np.full((h, w, 3), 200, dtype=np.uint8)
-            x, y = 100 + 12 * k, 200
-            frame[y : y + 20, x : x + 30] = 30
-            writer.write(frame)
-            rows.writerow([k + 1, x, y, 30, 20])
-    writer.release()
+#: The dark 30×20 square of the 640×512 clips crosses the frame in 12 frames.
+PATH = [(100 + 12 * k, 200) for k in range(12)]
 
 
-def test_real_footage_on_a_640x480_sensor_and_too_small_for_1280x720(tmp_path: Path) -> None:
+def test_real_footage_on_a_640x480_sensor_and_too_small_for_1280x720(
+    tmp_path: Path, write_clip: Callable[..., None]
+) -> None:
     videos = tmp_path / "videos"
     videos.mkdir()
     for i, cls in enumerate(("DRONE", "DRONE", "BIRD", "BIRD")):
-        _clip(videos, f"V_{cls}_{i + 1:03d}", (640, 512))
+        write_clip(videos, f"V_{cls}_{i + 1:03d}", PATH, size=(640, 512), square=(30, 20), dark=30)
     root = build(
         tmp_path / "real", "real", videos=videos, n_test=2, n_train=0, seed=0, sensor="640x480"
     ).root
@@ -154,13 +144,15 @@ def test_the_sensor_benchmark_and_the_raw_cost_script_run(
     assert raw["raw_MB_per_1000_windows"] > 0 and raw["raw_events_per_window"] > 0
 
 
-def test_a_real_dataset_made_as_the_original_pix2nvs_makes_events(tmp_path: Path) -> None:
+def test_a_real_dataset_made_as_the_original_pix2nvs_makes_events(
+    tmp_path: Path, write_clip: Callable[..., None]
+) -> None:
     import json
 
     videos = tmp_path / "videos"
     videos.mkdir()
     for i, cls in enumerate(("DRONE", "DRONE", "BIRD", "BIRD")):
-        _clip(videos, f"V_{cls}_{i + 1:03d}", (640, 512))
+        write_clip(videos, f"V_{cls}_{i + 1:03d}", PATH, size=(640, 512), square=(30, 20), dark=30)
     out = tmp_path / "real"
     argv = ["dataset", "build", str(out), "--domain", "real", "--videos", str(videos)]
     argv += ["--n-test", "2", "--n-train", "0", "--quiet", "--pix2nvs-compat"]
