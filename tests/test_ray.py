@@ -147,6 +147,13 @@ def test_ray_build_of_real_footage_is_the_serial_build(
     serial = build(tmp_path / "serial", "real", **kwargs).root
     on_ray = build(tmp_path / "ray", "real", runner=runner, **kwargs).root
     _same_dataset(serial, on_ray)
+    # Its test clips streamed whole, a clip a task: the serial figures.
+    from uavsnn.clips import evaluate_clips
+
+    net = Network({"width": 240, "height": 180, "conv2": {"threshold": 10.0}}, seed=0)
+    clips = evaluate_clips(net, serial, videos=videos)
+    assert evaluate_clips(net, serial, videos=videos, runner=runner) == clips
+    assert clips["clips"] > 1
 
 
 def test_interrupted_ray_build_leaves_no_dataset(runner: Any, tmp_path: Path) -> None:

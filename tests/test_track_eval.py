@@ -122,8 +122,18 @@ def test_a_found_uav_a_false_bird_track_and_a_missed_uav() -> None:
     assert per[1]["uav_free_ms"] == 525.0 and per[0]["uav_windows"] == 16
     assert (per[0]["uav_windows_met"], per[2]["uav_windows_met"]) == (16, 0)
     assert per[0]["uav_size_px"] is None  # no sizes labelled here
+    # Decided UAV: recording 0 (right) and 1, the bird's (wrong); recording 2 not (wrong).
+    assert rule["decided"] == {
+        "right": 1, "accuracy": 1 / 3, "uav_alarmed": 1, "other_quiet": 0,
+        "balanced_accuracy": 0.25,
+        "per_class": {
+            "bird": {"recordings": 1, "decided_uav": 1},
+            "drone": {"recordings": 2, "decided_uav": 1},
+        },
+    }  # fmt: skip
     table = track_table(f)
     assert "| any-spike | 1 of 2 | 100 / 100 | 1 |" in table and "identification" not in table
+    assert "| 1 of 3 (25.0 %) |" in table
 
 
 def test_identification_alarms_on_the_running_mean_of_the_track_scores() -> None:
@@ -402,6 +412,10 @@ def test_evaluate_tracks_on_a_tiny_built_dataset(
     rule = tracks["rules"]["any_spike"]
     assert rule["found"] + len(rule["missed"]) == len(uav_recs)
     assert set(rule["missed"]) <= uav_recs
+    # A UAV-free recording is decided right when none of its tracks alarmed.
+    quiet = [r for r in tracks["per_recording"] if r["any_spike"]["found"] is None]
+    assert rule["decided"]["other_quiet"] == sum(r["any_spike"]["false_tracks"] == 0 for r in quiet)
+    assert rule["decided"]["uav_alarmed"] >= rule["found"]
     # The UAV-free time lies between the UAV-free windows' steps and their lengths.
     free = int((~test.label).sum())
     assert free * STEP <= 60e6 * tracks["uav_free_minutes"] <= free * L

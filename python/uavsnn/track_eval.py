@@ -24,7 +24,9 @@ From the alarms (:func:`track_figures`):
 - a **false track** is an alarming track whose alarm window has no UAV; the rate divides
   them by the **UAV-free time**: the union of the recordings' UAV-free windows
   ``[t0, t0 + L)``. With few counts the one-sided 95 % Poisson upper bound is given beside;
-- a **stray track** alarms in a UAV window but never meets the UAV from its alarm on.
+- a **stray track** alarms in a UAV window but never meets the UAV from its alarm on;
+- a recording is **decided** UAV when a track alarms in it, and decided right when that is
+  whether it holds a UAV (:func:`decision_figures`).
 
     >>> figures = evaluate_tracks(network, test)          # test: a format-2 dataset split
     >>> print(track_table(figures))
@@ -33,6 +35,7 @@ From the alarms (:func:`track_figures`):
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -53,10 +56,14 @@ __all__ = [
     "TRACK_SCORES",
     "Confirm",
     "at_rule",
+    "box_meets",
     "confirm_flags",
+    "decision_figures",
+    "delay_stats_ms",
     "evaluate_tracks",
     "identified_track_figures",
     "poisson_upper",
+    "recording_class",
     "rule_name",
     "track_figures",
     "track_table",
@@ -208,7 +215,7 @@ def poisson_upper(count: int, confidence: float = 0.95) -> float:
     return (lo + hi) / 2
 
 
-def _meets(box: np.ndarray, truth: np.ndarray) -> bool:
+def box_meets(box: np.ndarray, truth: np.ndarray) -> bool:
     """A half-open object box meets a labelled box (NaN: no labelled object)."""
     return bool(
         np.isfinite(truth).all()
@@ -231,7 +238,8 @@ def _union_us(starts: np.ndarray, length: int) -> int:
     return total
 
 
-def _stats_ms(values_us: list[int]) -> dict[str, float | int | None]:
+def delay_stats_ms(values_us: list[int]) -> dict[str, float | int | None]:
+    """``n``, ``median``, ``p90`` and ``max`` of delays in µs, in ms (``None`` without any)."""
     if not values_us:
         return {"n": 0, "median": None, "p90": None, "max": None}
     v = np.asarray(values_us, dtype=np.float64) / 1000
@@ -241,6 +249,51 @@ def _stats_ms(values_us: list[int]) -> dict[str, float | int | None]:
         "p90": float(np.percentile(v, 90)),
         "max": float(v.max()),
     }
+
+
+def decision_figures(
+    uav: Sequence[bool], alarmed: Sequence[bool], classes: Sequence[str]
+) -> dict[str, Any]:
+    """The decision on whole recordings (or clips), one entry each: decided UAV where a track
+    alarmed in it (``alarmed``), right where that is whether it holds a UAV (``uav``).
+    Returns ``right`` (how many), ``accuracy``, ``uav_alarmed`` (UAV recordings decided UAV),
+    ``other_quiet`` (the others decided not), ``balanced_accuracy`` (the mean of the two
+    shares, of the kinds present; ``None`` with no recording) and ``per_class`` (by
+    ``classes``: ``recordings`` and ``decided_uav``).
+
+    Raises:
+        ShapeError: sequences of different lengths.
+    """
+    if not len(uav) == len(alarmed) == len(classes):
+        raise ShapeError("uav, alarmed and classes must have one entry per recording")
+    truth = np.asarray(uav, dtype=bool)
+    said = np.asarray(alarmed, dtype=bool)
+    shares = []
+    if truth.any():
+        shares.append(float(said[truth].mean()))
+    if (~truth).any():
+        shares.append(float((~said[~truth]).mean()))
+    per_class: dict[str, dict[str, int]] = {}
+    for name, decided in zip(classes, said.tolist(), strict=True):
+        row = per_class.setdefault(str(name), {"recordings": 0, "decided_uav": 0})
+        row["recordings"] += 1
+        row["decided_uav"] += int(decided)
+    right = int((truth == said).sum())
+    return {
+        "right": right,
+        "accuracy": right / len(truth) if len(truth) else None,
+        "uav_alarmed": int((truth & said).sum()),
+        "other_quiet": int((~truth & ~said).sum()),
+        "balanced_accuracy": float(np.mean(shares)) if shares else None,
+        "per_class": dict(sorted(per_class.items())),
+    }
+
+
+def recording_class(classes: np.ndarray) -> str:
+    """A recording's class: the one labelled most often in its windows other than ``"none"``
+    (``"none"`` when there is no other)."""
+    names, counts = np.unique(classes[classes != "none"], return_counts=True)
+    return str(names[np.argmax(counts)]) if len(names) else "none"
 
 
 def track_figures(
@@ -268,7 +321,9 @@ def track_figures(
     ``found``, ``found_rate``, ``missed`` (recording ids), ``time_to_alarm_ms`` (``n``,
     ``median``, ``p90``, ``max``), ``alarming_tracks``, ``false_tracks``,
     ``false_tracks_per_class`` (by the class labelled in the alarm window),
-    ``false_tracks_per_minute``, ``false_tracks_per_minute_upper95``, ``stray_tracks``) and
+    ``false_tracks_per_minute``, ``false_tracks_per_minute_upper95``, ``stray_tracks``, and
+    ``decided``: the recordings decided right, :func:`decision_figures`, a recording decided
+    UAV where a track alarmed in it, of the class labelled most often in it) and
     ``per_recording`` (one row per recording, with ``uav_windows_met``: its UAV windows where
     an object meets the labelled box, and ``uav_size_px``: the median labelled UAV size).
 
@@ -323,6 +378,7 @@ def track_figures(
     false: dict[str, dict[int, list[str]]] = {rule: {r: [] for r in recordings} for rule in rules}
     stray = dict.fromkeys(rules, 0)
     alarming = dict.fromkeys(rules, 0)
+    alarmed: dict[str, set[int]] = {rule: set() for rule in rules}
     first_t0 = {r: int(t0[rec == r].min()) for r in np.unique(rec).tolist()}
     for (r, _tid), objs in tracks.items():
         alarm: dict[str, int | None] = dict.fromkeys(rules, None)
@@ -350,11 +406,12 @@ def track_figures(
             if a is None:
                 continue
             alarming[rule] += 1
+            alarmed[rule].add(r)
             w = int(feats.window[objs[a]])
             on_uav = [
                 int(t1[feats.window[j]])
                 for j in objs[a:]
-                if label[feats.window[j]] and _meets(feats.boxes[j], truth[feats.window[j]])
+                if label[feats.window[j]] and box_meets(feats.boxes[j], truth[feats.window[j]])
             ]
             if on_uav:
                 found[rule][r] = min(found[rule].get(r, on_uav[0]), on_uav[0])
@@ -377,6 +434,7 @@ def track_figures(
         "confirm": None if confirm is None else str(confirm),
         "rules": {},
     }
+    kind = {r: recording_class(cls[rec == r]) for r in recordings}
     for rule in rules:
         delays = [found[rule][r] - first_uav[r] for r in first_uav if r in found[rule]]
         per_class: dict[str, int] = {}
@@ -388,7 +446,7 @@ def track_figures(
             "found": len(delays),
             "found_rate": len(delays) / len(first_uav) if first_uav else None,
             "missed": [r for r in first_uav if r not in found[rule]],
-            "time_to_alarm_ms": _stats_ms(delays),
+            "time_to_alarm_ms": delay_stats_ms(delays),
             "alarming_tracks": alarming[rule],
             "false_tracks": n_false,
             "false_tracks_per_class": dict(sorted(per_class.items())),
@@ -397,12 +455,17 @@ def track_figures(
                 poisson_upper(n_false) / free_minutes if free_minutes else None
             ),
             "stray_tracks": stray[rule],
+            "decided": decision_figures(
+                [r in first_uav for r in recordings],
+                [r in alarmed[rule] for r in recordings],
+                [kind[r] for r in recordings],
+            ),
         }
     # UAV windows with an object on the UAV (the tracker's raw material), per recording.
     met = np.zeros(len(data), dtype=bool)
     for j in range(m):
         w = int(feats.window[j])
-        if label[w] and not met[w] and _meets(feats.boxes[j], truth[w]):
+        if label[w] and not met[w] and box_meets(feats.boxes[j], truth[w]):
             met[w] = True
     size = np.asarray(data.size_px, dtype=np.float64)
     rows = []
@@ -523,13 +586,20 @@ def _fmt(value: float | None, digits: int = 0) -> str:
     return "–" if value is None else f"{value:,.{digits}f}"
 
 
+def _decided(d: dict[str, Any], recordings: int) -> str:
+    balanced = d["balanced_accuracy"]
+    share = "" if balanced is None else f" ({100 * balanced:.1f} %)"
+    return f"{d['right']} of {recordings}{share}"
+
+
 def track_table(figures: dict[str, Any]) -> str:
     """A Markdown table of :func:`track_figures`' figures, one row per rule."""
     minutes = figures["uav_free_minutes"]
     lines = [
         "| rule | UAV recordings found | time to first alarm, median / 90th pct (ms) "
-        "| false tracks | per minute of UAV-free recording (95 % upper bound) | stray tracks |",
-        "|---|---|---|---|---|---|",
+        "| false tracks | per minute of UAV-free recording (95 % upper bound) | stray tracks "
+        "| recordings decided right (balanced) |",
+        "|---|---|---|---|---|---|---|",
     ]
     for rule, f in figures["rules"].items():
         t = f["time_to_alarm_ms"]
@@ -537,7 +607,8 @@ def track_table(figures: dict[str, Any]) -> str:
             f"| {rule_name(rule)} | {f['found']} of {figures['uav_recordings']} "
             f"| {_fmt(t['median'])} / {_fmt(t['p90'])} | {f['false_tracks']} "
             f"| {_fmt(f['false_tracks_per_minute'], 2)} "
-            f"({_fmt(f['false_tracks_per_minute_upper95'], 2)}) | {f['stray_tracks']} |"
+            f"({_fmt(f['false_tracks_per_minute_upper95'], 2)}) | {f['stray_tracks']} "
+            f"| {_decided(f['decided'], figures['recordings'])} |"
         )
     lines.append("")
     lines.append(

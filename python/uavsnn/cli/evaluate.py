@@ -65,6 +65,20 @@ def register(subparsers: Any) -> None:
         "minute of UAV-free recording (a dataset with raw events)",
     )
     p.add_argument(
+        "--clips",
+        action="store_true",
+        help="also stream every clip of a real-footage dataset's split whole through the "
+        "detector, made into events as the dataset's build made them, and decide each clip "
+        "(UAV when a track alarms in it): clips decided right, per class, time to first alarm",
+    )
+    p.add_argument(
+        "--videos",
+        type=Path,
+        metavar="DIR",
+        help="with --clips: the folder of the clips' videos (default: the folder the "
+        "dataset's build read, as its manifest names it)",
+    )
+    p.add_argument(
         "--track-score",
         choices=("mean", "max"),
         default="mean",
@@ -74,9 +88,10 @@ def register(subparsers: Any) -> None:
     p.add_argument(
         "--confirm",
         metavar="RULE",
-        help="with --tracks: the track confirmation rule, HITS/WINDOWS (default 3/5: hits in "
-        "3 of the last 5 windows), or FAST+HITS/WINDOWS (e.g. 2/3+3/5: a track whose running "
-        "mean UAV score reaches the model's threshold confirms at 2 of 3); recorded in --json",
+        help="with --tracks or --clips: the track confirmation rule, HITS/WINDOWS (default "
+        "3/5: hits in 3 of the last 5 windows), or with --tracks FAST+HITS/WINDOWS (e.g. "
+        "2/3+3/5: a track whose running mean UAV score reaches the model's threshold confirms "
+        "at 2 of 3); recorded in --json",
     )
     p.add_argument("--json", action="store_true", help="print the figures as JSON")
     p.set_defaults(handler=_evaluate)
@@ -85,9 +100,18 @@ def register(subparsers: Any) -> None:
 def _evaluate(args: argparse.Namespace) -> int:
     if args.threads is not None and not 1 <= args.threads <= MAX_THREADS:
         raise ParameterError(f"--threads must be from 1 to {MAX_THREADS}, got {args.threads}")
-    if args.confirm is not None and not args.tracks:
-        raise ParameterError("--confirm sets the track confirmation rule: it needs --tracks")
+    if args.confirm is not None and not (args.tracks or args.clips):
+        raise ParameterError(
+            "--confirm sets the track confirmation rule: it needs --tracks or --clips"
+        )
+    if args.videos is not None and not args.clips:
+        raise ParameterError("--videos names the folder of the clips --clips streams: give --clips")
     confirm = Confirm.parse("3/5" if args.confirm is None else args.confirm)
+    if args.clips and confirm.fast is not None:
+        raise ParameterError(
+            f"--clips streams through the detector, which confirms by HITS/WINDOWS alone: "
+            f"--confirm {confirm} is for --tracks"
+        )
     if args.report is not None:
         output_dir(args.report, "--report")
     network = Network.load(args.model)
@@ -117,6 +141,16 @@ def _evaluate(args: argparse.Namespace) -> int:
 
         figures["tracks"] = evaluate_tracks(
             network, data, features=features, track_score=args.track_score, confirm=confirm
+        )
+    if args.clips:
+        from uavsnn.clips import evaluate_clips
+
+        figures["clips"] = evaluate_clips(
+            network,
+            args.dataset,
+            args.split,
+            videos=args.videos,
+            confirm=None if args.confirm is None else confirm,
         )
     if args.roc is not None:
         if "roc" not in ident:
@@ -195,6 +229,11 @@ def _evaluate(args: argparse.Namespace) -> int:
         _print_identification(ident)
     if args.tracks:
         _print_tracks(figures["tracks"])
+    if args.clips:
+        from uavsnn.clips import clip_table
+
+        print(f"whole clips of the {args.split} split, streamed:")
+        print(clip_table(figures["clips"]))
     if args.report:
         print(f"wrote {figures['report']}")
     return 0
@@ -327,7 +366,8 @@ def _print_tracks(tracks: dict[str, Any]) -> None:
         print(
             f"  {rule_name(rule):18s} UAV recordings found {f['found']}/"
             f"{tracks['uav_recordings']}, time to first alarm {delay}; false tracks "
-            f"{f['false_tracks']} {rate}, stray {f['stray_tracks']}"
+            f"{f['false_tracks']} {rate}, stray {f['stray_tracks']}; recordings decided right "
+            f"{f['decided']['right']}/{tracks['recordings']}"
         )
     rows = {row["recording"]: row for row in tracks["per_recording"]}
     missed = tracks["rules"]["any_spike"]["missed"]

@@ -29,10 +29,19 @@ from uavsnn.dataset.splits import (
     take_labels,
 )
 from uavsnn.errors import DatasetError, InternalError
+from uavsnn.events import Recording
 from uavsnn.sim import Pix2NvsParams, probe_video, video_to_recording
 from uavsnn.windows import Windows
 
-__all__ = ["ClipPlan", "plan_clip", "real_splits", "simulate_clip", "split_clips"]
+__all__ = [
+    "ClipPlan",
+    "clip_recording",
+    "decoded_labelled",
+    "plan_clip",
+    "real_splits",
+    "simulate_clip",
+    "split_clips",
+]
 
 _REAL = DOMAIN_KEY["real"]
 
@@ -51,8 +60,9 @@ class ClipPlan:
     sensor: tuple[int, int] = SENSOR
 
 
-def plan_clip(rec: Recorder, clip: Clip, sensor: tuple[int, int] = SENSOR) -> ClipPlan:
-    """Label a clip's windows on a ``sensor`` from its box file, without decoding it.
+def plan_clip(cut: WindowCut, clip: Clip, sensor: tuple[int, int] = SENSOR) -> ClipPlan:
+    """Label a clip's windows, cut by ``cut``, on a ``sensor`` from its box file, without
+    decoding it.
 
     Raises:
         DatasetError: the container reports fewer than two frames or no frame rate, or the
@@ -75,7 +85,7 @@ def plan_clip(rec: Recorder, clip: Clip, sensor: tuple[int, int] = SENSOR) -> Cl
     ts = np.round(np.arange(n) * 1e6 / info.fps).astype(np.uint64)  # as uavsnn.sim times them
     labels, labelled = clip_labels(clip, n, (info.width, info.height), sensor)
     end_us = int(ts[-1] + (ts[-1] - ts[-2]))
-    windows = rec.cut.label(rec.cut.starts(end_us), ts, labels, labelled)
+    windows = cut.label(cut.starts(end_us), ts, labels, labelled)
     return ClipPlan(clip, ts, labels, labelled, end_us, windows, sensor)
 
 
@@ -144,6 +154,24 @@ def _draw(
     }
 
 
+def clip_recording(seed: int, j: int, plan: ClipPlan, params: Pix2NvsParams | None) -> Recording:
+    """The events of clip ``j`` (its position among the folder's clips,
+    :func:`~uavsnn.dataset.find_clips`) of a build with ``seed``: the clip through the "sim"
+    path on the plan's sensor, as the build simulates it."""
+    return video_to_recording(
+        plan.clip.video, "sim", size=plan.sensor, seed=keyed_seed(seed, _REAL, 9, j), params=params
+    )
+
+
+def decoded_labelled(plan: ClipPlan, recording: Recording) -> np.ndarray:
+    """The plan's labelled frames among those ``recording`` (the clip's events) decoded:
+    frames the container promised but that did not decode carry no events, and are not
+    scored."""
+    labelled = plan.labelled.copy()
+    labelled[int(recording.metadata.get("frames", len(labelled))) :] = False
+    return labelled
+
+
 def simulate_clip(
     seed: int,
     cut: WindowCut,
@@ -156,17 +184,8 @@ def simulate_clip(
     returns the windows at ``keep`` (sorted indices), their labels, the clip's event count and
     the raw events behind those windows (the unit of work a build runs, here or as a Ray
     task)."""
-    recording = video_to_recording(
-        plan.clip.video,
-        "sim",
-        size=plan.sensor,
-        seed=keyed_seed(seed, _REAL, 9, j),
-        params=params,
-    )
-    labelled = plan.labelled.copy()
-    decoded = int(recording.metadata.get("frames", len(labelled)))
-    # Frames the container promised but that did not decode carry no events: unscored.
-    labelled[decoded:] = False
+    recording = clip_recording(seed, j, plan, params)
+    labelled = decoded_labelled(plan, recording)
     windows = cut.cut(recording, plan.end_us)
     if not np.array_equal(windows.t0, cut.starts(plan.end_us)):
         raise InternalError(f"windows of {plan.clip.name} do not start where they were planned")
@@ -195,7 +214,7 @@ def real_splits(
         DatasetError: bad footage (see :func:`~uavsnn.dataset.find_clips`), too few windows to
             balance a split, or a clip that decodes to fewer frames than a drawn window needs.
     """
-    plans = [plan_clip(rec, c, sensor) for c in find_clips(videos)]
+    plans = [plan_clip(rec.cut, c, sensor) for c in find_clips(videos)]
     is_test = split_clips(rec, plans, n_test, test_fraction)
     chosen: dict[str, dict[int, np.ndarray]] = {}
     for split, n in (("test", n_test), ("train", n_train)):

@@ -1,0 +1,382 @@
+"""Whole clips of real labelled footage, streamed: the decision per clip.
+
+A split of real footage keeps some windows of each clip (the test split of SPEC §5's real set
+keeps 11.9 % of the steps its 42 clips span), so the tracks ``uavsnn evaluate --tracks``
+follows in it are gappy and confirm late. A user runs the detector on whole clips.
+:func:`evaluate_clips` makes each clip of a split into events again exactly as the dataset's
+build made them (the manifest's window cut, sensor, simulator parameters and seeds;
+:func:`uavsnn.dataset.footage.clip_recording`; the event count is checked against the
+manifest's), streams every window of it through a :class:`~uavsnn.detector.Detector` as
+``uavsnn detect`` runs it, and decides the clip under each rule of
+:func:`uavsnn.false_alarms.alarm_rules`: **UAV** when a track alarms during it (any-spike: a
+confirmed track; with identification: a confirmed track whose running mean UAV score reaches
+the rule's threshold). A clip is **decided right** when that decision is whether a UAV is
+labelled in one of its frames (SPEC §5's target for real footage: at least 90 % of clips);
+its class is the one labelled in most of its frames (``"none"`` where no object is labelled,
+as in a drone clip whose drone is never labelled visible). As in
+:func:`uavsnn.track_eval.track_figures`, a UAV clip is also **found** when an alarming track
+meets the labelled UAV from its alarm on, and its **time to first alarm** runs from the start
+of its first labelled UAV window to the end of the window where that happens.
+
+    >>> figures = evaluate_clips(network, "runs/reproduce/data/real")
+    >>> print(clip_table(figures))
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from uavsnn.distributed import SERIAL, Runner
+from uavsnn.errors import DatasetError, ParameterError
+from uavsnn.track_eval import (
+    Confirm,
+    box_meets,
+    decision_figures,
+    delay_stats_ms,
+    poisson_upper,
+    recording_class,
+    rule_name,
+)
+
+if TYPE_CHECKING:
+    from uavsnn.dataset.footage import ClipPlan
+    from uavsnn.dataset.splits import WindowCut
+    from uavsnn.detector import WindowReport
+    from uavsnn.network import Network
+    from uavsnn.sim import Pix2NvsParams
+
+__all__ = ["ClipSet", "clip_alarms", "clip_figures", "clip_set", "clip_table", "evaluate_clips"]
+
+#: Events per chunk pushed into the detector, as a live stream arrives in pieces.
+CHUNK = 20_000
+
+
+@dataclass(frozen=True)
+class ClipSet:
+    """The clips of one split of a real-footage dataset, as its build made them: the build's
+    ``seed``, window ``cut``, ``sensor`` and simulator ``params``, and per clip its position
+    among the folder's clips (:func:`~uavsnn.dataset.find_clips`, the key of its simulation),
+    its plan (frames and labels) and its event count at the build."""
+
+    dataset: Path
+    split: str
+    seed: int
+    cut: WindowCut
+    sensor: tuple[int, int]
+    params: Pix2NvsParams
+    clips: tuple[tuple[int, ClipPlan, int], ...]
+
+
+def clip_set(dataset: str | Path, split: str = "test", videos: str | Path | None = None) -> ClipSet:
+    """The clips of ``dataset``'s ``split`` (a dataset of ``--domain real``), read from
+    ``videos`` (default: the folder its build read, as the manifest names it).
+
+    Raises:
+        DatasetError: not a real-footage dataset, no such split, the videos' folder missing,
+            or a clip of the split not in it.
+    """
+    from uavsnn.dataset.footage import plan_clip
+    from uavsnn.dataset.format import read_manifest
+    from uavsnn.dataset.real import find_clips
+    from uavsnn.dataset.splits import WindowCut
+    from uavsnn.sim import Pix2NvsParams
+
+    root = Path(dataset)
+    manifest = read_manifest(root)
+    if manifest.get("domain") != "real":
+        raise DatasetError(
+            f"{root} holds {manifest.get('domain')} recordings: whole clips are streamed from "
+            "a dataset of real footage (`uavsnn dataset build --domain real`)"
+        )
+    if split not in manifest.get("splits", {}):
+        raise DatasetError(f"{root} has no {split!r} split")
+    params = manifest["parameters"]
+    source = next(s for s in params["sources"] if s.get("domain") == "real")
+    folder = Path(source["videos"] if videos is None else videos)
+    if not folder.is_dir():
+        raise DatasetError(
+            f"the clips of {root} were read from {folder}, which is not a folder here: give "
+            "the folder of the videos (--videos)"
+        )
+    clips = find_clips(folder)
+    found = {c.name: j for j, c in enumerate(clips)}
+    cut = WindowCut(
+        int(params["window_us"]), float(params["overlap"]), float(params["min_visible_fraction"])
+    )
+    sensor = (int(params["sensor_size"][0]), int(params["sensor_size"][1]))
+    records = {int(r["id"]): r for r in manifest["recordings"]}
+    chosen = []
+    for rec_id in manifest["splits"][split]["recordings"]:
+        record = records[int(rec_id)]
+        name = str(record["name"])
+        if name not in found:
+            raise DatasetError(f"clip {name} of {root}'s {split} split is not in {folder}")
+        j = found[name]
+        chosen.append((j, plan_clip(cut, clips[j], sensor), int(record["events"])))
+    return ClipSet(
+        root,
+        split,
+        int(manifest["seed"]),
+        cut,
+        sensor,
+        Pix2NvsParams(**source["simulator_params"]),
+        tuple(chosen),
+    )
+
+
+def clip_alarms(
+    reports: Sequence[WindowReport],
+    rules: dict[str, float | None],
+    uav: np.ndarray,
+    boxes: np.ndarray,
+) -> dict[str, Any]:
+    """Per rule, the alarms among ``reports`` (one stream's windows; ``uav`` and ``boxes``: each
+    window's label and labelled box): ``alarmed``, ``alarming_tracks``, ``false_tracks``
+    (alarming in a window without a UAV), ``first_alarm_us`` (the end of the first window
+    where a track alarms) and ``found_us`` (the end of the first window where an alarming
+    track meets the labelled UAV, from its alarm on), with ``None`` where none; and
+    ``track_peaks``, each confirmed track's highest score (as
+    :func:`uavsnn.false_alarms.count_alarms` gives them)."""
+    tracks: dict[int, list[tuple[int, Any]]] = {}
+    for k, report in enumerate(reports):
+        if not report.detected:
+            continue
+        for o in report.objects:
+            if o.track_id is not None:
+                tracks.setdefault(o.track_id, []).append((k, o))
+    out: dict[str, Any] = {"rules": {}, "track_peaks": []}
+    for objs in tracks.values():
+        scores = [o.track_score for _, o in objs if o.track_confirmed and o.track_score is not None]
+        if scores:
+            out["track_peaks"].append(max(scores))
+    out["track_peaks"].sort(reverse=True)
+    for rule, threshold in rules.items():
+        first = found = None
+        alarming = false = 0
+        for objs in tracks.values():
+            at = next(
+                (
+                    n
+                    for n, (_, o) in enumerate(objs)
+                    if o.track_confirmed
+                    and (
+                        threshold is None
+                        or (o.track_score is not None and o.track_score >= threshold)
+                    )
+                ),
+                None,
+            )
+            if at is None:
+                continue
+            alarming += 1
+            k = objs[at][0]
+            first = reports[k].t1 if first is None else min(first, reports[k].t1)
+            false += not uav[k]
+            on = [reports[j].t1 for j, o in objs[at:] if uav[j] and box_meets(o.box, boxes[j])]
+            if on:
+                found = on[0] if found is None else min(found, on[0])
+        out["rules"][rule] = {
+            "alarmed": first is not None,
+            "alarming_tracks": alarming,
+            "false_tracks": false,
+            "first_alarm_us": first,
+            "found_us": found,
+        }
+    return out
+
+
+def stream_clip(
+    network: Network, clips: ClipSet, which: int, confirm: tuple[int, int] | None = None
+) -> dict[str, Any]:
+    """Clip ``which`` of ``clips`` made into events as its build made them, streamed through a
+    fresh detector (the tracker confirming by ``confirm`` ``(hits, windows)``, default 3 of
+    5): its row of :func:`evaluate_clips`'s ``per_clip`` (the unit of work).
+
+    Raises:
+        DatasetError: the clip gives another number of events than at the build (another
+            video, or another decoder).
+    """
+    from uavsnn.dataset.footage import clip_recording, decoded_labelled
+    from uavsnn.detector import Detector
+    from uavsnn.false_alarms import alarm_rules
+    from uavsnn.track_eval import DEFAULT_CONFIRM
+    from uavsnn.tracks import Tracker
+
+    j, plan, events_at_build = clips.clips[which]
+    recording = clip_recording(clips.seed, j, plan, clips.params)
+    events = recording.events
+    if len(events) != events_at_build:
+        raise DatasetError(
+            f"clip {plan.clip.name} gives {len(events)} events here and gave {events_at_build} "
+            "when the dataset was built: another video, or another video decoder"
+        )
+    tracker = None
+    if confirm is not None:
+        tracker = Tracker(confirm_hits=confirm[0], confirm_windows=confirm[1])
+    detector = Detector(
+        network,
+        window_us=clips.cut.length_us,
+        overlap=clips.cut.overlap,
+        sensor_size=clips.sensor,
+        start_us=0,
+        tracker=tracker,
+    )
+    reports = []
+    for start in range(0, len(events), CHUNK):
+        reports += detector.push_windows(events[start : start + CHUNK])
+    reports += detector.flush_windows()
+    t0 = np.asarray([r.t0 for r in reports], dtype=np.uint64)
+    labelled = decoded_labelled(plan, recording)
+    labels = clips.cut.label(t0, plan.timestamps_us, plan.frame_labels, labelled)
+    uav = labels.label & labels.usable
+    alarms = clip_alarms(reports, alarm_rules(network, confirm or DEFAULT_CONFIRM), uav, labels.box)
+    first_uav = int(t0[uav].min()) if uav.any() else None
+    sizes = labels.size_px[uav]
+    sizes = sizes[np.isfinite(sizes)]
+    for rule in alarms["rules"].values():
+        found = rule["found_us"]
+        rule["time_to_alarm_us"] = None if found is None or first_uav is None else found - first_uav
+    return {
+        "clip": plan.clip.name,
+        "class": recording_class(plan.frame_labels["cls"][labelled]),
+        "uav": bool(plan.frame_labels["uav"][labelled].any()),
+        "seconds": plan.end_us / 1e6,
+        "events": len(events),
+        "windows": len(reports),
+        "uav_windows": int(uav.sum()),
+        "uav_size_px": float(np.median(sizes)) if len(sizes) else None,
+        **alarms,
+    }
+
+
+def clip_figures(rows: Sequence[dict[str, Any]], rules: Sequence[str]) -> dict[str, Any]:
+    """The figures of :func:`evaluate_clips` from its rows: per rule of ``rules``, the clips
+    decided right (:func:`uavsnn.track_eval.decision_figures`), the UAV clips ``found`` and
+    their ``time_to_alarm_ms``, and the ``false_tracks`` of the clips without a UAV with their
+    rate per minute of those clips (and its 95 % upper bound)."""
+    free_minutes = sum(r["seconds"] for r in rows if not r["uav"]) / 60
+    out: dict[str, Any] = {
+        "clips": len(rows),
+        "uav_clips": sum(1 for r in rows if r["uav"]),
+        "minutes": sum(r["seconds"] for r in rows) / 60,
+        "uav_free_minutes": free_minutes,
+        "windows": sum(r["windows"] for r in rows),
+        "rules": {},
+    }
+    for rule in rules:
+        mine = [r["rules"][rule] for r in rows]
+        pairs = list(zip(rows, mine, strict=True))
+        false = sum(m["alarming_tracks"] for r, m in pairs if not r["uav"])
+        delays = [m["time_to_alarm_us"] for m in mine if m["time_to_alarm_us"] is not None]
+        out["rules"][rule] = decision_figures(
+            [r["uav"] for r in rows], [m["alarmed"] for m in mine], [r["class"] for r in rows]
+        ) | {
+            "found": sum(1 for r, m in pairs if r["uav"] and m["found_us"] is not None),
+            "time_to_alarm_ms": delay_stats_ms(delays),
+            "false_tracks": false,
+            "false_tracks_per_minute": false / free_minutes if free_minutes else None,
+            "false_tracks_per_minute_upper95": (
+                poisson_upper(false) / free_minutes if free_minutes else None
+            ),
+        }
+    return out
+
+
+def evaluate_clips(
+    network: Network,
+    dataset: str | Path,
+    split: str = "test",
+    *,
+    videos: str | Path | None = None,
+    confirm: Confirm | None = None,
+    runner: Runner = SERIAL,
+) -> dict[str, Any]:
+    """Every clip of ``dataset``'s ``split`` (:func:`clip_set`) streamed whole through
+    ``network``'s detector, one clip a unit of work on ``runner``, and decided under each of
+    its rules (the module's docs): :func:`clip_figures` with ``confirm`` (the rule as text),
+    ``dataset``, ``split`` and ``per_clip`` (a row per clip, :func:`stream_clip`).
+
+    Raises:
+        DatasetError: as :func:`clip_set` and :func:`stream_clip`.
+        ParameterError: a score-aware ``confirm`` (the detector confirms by hits alone), or
+            a network of another sensor size than the dataset's.
+    """
+    from uavsnn.false_alarms import alarm_rules
+    from uavsnn.track_eval import DEFAULT_CONFIRM
+
+    if confirm is not None and (not isinstance(confirm, Confirm) or confirm.fast is not None):
+        raise ParameterError(
+            f"the detector confirms tracks by HITS/WINDOWS alone, got confirm={confirm!r}"
+        )
+    clips = clip_set(dataset, split, videos)
+    size = (int(network.config["width"]), int(network.config["height"]))
+    if size != clips.sensor:
+        raise ParameterError(
+            f"the network takes a {size[0]}x{size[1]} sensor, the dataset's clips are "
+            f"{clips.sensor[0]}x{clips.sensor[1]}"
+        )
+    pair = None if confirm is None else confirm.pair
+    shared = runner.put(network)
+    rows = list(
+        runner.imap(stream_clip, [(shared, clips, k, pair) for k in range(len(clips.clips))])
+    )
+    rules = list(alarm_rules(network, pair or DEFAULT_CONFIRM))
+    return clip_figures(rows, rules) | {
+        "dataset": str(clips.dataset),
+        "split": split,
+        "confirm": str(confirm or Confirm.of_pair(DEFAULT_CONFIRM)),
+        "per_clip": rows,
+    }
+
+
+def _percent(n: int, of: int) -> str:
+    return f"{n} of {of}" + (f" ({100 * n / of:.1f} %)" if of else "")
+
+
+def clip_table(figures: dict[str, Any]) -> str:
+    """Markdown tables of :func:`evaluate_clips`' figures: one row per rule, then the clips
+    of each class decided UAV."""
+    uav, clips = figures["uav_clips"], figures["clips"]
+    lines = [
+        "| rule | clips decided right | balanced | UAV clips alarmed (found on the UAV) "
+        "| other clips without an alarm | time to first alarm, median / 90th pct (ms) "
+        "| false tracks per minute of other clips (95 % upper bound) |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for rule, f in figures["rules"].items():
+        t = f["time_to_alarm_ms"]
+        med = "–" if t["median"] is None else f"{t['median']:,.0f} / {t['p90']:,.0f}"
+        rate = f["false_tracks_per_minute"]
+        per_minute = (
+            "–" if rate is None else f"{rate:.2f} ({f['false_tracks_per_minute_upper95']:.2f})"
+        )
+        lines.append(
+            f"| {rule_name(rule)} | **{_percent(f['right'], clips)}** "
+            f"| {100 * f['balanced_accuracy']:.1f} % "
+            f"| {f['uav_alarmed']} of {uav} ({f['found']}) "
+            f"| {f['other_quiet']} of {clips - uav} | {med} | {per_minute} |"
+        )
+    classes = sorted({c for f in figures["rules"].values() for c in f["per_class"]})
+    lines += [
+        "",
+        "Clips decided UAV, per class:",
+        "",
+        "| rule | " + " | ".join(classes) + " |",
+        "|---|" + "---|" * len(classes),
+    ]
+    for rule, f in figures["rules"].items():
+        per_class = f["per_class"]
+        cells = [f"{per_class[c]['decided_uav']} of {per_class[c]['recordings']}" for c in classes]
+        lines.append(f"| {rule_name(rule)} | " + " | ".join(cells) + " |")
+    lines += [
+        "",
+        f"{clips} clips ({uav} with a UAV), {figures['minutes']:.1f} minutes, "
+        f"{figures['windows']:,} windows streamed (every window of each clip up to its last "
+        f"event); tracks confirmed at {figures['confirm']}.",
+    ]
+    return "\n".join(lines)

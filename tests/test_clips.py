@@ -1,0 +1,243 @@
+"""Whole clips of real footage, streamed (``uavsnn.clips``): the alarms of one stream on
+handmade windows, the decision per clip, and a tiny real-footage dataset end to end."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from uavsnn import Network
+from uavsnn.clips import clip_alarms, clip_set, clip_table, evaluate_clips
+from uavsnn.detector import _NO_DETECTIONS, WindowObject, WindowReport
+from uavsnn.errors import DatasetError, ParameterError, ShapeError
+from uavsnn.track_eval import Confirm, decision_figures
+
+STEP, L = 25_000, 50_000
+UAV_BOX = (100, 80, 110, 90)
+OFF = (10, 10, 16, 16)
+
+
+def _report(k: int, detected: bool, *objects: tuple) -> WindowReport:
+    return WindowReport(
+        k, k * STEP, k * STEP + L, detected, _NO_DETECTIONS,
+        tuple(
+            WindowObject(box, 1, uav_score=s, track_id=t, track_confirmed=c, track_score=s)
+            for box, t, c, s in objects
+        ),
+    )  # fmt: skip
+
+
+def test_the_alarms_of_one_stream_per_rule() -> None:
+    """Windows 0-5, a UAV labelled from window 2 on. Track 1, off the UAV, confirmed in
+    UAV-free window 1 at a score of 0.3; track 2 on the UAV, tentative at 0.9 in window 2,
+    confirmed at 0.8 in window 3 and 0.6 in window 4; window 5 is not detected."""
+    reports = [
+        _report(0, True, (OFF, 1, False, 0.3)),
+        _report(1, True, (OFF, 1, True, 0.3)),
+        _report(2, True, (UAV_BOX, 2, False, 0.9)),
+        _report(3, True, (UAV_BOX, 2, True, 0.8)),
+        _report(4, True, (UAV_BOX, 2, True, 0.6)),
+        _report(5, False, (UAV_BOX, 2, True, 0.99)),
+    ]
+    uav = np.arange(6) >= 2
+    boxes = np.where(uav[:, None], np.array(UAV_BOX, dtype=float), np.nan)
+    got = clip_alarms(reports, {"any_spike": None, "loose": 0.7, "strict": 0.85}, uav, boxes)
+    # Track 1 alarms in window 1 (ends at 75 ms), a false track; track 2 in window 3 (125 ms).
+    assert got["rules"]["any_spike"] == {
+        "alarmed": True, "alarming_tracks": 2, "false_tracks": 1,
+        "first_alarm_us": 75_000, "found_us": 125_000,
+    }  # fmt: skip
+    assert got["rules"]["loose"] == {
+        "alarmed": True, "alarming_tracks": 1, "false_tracks": 0,
+        "first_alarm_us": 125_000, "found_us": 125_000,
+    }  # fmt: skip
+    # 0.9 was tentative and window 5 is not detected: nothing reaches 0.85 while confirmed.
+    assert got["rules"]["strict"] == {
+        "alarmed": False, "alarming_tracks": 0, "false_tracks": 0,
+        "first_alarm_us": None, "found_us": None,
+    }  # fmt: skip
+    assert got["track_peaks"] == [0.8, 0.3]
+
+
+def test_an_alarm_off_the_uav_decides_but_does_not_find() -> None:
+    reports = [_report(k, True, (OFF, 1, k >= 2, 0.5)) for k in range(5)]
+    uav = np.ones(5, dtype=bool)
+    boxes = np.tile(np.array(UAV_BOX, dtype=float), (5, 1))
+    rule = clip_alarms(reports, {"any_spike": None}, uav, boxes)["rules"]["any_spike"]
+    assert rule["alarmed"] and rule["found_us"] is None and rule["false_tracks"] == 0
+
+
+def test_decisions_on_handmade_recordings() -> None:
+    got = decision_figures(
+        [True, True, False, False, False],
+        [True, False, True, False, False],
+        ["drone", "drone", "bird", "bird", "none"],
+    )
+    assert (got["right"], got["uav_alarmed"], got["other_quiet"]) == (3, 1, 2)
+    assert got["accuracy"] == pytest.approx(0.6)
+    assert got["balanced_accuracy"] == pytest.approx((1 / 2 + 2 / 3) / 2)
+    assert got["per_class"] == {
+        "bird": {"recordings": 2, "decided_uav": 1},
+        "drone": {"recordings": 2, "decided_uav": 1},
+        "none": {"recordings": 1, "decided_uav": 0},
+    }
+    # Only UAV-free recordings: the balanced share is theirs alone.
+    assert decision_figures([False], [False], ["bird"])["balanced_accuracy"] == 1.0
+    assert decision_figures([], [], [])["accuracy"] is None
+    with pytest.raises(ShapeError):
+        decision_figures([True], [True, False], ["drone"])
+
+
+@given(st.lists(st.tuples(st.booleans(), st.booleans()), max_size=30))
+def test_decided_right_adds_up(pairs: list[tuple[bool, bool]]) -> None:
+    uav = [u for u, _ in pairs]
+    said = [a for _, a in pairs]
+    got = decision_figures(uav, said, ["drone" if u else "bird" for u in uav])
+    assert got["right"] == got["uav_alarmed"] + got["other_quiet"]
+    assert got["right"] == sum(u == a for u, a in pairs)
+    assert sum(c["decided_uav"] for c in got["per_class"].values()) == sum(said)
+    if pairs:
+        assert 0.0 <= got["balanced_accuracy"] <= 1.0
+
+
+# -- a tiny real-footage dataset -------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def footage(
+    tmp_path_factory: pytest.TempPathFactory, write_clip: Callable[..., None]
+) -> tuple[Path, Path, Path]:
+    """Five clips (two drones, two birds, an airplane) of a dark square crossing a bright sky,
+    a real dataset built from them, and an untrained 240x180 model that fires on the square."""
+    from uavsnn.dataset import build
+
+    tmp = tmp_path_factory.mktemp("footage")
+    videos = tmp / "videos"
+    videos.mkdir()
+    for i, cls in enumerate(("DRONE", "DRONE", "BIRD", "BIRD", "AIRPLANE")):
+        path = [(40 + (4 + i) * k, 60 + 2 * k) for k in range(30)]
+        write_clip(videos, f"V_{cls}_{i + 1:03d}", path)
+    root = build(tmp / "real", "real", videos=videos, n_test=10, n_train=None, seed=1).root
+    model = tmp / "m.npz"
+    Network({"width": 240, "height": 180, "conv2": {"threshold": 10.0}}, seed=0).save(model)
+    return root, videos, model
+
+
+def test_the_clips_are_made_as_the_build_made_them(footage: tuple[Path, Path, Path]) -> None:
+    """Each test clip's events, made again, are the dataset's raw events in its windows."""
+    from uavsnn.dataset import load
+    from uavsnn.dataset.footage import clip_recording
+
+    root, videos, _ = footage
+    clips = clip_set(root, "test", videos)
+    test = load(root, "test")
+    names = {r["id"]: r["name"] for r in test.manifest["recordings"]}
+    assert sorted(p.clip.name for _, p, _ in clips.clips) == sorted(
+        names[int(r)] for r in np.unique(test.recording)
+    )
+    assert test.raw is not None
+    checked = 0
+    for j, plan, events in clips.clips:
+        made = clip_recording(clips.seed, j, plan, clips.params).events
+        assert len(made) == events
+        mine = np.flatnonzero([names[int(r)] == plan.clip.name for r in test.recording])
+        for i in mine.tolist():
+            t0 = int(test.windows.t0[i])
+            inside = made[(made["t"] >= t0 - L) & (made["t"] < t0 + L)]
+            assert np.array_equal(inside, test.raw.window(i))
+            checked += 1
+    assert checked == len(test)
+
+
+def test_evaluate_clips_decides_every_test_clip(footage: tuple[Path, Path, Path]) -> None:
+    root, videos, model = footage
+    net = Network.load(model)
+    figures = evaluate_clips(net, root, videos=videos)
+    rows = figures["per_clip"]
+    assert figures["clips"] == len(rows) == len(clip_set(root, "test", videos).clips)
+    assert figures["confirm"] == "3/5" and list(figures["rules"]) == ["any_spike"]
+    for row in rows:
+        assert row["uav"] == ("DRONE" in row["clip"]) and row["windows"] > 0
+        assert row["class"] == row["clip"].split("_")[1].lower()
+    rule = figures["rules"]["any_spike"]
+    alarmed = [r["rules"]["any_spike"]["alarmed"] for r in rows]
+    assert rule["right"] == sum(a == r["uav"] for a, r in zip(alarmed, rows, strict=True))
+    # The untrained network fires on the square: some clip has a confirmed track.
+    assert any(alarmed)
+    found = [r for r in rows if r["rules"]["any_spike"]["found_us"] is not None]
+    assert rule["found"] == len(found) and all(r["uav"] for r in found)
+    assert rule["time_to_alarm_ms"]["n"] == len(found)
+    table = clip_table(figures)
+    assert f"| any-spike | **{rule['right']} of {len(rows)}" in table
+    # The same clips give the same figures; a stricter confirmation never alarms more.
+    assert evaluate_clips(net, root, videos=videos) == figures
+    strict = evaluate_clips(net, root, videos=videos, confirm=Confirm.parse("5/5"))
+    assert strict["confirm"] == "5/5"
+    assert strict["rules"]["any_spike"]["uav_alarmed"] <= rule["uav_alarmed"]
+
+
+def test_bad_clip_sets_are_typed_errors(
+    footage: tuple[Path, Path, Path], tmp_path: Path, write_clip: Callable[..., None]
+) -> None:
+    from uavsnn.dataset import SceneSource, build
+
+    root, videos, model = footage
+    net = Network.load(model)
+    with pytest.raises(DatasetError, match="not a folder here"):
+        clip_set(root, "test", tmp_path / "nowhere")
+    with pytest.raises(DatasetError, match="no 'val' split"):
+        clip_set(root, "val", videos)
+    dvs = build(
+        tmp_path / "dvs", "dvs", n_test=4, n_train=0, seed=0,
+        dvs=SceneSource("dvs", (240, 180), 200.0, 0.2),
+    ).root  # fmt: skip
+    with pytest.raises(DatasetError, match="real footage"):
+        clip_set(dvs, "test", videos)
+    # A folder without one of the split's clips, and one where a clip is another video.
+    other = tmp_path / "other"
+    shutil.copytree(videos, other)
+    name = clip_set(root, "test", videos).clips[0][1].clip.name
+    for suffix in (".avi", ".csv"):
+        (other / f"{name}{suffix}").unlink()
+    with pytest.raises(DatasetError, match=f"clip {name} .* is not in"):
+        clip_set(root, "test", other)
+    write_clip(other, name, [(200 - 3 * k, 100) for k in range(30)])
+    with pytest.raises(DatasetError, match="events here"):
+        evaluate_clips(net, root, videos=other)
+    with pytest.raises(ParameterError, match="HITS/WINDOWS"):
+        evaluate_clips(net, root, videos=videos, confirm=Confirm.parse("2/3+3/5"))
+    wide = Network({"width": 320, "height": 240}, seed=0)
+    with pytest.raises(ParameterError, match="320x240"):
+        evaluate_clips(wide, root, videos=videos)
+
+
+def test_evaluate_clips_on_the_command_line(
+    footage: tuple[Path, Path, Path], capsys: pytest.CaptureFixture[str]
+) -> None:
+    from uavsnn.cli import main
+
+    root, videos, model = footage
+    base = ["evaluate", str(model), str(root), "--clips", "--videos", str(videos)]
+    assert main([*base, "--json"]) == 0
+    got = json.loads(capsys.readouterr().out)["clips"]
+    assert got == evaluate_clips(Network.load(model), root, videos=videos)
+    assert main(base) == 0
+    text = capsys.readouterr().out
+    assert "whole clips of the test split, streamed:" in text and "| any-spike | **" in text
+    assert main([*base, "--confirm", "2/5", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["clips"]["confirm"] == "2/5"
+    refused = (
+        ["evaluate", str(model), str(root), "--videos", str(videos)],
+        [*base, "--confirm", "2/3+3/5"],
+    )
+    for args in refused:
+        assert main(args) == 2
+        err = capsys.readouterr().err
+        assert len(err.strip().splitlines()) == 1 and "--clips" in err, args
