@@ -3,6 +3,7 @@ handmade windows, the decision per clip, and a tiny real-footage dataset end to 
 
 from __future__ import annotations
 
+import copy
 import json
 import shutil
 from collections.abc import Callable
@@ -176,6 +177,11 @@ def test_evaluate_clips_decides_every_test_clip(footage: tuple[Path, Path, Path]
     assert rule["time_to_alarm_ms"]["n"] == len(found)
     table = clip_table(figures)
     assert f"| any-spike | **{rule['right']} of {len(rows)}" in table
+    # A UAV clip where no track alarmed is named under the table, with its UAV's size.
+    quiet = copy.deepcopy(figures)
+    row = next(r for r in quiet["per_clip"] if r["uav"])
+    row["rules"]["any_spike"]["alarmed"] = False
+    assert f"{row['clip']} ({row['uav_size_px']:.1f} px)" in clip_table(quiet)
     # The same clips give the same figures; a stricter confirmation never alarms more.
     assert evaluate_clips(net, root, videos=videos) == figures
     strict = evaluate_clips(net, root, videos=videos, confirm=Confirm.parse("5/5"))

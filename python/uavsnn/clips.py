@@ -338,6 +338,10 @@ def _percent(n: int, of: int) -> str:
     return f"{n} of {of}" + (f" ({100 * n / of:.1f} %)" if of else "")
 
 
+def _size(px: float | None) -> str:
+    return "size unknown" if px is None else f"{px:.1f} px"
+
+
 def clip_table(figures: dict[str, Any]) -> str:
     """Markdown tables of :func:`evaluate_clips`' figures: one row per rule, then the clips
     of each class decided UAV."""
@@ -373,6 +377,16 @@ def clip_table(figures: dict[str, Any]) -> str:
         per_class = f["per_class"]
         cells = [f"{per_class[c]['decided_uav']} of {per_class[c]['recordings']}" for c in classes]
         lines.append(f"| {rule_name(rule)} | " + " | ".join(cells) + " |")
+    missed = [
+        f"{r['clip']} ({_size(r['uav_size_px'])})"
+        for r in figures.get("per_clip", [])
+        if r["uav"] and not r["rules"]["any_spike"]["alarmed"]
+    ]
+    if missed:
+        lines.append(
+            "\nUAV clips where no track alarmed by the any-spike rule (the labelled UAV's "
+            "median size): " + ", ".join(missed) + "."
+        )
     lines += [
         "",
         f"{clips} clips ({uav} with a UAV), {figures['minutes']:.1f} minutes, "
