@@ -14,8 +14,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from uavsnn import Network
-from uavsnn.clips import clip_alarms, clip_set, clip_table, evaluate_clips
+from uavsnn import EVENT_DTYPE, Network
+from uavsnn.clips import box_events, clip_alarms, clip_set, clip_table, evaluate_clips
 from uavsnn.detector import _NO_DETECTIONS, WindowObject, WindowReport
 from uavsnn.errors import DatasetError, ParameterError, ShapeError
 from uavsnn.track_eval import Confirm, decision_figures
@@ -73,6 +73,18 @@ def test_an_alarm_off_the_uav_decides_but_does_not_find() -> None:
     boxes = np.tile(np.array(UAV_BOX, dtype=float), (5, 1))
     rule = clip_alarms(reports, {"any_spike": None}, uav, boxes)["rules"]["any_spike"]
     assert rule["alarmed"] and rule["found_us"] is None and rule["false_tracks"] == 0
+
+
+def test_box_events_counts_the_events_on_each_box() -> None:
+    ev = np.zeros(7, dtype=EVENT_DTYPE)
+    ev["t"] = [0, 10, 20, 30, 60, 70, 80]
+    ev["x"] = [5, 5, 9, 4, 5, 5, 5]
+    ev["y"] = [5, 5, 5, 5, 5, 5, 20]
+    boxes = np.array([[4.5, 4.5, 6.0, 6.0], [0.0, 0.0, 10.0, 10.0]])
+    # Window 0: x = 5 twice and pixel 4, which covers [4, 5) and so meets x0 = 4.5; not x = 9.
+    # Window 1: two of its three events; (5, 20) lies below the box.
+    assert box_events(ev, np.array([0, 50]), 50, boxes).tolist() == [3, 2]
+    assert box_events(ev[:0], np.array([0]), 50, boxes[:1]).tolist() == [0]
 
 
 def test_decisions_on_handmade_recordings() -> None:
@@ -181,7 +193,10 @@ def test_evaluate_clips_decides_every_test_clip(footage: tuple[Path, Path, Path]
     quiet = copy.deepcopy(figures)
     row = next(r for r in quiet["per_clip"] if r["uav"])
     row["rules"]["any_spike"]["alarmed"] = False
-    assert f"{row['clip']} ({row['uav_size_px']:.1f} px)" in clip_table(quiet)
+    on_it = f"{row['uav_events_per_window']:g} events per window on it"
+    assert f"{row['clip']} ({row['uav_size_px']:.1f} px, {on_it})" in clip_table(quiet)
+    # The square gives the network events on its labelled box.
+    assert all(r["uav_events_per_window"] > 0 for r in rows if r["uav"])
     # The same clips give the same figures; a stricter confirmation never alarms more.
     assert evaluate_clips(net, root, videos=videos) == figures
     strict = evaluate_clips(net, root, videos=videos, confirm=Confirm.parse("5/5"))
@@ -247,3 +262,32 @@ def test_evaluate_clips_on_the_command_line(
         assert main(args) == 2
         err = capsys.readouterr().err
         assert len(err.strip().splitlines()) == 1 and "--clips" in err, args
+
+
+def test_a_lower_pix2nvs_threshold_is_built_and_streamed_again(
+    footage: tuple[Path, Path, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`dataset build --pix2nvs-threshold` records the threshold; the clips streamed again are
+    made with it (their event counts match the build's), with more events than at 0.4."""
+    from uavsnn.cli import main
+    from uavsnn.dataset import read_manifest
+
+    root, videos, model = footage
+    low = tmp_path / "low"
+    base = ["dataset", "build", "--domain", "real", "--videos", str(videos), "--n-test", "10"]
+    assert main([*base, str(low), "--seed", "1", "--pix2nvs-threshold", "0.2", "--quiet"]) == 0
+    source = read_manifest(low)["parameters"]["sources"][0]
+    assert source["simulator_params"]["threshold"] == 0.2
+    net = Network.load(model)
+    at_low = evaluate_clips(net, low, videos=videos)["per_clip"]
+    at_default = evaluate_clips(net, root, videos=videos)["per_clip"]
+    assert [r["clip"] for r in at_low] == [r["clip"] for r in at_default]
+    assert sum(r["events"] for r in at_low) > sum(r["events"] for r in at_default)
+    capsys.readouterr()
+    for bad in (["--domain", "dvs", "--pix2nvs-threshold", "0.2"], ["--pix2nvs-threshold", "-1"],
+                ["--pix2nvs-threshold", "nan"]):  # fmt: skip
+        args = [*base, str(tmp_path / "bad"), *bad]
+        assert main(args) == 2, bad
+        err = capsys.readouterr().err
+        assert len(err.strip().splitlines()) == 1 and "threshold" in err, bad
+        assert not (tmp_path / "bad").exists()

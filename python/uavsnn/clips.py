@@ -32,7 +32,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from uavsnn.distributed import SERIAL, Runner
-from uavsnn.errors import DatasetError, ParameterError
+from uavsnn.errors import DatasetError, InternalError, ParameterError
 from uavsnn.track_eval import (
     Confirm,
     box_meets,
@@ -50,7 +50,15 @@ if TYPE_CHECKING:
     from uavsnn.network import Network
     from uavsnn.sim import Pix2NvsParams
 
-__all__ = ["ClipSet", "clip_alarms", "clip_figures", "clip_set", "clip_table", "evaluate_clips"]
+__all__ = [
+    "ClipSet",
+    "box_events",
+    "clip_alarms",
+    "clip_figures",
+    "clip_set",
+    "clip_table",
+    "evaluate_clips",
+]
 
 #: Events per chunk pushed into the detector, as a live stream arrives in pieces.
 CHUNK = 20_000
@@ -190,6 +198,23 @@ def clip_alarms(
     return out
 
 
+def box_events(events: np.ndarray, t0: np.ndarray, length_us: int, boxes: np.ndarray) -> np.ndarray:
+    """How many of ``events`` (sorted by time) fall in each window ``[t0, t0 + length_us)``
+    on a pixel that meets its box (``boxes`` ``(n, 4)``: x0, y0, x1, y1; pixel ``x`` covers
+    ``[x, x + 1)``): what a labelled object gave the network to see."""
+    t = events["t"]
+    starts = np.asarray(t0, dtype=np.uint64)
+    lo = np.searchsorted(t, starts)
+    hi = np.searchsorted(t, starts + np.uint64(length_us))
+    out = np.zeros(len(starts), dtype=np.int64)
+    for k, (a, b) in enumerate(zip(lo.tolist(), hi.tolist(), strict=True)):
+        x = events["x"][a:b].astype(np.float64)
+        y = events["y"][a:b].astype(np.float64)
+        x0, y0, x1, y1 = boxes[k]
+        out[k] = int(np.count_nonzero((x + 1 > x0) & (x < x1) & (y + 1 > y0) & (y < y1)))
+    return out
+
+
 def stream_clip(
     network: Network, clips: ClipSet, which: int, confirm: tuple[int, int] | None = None
 ) -> dict[str, Any]:
@@ -230,14 +255,22 @@ def stream_clip(
     for start in range(0, len(events), CHUNK):
         reports += detector.push_windows(events[start : start + CHUNK])
     reports += detector.flush_windows()
-    t0 = np.asarray([r.t0 for r in reports], dtype=np.uint64)
+    # Every window of the clip labelled as the build labels them; the stream reports those up
+    # to its last event.
+    every = clips.cut.starts(plan.end_us)
     labelled = decoded_labelled(plan, recording)
-    labels = clips.cut.label(t0, plan.timestamps_us, plan.frame_labels, labelled)
+    labels = clips.cut.label(every, plan.timestamps_us, plan.frame_labels, labelled)
     uav = labels.label & labels.usable
-    alarms = clip_alarms(reports, alarm_rules(network, confirm or DEFAULT_CONFIRM), uav, labels.box)
-    first_uav = int(t0[uav].min()) if uav.any() else None
+    t0 = np.asarray([r.t0 for r in reports], dtype=np.uint64)
+    at = np.searchsorted(every, t0)
+    if np.any(at >= len(every)) or not np.array_equal(every[at], t0):
+        raise InternalError(f"the detector's windows of {plan.clip.name} are not the build's")
+    rules = alarm_rules(network, confirm or DEFAULT_CONFIRM)
+    alarms = clip_alarms(reports, rules, uav[at], labels.box[at])
+    first_uav = int(every[uav].min()) if uav.any() else None
     sizes = labels.size_px[uav]
     sizes = sizes[np.isfinite(sizes)]
+    on_uav = box_events(events, every[uav], clips.cut.length_us, labels.box[uav])
     for rule in alarms["rules"].values():
         found = rule["found_us"]
         rule["time_to_alarm_us"] = None if found is None or first_uav is None else found - first_uav
@@ -250,6 +283,7 @@ def stream_clip(
         "windows": len(reports),
         "uav_windows": int(uav.sum()),
         "uav_size_px": float(np.median(sizes)) if len(sizes) else None,
+        "uav_events_per_window": float(np.median(on_uav)) if len(on_uav) else None,
         **alarms,
     }
 
@@ -342,6 +376,10 @@ def _size(px: float | None) -> str:
     return "size unknown" if px is None else f"{px:.1f} px"
 
 
+def _events(n: float | None) -> str:
+    return "no labelled UAV window" if n is None else f"{n:g} events per window on it"
+
+
 def clip_table(figures: dict[str, Any]) -> str:
     """Markdown tables of :func:`evaluate_clips`' figures: one row per rule, then the clips
     of each class decided UAV."""
@@ -378,14 +416,16 @@ def clip_table(figures: dict[str, Any]) -> str:
         cells = [f"{per_class[c]['decided_uav']} of {per_class[c]['recordings']}" for c in classes]
         lines.append(f"| {rule_name(rule)} | " + " | ".join(cells) + " |")
     missed = [
-        f"{r['clip']} ({_size(r['uav_size_px'])})"
+        f"{r['clip']} ({_size(r['uav_size_px'])}, {_events(r['uav_events_per_window'])})"
         for r in figures.get("per_clip", [])
         if r["uav"] and not r["rules"]["any_spike"]["alarmed"]
     ]
     if missed:
         lines.append(
             "\nUAV clips where no track alarmed by the any-spike rule (the labelled UAV's "
-            "median size): " + ", ".join(missed) + "."
+            "median size, and the median events of a UAV window on its box): "
+            + ", ".join(missed)
+            + "."
         )
     lines += [
         "",

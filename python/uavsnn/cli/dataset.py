@@ -79,6 +79,13 @@ def register(subparsers: Any) -> None:
         "(Pix2NvsParams.original(); docs/simulation.md)",
     )
     b.add_argument(
+        "--pix2nvs-threshold",
+        type=float,
+        metavar="THETA",
+        help="sim and real: PIX2NVS's threshold on the change of log luma (default 0.4; "
+        "PIX2NVS accepts 0.2-0.7): lower makes events of fainter changes",
+    )
+    b.add_argument(
         "--stratify",
         action="store_true",
         help="rendered scenes of non-UAV objects take each kind (bird, aircraft, helicopter, "
@@ -161,6 +168,17 @@ def _done(paths: DatasetPaths, as_json: bool) -> int:
     return 0
 
 
+def _pix2nvs(args: argparse.Namespace) -> Pix2NvsParams | None:
+    """The PIX2NVS parameters of --pix2nvs-compat and --pix2nvs-threshold (None: defaults)."""
+    theta = args.pix2nvs_threshold
+    if theta is not None and args.domain == "dvs":
+        raise ParameterError("--pix2nvs-threshold sets PIX2NVS: for sim, real or combined")
+    options = {} if theta is None else {"threshold": theta}
+    if args.pix2nvs_compat:
+        return Pix2NvsParams.original(**options)
+    return Pix2NvsParams(**options) if options else None
+
+
 def _build(args: argparse.Namespace) -> int:
     n_train = args.n_train
     if n_train is None and args.domain != "real":
@@ -177,7 +195,7 @@ def _build(args: argparse.Namespace) -> int:
         min_fraction=args.min_fraction,
         test_fraction=args.test_fraction,
         sensor=args.sensor,
-        pix2nvs_params=Pix2NvsParams.original() if args.pix2nvs_compat else None,
+        pix2nvs_params=_pix2nvs(args),
         overwrite=args.overwrite,
         progress=_progress(args.quiet),
         runner=runner_for(args.ray),
