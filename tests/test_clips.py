@@ -291,3 +291,34 @@ def test_a_lower_pix2nvs_threshold_is_built_and_streamed_again(
         err = capsys.readouterr().err
         assert len(err.strip().splitlines()) == 1 and "threshold" in err, bad
         assert not (tmp_path / "bad").exists()
+
+
+def test_the_contrast_bench_measures_the_square(
+    footage: tuple[Path, Path, Path],
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+    bench_script,
+) -> None:
+    """The dark square (luma 20 on 200) stands out by about ln(201 / 21) = 2.26 and moves
+    several pixels a frame: every frame's change passes PIX2NVS's 0.4."""
+    root, videos, model = footage
+    bench = bench_script("clip_contrast")
+    table = bench.rows(str(root), "test", str(videos), 6)
+    uav_clips = [p.clip.name for _, p, _ in clip_set(root, "test", videos).clips if p.clip.uav]
+    assert sorted(r["clip"] for r in table) == sorted(uav_clips) and table
+    for row in table:
+        assert row["frames"] == 30 and row["threshold"] == 0.4
+        # About ln(201 / 21): the video's compression rings some pixels darker still.
+        assert 0.9 * np.log(201 / 21) < row["contrast"] < 1.3 * np.log(201 / 21)
+        assert row["change"] > 2 and row["past_threshold"] == 1.0
+    streamed = tmp_path / "clips.json"
+    streamed.write_text(json.dumps(evaluate_clips(Network.load(model), root, videos=videos)))
+    argv = ["clip_contrast.py", str(root), "--videos", str(videos), "--clips", str(streamed)]
+    monkeypatch.setattr("sys.argv", argv)
+    bench.main()
+    lines = capsys.readouterr().out.splitlines()
+    assert "frames past θ = 0.4" in lines[0] and len(lines) == 2 + len(table)
+    assert all(
+        " | 100 % | " in line and ("| yes |" in line or "| no |" in line) for line in lines[2:]
+    )
