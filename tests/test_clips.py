@@ -143,30 +143,60 @@ def footage(
     return root, videos, model
 
 
-def test_the_clips_are_made_as_the_build_made_them(footage: tuple[Path, Path, Path]) -> None:
-    """Each test clip's events, made again, are the dataset's raw events in its windows."""
+def _made_as_built(root: Path, videos: Path | None = None) -> None:
+    """Each test clip of the dataset at ``root``, made again, has the dataset's raw events in
+    every window the split keeps of it."""
     from uavsnn.dataset import load
-    from uavsnn.dataset.footage import clip_recording
 
-    root, videos, _ = footage
     clips = clip_set(root, "test", videos)
     test = load(root, "test")
     names = {r["id"]: r["name"] for r in test.manifest["recordings"]}
-    assert sorted(p.clip.name for _, p, _ in clips.clips) == sorted(
+    assert sorted(w.name for w in clips.clips) == sorted(
         names[int(r)] for r in np.unique(test.recording)
     )
     assert test.raw is not None
     checked = 0
-    for j, plan, events in clips.clips:
-        made = clip_recording(clips.seed, j, plan, clips.params).events
-        assert len(made) == events
-        mine = np.flatnonzero([names[int(r)] == plan.clip.name for r in test.recording])
+    for whole in clips.clips:
+        made = whole.make()[0]
+        assert len(made) == whole.events
+        mine = np.flatnonzero([names[int(r)] == whole.name for r in test.recording])
         for i in mine.tolist():
             t0 = int(test.windows.t0[i])
             inside = made[(made["t"] >= t0 - L) & (made["t"] < t0 + L)]
             assert np.array_equal(inside, test.raw.window(i))
             checked += 1
     assert checked == len(test)
+
+
+def test_the_clips_are_made_as_the_build_made_them(footage: tuple[Path, Path, Path]) -> None:
+    root, videos, _ = footage
+    _made_as_built(root, videos)
+
+
+@pytest.mark.parametrize("stratify", [False, True])
+def test_rendered_recordings_are_made_and_streamed_as_built(
+    tmp_path: Path, footage: tuple[Path, Path, Path], stratify: bool
+) -> None:
+    """A dvs split's recordings (drawn, or stratified as tuning sets are) are rendered again
+    from their seeds and streamed whole; a folder of videos is refused for them."""
+    from uavsnn.dataset import SceneSource, build
+
+    root = build(
+        tmp_path / "dvs", "dvs", n_test=30, n_train=0, seed=2, stratify=stratify,
+        dvs=SceneSource("dvs", (240, 180), 200.0, 0.3),
+    ).root  # fmt: skip
+    from uavsnn.dataset import read_manifest
+
+    manifest = read_manifest(root)
+    test = set(manifest["splits"]["test"]["recordings"])
+    kinds = {r["kind"] for r in manifest["recordings"] if r["id"] in test}
+    assert {"uav", "object"} <= kinds  # object scenes: stratified ones take their kinds in turn
+    _made_as_built(root)
+    figures = evaluate_clips(Network.load(footage[2]), root)
+    assert figures["clips"] == len(clip_set(root).clips) > 1
+    assert all(r["windows"] > 0 for r in figures["per_clip"])
+    with pytest.raises(ParameterError, match="real footage"):
+        clip_set(root, "test", footage[1])
 
 
 def test_evaluate_clips_decides_every_test_clip(footage: tuple[Path, Path, Path]) -> None:
@@ -207,24 +237,16 @@ def test_evaluate_clips_decides_every_test_clip(footage: tuple[Path, Path, Path]
 def test_bad_clip_sets_are_typed_errors(
     footage: tuple[Path, Path, Path], tmp_path: Path, write_clip: Callable[..., None]
 ) -> None:
-    from uavsnn.dataset import SceneSource, build
-
     root, videos, model = footage
     net = Network.load(model)
     with pytest.raises(DatasetError, match="not a folder here"):
         clip_set(root, "test", tmp_path / "nowhere")
     with pytest.raises(DatasetError, match="no 'val' split"):
         clip_set(root, "val", videos)
-    dvs = build(
-        tmp_path / "dvs", "dvs", n_test=4, n_train=0, seed=0,
-        dvs=SceneSource("dvs", (240, 180), 200.0, 0.2),
-    ).root  # fmt: skip
-    with pytest.raises(DatasetError, match="real footage"):
-        clip_set(dvs, "test", videos)
     # A folder without one of the split's clips, and one where a clip is another video.
     other = tmp_path / "other"
     shutil.copytree(videos, other)
-    name = clip_set(root, "test", videos).clips[0][1].clip.name
+    name = clip_set(root, "test", videos).clips[0].name
     for suffix in (".avi", ".csv"):
         (other / f"{name}{suffix}").unlink()
     with pytest.raises(DatasetError, match=f"clip {name} .* is not in"):
@@ -305,7 +327,7 @@ def test_the_contrast_bench_measures_the_square(
     root, videos, model = footage
     bench = bench_script("clip_contrast")
     table = bench.rows(str(root), "test", str(videos), 6)
-    uav_clips = [p.clip.name for _, p, _ in clip_set(root, "test", videos).clips if p.clip.uav]
+    uav_clips = [w.name for w in clip_set(root, "test", videos).clips if "DRONE" in w.name]
     assert sorted(r["clip"] for r in table) == sorted(uav_clips) and table
     for row in table:
         assert row["frames"] == 30 and row["threshold"] == 0.4

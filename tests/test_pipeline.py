@@ -163,6 +163,11 @@ def test_reproduce_at_a_tiny_size(tmp_path: Path, capsys: pytest.CaptureFixture[
     # Track level: the combined network's test recordings followed as streams.
     assert "### Tracks" in text and "| any-spike |" in text
     assert results["tracks"]["recordings"] == len(results["tracks"]["per_recording"])
+    # The same test recordings streamed whole, for both streamed networks.
+    assert "### Tracks: the test recordings streamed whole" in text
+    assert set(results["clips"]) == {"combined", "dvs"}
+    for clips in results["clips"].values():
+        assert clips["clips"] == results["tracks"]["recordings"] == len(clips["per_clip"])
     for entry in results["table2"].values():
         fit = entry["identify_fit"]
         assert ("skipped" in fit) == (entry["identification"] is None)

@@ -68,15 +68,17 @@ def clip_contrast(video: Path, boxes: Path, theta: float, offset: float, ring: i
 
 
 def rows(dataset: str, split: str, videos: str | None, ring: int) -> list[dict[str, Any]]:
-    """One row per clip of the split with a labelled UAV."""
-    clips = clip_set(dataset, split, videos)
-    theta, offset = clips.params.threshold, clips.params.log_offset
+    """One row per real clip of the split with a labelled UAV."""
     out = []
-    for _, plan, _ in clips.clips:
+    for whole in clip_set(dataset, split, videos).clips:
+        if whole.real is None:
+            continue
+        _, _, plan, params = whole.real
         if not plan.frame_labels["uav"][plan.labelled].any():
             continue
-        row = clip_contrast(plan.clip.video, plan.clip.boxes, theta, offset, ring)
-        out.append({"clip": plan.clip.name, "threshold": theta, **row})
+        theta = params.threshold
+        row = clip_contrast(plan.clip.video, plan.clip.boxes, theta, params.log_offset, ring)
+        out.append({"clip": whole.name, "threshold": theta, **row})
     return out
 
 

@@ -1,19 +1,21 @@
-"""Whole clips of real labelled footage, streamed: the decision per clip.
+"""Whole clips (recordings) of a dataset split, streamed: the decision per clip.
 
-A split of real footage keeps some windows of each clip (the test split of SPEC §5's real set
-keeps 11.9 % of the steps its 42 clips span), so the tracks ``uavsnn evaluate --tracks``
-follows in it are gappy and confirm late. A user runs the detector on whole clips.
-:func:`evaluate_clips` makes each clip of a split into events again exactly as the dataset's
-build made them (the manifest's window cut, sensor, simulator parameters and seeds;
-:func:`uavsnn.dataset.footage.clip_recording`; the event count is checked against the
-manifest's), streams every window of it through a :class:`~uavsnn.detector.Detector` as
-``uavsnn detect`` runs it, and decides the clip under each rule of
-:func:`uavsnn.false_alarms.alarm_rules`: **UAV** when a track alarms during it (any-spike: a
-confirmed track; with identification: a confirmed track whose running mean UAV score reaches
-the rule's threshold). A clip is **decided right** when that decision is whether a UAV is
-labelled in one of its frames (SPEC §5's target for real footage: at least 90 % of clips);
-its class is the one labelled in most of its frames (``"none"`` where no object is labelled,
-as in a drone clip whose drone is never labelled visible). As in
+A dataset split keeps some windows of each recording: the SPEC §5 dvs test split keeps about
+four in five of its recordings' steps, the real set's test split 11.9 % of its 42 clips'. The
+tracks ``uavsnn evaluate --tracks`` follows in a split are therefore gappy and confirm late. A
+user runs the detector on whole recordings. :func:`evaluate_clips` makes each clip of a split
+into events again exactly as the dataset's build made them (:func:`clip_set`: the manifest's
+window cut, sensor, scene sources, simulator parameters and seeds; a real clip through
+:func:`uavsnn.dataset.footage.clip_recording`, a rendered one through
+:func:`uavsnn.dataset.synthetic.synthetic_recording`; each clip's event count is checked
+against the manifest's). It streams every window of it through a
+:class:`~uavsnn.detector.Detector` as ``uavsnn detect`` runs it, and decides the clip under
+each rule of :func:`uavsnn.false_alarms.alarm_rules`: **UAV** when a track alarms during it
+(any-spike: a confirmed track; with identification: a confirmed track whose running mean UAV
+score reaches the rule's threshold). A clip is **decided right** when that decision is whether
+a UAV is labelled in one of its frames (SPEC §5's target for real footage: at least 90 % of
+clips); its class is the one labelled in most of its frames (``"none"`` where no object is
+labelled, as in a drone clip whose drone is never labelled visible). As in
 :func:`uavsnn.track_eval.track_figures`, a UAV clip is also **found** when an alarming track
 meets the labelled UAV from its alarm on, and its **time to first alarm** runs from the start
 of its first labelled UAV window to the end of the window where that happens.
@@ -46,18 +48,21 @@ from uavsnn.track_eval import (
 if TYPE_CHECKING:
     from uavsnn.dataset.footage import ClipPlan
     from uavsnn.dataset.splits import WindowCut
+    from uavsnn.dataset.synthetic import SceneSource
     from uavsnn.detector import WindowReport
     from uavsnn.network import Network
     from uavsnn.sim import Pix2NvsParams
 
 __all__ = [
     "ClipSet",
+    "Whole",
     "box_events",
     "clip_alarms",
     "clip_figures",
     "clip_set",
     "clip_table",
     "evaluate_clips",
+    "scene_source",
 ]
 
 #: Events per chunk pushed into the detector, as a live stream arrives in pieces.
@@ -65,76 +70,141 @@ CHUNK = 20_000
 
 
 @dataclass(frozen=True)
+class Whole:
+    """One clip (a recording) of a split, and how its build made it: its ``name``, its event
+    count at the build, and either ``real`` (the build's seed, the clip's position among the
+    folder's clips, which keys its simulation, its plan, and the PIX2NVS parameters) or
+    ``scene`` (the scene source, kind, seed and object kind of a rendered recording)."""
+
+    name: str
+    events: int
+    real: tuple[int, int, ClipPlan, Pix2NvsParams] | None = None
+    scene: tuple[SceneSource, str, int, str | None] | None = None
+
+    def make(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]:
+        """Its events again, its frames' times, labels and whether each is labelled (and
+        decoded), and its end in µs."""
+        if self.real is not None:
+            from uavsnn.dataset.footage import clip_recording, decoded_labelled
+
+            seed, j, plan, params = self.real
+            recording = clip_recording(seed, j, plan, params)
+            labelled = decoded_labelled(plan, recording)
+            return recording.events, plan.timestamps_us, plan.frame_labels, labelled, plan.end_us
+        from uavsnn.dataset.synthetic import synthetic_recording
+
+        if self.scene is None:
+            raise InternalError(f"clip {self.name} has no way to be made")
+        lr = synthetic_recording(*self.scene)
+        return lr.recording.events, lr.timestamps_us, lr.labels, lr.labelled, lr.end_us
+
+
+@dataclass(frozen=True)
 class ClipSet:
-    """The clips of one split of a real-footage dataset, as its build made them: the build's
-    ``seed``, window ``cut``, ``sensor`` and simulator ``params``, and per clip its position
-    among the folder's clips (:func:`~uavsnn.dataset.find_clips`, the key of its simulation),
-    its plan (frames and labels) and its event count at the build."""
+    """The clips of one split of a dataset, as its build made them, with its window ``cut``
+    and ``sensor``."""
 
     dataset: Path
     split: str
-    seed: int
     cut: WindowCut
     sensor: tuple[int, int]
-    params: Pix2NvsParams
-    clips: tuple[tuple[int, ClipPlan, int], ...]
+    clips: tuple[Whole, ...]
+
+
+def scene_source(described: dict[str, Any]) -> SceneSource:
+    """The :class:`~uavsnn.dataset.synthetic.SceneSource` a manifest's ``sources`` entry
+    describes (:meth:`~uavsnn.dataset.synthetic.SceneSource.describe`)."""
+    from uavsnn.dataset.synthetic import SceneSource
+    from uavsnn.sim import DvsParams, Pix2NvsParams
+
+    domain = str(described["domain"])
+    fps = described["fps"]
+    params = described["simulator_params"]
+    return SceneSource(
+        domain,
+        (int(described["render_size"][0]), int(described["render_size"][1])),
+        float(fps) if isinstance(fps, (int, float)) else None,
+        float(described["duration_s"]),
+        sensor=(int(described["sensor_size"][0]), int(described["sensor_size"][1])),
+        dvs_params=DvsParams(**params) if domain == "dvs" else None,
+        pix2nvs_params=Pix2NvsParams(**params) if domain == "sim" else None,
+    )
 
 
 def clip_set(dataset: str | Path, split: str = "test", videos: str | Path | None = None) -> ClipSet:
-    """The clips of ``dataset``'s ``split`` (a dataset of ``--domain real``), read from
-    ``videos`` (default: the folder its build read, as the manifest names it).
+    """The clips of ``dataset``'s ``split``: rendered recordings (dvs, sim) made again from
+    their seeds, or real footage read from ``videos`` (default: the folder its build read, as
+    the manifest names it).
 
     Raises:
-        DatasetError: not a real-footage dataset, no such split, the videos' folder missing,
-            or a clip of the split not in it.
+        DatasetError: no such split, the videos' folder missing, or a clip of the split not in
+            it.
+        ParameterError: ``videos`` for a split without real footage.
     """
     from uavsnn.dataset.footage import plan_clip
     from uavsnn.dataset.format import read_manifest
     from uavsnn.dataset.real import find_clips
     from uavsnn.dataset.splits import WindowCut
+    from uavsnn.dataset.synthetic import stratified_object
+    from uavsnn.scenes import object_shares
     from uavsnn.sim import Pix2NvsParams
 
     root = Path(dataset)
     manifest = read_manifest(root)
-    if manifest.get("domain") != "real":
-        raise DatasetError(
-            f"{root} holds {manifest.get('domain')} recordings: whole clips are streamed from "
-            "a dataset of real footage (`uavsnn dataset build --domain real`)"
-        )
     if split not in manifest.get("splits", {}):
         raise DatasetError(f"{root} has no {split!r} split")
     params = manifest["parameters"]
-    source = next(s for s in params["sources"] if s.get("domain") == "real")
-    folder = Path(source["videos"] if videos is None else videos)
-    if not folder.is_dir():
-        raise DatasetError(
-            f"the clips of {root} were read from {folder}, which is not a folder here: give "
-            "the folder of the videos (--videos)"
-        )
-    clips = find_clips(folder)
-    found = {c.name: j for j, c in enumerate(clips)}
+    sources = {str(s["domain"]): s for s in params["sources"]}
     cut = WindowCut(
         int(params["window_us"]), float(params["overlap"]), float(params["min_visible_fraction"])
     )
     sensor = (int(params["sensor_size"][0]), int(params["sensor_size"][1]))
     records = {int(r["id"]): r for r in manifest["recordings"]}
+    mine = [records[int(i)] for i in manifest["splits"][split]["recordings"]]
+    real = [r for r in mine if r["domain"] == "real"]
+    if videos is not None and not real:
+        raise ParameterError(
+            f"the folder of videos is for real footage; {root}'s {split} split holds none"
+        )
+    found: dict[str, int] = {}
+    if real:
+        folder = Path(sources["real"]["videos"] if videos is None else videos)
+        if not folder.is_dir():
+            raise DatasetError(
+                f"the clips of {root} were read from {folder}, which is not a folder here: "
+                "give the folder of the videos (--videos)"
+            )
+        folder_clips = find_clips(folder)
+        found = {c.name: j for j, c in enumerate(folder_clips)}
+    # A stratified split gave its object scenes their kinds in turn, in the build's order.
+    stratified = params.get("object_scenes") == "stratified"
+    objects_before: dict[int, int] = {}
+    for domain in sources:
+        for n, r in enumerate(
+            r
+            for r in sorted(manifest["recordings"], key=lambda r: int(r["id"]))
+            if r["domain"] == domain and r["split"] == split and r["kind"] == "object"
+        ):
+            objects_before[int(r["id"])] = n
     chosen = []
-    for rec_id in manifest["splits"][split]["recordings"]:
-        record = records[int(rec_id)]
-        name = str(record["name"])
-        if name not in found:
-            raise DatasetError(f"clip {name} of {root}'s {split} split is not in {folder}")
-        j = found[name]
-        chosen.append((j, plan_clip(cut, clips[j], sensor), int(record["events"])))
-    return ClipSet(
-        root,
-        split,
-        int(manifest["seed"]),
-        cut,
-        sensor,
-        Pix2NvsParams(**source["simulator_params"]),
-        tuple(chosen),
-    )
+    for record in mine:
+        name, events = str(record["name"]), int(record["events"])
+        if record["domain"] == "real":
+            if name not in found:
+                raise DatasetError(f"clip {name} of {root}'s {split} split is not in {folder}")
+            j = found[name]
+            pix2nvs = Pix2NvsParams(**sources["real"]["simulator_params"])
+            plan = plan_clip(cut, folder_clips[j], sensor)
+            chosen.append(Whole(name, events, real=(int(manifest["seed"]), j, plan, pix2nvs)))
+            continue
+        source = scene_source(sources[str(record["domain"])])
+        object_kind = None
+        if stratified and record["kind"] == "object":
+            shares = object_shares(source.domain)
+            object_kind = stratified_object(shares, objects_before[int(record["id"])])
+        scene = (source, str(record["kind"]), int(record["seed"]), object_kind)
+        chosen.append(Whole(name, events, scene=scene))
+    return ClipSet(root, split, cut, sensor, tuple(chosen))
 
 
 def clip_alarms(
@@ -226,19 +296,17 @@ def stream_clip(
         DatasetError: the clip gives another number of events than at the build (another
             video, or another decoder).
     """
-    from uavsnn.dataset.footage import clip_recording, decoded_labelled
     from uavsnn.detector import Detector
     from uavsnn.false_alarms import alarm_rules
     from uavsnn.track_eval import DEFAULT_CONFIRM
     from uavsnn.tracks import Tracker
 
-    j, plan, events_at_build = clips.clips[which]
-    recording = clip_recording(clips.seed, j, plan, clips.params)
-    events = recording.events
-    if len(events) != events_at_build:
+    whole = clips.clips[which]
+    events, frame_us, frame_labels, labelled, end_us = whole.make()
+    if len(events) != whole.events:
         raise DatasetError(
-            f"clip {plan.clip.name} gives {len(events)} events here and gave {events_at_build} "
-            "when the dataset was built: another video, or another video decoder"
+            f"clip {whole.name} gives {len(events)} events here and gave {whole.events} when "
+            "the dataset was built: another video, another video decoder, or another uavsnn"
         )
     tracker = None
     if confirm is not None:
@@ -257,14 +325,13 @@ def stream_clip(
     reports += detector.flush_windows()
     # Every window of the clip labelled as the build labels them; the stream reports those up
     # to its last event.
-    every = clips.cut.starts(plan.end_us)
-    labelled = decoded_labelled(plan, recording)
-    labels = clips.cut.label(every, plan.timestamps_us, plan.frame_labels, labelled)
+    every = clips.cut.starts(end_us)
+    labels = clips.cut.label(every, frame_us, frame_labels, labelled)
     uav = labels.label & labels.usable
     t0 = np.asarray([r.t0 for r in reports], dtype=np.uint64)
     at = np.searchsorted(every, t0)
     if np.any(at >= len(every)) or not np.array_equal(every[at], t0):
-        raise InternalError(f"the detector's windows of {plan.clip.name} are not the build's")
+        raise InternalError(f"the detector's windows of {whole.name} are not the build's")
     rules = alarm_rules(network, confirm or DEFAULT_CONFIRM)
     alarms = clip_alarms(reports, rules, uav[at], labels.box[at])
     first_uav = int(every[uav].min()) if uav.any() else None
@@ -275,10 +342,10 @@ def stream_clip(
         found = rule["found_us"]
         rule["time_to_alarm_us"] = None if found is None or first_uav is None else found - first_uav
     return {
-        "clip": plan.clip.name,
-        "class": recording_class(plan.frame_labels["cls"][labelled]),
-        "uav": bool(plan.frame_labels["uav"][labelled].any()),
-        "seconds": plan.end_us / 1e6,
+        "clip": whole.name,
+        "class": recording_class(frame_labels["cls"][labelled]),
+        "uav": bool(frame_labels["uav"][labelled].any()),
+        "seconds": end_us / 1e6,
         "events": len(events),
         "windows": len(reports),
         "uav_windows": int(uav.sum()),
@@ -333,7 +400,7 @@ def evaluate_clips(
     """Every clip of ``dataset``'s ``split`` (:func:`clip_set`) streamed whole through
     ``network``'s detector, one clip a unit of work on ``runner``, and decided under each of
     its rules (the module's docs): :func:`clip_figures` with ``confirm`` (the rule as text),
-    ``dataset``, ``split`` and ``per_clip`` (a row per clip, :func:`stream_clip`).
+    ``split`` and ``per_clip`` (a row per clip, :func:`stream_clip`).
 
     Raises:
         DatasetError: as :func:`clip_set` and :func:`stream_clip`.
@@ -361,7 +428,6 @@ def evaluate_clips(
     )
     rules = list(alarm_rules(network, pair or DEFAULT_CONFIRM))
     return clip_figures(rows, rules) | {
-        "dataset": str(clips.dataset),
         "split": split,
         "confirm": str(confirm or Confirm.of_pair(DEFAULT_CONFIRM)),
         "per_clip": rows,

@@ -67,16 +67,17 @@ def register(subparsers: Any) -> None:
     p.add_argument(
         "--clips",
         action="store_true",
-        help="also stream every clip of a real-footage dataset's split whole through the "
-        "detector, made into events as the dataset's build made them, and decide each clip "
-        "(UAV when a track alarms in it): clips decided right, per class, time to first alarm",
+        help="also stream every clip (recording) of the split whole through the detector, made "
+        "into events again as the dataset's build made them, and decide each clip (UAV when a "
+        "track alarms in it): clips decided right, per class, UAV clips found, time to first "
+        "alarm",
     )
     p.add_argument(
         "--videos",
         type=Path,
         metavar="DIR",
-        help="with --clips: the folder of the clips' videos (default: the folder the "
-        "dataset's build read, as its manifest names it)",
+        help="with --clips on real footage: the folder of the clips' videos (default: the "
+        "folder the dataset's build read, as its manifest names it)",
     )
     p.add_argument(
         "--track-score",
