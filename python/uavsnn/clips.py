@@ -179,13 +179,11 @@ def clip_set(dataset: str | Path, split: str = "test", videos: str | Path | None
     # A stratified split gave its object scenes their kinds in turn, in the build's order.
     stratified = params.get("object_scenes") == "stratified"
     objects_before: dict[int, int] = {}
-    for domain in sources:
-        for n, r in enumerate(
-            r
-            for r in sorted(manifest["recordings"], key=lambda r: int(r["id"]))
-            if r["domain"] == domain and r["split"] == split and r["kind"] == "object"
-        ):
-            objects_before[int(r["id"])] = n
+    ordered = sorted(manifest["recordings"], key=lambda r: int(r["id"]))
+    for domain in sources if stratified else ():
+        key = (domain, split, "object")
+        kept = [r for r in ordered if (r["domain"], r["split"], r["kind"]) == key]
+        objects_before.update({int(r["id"]): n for n, r in enumerate(kept)})
     chosen = []
     for record in mine:
         name, events = str(record["name"]), int(record["events"])

@@ -290,8 +290,8 @@ def decision_figures(
 
 
 def recording_class(classes: np.ndarray) -> str:
-    """A recording's class: the one labelled most often in its windows other than ``"none"``
-    (``"none"`` when there is no other)."""
+    """A recording's class: the one most often among ``classes`` (the labels of its windows,
+    or of its frames) other than ``"none"`` (``"none"`` when there is no other)."""
     names, counts = np.unique(classes[classes != "none"], return_counts=True)
     return str(names[np.argmax(counts)]) if len(names) else "none"
 

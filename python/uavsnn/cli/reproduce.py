@@ -216,6 +216,21 @@ def _identification_text(
     ]
 
 
+#: The raw material of some figures (every streamed track's and window's peak score), left
+#: out of results.json: thousands of numbers that the figures beside them summarise, and that
+#: ``benches/python/false_alarms.py --json`` and ``uavsnn evaluate --clips --json`` give.
+RAW_KEYS = ("track_peaks", "window_peaks")
+
+
+def _lean(obj: Any) -> Any:
+    """``obj`` without the keys of :data:`RAW_KEYS`, at any depth."""
+    if isinstance(obj, dict):
+        return {k: _lean(v) for k, v in obj.items() if k not in RAW_KEYS}
+    if isinstance(obj, list):
+        return [_lean(v) for v in obj]
+    return obj
+
+
 def _tracks_text(figures: dict[str, Any]) -> str:
     return (
         f"{figures['recordings']} test recordings ({figures['uav_recordings']} with a UAV), "
@@ -456,7 +471,7 @@ def _reproduce(args: argparse.Namespace) -> int:
             clip_table(real_clips),
         ]
     log["seconds"] = round(time.perf_counter() - started, 1)
-    (out / "results.json").write_text(json.dumps(log, indent=2) + "\n", encoding="utf-8")
+    (out / "results.json").write_text(json.dumps(_lean(log), indent=2) + "\n", encoding="utf-8")
 
     text = [
         "# Results\n",
