@@ -42,7 +42,7 @@ from uavsnn.track_eval import (
 
 if TYPE_CHECKING:
     from uavsnn.detector import WindowReport
-    from uavsnn.identify import Identifier
+    from uavsnn.identifier import Identifier
     from uavsnn.network import Network
 
 __all__ = [

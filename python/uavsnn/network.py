@@ -500,7 +500,7 @@ class Network:
         raises :class:`~uavsnn.ModelFileError`. A file without identification loads with
         ``identification = None`` and a :attr:`load_note` saying only the any-spike rule
         decides."""
-        from uavsnn.identify import Identifier
+        from uavsnn.identifier import Identifier
 
         net = cls._wrap(_core.NetworkCore.load(os.fspath(path)))
         try:

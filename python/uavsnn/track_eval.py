@@ -46,7 +46,7 @@ from uavsnn.errors import ParameterError, ShapeError
 if TYPE_CHECKING:
     from uavsnn.dataset import LabelledWindows
     from uavsnn.features import WindowFeatures
-    from uavsnn.identify import Identifier
+    from uavsnn.identifier import Identifier
     from uavsnn.network import Inference, Network
     from uavsnn.tracks import Tracker
 

@@ -1,0 +1,324 @@
+"""The identification model (SPEC §3): :class:`Identifier`, a fitted UAV score and class
+guess for the objects of a window, with its operating points, and its form in a model file.
+
+:mod:`uavsnn.identify` fits it (and re-exports it); this module holds what inference and the
+model file need. The model is stored beside the network as plain arrays, ``identify.*``
+(:meth:`Identifier.to_arrays`, :meth:`Identifier.from_arrays`; the names are listed in
+:mod:`uavsnn.identify`'s docs and docs/identification.md; no pickle).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+
+from uavsnn.errors import ModelFileError, ParameterError, ShapeError
+from uavsnn.features import FEATURES, UAV_CLASS, WindowFeatures
+from uavsnn.linear import predict_logistic, predict_softmax
+from uavsnn.track_eval import DEFAULT_CONFIRM, Confirm
+from uavsnn.trees import Trees
+
+__all__ = ["VERSION", "Identifier"]
+
+#: The newest version of the stored arrays (``identify.version``) this reads: 2 adds the class
+#: model, 3 the trees. A model without trees is written as version 2, which older uavsnn read;
+#: version 1 files still load (their class guess is ``"uav"`` or ``"other"``).
+VERSION = 3
+
+
+@dataclass(frozen=True)
+class Identifier:
+    """A fitted identification model: UAV score of an object from its features, and (when
+    ``classes`` is not empty) a class model for the class guess: ``class_coef``
+    ``(len(classes), d + 1)`` over the same standardised features (:func:`fit_softmax`).
+
+    The UAV score is the logistic regression ``coef`` ``(d + 1,)`` on the standardised
+    features, or, when ``trees`` is set (:class:`uavsnn.trees.Trees` over the same
+    standardised columns), the trees' (``coef`` is then the logistic fit they were chosen
+    over, kept for the record).
+
+    ``threshold`` is the operating point the model was tuned for (the best balanced accuracy of
+    the combined rule on the tuning windows). ``alarm_thresholds``: further operating points
+    set on the same tuning windows, ``(false-alarm share, threshold)`` pairs: at that threshold,
+    at most that share of the tuning set's UAV-free windows alarms
+    (:data:`uavsnn.evaluation.FALSE_ALARM_RATES`); :meth:`at_false_alarm` switches to one.
+    Whether the share carries to other recordings is what
+    :func:`uavsnn.evaluation.identification_figures` measures.
+
+    ``track_alarm_thresholds``: operating points of the track-level rule, ``(false tracks per
+    minute, threshold)`` pairs set on ``track_alarm_minutes`` of streamed UAV-free recording
+    (:func:`uavsnn.false_alarms.tune_track_alarms`): at that threshold, at most that many
+    confirmed tracks per minute of it alarmed; :meth:`at_false_tracks` switches to one.
+    ``track_alarm_confirm``: the tracker's confirmation rule ``(hits, windows)`` they were set
+    with (the points hold for that rule only; 3 of 5, the detector's, by default)."""
+
+    features: tuple[str, ...]
+    coef: np.ndarray
+    mean: np.ndarray
+    scale: np.ndarray
+    threshold: float
+    l2: float
+    classes: tuple[str, ...] = ()
+    class_coef: np.ndarray | None = None
+    class_l2: float | None = None
+    alarm_thresholds: tuple[tuple[float, float], ...] = ()
+    trees: Trees | None = None
+    track_alarm_thresholds: tuple[tuple[float, float], ...] = ()
+    track_alarm_minutes: float = 0.0
+    track_alarm_confirm: tuple[int, int] = DEFAULT_CONFIRM
+
+    def __post_init__(self) -> None:
+        d = len(self.features)
+        for rate, threshold in self.alarm_thresholds:
+            if not (0.0 < rate < 1.0 and math.isfinite(threshold)):
+                raise ParameterError(
+                    f"alarm thresholds must pair a false-alarm share in (0, 1) with a finite "
+                    f"threshold, got ({rate}, {threshold})"
+                )
+        if len({rate for rate, _ in self.alarm_thresholds}) != len(self.alarm_thresholds):
+            raise ParameterError(f"alarm thresholds name a share twice: {self.alarm_thresholds}")
+        tracks = self.track_alarm_thresholds
+        for rate, threshold in tracks:
+            if not (0.0 < rate < math.inf and math.isfinite(threshold)):
+                raise ParameterError(
+                    f"track alarm thresholds must pair a positive rate of false tracks per "
+                    f"minute with a finite threshold, got ({rate}, {threshold})"
+                )
+        if len({rate for rate, _ in tracks}) != len(tracks):
+            raise ParameterError(f"track alarm thresholds name a rate twice: {tracks}")
+        confirm = self.track_alarm_confirm
+        if not isinstance(confirm, tuple) or any(type(v) is not int for v in confirm):
+            raise ParameterError(f"track_alarm_confirm must be a tuple of ints, got {confirm!r}")
+        Confirm.of_pair(confirm)  # a pair with 1 <= hits <= windows <= 64
+        minutes = self.track_alarm_minutes
+        if not (math.isfinite(minutes) and (minutes > 0) == bool(tracks) and minutes >= 0):
+            raise ParameterError(
+                f"track_alarm_minutes must be positive with track alarm thresholds and 0 "
+                f"without, got {minutes!r}"
+            )
+        unknown = [f for f in self.features if f not in FEATURES]
+        if unknown:
+            raise ParameterError(f"unknown identification features {unknown}")
+        if self.coef.shape != (d + 1,) or self.mean.shape != (d,) or self.scale.shape != (d,):
+            raise ShapeError(f"identification arrays do not match {d} features")
+        if self.classes:
+            if len(set(self.classes)) != len(self.classes) or len(self.classes) < 2:
+                raise ParameterError(f"classes must be 2 or more distinct names: {self.classes}")
+            if self.class_coef is None or self.class_coef.shape != (len(self.classes), d + 1):
+                raise ShapeError(
+                    f"the class model must be ({len(self.classes)}, {d + 1}), got "
+                    f"{None if self.class_coef is None else self.class_coef.shape}"
+                )
+        elif self.class_coef is not None:
+            raise ParameterError("a class model needs its class names")
+        if self.trees is not None and self.trees.columns > d:
+            raise ShapeError(f"the trees split on column {self.trees.columns - 1} of {d} features")
+
+    def at_false_alarm(self, rate: float) -> Identifier:
+        """This model with its threshold set where ``rate`` of the tuning set's UAV-free windows
+        alarmed (one of :attr:`alarm_thresholds`' shares), e.g. ``ident.at_false_alarm(0.01)``.
+
+        Raises:
+            ParameterError: the model was not tuned for that share (see :attr:`alarm_thresholds`).
+        """
+        for share, threshold in self.alarm_thresholds:
+            if math.isclose(share, rate, rel_tol=0.0, abs_tol=1e-12):
+                return replace(self, threshold=threshold)
+        have = ", ".join(f"{share:g}" for share, _ in self.alarm_thresholds) or "none"
+        raise ParameterError(
+            f"this identification was not tuned for a false-alarm share of {rate!r} "
+            f"(tuned shares: {have})"
+        )
+
+    def at_false_tracks(self, rate: float) -> Identifier:
+        """This model with its threshold set where ``rate`` confirmed tracks per minute of the
+        streamed UAV-free tuning recordings alarmed (one of :attr:`track_alarm_thresholds`'
+        rates), e.g. ``ident.at_false_tracks(0.1)``.
+
+        Raises:
+            ParameterError: the model was not tuned for that rate.
+        """
+        for have, threshold in self.track_alarm_thresholds:
+            if math.isclose(have, rate, rel_tol=1e-12, abs_tol=0.0):
+                return replace(self, threshold=threshold)
+        tuned = ", ".join(f"{r:g}" for r, _ in self.track_alarm_thresholds) or "none"
+        raise ParameterError(
+            f"this identification was not tuned for {rate!r} false tracks per minute "
+            f"(tuned rates: {tuned})"
+        )
+
+    def _standardised(self, x: np.ndarray) -> np.ndarray:
+        x = np.asarray(x, dtype=np.float64)
+        if x.ndim != 2:
+            raise ShapeError(f"features must be (m, d), got {x.shape}")
+        if x.shape[1] == len(FEATURES) and len(self.features) != len(FEATURES):
+            x = x[:, [FEATURES.index(f) for f in self.features]]
+        if x.shape[1] != len(self.features):
+            raise ShapeError(f"features must have {len(self.features)} columns, got {x.shape[1]}")
+        return (x - self.mean) / self.scale
+
+    def scores(self, x: np.ndarray) -> np.ndarray:
+        """UAV score of each object (rows of :data:`FEATURES`, or of :attr:`features`)."""
+        z = self._standardised(x)
+        if self.trees is not None:
+            return self.trees.predict(z)
+        return predict_logistic(self.coef, z)
+
+    def class_probabilities(self, x: np.ndarray) -> np.ndarray:
+        """Each object's probability of each of :attr:`classes` ``(m, len(classes))``;
+        ``(m, 0)`` without a class model."""
+        z = self._standardised(x)
+        if self.class_coef is None:
+            return np.zeros((len(z), 0))
+        return predict_softmax(self.class_coef, z)
+
+    def guess(self, x: np.ndarray, scores: np.ndarray | None = None) -> list[str]:
+        """Each object's class guess: :data:`UAV_CLASS` where its UAV score (``scores``, else
+        computed) reaches :attr:`threshold`; else the most probable class other than
+        :data:`UAV_CLASS` of the class model, or ``"other"`` without one."""
+        x = np.asarray(x, dtype=np.float64)
+        s = self.scores(x) if scores is None else np.asarray(scores, dtype=np.float64)
+        return self.guess_from(s, self.class_probabilities(x))
+
+    def guess_from(self, scores: np.ndarray, probabilities: np.ndarray) -> list[str]:
+        """The guess of :meth:`guess` from UAV scores ``(m,)`` and class probabilities
+        ``(m, len(classes))`` already computed (or averaged, as a track's are)."""
+        s = np.asarray(scores, dtype=np.float64)
+        p = np.asarray(probabilities, dtype=np.float64)
+        if s.ndim != 1 or p.shape != (len(s), len(self.classes)):
+            raise ShapeError(
+                f"scores must be (m,) and probabilities (m, {len(self.classes)}), got "
+                f"{s.shape} and {p.shape}"
+            )
+        others = ["other"] * len(s)
+        if self.classes:
+            cols = [i for i, c in enumerate(self.classes) if c != UAV_CLASS]
+            best = np.argmax(p[:, cols], axis=1)
+            others = [self.classes[cols[int(b)]] for b in best]
+        return [UAV_CLASS if v >= self.threshold else o for v, o in zip(s, others, strict=True)]
+
+    def window_scores(self, feats: WindowFeatures) -> np.ndarray:
+        """Per window, its objects' largest UAV score (0 for a window without an object)."""
+        out = np.zeros(feats.windows)
+        if len(feats.x):
+            np.maximum.at(out, feats.window, self.scores(feats.x))
+        return out
+
+    def to_arrays(self) -> dict[str, np.ndarray]:
+        """The arrays stored in a model file."""
+        out = {
+            "identify.version": np.array(2 if self.trees is None else VERSION, dtype=np.int64),
+            "identify.features": np.array(self.features, dtype="<U32"),
+            "identify.coef": self.coef.astype(np.float64),
+            "identify.mean": self.mean.astype(np.float64),
+            "identify.scale": self.scale.astype(np.float64),
+            "identify.threshold": np.array(self.threshold, dtype=np.float64),
+            "identify.l2": np.array(self.l2, dtype=np.float64),
+        }
+        if self.class_coef is not None:
+            out["identify.classes"] = np.array(self.classes, dtype="<U32")
+            out["identify.class_coef"] = self.class_coef.astype(np.float64)
+            out["identify.class_l2"] = np.array(
+                np.nan if self.class_l2 is None else self.class_l2, dtype=np.float64
+            )
+        if self.alarm_thresholds:
+            rates, thresholds = zip(*self.alarm_thresholds, strict=True)
+            out["identify.alarm_rates"] = np.array(rates, dtype=np.float64)
+            out["identify.alarm_thresholds"] = np.array(thresholds, dtype=np.float64)
+        if self.track_alarm_thresholds:
+            rates, thresholds = zip(*self.track_alarm_thresholds, strict=True)
+            out["identify.track_alarm_rates"] = np.array(rates, dtype=np.float64)
+            out["identify.track_alarm_thresholds"] = np.array(thresholds, dtype=np.float64)
+            out["identify.track_alarm_minutes"] = np.array(
+                self.track_alarm_minutes, dtype=np.float64
+            )
+            out["identify.track_alarm_confirm"] = np.array(self.track_alarm_confirm, dtype=np.int64)
+        if self.trees is not None:
+            out["identify.tree_feature"] = self.trees.feature.astype(np.int64)
+            out["identify.tree_threshold"] = self.trees.threshold.astype(np.float64)
+            out["identify.tree_leaf"] = self.trees.leaf.astype(np.float64)
+            out["identify.tree_base"] = np.array(self.trees.base, dtype=np.float64)
+        return out
+
+    @classmethod
+    def from_arrays(cls, arrays: Any) -> Identifier | None:
+        """The model stored in ``arrays`` (a mapping, e.g. an ``np.load`` of a model file), or
+        ``None`` when it holds none. Reads versions 1 (no class model), 2 and 3 (trees).
+
+        Raises:
+            ModelFileError: another version, or arrays that do not fit together.
+        """
+        if "identify.version" not in arrays:
+            return None
+        version = int(np.asarray(arrays["identify.version"]))
+        if version not in (1, 2, VERSION):
+            raise ModelFileError(
+                f"identification version {version}; this uavsnn reads versions 1 to {VERSION}"
+            )
+        try:
+            classes: tuple[str, ...] = ()
+            class_coef, class_l2 = None, None
+            if version >= 2 and "identify.classes" in arrays:
+                classes = tuple(str(c) for c in np.asarray(arrays["identify.classes"]))
+                class_coef = np.asarray(arrays["identify.class_coef"], dtype=np.float64)
+                l2 = float(np.asarray(arrays["identify.class_l2"]))
+                class_l2 = None if math.isnan(l2) else l2
+            alarms = _pairs(arrays, "identify.alarm_rates", "identify.alarm_thresholds")
+            track_alarms = _pairs(
+                arrays, "identify.track_alarm_rates", "identify.track_alarm_thresholds"
+            )
+            minutes, confirm = 0.0, DEFAULT_CONFIRM
+            if track_alarms:
+                minutes = float(np.asarray(arrays["identify.track_alarm_minutes"]))
+                if "identify.track_alarm_confirm" in arrays:
+                    pair = np.asarray(arrays["identify.track_alarm_confirm"]).tolist()
+                    if not isinstance(pair, list) or len(pair) != 2:
+                        raise ShapeError(f"identify.track_alarm_confirm must be 2 values: {pair}")
+                    confirm = (int(pair[0]), int(pair[1]))
+            trees = None
+            if version >= 3 and "identify.tree_feature" in arrays:
+                trees = Trees(
+                    feature=np.asarray(arrays["identify.tree_feature"], dtype=np.int64),
+                    threshold=np.asarray(arrays["identify.tree_threshold"], dtype=np.float64),
+                    leaf=np.asarray(arrays["identify.tree_leaf"], dtype=np.float64),
+                    base=float(np.asarray(arrays["identify.tree_base"])),
+                )
+            return cls(
+                features=tuple(str(f) for f in np.asarray(arrays["identify.features"])),
+                coef=np.asarray(arrays["identify.coef"], dtype=np.float64),
+                mean=np.asarray(arrays["identify.mean"], dtype=np.float64),
+                scale=np.asarray(arrays["identify.scale"], dtype=np.float64),
+                threshold=float(np.asarray(arrays["identify.threshold"])),
+                l2=float(np.asarray(arrays["identify.l2"])),
+                classes=classes,
+                class_coef=class_coef,
+                class_l2=class_l2,
+                alarm_thresholds=alarms,
+                trees=trees,
+                track_alarm_thresholds=track_alarms,
+                track_alarm_minutes=minutes,
+                track_alarm_confirm=confirm,
+            )
+        except (KeyError, ValueError, ParameterError, ShapeError) as exc:
+            raise ModelFileError(f"its identification arrays are inconsistent: {exc}") from exc
+
+
+def _pairs(arrays: Any, rates_key: str, thresholds_key: str) -> tuple[tuple[float, float], ...]:
+    """The ``(rate, threshold)`` pairs stored as two arrays (none when absent).
+
+    Raises:
+        ShapeError: arrays that are not of one length.
+        KeyError: the thresholds missing beside the rates.
+    """
+    if rates_key not in arrays:
+        return ()
+    rates = np.asarray(arrays[rates_key], dtype=np.float64)
+    thresholds = np.asarray(arrays[thresholds_key], dtype=np.float64)
+    if rates.ndim != 1 or rates.shape != thresholds.shape:
+        raise ShapeError(
+            f"{rates_key} {rates.shape} and {thresholds_key} {thresholds.shape} differ"
+        )
+    return tuple(zip(rates.tolist(), thresholds.tolist(), strict=True))
