@@ -341,6 +341,12 @@ def test_the_contrast_bench_measures_the_square(
     bench.main()
     lines = capsys.readouterr().out.splitlines()
     assert "frames past θ = 0.4" in lines[0] and len(lines) == 2 + len(table)
+    # --windows: every UAV window of the split gives events on the square's box.
+    counts = bench.window_events(str(root), "test")
+    assert len(counts) == 5 and counts.min() > 0  # the tiny set's 5 UAV test windows
+    monkeypatch.setattr("sys.argv", ["clip_contrast.py", str(root), "--windows"])
+    bench.main()
+    assert "| none | 0.0 % |" in capsys.readouterr().out
     assert all(
         " | 100 % | " in line and ("| yes |" in line or "| no |" in line) for line in lines[2:]
     )

@@ -17,6 +17,12 @@ any-spike rule and its median events per window on the labelled box::
 
     uavsnn evaluate MODEL DATASET --clips --json > clips.json
     python benches/python/clip_contrast.py DATASET --clips clips.json [--videos DIR]
+
+``--windows`` counts instead, over the split's UAV windows (any dataset with raw events), the
+events inside the labelled box during the window (``uavsnn.clips.box_events``): how many
+windows give the network at most 0, 1, 2, 5, 10 or 20 events from the UAV itself::
+
+    python benches/python/clip_contrast.py DATASET --windows
 """
 
 from __future__ import annotations
@@ -28,7 +34,8 @@ from typing import Any
 
 import numpy as np
 
-from uavsnn.clips import clip_set
+from uavsnn.clips import box_events, clip_set
+from uavsnn.dataset import load
 from uavsnn.dataset.real import read_boxes
 from uavsnn.sim.video import iter_video
 
@@ -82,6 +89,23 @@ def rows(dataset: str, split: str, videos: str | None, ring: int) -> list[dict[s
     return out
 
 
+#: The event counts ``--windows`` reports the share of UAV windows at or below.
+AT_MOST = (0, 1, 2, 5, 10, 20)
+
+
+def window_events(dataset: str, split: str) -> np.ndarray:
+    """Each UAV window's events inside its labelled box during the window."""
+    data = load(dataset, split)
+    if data.raw is None:
+        raise SystemExit(f"{dataset}: the {split} split holds no raw events")
+    length = data.windows.length_us
+    out = []
+    for i in np.flatnonzero(data.label).tolist():
+        t0 = np.asarray([data.windows.t0[i]], dtype=np.uint64)
+        out.append(int(box_events(data.raw.window(i), t0, length, data.box[i : i + 1])[0]))
+    return np.asarray(out, dtype=np.int64)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("dataset")
@@ -89,8 +113,21 @@ def main() -> None:
     parser.add_argument("--videos", help="the clips' folder (default: the manifest's)")
     parser.add_argument("--ring", type=int, default=6, help="pixels around the box (6)")
     parser.add_argument("--clips", help="uavsnn evaluate --clips --json output, for alarms")
+    parser.add_argument("--windows", action="store_true", help="events on the UAV per window")
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
+    if args.windows:
+        counts = window_events(args.dataset, args.split)
+        shares = {k: float(np.mean(counts <= k)) if len(counts) else None for k in AT_MOST}
+        if args.json:
+            print(json.dumps({"uav_windows": len(counts), "at_most": shares}, indent=2))
+            return
+        print(f"| events on the UAV's box in the window | UAV windows (of {len(counts)}) |")
+        print("|---|---|")
+        for k, share in shares.items():
+            cell = "–" if share is None else f"{100 * share:.1f} %"
+            print(f"| {'none' if k == 0 else f'at most {k}'} | {cell} |")
+        return
     table = rows(args.dataset, args.split, args.videos, args.ring)
     if args.clips:
         streamed = json.loads(Path(args.clips).read_text(encoding="utf-8"))
