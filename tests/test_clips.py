@@ -278,6 +278,7 @@ def test_evaluate_clips_on_the_command_line(
     assert json.loads(capsys.readouterr().out)["clips"]["confirm"] == "2/5"
     refused = (
         ["evaluate", str(model), str(root), "--videos", str(videos)],
+        ["evaluate", str(model), str(root), "--ray"],
         [*base, "--confirm", "2/3+3/5"],
     )
     for args in refused:

@@ -136,7 +136,10 @@ def test_ray_build_is_the_serial_build(runner: Any, tmp_path: Path) -> None:
 
 
 def test_ray_build_of_real_footage_is_the_serial_build(
-    runner: Any, tmp_path: Path, write_clip: Callable[..., None]
+    runner: Any,
+    tmp_path: Path,
+    write_clip: Callable[..., None],
+    capsys: pytest.CaptureFixture[str],
 ) -> None:
     videos = tmp_path / "videos"
     videos.mkdir()
@@ -154,6 +157,10 @@ def test_ray_build_of_real_footage_is_the_serial_build(
     clips = evaluate_clips(net, serial, videos=videos)
     assert evaluate_clips(net, serial, videos=videos, runner=runner) == clips
     assert clips["clips"] > 1
+    net.save(tmp_path / "m.npz")
+    argv = ["evaluate", str(tmp_path / "m.npz"), str(serial), "--clips", "--videos", str(videos)]
+    assert main([*argv, "--json", "--ray"]) == 0
+    assert json.loads(capsys.readouterr().out)["clips"] == clips
 
 
 def test_interrupted_ray_build_leaves_no_dataset(runner: Any, tmp_path: Path) -> None:

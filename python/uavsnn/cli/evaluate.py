@@ -10,6 +10,7 @@ from typing import Any
 from uavsnn import report
 from uavsnn.cli import output_dir
 from uavsnn.dataset import load
+from uavsnn.distributed import add_ray_option, runner_for
 from uavsnn.errors import ParameterError
 from uavsnn.evaluation import evaluate
 from uavsnn.experiments import NOISE_FRACTIONS, both_rules, noise_sweep, static_twin
@@ -79,6 +80,7 @@ def register(subparsers: Any) -> None:
         help="with --clips on real footage: the folder of the clips' videos (default: the "
         "folder the dataset's build read, as its manifest names it)",
     )
+    add_ray_option(p, "the --clips streams (a clip a task)")
     p.add_argument(
         "--track-score",
         choices=("mean", "max"),
@@ -107,6 +109,8 @@ def _evaluate(args: argparse.Namespace) -> int:
         )
     if args.videos is not None and not args.clips:
         raise ParameterError("--videos names the folder of the clips --clips streams: give --clips")
+    if args.ray is not None and not args.clips:
+        raise ParameterError("--ray runs the --clips streams: give --clips")
     confirm = Confirm.parse("3/5" if args.confirm is None else args.confirm)
     if args.clips and confirm.fast is not None:
         raise ParameterError(
@@ -152,6 +156,7 @@ def _evaluate(args: argparse.Namespace) -> int:
             args.split,
             videos=args.videos,
             confirm=None if args.confirm is None else confirm,
+            runner=runner_for(args.ray),
         )
     if args.roc is not None:
         if "roc" not in ident:
