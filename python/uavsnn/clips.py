@@ -35,7 +35,9 @@ import numpy as np
 
 from uavsnn.distributed import SERIAL, Runner
 from uavsnn.errors import DatasetError, InternalError, ParameterError
+from uavsnn.false_alarms import CHUNK, alarm_rules
 from uavsnn.track_eval import (
+    DEFAULT_CONFIRM,
     Confirm,
     box_meets,
     decision_figures,
@@ -64,9 +66,6 @@ __all__ = [
     "evaluate_clips",
     "scene_source",
 ]
-
-#: Events per chunk pushed into the detector, as a live stream arrives in pieces.
-CHUNK = 20_000
 
 
 @dataclass(frozen=True)
@@ -292,11 +291,9 @@ def stream_clip(
 
     Raises:
         DatasetError: the clip gives another number of events than at the build (another
-            video, or another decoder).
+            video, video decoder or uavsnn).
     """
     from uavsnn.detector import Detector
-    from uavsnn.false_alarms import alarm_rules
-    from uavsnn.track_eval import DEFAULT_CONFIRM
     from uavsnn.tracks import Tracker
 
     whole = clips.clips[which]
@@ -405,9 +402,6 @@ def evaluate_clips(
         ParameterError: a score-aware ``confirm`` (the detector confirms by hits alone), or
             a network of another sensor size than the dataset's.
     """
-    from uavsnn.false_alarms import alarm_rules
-    from uavsnn.track_eval import DEFAULT_CONFIRM
-
     if confirm is not None and (not isinstance(confirm, Confirm) or confirm.fast is not None):
         raise ParameterError(
             f"the detector confirms tracks by HITS/WINDOWS alone, got confirm={confirm!r}"
