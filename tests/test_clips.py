@@ -173,20 +173,23 @@ def test_the_clips_are_made_as_the_build_made_them(footage: tuple[Path, Path, Pa
     _made_as_built(root, videos)
 
 
-@pytest.mark.parametrize("stratify", [False, True])
+@pytest.mark.parametrize(("domain", "stratify"), [("dvs", False), ("dvs", True), ("sim", False)])
 def test_rendered_recordings_are_made_and_streamed_as_built(
-    tmp_path: Path, footage: tuple[Path, Path, Path], stratify: bool
+    tmp_path: Path, footage: tuple[Path, Path, Path], domain: str, stratify: bool
 ) -> None:
-    """A dvs split's recordings (drawn, or stratified as tuning sets are) are rendered again
-    from their seeds and streamed whole; a folder of videos is refused for them."""
-    from uavsnn.dataset import SceneSource, build
+    """A dvs split's recordings (drawn, or stratified as tuning sets are) and a sim split's
+    (their frame rate drawn per scene) are rendered again from their seeds and streamed
+    whole; a folder of videos is refused for them."""
+    from uavsnn.dataset import SceneSource, build, read_manifest
 
+    sources = {
+        "dvs": SceneSource("dvs", (240, 180), 200.0, 0.3),
+        "sim": SceneSource("sim", (320, 240), None, 0.4),
+    }
     root = build(
-        tmp_path / "dvs", "dvs", n_test=30, n_train=0, seed=2, stratify=stratify,
-        dvs=SceneSource("dvs", (240, 180), 200.0, 0.3),
+        tmp_path / domain, domain, n_test=30, n_train=0, seed=2 if domain == "dvs" else 1,
+        stratify=stratify, **{domain: sources[domain]},
     ).root  # fmt: skip
-    from uavsnn.dataset import read_manifest
-
     manifest = read_manifest(root)
     test = set(manifest["splits"]["test"]["recordings"])
     kinds = {r["kind"] for r in manifest["recordings"] if r["id"] in test}
