@@ -259,6 +259,17 @@ def test_bad_clip_sets_are_typed_errors(
         evaluate_clips(net, root, videos=other)
     with pytest.raises(ParameterError, match="HITS/WINDOWS"):
         evaluate_clips(net, root, videos=videos, confirm=Confirm.parse("2/3+3/5"))
+    # A manifest that does not say how a clip was made (an older uavsnn's).
+    from uavsnn.dataset.format import read_manifest, write_manifest
+
+    old = tmp_path / "old"
+    shutil.copytree(root, old)
+    manifest = read_manifest(old)
+    first = manifest["splits"]["test"]["recordings"][0]
+    del next(r for r in manifest["recordings"] if r["id"] == first)["events"]
+    write_manifest(old, manifest)
+    with pytest.raises(DatasetError, match="does not say how"):
+        clip_set(old, "test", videos)
     wide = Network({"width": 320, "height": 240}, seed=0)
     with pytest.raises(ParameterError, match="320x240"):
         evaluate_clips(wide, root, videos=videos)

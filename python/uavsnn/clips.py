@@ -136,22 +136,35 @@ def clip_set(dataset: str | Path, split: str = "test", videos: str | Path | None
     the manifest names it).
 
     Raises:
-        DatasetError: no such split, the videos' folder missing, or a clip of the split not in
-            it.
+        DatasetError: no such split, a manifest that does not say how the split was made
+            (an older uavsnn's), the videos' folder missing, or a clip of the split not in it.
         ParameterError: ``videos`` for a split without real footage.
     """
-    from uavsnn.dataset.footage import plan_clip
     from uavsnn.dataset.format import read_manifest
+
+    root = Path(dataset)
+    manifest = read_manifest(root)
+    if split not in manifest.get("splits", {}):
+        raise DatasetError(f"{root} has no {split!r} split")
+    try:
+        return _clip_set(root, manifest, split, videos)
+    except (KeyError, TypeError) as exc:
+        raise DatasetError(
+            f"{root}'s manifest does not say how its {split} recordings were made ({exc!r} "
+            "missing or wrong): build it again with this uavsnn"
+        ) from exc
+
+
+def _clip_set(
+    root: Path, manifest: dict[str, Any], split: str, videos: str | Path | None
+) -> ClipSet:
+    from uavsnn.dataset.footage import plan_clip
     from uavsnn.dataset.real import find_clips
     from uavsnn.dataset.splits import WindowCut
     from uavsnn.dataset.synthetic import stratified_object
     from uavsnn.scenes import object_shares
     from uavsnn.sim import Pix2NvsParams
 
-    root = Path(dataset)
-    manifest = read_manifest(root)
-    if split not in manifest.get("splits", {}):
-        raise DatasetError(f"{root} has no {split!r} split")
     params = manifest["parameters"]
     sources = {str(s["domain"]): s for s in params["sources"]}
     cut = WindowCut(
