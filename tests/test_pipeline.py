@@ -166,6 +166,14 @@ def test_reproduce_at_a_tiny_size(tmp_path: Path, capsys: pytest.CaptureFixture[
     # Track level: the combined network's test recordings followed as streams.
     assert "### Tracks" in text and "| any-spike |" in text
     assert results["tracks"]["recordings"] == len(results["tracks"]["per_recording"])
+    # The ablation, for the streamed networks with identification.
+    from uavsnn.identify import GROUPS
+
+    with_ident = {n for n in ("combined", "dvs") if results["table2"][n]["identification"]}
+    assert set(results["ablation"]) == with_ident
+    for rows in results["ablation"].values():
+        assert list(rows) == list(GROUPS) and all("tracks" in r for r in rows.values())
+    assert ("### Ablation" in text) == bool(with_ident)
     # The same test recordings streamed whole, for both streamed networks.
     assert "### Tracks: the test recordings streamed whole" in text
     assert set(results["clips"]) == {"combined", "dvs"}
