@@ -226,7 +226,8 @@ def test_evaluate_clips_decides_every_test_clip(footage: tuple[Path, Path, Path]
     quiet = copy.deepcopy(figures)
     row = next(r for r in quiet["per_clip"] if r["uav"])
     row["rules"]["any_spike"]["alarmed"] = False
-    on_it = f"{row['uav_events_per_window']:g} events per window on it"
+    n = row["uav_events_per_window"]
+    on_it = f"{n:g} {'event' if n == 1 else 'events'} per window on it"
     assert f"{row['clip']} ({row['uav_size_px']:.1f} px, {on_it})" in clip_table(quiet)
     # The square gives the network events on its labelled box.
     assert all(r["uav_events_per_window"] > 0 for r in rows if r["uav"])

@@ -206,6 +206,7 @@ def test_tracks_at_the_operating_points_set_beforehand() -> None:
     assert rule_name("identified_tracks_at_0.1") == (
         "+ identification, set for 0.1 false tracks per minute"
     )
+    assert rule_name("identified_tracks_at_1").endswith("set for 1 false track per minute")
     other = replace(tracks, track_alarm_confirm=(2, 5))
     assert "identified_tracks_at_0.1" not in identified_track_figures(data, feats, other)["rules"]
     with_rule = identified_track_figures(data, feats, other, confirm=Confirm(2, 5))

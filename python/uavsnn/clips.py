@@ -448,7 +448,9 @@ def _size(px: float | None) -> str:
 
 
 def _events(n: float | None) -> str:
-    return "no labelled UAV window" if n is None else f"{n:g} events per window on it"
+    if n is None:
+        return "no labelled UAV window"
+    return f"{n:g} {'event' if n == 1 else 'events'} per window on it"
 
 
 def clip_table(figures: dict[str, Any]) -> str:

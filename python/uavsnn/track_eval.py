@@ -578,7 +578,8 @@ def rule_name(rule: str) -> str:
         return f"+ identification, set for {100 * float(rule[len(_AT) :]):g} % false alarms"
     if rule.startswith(_TRACKS_AT):
         rate = float(rule[len(_TRACKS_AT) :])
-        return f"+ identification, set for {rate:g} false tracks per minute"
+        tracks = "false track" if rate == 1 else "false tracks"
+        return f"+ identification, set for {rate:g} {tracks} per minute"
     return _RULE_NAMES.get(rule, rule)
 
 
