@@ -35,7 +35,7 @@ import numpy as np
 
 from uavsnn.distributed import SERIAL, Runner
 from uavsnn.errors import DatasetError, InternalError, ParameterError
-from uavsnn.false_alarms import CHUNK, alarm_rules
+from uavsnn.false_alarms import alarm_rules, count_alarms, stream_reports
 from uavsnn.track_eval import (
     DEFAULT_CONFIRM,
     Confirm,
@@ -237,12 +237,8 @@ def clip_alarms(
         for o in report.objects:
             if o.track_id is not None:
                 tracks.setdefault(o.track_id, []).append((k, o))
-    out: dict[str, Any] = {"rules": {}, "track_peaks": []}
-    for objs in tracks.values():
-        scores = [o.track_score for _, o in objs if o.track_confirmed and o.track_score is not None]
-        if scores:
-            out["track_peaks"].append(max(scores))
-    out["track_peaks"].sort(reverse=True)
+    # Each confirmed track's peak, as the streamed false-alarm figures define it.
+    out: dict[str, Any] = {"rules": {}, "track_peaks": count_alarms(reports, {})["track_peaks"]}
     for rule, threshold in rules.items():
         first = found = None
         alarming = false = 0
@@ -306,9 +302,6 @@ def stream_clip(
         DatasetError: the clip gives another number of events than at the build (another
             video, video decoder or uavsnn).
     """
-    from uavsnn.detector import Detector
-    from uavsnn.tracks import Tracker
-
     whole = clips.clips[which]
     events, frame_us, frame_labels, labelled, end_us = whole.make()
     if len(events) != whole.events:
@@ -316,21 +309,14 @@ def stream_clip(
             f"clip {whole.name} gives {len(events)} events here and gave {whole.events} when "
             "the dataset was built: another video, another video decoder, or another uavsnn"
         )
-    tracker = None
-    if confirm is not None:
-        tracker = Tracker(confirm_hits=confirm[0], confirm_windows=confirm[1])
-    detector = Detector(
+    reports = stream_reports(
         network,
+        events,
+        clips.sensor,
+        confirm,
         window_us=clips.cut.length_us,
         overlap=clips.cut.overlap,
-        sensor_size=clips.sensor,
-        start_us=0,
-        tracker=tracker,
     )
-    reports = []
-    for start in range(0, len(events), CHUNK):
-        reports += detector.push_windows(events[start : start + CHUNK])
-    reports += detector.flush_windows()
     # Every window of the clip labelled as the build labels them; the stream reports those up
     # to its last event.
     every = clips.cut.starts(end_us)

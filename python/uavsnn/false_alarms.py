@@ -41,6 +41,8 @@ from uavsnn.track_eval import (
 )
 
 if TYPE_CHECKING:
+    import numpy as np
+
     from uavsnn.detector import WindowReport
     from uavsnn.identifier import Identifier
     from uavsnn.network import Network
@@ -56,6 +58,7 @@ __all__ = [
     "false_alarm_table",
     "scene_batches",
     "stream_batch",
+    "stream_reports",
     "summarise",
     "track_alarm_threshold",
     "tune_track_alarms",
@@ -172,6 +175,39 @@ def track_alarm_threshold(peaks: Sequence[float], minutes: float, rate: float) -
     return max(math.nextafter(values[k], math.inf), 0.0)
 
 
+def stream_reports(
+    network: Network,
+    events: np.ndarray,
+    sensor_size: tuple[int, int],
+    confirm: tuple[int, int] | None = None,
+    *,
+    window_us: int = 50_000,
+    overlap: float = 0.5,
+) -> list[WindowReport]:
+    """The windows of one recording's ``events``, pushed in chunks of :data:`CHUNK` (as a live
+    stream arrives) through a fresh :class:`~uavsnn.detector.Detector` starting at 0, tracked
+    with the confirmation rule ``confirm`` ``(hits, windows)`` (default: the
+    :class:`~uavsnn.tracks.Tracker`'s, 3 of 5)."""
+    from uavsnn.detector import Detector
+    from uavsnn.tracks import Tracker
+
+    tracker = None
+    if confirm is not None:
+        tracker = Tracker(confirm_hits=confirm[0], confirm_windows=confirm[1])
+    detector = Detector(
+        network,
+        window_us=window_us,
+        overlap=overlap,
+        sensor_size=sensor_size,
+        start_us=0,
+        tracker=tracker,
+    )
+    reports = []
+    for start in range(0, len(events), CHUNK):
+        reports += detector.push_windows(events[start : start + CHUNK])
+    return reports + detector.flush_windows()
+
+
 def stream_batch(
     network: Network,
     scenes: Sequence[tuple[str, int]],
@@ -182,8 +218,6 @@ def stream_batch(
     work of :func:`false_alarm_figures`). ``confirm`` ``(hits, windows)``: the tracker's
     confirmation rule (default: the :class:`~uavsnn.tracks.Tracker`'s, 3 of 5)."""
     from uavsnn.dataset.synthetic import default_source, synthetic_recording
-    from uavsnn.detector import Detector
-    from uavsnn.tracks import Tracker
 
     size = (int(network.config["width"]), int(network.config["height"]))
     source = default_source("dvs", size)
@@ -191,15 +225,7 @@ def stream_batch(
     rows = []
     for kind, seed in scenes:
         lr = synthetic_recording(source, kind, seed)
-        events = lr.recording.events
-        tracker = None
-        if confirm is not None:
-            tracker = Tracker(confirm_hits=confirm[0], confirm_windows=confirm[1])
-        detector = Detector(network, sensor_size=size, start_us=0, tracker=tracker)
-        reports = []
-        for start in range(0, len(events), CHUNK):
-            reports += detector.push_windows(events[start : start + CHUNK])
-        reports += detector.flush_windows()
+        reports = stream_reports(network, lr.recording.events, size, confirm)
         objects = lr.info.get("objects") or [{"kind": "none"}]
         rows.append(
             {
