@@ -23,6 +23,7 @@ import json
 import shlex
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -231,6 +232,13 @@ def _lean(obj: Any) -> Any:
     return obj
 
 
+def _per_network(figures: dict[str, Any], table: Callable[[Any], str]) -> list[str]:
+    """Each network's ``table`` of its ``figures``, under its name."""
+    return [
+        part for name, f in figures.items() for part in (f"\n**The {name} network.**\n", table(f))
+    ]
+
+
 def _ablation(
     network: Network,
     train: LabelledWindows,
@@ -430,8 +438,7 @@ def _reproduce(args: argparse.Namespace) -> int:
             "--tracks`; `no_track`: every feature but the track's). Detection is read off "
             "the test set's ROC.\n",
         ]
-        for name, rows in log["ablation"].items():
-            ablation_text += [f"\n**The {name} network.**\n", _ablation_table(rows)]
+        ablation_text += _per_network(log["ablation"], _ablation_table)
     step("the test recordings streamed whole")
     log["clips"] = {
         name: evaluate_clips(networks[name], dvs_dir, runner=runner) for name in STREAMED
@@ -444,8 +451,7 @@ def _reproduce(args: argparse.Namespace) -> int:
         "through the `Detector`, as `uavsnn detect` runs (`uavsnn evaluate --clips`): every "
         "window counts. A recording is decided UAV when a track alarms in it.\n",
     ]
-    for name, figures in log["clips"].items():
-        streamed_text += [f"\n**The {name} network.**\n", clip_table(figures)]
+    streamed_text += _per_network(log["clips"], clip_table)
     free_text: list[str] = []
     if args.free_minutes:
         step(f"false alarms over {args.free_minutes:g} minutes of UAV-free recording")
@@ -464,8 +470,7 @@ def _reproduce(args: argparse.Namespace) -> int:
             "(`uavsnn.false_alarms`); every window of them counts. The same recordings for "
             "both networks.\n",
         ]
-        for name, free in log["false_alarms"].items():
-            free_text += [f"\n**The {name} network.**\n", false_alarm_table(free)]
+        free_text += _per_network(log["false_alarms"], false_alarm_table)
 
     step("noise sweep")
     best = networks["combined"]
