@@ -82,7 +82,7 @@ def main() -> None:
         rule = Confirm.parse(args.confirm)
         if rule.fast is not None:
             parser.error("--confirm takes HITS/WINDOWS (the detector has no score-aware rule)")
-        confirm = (rule.hits, rule.windows)
+        confirm = rule.pair
     network = Network.load(args.model)
     batches = scene_batches(args.minutes, args.seed, TUNE_KEY if args.tune_key else FREE_KEY)
     with ProcessPoolExecutor(args.workers, initializer=_load, initargs=(args.model,)) as pool:

@@ -159,13 +159,13 @@ def _tune_tracks(
     seed = args.track_seed
     if seed is None:
         seed = int((tune if tune is not None else data).manifest.get("seed", 0))
-    rule = Confirm.parse(args.track_confirm or "3/5")
+    rule = Confirm.parse(args.track_confirm) if args.track_confirm else Confirm()
     runner = runner_for(args.ray)
     network.identification, summary = tune_track_alarms(
         network,
         minutes=args.track_minutes,
         seed=seed,
-        confirm=(rule.hits, rule.windows),
+        confirm=rule.pair,
         runner=runner,
     )
     return summary
