@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import platform
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -147,12 +148,22 @@ def test_demo_is_well_above_chance_on_held_out_windows(tmp_path: Path) -> None:
         assert f"![{name}](" in text and f"*{name}: {CAPTIONS[name]}*" in text, name
 
 
-def test_reproduce_at_a_tiny_size(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_reproduce_at_a_tiny_size(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], write_clip: Callable[..., None]
+) -> None:
     out = tmp_path / "repro"
+    # Real footage: five clips of a dark square crossing a bright sky, at two sensor sizes.
+    videos = tmp_path / "videos"
+    videos.mkdir()
+    for i, cls in enumerate(("DRONE", "DRONE", "BIRD", "BIRD", "AIRPLANE")):
+        write_clip(
+            videos, f"V_{cls}_{i + 1:03d}", [(40 + (4 + i) * k, 60 + 2 * k) for k in range(30)]
+        )
     # 40 training windows: enough objects of both kinds to fit identification.
     args = ["reproduce", "--out", str(out), "--n-train", "40", "--n-test", "20"]
     args += ["--free-minutes", "0.05", "--track-minutes", "0.05"]
-    assert main([*args, "--windows-per-layer", "32", "--no-real", "--quiet"]) == 0
+    args += ["--videos", str(videos), "--real-sensors", "240x180,320x240,240x180"]
+    assert main([*args, "--windows-per-layer", "32", "--quiet"]) == 0
     text = (out / "RESULTS.md").read_text()
     assert "## Table 2" in text and "| combined |" in text and "## Table 3" in text
     raw = (out / "results.json").read_text()
@@ -208,6 +219,26 @@ def test_reproduce_at_a_tiny_size(tmp_path: Path, capsys: pytest.CaptureFixture[
     for domain in ("dvs", "sim"):
         manifest = json.loads((out / f"data/tune-{domain}/manifest.json").read_text())
         assert manifest["seed"] == 1 and manifest["parameters"]["n_train"] == 40
+    # The real footage at each size asked for (once each): the run's own size as "real",
+    # the other under its name, each with its dataset, model, windows and streamed clips, and
+    # a table of both sizes first.
+    assert set(results["real_sensors"]) == {"320x240"}
+    for entry, sensor in (
+        (results["real"], [240, 180]),
+        (results["real_sensors"]["320x240"], [320, 240]),
+    ):
+        assert entry["sensor"] == sensor and entry["clips"]["clips"] >= 1
+        assert entry["confusion"] and "any_spike" in entry["clips"]["rules"]
+    real_manifest = json.loads((out / "data/real-320x240/manifest.json").read_text())
+    assert real_manifest["parameters"]["sensor_size"] == [320, 240]
+    assert Network.load(out / "model-real-320x240.npz").config["width"] == 320
+    assert Network.load(out / "model-real.npz").config["width"] == 240
+    sizes = text.index("## Real footage at each sensor size")
+    assert (
+        sizes < text.index("## Real footage at 240x180") < text.index("## Real footage at 320x240")
+    )
+    assert "| 240x180 |" in text[sizes:] and "| 320x240 |" in text[sizes:]
+    assert "the real footage at 240x180 and 320x240" in text
     # What the figures may depend on besides the code and the seed is written beside them.
     env = results["environment"]
     assert env["numpy"] == np.__version__ and env["python"] == platform.python_version()
@@ -246,6 +277,8 @@ def test_reproduce_refuses_a_bad_sensor_before_writing(tmp_path: Path, capsys) -
         (["--n-tune", "1"], "--n-tune must be at least 2"),
         (["--free-minutes", "-1"], "--free-minutes must be in"),
         (["--track-minutes", "601"], "--track-minutes must be in"),
+        (["--real-sensors", "640x480,big"], "sensor must be WIDTHxHEIGHT"),
+        (["--real-sensors", " , "], "--real-sensors needs at least one WxH"),
     ],
 )
 def test_reproduce_refuses_to_tune_on_the_test_seed(
