@@ -232,3 +232,56 @@ def test_track_points_hold_for_the_confirmation_rule_they_were_set_with(tmp_path
     for bad in ((0, 5), (5, 3), (2,)):
         with pytest.raises(ParameterError):
             tune_track_alarms(net, minutes=0.05, seed=3, confirm=bad)
+
+
+def test_the_track_evidence_bench_reads_the_running_mean_and_sums_log_odds(
+    tmp_path: Path, bench_script, monkeypatch: pytest.MonkeyPatch, capsys
+) -> None:
+    """benches/python/track_evidence.py: its running mean is the detector's track score (it
+    checks), the summed log-odds add each object's logit less the drift, and on a tiny run
+    each statistic alarms on more tracks at a higher rate, every confirmed scored track at a
+    rate above their count."""
+    import json
+
+    from uavsnn.dataset import SceneSource, build
+    from uavsnn.network import default_config
+    from uavsnn.training import apply_overrides
+
+    bench = bench_script("track_evidence")
+    objs = [_obj(0.9, 1, False, None), _obj(0.2, 1, True, None), _obj(0.6, None, None, None)]
+    reports = [WindowReport(k, 0, 1, True, np.zeros(0), (o,)) for k, o in enumerate(objs)]
+    summed = bench.rescore(reports, 1.0)
+    assert summed[0].objects[0].track_score == pytest.approx(bench.logit(0.9) - 1)
+    assert summed[1].objects[0].track_score == pytest.approx(
+        bench.logit(0.9) + bench.logit(0.2) - 2
+    )
+    assert summed[2].objects[0].track_score is None  # no track
+    mean = bench.rescore(reports, None)
+    assert mean[1].objects[0].track_score == pytest.approx(0.55)
+    with pytest.raises(AssertionError, match="running mean"):
+        bench.rescore([WindowReport(0, 0, 1, True, np.zeros(0), (_obj(0.9, 1, True, 0.5),))], None)
+    assert bench.threshold_for([3.0, -2.0], 1.0, 1.0) == np.nextafter(-2.0, np.inf)
+    assert bench.threshold_for([3.0, -2.0], 1.0, 2.0) == -np.inf
+
+    config = apply_overrides(default_config(), ["conv2.threshold=5", "conv3.threshold=1"])
+    model = tmp_path / "m.npz"
+    _identified(Network(config, seed=0)).save(model)
+    root = build(
+        tmp_path / "set", "dvs", n_test=12, n_train=0, seed=5,
+        dvs=SceneSource("dvs", (240, 180), 200.0, 0.4),
+    ).root  # fmt: skip
+    out = tmp_path / "rows.json"
+    argv = ["track_evidence.py", str(model), str(root), "--minutes", "0.05", "--drifts", "0"]
+    monkeypatch.setattr("sys.argv", [*argv, "--rates", "1,1000", "--json", str(out)])
+    bench.main()
+    rows = json.loads(out.read_text())
+    assert [(r["drift"], r["rate"]) for r in rows] == [(None, 1), (None, 1000), (0, 1), (0, 1000)]
+    for low, high in ((rows[0], rows[1]), (rows[2], rows[3])):
+        assert high["threshold"] == -np.inf and low["threshold"] > -np.inf
+        assert high["free_false_tracks"] >= low["free_false_tracks"] >= 0
+        assert (
+            high["uav_found"] >= low["uav_found"] and high["other_alarmed"] >= low["other_alarmed"]
+        )
+    # At a rate above their count every confirmed, scored track alarms, whatever the statistic.
+    assert rows[1]["free_false_tracks"] == rows[3]["free_false_tracks"] > 0
+    assert "| running mean | 1 |" in capsys.readouterr().out
