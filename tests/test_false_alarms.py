@@ -243,6 +243,7 @@ def test_the_track_evidence_bench_reads_the_running_mean_and_sums_log_odds(
     rate above their count."""
     import json
 
+    from uavsnn.clips import clip_set
     from uavsnn.dataset import SceneSource, build
     from uavsnn.network import default_config
     from uavsnn.training import apply_overrides
@@ -285,3 +286,10 @@ def test_the_track_evidence_bench_reads_the_running_mean_and_sums_log_odds(
     # At a rate above their count every confirmed, scored track alarms, whatever the statistic.
     assert rows[1]["free_false_tracks"] == rows[3]["free_false_tracks"] > 0
     assert "| running mean | 1 |" in capsys.readouterr().out
+    # --split picks the recordings streamed: this set's train split holds none.
+    from uavsnn.errors import UavsnnError
+
+    net = Network.load(model)
+    assert len(bench.test_streams(net, root, "test")) == len(clip_set(root, "test").clips)
+    with pytest.raises(UavsnnError):
+        bench.test_streams(net, root, "train")

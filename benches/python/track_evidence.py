@@ -15,8 +15,10 @@ measures the tracker's rule:
    log-odds may be negative);
 2. the same minutes of ``--seed`` under the measuring key (``FREE_KEY``, the recordings of
    RESULTS.md's false alarms): the false tracks per minute at that threshold;
-3. the test recordings of DATASET streamed whole (``uavsnn.clips``): the UAV recordings
-   found (an alarming track meets the labelled UAV) and the other recordings alarmed.
+3. the recordings of DATASET's ``--split`` (test) streamed whole (``uavsnn.clips``): the
+   UAV recordings found (an alarming track meets the labelled UAV) and the other recordings
+   alarmed. ``--split train`` on a tuning set of another seed (``data/tune-dvs``) chooses a
+   drift on recordings that no reported figure uses.
 
 Every statistic reads the same streams: the detector runs once per recording, and each
 statistic is recomputed from the objects' UAV scores in stream order. The running mean is
@@ -24,7 +26,7 @@ checked against the detector's own ``track_score``.
 
 Run from the repository root::
 
-    python benches/python/track_evidence.py MODEL DATASET [--minutes 10] [--seed 0]
+    python benches/python/track_evidence.py MODEL DATASET [--split test] [--minutes 10] [--seed 0]
         [--tune-seed 1] [--drifts 0,1,2] [--rates 0.1,1,5] [--json OUT]
 """
 
@@ -112,10 +114,10 @@ def free_streams(
     return out
 
 
-def test_streams(network: Network, dataset: Path) -> list[dict[str, Any]]:
-    """Each test recording of ``dataset`` streamed whole: whether it holds a UAV, its reports,
-    and each reported window's UAV label and labelled box."""
-    clips = clip_set(dataset, "test")
+def test_streams(network: Network, dataset: Path, split: str = "test") -> list[dict[str, Any]]:
+    """Each recording of ``dataset``'s ``split`` streamed whole: whether it holds a UAV, its
+    reports, and each reported window's UAV label and labelled box."""
+    clips = clip_set(dataset, split)
     out = []
     for whole in clips.clips:
         events, frame_us, frame_labels, labelled, end_us = whole.make()
@@ -180,7 +182,13 @@ def measure(
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("model", type=Path)
-    parser.add_argument("dataset", type=Path, help="a dvs dataset whose test split is streamed")
+    parser.add_argument("dataset", type=Path, help="a dvs dataset whose --split is streamed")
+    parser.add_argument(
+        "--split",
+        default="test",
+        help="the split whose recordings are streamed whole (test; train on a tuning set of "
+        "another seed, to choose a drift on recordings no reported figure uses)",
+    )
     parser.add_argument("--minutes", type=float, default=10.0, help="UAV-free minutes (10)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the measured minutes (0)")
     parser.add_argument("--tune-seed", type=int, default=1, help="seed of the tuning minutes (1)")
@@ -196,14 +204,14 @@ def main() -> None:
     rows = measure(
         free_streams(network, args.minutes, args.tune_seed, TUNE_KEY),
         free_streams(network, args.minutes, args.seed, FREE_KEY),
-        test_streams(network, args.dataset),
+        test_streams(network, args.dataset, args.split),
         drifts,
         rates,
     )
     print(
         f"{args.minutes:g} minutes of UAV-free recording to set each threshold on (seed "
-        f"{args.tune_seed}) and {args.minutes:g} to measure (seed {args.seed}); the test "
-        f"recordings of {args.dataset} streamed whole.\n"
+        f"{args.tune_seed}) and {args.minutes:g} to measure (seed {args.seed}); the "
+        f"{args.split} recordings of {args.dataset} streamed whole.\n"
     )
     print(
         "| statistic | set for (false tracks per minute) | threshold | false tracks per minute "
