@@ -261,8 +261,9 @@ def test_the_track_evidence_bench_reads_the_running_mean_and_sums_log_odds(
     assert mean[1].objects[0].track_score == pytest.approx(0.55)
     with pytest.raises(AssertionError, match="running mean"):
         bench.rescore([WindowReport(0, 0, 1, True, np.zeros(0), (_obj(0.9, 1, True, 0.5),))], None)
-    assert bench.threshold_for([3.0, -2.0], 1.0, 1.0) == np.nextafter(-2.0, np.inf)
-    assert bench.threshold_for([3.0, -2.0], 1.0, 2.0) == -np.inf
+    # The bench's thresholds: track_alarm_threshold without a floor.
+    assert track_alarm_threshold([3.0, -2.0], 1.0, 1.0, floor=-np.inf) == np.nextafter(-2.0, np.inf)
+    assert track_alarm_threshold([3.0, -2.0], 1.0, 2.0, floor=-np.inf) == -np.inf
 
     config = apply_overrides(default_config(), ["conv2.threshold=5", "conv3.threshold=1"])
     model = tmp_path / "m.npz"

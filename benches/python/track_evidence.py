@@ -11,8 +11,8 @@ measures the tracker's rule:
    (``uavsnn.false_alarms.TUNE_KEY``, the recordings `reproduce` sets track alarm thresholds
    on), streamed through the detector; each statistic's threshold for each of ``--rates``
    false tracks per minute is read off its confirmed tracks' peaks
-   (``uavsnn.false_alarms.track_alarm_threshold``, without its floor at 0: a summed
-   log-odds may be negative);
+   (``uavsnn.false_alarms.track_alarm_threshold`` with no floor: a summed log-odds may be
+   negative);
 2. the same minutes of ``--seed`` under the measuring key (``FREE_KEY``, the recordings of
    RESULTS.md's false alarms): the false tracks per minute at that threshold;
 3. the recordings of DATASET's ``--split`` (test) streamed whole (``uavsnn.clips``): the
@@ -40,18 +40,16 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from uavsnn import Network
-from uavsnn.clips import clip_alarms, clip_set
-from uavsnn.dataset.synthetic import default_source, synthetic_recording
+from uavsnn.clips import StreamedClip, clip_alarms, clip_set, clip_stream
 from uavsnn.detector import WindowReport
 from uavsnn.false_alarms import (
     FREE_KEY,
     TUNE_KEY,
     count_alarms,
     scene_batches,
-    stream_reports,
+    scene_reports,
+    track_alarm_threshold,
 )
 
 #: Scores are clipped to [EPS, 1 − EPS] before their log-odds are taken.
@@ -91,58 +89,28 @@ def rescore(reports: Sequence[WindowReport], drift: float | None) -> list[Window
     return out
 
 
-def threshold_for(peaks: Sequence[float], minutes: float, rate: float) -> float:
-    """The lowest threshold at which at most ``rate`` false tracks per minute of ``minutes``
-    alarm, as ``uavsnn.false_alarms.track_alarm_threshold`` sets it but for a statistic of
-    any sign: −inf when there are that many tracks or fewer."""
-    values = sorted(peaks, reverse=True)
-    k = math.floor(rate * minutes + 1e-9)
-    return -math.inf if len(values) <= k else math.nextafter(values[k], math.inf)
-
-
 def free_streams(
     network: Network, minutes: float, seed: int, key: int
 ) -> list[tuple[float, list[WindowReport]]]:
     """Each UAV-free recording of ``minutes`` (``scene_batches``) streamed: (seconds, reports)."""
-    size = (int(network.config["width"]), int(network.config["height"]))
-    source = default_source("dvs", size)
-    out = []
-    for batch in scene_batches(minutes, seed, key):
-        for kind, scene_seed in batch:
-            lr = synthetic_recording(source, kind, scene_seed)
-            out.append((lr.end_us / 1e6, stream_reports(network, lr.recording.events, size)))
-    return out
+    return [
+        (lr.end_us / 1e6, reports)
+        for batch in scene_batches(minutes, seed, key)
+        for lr, reports in scene_reports(network, batch)
+    ]
 
 
-def test_streams(network: Network, dataset: Path, split: str = "test") -> list[dict[str, Any]]:
-    """Each recording of ``dataset``'s ``split`` streamed whole: whether it holds a UAV, its
-    reports, and each reported window's UAV label and labelled box."""
+def test_streams(network: Network, dataset: Path, split: str = "test") -> list[StreamedClip]:
+    """Each recording of ``dataset``'s ``split`` made again and streamed whole
+    (``uavsnn.clips.clip_stream``)."""
     clips = clip_set(dataset, split)
-    out = []
-    for whole in clips.clips:
-        events, frame_us, frame_labels, labelled, end_us = whole.make()
-        reports = stream_reports(
-            network, events, clips.sensor,
-            window_us=clips.cut.length_us, overlap=clips.cut.overlap,
-        )  # fmt: skip
-        every = clips.cut.starts(end_us)
-        labels = clips.cut.label(every, frame_us, frame_labels, labelled)
-        at = np.searchsorted(every, np.asarray([r.t0 for r in reports], dtype=np.uint64))
-        out.append(
-            {
-                "uav": bool(frame_labels["uav"][labelled].any()),
-                "reports": reports,
-                "window_uav": (labels.label & labels.usable)[at],
-                "boxes": labels.box[at],
-            }
-        )
-    return out
+    return [clip_stream(network, clips, k) for k in range(len(clips.clips))]
 
 
 def measure(
     tune: list[tuple[float, list[WindowReport]]],
     free: list[tuple[float, list[WindowReport]]],
-    tests: list[dict[str, Any]],
+    tests: list[StreamedClip],
     drifts: Sequence[float | None],
     rates: Sequence[float],
 ) -> list[dict[str, Any]]:
@@ -152,28 +120,29 @@ def measure(
     for drift in drifts:
         tune_r = [rescore(r, drift) for _, r in tune]
         free_r = [rescore(r, drift) for _, r in free]
-        test_r = [rescore(t["reports"], drift) for t in tests]
+        test_r = [rescore(t.reports, drift) for t in tests]
         peaks = [p for r in tune_r for p in count_alarms(r, {})["track_peaks"]]
         for rate in rates:
-            rules: dict[str, float | None] = {"r": threshold_for(peaks, tune_minutes, rate)}
+            threshold = track_alarm_threshold(peaks, tune_minutes, rate, floor=-math.inf)
+            rules: dict[str, float | None] = {"r": threshold}
             false = sum(count_alarms(r, rules)["tracks"]["r"] for r in free_r)
             found = other = 0
             for t, reports in zip(tests, test_r, strict=True):
-                got = clip_alarms(reports, rules, t["window_uav"], t["boxes"])["rules"]["r"]
-                found += t["uav"] and got["found_us"] is not None
-                other += (not t["uav"]) and got["alarmed"]
+                got = clip_alarms(reports, rules, t.report_uav, t.report_boxes)["rules"]["r"]
+                found += t.uav and got["found_us"] is not None
+                other += (not t.uav) and got["alarmed"]
             rows.append(
                 {
                     "statistic": statistic_name(drift),
                     "drift": drift,
                     "rate": rate,
-                    "threshold": rules["r"],
+                    "threshold": threshold,
                     "free_false_tracks": false,
                     "free_false_tracks_per_minute": false / free_minutes,
                     "uav_found": found,
-                    "uav_recordings": sum(t["uav"] for t in tests),
+                    "uav_recordings": sum(t.uav for t in tests),
                     "other_alarmed": other,
-                    "other_recordings": sum(not t["uav"] for t in tests),
+                    "other_recordings": sum(not t.uav for t in tests),
                 }
             )
     return rows

@@ -49,6 +49,7 @@ from uavsnn.track_eval import (
 
 if TYPE_CHECKING:
     from uavsnn.dataset.footage import ClipPlan
+    from uavsnn.dataset.labels import WindowLabels
     from uavsnn.dataset.splits import WindowCut
     from uavsnn.dataset.synthetic import SceneSource
     from uavsnn.detector import WindowReport
@@ -57,11 +58,13 @@ if TYPE_CHECKING:
 
 __all__ = [
     "ClipSet",
+    "StreamedClip",
     "Whole",
     "box_events",
     "clip_alarms",
     "clip_figures",
     "clip_set",
+    "clip_stream",
     "clip_table",
     "evaluate_clips",
     "scene_source",
@@ -291,16 +294,51 @@ def box_events(events: np.ndarray, t0: np.ndarray, length_us: int, boxes: np.nda
     return out
 
 
-def stream_clip(
+@dataclass(frozen=True)
+class StreamedClip:
+    """One clip made into events as its build made them and streamed whole
+    (:func:`clip_stream`): its ``events``, its frames' labels (``frame_labels``, ``labelled``)
+    and length (``end_us``), the detector's ``reports``, every window's start (``every``) and
+    labels (``labels``, as the build labels them), and where each report's window is among
+    them (``at``)."""
+
+    whole: Whole
+    events: np.ndarray
+    frame_labels: np.ndarray
+    labelled: np.ndarray
+    end_us: int
+    reports: list[WindowReport]
+    every: np.ndarray
+    labels: WindowLabels
+    at: np.ndarray
+
+    @property
+    def uav(self) -> bool:
+        """A UAV is labelled in one of the clip's frames."""
+        return bool(self.frame_labels["uav"][self.labelled].any())
+
+    @property
+    def report_uav(self) -> np.ndarray:
+        """Each report's window: a usable window labelled UAV."""
+        return (self.labels.label & self.labels.usable)[self.at]
+
+    @property
+    def report_boxes(self) -> np.ndarray:
+        """Each report's window's labelled box."""
+        return self.labels.box[self.at]
+
+
+def clip_stream(
     network: Network, clips: ClipSet, which: int, confirm: tuple[int, int] | None = None
-) -> dict[str, Any]:
+) -> StreamedClip:
     """Clip ``which`` of ``clips`` made into events as its build made them, streamed through a
     fresh detector (the tracker confirming by ``confirm`` ``(hits, windows)``, default 3 of
-    5): its row of :func:`evaluate_clips`'s ``per_clip`` (the unit of work).
+    5), and every window of it labelled as the build labels them.
 
     Raises:
         DatasetError: the clip gives another number of events than at the build (another
             video, video decoder or uavsnn).
+        InternalError: the detector's windows are not the build's.
     """
     whole = clips.clips[which]
     events, frame_us, frame_labels, labelled, end_us = whole.make()
@@ -321,27 +359,41 @@ def stream_clip(
     # to its last event.
     every = clips.cut.starts(end_us)
     labels = clips.cut.label(every, frame_us, frame_labels, labelled)
-    uav = labels.label & labels.usable
     t0 = np.asarray([r.t0 for r in reports], dtype=np.uint64)
     at = np.searchsorted(every, t0)
     if np.any(at >= len(every)) or not np.array_equal(every[at], t0):
         raise InternalError(f"the detector's windows of {whole.name} are not the build's")
+    return StreamedClip(whole, events, frame_labels, labelled, end_us, reports, every, labels, at)
+
+
+def stream_clip(
+    network: Network, clips: ClipSet, which: int, confirm: tuple[int, int] | None = None
+) -> dict[str, Any]:
+    """Clip ``which`` of ``clips`` streamed (:func:`clip_stream`): its row of
+    :func:`evaluate_clips`'s ``per_clip`` (the unit of work).
+
+    Raises:
+        DatasetError: as :func:`clip_stream`.
+    """
+    clip = clip_stream(network, clips, which, confirm)
+    labels, every = clip.labels, clip.every
+    uav = labels.label & labels.usable
     rules = alarm_rules(network, confirm or DEFAULT_CONFIRM)
-    alarms = clip_alarms(reports, rules, uav[at], labels.box[at])
+    alarms = clip_alarms(clip.reports, rules, clip.report_uav, clip.report_boxes)
     first_uav = int(every[uav].min()) if uav.any() else None
     sizes = labels.size_px[uav]
     sizes = sizes[np.isfinite(sizes)]
-    on_uav = box_events(events, every[uav], clips.cut.length_us, labels.box[uav])
+    on_uav = box_events(clip.events, every[uav], clips.cut.length_us, labels.box[uav])
     for rule in alarms["rules"].values():
         found = rule["found_us"]
         rule["time_to_alarm_us"] = None if found is None or first_uav is None else found - first_uav
     return {
-        "clip": whole.name,
-        "class": recording_class(frame_labels["cls"][labelled]),
-        "uav": bool(frame_labels["uav"][labelled].any()),
-        "seconds": end_us / 1e6,
-        "events": len(events),
-        "windows": len(reports),
+        "clip": clip.whole.name,
+        "class": recording_class(clip.frame_labels["cls"][clip.labelled]),
+        "uav": clip.uav,
+        "seconds": clip.end_us / 1e6,
+        "events": len(clip.events),
+        "windows": len(clip.reports),
         "uav_windows": int(uav.sum()),
         "uav_size_px": float(np.median(sizes)) if len(sizes) else None,
         "uav_events_per_window": float(np.median(on_uav)) if len(on_uav) else None,

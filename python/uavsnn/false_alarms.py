@@ -25,7 +25,7 @@ model's threshold and at each operating point set beforehand) it counts:
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from typing import TYPE_CHECKING, Any
 
 from uavsnn.dataset.splits import DOMAIN_KEY, keyed_rng, keyed_seed
@@ -43,6 +43,7 @@ from uavsnn.track_eval import (
 if TYPE_CHECKING:
     import numpy as np
 
+    from uavsnn.dataset.synthetic import LabelledRecording
     from uavsnn.detector import WindowReport
     from uavsnn.identifier import Identifier
     from uavsnn.network import Network
@@ -57,6 +58,7 @@ __all__ = [
     "false_alarm_figures",
     "false_alarm_table",
     "scene_batches",
+    "scene_reports",
     "stream_batch",
     "stream_reports",
     "summarise",
@@ -151,13 +153,16 @@ def count_alarms(reports: Sequence[WindowReport], rules: dict[str, float | None]
     }
 
 
-def track_alarm_threshold(peaks: Sequence[float], minutes: float, rate: float) -> float:
+def track_alarm_threshold(
+    peaks: Sequence[float], minutes: float, rate: float, *, floor: float = 0.0
+) -> float:
     """The lowest threshold at which at most ``rate`` false tracks per minute alarm over
     ``minutes`` of UAV-free recording whose confirmed tracks peaked at ``peaks``
     (:func:`count_alarms`): with ``k = floor(rate × minutes)``, just above the ``k + 1``-th
-    highest peak, so that ``k`` tracks reach it; 0.0 (every confirmed track alarms) when
-    there are ``k`` tracks or fewer. A rate below one track over ``minutes`` (``k = 0``) asks
-    that no track of them alarm.
+    highest peak, so that ``k`` tracks reach it; ``floor`` (every confirmed track alarms)
+    when there are ``k`` tracks or fewer, and never below ``floor``: 0.0, the lowest UAV
+    score, by default (``-inf`` for a statistic of any sign). A rate below one track over
+    ``minutes`` (``k = 0``) asks that no track of them alarm.
 
     Raises:
         ParameterError: ``minutes`` or ``rate`` not positive and finite, or a peak not finite.
@@ -171,8 +176,8 @@ def track_alarm_threshold(peaks: Sequence[float], minutes: float, rate: float) -
     # The tolerance keeps a product such as 0.1 × 10 from falling just below its integer.
     k = math.floor(rate * minutes + 1e-9)
     if len(values) <= k:
-        return 0.0
-    return max(math.nextafter(values[k], math.inf), 0.0)
+        return floor
+    return max(math.nextafter(values[k], math.inf), floor)
 
 
 def stream_reports(
@@ -208,6 +213,22 @@ def stream_reports(
     return reports + detector.flush_windows()
 
 
+def scene_reports(
+    network: Network,
+    scenes: Sequence[tuple[str, int]],
+    confirm: tuple[int, int] | None = None,
+) -> Iterator[tuple[LabelledRecording, list[WindowReport]]]:
+    """Each scene of ``scenes`` (``(kind, seed)``, :func:`uav_free_scenes`) rendered as a dvs
+    recording at the network's sensor size, and its :func:`stream_reports`."""
+    from uavsnn.dataset.synthetic import default_source, synthetic_recording
+
+    size = (int(network.config["width"]), int(network.config["height"]))
+    source = default_source("dvs", size)
+    for kind, seed in scenes:
+        lr = synthetic_recording(source, kind, seed)
+        yield lr, stream_reports(network, lr.recording.events, size, confirm)
+
+
 def stream_batch(
     network: Network,
     scenes: Sequence[tuple[str, int]],
@@ -217,15 +238,9 @@ def stream_batch(
     fresh detector: its object's kind, length, windows and :func:`count_alarms` (the unit of
     work of :func:`false_alarm_figures`). ``confirm`` ``(hits, windows)``: the tracker's
     confirmation rule (default: the :class:`~uavsnn.tracks.Tracker`'s, 3 of 5)."""
-    from uavsnn.dataset.synthetic import default_source, synthetic_recording
-
-    size = (int(network.config["width"]), int(network.config["height"]))
-    source = default_source("dvs", size)
     rules = alarm_rules(network, DEFAULT_CONFIRM if confirm is None else confirm)
     rows = []
-    for kind, seed in scenes:
-        lr = synthetic_recording(source, kind, seed)
-        reports = stream_reports(network, lr.recording.events, size, confirm)
+    for lr, reports in scene_reports(network, scenes, confirm):
         objects = lr.info.get("objects") or [{"kind": "none"}]
         rows.append(
             {
