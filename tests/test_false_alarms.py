@@ -294,3 +294,74 @@ def test_the_track_evidence_bench_reads_the_running_mean_and_sums_log_odds(
     assert len(bench.test_streams(net, root, "test")) == len(clip_set(root, "test").clips)
     with pytest.raises(UavsnnError):
         bench.test_streams(net, root, "train")
+
+
+def test_the_track_window_score_bench_reads_each_track_in_time_order(
+    tmp_path: Path, bench_script, monkeypatch: pytest.MonkeyPatch, capsys
+) -> None:
+    """benches/python/track_window_score.py: each object reads its own track's scores up to its
+    window, in time order, tracks of one id in two recordings apart; an object without a track
+    keeps its score; a window the any-spike rule misses never alarms; and a tiny run gives
+    every rule's figures, the object's own score first."""
+    import json
+
+    from uavsnn.dataset import SceneSource, build
+    from uavsnn.features import FEATURES, WindowFeatures
+    from uavsnn.network import default_config
+    from uavsnn.training import apply_overrides
+
+    bench = bench_script("track_window_score")
+    # Windows 0-2 of recording 0 (given out of time order), 3-4 of recording 1; track 1 in
+    # both recordings, object 5 without a track.
+    recording = np.array([0, 0, 0, 1, 1])
+    t0 = np.array([50, 0, 25, 0, 25])
+    feats = WindowFeatures(
+        x=np.zeros((6, len(FEATURES))),
+        window=np.array([0, 1, 2, 3, 4, 4]),
+        boxes=np.zeros((6, 4), dtype=np.int64),
+        windows=5,
+        track=np.array([1, 1, 1, 1, 1, 0]),
+    )
+    s = np.array([0.9, 0.1, 0.5, 0.8, 0.2, 0.7])
+    # Recording 0's track in time order: 0.1 (window 1), 0.5 (window 2), 0.9 (window 0).
+    mean = bench.track_scores(feats, recording, t0, s, "mean")
+    assert mean == pytest.approx([0.5, 0.1, 0.3, 0.8, 0.5, 0.7])
+    last = bench.track_scores(feats, recording, t0, s, "last3")
+    assert last == pytest.approx(mean)  # no track is longer than 3
+    assert bench.track_scores(feats, recording, t0, s, "own") == pytest.approx(s)
+    logit = bench.track_scores(feats, recording, t0, s, "logit")
+    # Recording 0: logit(0.1) and logit(0.5) = 0 average to logit(0.25); with logit(0.9) to 0.
+    assert logit[2] == pytest.approx(0.25) and logit[0] == pytest.approx(0.5) and logit[5] == 0.7
+    assert logit[4] == pytest.approx(0.5)  # logit(0.8) + logit(0.2) = 0
+    longer = WindowFeatures(
+        x=np.zeros((4, len(FEATURES))), window=np.arange(4), boxes=np.zeros((4, 4), np.int64),
+        windows=4, track=np.full(4, 2),
+    )  # fmt: skip
+    four = np.array([0.1, 0.2, 0.3, 0.9])
+    got = bench.track_scores(longer, np.zeros(4, int), np.arange(4) * 25, four, "last3")
+    assert got == pytest.approx([0.1, 0.15, 0.2, (0.2 + 0.3 + 0.9) / 3])
+    with pytest.raises(ValueError):
+        bench.track_scores(feats, recording, t0, s, "median")
+    fired = np.array([True, True, False, True, True])
+    assert bench.window_scores(feats, mean, fired) == pytest.approx([0.5, 0.1, -1.0, 0.8, 0.7])
+
+    config = apply_overrides(default_config(), ["conv2.threshold=5", "conv3.threshold=1"])
+    model = tmp_path / "m.npz"
+    _identified(Network(config, seed=0)).save(model)
+    root = build(
+        tmp_path / "set", "dvs", n_test=12, n_train=12, seed=5,
+        dvs=SceneSource("dvs", (240, 180), 200.0, 0.4),
+    ).root  # fmt: skip
+    out = tmp_path / "rows.json"
+    argv = ["track_window_score.py", str(model), str(root), "--tune", str(root), "--json", str(out)]
+    monkeypatch.setattr("sys.argv", argv)
+    bench.main()
+    figures = json.loads(out.read_text())
+    assert list(figures) == list(bench.RULES)
+    for rule in figures.values():
+        for part in ("tune", "measured"):
+            assert set(rule[part]["detection"]) == {"0.01", "0.05"}
+            assert all(0 <= v <= 1 for v in rule[part]["detection"].values())
+        for point in rule["set_beforehand"].values():
+            assert 0 <= point["false_alarms"] <= 1 and point["threshold"] >= 0
+    assert capsys.readouterr().out.splitlines()[2].startswith("| own |")
