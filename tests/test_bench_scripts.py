@@ -143,3 +143,33 @@ def test_identify_draws_joins_training_sets_keeping_recordings_apart(bench_scrip
     build(tmp_path / "s3", "dvs", n_test=2, n_train=6, seed=3, dvs=source)
     with pytest.raises(SystemExit, match="of one size"):
         draws.joined(f"{tmp_path / 's1'},{tmp_path / 's3'}")
+
+
+def test_identify_draws_fits_each_group_of_features(bench_script, tmp_path, monkeypatch, capsys):
+    """--group fits the features of each named group of identify.GROUPS, the same way."""
+    import json
+
+    from uavsnn import Network
+    from uavsnn.dataset import SceneSource, build
+    from uavsnn.identify import GROUPS
+    from uavsnn.network import default_config
+    from uavsnn.training import apply_overrides
+
+    draws = bench_script("identify_draws")
+    source = SceneSource("dvs", (240, 180), 200.0, 0.3)
+    for seed in (11, 12):  # seeds whose scenes give both kinds of object to this network
+        build(tmp_path / f"s{seed}", "dvs", n_test=2, n_train=24, seed=seed, dvs=source)
+    config = apply_overrides(default_config(), ["conv2.threshold=5", "conv3.threshold=1"])
+    Network(config, seed=0).save(tmp_path / "m.npz")
+    s1, s2 = tmp_path / "s11", tmp_path / "s12"
+    argv = ["identify_draws.py", str(tmp_path / "m.npz"), "--fit", str(s1), "--tune", str(s2)]
+    argv += ["--score", str(s2), "--model", "logistic", "--json"]
+    monkeypatch.setattr("sys.argv", [*argv, "--group", "all", "--group", "no_activity_history"])
+    draws.main()
+    out = json.loads(capsys.readouterr().out)
+    assert list(out) == [f"{s1} [logistic]", f"{s1} [logistic] [no_activity_history]"]
+    full, fewer = out.values()
+    assert full["model"] == fewer["model"] == "logistic"
+    assert set(full["scored"]) == set(fewer["scored"]) == {str(s2)}
+    assert full["features"] == list(GROUPS["all"])
+    assert fewer["features"] == list(GROUPS["no_activity_history"])

@@ -96,6 +96,39 @@ def test_each_object_carries_its_track_so_far_and_the_rotor_mean() -> None:
     assert capped.objects[0].track is not None and capped.objects[1].track is None
 
 
+def test_a_track_keeps_the_history_of_its_objects_activity() -> None:
+    """The track's activity history: the mean and population standard deviation of its
+    measured objects' log events per pixel, the mean ON/OFF balance and log rate swing, each as
+    ``features.activity`` gives one object; objects without counts do not count."""
+    from uavsnn.features import activity
+
+    # (events, on, swing) per window; None: not measured. Boxes of 8 x 8 pixels.
+    counts = [(64, 48, 1.0), None, (128, 32, 3.0), (0, 0, 0.0)]
+    reps = []
+    for k, c in enumerate(counts):
+        obj = WindowObject(box=box_at(20 + 4 * k, 30, half=4), spikes=1, counts=c)
+        reps.append(replace(report(k, []), objects=(obj,)))
+    seen = [o.track for r in track_windows(reps).reports for o in r.objects]
+    assert seen[0].box[2] - seen[0].box[0] == 8 and seen[0].box[3] - seen[0].box[1] == 8
+    assert [t.activity_measured for t in seen] == [1, 1, 2, 3]
+    measured = [activity(seen[0].box, c) for c in counts if c is not None]
+    assert measured[0] == pytest.approx((math.log1p(1.0), 0.5, math.log1p(1.0)))
+    assert measured[2] == (0.0, 0.0, 0.0)  # no event: no balance
+    density = [m[0] for m in measured]
+    last = seen[-1]
+    assert last.events_per_px_mean == pytest.approx(np.mean(density))
+    assert last.events_per_px_std == pytest.approx(np.std(density))
+    assert last.on_balance_mean == pytest.approx(np.mean([m[1] for m in measured]))
+    assert last.rate_swing_mean == pytest.approx(np.mean([m[2] for m in measured]))
+    assert seen[1].events_per_px_mean == seen[0].events_per_px_mean == density[0]
+    assert seen[0].events_per_px_std == 0.0
+    # A track whose objects were never measured: zeros.
+    bare = track_windows([report(k, [box_at(20 + 4 * k, 30)]) for k in range(3)]).tracks[0]
+    assert bare.activity_measured == 0
+    assert (bare.events_per_px_mean, bare.events_per_px_std) == (0.0, 0.0)
+    assert (bare.on_balance_mean, bare.rate_swing_mean) == (0.0, 0.0)
+
+
 def test_hovering_and_zigzag_tracks_differ_in_their_statistics() -> None:
     hover = [report(k, [box_at(60 + (k % 2), 60)]) for k in range(12)]
     zig = [report(k, [box_at(20 + 6 * k, 40 + (5 if k % 2 else -5))]) for k in range(12)]

@@ -3,7 +3,8 @@ share set on one draw of recordings hold on another?
 
 Fits a network's identification as ``uavsnn train --tune`` does (``identify.fit_network``: L2,
 threshold and the operating points set beforehand on the tuning windows), with each ``--model``
-(``identify.MODELS``; default ``auto``), once on each list of
+(``identify.MODELS``; default ``auto``) and each ``--group`` of features (``identify.GROUPS``;
+default ``all``), once on each list of
 ``--fit`` datasets (their train splits, mixed whole), tuned on the ``--tune`` dataset's train
 split, and scores each fit on every ``--score`` dataset's train split (recordings of other
 seeds, that no fit or tuning saw). For each it prints the any-spike rule's accuracy and the
@@ -29,6 +30,7 @@ for _var in ("RAYON_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MK
     os.environ[_var] = "1"
 
 import argparse  # noqa: E402
+import itertools  # noqa: E402
 import json  # noqa: E402
 from typing import Any  # noqa: E402
 
@@ -92,6 +94,13 @@ def main() -> None:
         choices=identify.MODELS,
         help="the UAV score's model (identify.fit's; repeat to compare; default auto)",
     )
+    parser.add_argument(
+        "--group",
+        dest="groups",
+        action="append",
+        choices=list(identify.GROUPS),
+        help="the features fitted, a group of identify.GROUPS (repeat to compare; default all)",
+    )
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
     net = Network.load(args.model)
@@ -103,17 +112,19 @@ def main() -> None:
     for spec in args.fit:
         train = joined(spec)
         train_feats = identify.window_features(net, train)
-        for kind in args.models or ["auto"]:
+        for kind, group in itertools.product(args.models or ["auto"], args.groups or ["all"]):
             # as identify.fit_network fits, with the features computed once for every model
             ident = identify.fit(
                 train_feats,
                 tune_feats,
                 tune_detected=tune_inference.detected,
                 tune_label=np.asarray(tune.label, dtype=bool),
+                features=identify.GROUPS[group],
                 model=kind,
             )
-            out[f"{spec} [{kind}]"] = {
+            out[f"{spec} [{kind}]" + ("" if group == "all" else f" [{group}]")] = {
                 "train_windows": len(train),
+                "features": list(ident.features),
                 "model": identify.model_name(ident),
                 "l2": ident.l2,
                 "threshold": ident.threshold,

@@ -442,6 +442,10 @@ class WindowObject:
     #: The track's class guess: :attr:`track_score` and the mean class probabilities of its
     #: scored objects so far, through :meth:`uavsnn.identify.Identifier.guess_from`.
     track_class: str | None = None
+    #: Measured with :attr:`rotor`: ``(events, on, rate_swing)``, the window's raw events inside
+    #: :attr:`box`, the ON ones among them and how strongly their rate swings
+    #: (:func:`uavsnn.signature.measure_box`); they count in its track's activity history.
+    counts: tuple[int, int, float] | None = None
 
     @property
     def centre(self) -> tuple[float, float]:
@@ -712,7 +716,7 @@ def _with_rotor(
     ]
     objects = list(report.objects)
     for i, m in enumerate(measured):
-        objects[i] = replace(objects[i], rotor=m.rotor)
+        objects[i] = replace(objects[i], rotor=m.rotor, counts=m.counts)
     return replace(report, objects=tuple(objects)), measured
 
 
@@ -730,7 +734,7 @@ def _with_scores(
     for i, (obj, m) in enumerate(zip(objects, measured, strict=False)):
         if obj.rotor is None:
             continue
-        feats = object_features(obj.box, obj.spikes, None, obj.rotor, obj.track, counts=m[1:])
+        feats = object_features(obj.box, obj.spikes, None, obj.rotor, obj.track, counts=m.counts)
         score = identification.scores(feats[None, :])
         probs = identification.class_probabilities(feats[None, :])
         guess = identification.guess_from(score, probs)[0]

@@ -45,9 +45,11 @@ __all__ = [
     "CLUTTER_CLASS",
     "FEATURES",
     "RATE_BIN_US",
+    "TRACK_ACTIVITY",
     "TRACK_FEATURES",
     "UAV_CLASS",
     "WindowFeatures",
+    "activity",
     "object_features",
     "rate_bins",
     "rate_swing",
@@ -64,6 +66,16 @@ UAV_CLASS = "uav"
 #: ``"none"``): something moved that is not a labelled object (texture, noise, a leaf's shadow).
 CLUTTER_CLASS = "clutter"
 
+#: The track's activity history (the last of :data:`TRACK_FEATURES`): the mean and standard
+#: deviation of its objects' raw events per pixel, and the mean of their ON/OFF balance and rate
+#: swing, each as :func:`activity` gives them for one object.
+TRACK_ACTIVITY: tuple[str, ...] = (
+    "track_log_events_per_px",
+    "track_log_events_per_px_std",
+    "track_on_balance",
+    "track_log_rate_swing",
+)
+
 #: The track group of :data:`FEATURES` (:func:`track_features`), from the object's track as it
 #: stands after its window (:class:`uavsnn.tracks.Track`).
 TRACK_FEATURES: tuple[str, ...] = (
@@ -75,6 +87,7 @@ TRACK_FEATURES: tuple[str, ...] = (
     "track_log_speed_std",
     "track_vertical_speed",
     "track_rotor_strength",
+    *TRACK_ACTIVITY,
 )
 
 #: The width of the bins in which an object's events are counted over its window, µs
@@ -137,8 +150,11 @@ def track_features(track: Track | None) -> list[float]:
     """The :data:`TRACK_FEATURES` of an object whose track stands at ``track`` after its
     window (zeros for an object without a track): age (log of ms), hits (log), filtered speed
     (log of px/s), straightness, turn rate (log of rad/s), the segment speeds' standard
-    deviation (log of px/s), vertical speed (signed log of px/s; positive downwards) and the
-    mean rotor strength of its detections so far."""
+    deviation (log of px/s), vertical speed (signed log of px/s; positive downwards), the
+    mean rotor strength of its detections so far, and its activity history: the mean and
+    standard deviation of its objects' raw events per pixel (log), and the mean of their
+    ON/OFF balance and rate swing (log), each as :func:`activity` gives them for one object
+    (:attr:`uavsnn.tracks.Track.activity_measured` of them)."""
     if track is None:
         return [0.0] * len(TRACK_FEATURES)
     v = track.vertical_speed
@@ -151,7 +167,20 @@ def track_features(track: Track | None) -> list[float]:
         math.log1p(track.speed_std),
         math.copysign(math.log1p(abs(v)), v),
         track.rotor_strength_mean,
+        track.events_per_px_mean,
+        track.events_per_px_std,
+        track.on_balance_mean,
+        track.rate_swing_mean,
     ]
+
+
+def activity(box: tuple[int, int, int, int], counts: tuple[int, int, float]) -> tuple[float, ...]:
+    """An object's activity features: raw events per pixel of ``box`` ``(x0, y0, x1, y1)``
+    (log), the ON/OFF balance ``(ON − OFF) / events`` (0 without an event) and the rate swing
+    (log), from ``counts`` ``(events, on, swing)`` (:func:`uavsnn.signature.measure_box`)."""
+    n, on, swing = int(counts[0]), int(counts[1]), float(counts[2])
+    area = (int(box[2]) - int(box[0])) * (int(box[3]) - int(box[1]))
+    return math.log1p(n / area), (2 * on - n) / n if n else 0.0, math.log1p(swing)
 
 
 def object_features(
@@ -205,9 +234,7 @@ def object_features(
             math.log(w * h),
             math.log(w / h),
             math.log1p(spikes),
-            math.log1p(n / (w * h)),
-            (2 * on - n) / n if n else 0.0,
-            math.log1p(swing),
+            *activity((x0, y0, x1, y1), (n, on, swing)),
             *track_features(track),
         ]
     )
@@ -361,7 +388,9 @@ def window_features(
                 measure_box(events, xywh(o.box), rate=rate) for o in objects[:MAX_ROTOR_BOXES]
             ]
             objects = tuple(
-                replace(o, rotor=measured[j][0]) if j < len(measured) else o
+                replace(o, rotor=measured[j].rotor, counts=measured[j].counts)
+                if j < len(measured)
+                else o
                 for j, o in enumerate(objects)
             )
         report = tracker.update(
@@ -376,7 +405,7 @@ def window_features(
         )
         if measured:
             per_window[i] = [
-                (o, object_features(o.box, o.spikes, None, m.rotor, o.track, counts=m[1:]))
+                (o, object_features(o.box, o.spikes, None, m.rotor, o.track, counts=m.counts))
                 for o, m in zip(report.objects, measured, strict=False)
             ]
     rows, which, boxes, label, usable, track, confirmed, cls = [], [], [], [], [], [], [], []

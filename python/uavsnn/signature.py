@@ -263,6 +263,12 @@ class BoxMeasure(NamedTuple):
     #: without ``rate``).
     rate_swing: float
 
+    @property
+    def counts(self) -> tuple[int, int, float]:
+        """``(events, on, rate_swing)``: what :attr:`uavsnn.detector.WindowObject.counts`
+        holds."""
+        return self.events, self.on, self.rate_swing
+
 
 # --------------------------------------------------------------------------- rate spectrum
 

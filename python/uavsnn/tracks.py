@@ -25,6 +25,7 @@ from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
 from uavsnn.errors import ParameterError
+from uavsnn.features import activity
 
 if TYPE_CHECKING:
     from uavsnn.detector import WindowReport
@@ -75,6 +76,13 @@ class Track:
         rotor_measured: its detections whose rotor signature was measured (the object's
             ``rotor`` was not ``None``).
         rotor_strength_mean: the mean rotor strength of those detections (0 without one).
+        activity_measured: its detections whose event counts were measured (the object's
+            ``counts`` was not ``None``; measured with the rotor).
+        events_per_px_mean, events_per_px_std: the mean and (population) standard deviation
+            of those detections' raw events per pixel of their box, log-scaled as an object's
+            feature (:func:`uavsnn.features.activity`; 0 without one).
+        on_balance_mean, rate_swing_mean: the mean of their ON/OFF balance and of their rate
+            swing (log), the same way (0 without one).
     """
 
     id: int
@@ -102,19 +110,28 @@ class Track:
     turn_rate: float
     rotor_measured: int
     rotor_strength_mean: float
+    activity_measured: int
+    events_per_px_mean: float
+    events_per_px_std: float
+    on_balance_mean: float
+    rate_swing_mean: float
 
 
 class _Live:
     """A live track's state: fixed size (no history beyond the last hits' window mask)."""
 
     __slots__ = (
+        "act_n",
         "alarm_us",
         "alarm_window",
+        "balance_sum",
         "birth_tc",
         "birth_us",
         "birth_window",
         "box",
         "confirmed",
+        "density_m2",
+        "density_mean",
         "first_z",
         "heading",
         "hits",
@@ -134,13 +151,13 @@ class _Live:
         "rotor_sum",
         "sp_m2",
         "sp_mean",
+        "swing_sum",
         "turn_sum",
         "vel",
     )
 
-    def __init__(
-        self, tid: int, window: int, t0: int, t1: int, box: tuple, z: tuple, rotor: Any
-    ) -> None:
+    def __init__(self, tid: int, window: int, t0: int, t1: int, obj: Any, z: tuple) -> None:
+        box = obj.box
         self.id = tid
         self.birth_window = window
         self.birth_us = t0
@@ -169,12 +186,26 @@ class _Live:
         self.now_end = t1
         self.rotor_n = 0
         self.rotor_sum = 0.0
-        self.add_rotor(rotor)
+        self.act_n = 0
+        self.density_mean = 0.0
+        self.density_m2 = 0.0
+        self.balance_sum = 0.0
+        self.swing_sum = 0.0
+        self.add_measured(obj)
 
-    def add_rotor(self, rotor: Any) -> None:
-        if rotor is not None:
+    def add_measured(self, obj: Any) -> None:
+        """Count the object's rotor and event counts, where measured, in the running sums."""
+        if obj.rotor is not None:
             self.rotor_n += 1
-            self.rotor_sum += float(rotor.strength)
+            self.rotor_sum += float(obj.rotor.strength)
+        if obj.counts is not None:
+            density, balance, swing = activity(obj.box, obj.counts)
+            self.act_n += 1
+            delta = density - self.density_mean  # Welford's running mean and variance
+            self.density_mean += delta / self.act_n
+            self.density_m2 += delta * (density - self.density_mean)
+            self.balance_sum += balance
+            self.swing_sum += swing
 
     def predict(self, tc: float) -> tuple[float, float]:
         dt = (tc - self.last_tc) / 1e6
@@ -211,6 +242,13 @@ class _Live:
             turn_rate=self.turn_sum / self.n_turn if self.n_turn else 0.0,
             rotor_measured=self.rotor_n,
             rotor_strength_mean=self.rotor_sum / self.rotor_n if self.rotor_n else 0.0,
+            activity_measured=self.act_n,
+            events_per_px_mean=self.density_mean,
+            events_per_px_std=math.sqrt(max(self.density_m2, 0.0) / self.act_n)
+            if self.act_n
+            else 0.0,
+            on_balance_mean=self.balance_sum / self.act_n if self.act_n else 0.0,
+            rate_swing_mean=self.swing_sum / self.act_n if self.act_n else 0.0,
         )
 
 
@@ -303,7 +341,8 @@ class Tracker:
         """Feed the next window (window indices must increase) and return it with each
         object's ``track_id``, ``track_confirmed`` and ``track`` (a snapshot of its track as
         it stands after this window: what is known of it so far) filled in. An object's
-        ``rotor`` (when measured) counts in its track's ``rotor_strength_mean``.
+        ``rotor`` and ``counts`` (when measured) count in its track's ``rotor_strength_mean``
+        and activity history.
 
         Raises:
             ParameterError: a window not later than the previous one.
@@ -349,9 +388,9 @@ class Tracker:
             old = track_of[oi]
             if old is not None:
                 self._hit(old, k, report.t1, tc, obj.box, centres[oi])
-                old.add_rotor(obj.rotor)
+                old.add_measured(obj)
             elif len(self._live) < self.max_tracks:
-                new = _Live(self._next_id, k, report.t0, report.t1, obj.box, centres[oi], obj.rotor)
+                new = _Live(self._next_id, k, report.t0, report.t1, obj, centres[oi])
                 self._next_id += 1
                 self._live.append(new)
                 track_of[oi] = new
