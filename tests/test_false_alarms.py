@@ -234,6 +234,23 @@ def test_track_points_hold_for_the_confirmation_rule_they_were_set_with(tmp_path
             tune_track_alarms(net, minutes=0.05, seed=3, confirm=bad)
 
 
+def _tiny_run(tmp_path: Path, *, n_train: int) -> tuple[Path, Path]:
+    """An untrained network with thresholds low enough to detect, with a handmade
+    identification, saved; and a tiny dvs set (12 test windows, ``n_train`` train ones)."""
+    from uavsnn.dataset import SceneSource, build
+    from uavsnn.network import default_config
+    from uavsnn.training import apply_overrides
+
+    config = apply_overrides(default_config(), ["conv2.threshold=5", "conv3.threshold=1"])
+    model = tmp_path / "m.npz"
+    _identified(Network(config, seed=0)).save(model)
+    root = build(
+        tmp_path / "set", "dvs", n_test=12, n_train=n_train, seed=5,
+        dvs=SceneSource("dvs", (240, 180), 200.0, 0.4),
+    ).root  # fmt: skip
+    return model, root
+
+
 def test_the_track_evidence_bench_reads_the_running_mean_and_sums_log_odds(
     tmp_path: Path, bench_script, monkeypatch: pytest.MonkeyPatch, capsys
 ) -> None:
@@ -244,9 +261,6 @@ def test_the_track_evidence_bench_reads_the_running_mean_and_sums_log_odds(
     import json
 
     from uavsnn.clips import clip_set
-    from uavsnn.dataset import SceneSource, build
-    from uavsnn.network import default_config
-    from uavsnn.training import apply_overrides
 
     bench = bench_script("track_evidence")
     objs = [_obj(0.9, 1, False, None), _obj(0.2, 1, True, None), _obj(0.6, None, None, None)]
@@ -265,13 +279,7 @@ def test_the_track_evidence_bench_reads_the_running_mean_and_sums_log_odds(
     assert track_alarm_threshold([3.0, -2.0], 1.0, 1.0, floor=-np.inf) == np.nextafter(-2.0, np.inf)
     assert track_alarm_threshold([3.0, -2.0], 1.0, 2.0, floor=-np.inf) == -np.inf
 
-    config = apply_overrides(default_config(), ["conv2.threshold=5", "conv3.threshold=1"])
-    model = tmp_path / "m.npz"
-    _identified(Network(config, seed=0)).save(model)
-    root = build(
-        tmp_path / "set", "dvs", n_test=12, n_train=0, seed=5,
-        dvs=SceneSource("dvs", (240, 180), 200.0, 0.4),
-    ).root  # fmt: skip
+    model, root = _tiny_run(tmp_path, n_train=0)
     out = tmp_path / "rows.json"
     argv = ["track_evidence.py", str(model), str(root), "--minutes", "0.05", "--drifts", "0"]
     monkeypatch.setattr("sys.argv", [*argv, "--rates", "1,1000", "--json", str(out)])
@@ -305,10 +313,7 @@ def test_the_track_window_score_bench_reads_each_track_in_time_order(
     every rule's figures, the object's own score first."""
     import json
 
-    from uavsnn.dataset import SceneSource, build
     from uavsnn.features import FEATURES, WindowFeatures
-    from uavsnn.network import default_config
-    from uavsnn.training import apply_overrides
 
     bench = bench_script("track_window_score")
     # Windows 0-2 of recording 0 (given out of time order), 3-4 of recording 1; track 1 in
@@ -345,13 +350,7 @@ def test_the_track_window_score_bench_reads_each_track_in_time_order(
     fired = np.array([True, True, False, True, True])
     assert bench.window_scores(feats, mean, fired) == pytest.approx([0.5, 0.1, -1.0, 0.8, 0.7])
 
-    config = apply_overrides(default_config(), ["conv2.threshold=5", "conv3.threshold=1"])
-    model = tmp_path / "m.npz"
-    _identified(Network(config, seed=0)).save(model)
-    root = build(
-        tmp_path / "set", "dvs", n_test=12, n_train=12, seed=5,
-        dvs=SceneSource("dvs", (240, 180), 200.0, 0.4),
-    ).root  # fmt: skip
+    model, root = _tiny_run(tmp_path, n_train=12)
     out = tmp_path / "rows.json"
     argv = ["track_window_score.py", str(model), str(root), "--tune", str(root), "--json", str(out)]
     monkeypatch.setattr("sys.argv", argv)

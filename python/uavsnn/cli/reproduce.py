@@ -568,8 +568,9 @@ def _reproduce(args: argparse.Namespace) -> int:
             "Identification fitted again on each group of features alone (the same training "
             f"windows, tuned on the same recordings of seed {tune_seed}, the same choice of "
             "score) and measured on the dvs test set (`uavsnn evaluate --ablation TUNE "
-            "--tracks`; `no_track`: every feature but the track's). Detection is read off "
-            "the test set's ROC.\n",
+            "--tracks`; `no_track`: every feature but the track's; `no_activity_history`: "
+            "every feature but the track's activity history). Detection is read off the test "
+            "set's ROC.\n",
         ]
         ablation_text += _per_network(log["ablation"], _ablation_table)
     step("the test recordings streamed whole")
