@@ -122,6 +122,24 @@ def test_a_track_keeps_the_history_of_its_objects_activity() -> None:
     assert last.rate_swing_mean == pytest.approx(np.mean([m[2] for m in measured]))
     assert seen[1].events_per_px_mean == seen[0].events_per_px_mean == density[0]
     assert seen[0].events_per_px_std == 0.0
+    # Counts no box gives, or an empty box: a typed error, from the tracker too.
+    fine = (1, 1, 0.0)
+    for box, bad in (
+        (box_at(9, 9), (3, 4, 0.0)),
+        (box_at(9, 9), (3, 1, -1.0)),
+        ((5, 5, 5, 9), fine),
+    ):
+        with pytest.raises(ParameterError):
+            activity(box, bad)
+    tracker = Tracker()
+    tracker.update(replace(report(0, []), objects=(WindowObject(box_at(9, 9), 1, counts=fine),)))
+    before = tracker.live
+    bad_obj = WindowObject(box_at(9, 9), 1, counts=(3, 4, 0.0))
+    with pytest.raises(ParameterError):
+        tracker.update(replace(report(1, []), objects=(bad_obj,)))
+    assert tracker.live == before  # nothing of the refused window was kept
+    tracker.update(replace(report(1, []), objects=(WindowObject(box_at(9, 9), 1, counts=fine),)))
+    assert tracker.live[0].hits == 2
     # A track whose objects were never measured: zeros.
     bare = track_windows([report(k, [box_at(20 + 4 * k, 30)]) for k in range(3)]).tracks[0]
     assert bare.activity_measured == 0

@@ -174,13 +174,24 @@ def track_features(track: Track | None) -> list[float]:
     ]
 
 
-def activity(box: tuple[int, int, int, int], counts: tuple[int, int, float]) -> tuple[float, ...]:
+def activity(
+    box: tuple[int, int, int, int], counts: tuple[int, int, float]
+) -> tuple[float, float, float]:
     """An object's activity features: raw events per pixel of ``box`` ``(x0, y0, x1, y1)``
     (log), the ON/OFF balance ``(ON − OFF) / events`` (0 without an event) and the rate swing
-    (log), from ``counts`` ``(events, on, swing)`` (:func:`uavsnn.signature.measure_box`)."""
+    (log), from ``counts`` ``(events, on, swing)`` (:func:`uavsnn.signature.measure_box`).
+
+    Raises:
+        ParameterError: an empty box, or counts that no box gives (negative, more ON events
+            than events, a negative or non-finite swing).
+    """
     n, on, swing = int(counts[0]), int(counts[1]), float(counts[2])
-    area = (int(box[2]) - int(box[0])) * (int(box[3]) - int(box[1]))
-    return math.log1p(n / area), (2 * on - n) / n if n else 0.0, math.log1p(swing)
+    w, h = int(box[2]) - int(box[0]), int(box[3]) - int(box[1])
+    if w < 1 or h < 1:
+        raise ParameterError(f"an object's box must not be empty, got {box}")
+    if not (0 <= on <= n and math.isfinite(swing) and swing >= 0):
+        raise ParameterError(f"counts must be (events, on <= events, swing >= 0), got {counts}")
+    return math.log1p(n / (w * h)), (2 * on - n) / n if n else 0.0, math.log1p(swing)
 
 
 def object_features(

@@ -156,7 +156,9 @@ class _Live:
         "vel",
     )
 
-    def __init__(self, tid: int, window: int, t0: int, t1: int, obj: Any, z: tuple) -> None:
+    def __init__(
+        self, tid: int, window: int, t0: int, t1: int, obj: Any, z: tuple, act: tuple | None
+    ) -> None:
         box = obj.box
         self.id = tid
         self.birth_window = window
@@ -191,15 +193,16 @@ class _Live:
         self.density_m2 = 0.0
         self.balance_sum = 0.0
         self.swing_sum = 0.0
-        self.add_measured(obj)
+        self.add_measured(obj.rotor, act)
 
-    def add_measured(self, obj: Any) -> None:
-        """Count the object's rotor and event counts, where measured, in the running sums."""
-        if obj.rotor is not None:
+    def add_measured(self, rotor: Any, act: tuple | None) -> None:
+        """Count an object's rotor and its activity (:func:`uavsnn.features.activity` of its
+        counts), where measured, in the running sums."""
+        if rotor is not None:
             self.rotor_n += 1
-            self.rotor_sum += float(obj.rotor.strength)
-        if obj.counts is not None:
-            density, balance, swing = activity(obj.box, obj.counts)
+            self.rotor_sum += float(rotor.strength)
+        if act is not None:
+            density, balance, swing = act
             self.act_n += 1
             delta = density - self.density_mean  # Welford's running mean and variance
             self.density_mean += delta / self.act_n
@@ -345,13 +348,17 @@ class Tracker:
         and activity history.
 
         Raises:
-            ParameterError: a window not later than the previous one.
+            ParameterError: a window not later than the previous one, or an object whose
+                ``counts`` no box gives (:func:`uavsnn.features.activity`); the tracker is
+                then as it was.
         """
         k = report.window
         if self._last_window is not None and k <= self._last_window:
             raise ParameterError(
                 f"windows must be fed in increasing order: {k} after {self._last_window}"
             )
+        objects = report.objects
+        acts = [None if o.counts is None else activity(o.box, o.counts) for o in objects]
         self._last_window = k
         tc = (report.t0 + report.t1) / 2
         # Deletion first: a track missing max_misses windows by this one is gone.
@@ -364,7 +371,6 @@ class Tracker:
             else:
                 keep.append(tr)
         self._live = keep
-        objects = report.objects
         centres = [o.centre for o in objects]
         # Candidate pairs inside the gate, cheapest first; ties by track id, then object.
         pairs = []
@@ -388,9 +394,9 @@ class Tracker:
             old = track_of[oi]
             if old is not None:
                 self._hit(old, k, report.t1, tc, obj.box, centres[oi])
-                old.add_measured(obj)
+                old.add_measured(obj.rotor, acts[oi])
             elif len(self._live) < self.max_tracks:
-                new = _Live(self._next_id, k, report.t0, report.t1, obj, centres[oi])
+                new = _Live(self._next_id, k, report.t0, report.t1, obj, centres[oi], acts[oi])
                 self._next_id += 1
                 self._live.append(new)
                 track_of[oi] = new
