@@ -69,19 +69,21 @@ def track_scores(
     order = tracked[np.lexsort((start[tracked], feats.track[tracked], rec[tracked]))]
     key = np.stack([rec[order], feats.track[order]], axis=1)
     first = np.r_[True, np.any(key[1:] != key[:-1], axis=1)]
-    group = np.cumsum(first) - 1
-    pos = np.arange(len(order)) - np.flatnonzero(first)[group]
+    # Each object's place in the order, and where its track's run of objects starts.
+    at = np.arange(len(order))
+    head = np.flatnonzero(first)[np.cumsum(first) - 1]
+    pos = at - head
     value = s[order]
     if rule == "logit":
         p = np.clip(value, EPS, 1 - EPS)
         value = np.log(p / (1 - p))
     total = np.cumsum(value)
-    before = np.r_[0.0, total][np.flatnonzero(first)[group]]
+    before = np.r_[0.0, total][head]
     if rule in ("mean", "logit"):
         stat = (total - before) / (pos + 1)
     else:
         k = int(rule[4:])
-        back = np.maximum(np.arange(len(order)) - k, np.flatnonzero(first)[group] - 1)
+        back = np.maximum(at - k, head - 1)
         lagged = np.where(back >= 0, total[np.maximum(back, 0)], 0.0)
         stat = (total - lagged) / np.minimum(pos + 1, k)
     if rule == "logit":
