@@ -505,6 +505,10 @@ def test_tracks_carry_a_running_score_and_class_guess(net: Network, tmp_path: Pa
         if o["track"] is not None:
             assert o["track_class"] in ("uav", "bird", "clutter")
             assert o["track_stats"]["hits"] >= 1 and o["track_stats"]["age_us"] > 0
+            # A scored object was measured, so its track's activity history counts it.
+            assert o["track_stats"]["activity_measured"] >= 1
+            assert o["track_stats"]["events_per_px_mean"] > 0
+            assert o["track_stats"]["events_per_px_std"] >= 0
 
 
 def test_tracks_on_a_real_recording(shared_data: Path) -> None:

@@ -246,6 +246,12 @@ def _track_stats(o: Any) -> dict[str, Any] | None:
         "straightness": tr.straightness,
         "turn_rate_rad_s": tr.turn_rate,
         "first_alarm_us": tr.first_alarm_us,
+        "rotor_strength_mean": tr.rotor_strength_mean,
+        "activity_measured": tr.activity_measured,
+        "events_per_px_mean": tr.events_per_px_mean,
+        "events_per_px_std": tr.events_per_px_std,
+        "on_balance_mean": tr.on_balance_mean,
+        "rate_swing_mean": tr.rate_swing_mean,
     }
 
 
