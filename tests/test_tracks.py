@@ -127,6 +127,9 @@ def test_a_track_keeps_the_history_of_its_objects_activity() -> None:
     for box, bad in (
         (box_at(9, 9), (3, 4, 0.0)),
         (box_at(9, 9), (3, 1, -1.0)),
+        (box_at(9, 9), (3, 1, float("nan"))),
+        (box_at(9, 9), (3, "one", 0.0)),
+        (box_at(9, 9), (3,)),
         ((5, 5, 5, 9), fine),
     ):
         with pytest.raises(ParameterError):

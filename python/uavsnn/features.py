@@ -185,8 +185,14 @@ def activity(
         ParameterError: an empty box, or counts that no box gives (negative, more ON events
             than events, a negative or non-finite swing).
     """
-    n, on, swing = int(counts[0]), int(counts[1]), float(counts[2])
-    w, h = int(box[2]) - int(box[0]), int(box[3]) - int(box[1])
+    try:
+        n, on, swing = (int(counts[0]), int(counts[1]), float(counts[2]))
+        w, h = int(box[2]) - int(box[0]), int(box[3]) - int(box[1])
+    except (TypeError, ValueError, IndexError, OverflowError) as err:
+        raise ParameterError(
+            f"activity needs a box (x0, y0, x1, y1) and counts (events, on, swing), got {box} "
+            f"and {counts}"
+        ) from err
     if w < 1 or h < 1:
         raise ParameterError(f"an object's box must not be empty, got {box}")
     if not (0 <= on <= n and math.isfinite(swing) and swing >= 0):
