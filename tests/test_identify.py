@@ -914,3 +914,17 @@ def test_rate_swing_is_the_swing_of_the_rate_beyond_shot_noise() -> None:
 def test_rate_swing_is_finite_and_not_negative(counts) -> None:
     s = rate_swing(counts)
     assert np.isfinite(s) and s >= 0.0
+
+
+def test_evaluate_prints_the_ablation_rows_aligned(capsys: pytest.CaptureFixture[str]) -> None:
+    """The text of `uavsnn evaluate --ablation`: one line per group, the names padded to the
+    longest so that the figures line up."""
+    from uavsnn.cli.evaluate import _print_identification
+    from uavsnn.identify import GROUPS
+
+    row = {"accuracy": 0.5, "detection_at_0.01": 0.1, "detection_at_0.05": 0.25}
+    _print_identification({"rotor_coverage": [], "ablation": dict.fromkeys(GROUPS, row)})
+    lines = [line for line in capsys.readouterr().out.splitlines() if "ablation" in line]
+    assert len(lines) == len(GROUPS)
+    assert len({line.index(": accuracy") for line in lines}) == 1
+    assert lines[0].endswith("accuracy 50.0 %, detection at 1 % / 5 % false alarms 10.0 / 25.0 %")

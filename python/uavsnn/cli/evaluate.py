@@ -333,7 +333,9 @@ def _print_identification(ident: dict[str, Any]) -> None:
             f"{z['object_on_uav']}, rotor votes {z['rotor_votes']}, rotor detected "
             f"{z['rotor_detected']}"
         )
-    for name, row in ident.get("ablation", {}).items():
+    ablation = ident.get("ablation", {})
+    width = max(map(len, ablation), default=0)
+    for name, row in ablation.items():
         tracks = ""
         if "tracks" in row:
             t = row["tracks"]
@@ -343,8 +345,8 @@ def _print_identification(ident: dict[str, Any]) -> None:
                 f"{'-' if median is None else f'{median:.0f} ms'}, false {t['false_tracks']}"
             )
         print(
-            f"  ablation {name:8s}: accuracy {100 * row['accuracy']:.1f} %, detection at 1 % / "
-            f"5 % false alarms {100 * row['detection_at_0.01']:.1f} / "
+            f"  ablation {name:{width}s}: accuracy {100 * row['accuracy']:.1f} %, detection at "
+            f"1 % / 5 % false alarms {100 * row['detection_at_0.01']:.1f} / "
             f"{100 * row['detection_at_0.05']:.1f} %{tracks}"
         )
 
