@@ -44,6 +44,8 @@ from uavsnn.dataset import LabelledWindows, load
 from uavsnn.evaluation import FALSE_ALARM_RATES, roc_area, threshold_at_false_alarm
 from uavsnn.experiments import mix_windows
 from uavsnn.features import WindowFeatures
+from uavsnn.identifier import Identifier
+from uavsnn.network import Network
 
 RULES = ("own", "mean", "last3", "last5", "logit")
 #: Scores are clipped to [EPS, 1 − EPS] before their log-odds are taken.
@@ -102,10 +104,10 @@ def window_scores(feats: WindowFeatures, objects: np.ndarray, fired: np.ndarray)
 
 
 def split_scores(
-    model: str, data: LabelledWindows
+    net: Network, ident: Identifier, data: LabelledWindows
 ) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
-    """Per rule, the window scores of ``data``, its labels and its windows' recordings."""
-    net, ident = load_identified(model)
+    """Per rule, the window scores of ``data`` through ``net`` and its identification
+    ``ident``, its labels and its windows' recordings."""
     inference = net.infer(data.windows)
     feats = identify.window_features(net, data, inference)
     own = ident.scores(feats.x)
@@ -145,8 +147,9 @@ def measure(
     model: str, dataset: str, tune: Sequence[str], split: str = "test", tune_seed: int = 1
 ) -> dict[str, dict[str, Any]]:
     """Every rule's figures on the tuning windows and on ``dataset``'s ``split``."""
-    tuned = split_scores(model, tuning_windows(tune, tune_seed))
-    measured = split_scores(model, load(dataset, split))
+    net, ident = load_identified(model)
+    tuned = split_scores(net, ident, tuning_windows(tune, tune_seed))
+    measured = split_scores(net, ident, load(dataset, split))
     out: dict[str, dict[str, Any]] = {}
     for rule in RULES:
         t_score, t_label, t_recording = tuned[rule]

@@ -318,9 +318,14 @@ class StreamedClip:
         return bool(self.frame_labels["uav"][self.labelled].any())
 
     @property
+    def window_uav(self) -> np.ndarray:
+        """Each window of the clip (``every``): a usable window labelled UAV."""
+        return self.labels.label & self.labels.usable
+
+    @property
     def report_uav(self) -> np.ndarray:
         """Each report's window: a usable window labelled UAV."""
-        return (self.labels.label & self.labels.usable)[self.at]
+        return self.window_uav[self.at]
 
     @property
     def report_boxes(self) -> np.ndarray:
@@ -377,7 +382,7 @@ def stream_clip(
     """
     clip = clip_stream(network, clips, which, confirm)
     labels, every = clip.labels, clip.every
-    uav = labels.label & labels.usable
+    uav = clip.window_uav
     rules = alarm_rules(network, confirm or DEFAULT_CONFIRM)
     alarms = clip_alarms(clip.reports, rules, clip.report_uav, clip.report_boxes)
     first_uav = int(every[uav].min()) if uav.any() else None
