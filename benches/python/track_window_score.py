@@ -37,6 +37,7 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
+from track_evidence import EPS  # scores clipped to [EPS, 1 − EPS] before their log-odds
 from tune_halves import load_identified
 
 from uavsnn import identify
@@ -48,8 +49,6 @@ from uavsnn.identifier import Identifier
 from uavsnn.network import Network
 
 RULES = ("own", "mean", "last3", "last5", "logit")
-#: Scores are clipped to [EPS, 1 − EPS] before their log-odds are taken.
-EPS = 1e-4
 
 
 def track_scores(
