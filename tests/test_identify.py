@@ -17,6 +17,7 @@ from uavsnn.dataset.format import RawEvents
 from uavsnn.errors import DatasetError, ModelFileError, ParameterError, ShapeError
 from uavsnn.evaluation import (
     detection_at_false_alarm,
+    detection_by_target,
     identification_figures,
     roc_area,
     roc_curve,
@@ -788,6 +789,10 @@ def test_identification_figures_on_hand_made_windows() -> None:
     assert at1["false_alarms_per_class"]["ball"] == 0.0
     at5 = f["at_false_alarm"][1]
     assert at5["false_alarms_per_class"]["bird"] <= 0.1
+    assert detection_by_target(f["at_false_alarm"]) == {
+        0.01: at1["detection_rate"],
+        0.05: at5["detection_rate"],
+    }
     with pytest.raises(ShapeError):
         identification_figures(detected[:3], scores, data, 0.5)
 

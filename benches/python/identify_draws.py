@@ -38,6 +38,7 @@ import numpy as np  # noqa: E402
 
 from uavsnn import Network, identify  # noqa: E402
 from uavsnn.dataset import LabelledWindows, load  # noqa: E402
+from uavsnn.evaluation import detection_by_target  # noqa: E402
 from uavsnn.experiments import both_rules, mix_windows  # noqa: E402
 
 
@@ -63,7 +64,7 @@ def scored(net: Network, ident: identify.Identifier, data: LabelledWindows) -> d
     return {
         "any_spike": f["any_spike"]["accuracy"],
         "identified": f["identified"]["accuracy"],
-        "roc": {p["false_alarm_target"]: p["detection_rate"] for p in f["at_false_alarm"]},
+        "roc": detection_by_target(f["at_false_alarm"]),
         "set_beforehand": [
             {
                 "target": p["false_alarm_target"],

@@ -29,7 +29,7 @@ from __future__ import annotations
 import itertools
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -53,6 +53,7 @@ __all__ = [
     "check_test_set",
     "confusion_matrix",
     "detection_at_false_alarm",
+    "detection_by_target",
     "evaluate",
     "first_detection_boxes",
     "first_spike_in_box",
@@ -623,3 +624,10 @@ def identification_figures(
             at(float(r), float(t), intervals=True) for r, t in alarm_thresholds
         ]
     return out
+
+
+def detection_by_target(points: Sequence[Mapping[str, Any]]) -> dict[float, float]:
+    """The detection rate at each operating point of :func:`identification_figures`
+    (``"at_false_alarm"`` or ``"at_tuned_false_alarm"``), keyed by its false-alarm target:
+    ``detection_by_target(figures["at_false_alarm"])[0.01]``."""
+    return {float(p["false_alarm_target"]): float(p["detection_rate"]) for p in points}

@@ -17,7 +17,7 @@ import numpy as np
 from uavsnn.dataset import LabelledWindows, RawEvents, read_manifest
 from uavsnn.distributed import SERIAL, Runner, noise_task
 from uavsnn.errors import DatasetError, ParameterError
-from uavsnn.evaluation import Evaluation, evaluate, identification_figures
+from uavsnn.evaluation import Evaluation, detection_by_target, evaluate, identification_figures
 from uavsnn.network import CONV_LAYERS, Inference, Network, default_config
 from uavsnn.training import apply_overrides
 from uavsnn.windows import Windows, add_noise
@@ -241,7 +241,8 @@ def _rule_summary(figures: dict[str, Any]) -> dict[str, Any]:
         "accuracy": figures["identified"]["accuracy"],
         "confusion": figures["identified"]["confusion"],
         "detection_at_false_alarm": {
-            f"{p['false_alarm_target']:g}": p["detection_rate"] for p in figures["at_false_alarm"]
+            f"{target:g}": rate
+            for target, rate in detection_by_target(figures["at_false_alarm"]).items()
         },
     }
 

@@ -18,7 +18,7 @@ import numpy as np
 
 from uavsnn import pictures
 from uavsnn.dataset import LabelledWindows
-from uavsnn.evaluation import ClassFigures, Evaluation
+from uavsnn.evaluation import ClassFigures, Evaluation, detection_by_target
 from uavsnn.experiments import PAPER_TABLE3, NoisePoint
 from uavsnn.network import Network
 from uavsnn.training import TrainingResult
@@ -372,9 +372,7 @@ def _noise_detection_table(points: Sequence[NoisePoint], modes: Sequence[str]) -
         cells = []
         for mode in modes:
             ident = here.get(mode)
-            at = {} if ident is None else {
-                a["false_alarm_target"]: a["detection_rate"] for a in ident["at_false_alarm"]
-            }  # fmt: skip
+            at = {} if ident is None else detection_by_target(ident["at_false_alarm"])
             cells += [f"{100 * at[r]:.1f} %" if r in at else "–" for r in rates]
         rows.append(f"| {100 * fraction:g} % | {' | '.join(cells)} |")
     return "\n".join(rows) + "\n"

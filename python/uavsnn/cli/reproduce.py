@@ -39,7 +39,7 @@ from uavsnn.distributed import (
     train_task,
 )
 from uavsnn.errors import ParameterError
-from uavsnn.evaluation import Evaluation
+from uavsnn.evaluation import Evaluation, detection_by_target
 from uavsnn.experiments import (
     NOISE_FRACTIONS,
     PAPER_TABLE2,
@@ -185,7 +185,7 @@ def _row(name: str, e: Evaluation, paper: float | None, ident: dict[str, Any] | 
     if ident is None:
         cells = "– | – | – | – | –"
     else:
-        at = {p["false_alarm_target"]: p["detection_rate"] for p in ident["at_false_alarm"]}
+        at = detection_by_target(ident["at_false_alarm"])
         tuned = {p["false_alarm_target"]: p for p in ident.get("at_tuned_false_alarm", [])}
         set_for = [_set_beforehand(tuned[r]) if r in tuned else "–" for r in (0.01, 0.05)]
         cells = (
@@ -422,7 +422,7 @@ def _real_sizes_table(rows: list[tuple[str, dict[str, Any]]]) -> str:
         if ident is None:
             with_ident = detection = "–"
         else:
-            at = {p["false_alarm_target"]: p["detection_rate"] for p in ident["at_false_alarm"]}
+            at = detection_by_target(ident["at_false_alarm"])
             with_ident = f"{100 * ident['identified']['accuracy']:.1f} %"
             detection = f"{100 * at[0.05]:.1f} %" if 0.05 in at else "–"
         cells = [
