@@ -364,3 +364,48 @@ def test_the_track_window_score_bench_reads_each_track_in_time_order(
         for point in rule["set_beforehand"].values():
             assert 0 <= point["false_alarms"] <= 1 and point["threshold"] >= 0
     assert capsys.readouterr().out.splitlines()[2].startswith("| own |")
+
+
+def test_the_size_table_bench_reads_each_cell_from_evaluates_json(
+    tmp_path: Path, bench_script, capsys
+) -> None:
+    """benches/python/size_table.py: each cell is the figure of `uavsnn evaluate --tracks
+    --json` it names, one column per file; a file without identification is refused."""
+    import json
+
+    from uavsnn.cli import main
+
+    bench = bench_script("size_table")
+    model, root = _tiny_run(tmp_path, n_train=0)
+    assert main(["evaluate", str(model), str(root), "--tracks", "--json"]) == 0
+    out = tmp_path / "eval.json"
+    out.write_text(capsys.readouterr().out)
+    f = json.loads(out.read_text())
+    ident = f["identification"]
+    bench.main([f"a={out}", f"b={out}"])
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0] == "| | a | b |"
+    rows = [line.removeprefix("| ").removesuffix(" |").split(" | ") for line in lines[2:]]
+    cells = {name: rest for name, *rest in rows}
+    assert len(cells) == len(lines) - 2 and all(len(c) == 2 for c in cells.values())
+    assert cells["any-spike rule"][0] == f"{100 * f['accuracy']:.1f} %"
+    assert cells["with identification"][0] == f"{100 * ident['identified']['accuracy']:.1f} %"
+    at1 = ident["at_false_alarm"][0]
+    assert at1["false_alarm_target"] == 0.01
+    row = "detection at 1 % false alarms (test ROC)"
+    assert cells[row][0] == f"{100 * at1['detection_rate']:.1f} %"
+    drones = f["per_class"]["drone"]
+    assert cells["drones called UAV (any-spike)"][0] == (
+        f"{100 * drones['called_uav_rate']:.1f} % of {drones['windows']}"
+    )
+    rule = f["tracks"]["rules"]["any_spike"]
+    found = f"{rule['found']} of {f['tracks']['uav_recordings']}; "
+    assert cells["tracks, any-spike: UAV recordings found; false tracks per minute"][1] == (
+        found + f"{rule['false_tracks_per_minute']:.1f}"
+    )
+    bare = tmp_path / "bare.json"
+    bare.write_text(json.dumps({k: v for k, v in f.items() if k != "identification"}))
+    with pytest.raises(SystemExit):
+        bench.main([f"a={bare}"])
+    with pytest.raises(SystemExit):
+        bench.main([str(out)])
