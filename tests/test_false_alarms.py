@@ -398,6 +398,9 @@ def test_the_size_table_bench_reads_each_cell_from_evaluates_json(
     assert cells["drones called UAV (any-spike)"][0] == (
         f"{100 * drones['called_uav_rate']:.1f} % of {drones['windows']}"
     )
+    assert cells["drones called UAV with identification"] == 2 * [
+        f"{100 * ident['identified']['per_class']['drone']:.1f} %"
+    ]
     rule = f["tracks"]["rules"]["any_spike"]
     found = f"{rule['found']} of {f['tracks']['uav_recordings']}; "
     assert cells["tracks, any-spike: UAV recordings found; false tracks per minute"][1] == (
@@ -409,3 +412,40 @@ def test_the_size_table_bench_reads_each_cell_from_evaluates_json(
         bench.main([f"a={bare}"])
     with pytest.raises(SystemExit):
         bench.main([str(out)])
+
+
+def test_the_missed_drones_bench_counts_each_bin_and_matches_evaluate(
+    tmp_path: Path, bench_script, capsys
+) -> None:
+    """benches/python/missed_drones.py: a window's rotor is any of its objects'; the bins count
+    each UAV window once, an unknown speed apart; on a tiny run its totals are the detection
+    `uavsnn evaluate` reads off the same ROC."""
+    import json
+
+    from uavsnn.cli import main
+
+    bench = bench_script("missed_drones")
+    rotor = bench.window_rotor(np.array([0.0, 1.0, 0.0, 0.0]), np.array([0, 0, 2, 3]), 5)
+    assert rotor.tolist() == [True, False, False, False, False]
+    light = np.array([0.05, 0.05, 0.5, 0.5, 0.2])
+    speed = np.array([10.0, np.nan, 150.0, 150.0, 50.0])
+    hit = np.array([True, True, False, True, True])
+    rows = bench.bin_rows(light, speed, {"hit": hit})
+    assert [(r["light"], r["speed"], r["windows"], r["hit"]) for r in rows] == [
+        ("0–0.1", "0–20", 1, 1),
+        ("0–0.1", "unknown", 1, 1),
+        ("0.1–0.3", "20–100", 1, 1),
+        ("0.3–1", "100–inf", 2, 1),
+    ]
+    model, root = _tiny_run(tmp_path, n_train=0)
+    assert main(["evaluate", str(model), str(root), "--json"]) == 0
+    ident = json.loads(capsys.readouterr().out)["identification"]
+    bench.main([str(model), str(root)])
+    out = capsys.readouterr().out
+    total = next(line for line in out.splitlines() if line.startswith("| all |"))
+    windows, any_spike, at1, at5, _ = (int(c) for c in total.strip("| ").split(" | ")[2:])
+    (tp, fn), _ = ident["any_spike"]["confusion"]
+    assert (windows, any_spike) == (tp + fn, tp)
+    for count, point in zip((at1, at5), ident["at_false_alarm"], strict=True):
+        assert count == round(point["detection_rate"] * windows)
+    assert windows > 0 and any_spike > 0 and "UAV-free recordings alarming" in out
