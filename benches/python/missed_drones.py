@@ -9,7 +9,7 @@ split's ROC, as ``uavsnn evaluate``'s "detection at 1 % false alarms" is. Prints
 1. the UAV windows by the scene's light level (from the manifest) and the labelled box's speed
    (its centre's displacement to the recording's next window, ``drone_bird_spectra.box_speed``):
    how many the any-spike rule detects, how many pass each threshold, and in how many a
-   detected object's rotor signature is detected (``rotor_detected``);
+   detected object's rotor signature is detected (``rotor_detected``); then by light alone;
 2. the UAV-free recordings whose windows alarm at each threshold, with their class and light.
 
     python benches/python/missed_drones.py runs/dvs1280t/model.npz runs/dvs1280t
@@ -101,6 +101,13 @@ def main(argv: Sequence[str] | None = None) -> None:
         print("| " + " | ".join(cells) + " |")
     total = [str(len(uav))] + [str(int(v.sum())) for v in columns.values()]
     print("| all | all | " + " | ".join(total) + " |")
+    print("\nBy light alone:\n")
+    print("| light | windows | " + " | ".join(columns) + " |")
+    print("|---|---|" + "---|" * len(columns))
+    for lo, hi in LIGHT_BINS:
+        lit = (light >= lo) & (light < hi)
+        cells = [str(int(lit.sum()))] + [str(int(v[lit].sum())) for v in columns.values()]
+        print(f"| {lo:g}–{min(hi, 1.0):g} | " + " | ".join(cells) + " |")
     print("\nUAV-free recordings alarming (class, light: windows alarming of the recording's):\n")
     free = ~label
     for r in RATES:
