@@ -171,6 +171,7 @@ def _made_as_built(root: Path, videos: Path | None = None) -> None:
 def test_the_clips_are_made_as_the_build_made_them(footage: tuple[Path, Path, Path]) -> None:
     root, videos, _ = footage
     _made_as_built(root, videos)
+    assert all(clip.spec() is None for clip in clip_set(root, "test", videos).clips)
 
 
 @pytest.mark.parametrize(("domain", "stratify"), [("dvs", False), ("dvs", True), ("sim", False)])
@@ -195,6 +196,25 @@ def test_rendered_recordings_are_made_and_streamed_as_built(
     kinds = {r["kind"] for r in manifest["recordings"] if r["id"] in test}
     assert {"uav", "object"} <= kinds  # object scenes: stratified ones take their kinds in turn
     _made_as_built(root)
+    # Each clip's scene, drawn again without rendering, is the one its manifest record describes.
+    records = {r["name"]: r for r in manifest["recordings"]}
+    for clip in clip_set(root).clips:
+        spec, record = clip.spec(), records[clip.name]
+        assert spec is not None
+        assert (spec.background.kind, round(spec.lighting.level, 4)) == (
+            record["background"],
+            record["lighting"],
+        )
+        drawn = [
+            {
+                "kind": o.kind,
+                "size_m": round(o.size_m, 4),
+                "range_m": round(o.path.start[2], 2),
+                "path": o.path.kind,
+            }
+            for o in spec.objects
+        ]
+        assert drawn == record["objects"]
     figures = evaluate_clips(Network.load(footage[2]), root)
     assert figures["clips"] == len(clip_set(root).clips) > 1
     assert all(r["windows"] > 0 for r in figures["per_clip"])

@@ -10,7 +10,9 @@ split's ROC, as ``uavsnn evaluate``'s "detection at 1 % false alarms" is. Prints
    (its centre's displacement to the recording's next window, ``drone_bird_spectra.box_speed``):
    how many the any-spike rule detects, how many pass each threshold, and in how many a
    detected object's rotor signature is detected (``rotor_detected``); then by light alone;
-2. the UAV-free recordings whose windows alarm at each threshold, with their class and light.
+2. the UAV-free recordings whose windows alarm at each threshold, with their class and light,
+   and their objects as the build drew them (``uavsnn.clips.Whole.spec``: size, range, and the
+   wing beat or rotor rate).
 
     python benches/python/missed_drones.py runs/dvs1280t/model.npz runs/dvs1280t
 """
@@ -26,8 +28,10 @@ import numpy as np
 from drone_bird_spectra import box_speed, labelled_split
 
 from uavsnn import Network, identify
+from uavsnn.clips import clip_set
 from uavsnn.evaluation import threshold_at_false_alarm
 from uavsnn.features import FEATURES
+from uavsnn.scenes import SceneSpec
 
 RATES = (0.01, 0.05)
 LIGHT_BINS = ((0.0, 0.1), (0.1, 0.3), (0.3, 1.01))
@@ -63,6 +67,28 @@ def bin_rows(
                     }
                 )
     return rows
+
+
+def describe(spec: SceneSpec) -> str:
+    """A scene's objects: kind, size (m), range at the start (m) and rate (the wing beat, a
+    rotor's revolutions or a leaf's tumble, per second)."""
+    return ", ".join(
+        f"{o.kind} {o.size_m:.3g} m at {o.path.start[2]:.3g} m, {o.rate_hz:.0f}/s"
+        for o in spec.objects
+    )
+
+
+def scene_objects(root: Path, split: str, manifest: dict[str, Any]) -> dict[int, str]:
+    """Each rendered recording of the split (by id): its objects as its build drew them
+    (:meth:`uavsnn.clips.Whole.spec`, no rendering)."""
+    clips = {c.name: c for c in clip_set(root, split).clips}
+    out = {}
+    for r in manifest["recordings"]:
+        whole = clips.get(str(r["name"]))
+        spec = None if whole is None else whole.spec()
+        if spec is not None:
+            out[int(r["id"])] = describe(spec)
+    return out
 
 
 def main(argv: Sequence[str] | None = None) -> None:
@@ -108,8 +134,12 @@ def main(argv: Sequence[str] | None = None) -> None:
         lit = (light >= lo) & (light < hi)
         cells = [str(int(lit.sum()))] + [str(int(v[lit].sum())) for v in columns.values()]
         print(f"| {lo:g}–{min(hi, 1.0):g} | " + " | ".join(cells) + " |")
-    print("\nUAV-free recordings alarming (class, light: windows alarming of the recording's):\n")
+    print(
+        "\nUAV-free recordings alarming (class, light: windows alarming of the recording's; "
+        "the scene's objects as drawn):\n"
+    )
     free = ~label
+    scenes = scene_objects(args.dataset, args.split, d.manifest)
     for r in RATES:
         recs = sorted({int(x) for x in d.recording[free & at[r]]})
         items = []
@@ -117,7 +147,8 @@ def main(argv: Sequence[str] | None = None) -> None:
             mine = free & (d.recording == rec)
             cls = str(d.cls[mine][0])
             items.append(
-                f"{rec} ({cls}, {light_of[rec]:.2f}: {int(at[r][mine].sum())} of {int(mine.sum())})"
+                f"{rec} ({cls}, {light_of[rec]:.2f}: {int(at[r][mine].sum())} of "
+                f"{int(mine.sum())}; {scenes.get(rec, '?')})"
             )
         print(f"- at {100 * r:g} %: " + ("; ".join(items) or "none"))
 

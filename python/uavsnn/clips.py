@@ -54,6 +54,7 @@ if TYPE_CHECKING:
     from uavsnn.dataset.synthetic import SceneSource
     from uavsnn.detector import WindowReport
     from uavsnn.network import Network
+    from uavsnn.scenes import SceneSpec
     from uavsnn.sim import Pix2NvsParams
 
 __all__ = [
@@ -99,6 +100,13 @@ class Whole:
             raise InternalError(f"clip {self.name} has no way to be made")
         lr = synthetic_recording(*self.scene)
         return lr.recording.events, lr.timestamps_us, lr.labels, lr.labelled, lr.end_us
+
+    def spec(self) -> SceneSpec | None:
+        """The scene of a rendered clip as its build drew it (its objects' kinds, sizes, paths
+        and rates), without rendering it; ``None`` for real footage."""
+        from uavsnn.dataset.synthetic import scene_spec
+
+        return None if self.scene is None else scene_spec(*self.scene)
 
 
 @dataclass(frozen=True)

@@ -34,6 +34,7 @@ from uavsnn.dataset.synthetic import (
     LabelledRecording,
     SceneSource,
     default_source,
+    scene_spec,
     synthetic_recording,
     synthetic_split,
 )
@@ -63,6 +64,7 @@ __all__ = [
     "read_boxes",
     "read_manifest",
     "save_split",
+    "scene_spec",
     "synthetic_recording",
     "synthetic_split",
 ]

@@ -45,7 +45,7 @@ from uavsnn.dataset.splits import (
 )
 from uavsnn.errors import DatasetError, ParameterError
 from uavsnn.events import Recording
-from uavsnn.scenes import object_shares, record, render, sample_spec
+from uavsnn.scenes import SceneSpec, object_shares, record, render, sample_spec
 from uavsnn.sim import SCENE_PARAMS, DvsParams, Pix2NvsParams, Pix2NvsSimulator, crop_to_aspect
 from uavsnn.windows import Windows
 
@@ -54,6 +54,7 @@ __all__ = [
     "LabelledRecording",
     "SceneSource",
     "default_source",
+    "scene_spec",
     "sim_render_size",
     "stratified_object",
     "synthetic_recording",
@@ -170,22 +171,36 @@ class LabelledRecording:
         return int(t[-1]) + int(t[-1] - t[-2])
 
 
-def synthetic_recording(
-    source: SceneSource, kind: str, seed: int, object_kind: str | None = None
-) -> LabelledRecording:
-    """Sample a scene of ``kind`` (and ``object_kind``; see :func:`uavsnn.scenes.sample_spec`),
-    render it and simulate its events, all from ``seed``."""
+def _seeds(seed: int) -> tuple[np.random.SeedSequence, np.random.SeedSequence]:
+    """The streams a recording's ``seed`` splits into: its scene's, and its rendering's."""
     spec_seq, render_seq, _ = np.random.SeedSequence(seed).spawn(3)
-    spec = sample_spec(
+    return spec_seq, render_seq
+
+
+def scene_spec(
+    source: SceneSource, kind: str, seed: int, object_kind: str | None = None
+) -> SceneSpec:
+    """The scene :func:`synthetic_recording` renders for these arguments, without rendering it:
+    its objects as drawn (kind, size, path, wing beat or rotor rate, ...), its light and
+    background."""
+    return sample_spec(
         source.domain,
         kind,
-        np.random.default_rng(spec_seq),
+        np.random.default_rng(_seeds(seed)[0]),
         size=source.size,
         fps=source.fps,
         duration_s=source.duration_s,
         object_kind=object_kind,
     )
-    render_seed = int(render_seq.generate_state(1)[0])
+
+
+def synthetic_recording(
+    source: SceneSource, kind: str, seed: int, object_kind: str | None = None
+) -> LabelledRecording:
+    """Sample a scene of ``kind`` (and ``object_kind``; see :func:`uavsnn.scenes.sample_spec`),
+    render it and simulate its events, all from ``seed``."""
+    spec = scene_spec(source, kind, seed, object_kind)
+    render_seed = int(_seeds(seed)[1].generate_state(1)[0])
     if source.domain == "dvs":
         # Fast parts sampled between frames, frame by frame into the emulator.
         recorded = record(spec, sensor=source.sensor, seed=render_seed, params=source.dvs_params)
