@@ -16,11 +16,13 @@ Reads the files only.
 from __future__ import annotations
 
 import argparse
+import itertools
 import json
+import math
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from uavsnn.evaluation import detection_by_target
+from uavsnn.evaluation import SIZE_BINS_PX, detection_by_target
 
 
 def pct(x: float | None) -> str:
@@ -107,11 +109,16 @@ ROWS: tuple[tuple[str, Callable[[dict[str, Any]], str]], ...] = (
     ("detection at 5 % false alarms (test ROC)", _roc(0.05)),
     ("set beforehand for 1 %: detection (false alarms)", _set_beforehand(0.01)),
     ("set beforehand for 5 %", _set_beforehand(0.05)),
+    # The size bins of `uavsnn evaluate` from 6 px (the target counts those).
     *(
-        (f"drones of {lo:g}–{hi:g} px at 1 %", _size_at_1(lo))
-        for lo, hi in ((6, 12), (12, 24), (24, 48))
+        (
+            f"drones of {lo:g}–{hi:g} px at 1 %"
+            if math.isfinite(hi)
+            else f"drones of ≥ {lo:g} px at 1 %",
+            _size_at_1(lo),
+        )
+        for lo, hi in itertools.pairwise(SIZE_BINS_PX[1:])
     ),
-    ("drones of ≥ 48 px at 1 %", _size_at_1(48)),
     ("false alarms at 1 %, by class", _false_alarms_at_1),
     ("tracks, any-spike: UAV recordings found; false tracks per minute", _tracks("any_spike")),
     ("tracks, with identification", _tracks("identified")),
