@@ -29,11 +29,11 @@ from drone_bird_spectra import box_speed, labelled_split
 
 from uavsnn import Network, identify
 from uavsnn.clips import clip_set
-from uavsnn.evaluation import threshold_at_false_alarm
+from uavsnn.evaluation import FALSE_ALARM_RATES, threshold_at_false_alarm
 from uavsnn.features import FEATURES
 from uavsnn.scenes import SceneSpec
 
-RATES = (0.01, 0.05)
+RATES = FALSE_ALARM_RATES
 LIGHT_BINS = ((0.0, 0.1), (0.1, 0.3), (0.3, 1.01))
 SPEED_BINS = ((0.0, 20.0), (20.0, 100.0), (100.0, np.inf))
 
