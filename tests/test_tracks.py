@@ -20,7 +20,7 @@ from uavsnn.detector import (
     WindowReport,
     _with_rotor,
 )
-from uavsnn.tracks import Tracker, track_windows
+from uavsnn.tracks import GATE_SHARE, Tracker, track_windows
 
 STEP = 25_000  # µs between window starts (50 ms windows, overlap 0.5)
 
@@ -70,6 +70,30 @@ def test_constant_velocity_keeps_one_id_and_measures_the_motion() -> None:
         True,
         True,
     ]
+
+
+def test_the_gate_scales_with_the_sensor() -> None:
+    """An object crossing the same share of a 1280-px-wide sensor as a 240-px one does in a
+    window moves 5.3 times as many pixels: 30 px per window there is 5.6 px at 240. The 240
+    gate (24 px) never links it, so no track is confirmed; the 1280 sensor's links it."""
+    assert Tracker.for_sensor(240).gate_px == pytest.approx(24.0) == Tracker().gate_px
+    assert Tracker.for_sensor(1280).gate_px == pytest.approx(GATE_SHARE * 1280)
+    reps = [report(k, [box_at(100 + 30 * k, 300 + 4 * k, half=12)]) for k in range(12)]
+    split = track_windows(reps, Tracker())
+    assert len(split.tracks) == 12 and not any(t.confirmed for t in split.tracks)
+    whole = track_windows(reps, Tracker.for_sensor(1280, confirm_hits=2, confirm_windows=3))
+    (track,) = whole.tracks
+    assert track.hits == 12 and track.first_alarm_window == 1
+    assert track.velocity == pytest.approx((1200.0, 160.0), rel=1e-6)
+
+
+@pytest.mark.parametrize(
+    ("width", "kwargs"),
+    [(0, {}), (True, {}), (240.0, {}), (240, {"gate_px": 10.0}), (240, {"alpha": 2.0})],
+)
+def test_for_sensor_refuses_bad_arguments(width: object, kwargs: dict) -> None:
+    with pytest.raises(ParameterError):
+        Tracker.for_sensor(width, **kwargs)  # type: ignore[arg-type]
 
 
 def test_each_object_carries_its_track_so_far_and_the_rotor_mean() -> None:
@@ -355,6 +379,12 @@ def test_streaming_in_any_chunks_equals_batch(net: Network, cuts: list[int], see
     assert key(reps) == key(list(result.reports))
     assert sorted(det.tracker.finish(), key=lambda t: t.id) == list(result.tracks)
     assert any(o.track_id is not None for r in reps for o in r.objects)
+
+
+def test_a_detector_tracks_with_its_sensors_gate(net: Network) -> None:
+    assert Detector(net).tracker.gate_px == pytest.approx(GATE_SHARE * SIZE[0])
+    mine = Tracker(gate_px=5.0)
+    assert Detector(net, tracker=mine).tracker is mine
 
 
 def test_the_drifting_blob_is_one_confirmed_track(net: Network) -> None:

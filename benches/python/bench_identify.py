@@ -68,7 +68,11 @@ def _streams(data: Any, limit: int) -> list[np.ndarray]:
 def _stream(network: Network, streams: list[np.ndarray], full: bool) -> int:
     objects = 0
     for events in streams:
-        det = Detector(network, tracker=Tracker() if full else None, rotor=full)
+        det = Detector(
+            network,
+            tracker=Tracker.for_sensor(int(network.config["width"])) if full else None,
+            rotor=full,
+        )
         t = events["t"].astype(np.int64)
         edges = np.searchsorted(t, np.arange(int(t[0]), int(t[-1]) + 10_000, 10_000))
         for a, b in itertools.pairwise(edges):

@@ -56,7 +56,12 @@ def reports(seed: int, windows: int, rate: float) -> list[WindowReport]:
 
 
 def dataset_sweep(
-    model: str, dataset: str, split: str, keep: float = 1.0, keep_seed: int = 0
+    model: str,
+    dataset: str,
+    split: str,
+    keep: float = 1.0,
+    keep_seed: int = 0,
+    gates: tuple[float, ...] = (12.0, 24.0, 36.0),
 ) -> None:
     """Objects per UAV-free window, and the any-spike rule's track figures per tracker. With
     ``keep`` < 1, only that share of the windows (drawn with ``keep_seed``) is followed: the
@@ -92,7 +97,7 @@ def dataset_sweep(
         "(ms) | false tracks | per minute (95 % upper bound) |"
     )
     print("|---|---|---|---|---|---|")
-    for gate in (12.0, 24.0, 36.0):
+    for gate in gates:
         for hits, of in ((2, 5), (3, 5), (4, 5)):
             tracker = Tracker(gate_px=gate, confirm_hits=hits, confirm_windows=of)
             f = track_figures(data, window_features(net, data, inference, tracker=tracker))
@@ -120,13 +125,24 @@ def main() -> None:
         "--keep", type=float, default=1.0, help="follow only this share of the windows (1)"
     )
     parser.add_argument("--keep-seed", type=int, default=0, help="the seed of that draw (0)")
+    parser.add_argument(
+        "--gates",
+        default="12,24,36",
+        help="the tracker's gates (px) swept with --model, comma-separated (12,24,36)",
+    )
     args = parser.parse_args()
+    try:
+        gates = tuple(float(g) for g in args.gates.split(","))
+    except ValueError:
+        parser.error(f"--gates takes numbers separated by commas, got {args.gates!r}")
+    if not all(g > 0 for g in gates):
+        parser.error("--gates must all be > 0")
     if not 0.0 < args.keep <= 1.0:
         parser.error("--keep must be in (0, 1]")
     if (args.model is None) != (args.dataset is None):
         parser.error("--model and --dataset go together")
     if args.model is not None:
-        dataset_sweep(args.model, args.dataset, args.split, args.keep, args.keep_seed)
+        dataset_sweep(args.model, args.dataset, args.split, args.keep, args.keep_seed, gates)
         return
     seeds = range(args.first_seed, args.first_seed + args.seeds)
     print("| noise per window | gate (px) | tracks started | confirmed | per 1000 windows |")

@@ -96,7 +96,9 @@ def main() -> None:
         if free.get("confirm", "3/5") != str(rule):
             raise SystemExit(f"{path} was streamed with --confirm {free.get('confirm')}")
     data = load(args.dataset, args.split)
-    tracker = Tracker(confirm_hits=rule.hits, confirm_windows=rule.windows)
+    tracker = Tracker.for_sensor(
+        int(net.config["width"]), confirm_hits=rule.hits, confirm_windows=rule.windows
+    )
     feats = identify.window_features(net, data, tracker=tracker)
     scores = ident.scores(feats.x)
     uav = int(np.unique(np.asarray(data.recording)[np.asarray(data.label, bool)]).size)

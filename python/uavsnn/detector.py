@@ -116,7 +116,8 @@ class Detector:
             (a check that the right camera feeds the right model). Default: the network's.
         start_us: start of window 0; default: the first event's time.
         tracker: the :class:`uavsnn.tracks.Tracker` :meth:`push_windows` links objects with
-            (default: a new one with the default parameters).
+            (default: ``Tracker.for_sensor`` of the network's width: the default parameters,
+            the gate a share of the width).
         rotor: whether :meth:`push_windows` measures each object's rotor signature.
 
     Raises:
@@ -175,7 +176,7 @@ class Detector:
         self._network = network
         self._start_us = start_us
         self._busy_ns = 0
-        self._tracker = Tracker() if tracker is None else tracker
+        self._tracker = Tracker.for_sensor(width) if tracker is None else tracker
         self._rotor = bool(rotor)
         self._grouper: WindowGrouper | None = None
         self._recent: list[np.ndarray] = []  # raw events of the open windows, in order

@@ -198,7 +198,9 @@ def stream_reports(
 
     tracker = None
     if confirm is not None:
-        tracker = Tracker(confirm_hits=confirm[0], confirm_windows=confirm[1])
+        tracker = Tracker.for_sensor(
+            int(network.config["width"]), confirm_hits=confirm[0], confirm_windows=confirm[1]
+        )
     detector = Detector(
         network,
         window_us=window_us,

@@ -362,7 +362,7 @@ def window_features(
             "(`uavsnn dataset build`, format 2)"
         )
     if tracker is None:
-        tracker = Tracker()
+        tracker = Tracker.for_sensor(expected[0])
     elif not isinstance(tracker, Tracker):
         raise ParameterError(f"tracker must be a uavsnn.tracks.Tracker, got {tracker!r}")
     order, step = window_steps(data)

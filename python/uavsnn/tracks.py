@@ -30,7 +30,22 @@ from uavsnn.features import activity
 if TYPE_CHECKING:
     from uavsnn.detector import WindowReport
 
-__all__ = ["MAX_ENDED", "MAX_TRACKS_LIMIT", "Track", "TrackResult", "Tracker", "track_windows"]
+__all__ = [
+    "GATE_SHARE",
+    "MAX_ENDED",
+    "MAX_TRACKS_LIMIT",
+    "Track",
+    "TrackResult",
+    "Tracker",
+    "track_windows",
+]
+
+#: The gate of :meth:`Tracker.for_sensor`, a share of the sensor's width: 24 px at 240×180,
+#: 64 px at 640×480, 128 px at 1280×720. The scenes draw the field of view in degrees whatever
+#: the sensor, so an object crosses the same share of the width per window at every size; a
+#: gate fixed in pixels would split the tracks of a finer sensor (docs/identification.md,
+#: "The gate scales with the sensor").
+GATE_SHARE = 0.1
 
 #: The cap ``max_tracks`` may not exceed (each live track is a few hundred bytes; the
 #: assignment is greedy over at most ``max_tracks × objects`` pairs per window).
@@ -269,7 +284,8 @@ class Tracker:
 
     Args:
         gate_px: the largest distance (px) between a track's predicted centre and an object's
-            centre for them to be linked (default 24).
+            centre for them to be linked (default 24, the gate of a 240×180 sensor; a network's
+            tracker takes its sensor's from :meth:`for_sensor`).
         alpha, beta: the position and velocity gains of the constant-velocity (alpha-beta)
             filter, in ``(0, 1]`` (defaults 0.6 and 0.3).
         confirm_hits, confirm_windows: a track is confirmed when it has hits in at least
@@ -328,6 +344,21 @@ class Tracker:
         self.max_misses = max_misses
         self.max_tracks = max_tracks
         self.reset()
+
+    @classmethod
+    def for_sensor(cls, width: int, **kwargs: Any) -> Tracker:
+        """The tracker of a sensor ``width`` pixels wide: its gate is :data:`GATE_SHARE` of the
+        width; ``kwargs`` are the other arguments of :class:`Tracker`.
+
+        Raises:
+            ParameterError: ``width`` is not an integer >= 1, ``kwargs`` names ``gate_px``, or
+                another argument is out of range.
+        """
+        if isinstance(width, bool) or not isinstance(width, int) or width < 1:
+            raise ParameterError(f"width must be an integer >= 1, got {width!r}")
+        if "gate_px" in kwargs:
+            raise ParameterError("for_sensor sets gate_px from the width; use Tracker(gate_px=)")
+        return cls(gate_px=GATE_SHARE * width, **kwargs)
 
     def reset(self) -> None:
         """Forget every track; ids start from 1 again."""

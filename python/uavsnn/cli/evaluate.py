@@ -136,7 +136,11 @@ def _evaluate(args: argparse.Namespace) -> int:
         from uavsnn import identify
         from uavsnn.tracks import Tracker
 
-        tracker = Tracker(confirm_hits=confirm.hits, confirm_windows=confirm.windows)
+        tracker = Tracker.for_sensor(
+            int(network.config["width"]),
+            confirm_hits=confirm.hits,
+            confirm_windows=confirm.windows,
+        )
         features = identify.window_features(network, data, result.inference, tracker=tracker)
     ident = _identification(args, network, data, result, features, confirm)
     if ident:
