@@ -38,13 +38,16 @@ DVS = SceneSource("dvs", (240, 180), 200.0, 0.3)
 
 @pytest.fixture(scope="module")
 def runner() -> Any:
-    """A local Ray cluster of 2 CPUs on 127.0.0.1, for this module only."""
+    """A local Ray cluster of 2 CPUs and a 256 MiB object store (Ray spills beyond it) on
+    127.0.0.1, for this module only: by default Ray's store takes 30 % of the machine's
+    memory, which a test has no business holding."""
     if ray is None:
         pytest.skip("Ray is not installed: pip install '.[test,ray]' (the 'ray' extra)")
     from uavsnn import distributed
 
     ray.init(
         num_cpus=2,
+        object_store_memory=256 * 1024**2,
         include_dashboard=False,
         _node_ip_address="127.0.0.1",
         logging_level="WARNING",
