@@ -6,7 +6,7 @@ instructions per event the network consumes and the ratios of ``bench_identify.p
 
 - batch: identification (``identify.window_features`` and ``Identifier.window_scores``)
   over the network's inference (``Network.infer``, one thread), per input spike;
-- streaming: the ``Detector`` with rotor, tracks and scores over the network alone, on the
+- streaming: the ``Detector`` with rotor, tracks and scores over the network and tracker, on the
   same raw events, per raw event.
 
 Instruction counts do not depend on what else the machine runs, so a shared machine gives
@@ -102,7 +102,7 @@ def main() -> None:
         f"identification {b['identification_per_spike']:.0f}, ratio {b['ratio']:.3f}"
     )
     print(
-        f"streaming, {raw} raw events: network alone {s['network_per_event']:.0f} "
+        f"streaming, {raw} raw events: network and tracker {s['network_per_event']:.0f} "
         f"instructions/event, with rotor, tracks and scores "
         f"{s['with_identification_per_event']:.0f}, added {s['ratio']:.3f} of the network's"
     )
