@@ -125,11 +125,13 @@ def scene_source(described: dict[str, Any]) -> SceneSource:
     """The :class:`~uavsnn.dataset.synthetic.SceneSource` a manifest's ``sources`` entry
     describes (:meth:`~uavsnn.dataset.synthetic.SceneSource.describe`)."""
     from uavsnn.dataset.synthetic import SceneSource
+    from uavsnn.scenes import Lens
     from uavsnn.sim import DvsParams, Pix2NvsParams
 
     domain = str(described["domain"])
     fps = described["fps"]
     params = described["simulator_params"]
+    lens = described.get("lens")
     return SceneSource(
         domain,
         (int(described["render_size"][0]), int(described["render_size"][1])),
@@ -138,6 +140,7 @@ def scene_source(described: dict[str, Any]) -> SceneSource:
         sensor=(int(described["sensor_size"][0]), int(described["sensor_size"][1])),
         dvs_params=DvsParams(**params) if domain == "dvs" else None,
         pix2nvs_params=Pix2NvsParams(**params) if domain == "sim" else None,
+        lens=None if lens is None else Lens(**lens),
     )
 
 

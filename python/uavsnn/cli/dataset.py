@@ -10,15 +10,33 @@ from __future__ import annotations
 
 import argparse
 import json
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from uavsnn.dataset import DATASET_DOMAINS, DatasetPaths, build, build_demo, read_manifest
+from uavsnn.dataset import (
+    DATASET_DOMAINS,
+    DatasetPaths,
+    SceneSource,
+    build,
+    build_demo,
+    default_source,
+    parse_sensor,
+    read_manifest,
+)
 from uavsnn.distributed import add_ray_option, runner_for
-from uavsnn.errors import ParameterError
-from uavsnn.scenes import OBJECT_KINDS, SCENE_KINDS, contact_sheet, render, sample_spec, write_png
+from uavsnn.errors import ParameterError, SimulationError
+from uavsnn.scenes import (
+    OBJECT_KINDS,
+    SCENE_KINDS,
+    Lens,
+    contact_sheet,
+    render,
+    sample_spec,
+    write_png,
+)
 from uavsnn.sim import Pix2NvsParams
 
 __all__ = ["register"]
@@ -91,6 +109,20 @@ def register(subparsers: Any) -> None:
         help="rendered scenes of non-UAV objects take each kind (bird, aircraft, helicopter, "
         "ball, insect, leaf) in its share instead of at random: for tuning sets, which must "
         "hold every kind",
+    )
+    b.add_argument(
+        "--lens",
+        type=float,
+        metavar="F_NUMBER",
+        help="dvs: scenes seen through a lens of this f-number (e.g. 1.4) on the sensor's pixel "
+        "pitch, focused at --focus-m: near objects blur as a real camera's do (default: a "
+        "pinhole, every range sharp; docs/simulation.md)",
+    )
+    b.add_argument(
+        "--focus-m",
+        type=float,
+        metavar="M",
+        help="with --lens: the range the lens is focused at, in metres (default: infinity)",
     )
     b.add_argument("--overwrite", action="store_true", help="replace a dataset in OUT_DIR")
     b.add_argument("--json", action="store_true", help="print the summary as JSON")
@@ -196,12 +228,28 @@ def _build(args: argparse.Namespace) -> int:
         test_fraction=args.test_fraction,
         sensor=args.sensor,
         pix2nvs_params=_pix2nvs(args),
+        dvs=_lens_source(args),
         overwrite=args.overwrite,
         progress=_progress(args.quiet),
         runner=runner_for(args.ray),
         stratify=args.stratify,
     )
     return _done(paths, args.json)
+
+
+def _lens_source(args: argparse.Namespace) -> SceneSource | None:
+    """The dvs scenes through ``--lens`` (``None``: the default source, a pinhole)."""
+    if args.lens is None:
+        if args.focus_m is not None:
+            raise ParameterError("--focus-m sets the focus of --lens; give --lens too")
+        return None
+    if args.domain not in ("dvs", "combined"):
+        raise ParameterError(f"--lens is for rendered dvs scenes, not --domain {args.domain}")
+    try:
+        lens = Lens(args.lens, args.focus_m)
+    except SimulationError as exc:
+        raise ParameterError(str(exc)) from exc
+    return replace(default_source("dvs", parse_sensor(args.sensor)), lens=lens)
 
 
 def _demo(args: argparse.Namespace) -> int:

@@ -43,9 +43,9 @@ from uavsnn.dataset.splits import (
     keyed_seed,
     take_labels,
 )
-from uavsnn.errors import DatasetError, ParameterError
+from uavsnn.errors import DatasetError, ParameterError, SimulationError
 from uavsnn.events import Recording
-from uavsnn.scenes import SceneSpec, object_shares, record, render, sample_spec
+from uavsnn.scenes import Lens, SceneSpec, object_shares, record, render, sample_spec
 from uavsnn.sim import SCENE_PARAMS, DvsParams, Pix2NvsParams, Pix2NvsSimulator, crop_to_aspect
 from uavsnn.windows import Windows
 
@@ -93,8 +93,10 @@ def default_source(domain: str, sensor: tuple[int, int] = (240, 180)) -> SceneSo
 @dataclass(frozen=True)
 class SceneSource:
     """How recordings of one synthetic domain are made: render ``size``, frame rate (``None``:
-    the domain's default), clip ``duration_s``, the sensor size, and the simulator's
-    parameters (``None``: its defaults)."""
+    the domain's default), clip ``duration_s``, the sensor size, the simulator's parameters
+    (``None``: its defaults) and the camera's ``lens`` (dvs only; ``None``: a pinhole, every
+    range sharp; :class:`uavsnn.scenes.Lens`). The lens changes no draw of the scene: the same
+    seed gives the same objects, light and paths with or without it."""
 
     domain: str
     size: tuple[int, int]
@@ -103,10 +105,23 @@ class SceneSource:
     sensor: tuple[int, int] = (240, 180)
     dvs_params: DvsParams | None = None
     pix2nvs_params: Pix2NvsParams | None = None
+    lens: Lens | None = None
 
     def __post_init__(self) -> None:
         if self.domain not in ("dvs", "sim"):
             raise ParameterError(f"a scene source's domain is 'dvs' or 'sim', got {self.domain!r}")
+        if self.lens is not None:
+            if not isinstance(self.lens, Lens):
+                raise ParameterError(f"lens must be a uavsnn.scenes.Lens, got {self.lens!r}")
+            if self.domain != "dvs":
+                raise ParameterError(
+                    "a lens is for the dvs domain (the sim domain renders video frames, whose "
+                    "pixels are not the sensor's)"
+                )
+            try:
+                self.lens.pitch_um(self.sensor)
+            except SimulationError as exc:
+                raise ParameterError(str(exc)) from exc
         if self.domain == "dvs" and tuple(self.size) != tuple(self.sensor):
             raise ParameterError(
                 f"the dvs domain renders at the sensor's size {self.sensor}, got {self.size}"
@@ -143,6 +158,11 @@ class SceneSource:
         if self.domain == "dvs":
             out["simulator"] = "uavsnn.scenes.record (uavsnn.sim.DvsEmulator, sub-frame samples)"
             out["simulator_params"] = _params(self.dvs_params or SCENE_PARAMS)
+            if self.lens is not None:
+                out["lens"] = {
+                    **self.lens.describe(),
+                    "pixel_um": self.lens.pitch_um(self.sensor),
+                }
         else:
             out["simulator"] = "uavsnn.sim.Pix2NvsSimulator (events pooled onto the sensor)"
             out["simulator_params"] = _params(self.pix2nvs_params or Pix2NvsParams())
@@ -182,8 +202,8 @@ def scene_spec(
 ) -> SceneSpec:
     """The scene :func:`synthetic_recording` renders for these arguments, without rendering it:
     its objects as drawn (kind, size, path, wing beat or rotor rate, ...), its light and
-    background."""
-    return sample_spec(
+    background, and the source's lens."""
+    spec = sample_spec(
         source.domain,
         kind,
         np.random.default_rng(_seeds(seed)[0]),
@@ -192,6 +212,7 @@ def scene_spec(
         duration_s=source.duration_s,
         object_kind=object_kind,
     )
+    return spec if source.lens is None else source.lens.on(spec, source.sensor)
 
 
 def synthetic_recording(

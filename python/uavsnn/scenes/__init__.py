@@ -6,11 +6,13 @@ rendered between frames too) with its labels;
 OpenCV and NumPy; ``sample_spec(domain, kind, rng)`` draws varied specs: Phantom- and
 Tello-sized quadcopters with spinning rotors, birds with beating wings, aircraft, helicopters,
 balls, insects and leaves, in front of sky with drifting clouds, a field with trees or a sports
-hall, in light from bright to very dark. See ``docs/dataset.md``.
+hall, in light from bright to very dark; seen through a pinhole, or through a :class:`Lens`
+that blurs what is near. See ``docs/dataset.md``.
 """
 
 from __future__ import annotations
 
+from uavsnn.scenes.camera import PIXEL_PITCH_UM, Lens
 from uavsnn.scenes.preview import contact_sheet, write_png
 from uavsnn.scenes.record import Recorded, record, spec_from_dict, spec_to_dict
 from uavsnn.scenes.renderer import LABEL_DTYPE, render, scene_labels
@@ -34,9 +36,11 @@ __all__ = [
     "DOMAINS",
     "LABEL_DTYPE",
     "OBJECT_KINDS",
+    "PIXEL_PITCH_UM",
     "SCENE_KINDS",
     "UAV_CLASS",
     "Background",
+    "Lens",
     "Lighting",
     "ObjectSpec",
     "PathSpec",

@@ -9,12 +9,85 @@ objects and background move together.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from uavsnn.scenes.spec import SceneSpec
+from uavsnn.errors import SimulationError
+from uavsnn.scenes.spec import NEAR_FOCUS_M, SceneSpec
 
-__all__ = ["Camera", "attitude", "view_rotation"]
+__all__ = ["PIXEL_PITCH_UM", "Camera", "Lens", "attitude", "view_rotation"]
+
+#: Pixel pitch (µm) of the event sensors of each size the project builds datasets for: the
+#: DVS240 and DAVIS346 (18.5 µm), Prophesee's Gen3 VGA (15 µm) and Gen4 / Sony IMX636
+#: (4.86 µm), from their data sheets.
+PIXEL_PITCH_UM: dict[tuple[int, int], float] = {
+    (240, 180): 18.5,
+    (346, 260): 18.5,
+    (640, 480): 15.0,
+    (1280, 720): 4.86,
+}
+
+
+@dataclass(frozen=True)
+class Lens:
+    """A camera lens of ``f_number`` focused at ``focus_m`` metres (``None``: infinity, as a
+    camera watching the sky is set), on a sensor of ``pixel_um`` pitch (``None``: the pitch of
+    :data:`PIXEL_PITCH_UM` for the sensor's size).
+
+    A scene's focal length in pixels and the pitch give the lens's focal length
+    (``focal_px · pitch``), and the f-number its aperture (``focal length / f_number``). With
+    focus at infinity, a point at range ``Z`` spans ``focal_px² · pitch / (f_number · Z)``
+    pixels: at one field of view and f-number, a sensor of more pixels (and, for the same
+    pixel count, of larger pixels) blurs a near object over more of its pixels.
+    """
+
+    f_number: float
+    focus_m: float | None = None
+    pixel_um: float | None = None
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.f_number) and 0.5 <= self.f_number <= 64):
+            raise SimulationError(f"lens f_number must be in [0.5, 64], got {self.f_number!r}")
+        if self.focus_m is not None and not (
+            math.isfinite(self.focus_m) and NEAR_FOCUS_M <= self.focus_m <= 1e6
+        ):
+            raise SimulationError(
+                f"lens focus_m must be in [{NEAR_FOCUS_M}, 1e6] m or None (infinity), "
+                f"got {self.focus_m!r}"
+            )
+        if self.pixel_um is not None and not (
+            math.isfinite(self.pixel_um) and 0.5 <= self.pixel_um <= 100
+        ):
+            raise SimulationError(f"lens pixel_um must be in [0.5, 100], got {self.pixel_um!r}")
+
+    def pitch_um(self, sensor: tuple[int, int]) -> float:
+        """The pixel pitch (µm) of ``sensor``: this lens's ``pixel_um``, else the known one.
+
+        Raises:
+            SimulationError: no pitch given and none known for that size.
+        """
+        if self.pixel_um is not None:
+            return self.pixel_um
+        size = (int(sensor[0]), int(sensor[1]))
+        if size not in PIXEL_PITCH_UM:
+            known = ", ".join(f"{w}x{h}" for w, h in PIXEL_PITCH_UM)
+            raise SimulationError(
+                f"no pixel pitch known for a {size[0]}x{size[1]} sensor (known: {known}); "
+                f"give the lens its pixel_um"
+            )
+        return PIXEL_PITCH_UM[size]
+
+    def on(self, spec: SceneSpec, sensor: tuple[int, int]) -> SceneSpec:
+        """``spec`` seen through this lens on ``sensor`` (whose pixels ``spec.focal_px``
+        counts): its aperture and focus set, nothing else changed."""
+        focal_mm = spec.focal_px * self.pitch_um(sensor) * 1e-3
+        return replace(spec, aperture_mm=focal_mm / self.f_number, focus_m=self.focus_m)
+
+    def describe(self) -> dict[str, float | None]:
+        """The lens's settings, for a manifest."""
+        return {"f_number": self.f_number, "focus_m": self.focus_m, "pixel_um": self.pixel_um}
+
 
 #: Objects nearer than this (metres) are behind the lens and not drawn.
 NEAR_M = 0.05

@@ -2,19 +2,21 @@
 
 Per frame: crop the background textures (one warp each), draw each object far to near — its
 parts projected in one matrix product and filled anti-aliased at 1/16 pixel into a patch around
-it — then light the frame and encode it as a camera would (8-bit gamma-encoded BGR with noise
-for "sim"; linear gray intensity on the 0-255 scale for the "dvs" sensor emulator, which adds
-its own noise). :func:`frames` renders one frame at a time and, for "dvs", also renders fast
-parts (rotors, wings) in patches at jittered times between frames for the emulator
+it, spread by the lens's blur disk at its range when the spec has a lens — then light the frame
+and encode it as a camera would (8-bit gamma-encoded BGR with noise for "sim"; linear gray
+intensity on the 0-255 scale for the "dvs" sensor emulator, which adds its own noise).
+:func:`frames` renders one frame at a time and, for "dvs", also renders fast parts (rotors,
+wings) in patches at jittered times between frames for the emulator
 (:func:`uavsnn.scenes.record`).
 
 A frame's label is the box of the first visible UAV of the spec; failing that, of the first
 visible other object (``uav`` false); failing that, ``cls == "none"`` and a NaN box. A box is the
-bound of everything drawn for the object (rotor discs and blades included), clipped to the
-frame, in continuous pixel coordinates (pixel ``(i, j)`` covers ``[i, i+1) × [j, j+1)``). An
-object is visible when at least a pixel's width and height of its box (or all of it, if it is
-smaller) lies in the frame. The label also carries the object's range (metres from the camera
-to its centre) and its size in pixels (the longer side of its whole bound, before clipping).
+bound of everything drawn for the object (rotor discs and blades included, and the lens's
+blur), clipped to the frame, in continuous pixel coordinates (pixel ``(i, j)`` covers
+``[i, i+1) × [j, j+1)``). An object is visible when at least a pixel's width and height of its
+box (or all of it, if it is smaller) lies in the frame. The label also carries the object's
+range (metres from the camera to its centre) and its size in pixels (the longer side of its
+whole bound, before clipping).
 """
 
 from __future__ import annotations
@@ -89,10 +91,15 @@ def _draw(
     elevation: float,
     faces_camera: bool,
     ss: int = _SS,
+    blur: float = 0.0,
 ) -> tuple[float, float, float, float]:
     """Fill the parts into ``img`` (in place; ``None`` to only measure) and return the bound
     of what is drawn. ``ss``: the coverage grid's subdivisions per pixel (finer for thin
     fast parts, whose coverage would otherwise step by a sixteenth of a pixel as they turn).
+    ``blur``: the diameter (px) of the lens's blur disk at the object's range; each group's
+    coverage is spread by that disk (:func:`_disk`) before it is painted, and the bound grows
+    by its radius (or by the whole pixels the disk's kernel reaches, where that is more).
+    Below a pixel nothing is spread (the disk fits its own pixel).
 
     Parts of one colour and opacity share a mask; these groups are painted far to near by
     their mean depth along the line of sight.
@@ -103,6 +110,11 @@ def _draw(
     xy[:, 0] = uv[0] + scale * pts[:, 0]
     xy[:, 1] = uv[1] - scale * pts[:, 1]  # screen y points down
     (x0, y0), (x1, y1) = xy.min(axis=0).tolist(), xy.max(axis=0).tolist()
+    kernel = _disk(_blur_key(blur))
+    reach = kernel.shape[0] // 2  # pixels the blur reaches past a covered pixel
+    if reach:
+        r = max(0.5 * blur, reach)
+        x0, y0, x1, y1 = x0 - r, y0 - r, x1 + r, y1 + r
     box = (x0, y0, x1, y1)
     if img is None:
         return box
@@ -131,10 +143,12 @@ def _draw(
         if key[1] <= 0:
             continue
         members = groups[key]
-        px0 = max(min(part_lo[i][0] for i in members) // fix - 1, 0)
-        py0 = max(min(part_lo[i][1] for i in members) // fix - 1, 0)
-        px1 = min(-(-max(part_hi[i][0] for i in members) // fix) + 2, w)
-        py1 = min(-(-max(part_hi[i][1] for i in members) // fix) + 2, h)
+        # The patch drawn: the group's pixels, and as far as the blur reaches past them (off
+        # the frame too, so that what lies just outside it blurs in).
+        px0 = max(min(part_lo[i][0] for i in members) // fix - 1 - reach, -reach)
+        py0 = max(min(part_lo[i][1] for i in members) // fix - 1 - reach, -reach)
+        px1 = min(-(-max(part_hi[i][0] for i in members) // fix) + 2 + reach, w + reach)
+        py1 = min(-(-max(part_hi[i][1] for i in members) // fix) + 2 + reach, h + reach)
         if px1 <= px0 or py1 <= py0:
             continue
         fine = np.zeros(((py1 - py0) * ss, (px1 - px0) * ss), dtype=np.uint8)
@@ -147,10 +161,44 @@ def _draw(
             # The offset is added in the points' own fixed-point units, before the shift.
             cv2.fillPoly(fine, [poly], 255, cv2.LINE_8, shift=4, offset=origin)
         mask = cv2.resize(fine, (px1 - px0, py1 - py0), interpolation=cv2.INTER_AREA)
-        a = mask.astype(np.float32) * np.float32(key[1] / 255.0)
+        a: np.ndarray = mask.astype(np.float32) * np.float32(key[1] / 255.0)
+        if reach:
+            spread = cv2.filter2D(a, -1, kernel, borderType=cv2.BORDER_CONSTANT)
+            cx0, cy0, cx1, cy1 = max(px0, 0), max(py0, 0), min(px1, w), min(py1, h)
+            if cx1 <= cx0 or cy1 <= cy0:
+                continue
+            a = spread[cy0 - py0 : cy1 - py0, cx0 - px0 : cx1 - px0]
+            px0, py0, px1, py1 = cx0, cy0, cx1, cy1
         region = img[py0:py1, px0:px1]
         region += a[:, :, None] * (_tone(key[0], c) - region)
     return box
+
+
+#: The blur disks are cached by diameter in steps of 1/_BLUR_STEPS of a pixel.
+_BLUR_STEPS = 16
+
+
+def _blur_key(blur: float) -> int:
+    """``blur`` (px) rounded to a step of the disks' cache; 0 for no blur."""
+    if not (math.isfinite(blur) and blur > 0):
+        return 0
+    return round(blur * _BLUR_STEPS)
+
+
+@lru_cache(maxsize=512)
+def _disk(key: int) -> np.ndarray:
+    """The lens's blur kernel: a uniform disk ``key / _BLUR_STEPS`` pixels across, each of its
+    pixels weighted by the share of it the disk covers (on a 16 × 16 grid per pixel), summing
+    to 1; ``(1, 1)`` while the disk fits inside one pixel."""
+    radius = key / _BLUR_STEPS / 2
+    reach = max(math.ceil(radius - 0.5), 0)
+    n, sub = 2 * reach + 1, 16
+    c = (np.arange(n * sub) + 0.5) / sub - (reach + 0.5)
+    inside = (c[:, None] ** 2 + c[None, :] ** 2) <= radius * radius
+    cover = inside.reshape(n, sub, n, sub).sum(axis=(1, 3)).astype(np.float64)
+    if cover.sum() == 0:
+        return np.ones((1, 1), dtype=np.float32)
+    return (cover / cover.sum()).astype(np.float32)
 
 
 def _encode_bgr8(
@@ -223,15 +271,17 @@ class _Objects:
                 continue
             parts, rot = self.models[i].parts(t, vel[k])
             at = b * uv[k - 1] + alpha * uv[k] - np.asarray(origin, dtype=np.float64)
+            s_at = float(b * scale[k - 1] + alpha * scale[k])
             _draw(
                 img,
                 parts,
                 rot,
                 at,
-                float(b * scale[k - 1] + alpha * scale[k]),
+                s_at,
                 float(b * elev[k - 1] + alpha * elev[k]),
                 self.models[i].faces_camera,
                 ss,
+                float(self.spec.blur_px(np.array(s_at))),
             )
 
     def draw(self, img: np.ndarray | None, k: int, t: float) -> _Label:
@@ -245,7 +295,14 @@ class _Objects:
                 continue
             parts, rot = self.models[i].parts(t, vel[k])
             boxes[i] = _draw(
-                img, parts, rot, uv[k], float(scale[k]), float(elev[k]), self.models[i].faces_camera
+                img,
+                parts,
+                rot,
+                uv[k],
+                float(scale[k]),
+                float(elev[k]),
+                self.models[i].faces_camera,
+                blur=float(self.spec.blur_px(scale[k])),
             )
         self.boxes = boxes
         ranges = [float(np.linalg.norm(track[0][k])) for track in self.tracks]

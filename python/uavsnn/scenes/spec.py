@@ -32,6 +32,8 @@ __all__ = [
 ]
 
 DOMAINS = ("dvs", "sim")
+#: The nearest range (metres) a lens may be focused at.
+NEAR_FOCUS_M = 0.05
 BACKGROUNDS = ("sky", "ground", "hall")
 UAV_CLASS = "drone"
 
@@ -257,6 +259,13 @@ class SceneSpec:
     ``focal_px`` is the pinhole focal length in pixels of this frame size; ``tilt_deg`` raises
     the camera's optical axis above the horizontal; ``pan_deg_s`` turns the camera (yaw, pitch)
     at a steady rate.
+
+    ``aperture_mm`` is the lens's aperture (entrance pupil) diameter and ``focus_m`` the range
+    it is focused at (``None``: infinity). A thin lens blurs a point at range ``Z`` into a disk
+    of ``focal_px · aperture · |1/Z − 1/focus_m|`` pixels across (:meth:`blur_px`); each object
+    is drawn blurred by the disk of its centre's range, the background sharp. The default
+    ``aperture_mm = 0`` is a pinhole: every range sharp, as scenes were drawn before the lens
+    (:class:`uavsnn.scenes.Lens` sets both from an f-number and the sensor's pixel pitch).
     """
 
     domain: str
@@ -271,6 +280,8 @@ class SceneSpec:
     tilt_deg: float = 10.0
     pan_deg_s: tuple[float, float] = (0.0, 0.0)
     output: str | None = None
+    aperture_mm: float = 0.0
+    focus_m: float | None = None
 
     def __post_init__(self) -> None:
         if self.domain not in DOMAINS:
@@ -298,6 +309,9 @@ class SceneSpec:
             raise SimulationError(f"pan_deg_s must be within ±90 deg/s, got {pan.tolist()}")
         if self.output not in (None, "bgr8", "gray32f"):
             raise SimulationError(f"output must be 'bgr8' or 'gray32f', got {self.output!r}")
+        _finite("aperture_mm", self.aperture_mm, low=0.0, high=500.0)
+        if self.focus_m is not None:
+            _finite("focus_m", self.focus_m, low=NEAR_FOCUS_M, high=1e6)
         for i, obj in enumerate(self.objects):
             if not isinstance(obj, ObjectSpec):
                 raise SimulationError(f"objects[{i}] must be an ObjectSpec, got {obj!r}")
@@ -313,6 +327,16 @@ class SceneSpec:
         if self.output is not None:
             return self.output
         return "bgr8" if self.domain == "sim" else "gray32f"
+
+    def blur_px(self, scale: np.ndarray) -> np.ndarray:
+        """The diameter in pixels of the disk the lens blurs a point into, for points drawn at
+        ``scale`` pixels per metre (``focal_px / Z``; 0 where not drawn gives 0):
+        ``aperture · |scale − focal_px / focus_m|``."""
+        scale = np.asarray(scale, dtype=np.float64)
+        if self.aperture_mm == 0:
+            return np.zeros_like(scale)
+        focus = 0.0 if self.focus_m is None else self.focal_px / self.focus_m
+        return np.where(scale > 0, 1e-3 * self.aperture_mm * np.abs(scale - focus), 0.0)
 
     @property
     def horizontal_fov_deg(self) -> float:
