@@ -44,6 +44,7 @@ from uavsnn.identify import (
     window_features,
 )
 from uavsnn.signature import rotor_signature
+from uavsnn.tracks import Tracker
 from uavsnn.windows import make_windows
 
 SIZE = (40, 30)
@@ -341,6 +342,116 @@ def test_another_identification_version_is_refused(tmp_path: Path) -> None:
         Network.load(tmp_path / "m.npz")
 
 
+# ---------------------------------------------------------------- the tracker gate
+
+
+def test_the_tracker_gate_round_trips_through_a_model_file(tmp_path: Path) -> None:
+    """A model records the gate its track features were fitted with in ``identify.gate_px``,
+    an array older readers ignore (the version stays); a model without one stores none."""
+    net = small_net()
+    net.identification = replace(model(), gate_px=24.0)
+    net.save(tmp_path / "m.npz")
+    with np.load(tmp_path / "m.npz", allow_pickle=False) as z:
+        assert float(z["identify.gate_px"]) == 24.0 and int(z["identify.version"]) == 2
+    back = Network.load(tmp_path / "m.npz")
+    assert back.identification.gate_px == 24.0 and back.load_note is None
+    net.identification = model()
+    net.save(tmp_path / "old.npz")
+    with np.load(tmp_path / "old.npz", allow_pickle=False) as z:
+        assert "identify.gate_px" not in z
+    assert Network.load(tmp_path / "old.npz").identification.gate_px is None
+
+
+def test_a_model_without_a_recorded_gate_runs_at_its_sensors_with_a_note(
+    tmp_path: Path,
+) -> None:
+    """A model written before the gate was recorded runs at its sensor's gate; wider than
+    240 px, where that is not the 24 px it may have been fitted at, its load note says so,
+    and ``uavsnn detect`` prints it."""
+    import subprocess
+    import sys
+
+    from uavsnn.tracks import GATE_SHARE
+
+    for w, h in ((1280, 720), (240, 180)):
+        net = Network({"width": w, "height": h}, seed=0)
+        net.identification = model()
+        net.save(tmp_path / f"{w}.npz")
+        back = Network.load(tmp_path / f"{w}.npz")
+        assert back.identification.gate_px is None
+        assert Detector(back).tracker.gate_px == pytest.approx(GATE_SHARE * w)
+        data = as_dataset(scene(), (w, h), 10_000)
+        assert window_features(back, data).gate_px == pytest.approx(GATE_SHARE * w)
+    assert Network.load(tmp_path / "240.npz").load_note is None  # 24 px, as it always was
+    note = Network.load(tmp_path / "1280.npz").load_note
+    assert note is not None and "does not record the tracker gate" in note
+    assert "(128 px)" in note and "24 px" in note and "--identify-only" in note
+    cmd = [sys.executable, "-m", "uavsnn", "detect", "-", "--model", str(tmp_path / "1280.npz")]
+    done = subprocess.run(cmd, input=b"", capture_output=True)
+    assert done.returncode == 0 and "does not record the tracker gate" in done.stderr.decode()
+
+
+def test_a_model_recording_its_gate_runs_with_it(tmp_path: Path) -> None:
+    """A model fitted at 24 px on a 1280-px sensor runs at 24 px, not at the sensor's 128, in
+    the Detector and in the batch features, from a model file too."""
+    net = Network({"width": 1280, "height": 720}, seed=0)
+    net.identification = replace(model(), gate_px=24.0)
+    net.save(tmp_path / "m.npz")
+    back = Network.load(tmp_path / "m.npz")
+    assert back.load_note is None
+    data = as_dataset(scene(), (1280, 720), 10_000)
+    for n in (net, back):
+        assert Detector(n).tracker.gate_px == 24.0
+        feats = window_features(n, data)
+        assert feats.gate_px == 24.0 and len(feats.x) > 0
+    # On the small sensor (4 px): the features are those of a 24 px tracker.
+    small = small_net()
+    small.identification = replace(model(), gate_px=24.0)
+    data = as_dataset(scene(), SIZE, 10_000)
+    mine = window_features(small, data)
+    given = window_features(small, data, tracker=Tracker(gate_px=24.0))
+    assert mine.gate_px == 24.0
+    np.testing.assert_array_equal(mine.x, given.x)
+    np.testing.assert_array_equal(mine.track, given.track)
+
+
+@pytest.mark.parametrize(
+    "stored",
+    [
+        np.array(-24.0),
+        np.array(0.0),
+        np.array(np.nan),
+        np.array(np.inf),
+        np.array([24.0, 24.0]),
+        np.array("24"),
+    ],
+)
+def test_a_bad_stored_gate_is_refused(tmp_path: Path, stored: np.ndarray) -> None:
+    from uavsnn.network import _add_arrays
+
+    net = small_net()
+    net.identification = model()
+    net.save(tmp_path / "m.npz")
+    _add_arrays(str(tmp_path / "m.npz"), {"identify.gate_px": stored})
+    with pytest.raises(ModelFileError, match=r"identify\.gate_px"):
+        Network.load(tmp_path / "m.npz")
+
+
+@pytest.mark.parametrize("gate", [0.0, -1.0, math.nan, math.inf, True, "24"])
+def test_a_bad_gate_is_a_parameter_error(gate: object) -> None:
+    with pytest.raises(ParameterError, match="gate_px"):
+        replace(model(), gate_px=gate)
+
+
+def test_fit_records_the_gate_its_features_were_tracked_with() -> None:
+    train, tune = interaction_features(400, 0, True), interaction_features(200, 1, True)
+    assert fit(train, tune, classes=False).gate_px is None  # features made by hand
+    train, tune = replace(train, gate_px=64.0), replace(tune, gate_px=64.0)
+    assert fit(train, tune, classes=False).gate_px == 64.0
+    with pytest.raises(ParameterError, match="one gate"):
+        fit(train, replace(tune, gate_px=24.0), classes=False)
+
+
 def with_trees() -> Identifier:
     from uavsnn.trees import Trees
 
@@ -500,14 +611,19 @@ def streaming_and_batch(net: Network, events: np.ndarray, size: tuple[int, int])
     det = Detector(net, window_us=window_us, overlap=0.5, start_us=int(events["t"][0]))
     reports = det.push_windows(events[: len(events) // 2])
     reports += det.push_windows(events[len(events) // 2 :]) + det.flush_windows()
+    data = as_dataset(events, size, window_us)
+    return reports, window_features(net, data), data
+
+
+def as_dataset(events: np.ndarray, size: tuple[int, int], window_us: int) -> LabelledWindows:
+    """The windows of ``events`` (half overlapping) as a dataset without a UAV, raw events kept."""
     windows = make_windows(Recording(events, size), window_us, 0.5)
     n = len(windows)
     raw = RawEvents.of_recording(events, np.asarray(windows.t0), window_us, window_us)
-    data = LabelledWindows(
+    return LabelledWindows(
         windows, np.zeros(n, bool), np.full(n, "none"), np.zeros(n, np.int64),
         np.full((n, 4), np.nan, np.float32), raw=raw,
     )  # fmt: skip
-    return reports, window_features(net, data), data
 
 
 def assert_streaming_equals_batch(

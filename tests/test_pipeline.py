@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import platform
+import shutil
 from collections.abc import Callable
 from pathlib import Path
 
@@ -15,6 +16,7 @@ from uavsnn import Network
 from uavsnn.cli import main
 from uavsnn.dataset import SceneSource, build
 from uavsnn.experiments import NOISE_FRACTIONS, describe_cpu
+from uavsnn.network import _add_arrays
 
 DVS = SceneSource("dvs", (240, 180), 200.0, 0.3)
 
@@ -47,6 +49,17 @@ def test_train_then_evaluate(
         weights = [k for k in a.files if not k.startswith("identify.")]
         assert weights and all(np.array_equal(a[k], b[k]) for k in weights)
     assert Network.load(again).identification is not None
+    # The refit tracks at the sensor's gate (24 px), whatever gate MODEL records, and records it.
+    assert Network.load(model).identification.gate_px == pytest.approx(24.0)
+    odd = tmp_path / "odd.npz"
+    shutil.copy(model, odd)
+    _add_arrays(str(odd), {"identify.gate_px": np.array(12.0)})
+    assert Network.load(odd).identification.gate_px == 12.0
+    regated = tmp_path / "regated.npz"
+    refit_odd = ["train", str(dataset), "-o", str(regated), "--identify-only", str(odd)]
+    assert main([*refit_odd, "--identify-model", "logistic", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["identify"]["gate_px"] == pytest.approx(24.0)
+    assert Network.load(regated).identification.gate_px == pytest.approx(24.0)
     for bad in (["--no-identify"], ["--set", "conv2.threshold=9"], ["--resume"]):
         assert main([*only, *bad, "--quiet"]) == 2
         assert "--identify-only" in capsys.readouterr().err

@@ -20,7 +20,7 @@ from uavsnn.detector import (
     WindowReport,
     _with_rotor,
 )
-from uavsnn.tracks import GATE_SHARE, Tracker, track_windows
+from uavsnn.tracks import GATE_SHARE, Tracker, track_windows, tracker_for
 
 STEP = 25_000  # µs between window starts (50 ms windows, overlap 0.5)
 
@@ -385,6 +385,28 @@ def test_a_detector_tracks_with_its_sensors_gate(net: Network) -> None:
     assert Detector(net).tracker.gate_px == pytest.approx(GATE_SHARE * SIZE[0])
     mine = Tracker(gate_px=5.0)
     assert Detector(net, tracker=mine).tracker is mine
+
+
+def test_a_network_runs_at_the_gate_its_identification_was_fitted_with(net: Network) -> None:
+    """tracker_for: the gate the model records, else the sensor's; the Detector's default
+    tracker and ``detect --confirm``'s come from it."""
+    from uavsnn.cli.detect import _tracker
+    from uavsnn.identify import FEATURES, Identifier
+
+    assert tracker_for(net).gate_px == pytest.approx(GATE_SHARE * SIZE[0])
+    k = len(FEATURES)
+    fitted = net.copy()
+    fitted.identification = Identifier(
+        FEATURES, np.zeros(k + 1), np.zeros(k), np.ones(k), 0.5, 1.0
+    )  # a model written before the gate was recorded: the sensor's
+    assert tracker_for(fitted).gate_px == pytest.approx(GATE_SHARE * SIZE[0])
+    fitted.identification = replace(fitted.identification, gate_px=24.0)
+    mine = tracker_for(fitted, confirm_hits=2, confirm_windows=4)
+    assert (mine.gate_px, mine.confirm_hits, mine.confirm_windows) == (24.0, 2, 4)
+    assert Detector(fitted).tracker.gate_px == 24.0
+    assert _tracker("2/4", fitted).gate_px == 24.0 and _tracker(None, fitted) is None
+    with pytest.raises(ParameterError, match="gate_px"):
+        tracker_for(fitted, gate_px=10.0)
 
 
 def test_the_drifting_blob_is_one_confirmed_track(net: Network) -> None:

@@ -28,7 +28,7 @@ from uavsnn import identify
 from uavsnn.dataset import load
 from uavsnn.false_alarms import track_alarm_threshold
 from uavsnn.track_eval import Confirm, track_figures
-from uavsnn.tracks import Tracker
+from uavsnn.tracks import tracker_for
 
 #: False tracks per minute read off the first streamed set by default.
 RATES = (0.1, 0.2, 0.5, 1.0, 2.0, 5.0)
@@ -96,9 +96,7 @@ def main() -> None:
         if free.get("confirm", "3/5") != str(rule):
             raise SystemExit(f"{path} was streamed with --confirm {free.get('confirm')}")
     data = load(args.dataset, args.split)
-    tracker = Tracker.for_sensor(
-        int(net.config["width"]), confirm_hits=rule.hits, confirm_windows=rule.windows
-    )
+    tracker = tracker_for(net, confirm_hits=rule.hits, confirm_windows=rule.windows)
     feats = identify.window_features(net, data, tracker=tracker)
     scores = ident.scores(feats.x)
     uav = int(np.unique(np.asarray(data.recording)[np.asarray(data.label, bool)]).size)

@@ -45,7 +45,7 @@ from uavsnn.events import EVENT_DTYPE, packed_bytes
 from uavsnn.features import rate_bins
 from uavsnn.network import WINDOW_DETECTION_DTYPE
 from uavsnn.signature import BoxMeasure, RotorEstimate, measure_box
-from uavsnn.tracks import Track, Tracker
+from uavsnn.tracks import Track, Tracker, tracker_for
 
 if TYPE_CHECKING:
     from uavsnn.network import Network
@@ -116,8 +116,9 @@ class Detector:
             (a check that the right camera feeds the right model). Default: the network's.
         start_us: start of window 0; default: the first event's time.
         tracker: the :class:`uavsnn.tracks.Tracker` :meth:`push_windows` links objects with
-            (default: ``Tracker.for_sensor`` of the network's width: the default parameters,
-            the gate a share of the width).
+            (default: :func:`uavsnn.tracks.tracker_for` the network: the default parameters,
+            the gate its identification was fitted with when the model records one, else a
+            share of the width).
         rotor: whether :meth:`push_windows` measures each object's rotor signature.
 
     Raises:
@@ -176,7 +177,7 @@ class Detector:
         self._network = network
         self._start_us = start_us
         self._busy_ns = 0
-        self._tracker = Tracker.for_sensor(width) if tracker is None else tracker
+        self._tracker = tracker_for(network) if tracker is None else tracker
         self._rotor = bool(rotor)
         self._grouper: WindowGrouper | None = None
         self._recent: list[np.ndarray] = []  # raw events of the open windows, in order

@@ -192,15 +192,14 @@ def stream_reports(
     """The windows of one recording's ``events``, pushed in chunks of :data:`CHUNK` (as a live
     stream arrives) through a fresh :class:`~uavsnn.detector.Detector` starting at 0, tracked
     with the confirmation rule ``confirm`` ``(hits, windows)`` (default: the
-    :class:`~uavsnn.tracks.Tracker`'s, 3 of 5)."""
+    :class:`~uavsnn.tracks.Tracker`'s, 3 of 5) at the network's gate
+    (:func:`uavsnn.tracks.tracker_for`)."""
     from uavsnn.detector import Detector
-    from uavsnn.tracks import Tracker
+    from uavsnn.tracks import tracker_for
 
     tracker = None
     if confirm is not None:
-        tracker = Tracker.for_sensor(
-            int(network.config["width"]), confirm_hits=confirm[0], confirm_windows=confirm[1]
-        )
+        tracker = tracker_for(network, confirm_hits=confirm[0], confirm_windows=confirm[1])
     detector = Detector(
         network,
         window_us=window_us,

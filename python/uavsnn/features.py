@@ -266,7 +266,9 @@ class WindowFeatures:
     miss its box (left out of a fit: they are not the UAV, nor known not to be one);
     ``track`` ``(m,)`` int64: the object's track id, unique within its window's recording
     (0: no track), and ``confirmed`` ``(m,)`` bool: its track is confirmed after this
-    window."""
+    window. ``gate_px``: the gate (px) of the tracker the track features were built with
+    (``None``: not known, e.g. features made by hand); a model fitted on them records it
+    (:attr:`uavsnn.identifier.Identifier.gate_px`)."""
 
     x: np.ndarray
     window: np.ndarray
@@ -277,6 +279,7 @@ class WindowFeatures:
     track: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     confirmed: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
     cls: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype="<U12"))
+    gate_px: float | None = None
 
     def columns(self, names: Sequence[str]) -> WindowFeatures:
         """The same objects with only the features ``names``."""
@@ -333,13 +336,16 @@ def window_features(
     measuring them, at the density :func:`uavsnn.windows.add_noise` adds to the windows
     (:func:`raw_noise_events`), so that features of noisy windows see noisy events.
 
-    The track features come from ``tracker`` (default: a new :class:`uavsnn.tracks.Tracker`;
-    it is reset before each recording): each recording's windows are fed to it in time order
-    (:func:`window_steps`), as :meth:`uavsnn.detector.Detector.push_windows` feeds a stream,
-    windows without an object included. A window the dataset left out counts as a window
-    without a detection. As the streaming detector, only the first
-    :data:`uavsnn.detector.MAX_ROTOR_BOXES` objects of a window (most spikes first) are
-    measured and get a row; the others are tracked only.
+    The track features come from ``tracker`` (default: :func:`uavsnn.tracks.tracker_for`
+    ``network``, the tracker the network runs with: the gate its identification was fitted with
+    when the model records one, else its sensor's; a fit passes its sensor's,
+    :meth:`uavsnn.tracks.Tracker.for_sensor`, as :func:`uavsnn.identify.fit_network` does). It
+    is reset before each recording, and its gate is the result's ``gate_px``. Each recording's
+    windows are fed to it in time order (:func:`window_steps`), as
+    :meth:`uavsnn.detector.Detector.push_windows` feeds a stream, windows without an object
+    included. A window the dataset left out counts as a window without a detection. As the
+    streaming detector, only the first :data:`uavsnn.detector.MAX_ROTOR_BOXES` objects of a
+    window (most spikes first) are measured and get a row; the others are tracked only.
 
     Raises:
         DatasetError: a dataset without raw events, or windows that cannot form a stream
@@ -347,7 +353,7 @@ def window_features(
         ShapeError: the dataset's sensor size is not the network's input.
     """
     from uavsnn.detector import MAX_ROTOR_BOXES, WindowReport, merge_boxes
-    from uavsnn.tracks import Tracker
+    from uavsnn.tracks import Tracker, tracker_for
 
     expected = (int(network.config["width"]), int(network.config["height"]))
     if tuple(data.windows.sensor_size) != expected:
@@ -362,7 +368,7 @@ def window_features(
             "(`uavsnn dataset build`, format 2)"
         )
     if tracker is None:
-        tracker = Tracker.for_sensor(expected[0])
+        tracker = tracker_for(network)
     elif not isinstance(tracker, Tracker):
         raise ParameterError(f"tracker must be a uavsnn.tracks.Tracker, got {tracker!r}")
     order, step = window_steps(data)
@@ -461,6 +467,7 @@ def window_features(
         track=np.array(track, dtype=np.int64),
         confirmed=np.array(confirmed, dtype=bool),
         cls=np.array(cls, dtype="<U12"),
+        gate_px=tracker.gate_px,
     )
 
 

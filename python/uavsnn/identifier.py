@@ -53,7 +53,13 @@ class Identifier:
     (:func:`uavsnn.false_alarms.tune_track_alarms`): at that threshold, at most that many
     confirmed tracks per minute of it alarmed; :meth:`at_false_tracks` switches to one.
     ``track_alarm_confirm``: the tracker's confirmation rule ``(hits, windows)`` they were set
-    with (the points hold for that rule only; 3 of 5, the detector's, by default)."""
+    with (the points hold for that rule only; 3 of 5, the detector's, by default).
+
+    ``gate_px``: the gate (px) of the tracker its track features were built with
+    (:attr:`uavsnn.features.WindowFeatures.gate_px`); a network with this model runs its
+    tracker at that gate (:func:`uavsnn.tracks.tracker_for`). ``None``: a model written before
+    uavsnn recorded it, which runs at its sensor's gate
+    (:meth:`uavsnn.tracks.Tracker.for_sensor`)."""
 
     features: tuple[str, ...]
     coef: np.ndarray
@@ -69,9 +75,17 @@ class Identifier:
     track_alarm_thresholds: tuple[tuple[float, float], ...] = ()
     track_alarm_minutes: float = 0.0
     track_alarm_confirm: tuple[int, int] = DEFAULT_CONFIRM
+    gate_px: float | None = None
 
     def __post_init__(self) -> None:
         d = len(self.features)
+        gate = self.gate_px
+        if gate is not None and (
+            isinstance(gate, bool)
+            or not isinstance(gate, (int, float))
+            or not (math.isfinite(gate) and gate > 0)
+        ):
+            raise ParameterError(f"gate_px must be a finite number > 0 or None, got {gate!r}")
         for rate, threshold in self.alarm_thresholds:
             if not (0.0 < rate < 1.0 and math.isfinite(threshold)):
                 raise ParameterError(
@@ -241,15 +255,21 @@ class Identifier:
             out["identify.tree_threshold"] = self.trees.threshold.astype(np.float64)
             out["identify.tree_leaf"] = self.trees.leaf.astype(np.float64)
             out["identify.tree_base"] = np.array(self.trees.base, dtype=np.float64)
+        if self.gate_px is not None:
+            # An array older uavsnn ignore (they read the keys they know): no new version.
+            out["identify.gate_px"] = np.array(self.gate_px, dtype=np.float64)
         return out
 
     @classmethod
     def from_arrays(cls, arrays: Any) -> Identifier | None:
         """The model stored in ``arrays`` (a mapping, e.g. an ``np.load`` of a model file), or
-        ``None`` when it holds none. Reads versions 1 (no class model), 2 and 3 (trees).
+        ``None`` when it holds none. Reads versions 1 (no class model), 2 and 3 (trees), with
+        or without ``identify.gate_px`` (absent: :attr:`gate_px` is ``None``); arrays it does
+        not know are ignored.
 
         Raises:
-            ModelFileError: another version, or arrays that do not fit together.
+            ModelFileError: another version, a stored gate that is not one finite number > 0,
+                or arrays that do not fit together.
         """
         if "identify.version" not in arrays:
             return None
@@ -258,6 +278,7 @@ class Identifier:
             raise ModelFileError(
                 f"identification version {version}; this uavsnn reads versions 1 to {VERSION}"
             )
+        gate = _gate(arrays)
         try:
             classes: tuple[str, ...] = ()
             class_coef, class_l2 = None, None
@@ -301,9 +322,29 @@ class Identifier:
                 track_alarm_thresholds=track_alarms,
                 track_alarm_minutes=minutes,
                 track_alarm_confirm=confirm,
+                gate_px=gate,
             )
         except (KeyError, ValueError, ParameterError, ShapeError) as exc:
             raise ModelFileError(f"its identification arrays are inconsistent: {exc}") from exc
+
+
+def _gate(arrays: Any) -> float | None:
+    """The tracker gate stored as ``identify.gate_px`` (``None`` when absent).
+
+    Raises:
+        ModelFileError: it is not one finite number > 0.
+    """
+    if "identify.gate_px" not in arrays:
+        return None
+    stored = np.asarray(arrays["identify.gate_px"])
+    if stored.shape != () or stored.dtype.kind not in "iuf":
+        raise ModelFileError(
+            f"identify.gate_px must be one number, got an array of {stored.dtype} {stored.shape}"
+        )
+    gate = float(stored)
+    if not (math.isfinite(gate) and gate > 0):
+        raise ModelFileError(f"identify.gate_px must be a finite number > 0, got {gate}")
+    return gate
 
 
 def _pairs(arrays: Any, rates_key: str, thresholds_key: str) -> tuple[tuple[float, float], ...]:

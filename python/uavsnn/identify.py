@@ -23,7 +23,8 @@ model file beside the network as plain arrays
 ``identify.track_alarm_rates``, ``identify.track_alarm_thresholds``,
 ``identify.track_alarm_minutes`` and ``identify.track_alarm_confirm``; version 3 adds the
 trees, ``identify.tree_feature``, ``identify.tree_threshold``, ``identify.tree_leaf`` and
-``identify.tree_base``; no pickle), see :meth:`uavsnn.network.Network.save`.
+``identify.tree_base``; and ``identify.gate_px``, the tracker gate the track features were
+built with, when recorded; no pickle), see :meth:`uavsnn.network.Network.save`.
 
 ::
 
@@ -183,13 +184,24 @@ def fit(
     of its share so that every class weighs the same; the L2 weight with the smallest weighted
     log loss on ``tune``'s objects of those classes).
 
+    The model records the tracker gate ``train``'s track features were built with
+    (:attr:`Identifier.gate_px` from :attr:`WindowFeatures.gate_px`), which ``tune``'s must
+    share.
+
     Raises:
         DatasetError: too few objects of either kind to fit, or ``"trees"`` without usable
             tuning objects (their count is chosen on them).
-        ParameterError: ``model`` not one of :data:`MODELS`.
+        ParameterError: ``model`` not one of :data:`MODELS`, or ``train`` and ``tune`` built
+            with two tracker gates.
     """
     if model not in MODELS:
         raise ParameterError(f"model must be one of {MODELS}, got {model!r}")
+    gates = (train.gate_px, tune.gate_px)
+    if gates[0] is not None and gates[1] is not None and gates[0] != gates[1]:
+        raise ParameterError(
+            f"the training features were tracked with a {gates[0]:g} px gate, the tuning "
+            f"features with {gates[1]:g} px: a model is fitted and tuned at one gate"
+        )
     names = tuple(features)
     tr, tu = train.columns(names), tune.columns(names)
     xs, ys = tr.x[tr.usable], tr.label[tr.usable]
@@ -210,7 +222,7 @@ def fit(
         trees, _ = fit_tree_score((xs - mean) / scale, ys, zt, yt)
         if model == "auto" and not _ranks_better(trees, coef, zt, yt):
             trees = None
-    ident = Identifier(names, coef, mean, scale, 0.5, l2, trees=trees)
+    ident = Identifier(names, coef, mean, scale, 0.5, l2, trees=trees, gate_px=train.gate_px)
     if tune_detected is not None and tune_label is not None:
         from uavsnn.evaluation import FALSE_ALARM_RATES
 
@@ -517,14 +529,19 @@ def fit_network(
 ) -> tuple[Identifier, dict[str, Any]]:
     """Fit ``network``'s identification on ``train`` (a training split), tuned on ``tune``
     (windows of other recordings; default: a quarter of ``train``'s recordings held out, see
-    :func:`split_by_recording`), with :func:`fit`'s ``model``. Returns the model and a
-    summary; does not attach it."""
+    :func:`split_by_recording`), with :func:`fit`'s ``model``. The track features are built
+    with the tracker of ``network``'s sensor (:meth:`uavsnn.tracks.Tracker.for_sensor`, whatever
+    gate an identification it already has records), and the model records that gate. Returns
+    the model and a summary; does not attach it."""
+    from uavsnn.tracks import Tracker
+
     held_out = tune is None
     if tune is None:
         train, tune = split_by_recording(train)
+    width = int(network.config["width"])
     tune_inference = network.infer(tune.windows)
-    train_feats = window_features(network, train)
-    tune_feats = window_features(network, tune, tune_inference)
+    train_feats = window_features(network, train, tracker=Tracker.for_sensor(width))
+    tune_feats = window_features(network, tune, tune_inference, tracker=Tracker.for_sensor(width))
     fitted = fit(
         train_feats,
         tune_feats,
@@ -542,6 +559,7 @@ def fit_network(
         "threshold": fitted.threshold,
         "alarm_thresholds": [list(pair) for pair in fitted.alarm_thresholds],
         "features": list(fitted.features),
+        "gate_px": fitted.gate_px,
     }
     return fitted, summary
 

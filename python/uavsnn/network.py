@@ -309,7 +309,8 @@ class Network:
         #: The identification model (:class:`uavsnn.identify.Identifier`) or ``None``: then
         #: only the any-spike rule decides. Saved and loaded with the model file.
         self.identification: Any = None
-        #: What :meth:`load` noticed about the file (e.g. that it has no identification).
+        #: What :meth:`load` noticed about the file (e.g. that it has no identification, or that
+        #: its identification does not record its tracker gate).
         self.load_note: str | None = None
 
     @classmethod
@@ -499,8 +500,13 @@ class Network:
         """Read a model file written by :meth:`save`; a corrupt, foreign or other-version file
         raises :class:`~uavsnn.ModelFileError`. A file without identification loads with
         ``identification = None`` and a :attr:`load_note` saying only the any-spike rule
-        decides."""
+        decides. An identification that does not record the tracker gate it was fitted with
+        (:attr:`uavsnn.identifier.Identifier.gate_px`) runs at its sensor's gate
+        (:func:`uavsnn.tracks.tracker_for`); wider than 240 px, where that is not the 24 px
+        every size was fitted at before the gate scaled with the sensor, a :attr:`load_note`
+        says so."""
         from uavsnn.identifier import Identifier
+        from uavsnn.tracks import GATE_SHARE
 
         net = cls._wrap(_core.NetworkCore.load(os.fspath(path)))
         try:
@@ -510,10 +516,19 @@ class Network:
             if isinstance(exc, ModelFileError):
                 raise ModelFileError(f"{os.fspath(path)}: {exc}") from exc
             raise ModelFileError(f"{os.fspath(path)}: cannot read its arrays: {exc}") from exc
+        width = int(net.config["width"])
         if net.identification is None:
             net.load_note = (
                 f"{os.fspath(path)} has no identification model: only the any-spike rule "
                 "decides (`uavsnn train` fits one)"
+            )
+        elif net.identification.gate_px is None and width > 240:
+            net.load_note = (
+                f"{os.fspath(path)} does not record the tracker gate its identification was "
+                f"fitted with: it runs at {GATE_SHARE:g} of the sensor's width "
+                f"({GATE_SHARE * width:g} px), but models fitted before the gate scaled with "
+                "the sensor were fitted at 24 px: fit it again with `uavsnn train "
+                "--identify-only`"
             )
         return net
 

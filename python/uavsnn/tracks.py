@@ -29,6 +29,7 @@ from uavsnn.features import activity
 
 if TYPE_CHECKING:
     from uavsnn.detector import WindowReport
+    from uavsnn.network import Network
 
 __all__ = [
     "GATE_SHARE",
@@ -38,13 +39,15 @@ __all__ = [
     "TrackResult",
     "Tracker",
     "track_windows",
+    "tracker_for",
 ]
 
 #: The gate of :meth:`Tracker.for_sensor`, a share of the sensor's width: 24 px at 240×180,
 #: 64 px at 640×480, 128 px at 1280×720. The scenes draw the field of view in degrees whatever
 #: the sensor, so an object crosses the same share of the width per window at every size; a
 #: gate fixed in pixels would split the tracks of a finer sensor (docs/identification.md,
-#: "The gate scales with the sensor").
+#: "The gate scales with the sensor"). A network runs with the gate its identification was
+#: fitted with when its model file records one (:func:`tracker_for`).
 GATE_SHARE = 0.1
 
 #: The cap ``max_tracks`` may not exceed (each live track is a few hundred bytes; the
@@ -285,7 +288,8 @@ class Tracker:
     Args:
         gate_px: the largest distance (px) between a track's predicted centre and an object's
             centre for them to be linked (default 24, the gate of a 240×180 sensor; a network's
-            tracker takes its sensor's from :meth:`for_sensor`).
+            tracker takes its gate from :func:`tracker_for`: the one its identification was
+            fitted with, else its sensor's, :meth:`for_sensor`).
         alpha, beta: the position and velocity gains of the constant-velocity (alpha-beta)
             filter, in ``(0, 1]`` (defaults 0.6 and 0.3).
         confirm_hits, confirm_windows: a track is confirmed when it has hits in at least
@@ -512,6 +516,27 @@ class TrackResult:
     reports: tuple[WindowReport, ...]
     #: Every track of the sequence, by id (live ones as they stood after the last window).
     tracks: tuple[Track, ...]
+
+
+def tracker_for(network: Network, **kwargs: Any) -> Tracker:
+    """The tracker ``network`` runs with, the one place that says which: the gate its
+    identification's track features were fitted with when its model records one
+    (:attr:`uavsnn.identifier.Identifier.gate_px`), else :meth:`Tracker.for_sensor` of its
+    width (a network without identification, or a model written before uavsnn recorded the
+    gate); ``kwargs`` are the other arguments of :class:`Tracker`. The ``Detector``,
+    ``window_features``, ``uavsnn evaluate``, ``uavsnn detect`` and the false-alarm streams
+    build their tracker here.
+
+    Raises:
+        ParameterError: ``kwargs`` names ``gate_px``, or another argument is out of range.
+    """
+    if "gate_px" in kwargs:
+        raise ParameterError("tracker_for sets gate_px from the network; use Tracker(gate_px=)")
+    ident = network.identification
+    gate = None if ident is None else ident.gate_px
+    if gate is None:
+        return Tracker.for_sensor(int(network.config["width"]), **kwargs)
+    return Tracker(gate_px=gate, **kwargs)
 
 
 def track_windows(reports: Iterable[WindowReport], tracker: Tracker | None = None) -> TrackResult:

@@ -384,15 +384,15 @@ def _check_args(args: argparse.Namespace) -> None:
             )
 
 
-def _tracker(text: str | None, width: int) -> Any:
-    """The tracker of ``--confirm`` for a sensor ``width`` pixels wide (``None``: the
-    detector's default one)."""
+def _tracker(text: str | None, network: Any) -> Any:
+    """The tracker of ``--confirm`` for ``network`` (its gate:
+    :func:`uavsnn.tracks.tracker_for`; ``None``: the detector's default one)."""
     if text is None:
         return None
-    from uavsnn.tracks import Tracker
+    from uavsnn.tracks import tracker_for
 
     rule = Confirm.parse(text)
-    return Tracker.for_sensor(width, confirm_hits=rule.hits, confirm_windows=rule.windows)
+    return tracker_for(network, confirm_hits=rule.hits, confirm_windows=rule.windows)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -455,7 +455,7 @@ def run(args: argparse.Namespace) -> int:
             window_us=round(args.window_ms * 1000),
             overlap=args.overlap,
             sensor_size=source.sensor_size,
-            tracker=_tracker(args.confirm, model_size[0]),
+            tracker=_tracker(args.confirm, network),
         )
         if isinstance(source, UdpSource):
             host, port = source.address

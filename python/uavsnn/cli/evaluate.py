@@ -134,13 +134,9 @@ def _evaluate(args: argparse.Namespace) -> int:
     features = None
     if args.tracks or network.identification is not None or args.ablation is not None:
         from uavsnn import identify
-        from uavsnn.tracks import Tracker
+        from uavsnn.tracks import tracker_for
 
-        tracker = Tracker.for_sensor(
-            int(network.config["width"]),
-            confirm_hits=confirm.hits,
-            confirm_windows=confirm.windows,
-        )
+        tracker = tracker_for(network, confirm_hits=confirm.hits, confirm_windows=confirm.windows)
         features = identify.window_features(network, data, result.inference, tracker=tracker)
     ident = _identification(args, network, data, result, features, confirm)
     if ident:
