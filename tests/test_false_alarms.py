@@ -449,3 +449,26 @@ def test_the_missed_drones_bench_counts_each_bin_and_matches_evaluate(
     for count, point in zip((at1, at5), ident["at_false_alarm"], strict=True):
         assert count == round(point["detection_rate"] * windows)
     assert windows > 0 and any_spike > 0 and "UAV-free recordings alarming" in out
+
+
+def test_the_recordings_are_made_through_the_lens_they_are_given() -> None:
+    """A lens focused at 5 cm blurs every object of the UAV-free scenes: a scene with an object
+    gives other events than through a pinhole, an empty scene the same; the pinhole is the
+    default."""
+    from uavsnn.false_alarms import scene_reports
+    from uavsnn.scenes import Lens
+
+    net = Network(seed=0)
+    scenes = uav_free_scenes(3, 3)
+    pinhole = list(scene_reports(net, scenes))
+    lensed = list(scene_reports(net, scenes, lens=Lens(0.5, 0.05)))
+    assert [lr.recording.events.tobytes() for lr, _ in scene_reports(net, scenes, lens=None)] == [
+        lr.recording.events.tobytes() for lr, _ in pinhole
+    ]
+    with_object = 0
+    for (a, _), (b, _) in zip(pinhole, lensed, strict=True):
+        assert a.info["objects"] == b.info["objects"], "the same scenes"
+        same = np.array_equal(a.recording.events, b.recording.events)
+        assert same == (not a.info["objects"]), a.info["objects"]
+        with_object += bool(a.info["objects"])
+    assert with_object >= 1

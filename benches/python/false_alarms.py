@@ -8,7 +8,11 @@ runs the same for the combined network (``--free-minutes``); this script runs it
 file, on ``--workers`` processes.
 
     python benches/python/false_alarms.py MODEL.npz [--minutes 10] [--seed 0] [--workers 2]
-        [--tune-key] [--json]
+        [--tune-key] [--lens F_NUMBER [--focus-m M]] [--json]
+
+``--lens``: the recordings seen through a lens of that f-number (``uavsnn.scenes.Lens``, the
+sensor's pixel pitch; focused at ``--focus-m``, default infinity), as ``uavsnn dataset build
+--lens`` makes them; by default a pinhole, as the datasets by default.
 """
 
 from __future__ import annotations
@@ -24,6 +28,7 @@ from concurrent.futures import ProcessPoolExecutor  # noqa: E402
 from typing import Any  # noqa: E402
 
 from uavsnn import Network  # noqa: E402
+from uavsnn.errors import SimulationError  # noqa: E402
 from uavsnn.false_alarms import (  # noqa: E402
     DEFAULT_CONFIRM,
     FREE_KEY,
@@ -35,6 +40,7 @@ from uavsnn.false_alarms import (  # noqa: E402
     stream_batch,
     summarise,
 )
+from uavsnn.scenes import Lens  # noqa: E402
 from uavsnn.track_eval import Confirm  # noqa: E402
 
 #: The most worker processes (each holds a model and one recording at a time).
@@ -48,10 +54,12 @@ def _load(model: str) -> None:
     _model = Network.load(model)
 
 
-def _batch(work: tuple[list[tuple[str, int]], tuple[int, int] | None]) -> list[dict[str, Any]]:
+def _batch(
+    work: tuple[list[tuple[str, int]], tuple[int, int] | None, Lens | None],
+) -> list[dict[str, Any]]:
     assert _model is not None
-    scenes, confirm = work
-    return stream_batch(_model, scenes, confirm)
+    scenes, confirm, lens = work
+    return stream_batch(_model, scenes, confirm, lens)
 
 
 def main() -> None:
@@ -71,6 +79,8 @@ def main() -> None:
         metavar="HITS/WINDOWS",
         help="the tracker's confirmation rule (default 3/5, the detector's)",
     )
+    parser.add_argument("--lens", type=float, metavar="F_NUMBER", help="a lens of this f-number")
+    parser.add_argument("--focus-m", type=float, metavar="M", help="its focus (infinity)")
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
     if not 1 <= args.workers <= MAX_WORKERS:
@@ -83,12 +93,20 @@ def main() -> None:
         if rule.fast is not None:
             parser.error("--confirm takes HITS/WINDOWS (the detector has no score-aware rule)")
         confirm = rule.pair
+    if args.focus_m is not None and args.lens is None:
+        parser.error("--focus-m sets the focus of --lens")
+    try:
+        lens = None if args.lens is None else Lens(args.lens, args.focus_m)
+    except SimulationError as exc:
+        parser.error(str(exc))
     network = Network.load(args.model)
     batches = scene_batches(args.minutes, args.seed, TUNE_KEY if args.tune_key else FREE_KEY)
+    work = [(b, confirm, lens) for b in batches]
     with ProcessPoolExecutor(args.workers, initializer=_load, initargs=(args.model,)) as pool:
-        rows = [row for batch in pool.map(_batch, [(b, confirm) for b in batches]) for row in batch]
+        rows = [row for batch in pool.map(_batch, work) for row in batch]
     out = summarise(rows, alarm_rules(network, confirm or DEFAULT_CONFIRM)) | {
         "seed": args.seed, "tune_key": args.tune_key, "confirm": args.confirm or "3/5",
+        "lens": None if lens is None else lens.describe(),
     }  # fmt: skip
     if args.json:
         print(json.dumps(out, indent=2))

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterator, Sequence
+from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
 from uavsnn.dataset.splits import DOMAIN_KEY, keyed_rng, keyed_seed
@@ -47,6 +48,7 @@ if TYPE_CHECKING:
     from uavsnn.detector import WindowReport
     from uavsnn.identifier import Identifier
     from uavsnn.network import Network
+    from uavsnn.scenes import Lens
 
 __all__ = [
     "DEFAULT_CONFIRM",
@@ -218,13 +220,15 @@ def scene_reports(
     network: Network,
     scenes: Sequence[tuple[str, int]],
     confirm: tuple[int, int] | None = None,
+    lens: Lens | None = None,
 ) -> Iterator[tuple[LabelledRecording, list[WindowReport]]]:
     """Each scene of ``scenes`` (``(kind, seed)``, :func:`uav_free_scenes`) rendered as a dvs
-    recording at the network's sensor size, and its :func:`stream_reports`."""
+    recording at the network's sensor size (through ``lens``, default a pinhole), and its
+    :func:`stream_reports`."""
     from uavsnn.dataset.synthetic import default_source, synthetic_recording
 
     size = (int(network.config["width"]), int(network.config["height"]))
-    source = default_source("dvs", size)
+    source = replace(default_source("dvs", size), lens=lens)
     for kind, seed in scenes:
         lr = synthetic_recording(source, kind, seed)
         yield lr, stream_reports(network, lr.recording.events, size, confirm)
@@ -234,14 +238,16 @@ def stream_batch(
     network: Network,
     scenes: Sequence[tuple[str, int]],
     confirm: tuple[int, int] | None = None,
+    lens: Lens | None = None,
 ) -> list[dict[str, Any]]:
     """Each scene of ``scenes`` rendered at the network's sensor size and streamed through a
     fresh detector: its object's kind, length, windows and :func:`count_alarms` (the unit of
     work of :func:`false_alarm_figures`). ``confirm`` ``(hits, windows)``: the tracker's
-    confirmation rule (default: the :class:`~uavsnn.tracks.Tracker`'s, 3 of 5)."""
+    confirmation rule (default: the :class:`~uavsnn.tracks.Tracker`'s, 3 of 5). ``lens``: the
+    camera's (:class:`uavsnn.scenes.Lens`; default a pinhole, as the datasets by default)."""
     rules = alarm_rules(network, DEFAULT_CONFIRM if confirm is None else confirm)
     rows = []
-    for lr, reports in scene_reports(network, scenes, confirm):
+    for lr, reports in scene_reports(network, scenes, confirm, lens):
         objects = lr.info.get("objects") or [{"kind": "none"}]
         rows.append(
             {
