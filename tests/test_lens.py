@@ -250,3 +250,33 @@ def test_the_cli_refuses_a_lens_it_cannot_use(tmp_path) -> None:
     sensor = ["--sensor", "300x200"]
     assert main(["dataset", "build", out, "--domain", "dvs", "--lens", "1.4", *sensor]) == 2
     assert not (tmp_path / "d").exists()
+
+
+def test_a_dataset_built_through_a_lens_records_it(tmp_path, capsys) -> None:
+    """The manifest's dvs source holds the lens, `dataset info` says so, and the set's
+    recordings are the same scenes as without it: the same recordings, objects and light."""
+    import json
+
+    from uavsnn.cli import main
+    from uavsnn.dataset import SceneSource, build, read_manifest
+
+    source = SceneSource("dvs", (240, 180), 200.0, 0.3)
+    args = {"n_test": 8, "n_train": 0, "seed": 3}
+    plain = build(tmp_path / "plain", "dvs", dvs=source, **args).root
+    lensed = build(tmp_path / "lens", "dvs", dvs=replace(source, lens=Lens(2.0, 40.0)), **args)
+    manifest = read_manifest(lensed.root)
+    assert manifest["parameters"]["sources"][0]["lens"] == {
+        "f_number": 2.0,
+        "focus_m": 40.0,
+        "pixel_um": 18.5,
+    }
+    strip = ("events", "windows_used", "usable", "usable_uav", "windows")
+    assert [{k: v for k, v in r.items() if k not in strip} for r in manifest["recordings"]] == [
+        {k: v for k, v in r.items() if k not in strip} for r in read_manifest(plain)["recordings"]
+    ]
+    assert main(["dataset", "info", str(lensed.root)]) == 0
+    assert "lens f/2 focused at 40 m" in capsys.readouterr().out
+    assert main(["dataset", "info", str(lensed.root), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["lens"]["f_number"] == 2.0
+    assert main(["dataset", "info", str(plain)]) == 0
+    assert "lens" not in capsys.readouterr().out

@@ -169,6 +169,10 @@ def _summary(root: Path) -> dict[str, Any]:
             for name, s in manifest["splits"].items()
         },
         "recordings": len(manifest.get("recordings", [])),
+        "lens": next(
+            (src["lens"] for src in manifest["parameters"].get("sources", []) if "lens" in src),
+            None,
+        ),
     }
 
 
@@ -179,6 +183,10 @@ def _print(summary: dict[str, Any], as_json: bool) -> None:
     print(f"{summary['root']}: {summary['domain']} — {summary['source']} (seed {summary['seed']})")
     p = summary["parameters"]
     stratified = ", object scenes stratified" if p.get("object_scenes") == "stratified" else ""
+    lens = summary.get("lens")
+    if lens is not None:
+        focus = "infinity" if lens["focus_m"] is None else f"{lens['focus_m']:g} m"
+        stratified += f", lens f/{lens['f_number']:g} focused at {focus}"
     print(
         f"  windows of {p['window_ms']} ms, overlap {p['overlap']}, sensor "
         f"{p['sensor_size'][0]}x{p['sensor_size'][1]}{stratified}"
