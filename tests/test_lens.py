@@ -280,3 +280,31 @@ def test_a_dataset_built_through_a_lens_records_it(tmp_path, capsys) -> None:
     assert json.loads(capsys.readouterr().out)["lens"]["f_number"] == 2.0
     assert main(["dataset", "info", str(plain)]) == 0
     assert "lens" not in capsys.readouterr().out
+
+
+def test_a_scene_source_draws_its_field_of_view_and_a_manifest_keeps_it() -> None:
+    from uavsnn.clips import scene_source
+    from uavsnn.dataset.synthetic import default_source, scene_spec
+
+    source = replace(default_source("dvs", (1280, 720)), fov_deg=(18, 22), lens=Lens(1.4))
+    spec = scene_spec(source, "object", 5, "insect")
+    assert 18 <= spec.horizontal_fov_deg <= 22
+    # A longer lens at the same f-number: a wider aperture (focal length / f-number).
+    assert spec.aperture_mm == pytest.approx(spec.focal_px * 4.86e-3 / 1.4)
+    assert spec.aperture_mm > 8
+    described = source.describe()
+    assert described["fov_deg"] == [18.0, 22.0]
+    assert scene_spec(scene_source(described), "object", 5, "insect") == spec
+    assert "fov_deg" not in default_source("dvs", (1280, 720)).describe()
+    with pytest.raises(ParameterError, match="fov_deg"):
+        replace(source, fov_deg=(50, 40))
+
+
+def test_the_cli_refuses_a_field_of_view_it_cannot_use(tmp_path) -> None:
+    from uavsnn.cli import main
+
+    out = str(tmp_path / "d")
+    for fov in ("x", "1,2,3", "0", "50,40"):
+        assert main(["dataset", "build", out, "--domain", "dvs", "--fov", fov]) == 2
+    assert main(["dataset", "build", out, "--domain", "sim", "--fov", "20"]) == 2
+    assert not (tmp_path / "d").exists()

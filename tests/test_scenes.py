@@ -492,3 +492,26 @@ def test_a_scene_round_trips_through_json_and_the_cli_records_it(tmp_path: Path)
         spec_from_dict(bad)
     path.write_text(json.dumps(bad))
     assert main(["simulate", "--scene", str(path), "-o", str(out)]) == 2
+
+
+# -- the field of view ------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(("domain", "default"), [("dvs", (45, 70)), ("sim", (35, 70))])
+def test_the_field_of_view_is_drawn_from_the_range_given(domain: str, default: tuple) -> None:
+    """The default range is the domain's (the same scene as without the argument); a range of
+    one value gives that view, and the rest of the scene is drawn from the same numbers."""
+    for seed in range(5):
+        plain = sample_spec(domain, "uav", np.random.default_rng(seed))
+        assert sample_spec(domain, "uav", np.random.default_rng(seed), fov_deg=default) == plain
+        assert default[0] <= plain.horizontal_fov_deg <= default[1]
+        narrow = sample_spec(domain, "uav", np.random.default_rng(seed), fov_deg=(20, 20))
+        assert narrow.horizontal_fov_deg == pytest.approx(20.0)
+        assert narrow.lighting == plain.lighting and narrow.background == plain.background
+        assert [o.kind for o in narrow.objects] == [o.kind for o in plain.objects]
+
+
+@pytest.mark.parametrize("fov", [(0.0, 10.0), (30.0, 20.0), (10.0, 200.0), (math.nan, 20.0), "x"])
+def test_bad_fields_of_view_raise_parameter_errors(fov: object) -> None:
+    with pytest.raises(ParameterError, match="fov_deg"):
+        sample_spec("dvs", "uav", np.random.default_rng(0), fov_deg=fov)  # type: ignore[arg-type]

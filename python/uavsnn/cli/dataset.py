@@ -124,6 +124,12 @@ def register(subparsers: Any) -> None:
         metavar="M",
         help="with --lens: the range the lens is focused at, in metres (default: infinity)",
     )
+    b.add_argument(
+        "--fov",
+        metavar="LO,HI",
+        help="dvs: draw each scene's horizontal field of view from LO to HI degrees (or one "
+        "value) instead of 45-70: a narrower view is a longer lens on the same sensor",
+    )
     b.add_argument("--overwrite", action="store_true", help="replace a dataset in OUT_DIR")
     b.add_argument("--json", action="store_true", help="print the summary as JSON")
     b.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -236,7 +242,7 @@ def _build(args: argparse.Namespace) -> int:
         test_fraction=args.test_fraction,
         sensor=args.sensor,
         pix2nvs_params=_pix2nvs(args),
-        dvs=_lens_source(args),
+        dvs=_dvs_source(args),
         overwrite=args.overwrite,
         progress=_progress(args.quiet),
         runner=runner_for(args.ray),
@@ -245,19 +251,37 @@ def _build(args: argparse.Namespace) -> int:
     return _done(paths, args.json)
 
 
-def _lens_source(args: argparse.Namespace) -> SceneSource | None:
-    """The dvs scenes through ``--lens`` (``None``: the default source, a pinhole)."""
-    if args.lens is None:
-        if args.focus_m is not None:
-            raise ParameterError("--focus-m sets the focus of --lens; give --lens too")
+def _dvs_source(args: argparse.Namespace) -> SceneSource | None:
+    """The dvs scenes through ``--lens`` and with ``--fov`` (``None``: the default source, a
+    pinhole of 45-70°)."""
+    if args.focus_m is not None and args.lens is None:
+        raise ParameterError("--focus-m sets the focus of --lens; give --lens too")
+    if args.lens is None and args.fov is None:
         return None
-    if args.domain not in ("dvs", "combined"):
-        raise ParameterError(f"--lens is for rendered dvs scenes, not --domain {args.domain}")
+    for flag, value in (("--lens", args.lens), ("--fov", args.fov)):
+        if value is not None and args.domain not in ("dvs", "combined"):
+            raise ParameterError(f"{flag} is for rendered dvs scenes, not --domain {args.domain}")
     try:
-        lens = Lens(args.lens, args.focus_m)
+        lens = None if args.lens is None else Lens(args.lens, args.focus_m)
     except SimulationError as exc:
         raise ParameterError(str(exc)) from exc
-    return replace(default_source("dvs", parse_sensor(args.sensor)), lens=lens)
+    return replace(
+        default_source("dvs", parse_sensor(args.sensor)), lens=lens, fov_deg=_fov(args.fov)
+    )
+
+
+def _fov(text: str | None) -> tuple[float, float] | None:
+    """``--fov LO,HI`` or ``--fov DEG`` as ``(low, high)`` degrees (checked by the source)."""
+    if text is None:
+        return None
+    parts = text.split(",")
+    try:
+        values = [float(p) for p in parts]
+    except ValueError:
+        values = []
+    if len(values) not in (1, 2):
+        raise ParameterError(f"--fov takes LO,HI or one value in degrees, got {text!r}")
+    return (values[0], values[-1])
 
 
 def _demo(args: argparse.Namespace) -> int:

@@ -46,6 +46,7 @@ from uavsnn.dataset.splits import (
 from uavsnn.errors import DatasetError, ParameterError, SimulationError
 from uavsnn.events import Recording
 from uavsnn.scenes import Lens, SceneSpec, object_shares, record, render, sample_spec
+from uavsnn.scenes.sampler import fov_range
 from uavsnn.sim import SCENE_PARAMS, DvsParams, Pix2NvsParams, Pix2NvsSimulator, crop_to_aspect
 from uavsnn.windows import Windows
 
@@ -94,9 +95,11 @@ def default_source(domain: str, sensor: tuple[int, int] = (240, 180)) -> SceneSo
 class SceneSource:
     """How recordings of one synthetic domain are made: render ``size``, frame rate (``None``:
     the domain's default), clip ``duration_s``, the sensor size, the simulator's parameters
-    (``None``: its defaults) and the camera's ``lens`` (dvs only; ``None``: a pinhole, every
-    range sharp; :class:`uavsnn.scenes.Lens`). The lens changes no draw of the scene: the same
-    seed gives the same objects, light and paths with or without it."""
+    (``None``: its defaults), the camera's ``lens`` (dvs only; ``None``: a pinhole, every
+    range sharp; :class:`uavsnn.scenes.Lens`) and the range ``fov_deg`` its horizontal field
+    of view is drawn from (``None``: the domain's, :func:`uavsnn.scenes.sample_spec`). The lens
+    changes no draw of the scene: the same seed gives the same objects, light and paths with or
+    without it."""
 
     domain: str
     size: tuple[int, int]
@@ -106,6 +109,7 @@ class SceneSource:
     dvs_params: DvsParams | None = None
     pix2nvs_params: Pix2NvsParams | None = None
     lens: Lens | None = None
+    fov_deg: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
         if self.domain not in ("dvs", "sim"):
@@ -122,6 +126,8 @@ class SceneSource:
                 self.lens.pitch_um(self.sensor)
             except SimulationError as exc:
                 raise ParameterError(str(exc)) from exc
+        if self.fov_deg is not None:
+            object.__setattr__(self, "fov_deg", fov_range(self.domain, self.fov_deg))
         if self.domain == "dvs" and tuple(self.size) != tuple(self.sensor):
             raise ParameterError(
                 f"the dvs domain renders at the sensor's size {self.sensor}, got {self.size}"
@@ -166,6 +172,8 @@ class SceneSource:
         else:
             out["simulator"] = "uavsnn.sim.Pix2NvsSimulator (events pooled onto the sensor)"
             out["simulator_params"] = _params(self.pix2nvs_params or Pix2NvsParams())
+        if self.fov_deg is not None:
+            out["fov_deg"] = list(self.fov_deg)
         return out
 
 
@@ -211,6 +219,7 @@ def scene_spec(
         fps=source.fps,
         duration_s=source.duration_s,
         object_kind=object_kind,
+        fov_deg=source.fov_deg,
     )
     return spec if source.lens is None else source.lens.on(spec, source.sensor)
 

@@ -25,7 +25,14 @@ from uavsnn.scenes.spec import (
     SceneSpec,
 )
 
-__all__ = ["SCENE_KINDS", "default_format", "object_shares", "sample_spec"]
+__all__ = [
+    "MAX_FOV_DEG",
+    "SCENE_KINDS",
+    "default_format",
+    "fov_range",
+    "object_shares",
+    "sample_spec",
+]
 
 #: Scene kinds: one UAV (sometimes with a distractor), one non-UAV object, or nothing.
 SCENE_KINDS = ("uav", "object", "empty")
@@ -434,6 +441,32 @@ def _object(kind: str, place: _Placer) -> ObjectSpec:
     raise ParameterError(f"unknown object kind {kind!r}")
 
 
+#: The widest field of view a scene may be drawn with (degrees): the pinhole camera's weak
+#: perspective holds for objects near the optical axis, and 120° is already a fisheye's.
+MAX_FOV_DEG = 120.0
+
+
+def fov_range(domain: str, fov_deg: tuple[float, float] | None) -> tuple[float, float]:
+    """The horizontal fields of view (degrees) a scene of ``domain`` is drawn from: ``fov_deg``
+    checked, or the domain's default.
+
+    Raises:
+        ParameterError: not two numbers with ``1 <= low <= high <= MAX_FOV_DEG``.
+    """
+    if fov_deg is None:
+        return (45.0, 70.0) if domain == "dvs" else (35.0, 70.0)
+    try:
+        low, high = (float(v) for v in fov_deg)
+    except (TypeError, ValueError) as exc:
+        raise ParameterError(f"fov_deg must be (low, high) in degrees, got {fov_deg!r}") from exc
+    if not (math.isfinite(low) and math.isfinite(high) and 1.0 <= low <= high <= MAX_FOV_DEG):
+        raise ParameterError(
+            f"fov_deg must be (low, high) with 1 <= low <= high <= {MAX_FOV_DEG:g} degrees, "
+            f"got {fov_deg!r}"
+        )
+    return low, high
+
+
 def sample_spec(
     domain: str,
     kind: str,
@@ -445,6 +478,7 @@ def sample_spec(
     min_object_px: float = 3.0,
     sensor_width: int = 240,
     object_kind: str | None = None,
+    fov_deg: tuple[float, float] | None = None,
 ) -> SceneSpec:
     """A random scene of ``kind`` for ``domain``.
 
@@ -469,6 +503,12 @@ def sample_spec(
     (a ball is mostly indoors, a helicopter always outdoors); the rest is drawn as for any
     object scene, a second object included. A split that picks each object scene's kind by
     :func:`object_shares` gets every kind in its share instead of leaving it to chance.
+
+    ``fov_deg`` ``(low, high)``: the range the horizontal field of view is drawn from, in
+    degrees (default: 45–70 for "dvs", 35–70 for "sim"); a narrow one is a longer lens on the
+    same sensor, which puts more pixels on everything and puts the objects further away where
+    they would fill the frame. It takes the same draw, so the rest of the scene is drawn from the
+    same random numbers.
     """
     if not isinstance(rng, np.random.Generator):
         raise ParameterError(f"rng must be a numpy Generator, got {type(rng).__name__}")
@@ -491,7 +531,8 @@ def sample_spec(
     background = _background(rng, domain, object_kind)
     if kind in ("aircraft", "helicopter") and background.kind == "hall":
         background = replace(background, kind="sky")
-    fov = float(rng.uniform(45, 70) if domain == "dvs" else rng.uniform(35, 70))
+    fov_low, fov_high = fov_range(domain, fov_deg)
+    fov = float(rng.uniform(fov_low, fov_high))
     focal = width / 2 / math.tan(math.radians(fov) / 2)
     indoor = background.kind == "hall"
     pan = (0.0, 0.0)
