@@ -308,3 +308,37 @@ def test_the_cli_refuses_a_field_of_view_it_cannot_use(tmp_path) -> None:
         assert main(["dataset", "build", out, "--domain", "dvs", "--fov", fov]) == 2
     assert main(["dataset", "build", out, "--domain", "sim", "--fov", "20"]) == 2
     assert not (tmp_path / "d").exists()
+
+
+def test_simulate_records_a_scene_through_a_lens_and_a_field_of_view(tmp_path) -> None:
+    """`uavsnn simulate --scene KIND --lens --fov`: the sampled scene through that lens (a lens
+    focused at 5 cm blurs every object: other events than the pinhole's, the same scene), and
+    the options it cannot use are refused with exit code 2."""
+    import json
+
+    from uavsnn.cli import main
+    from uavsnn.scenes import spec_to_dict
+
+    def simulate(name: str, *extra: str) -> int:
+        args = ["simulate", "--scene", "ball", "--duration", "0.02", "--seed", "4"]
+        return main([*args, "-o", str(tmp_path / f"{name}.npz"), *extra])
+
+    def events(name: str) -> np.ndarray:
+        return np.load(tmp_path / f"{name}.npz")["events"]
+
+    assert simulate("pinhole") == 0
+    assert simulate("lens", "--lens", "0.5", "--focus-m", "0.05") == 0
+    assert simulate("narrow", "--fov", "20") == 0
+    assert not np.array_equal(events("pinhole"), events("lens"))
+    assert not np.array_equal(events("pinhole"), events("narrow"))
+    assert simulate("bad", "--focus-m", "3") == 2
+    assert simulate("bad", "--lens", "0") == 2
+    assert simulate("bad", "--fov", "50,40") == 2
+    assert simulate("bad", "--lens", "1.4", "--size", "300x200") == 2
+    scene = tmp_path / "scene.json"
+    scene.write_text(json.dumps(spec_to_dict(_scene(_ball(0.3)))))
+    base = ["simulate", "--scene", str(scene), "-o", str(tmp_path / "json.npz")]
+    assert main([*base, "--fov", "20"]) == 2
+    assert main([*base, "--lens", "2"]) == 0
+    assert main(["simulate", str(scene), "-o", str(tmp_path / "v.npz"), "--lens", "2"]) == 2
+    assert not (tmp_path / "bad.npz").exists()

@@ -254,24 +254,38 @@ def _build(args: argparse.Namespace) -> int:
 def _dvs_source(args: argparse.Namespace) -> SceneSource | None:
     """The dvs scenes through ``--lens`` and with ``--fov`` (``None``: the default source, a
     pinhole of 45-70°)."""
-    if args.focus_m is not None and args.lens is None:
-        raise ParameterError("--focus-m sets the focus of --lens; give --lens too")
+    lens_option(args.lens, args.focus_m)  # --focus-m needs --lens
     if args.lens is None and args.fov is None:
         return None
     for flag, value in (("--lens", args.lens), ("--fov", args.fov)):
         if value is not None and args.domain not in ("dvs", "combined"):
             raise ParameterError(f"{flag} is for rendered dvs scenes, not --domain {args.domain}")
-    try:
-        lens = None if args.lens is None else Lens(args.lens, args.focus_m)
-    except SimulationError as exc:
-        raise ParameterError(str(exc)) from exc
     return replace(
-        default_source("dvs", parse_sensor(args.sensor)), lens=lens, fov_deg=_fov(args.fov)
+        default_source("dvs", parse_sensor(args.sensor)),
+        lens=lens_option(args.lens, args.focus_m),
+        fov_deg=fov_option(args.fov),
     )
 
 
-def _fov(text: str | None) -> tuple[float, float] | None:
-    """``--fov LO,HI`` or ``--fov DEG`` as ``(low, high)`` degrees (checked by the source)."""
+def lens_option(f_number: float | None, focus_m: float | None) -> Lens | None:
+    """The lens of ``--lens F_NUMBER [--focus-m M]`` (``None`` without ``--lens``).
+
+    Raises:
+        ParameterError: ``--focus-m`` without ``--lens``, or a lens out of range.
+    """
+    if f_number is None:
+        if focus_m is not None:
+            raise ParameterError("--focus-m sets the focus of --lens; give --lens too")
+        return None
+    try:
+        return Lens(f_number, focus_m)
+    except SimulationError as exc:
+        raise ParameterError(str(exc)) from exc
+
+
+def fov_option(text: str | None) -> tuple[float, float] | None:
+    """``--fov LO,HI`` or ``--fov DEG`` as ``(low, high)`` degrees (``None`` without it;
+    the range is checked where it is used, :func:`uavsnn.scenes.sampler.fov_range`)."""
     if text is None:
         return None
     parts = text.split(",")

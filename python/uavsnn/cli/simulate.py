@@ -8,6 +8,7 @@ Examples::
     uavsnn simulate clip.mp4 -o clip.npz --pix2nvs-compat --reference event_increment
     uavsnn simulate --scene uav -o uav.npz --seed 3        # a sampled "dvs" scene
     uavsnn simulate --scene scene.json -o scene.npz         # a scene described in JSON
+    uavsnn simulate --scene insect -o i.npz --size 1280x720 --lens 1.4   # through a lens
 
 A scene (``--scene``) is rendered and recorded by :func:`uavsnn.scenes.record`; its per-frame
 labels go beside the events, in ``OUTPUT.labels.npz`` (``timestamps_us``, ``labels``).
@@ -23,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from uavsnn.errors import ParameterError
+from uavsnn.errors import ParameterError, SimulationError
 from uavsnn.events import Recording
 from uavsnn.sim import Pix2NvsParams, video_to_recording, write_preview
 from uavsnn.sim.checks import check_size
@@ -51,6 +52,21 @@ def register(subparsers: Any) -> None:
     )
     parser.add_argument(
         "--duration", type=float, default=1.0, help="sampled scene's length in seconds (1)"
+    )
+    parser.add_argument(
+        "--lens",
+        type=float,
+        metavar="F_NUMBER",
+        help="--scene: seen through a lens of this f-number on the sensor's pixel pitch, "
+        "focused at --focus-m (default: a pinhole; docs/dataset.md, 'The lens')",
+    )
+    parser.add_argument(
+        "--focus-m", type=float, metavar="M", help="with --lens: its focus in metres (infinity)"
+    )
+    parser.add_argument(
+        "--fov",
+        metavar="LO,HI",
+        help="--scene KIND: draw the horizontal field of view from LO to HI degrees (45-70)",
     )
     parser.add_argument("-o", "--output", type=Path, required=True, help="output .npz")
     parser.add_argument("--mode", choices=("sim", "dvs"), default="sim")
@@ -104,9 +120,14 @@ def write_recording(recording: Recording, path: Path) -> None:
 
 def _scene(args: argparse.Namespace, size: tuple[int, int]) -> Recording:
     """Record the scene ``--scene`` names; its labels go beside the output."""
+    from uavsnn.cli.dataset import fov_option, lens_option
     from uavsnn.scenes import OBJECT_KINDS, SCENE_KINDS, record, sample_spec, spec_from_dict
 
+    lens = lens_option(args.lens, args.focus_m)
+    fov = fov_option(args.fov)
     if args.scene.lower().endswith(".json"):
+        if fov is not None:
+            raise ParameterError("--fov draws a sampled scene's view; a JSON scene has its own")
         try:
             data = json.loads(Path(args.scene).read_text())
         except (OSError, ValueError) as exc:
@@ -114,10 +135,15 @@ def _scene(args: argparse.Namespace, size: tuple[int, int]) -> Recording:
         spec = spec_from_dict(data)
     elif args.scene in SCENE_KINDS or args.scene in OBJECT_KINDS:
         rng = np.random.default_rng(args.seed)
-        spec = sample_spec("dvs", args.scene, rng, size=size, duration_s=args.duration)
+        spec = sample_spec("dvs", args.scene, rng, size=size, duration_s=args.duration, fov_deg=fov)
     else:
         kinds = ", ".join((*SCENE_KINDS, *OBJECT_KINDS))
         raise ParameterError(f"--scene must be a .json file or one of {kinds}, got {args.scene}")
+    if lens is not None:
+        try:
+            spec = lens.on(spec, size)
+        except SimulationError as exc:
+            raise ParameterError(str(exc)) from exc
     out = record(spec, sensor=size, seed=args.seed)
     labels_path = args.output.with_suffix(".labels.npz")
     np.savez(labels_path, timestamps_us=out.timestamps_us, labels=out.labels)
@@ -168,6 +194,8 @@ def run(args: argparse.Namespace) -> int:
     if args.scene is not None:
         recording = _scene(args, size)
         args.mode = "dvs"
+    elif args.lens is not None or args.focus_m is not None or args.fov is not None:
+        raise ParameterError("--lens, --focus-m and --fov are for --scene (a rendered scene)")
     else:
         recording = _video(args, size, params)
     return _finish(args, recording)
