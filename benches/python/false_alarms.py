@@ -28,7 +28,8 @@ from concurrent.futures import ProcessPoolExecutor  # noqa: E402
 from typing import Any  # noqa: E402
 
 from uavsnn import Network  # noqa: E402
-from uavsnn.errors import SimulationError  # noqa: E402
+from uavsnn.cli.dataset import lens_option  # noqa: E402
+from uavsnn.errors import ParameterError  # noqa: E402
 from uavsnn.false_alarms import (  # noqa: E402
     DEFAULT_CONFIRM,
     FREE_KEY,
@@ -93,11 +94,9 @@ def main() -> None:
         if rule.fast is not None:
             parser.error("--confirm takes HITS/WINDOWS (the detector has no score-aware rule)")
         confirm = rule.pair
-    if args.focus_m is not None and args.lens is None:
-        parser.error("--focus-m sets the focus of --lens")
     try:
-        lens = None if args.lens is None else Lens(args.lens, args.focus_m)
-    except SimulationError as exc:
+        lens = lens_option(args.lens, args.focus_m)
+    except ParameterError as exc:
         parser.error(str(exc))
     network = Network.load(args.model)
     batches = scene_batches(args.minutes, args.seed, TUNE_KEY if args.tune_key else FREE_KEY)

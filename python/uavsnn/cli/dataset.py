@@ -254,16 +254,14 @@ def _build(args: argparse.Namespace) -> int:
 def _dvs_source(args: argparse.Namespace) -> SceneSource | None:
     """The dvs scenes through ``--lens`` and with ``--fov`` (``None``: the default source, a
     pinhole of 45-70°)."""
-    lens_option(args.lens, args.focus_m)  # --focus-m needs --lens
-    if args.lens is None and args.fov is None:
+    lens = lens_option(args.lens, args.focus_m)
+    if lens is None and args.fov is None:
         return None
-    for flag, value in (("--lens", args.lens), ("--fov", args.fov)):
+    for flag, value in (("--lens", lens), ("--fov", args.fov)):
         if value is not None and args.domain not in ("dvs", "combined"):
             raise ParameterError(f"{flag} is for rendered dvs scenes, not --domain {args.domain}")
     return replace(
-        default_source("dvs", parse_sensor(args.sensor)),
-        lens=lens_option(args.lens, args.focus_m),
-        fov_deg=fov_option(args.fov),
+        default_source("dvs", parse_sensor(args.sensor)), lens=lens, fov_deg=fov_option(args.fov)
     )
 
 
