@@ -342,3 +342,35 @@ def test_simulate_records_a_scene_through_a_lens_and_a_field_of_view(tmp_path) -
     assert main([*base, "--lens", "2"]) == 0
     assert main(["simulate", str(scene), "-o", str(tmp_path / "v.npz"), "--lens", "2"]) == 2
     assert not (tmp_path / "bad.npz").exists()
+
+
+def test_preview_draws_a_scene_for_a_sensor_through_a_lens(tmp_path, capsys) -> None:
+    """`uavsnn dataset preview --sensor --lens --fov`: the sampled scene drawn for that sensor
+    (a sheet of its frames at their size), through that lens (each object's blur printed, the
+    picture not the pinhole's), and the options it cannot use refused with exit code 2."""
+    import cv2
+
+    from uavsnn.cli import main
+
+    def preview(name: str, *extra: str) -> int:
+        args = ["dataset", "preview", str(tmp_path / f"{name}.png"), "--kind", "insect"]
+        return main([*args, "--duration", "0.02", "--seed", "3", "--frames", "2", *extra])
+
+    assert preview("pinhole", "--sensor", "346x260") == 0
+    assert "blur" not in capsys.readouterr().out
+    assert preview("lens", "--sensor", "346x260", "--lens", "0.5", "--focus-m", "0.05") == 0
+    assert "px)" in capsys.readouterr().out
+    pinhole, lensed = (cv2.imread(str(tmp_path / f"{n}.png")) for n in ("pinhole", "lens"))
+    assert pinhole.shape == lensed.shape and pinhole.shape[1] >= 2 * 346
+    assert not np.array_equal(pinhole, lensed)
+    assert preview("narrow", "--fov", "20") == 0
+    for bad in (
+        ("--focus-m", "3"),
+        ("--lens", "0"),
+        ("--fov", "50,40"),
+        ("--sensor", "300x200", "--lens", "1.4"),
+        ("--sensor", "12"),
+        ("--domain", "sim", "--lens", "1.4"),
+    ):
+        assert preview("bad", *bad) == 2, bad
+    assert not (tmp_path / "bad.png").exists()

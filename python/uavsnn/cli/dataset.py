@@ -3,7 +3,8 @@
 - ``uavsnn dataset build OUT_DIR --domain dvs|sim|real|combined [--videos DIR] ...``
 - ``uavsnn dataset demo OUT_DIR`` — the small set that ``uavsnn demo`` uses
 - ``uavsnn dataset info DIR [--json]``
-- ``uavsnn dataset preview OUT.png --domain dvs --kind uav`` — a contact sheet of a scene
+- ``uavsnn dataset preview OUT.png --domain dvs --kind uav [--sensor WxH] [--lens F] [--fov LO,HI]``
+  — a contact sheet of a scene
 """
 
 from __future__ import annotations
@@ -32,6 +33,8 @@ from uavsnn.scenes import (
     OBJECT_KINDS,
     SCENE_KINDS,
     Lens,
+    ObjectSpec,
+    SceneSpec,
     contact_sheet,
     render,
     sample_spec,
@@ -158,6 +161,21 @@ def register(subparsers: Any) -> None:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--frames", type=int, default=8, help="frames on the sheet (8)")
     p.add_argument("--duration", type=float, default=None, help="seconds (domain default)")
+    p.add_argument(
+        "--sensor",
+        metavar="WxH",
+        help="dvs: the sensor the scene is drawn for (default 240x180), e.g. 1280x720",
+    )
+    p.add_argument(
+        "--lens",
+        type=float,
+        metavar="F_NUMBER",
+        help="dvs: seen through a lens of this f-number on the sensor's pixel pitch (a pinhole)",
+    )
+    p.add_argument(
+        "--focus-m", type=float, metavar="M", help="with --lens: its focus in metres (infinity)"
+    )
+    p.add_argument("--fov", metavar="LO,HI", help="dvs: the field of view's range in degrees")
     p.set_defaults(handler=_preview)
 
 
@@ -318,17 +336,43 @@ def _preview(args: argparse.Namespace) -> int:
         raise ParameterError(f"--frames must be >= 1, got {args.frames}")
     if args.seed < 0:
         raise ParameterError(f"--seed must be >= 0, got {args.seed}")
+    camera = (args.sensor, args.lens, args.focus_m, args.fov)
+    if args.domain != "dvs" and any(v is not None for v in camera):
+        raise ParameterError(
+            "--sensor, --lens, --focus-m and --fov set the event camera: --domain dvs only"
+        )
+    size = None if args.sensor is None else parse_sensor(args.sensor)
+    lens = lens_option(args.lens, args.focus_m)
     spec = sample_spec(
-        args.domain, args.kind, np.random.default_rng(args.seed), duration_s=args.duration
+        args.domain,
+        args.kind,
+        np.random.default_rng(args.seed),
+        size=size,
+        duration_s=args.duration,
+        fov_deg=fov_option(args.fov),
     )
+    if lens is not None:
+        try:
+            spec = lens.on(spec, (spec.width, spec.height))
+        except SimulationError as exc:
+            raise ParameterError(str(exc)) from exc
     frames, _, labels = render(spec, seed=args.seed)
-    sheet = contact_sheet(
-        frames, labels, count=args.frames, columns=4, scale=2.0 if args.domain == "dvs" else 1.0
-    )
+    # a 240-pixel frame is drawn twice its size to be seen; wider ones as they are
+    scale = 2.0 if args.domain == "dvs" and spec.width <= 320 else 1.0
+    sheet = contact_sheet(frames, labels, count=args.frames, columns=4, scale=scale)
     write_png(args.out, sheet)
-    objects = ", ".join(f"{o.kind} at {o.path.start[2]:.1f} m" for o in spec.objects) or "none"
+    objects = ", ".join(_preview_object(spec, o) for o in spec.objects) or "none"
     print(
         f"{args.out}: {args.domain} scene, {spec.background.kind} background, light "
         f"{spec.lighting.level:.3f}, objects: {objects}"
     )
     return 0
+
+
+def _preview_object(spec: SceneSpec, obj: ObjectSpec) -> str:
+    """An object as the preview names it: its kind and range, and through a lens its blur."""
+    text = f"{obj.kind} at {obj.path.start[2]:.1f} m"
+    if spec.aperture_mm > 0:
+        blur = float(spec.blur_px(np.array([spec.focal_px / obj.path.start[2]]))[0])
+        text += f" (blur {blur:.1f} px)"
+    return text
