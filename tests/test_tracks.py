@@ -474,11 +474,14 @@ def test_cli_prints_track_and_rotor(net: Network, tmp_path: Path) -> None:
 
 
 def test_detect_takes_a_confirmation_rule(net: Network, tmp_path: Path) -> None:
-    """detect --confirm H/W: the printed tracks are those of a Detector whose Tracker
-    confirms at H of W; a bad or score-aware rule is one line on stderr and exit 2."""
+    """detect --confirm H/W: the printed tracks are those of a Detector whose Tracker (the
+    network's, :func:`tracker_for`) confirms at H of W; a bad or score-aware rule is one line
+    on stderr and exit 2."""
     import json
     import subprocess
     import sys
+
+    from uavsnn.tracks import tracker_for
 
     model = tmp_path / "model.npz"
     net.save(model)
@@ -486,8 +489,8 @@ def test_detect_takes_a_confirmation_rule(net: Network, tmp_path: Path) -> None:
     cmd = [sys.executable, "-m", "uavsnn", "detect", "-", "--model", str(model), "--window-ms", "3"]
     seen = {}
     for rule, (hits, windows) in (("1/1", (1, 1)), ("5/6", (5, 6))):
-        det = Detector(net, window_us=3_000, overlap=0.5, tracker=Tracker(
-            confirm_hits=hits, confirm_windows=windows))  # fmt: skip
+        det = Detector(net, window_us=3_000, overlap=0.5, tracker=tracker_for(
+            net, confirm_hits=hits, confirm_windows=windows))  # fmt: skip
         reps = streamed(det, events, [])
         done = subprocess.run(
             [*cmd, "--json", "--confirm", rule], input=events.tobytes(), capture_output=True

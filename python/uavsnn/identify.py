@@ -538,10 +538,10 @@ def fit_network(
     held_out = tune is None
     if tune is None:
         train, tune = split_by_recording(train)
-    width = int(network.config["width"])
+    tracker = Tracker.for_sensor(int(network.config["width"]))
     tune_inference = network.infer(tune.windows)
-    train_feats = window_features(network, train, tracker=Tracker.for_sensor(width))
-    tune_feats = window_features(network, tune, tune_inference, tracker=Tracker.for_sensor(width))
+    train_feats = window_features(network, train, tracker=tracker)
+    tune_feats = window_features(network, tune, tune_inference, tracker=tracker)
     fitted = fit(
         train_feats,
         tune_feats,

@@ -502,11 +502,11 @@ class Network:
         ``identification = None`` and a :attr:`load_note` saying only the any-spike rule
         decides. An identification that does not record the tracker gate it was fitted with
         (:attr:`uavsnn.identifier.Identifier.gate_px`) runs at its sensor's gate
-        (:func:`uavsnn.tracks.tracker_for`); wider than 240 px, where that is not the 24 px
-        every size was fitted at before the gate scaled with the sensor, a :attr:`load_note`
-        says so."""
+        (:func:`uavsnn.tracks.tracker_for`); where that gate is wider than the 24 px
+        (:data:`uavsnn.tracks.DEFAULT_GATE_PX`) every size was fitted at before the gate scaled
+        with the sensor (sensors wider than 240 px), a :attr:`load_note` says so."""
         from uavsnn.identifier import Identifier
-        from uavsnn.tracks import GATE_SHARE
+        from uavsnn.tracks import DEFAULT_GATE_PX, GATE_SHARE
 
         net = cls._wrap(_core.NetworkCore.load(os.fspath(path)))
         try:
@@ -522,13 +522,13 @@ class Network:
                 f"{os.fspath(path)} has no identification model: only the any-spike rule "
                 "decides (`uavsnn train` fits one)"
             )
-        elif net.identification.gate_px is None and width > 240:
+        elif net.identification.gate_px is None and GATE_SHARE * width > DEFAULT_GATE_PX:
             net.load_note = (
                 f"{os.fspath(path)} does not record the tracker gate its identification was "
                 f"fitted with: it runs at {GATE_SHARE:g} of the sensor's width "
                 f"({GATE_SHARE * width:g} px), but models fitted before the gate scaled with "
-                "the sensor were fitted at 24 px: fit it again with `uavsnn train "
-                "--identify-only`"
+                f"the sensor were fitted at {DEFAULT_GATE_PX:g} px: fit it again with "
+                "`uavsnn train --identify-only`"
             )
         return net
 

@@ -32,6 +32,7 @@ if TYPE_CHECKING:
     from uavsnn.network import Network
 
 __all__ = [
+    "DEFAULT_GATE_PX",
     "GATE_SHARE",
     "MAX_ENDED",
     "MAX_TRACKS_LIMIT",
@@ -49,6 +50,9 @@ __all__ = [
 #: "The gate scales with the sensor"). A network runs with the gate its identification was
 #: fitted with when its model file records one (:func:`tracker_for`).
 GATE_SHARE = 0.1
+#: A :class:`Tracker`'s gate when none is given: :data:`GATE_SHARE` of a 240×180 sensor, the
+#: gate every sensor size was fitted at before the gate scaled with the sensor.
+DEFAULT_GATE_PX = 24.0
 
 #: The cap ``max_tracks`` may not exceed (each live track is a few hundred bytes; the
 #: assignment is greedy over at most ``max_tracks × objects`` pairs per window).
@@ -287,7 +291,8 @@ class Tracker:
 
     Args:
         gate_px: the largest distance (px) between a track's predicted centre and an object's
-            centre for them to be linked (default 24, the gate of a 240×180 sensor; a network's
+            centre for them to be linked (default :data:`DEFAULT_GATE_PX`, 24, the gate of a
+            240×180 sensor; a network's
             tracker takes its gate from :func:`tracker_for`: the one its identification was
             fitted with, else its sensor's, :meth:`for_sensor`).
         alpha, beta: the position and velocity gains of the constant-velocity (alpha-beta)
@@ -308,7 +313,7 @@ class Tracker:
     def __init__(
         self,
         *,
-        gate_px: float = 24.0,
+        gate_px: float = DEFAULT_GATE_PX,
         alpha: float = 0.6,
         beta: float = 0.3,
         confirm_hits: int = 3,
