@@ -292,9 +292,8 @@ class Tracker:
     Args:
         gate_px: the largest distance (px) between a track's predicted centre and an object's
             centre for them to be linked (default :data:`DEFAULT_GATE_PX`, 24, the gate of a
-            240×180 sensor; a network's
-            tracker takes its gate from :func:`tracker_for`: the one its identification was
-            fitted with, else its sensor's, :meth:`for_sensor`).
+            240×180 sensor; a network's tracker takes its gate from :func:`tracker_for`: the
+            one its identification was fitted with, else its sensor's, :meth:`for_sensor`).
         alpha, beta: the position and velocity gains of the constant-velocity (alpha-beta)
             filter, in ``(0, 1]`` (defaults 0.6 and 0.3).
         confirm_hits, confirm_windows: a track is confirmed when it has hits in at least

@@ -170,7 +170,8 @@ def register(subparsers: Any) -> None:
         "--lens",
         type=float,
         metavar="F_NUMBER",
-        help="dvs: seen through a lens of this f-number on the sensor's pixel pitch (a pinhole)",
+        help="dvs: seen through a lens of this f-number on the sensor's pixel pitch "
+        "(default: a pinhole)",
     )
     p.add_argument(
         "--focus-m", type=float, metavar="M", help="with --lens: its focus in metres (infinity)"
