@@ -28,7 +28,7 @@ from concurrent.futures import ProcessPoolExecutor  # noqa: E402
 from typing import Any  # noqa: E402
 
 from uavsnn import Network  # noqa: E402
-from uavsnn.cli.dataset import lens_option  # noqa: E402
+from uavsnn.cli._camera import lens_option  # noqa: E402
 from uavsnn.errors import ParameterError  # noqa: E402
 from uavsnn.false_alarms import (  # noqa: E402
     DEFAULT_CONFIRM,

@@ -5,7 +5,8 @@ Each sub-command lives in the module of its name in this package and exposes
 parsed arguments returning an exit code) with ``parser.set_defaults(handler=...)``. A module is
 imported only when its command is run (or asked for its ``--help``): ``uavsnn --help`` lists
 the commands from :data:`COMMANDS` without loading OpenCV, the renderer or the simulators, so
-adding a command adds its line there.
+adding a command adds its line there. A private module (``_camera``: the lens and field of view
+options) holds what several commands share.
 
 Every failure a user can cause ends in one line on standard error and a documented exit code:
 2 for bad input (any :class:`uavsnn.UavsnnError`, a file that cannot be read or written, not

@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from uavsnn.cli._camera import add_camera_options, fov_option, lens_option
 from uavsnn.dataset import (
     DATASET_DOMAINS,
     DatasetPaths,
@@ -32,7 +33,6 @@ from uavsnn.errors import ParameterError, SimulationError
 from uavsnn.scenes import (
     OBJECT_KINDS,
     SCENE_KINDS,
-    Lens,
     ObjectSpec,
     SceneSpec,
     contact_sheet,
@@ -113,26 +113,7 @@ def register(subparsers: Any) -> None:
         "ball, insect, leaf) in its share instead of at random: for tuning sets, which must "
         "hold every kind",
     )
-    b.add_argument(
-        "--lens",
-        type=float,
-        metavar="F_NUMBER",
-        help="dvs: scenes seen through a lens of this f-number (e.g. 1.4) on the sensor's pixel "
-        "pitch, focused at --focus-m: near objects blur as a real camera's do (default: a "
-        "pinhole, every range sharp; docs/simulation.md)",
-    )
-    b.add_argument(
-        "--focus-m",
-        type=float,
-        metavar="M",
-        help="with --lens: the range the lens is focused at, in metres (default: infinity)",
-    )
-    b.add_argument(
-        "--fov",
-        metavar="LO,HI",
-        help="dvs: draw each scene's horizontal field of view from LO to HI degrees (or one "
-        "value) instead of 45-70: a narrower view is a longer lens on the same sensor",
-    )
+    add_camera_options(b, "dvs")
     b.add_argument("--overwrite", action="store_true", help="replace a dataset in OUT_DIR")
     b.add_argument("--json", action="store_true", help="print the summary as JSON")
     b.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -166,17 +147,7 @@ def register(subparsers: Any) -> None:
         metavar="WxH",
         help="dvs: the sensor the scene is drawn for (default 240x180), e.g. 1280x720",
     )
-    p.add_argument(
-        "--lens",
-        type=float,
-        metavar="F_NUMBER",
-        help="dvs: seen through a lens of this f-number on the sensor's pixel pitch "
-        "(default: a pinhole)",
-    )
-    p.add_argument(
-        "--focus-m", type=float, metavar="M", help="with --lens: its focus in metres (infinity)"
-    )
-    p.add_argument("--fov", metavar="LO,HI", help="dvs: the field of view's range in degrees")
+    add_camera_options(p, "dvs")
     p.set_defaults(handler=_preview)
 
 
@@ -282,37 +253,6 @@ def _dvs_source(args: argparse.Namespace) -> SceneSource | None:
     return replace(
         default_source("dvs", parse_sensor(args.sensor)), lens=lens, fov_deg=fov_option(args.fov)
     )
-
-
-def lens_option(f_number: float | None, focus_m: float | None) -> Lens | None:
-    """The lens of ``--lens F_NUMBER [--focus-m M]`` (``None`` without ``--lens``).
-
-    Raises:
-        ParameterError: ``--focus-m`` without ``--lens``, or a lens out of range.
-    """
-    if f_number is None:
-        if focus_m is not None:
-            raise ParameterError("--focus-m sets the focus of --lens; give --lens too")
-        return None
-    try:
-        return Lens(f_number, focus_m)
-    except SimulationError as exc:
-        raise ParameterError(str(exc)) from exc
-
-
-def fov_option(text: str | None) -> tuple[float, float] | None:
-    """``--fov LO,HI`` or ``--fov DEG`` as ``(low, high)`` degrees (``None`` without it;
-    the range is checked where it is used, :func:`uavsnn.scenes.sampler.fov_range`)."""
-    if text is None:
-        return None
-    parts = text.split(",")
-    try:
-        values = [float(p) for p in parts]
-    except ValueError:
-        values = []
-    if len(values) not in (1, 2):
-        raise ParameterError(f"--fov takes LO,HI or one value in degrees, got {text!r}")
-    return (values[0], values[-1])
 
 
 def _demo(args: argparse.Namespace) -> int:

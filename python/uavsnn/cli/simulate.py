@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from uavsnn.cli._camera import add_camera_options
 from uavsnn.errors import ParameterError, SimulationError
 from uavsnn.events import Recording
 from uavsnn.sim import Pix2NvsParams, video_to_recording, write_preview
@@ -53,21 +54,7 @@ def register(subparsers: Any) -> None:
     parser.add_argument(
         "--duration", type=float, default=1.0, help="sampled scene's length in seconds (1)"
     )
-    parser.add_argument(
-        "--lens",
-        type=float,
-        metavar="F_NUMBER",
-        help="--scene: seen through a lens of this f-number on the sensor's pixel pitch, "
-        "focused at --focus-m (default: a pinhole; docs/dataset.md, 'The lens')",
-    )
-    parser.add_argument(
-        "--focus-m", type=float, metavar="M", help="with --lens: its focus in metres (infinity)"
-    )
-    parser.add_argument(
-        "--fov",
-        metavar="LO,HI",
-        help="--scene KIND: draw the horizontal field of view from LO to HI degrees (45-70)",
-    )
+    add_camera_options(parser, "--scene")
     parser.add_argument("-o", "--output", type=Path, required=True, help="output .npz")
     parser.add_argument("--mode", choices=("sim", "dvs"), default="sim")
     parser.add_argument("--size", default="240x180", help="sensor WIDTHxHEIGHT (240x180)")
@@ -120,7 +107,7 @@ def write_recording(recording: Recording, path: Path) -> None:
 
 def _scene(args: argparse.Namespace, size: tuple[int, int]) -> Recording:
     """Record the scene ``--scene`` names; its labels go beside the output."""
-    from uavsnn.cli.dataset import fov_option, lens_option
+    from uavsnn.cli._camera import fov_option, lens_option
     from uavsnn.scenes import OBJECT_KINDS, SCENE_KINDS, record, sample_spec, spec_from_dict
 
     lens = lens_option(args.lens, args.focus_m)
