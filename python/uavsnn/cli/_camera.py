@@ -11,8 +11,9 @@ from uavsnn.errors import ParameterError, SimulationError
 
 if TYPE_CHECKING:
     from uavsnn.scenes.camera import Lens
+    from uavsnn.scenes.spec import SceneSpec
 
-__all__ = ["add_camera_options", "fov_option", "lens_option"]
+__all__ = ["add_camera_options", "fov_option", "lens_option", "through_lens"]
 
 
 def add_camera_options(parser: argparse.ArgumentParser, scope: str) -> None:
@@ -72,3 +73,19 @@ def fov_option(text: str | None) -> tuple[float, float] | None:
     if len(values) not in (1, 2):
         raise ParameterError(f"--fov takes LO,HI or one value in degrees, got {text!r}")
     return (values[0], values[-1])
+
+
+def through_lens(spec: SceneSpec, lens: Lens | None, sensor: tuple[int, int]) -> SceneSpec:
+    """``spec`` seen through ``lens`` (:meth:`uavsnn.scenes.Lens.on`; unchanged without one) on
+    ``sensor``.
+
+    Raises:
+        ParameterError: no pixel pitch is known for ``sensor`` (give ``--size`` or ``--sensor``
+            of a known camera).
+    """
+    if lens is None:
+        return spec
+    try:
+        return lens.on(spec, sensor)
+    except SimulationError as exc:
+        raise ParameterError(str(exc)) from exc

@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from uavsnn.cli._camera import add_camera_options, fov_option, lens_option
+from uavsnn.cli._camera import add_camera_options, fov_option, lens_option, through_lens
 from uavsnn.dataset import (
     DATASET_DOMAINS,
     DatasetPaths,
@@ -29,7 +29,7 @@ from uavsnn.dataset import (
     read_manifest,
 )
 from uavsnn.distributed import add_ray_option, runner_for
-from uavsnn.errors import ParameterError, SimulationError
+from uavsnn.errors import ParameterError
 from uavsnn.scenes import (
     OBJECT_KINDS,
     SCENE_KINDS,
@@ -292,11 +292,7 @@ def _preview(args: argparse.Namespace) -> int:
         duration_s=args.duration,
         fov_deg=fov_option(args.fov),
     )
-    if lens is not None:
-        try:
-            spec = lens.on(spec, (spec.width, spec.height))
-        except SimulationError as exc:
-            raise ParameterError(str(exc)) from exc
+    spec = through_lens(spec, lens, (spec.width, spec.height))
     frames, _, labels = render(spec, seed=args.seed)
     # a 240-pixel frame is drawn twice its size to be seen; wider ones as they are
     scale = 2.0 if args.domain == "dvs" and spec.width <= 320 else 1.0

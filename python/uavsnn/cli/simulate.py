@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from uavsnn.cli._camera import add_camera_options
-from uavsnn.errors import ParameterError, SimulationError
+from uavsnn.errors import ParameterError
 from uavsnn.events import Recording
 from uavsnn.sim import Pix2NvsParams, video_to_recording, write_preview
 from uavsnn.sim.checks import check_size
@@ -107,7 +107,7 @@ def write_recording(recording: Recording, path: Path) -> None:
 
 def _scene(args: argparse.Namespace, size: tuple[int, int]) -> Recording:
     """Record the scene ``--scene`` names; its labels go beside the output."""
-    from uavsnn.cli._camera import fov_option, lens_option
+    from uavsnn.cli._camera import fov_option, lens_option, through_lens
     from uavsnn.scenes import OBJECT_KINDS, SCENE_KINDS, record, sample_spec, spec_from_dict
 
     lens = lens_option(args.lens, args.focus_m)
@@ -126,11 +126,7 @@ def _scene(args: argparse.Namespace, size: tuple[int, int]) -> Recording:
     else:
         kinds = ", ".join((*SCENE_KINDS, *OBJECT_KINDS))
         raise ParameterError(f"--scene must be a .json file or one of {kinds}, got {args.scene}")
-    if lens is not None:
-        try:
-            spec = lens.on(spec, size)
-        except SimulationError as exc:
-            raise ParameterError(str(exc)) from exc
+    spec = through_lens(spec, lens, size)
     out = record(spec, sensor=size, seed=args.seed)
     labels_path = args.output.with_suffix(".labels.npz")
     np.savez(labels_path, timestamps_us=out.timestamps_us, labels=out.labels)
