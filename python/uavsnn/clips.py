@@ -141,13 +141,9 @@ def scene_source(described: dict[str, Any]) -> SceneSource:
         dvs_params=DvsParams(**params) if domain == "dvs" else None,
         pix2nvs_params=Pix2NvsParams(**params) if domain == "sim" else None,
         lens=None if lens is None else Lens(**lens),
-        fov_deg=_fov(described.get("fov_deg")),
+        # a list in the manifest; SceneSource checks it and keeps it as a pair of floats
+        fov_deg=described.get("fov_deg"),
     )
-
-
-def _fov(value: Any) -> tuple[float, float] | None:
-    """A manifest source's ``fov_deg`` (``None`` when it has none)."""
-    return None if value is None else (float(value[0]), float(value[1]))
 
 
 def clip_set(dataset: str | Path, split: str = "test", videos: str | Path | None = None) -> ClipSet:
