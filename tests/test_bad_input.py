@@ -444,3 +444,151 @@ def test_reading_a_recording_beyond_the_memory_limit_is_refused(
         uio.read(path, sensor_size=SIZE)
     monkeypatch.setattr(uwindows, "MEMORY_LIMIT", 130_000)
     assert len(uio.read(path, sensor_size=SIZE)) == 5_000
+
+
+# -- 10. options a first user gets wrong: refused before any work, nothing written --------------
+
+
+def test_preview_to_a_name_that_is_not_png_is_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # OpenCV found no writer for '.txt' (or no suffix) and its error ended the command.
+    for name in ("sheet.txt", "sheet"):
+        out = tmp_path / name
+        _one_line_exit_2(capsys, ["dataset", "preview", str(out), "--duration", "0.02"], ".png")
+        assert not out.exists()
+
+
+def _simulate_scene(tmp_path: Path, *extra: str) -> list[str]:
+    out = tmp_path / "s.npz"
+    return ["simulate", "--scene", "ball", "-o", str(out), "--quiet", *extra]
+
+
+def test_simulate_refuses_a_bad_preview_before_writing_the_recording(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A preview it cannot write was refused only after the recording and its labels were
+    written (over any earlier ones)."""
+    for preview in (tmp_path / "s.jpg", tmp_path / "missing" / "s.png"):
+        argv = _simulate_scene(tmp_path, "--duration", "0.02", "--preview", str(preview))
+        _one_line_exit_2(capsys, argv, "--preview")
+        assert sorted(p.name for p in tmp_path.iterdir()) == []
+    _one_line_exit_2(capsys, ["simulate", "x.mp4", "-o", str(tmp_path / "no" / "x.npz")], "-o")
+    (tmp_path / "d.npz").mkdir()
+    _one_line_exit_2(capsys, _simulate_scene(tmp_path, "-o", str(tmp_path / "d.npz")), "a folder")
+    assert not (tmp_path / "d.labels.npz").exists()
+
+
+@pytest.mark.parametrize(
+    "extra",
+    [
+        ["--mode", "sim"],
+        ["--threshold", "0.3"],
+        ["--pix2nvs-compat"],
+        ["--downsample", "events"],
+        ["--max-frames", "3"],
+        ["--fps", "10"],
+    ],
+)
+def test_simulate_scene_refuses_the_options_of_a_video(
+    extra: list[str], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # They were ignored: a scene is always recorded through the DVS emulator at its own rate.
+    _one_line_exit_2(capsys, _simulate_scene(tmp_path, "--duration", "0.02", *extra), extra[0])
+    assert not (tmp_path / "s.npz").exists()
+
+
+def test_simulate_duration_is_for_a_sampled_scene_only(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from uavsnn.scenes import sample_spec, spec_to_dict
+
+    assert main(_simulate_scene(tmp_path, "--duration", "0.02", "--mode", "dvs")) == 0
+    capsys.readouterr()
+    scene = tmp_path / "scene.json"
+    spec = sample_spec("dvs", "ball", np.random.default_rng(0), duration_s=0.02)
+    scene.write_text(json.dumps(spec_to_dict(spec)))
+    out = tmp_path / "j.npz"
+    argv = ["simulate", "--scene", str(scene), "-o", str(out), "--duration", "5"]
+    _one_line_exit_2(capsys, argv, "--duration")
+    _one_line_exit_2(capsys, ["simulate", "v.mp4", "-o", str(out), "--duration", "5"], "--duration")
+    assert not out.exists()
+
+
+def test_resume_without_a_checkpoint_folder_is_refused(
+    dataset: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # It trained from scratch, as if --resume had not been given.
+    out = tmp_path / "m.npz"
+    argv = ["train", str(dataset), "-o", str(out), "--resume", "--no-identify", "--quiet"]
+    _one_line_exit_2(capsys, argv, "--checkpoint-dir")
+    assert not out.exists()
+    with pytest.raises(ParameterError, match="checkpoint_dir"):
+        train(Network(CONFIG | {"width": 240, "height": 180}), load(dataset, "train").windows,
+              resume=True)  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"start_us": 1.5}, "start_us must be an integer"),
+        ({"start_us": float("nan")}, "start_us must be an integer"),
+        ({"start_us": 1 << 70}, "start_us must be in"),
+        ({"window_us": 1 << 70}, "window_us must be in"),
+    ],
+)
+def test_detector_times_that_are_no_u64_are_parameter_errors(
+    net: Network, kwargs: dict, match: str
+) -> None:
+    # TypeError and OverflowError came out of the binding.
+    with pytest.raises(ParameterError, match=match):
+        Detector(net, **kwargs)
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "match"),
+    [("parameters", None, "no field 'parameters'"), ("splits", [], "no attribute 'items'")],
+)
+def test_dataset_info_of_a_damaged_manifest_is_one_line(
+    field: str,
+    value: object,
+    match: str,
+    dataset: Path,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    # A KeyError or AttributeError traceback ended `uavsnn dataset info`.
+    manifest = json.loads((dataset / "manifest.json").read_text())
+    if value is None:
+        del manifest[field]
+    else:
+        manifest[field] = value
+    damaged = tmp_path / "damaged"
+    damaged.mkdir()
+    (damaged / "manifest.json").write_text(json.dumps(manifest))
+    for extra in ([], ["--json"]):
+        _one_line_exit_2(capsys, ["dataset", "info", str(damaged), *extra], match)
+
+
+@pytest.mark.parametrize(
+    ("argv", "match"),
+    [
+        (["evaluate", "m.npz", "data", "--track-score", "max"], "--track-score"),
+        (["train", "data", "-o", "m.npz", "--tune", "t", "--no-identify"], "--tune"),
+        (["bench", "--model", "m.npz", "--size", "640x480"], "--size"),
+    ],
+)
+def test_an_option_that_would_change_nothing_is_refused(
+    argv: list[str], match: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # Each was read and then ignored: --track-score without --tracks, --tune with
+    # --no-identify, --size beside a model that brings its own.
+    _one_line_exit_2(capsys, argv, match)
+
+
+def test_demo_refuses_a_negative_seed_before_making_its_folder(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "demo"
+    _one_line_exit_2(capsys, ["demo", "--seed", "-1", "--out", str(out)], "--seed")
+    assert not out.exists()

@@ -95,3 +95,18 @@ def test_cli_errors(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
         with pytest.raises(SystemExit) as exc:
             main(["bench", *bad])
         assert exc.value.code == 2
+
+
+def test_cli_events_as_its_help_writes_them(capsys: pytest.CaptureFixture[str]) -> None:
+    # The help gives the default as 3e5, which the option refused ("invalid int value"); and a
+    # count of 0 or below ran one window instead of being refused.
+    from uavsnn.cli import _build_parser
+
+    parser = _build_parser("bench")
+    assert parser.parse_args(["bench", "--events", "3e5"]).events == 300_000
+    assert parser.parse_args(["bench", "--events", "1000"]).events == 1000
+    for bad in ("0", "-5", "2.5", "nan", "1e400"):
+        with pytest.raises(SystemExit) as exc:
+            main(["bench", "--events", bad])
+        assert exc.value.code == 2
+        assert "whole number" in capsys.readouterr().err

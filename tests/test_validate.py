@@ -41,6 +41,15 @@ def test_check_sensor_size() -> None:
         check_sensor_size(240)
     with pytest.raises(ParameterError, match="< 65536"):
         check_sensor_size((65536, 1))
+    # Whole pixels: an integral float is one, a fraction, a bool or a string is refused rather
+    # than truncated (240.5 was read as 240, True as 1, "24" as 2x4).
+    assert check_sensor_size(np.array([240.0, 180.0])) == (240, 180)
+    for bad in ((240.5, 180), (True, 180), "24", ("240", "180"), (float("nan"), 1)):
+        with pytest.raises(ParameterError, match="whole pixels"):
+            check_sensor_size(bad)
+    events = np.zeros(1, dtype=uavsnn.EVENT_DTYPE)
+    with pytest.raises(ParameterError, match="whole pixels"):
+        uavsnn.Recording(events, (240.5, 180))
 
 
 # Private modules (``_core``, ``_validate``) and dunders are fine; the renderer's ``_draw``, used

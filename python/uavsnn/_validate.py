@@ -45,11 +45,26 @@ def int_param(name: str, value: Any, minimum: int, maximum: int = U64_MAX) -> in
 
 
 def check_sensor_size(sensor_size: Any) -> tuple[int, int]:
-    """A sensor size ``(width, height)``, each in ``[1, 65535]``."""
+    """A sensor size ``(width, height)``, each a whole number (an integral float is accepted)
+    in ``[1, 65535]``; a fraction, a ``bool`` or a string is refused, not truncated."""
     try:
-        width, height = (int(v) for v in sensor_size)
-    except (TypeError, ValueError) as exc:
-        raise ParameterError(f"sensor_size must be (width, height), got {sensor_size!r}") from exc
+        sides = () if isinstance(sensor_size, (str, bytes)) else tuple(sensor_size)
+    except TypeError:
+        sides = ()
+    if len(sides) != 2 or not all(_whole(v) for v in sides):
+        raise ParameterError(
+            f"sensor_size must be (width, height) in whole pixels, got {sensor_size!r}"
+        )
+    width, height = (int(v) for v in sides)
     if not (0 < width <= 65535 and 0 < height <= 65535):
         raise ParameterError(f"sensor_size must be positive and < 65536, got {width}x{height}")
     return width, height
+
+
+def _whole(value: Any) -> bool:
+    """Whether ``value`` is a whole number: an integer (not ``bool``) or an integral float."""
+    if isinstance(value, (bool, np.bool_)):
+        return False
+    if isinstance(value, numbers.Integral):
+        return True
+    return isinstance(value, numbers.Real) and math.isfinite(value) and float(value).is_integer()

@@ -38,7 +38,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from uavsnn import _core
-from uavsnn._validate import check_sensor_size
+from uavsnn._validate import U64_MAX, check_int, check_sensor_size
 from uavsnn.boxes import xywh
 from uavsnn.errors import ParameterError, ShapeError
 from uavsnn.events import EVENT_DTYPE, packed_bytes
@@ -164,8 +164,10 @@ class Detector:
             raise ParameterError(f"window_us must be an integer, got {window_us!r}")
         if window_us < 1:
             raise ParameterError(f"window_us must be at least 1 µs, got {window_us}")
-        if start_us is not None and start_us < 0:
-            raise ParameterError(f"start_us must be >= 0, got {start_us}")
+        # The engine takes both as u64: a larger value is refused here, not an OverflowError.
+        window_us = check_int("window_us", window_us, 1, U64_MAX)
+        if start_us is not None:
+            start_us = check_int("start_us", start_us, 0, U64_MAX)
         w1, w2, w3 = (
             np.ascontiguousarray(network.weights(layer), dtype=np.float32).ravel()
             for layer in ("conv1", "conv2", "conv3")

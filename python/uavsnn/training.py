@@ -117,13 +117,16 @@ def train(
     Layer ``i`` shuffles with seed ``seed + i``.
 
     Raises:
-        ParameterError: an unknown layer, layers out of order, a bad count.
+        ParameterError: an unknown layer, layers out of order, a bad count, ``resume``
+            without ``checkpoint_dir``.
         DatasetError: no training windows.
         ModelFileError: ``resume`` with a checkpoint of another network shape.
         ParameterError: ``resume`` with a checkpoint made with another config, training data,
             seed or schedule.
     """
     names = _check_layers(layers)
+    if resume and checkpoint_dir is None:
+        raise ParameterError("resume=True continues from checkpoint_dir: give it too")
     n = len(windows.t0)
     if n == 0:
         raise DatasetError("no training windows: the train split is empty")

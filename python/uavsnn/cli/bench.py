@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 from pathlib import Path
 from typing import Any
 
 from uavsnn.bench import DENSITIES, bench_density
+from uavsnn.errors import ParameterError
 from uavsnn.network import Network
 from uavsnn.progress import bar as new_bar
 from uavsnn.sim.checks import check_size
@@ -27,6 +29,17 @@ def _densities(text: str) -> list[float]:
     return values
 
 
+def _count(text: str) -> int:
+    """A count of at least 1, written whole or as a whole number like ``3e5``."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value.is_integer() and value >= 1):
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 1 (e.g. 3e5), got {text!r}")
+    return int(text) if text.strip().lstrip("+").isdigit() else int(value)
+
+
 def register(subparsers: Any) -> None:
     """Add ``uavsnn bench``."""
     p = subparsers.add_parser(
@@ -39,7 +52,7 @@ def register(subparsers: Any) -> None:
     )
     p.add_argument("--model", type=Path, help="model file (default: an untrained network)")
     p.add_argument(
-        "--size", default="240x180", metavar="WxH",
+        "--size", default=None, metavar="WxH",
         help="sensor size of the untrained network (240x180; a model brings its own)",
     )  # fmt: skip
     p.add_argument(
@@ -50,7 +63,7 @@ def register(subparsers: Any) -> None:
         "--windows", type=int, default=None,
         help="windows of 50 ms per density (default: enough for about --events input events)",
     )  # fmt: skip
-    p.add_argument("--events", type=int, default=300_000, help="input events per density (3e5)")
+    p.add_argument("--events", type=_count, default=300_000, help="input events per density (3e5)")
     p.add_argument("--repeat", type=int, default=5, help="runs per figure; the best counts (5)")
     p.add_argument("--threads", type=int, default=None, help="workers of the batch (all cores)")
     p.add_argument("--seed", type=int, default=0, help="seed of the windows and network (0)")
@@ -61,9 +74,11 @@ def register(subparsers: Any) -> None:
 
 def _bench(args: argparse.Namespace) -> int:
     if args.model is not None:
+        if args.size is not None:
+            raise ParameterError("--size is the untrained network's: a --model brings its own")
         network = Network.load(args.model)
     else:
-        width, height = check_size(args.size, "--size")
+        width, height = check_size(args.size or "240x180", "--size")
         network = Network({"width": width, "height": height}, seed=args.seed)
     progress = (
         None if args.quiet else new_bar(total=len(args.density), desc="bench", unit="density")

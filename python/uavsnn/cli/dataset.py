@@ -29,7 +29,7 @@ from uavsnn.dataset import (
     read_manifest,
 )
 from uavsnn.distributed import add_ray_option, runner_for
-from uavsnn.errors import ParameterError
+from uavsnn.errors import DatasetError, ParameterError
 from uavsnn.scenes import (
     OBJECT_KINDS,
     SCENE_KINDS,
@@ -152,7 +152,23 @@ def register(subparsers: Any) -> None:
 
 
 def _summary(root: Path) -> dict[str, Any]:
-    manifest = read_manifest(root)
+    manifest = read_manifest(root)  # checks the format and its version, not every field
+    try:
+        return _summarise(root, manifest)
+    except _MALFORMED as exc:
+        raise _malformed(root, exc) from exc
+
+
+#: What reading a field of a damaged manifest (hand-edited, cut short) raises.
+_MALFORMED = (KeyError, TypeError, AttributeError, ValueError, IndexError)
+
+
+def _malformed(root: Path, exc: Exception) -> DatasetError:
+    what = f"it has no field {exc.args[0]!r}" if isinstance(exc, KeyError) else str(exc)
+    return DatasetError(f"{root}/manifest.json is not a whole dataset manifest: {what}")
+
+
+def _summarise(root: Path, manifest: dict[str, Any]) -> dict[str, Any]:
     return {
         "root": str(root),
         "domain": manifest["domain"],
@@ -268,7 +284,11 @@ def _demo(args: argparse.Namespace) -> int:
 
 
 def _info(args: argparse.Namespace) -> int:
-    _print(_summary(args.dir), args.json)
+    summary = _summary(args.dir)
+    try:
+        _print(summary, args.json)
+    except _MALFORMED as exc:
+        raise _malformed(args.dir, exc) from exc
     return 0
 
 
@@ -277,6 +297,8 @@ def _preview(args: argparse.Namespace) -> int:
         raise ParameterError(f"--frames must be >= 1, got {args.frames}")
     if args.seed < 0:
         raise ParameterError(f"--seed must be >= 0, got {args.seed}")
+    if args.out.suffix.lower() != ".png":
+        raise ParameterError(f"the contact sheet is a PNG: OUT must end in .png, got {args.out}")
     camera = (args.sensor, args.lens, args.focus_m, args.fov)
     if args.domain != "dvs" and any(v is not None for v in camera):
         raise ParameterError(

@@ -12,6 +12,7 @@ from typing import Any
 from uavsnn import __version__, report
 from uavsnn.cli import output_dir
 from uavsnn.dataset import build_demo, load
+from uavsnn.errors import ParameterError
 from uavsnn.evaluation import evaluate
 from uavsnn.experiments import (
     RECIPE_SETTINGS,
@@ -100,6 +101,8 @@ def run_demo(out: Path, seed: int = 0, *, progress: bool = False) -> dict[str, A
 
 
 def _demo(args: argparse.Namespace) -> int:
+    if args.seed < 0:  # before the folder is made: a refusal leaves nothing behind
+        raise ParameterError(f"--seed must be >= 0, got {args.seed}")
     output_dir(args.out, "--out")
     figures = run_demo(args.out, args.seed, progress=not args.quiet)
     if args.json:

@@ -84,7 +84,7 @@ def register(subparsers: Any) -> None:
     p.add_argument(
         "--track-score",
         choices=("mean", "max"),
-        default="mean",
+        default=None,
         help="with --tracks and identification: a track alarms when confirmed and the running "
         "mean (default) or max of its objects' UAV scores reaches the model's threshold",
     )
@@ -107,6 +107,11 @@ def _evaluate(args: argparse.Namespace) -> int:
         raise ParameterError(
             "--confirm sets the track confirmation rule: it needs --tracks or --clips"
         )
+    if args.track_score is not None and not args.tracks:
+        raise ParameterError(
+            "--track-score sets how a track alarms in the --tracks figures: give --tracks"
+        )
+    args.track_score = args.track_score or "mean"
     if args.videos is not None and not args.clips:
         raise ParameterError("--videos names the folder of the clips --clips streams: give --clips")
     if args.ray is not None and not args.clips:

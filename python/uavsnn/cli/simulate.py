@@ -52,11 +52,16 @@ def register(subparsers: Any) -> None:
         "kind) or a JSON file describing a scene (uavsnn.scenes.spec_to_dict's form)",
     )
     parser.add_argument(
-        "--duration", type=float, default=1.0, help="sampled scene's length in seconds (1)"
+        "--duration", type=float, default=None, help="sampled scene's length in seconds (1)"
     )
     add_camera_options(parser, "--scene")
     parser.add_argument("-o", "--output", type=Path, required=True, help="output .npz")
-    parser.add_argument("--mode", choices=("sim", "dvs"), default="sim")
+    parser.add_argument(
+        "--mode",
+        choices=("sim", "dvs"),
+        default=None,
+        help="a video's simulator (sim, the default); --scene is always dvs",
+    )
     parser.add_argument("--size", default="240x180", help="sensor WIDTHxHEIGHT (240x180)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the dvs noise (0)")
     parser.add_argument(
@@ -115,6 +120,10 @@ def _scene(args: argparse.Namespace, size: tuple[int, int]) -> Recording:
     if args.scene.lower().endswith(".json"):
         if fov is not None:
             raise ParameterError("--fov draws a sampled scene's view; a JSON scene has its own")
+        if args.duration is not None:
+            raise ParameterError(
+                "--duration sets a sampled scene's length; a JSON scene has its own"
+            )
         try:
             data = json.loads(Path(args.scene).read_text())
         except (OSError, ValueError) as exc:
@@ -122,7 +131,8 @@ def _scene(args: argparse.Namespace, size: tuple[int, int]) -> Recording:
         spec = spec_from_dict(data)
     elif args.scene in SCENE_KINDS or args.scene in OBJECT_KINDS:
         rng = np.random.default_rng(args.seed)
-        spec = sample_spec("dvs", args.scene, rng, size=size, duration_s=args.duration, fov_deg=fov)
+        duration = 1.0 if args.duration is None else args.duration
+        spec = sample_spec("dvs", args.scene, rng, size=size, duration_s=duration, fov_deg=fov)
     else:
         kinds = ", ".join((*SCENE_KINDS, *OBJECT_KINDS))
         raise ParameterError(f"--scene must be a .json file or one of {kinds}, got {args.scene}")
@@ -165,7 +175,6 @@ def pix2nvs_params(args: argparse.Namespace) -> Pix2NvsParams | None:
 def run(args: argparse.Namespace) -> int:
     """Handler of ``uavsnn simulate``."""
     size = check_size(args.size)
-    params = pix2nvs_params(args)
     if args.output.suffix.lower() != ".npz":
         print(
             f"uavsnn simulate: error: output must end in .npz, got {args.output}", file=sys.stderr
@@ -174,14 +183,60 @@ def run(args: argparse.Namespace) -> int:
     if (args.video is None) == (args.scene is None):
         print("uavsnn simulate: error: give a video or --scene, not both", file=sys.stderr)
         return 2
+    _check_outputs(args)  # before any work: a refusal writes nothing
     if args.scene is not None:
-        recording = _scene(args, size)
+        _check_scene_options(args)
         args.mode = "dvs"
+        recording = _scene(args, size)
     elif args.lens is not None or args.focus_m is not None or args.fov is not None:
         raise ParameterError("--lens, --focus-m and --fov are for --scene (a rendered scene)")
+    elif args.duration is not None:
+        raise ParameterError(
+            "--duration sets a --scene's length; a video runs whole (--max-frames stops it)"
+        )
     else:
-        recording = _video(args, size, params)
+        args.mode = args.mode or "sim"
+        recording = _video(args, size, pix2nvs_params(args))
     return _finish(args, recording)
+
+
+def _check_outputs(args: argparse.Namespace) -> None:
+    """The output's and the preview's folders exist, neither is a folder itself, and the preview
+    is a PNG.
+
+    Raises:
+        ParameterError: otherwise.
+    """
+    for flag, path in (("-o", args.output), ("--preview", args.preview)):
+        if path is not None and not path.parent.is_dir():
+            raise ParameterError(f"{flag} {path}: the folder {path.parent} does not exist")
+        if path is not None and path.is_dir():
+            raise ParameterError(f"{flag} {path}: is a folder, not a file")
+    if args.preview is not None and args.preview.suffix.lower() != ".png":
+        raise ParameterError(f"--preview must be a .png file, got {args.preview}")
+
+
+def _check_scene_options(args: argparse.Namespace) -> None:
+    """Refuse the options of a video with ``--scene``, which records through the DVS emulator.
+
+    Raises:
+        ParameterError: ``--mode sim``, a PIX2NVS option, ``--downsample``, ``--max-frames``
+            or ``--fps`` with ``--scene``.
+    """
+    given = ["--" + k.replace("_", "-") for k in _MODEL_OPTIONS if getattr(args, k) is not None]
+    given += ["--pix2nvs-compat"] * bool(args.pix2nvs_compat)
+    given += ["--mode sim"] * (args.mode == "sim")
+    video_options = {
+        "--downsample": args.downsample,
+        "--max-frames": args.max_frames,
+        "--fps": args.fps,
+    }
+    given += [flag for flag, value in video_options.items() if value is not None]
+    if given:
+        raise ParameterError(
+            f"{', '.join(given)}: for a video; --scene records a rendered scene through the "
+            "DVS emulator (--mode dvs) at the scene's own frame rate"
+        )
 
 
 def _video(

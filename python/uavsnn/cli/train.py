@@ -131,6 +131,8 @@ def _check_track_flags(args: argparse.Namespace) -> None:
         raise ParameterError(
             f"--track-minutes must be in [0, {MAX_MINUTES:g}], got {args.track_minutes}"
         )
+    if args.tune is not None and args.no_identify:
+        raise ParameterError("--tune chooses identification's model: not with --no-identify")
     if args.track_minutes and args.no_identify:
         raise ParameterError(
             "--track-minutes sets identification's thresholds: not with --no-identify"
@@ -175,6 +177,8 @@ def _train(args: argparse.Namespace) -> int:
     _check_track_flags(args)
     if args.identify_only is not None:
         return _identify_only(args)
+    if args.resume and args.checkpoint_dir is None:
+        raise ParameterError("--resume continues from --checkpoint-dir: give it too")
     config = network_config(args.config, args.settings)  # bad flags fail before any work
     data = load(args.dataset, args.split)
     tune = None if args.tune is None or args.no_identify else load(args.tune, "train")
