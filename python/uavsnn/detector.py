@@ -160,14 +160,15 @@ class Detector:
                 f"sensor_size {tuple(sensor_size)} differs from the network's input size "
                 f"{(width, height)}; downsample the events first (uavsnn.filters.downsample)"
             )
-        if isinstance(window_us, bool) or not isinstance(window_us, (int, np.integer)):
-            raise ParameterError(f"window_us must be an integer, got {window_us!r}")
-        if window_us < 1:
-            raise ParameterError(f"window_us must be at least 1 µs, got {window_us}")
-        # The engine takes both as u64: a larger value is refused here, not an OverflowError.
+        # The engine takes both times as u64: a larger one is refused here, not an
+        # OverflowError; the overlap's range is the engine's check.
         window_us = check_int("window_us", window_us, 1, U64_MAX)
         if start_us is not None:
             start_us = check_int("start_us", start_us, 0, U64_MAX)
+        if isinstance(overlap, bool) or not isinstance(
+            overlap, (int, float, np.integer, np.floating)
+        ):
+            raise ParameterError(f"overlap must be a number in [0, 1), got {overlap!r}")
         w1, w2, w3 = (
             np.ascontiguousarray(network.weights(layer), dtype=np.float32).ravel()
             for layer in ("conv1", "conv2", "conv3")
