@@ -65,3 +65,55 @@ impl Error {
         }
     }
 }
+
+/// Most bytes one allocation sized by the input may take: a sensor's per-pixel state, a
+/// network's weights or per-window state, dense frames, noise. 4 GiB is hundreds of times what
+/// a 1280 × 720 event camera (or a 2048 × 2048 network of Table 1's layers) needs; a larger
+/// request (a 65535 × 65535 sensor, a kernel of 65535) is refused with a typed error instead of
+/// exhausting memory or aborting the process.
+pub const MAX_ALLOC_BYTES: usize = 1 << 32;
+
+/// The bytes of `count` items of `item_bytes` each, or [`Error::InvalidParameter`] naming
+/// `name` when the product overflows or is above [`MAX_ALLOC_BYTES`]. `what` describes the
+/// request in the message (`"a 65535x65535 sensor's state"`).
+pub fn check_alloc(
+    name: &'static str,
+    what: impl FnOnce() -> String,
+    count: usize,
+    item_bytes: usize,
+) -> Result<usize> {
+    match count.checked_mul(item_bytes) {
+        Some(bytes) if bytes <= MAX_ALLOC_BYTES => Ok(bytes),
+        _ => Err(Error::param(
+            name,
+            format!(
+                "{} needs {} bytes ({count} x {item_bytes}), above the cap of {MAX_ALLOC_BYTES} \
+                 bytes (MAX_ALLOC_BYTES)",
+                what(),
+                count as u128 * item_bytes as u128
+            ),
+        )),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn check_alloc_refuses_overflow_and_the_cap() {
+        assert_eq!(check_alloc("n", String::new, 10, 8).unwrap(), 80);
+        assert_eq!(
+            check_alloc("n", String::new, MAX_ALLOC_BYTES, 1).unwrap(),
+            MAX_ALLOC_BYTES
+        );
+        for (count, size) in [(MAX_ALLOC_BYTES + 1, 1), (usize::MAX, 2)] {
+            let err = check_alloc("n", || "x".into(), count, size).unwrap_err();
+            assert!(
+                matches!(err, Error::InvalidParameter { name: "n", .. }),
+                "{err}"
+            );
+            assert!(err.to_string().contains("MAX_ALLOC_BYTES"), "{err}");
+        }
+    }
+}

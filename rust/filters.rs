@@ -1,7 +1,7 @@
 //! Event filters of the paper's preprocessing: background-activity denoising, and crop and
 //! downsample of coordinates to a target sensor.
 
-use crate::error::{Error, Result};
+use crate::error::{check_alloc, Error, Result};
 use crate::events::{
     validate_source, Event, EventSource, PackedEvents, SensorSize, PACKED_EVENT_SIZE,
 };
@@ -31,8 +31,14 @@ pub fn denoise_mask<E: EventSource + ?Sized>(
             "the filter time must be at least 1 µs, got 0",
         ));
     }
-    validate_source(events, sensor, None, 0)?;
     let (w, h) = (sensor.width as usize, sensor.height as usize);
+    check_alloc(
+        "sensor_size",
+        || format!("denoising on a {w}x{h} sensor (8 bytes a pixel)"),
+        sensor.area(),
+        8,
+    )?;
+    validate_source(events, sensor, None, 0)?;
     let mut memory = vec![dt_us; sensor.area()];
     Ok((0..events.len())
         .map(|i| {
@@ -185,6 +191,23 @@ mod tests {
         assert_eq!(denoise_mask(&[ev(3, 4, 4)], s, dt).unwrap(), vec![true]);
         assert_eq!(denoise(&events, s, dt).unwrap().len(), 2);
         assert!(denoise_mask(&events, s, 0).is_err());
+    }
+
+    #[test]
+    fn denoise_refuses_a_sensor_above_the_memory_cap() {
+        let huge = SensorSize::new(u16::MAX, u16::MAX).unwrap();
+        let err = denoise_mask(&[] as &[Event], huge, 1000).unwrap_err();
+        assert!(
+            matches!(
+                err,
+                Error::InvalidParameter {
+                    name: "sensor_size",
+                    ..
+                }
+            ),
+            "{err}"
+        );
+        assert!(err.to_string().contains("MAX_ALLOC_BYTES"), "{err}");
     }
 
     /// The packed path keeps and moves exactly the events that `downsample` does, polarity

@@ -45,5 +45,5 @@ pub mod windows;
 #[cfg(feature = "python")]
 mod python;
 
-pub use error::{Error, Result};
+pub use error::{check_alloc, Error, Result, MAX_ALLOC_BYTES};
 pub use events::{Event, SensorSize};

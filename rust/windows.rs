@@ -36,7 +36,7 @@ pub use noise::{add_noise, NoisyWindows};
 
 use build::{build, build_disjoint, plan_runs};
 
-use crate::error::{Error, Result};
+use crate::error::{check_alloc, Error, Result};
 use crate::events::{validate_source, EventSource, SensorSize};
 
 /// Largest timestamp (and window length) windowing accepts: 2^62 µs, about 146,000 years.
@@ -212,8 +212,9 @@ pub struct WindowsView<'a> {
 
 impl<'a> WindowsView<'a> {
     /// Check that the columns describe valid windows: `offsets` starts at 0, never decreases and
-    /// ends at the number of spikes; every spike lies on the sensor and inside its window, and
-    /// spikes are sorted by time within each window.
+    /// ends at the number of spikes (all checked before any spike is read); every window start
+    /// is at most [`MAX_TIME_US`] (so `t0 + length_us` cannot overflow); every spike lies on the
+    /// sensor and inside its window, and spikes are sorted by time within each window.
     pub fn new(
         sensor: SensorSize,
         length_us: u64,
@@ -250,20 +251,30 @@ impl<'a> WindowsView<'a> {
                 got: format!("{} .. {}", offsets[0], offsets[offsets.len() - 1]),
             });
         }
+        // Every offset is checked before any spike is read: with the ends at 0 and `t.len()`,
+        // non-decreasing offsets all lie in `0..=t.len()`.
+        if let Some(i) = (1..offsets.len()).find(|&i| offsets[i] < offsets[i - 1]) {
+            return Err(Error::Shape {
+                name: "offsets",
+                expected: "non-decreasing values".into(),
+                got: format!(
+                    "offsets[{}]={} > offsets[{i}]={}",
+                    i - 1,
+                    offsets[i - 1],
+                    offsets[i]
+                ),
+            });
+        }
+        if let Some((i, &start)) = t0.iter().enumerate().find(|(_, &s)| s > MAX_TIME_US) {
+            return Err(Error::param(
+                "t0",
+                format!(
+                    "window starts must be at most 2^62 µs (MAX_TIME_US), so that \
+                     t0 + length_us fits; t0[{i}] is {start}"
+                ),
+            ));
+        }
         for (i, pair) in offsets.windows(2).enumerate() {
-            if pair[1] < pair[0] {
-                return Err(Error::Shape {
-                    name: "offsets",
-                    expected: "non-decreasing values".into(),
-                    got: format!(
-                        "offsets[{}]={} > offsets[{}]={}",
-                        i,
-                        pair[0],
-                        i + 1,
-                        pair[1]
-                    ),
-                });
-            }
             let start = t0[i];
             for j in pair[0]..pair[1] {
                 if !sensor.contains(x[j], y[j]) {
@@ -413,6 +424,13 @@ pub fn make_windows<E: EventSource + ?Sized>(
         length: config.length_us,
         n: n as usize,
     };
+    // Each run of windows keeps up to 16 bytes a pixel (first-spike tables, median marks).
+    check_alloc(
+        "sensor_size",
+        || format!("windowing a {}x{} sensor", sensor.width, sensor.height),
+        sensor.area(),
+        16,
+    )?;
     let runs = plan_runs(grid.n, events.len());
     if step == config.length_us {
         build_disjoint(events, sensor, grid, end, config.median, &runs)

@@ -348,12 +348,16 @@ def noise_sweep(
     """Evaluate each of ``networks`` (by mode name, e.g. ``{"pent": a, "static": b}``) on
     ``data`` with each noise ``fraction`` added; every network sees the same noisy windows.
     Level ``i`` draws its noise from ``seed + i``. ``runner`` runs the levels (as Ray tasks,
-    :mod:`uavsnn.distributed`; default here, one after the other): the points are the same."""
+    :mod:`uavsnn.distributed`; default here, one after the other, the largest first: a level
+    whose noise is above the engine's memory cap is refused before any other runs): the points
+    are the same, in the order of ``fractions``."""
     if runner is None or runner is SERIAL:
-        levels: Iterable[list[NoisePoint]] = (
-            noise_level(networks, data, f, seed=seed + i, threads=threads)
-            for i, f in enumerate(fractions)
-        )
+        order = sorted(range(len(fractions)), key=lambda i: -fractions[i])
+        done = {
+            i: noise_level(networks, data, fractions[i], seed=seed + i, threads=threads)
+            for i in order
+        }
+        levels: Iterable[list[NoisePoint]] = (done[i] for i in range(len(fractions)))
     else:
         nets, shared = runner.put(networks), runner.put(data)
         levels = runner.imap(

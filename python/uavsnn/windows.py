@@ -120,8 +120,9 @@ class Windows:
         n_preceding: ``(n,)`` int64, distinct pixels with an event in ``[t0 − L, t0)`` (raw
             events, before any median filter): PENT's "preceding" estimate.
 
-    Building one checks that the columns agree (``ShapeError``) and that every spike lies on
-    the sensor and inside its window, sorted (``EventError``).
+    Building one checks that the columns agree (``ShapeError``), that every window starts at
+    most 2^62 µs (``ParameterError``), and that every spike lies on the sensor and inside its
+    window, sorted (``EventError``).
     """
 
     sensor_size: tuple[int, int]

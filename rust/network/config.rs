@@ -222,6 +222,18 @@ impl Default for NetworkConfig {
 /// fit the engine's 16-bit coordinates.
 const MAX_SIDE: usize = u16::MAX as usize;
 
+/// Most weights a network may hold, its three conv layers together (`maps · in_channels · k²`
+/// each; conv1 has one input channel, conv2 and conv3 the maps of the layer below). Each takes
+/// 16 bytes (float32 canonical and engine copies, float64 sorted sums), so 2^26 weights are
+/// 1 GiB; Table 1's layers hold 13,100.
+pub const MAX_WEIGHTS: usize = 1 << 26;
+
+/// Most bytes one window's state may take (per-pixel tables, every layer's potentials, pool
+/// stamps and cause words, as `Geometry::state_bytes` counts them), the engine's
+/// [`MAX_ALLOC_BYTES`](crate::error::MAX_ALLOC_BYTES): 4 GiB. Table 1's layers need about
+/// 30 MB on a 1280 × 720 sensor and 150 MB on 2048 × 2048.
+pub const MAX_WINDOW_STATE_BYTES: usize = crate::error::MAX_ALLOC_BYTES;
+
 impl NetworkConfig {
     /// Parse a JSON config and validate it. Missing fields, at any depth, take the defaults
     /// (`{"conv2": {"threshold": 30}}` changes one number); unknown fields are refused.
@@ -289,6 +301,7 @@ impl NetworkConfig {
         for index in 0..3 {
             check_conv(index, self.conv(index))?;
         }
+        self.check_weights()?;
         for (name, p) in [("pool1", &self.pool1), ("pool2", &self.pool2)] {
             if p.kernel == 0 || p.kernel > MAX_SIDE || p.stride == 0 || p.stride > MAX_SIDE {
                 return Err(Error::param(
@@ -331,6 +344,30 @@ impl NetworkConfig {
                     "sigma, wavelength and gamma must be finite and > 0, got sigma {} \
                      wavelength {} gamma {}",
                     g.sigma, g.wavelength, g.gamma
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The three layers' weights together at most [`MAX_WEIGHTS`] (fields already in range).
+    fn check_weights(&self) -> Result<()> {
+        let in_channels = [1, self.conv1.maps, self.conv2.maps];
+        let per_layer: Vec<u128> = (0..3)
+            .map(|i| {
+                let c = self.conv(i);
+                c.maps as u128 * in_channels[i] as u128 * c.kernel as u128 * c.kernel as u128
+            })
+            .collect();
+        let total: u128 = per_layer.iter().sum();
+        if total > MAX_WEIGHTS as u128 {
+            return Err(Error::param(
+                "config",
+                format!(
+                    "the conv layers hold {total} weights (maps x in_channels x kernel^2: conv1 \
+                     {}, conv2 {}, conv3 {}), above the cap of {MAX_WEIGHTS} (MAX_WEIGHTS); \
+                     use smaller kernels or fewer maps",
+                    per_layer[0], per_layer[1], per_layer[2]
                 ),
             ));
         }
@@ -482,6 +519,41 @@ mod tests {
         .unwrap();
         assert_eq!(c.pent, NetworkConfig::default().pent);
         assert!(NetworkConfig::from_json("[1]").is_err());
+    }
+
+    #[test]
+    fn caps_weights_and_window_state_but_accepts_large_sensors() {
+        for text in [
+            r#"{"width": 1280, "height": 720}"#,
+            r#"{"width": 2048, "height": 2048}"#,
+            r#"{"conv2": {"kernel": 50}}"#,
+        ] {
+            NetworkConfig::from_json(text).unwrap();
+        }
+        let refused = |text: &str, what: &str| {
+            let err = NetworkConfig::from_json(text).unwrap_err();
+            let message = err.to_string();
+            assert!(
+                matches!(err, Error::InvalidParameter { name: "config", .. }),
+                "{text}: {message}"
+            );
+            assert!(message.contains(what), "{text}: {message}");
+        };
+        // Each field within 65535, the product far beyond memory.
+        refused(r#"{"conv2": {"kernel": 65535}}"#, "MAX_WEIGHTS");
+        refused(
+            r#"{"conv1": {"maps": 65535}, "conv2": {"maps": 65535}}"#,
+            "MAX_WEIGHTS",
+        );
+        refused(
+            r#"{"width": 65535, "height": 65535}"#,
+            "MAX_WINDOW_STATE_BYTES",
+        );
+        // A pool block of 65535² conv neurons needs 2^26 cause words per pool neuron.
+        refused(
+            r#"{"pool1": {"kernel": 65535, "stride": 65535}, "conv1": {"maps": 200}}"#,
+            "MAX_WINDOW_STATE_BYTES",
+        );
     }
 
     #[test]

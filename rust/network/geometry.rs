@@ -5,7 +5,7 @@
 
 use std::ops::Range;
 
-use super::config::{NetworkConfig, Padding};
+use super::config::{NetworkConfig, Padding, MAX_WINDOW_STATE_BYTES};
 use crate::error::{Error, Result};
 
 /// One convolution layer's geometry.
@@ -48,8 +48,51 @@ impl NetworkConfig {
         self.check_fields()?;
         // The layer sizes must compose: this fails on kernels larger than their input under
         // `valid` padding.
-        Geometry::new(self)?;
+        let geom = Geometry::new(self)?;
+        let bytes = geom.state_bytes();
+        if bytes > MAX_WINDOW_STATE_BYTES as u128 {
+            let maps = geom.conv.map(|g| g.maps);
+            return Err(Error::param(
+                "config",
+                format!(
+                    "one window's state of a {}x{} network (conv maps {}/{}/{}) needs {bytes} \
+                     bytes, above the cap of {MAX_WINDOW_STATE_BYTES} (MAX_WINDOW_STATE_BYTES); \
+                     use a smaller width and height, or fewer maps",
+                    self.width, self.height, maps[0], maps[1], maps[2]
+                ),
+            ));
+        }
         Ok(())
+    }
+}
+
+impl Geometry {
+    /// Bytes of one window's state, counted from its largest arrays (exact, in 128 bits: no
+    /// size the fields allow overflows): per pixel its firing stamp and time (12); per conv
+    /// neuron its float32 potential (4) and per position a 16-bit count (2); per pool neuron
+    /// its stamp, time and cause box (28) and its cause words (8 per 64 conv neurons of its
+    /// block).
+    pub fn state_bytes(&self) -> u128 {
+        let c1 = &self.conv[0];
+        let pixels = c1.in_h as u128 * c1.in_w as u128 * 12;
+        let conv: u128 = self
+            .conv
+            .iter()
+            .map(|g| {
+                let positions = g.out_h as u128 * g.out_w as u128;
+                positions * g.maps as u128 * 4 + positions * 2
+            })
+            .sum();
+        let pool: u128 = self
+            .pool
+            .iter()
+            .map(|g| {
+                let neurons = g.out_h as u128 * g.out_w as u128 * g.maps as u128;
+                let words = (g.k as u128 * g.k as u128).div_ceil(64);
+                neurons * (28 + 8 * words)
+            })
+            .sum();
+        pixels + conv + pool
     }
 }
 

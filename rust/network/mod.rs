@@ -49,7 +49,8 @@ mod winners;
 pub use batch::{Spikes, WindowBatch};
 pub use config::{
     ConvConfig, DetectionConfig, GaborConfig, InitConfig, NetworkConfig, Padding, PentConfig,
-    PentEstimate, PoolConfig, StdpConfig, ThresholdMode, CONFIG_VERSION,
+    PentEstimate, PoolConfig, StdpConfig, ThresholdMode, CONFIG_VERSION, MAX_WEIGHTS,
+    MAX_WINDOW_STATE_BYTES,
 };
 pub use detection::Detection;
 pub use gabor::gabor_kernels;

@@ -13,6 +13,7 @@ use super::states::feed;
 use super::stdp::{Convergence, Schedule};
 use super::window::{Network, WindowState};
 use crate::error::{Error, Result};
+use crate::windows::MAX_WINDOWS;
 
 /// How to walk the training windows.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -63,10 +64,14 @@ pub struct TrainReport {
 }
 
 /// The order in which to visit `n` windows for `epochs` epochs: `0..n` each epoch, shuffled
-/// with a PCG64 stream seeded by `seed` when `shuffle`.
+/// with a PCG64 stream seeded by `seed` when `shuffle`. Empty when `n` is 0. Callers check
+/// `n · epochs` first ([`check_training`]): an order longer than memory panics.
 pub fn training_order(n: usize, epochs: usize, seed: u64, shuffle: bool) -> Vec<usize> {
+    if n == 0 {
+        return Vec::new();
+    }
     let mut rng = Pcg64::seed_from_u64(seed);
-    let mut order = Vec::with_capacity(n * epochs);
+    let mut order = Vec::with_capacity(n.saturating_mul(epochs));
     for _ in 0..epochs {
         let start = order.len();
         order.extend(0..n);
@@ -169,11 +174,57 @@ pub fn train_layer(
     Ok(trainer.into_report())
 }
 
-/// Check a training run's inputs.
+/// Check a training run's inputs: `epochs` at least 1, and windows × epochs (the length of
+/// the training order) at most [`MAX_WINDOWS`], as is `epochs` alone.
 pub fn check_training(net: &Network, batch: &WindowBatch<'_>, options: TrainOptions) -> Result<()> {
     check_sensor(net, batch.sensor)?;
-    if options.epochs == 0 {
+    check_epochs(batch.len(), options.epochs)
+}
+
+/// `epochs` in `1..=MAX_WINDOWS`, and `n · epochs` at most [`MAX_WINDOWS`].
+fn check_epochs(n: usize, epochs: usize) -> Result<()> {
+    if epochs == 0 {
         return Err(Error::param("epochs", "must be at least 1, got 0"));
     }
+    if epochs > MAX_WINDOWS
+        || n.checked_mul(epochs)
+            .is_none_or(|total| total > MAX_WINDOWS)
+    {
+        return Err(Error::param(
+            "epochs",
+            format!(
+                "{n} windows x {epochs} epochs is above the limit of {MAX_WINDOWS} training \
+                 windows (MAX_WINDOWS)"
+            ),
+        ));
+    }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn epochs_are_capped_before_the_order_is_allocated() {
+        check_epochs(10, 3).unwrap();
+        check_epochs(0, 1).unwrap();
+        check_epochs(MAX_WINDOWS, 1).unwrap();
+        for (n, epochs) in [
+            (10, 0),
+            (10, 1 << 61),
+            (1 << 4, 1 << 60), // wraps to 0
+            (0, 1 << 61),
+            (2, MAX_WINDOWS),
+        ] {
+            let err = check_epochs(n, epochs).unwrap_err();
+            assert!(
+                matches!(err, Error::InvalidParameter { name: "epochs", .. }),
+                "{n} x {epochs}: {err}"
+            );
+        }
+        // No windows: an empty order, at once, whatever the epochs.
+        assert!(training_order(0, usize::MAX, 0, true).is_empty());
+        assert_eq!(training_order(3, 2, 0, false), [0, 1, 2, 0, 1, 2]);
+    }
 }

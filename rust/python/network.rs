@@ -62,6 +62,19 @@ pub(super) fn pack_detection(out: &mut Vec<u8>, d: &Detection) {
     }
 }
 
+/// The error of a call on a network that another thread is using (`infer` running without
+/// the GIL while `train_layer` needs to write the weights, or the other way round).
+fn in_use(py: Python<'_>) -> PyErr {
+    super::errors::to_pyerr(
+        py,
+        &Error::Stream(
+            "the network is in use by another thread (a call such as infer or train_layer is \
+             running on it); wait for it to return, or use a copy() per thread"
+                .into(),
+        ),
+    )
+}
+
 fn spike_columns<'py>(py: Python<'py>, spikes: &[Spike]) -> SpikeColumns<'py> {
     (
         PyArray1::from_iter(py, spikes.iter().map(|s| s.t)),
@@ -346,8 +359,7 @@ impl NetworkCore {
     /// `(window, t, map, row, col, v)` columns.
     #[pyo3(signature = (sensor_size, length_us, t0, offsets, t, x, y, n_preceding, threads=None, record=false))]
     fn infer<'py>(
-        &self,
-        py: Python<'py>,
+        slf: &Bound<'py, Self>,
         sensor_size: (usize, usize),
         length_us: u64,
         t0: PyReadonlyArray1<'py, u64>,
@@ -369,7 +381,10 @@ impl NetworkCore {
             &y,
             &n_preceding,
         )?;
-        let net = &self.net;
+        let py = slf.py();
+        // Borrowed by hand: a `train_layer` of another thread may hold the network.
+        let this = slf.try_borrow().map_err(|_| in_use(py))?;
+        let net = &this.net;
         let results = detach(py, || infer(net, &args.batch(net)?, threads, record))?;
         let n = results.len();
         let maps = net.geometry().conv[0].maps;
@@ -467,7 +482,7 @@ impl NetworkCore {
             shuffle,
         };
         let (batch, order, mut trainer) = {
-            let this = slf.borrow();
+            let this = slf.try_borrow().map_err(|_| in_use(py))?;
             let net = &this.net;
             let args = &args;
             detach(py, || {
@@ -484,7 +499,7 @@ impl NetworkCore {
         let mut done = 0;
         for chunk in order.chunks(every.max(1)) {
             {
-                let mut this = slf.borrow_mut();
+                let mut this = slf.try_borrow_mut().map_err(|_| in_use(py))?;
                 let net = &mut this.net;
                 let trainer = &mut trainer;
                 let batch = &batch;

@@ -19,7 +19,7 @@
 
 use std::collections::VecDeque;
 
-use crate::error::{Error, Result};
+use crate::error::{check_alloc, Error, Result};
 use crate::events::{validate, Event, SensorSize};
 use crate::network::Detection;
 use crate::windows::MAX_TIME_US;
@@ -152,6 +152,18 @@ impl<E: WindowEngine> Detector<E> {
             ));
         }
         let sensor = engine.sensor()?;
+        // The counter keeps 8 bytes a pixel and queues up to two 16-byte entries a pixel.
+        check_alloc(
+            "sensor_size",
+            || {
+                format!(
+                    "a stream's per-pixel memory on a {}x{} sensor",
+                    sensor.width, sensor.height
+                )
+            },
+            sensor.area(),
+            8 + 2 * 16,
+        )?;
         Ok(Self {
             counter: PrecedingCounter::new(sensor.area(), config.window_us),
             engine,

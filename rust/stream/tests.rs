@@ -516,3 +516,46 @@ fn the_small_network_detects_the_blob() {
     let events = blob_events(1, 600);
     assert!(!network_batch(&net, &events, 3_000, 0.5).is_empty());
 }
+
+/// An engine on the largest sensor the coordinates allow, whose windows are never run.
+struct Huge;
+
+impl WindowEngine for Huge {
+    type State = ();
+
+    fn sensor(&self) -> Result<SensorSize> {
+        SensorSize::new(u16::MAX, u16::MAX)
+    }
+
+    fn new_state(&self) {}
+
+    fn begin(&self, (): &mut (), _: u64, _: u64) -> Result<()> {
+        Ok(())
+    }
+
+    fn push(&self, (): &mut (), _: u64, _: u16, _: u16) -> Result<()> {
+        Ok(())
+    }
+
+    fn settle(&self, (): &mut (), _: &mut Vec<Detection>) -> Result<()> {
+        Ok(())
+    }
+}
+
+#[test]
+fn a_sensor_above_the_memory_cap_is_refused_before_allocating() {
+    let Err(err) = Detector::new(Huge, config(1000, 0.0)) else {
+        panic!("a 65535x65535 detector was accepted");
+    };
+    assert!(
+        matches!(
+            err,
+            Error::InvalidParameter {
+                name: "sensor_size",
+                ..
+            }
+        ),
+        "{err}"
+    );
+    assert!(err.to_string().contains("MAX_ALLOC_BYTES"), "{err}");
+}

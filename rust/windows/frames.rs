@@ -10,12 +10,13 @@
 use rayon::prelude::*;
 
 use super::WindowsView;
-use crate::error::{Error, Result};
+use crate::error::{check_alloc, Error, Result};
 
 /// Frames per block in [`frames`]: a block of about 1 MiB is filled and written while in cache.
 const BLOCK_BYTES: usize = 1 << 20;
 
-/// Check `indices` against `view` and return the number of `f32` values their frames take.
+/// Check `indices` against `view` and return the number of `f32` values their frames take:
+/// at most [`MAX_ALLOC_BYTES`](crate::error::MAX_ALLOC_BYTES) bytes of them.
 pub fn frames_len(view: &WindowsView<'_>, indices: &[usize]) -> Result<usize> {
     if let Some((pos, &bad)) = indices.iter().enumerate().find(|(_, &i)| i >= view.len()) {
         return Err(Error::param(
@@ -27,12 +28,20 @@ pub fn frames_len(view: &WindowsView<'_>, indices: &[usize]) -> Result<usize> {
         ));
     }
     let area = view.sensor.area();
-    indices.len().checked_mul(area).ok_or_else(|| {
-        Error::param(
-            "indices",
-            format!("{} frames of {area} pixels overflow", indices.len()),
-        )
-    })
+    let (width, height) = (view.sensor.width, view.sensor.height);
+    let total = indices.len().saturating_mul(area);
+    check_alloc(
+        "indices",
+        || {
+            format!(
+                "{} float32 frames of {width}x{height} (ask for fewer windows at a time)",
+                indices.len()
+            )
+        },
+        total,
+        4,
+    )?;
+    Ok(total)
 }
 
 /// The frames of windows `indices` (in that order), row-major `(k, height, width)`.

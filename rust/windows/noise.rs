@@ -15,7 +15,7 @@ use rand_pcg::Pcg64;
 use rayon::prelude::*;
 
 use super::{Spike, Windows, WindowsView};
-use crate::error::{Error, Result};
+use crate::error::{check_alloc, Error, Result};
 
 /// Windows with noise, and what was added.
 #[derive(Debug, Clone, PartialEq)]
@@ -59,7 +59,33 @@ pub fn add_noise(
         });
     }
     let area = view.sensor.area();
+    let (width, height) = (view.sensor.width, view.sensor.height);
+    // Each run of windows marks the pixels it wrote, 8 bytes a pixel.
+    check_alloc(
+        "sensor_size",
+        || format!("adding noise on a {width}x{height} sensor"),
+        area,
+        8,
+    )?;
     let n_noise = ((fraction * area as f64).round() as usize).min(area);
+    // The output's spikes, held as `Spike`s per run and then as columns.
+    let spikes = view
+        .len()
+        .checked_mul(n_noise)
+        .and_then(|n| n.checked_add(view.t.len()))
+        .unwrap_or(usize::MAX);
+    check_alloc(
+        "fraction",
+        || {
+            format!(
+                "{} windows with up to {n_noise} noise spikes each (fraction {fraction} of a \
+                 {width}x{height} sensor)",
+                view.len()
+            )
+        },
+        spikes,
+        std::mem::size_of::<Spike>() + 12,
+    )?;
     let threads = rayon::current_num_threads();
     let runs = (view.len() / 64)
         .clamp(1, 4 * threads)
@@ -129,6 +155,7 @@ fn noise_run(
         let mut rng = Pcg64::seed_from_u64(mix(seed ^ mix(i as u64)));
         noise.clear();
         for pixel in sample(&mut rng, sensor.area(), n_noise) {
+            // No overflow: `WindowsView::new` keeps `t0` and the length at most 2^62.
             noise.push(Spike {
                 t: t0 + rng.random_range(0..view.length_us),
                 x: (pixel % width) as u16,

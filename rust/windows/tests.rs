@@ -272,3 +272,81 @@ proptest! {
         }
     }
 }
+
+#[test]
+fn view_checks_every_offset_before_reading_spikes() {
+    // A middle offset past the spikes, followed by a smaller one, used to be read as a range
+    // before the later decrease was seen (an index out of bounds).
+    let sensor = SensorSize::new(4, 4).unwrap();
+    let zeros = [0u64; 5];
+    let small = [0u16; 5];
+    for offsets in [[0, 100, 5], [0, usize::MAX, 5]] {
+        let err =
+            WindowsView::new(sensor, 10, &[0, 0], &offsets, &zeros, &small, &small).unwrap_err();
+        assert!(
+            matches!(
+                err,
+                Error::Shape {
+                    name: "offsets",
+                    ..
+                }
+            ),
+            "{offsets:?}: {err}"
+        );
+    }
+}
+
+#[test]
+fn view_refuses_window_starts_past_max_time() {
+    let sensor = SensorSize::new(4, 4).unwrap();
+    WindowsView::new(sensor, MAX_TIME_US, &[MAX_TIME_US], &[0, 0], &[], &[], &[]).unwrap();
+    for t0 in [MAX_TIME_US + 1, u64::MAX - 5] {
+        let err = WindowsView::new(sensor, 10, &[t0], &[0, 0], &[], &[], &[]).unwrap_err();
+        assert!(
+            matches!(err, Error::InvalidParameter { name: "t0", .. }),
+            "{err}"
+        );
+    }
+    // So noise times never wrap: the latest start and the longest window still fit.
+    let view =
+        WindowsView::new(sensor, MAX_TIME_US, &[MAX_TIME_US], &[0, 0], &[], &[], &[]).unwrap();
+    let noisy = add_noise(&view, &[0], 1.0, 3).unwrap();
+    assert_eq!(noisy.windows.t.len(), 16);
+    assert!(noisy.windows.t.iter().all(|&t| t >= MAX_TIME_US));
+}
+
+#[test]
+fn sensor_sized_allocations_are_capped() {
+    use crate::error::MAX_ALLOC_BYTES;
+    let huge = SensorSize::new(u16::MAX, u16::MAX).unwrap();
+    let view = WindowsView::new(huge, 10, &[0], &[0, 0], &[], &[], &[]).unwrap();
+    let is_cap = |err: Error, name: &str| {
+        let text = err.to_string();
+        assert!(
+            matches!(err, Error::InvalidParameter { name: n, .. } if n == name),
+            "{text}"
+        );
+        assert!(text.contains("MAX_ALLOC_BYTES"), "{text}");
+    };
+    is_cap(add_noise(&view, &[0], 0.0, 0).unwrap_err(), "sensor_size");
+    is_cap(frames(&view, &[0]).unwrap_err(), "indices");
+    is_cap(frames_len(&view, &[0]).unwrap_err(), "indices");
+    is_cap(
+        make_windows(&[ev(0, 1, 1)], huge, &WindowConfig::new(10, 0.0).unwrap()).unwrap_err(),
+        "sensor_size",
+    );
+    // Frames: many windows of a small sensor pass the same cap.
+    let small = SensorSize::new(1280, 720).unwrap();
+    let t0 = vec![0u64; 2000];
+    let offsets = vec![0usize; 2001];
+    let view = WindowsView::new(small, 10, &t0, &offsets, &[], &[], &[]).unwrap();
+    assert_eq!(frames_len(&view, &[0; 10]).unwrap(), 10 * 1280 * 720);
+    let all: Vec<usize> = (0..2000).collect();
+    const { assert!(2000 * 1280 * 720 * 4 > MAX_ALLOC_BYTES) };
+    is_cap(frames_len(&view, &all).unwrap_err(), "indices");
+    // Noise: windows × noise spikes are capped too (here 2000 × 921,600).
+    is_cap(
+        add_noise(&view, &[0; 2000], 1.0, 0).unwrap_err(),
+        "fraction",
+    );
+}

@@ -43,7 +43,7 @@ use rayon::prelude::*;
 use super::frame::{check_size, Converter, Frame, Response};
 use super::order::gather_from;
 use super::seed;
-use crate::error::{Error, Result};
+use crate::error::{check_alloc, Error, Result};
 use crate::events::Event;
 
 mod noise;
@@ -96,6 +96,13 @@ impl DvsEmulator {
         params.validate()?;
         check_size("frame size", width, height)?;
         let n = width * height;
+        // Per pixel: its state, and its row's response and luma.
+        check_alloc(
+            "frame size",
+            || format!("a DVS emulator of {width}x{height} pixels"),
+            n,
+            std::mem::size_of::<Pixel>() + 8,
+        )?;
         let mut rngs: Vec<Pcg64Mcg> = (0..height as u64).map(|y| seed::stream(seed, y)).collect();
         let ln10s = std::f64::consts::LN_10 * params.leak_spread_decades;
         let mut pixels = Vec::with_capacity(n);

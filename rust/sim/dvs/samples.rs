@@ -34,11 +34,11 @@ impl DvsEmulator {
             )))
         };
         for (i, pa) in patches.iter().enumerate() {
-            if pa.width == 0
-                || pa.height == 0
-                || pa.x0 + pa.width > self.width
-                || pa.y0 + pa.height > self.height
-            {
+            // Checked: offsets near `usize::MAX` must not wrap onto the sensor.
+            let fits = |start: usize, len: usize, side: usize| {
+                len > 0 && start.checked_add(len).is_some_and(|end| end <= side)
+            };
+            if !(fits(pa.x0, pa.width, self.width) && fits(pa.y0, pa.height, self.height)) {
                 return bad(
                     i,
                     format!(
@@ -60,7 +60,10 @@ impl DvsEmulator {
                 }
                 prev = t;
             }
-            if pa.values.len() != pa.times.len() * pa.width * pa.height {
+            // The patch lies on the sensor, so `width · height` fits; the product with the
+            // times is checked.
+            let expected = pa.times.len().checked_mul(pa.width * pa.height);
+            if expected != Some(pa.values.len()) {
                 return bad(
                     i,
                     format!(
@@ -233,6 +236,28 @@ mod tests {
             )
             .is_err());
         assert_eq!(emu.frames_seen(), 1);
+        // Offsets near the end of `usize` wrap `x0 + width` onto the sensor unless checked.
+        for b in [
+            SubSamples {
+                x0: usize::MAX,
+                ..ok
+            },
+            SubSamples {
+                y0: usize::MAX - 1,
+                ..ok
+            },
+            SubSamples {
+                width: usize::MAX,
+                ..ok
+            },
+        ] {
+            let err = emu
+                .push_with_samples(&Frame::GrayF32(f.view()), 10, &[b], &mut out)
+                .unwrap_err();
+            assert!(err.to_string().contains("does not lie on"), "{err}");
+        }
+        assert_eq!(emu.frames_seen(), 1);
+        assert_eq!(emu.last_time(), Some(0));
         emu.push_with_samples(
             &Frame::GrayF32(f.view()),
             10,

@@ -57,7 +57,7 @@ use rayon::prelude::*;
 
 use super::frame::{check_size, Converter, Frame, Response};
 use super::order::{gather_from, gather_sorted};
-use crate::error::{Error, Result};
+use crate::error::{check_alloc, Error, Result};
 use crate::events::Event;
 
 mod compat;
@@ -129,6 +129,13 @@ impl Pix2Nvs {
     ) -> Result<Self> {
         params.validate()?;
         check_size("frame size", width, height)?;
+        // Per pixel: its state, the band's input and, pooled, at most one output cell.
+        check_alloc(
+            "size",
+            || format!("a PIX2NVS simulator of {width}x{height} frames"),
+            width * height,
+            std::mem::size_of::<PixelState>() + 4 + 16,
+        )?;
         let pool = match output {
             None => None,
             Some((w, h, mode)) => {

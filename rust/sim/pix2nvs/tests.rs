@@ -179,3 +179,14 @@ fn rejects_bad_input() {
     assert!(Pix2Nvs::new(Pix2NvsParams::default(), 3, 2, Some((4, 2, Pooling::All))).is_err());
     assert!(Pix2Nvs::new(Pix2NvsParams::default(), 0, 2, None).is_err());
 }
+
+#[test]
+fn a_simulator_above_the_memory_cap_is_refused() {
+    let err = Pix2Nvs::new(Pix2NvsParams::default(), 65535, 65535, None).unwrap_err();
+    assert!(
+        matches!(err, Error::InvalidParameter { name: "size", .. }),
+        "{err}"
+    );
+    assert!(err.to_string().contains("MAX_ALLOC_BYTES"), "{err}");
+    Pix2Nvs::new(Pix2NvsParams::default(), 1280, 720, None).unwrap();
+}
