@@ -223,3 +223,26 @@ def test_stream_points_set_a_share_of_streamed_windows(bench_script):
     assert 0.8 < t <= 0.9 and points.share(free, t) == 0.1
     # 50 %: more than every detection allows: 0.0, every scored window alarms.
     assert points.stream_point(free, 0.5) == 0.0 and points.share(free, 0.0) == 0.4
+
+
+def test_rotor_by_class_reads_the_labelled_drones_blade_pass(bench_script):
+    """benches/python/rotor_by_class.py reads each window's own labelled box: a hovering
+    Phantom's lines lie at its blade pass (two blades, the scene's rotor rate), a
+    helicopter scene's windows are the helicopter's, and each box's speed is measured to the
+    next window (none for the last)."""
+    from uavsnn.dataset.splits import WindowCut
+    from uavsnn.dataset.synthetic import SceneSource, scene_spec
+
+    rotor = bench_script("rotor_by_class")
+    source = SceneSource("dvs", (240, 180), 500.0, 0.5, sensor=(240, 180))
+    cut = WindowCut(50_000, 0.5, 0.5)
+    (phantom,) = scene_spec(source, "uav", 500).objects
+    rows = rotor.windows_of(source, cut, "uav", 500)
+    found = [r["edges"].frequency_hz for r in rows if r["edges"].detected]
+    assert len(found) >= len(rows) // 4
+    assert np.allclose(found, 2 * phantom.rate_hz, rtol=0.05)
+    assert all(np.isfinite(r["speed"]) for r in rows[:-1]) and np.isnan(rows[-1]["speed"])
+    assert rotor.lines(rows, "edges").startswith(f"{len(found)} of {len(rows)} ")
+    heli = rotor.windows_of(source, cut, "helicopter", 500)
+    assert heli and all(r["rec"] == 500 for r in heli)
+    assert scene_spec(source, "object", 500, "helicopter").objects[0].kind == "helicopter"
