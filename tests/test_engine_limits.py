@@ -73,6 +73,17 @@ def test_dvs_patch_offsets_that_wrap_are_refused(x0: int, y0: int) -> None:
     assert emu.frames_seen == 2
 
 
+@pytest.mark.parametrize("corner", [(-1, 0), (0, -1), (1.5, 0), (True, 0)])
+def test_dvs_patch_corners_that_are_no_pixels_are_refused(corner: tuple[object, object]) -> None:
+    # A negative corner was Python's OverflowError from the binding, a fraction truncated.
+    emu = DvsEmulator((4, 4), params=DvsParams(), seed=0)
+    frame = np.full((4, 4), 10.0, np.float32)
+    patch = (*corner, np.array([5], np.uint64), np.ones((1, 2, 2), np.float32))
+    with pytest.raises(uavsnn.SimulationError, match="corner must be whole pixels"):
+        emu.process_frame(frame, 0, [patch])
+    assert emu.frames_seen == 0
+
+
 # 3. Training windows x epochs are capped (MAX_WINDOWS) before the order is allocated.
 @pytest.mark.parametrize(("n", "epochs"), [(2, 2**61), (16, 2**60), (0, 2**61), (2, 50_000_000)])
 def test_train_layer_epochs_are_capped(n: int, epochs: int) -> None:

@@ -259,6 +259,13 @@ class DvsEmulator:
             )
         subs = []
         for x0, y0, times, values in patches:
+            if not all(
+                isinstance(c, (int, np.integer)) and not isinstance(c, bool) and c >= 0
+                for c in (x0, y0)
+            ):
+                raise SimulationError(
+                    f"a patch's corner must be whole pixels >= 0, got ({x0!r}, {y0!r})"
+                )
             ts = np.ascontiguousarray(times, dtype=np.uint64)
             v = np.ascontiguousarray(values, dtype=np.float32)
             if v.ndim != 3:
