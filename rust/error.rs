@@ -96,6 +96,17 @@ pub fn check_alloc(
     }
 }
 
+/// Test support: `err` is [`check_alloc`]'s refusal of parameter `name`.
+#[cfg(test)]
+#[track_caller]
+pub(crate) fn assert_over_cap(err: &Error, name: &str) {
+    assert!(
+        matches!(err, Error::InvalidParameter { name: n, .. } if *n == name),
+        "{err}"
+    );
+    assert!(err.to_string().contains("MAX_ALLOC_BYTES"), "{err}");
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

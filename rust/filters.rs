@@ -197,17 +197,7 @@ mod tests {
     fn denoise_refuses_a_sensor_above_the_memory_cap() {
         let huge = SensorSize::new(u16::MAX, u16::MAX).unwrap();
         let err = denoise_mask(&[] as &[Event], huge, 1000).unwrap_err();
-        assert!(
-            matches!(
-                err,
-                Error::InvalidParameter {
-                    name: "sensor_size",
-                    ..
-                }
-            ),
-            "{err}"
-        );
-        assert!(err.to_string().contains("MAX_ALLOC_BYTES"), "{err}");
+        crate::error::assert_over_cap(&err, "sensor_size");
     }
 
     /// The packed path keeps and moves exactly the events that `downsample` does, polarity

@@ -547,15 +547,5 @@ fn a_sensor_above_the_memory_cap_is_refused_before_allocating() {
     let Err(err) = Detector::new(Huge, config(1000, 0.0)) else {
         panic!("a 65535x65535 detector was accepted");
     };
-    assert!(
-        matches!(
-            err,
-            Error::InvalidParameter {
-                name: "sensor_size",
-                ..
-            }
-        ),
-        "{err}"
-    );
-    assert!(err.to_string().contains("MAX_ALLOC_BYTES"), "{err}");
+    crate::error::assert_over_cap(&err, "sensor_size");
 }

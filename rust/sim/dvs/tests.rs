@@ -120,15 +120,5 @@ fn rejects_impossible_parameters() {
 #[test]
 fn an_emulator_above_the_memory_cap_is_refused() {
     let err = DvsEmulator::new(DvsParams::ideal(), 65535, 65535, 0).unwrap_err();
-    assert!(
-        matches!(
-            err,
-            Error::InvalidParameter {
-                name: "frame size",
-                ..
-            }
-        ),
-        "{err}"
-    );
-    assert!(err.to_string().contains("MAX_ALLOC_BYTES"), "{err}");
+    crate::error::assert_over_cap(&err, "frame size");
 }
