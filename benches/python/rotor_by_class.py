@@ -39,13 +39,15 @@ import itertools
 import math
 import sys
 import time
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
 from uavsnn.cli._camera import fov_option, lens_option
+from uavsnn.dataset.build import parse_sensor
 from uavsnn.dataset.splits import WindowCut
-from uavsnn.dataset.synthetic import SceneSource, synthetic_recording
+from uavsnn.dataset.synthetic import SceneSource, default_source, synthetic_recording
 from uavsnn.errors import ParameterError
 from uavsnn.evaluation import roc_area
 from uavsnn.signature import rotor_signature, rotor_spectrum
@@ -76,8 +78,8 @@ def windows_of(source: SceneSource, cut: WindowCut, kind: str, seed: int) -> lis
         x1, y1 = max(int(np.ceil(b[2])), x0 + 1), max(int(np.ceil(b[3])), y0 + 1)
         box = (x0, y0, x1 - x0, y1 - y0)
         t0 = int(windows.t0[i])
-        inside = ev[(ev["x"] >= x0) & (ev["x"] < x1) & (ev["y"] >= y0) & (ev["y"] < y1)]
-        ti = t[(ev["x"] >= x0) & (ev["x"] < x1) & (ev["y"] >= y0) & (ev["y"] < y1)]
+        in_box = (ev["x"] >= x0) & (ev["x"] < x1) & (ev["y"] >= y0) & (ev["y"] < y1)
+        inside, ti = ev[in_box], t[in_box]
         window = inside[(ti >= t0) & (ti < t0 + cut.length_us)]
         history = inside[(ti >= t0 - cut.length_us) & (ti < t0 + cut.length_us)]
         edges = rotor_signature(window, box)
@@ -177,13 +179,8 @@ def main() -> None:
         raise SystemExit(f"--kinds: 'uav' and any of {', '.join(KINDS)}, got {args.kinds!r}")
     if not 1 <= args.scenes <= 200:
         raise SystemExit(f"--scenes must be 1 to 200, got {args.scenes}")
-    w, h = (int(v) for v in args.sensor.split("x"))
-    source = SceneSource(
-        "dvs",
-        (w, h),
-        500.0,
-        1.0,
-        sensor=(w, h),
+    source = replace(  # as `uavsnn dataset build --domain dvs --sensor --lens --fov` makes it
+        default_source("dvs", parse_sensor(args.sensor)),
         lens=lens_option(args.lens, args.focus_m),
         fov_deg=fov_option(args.fov),
     )
