@@ -30,15 +30,12 @@ def check_int(name: str, value: Any, low: int = 0, high: int | None = None) -> i
 
 def int_param(name: str, value: Any, minimum: int, maximum: int = U64_MAX) -> int:
     """An integer parameter (an integral float is accepted), or :class:`ParameterError`."""
-    if isinstance(value, bool) or not isinstance(value, (numbers.Integral, numbers.Real)):
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise ParameterError(f"{name} must be an integer, got {value!r}")
-    if isinstance(value, numbers.Integral):
-        result = int(value)
-    else:
-        number = float(value)
-        if not math.isfinite(number) or number != math.floor(number):
-            raise ParameterError(f"{name} must be a whole number of microseconds, got {value!r}")
-        result = int(number)
+    if not _whole(value):
+        raise ParameterError(f"{name} must be a whole number of microseconds, got {value!r}")
+    # an Integral exactly (a float would round a large one), a whole float through float
+    result = int(value) if isinstance(value, numbers.Integral) else int(float(value))
     if not minimum <= result <= maximum:
         raise ParameterError(f"{name} must be in [{minimum}, {maximum}], got {result}")
     return result
