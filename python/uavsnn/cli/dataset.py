@@ -151,24 +151,11 @@ def register(subparsers: Any) -> None:
     p.set_defaults(handler=_preview)
 
 
-def _summary(root: Path) -> dict[str, Any]:
-    manifest = read_manifest(root)  # checks the format and its version, not every field
-    try:
-        return _summarise(root, manifest)
-    except _MALFORMED as exc:
-        raise _malformed(root, exc) from exc
-
-
 #: What reading a field of a damaged manifest (hand-edited, cut short) raises.
 _MALFORMED = (KeyError, TypeError, AttributeError, ValueError, IndexError)
 
 
-def _malformed(root: Path, exc: Exception) -> DatasetError:
-    what = f"it has no field {exc.args[0]!r}" if isinstance(exc, KeyError) else str(exc)
-    return DatasetError(f"{root}/manifest.json is not a whole dataset manifest: {what}")
-
-
-def _summarise(root: Path, manifest: dict[str, Any]) -> dict[str, Any]:
+def _summary(root: Path, manifest: dict[str, Any]) -> dict[str, Any]:
     return {
         "root": str(root),
         "domain": manifest["domain"],
@@ -216,7 +203,7 @@ def _progress(quiet: bool) -> bool:
 
 
 def _done(paths: DatasetPaths, as_json: bool) -> int:
-    _print(_summary(paths.root), as_json)
+    _print(_summary(paths.root, read_manifest(paths.root)), as_json)
     return 0
 
 
@@ -284,11 +271,14 @@ def _demo(args: argparse.Namespace) -> int:
 
 
 def _info(args: argparse.Namespace) -> int:
-    summary = _summary(args.dir)
+    manifest = read_manifest(args.dir)  # checks the format and its version, not every field
     try:
-        _print(summary, args.json)
+        _print(_summary(args.dir, manifest), args.json)
     except _MALFORMED as exc:
-        raise _malformed(args.dir, exc) from exc
+        what = f"it has no field {exc.args[0]!r}" if isinstance(exc, KeyError) else str(exc)
+        raise DatasetError(
+            f"{args.dir}/manifest.json is not a whole dataset manifest: {what}"
+        ) from exc
     return 0
 
 
