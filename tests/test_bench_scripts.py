@@ -173,3 +173,18 @@ def test_identify_draws_fits_each_group_of_features(bench_script, tmp_path, monk
     assert set(full["scored"]) == set(fewer["scored"]) == {str(s2)}
     assert full["features"] == list(GROUPS["all"])
     assert fewer["features"] == list(GROUPS["no_activity_history"])
+
+
+def test_rss_noise_runs_a_level_in_parts_with_the_points_of_one(bench_script) -> None:
+    import argparse
+
+    bench = bench_script("rss_noise")
+    args = argparse.Namespace(
+        sensor="240x180", windows=8, fraction=0.05, density=0.02, box=32, seed=0
+    )
+    parts, whole = bench.run(args, 5000), bench.run(args, 10**9)
+    # 864 signal and 2160 noise spikes a window: one window a part, against one part.
+    assert (parts["parts"], whole["parts"]) == (8, 1)
+    assert parts["input_spikes"] == whole["input_spikes"] >= 8 * 2160
+    assert parts["points"] == whole["points"] and len(parts["points"]) == 2
+    assert parts["peak_growth_mib"] >= 0

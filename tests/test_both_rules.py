@@ -149,6 +149,42 @@ def test_noise_levels_score_both_rules_on_the_same_noisy_windows(tiny) -> None:
     assert second.count("\n| 0 % |") == 1 and second.count("\n| 2 % |") == 1
 
 
+def test_noise_levels_in_parts_are_the_noise_levels_at_once(tiny) -> None:
+    """The noisy windows are made and run a part at a time (so a large sensor's fit in
+    memory); the points do not depend on the parts."""
+    net, _, test = tiny
+    if net.identification is None:
+        net = net.copy()
+        net.identification = _identifier()
+    static, _ = static_twin(net, test.windows)
+    nets = {"pent": net, "static": static}
+    whole = noise_level(nets, test, 0.05, seed=3)
+    assert whole[0].evaluation.predicted.any(), "the test needs detections"
+    spikes = int(np.diff(test.windows.offsets).max()) + round(0.05 * 240 * 180)
+    for budget in (1, 3 * spikes):  # every window its own part; a few windows a part
+        parts = noise_level(nets, test, 0.05, seed=3, part_spikes=budget)
+        for a, b in zip(whole, parts, strict=True):
+            assert a.to_dict() == b.to_dict()
+            assert a.snr_db == b.snr_db and a.identified == b.identified
+            for name in ("predicted", "latency_us", "latency_from_start_us", "box_iou"):
+                np.testing.assert_array_equal(
+                    getattr(a.evaluation, name), getattr(b.evaluation, name)
+                )
+            assert a.evaluation.input_spikes == b.evaluation.input_spikes
+    with pytest.raises(ParameterError, match="part_spikes"):
+        noise_level(nets, test, 0.05, seed=3, part_spikes=0)
+
+
+def test_noise_parts_hold_whole_windows_up_to_the_budget() -> None:
+    from uavsnn.experiments import _noise_parts
+
+    spikes = np.array([3, 0, 5, 9, 1, 1])
+    assert _noise_parts(spikes, 1, 7) == [(0, 2), (2, 3), (3, 4), (4, 6)]
+    assert _noise_parts(spikes, 0, 100) == [(0, 6)]
+    assert _noise_parts(spikes, 0, 1) == [(0, 1), (1, 2), (2, 3), (3, 4), (4, 5), (5, 6)]
+    assert _noise_parts(np.zeros(0, np.int64), 4, 10) == []
+
+
 # ---------------------------------------------------------------- the report
 
 

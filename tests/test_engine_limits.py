@@ -211,8 +211,8 @@ def test_window_starts_past_max_time_are_refused() -> None:
 
 
 def test_the_noise_sweep_runs_its_largest_level_first(monkeypatch: pytest.MonkeyPatch) -> None:
-    """A level above the memory cap is refused before the others have run for hours; the
-    points keep the order of the fractions and each level its seed."""
+    """What fails for its size fails before the others have run for hours; the points keep
+    the order of the fractions and each level its seed."""
     from uavsnn import experiments
 
     calls: list[tuple[float, int]] = []

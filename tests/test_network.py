@@ -394,6 +394,30 @@ def test_threads_do_not_change_results() -> None:
         assert np.array_equal(getattr(one, field), getattr(two, field))
 
 
+def test_inference_of_runs_concatenated_is_the_inference_at_once() -> None:
+    rng = np.random.default_rng(8)
+    net = Network(small_config(), seed=8)
+    parts = [random_window(rng, 48, 36, 1000 * i, 1000) for i in range(12)]
+    starts = [1000 * i for i in range(12)]
+    whole = net.infer(make_windows(parts, (48, 36), 1000, starts), spikes=True)
+    assert len(whole.detections) and whole.spikes is not None, "the test needs detections"
+    runs = [
+        net.infer(make_windows(parts[a:b], (48, 36), 1000, starts[a:b]), spikes=True)
+        for a, b in ((0, 5), (5, 6), (6, 12))
+    ]
+    joined = Inference.concatenate(runs)
+    for field in ("detected", "counts", "first_detection_t", "detections", "thresholds"):
+        assert np.array_equal(getattr(joined, field), getattr(whole, field)), field
+    assert joined.spikes is not None
+    for layer in LAYERS:
+        assert np.array_equal(joined.spikes[layer], whole.spikes[layer]), layer
+    # Spikes only where every run has them; no runs is a ShapeError.
+    runs[1] = net.infer(make_windows(parts[5:6], (48, 36), 1000, starts[5:6]))
+    assert Inference.concatenate(runs).spikes is None
+    with pytest.raises(uavsnn.ShapeError):
+        Inference.concatenate([])
+
+
 # --------------------------------------------------------------------------- training
 
 

@@ -192,6 +192,23 @@ def test_noise_adds_uniform_pixels_and_reports_snr(rec, length, fraction, seed) 
         assert snr[i] == pytest.approx(expected)
 
 
+@given(recordings(), st.integers(5, 60), st.floats(0.0, 0.3), st.integers(0, 2**32), st.data())
+def test_noise_added_part_by_part_is_the_noise_added_at_once(
+    rec, length, fraction, seed, data
+) -> None:
+    w = make_windows(rec, length, 0.5)
+    whole, snr = add_noise(w, fraction, seed=seed)
+    cut = data.draw(st.integers(0, len(w)))
+    parts = [
+        add_noise(w.select(range(a, b)), fraction, seed=seed, first=a)
+        for a, b in ((0, cut), (cut, len(w)))
+    ]
+    joined = Windows.concatenate([p for p, _ in parts])
+    for name in ("t0", "offsets", "t", "x", "y", "n_preceding"):
+        np.testing.assert_array_equal(getattr(joined, name), getattr(whole, name))
+    np.testing.assert_array_equal(np.concatenate([s for _, s in parts]), snr)
+
+
 def test_noise_fraction_sets_the_count_exactly() -> None:
     ev = np.zeros(1, EVENT_DTYPE)
     rec = Recording(ev, (240, 180))
@@ -263,6 +280,11 @@ def test_bad_ranges_and_inputs_are_typed_errors() -> None:
             add_noise(w, fraction, seed=0)
     with pytest.raises(uavsnn.ParameterError, match="seed"):
         add_noise(w, 0.1, seed=-1)
+    for first in (-1, 0.5, "0", 2**64):
+        with pytest.raises(uavsnn.ParameterError, match="first"):
+            add_noise(w, 0.1, seed=0, first=first)  # type: ignore[arg-type]
+    with pytest.raises(uavsnn.ParameterError, match="first"):
+        add_noise(w, 0.1, seed=0, first=2**64 - 1)  # its windows would pass the last index
     with pytest.raises(uavsnn.ParameterError, match="out of range"):
         w.frames([5])
     with pytest.raises(uavsnn.ParameterError, match="out of range"):

@@ -80,6 +80,7 @@ def add_noise(
     n_preceding: npt.NDArray[np.int64],
     fraction: float,
     seed: int,
+    first: int,
 ) -> tuple[_WindowArrays, npt.NDArray[np.float64]]: ...
 
 # ---------------------------------------------------------------- network (issue 3)

@@ -47,6 +47,7 @@ __all__ = [
     "ClassFigures",
     "Evaluation",
     "SizeFigures",
+    "WindowInputs",
     "accuracy",
     "box_iou",
     "centre_distance",
@@ -270,6 +271,36 @@ def evaluate(
     return score(inference, data, seconds=seconds, keep_inference=keep_inference, network=network)
 
 
+@dataclass(frozen=True)
+class WindowInputs:
+    """What :func:`score` reads of the windows a network ran on, beside their starts: each
+    window's input spikes (``spikes``, int64) and the time of its first one inside its labelled
+    box (``first_in_box``, :func:`first_spike_in_box`). Kept in place of the windows where they
+    were made part by part and let go (noise on a large sensor,
+    :func:`uavsnn.experiments.noise_level`)."""
+
+    spikes: np.ndarray
+    first_in_box: np.ndarray
+
+    @classmethod
+    def of(cls, windows: Any, boxes: npt.ArrayLike) -> WindowInputs:
+        """The inputs of ``windows``, each with its labelled box ``x0, y0, x1, y1``."""
+        return cls(
+            spikes=np.diff(np.asarray(windows.offsets, dtype=np.int64)),
+            first_in_box=first_spike_in_box(windows, boxes),
+        )
+
+    @classmethod
+    def concatenate(cls, parts: Sequence[WindowInputs]) -> WindowInputs:
+        """The inputs of consecutive runs of windows as one."""
+        return cls(
+            spikes=np.concatenate([p.spikes for p in parts]).astype(np.int64, copy=False),
+            first_in_box=np.concatenate([p.first_in_box for p in parts]).astype(
+                np.int64, copy=False
+            ),
+        )
+
+
 def score(
     inference: Inference,
     data: LabelledWindows,
@@ -277,10 +308,20 @@ def score(
     seconds: float = float("nan"),
     keep_inference: bool = False,
     network: Network | None = None,
+    inputs: WindowInputs | None = None,
 ) -> Evaluation:
-    """Score an :class:`~uavsnn.network.Inference` of ``data``'s windows against its labels."""
+    """Score an :class:`~uavsnn.network.Inference` of ``data``'s windows against its labels.
+    ``inputs``: what the network's input windows held when they are not ``data.windows`` (the
+    same starts, other spikes: with noise added), else read from ``data.windows``."""
     if len(inference) != len(data):
         raise ShapeError(f"inference has {len(inference)} windows, the data {len(data)}")
+    if inputs is None:
+        inputs = WindowInputs.of(data.windows, data.box)
+    elif len(inputs.spikes) != len(data) or len(inputs.first_in_box) != len(data):
+        raise ShapeError(
+            f"inputs have {len(inputs.spikes)} and {len(inputs.first_in_box)} windows, "
+            f"the data {len(data)}"
+        )
     predicted = np.asarray(inference.detected, dtype=bool)
     actual = np.asarray(data.label, dtype=bool)
 
@@ -309,7 +350,7 @@ def score(
             )
     w = data.windows
     tp = np.flatnonzero(predicted & actual)
-    first_in_box = first_spike_in_box(w, data.box)
+    first_in_box = inputs.first_in_box
     detection_t = inference.first_detection_t.astype(np.int64)
     reached = tp[first_in_box[tp] >= 0]
     latency = detection_t[reached] - first_in_box[reached]
@@ -319,7 +360,7 @@ def score(
     iou = box_iou(first_box[located], labelled[located])
     centre = centre_distance(first_box[located], labelled[located])
     width, height = w.sensor_size
-    spikes = np.diff(np.asarray(w.offsets, dtype=np.int64))
+    spikes = inputs.spikes
     min_detections = 1 if network is None else int(network.config["detection"]["min_detections"])
     return Evaluation(
         confusion=confusion_matrix(predicted, actual),

@@ -5,7 +5,9 @@ PENT or static thresholds, and accuracy against additive noise (Table 3).
 
 from __future__ import annotations
 
+import math
 import platform
+import time
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, replace
 from importlib import metadata
@@ -14,10 +16,18 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from uavsnn._validate import check_int
 from uavsnn.dataset import LabelledWindows, RawEvents, read_manifest
 from uavsnn.distributed import SERIAL, Runner, noise_task
 from uavsnn.errors import DatasetError, ParameterError
-from uavsnn.evaluation import Evaluation, detection_by_target, evaluate, identification_figures
+from uavsnn.evaluation import (
+    Evaluation,
+    WindowInputs,
+    check_test_set,
+    detection_by_target,
+    identification_figures,
+    score,
+)
 from uavsnn.network import CONV_LAYERS, Inference, Network, default_config
 from uavsnn.training import apply_overrides
 from uavsnn.windows import Windows, add_noise
@@ -27,6 +37,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "NOISE_FRACTIONS",
+    "NOISE_PART_SPIKES",
     "PAPER_TABLE2",
     "PAPER_TABLE3",
     "RECIPE_SETTINGS",
@@ -308,6 +319,27 @@ def both_rules(
     return figures
 
 
+NOISE_PART_SPIKES = 1 << 23
+"""The most input spikes, signal and noise, of the noisy windows :func:`noise_level` holds at
+once (about 0.1 GB as windows, 0.6 GB while their first spikes in the labelled boxes are
+found): it adds the noise and runs the networks part by part, each part as many whole windows
+as fit (at least one). 2000 windows of a 1280×720 sensor with noise on 20 % of the pixels hold
+368 million: 44 parts."""
+
+
+def _noise_parts(spikes: np.ndarray, noise: int, budget: int) -> list[tuple[int, int]]:
+    """Runs ``[a, b)`` of consecutive windows, in order, whose spikes (``spikes`` per window,
+    plus ``noise`` each) add up to at most ``budget``, or a single window above it."""
+    ends = np.cumsum(spikes.astype(np.int64) + noise)
+    parts, a = [], 0
+    while a < len(ends):
+        before = int(ends[a - 1]) if a else 0
+        b = max(int(np.searchsorted(ends, before + budget, side="right")), a + 1)
+        parts.append((a, b))
+        a = b
+    return parts
+
+
 def noise_level(
     networks: dict[str, Network],
     data: LabelledWindows,
@@ -315,23 +347,48 @@ def noise_level(
     *,
     seed: int,
     threads: int | None = None,
+    part_spikes: int = NOISE_PART_SPIKES,
 ) -> list[NoisePoint]:
     """One level of :func:`noise_sweep`: each of ``networks`` on ``data`` with noise on
     ``fraction`` of the pixels (drawn from ``seed``; none for 0), every network on the same
-    noisy windows."""
-    noisy, snr = with_noise(data, fraction, seed=seed) if fraction > 0 else (data, None)
-    finite = snr[np.isfinite(snr)] if snr is not None else np.zeros(0)
+    noisy windows. The noisy windows are made and run a part at a time, at most
+    ``part_spikes`` input spikes each (:data:`NOISE_PART_SPIKES`; window ``i`` gets the same
+    noise in whichever part, :func:`uavsnn.windows.add_noise`), so the points do not depend on
+    it."""
+    budget = check_int("part_spikes", part_spikes, 1, 1 << 62)
+    if not networks:
+        return []
+    for network in networks.values():
+        check_test_set(data, network, balanced=True)
+    width, height = data.windows.sensor_size
+    n = len(data)
+    noise = math.floor(float(fraction) * width * height + 0.5) if fraction > 0 else 0
+    spikes = np.diff(np.asarray(data.windows.offsets, dtype=np.int64))
+    runs: dict[str, list[Inference]] = {mode: [] for mode in networks}
+    seconds = dict.fromkeys(networks, 0.0)
+    inputs, snrs = [], []
+    for a, b in _noise_parts(spikes, noise, budget) if noise else [(0, n)]:
+        windows = data.windows if (a, b) == (0, n) else data.windows.select(np.arange(a, b))
+        if noise:
+            windows, snr = add_noise(windows, fraction, seed=seed, first=a)
+            snrs.append(snr)
+        inputs.append(WindowInputs.of(windows, data.box[a:b]))
+        for mode, network in networks.items():
+            start = time.perf_counter()
+            runs[mode].append(network.infer(windows, threads=threads))
+            seconds[mode] += time.perf_counter() - start
+        del windows
+    snr = np.concatenate(snrs) if snrs else np.zeros(0)
+    finite = snr[np.isfinite(snr)]
     level = float(np.median(finite)) if finite.size else float("inf")
+    seen = WindowInputs.concatenate(inputs)
     points = []
     for mode, network in networks.items():
-        keep = network.identification is not None
-        e = evaluate(network, noisy, threads=threads, keep_inference=keep)
-        ident = None
-        if keep and e.inference is not None:
-            ident = both_rules(
-                network, noisy, e.inference, raw_noise=(fraction, seed) if fraction > 0 else None
-            )
-            e = replace(e, inference=None)
+        inference = Inference.concatenate(runs.pop(mode))
+        e = score(inference, data, seconds=seconds[mode], network=network, inputs=seen)
+        # The features read the windows' starts and the raw events, which get noise of their
+        # own (raw_noise), not the noisy windows' spikes: the data without noise serves.
+        ident = both_rules(network, data, inference, raw_noise=(fraction, seed) if noise else None)
         points.append(NoisePoint(float(fraction), level, mode, e, ident))
     return points
 
@@ -348,9 +405,9 @@ def noise_sweep(
     """Evaluate each of ``networks`` (by mode name, e.g. ``{"pent": a, "static": b}``) on
     ``data`` with each noise ``fraction`` added; every network sees the same noisy windows.
     Level ``i`` draws its noise from ``seed + i``. ``runner`` runs the levels (as Ray tasks,
-    :mod:`uavsnn.distributed`; default here, one after the other, the largest first: a level
-    whose noise is above the engine's memory cap is refused before any other runs): the points
-    are the same, in the order of ``fractions``."""
+    :mod:`uavsnn.distributed`; default here, one after the other, the largest first, so what
+    fails for its size fails before the others have run): the points are the same, in the
+    order of ``fractions``."""
     if runner is None or runner is SERIAL:
         order = sorted(range(len(fractions)), key=lambda i: -fractions[i])
         done = {

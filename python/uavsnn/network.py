@@ -20,7 +20,7 @@ from __future__ import annotations
 import itertools
 import json
 import os
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, Protocol
 
@@ -196,6 +196,41 @@ class Inference:
     def __len__(self) -> int:
         """Number of windows."""
         return len(self.detected)
+
+    @classmethod
+    def concatenate(cls, parts: Sequence[Inference]) -> Inference:
+        """The inference of consecutive runs of windows as one: ``parts[k]``'s windows follow
+        those of ``parts[k - 1]``, and the ``window`` field of its detections and spikes counts
+        from the windows of the parts before it. ``spikes`` is kept only when every part has
+        it. At least one part.
+
+        Raises:
+            ShapeError: no parts, or parts of different map counts.
+        """
+        if not parts:
+            raise ShapeError("concatenate needs at least one Inference")
+        maps = {p.thresholds.shape[1:] for p in parts}
+        if len(maps) != 1:
+            raise ShapeError(f"parts have thresholds of different shapes: {sorted(maps)}")
+        starts = np.cumsum([0] + [len(p) for p in parts[:-1]])
+
+        def renumbered(rows: Sequence[np.ndarray]) -> np.ndarray:
+            out = np.concatenate(rows)
+            out["window"] += np.repeat(starts, [len(r) for r in rows])
+            return out
+
+        spikes = None
+        if all(p.spikes is not None for p in parts):
+            layers = parts[0].spikes or {}
+            spikes = {name: renumbered([(p.spikes or {})[name] for p in parts]) for name in layers}
+        return cls(
+            detected=np.concatenate([p.detected for p in parts]),
+            counts=np.concatenate([p.counts for p in parts]),
+            first_detection_t=np.concatenate([p.first_detection_t for p in parts]),
+            detections=renumbered([p.detections for p in parts]),
+            thresholds=np.concatenate([p.thresholds for p in parts]),
+            spikes=spikes,
+        )
 
 
 @dataclass(frozen=True)

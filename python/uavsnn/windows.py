@@ -313,13 +313,18 @@ def make_windows(
     return Windows._from_engine(recording.sensor_size, length, columns)
 
 
-def add_noise(windows: Windows, fraction: float, *, seed: int) -> tuple[Windows, np.ndarray]:
+def add_noise(
+    windows: Windows, fraction: float, *, seed: int, first: int = 0
+) -> tuple[Windows, np.ndarray]:
     """Add uniform noise events to every window (SPEC §5, the paper's noise experiment).
 
     Each window gets ``fraction · W · H`` rounded half away from zero (``floor(v + 0.5)``, not
     Python's half-to-even ``round``) noise events on distinct pixels drawn uniformly
     over the sensor, at times drawn uniformly in the window; a pixel keeps its earliest spike
-    (the signal's on a tie). Each window draws from its own generator seeded by ``(seed, i)``.
+    (the signal's on a tie). Window ``i`` draws from its own generator seeded by
+    ``(seed, first + i)``: ``first`` is the index of ``windows``' first window in a larger set
+    that gets its noise part by part (``windows.select(range(a, b))`` with ``first=a`` gets the
+    noise that windows ``a`` to ``b`` of the whole set get at once).
 
     Returns:
         the noisy windows and the signal-to-noise ratio of each window in dB,
@@ -329,7 +334,7 @@ def add_noise(windows: Windows, fraction: float, *, seed: int) -> tuple[Windows,
         ``round(P + N − P·N/(W·H))``.
 
     Raises:
-        ParameterError: ``fraction`` outside ``[0, 1]`` or NaN, or a bad seed.
+        ParameterError: ``fraction`` outside ``[0, 1]`` or NaN, or a bad ``seed`` or ``first``.
     """
     if not isinstance(windows, Windows):
         raise ParameterError(f"expected Windows, got {type(windows).__name__}")
@@ -340,6 +345,7 @@ def add_noise(windows: Windows, fraction: float, *, seed: int) -> tuple[Windows,
     if not (0.0 <= frac <= 1.0):
         raise ParameterError(f"fraction must be in [0, 1], got {fraction!r}")
     seed_value = int_param("seed", seed, 0)
+    first_value = int_param("first", first, 0)
     width, height = windows.sensor_size
     columns, snr = _core.add_noise(
         width,
@@ -349,6 +355,7 @@ def add_noise(windows: Windows, fraction: float, *, seed: int) -> tuple[Windows,
         windows.n_preceding,
         frac,
         seed_value,
+        first_value,
     )
     noisy = Windows._from_engine(windows.sensor_size, windows.length_us, columns)
     return noisy, snr

@@ -190,7 +190,8 @@ fn window_frames<'py>(
     Ok(out)
 }
 
-/// Add uniform noise to windows; returns the noisy CSR columns and the SNR (dB) per window.
+/// Add uniform noise to windows (window `i` draws from `(seed, first + i)`); returns the noisy
+/// CSR columns and the SNR (dB) per window.
 #[pyfunction]
 fn add_noise<'py>(
     py: Python<'py>,
@@ -205,6 +206,7 @@ fn add_noise<'py>(
     n_preceding: PyReadonlyArray1<'py, i64>,
     fraction: f64,
     seed: u64,
+    first: u64,
 ) -> PyResult<(WindowArrays<'py>, Bound<'py, PyArray1<f64>>)> {
     let columns = Columns::new(&t0, &offsets, &t, &x, &y)?;
     let preceding = n_preceding.as_slice()?;
@@ -214,7 +216,7 @@ fn add_noise<'py>(
             .iter()
             .map(|&p| non_negative("n_preceding", p))
             .collect::<Result<Vec<_>>>()?;
-        windows::add_noise(&view, &preceding, fraction, seed)
+        windows::add_noise(&view, &preceding, fraction, seed, first)
     })?;
     Ok((
         into_arrays(py, noisy.windows),

@@ -7,7 +7,9 @@
 //! spikes before noise (`+inf` when `n = 0`, `−inf` when `S = 0 < n`).
 //!
 //! Each window draws from its own generator, seeded from `(seed, window index)`, so the result
-//! does not depend on the number of threads.
+//! does not depend on the number of threads; the index counts from `first`, so noise added to
+//! a set of windows part by part (each part with the index of its first window) is the noise
+//! added to the whole set at once.
 
 use rand::seq::index::sample;
 use rand::{Rng, SeedableRng};
@@ -38,17 +40,29 @@ fn mix(mut z: u64) -> u64 {
 }
 
 /// Add uniform noise to every window of `view`; `n_preceding` is carried over (see
-/// [`NoisyWindows::windows`]).
+/// [`NoisyWindows::windows`]). Window `i` of `view` draws from `(seed, first + i)`: `first` is
+/// the index of `view`'s first window in the set it is a part of (0 for a whole set).
 pub fn add_noise(
     view: &WindowsView<'_>,
     n_preceding: &[u64],
     fraction: f64,
     seed: u64,
+    first: u64,
 ) -> Result<NoisyWindows> {
     if !fraction.is_finite() || !(0.0..=1.0).contains(&fraction) {
         return Err(Error::param(
             "fraction",
             format!("must be in [0, 1], got {fraction}"),
+        ));
+    }
+    if first.checked_add(view.len() as u64).is_none() {
+        return Err(Error::param(
+            "first",
+            format!(
+                "{first} plus {} windows passes the last index, {}",
+                view.len(),
+                u64::MAX
+            ),
         ));
     }
     if n_preceding.len() != view.len() {
@@ -95,7 +109,7 @@ pub fn add_noise(
         .step_by(per)
         .collect::<Vec<_>>()
         .into_par_iter()
-        .map(|a| noise_run(view, a, (a + per).min(view.len()), n_noise, seed))
+        .map(|a| noise_run(view, a, (a + per).min(view.len()), n_noise, seed, first))
         .collect();
 
     let mut windows = Windows::empty(view.sensor, view.length_us);
@@ -142,6 +156,7 @@ fn noise_run(
     b: usize,
     n_noise: usize,
     seed: u64,
+    first: u64,
 ) -> (Vec<usize>, Vec<Spike>) {
     let sensor = view.sensor;
     let width = sensor.width as usize;
@@ -152,7 +167,8 @@ fn noise_run(
     for i in a..b {
         let stamp = i as u64 + 1;
         let t0 = view.t0[i];
-        let mut rng = Pcg64::seed_from_u64(mix(seed ^ mix(i as u64)));
+        // No overflow: `add_noise` checked `first` plus the windows.
+        let mut rng = Pcg64::seed_from_u64(mix(seed ^ mix(first + i as u64)));
         noise.clear();
         for pixel in sample(&mut rng, sensor.area(), n_noise) {
             // No overflow: `WindowsView::new` keeps `t0` and the length at most 2^62.

@@ -180,9 +180,9 @@ fn noise_adds_the_requested_pixels_and_reports_snr() {
     let sensor = SensorSize::new(20, 10).unwrap();
     let events: Vec<Event> = (0..50).map(|i| ev(i * 2, (i % 20) as u16, 0)).collect();
     let w = make_windows(&events, sensor, &WindowConfig::new(50, 0.0).unwrap()).unwrap();
-    let noisy = add_noise(&w.view(), &w.n_preceding, 0.05, 7).unwrap();
+    let noisy = add_noise(&w.view(), &w.n_preceding, 0.05, 7, 0).unwrap();
     assert_eq!(noisy.noise_per_window, 10);
-    let again = add_noise(&w.view(), &w.n_preceding, 0.05, 7).unwrap();
+    let again = add_noise(&w.view(), &w.n_preceding, 0.05, 7, 0).unwrap();
     assert_eq!(noisy, again);
     let nv = noisy.windows.view();
     WindowsView::new(sensor, 50, nv.t0, nv.offsets, nv.t, nv.x, nv.y).unwrap();
@@ -201,7 +201,7 @@ fn noise_adds_the_requested_pixels_and_reports_snr() {
     );
     let area = sensor.area() as f64;
     for fraction in [0.05, 0.5] {
-        let noisy = add_noise(&w.view(), &w.n_preceding, fraction, 7).unwrap();
+        let noisy = add_noise(&w.view(), &w.n_preceding, fraction, 7, 0).unwrap();
         let n = noisy.noise_per_window as f64;
         let expected: Vec<u64> = w
             .n_preceding
@@ -210,8 +210,69 @@ fn noise_adds_the_requested_pixels_and_reports_snr() {
             .collect();
         assert_eq!(noisy.windows.n_preceding, expected, "fraction {fraction}");
     }
-    assert!(add_noise(&w.view(), &w.n_preceding, 1.5, 0).is_err());
-    assert!(add_noise(&w.view(), &w.n_preceding, f64::NAN, 0).is_err());
+    assert!(add_noise(&w.view(), &w.n_preceding, 1.5, 0, 0).is_err());
+    assert!(add_noise(&w.view(), &w.n_preceding, f64::NAN, 0, 0).is_err());
+    let err = add_noise(&w.view(), &w.n_preceding, 0.05, 0, u64::MAX).unwrap_err();
+    assert!(
+        matches!(err, Error::InvalidParameter { name: "first", .. }),
+        "{err}"
+    );
+}
+
+#[test]
+fn noise_added_part_by_part_is_the_noise_added_at_once() {
+    let sensor = SensorSize::new(20, 10).unwrap();
+    let events: Vec<Event> = (0..400)
+        .map(|i| ev(i * 2, (i % 20) as u16, (i % 7) as u16))
+        .collect();
+    let w = make_windows(&events, sensor, &WindowConfig::new(50, 0.5).unwrap()).unwrap();
+    let whole = add_noise(&w.view(), &w.n_preceding, 0.1, 11, 0).unwrap();
+    let n = w.len();
+    assert!(n >= 10, "{n} windows");
+    for cut in [1, n / 3, n - 1] {
+        let (t0, offsets) = (&w.t0, &w.offsets);
+        let mut spikes = 0;
+        for (a, b) in [(0, cut), (cut, n)] {
+            let base = offsets[a];
+            let part_offsets: Vec<usize> = offsets[a..=b].iter().map(|&o| o - base).collect();
+            let (lo, hi) = (offsets[a], offsets[b]);
+            let part = WindowsView::new(
+                sensor,
+                w.length_us,
+                &t0[a..b],
+                &part_offsets,
+                &w.t[lo..hi],
+                &w.x[lo..hi],
+                &w.y[lo..hi],
+            )
+            .unwrap();
+            let noisy = add_noise(&part, &w.n_preceding[a..b], 0.1, 11, a as u64).unwrap();
+            let (wo, po) = (&whole.windows.offsets, &noisy.windows.offsets);
+            assert_eq!(po.len(), b - a + 1);
+            for i in 0..b - a {
+                let (ws, we) = (wo[a + i], wo[a + i + 1]);
+                let (ps, pe) = (po[i], po[i + 1]);
+                assert_eq!(
+                    whole.windows.t[ws..we],
+                    noisy.windows.t[ps..pe],
+                    "window {}",
+                    a + i
+                );
+                assert_eq!(whole.windows.x[ws..we], noisy.windows.x[ps..pe]);
+                assert_eq!(whole.windows.y[ws..we], noisy.windows.y[ps..pe]);
+            }
+            assert_eq!(whole.snr_db[a..b], noisy.snr_db[..]);
+            assert_eq!(
+                whole.windows.n_preceding[a..b],
+                noisy.windows.n_preceding[..]
+            );
+            spikes += noisy.windows.t.len();
+        }
+        assert_eq!(spikes, whole.windows.t.len(), "cut at {cut}");
+    }
+    // Another start draws other noise.
+    let shifted = add_noise(&w.view(), &w.n_preceding, 0.1, 11, 1).unwrap();
+    assert_ne!(shifted.windows.t, whole.windows.t);
 }
 
 fn arb_stream() -> impl Strategy<Value = (Vec<Event>, u64, f64, bool)> {
@@ -310,7 +371,7 @@ fn view_refuses_window_starts_past_max_time() {
     // So noise times never wrap: the latest start and the longest window still fit.
     let view =
         WindowsView::new(sensor, MAX_TIME_US, &[MAX_TIME_US], &[0, 0], &[], &[], &[]).unwrap();
-    let noisy = add_noise(&view, &[0], 1.0, 3).unwrap();
+    let noisy = add_noise(&view, &[0], 1.0, 3, 0).unwrap();
     assert_eq!(noisy.windows.t.len(), 16);
     assert!(noisy.windows.t.iter().all(|&t| t >= MAX_TIME_US));
 }
@@ -321,7 +382,10 @@ fn sensor_sized_allocations_are_capped() {
     let huge = SensorSize::new(u16::MAX, u16::MAX).unwrap();
     let view = WindowsView::new(huge, 10, &[0], &[0, 0], &[], &[], &[]).unwrap();
     let is_cap = |err: Error, name: &str| crate::error::assert_over_cap(&err, name);
-    is_cap(add_noise(&view, &[0], 0.0, 0).unwrap_err(), "sensor_size");
+    is_cap(
+        add_noise(&view, &[0], 0.0, 0, 0).unwrap_err(),
+        "sensor_size",
+    );
     is_cap(frames(&view, &[0]).unwrap_err(), "indices");
     is_cap(frames_len(&view, &[0]).unwrap_err(), "indices");
     is_cap(
@@ -339,7 +403,7 @@ fn sensor_sized_allocations_are_capped() {
     is_cap(frames_len(&view, &all).unwrap_err(), "indices");
     // Noise: windows × noise spikes are capped too (here 2000 × 921,600).
     is_cap(
-        add_noise(&view, &[0; 2000], 1.0, 0).unwrap_err(),
+        add_noise(&view, &[0; 2000], 1.0, 0, 0).unwrap_err(),
         "fraction",
     );
 }
