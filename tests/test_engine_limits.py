@@ -199,6 +199,81 @@ def test_train_layer_while_another_thread_infers_is_refused() -> None:
     assert len(net.infer(few).detected) == 2
 
 
+def test_every_call_on_a_network_another_thread_trains_is_refused(tmp_path) -> None:
+    """Not only infer: reading the weights, the config or a copy while train_layer writes
+    them, and writing them while infer reads them, is a StreamError, not pyo3's RuntimeError."""
+    net = Network({"width": 240, "height": 180})
+    rng = np.random.default_rng(1)
+    n = 400_000
+    ev = np.zeros(n, EVENT_DTYPE)
+    ev["t"] = np.sort(rng.integers(0, 2_000_000, n))
+    ev["x"] = rng.integers(0, 240, n)
+    ev["y"] = rng.integers(0, 180, n)
+    many = make_windows(Recording(ev, (240, 180)), 10_000, overlap=0.5)
+    t, x, y = many.spikes(0)
+    w1 = net.weights("conv1")
+    other = net.copy()
+    reads = {
+        "weights": lambda: net.weights("conv1"),
+        "config": lambda: net.config,
+        "shapes": lambda: net.shapes,
+        "conv1_thresholds": lambda: net.conv1_thresholds(100),
+        "run_window": lambda: net.run_window(t, x, y, int(many.t0[0])),
+        "save": lambda: net.save(tmp_path / "m.npz"),
+        "copy": lambda: net.copy(),
+        "==": lambda: net == other,
+    }
+    writes = {
+        "set_weights": lambda: net.set_weights("conv1", w1),
+        "stdp_step": lambda: net.stdp_step("conv2", t, x, y, int(many.t0[0])),
+    }
+
+    def refused_while(hold, calls) -> dict[str, bool]:
+        errors: list[Exception] = []
+        done = threading.Event()
+
+        def run() -> None:
+            try:
+                while not done.is_set():
+                    try:
+                        hold()
+                    except uavsnn.StreamError:
+                        pass  # one of the calls below held the network: typed too
+            except Exception as exc:  # pragma: no cover - reported below
+                errors.append(exc)
+
+        worker = threading.Thread(target=run)
+        worker.start()
+        refused = dict.fromkeys(calls, False)
+        give_up = time.monotonic() + 20.0  # a loaded machine may start the worker late
+        try:
+            while not all(refused.values()) and time.monotonic() < give_up:
+                for name, call in calls.items():
+                    if refused[name]:
+                        continue
+                    # A call that lets the GIL go holding the network (run_window, save) would
+                    # meet the worker at each of its attempts: leave it the GIL without it first.
+                    time.sleep(0.02)
+                    try:
+                        call()
+                    except uavsnn.StreamError as exc:
+                        assert "in use by another thread" in str(exc)
+                        refused[name] = True
+        finally:
+            done.set()
+            worker.join()
+        assert not errors, errors
+        return refused
+
+    # train_layer holds the network for writing through its whole run (every=10**6).
+    train = refused_while(lambda: net.train_layer("conv2", many, every=10**6), reads | writes)
+    assert all(train.values()), train
+    # infer holds it for reading: writes are refused.
+    infer = refused_while(lambda: net.infer(many, threads=1), writes)
+    assert all(infer.values()), infer
+    assert net.weights("conv1").shape == w1.shape and net.copy() == net
+
+
 # 7. Window starts past MAX_TIME_US are refused, so noise times cannot wrap.
 def test_window_starts_past_max_time_are_refused() -> None:
     with pytest.raises(uavsnn.ParameterError, match="t0"):

@@ -201,6 +201,22 @@ impl<'a> BatchArgs<'a> {
     }
 }
 
+/// A layer's output: `(maps, rows, cols)`.
+type LayerShape = (usize, usize, usize);
+
+/// Every call borrows the network by hand, so that one made while another thread's call holds
+/// it (`infer` and `run_window` read it without the GIL, `train_layer` and `stdp_step` write
+/// it) is a `StreamError` (`in_use`), not pyo3's untyped `RuntimeError("Already borrowed")`.
+impl NetworkCore {
+    fn read<'py>(slf: &Bound<'py, Self>) -> PyResult<PyRef<'py, Self>> {
+        slf.try_borrow().map_err(|_| in_use(slf.py()))
+    }
+
+    fn write<'py>(slf: &Bound<'py, Self>) -> PyResult<PyRefMut<'py, Self>> {
+        slf.try_borrow_mut().map_err(|_| in_use(slf.py()))
+    }
+}
+
 #[pymethods]
 impl NetworkCore {
     /// A network from a JSON config (missing fields take their defaults) and a seed.
@@ -212,14 +228,15 @@ impl NetworkCore {
     }
 
     /// The full config as JSON.
-    fn config_json(&self) -> String {
-        self.net.config().to_json()
+    fn config_json(slf: &Bound<'_, Self>) -> PyResult<String> {
+        Ok(Self::read(slf)?.net.config().to_json())
     }
 
     /// Per layer: `(maps, rows, cols)` of its output.
-    fn shapes(&self) -> Vec<(String, (usize, usize, usize))> {
-        let g = self.net.geometry();
-        Layer::ALL
+    fn shapes(slf: &Bound<'_, Self>) -> PyResult<Vec<(String, LayerShape)>> {
+        let this = Self::read(slf)?;
+        let g = this.net.geometry();
+        Ok(Layer::ALL
             .iter()
             .map(|l| {
                 let i = l.index() / 2;
@@ -230,28 +247,30 @@ impl NetworkCore {
                 };
                 (l.name().to_string(), s)
             })
-            .collect()
+            .collect())
     }
 
     /// A copy of a conv layer's weights, `(maps, in_ch, k, k)` float32.
     fn weights<'py>(
-        &self,
-        py: Python<'py>,
+        slf: &Bound<'py, Self>,
         layer: &str,
     ) -> PyResult<Bound<'py, numpy::PyArray4<f32>>> {
-        let w = self.net.conv_weights(parse_layer(py, layer)?);
+        let py = slf.py();
+        let this = Self::read(slf)?;
+        let w = this.net.conv_weights(parse_layer(py, layer)?);
         PyArray1::from_slice(py, w.canonical()).reshape(w.shape())
     }
 
     /// Replace a conv layer's weights (checked: shape, finite, in [0, 1]).
     fn set_weights(
-        &mut self,
-        py: Python<'_>,
+        slf: &Bound<'_, Self>,
         layer: &str,
         w: PyReadonlyArray4<'_, f32>,
     ) -> PyResult<()> {
+        let py = slf.py();
         let layer = parse_layer(py, layer)?;
-        let expected = self.net.conv_weights(layer).shape();
+        let mut this = Self::write(slf)?;
+        let expected = this.net.conv_weights(layer).shape();
         if w.shape() != expected {
             return Err(super::errors::to_pyerr(
                 py,
@@ -263,28 +282,29 @@ impl NetworkCore {
             ));
         }
         let values = w.as_array().iter().copied().collect();
-        map(py, self.net.set_weights(layer, values))
+        map(py, this.net.set_weights(layer, values))
     }
 
     /// conv1's thresholds for a window whose PENT estimate is `n_in`.
-    fn conv1_thresholds(&self, n_in: u64) -> Vec<f32> {
-        self.net.conv1_thresholds(n_in)
+    fn conv1_thresholds(slf: &Bound<'_, Self>, n_in: u64) -> PyResult<Vec<f32>> {
+        Ok(Self::read(slf)?.net.conv1_thresholds(n_in))
     }
 
     /// One window in inference mode: `(spikes, counts, thresholds, detections)`, see
     /// `PackedTrace`.
     #[pyo3(signature = (t, x, y, t0, n_in=None))]
     fn run_window<'py>(
-        &self,
-        py: Python<'py>,
+        slf: &Bound<'py, Self>,
         t: PyReadonlyArray1<'py, u64>,
         x: PyReadonlyArray1<'py, u16>,
         y: PyReadonlyArray1<'py, u16>,
         t0: u64,
         n_in: Option<u64>,
     ) -> PyResult<PackedTrace<'py>> {
+        let py = slf.py();
         let (ts, xs, ys) = (slice(&t, "t")?, slice(&x, "x")?, slice(&y, "y")?);
-        let net = &self.net;
+        let this = Self::read(slf)?;
+        let net = &this.net;
         let (spikes, counts, thresholds, detections) = detach(py, || {
             net.with_state(|state| {
                 net.run_window(state, Spikes::new(ts, xs, ys)?, t0, n_in, true)?;
@@ -319,8 +339,7 @@ impl NetworkCore {
     /// `(t, map, row, col, v)` in acceptance order. Rates default to the config's.
     #[pyo3(signature = (layer, t, x, y, t0, n_in=None, a_plus=None, a_minus=None))]
     fn stdp_step<'py>(
-        &mut self,
-        py: Python<'py>,
+        slf: &Bound<'py, Self>,
         layer: &str,
         t: PyReadonlyArray1<'py, u64>,
         x: PyReadonlyArray1<'py, u16>,
@@ -330,9 +349,11 @@ impl NetworkCore {
         a_plus: Option<f64>,
         a_minus: Option<f64>,
     ) -> PyResult<SpikeColumns<'py>> {
+        let py = slf.py();
         let layer = parse_layer(py, layer)?;
         let (ts, xs, ys) = (slice(&t, "t")?, slice(&x, "x")?, slice(&y, "y")?);
-        let initial = Rates::initial(&self.net.config().stdp);
+        let mut this = Self::write(slf)?;
+        let initial = Rates::initial(&this.net.config().stdp);
         let rates = Rates {
             a_plus: a_plus.map_or(initial.a_plus, |a| a as f32),
             a_minus: a_minus.map_or(initial.a_minus, |a| a as f32),
@@ -343,7 +364,7 @@ impl NetworkCore {
                 &Error::param("rates", format!("must be finite, got {rates:?}")),
             ));
         }
-        let net = &mut self.net;
+        let net = &mut this.net;
         let winners = detach(py, || {
             let mut state = net.take_state();
             let winners =
@@ -382,8 +403,7 @@ impl NetworkCore {
             &n_preceding,
         )?;
         let py = slf.py();
-        // Borrowed by hand: a `train_layer` of another thread may hold the network.
-        let this = slf.try_borrow().map_err(|_| in_use(py))?;
+        let this = Self::read(slf)?;
         let net = &this.net;
         let results = detach(py, || infer(net, &args.batch(net)?, threads, record))?;
         let n = results.len();
@@ -482,7 +502,7 @@ impl NetworkCore {
             shuffle,
         };
         let (batch, order, mut trainer) = {
-            let this = slf.try_borrow().map_err(|_| in_use(py))?;
+            let this = Self::read(slf)?;
             let net = &this.net;
             let args = &args;
             detach(py, || {
@@ -499,7 +519,7 @@ impl NetworkCore {
         let mut done = 0;
         for chunk in order.chunks(every.max(1)) {
             {
-                let mut this = slf.try_borrow_mut().map_err(|_| in_use(py))?;
+                let mut this = Self::write(slf)?;
                 let net = &mut this.net;
                 let trainer = &mut trainer;
                 let batch = &batch;
@@ -525,9 +545,10 @@ impl NetworkCore {
     }
 
     /// Save to a model file (atomic).
-    fn save(&self, py: Python<'_>, path: std::path::PathBuf) -> PyResult<()> {
-        let net = &self.net;
-        detach(py, || net.save(&path))
+    fn save(slf: &Bound<'_, Self>, path: std::path::PathBuf) -> PyResult<()> {
+        let this = Self::read(slf)?;
+        let net = &this.net;
+        detach(slf.py(), || net.save(&path))
     }
 
     /// Load a model file (checked).
@@ -538,15 +559,15 @@ impl NetworkCore {
     }
 
     /// Whether two networks have the same config and bit-identical weights.
-    fn same_as(&self, other: &Self) -> bool {
-        self.net == other.net
+    fn same_as(slf: &Bound<'_, Self>, other: &Bound<'_, Self>) -> PyResult<bool> {
+        Ok(Self::read(slf)?.net == Self::read(other)?.net)
     }
 
     /// A deep copy.
-    fn copy(&self) -> Self {
-        Self {
-            net: self.net.clone(),
-        }
+    fn copy(slf: &Bound<'_, Self>) -> PyResult<Self> {
+        Ok(Self {
+            net: Self::read(slf)?.net.clone(),
+        })
     }
 }
 
