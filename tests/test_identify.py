@@ -342,6 +342,45 @@ def test_another_identification_version_is_refused(tmp_path: Path) -> None:
         Network.load(tmp_path / "m.npz")
 
 
+@pytest.mark.parametrize(
+    "stored",
+    [
+        {"identify.version": np.array([3, 3])},
+        {"identify.version": np.array(2.5)},
+        {"identify.threshold": np.array([0.5, 0.5])},
+        {"identify.l2": np.zeros(2)},
+        {"identify.class_l2": np.zeros(3)},
+        {"identify.features": np.array("log_width")},
+        {"identify.classes": np.array("uav")},
+        {"identify.threshold": np.array(np.nan)},
+        {"identify.l2": np.array(-1.0)},
+        {"identify.scale": np.zeros(len(FEATURES))},
+        {"identify.mean": np.full(len(FEATURES), np.inf)},
+        {"identify.coef": np.full(len(FEATURES) + 1, np.nan)},
+    ],
+    ids=lambda d: next(iter(d)) + str(np.asarray(next(iter(d.values()))).tolist())[:12],
+)
+def test_damaged_identification_arrays_are_a_model_file_error(
+    tmp_path: Path, stored: dict[str, np.ndarray]
+) -> None:
+    """An array where one number belongs, one number where names belong, or a value no fit
+    makes (NaN, a scale of 0): refused on load, not a TypeError, nor NaN scores later."""
+    from uavsnn.network import _add_arrays
+
+    net = small_net()
+    net.identification = with_classes()
+    net.save(tmp_path / "m.npz")
+    _add_arrays(str(tmp_path / "m.npz"), stored)
+    with pytest.raises(ModelFileError, match="identif"):
+        Network.load(tmp_path / "m.npz")
+
+
+@pytest.mark.parametrize("field", ["threshold", "l2"])
+def test_a_non_finite_number_of_the_model_is_a_parameter_error(field: str) -> None:
+    with pytest.raises(ParameterError, match=field):
+        replace(model(), **{field: math.nan})
+
+
 # ---------------------------------------------------------------- the tracker gate
 
 

@@ -118,6 +118,17 @@ class Identifier:
             raise ParameterError(f"unknown identification features {unknown}")
         if self.coef.shape != (d + 1,) or self.mean.shape != (d,) or self.scale.shape != (d,):
             raise ShapeError(f"identification arrays do not match {d} features")
+        # Not a number anywhere would score every object NaN: never an alarm, without a word.
+        if not math.isfinite(self.threshold):
+            raise ParameterError(f"threshold must be finite, got {self.threshold!r}")
+        if not (math.isfinite(self.l2) and self.l2 >= 0):
+            raise ParameterError(f"l2 must be finite and >= 0, got {self.l2!r}")
+        for name in ("coef", "mean", "class_coef"):
+            values = getattr(self, name)
+            if values is not None and not np.isfinite(values).all():
+                raise ParameterError(f"{name} must hold finite numbers only")
+        if not (np.isfinite(self.scale).all() and (self.scale > 0).all()):
+            raise ParameterError("scale must hold finite numbers > 0 only")
         if self.classes:
             if len(set(self.classes)) != len(self.classes) or len(self.classes) < 2:
                 raise ParameterError(f"classes must be 2 or more distinct names: {self.classes}")
@@ -273,7 +284,13 @@ class Identifier:
         """
         if "identify.version" not in arrays:
             return None
-        version = int(np.asarray(arrays["identify.version"]))
+        stored = np.asarray(arrays["identify.version"])
+        if stored.shape != () or stored.dtype.kind not in "iu":
+            raise ModelFileError(
+                f"identify.version must be one integer, got an array of {stored.dtype} "
+                f"{stored.shape}"
+            )
+        version = int(stored)
         if version not in (1, 2, VERSION):
             raise ModelFileError(
                 f"identification version {version}; this uavsnn reads versions 1 to {VERSION}"
@@ -324,7 +341,9 @@ class Identifier:
                 track_alarm_confirm=confirm,
                 gate_px=gate,
             )
-        except (KeyError, ValueError, ParameterError, ShapeError) as exc:
+        except (KeyError, TypeError, ValueError, ParameterError, ShapeError) as exc:
+            # TypeError: an array where one number belongs (float() of a 1-D array), or one
+            # number where names belong (iterating a 0-D array).
             raise ModelFileError(f"its identification arrays are inconsistent: {exc}") from exc
 
 
