@@ -592,3 +592,20 @@ def test_demo_refuses_a_negative_seed_before_making_its_folder(
     out = tmp_path / "demo"
     _one_line_exit_2(capsys, ["demo", "--seed", "-1", "--out", str(out)], "--seed")
     assert not out.exists()
+
+
+def test_detect_on_a_file_without_a_sensor_size_asks_for_one(
+    model: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # A CSV carries no geometry: faery's 1280x720 stood in, and the advice to --downsample
+    # cropped it to the model's aspect, dropping every event of a 40x30 recording (exit 0).
+    ev = _events(400)
+    rec = tmp_path / "rec.csv"
+    rows = [f"{int(e['t'])},{int(e['x'])},{int(e['y'])},{int(e['p'])}" for e in ev]
+    rec.write_text("t,x,y,p\n" + "\n".join(rows) + "\n")
+    for extra in ([], ["--downsample"]):
+        _one_line_exit_2(
+            capsys, ["detect", str(rec), "-m", str(model), *extra], "records no sensor size"
+        )
+    assert main(["detect", str(rec), "-m", str(model), "--sensor-size", "40x30"]) == 0
+    assert "events=400" in capsys.readouterr().err

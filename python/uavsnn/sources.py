@@ -144,6 +144,13 @@ class FileSource(EventSource):
             )
         self.recording = io.read(path, sensor_size=sensor_size)
         if downsample_to is not None and self.recording.sensor_size != tuple(downsample_to):
+            if self.recording.metadata.get("sensor_size_source") == "fallback":
+                # Cropping faery's guess to the target's aspect would drop events silently.
+                w, h = self.recording.sensor_size
+                raise ParameterError(
+                    f"{path} records no sensor size ({w}x{h} is only a stand-in): give its "
+                    "sensor size, then it can be downsampled"
+                )
             self.recording = filters.downsample(self.recording, downsample_to)
         self.sensor_size = self.recording.sensor_size
         self.realtime = realtime

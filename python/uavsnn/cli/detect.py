@@ -444,6 +444,12 @@ def run(args: argparse.Namespace) -> int:
     if source.sensor_size is not None and tuple(source.sensor_size) != model_size:
         source.close()
         w, h = source.sensor_size
+        recording = getattr(source, "recording", None)
+        if recording is not None and recording.metadata.get("sensor_size_source") == "fallback":
+            raise ParameterError(
+                f"{args.source} records no sensor size ({w}x{h} is only a stand-in): give "
+                "--sensor-size WxH"
+            )
         raise ParameterError(
             f"the recording's sensor is {w}x{h}, the model's input {model_size[0]}x"
             f"{model_size[1]}: add --downsample to crop and scale it to the model"
