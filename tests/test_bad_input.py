@@ -546,8 +546,50 @@ def test_detector_times_that_are_no_u64_are_parameter_errors(
 
 
 @pytest.mark.parametrize(
+    "splits",
+    [
+        {"test": "test.npz"},
+        ["test"],
+        None,
+        {"test": {"file": 3}},
+        {"test": {"file": "test.npz", "windows": "10"}},
+        {"test": {"file": "test.npz", "windows": True}},
+        {"test": {"file": "test.npz", "sha256": ["a"]}},
+    ],
+)
+def test_loading_a_split_of_a_damaged_manifest_is_a_dataset_error(
+    splits: object, dataset: Path, tmp_path: Path
+) -> None:
+    # An AttributeError or TypeError came out of dataset.load (and `uavsnn evaluate`).
+    manifest = json.loads((dataset / "manifest.json").read_text())
+    manifest["splits"] = splits
+    damaged = tmp_path / "damaged"
+    damaged.mkdir()
+    (damaged / "manifest.json").write_text(json.dumps(manifest))
+    with pytest.raises(DatasetError, match="split"):
+        load(damaged, "test")
+
+
+@pytest.mark.parametrize("version", [np.array([2, 2]), np.array("two"), np.array(2.0)])
+def test_a_split_file_whose_format_version_is_no_integer_is_a_dataset_error(
+    version: np.ndarray, dataset: Path, tmp_path: Path
+) -> None:
+    damaged = tmp_path / "damaged"
+    damaged.mkdir()
+    (damaged / "manifest.json").write_text((dataset / "manifest.json").read_text())
+    with np.load(dataset / "test.npz") as z:
+        arrays = {k: z[k] for k in z.files}
+    np.savez(damaged / "test.npz", **{**arrays, "format_version": version})
+    with pytest.raises(DatasetError, match="format_version must be one integer"):
+        load(damaged, "test")
+
+
+@pytest.mark.parametrize(
     ("field", "value", "match"),
-    [("parameters", None, "no field 'parameters'"), ("splits", [], "no attribute 'items'")],
+    [
+        ("parameters", None, "no field 'parameters'"),
+        ("splits", [], "'splits' must map each split's name"),
+    ],
 )
 def test_dataset_info_of_a_damaged_manifest_is_one_line(
     field: str,

@@ -590,18 +590,18 @@ class Network:
 
 def _add_arrays(path: str, arrays: Mapping[str, np.ndarray]) -> None:
     """Rewrite the model file at ``path`` with ``arrays`` added (``.npy`` entries, stored),
-    atomically (a temporary file beside it, then a rename)."""
+    atomically (:func:`uavsnn._files.write_atomic`)."""
     import io
-    import tempfile
     import zipfile
+
+    from uavsnn._files import write_atomic
 
     with zipfile.ZipFile(path) as old:
         entries = [(info.filename, old.read(info)) for info in old.infolist()]
     names = {f"{name}.npy" for name in arrays}
-    folder = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(dir=folder, prefix=".model-", suffix=".npz")
-    try:
-        with os.fdopen(fd, "wb") as out, zipfile.ZipFile(out, "w", zipfile.ZIP_STORED) as z:
+
+    def write(out: Any) -> None:
+        with zipfile.ZipFile(out, "w", zipfile.ZIP_STORED) as z:
             for name, data in entries:
                 if name not in names:
                     z.writestr(name, data)
@@ -609,11 +609,8 @@ def _add_arrays(path: str, arrays: Mapping[str, np.ndarray]) -> None:
                 buf = io.BytesIO()
                 np.save(buf, np.asarray(value), allow_pickle=False)
                 z.writestr(f"{name}.npy", buf.getvalue())
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+
+    write_atomic(path, write)
 
 
 def _check_finite(value: Any, path: str) -> None:

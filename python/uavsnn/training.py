@@ -32,6 +32,7 @@ from typing import Any
 
 import numpy as np
 
+from uavsnn._files import write_atomic
 from uavsnn._validate import check_int
 from uavsnn.errors import DatasetError, ModelFileError, ParameterError
 from uavsnn.network import CONV_LAYERS, Network, TrainReport, WindowsLike
@@ -280,9 +281,8 @@ def _write_checkpoint(
     state["model"] = model.name
     state["fingerprint"] = fingerprint
     state["layers"][layer] = layer_result.to_dict()
-    tmp = state_path.with_name(f".{STATE_FILE}.tmp-{os.getpid()}")
-    tmp.write_text(json.dumps(state, indent=2) + "\n", encoding="utf-8")
-    os.replace(tmp, state_path)
+    text = json.dumps(state, indent=2) + "\n"
+    write_atomic(state_path, lambda f: f.write(text.encode("utf-8")))
 
 
 _WHAT = {

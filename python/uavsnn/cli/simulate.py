@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from uavsnn._files import write_atomic
 from uavsnn.cli._camera import add_camera_options
 from uavsnn.errors import ParameterError
 from uavsnn.events import Recording
@@ -139,7 +140,9 @@ def _scene(args: argparse.Namespace, size: tuple[int, int]) -> Recording:
     spec = through_lens(spec, lens, size)
     out = record(spec, sensor=size, seed=args.seed)
     labels_path = args.output.with_suffix(".labels.npz")
-    np.savez(labels_path, timestamps_us=out.timestamps_us, labels=out.labels)
+    write_atomic(
+        labels_path, lambda f: np.savez(f, timestamps_us=out.timestamps_us, labels=out.labels)
+    )
     meta = dict(out.recording.metadata, frames=spec.n_frames, labels=str(labels_path))
     return Recording(out.recording.events, out.recording.sensor_size, meta)
 

@@ -37,6 +37,7 @@ from typing import Any
 
 import numpy as np
 
+from uavsnn._files import write_atomic
 from uavsnn.errors import DatasetError, UavsnnError
 from uavsnn.events import EVENT_DTYPE
 from uavsnn.windows import Windows
@@ -220,19 +221,6 @@ class LabelledWindows:
             raise DatasetError(f"recording {exc.args[0]} is not in the manifest") from exc
 
 
-def _atomic(path: Path, write: Any) -> None:
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
-    try:
-        with tmp.open("wb") as f:
-            write(f)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
-
-
 def save_split(path: str | Path, data: LabelledWindows) -> Path:
     """Write ``data`` as a split file (atomically); returns the path."""
     path = Path(path)
@@ -257,7 +245,7 @@ def save_split(path: str | Path, data: LabelledWindows) -> Path:
         arrays["raw_start"], arrays["raw_stop"] = raw.start, raw.stop
         arrays["raw_before_us"] = np.asarray(raw.before_us, dtype=np.int64)
     columns: dict[str, Any] = arrays
-    _atomic(path, lambda f: np.savez(f, **columns))
+    write_atomic(path, lambda f: np.savez(f, **columns))
     return path
 
 
@@ -317,8 +305,21 @@ def write_manifest(root: str | Path, manifest: dict[str, Any]) -> Path:
             hashed[name] = entry | {"sha256": _sha256(file)} if file.is_file() else entry
         manifest = manifest | {"splits": hashed}
     text = json.dumps(manifest, indent=2, sort_keys=False, allow_nan=False) + "\n"
-    _atomic(path, lambda f: f.write(text.encode("utf-8")))
+    write_atomic(path, lambda f: f.write(text.encode("utf-8")))
     return path
+
+
+def _split_entry(entry: object) -> bool:
+    """Whether a manifest's entry for a split is a mapping whose file name, window count and
+    SHA-256, where given, are a string, an integer and a string."""
+    if not isinstance(entry, dict):
+        return False
+    kinds = {"file": str, "windows": int, "sha256": str}
+    return all(
+        isinstance(entry[key], kind) and not isinstance(entry[key], bool)
+        for key, kind in kinds.items()
+        if key in entry
+    )
 
 
 def read_manifest(root: str | Path) -> dict[str, Any]:
@@ -336,7 +337,7 @@ def read_manifest(root: str | Path) -> dict[str, Any]:
         raise DatasetError(f"{root} has no {MANIFEST}: not a dataset, or its build did not finish")
     try:
         manifest = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:
         raise DatasetError(f"cannot read {path}: {exc}") from exc
     if not isinstance(manifest, dict) or manifest.get("format") != FORMAT_NAME:
         raise DatasetError(f"{path} is not a {FORMAT_NAME} manifest")
@@ -346,6 +347,15 @@ def read_manifest(root: str | Path) -> dict[str, Any]:
             f"{path} is format version {version!r}; this uavsnn reads version {FORMAT_VERSION}"
             + (f": {_REBUILD}" if isinstance(version, int) and version < FORMAT_VERSION else "")
         )
+    splits = manifest.get("splits", {})
+    if not isinstance(splits, dict):
+        raise DatasetError(f"{path}: 'splits' must map each split's name to its entry")
+    for name, entry in splits.items():
+        if not _split_entry(entry):
+            raise DatasetError(
+                f"{path}: split {name!r} must be an entry with a file name, a window count and "
+                f"a SHA-256, got {entry!r}"
+            )
     return manifest
 
 
@@ -383,7 +393,15 @@ def load(root: str | Path, split: str) -> LabelledWindows:
         *_WINDOW_COLUMNS,
         *_LABEL_COLUMNS,
     }
-    version = int(arrays["format_version"]) if "format_version" in arrays else None
+    version = None
+    if "format_version" in arrays:
+        stored = arrays["format_version"]
+        if stored.shape != () or stored.dtype.kind not in "iu":
+            raise DatasetError(
+                f"split file {path}: format_version must be one integer, got an array of "
+                f"{stored.dtype} {stored.shape}"
+            )
+        version = int(stored)
     if version is not None and version != FORMAT_VERSION:
         raise DatasetError(
             f"split file {path} is format version {version}; this uavsnn reads version "
