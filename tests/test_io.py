@@ -4,8 +4,12 @@ typed errors for files that are missing, empty, truncated, corrupt or of an unkn
 from __future__ import annotations
 
 import json
+import os
 import re
 import shutil
+import struct
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -315,3 +319,166 @@ def test_evt21_and_genx320_format_lines_are_read(tmp_path: Path) -> None:
     cut.write_bytes(written["format"].read_bytes()[:-3])
     with pytest.raises(uavsnn.RecordingFileError, match="truncated"):
         io.read(cut)
+
+
+def _small_aedat4(path: Path) -> bytes:
+    """A small AEDAT4 file, as faery writes it: its bytes."""
+    faery = pytest.importorskip("faery")
+    ev = np.zeros(10, faery.EVENTS_DTYPE)
+    ev["t"] = np.arange(10)
+    faery.events_stream_from_array(ev, (64, 48)).to_file(path, zero_t0=False)
+    return path.read_bytes()
+
+
+def test_aedat4_description_not_utf8_is_refused_not_an_abort(tmp_path: Path) -> None:
+    # faery 0.7 panicked inside its decoder and aborted the interpreter (SIGABRT): run the read
+    # in a child process.
+    path = tmp_path / "latin1.aedat4"
+    data = bytearray(_small_aedat4(path))
+    data[data.index(b'type="string">EVTS') + 15] = 0xE9
+    path.write_bytes(data)
+    code = (
+        "import sys, uavsnn, uavsnn.io\n"
+        "try:\n"
+        f"    uavsnn.io.read({str(path)!r})\n"
+        "except uavsnn.RecordingFileError as exc:\n"
+        "    print(exc)\n"
+        "    sys.exit(3)\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=300, check=False
+    )
+    assert done.returncode == 3, done.stderr[-2000:]
+    assert "latin1.aedat4" in done.stdout and "not UTF-8: byte 0xE9" in done.stdout
+    assert "panicked" not in done.stderr
+
+
+def test_aedat4_sizes_beyond_the_file_or_zero_are_refused_before_faery(
+    tmp_path: Path, capfd: pytest.CaptureFixture[str]
+) -> None:
+    path = tmp_path / "rec.aedat4"
+    good = _small_aedat4(path)
+    (length,) = struct.unpack_from("<I", good, 14)
+    packet = 18 + length  # the first packet header: i32 stream id, u32 size
+    cases = {
+        (14, 0xFFFFFFFF): "corrupt AEDAT4 header: it claims 4294967295 bytes",
+        (packet + 4, 0xFFFFFFFF): "packet at byte .* claims 4294967295 bytes",
+        (packet + 4, 0): "packet at byte .*: its size is 0",
+    }
+    for (at, value), message in cases.items():
+        data = bytearray(good)
+        data[at : at + 4] = struct.pack("<I", value)
+        path.write_bytes(data)
+        with pytest.raises(uavsnn.RecordingFileError, match=f"rec.aedat4: .*{message}"):
+            io.read(path)
+    assert "panicked" not in capfd.readouterr().err
+    path.write_bytes(good)
+    assert len(io.read(path)) == 10
+
+
+@pytest.mark.parametrize("ext", ["npy", "csv", "raw", "dat", "aedat4"])
+def test_unreadable_files_are_a_recording_file_error(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, ext: str
+) -> None:
+    path = tmp_path / f"locked.{ext}"
+    path.write_bytes(b"% evt 2.0\n0,1,1,1\n")
+
+    def refuse(file: object, *args: object, **kwargs: object) -> object:
+        raise PermissionError(13, "Permission denied", str(file))
+
+    with monkeypatch.context() as patch:
+        patch.setattr(io, "open", refuse, raising=False)  # the readers' own open() calls
+        with pytest.raises(uavsnn.RecordingFileError, match=r"locked\..*Permission denied"):
+            io.read(path, sensor_size=(64, 48))
+    if os.geteuid() != 0:  # root reads a chmod 000 file
+        path.chmod(0)
+        try:
+            with pytest.raises(uavsnn.RecordingFileError, match=r"locked\."):
+                io.read(path, sensor_size=(64, 48))
+        finally:
+            path.chmod(0o600)
+
+
+def test_csv_byte_order_mark_and_numeric_first_lines_lose_nothing(tmp_path: Path) -> None:
+    path = tmp_path / "rec.csv"
+    for text in ("\ufeff5,2,3,1\n6,4,5,0\n", "\ufefft,x,y,p\n5,2,3,1\n6,4,5,0\n"):
+        path.write_bytes(text.encode())
+        rec = io.read(path, sensor_size=(64, 48))
+        assert rec.events.tolist() == [(5, 2, 3, True), (6, 4, 5, False)], text
+    path.write_bytes("\ufeff7,2,3,1\n6,4,5,0\n".encode())
+    with pytest.raises(uavsnn.RecordingFileError, match="line 2: time 6 is earlier"):
+        io.read(path, sensor_size=(64, 48))
+    for first in ("0.5", "1e5"):
+        path.write_text(f"{first},2,3,1\n")
+        with pytest.raises(uavsnn.RecordingFileError, match=r"line 1: .*must be integers"):
+            io.read(path, sensor_size=(64, 48))
+
+
+def test_csv_times_beyond_the_engine_limit_are_refused(tmp_path: Path) -> None:
+    path = tmp_path / "late.csv"
+    for t in (2**63, 2**62 + 1, 2**64 + 5):
+        path.write_text(f"1,2,3,1\n{t},2,3,1\n")
+        with pytest.raises(uavsnn.RecordingFileError, match=f"late.csv: line 2: time {t} is"):
+            io.read(path, sensor_size=(64, 48))
+    path.write_text(f"{2**62},2,3,1\n")
+    assert int(io.read(path, sensor_size=(64, 48)).events["t"][0]) == 2**62
+
+
+def test_npz_metadata_nested_too_deeply_is_a_file_error(tmp_path: Path) -> None:
+    path = tmp_path / "deep.npz"
+    np.savez(
+        path,
+        events=_events(3),
+        sensor_size=np.array([64, 48]),
+        metadata=np.array("[" * 100_000 + "]" * 100_000),
+    )
+    with pytest.raises(uavsnn.RecordingFileError, match=r"deep\.npz: bad 'metadata'"):
+        io.read(path)
+
+
+_EVT2_WORDS = np.array([0x8 << 28 | 1, 1 << 28 | (1 << 11) | 1], "<u4").tobytes()
+
+
+@pytest.mark.parametrize(
+    ("name", "head", "field"),
+    [
+        ("a.raw", b"% evt 2.0\n% geometry 64x48x3\n", "% geometry 64x48x3"),
+        ("b.raw", b"% evt 2.0\n% geometry 70000x70000\n", "% geometry 70000x70000"),
+        ("c.raw", b"% evt 2.0\n% geometry abc\n", "% geometry abc"),
+        ("d.raw", b"% format EVT21;height=abc\n", "% format EVT21;height=abc"),
+        ("e.raw", b"% format EVT21;height=0;width=0\n", "% format EVT21;height=0;width=0"),
+        ("f.dat", b"% Width 70000\n% Height 48\n", "% Width 70000 and % Height 48"),
+    ],
+)
+def test_header_geometry_that_cannot_be_a_sensor_is_refused(
+    tmp_path: Path, name: str, head: bytes, field: str
+) -> None:
+    path = tmp_path / name
+    if name.endswith(".dat"):
+        data = b"\x00\x08" + np.zeros(2, "<u8").tobytes()  # type, size, two records
+    elif b"EVT21" in head:
+        data = np.array([(8 << 60) | (1 << 32), (1 << 60) | (5 << 32) | 1], "<u8").tobytes()
+    else:
+        data = _EVT2_WORDS
+    path.write_bytes(head + b"% end\n" + data)
+    with pytest.raises(uavsnn.RecordingFileError, match=re.escape(f"{name}: corrupt header: ")):
+        io.read(path)
+    with pytest.raises(uavsnn.RecordingFileError, match=re.escape(repr(field))):
+        io.read(path)
+
+
+def test_header_geometry_that_is_a_sensor_is_taken(tmp_path: Path) -> None:
+    for head in (b"% geometry 64x48\n", b"% format EVT2;width=64;height=48\n"):
+        path = tmp_path / "ok.raw"
+        path.write_bytes(b"% evt 2.0\n" + head + b"% end\n" + _EVT2_WORDS)
+        rec = io.read(path)
+        assert (rec.sensor_size, rec.metadata["sensor_size_source"]) == ((64, 48), "file")
+
+
+def test_npy_events_beyond_any_sensor_are_a_file_error(tmp_path: Path) -> None:
+    ev = _events(5)
+    ev["x"][2] = 65535  # the inferred width would be 65536
+    path = tmp_path / "wide.npy"
+    np.save(path, ev)
+    with pytest.raises(uavsnn.RecordingFileError, match=r"wide\.npy: events reach x=65535"):
+        io.read(path)

@@ -13,6 +13,9 @@ import numpy as np
 from uavsnn.errors import ParameterError
 
 U64_MAX = (1 << 64) - 1
+#: The latest event time and the longest window the engine takes (its ``MAX_TIME_US``, 2^62 µs),
+#: so that no sum of two times overflows a u64.
+MAX_TIME_US = 1 << 62
 
 
 def check_int(name: str, value: Any, low: int = 0, high: int | None = None) -> int:

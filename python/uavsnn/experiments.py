@@ -355,7 +355,7 @@ def noise_level(
     ``part_spikes`` input spikes each (:data:`NOISE_PART_SPIKES`; window ``i`` gets the same
     noise in whichever part, :func:`uavsnn.windows.add_noise`), so the points do not depend on
     it."""
-    budget = check_int("part_spikes", part_spikes, 1, 1 << 62)
+    budget = check_int("part_spikes", part_spikes, 1)
     if not networks:
         return []
     for network in networks.values():

@@ -16,12 +16,15 @@ file whose header names the camera generation (Prophesee Gen3 files carry no geo
 ``"fallback"`` or ``"inferred"``. A ``sensor_size`` that contradicts the file's is an error.
 
 A CSV file may start with a header line or not (faery would take the first line as a header
-always); its times must not go backwards (faery would clamp them): such a file is refused,
-naming the line.
+always; a UTF-8 byte-order mark is skipped, and a first line that starts with a number is not a
+header); its times must be integers up to the engine's 2^62 µs and must not go backwards
+(faery would clamp them): such a file is refused, naming the line.
 
-Every failure to read is a :class:`~uavsnn.RecordingFileError` naming the file: missing, empty,
-of an unknown extension, truncated (RAW and DAT: a data section that is not a whole number of
-words; AEDAT4: a cut packet), or corrupt (undecodable, events off the sensor or out of order).
+Every failure to read is a :class:`~uavsnn.RecordingFileError` naming the file: missing,
+unreadable, empty, of an unknown extension, truncated (RAW and DAT: a data section that is not
+a whole number of words; AEDAT4: a cut packet), or corrupt (undecodable, events off the sensor
+or out of order, a header geometry that cannot be a sensor size; AEDAT4: a container checked
+here before faery reads it, sizes beyond the file, a description that is not UTF-8).
 A RAW file cut exactly on a word boundary is indistinguishable from a shorter recording: the
 format has no length field. A recording whose events would not fit in
 ``uavsnn.windows.MEMORY_LIMIT`` (the machine's physical memory by default) is refused while it
@@ -32,14 +35,16 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import secrets
+import struct
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from uavsnn._validate import check_sensor_size
+from uavsnn._validate import MAX_TIME_US, check_sensor_size
 from uavsnn.errors import EventError, ParameterError, RecordingFileError
 from uavsnn.events import EVENT_DTYPE, Recording, convert
 
@@ -90,6 +95,15 @@ def read(path: str | os.PathLike[str], sensor_size: tuple[int, int] | None = Non
         raise RecordingFileError(
             f"{file}: unknown file type {file.suffix!r}; expected one of {sorted(FORMATS)}"
         )
+    try:
+        return _read(file, kind, given)
+    except RecordingFileError:
+        raise
+    except OSError as exc:  # permissions, I/O errors: the readers' own open() calls
+        raise RecordingFileError(f"{file}: cannot read: {exc.strerror or exc}") from exc
+
+
+def _read(file: Path, kind: str, given: tuple[int, int] | None) -> Recording:
     if file.is_dir():
         raise RecordingFileError(f"{file}: is a folder, not a recording file")
     if not file.exists():
@@ -147,6 +161,8 @@ def _read_npz(file: Path, given: tuple[int, int] | None) -> Recording:
             loaded = json.loads(str(stored_meta[()]))
         except (ValueError, TypeError, IndexError) as exc:
             raise RecordingFileError(f"{file}: bad 'metadata' (not JSON): {exc}") from exc
+        except RecursionError as exc:
+            raise RecordingFileError(f"{file}: bad 'metadata': JSON nested too deeply") from exc
         if isinstance(loaded, dict):
             metadata.update(loaded)
     metadata.update(path=str(file), format="npz", sensor_size_source="file")
@@ -172,6 +188,11 @@ def _read_npy(file: Path, given: tuple[int, int] | None) -> Recording:
     elif len(events):
         sensor = (int(events["x"].max()) + 1, int(events["y"].max()) + 1)
         source = "inferred"
+        if max(sensor) > 65535:
+            raise RecordingFileError(
+                f"{file}: events reach x={sensor[0] - 1}, y={sensor[1] - 1}: no sensor is that "
+                "large (each side 1 to 65535 pixels)"
+            )
     else:
         raise ParameterError(f"{file}: an empty .npy recording needs sensor_size=(width, height)")
     metadata = {"path": str(file), "format": "npy", "sensor_size_source": source}
@@ -266,21 +287,36 @@ def _file_geometry(file: Path) -> tuple[int, int] | None:
     return (int(first[0]), int(first[1])) if tuple(first) == tuple(second) else None
 
 
-def _format_geometry(fields: dict[str, str]) -> tuple[int, int] | None:
-    """The geometry of a ``% format EVT21;height=320;width=320`` or ``% geometry 320x320``
-    header line, or ``None``."""
+def _format_geometry(file: Path, fields: dict[str, str]) -> tuple[int, int] | None:
+    """The geometry of a RAW/DAT header (``% format EVT21;height=320;width=320``, ``% geometry
+    320x320``, ``% Width 320`` and ``% Height 320``, the lines faery reads, in that order of
+    precedence), or ``None`` if it has none. A line that states a geometry that cannot be a
+    sensor size (faery would ignore it and take its fallback) is refused, naming it."""
     options = dict(
         part.split("=", 1) for part in fields.get("format", "").split(";")[1:] if "=" in part
     )
-    try:
-        if "width" in options and "height" in options:
-            return int(options["width"]), int(options["height"])
-        if "geometry" in fields:
-            width, height = fields["geometry"].lower().split("x")
-            return int(width), int(height)
-    except ValueError:
-        return None
-    return None
+    stated = []  # (the line(s), the form expected, width, height)
+    if "width" in options or "height" in options:
+        line = f"% format {fields['format']}"
+        stated.append((line, "width=W;height=H", options.get("width"), options.get("height")))
+    if "geometry" in fields:
+        width, _, height = fields["geometry"].lower().partition("x")
+        stated.append((f"% geometry {fields['geometry']}", "WxH", width, height))
+    if "Width" in fields or "Height" in fields:
+        line = " and ".join(
+            f"% {key} {fields[key]}" for key in ("Width", "Height") if key in fields
+        )
+        stated.append((line, "Width and Height", fields.get("Width"), fields.get("Height")))
+    sizes = []
+    for line, form, *sides in stated:
+        numbers = [int(v) if v and re.fullmatch(r"\s*\d{1,9}\s*", v) else 0 for v in sides]
+        if not all(0 < v <= 65535 for v in numbers):
+            raise RecordingFileError(
+                f"{file}: corrupt header: {line.strip()!r} is not a sensor size ({form}, each "
+                "side 1 to 65535 pixels)"
+            )
+        sizes.append((numbers[0], numbers[1]))
+    return sizes[0] if sizes else None
 
 
 # EVT 2.1 words (Prophesee's 64-bit vectorised format), little-endian: type in bits 63..60;
@@ -337,6 +373,13 @@ def _sensor_size(
     size must match), else the given size, else the camera named in the header (noted in
     ``metadata``), else faery's fallback."""
     if geometry is not None:
+        try:
+            check_sensor_size(geometry)
+        except ParameterError as exc:
+            raise RecordingFileError(
+                f"{file}: corrupt: the file gives a sensor size of {geometry[0]}x{geometry[1]}; "
+                "each side must be 1 to 65535 pixels"
+            ) from exc
         if given is not None and given != geometry:
             raise ParameterError(f"{file}: sensor_size={given} contradicts the file's {geometry}")
         return geometry, "file"
@@ -349,7 +392,7 @@ def _sensor_size(
 
 
 def _read_evt21(file: Path, header: dict[str, str], given: tuple[int, int] | None) -> Recording:
-    geometry = _format_geometry(header)
+    geometry = _format_geometry(file, header)
     camera = _camera_size(header)
     metadata: dict[str, Any] = {"path": str(file), "format": "evt"}
     sensor, source = _sensor_size(file, geometry, given, camera, metadata)
@@ -364,9 +407,102 @@ def _read_evt21(file: Path, header: dict[str, str], given: tuple[int, int] | Non
     return _recording(file, events, sensor, metadata)
 
 
+_AEDAT4_MAGIC = b"#!AER-DAT4.0\r\n"
+
+
+def _check_aedat4(file: Path, size: int) -> None:
+    """Refuse an AEDAT4 file whose container is certainly malformed, before faery reads it
+    (faery 0.7 aborts the process on a description that is not UTF-8, and allocates whatever a
+    size field says before it looks at the file's size).
+
+    The layout (dv-processing's, as faery writes it): the magic, a u32 length and the IOHeader
+    flatbuffer (fields: compression, dataTablePosition, infoNode, the XML description of the
+    streams), then packets (an i32 stream id, a u32 size, that many bytes) up to the data table
+    (to the end of the file when the IOHeader gives none, or one beyond the file).
+    """
+    start = len(_AEDAT4_MAGIC) + 4
+    with open(file, "rb") as handle:
+        head = handle.read(start)
+        if head[: len(_AEDAT4_MAGIC)] != _AEDAT4_MAGIC:
+            raise RecordingFileError(f"{file}: not an AEDAT4 file (no '#!AER-DAT4.0' magic)")
+        if len(head) < start:
+            raise RecordingFileError(f"{file}: truncated inside its AEDAT4 header")
+        (length,) = struct.unpack_from("<I", head, len(_AEDAT4_MAGIC))
+        if length > size - start:
+            raise RecordingFileError(
+                f"{file}: corrupt AEDAT4 header: it claims {length} bytes, the file holds "
+                f"{size - start} after it"
+            )
+        table = _aedat4_io_header(file, handle.read(length))
+        pos = start + length
+        end = table if pos <= table <= size else size
+        while pos < end:
+            if size - pos < 8:
+                raise RecordingFileError(
+                    f"{file}: truncated inside the packet header at byte {pos}"
+                )
+            handle.seek(pos)
+            stream, packet = struct.unpack("<iI", handle.read(8))
+            if packet == 0:
+                raise RecordingFileError(
+                    f"{file}: corrupt AEDAT4 packet at byte {pos} (stream {stream}): its size is 0"
+                )
+            if packet > size - pos - 8:
+                raise RecordingFileError(
+                    f"{file}: truncated or corrupt: the AEDAT4 packet at byte {pos} (stream "
+                    f"{stream}) claims {packet} bytes, the file holds {size - pos - 8} after it"
+                )
+            pos += 8 + packet
+
+
+def _aedat4_io_header(file: Path, buf: bytes) -> int:
+    """Check an AEDAT4 IOHeader flatbuffer (every offset within it, the infoNode description
+    UTF-8); returns its dataTablePosition, -1 when it has none."""
+
+    def need(ok: bool, what: str) -> None:
+        if not ok:
+            raise RecordingFileError(f"{file}: corrupt AEDAT4 header: {what}")
+
+    n = len(buf)
+    need(n >= 4, f"{n} bytes, too short for a flatbuffer")
+    (root,) = struct.unpack_from("<I", buf, 0)
+    need(root <= n - 4, f"its root table offset {root} is beyond its {n} bytes")
+    vtable = root - struct.unpack_from("<i", buf, root)[0]
+    need(0 <= vtable <= n - 4, f"its vtable offset {vtable} is beyond its {n} bytes")
+    vsize, _ = struct.unpack_from("<HH", buf, vtable)
+    need(vsize >= 4 and vtable + vsize <= n, f"its vtable of {vsize} bytes is cut")
+    fields = struct.unpack_from(f"<{(vsize - 4) // 2}H", buf, vtable + 4)
+    # (field, bytes): compression (i32), dataTablePosition (i64), infoNode (offset to a string)
+    for index, (name, width) in enumerate((("compression", 4), ("dataTablePosition", 8))):
+        off = fields[index] if index < len(fields) else 0
+        need(not off or root + off + width <= n, f"its {name} is beyond its {n} bytes")
+    table = -1
+    if len(fields) > 1 and fields[1]:
+        (table,) = struct.unpack_from("<q", buf, root + fields[1])
+    off = fields[2] if len(fields) > 2 else 0
+    need(off != 0, "it has no infoNode (the description of its streams)")
+    at = root + off
+    need(at <= n - 4, f"its infoNode is beyond its {n} bytes")
+    text = at + struct.unpack_from("<I", buf, at)[0]
+    need(text <= n - 4, f"its infoNode string at {text} is beyond its {n} bytes")
+    (chars,) = struct.unpack_from("<I", buf, text)
+    need(chars <= n - 4 - text, f"its infoNode string of {chars} bytes is beyond its {n} bytes")
+    try:
+        buf[text + 4 : text + 4 + chars].decode("utf-8")
+    except UnicodeDecodeError as exc:
+        bad = buf[text + 4 + exc.start]
+        raise RecordingFileError(
+            f"{file}: corrupt AEDAT4 header: its infoNode (the XML description) is not UTF-8: "
+            f"byte 0x{bad:02X} at {exc.start}"
+        ) from exc
+    return table
+
+
 def _read_faery(file: Path, kind: str, size: int, given: tuple[int, int] | None) -> Recording:
     import faery
 
+    if kind == "aedat":
+        _check_aedat4(file, size)
     header: dict[str, str] = {}
     if kind in ("evt", "dat"):
         header = _check_words(file, kind, size)
@@ -374,15 +510,17 @@ def _read_faery(file: Path, kind: str, size: int, given: tuple[int, int] | None)
         # GenX320 cameras write "% format EVT21", which faery refuses; faery 0.7 cannot decode
         # EVT 2.1 at all ("not yet implemented").
         return _read_evt21(file, header, given)
+    first_event = None
     if kind == "csv":
-        has_header = _check_csv(file)
+        has_header, first_event = _check_csv(file)
     geometry: tuple[int, int] | None = None
     sensor, source = FAERY_FALLBACK_SIZE, "fallback"
     camera = _camera_size(header)
     metadata: dict[str, Any] = {"path": str(file), "format": kind}
     try:
         if kind in ("evt", "dat"):
-            geometry = _file_geometry(file)
+            stated = _format_geometry(file, header)
+            geometry = _file_geometry(file) or stated  # faery skips a "64X48"
         elif kind == "csv":
             geometry = None
         else:
@@ -410,6 +548,8 @@ def _read_faery(file: Path, kind: str, size: int, given: tuple[int, int] | None)
                 f" (the file has no geometry; the sensor was taken as {sensor}: give sensor_size)"
             )
         raise RecordingFileError(f"{file}: cannot decode as {kind}: {exc}{hint}") from exc
+    if first_event is not None:
+        chunks.insert(0, first_event)
     events = np.concatenate(chunks) if chunks else np.empty(0, EVENT_DTYPE)
     metadata["sensor_size_source"] = source
     return _recording(file, events, sensor, metadata)
@@ -438,13 +578,23 @@ def _read_chunks(file: Path, stream: Any) -> list[np.ndarray]:
     return chunks
 
 
-def _check_csv(file: Path) -> bool:
-    """Whether a CSV recording starts with a header line; refuse times that go backwards
-    (faery would clamp them to the time before, silently), naming the line.
+# A number that is not a plain integer (a first CSV field like this is a time, not a header).
+_NUMBER = re.compile(rb"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?")
+_BOM = b"\xef\xbb\xbf"
+
+
+def _check_csv(file: Path) -> tuple[bool, np.ndarray | None]:
+    """Whether a CSV recording starts with a header line, and the event of its first line when
+    faery cannot read it (a data line behind a UTF-8 byte-order mark, which faery would take
+    as part of the time; faery is then told to skip it as a header). Refuse a first line whose
+    time is a number but not an integer (it is not a header), times beyond the engine's 2^62
+    µs, and times that go backwards (faery would clamp them to the time before, silently),
+    naming the line.
 
     Lines are read in blocks; the time is the first column, as faery reads it.
     """
     has_header = False
+    bom_line = None
     previous = -1
     line_no = 0
     rest = b""
@@ -452,14 +602,32 @@ def _check_csv(file: Path) -> bool:
         while True:
             block = handle.read(1 << 22)
             data = rest + block
+            if line_no == 0 and not rest and data.startswith(_BOM):
+                data = data[len(_BOM) :]
+                bom_line = b""
             cut = len(data) if not block else data.rfind(b"\n") + 1
             rest = data[cut:]
             lines = data[:cut].splitlines()
             first = [line.split(b",", 1)[0].strip() for line in lines]
             if line_no == 0 and first and not first[0].lstrip(b"-").isdigit():
+                if _NUMBER.fullmatch(first[0]):
+                    raise RecordingFileError(
+                        f"{file}: line 1: time {first[0].decode('latin-1')!r} is not an "
+                        "integer: times must be integers (microseconds), and a first line that "
+                        "starts with a number is not a header"
+                    )
                 has_header = True
+            elif line_no == 0 and first and bom_line is not None:
+                bom_line = lines[0]
             # Negative or malformed times are left to faery, which refuses them.
             numbers = [(i, f) for i, f in enumerate(first) if f.isdigit()]
+            late = [k for k, (_, f) in enumerate(numbers) if len(f) > 18 and int(f) > MAX_TIME_US]
+            if late:
+                i, f = numbers[late[0]]
+                raise RecordingFileError(
+                    f"{file}: line {line_no + i + 1}: time {int(f)} is beyond the latest the "
+                    f"detector takes (2^62 = {MAX_TIME_US} µs)"
+                )
             if numbers:
                 t = np.array([int(f) for _, f in numbers], dtype=np.int64)
                 back = np.flatnonzero(np.diff(t, prepend=previous) < 0)
@@ -474,7 +642,26 @@ def _check_csv(file: Path) -> bool:
                 previous = int(t[-1])
             line_no += len(lines)
             if not block:
-                return has_header
+                if bom_line is None:
+                    return has_header, None
+                # faery cannot read the line behind the mark: it skips it as a header, and its
+                # event, if it is not a header, is read here.
+                return True, _csv_event(file, bom_line) if bom_line else None
+
+
+def _csv_event(file: Path, line: bytes) -> np.ndarray:
+    """The event of one CSV line ``t,x,y,p`` (``p`` 1 or 0, as faery reads them)."""
+    parts = [part.strip() for part in line.split(b",")]
+    if not (
+        len(parts) >= 4
+        and all(part.isdigit() for part in parts[:3])
+        and max(int(parts[1]), int(parts[2])) < 65536
+        and parts[3] in (b"0", b"1")
+    ):
+        raise RecordingFileError(f"{file}: line 1: not an event t,x,y,p: {line[:80]!r}")
+    event = np.zeros(1, EVENT_DTYPE)
+    event[0] = (int(parts[0]), int(parts[1]), int(parts[2]), parts[3] == b"1")
+    return event
 
 
 def _json_default(value: Any) -> Any:

@@ -51,7 +51,7 @@ from urllib.parse import urlsplit
 import numpy as np
 
 from uavsnn import _core
-from uavsnn._validate import check_sensor_size
+from uavsnn._validate import MAX_TIME_US, check_sensor_size
 from uavsnn.errors import ParameterError, StreamError, UavsnnError
 from uavsnn.events import EVENT_DTYPE
 
@@ -72,8 +72,8 @@ PACKET_FORMATS: tuple[str, ...] = tuple(_core.PACKET_FORMATS)
 STDIN_FORMATS: tuple[str, ...] = ("packed", "csv")
 
 _RECORD = EVENT_DTYPE.itemsize
-# The latest event time the engine takes (2^62 µs).
-_MAX_TIME_US = np.uint64(1 << 62)
+# The latest event time the engine takes, as the events' dtype.
+_MAX_TIME_US = np.uint64(MAX_TIME_US)
 _EMPTY = np.empty(0, dtype=EVENT_DTYPE)
 
 

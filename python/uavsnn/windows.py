@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from uavsnn import _core
-from uavsnn._validate import int_param
+from uavsnn._validate import MAX_TIME_US, int_param
 from uavsnn.errors import ParameterError, ShapeError
 from uavsnn.events import Recording, packed_bytes
 
@@ -100,7 +100,7 @@ def window_step(length_us: int, overlap: float = 0.0) -> int:
     """The step between window starts: ``length_us·(1 − overlap)`` rounded down to whole µs, at
     least 1 (a product within 1e-9 of an integer counts as that integer, so 10 ms at 90 % gives
     exactly 1 ms)."""
-    length = int_param("length_us", length_us, 1, 1 << 62)
+    length = int_param("length_us", length_us, 1, MAX_TIME_US)
     return int(_core.window_step(length, _overlap(overlap)))
 
 
@@ -144,7 +144,8 @@ class Windows:
         if not (0 < width <= 65535 and 0 < height <= 65535):
             raise ParameterError(f"sensor_size must be positive and < 65536, got {width}x{height}")
         object.__setattr__(self, "sensor_size", (width, height))
-        object.__setattr__(self, "length_us", int_param("length_us", self.length_us, 1, 1 << 62))
+        length = int_param("length_us", self.length_us, 1, MAX_TIME_US)
+        object.__setattr__(self, "length_us", length)
         for name, dtype in (
             ("t0", np.uint64),
             ("offsets", np.int64),
@@ -294,9 +295,9 @@ def make_windows(
     """
     if not isinstance(recording, Recording):
         raise ParameterError(f"expected a Recording, got {type(recording).__name__}")
-    length = int_param("length_us", length_us, 1, 1 << 62)
-    start = None if start_us is None else int_param("start_us", start_us, 0, 1 << 62)
-    end = None if end_us is None else int_param("end_us", end_us, 0, 1 << 62)
+    length = int_param("length_us", length_us, 1, MAX_TIME_US)
+    start = None if start_us is None else int_param("start_us", start_us, 0, MAX_TIME_US)
+    end = None if end_us is None else int_param("end_us", end_us, 0, MAX_TIME_US)
     width, height = recording.sensor_size
     overlap = _overlap(overlap)
     _check_memory(len(recording.events), length, overlap)
