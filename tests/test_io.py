@@ -360,10 +360,14 @@ def test_aedat4_sizes_beyond_the_file_or_zero_are_refused_before_faery(
     good = _small_aedat4(path)
     (length,) = struct.unpack_from("<I", good, 14)
     packet = 18 + length  # the first packet header: i32 stream id, u32 size
+    (first,) = struct.unpack_from("<I", good, packet + 4)
     cases = {
         (14, 0xFFFFFFFF): "corrupt AEDAT4 header: it claims 4294967295 bytes",
         (packet + 4, 0xFFFFFFFF): "packet at byte .* claims 4294967295 bytes",
         (packet + 4, 0): "packet at byte .*: its size is 0",
+        # Into the data table: faery decoded its bytes and allocated 4 GB (an abort where
+        # memory is capped).
+        (packet + 4, first + 4): "packets: they end at byte .*, not at the data table",
     }
     for (at, value), message in cases.items():
         data = bytearray(good)

@@ -453,6 +453,13 @@ def _check_aedat4(file: Path, size: int) -> None:
                     f"{stream}) claims {packet} bytes, the file holds {size - pos - 8} after it"
                 )
             pos += 8 + packet
+        if end == table and pos != table:
+            # The packets run into the data table: a size was changed (faery would decode the
+            # table's bytes as events, and may allocate whatever they say).
+            raise RecordingFileError(
+                f"{file}: corrupt AEDAT4 packets: they end at byte {pos}, not at the data table "
+                f"at byte {table}"
+            )
 
 
 def _aedat4_io_header(file: Path, buf: bytes) -> int:

@@ -3,14 +3,15 @@
     python tests/fuzz/fuzz_readers.py TARGET [--seconds S | --runs N] [-- LIBFUZZER_ARGS...]
     python tests/fuzz/fuzz_readers.py TARGET --replay FILE     # one input, e.g. a crash
 
-TARGET is one of the folders of tests/fuzz/corpus (``npz``, ``npy``, ``csv``, ``model``,
-``stdin_packed``, ``stdin_csv``, ``udp_t64``, ``udp_t32``, ``udp_spif``). The fuzzer starts
-from those seeds, writes what it finds new into a temporary folder (never into the corpus) and
-stops after ``--seconds`` (default 60) or ``--runs`` inputs. An input fails when the reader
-raises anything but an error of the ``uavsnn.errors`` hierarchy, or the process dies (a Rust
-panic crossing into Python, an abort, more than 2 GiB of memory); libFuzzer then writes it to
-the printed artifact folder. :func:`check` is the whole contract, shared with the bounded run
-of ``tests/test_fuzz.py``; docs/robustness.md has the budget and the results.
+TARGET is one of the folders of tests/fuzz/corpus (``npz``, ``npy``, ``csv``, ``aedat4``,
+``model``, ``stdin_packed``, ``stdin_csv``, ``udp_t64``, ``udp_t32``, ``udp_spif``). The
+fuzzer starts from those seeds, writes what it finds new into a temporary folder (never into
+the corpus) and stops after ``--seconds`` (default 60) or ``--runs`` inputs. An input fails
+when the reader raises anything but an error of the ``uavsnn.errors`` hierarchy, or the
+process dies (a Rust panic crossing into Python, an abort, more than 2 GiB of memory);
+libFuzzer then writes it to the printed artifact folder. :func:`check` is the whole contract,
+shared with the bounded run of ``tests/test_fuzz.py``; docs/robustness.md has the budget and
+the results.
 """
 
 from __future__ import annotations
@@ -85,6 +86,7 @@ def _targets() -> dict[str, Callable[[bytes], object]]:
         "npz": file_reader(".npz"),
         "npy": file_reader(".npy"),
         "csv": file_reader(".csv"),
+        "aedat4": file_reader(".aedat4"),
         "model": load_model,
         "stdin_packed": stdin("packed"),
         "stdin_csv": stdin("csv"),
@@ -98,6 +100,7 @@ TARGETS = (
     "npz",
     "npy",
     "csv",
+    "aedat4",
     "model",
     "stdin_packed",
     "stdin_csv",

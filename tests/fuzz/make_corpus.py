@@ -80,6 +80,21 @@ def npy(array: np.ndarray) -> bytes:
     return out.getvalue()
 
 
+def aedat4(ev: np.ndarray) -> bytes:
+    """An AEDAT4 file of ``ev`` as faery writes it (its IOHeader, one LZ4 packet, the data
+    table)."""
+    import faery
+
+    out = np.zeros(len(ev), faery.EVENTS_DTYPE)
+    for name in ("t", "x", "y"):
+        out[name] = ev[name]
+    out["on"] = ev["p"]
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "seed.aedat4"
+        faery.events_stream_from_array(out, SENSOR).to_file(path, zero_t0=False)
+        return path.read_bytes()
+
+
 def seeds() -> dict[str, dict[str, bytes]]:
     a, b = events(20, 1), events(3, 2)
     wrapped = events(4, 3)
@@ -94,6 +109,7 @@ def seeds() -> dict[str, dict[str, bytes]]:
         "stdin_packed": {"20": a.tobytes(), "cut": a.tobytes()[:-5]},
         "stdin_csv": {"header": csv(a, True), "bare": csv(b, False), "junk": b"t,x\n1,2,3\n"},
         "csv": {"header": csv(a, True), "bare": csv(b, False)},
+        "aedat4": {"events": aedat4(a)},
         "npy": {"events": npy(a), "empty": npy(a[:0]), "ints": npy(np.arange(6))},
         "npz": {"recording": npz(Recording(a, SENSOR)), "empty": npz(Recording(a[:0], SENSOR))},
         "model": {"small": model_bytes},
