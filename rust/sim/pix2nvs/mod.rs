@@ -131,7 +131,7 @@ impl Pix2Nvs {
         check_size("frame size", width, height)?;
         // Per pixel: its state, the band's input and, pooled, at most one output cell.
         check_alloc(
-            "size",
+            "frame size",
             || format!("a PIX2NVS simulator of {width}x{height} frames"),
             width * height,
             std::mem::size_of::<PixelState>() + 4 + 16,
@@ -142,7 +142,7 @@ impl Pix2Nvs {
                 check_size("output size", w, h)?;
                 if w > width || h > height {
                     return Err(Error::param(
-                        "size",
+                        "output size",
                         format!("output {w}x{h} is larger than the {width}x{height} frames"),
                     ));
                 }

@@ -183,6 +183,6 @@ fn rejects_bad_input() {
 #[test]
 fn a_simulator_above_the_memory_cap_is_refused() {
     let err = Pix2Nvs::new(Pix2NvsParams::default(), 65535, 65535, None).unwrap_err();
-    crate::error::assert_over_cap(&err, "size");
+    crate::error::assert_over_cap(&err, "frame size");
     Pix2Nvs::new(Pix2NvsParams::default(), 1280, 720, None).unwrap();
 }
