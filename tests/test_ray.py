@@ -114,6 +114,65 @@ def test_unreachable_address_fails_fast_with_exit_2(
     assert not (tmp_path / "d").exists()
 
 
+@needs_ray
+def test_an_address_that_is_no_ray_cluster_fails_fast_with_exit_2(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """ray.init waited without end (deaf to Ctrl-C) on a port where something else listens:
+    a web server (a Ray dashboard), or a listener that never answers."""
+    import http.server
+    import threading
+
+    class Quiet(http.server.BaseHTTPRequestHandler):
+        def log_message(self, *args: object) -> None:
+            pass
+
+    web = http.server.HTTPServer(("127.0.0.1", 0), Quiet)
+    threading.Thread(target=web.serve_forever, daemon=True).start()
+    silent = socket.socket()
+    silent.bind(("127.0.0.1", 0))
+    silent.listen()
+    argv = ["dataset", "build", str(tmp_path / "d"), "--domain", "dvs", "--ray"]
+    try:
+        for port in (web.server_port, silent.getsockname()[1]):
+            started = time.monotonic()
+            assert main([*argv, f"127.0.0.1:{port}"]) == 2
+            assert time.monotonic() - started < 30
+            err = capsys.readouterr().err.strip()
+            assert "does not answer as a Ray cluster" in err and len(err.splitlines()) == 1
+    finally:
+        web.shutdown()
+        silent.close()
+    assert main([*argv, "[::1"]) == 2  # a ValueError traceback
+    assert "bad Ray address" in capsys.readouterr().err
+    assert not (tmp_path / "d").exists()
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        {"timeout_s": -1},
+        {"timeout_s": float("nan")},
+        {"timeout_s": "5"},
+        {"timeout_s": True},
+        {"num_cpus": "x"},
+        {"num_cpus": 0},
+    ],
+)
+def test_connect_refuses_bad_arguments_before_anything(kwargs: dict[str, Any]) -> None:
+    from uavsnn import distributed
+    from uavsnn.errors import ParameterError
+
+    with pytest.raises(ParameterError, match=next(iter(kwargs))):
+        distributed.connect("127.0.0.1:1", **kwargs)
+
+
+def test_a_ray_clusters_own_port_passes_the_check(runner: Any) -> None:
+    from uavsnn import distributed
+
+    distributed._check_reachable(ray.get_runtime_context().gcs_address, 5.0)
+
+
 # -- datasets -------------------------------------------------------------------------------
 
 

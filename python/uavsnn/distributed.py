@@ -23,6 +23,8 @@ file holds): importing this module registers that with :mod:`copyreg`.
 from __future__ import annotations
 
 import copyreg
+import math
+import os
 import socket
 import threading
 from collections.abc import Callable, Generator, Iterable, Sequence
@@ -32,6 +34,7 @@ from urllib.parse import urlsplit
 
 import numpy as np
 
+from uavsnn._validate import check_int
 from uavsnn.errors import ParameterError, UavsnnError
 from uavsnn.network import CONV_LAYERS, Network
 
@@ -197,10 +200,18 @@ class RayRunner(Runner):
         return self._ray.put(obj)
 
 
+#: The start of an HTTP/2 connection without TLS: the client's preface and an empty SETTINGS
+#: frame. A Ray head's GCS port and Ray Client's port are gRPC servers, which answer it with a
+#: SETTINGS frame of their own (type 4, the fourth byte of its 9-byte header).
+_HTTP2_HELLO = b"PRI * HTTP/2.0\r\n\r\nSM\r\n\r\n" + bytes([0, 0, 0, 4, 0, 0, 0, 0, 0])
+
+
 def _check_reachable(address: str, timeout_s: float) -> None:
-    """Fail in seconds, not minutes, when nothing listens at a ``host:port`` address."""
-    url = urlsplit(address if "://" in address else f"ray://{address}")
+    """Fail in seconds, not minutes, when nothing listens at a ``host:port`` address, or what
+    listens is not a gRPC server (a Ray dashboard, a web server, Redis: ``ray.init`` waits on
+    those without end, deaf to Ctrl-C). With ``RAY_USE_TLS`` set, only that the port is open."""
     try:
+        url = urlsplit(address if "://" in address else f"ray://{address}")
         host, port = url.hostname, url.port
     except ValueError as exc:
         raise ParameterError(f"bad Ray address {address!r}: {exc}") from exc
@@ -209,14 +220,31 @@ def _check_reachable(address: str, timeout_s: float) -> None:
             f"a Ray address is HOST:PORT (the head's GCS port, 6379 by default), "
             f"ray://HOST:PORT (Ray Client) or 'auto', got {address!r}"
         )
+    tls = os.environ.get("RAY_USE_TLS", "0").lower() not in ("", "0", "false")
     try:
-        with socket.create_connection((host, port), timeout=timeout_s):
-            pass
+        with socket.create_connection((host, port), timeout=timeout_s) as sock:
+            if tls:
+                return
+            sock.sendall(_HTTP2_HELLO)
+            answer = b""
+            while len(answer) < 9:
+                part = sock.recv(9 - len(answer))
+                if not part:
+                    break
+                answer += part
+    except TimeoutError:
+        answer = b""  # connected, and no answer in time
     except OSError as exc:
         raise ParameterError(
             f"cannot reach a Ray cluster at {address} ({exc}); start one with "
             f"'ray start --head' or check the address"
         ) from exc
+    if len(answer) < 9 or answer[3] != 4:
+        raise ParameterError(
+            f"{address} is open but does not answer as a Ray cluster (gRPC): give the head's "
+            f"GCS port (6379 by default; not the dashboard's 8265) or ray://HOST:PORT for Ray "
+            f"Client (10001)"
+        )
 
 
 def connect(
@@ -236,10 +264,15 @@ def connect(
     Raises:
         ParameterError: Ray is not installed, or the cluster cannot be reached.
     """
+    timeout = float(timeout_s) if isinstance(timeout_s, (int, float)) else math.nan
+    if isinstance(timeout_s, bool) or not (math.isfinite(timeout) and timeout > 0):
+        raise ParameterError(f"timeout_s must be a number of seconds > 0, got {timeout_s!r}")
+    if num_cpus is not None:
+        check_int("num_cpus", num_cpus, 1)  # 0 CPUs: every task would wait for ever
     ray = _import_ray()
     local = address in (None, "", "local")
     if not local and address != "auto":
-        _check_reachable(str(address), timeout_s)
+        _check_reachable(str(address), timeout)
     if not ray.is_initialized():
         kwargs: dict[str, Any] = {"logging_level": "WARNING"}
         if local:
