@@ -64,11 +64,37 @@ def test_default_windows_hold_about_the_events_asked_for() -> None:
     assert row.windows == math.ceil(400 / per_window)
 
 
-@pytest.mark.parametrize("kwargs", [{"repeat": 0}, {"threads": 0}, {"chunk_us": 0}, {"windows": 0}])
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        {"repeat": 0},
+        {"threads": 0},
+        {"chunk_us": 0},
+        {"windows": 0},
+        {"windows": 1.5},
+        {"windows": None, "events": 0},
+    ],
+)
 def test_bench_refuses_bad_parameters(kwargs: dict[str, int]) -> None:
     net = Network({"width": 64, "height": 48}, seed=0)
     with pytest.raises(ParameterError):
         bench_density(net, 0.01, **{"windows": 1, **kwargs})
+
+
+def test_bench_refuses_more_spikes_than_it_makes_before_making_them() -> None:
+    # 1280x720 at 5 %: 46,080 spikes a window; 10,000 windows (the most the default takes)
+    # were 460 million spikes and gigabytes, asked for with --events 1e10.
+    net = Network({"width": 1280, "height": 720}, seed=0)
+    for kwargs in ({"windows": 3000}, {"windows": None, "events": 10**10}):
+        with pytest.raises(ParameterError, match="more than 100,000,000 spikes"):
+            bench_density(net, 0.05, repeat=1, **kwargs)
+
+
+def test_cli_windows_is_a_count_named_in_its_error(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exc:
+        main(["bench", "--size", "64x48", "--windows", "0"])
+    assert exc.value.code == 2
+    assert "--windows" in capsys.readouterr().err
 
 
 def test_cli_json_and_text(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -215,6 +215,26 @@ def test_empty_chunks_and_counters(net: Network) -> None:
     assert "events_seen=500" in repr(det)
 
 
+def test_a_window_too_long_to_measure_its_objects_is_refused_before_any_event(
+    net: Network,
+) -> None:
+    # It was refused by push_windows, with the events already taken and the window's reports
+    # lost ("'bins': must be in 1..=4096").
+    longest = 4096 * 5000
+    with pytest.raises(ParameterError, match=r"longer than 20480000 µs.*rotor=False"):
+        Detector(net, window_us=longest + 1)
+    det = Detector(net, window_us=longest)
+    rng = np.random.default_rng(4)
+    ev = np.zeros(3000, EVENT_DTYPE)
+    ev["t"] = 5_000 + np.arange(3000) * 16_000
+    ev["x"], ev["y"] = rng.integers(0, 40, 3000), rng.integers(0, 30, 3000)
+    reports = det.push_windows(ev) + det.flush_windows()
+    assert det.events_seen == 3000 and reports
+    # Without measuring the objects, any length.
+    det = Detector(net, window_us=longest * 2, rotor=False)
+    assert det.push_windows(ev) + det.flush_windows()
+
+
 def test_bad_parameters_are_typed_errors(net: Network, tmp_path: Path) -> None:
     with pytest.raises(ParameterError, match=r"window_us must be in \[1,"):
         Detector(net, window_us=0)

@@ -32,6 +32,7 @@ from typing import Any, TypeVar
 
 import numpy as np
 
+from uavsnn._validate import check_int
 from uavsnn.detector import Detector
 from uavsnn.errors import ParameterError
 from uavsnn.events import EVENT_DTYPE
@@ -40,6 +41,7 @@ from uavsnn.windows import Windows
 
 __all__ = [
     "DENSITIES",
+    "MAX_BENCH_SPIKES",
     "BenchRow",
     "bench",
     "bench_density",
@@ -50,6 +52,10 @@ __all__ = [
 #: Shares of the pixels active per window that ``uavsnn bench`` measures by default (as the
 #: Criterion benches do).
 DENSITIES = (0.001, 0.01, 0.05)
+
+#: The most input spikes one density's bench windows hold (about 1.2 GB with their stream):
+#: ``windows`` or ``events`` asking for more is refused, not hours of work and all memory.
+MAX_BENCH_SPIKES = 10**8
 
 _T = TypeVar("_T")
 
@@ -201,9 +207,16 @@ def bench_density(
     if workers < 1:
         raise ParameterError(f"threads must be at least 1, got {threads}")
     width, height = int(network.config["width"]), int(network.config["height"])
+    per_window = _active_pixels(width, height, density)
     if windows is None:
-        per_window = _active_pixels(width, height, density)
-        windows = min(10_000, max(1, -(-events // per_window)))
+        windows = min(10_000, max(1, -(-check_int("events", events, 1) // per_window)))
+    windows = check_int("windows", windows, 1)
+    if windows * per_window > MAX_BENCH_SPIKES:
+        raise ParameterError(
+            f"{windows} windows of {per_window} spikes ({width}x{height} at {density:.3g} "
+            f"active) hold more than {MAX_BENCH_SPIKES:,} spikes, the most a bench makes: ask "
+            "for fewer windows or events"
+        )
     data = synthetic_windows(width, height, density, windows, seed=seed)
     spikes = len(data.t)
     stream = _stream(network, data, chunk_us)

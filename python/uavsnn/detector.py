@@ -42,7 +42,7 @@ from uavsnn._validate import U64_MAX, check_int, check_sensor_size
 from uavsnn.boxes import xywh
 from uavsnn.errors import ParameterError, ShapeError
 from uavsnn.events import EVENT_DTYPE, packed_bytes
-from uavsnn.features import rate_bins
+from uavsnn.features import MAX_RATE_BINS, RATE_BIN_US, rate_bins
 from uavsnn.network import WINDOW_DETECTION_DTYPE
 from uavsnn.signature import BoxMeasure, RotorEstimate, measure_box
 from uavsnn.tracks import Track, Tracker, tracker_for
@@ -122,9 +122,10 @@ class Detector:
         rotor: whether :meth:`push_windows` measures each object's rotor signature.
 
     Raises:
-        ParameterError: for a window shorter than 1 µs, an overlap outside ``[0, 1)`` or one
-            that keeps more than :data:`MAX_LIVE_WINDOWS` windows live, or a ``model`` that is
-            neither a network nor a path.
+        ParameterError: for a window shorter than 1 µs (or, with ``rotor``, longer than
+            :data:`uavsnn.features.MAX_RATE_BINS` bins of ``RATE_BIN_US``: 20.48 s), an overlap
+            outside ``[0, 1)`` or one that keeps more than :data:`MAX_LIVE_WINDOWS` windows
+            live, or a ``model`` that is neither a network nor a path.
         ShapeError: when ``sensor_size`` differs from the network's input size.
     """
 
@@ -163,6 +164,14 @@ class Detector:
         # The engine takes both times as u64: a larger one is refused here, not an
         # OverflowError; the overlap's range is the engine's check.
         window_us = check_int("window_us", window_us, 1, U64_MAX)
+        if rotor and window_us > MAX_RATE_BINS * RATE_BIN_US:
+            # Refused later, in push_windows, once the events were taken.
+            raise ParameterError(
+                f"window_us {window_us} is longer than {MAX_RATE_BINS * RATE_BIN_US} µs, the "
+                f"longest window whose objects are measured (their event rate is counted in at "
+                f"most {MAX_RATE_BINS} bins of {RATE_BIN_US} µs); pass rotor=False to detect "
+                "without measuring them"
+            )
         if start_us is not None:
             start_us = check_int("start_us", start_us, 0, U64_MAX)
         if isinstance(overlap, bool) or not isinstance(

@@ -93,6 +93,9 @@ TRACK_FEATURES: tuple[str, ...] = (
 #: The width of the bins in which an object's events are counted over its window, µs
 #: (:func:`rate_swing`): ten bins over the default 50 ms window.
 RATE_BIN_US = 5000
+#: The most bins the engine counts a box's rate in (``rust/signature/rate.rs``), so the
+#: longest window whose objects are measured is ``MAX_RATE_BINS * RATE_BIN_US``, 20.48 s.
+MAX_RATE_BINS = 4096
 
 
 def rate_bins(t0: int, length_us: int) -> tuple[int, int, int]:

@@ -60,7 +60,7 @@ def register(subparsers: Any) -> None:
         metavar="P,P,..", help="percent of pixels active per window (0.1,1,5)",
     )  # fmt: skip
     p.add_argument(
-        "--windows", type=int, default=None,
+        "--windows", type=_count, default=None,
         help="windows of 50 ms per density (default: enough for about --events input events)",
     )  # fmt: skip
     p.add_argument("--events", type=_count, default=300_000, help="input events per density (3e5)")
