@@ -651,3 +651,17 @@ def test_detect_on_a_file_without_a_sensor_size_asks_for_one(
         )
     assert main(["detect", str(rec), "-m", str(model), "--sensor-size", "40x30"]) == 0
     assert "events=400" in capsys.readouterr().err
+
+
+def test_train_output_that_cannot_be_written_is_refused_before_training(
+    dataset: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch
+) -> None:
+    # The model was refused by network.save, after the training and the identification fit.
+    def no_training(*args: object, **kwargs: object) -> None:
+        raise AssertionError("trained before the output was checked")
+
+    monkeypatch.setattr(uavsnn.cli.train, "train", no_training)
+    argv = ["train", str(dataset), "--windows-per-layer", "4", "--quiet", "-o"]
+    _one_line_exit_2(capsys, [*argv, str(tmp_path / "missing" / "m.npz")], "does not exist")
+    _one_line_exit_2(capsys, [*argv, str(tmp_path)], "is a folder")
+    assert sorted(p.name for p in tmp_path.iterdir()) == []

@@ -4,26 +4,34 @@ and resume to the same weights, config overrides, and that training learns somet
 from __future__ import annotations
 
 import json
+import shutil
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 import uavsnn
+import uavsnn.cli.train
+from uavsnn.cli import main
 from uavsnn.dataset import SceneSource, build, load
-from uavsnn.errors import DatasetError, ParameterError
+from uavsnn.errors import DatasetError, ModelFileError, ParameterError
 from uavsnn.training import STATE_FILE, apply_overrides, parse_override, train
 
 CONFIG = {"conv2": {"threshold": 15.0}}
 
 
 @pytest.fixture(scope="module")
-def windows(tmp_path_factory: pytest.TempPathFactory) -> uavsnn.windows.Windows:
+def dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
     root = tmp_path_factory.mktemp("train") / "set"
     build(
         root, "dvs", n_test=20, n_train=40, seed=7, dvs=SceneSource("dvs", (240, 180), 200.0, 0.3)
     )
-    return load(root, "train").windows
+    return root
+
+
+@pytest.fixture(scope="module")
+def windows(dataset: Path) -> uavsnn.windows.Windows:
+    return load(dataset, "train").windows
 
 
 def _weights(net: uavsnn.Network) -> dict[str, np.ndarray]:
@@ -116,6 +124,169 @@ def test_resume_refuses_a_checkpoint_of_other_layers(
     train(net, windows, layers=["conv2"], windows_per_layer=10, checkpoint_dir=tmp_path)
     with pytest.raises(ParameterError, match="not a start of the layers"):
         train(net, windows, layers=["conv3"], checkpoint_dir=tmp_path, resume=True)
+
+
+def _checkpoint(windows: uavsnn.windows.Windows, ckpt: Path, **kwargs: object) -> dict:
+    """A checkpoint of conv2 in ``ckpt``; its state."""
+    train(uavsnn.Network(CONFIG, seed=3), windows, layers=["conv2"], windows_per_layer=10,
+          checkpoint_dir=ckpt, **kwargs)  # fmt: skip
+    state: dict = json.loads((ckpt / STATE_FILE).read_text())
+    return state
+
+
+@pytest.mark.parametrize(
+    "old", ['{"done": ', '{"done": ["conv2"], "model": "after-conv2.npz"}', "[]"]
+)
+def test_a_run_that_does_not_resume_starts_a_fresh_state(
+    windows: uavsnn.windows.Windows, tmp_path: Path, old: str
+) -> None:
+    # The old state was merged into the new one after conv2 had trained: a JSONDecodeError,
+    # KeyError or TypeError lost the run.
+    (tmp_path / STATE_FILE).write_text(old)
+    net = uavsnn.Network(CONFIG, seed=3)
+    result = train(net, windows, windows_per_layer=10, checkpoint_dir=tmp_path)
+    assert list(result.layers) == ["conv2", "conv3"]
+    state = json.loads((tmp_path / STATE_FILE).read_text())
+    assert state["done"] == ["conv2", "conv3"] and state["model"] == "after-conv3.npz"
+    assert sorted(state["layers"]) == ["conv2", "conv3"]
+
+
+def test_a_resume_rebuilds_damaged_layer_summaries(
+    windows: uavsnn.windows.Windows, tmp_path: Path
+) -> None:
+    # "layers": [] failed with a TypeError after conv3 had trained.
+    state = _checkpoint(windows, tmp_path)
+    (tmp_path / STATE_FILE).write_text(json.dumps(state | {"layers": []}))
+    net = uavsnn.Network(CONFIG, seed=3)
+    result = train(net, windows, windows_per_layer=10, checkpoint_dir=tmp_path, resume=True)
+    assert result.resumed == ("conv2",) and list(result.layers) == ["conv3"]
+    state = json.loads((tmp_path / STATE_FILE).read_text())
+    assert state["done"] == ["conv2", "conv3"] and list(state["layers"]) == ["conv3"]
+
+
+@pytest.mark.parametrize(
+    ("change", "error", "match"),
+    [
+        ({"model": "../outside.npz"}, ModelFileError, "'model' must be 'after-conv2.npz'"),
+        ({"model": "OUTSIDE"}, ModelFileError, "'model' must be 'after-conv2.npz'"),
+        ({"done": []}, ModelFileError, "'done' must be a non-empty list"),
+        ({"done": "conv2"}, ModelFileError, "'done' must be a non-empty list"),
+        ({"done": ["conv9"]}, ModelFileError, "'conv9' is not a layer"),
+        ({"done": ["conv3", "conv2"]}, ModelFileError, "not in training order"),
+        ({"fingerprint": {}}, ParameterError, "no complete fingerprint"),
+        ({"fingerprint": "x"}, ParameterError, "no complete fingerprint"),
+        ({"fingerprint": None}, ParameterError, "no complete fingerprint"),
+    ],
+)
+def test_resume_refuses_a_damaged_state(
+    windows: uavsnn.windows.Windows,
+    tmp_path: Path,
+    change: dict,
+    error: type[Exception],
+    match: str,
+) -> None:
+    # Each was taken as it was: a model from outside the folder was loaded, an empty
+    # fingerprint skipped every check, "done": [] loaded the model into a run that retrained
+    # everything, and "done": "conv2" finished c, o, n, v, 2.
+    ckpt = tmp_path / "ckpt"
+    state = _checkpoint(windows, ckpt)
+    outside = tmp_path / "outside.npz"
+    shutil.copy(ckpt / "after-conv2.npz", outside)
+    if change.get("model") == "OUTSIDE":
+        change = {"model": str(outside)}
+    (ckpt / STATE_FILE).write_text(json.dumps(state | change))
+    net = uavsnn.Network(CONFIG, seed=3)
+    with pytest.raises(error, match=match) as info:
+        train(net, windows, windows_per_layer=10, checkpoint_dir=ckpt, resume=True)
+    assert "without resume" in str(info.value)
+    assert net == uavsnn.Network(CONFIG, seed=3)  # nothing copied in
+
+
+def test_resume_refuses_another_reporting_interval(
+    windows: uavsnn.windows.Windows, tmp_path: Path
+) -> None:
+    # The reports (every windows_per_layer // snapshots windows) are where training stops:
+    # with snapshots=6 conv2 saw 112 windows of 120, with 0 an uninterrupted run sees 120.
+    ckpt = tmp_path / "ckpt"
+    net = uavsnn.Network(CONFIG, seed=3)
+    train(net, windows, layers=["conv2"], windows_per_layer=120, snapshots=6, checkpoint_dir=ckpt)
+    with pytest.raises(ParameterError, match="the reporting interval"):
+        train(uavsnn.Network(CONFIG, seed=3), windows, windows_per_layer=120, snapshots=0,
+              checkpoint_dir=ckpt, resume=True)  # fmt: skip
+    # snapshots=7 reports every 120 // 7 = 17 windows: another interval too; 6 resumes.
+    with pytest.raises(ParameterError, match="the reporting interval"):
+        train(uavsnn.Network(CONFIG, seed=3), windows, windows_per_layer=120, snapshots=7,
+              checkpoint_dir=ckpt, resume=True)  # fmt: skip
+    result = train(uavsnn.Network(CONFIG, seed=3), windows, windows_per_layer=120, snapshots=6,
+                   checkpoint_dir=ckpt, resume=True)  # fmt: skip
+    assert result.resumed == ("conv2",)
+
+
+def test_a_checkpoint_folder_that_cannot_be_one_is_refused_before_training(
+    windows: uavsnn.windows.Windows,
+    dataset: Path,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    # FileExistsError, NotADirectoryError and IsADirectoryError reached the caller.
+    afile = tmp_path / "afile"
+    afile.write_text("x")
+    trained: list[str] = []
+
+    def progress(layer: str, *_args: object) -> None:
+        trained.append(layer)
+
+    def run(ckpt: Path, resume: bool = False) -> None:
+        train(uavsnn.Network(CONFIG, seed=3), windows, windows_per_layer=10,
+              checkpoint_dir=ckpt, resume=resume, progress=progress)  # fmt: skip
+
+    with pytest.raises(ParameterError, match="afile: exists and is not a folder"):
+        run(afile)
+    with pytest.raises(ParameterError, match="afile/sub: cannot create the folder"):
+        run(afile / "sub")
+    (tmp_path / "ckpt" / STATE_FILE).mkdir(parents=True)
+    for resume in (True, False):
+        with pytest.raises(ParameterError, match=f"{STATE_FILE}: is a folder"):
+            run(tmp_path / "ckpt", resume)
+    assert trained == []
+    out = tmp_path / "m.npz"
+    argv = ["train", str(dataset), "-o", str(out), "--windows-per-layer", "10", "--no-identify",
+            "--quiet", "--checkpoint-dir", str(afile)]  # fmt: skip
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"--checkpoint-dir {afile}: exists and is not a folder" in err
+    assert not out.exists()
+
+
+def test_train_connects_to_ray_before_any_training(
+    dataset: Path,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    # The runner was resolved after STDP and identification: an unreachable address lost both.
+    def unreachable(address: str | None, **_kwargs: object) -> object:
+        raise ParameterError(f"cannot reach a Ray cluster at {address}")
+
+    def no_training(*_args: object, **_kwargs: object) -> object:
+        raise AssertionError("trained before connecting to Ray")
+
+    monkeypatch.setattr(uavsnn.cli.train, "runner_for", unreachable)
+    monkeypatch.setattr(uavsnn.cli.train, "train", no_training)
+    monkeypatch.setattr(uavsnn.identify, "fit_network", no_training)
+    out = tmp_path / "m.npz"
+    base = ["train", str(dataset), "-o", str(out), "--quiet", "--track-minutes", "0.1"]
+    for extra in (["--ray", "127.0.0.1:9"], ["--identify-only", str(out), "--ray", "127.0.0.1:9"]):
+        if "--identify-only" in extra:
+            uavsnn.Network(CONFIG, seed=3).save(out)
+        assert main(base + extra) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "cannot reach a Ray cluster at 127.0.0.1:9" in err
+    # --ray where nothing runs on it is refused, as other options that change nothing are.
+    out.unlink()
+    assert main(["train", str(dataset), "-o", str(out), "--ray"]) == 2
+    assert "give --track-minutes" in capsys.readouterr().err
+    assert not out.exists()
 
 
 def test_overrides() -> None:

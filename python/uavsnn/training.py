@@ -14,8 +14,9 @@ With ``checkpoint_dir``, the model is written after each layer (atomically) with
 ``state.json``; ``resume=True`` picks up after the last finished layer, so an interrupted run
 loses at most the layer it was in and never leaves a half-written file. The state records a
 fingerprint of what the run was given — the network's config (before training), a hash of the
-training windows, the seed and the schedule — and a resume with any of them changed
-is refused: its weights would be written under settings that did not make them.
+training windows, the seed and the schedule (with the reporting interval, where training stops)
+— and a resume with any of them changed is refused: its weights would be written under settings
+that did not make them. A run without ``resume`` starts a fresh state (the old one is not read).
 """
 
 from __future__ import annotations
@@ -32,7 +33,7 @@ from typing import Any
 
 import numpy as np
 
-from uavsnn._files import write_atomic
+from uavsnn._files import output_dir, write_atomic
 from uavsnn._validate import check_int
 from uavsnn.errors import DatasetError, ModelFileError, ParameterError
 from uavsnn.network import CONV_LAYERS, Network, TrainReport, WindowsLike
@@ -119,11 +120,14 @@ def train(
 
     Raises:
         ParameterError: an unknown layer, layers out of order, a bad count, ``resume``
-            without ``checkpoint_dir``.
+            without ``checkpoint_dir``, a ``checkpoint_dir`` that is a file, cannot be created
+            or written, or holds a folder where a checkpoint file goes.
         DatasetError: no training windows.
-        ModelFileError: ``resume`` with a checkpoint of another network shape.
+        ModelFileError: ``resume`` with a damaged state file or a checkpoint of another network
+            shape.
         ParameterError: ``resume`` with a checkpoint made with another config, training data,
-            seed or schedule.
+            seed or schedule (``snapshots`` sets where each layer stops), or without a complete
+            fingerprint of them.
     """
     names = _check_layers(layers)
     if resume and checkpoint_dir is None:
@@ -140,14 +144,16 @@ def train(
         raise ParameterError(f"snapshots must be >= 0, got {snapshots}")
     report_progress = _progress_fn(progress)
 
-    ckpt = None if checkpoint_dir is None else Path(checkpoint_dir)
+    ckpt = None if checkpoint_dir is None else _checkpoint_folder(Path(checkpoint_dir), names)
     done: list[str] = []
     fingerprint: dict[str, Any] = {}
+    state = _new_state()
     if ckpt is not None:
-        fingerprint = _fingerprint(network, windows, seed, planned, epochs)
-        ckpt.mkdir(parents=True, exist_ok=True)
+        every = _report_every(planned, snapshots)
+        fingerprint = _fingerprint(network, windows, seed, planned, epochs, every)
         if resume:
-            done, loaded = _read_checkpoint(ckpt, names, fingerprint)
+            state, loaded = _read_checkpoint(ckpt, names, fingerprint)
+            done = list(state["done"])
             if loaded is not None:
                 _copy_weights(loaded, network)
     result = TrainingResult(network=network, resumed=tuple(done))
@@ -160,8 +166,27 @@ def train(
         )
         if ckpt is not None:
             done.append(layer)
-            _write_checkpoint(ckpt, network, done, result.layers[layer], layer, fingerprint)
+            _write_checkpoint(ckpt, network, state, done, result.layers[layer], layer, fingerprint)
     return result
+
+
+def _checkpoint_folder(root: Path, names: list[str]) -> Path:
+    """Create the checkpoint folder ``root`` and check that its files can be written there,
+    before any training."""
+    output_dir(root, "checkpoint_dir")
+    for name in (STATE_FILE, *(f"after-{layer}.npz" for layer in names)):
+        if (root / name).is_dir():
+            raise ParameterError(
+                f"checkpoint_dir {root}: {name}: is a folder, where the checkpoint writes a "
+                "file; remove it or use another checkpoint folder"
+            )
+    return root
+
+
+def _report_every(planned: int, snapshots: int) -> int:
+    """Windows between progress reports: training stops at the first one at or past
+    ``planned``."""
+    return max(1, min(64, planned // max(snapshots, 1)))
 
 
 def _fingerprint(
@@ -170,9 +195,11 @@ def _fingerprint(
     seed: int,
     planned: int,
     epochs: int,
+    every: int,
 ) -> dict[str, Any]:
     """What a run was given, for a resume to check: hashes of the config and of the windows,
-    the seed and the schedule (the layers may grow: a resume trains those not yet done)."""
+    the seed and the schedule, with the reporting interval (where a layer stops) (the layers
+    may grow: a resume trains those not yet done)."""
     config = hashlib.sha256(json.dumps(network.config, sort_keys=True).encode()).hexdigest()
     data = hashlib.sha256()
     data.update(json.dumps([list(windows.sensor_size), int(windows.length_us)]).encode())
@@ -184,6 +211,7 @@ def _fingerprint(
         "seed": int(seed),
         "windows_per_layer": int(planned),
         "epochs": int(epochs),
+        "report_every": int(every),
     }
 
 
@@ -198,7 +226,7 @@ def _train_layer(
     report_progress: ProgressFn,
 ) -> LayerResult:
     """Train one layer for ``planned`` windows, taking ``snapshots`` weight copies on the way."""
-    every = max(1, min(64, planned // max(snapshots, 1)))
+    every = _report_every(planned, snapshots)
     marks = _snapshot_marks(planned, snapshots)
     taken: list[tuple[int, np.ndarray]] = [(0, network.weights(layer))] if snapshots else []
 
@@ -262,21 +290,24 @@ def _progress_fn(progress: bool | ProgressFn) -> ProgressFn:
     return step
 
 
+def _new_state() -> dict[str, Any]:
+    return {"format": "uavsnn-training-state", "version": 1, "layers": {}}
+
+
 def _write_checkpoint(
     root: Path,
     network: Network,
+    state: dict[str, Any],
     done: list[str],
     layer_result: LayerResult,
     layer: str,
     fingerprint: dict[str, Any],
 ) -> None:
-    """The model after ``layer`` (atomic, by the engine), then the state that names it."""
+    """The model after ``layer`` (atomic, by the engine), then the state that names it:
+    ``state`` (a fresh one, or the one a resume read and checked) updated in place."""
     model = root / f"after-{layer}.npz"
     network.save(model)
     state_path = root / STATE_FILE
-    state: dict[str, Any] = {"format": "uavsnn-training-state", "version": 1, "layers": {}}
-    if state_path.exists():
-        state = json.loads(state_path.read_text(encoding="utf-8"))
     state["done"] = list(done)
     state["model"] = model.name
     state["fingerprint"] = fingerprint
@@ -291,39 +322,73 @@ _WHAT = {
     "seed": "the seed",
     "windows_per_layer": "the windows per layer",
     "epochs": "the epochs",
+    "report_every": "the reporting interval (snapshots)",
 }
 
 
 def _read_checkpoint(
     root: Path, names: list[str], fingerprint: dict[str, Any]
-) -> tuple[list[str], Network | None]:
+) -> tuple[dict[str, Any], Network | None]:
+    """The state of the checkpoint in ``root``, checked against the layers asked for and the
+    run's fingerprint, and the model it names (a fresh state and ``None`` without one)."""
     state_path = root / STATE_FILE
     if not state_path.exists():
-        return [], None
+        return _new_state(), None
     try:
         state = json.loads(state_path.read_text(encoding="utf-8"))
-        done = [str(name) for name in state["done"]]
-        model = root / str(state["model"])
-    except (ValueError, KeyError, TypeError) as exc:
-        raise ModelFileError(f"{state_path}: not a training state file ({exc})") from exc
+    except OSError as exc:
+        raise ModelFileError(f"{state_path}: cannot read: {exc.strerror or exc}") from exc
+    except ValueError as exc:
+        raise ModelFileError(
+            f"{state_path}: not a training state file ({exc}); start without resume to train afresh"
+        ) from exc
+    problem = _state_problem(state)
+    if problem:
+        raise ModelFileError(
+            f"{state_path}: not a training state file: {problem}; start without resume to "
+            "train afresh"
+        )
+    done: list[str] = state["done"]
     if done != names[: len(done)]:
         raise ParameterError(
             f"checkpoint in {root} finished {', '.join(done)}, which is not a start of the "
             f"layers asked for ({', '.join(names)})"
         )
-    stored = state.get("fingerprint") if isinstance(state, dict) else None
-    if done and not isinstance(stored, dict):
+    stored = state.get("fingerprint")
+    if not isinstance(stored, dict) or any(k not in stored for k in fingerprint):
         raise ParameterError(
-            f"checkpoint in {root} records no fingerprint of its settings and data (made by an "
-            "older uavsnn): it cannot be checked, so it is not resumed; start without resume"
+            f"checkpoint in {root} records no complete fingerprint of its settings and data "
+            "(made by an older uavsnn, or damaged): it cannot be checked, so it is not resumed; "
+            "start without resume to train afresh"
         )
-    changed = [_WHAT.get(k, k) for k in fingerprint if stored and stored.get(k) != fingerprint[k]]
+    changed = [_WHAT.get(k, k) for k in fingerprint if stored[k] != fingerprint[k]]
     if changed:
         raise ParameterError(
             f"checkpoint in {root} was made with other settings: {', '.join(changed)} "
             "changed since; resume with the same ones, or start in another checkpoint folder"
         )
-    return done, Network.load(model)
+    if not isinstance(state.get("layers"), dict):
+        state["layers"] = {}  # summaries only: rebuilt from the layers trained from now on
+    return state, Network.load(root / state["model"])
+
+
+def _state_problem(state: Any) -> str | None:
+    """What makes ``state`` something :func:`_write_checkpoint` did not write, or ``None``."""
+    if not isinstance(state, dict):
+        return "not a JSON object"
+    done = state.get("done")
+    if not isinstance(done, list) or not done or not all(isinstance(n, str) for n in done):
+        return f"'done' must be a non-empty list of layer names, got {done!r}"
+    unknown = [name for name in done if name not in CONV_LAYERS]
+    if unknown:
+        return f"'done': {unknown[0]!r} is not a layer ({', '.join(CONV_LAYERS)})"
+    order = [CONV_LAYERS.index(name) for name in done]
+    if order != sorted(set(order)):
+        return f"'done' ({', '.join(done)}) is not in training order"
+    model = f"after-{done[-1]}.npz"
+    if state.get("model") != model:
+        return f"'model' must be {model!r} (in the checkpoint folder), got {state.get('model')!r}"
+    return None
 
 
 def _copy_weights(source: Network, target: Network) -> None:

@@ -21,12 +21,12 @@ import argparse
 import importlib
 import os
 import sys
-from pathlib import Path
 
 from uavsnn import __version__
-from uavsnn.errors import ParameterError, UavsnnError
+from uavsnn._files import output_dir, output_file
+from uavsnn.errors import UavsnnError
 
-__all__ = ["COMMANDS", "main", "output_dir"]
+__all__ = ["COMMANDS", "main", "output_dir", "output_file"]
 
 #: The sub-commands, each the name of its module, with the one line ``uavsnn --help`` shows.
 COMMANDS: dict[str, str] = {
@@ -43,24 +43,6 @@ COMMANDS: dict[str, str] = {
 
 #: Exit code of a command stopped by Ctrl-C (128 + SIGINT, as shells report it).
 EXIT_INTERRUPTED = 130
-
-
-def output_dir(path: Path, flag: str) -> Path:
-    """Create the output folder ``path`` (given by ``flag``) and check that it can be written,
-    before any work is done.
-
-    Raises:
-        ParameterError: ``path`` is an existing file, cannot be created, or is not writable.
-    """
-    if path.exists() and not path.is_dir():
-        raise ParameterError(f"{flag} {path}: exists and is not a folder")
-    try:
-        path.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise ParameterError(f"{flag} {path}: cannot create the folder: {exc.strerror}") from exc
-    if not os.access(path, os.W_OK | os.X_OK):
-        raise ParameterError(f"{flag} {path}: the folder is not writable")
-    return path
 
 
 def _build_parser(command: str | None = None) -> argparse.ArgumentParser:

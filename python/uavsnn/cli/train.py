@@ -8,8 +8,9 @@ from pathlib import Path
 from typing import Any
 
 from uavsnn import identify
+from uavsnn.cli import output_dir, output_file
 from uavsnn.dataset import load
-from uavsnn.distributed import add_ray_option, runner_for
+from uavsnn.distributed import Runner, add_ray_option, runner_for
 from uavsnn.errors import DatasetError, ParameterError
 from uavsnn.false_alarms import MAX_MINUTES, TRACK_ALARM_RATES, tune_track_alarms
 from uavsnn.network import Network, default_config
@@ -152,17 +153,17 @@ def _check_track_flags(args: argparse.Namespace) -> None:
 
 
 def _tune_tracks(
-    network: Network, args: argparse.Namespace, data: Any, tune: Any
+    network: Network, args: argparse.Namespace, data: Any, tune: Any, runner: Runner
 ) -> dict[str, Any] | None:
     """Set the track alarm thresholds of ``network``'s identification on --track-minutes of
-    streamed recording; their summary (``None`` when not asked or without identification)."""
+    streamed recording, run on ``runner`` (--ray's, resolved before any work); their summary
+    (``None`` when not asked or without identification)."""
     if not args.track_minutes or network.identification is None:
         return None
     seed = args.track_seed
     if seed is None:
         seed = int((tune if tune is not None else data).manifest.get("seed", 0))
     rule = Confirm.parse(args.track_confirm) if args.track_confirm else Confirm()
-    runner = runner_for(args.ray)
     network.identification, summary = tune_track_alarms(
         network,
         minutes=args.track_minutes,
@@ -182,6 +183,10 @@ def _train(args: argparse.Namespace) -> int:
     config = network_config(args.config, args.settings)  # bad flags fail before any work
     data = load(args.dataset, args.split)
     tune = None if args.tune is None or args.no_identify else load(args.tune, "train")
+    output_file(args.output, "-o")
+    if args.checkpoint_dir is not None:
+        output_dir(args.checkpoint_dir, "--checkpoint-dir")
+    runner = runner_for(args.ray)  # an unreachable cluster fails now, not after the training
     network = Network(config, seed=args.seed)
     result = train(
         network,
@@ -202,7 +207,7 @@ def _train(args: argparse.Namespace) -> int:
             )
         except DatasetError as exc:  # the STDP result is kept: only the any-spike rule
             summary["identify"] = {"skipped": str(exc)}
-        tracks = _tune_tracks(network, args, data, tune)
+        tracks = _tune_tracks(network, args, data, tune, runner)
         if tracks is not None:
             summary["identify"]["tracks"] = tracks
     network.save(args.output)
@@ -269,10 +274,12 @@ def _identify_only(args: argparse.Namespace) -> int:
     network = Network.load(args.identify_only)
     data = load(args.dataset, args.split)
     tune = None if args.tune is None else load(args.tune, "train")
+    output_file(args.output, "-o")
+    runner = runner_for(args.ray)  # an unreachable cluster fails now, not after the fit
     network.identification, ident = identify.fit_network(
         network, data, tune, model=args.identify_model
     )
-    tracks = _tune_tracks(network, args, data, tune)
+    tracks = _tune_tracks(network, args, data, tune, runner)
     if tracks is not None:
         ident["tracks"] = tracks
     network.save(args.output)
