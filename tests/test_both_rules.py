@@ -66,6 +66,44 @@ def test_raw_noise_has_the_windows_density_and_is_repeatable() -> None:
         raw_noise_events(events, 100_000, 50_000, SENSOR, 1.5, 7, window=3)
 
 
+def test_raw_noise_in_the_measured_boxes_measures_as_all_of_it() -> None:
+    """window_features keeps only the noise inside the boxes it measures (the same draws):
+    measure_box reads nothing else, so each box measures the same; and the noise lies after
+    the signal's events of the same time, as a stable sort of both puts it."""
+    from uavsnn.signature import measure_box
+
+    rng = np.random.default_rng(3)
+    for trial in range(12):
+        n = int(rng.integers(0, 2000))
+        events = np.zeros(n, dtype=EVENT_DTYPE)
+        events["t"] = np.sort(rng.integers(50_000, 150_000, n))
+        if trial == 5:
+            events["t"] = events["t"][::-1].copy()  # not in time order: sorted with the noise
+        events["x"], events["y"] = rng.integers(0, 240, n), rng.integers(0, 180, n)
+        events["p"] = rng.random(n) < 0.5
+        fraction = (0.001, 0.02, 0.2)[trial % 3]
+        full = raw_noise_events(events, 100_000, 50_000, SENSOR, fraction, 9, window=trial)
+        noise = full[~np.isin(full, events)] if n else full
+        both = np.concatenate([events, noise])
+        np.testing.assert_array_equal(full["t"], np.sort(both["t"], kind="stable"))
+        boxes = [
+            (
+                int(rng.integers(0, 200)),
+                int(rng.integers(0, 150)),
+                int(rng.integers(1, 60)),
+                int(rng.integers(1, 40)),
+            )
+            for _ in range(int(rng.integers(1, 4)))
+        ]
+        kept = raw_noise_events(
+            events, 100_000, 50_000, SENSOR, fraction, 9, window=trial, boxes=boxes
+        )
+        assert len(kept) <= len(full)
+        for box in boxes:
+            rate = (100_000, 5_000, 10)
+            assert measure_box(kept, box, rate=rate) == measure_box(full, box, rate=rate)
+
+
 # ---------------------------------------------------------------- the network's identification
 
 

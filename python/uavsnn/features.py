@@ -399,9 +399,17 @@ def window_features(
         measured = []
         if objects:
             raw = data.raw.window(i)
+            measured_boxes = [xywh(o.box) for o in objects[:MAX_ROTOR_BOXES]]
             if raw_noise is not None:
+                # Only the noise in the measured boxes: measure_box reads nothing else.
                 raw = raw_noise_events(
-                    raw, t0, length, data.windows.sensor_size, *raw_noise, window=int(i)
+                    raw,
+                    t0,
+                    length,
+                    data.windows.sensor_size,
+                    *raw_noise,
+                    window=int(i),
+                    boxes=measured_boxes,
                 )
             # A binary search on the times in place (np.searchsorted would copy them first).
             t = raw["t"]
@@ -410,9 +418,7 @@ def window_features(
             # the streaming detector, only the first MAX_ROTOR_BOXES objects are measured (and
             # scored): the others are tracked only.
             rate = rate_bins(t0, window_us)
-            measured = [
-                measure_box(events, xywh(o.box), rate=rate) for o in objects[:MAX_ROTOR_BOXES]
-            ]
+            measured = [measure_box(events, box, rate=rate) for box in measured_boxes]
             objects = tuple(
                 replace(o, rotor=measured[j].rotor, counts=measured[j].counts)
                 if j < len(measured)
@@ -483,6 +489,7 @@ def raw_noise_events(
     seed: int,
     *,
     window: int,
+    boxes: Sequence[tuple[int, int, int, int]] | None = None,
 ) -> np.ndarray:
     """``events`` (one window's raw events, time order) with uniform noise added: in each of
     ``[t0 − length_us, t0)`` and ``[t0, t0 + length_us)``, ``floor(fraction · W · H + 0.5)``
@@ -490,7 +497,11 @@ def raw_noise_events(
     adds to a window and its preceding interval. Drawn from ``(seed, window)``, so the same
     window gets the same noise; a different draw from the windows' own noise (that one is made
     in the engine), of the same density. Returned in time order (stable: an event's
-    order among equal times is kept, the noise after the signal)."""
+    order among equal times is kept, the noise after the signal).
+
+    ``boxes`` ``(x0, y0, width, height)``: keep only the noise inside one of them (the same
+    draws, the others left out): what :func:`uavsnn.signature.measure_box` of those boxes reads
+    is then the same, in the same order, at the cost of sorting the noise it reads."""
     from uavsnn.events import EVENT_DTYPE
 
     if not 0.0 <= fraction <= 1.0:
@@ -500,12 +511,28 @@ def raw_noise_events(
     if n == 0:
         return events
     rng = np.random.default_rng([int(seed), int(window)])
-    noise = np.zeros(2 * n, dtype=EVENT_DTYPE)
     lo = max(int(t0) - int(length_us), 0)
-    noise["t"][:n] = rng.integers(lo, max(int(t0), lo + 1), n)
-    noise["t"][n:] = rng.integers(int(t0), int(t0) + int(length_us), n)
-    noise["x"] = rng.integers(0, width, 2 * n)
-    noise["y"] = rng.integers(0, height, 2 * n)
-    noise["p"] = rng.integers(0, 2, 2 * n)
-    out = np.concatenate([events, noise])
-    return out[np.argsort(out["t"], kind="stable")]
+    # Drawn in this order whatever is kept, so that the same window gets the same noise.
+    t = np.concatenate(
+        [
+            rng.integers(lo, max(int(t0), lo + 1), n),
+            rng.integers(int(t0), int(t0) + int(length_us), n),
+        ]
+    )
+    x, y = rng.integers(0, width, 2 * n), rng.integers(0, height, 2 * n)
+    p = rng.integers(0, 2, 2 * n)
+    keep: slice | np.ndarray = slice(None)
+    if boxes is not None:
+        keep = np.zeros(2 * n, dtype=bool)
+        for x0, y0, w, h in boxes:
+            keep |= (x >= x0) & (x < x0 + w) & (y >= y0) & (y < y0 + h)
+    noise = np.zeros(len(t[keep]), dtype=EVENT_DTYPE)
+    noise["t"], noise["x"], noise["y"], noise["p"] = t[keep], x[keep], y[keep], p[keep]
+    noise = noise[np.argsort(noise["t"], kind="stable")]
+    signal_t = events["t"]
+    if len(signal_t) > 1 and (signal_t[1:] < signal_t[:-1]).any():  # not in time order
+        out = np.concatenate([events, noise])
+        return out[np.argsort(out["t"], kind="stable")]
+    # Each noise event after the signal's of the same time: the order a stable sort of the
+    # signal then the noise gives, without sorting the signal again.
+    return np.insert(events, np.searchsorted(signal_t, noise["t"], side="right"), noise)
