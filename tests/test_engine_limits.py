@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import threading
 import time
+from typing import Any
 
 import numpy as np
 import pytest
@@ -153,17 +154,21 @@ def test_many_frames_are_refused_but_a_few_are_not() -> None:
         w.frames()
 
 
-# 6. A network in use by another thread refuses train_layer with a typed error.
-def test_train_layer_while_another_thread_infers_is_refused() -> None:
-    net = Network({"width": 240, "height": 180})
-    rng = np.random.default_rng(0)
+def _busy_windows(seed: int) -> Windows:
+    """Windows of 240x180 busy enough that a call on them takes a while: 2 s of 200,000
+    events/s in windows of 10 ms."""
+    rng = np.random.default_rng(seed)
     n = 400_000
     ev = np.zeros(n, EVENT_DTYPE)
     ev["t"] = np.sort(rng.integers(0, 2_000_000, n))
     ev["x"] = rng.integers(0, 240, n)
     ev["y"] = rng.integers(0, 180, n)
-    many = make_windows(Recording(ev, (240, 180)), 10_000, overlap=0.5)
-    few = many.select([0, 1])
+    return make_windows(Recording(ev, (240, 180)), 10_000, overlap=0.5)
+
+
+def _refused_while(hold: Any, calls: dict[str, Any]) -> dict[str, bool]:
+    """Run ``hold`` again and again in another thread, and each of ``calls`` until it is
+    refused with the StreamError of a network in use (at most 20 s): which were."""
     errors: list[Exception] = []
     done = threading.Event()
 
@@ -171,29 +176,46 @@ def test_train_layer_while_another_thread_infers_is_refused() -> None:
         try:
             while not done.is_set():
                 try:
-                    net.infer(many, threads=1)
+                    hold()
                 except uavsnn.StreamError:
-                    pass  # a train_layer chunk held the network: typed too
+                    pass  # one of the calls below held the network: typed too
         except Exception as exc:  # pragma: no cover - reported below
             errors.append(exc)
 
     worker = threading.Thread(target=run)
     worker.start()
-    refused = None
+    refused = dict.fromkeys(calls, False)
     give_up = time.monotonic() + 20.0  # a loaded machine may start the worker late
     try:
-        while refused is None and time.monotonic() < give_up:
-            try:
-                net.train_layer("conv2", few, every=1)
-            except uavsnn.StreamError as exc:
-                refused = exc
-                break
+        while not all(refused.values()) and time.monotonic() < give_up:
+            for name, call in calls.items():
+                if refused[name]:
+                    continue
+                # A call that lets the GIL go holding the network (run_window, save) would
+                # meet the worker at each of its attempts: leave it the GIL without it first.
+                time.sleep(0.02)
+                try:
+                    call()
+                except uavsnn.StreamError as exc:
+                    assert "in use by another thread" in str(exc)
+                    refused[name] = True
     finally:
         done.set()
         worker.join()
     assert not errors, errors
-    assert refused is not None, "train_layer never overlapped infer"
-    assert "in use by another thread" in str(refused)
+    return refused
+
+
+# 6. A network in use by another thread refuses train_layer with a typed error.
+def test_train_layer_while_another_thread_infers_is_refused() -> None:
+    net = Network({"width": 240, "height": 180})
+    many = _busy_windows(0)
+    few = many.select([0, 1])
+    refused = _refused_while(
+        lambda: net.infer(many, threads=1),
+        {"train_layer": lambda: net.train_layer("conv2", few, every=1)},
+    )
+    assert refused["train_layer"], "train_layer never overlapped infer"
     # Usable afterwards.
     assert net.train_layer("conv2", few).windows_seen == 2
     assert len(net.infer(few).detected) == 2
@@ -203,13 +225,7 @@ def test_every_call_on_a_network_another_thread_trains_is_refused(tmp_path) -> N
     """Not only infer: reading the weights, the config or a copy while train_layer writes
     them, and writing them while infer reads them, is a StreamError, not pyo3's RuntimeError."""
     net = Network({"width": 240, "height": 180})
-    rng = np.random.default_rng(1)
-    n = 400_000
-    ev = np.zeros(n, EVENT_DTYPE)
-    ev["t"] = np.sort(rng.integers(0, 2_000_000, n))
-    ev["x"] = rng.integers(0, 240, n)
-    ev["y"] = rng.integers(0, 180, n)
-    many = make_windows(Recording(ev, (240, 180)), 10_000, overlap=0.5)
+    many = _busy_windows(1)
     t, x, y = many.spikes(0)
     w1 = net.weights("conv1")
     other = net.copy()
@@ -228,48 +244,11 @@ def test_every_call_on_a_network_another_thread_trains_is_refused(tmp_path) -> N
         "stdp_step": lambda: net.stdp_step("conv2", t, x, y, int(many.t0[0])),
     }
 
-    def refused_while(hold, calls) -> dict[str, bool]:
-        errors: list[Exception] = []
-        done = threading.Event()
-
-        def run() -> None:
-            try:
-                while not done.is_set():
-                    try:
-                        hold()
-                    except uavsnn.StreamError:
-                        pass  # one of the calls below held the network: typed too
-            except Exception as exc:  # pragma: no cover - reported below
-                errors.append(exc)
-
-        worker = threading.Thread(target=run)
-        worker.start()
-        refused = dict.fromkeys(calls, False)
-        give_up = time.monotonic() + 20.0  # a loaded machine may start the worker late
-        try:
-            while not all(refused.values()) and time.monotonic() < give_up:
-                for name, call in calls.items():
-                    if refused[name]:
-                        continue
-                    # A call that lets the GIL go holding the network (run_window, save) would
-                    # meet the worker at each of its attempts: leave it the GIL without it first.
-                    time.sleep(0.02)
-                    try:
-                        call()
-                    except uavsnn.StreamError as exc:
-                        assert "in use by another thread" in str(exc)
-                        refused[name] = True
-        finally:
-            done.set()
-            worker.join()
-        assert not errors, errors
-        return refused
-
     # train_layer holds the network for writing through its whole run (every=10**6).
-    train = refused_while(lambda: net.train_layer("conv2", many, every=10**6), reads | writes)
+    train = _refused_while(lambda: net.train_layer("conv2", many, every=10**6), reads | writes)
     assert all(train.values()), train
     # infer holds it for reading: writes are refused.
-    infer = refused_while(lambda: net.infer(many, threads=1), writes)
+    infer = _refused_while(lambda: net.infer(many, threads=1), writes)
     assert all(infer.values()), infer
     assert net.weights("conv1").shape == w1.shape and net.copy() == net
 
