@@ -171,6 +171,22 @@ def test_recording_parameters_are_checked(video):
     ] == pytest.approx(0.2)
 
 
+@pytest.mark.parametrize(("mode", "size"), [("dvs", (30000, 30000)), ("sim", (65535, 65535))])
+def test_a_sensor_over_the_engines_cap_is_refused_before_a_frame_is_resized(
+    video, monkeypatch, mode, size
+):
+    # Each frame was resized to the sensor first: OpenCV raised its own error (2.7 GB a frame)
+    # before the engine's cap was checked.
+    import uavsnn.sim.video as sim_video
+
+    def no_frames(*args, **kwargs):
+        raise AssertionError("a frame was decoded before the sensor size was checked")
+
+    monkeypatch.setattr(sim_video, "iter_video", no_frames)
+    with pytest.raises(ParameterError, match="MAX_ALLOC_BYTES"):
+        video_to_recording(video, mode, size, downsample="frames")
+
+
 def test_progress_callback_counts_frames(video):
     seen: list[int] = []
     video_to_recording(video, "dvs", (60, 45), progress=seen.append)

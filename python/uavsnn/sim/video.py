@@ -296,6 +296,11 @@ def video_to_recording(
             f"mode={mode!r} takes {expected.__name__}, got {type(params).__name__}"
         )
     info = probe_video(path)
+    sim: Pix2NvsSimulator | DvsEmulator | None = None
+    if downsample == "frames":
+        # Frames resized to the sensor: its simulator (and the engine's check of its size)
+        # before a frame is decoded and resized.
+        sim = _simulator(mode, sensor, sensor, params, pooling, seed, downsample)
     stream = iter_video(
         path,
         size=sensor,
@@ -306,14 +311,14 @@ def video_to_recording(
     )
     bar = _progress(progress, info.frame_count if max_frames is None else max_frames, path)
     chunks: list[np.ndarray] = []
-    sim: Pix2NvsSimulator | DvsEmulator | None = None
     n = 0
     rate = fps
     try:
         # One frame per call: the engine reads the cropped view in place, without a copy.
         for frame, t in prefetch(stream):
             if sim is None:
-                sim = _simulator(mode, frame, sensor, params, pooling, seed, downsample)
+                frame_size = (int(frame.shape[1]), int(frame.shape[0]))
+                sim = _simulator(mode, frame_size, sensor, params, pooling, seed, downsample)
             chunks.append(sim.process(frame[None], [t]))
             n += 1
             bar(1)
@@ -339,14 +344,14 @@ def video_to_recording(
 
 def _simulator(
     mode: str,
-    first: np.ndarray,
+    frame_size: tuple[int, int],
     sensor: tuple[int, int],
     params: Any,
     pooling: Any,
     seed: int,
     downsample: str,
 ) -> Pix2NvsSimulator | DvsEmulator:
-    frame_size = (int(first.shape[1]), int(first.shape[0]))
+    """The simulator of ``mode`` for frames of ``frame_size`` and a ``sensor``."""
     if mode == "dvs":
         return DvsEmulator(sensor, params=params, seed=seed)
     if downsample == "frames":
