@@ -609,3 +609,22 @@ def test_cli_preview_writes_a_picture(tmp_path: Path, capsys: pytest.CaptureFixt
     image = cv2.imread(str(out))
     assert image is not None and image.shape[0] > 180 and image.shape[1] > 240
     assert "bird" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize(
+    ("frames", "fps"), [(4_000_000_000, 30.0), (100, 2_147_483_647.0), (1, 30.0), (100, 0.0)]
+)
+def test_a_clip_header_no_video_has_is_refused_naming_the_clip(
+    videos: Path, monkeypatch: pytest.MonkeyPatch, frames: int, fps: float
+) -> None:
+    # 4·10^9 frames made the plan's times (32 GB); a rate above the simulator's 10^6 fps gave
+    # "frame times must increase strictly", naming no clip.
+    from uavsnn.dataset import footage
+    from uavsnn.dataset.real import find_clips
+    from uavsnn.dataset.splits import WindowCut
+    from uavsnn.sim.video import VideoInfo
+
+    clip = find_clips(videos)[0]
+    monkeypatch.setattr(footage, "probe_video", lambda _: VideoInfo(320, 256, fps, frames))
+    with pytest.raises(DatasetError, match=f"video {clip.video.name} reports"):
+        footage.plan_clip(WindowCut(50_000, 0.5, 0.5), clip)

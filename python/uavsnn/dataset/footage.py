@@ -60,19 +60,27 @@ class ClipPlan:
     sensor: tuple[int, int] = SENSOR
 
 
+#: The most frames a clip's header may report (92 hours at 30 fps): a plan holds a time and a
+#: label per frame.
+MAX_CLIP_FRAMES = 10**7
+
+
 def plan_clip(cut: WindowCut, clip: Clip, sensor: tuple[int, int] = SENSOR) -> ClipPlan:
     """Label a clip's windows, cut by ``cut``, on a ``sensor`` from its box file, without
     decoding it.
 
     Raises:
-        DatasetError: the container reports fewer than two frames or no frame rate, or the
-            video cropped to the sensor's aspect ratio is smaller than the sensor.
+        DatasetError: the container reports fewer than two frames or more than
+            :data:`MAX_CLIP_FRAMES`, or no frame rate of at most 10^6 fps (the limit of
+            :mod:`uavsnn.sim`), or the video cropped to the sensor's aspect ratio is smaller
+            than the sensor.
     """
     info = probe_video(clip.video)
-    if info.frame_count < 2 or not info.fps > 0:
+    if not 2 <= info.frame_count <= MAX_CLIP_FRAMES or not 0 < info.fps <= 1e6:
+        # A damaged header: the plan holds a time per frame (4·10^9 frames were 32 GB).
         raise DatasetError(
             f"video {clip.video.name} reports {info.frame_count} frames at {info.fps} fps; "
-            f"need at least 2 frames and a frame rate"
+            f"need 2 to {MAX_CLIP_FRAMES:,} frames and a frame rate of at most 10^6 fps"
         )
     _, _, cw, ch = crop_box((info.width, info.height), sensor)
     if cw < sensor[0] or ch < sensor[1]:
