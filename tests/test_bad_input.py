@@ -665,3 +665,13 @@ def test_train_output_that_cannot_be_written_is_refused_before_training(
     _one_line_exit_2(capsys, [*argv, str(tmp_path / "missing" / "m.npz")], "does not exist")
     _one_line_exit_2(capsys, [*argv, str(tmp_path)], "is a folder")
     assert sorted(p.name for p in tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("flag", ["--n-test", "--n-train"])
+def test_dataset_build_refuses_absurd_window_counts_before_any_work(
+    flag: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # 2·10^9 test windows ran until killed.
+    argv = ["dataset", "build", str(tmp_path / "d"), "--domain", "dvs", flag, "2000000000"]
+    _one_line_exit_2(capsys, argv, "must be at most 1,000,000 windows")
+    assert not (tmp_path / "d").exists()

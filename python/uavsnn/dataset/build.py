@@ -52,6 +52,9 @@ SENSOR_SIZES = ((240, 180), (346, 260), (640, 480), (1280, 720))
 #: The largest sensor side a dataset takes: the scene renderer's largest frame (the engine's
 #: events and windows reach 65535).
 MAX_SENSOR_SIDE = 4096
+#: The most windows a split may ask for (500 times the SPEC §5 test split): a bound on
+#: counts no build means, not on memory, which grows with the sensor (docs/dataset.md).
+MAX_SPLIT_WINDOWS = 10**6
 _MIN_SENSOR_SIDE = 8
 _WXH = re.compile(r"^\s*(\d+)\s*[xX×]\s*(\d+)\s*$")
 
@@ -135,6 +138,13 @@ def _check_build_args(
         isinstance(n_train, bool) or not isinstance(n_train, int) or n_train < 0
     ):
         raise ParameterError(f"n_train must be a non-negative integer or None, got {n_train!r}")
+    for name, n in (("n_test", n_test), ("n_train", n_train or 0)):
+        if n > MAX_SPLIT_WINDOWS:
+            # A split is held whole before it is written: 2·10^9 windows ran until killed.
+            raise ParameterError(
+                f"{name} must be at most {MAX_SPLIT_WINDOWS:,} windows, got {n:,} (a split is "
+                "held in memory: about 70 MB per 1000 windows at 240x180, 1.5 GB at 1280x720)"
+            )
     if not (
         isinstance(window_ms, (int, float)) and math.isfinite(window_ms) and window_ms >= 0.001
     ):
