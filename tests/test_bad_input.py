@@ -675,3 +675,23 @@ def test_dataset_build_refuses_absurd_window_counts_before_any_work(
     argv = ["dataset", "build", str(tmp_path / "d"), "--domain", "dvs", flag, "2000000000"]
     _one_line_exit_2(capsys, argv, "must be at most 1,000,000 windows")
     assert not (tmp_path / "d").exists()
+
+
+def test_evaluate_checks_roc_and_seed_before_evaluating(
+    model: Path, dataset: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch
+) -> None:
+    # --roc was checked after the whole evaluation (a name without .png raised OpenCV's
+    # error, a missing folder failed on writing), and a negative --seed at the noise level
+    # that used it (-1 was silently accepted).
+    import uavsnn.cli.evaluate
+
+    def no_work(*args: object, **kwargs: object) -> None:
+        raise AssertionError("evaluated before the options were checked")
+
+    monkeypatch.setattr(uavsnn.cli.evaluate, "evaluate", no_work)
+    argv = ["evaluate", str(model), str(dataset)]
+    _one_line_exit_2(capsys, [*argv, "--roc", str(tmp_path / "roc.txt")], "name it .png")
+    _one_line_exit_2(capsys, [*argv, "--roc", str(tmp_path / "no" / "roc.png")], "does not exist")
+    _one_line_exit_2(capsys, [*argv, "--roc", str(tmp_path / "roc.png")], "identification")
+    _one_line_exit_2(capsys, [*argv, "--noise", "--seed", "-1"], "--seed must be >= 0")
+    assert list(tmp_path.iterdir()) == []

@@ -8,7 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from uavsnn import report
-from uavsnn.cli import output_dir
+from uavsnn.cli import output_dir, output_file
 from uavsnn.dataset import load
 from uavsnn.distributed import add_ray_option, runner_for
 from uavsnn.errors import ParameterError
@@ -122,9 +122,17 @@ def _evaluate(args: argparse.Namespace) -> int:
             f"--clips streams through the detector, which confirms by HITS/WINDOWS alone: "
             f"--confirm {confirm} is for --tracks"
         )
+    if args.seed < 0:
+        raise ParameterError(f"--seed must be >= 0, got {args.seed}")
+    if args.roc is not None:
+        if args.roc.suffix.lower() != ".png":
+            raise ParameterError(f"--roc {args.roc}: the picture is a PNG: name it .png")
+        output_file(args.roc, "--roc")
     if args.report is not None:
         output_dir(args.report, "--report")
     network = Network.load(args.model)
+    if args.roc is not None and network.identification is None:
+        raise ParameterError("--roc needs a model with identification (`uavsnn train`)")
     if confirm.fast is not None and network.identification is None:
         raise ParameterError(
             f"--confirm {confirm}: the score-aware rule needs a model with identification "
