@@ -263,8 +263,19 @@ def test_bad_clip_sets_are_typed_errors(
 ) -> None:
     root, videos, model = footage
     net = Network.load(model)
-    with pytest.raises(DatasetError, match="not a folder here"):
+    # The folder given is named as such (it said the clips were read from there).
+    with pytest.raises(DatasetError, match=r"the folder of videos .*nowhere is not a folder$"):
         clip_set(root, "test", tmp_path / "nowhere")
+    # Without one, the folder the build read is used: when it is gone, that is said.
+    moved = tmp_path / "moved"
+    shutil.copytree(root, moved)
+    manifest = json.loads((moved / "manifest.json").read_text())
+    for source in manifest["parameters"]["sources"]:
+        if source["domain"] == "real":
+            source["videos"] = str(tmp_path / "gone")
+    (moved / "manifest.json").write_text(json.dumps(manifest))
+    with pytest.raises(DatasetError, match=r"were read from .*gone, which is not a folder here"):
+        clip_set(moved, "test")
     with pytest.raises(DatasetError, match="no 'val' split"):
         clip_set(root, "val", videos)
     # A folder without one of the split's clips, and one where a clip is another video.

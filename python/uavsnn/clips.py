@@ -197,6 +197,8 @@ def _clip_set(
     found: dict[str, int] = {}
     if real:
         folder = Path(sources["real"]["videos"] if videos is None else videos)
+        if not folder.is_dir() and videos is not None:
+            raise DatasetError(f"the folder of videos {folder} is not a folder")
         if not folder.is_dir():
             raise DatasetError(
                 f"the clips of {root} were read from {folder}, which is not a folder here: "

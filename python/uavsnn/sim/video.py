@@ -97,7 +97,8 @@ def _fps(cap: cv2.VideoCapture, fps: float | None, path: str | Path) -> float:
     reported = float(cap.get(cv2.CAP_PROP_FPS))
     if not math.isfinite(reported) or not 0.0 < reported <= 1e6:
         raise SimulationError(
-            f"{str(path)!r} reports no usable frame rate ({reported}); pass fps= explicitly"
+            f"{str(path)!r} reports no usable frame rate ({reported}); give its frame rate "
+            "(fps=, uavsnn simulate --fps)"
         )
     return reported
 
@@ -359,7 +360,8 @@ def _simulator(
     if frame_size[0] < sensor[0] or frame_size[1] < sensor[1]:
         raise ParameterError(
             f"the video's {frame_size[0]}x{frame_size[1]} crop is smaller than the "
-            f"{sensor[0]}x{sensor[1]} sensor; use downsample='frames' to upscale frames instead"
+            f"{sensor[0]}x{sensor[1]} sensor; resize the frames instead (downsample='frames', "
+            "uavsnn simulate --downsample frames)"
         )
     return Pix2NvsSimulator(frame_size, params=params, output_size=sensor, pooling=pooling)
 
