@@ -5,23 +5,8 @@ use pyo3::prelude::*;
 
 use super::errors::detach;
 use crate::error::Error;
-use crate::events::{decode_packed, Event, PackedEvents, SensorSize};
+use crate::events::{validate_source, EventSource, PackedEvents, SensorSize};
 use crate::filters;
-
-/// Decode and validate packed event records (canonical dtype viewed as `uint8`).
-pub fn events_from_bytes(
-    py: Python<'_>,
-    bytes: &PyReadonlyArray1<'_, u8>,
-    width: u16,
-    height: u16,
-    previous_t: Option<u64>,
-) -> PyResult<Vec<Event>> {
-    let raw = bytes.as_slice()?;
-    detach(py, || {
-        let sensor = SensorSize::new(width, height)?;
-        decode_packed(raw, sensor, previous_t, 0)
-    })
-}
 
 /// Validate events given as packed bytes; raise `EventError` naming the first bad event.
 #[pyfunction]
@@ -33,7 +18,15 @@ fn validate_events(
     height: u16,
     previous_t: Option<u64>,
 ) -> PyResult<usize> {
-    events_from_bytes(py, &events, width, height, previous_t).map(|v| v.len())
+    let raw = events.as_slice()?;
+    // Read in place: decoding them first took 16 bytes an event, and an abort where that
+    // allocation failed.
+    detach(py, || {
+        let sensor = SensorSize::new(width, height)?;
+        let packed = PackedEvents::new(raw)?;
+        validate_source(&packed, sensor, previous_t, 0)?;
+        Ok(packed.len())
+    })
 }
 
 /// Which events the background-activity filter keeps (tonic's `denoise` semantics).
