@@ -127,8 +127,10 @@ def _scene(args: argparse.Namespace, size: tuple[int, int]) -> Recording:
             )
         try:
             data = json.loads(Path(args.scene).read_text())
-        except (OSError, ValueError) as exc:
-            raise ParameterError(f"cannot read the scene {args.scene}: {exc}") from exc
+        except (OSError, ValueError, RecursionError) as exc:
+            # RecursionError: arrays or objects nested too deep for the JSON parser.
+            what = "nested too deep" if isinstance(exc, RecursionError) else exc
+            raise ParameterError(f"cannot read the scene {args.scene}: {what}") from exc
         spec = spec_from_dict(data)
     elif args.scene in SCENE_KINDS or args.scene in OBJECT_KINDS:
         rng = np.random.default_rng(args.seed)

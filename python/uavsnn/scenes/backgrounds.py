@@ -16,12 +16,24 @@ import math
 import cv2
 import numpy as np
 
+from uavsnn.errors import SimulationError
 from uavsnn.scenes.camera import Camera
 from uavsnn.scenes.spec import SceneSpec
 
-__all__ = ["Backdrop", "fractal_noise", "tone"]
+__all__ = ["MAX_NOISE_PIXELS", "MAX_TEXTURE_PIXELS", "Backdrop", "fractal_noise", "tone"]
 
 _LUMA = np.array([0.114, 0.587, 0.299], dtype=np.float32)  # BT.601 weights of B, G, R
+
+#: A background's textures (the frame, the pan's travel and the clouds' drift) hold at most
+#: this many pixels (2**25; 128 MiB a float32 layer, and a ground or a hall builds about twenty
+#: layers). The scenes :func:`uavsnn.scenes.sample_spec` draws on a 1280×720 sensor hold
+#: about 10⁶; a fast pan or fast clouds over a long scene, at a long focal length, reach it.
+MAX_TEXTURE_PIXELS = 1 << 25
+#: :func:`fractal_noise` upsamples grids of at most this many pixels (2**29; 2 GiB of float32).
+#: Its features are ``0.3 · focal_px`` across for the clouds, and the grid spans the texture
+#: and four features more each way: the scenes :func:`uavsnn.scenes.sample_spec` draws with an
+#: 18° view on a 1280×720 sensor need 3·10⁷, a 1° view on a 240×180 one 2.7·10⁸.
+MAX_NOISE_PIXELS = 1 << 29
 
 
 def tone(color: tuple[float, float, float] | np.ndarray, channels: int) -> np.ndarray:
@@ -32,11 +44,31 @@ def tone(color: tuple[float, float, float] | np.ndarray, channels: int) -> np.nd
     return c
 
 
+def noise_pixels(height: int, width: int, scale: float, octaves: int = 4) -> int:
+    """The pixels of the largest grid :func:`fractal_noise` upsamples for these arguments."""
+    most = 0
+    for o in range(octaves):
+        s = max(scale / (2**o), 2.0)
+        gh, gw = math.ceil(height / s) + 3, math.ceil(width / s) + 3
+        most = max(most, int(gw * s) * int(gh * s))
+    return most
+
+
 def fractal_noise(
     rng: np.random.Generator, height: int, width: int, scale: float, octaves: int = 4
 ) -> np.ndarray:
     """Smooth value noise in [0, 1] with features about ``scale`` pixels across: octaves of
-    upsampled random grids, each half the size and weight of the one before."""
+    upsampled random grids, each half the size and weight of the one before.
+
+    Raises:
+        SimulationError: a grid of more than :data:`MAX_NOISE_PIXELS` (:func:`noise_pixels`).
+    """
+    need = noise_pixels(height, width, scale, octaves)
+    if need > MAX_NOISE_PIXELS:
+        raise SimulationError(
+            f"noise of {width}x{height} pixels with features {scale:.0f} px across needs a grid "
+            f"of {need:,} pixels, more than {MAX_NOISE_PIXELS:,}"
+        )
     total = np.zeros((height, width), dtype=np.float32)
     amp, norm = 1.0, 0.0
     for o in range(octaves):
@@ -84,6 +116,7 @@ class Backdrop:
         drift = abs(self.cloud_px_s) * duration
         self.cw = int(self.tw + math.ceil(drift) + 4)
         self.cloud_x0 = math.ceil(drift) + 2.0 if self.cloud_px_s > 0 else 2.0
+        self._check_size()
         self.static = not np.any(shifts)
         self.sky: np.ndarray | None = None
         self.clouds: np.ndarray | None = None
@@ -96,6 +129,31 @@ class Backdrop:
             self._build_ground(rng)
         elif bg.kind == "hall":
             self._build_hall(rng)
+
+    def _check_size(self) -> None:
+        """Refuse, before building anything, textures of more than :data:`MAX_TEXTURE_PIXELS`
+        and clouds whose noise needs more than :data:`MAX_NOISE_PIXELS`."""
+        spec, bg = self.spec, self.spec.background
+        clouds = bg.kind in ("sky", "ground") and bg.cloud_cover > 0
+        width = max(self.tw, self.cw) if clouds else self.tw
+        if self.th * width > MAX_TEXTURE_PIXELS:
+            drift = f", the clouds' drift (background.cloud_speed_deg_s {bg.cloud_speed_deg_s})"
+            raise SimulationError(
+                f"the background's texture would be {width}x{self.th} pixels, more than "
+                f"{MAX_TEXTURE_PIXELS:,}: the camera's pan (pan_deg_s {list(spec.pan_deg_s)})"
+                f"{drift if clouds else ''} over duration_s {spec.duration_s} at focal_px "
+                f"{spec.focal_px:g} carry the view too far; slow them or shorten the scene"
+            )
+        if clouds:
+            scale = max(12.0, 0.3 * self.cam.f)
+            need = noise_pixels(self.th, self.cw, scale, 5)
+            if need > MAX_NOISE_PIXELS:
+                raise SimulationError(
+                    f"focal_px {spec.focal_px:g} (a {spec.horizontal_fov_deg:.2g}° view) draws "
+                    f"clouds {scale:.0f} px across, whose texture needs {need:,} pixels, more "
+                    f"than {MAX_NOISE_PIXELS:,}: widen the view (a smaller focal_px) or clear "
+                    "the sky (background.cloud_cover 0)"
+                )
 
     # -- geometry ------------------------------------------------------------------------------
 
@@ -236,6 +294,12 @@ class Backdrop:
                 cv2.circle(mask, centre, max(1, round(r * 16)), 255, -1, cv2.LINE_AA, shift=4)
             a = (mask.astype(np.float32) / 255.0)[:, :, None]
             colour = tone(greens[int(rng.integers(len(greens)))], c)
+            if noise_pixels(y1 - y0, x1 - x0, max(2.0, crown / 3), 2) > MAX_NOISE_PIXELS:
+                raise SimulationError(
+                    f"focal_px {self.spec.focal_px:g} draws a tree {size:.0f} px tall, whose "
+                    f"leaves' texture needs more than {MAX_NOISE_PIXELS:,} pixels: widen the "
+                    "view (a smaller focal_px)"
+                )
             leaves = 0.8 + 0.4 * fractal_noise(rng, y1 - y0, x1 - x0, max(2.0, crown / 3), 2)
             patch = fg[y0:y1, x0:x1]
             patch[:, :, :c] = patch[:, :, :c] * (1 - a) + colour * leaves[:, :, None] * a

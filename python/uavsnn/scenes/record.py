@@ -116,9 +116,16 @@ def json_ready(value: Any) -> Any:
     return value
 
 
-def _tuples(value: Any) -> Any:
+#: A field of a scene nests lists this deep at most (a path's amplitudes: a list of lists).
+_MAX_DEPTH = 2
+
+
+def _tuples(value: Any, where: str, depth: int = 0) -> Any:
+    """Lists as tuples, refusing lists nested deeper than any field's."""
     if isinstance(value, list):
-        return tuple(_tuples(v) for v in value)
+        if depth >= _MAX_DEPTH:
+            raise SimulationError(f"{where}: lists nested deeper than {_MAX_DEPTH} levels")
+        return tuple(_tuples(v, where, depth + 1) for v in value)
     return value
 
 
@@ -129,8 +136,18 @@ def _build(cls: Any, data: Any, where: str) -> Any:
     unknown = sorted(set(data) - names)
     if unknown:
         raise SimulationError(f"{where}: unknown field(s) {', '.join(unknown)}")
+    missing = sorted(
+        f.name
+        for f in dataclasses.fields(cls)
+        if f.name not in data
+        and f.default is dataclasses.MISSING
+        and f.default_factory is dataclasses.MISSING
+    )
+    if missing:
+        raise SimulationError(f"{where}: missing field(s) {', '.join(missing)}")
+    fields = {k: _tuples(v, k if where == "scene" else f"{where}.{k}") for k, v in data.items()}
     try:
-        return cls(**{k: _tuples(v) for k, v in data.items()})
+        return cls(**fields)
     except TypeError as exc:
         raise SimulationError(f"{where}: {exc}") from exc
 

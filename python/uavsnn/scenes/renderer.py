@@ -317,6 +317,17 @@ FINE_SS = 8
 #: that the "dvs" domain's renderings give the emulator (the issue's floor is 4).
 SAMPLES_PER_PASS = 6
 
+#: The sub-frame samples of one patch between two frames hold at most this many bytes
+#: (float32): a larger patch gets fewer samples. The scenes that
+#: :func:`uavsnn.scenes.sample_spec` draws take at most 7 samples of a patch no larger than the
+#: frame (26 MB on a 1280×720 sensor).
+MAX_PATCH_BYTES = 1 << 30
+
+#: :func:`render` holds every frame of a scene at once, at most this many bytes of them (4 GiB);
+#: :func:`frames` and :func:`uavsnn.scenes.record` hold one frame at a time. A 1 s "dvs" scene
+#: at 500 fps on a 1280×720 sensor is 1.8·10⁹ bytes.
+MAX_RENDER_BYTES = 1 << 32
+
 
 class Frame(NamedTuple):
     """One rendered frame: index, time, image, label, and the sub-frame patches since the
@@ -338,7 +349,8 @@ def frames(
 
     Between frames ``k - 1`` and ``k``, an object whose look repeats at ``fast_hz`` (a rotor's
     blade pass, a wing beat) is rendered again in a patch around it at
-    ``ceil(samples_per_pass · fast_hz / fps) - 1`` evenly spaced times (integer microseconds),
+    ``ceil(samples_per_pass · fast_hz / fps) - 1`` evenly spaced times (integer microseconds;
+    at most one a microsecond, and no more than :data:`MAX_PATCH_BYTES` of samples a patch),
     on the background interpolated between the two frames and with its path interpolated, its
     moving parts at each time; overlapping patches merge. ``samples_per_pass = 0`` turns this
     off (every motion sampled at the frame rate only, as before). Frames are the same as
@@ -399,6 +411,7 @@ def frames(
             t0, t1 = int(timestamps[k - 1]), int(timestamps[k])
             for (x0, y0, x1, y1), members in _patches(fast, prev_boxes, objects.boxes, w, h):
                 m = max(steps[i] for i in members)
+                m = min(m, MAX_PATCH_BYTES // (4 * (y1 - y0) * (x1 - x0)) + 1)
                 sub = sub_frame_times(t0, t1, m, jitter)
                 if not len(sub):
                     continue
@@ -430,7 +443,9 @@ def sub_frame_times(t0: int, t1: int, m: int, rng: np.random.Generator) -> np.nd
     of the strata centred on ``t0 + j (t1 - t0) / m``, at a random place in it: jittered, so
     that the sampling grid does not put lines of its own into the events' spectrum (regular
     sub-samples make the crossings of barely-crossing pixels bunch at the grid's rate).
-    Integer microseconds, duplicates dropped."""
+    Integer microseconds, duplicates dropped; ``m`` is taken as at most ``t1 - t0`` (one
+    stratum a microsecond), so that a huge ``m`` costs no more than the times there are."""
+    m = min(m, t1 - t0)
     if m <= 1:
         return np.zeros(0, dtype=np.uint64)
     j = np.arange(1, m) + rng.random(m - 1) - 0.5
@@ -446,11 +461,12 @@ def _patches(
     h: int,
 ) -> list[tuple[tuple[int, int, int, int], list[int]]]:
     """Disjoint integer rectangles, clipped to the frame, that cover each fast object's box at
-    both frames (one pixel of margin), with the objects each covers."""
+    both frames (one pixel of margin), with the objects each covers; a box that is not finite
+    (drawn at a scale that overflowed) is skipped."""
     rects: list[tuple[list[int], list[int]]] = []
     for i in fast:
         a, b = before[i], after[i]
-        if a is None or b is None:
+        if a is None or b is None or not all(map(math.isfinite, (*a, *b))):
             continue
         r = [
             max(math.floor(min(a[0], b[0])) - 1, 0),
@@ -491,9 +507,20 @@ def render(spec: SceneSpec, *, seed: int) -> tuple[np.ndarray, np.ndarray, np.nd
 
     Whole frames only: for the "dvs" domain, :func:`uavsnn.scenes.record` also renders fast
     parts between frames (:func:`frames`) and is what the dataset builder uses.
+
+    Raises:
+        SimulationError: a bad spec, or frames of more than :data:`MAX_RENDER_BYTES` in all.
     """
     _check(spec)
     n, w, h = spec.n_frames, spec.width, spec.height
+    nbytes = n * w * h * (3 if spec.frame_format == "bgr8" else 4)
+    if nbytes > MAX_RENDER_BYTES:
+        raise SimulationError(
+            f"render holds every frame at once: {n} frames of {w}x{h} are "
+            f"{nbytes / 1e9:.1f} GB, more than {MAX_RENDER_BYTES / 1e9:.1f} GB; shorten the "
+            "scene (duration_s), lower its fps, or take its frames one at a time (frames(), "
+            "record())"
+        )
     out = (
         np.empty((n, h, w, 3), dtype=np.uint8)
         if spec.frame_format == "bgr8"

@@ -51,6 +51,31 @@ CLASS_OF_KIND: dict[str, str] = {
 OBJECT_KINDS = tuple(CLASS_OF_KIND)
 
 
+#: Path values (metres, m/s, m/s², Hz, radians) lie within ± this: far beyond any scene
+#: :func:`uavsnn.scenes.sample_spec` draws (a ball thrown for 600 s starts 441 km below its
+#: midpoint), and small enough that positions over a scene stay finite.
+MAX_PATH_VALUE = 1e9
+#: The largest object (metres; the largest that :func:`uavsnn.scenes.sample_spec` draws, an
+#: airliner, is 70 m long).
+MAX_SIZE_M = 1e4
+#: The fastest rotor, wing beat or tumble (revolutions or beats per second; the fastest that
+#: :func:`uavsnn.scenes.sample_spec` draws, a Tello's rotors, turn at up to 260). Between
+#: frames a "dvs" scene samples fast parts at most once a microsecond.
+MAX_RATE_HZ = 1e4
+#: A scene has at most this many frames (500 fps for 600 s is 300,000)...
+MAX_FRAMES = 1_000_000
+#: ...and its frames, as the float32 gray that the renderer draws, at most this many bytes
+#: (2·10⁹ pixels; a 1 s scene at 500 fps on a 1280×720 sensor is 1.8·10⁹ bytes).
+MAX_SCENE_BYTES = 8_000_000_000
+
+
+def _is_number(value: object) -> bool:
+    """A real number, not a bool or a string (which NumPy would convert)."""
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(
+        value, (bool, np.bool_)
+    )
+
+
 def _finite(
     name: str,
     value: float,
@@ -59,6 +84,8 @@ def _finite(
     high: float | None = None,
     low_open: bool = False,
 ) -> None:
+    if not _is_number(value):
+        raise SimulationError(f"{name} must be a number, got {value!r}")
     if not math.isfinite(value):
         raise SimulationError(f"{name} must be finite, got {value!r}")
     if low is not None and (value < low or (low_open and value == low)):
@@ -68,14 +95,36 @@ def _finite(
         raise SimulationError(f"{name} must be <= {high}, got {value!r}")
 
 
-def _vector(name: str, value: object, shape: tuple[int, ...]) -> np.ndarray:
+def _vector(
+    name: str, value: object, shape: tuple[int, ...], bound: float | None = None
+) -> np.ndarray:
     try:
         arr = np.asarray(value, dtype=np.float64).reshape(shape)
+        leaves = np.asarray(value, dtype=object).ravel()
     except (TypeError, ValueError) as exc:
         raise SimulationError(f"{name} must have shape {shape}, got {value!r}") from exc
+    if not all(_is_number(v) for v in leaves):
+        raise SimulationError(f"{name} must hold numbers, got {value!r}")
     if not np.all(np.isfinite(arr)):
         raise SimulationError(f"{name} must be finite, got {arr.tolist()}")
+    if bound is not None and np.any(np.abs(arr) > bound):
+        raise SimulationError(f"{name} must lie within ±{bound:g}, got {arr.tolist()}")
     return arr
+
+
+def _store(spec: object, field: str, arr: np.ndarray) -> None:
+    """Set ``field`` of the frozen ``spec`` to ``arr`` as (nested) tuples of Python floats, so
+    that what was checked is what is drawn."""
+
+    def tuples(v: object) -> object:
+        return tuple(tuples(x) for x in v) if isinstance(v, list) else v
+
+    object.__setattr__(spec, field, tuples(arr.tolist()))
+
+
+def _variant(name: str, value: object) -> None:
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or value < 0:
+        raise SimulationError(f"{name} must be an integer >= 0, got {value!r}")
 
 
 @dataclass(frozen=True)
@@ -88,7 +137,7 @@ class PathSpec:
     One form covers every path the sampler makes: ``"linear"`` (no acceleration, no wobble),
     ``"curved"`` (a turn and a slow sway), ``"hover"`` (no velocity, small jitter),
     ``"ballistic"`` (gravity), ``"erratic"`` (large fast wobble) and ``"falling"``. ``kind`` only
-    names the shape.
+    names the shape. Every value lies within ±:data:`MAX_PATH_VALUE` (10⁹).
     """
 
     kind: str
@@ -100,20 +149,25 @@ class PathSpec:
     phases: tuple[float, ...] = ()
 
     def __post_init__(self) -> None:
-        _vector("path.start", self.start, (3,))
-        _vector("path.velocity", self.velocity, (3,))
-        _vector("path.acceleration", self.acceleration, (3,))
-        k = len(self.freqs)
-        if len(self.amplitudes) != k or len(self.phases) != k:
+        for name in ("start", "velocity", "acceleration"):
+            _store(self, name, _vector(f"path.{name}", getattr(self, name), (3,), MAX_PATH_VALUE))
+        try:
+            k = len(self.freqs)
+            counts = (len(self.amplitudes), k, len(self.phases))
+        except TypeError as exc:
+            raise SimulationError(
+                f"path.amplitudes, freqs and phases must be lists, got {self.amplitudes!r}, "
+                f"{self.freqs!r}, {self.phases!r}"
+            ) from exc
+        if counts[0] != k or counts[2] != k:
             raise SimulationError(
                 f"path wobble needs as many amplitudes, freqs and phases: got "
-                f"{len(self.amplitudes)}, {k}, {len(self.phases)}"
+                f"{counts[0]}, {k}, {counts[2]}"
             )
-        _vector("path.amplitudes", self.amplitudes, (k, 3))
-        freqs = _vector("path.freqs", self.freqs, (k,))
-        _vector("path.phases", self.phases, (k,))
-        if np.any(freqs < 0):
-            raise SimulationError(f"path.freqs must be >= 0, got {freqs.tolist()}")
+        for name, shape in (("amplitudes", (k, 3)), ("freqs", (k,)), ("phases", (k,))):
+            _store(self, name, _vector(f"path.{name}", getattr(self, name), shape, MAX_PATH_VALUE))
+        if any(f < 0 for f in self.freqs):
+            raise SimulationError(f"path.freqs must be >= 0, got {list(self.freqs)}")
 
     def position(self, t: np.ndarray) -> np.ndarray:
         """Positions ``(n, 3)`` at times ``t`` (seconds)."""
@@ -150,7 +204,8 @@ class ObjectSpec:
     ``rate_hz`` is the rotor speed (revolutions per second), the wing-beat or the leaf's tumble
     rate; ``heading_deg`` is the direction the object faces (0 = to the camera's right, 90 =
     away from the camera); ``color`` is its main reflectance, linear BGR in [0, 1]; ``variant``
-    picks a look within the kind.
+    picks a look within the kind (an integer >= 0). ``size_m`` is at most :data:`MAX_SIZE_M`
+    and ``rate_hz`` at most :data:`MAX_RATE_HZ` (both 10⁴).
     """
 
     kind: str
@@ -163,15 +218,19 @@ class ObjectSpec:
     phase: float = 0.0
 
     def __post_init__(self) -> None:
-        if self.kind not in CLASS_OF_KIND:
+        if not isinstance(self.kind, str) or self.kind not in CLASS_OF_KIND:
             raise SimulationError(f"object kind must be one of {OBJECT_KINDS}, got {self.kind!r}")
-        _finite("object.size_m", self.size_m, low=0.0, low_open=True)
-        _finite("object.rate_hz", self.rate_hz, low=0.0)
+        _finite("object.size_m", self.size_m, low=0.0, low_open=True, high=MAX_SIZE_M)
+        _finite("object.rate_hz", self.rate_hz, low=0.0, high=MAX_RATE_HZ)
         _finite("object.heading_deg", self.heading_deg)
         _finite("object.phase", self.phase)
         color = _vector("object.color", self.color, (3,))
         if np.any(color < 0) or np.any(color > 1):
             raise SimulationError(f"object.color must lie in [0, 1], got {color.tolist()}")
+        _store(self, "color", color)
+        _variant("object.variant", self.variant)
+        if not isinstance(self.path, PathSpec):
+            raise SimulationError(f"object.path must be a PathSpec, got {self.path!r}")
 
     @property
     def cls(self) -> str:
@@ -193,7 +252,7 @@ class Background:
     ``overcast`` in [0, 1] greys the sky; ``cloud_speed_deg_s`` is the clouds' angular drift;
     ``wind`` in [0, 1] sways the trees. Where the horizon or the hall's floor falls in the frame
     follows from the camera's tilt and ``camera_height_m``; ``room_m`` is the hall's (length,
-    width, height). ``variant`` picks a layout.
+    width, height). ``variant`` (an integer >= 0) picks a layout.
     """
 
     kind: str = "sky"
@@ -218,6 +277,8 @@ class Background:
         room = _vector("background.room_m", self.room_m, (3,))
         if np.any(room < 2.0) or np.any(room > 500.0):
             raise SimulationError(f"background.room_m must lie in [2, 500] m, got {room.tolist()}")
+        _store(self, "room_m", room)
+        _variant("background.variant", self.variant)
         if self.kind == "hall" and self.camera_height_m >= room[2]:
             raise SimulationError(
                 f"background.camera_height_m ({self.camera_height_m}) must be below the hall's "
@@ -266,6 +327,12 @@ class SceneSpec:
     is drawn blurred by the disk of its centre's range, the background sharp. The default
     ``aperture_mm = 0`` is a pinhole: every range sharp, as scenes were drawn before the lens
     (:class:`uavsnn.scenes.Lens` sets both from an f-number and the sensor's pixel pitch).
+
+    Size: a scene has at most :data:`MAX_FRAMES` (10⁶) frames, and its frames as float32 (4
+    bytes a pixel, as the renderer draws them) at most :data:`MAX_SCENE_BYTES` (8·10⁹ bytes);
+    the scenes :func:`uavsnn.scenes.sample_spec` draws by default have at most 500 frames, of
+    at most 1.8·10⁹ bytes (1 s at 500 fps on a 1280×720 sensor). :func:`uavsnn.scenes.render`, which
+    holds every frame at once, takes less (:data:`uavsnn.scenes.renderer.MAX_RENDER_BYTES`).
     """
 
     domain: str
@@ -297,21 +364,33 @@ class SceneSpec:
                 f"a scene needs at least 2 frames, got {self.n_frames} "
                 f"({self.duration_s} s at {self.fps} fps)"
             )
-        if self.n_frames * self.width * self.height > 2_000_000_000:
+        if self.n_frames > MAX_FRAMES:
+            raise SimulationError(
+                f"scene too long: {self.n_frames} frames ({self.duration_s} s at {self.fps} "
+                f"fps), more than {MAX_FRAMES:,}: shorten duration_s or lower fps"
+            )
+        nbytes = 4 * self.n_frames * self.width * self.height
+        if nbytes > MAX_SCENE_BYTES:
             raise SimulationError(
                 f"scene too large to hold in memory: {self.n_frames} frames of "
-                f"{self.width}x{self.height}"
+                f"{self.width}x{self.height} are {nbytes / 1e9:.1f} GB of float32, more than "
+                f"{MAX_SCENE_BYTES / 1e9:g} GB: shorten duration_s, lower fps or the size"
             )
         _finite("focal_px", self.focal_px, low=0.0, low_open=True, high=1e6)
         _finite("tilt_deg", self.tilt_deg, low=-89.0, high=89.0)
         pan = _vector("pan_deg_s", self.pan_deg_s, (2,))
         if np.any(np.abs(pan) > 90):
             raise SimulationError(f"pan_deg_s must be within ±90 deg/s, got {pan.tolist()}")
+        _store(self, "pan_deg_s", pan)
         if self.output not in (None, "bgr8", "gray32f"):
             raise SimulationError(f"output must be 'bgr8' or 'gray32f', got {self.output!r}")
         _finite("aperture_mm", self.aperture_mm, low=0.0, high=500.0)
         if self.focus_m is not None:
             _finite("focus_m", self.focus_m, low=NEAR_FOCUS_M, high=1e6)
+        if not isinstance(self.background, Background):
+            raise SimulationError(f"background must be a Background, got {self.background!r}")
+        if not isinstance(self.lighting, Lighting):
+            raise SimulationError(f"lighting must be a Lighting, got {self.lighting!r}")
         for i, obj in enumerate(self.objects):
             if not isinstance(obj, ObjectSpec):
                 raise SimulationError(f"objects[{i}] must be an ObjectSpec, got {obj!r}")
