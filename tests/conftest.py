@@ -104,3 +104,15 @@ def write_clip() -> Callable[..., None]:
     dark=20)``: a labelled clip in the Svanström layout (a dark square moving over a bright
     sky)."""
     return _write_clip
+
+
+def one_line_exit_2(capsys: pytest.CaptureFixture[str], argv: list[str], match: str) -> str:
+    """Run the command line; it must exit 2 with one error line that contains ``match``."""
+    from uavsnn.cli import main
+
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert "error:" in lines[0] and match in lines[0], lines[0]
+    return lines[0]

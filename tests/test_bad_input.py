@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import one_line_exit_2 as _one_line_exit_2
 
 import uavsnn
 import uavsnn.cli.dataset
@@ -70,16 +71,6 @@ def _events(n: int, seed: int = 0, size: tuple[int, int] = SIZE) -> np.ndarray:
     ev["y"] = rng.integers(0, size[1], n)
     ev["p"] = rng.random(n) < 0.5
     return ev
-
-
-def _one_line_exit_2(capsys: pytest.CaptureFixture[str], argv: list[str], match: str) -> str:
-    """Run the command line; it must exit 2 with one error line that contains ``match``."""
-    assert main(argv) == 2
-    err = capsys.readouterr().err
-    lines = err.strip().splitlines()
-    assert len(lines) == 1, err
-    assert "error:" in lines[0] and match in lines[0], lines[0]
-    return lines[0]
 
 
 # -- 1. overlaps that keep too many windows live ------------------------------------------------

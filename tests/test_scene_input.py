@@ -14,9 +14,9 @@ from typing import Any
 
 import numpy as np
 import pytest
+from conftest import one_line_exit_2 as _one_line_exit_2
 
 from uavsnn import SimulationError
-from uavsnn.cli import main
 from uavsnn.scenes import (
     ObjectSpec,
     PathSpec,
@@ -62,16 +62,6 @@ def _helicopter(variant: object) -> Edit:
         d["objects"][0].update(kind="helicopter", size_m=12.0, rate_hz=5.0, variant=variant)
 
     return edit
-
-
-def _one_line_exit_2(capsys: pytest.CaptureFixture[str], argv: list[str], match: str) -> str:
-    """Run the command line; it must exit 2 with one error line that contains ``match``."""
-    assert main(argv) == 2
-    err = capsys.readouterr().err
-    lines = err.strip().splitlines()
-    assert len(lines) == 1, err
-    assert "error:" in lines[0] and match in lines[0], lines[0]
-    return lines[0]
 
 
 # -- 1. quoted numbers and bad variants -------------------------------------------------------
