@@ -238,16 +238,34 @@ def test_a_scene_of_too_many_frames_is_refused() -> None:
         SceneSpec("dvs", 1280, 720, 500.0, 5.0, 1000.0)
 
 
-def test_render_refuses_more_frames_than_it_can_hold(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
-) -> None:
-    # 90 s at 500 fps on 240x180: render() wanted 7.8 GB of frames for an 8-frame sheet.
+def test_render_refuses_more_frames_than_it_can_hold() -> None:
+    # 90 s at 500 fps on 240x180: render() wanted 7.8 GB of frames.
     spec = sample_spec("dvs", "uav", np.random.default_rng(0), duration_s=90.0)
     with pytest.raises(SimulationError, match="render holds every frame"):
         render(spec, seed=0)
+
+
+def test_the_preview_draws_its_frames_one_at_a_time(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """It called render() for an 8-frame sheet, which held every frame (a 90 s preview
+    needed 7.8 GB); the sheet is the same as render's frames give."""
+    import cv2
+
+    from uavsnn.cli import main
+    from uavsnn.cli._camera import lens_option, through_lens
+    from uavsnn.scenes import contact_sheet
+
+    spec = sample_spec("dvs", "uav", np.random.default_rng(2), duration_s=0.1)
+    spec = through_lens(spec, lens_option(None, None), (spec.width, spec.height))
+    images, _, labels = render(spec, seed=2)
+    expected = contact_sheet(images, labels, count=6, columns=4, scale=2.0)
+    # render() now refuses any scene: the preview must not need it.
+    monkeypatch.setattr(scene_renderer, "MAX_RENDER_BYTES", 1)
     out = tmp_path / "p.png"
-    _one_line_exit_2(capsys, ["dataset", "preview", str(out), "--duration", "90"], "GB")
-    assert not out.exists()
+    argv = ["dataset", "preview", str(out), "--duration", "0.1", "--seed", "2", "--frames", "6"]
+    assert main(argv) == 0
+    np.testing.assert_array_equal(cv2.imread(str(out), cv2.IMREAD_UNCHANGED), expected)
 
 
 # -- 6. huge textures -------------------------------------------------------------------------

@@ -36,10 +36,11 @@ from uavsnn.scenes import (
     ObjectSpec,
     SceneSpec,
     contact_sheet,
-    render,
     sample_spec,
     write_png,
 )
+from uavsnn.scenes.renderer import LABEL_DTYPE
+from uavsnn.scenes.renderer import frames as scene_frames
 from uavsnn.sim import Pix2NvsParams
 
 __all__ = ["register"]
@@ -305,10 +306,17 @@ def _preview(args: argparse.Namespace) -> int:
         fov_deg=fov_option(args.fov),
     )
     spec = through_lens(spec, lens, (spec.width, spec.height))
-    frames, _, labels = render(spec, seed=args.seed)
+    # The frames the sheet shows, drawn one at a time (render() held every frame: 7.8 GB for
+    # a 90 s scene), picked as contact_sheet picks them from a whole clip.
+    n = spec.n_frames
+    picks = set(np.linspace(0, n - 1, min(args.frames, n)).astype(int).tolist())
+    shown = [f for f in scene_frames(spec, seed=args.seed, samples_per_pass=0) if f.k in picks]
+    labels = np.array([f.label for f in shown], dtype=LABEL_DTYPE)
     # a 240-pixel frame is drawn twice its size to be seen; wider ones as they are
     scale = 2.0 if args.domain == "dvs" and spec.width <= 320 else 1.0
-    sheet = contact_sheet(frames, labels, count=args.frames, columns=4, scale=scale)
+    sheet = contact_sheet(
+        np.stack([f.image for f in shown]), labels, count=len(shown), columns=4, scale=scale
+    )
     write_png(args.out, sheet)
     objects = ", ".join(_preview_object(spec, o) for o in spec.objects) or "none"
     print(
