@@ -284,13 +284,7 @@ class Identifier:
         """
         if "identify.version" not in arrays:
             return None
-        stored = np.asarray(arrays["identify.version"])
-        if stored.shape != () or stored.dtype.kind not in "iu":
-            raise ModelFileError(
-                f"identify.version must be one integer, got an array of {stored.dtype} "
-                f"{stored.shape}"
-            )
-        version = int(stored)
+        version = int(_one(arrays, "identify.version", "iu", "one integer"))
         if version not in (1, 2, VERSION):
             raise ModelFileError(
                 f"identification version {version}; this uavsnn reads versions 1 to {VERSION}"
@@ -347,6 +341,18 @@ class Identifier:
             raise ModelFileError(f"its identification arrays are inconsistent: {exc}") from exc
 
 
+def _one(arrays: Any, key: str, kinds: str, what: str) -> np.ndarray:
+    """The 0-D array stored as ``key``, of a dtype kind in ``kinds``.
+
+    Raises:
+        ModelFileError: it is an array of another shape or dtype (``what`` it must be).
+    """
+    stored = np.asarray(arrays[key])
+    if stored.shape != () or stored.dtype.kind not in kinds:
+        raise ModelFileError(f"{key} must be {what}, got an array of {stored.dtype} {stored.shape}")
+    return stored
+
+
 def _gate(arrays: Any) -> float | None:
     """The tracker gate stored as ``identify.gate_px`` (``None`` when absent).
 
@@ -355,12 +361,7 @@ def _gate(arrays: Any) -> float | None:
     """
     if "identify.gate_px" not in arrays:
         return None
-    stored = np.asarray(arrays["identify.gate_px"])
-    if stored.shape != () or stored.dtype.kind not in "iuf":
-        raise ModelFileError(
-            f"identify.gate_px must be one number, got an array of {stored.dtype} {stored.shape}"
-        )
-    gate = float(stored)
+    gate = float(_one(arrays, "identify.gate_px", "iuf", "one number"))
     if not (math.isfinite(gate) and gate > 0):
         raise ModelFileError(f"identify.gate_px must be a finite number > 0, got {gate}")
     return gate
