@@ -37,6 +37,7 @@ from uavsnn.scenes import (
     SceneSpec,
     contact_sheet,
     sample_spec,
+    sheet_frames,
     write_png,
 )
 from uavsnn.scenes.renderer import LABEL_DTYPE
@@ -307,9 +308,8 @@ def _preview(args: argparse.Namespace) -> int:
     )
     spec = through_lens(spec, lens, (spec.width, spec.height))
     # The frames the sheet shows, drawn one at a time (render() held every frame: 7.8 GB for
-    # a 90 s scene), picked as contact_sheet picks them from a whole clip.
-    n = spec.n_frames
-    picks = set(np.linspace(0, n - 1, min(args.frames, n)).astype(int).tolist())
+    # a 90 s scene).
+    picks = set(sheet_frames(spec.n_frames, args.frames).tolist())
     shown = [f for f in scene_frames(spec, seed=args.seed, samples_per_pass=0) if f.k in picks]
     labels = np.array([f.label for f in shown], dtype=LABEL_DTYPE)
     # a 240-pixel frame is drawn twice its size to be seen; wider ones as they are

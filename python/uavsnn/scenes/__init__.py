@@ -13,7 +13,7 @@ that blurs what is near. See ``docs/dataset.md``.
 from __future__ import annotations
 
 from uavsnn.scenes.camera import PIXEL_PITCH_UM, Lens
-from uavsnn.scenes.preview import contact_sheet, write_png
+from uavsnn.scenes.preview import contact_sheet, sheet_frames, write_png
 from uavsnn.scenes.record import Recorded, record, spec_from_dict, spec_to_dict
 from uavsnn.scenes.renderer import LABEL_DTYPE, render, scene_labels
 from uavsnn.scenes.sampler import SCENE_KINDS, default_format, object_shares, sample_spec
@@ -53,6 +53,7 @@ __all__ = [
     "render",
     "sample_spec",
     "scene_labels",
+    "sheet_frames",
     "spec_from_dict",
     "spec_to_dict",
     "write_png",

@@ -10,7 +10,13 @@ import numpy as np
 
 from uavsnn.errors import ParameterError, ShapeError
 
-__all__ = ["contact_sheet", "write_png"]
+__all__ = ["contact_sheet", "sheet_frames", "write_png"]
+
+
+def sheet_frames(n: int, count: int) -> np.ndarray:
+    """The indices of the frames :func:`contact_sheet` shows of ``n``: ``count`` spread over
+    the clip, from the first to the last (fewer when ``n`` is smaller)."""
+    return np.unique(np.linspace(0, n - 1, min(count, n)).astype(int))
 
 
 def contact_sheet(
@@ -29,7 +35,7 @@ def contact_sheet(
         raise ParameterError(
             f"count, columns and scale must be positive: {count}, {columns}, {scale}"
         )
-    picks = np.unique(np.linspace(0, len(frames) - 1, min(count, len(frames))).astype(int))
+    picks = sheet_frames(len(frames), count)
     tiles = []
     for k in picks:
         f = frames[k]
