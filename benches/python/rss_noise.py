@@ -32,7 +32,7 @@ from uavsnn.dataset.build import parse_sensor
 from uavsnn.events import EVENT_DTYPE, Recording
 from uavsnn.experiments import NOISE_PART_SPIKES, _noise_parts, noise_level, static_twin
 from uavsnn.network import Network, default_config
-from uavsnn.windows import make_windows
+from uavsnn.windows import make_windows, noise_per_window
 
 WINDOW_US = 50_000
 
@@ -78,7 +78,7 @@ def run(args: argparse.Namespace, budget: int) -> dict[str, object]:
     data = test_windows(sensor, args.windows, args.density, args.box, args.seed)
     net = Network({**default_config(), "width": sensor[0], "height": sensor[1]}, seed=0)
     static, _ = static_twin(net, data.windows)
-    noise = int(np.floor(args.fraction * sensor[0] * sensor[1] + 0.5))
+    noise = noise_per_window(args.fraction, sensor)
     spikes = np.diff(data.windows.offsets)
     before = status_mib("VmRSS")
     start = time.perf_counter()

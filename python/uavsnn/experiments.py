@@ -5,7 +5,6 @@ PENT or static thresholds, and accuracy against additive noise (Table 3).
 
 from __future__ import annotations
 
-import math
 import platform
 import time
 from collections.abc import Iterable, Sequence
@@ -30,7 +29,7 @@ from uavsnn.evaluation import (
 )
 from uavsnn.network import CONV_LAYERS, Inference, Network, default_config
 from uavsnn.training import apply_overrides
-from uavsnn.windows import Windows, add_noise
+from uavsnn.windows import Windows, add_noise, noise_per_window
 
 if TYPE_CHECKING:
     from uavsnn.features import WindowFeatures
@@ -360,9 +359,8 @@ def noise_level(
         return []
     for network in networks.values():
         check_test_set(data, network, balanced=True)
-    width, height = data.windows.sensor_size
     n = len(data)
-    noise = math.floor(float(fraction) * width * height + 0.5) if fraction > 0 else 0
+    noise = noise_per_window(fraction, data.windows.sensor_size) if fraction > 0 else 0
     spikes = np.diff(np.asarray(data.windows.offsets, dtype=np.int64))
     runs: dict[str, list[Inference]] = {mode: [] for mode in networks}
     seconds = dict.fromkeys(networks, 0.0)

@@ -35,6 +35,7 @@ from uavsnn import _core
 from uavsnn.boxes import xywh
 from uavsnn.errors import DatasetError, ParameterError, ShapeError
 from uavsnn.signature import RotorEstimate, measure_box
+from uavsnn.windows import noise_per_window
 
 if TYPE_CHECKING:
     from uavsnn.dataset import LabelledWindows
@@ -507,7 +508,7 @@ def raw_noise_events(
     if not 0.0 <= fraction <= 1.0:
         raise ParameterError(f"noise fraction must be in [0, 1], got {fraction!r}")
     width, height = int(sensor[0]), int(sensor[1])
-    n = math.floor(fraction * width * height + 0.5)
+    n = noise_per_window(fraction, (width, height))
     if n == 0:
         return events
     rng = np.random.default_rng([int(seed), int(window)])

@@ -29,7 +29,14 @@ from uavsnn._validate import MAX_TIME_US, int_param
 from uavsnn.errors import ParameterError, ShapeError
 from uavsnn.events import Recording, packed_bytes
 
-__all__ = ["MEMORY_LIMIT", "Windows", "add_noise", "make_windows", "window_step"]
+__all__ = [
+    "MEMORY_LIMIT",
+    "Windows",
+    "add_noise",
+    "make_windows",
+    "noise_per_window",
+    "window_step",
+]
 
 
 def _physical_memory() -> int | None:
@@ -312,6 +319,12 @@ def make_windows(
         end,
     )
     return Windows._from_engine(recording.sensor_size, length, columns)
+
+
+def noise_per_window(fraction: float, sensor_size: tuple[int, int]) -> int:
+    """The noise events :func:`add_noise` draws per window on a ``sensor_size`` sensor:
+    ``fraction · W · H`` rounded half away from zero, as the engine rounds it."""
+    return math.floor(float(fraction) * sensor_size[0] * sensor_size[1] + 0.5)
 
 
 def add_noise(
