@@ -31,6 +31,28 @@ def check_int(name: str, value: Any, low: int = 0, high: int | None = None) -> i
     return result
 
 
+def check_real(
+    name: str,
+    value: Any,
+    *,
+    low: float | None = None,
+    high: float | None = None,
+    low_open: bool = False,
+    high_open: bool = False,
+) -> float:
+    """A finite real in the given range, as ``float``."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise ParameterError(f"{name} must be a number, got {value!r}")
+    v = float(value)
+    if not math.isfinite(v):
+        raise ParameterError(f"{name} must be finite, got {v}")
+    if low is not None and (v < low or (low_open and v == low)):
+        raise ParameterError(f"{name} must be {'>' if low_open else '>='} {low}, got {v}")
+    if high is not None and (v > high or (high_open and v == high)):
+        raise ParameterError(f"{name} must be {'<' if high_open else '<='} {high}, got {v}")
+    return v
+
+
 def int_param(name: str, value: Any, minimum: int, maximum: int = U64_MAX) -> int:
     """An integer parameter (an integral float is accepted), or :class:`ParameterError`."""
     if isinstance(value, bool) or not isinstance(value, numbers.Real):

@@ -23,7 +23,6 @@ file holds): importing this module registers that with :mod:`copyreg`.
 from __future__ import annotations
 
 import copyreg
-import math
 import os
 import socket
 import threading
@@ -34,7 +33,7 @@ from urllib.parse import urlsplit
 
 import numpy as np
 
-from uavsnn._validate import check_int
+from uavsnn._validate import check_int, check_real
 from uavsnn.errors import ParameterError, UavsnnError
 from uavsnn.network import CONV_LAYERS, Network
 
@@ -264,9 +263,7 @@ def connect(
     Raises:
         ParameterError: Ray is not installed, or the cluster cannot be reached.
     """
-    timeout = float(timeout_s) if isinstance(timeout_s, (int, float)) else math.nan
-    if isinstance(timeout_s, bool) or not (math.isfinite(timeout) and timeout > 0):
-        raise ParameterError(f"timeout_s must be a number of seconds > 0, got {timeout_s!r}")
+    timeout = check_real("timeout_s", timeout_s, low=0.0, low_open=True)
     if num_cpus is not None:
         check_int("num_cpus", num_cpus, 1)  # 0 CPUs: every task would wait for ever
     ray = _import_ray()

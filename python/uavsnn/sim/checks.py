@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from uavsnn._validate import check_int
+from uavsnn._validate import check_int, check_real
 from uavsnn.errors import ParameterError
 
 __all__ = [
@@ -32,28 +32,6 @@ __all__ = [
     "plot_spectra",
     "rotor_events",
 ]
-
-
-def check_real(
-    name: str,
-    value: Any,
-    *,
-    low: float | None = None,
-    high: float | None = None,
-    low_open: bool = False,
-    high_open: bool = False,
-) -> float:
-    """A finite real in the given range, as ``float``."""
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise ParameterError(f"{name} must be a number, got {value!r}")
-    v = float(value)
-    if not math.isfinite(v):
-        raise ParameterError(f"{name} must be finite, got {v}")
-    if low is not None and (v < low or (low_open and v == low)):
-        raise ParameterError(f"{name} must be {'>' if low_open else '>='} {low}, got {v}")
-    if high is not None and (v > high or (high_open and v == high)):
-        raise ParameterError(f"{name} must be {'<' if high_open else '<='} {high}, got {v}")
-    return v
 
 
 def check_choice(name: str, value: Any, choices: tuple[str, ...]) -> str:
