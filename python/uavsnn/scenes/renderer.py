@@ -177,6 +177,21 @@ def _draw(
 #: The blur disks are cached by diameter in steps of 1/_BLUR_STEPS of a pixel.
 _BLUR_STEPS = 16
 
+#: The widest blur disk (diameter in pixels) an object may be drawn with: the lens's blur at an
+#: object's range (:meth:`~uavsnn.scenes.SceneSpec.blur_px`, from the spec's ``aperture_mm`` and
+#: ``focus_m``) is at most this at every frame, or the scene is refused before anything is drawn.
+#: No point nearer than 5 cm is drawn nor focused on, so a lens blurs by less than
+#: ``focal_px · aperture / 5 cm``. The scenes :func:`uavsnn.scenes.sample_spec` draws at their
+#: default views (45-70°) blur by at most 464 px through any lens the command line takes (f/0.5
+#: focused at 5 cm on a 1280×720 Gen4), and at the narrow view of docs/identification.md (18-22°
+#: at f/1.4 on 1280×720) by at most 1,134 px (an insect at 5 cm; 600 px in 5,000 insect scenes).
+#: A disk this wide is a 2049 × 2049 kernel (17 MB) spread over a patch some 2,050 px across.
+MAX_BLUR_PX = 2048
+
+#: Disks up to this many cache steps across (64 px) are kept 512 at a time, wider ones 8 at a
+#: time: at most 9 MB and 134 MB of kernels.
+_SMALL_DISK = 64 * _BLUR_STEPS
+
 
 def _blur_key(blur: float) -> int:
     """``blur`` (px) rounded to a step of the disks' cache; 0 for no blur."""
@@ -185,20 +200,32 @@ def _blur_key(blur: float) -> int:
     return round(blur * _BLUR_STEPS)
 
 
-@lru_cache(maxsize=512)
-def _disk(key: int) -> np.ndarray:
+def _make_disk(key: int) -> np.ndarray:
     """The lens's blur kernel: a uniform disk ``key / _BLUR_STEPS`` pixels across, each of its
     pixels weighted by the share of it the disk covers (on a 16 × 16 grid per pixel), summing
-    to 1; ``(1, 1)`` while the disk fits inside one pixel."""
+    to 1; ``(1, 1)`` while the disk fits inside one pixel. The grid is sampled a row of pixels
+    at a time (16 × 16·n samples, not (16·n)² at once)."""
     radius = key / _BLUR_STEPS / 2
     reach = max(math.ceil(radius - 0.5), 0)
     n, sub = 2 * reach + 1, 16
     c = (np.arange(n * sub) + 0.5) / sub - (reach + 0.5)
-    inside = (c[:, None] ** 2 + c[None, :] ** 2) <= radius * radius
-    cover = inside.reshape(n, sub, n, sub).sum(axis=(1, 3)).astype(np.float64)
+    sq, r2 = c**2, radius * radius
+    cover = np.empty((n, n), dtype=np.float64)
+    for i in range(n):
+        inside = (sq[i * sub : (i + 1) * sub, None] + sq[None, :]) <= r2
+        cover[i] = inside.reshape(sub, n, sub).sum(axis=(0, 2))
     if cover.sum() == 0:
         return np.ones((1, 1), dtype=np.float32)
     return (cover / cover.sum()).astype(np.float32)
+
+
+_small_disk = lru_cache(maxsize=512)(_make_disk)
+_wide_disk = lru_cache(maxsize=8)(_make_disk)
+
+
+def _disk(key: int) -> np.ndarray:
+    """The blur kernel of :func:`_make_disk`, cached."""
+    return _small_disk(key) if key <= _SMALL_DISK else _wide_disk(key)
 
 
 def _encode_bgr8(
@@ -239,7 +266,8 @@ class _Objects:
         self.models: list[Model] = [model_for(o, event_camera=ev) for o in spec.objects]
         #: Each object's box at the last frame drawn (``None``: not drawn).
         self.boxes: list[tuple[float, float, float, float] | None] = [None] * len(self.models)
-        self.tracks = []
+        #: Each object's positions, velocities, image centres, scales and elevations by frame.
+        self.tracks: list[tuple[np.ndarray, ...]] = []
         grounded = spec.background.kind in ("ground", "hall")
         for obj in spec.objects:
             pos = obj.path.position(times)
@@ -248,7 +276,23 @@ class _Objects:
                 # Below the ground or the hall's floor, an object is hidden.
                 height = cam.altitude(pos, spec.background.camera_height_m)
                 scale = np.where(height < 0, 0.0, scale)
+            self._check_blur(len(self.tracks), obj.kind, pos, scale)
             self.tracks.append((pos, obj.path.velocity_at(times), uv, scale, cam.elevation(pos)))
+
+    def _check_blur(self, i: int, kind: str, pos: np.ndarray, scale: np.ndarray) -> None:
+        """Refuse an object the lens blurs over more than :data:`MAX_BLUR_PX` at any frame (its
+        blur disk would be that wide). Between frames the scale is interpolated and the blur,
+        ``|scale − focus|`` times the aperture, is largest at a frame."""
+        blur = self.spec.blur_px(scale)
+        k = int(np.argmax(blur))
+        if blur[k] > MAX_BLUR_PX:
+            focus = "infinity" if self.spec.focus_m is None else f"{self.spec.focus_m:g} m"
+            raise SimulationError(
+                f"lens blur too wide: objects[{i}] ({kind}) at {pos[k, 2]:.3g} m is blurred over "
+                f"{blur[k]:,.0f} px at frame {k} by aperture_mm {self.spec.aperture_mm:g} focused "
+                f"at {focus} (focus_m), more than MAX_BLUR_PX ({MAX_BLUR_PX:,} px): give a "
+                "smaller aperture_mm, or a focus_m nearer the object's range"
+            )
 
     def draw_between(
         self,
@@ -355,6 +399,10 @@ def frames(
     moving parts at each time; overlapping patches merge. ``samples_per_pass = 0`` turns this
     off (every motion sampled at the frame rate only, as before). Frames are the same as
     :func:`render`'s.
+
+    Raises:
+        SimulationError: a bad spec, seed or ``samples_per_pass``, or an object that the lens
+            blurs over more than :data:`MAX_BLUR_PX` at some frame (before anything is drawn).
     """
     _check(spec)
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
@@ -376,8 +424,8 @@ def frames(
     shifts = cam.shift(times)
     fmt = spec.frame_format
     channels = 3 if fmt == "bgr8" else 1
+    objects = _Objects(spec, cam, times)  # first: it refuses a blur too wide, before any texture
     backdrop = Backdrop(spec, cam, shifts, tex_rng, channels)
-    objects = _Objects(spec, cam, times)
     light = spec.lighting
     grain = None
     if fmt == "bgr8" and light.noise > 0:
@@ -509,7 +557,8 @@ def render(spec: SceneSpec, *, seed: int) -> tuple[np.ndarray, np.ndarray, np.nd
     parts between frames (:func:`frames`) and is what the dataset builder uses.
 
     Raises:
-        SimulationError: a bad spec, or frames of more than :data:`MAX_RENDER_BYTES` in all.
+        SimulationError: a bad spec, frames of more than :data:`MAX_RENDER_BYTES` in all, or
+            a lens blur wider than :data:`MAX_BLUR_PX` (:func:`frames`).
     """
     _check(spec)
     n, w, h = spec.n_frames, spec.width, spec.height
@@ -537,7 +586,7 @@ def render(spec: SceneSpec, *, seed: int) -> tuple[np.ndarray, np.ndarray, np.nd
 def scene_labels(spec: SceneSpec) -> tuple[np.ndarray, np.ndarray]:
     """``(timestamps_us, labels)`` exactly as :func:`render` gives them, without drawing a
     pixel (the objects' geometry is still built frame by frame, so it takes about half the
-    time of a small render)."""
+    time of a small render); the same refusals of a lens blur too wide (:func:`frames`)."""
     _check(spec)
     times, timestamps = _frame_times(spec)
     objects = _Objects(spec, Camera(spec), times)
