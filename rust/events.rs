@@ -154,13 +154,20 @@ impl EventSource for PackedEvents<'_> {
 
     #[inline]
     fn get(&self, i: usize) -> Event {
-        let r = &self.bytes[i * PACKED_EVENT_SIZE..(i + 1) * PACKED_EVENT_SIZE];
-        Event {
-            t: u64::from_le_bytes([r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7]]),
-            x: u16::from_le_bytes([r[8], r[9]]),
-            y: u16::from_le_bytes([r[10], r[11]]),
-            p: r[12] != 0,
-        }
+        packed_event(&self.bytes[i * PACKED_EVENT_SIZE..(i + 1) * PACKED_EVENT_SIZE])
+    }
+}
+
+/// One packed 13-byte record (`t u64, x u16, y u16, p u8`, little endian: the canonical
+/// dtype's bytes), unchecked. `record` holds at least 13 bytes.
+#[inline]
+pub fn packed_event(record: &[u8]) -> Event {
+    let r = record;
+    Event {
+        t: u64::from_le_bytes([r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7]]),
+        x: u16::from_le_bytes([r[8], r[9]]),
+        y: u16::from_le_bytes([r[10], r[11]]),
+        p: r[12] != 0,
     }
 }
 

@@ -229,7 +229,7 @@ mod tests {
             let got = downsample_packed(&raw, source, target).unwrap();
             let got: Vec<Event> = got
                 .chunks_exact(PACKED_EVENT_SIZE)
-                .map(crate::stream::packed_event)
+                .map(crate::events::packed_event)
                 .collect();
             assert_eq!(got, want, "{tw}x{th}");
         }

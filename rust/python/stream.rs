@@ -10,12 +10,9 @@ use pyo3::prelude::*;
 
 use super::errors::{detach, map};
 use super::network::pack_detection;
-use crate::error::Error;
-use crate::events::{Event, SensorSize, PACKED_EVENT_SIZE};
+use crate::events::{Event, PackedEvents, SensorSize, PACKED_EVENT_SIZE};
 use crate::network::{Network, NetworkConfig};
-use crate::stream::{
-    packed_event, NetworkDetector, PacketDecoder, PacketFormat, StreamConfig, StreamDetection,
-};
+use crate::stream::{NetworkDetector, PacketDecoder, PacketFormat, StreamConfig, StreamDetection};
 
 /// Size of one packed detection record: `window i8, t u8, map row col u2, x y f4, box 4×u2`.
 const DETECTION_RECORD: usize = 8 + 8 + 3 * 2 + 2 * 4 + 4 * 2;
@@ -30,25 +27,10 @@ fn pack_detections(found: &[StreamDetection]) -> Vec<u8> {
     out
 }
 
-/// Unchecked decoding of packed 13-byte event records (the detector validates them).
-fn unpack_events(bytes: &[u8], out: &mut Vec<Event>) -> Result<(), Error> {
-    if !bytes.len().is_multiple_of(PACKED_EVENT_SIZE) {
-        return Err(Error::Shape {
-            name: "events",
-            expected: format!("a multiple of {PACKED_EVENT_SIZE} bytes"),
-            got: format!("{} bytes", bytes.len()),
-        });
-    }
-    out.clear();
-    out.extend(bytes.chunks_exact(PACKED_EVENT_SIZE).map(packed_event));
-    Ok(())
-}
-
 /// The streaming detector over a copy of a network.
 #[pyclass(name = "StreamDetector", module = "uavsnn._core")]
 struct PyStreamDetector {
     inner: NetworkDetector,
-    events: Vec<Event>,
     found: Vec<StreamDetection>,
 }
 
@@ -85,22 +67,18 @@ impl PyStreamDetector {
         })?;
         Ok(Self {
             inner,
-            events: Vec::new(),
             found: Vec::new(),
         })
     }
 
     /// Push packed event records (`bytes`); return the packed detections they decided.
     fn push<'py>(&mut self, py: Python<'py>, raw: &[u8]) -> PyResult<Bound<'py, PyArray1<u8>>> {
-        let Self {
-            inner,
-            events,
-            found,
-        } = self;
+        let Self { inner, found } = self;
         let bytes = detach(py, || {
-            unpack_events(raw, events)?;
+            // Read in place: decoding the chunk first took 16 bytes an event.
+            let events = PackedEvents::new(raw)?;
             found.clear();
-            inner.push(events, found)?;
+            inner.push(&events, found)?;
             Ok(pack_detections(found))
         })?;
         Ok(bytes.into_pyarray(py))

@@ -8,10 +8,11 @@
 //! distinct pixels active in the `L` microseconds before it (the "preceding" estimate, §4); its
 //! conv1 thresholds are set from it before its first spike goes in.
 //!
-//! Each chunk is read twice: in time order to open windows, take their estimates and find every
-//! event's input spikes, then window by window to run them, so that one network state stays in
-//! cache while it takes all its spikes of the chunk (the states of overlapping windows would
-//! otherwise evict each other at every event).
+//! Each chunk is read twice (a slice of at most [`PUSH_SLICE`] events at a time): in time order
+//! to open windows, take their estimates and find every event's input spikes, then window by
+//! window to run them, so that one network state stays in cache while it takes all its spikes
+//! of the slice (the states of overlapping windows would otherwise evict each other at every
+//! event).
 //!
 //! Spikes at one timestamp are decided together (§3), so a detection at time `t` leaves the
 //! detector as soon as an event later than `t` arrives, or at [`Detector::flush`]: events of
@@ -20,7 +21,7 @@
 use std::collections::VecDeque;
 
 use crate::error::{check_alloc, Error, Result};
-use crate::events::{validate, Event, SensorSize};
+use crate::events::{validate_source, Event, EventSource, SensorSize};
 use crate::network::Detection;
 use crate::windows::MAX_TIME_US;
 
@@ -63,6 +64,12 @@ pub trait WindowEngine {
 /// (about half a MiB on a 240×180 sensor), so an overlap of 0.9999 would need ten thousand of
 /// them. With `step = L·(1 − o)` this allows overlaps up to `1 − 1/64 ≈ 0.984`.
 pub const MAX_LIVE_WINDOWS: u64 = 64;
+
+/// Events a push reads at a time. A larger chunk is checked whole first, then run in slices of
+/// this many, so that the input spikes it holds (one record per event) take at most about
+/// 2 MB whatever the chunk's size; the detections are the same (the detector's output does
+/// not depend on how a stream is cut into chunks).
+pub const PUSH_SLICE: usize = 1 << 16;
 
 /// Window length, overlap and (optionally) the first window's start.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -222,6 +229,12 @@ impl<E: WindowEngine> Detector<E> {
         self.live.len()
     }
 
+    /// Input-spike records the detector holds room for: at most [`PUSH_SLICE`].
+    #[cfg(test)]
+    pub(super) fn spike_capacity(&self) -> usize {
+        self.spikes.capacity()
+    }
+
     /// Network states allocated (live and spare): bounded by `ceil(L / step)`.
     pub fn states_allocated(&self) -> usize {
         self.live.iter().filter(|w| w.state.is_some()).count() + self.spare.len()
@@ -233,27 +246,29 @@ impl<E: WindowEngine> Detector<E> {
     }
 
     /// Check a chunk against the sensor, its own order and the stream so far, changing nothing.
-    pub fn check(&self, events: &[Event]) -> Result<()> {
+    pub fn check<S: EventSource + ?Sized>(&self, events: &S) -> Result<()> {
         if self.finished {
             return Err(Error::Stream(
                 "the stream was flushed; call reset() before pushing more events".into(),
             ));
         }
-        validate(events, self.sensor, None, 0)?;
-        if let Some(last) = events.last().filter(|e| e.t > MAX_TIME_US) {
+        validate_source(events, self.sensor, None, 0)?;
+        let Some(n) = events.len().checked_sub(1) else {
+            return Ok(());
+        };
+        let (first, last) = (events.get(0), events.get(n));
+        if last.t > MAX_TIME_US {
             return Err(Error::InvalidEvent {
-                index: events.len() - 1,
+                index: n,
                 reason: format!("t={} is beyond the largest time streamed (2^62 µs)", last.t),
             });
         }
-        if let (Some(first), Some(last)) = (events.first(), self.last_t) {
-            if first.t < last {
-                return Err(Error::Stream(format!(
-                    "time goes backwards across chunks: this chunk starts at t={} but the \
-                     stream is already at t={last}",
-                    first.t
-                )));
-            }
+        if let Some(previous) = self.last_t.filter(|&p| first.t < p) {
+            return Err(Error::Stream(format!(
+                "time goes backwards across chunks: this chunk starts at t={} but the stream \
+                 is already at t={previous}",
+                first.t
+            )));
         }
         Ok(())
     }
@@ -265,18 +280,28 @@ impl<E: WindowEngine> Detector<E> {
     ///
     /// The chunk is read in two passes: first in time order, to open windows, take their PENT
     /// estimates and find each event's input spikes; then window by window, so that one
-    /// window's network state stays hot in cache while it takes all its spikes of the chunk.
-    pub fn push(&mut self, events: &[Event], out: &mut Vec<StreamDetection>) -> Result<()> {
+    /// window's network state stays hot in cache while it takes all its spikes of the chunk; a
+    /// chunk of more than [`PUSH_SLICE`] events is read so a slice at a time, after the whole of
+    /// it was checked. `events` may be a slice of [`Event`]s or packed records
+    /// ([`crate::events::PackedEvents`]), read in place.
+    pub fn push<S: EventSource + ?Sized>(
+        &mut self,
+        events: &S,
+        out: &mut Vec<StreamDetection>,
+    ) -> Result<()> {
         self.check(events)?;
-        let Some(chunk_end) = events.last().map(|e| e.t) else {
-            return Ok(());
-        };
         let before = out.len();
-        self.spikes.clear();
-        for e in events {
-            self.schedule_event(e);
+        let mut result = Ok(());
+        let mut from = 0;
+        while from < events.len() && result.is_ok() {
+            let to = events.len().min(from + PUSH_SLICE);
+            self.spikes.clear();
+            for i in from..to {
+                self.schedule_event(&events.get(i));
+            }
+            result = self.run_windows(events.get(to - 1).t, out);
+            from = to;
         }
-        let result = self.run_windows(chunk_end, out);
         // Stable: one window's detections of one time stay in firing order.
         out[before..].sort_by_key(|d| (d.detection.t, d.window));
         self.stats.detections += (out.len() - before) as u64;

@@ -18,9 +18,10 @@ mod schedule;
 
 pub use detector::{
     Detector, StreamConfig, StreamDetection, StreamStats, WindowEngine, MAX_LIVE_WINDOWS,
+    PUSH_SLICE,
 };
 pub use engine::NetworkDetector;
-pub use packets::{packed_event, PacketDecoder, PacketFormat};
+pub use packets::{PacketDecoder, PacketFormat};
 pub use preceding::PrecedingCounter;
 pub use schedule::{window_step, WindowSchedule};
 

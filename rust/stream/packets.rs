@@ -20,7 +20,7 @@ use std::fmt;
 use std::str::FromStr;
 
 use crate::error::{Error, Result};
-use crate::events::{Event, SensorSize, PACKED_EVENT_SIZE};
+use crate::events::{packed_event, Event, SensorSize, PACKED_EVENT_SIZE};
 
 /// A UDP event packet format.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -75,19 +75,6 @@ impl FromStr for PacketFormat {
 }
 
 const WRAP: u64 = 1 << 32;
-
-/// One packed 13-byte record (`t u64, x u16, y u16, p u8`, little endian: the canonical
-/// dtype's bytes), unchecked. `record` holds at least 13 bytes.
-#[inline]
-pub fn packed_event(record: &[u8]) -> Event {
-    let r = record;
-    Event {
-        t: u64::from_le_bytes([r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7]]),
-        x: u16::from_le_bytes([r[8], r[9]]),
-        y: u16::from_le_bytes([r[10], r[11]]),
-        p: r[12] != 0,
-    }
-}
 
 /// Decodes packets of one format into validated events, keeping the time base across packets.
 #[derive(Debug, Clone)]

@@ -8,7 +8,7 @@ use proptest::prelude::*;
 
 use super::*;
 use crate::error::{Error, Result};
-use crate::events::{Event, SensorSize};
+use crate::events::{Event, EventSource, PackedEvents, SensorSize, PACKED_EVENT_SIZE};
 use crate::network::{infer, Detection, Network, NetworkConfig, PentEstimate, Spikes, WindowBatch};
 use crate::windows::{make_windows, WindowConfig};
 
@@ -548,4 +548,44 @@ fn a_sensor_above_the_memory_cap_is_refused_before_allocating() {
         panic!("a 65535x65535 detector was accepted");
     };
     crate::error::assert_over_cap(&err, "sensor_size");
+}
+
+/// A chunk of more than [`PUSH_SLICE`] events, pushed whole (as events or as packed records),
+/// gives the detections of the same stream pushed in small chunks, in the same order, and the
+/// detector holds room for one slice's input spikes, not the chunk's.
+#[test]
+fn a_large_chunk_runs_in_slices_with_the_same_detections() {
+    let net = small_network(3);
+    let events = blob_events(3, 2 * PUSH_SLICE + 1234);
+    let config = StreamConfig {
+        window_us: 2_000,
+        overlap: 0.5,
+        start_us: None,
+    };
+    let mut small = NetworkDetector::new(net.clone(), config).unwrap();
+    let mut want = Vec::new();
+    for chunk in events.chunks(977) {
+        small.push(chunk, &mut want).unwrap();
+    }
+    small.flush(&mut want).unwrap();
+    assert!(want.len() > 100, "{} detections", want.len());
+
+    let mut packed = Vec::with_capacity(events.len() * PACKED_EVENT_SIZE);
+    for e in &events {
+        packed.extend_from_slice(&e.t.to_le_bytes());
+        packed.extend_from_slice(&e.x.to_le_bytes());
+        packed.extend_from_slice(&e.y.to_le_bytes());
+        packed.push(u8::from(e.p));
+    }
+    let packed = PackedEvents::new(&packed).unwrap();
+    for whole in [&events as &dyn EventSource, &packed] {
+        let mut d = NetworkDetector::new(net.clone(), config).unwrap();
+        let mut got = Vec::new();
+        d.push(whole, &mut got).unwrap();
+        assert!(d.spike_capacity() <= PUSH_SLICE, "{}", d.spike_capacity());
+        d.flush(&mut got).unwrap();
+        let found_all = |v: &[StreamDetection]| v.iter().map(found).collect::<Vec<_>>();
+        assert_eq!(found_all(&got), found_all(&want));
+        assert_eq!(d.stats(), small.stats());
+    }
 }
