@@ -583,6 +583,24 @@ def test_windows_group_every_spike_once_whatever_the_chunking(net, cuts, seed, o
         assert np.any((events["t"] >= r.t0) & (events["t"] < r.t1))
 
 
+@pytest.mark.parametrize("start", [None, 20])
+def test_a_chunk_is_grouped_a_slice_at_a_time(net, monkeypatch, start) -> None:
+    # The grouper reads a large chunk in slices (bounded memory); the windows are the same.
+    events = blob_events(1, 900)
+    events["t"][450:] += 40_000
+    start_us = None if start is None else int(events["t"][start])
+
+    def reports() -> list[tuple]:
+        det = Detector(net, window_us=3_000, overlap=0.5, start_us=start_us)
+        windows = WindowGrouper.of(det)
+        found = windows.add(events, det.push(events)) + windows.finish(det.flush())
+        return [(r.window, r.t0, r.spikes, r.objects, r.detections.tobytes()) for r in found]
+
+    whole = reports()
+    monkeypatch.setattr(uavsnn.detector, "_GROUP_SLICE", 7)
+    assert reports() == whole and len(whole) > 5
+
+
 def test_a_window_is_reported_by_the_push_that_passes_its_end(net) -> None:
     events = blob_events(2, 900)
     det = Detector(net, window_us=3_000, overlap=0.5)

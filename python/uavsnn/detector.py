@@ -516,6 +516,9 @@ def merge_boxes(detections: np.ndarray) -> tuple[WindowObject, ...]:
 #: objects.
 _MERGE_IN_NUMPY_FROM = 64
 
+#: Events :meth:`WindowGrouper.add` reads at a time (its working arrays stay near 3 MB).
+_GROUP_SLICE = 1 << 16
+
 _Box = tuple[int, int, int, int]
 
 
@@ -642,12 +645,26 @@ class WindowGrouper:
         self._note(detections)
         if len(events) == 0:
             return []
-        t = events["t"].astype(np.int64)
+        times = events["t"]
         if self._start is None:
-            self._start = int(t[0])
-        t = t[t >= self._start] - self._start
-        if len(t) == 0:
+            self._start = int(times[0])
+        if int(times[-1]) < self._start:
             return []
+        # A slice at a time: the arrays below take about 40 bytes an event.
+        for s in range(0, len(times), _GROUP_SLICE):
+            self._open_windows(times[s : s + _GROUP_SLICE].astype(np.int64) - self._start)
+        # Window k is closed once an event at or after its end has been pushed.
+        last = int(times[-1]) - self._start
+        closed = 0
+        while closed < len(self._open) and self._end(self._open[closed]) <= last:
+            closed += 1
+        return self._report(closed)
+
+    def _open_windows(self, t: np.ndarray) -> None:
+        """Open the windows that events at ``t`` (from the start, in order) are the first of."""
+        t = t[t >= 0]
+        if len(t) == 0:
+            return
         # The windows holding each event: lo..=hi (hi and lo never decrease along the chunk).
         hi = t // self.step_us
         lo = np.where(t >= self.window_us, (t - self.window_us) // self.step_us + 1, 0)
@@ -656,12 +673,6 @@ class WindowGrouper:
         for i in np.flatnonzero(first <= hi):
             self._open.extend(range(int(first[i]), int(hi[i]) + 1))
         self._next = max(self._next, int(hi[-1]) + 1)
-        # Window k is closed once an event at or after its end has been pushed.
-        last = int(t[-1])
-        closed = 0
-        while closed < len(self._open) and self._end(self._open[closed]) <= last:
-            closed += 1
-        return self._report(closed)
 
     def finish(self, detections: np.ndarray) -> list[WindowReport]:
         """The end of the stream: note the detections :meth:`Detector.flush` returned and
