@@ -427,6 +427,42 @@ impl NetworkConfig {
 }
 
 /// Overlay `given` onto `base`, recursing into objects present in both.
+/// Fields a complete config may lack: those added after the first model files were written,
+/// whose default is what those files meant.
+const ADDED_LATER: [&str; 1] = ["pent.max_density"];
+
+impl NetworkConfig {
+    /// The fields (dotted paths, `pent.beta`) that the JSON object `given` lacks, which
+    /// [`NetworkConfig::from_json`] would fill with their defaults. A model file's config is
+    /// written whole, so a field missing there is damage, not a wish for the default.
+    pub fn missing_fields(given: &serde_json::Value) -> Vec<String> {
+        let mut missing = Vec::new();
+        if let Ok(full) = serde_json::to_value(Self::default()) {
+            missing_under(&full, given, "", &mut missing);
+        }
+        missing.retain(|path| !ADDED_LATER.contains(&path.as_str()));
+        missing
+    }
+}
+
+fn missing_under(
+    full: &serde_json::Value,
+    given: &serde_json::Value,
+    prefix: &str,
+    out: &mut Vec<String>,
+) {
+    let serde_json::Value::Object(full) = full else {
+        return;
+    };
+    for (key, value) in full {
+        let path = format!("{prefix}{key}");
+        match given.get(key) {
+            Some(slot) => missing_under(value, slot, &format!("{path}."), out),
+            None => out.push(path),
+        }
+    }
+}
+
 fn merge(base: &mut serde_json::Value, given: serde_json::Value) {
     match (base, given) {
         (serde_json::Value::Object(b), serde_json::Value::Object(g)) => {

@@ -2,7 +2,8 @@
 //! allow_pickle=False)`) holding
 //!
 //! - `format`: the bytes of [`MODEL_FORMAT`] as a `uint8` array,
-//! - `config`: the config as UTF-8 JSON bytes, a `uint8` array (its `version` is checked),
+//! - `config`: the config as UTF-8 JSON bytes, a `uint8` array (its `version` is checked, and
+//!   every field must be there: [`NetworkConfig::missing_fields`]),
 //! - `conv1`, `conv2`, `conv3`: the weights, `float32` `(maps, in_ch, k, k)`.
 //!
 //! Writing is atomic (a temporary file in the same folder, synced, then renamed over the
@@ -141,6 +142,13 @@ fn read_config(bytes: &[u8]) -> Result<NetworkConfig> {
         }
         None => return Err(Error::Model("its config has no version".into())),
     }
+    let missing = NetworkConfig::missing_fields(&value);
+    if !missing.is_empty() {
+        return Err(Error::Model(format!(
+            "its config lacks {} (a model file's config is written whole; this one is damaged)",
+            missing.join(", ")
+        )));
+    }
     NetworkConfig::from_json(text).map_err(|e| Error::Model(format!("its config is invalid: {e}")))
 }
 
@@ -243,6 +251,22 @@ mod tests {
         }
         let err = Network::from_npz_bytes(&zip_stored(&entries).unwrap()).unwrap_err();
         assert!(err.to_string().contains("version 2"), "{err}");
+        // A field left out is damage, not the default: a top-level one and a nested one.
+        let mut partial: serde_json::Value = serde_json::from_str(&net.config().to_json()).unwrap();
+        let config = partial.as_object_mut().unwrap();
+        config.remove("width");
+        config["pent"].as_object_mut().unwrap().remove("beta");
+        let partial = partial.to_string();
+        entries[1].1 = npy_bytes("|u1", &[partial.len()], partial.as_bytes());
+        let err = Network::from_npz_bytes(&zip_stored(&entries).unwrap()).unwrap_err();
+        assert!(
+            matches!(err, Error::Model(_)) && err.to_string().contains("lacks pent.beta, width"),
+            "{err}"
+        );
+        // ... except a field older files were written without.
+        let mut older: serde_json::Value = serde_json::from_str(&net.config().to_json()).unwrap();
+        older["pent"].as_object_mut().unwrap().remove("max_density");
+        assert!(NetworkConfig::missing_fields(&older).is_empty());
         entries[1].1 = npy_bytes(
             "|u1",
             &[net.config().to_json().len()],
