@@ -601,6 +601,28 @@ def test_a_chunk_is_grouped_a_slice_at_a_time(net, monkeypatch, start) -> None:
     assert reports() == whole and len(whole) > 5
 
 
+def test_push_and_push_windows_are_not_mixed_on_one_stream(net) -> None:
+    # Mixed, the windows were numbered from the wrong event and their detections lost.
+    events = blob_events(1, 900)
+    det = Detector(net, window_us=3_000, overlap=0.5)
+    det.push(events[:300])
+    for call in (lambda: det.push_windows(events[300:]), det.flush_windows):
+        with pytest.raises(StreamError, match="cannot be mixed"):
+            call()
+    det.push(events[300:])  # the stream goes on as before
+    det.reset()
+    det.push(events[:0])  # an empty push reads nothing
+    reports = det.push_windows(events[:300])
+    for call in (lambda: det.push(events[300:]), det.flush):
+        with pytest.raises(StreamError, match="cannot be mixed"):
+            call()
+    reports += det.push_windows(events[300:]) + det.flush_windows()
+    _, whole = grouped(net, events, [], 3_000, 0.5)
+    assert [(r.window, r.spikes) for r in reports] == [(r.window, r.spikes) for r in whole]
+    det.reset()
+    det.push(events)  # a new stream may use either
+
+
 def test_a_window_is_reported_by_the_push_that_passes_its_end(net) -> None:
     events = blob_events(2, 900)
     det = Detector(net, window_us=3_000, overlap=0.5)

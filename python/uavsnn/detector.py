@@ -40,7 +40,7 @@ import numpy as np
 from uavsnn import _core
 from uavsnn._validate import U64_MAX, check_int, check_sensor_size
 from uavsnn.boxes import xywh
-from uavsnn.errors import ParameterError, ShapeError
+from uavsnn.errors import ParameterError, ShapeError, StreamError
 from uavsnn.events import EVENT_DTYPE, packed_bytes
 from uavsnn.features import MAX_RATE_BINS, RATE_BIN_US, rate_bins
 from uavsnn.network import WINDOW_DETECTION_DTYPE
@@ -191,7 +191,8 @@ class Detector:
         self._busy_ns = 0
         self._tracker = tracker_for(network) if tracker is None else tracker
         self._rotor = bool(rotor)
-        self._grouper: WindowGrouper | None = None
+        self._grouper: WindowGrouper | None = None  # made by push_windows
+        self._plain = False  # events went through push
         self._recent: list[np.ndarray] = []  # raw events of the open windows, in order
         self._recent_n = 0
         self._lost_until = 0  # events before this time were dropped from _recent
@@ -216,6 +217,13 @@ class Detector:
             StreamError: the chunk starts before the previous one ended, or the stream was
                 flushed. After any error the detector is as it was before the call.
         """
+        if self._grouper is not None:
+            raise self._mixed("push", "push_windows")
+        found = self._push(events)
+        self._plain = self._plain or len(events) > 0
+        return found
+
+    def _push(self, events: np.ndarray) -> np.ndarray:
         # Cheap checks first: a one-event push should cost microseconds, not a dtype walk.
         if not (
             isinstance(events, np.ndarray)
@@ -233,6 +241,11 @@ class Detector:
         """End the stream: return the detections still pending (the last timestamp's) and
         close every window. Further pushes raise :class:`~uavsnn.StreamError` until
         :meth:`reset`."""
+        if self._grouper is not None:
+            raise self._mixed("flush", "push_windows")
+        return self._flush()
+
+    def _flush(self) -> np.ndarray:
         start = time.perf_counter_ns()
         out = self._inner.flush()
         self._busy_ns += time.perf_counter_ns() - start
@@ -244,8 +257,16 @@ class Detector:
         self._busy_ns = 0
         self._tracker.reset()
         self._grouper = None
+        self._plain = False
         self._recent, self._recent_n, self._lost_until = [], 0, 0
         self._identity = {}
+
+    def _mixed(self, call: str, used: str) -> StreamError:
+        return StreamError(
+            f"{call}() on a stream read with {used}(): push and push_windows cannot be mixed on "
+            f"one stream (the windows would be numbered and filled wrongly); reset() starts a "
+            f"new one"
+        )
 
     # ------------------------------------------------------------------ one report per window
 
@@ -253,7 +274,8 @@ class Detector:
         """Feed a chunk of events (as :meth:`push`) and return the windows it closed, each
         object with its track (:attr:`tracker`) and rotor signature filled in.
 
-        Use either this (with :meth:`flush_windows`) or :meth:`push` on one stream, not both.
+        Use either this (with :meth:`flush_windows`) or :meth:`push` on one stream, not both:
+        mixing them raises :class:`~uavsnn.StreamError`.
         The reports are :class:`WindowGrouper`'s whatever the chunking, so the tracks are those
         of :func:`uavsnn.tracks.track_windows` over them.
 
@@ -261,7 +283,9 @@ class Detector:
             EventError, StreamError: as :meth:`push`; the detector, its tracks included, is
                 then as it was before the call.
         """
-        found = self.push(events)
+        if self._plain:
+            raise self._mixed("push_windows", "push")
+        found = self._push(events)
         grouper = self._windows()
         if self._rotor and len(events):
             self._keep(events)
@@ -270,7 +294,9 @@ class Detector:
     def flush_windows(self) -> list[WindowReport]:
         """End the stream (as :meth:`flush`) and return every window still open, tracked.
         The live tracks stay in :attr:`tracker` (``tracker.finish()`` ends them)."""
-        return self._finish_reports(self._windows().finish(self.flush()))
+        if self._plain:
+            raise self._mixed("flush_windows", "push")
+        return self._finish_reports(self._windows().finish(self._flush()))
 
     @property
     def tracker(self) -> Tracker:
