@@ -176,17 +176,22 @@ class Identifier:
         )
 
     def _standardised(self, x: np.ndarray) -> np.ndarray:
+        """``x``'s rows on the model's columns, standardised. A row of ``len(FEATURES)``
+        values is one of :data:`FEATURES` and is read by name, whatever the order of
+        :attr:`features` (a model over the same names in another order reads the same
+        columns); a row of another length is one of :attr:`features`."""
         x = np.asarray(x, dtype=np.float64)
         if x.ndim != 2:
             raise ShapeError(f"features must be (m, d), got {x.shape}")
-        if x.shape[1] == len(FEATURES) and len(self.features) != len(FEATURES):
+        if x.shape[1] == len(FEATURES) and self.features != FEATURES:
             x = x[:, [FEATURES.index(f) for f in self.features]]
         if x.shape[1] != len(self.features):
             raise ShapeError(f"features must have {len(self.features)} columns, got {x.shape[1]}")
         return (x - self.mean) / self.scale
 
     def scores(self, x: np.ndarray) -> np.ndarray:
-        """UAV score of each object (rows of :data:`FEATURES`, or of :attr:`features`)."""
+        """UAV score of each object: rows of :data:`FEATURES` (read by name whatever the
+        order of :attr:`features`), or of :attr:`features` when they are fewer."""
         z = self._standardised(x)
         if self.trees is not None:
             return self.trees.predict(z)
