@@ -1,12 +1,17 @@
-"""Atomic writes (uavsnn._files): a reader sees the old file or the whole new one."""
+"""Atomic writes (uavsnn._files): a reader sees the old file or the whole new one; output
+folders: checked before any work, with or without being made."""
 
 from __future__ import annotations
 
+import os
+import re
 from pathlib import Path
+from typing import Any
 
 import pytest
 
-from uavsnn._files import write_atomic
+from uavsnn._files import check_output_dir, output_dir, write_atomic
+from uavsnn.errors import ParameterError
 
 
 def test_a_write_replaces_the_file_whole_and_leaves_nothing_beside_it(tmp_path: Path) -> None:
@@ -35,3 +40,42 @@ def test_a_folder_that_does_not_exist_is_an_os_error(tmp_path: Path) -> None:
     with pytest.raises(FileNotFoundError):
         write_atomic(tmp_path / "missing" / "out.bin", lambda f: f.write(b"x"))
     assert list(tmp_path.iterdir()) == []
+
+
+def test_an_output_folder_is_checked_without_being_made(tmp_path: Path) -> None:
+    new = tmp_path / "a" / "b"
+    check_output_dir(new, "--out")
+    check_output_dir(tmp_path, "--out")  # an existing folder
+    assert list(tmp_path.iterdir()) == []
+    assert output_dir(new, "--out") == new and new.is_dir()
+
+
+@pytest.mark.parametrize("make", [False, True])
+def test_both_refuse_the_same_folders_with_the_same_words(
+    make: bool, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``output_dir`` checks with ``check_output_dir`` before it makes anything."""
+    check = output_dir if make else check_output_dir
+    afile = tmp_path / "afile"
+    afile.write_text("x")
+    (tmp_path / "link").symlink_to(tmp_path / "nowhere")
+    locked = tmp_path / "locked"
+    locked.mkdir()
+    real_access = os.access
+
+    def access(path: Any, mode: int, **kwargs: Any) -> bool:
+        return Path(path) != locked and real_access(path, mode, **kwargs)
+
+    monkeypatch.setattr(os, "access", access)
+    for path, words in [
+        (afile, f"--out {afile}: exists and is not a folder"),
+        (afile / "sub", f"cannot create the folder: {afile} is not a folder"),
+        (tmp_path / "link", "cannot create the folder: it is a link to nothing"),
+        (tmp_path / "link" / "sub", f"cannot create the folder: {tmp_path / 'link'} is a link"),
+        (locked, f"--out {locked}: the folder is not writable"),
+        (locked / "new", f"cannot create the folder: {locked} is not writable"),
+    ]:
+        with pytest.raises(ParameterError, match=re.escape(words)):
+            check(path, "--out")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["afile", "link", "locked"]
+    assert list(locked.iterdir()) == [] and afile.read_text() == "x"

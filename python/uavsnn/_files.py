@@ -11,18 +11,49 @@ from typing import BinaryIO
 
 from uavsnn.errors import ParameterError
 
-__all__ = ["output_dir", "output_file", "write_atomic"]
+__all__ = ["check_output_dir", "output_dir", "output_file", "write_atomic"]
+
+
+def check_output_dir(path: Path, flag: str) -> None:
+    """Refuse, before any work, an output folder ``path`` (given by ``flag``, an option or a
+    parameter) that could not be made or written, without making it: a command makes it (with
+    :func:`output_dir`) when it first writes there, so that a run refused after this check
+    leaves no empty folder behind.
+
+    Raises:
+        ParameterError: ``path`` is an existing file or a link to nothing, is a folder that is
+            not writable, or would be made under a file, under a link to nothing or in a folder
+            that is not writable.
+    """
+    where = f"{flag} {path}"
+    if path.exists():
+        if not path.is_dir():
+            raise ParameterError(f"{where}: exists and is not a folder")
+        if not os.access(path, os.W_OK | os.X_OK):
+            raise ParameterError(f"{where}: the folder is not writable")
+        return
+    # The nearest folder above it that exists: the new folders are made in it.
+    target = path.absolute()
+    for base in (target, *target.parents):
+        if base.exists():
+            break
+        if base.is_symlink():
+            link = "it" if base == target else str(base)
+            raise ParameterError(f"{where}: cannot create the folder: {link} is a link to nothing")
+    if not base.is_dir():
+        raise ParameterError(f"{where}: cannot create the folder: {base} is not a folder")
+    if not os.access(base, os.W_OK | os.X_OK):
+        raise ParameterError(f"{where}: cannot create the folder: {base} is not writable")
 
 
 def output_dir(path: Path, flag: str) -> Path:
-    """Create the output folder ``path`` (given by ``flag``, an option or a parameter) and
-    check that it can be written, before any work is done.
+    """Create the output folder ``path`` (given by ``flag``, an option or a parameter), after
+    the checks of :func:`check_output_dir`.
 
     Raises:
         ParameterError: ``path`` is an existing file, cannot be created, or is not writable.
     """
-    if path.exists() and not path.is_dir():
-        raise ParameterError(f"{flag} {path}: exists and is not a folder")
+    check_output_dir(path, flag)
     try:
         path.mkdir(parents=True, exist_ok=True)
     except OSError as exc:

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 from pathlib import Path
 from typing import Any
 
 from uavsnn import report
+from uavsnn._files import check_output_dir
 from uavsnn.cli import output_dir, output_file
 from uavsnn.dataset import load
 from uavsnn.distributed import add_ray_option, runner_for
@@ -130,7 +130,7 @@ def _evaluate(args: argparse.Namespace) -> int:
             raise ParameterError(f"--roc {args.roc}: the picture is a PNG: name it .png")
         output_file(args.roc, "--roc")
     if args.report is not None:
-        _report_folder(args.report)
+        check_output_dir(args.report, "--report")  # made when the report is written
     network = Network.load(args.model)
     if args.roc is not None and network.identification is None:
         raise ParameterError("--roc needs a model with identification (`uavsnn train`)")
@@ -258,32 +258,6 @@ def _evaluate(args: argparse.Namespace) -> int:
     if args.report:
         print(f"wrote {figures['report']}")
     return 0
-
-
-def _report_folder(path: Path) -> None:
-    """Refuse, before any work, a ``--report`` folder that could not be made or written (as
-    :func:`uavsnn.cli.output_dir` would), without making it: it is made when the report is
-    written, so that a run refused after this check leaves no empty folder behind.
-
-    Raises:
-        ParameterError: ``path`` is an existing file or a link to nothing, is a folder that is
-            not writable, or would be made under a file or in a folder that is not writable.
-    """
-    flag = f"--report {path}"
-    if path.exists():
-        if not path.is_dir():
-            raise ParameterError(f"{flag}: exists and is not a folder")
-        if not os.access(path, os.W_OK | os.X_OK):
-            raise ParameterError(f"{flag}: the folder is not writable")
-        return
-    if path.is_symlink():
-        raise ParameterError(f"{flag}: cannot create the folder: it is a link to nothing")
-    # The nearest folder above it that exists: the new folders are made in it.
-    base = next(p for p in path.absolute().parents if p.exists())
-    if not base.is_dir():
-        raise ParameterError(f"{flag}: cannot create the folder: {base} is not a folder")
-    if not os.access(base, os.W_OK | os.X_OK):
-        raise ParameterError(f"{flag}: cannot create the folder: {base} is not writable")
 
 
 def _identification(
