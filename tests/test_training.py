@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import one_line_exit_2
 
 import uavsnn
 import uavsnn.cli.train
@@ -256,6 +257,73 @@ def test_a_checkpoint_folder_that_cannot_be_one_is_refused_before_training(
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and f"--checkpoint-dir {afile}: exists and is not a folder" in err
     assert not out.exists()
+
+
+def test_a_refused_train_leaves_no_checkpoint_folder(
+    windows: uavsnn.windows.Windows,
+    dataset: Path,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    # --checkpoint-dir was made before the later checks, which left it (and the folders above
+    # it) behind, empty.
+    out, ckpt = tmp_path / "m.npz", tmp_path / "runs" / "ckpt"
+    base = ["train", str(dataset), "-o", str(out), "--windows-per-layer", "10", "--quiet",
+            "--checkpoint-dir", str(ckpt)]  # fmt: skip
+    for extra, match in [
+        (["--no-identify", "--set", "width=120"], "120x180"),  # refused as training starts
+        (["--no-identify", "--layers", "conv3,conv2"], "layers must be distinct"),
+        (["--no-identify", "--split", "nothing"], "no split 'nothing'"),
+    ]:
+        one_line_exit_2(capsys, [*base, *extra], match)
+        assert list(tmp_path.iterdir()) == [], extra
+
+    def unreachable(address: str | None, **_kwargs: object) -> object:
+        raise ParameterError(f"cannot reach a Ray cluster at {address}")
+
+    with monkeypatch.context() as patch:
+        patch.setattr(uavsnn.cli.train, "runner_for", unreachable)
+        ray = ["--track-minutes", "0.1", "--ray", "127.0.0.1:9"]
+        one_line_exit_2(capsys, [*base, *ray], "cannot reach a Ray cluster")
+    assert list(tmp_path.iterdir()) == []
+
+    # train() makes the folder with the first checkpoint: not for a run stopped before it.
+    class Stop(Exception):
+        pass
+
+    def interrupt(layer: str, *_args: object) -> None:
+        raise Stop
+
+    with pytest.raises(Stop):
+        train(uavsnn.Network(CONFIG, seed=3), windows, windows_per_layer=10, checkpoint_dir=ckpt,
+              progress=interrupt)  # fmt: skip
+    assert list(tmp_path.iterdir()) == []
+    assert main([*base, "--no-identify"]) == 0
+    written = sorted(p.name for p in ckpt.iterdir())
+    assert written == ["after-conv2.npz", "after-conv3.npz", STATE_FILE]
+
+
+def test_a_bad_checkpoint_folder_is_refused_before_the_data_is_read(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    def no_reading(*_args: object, **_kwargs: object) -> object:
+        raise AssertionError("read the dataset before checking --checkpoint-dir")
+
+    monkeypatch.setattr(uavsnn.cli.train, "load", no_reading)
+    afile = tmp_path / "afile"
+    afile.write_text("x")
+    (tmp_path / "link").symlink_to(tmp_path / "nowhere")
+    argv = ["train", str(tmp_path / "no-dataset"), "-o", str(tmp_path / "m.npz"), "--quiet",
+            "--checkpoint-dir"]  # fmt: skip
+    for ckpt, match in [
+        (afile, "exists and is not a folder"),
+        (afile / "sub", f"{afile} is not a folder"),
+        (tmp_path / "link", "a link to nothing"),
+    ]:
+        line = one_line_exit_2(capsys, [*argv, str(ckpt)], match)
+        assert f"--checkpoint-dir {ckpt}: " in line
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["afile", "link"]
 
 
 def test_train_connects_to_ray_before_any_training(

@@ -11,8 +11,9 @@ training windows with the layers below frozen::
     result.network.save("model.npz")
 
 With ``checkpoint_dir``, the model is written after each layer (atomically) with a small
-``state.json``; ``resume=True`` picks up after the last finished layer, so an interrupted run
-loses at most the layer it was in and never leaves a half-written file. The state records a
+``state.json`` (the folder is checked before any training, and made with the first of them);
+``resume=True`` picks up after the last finished layer, so an interrupted run loses at most the
+layer it was in and never leaves a half-written file. The state records a
 fingerprint of what the run was given — the network's config (before training), a hash of the
 training windows, the seed and the schedule (with the reporting interval, where training stops)
 — and a resume with any of them changed is refused: its weights would be written under settings
@@ -33,7 +34,7 @@ from typing import Any
 
 import numpy as np
 
-from uavsnn._files import output_dir, write_atomic
+from uavsnn._files import check_output_dir, output_dir, write_atomic
 from uavsnn._validate import check_int
 from uavsnn.errors import DatasetError, ModelFileError, ParameterError
 from uavsnn.network import CONV_LAYERS, Network, TrainReport, WindowsLike
@@ -171,9 +172,10 @@ def train(
 
 
 def _checkpoint_folder(root: Path, names: list[str]) -> Path:
-    """Create the checkpoint folder ``root`` and check that its files can be written there,
-    before any training."""
-    output_dir(root, "checkpoint_dir")
+    """Check, before any training, that the checkpoint folder ``root`` can be made (it is made
+    with the first checkpoint, so that a run refused before then leaves no empty folder) and
+    that its files can be written there."""
+    check_output_dir(root, "checkpoint_dir")
     for name in (STATE_FILE, *(f"after-{layer}.npz" for layer in names)):
         if (root / name).is_dir():
             raise ParameterError(
@@ -305,6 +307,7 @@ def _write_checkpoint(
 ) -> None:
     """The model after ``layer`` (atomic, by the engine), then the state that names it:
     ``state`` (a fresh one, or the one a resume read and checked) updated in place."""
+    output_dir(root, "checkpoint_dir")  # made with the first checkpoint
     model = root / f"after-{layer}.npz"
     network.save(model)
     state_path = root / STATE_FILE

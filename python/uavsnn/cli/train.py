@@ -8,7 +8,8 @@ from pathlib import Path
 from typing import Any
 
 from uavsnn import identify
-from uavsnn.cli import output_dir, output_file
+from uavsnn._files import check_output_dir
+from uavsnn.cli import output_file
 from uavsnn.dataset import load
 from uavsnn.distributed import Runner, add_ray_option, runner_for
 from uavsnn.errors import DatasetError, ParameterError
@@ -181,11 +182,12 @@ def _train(args: argparse.Namespace) -> int:
     if args.resume and args.checkpoint_dir is None:
         raise ParameterError("--resume continues from --checkpoint-dir: give it too")
     config = network_config(args.config, args.settings)  # bad flags fail before any work
-    data = load(args.dataset, args.split)
-    tune = None if args.tune is None or args.no_identify else load(args.tune, "train")
     output_file(args.output, "-o")
     if args.checkpoint_dir is not None:
-        output_dir(args.checkpoint_dir, "--checkpoint-dir")
+        # Made by train() with the first checkpoint: a run refused leaves no empty folder.
+        check_output_dir(args.checkpoint_dir, "--checkpoint-dir")
+    data = load(args.dataset, args.split)
+    tune = None if args.tune is None or args.no_identify else load(args.tune, "train")
     runner = runner_for(args.ray)  # an unreachable cluster fails now, not after the training
     network = Network(config, seed=args.seed)
     result = train(
