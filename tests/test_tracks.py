@@ -317,6 +317,91 @@ def test_windows_out_of_order_are_refused() -> None:
         Detector(Network(seed=0), tracker="no")  # type: ignore[arg-type]
 
 
+def timed(k: object, t0: object, t1: object, x: float = 20.0) -> WindowReport:
+    """Window ``k`` over ``[t0, t1)`` with one object centred at ``(x, 30)``."""
+    return replace(report(0, [box_at(x, 30)]), window=k, t0=t0, t1=t1)
+
+
+def stream_result(tracker: Tracker, reports: list[WindowReport]) -> list:
+    """What ``tracker`` says of each of ``reports`` fed in turn, and at the end."""
+    out = [[o.track for o in tracker.update(r).objects] for r in reports]
+    return [out, tracker.finish()]
+
+
+@pytest.mark.parametrize(
+    "bad",
+    [
+        timed(2, 500, 1500),  # the previous window's times again
+        timed(2, 400, 1600),  # another window, the same centre
+        timed(2, 0, 1000),  # back in time
+        timed(2, 1500, 1500),  # empty
+        timed(2, 2000, 1900),  # ends before it starts
+        timed(2, -1000, 4000),
+        timed(2, float("nan"), 2500),
+        timed(2, 1000, float("inf")),
+        timed(2, 1000.0, 2000),
+        timed(2, "1000", 2000),
+        timed(2.0, 1000, 2000),
+        timed(float("nan"), 1000, 2000),
+    ],
+)
+def test_windows_with_bad_times_are_refused_and_change_nothing(bad: WindowReport) -> None:
+    """The speeds are displacements over the time between window centres: a window must end
+    after it starts, at whole µs, and its centre be later than the previous window's. Two
+    windows with one centre once divided by zero after the tracker had moved on, and a window
+    back in time gave negative speeds."""
+    start = [timed(0, 0, 1000, 20.0), timed(1, 500, 1500, 21.0)]
+    rest = [timed(2, 1000, 2000, 22.0), timed(3, 1500, 2500, 23.0)]
+    tracker = Tracker()
+    for r in start:
+        tracker.update(r)
+    before = tracker.live
+    with pytest.raises(ParameterError, match="window"):
+        tracker.update(bad)
+    assert tracker.live == before and tracker.drain_ended() == []
+    # the stream goes on as if the window had not come
+    fresh = Tracker()
+    for r in start:
+        fresh.update(r)
+    assert stream_result(tracker, rest) == stream_result(fresh, rest)
+
+
+@pytest.mark.parametrize(
+    "bad",
+    [
+        timed(0, 1000, 1000),
+        timed(0, 1000, 900),
+        timed(0, -1, 1000),
+        timed(0, float("nan"), 1000),
+        timed(0, 0.0, 1000),
+        timed(-1, 0, 1000),
+        timed(np.nan, 0, 1000),
+    ],
+)
+def test_a_first_window_with_bad_times_is_refused(bad: WindowReport) -> None:
+    tracker = Tracker()
+    with pytest.raises(ParameterError, match="window"):
+        tracker.update(bad)
+    assert tracker.live == () and tracker.finish() == []
+    assert ids(tracker.update(timed(0, 0, 1000))) == [1]
+
+
+def test_window_times_may_be_numpy_integers_and_late_in_a_stream() -> None:
+    """NumPy integer times give the tracks Python integers give; windows a µs apart late in a
+    stream (where their centres as floats are one number) are measured exactly."""
+    reps = [timed(k, 1000 * k, 1000 * k + 2000, 20.0 + 3 * k) for k in range(6)]
+    typed = [
+        replace(r, window=np.int64(r.window), t0=np.uint64(r.t0), t1=np.int64(r.t1)) for r in reps
+    ]
+    assert stream_result(Tracker(), typed) == stream_result(Tracker(), reps)
+    late = 1 << 61  # float64 steps of 512 µs there
+    assert float(late + 0.5) == float(late + 1.5)
+    reps = [timed(k, late + k, late + k + 1, 20.0 + k) for k in range(4)]
+    (track,) = track_windows(reps).tracks
+    assert track.hits == 4 and track.velocity == pytest.approx((1e6, 0.0))  # 1 px per µs
+    assert track.horizontal_speed == pytest.approx(1e6) and track.mean_speed == 1e6
+
+
 # ---------------------------------------------------------------- through the Detector
 
 SIZE = (40, 30)

@@ -24,6 +24,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
+from uavsnn._validate import check_int
 from uavsnn.errors import ParameterError
 from uavsnn.features import activity
 
@@ -147,7 +148,7 @@ class _Live:
         "alarm_us",
         "alarm_window",
         "balance_sum",
-        "birth_tc",
+        "birth_sum",
         "birth_us",
         "birth_window",
         "box",
@@ -159,7 +160,7 @@ class _Live:
         "hits",
         "id",
         "last_end",
-        "last_tc",
+        "last_sum",
         "last_window",
         "last_z",
         "n_seg",
@@ -185,11 +186,11 @@ class _Live:
         self.id = tid
         self.birth_window = window
         self.birth_us = t0
-        self.birth_tc = (t0 + t1) / 2
+        self.birth_sum = t0 + t1  # twice the window's centre time, exact
         self.first_z = z
         self.last_window = window
         self.last_end = t1
-        self.last_tc = self.birth_tc
+        self.last_sum = self.birth_sum
         self.last_z = z
         self.box = box
         self.pos = z
@@ -232,14 +233,15 @@ class _Live:
             self.balance_sum += balance
             self.swing_sum += swing
 
-    def predict(self, tc: float) -> tuple[float, float]:
-        dt = (tc - self.last_tc) / 1e6
+    def predict(self, t_sum: int) -> tuple[float, float]:
+        """The centre predicted at the window whose ``t0 + t1`` is ``t_sum``."""
+        dt = _seconds(t_sum, self.last_sum)
         return self.pos[0] + self.vel[0] * dt, self.pos[1] + self.vel[1] * dt
 
     def snapshot(self) -> Track:
         dx = self.last_z[0] - self.first_z[0]
         dy = self.last_z[1] - self.first_z[1]
-        span = (self.last_tc - self.birth_tc) / 1e6
+        span = _seconds(self.last_sum, self.birth_sum)
         net = math.hypot(dx, dy)
         return Track(
             id=self.id,
@@ -275,6 +277,13 @@ class _Live:
             on_balance_mean=self.balance_sum / self.act_n if self.act_n else 0.0,
             rate_swing_mean=self.swing_sum / self.act_n if self.act_n else 0.0,
         )
+
+
+def _seconds(later_sum: int, earlier_sum: int) -> float:
+    """The time (s) between the centres of two windows, each given as ``t0 + t1`` (µs):
+    from integers, so that two distinct centres are never one float (the centres of windows
+    late in a stream, ``(t0 + t1) / 2`` as floats, could round to the same value)."""
+    return (later_sum - earlier_sum) / 2 / 1e6
 
 
 def _iou(a: tuple, b: tuple) -> float:
@@ -374,6 +383,7 @@ class Tracker:
         self._ended: deque[Track] = deque(maxlen=MAX_ENDED)
         self._next_id = 1
         self._last_window: int | None = None
+        self._last_sum: int | None = None  # the latest window's t0 + t1
         self.births_refused = 0
         self.ended_dropped = 0
 
@@ -386,20 +396,34 @@ class Tracker:
         ``rotor`` and ``counts`` (when measured) count in its track's ``rotor_strength_mean``
         and activity history.
 
+        The times of a window must be integers ``0 <= t0 < t1``, and its centre
+        ``(t0 + t1) / 2`` later than the previous window's: the speeds are displacements over
+        the time between window centres.
+
         Raises:
-            ParameterError: a window not later than the previous one, or an object whose
-                ``counts`` no box gives (:func:`uavsnn.features.activity`); the tracker is
-                then as it was.
+            ParameterError: a window index that is not an integer >= 0 or not later than the
+                previous one, times that are not integers ``0 <= t0 < t1``, a centre not
+                later than the previous window's, or an object whose ``counts`` no box gives
+                (:func:`uavsnn.features.activity`); the tracker is then as it was.
         """
-        k = report.window
+        k = check_int("a window's index", report.window)
         if self._last_window is not None and k <= self._last_window:
             raise ParameterError(
                 f"windows must be fed in increasing order: {k} after {self._last_window}"
             )
+        t0 = check_int(f"window {k}'s t0", report.t0)
+        t1 = check_int(f"window {k}'s t1", report.t1)
+        if t1 <= t0:
+            raise ParameterError(f"window {k} must end after it starts, got [{t0}, {t1}) µs")
+        t_sum = t0 + t1
+        if self._last_sum is not None and t_sum <= self._last_sum:
+            raise ParameterError(
+                f"window {k}'s centre ({t_sum / 2} µs) must be later than the previous "
+                f"window's ({self._last_sum / 2} µs): speeds are measured between centres"
+            )
         objects = report.objects
         acts = [None if o.counts is None else activity(o.box, o.counts) for o in objects]
-        self._last_window = k
-        tc = (report.t0 + report.t1) / 2
+        self._last_window, self._last_sum = k, t_sum
         # Deletion first: a track missing max_misses windows by this one is gone.
         keep = []
         for tr in self._live:
@@ -414,7 +438,7 @@ class Tracker:
         # Candidate pairs inside the gate, cheapest first; ties by track id, then object.
         pairs = []
         for ti, tr in enumerate(self._live):
-            px, py = tr.predict(tc)
+            px, py = tr.predict(t_sum)
             for oi, (cx, cy) in enumerate(centres):
                 d = math.hypot(cx - px, cy - py)
                 if d <= self.gate_px:
@@ -428,18 +452,18 @@ class Tracker:
                 taken.add(ti)
         for tr in self._live:  # the window mask moves on for every live track
             tr.recent = (tr.recent << (k - tr.now_window)) & ((1 << self.confirm_windows) - 1)
-            tr.now_window, tr.now_end = k, report.t1
+            tr.now_window, tr.now_end = k, t1
         for oi, obj in enumerate(objects):
             old = track_of[oi]
             if old is not None:
-                self._hit(old, k, report.t1, tc, obj.box, centres[oi])
+                self._hit(old, k, t1, t_sum, obj.box, centres[oi])
                 old.add_measured(obj.rotor, acts[oi])
             elif len(self._live) < self.max_tracks:
-                new = _Live(self._next_id, k, report.t0, report.t1, obj, centres[oi], acts[oi])
+                new = _Live(self._next_id, k, t0, t1, obj, centres[oi], acts[oi])
                 self._next_id += 1
                 self._live.append(new)
                 track_of[oi] = new
-                self._confirm(new, k, report.t1)
+                self._confirm(new, k, t1)
             else:
                 self.births_refused += 1
         new_objects = tuple(
@@ -450,14 +474,14 @@ class Tracker:
         )
         return replace(report, objects=new_objects)
 
-    def _hit(self, tr: _Live, k: int, t1: int, tc: float, box: tuple, z: tuple) -> None:
-        dt = (tc - tr.last_tc) / 1e6
+    def _hit(self, tr: _Live, k: int, t1: int, t_sum: int, box: tuple, z: tuple) -> None:
+        dt = _seconds(t_sum, tr.last_sum)
         seg = math.hypot(z[0] - tr.last_z[0], z[1] - tr.last_z[1])
         if tr.hits == 1:  # the second hit: the first velocity is the displacement
             tr.vel = ((z[0] - tr.pos[0]) / dt, (z[1] - tr.pos[1]) / dt)
             tr.pos = z
         else:
-            px, py = tr.predict(tc)
+            px, py = tr.predict(t_sum)
             rx, ry = z[0] - px, z[1] - py
             tr.pos = (px + self.alpha * rx, py + self.alpha * ry)
             tr.vel = (tr.vel[0] + self.beta * rx / dt, tr.vel[1] + self.beta * ry / dt)
@@ -476,7 +500,7 @@ class Tracker:
                 tr.n_turn += 1
             tr.heading = heading
         tr.hits += 1
-        tr.last_window, tr.last_end, tr.last_tc, tr.last_z, tr.box = k, t1, tc, z, box
+        tr.last_window, tr.last_end, tr.last_sum, tr.last_z, tr.box = k, t1, t_sum, z, box
         tr.recent |= 1
         self._confirm(tr, k, t1)
 
@@ -497,7 +521,7 @@ class Tracker:
         (by id); the tracker is empty afterwards, and ids go on from where they were."""
         out = self.drain_ended() + [tr.snapshot() for tr in self._live]
         self._live = []
-        self._last_window = None
+        self._last_window = self._last_sum = None
         return out
 
     @property
