@@ -6,8 +6,8 @@
 //! moves linearly, as ESIM assumes, and the difference `d = L - R` is tracked exactly:
 //!
 //! - Threshold crossings: an ON event when `d` reaches the pixel's `θ_on`, an OFF event when it
-//!   reaches `-θ_off`, each at the exact interpolated time, as many as the change holds (no cap);
-//!   the pixel then resets (`d = 0`, i.e. `R = L`).
+//!   reaches `-θ_off`, each at the exact interpolated time, as many as the change holds (up to
+//!   [`MAX_EVENTS`] in a frame interval); the pixel then resets (`d = 0`, i.e. `R = L`).
 //! - Mismatch: `θ_on`, `θ_off` are drawn once per pixel from `N(θ, σ)`, clipped at 0.01 (v2e).
 //! - Refractory period: after any event the pixel is held in reset (`R` follows `L`) for
 //!   `refractory_us`, so nothing it sees during that time makes an event.
@@ -43,7 +43,7 @@ use rayon::prelude::*;
 use super::frame::{check_size, Converter, Frame, Response};
 use super::order::gather_from;
 use super::seed;
-use crate::error::{check_alloc, Error, Result};
+use crate::error::{check_alloc, Error, Result, MAX_ALLOC_BYTES};
 use crate::events::Event;
 
 mod noise;
@@ -75,7 +75,22 @@ pub struct DvsEmulator {
     eps_cache: (u64, usize, Vec<f32>),
     last_t: Option<u64>,
     frames: usize,
+    /// The first frame's time: the pixels' `f64` times count from it.
+    origin: u64,
+    /// Events per µs that leak, hot pixels and shot noise (at its brightest) make on average,
+    /// whatever the scene: what an interval costs before any change is seen.
+    noise_per_us: f64,
+    /// The most events one frame interval may make: [`MAX_EVENTS`] (smaller in tests).
+    max_events: usize,
+    /// The frame whose events overran the cap, after which the pixels' state is lost.
+    failed: Option<usize>,
 }
+
+/// The most events one frame interval may make (their bytes are
+/// [`MAX_ALLOC_BYTES`]). An interval whose noise alone averages half of it is refused
+/// before any pixel moves; one whose events reach it all the same (a change of thousands of
+/// thresholds on every pixel) is refused after, and the emulator with it.
+pub const MAX_EVENTS: usize = MAX_ALLOC_BYTES / std::mem::size_of::<Event>();
 
 /// Work space and random stream of one pixel row.
 #[derive(Debug, Clone)]
@@ -144,6 +159,11 @@ impl DvsEmulator {
                 pixels[i].hot_per_us = params.hot_pixel_rate_hz * 1e-6;
             }
         }
+        let shot_per_us = params.shot_noise_rate_hz * params.shot_noise_bright_factor.max(1.0);
+        let noise_per_us = pixels
+            .iter()
+            .map(|q| q.leak_per_us / f64::from(q.th_on) + q.hot_per_us + shot_per_us * 1e-6)
+            .sum();
         Ok(Self {
             params,
             width,
@@ -169,6 +189,10 @@ impl DvsEmulator {
             eps_cache: (0, 0, Vec::new()),
             last_t: None,
             frames: 0,
+            origin: 0,
+            noise_per_us,
+            max_events: MAX_EVENTS,
+            failed: None,
         })
     }
 
@@ -190,6 +214,12 @@ impl DvsEmulator {
     /// Time of the last frame consumed, if any.
     pub fn last_time(&self) -> Option<u64> {
         self.last_t
+    }
+
+    /// Cap the events of a frame interval below [`MAX_EVENTS`] (tests reach it so).
+    #[cfg(test)]
+    fn set_max_events(&mut self, max_events: usize) {
+        self.max_events = max_events;
     }
 
     /// Pixels chosen as hot, as row-major indices.
@@ -219,8 +249,31 @@ impl DvsEmulator {
         patches: &[SubSamples<'_>],
         out: &mut Vec<Event>,
     ) -> Result<()> {
+        if let Some(k) = self.failed {
+            return Err(Error::Simulation(format!(
+                "frame {k} made more events than the emulator holds, and the pixels' state was \
+                 lost with them: make a new emulator"
+            )));
+        }
         frame.check(self.width, self.height, self.frames)?;
         let t_prev = super::frame::after_previous(self.last_t, t_us, self.frames)?;
+        let row_cap = self.max_events / self.height;
+        if let Some(t_prev) = t_prev {
+            // Checked before any pixel moves: frames far apart by mistake (times in ns, a
+            // clock that jumped) would ask for more events than memory holds.
+            let expected = self.noise_per_us * (t_us - t_prev) as f64;
+            if expected > (self.max_events / 2) as f64 {
+                return Err(Error::Simulation(format!(
+                    "frame {} is {} µs after the previous one: leak, hot pixels and shot noise \
+                     alone make about {expected:.3e} events in that interval, more than half \
+                     the {} a frame interval may make (MAX_EVENTS); are the times in \
+                     microseconds?",
+                    self.frames,
+                    t_us - t_prev,
+                    self.max_events
+                )));
+            }
+        }
         if t_prev.is_none() && !patches.is_empty() {
             return Err(Error::Simulation(
                 "the first frame only sets the pixels' state: it takes no sub-frame samples".into(),
@@ -236,7 +289,8 @@ impl DvsEmulator {
         let conv = &self.converter;
         let model = self.response;
         let Some(t_prev) = t_prev else {
-            let t0 = t_us as f64;
+            self.origin = t_us;
+            let t0 = 0.0;
             each_row(
                 &mut self.pixels,
                 &mut self.rows,
@@ -282,13 +336,16 @@ impl DvsEmulator {
                     .collect(),
             );
         }
+        let origin = self.origin;
         let step = |t0: u64, t1: u64| {
             let dt_s = (t1 - t0) as f64 * 1e-6;
             Step {
-                t0: t0 as f64,
-                t1: t1 as f64,
+                t0: (t0 - origin) as f64,
+                t1: (t1 - origin) as f64,
+                origin,
                 t0_us: t0,
                 t1_us: t1,
+                row_cap,
                 inv_dt: 1.0 / (t1 - t0) as f64,
                 dt_s,
                 eps_table: &[],
@@ -393,6 +450,17 @@ impl DvsEmulator {
                 }
             },
         );
+        if self.rows.iter().any(|r| r.events.len() >= row_cap) {
+            self.failed = Some(self.frames - 1);
+            for r in &mut self.rows {
+                r.events = Vec::new();
+            }
+            return Err(Error::Simulation(format!(
+                "frame {} makes more events than a frame interval may ({row_cap} on a row of \
+                 pixels, MAX_EVENTS over the rows); the pixels' state is lost with them",
+                self.frames - 1
+            )));
+        }
         gather_from(
             &mut self.rows,
             |r| &mut r.events,

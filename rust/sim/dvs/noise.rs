@@ -43,7 +43,7 @@ pub(super) fn noisy_step(
             f64::INFINITY
         };
         let t_noise = q.next_shot.min(q.next_hot);
-        if t_sig.min(t_noise) > t1 {
+        if t_sig.min(t_noise) > t1 || row.len() >= s.row_cap {
             break;
         }
         let (t_event, polarity) = if t_sig <= t_noise {
@@ -68,7 +68,7 @@ pub(super) fn noisy_step(
             (t_noise, polarity)
         };
         row.push(Event {
-            t: ((t_event + 0.5) as u64).clamp(s.t0_us, s.t1_us),
+            t: s.event_time(t_event),
             x,
             y,
             p: polarity,

@@ -31,12 +31,18 @@ pub(super) struct Pixel {
 /// Per-frame constants shared by all pixels.
 #[derive(Debug, Clone)]
 pub(super) struct Step<'a> {
+    /// The interval's ends, in µs from `origin` (the emulator's first frame): times as `f64`
+    /// keep a fraction of a microsecond however late the stream's clock starts.
     pub(super) t0: f64,
     pub(super) t1: f64,
+    pub(super) origin: u64,
     /// The interval's ends in integer microseconds: event times are clamped to them (beyond
-    /// 2^53 µs an `f64` time may round past the interval).
+    /// 2^53 µs of stream an `f64` time may round past the interval).
     pub(super) t0_us: u64,
     pub(super) t1_us: u64,
+    /// The most events one row may hold ([`MAX_ALLOC_BYTES`](crate::error::MAX_ALLOC_BYTES)
+    /// over the rows): a pixel stops at it, and the frame is refused.
+    pub(super) row_cap: usize,
     /// `1 / (t1 - t0)`, per microsecond.
     pub(super) inv_dt: f64,
     pub(super) dt_s: f64,
@@ -53,6 +59,16 @@ pub(super) struct Step<'a> {
     pub(super) shot_max_per_us: f64,
     pub(super) bright_factor: f64,
     pub(super) max_factor: f64,
+}
+
+impl Step<'_> {
+    /// The event time of `t` (µs from the origin, within the interval).
+    #[inline]
+    pub(super) fn event_time(&self, t: f64) -> u64 {
+        self.origin
+            .saturating_add((t + 0.5) as u64)
+            .clamp(self.t0_us, self.t1_us)
+    }
 }
 
 /// The photoreceptor low-pass update factor over `dt_s` seconds at luma `y`: a first-order
@@ -157,9 +173,11 @@ fn pixel_change(
         let gap = s.refractory + threshold * pace;
         let mut t = cur + distance.max(0.0) * pace;
         let mut last = f64::NAN;
-        while t <= t1 {
+        // The cap also ends a run whose times no longer advance (a gap below the `f64`
+        // resolution of a stream hundreds of years long).
+        while t <= t1 && row.len() < s.row_cap {
             row.push(Event {
-                t: ((t + 0.5) as u64).clamp(s.t0_us, s.t1_us),
+                t: s.event_time(t),
                 x,
                 y,
                 p: on,

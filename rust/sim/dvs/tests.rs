@@ -122,3 +122,91 @@ fn an_emulator_above_the_memory_cap_is_refused() {
     let err = DvsEmulator::new(DvsParams::ideal(), 65535, 65535, 0).unwrap_err();
     crate::error::assert_over_cap(&err, "frame size");
 }
+
+/// A moving edge on a small sensor: frames `k = 0..n` with the edge at column `k`.
+fn moving_edge(n: usize) -> Vec<Array2<f32>> {
+    (0..n)
+        .map(|k| Array2::from_shape_fn((6, 9), |(_, x)| if x <= k { 200.0 } else { 40.0 }))
+        .collect()
+}
+
+#[test]
+fn a_late_clock_gives_the_same_events_later() {
+    // Times count from the first frame: a stream whose clock starts at 2e18 µs gives the events
+    // of one starting at 0, shifted (its f64 times kept no fraction of a µs there, and a run of
+    // crossings 0.04 µs apart never advanced: memory filled until the process aborted).
+    let frames = moving_edge(6);
+    for params in [DvsParams::default(), DvsParams::ideal()] {
+        let times: Vec<u64> = (0..6).map(|k| k * 1_000).collect();
+        let want = run(params, &frames, &times, 7);
+        assert!(want.len() > 20, "{}", want.len());
+        for start in [100_000_000_000_000_000, 2_000_000_000_000_000_000] {
+            let late: Vec<u64> = times.iter().map(|t| t + start).collect();
+            let got = run(params, &frames, &late, 7);
+            let shifted: Vec<Event> = want
+                .iter()
+                .map(|e| Event {
+                    t: e.t + start,
+                    ..*e
+                })
+                .collect();
+            assert_eq!(got, shifted, "start {start}");
+        }
+    }
+}
+
+#[test]
+fn frames_far_apart_are_refused_before_a_pixel_moves() {
+    let frames = moving_edge(2);
+    let (h, w) = frames[0].dim();
+    let mut emu = DvsEmulator::new(DvsParams::default(), w, h, 3).unwrap();
+    let mut out = Vec::new();
+    emu.push(&Frame::GrayF32(frames[0].view()), 0, &mut out)
+        .unwrap();
+    // 11.6 days: the noise alone would be more events than memory holds... at a cap of 10^4.
+    emu.set_max_events(10_000);
+    let err = emu
+        .push(
+            &Frame::GrayF32(frames[1].view()),
+            1_000_000_000_000,
+            &mut out,
+        )
+        .unwrap_err();
+    assert!(
+        matches!(&err, Error::Simulation(m) if m.contains("microseconds")),
+        "{err}"
+    );
+    assert!(out.is_empty());
+    // Nothing moved: the next frame gives what it gives without the refused one.
+    emu.push(&Frame::GrayF32(frames[1].view()), 1_000, &mut out)
+        .unwrap();
+    assert_eq!(out, run(DvsParams::default(), &frames, &[0, 1_000], 3));
+}
+
+#[test]
+fn a_frame_over_the_cap_is_refused_and_the_emulator_with_it() {
+    // ln 200 - ln 50 = 6.9 thresholds of 0.2 on each of 8 pixels a row: 48 events a row.
+    let f = |v: f32| Array2::from_elem((8, 8), v);
+    let mut emu = DvsEmulator::new(DvsParams::ideal(), 8, 8, 0).unwrap();
+    emu.set_max_events(8 * 40);
+    let mut out = Vec::new();
+    emu.push(&Frame::GrayF32(f(50.0).view()), 0, &mut out)
+        .unwrap();
+    let err = emu
+        .push(&Frame::GrayF32(f(200.0).view()), 1_000, &mut out)
+        .unwrap_err();
+    assert!(matches!(&err, Error::Simulation(m) if m.contains("frame 1 makes more events")));
+    assert!(out.is_empty());
+    let err = emu
+        .push(&Frame::GrayF32(f(50.0).view()), 2_000, &mut out)
+        .unwrap_err();
+    assert!(matches!(&err, Error::Simulation(m) if m.contains("make a new emulator")));
+    // Below the cap, the same change is fine.
+    let mut emu = DvsEmulator::new(DvsParams::ideal(), 8, 8, 0).unwrap();
+    emu.set_max_events(8 * 49);
+    emu.push(&Frame::GrayF32(f(50.0).view()), 0, &mut out)
+        .unwrap();
+    emu.push(&Frame::GrayF32(f(200.0).view()), 1_000, &mut out)
+        .unwrap();
+    assert_eq!(out.len(), 8 * 8 * 6);
+}
