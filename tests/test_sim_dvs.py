@@ -225,6 +225,26 @@ def test_timestamps_beyond_double_precision_stay_in_their_interval(start):
 # ------------------------------------------------------------------------------ bad input
 
 
+def test_frames_far_apart_are_refused_before_the_emulator_moves() -> None:
+    # Times in ns by mistake, or a clock that jumps by days: the noise of the gap alone would
+    # be billions of events (the process aborted on the allocation).
+    frames = np.stack([np.full((48, 64), 128, np.uint8)] * 3)
+    emulator = DvsEmulator((64, 48), seed=1)
+    emulator.process(frames[:1], [0])
+    with pytest.raises(SimulationError, match="are the times in microseconds"):
+        emulator.process(frames[1:2], [10**12])
+    later = emulator.process(frames[1:], [1_000, 2_000])
+    np.testing.assert_array_equal(later, emulate_dvs(frames, [0, 1_000, 2_000], seed=1))
+
+
+def test_frame_times_past_2_64_and_across_2_63() -> None:
+    frames = np.zeros((2, 4, 4), np.uint8)
+    with pytest.raises(SimulationError, match="beyond 2\\^64 - 1"):
+        emulate_dvs(frames, [0.0, 1e20])
+    # Increasing across 2^63 (a difference through int64 wrapped and was refused).
+    emulate_dvs(frames, np.array([2**63 - 5, 2**63 + 5], dtype=np.uint64))
+
+
 @pytest.mark.parametrize(
     "kwargs",
     [

@@ -116,11 +116,17 @@ def as_timestamps(timestamps_us: Any, n: int) -> np.ndarray:
     if (t < 0).any():
         i = int(np.argmax(t < 0))
         raise SimulationError(f"timestamp {i} ({t[i]}) is negative")
+    # Compared before the cast, which would wrap a float past 2^64 - 1.
+    late = t >= 2.0**64 if np.issubdtype(t.dtype, np.floating) else np.zeros(t.shape, bool)
+    if late.any():
+        i = int(np.argmax(late))
+        raise SimulationError(f"timestamp {i} ({t[i]}) is beyond 2^64 - 1 microseconds")
     t = t.astype(np.uint64)
     if n > 1:
-        step = np.diff(t.astype(np.int64))
-        if (step <= 0).any():
-            i = int(np.argmax(step <= 0)) + 1
+        # Compared as unsigned: a difference through int64 wraps across 2^63.
+        back = t[1:] <= t[:-1]
+        if back.any():
+            i = int(np.argmax(back)) + 1
             raise SimulationError(
                 f"timestamp {i} ({t[i]} us) is not after timestamp {i - 1} ({t[i - 1]} us); "
                 "frame times must increase strictly"
