@@ -30,6 +30,7 @@ from uavsnn.identify import (
     TRACK_FEATURES,
     UAV_CLASS,
     Identifier,
+    WindowFeatures,
     best_threshold,
     class_figures,
     fit,
@@ -743,6 +744,68 @@ def test_a_fit_over_the_features_in_another_order_tunes_the_same_threshold() -> 
     assert backwards.threshold == pytest.approx(plain.threshold, abs=1e-9)
     for (rate, a), (_, b) in zip(plain.alarm_thresholds, backwards.alarm_thresholds, strict=True):
         assert b == pytest.approx(a, abs=1e-9), rate
+
+
+@pytest.mark.parametrize("value", [math.nan, math.inf, -math.inf])
+@pytest.mark.parametrize("make", [with_classes, with_trees])
+def test_a_feature_that_is_not_a_finite_number_is_refused_by_name(make, value: float) -> None:
+    """A NaN or infinite feature once scored NaN (never an alarm) or 1, and guessed "other",
+    without a word: every way in refuses the rows, naming the feature, in the model's own
+    columns too."""
+    ident = make()
+    x = np.random.default_rng(11).normal(size=(3, len(FEATURES)))
+    x[2, FEATURES.index("track_log_speed")] = value
+    calls = [ident.scores, ident.class_probabilities, ident.guess]
+    for call in calls:
+        with pytest.raises(ParameterError, match="'track_log_speed' \\(column 14\\) of row 2"):
+            call(x)
+    with pytest.raises(ParameterError, match="track_log_speed"):
+        ident.window_scores(WindowFeatures(x, np.arange(3), np.zeros((3, 4)), 3))
+    with pytest.raises(ParameterError, match="track_log_speed"):
+        ident.guess(x, np.array([0.1, 0.2, 0.3]))
+    # Rows of a model's own features (fewer than FEATURES): the name in its order.
+    keep = [i for i in ORDERS["reversed"] if FEATURES[i] != "log_rate_swing"]
+    part = Identifier(
+        tuple(FEATURES[i] for i in keep),
+        ident.coef[[*keep, len(FEATURES)]],
+        ident.mean[keep],
+        ident.scale[keep],
+        ident.threshold,
+        ident.l2,
+    )
+    column = part.features.index("track_log_speed")
+    with pytest.raises(ParameterError, match=f"'track_log_speed' \\(column {column}\\) of row 2"):
+        part.scores(x[:, keep])
+    with pytest.raises(ParameterError, match="'track_log_speed' \\(column 14\\) of row 2"):
+        part.scores(x)  # rows of FEATURES
+    # The finite rows alone still score.
+    assert np.isfinite(ident.scores(x[:2])).all()
+
+
+def test_a_score_that_is_not_a_finite_number_is_refused() -> None:
+    ident = with_classes()
+    x = np.zeros((2, len(FEATURES)))
+    probabilities = ident.class_probabilities(x)
+    for scores in ([0.9, math.nan], [math.inf, 0.1]):
+        with pytest.raises(ParameterError, match="scores must be finite"):
+            ident.guess(x, np.array(scores))
+        with pytest.raises(ParameterError, match="scores must be finite"):
+            ident.guess_from(np.array(scores), probabilities)
+    probabilities[1, 2] = math.nan
+    with pytest.raises(ParameterError, match="probabilities must be finite"):
+        ident.guess_from(np.array([0.9, 0.1]), probabilities)
+
+
+def test_features_too_large_for_the_model_or_not_numbers_are_refused() -> None:
+    ident = replace(model(), scale=np.full(len(FEATURES), 1e-3))
+    x = np.zeros((1, len(FEATURES)))
+    x[0, 4] = 1e308  # finite, but not once standardised
+    with pytest.raises(ParameterError, match="'log_width' of row 0 is too large"):
+        ident.scores(x)
+    with pytest.raises(ParameterError, match="features must be numbers"):
+        ident.scores([["a"] * len(FEATURES)])
+    with pytest.raises(ParameterError, match="scores must be numbers"):
+        ident.guess_from(np.array(["a"]), np.zeros((1, 0)))
 
 
 # ---------------------------------------------------------------- batch equals streaming

@@ -179,19 +179,51 @@ class Identifier:
         """``x``'s rows on the model's columns, standardised. A row of ``len(FEATURES)``
         values is one of :data:`FEATURES` and is read by name, whatever the order of
         :attr:`features` (a model over the same names in another order reads the same
-        columns); a row of another length is one of :attr:`features`."""
-        x = np.asarray(x, dtype=np.float64)
+        columns); a row of another length is one of :attr:`features`.
+
+        Raises:
+            ShapeError: ``x`` is not ``(m, d)`` with ``d`` either of those lengths.
+            ParameterError: a value that is not a finite number, or one so large that
+                standardising it overflows (named: it would score NaN, never an alarm, or
+                1, without a word). No feature computed by uavsnn is either.
+        """
+        x = _floats("features", x)
         if x.ndim != 2:
             raise ShapeError(f"features must be (m, d), got {x.shape}")
-        if x.shape[1] == len(FEATURES) and self.features != FEATURES:
-            x = x[:, [FEATURES.index(f) for f in self.features]]
-        if x.shape[1] != len(self.features):
+        if x.shape[1] == len(FEATURES):
+            names = FEATURES
+        elif x.shape[1] == len(self.features):
+            names = self.features
+        else:
             raise ShapeError(f"features must have {len(self.features)} columns, got {x.shape[1]}")
-        return (x - self.mean) / self.scale
+        bad = ~np.isfinite(x)
+        if bad.any():
+            row, col = (int(i) for i in np.argwhere(bad)[0])
+            raise ParameterError(
+                f"features must be finite numbers: feature {names[col]!r} (column {col}) of "
+                f"row {row} is {x[row, col]}"
+            )
+        if names is FEATURES and self.features != FEATURES:
+            x = x[:, [FEATURES.index(f) for f in self.features]]
+        with np.errstate(over="ignore", invalid="ignore"):
+            z = (x - self.mean) / self.scale
+        bad = ~np.isfinite(z)
+        if bad.any():  # a finite value so large that standardising it overflows
+            row, col = (int(i) for i in np.argwhere(bad)[0])
+            raise ParameterError(
+                f"feature {self.features[col]!r} of row {row} is too large for the model: "
+                f"{x[row, col]}"
+            )
+        return z
 
     def scores(self, x: np.ndarray) -> np.ndarray:
         """UAV score of each object: rows of :data:`FEATURES` (read by name whatever the
-        order of :attr:`features`), or of :attr:`features` when they are fewer."""
+        order of :attr:`features`), or of :attr:`features` when they are fewer.
+
+        Raises:
+            ShapeError: rows of neither length.
+            ParameterError: a feature that is not a finite number (named).
+        """
         z = self._standardised(x)
         if self.trees is not None:
             return self.trees.predict(z)
@@ -208,21 +240,31 @@ class Identifier:
     def guess(self, x: np.ndarray, scores: np.ndarray | None = None) -> list[str]:
         """Each object's class guess: :data:`UAV_CLASS` where its UAV score (``scores``, else
         computed) reaches :attr:`threshold`; else the most probable class other than
-        :data:`UAV_CLASS` of the class model, or ``"other"`` without one."""
-        x = np.asarray(x, dtype=np.float64)
-        s = self.scores(x) if scores is None else np.asarray(scores, dtype=np.float64)
+        :data:`UAV_CLASS` of the class model, or ``"other"`` without one.
+
+        Raises:
+            ShapeError: rows of neither length of :meth:`scores`, or ``scores`` not one per row.
+            ParameterError: a feature or a score that is not a finite number.
+        """
+        s = self.scores(x) if scores is None else scores
         return self.guess_from(s, self.class_probabilities(x))
 
     def guess_from(self, scores: np.ndarray, probabilities: np.ndarray) -> list[str]:
         """The guess of :meth:`guess` from UAV scores ``(m,)`` and class probabilities
         ``(m, len(classes))`` already computed (or averaged, as a track's are)."""
-        s = np.asarray(scores, dtype=np.float64)
-        p = np.asarray(probabilities, dtype=np.float64)
+        s, p = _floats("scores", scores), _floats("probabilities", probabilities)
         if s.ndim != 1 or p.shape != (len(s), len(self.classes)):
             raise ShapeError(
                 f"scores must be (m,) and probabilities (m, {len(self.classes)}), got "
                 f"{s.shape} and {p.shape}"
             )
+        for name, values in (("scores", s), ("probabilities", p)):
+            bad = np.flatnonzero(~np.isfinite(values.ravel()))
+            if len(bad):
+                raise ParameterError(
+                    f"{name} must be finite numbers, got {values.ravel()[bad[0]]} at flat "
+                    f"index {int(bad[0])}"
+                )
         others = ["other"] * len(s)
         if self.classes:
             cols = [i for i, c in enumerate(self.classes) if c != UAV_CLASS]
@@ -344,6 +386,18 @@ class Identifier:
             # TypeError: an array where one number belongs (float() of a 1-D array), or one
             # number where names belong (iterating a 0-D array).
             raise ModelFileError(f"its identification arrays are inconsistent: {exc}") from exc
+
+
+def _floats(name: str, values: Any) -> np.ndarray:
+    """``values`` as a float64 array.
+
+    Raises:
+        ParameterError: values that are not numbers.
+    """
+    try:
+        return np.asarray(values, dtype=np.float64)
+    except (TypeError, ValueError) as err:
+        raise ParameterError(f"{name} must be numbers: {err}") from err
 
 
 def _one(arrays: Any, key: str, kinds: str, what: str) -> np.ndarray:
