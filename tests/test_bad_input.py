@@ -686,3 +686,14 @@ def test_evaluate_checks_roc_and_seed_before_evaluating(
     _one_line_exit_2(capsys, [*argv, "--roc", str(tmp_path / "roc.png")], "identification")
     _one_line_exit_2(capsys, [*argv, "--noise", "--seed", "-1"], "--seed must be >= 0")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_recording_without_metadata_is_refused_where_it_is_built() -> None:
+    # None used to be accepted, and filters.denoise then failed with a raw TypeError.
+    from uavsnn.filters import denoise
+
+    events = np.zeros(2, EVENT_DTYPE)
+    events["t"] = [1, 2]
+    with pytest.raises(ParameterError, match="metadata"):
+        uavsnn.Recording(events, SIZE, None)  # type: ignore[arg-type]
+    assert len(denoise(uavsnn.Recording(events, SIZE), 1000)) <= 2

@@ -187,3 +187,24 @@ def test_an_empty_recording_is_valid() -> None:
     rec = Recording(np.zeros(0, EVENT_DTYPE), (4, 4))
     assert len(rec) == 0
     assert rec.duration_us == 0
+
+
+@pytest.mark.parametrize("metadata", [None, [("scene", "lab")], "scene=lab", 3])
+def test_recording_metadata_must_be_a_mapping(metadata: object) -> None:
+    # None would break filters.denoise ({**rec.metadata}); a list would be written by
+    # io.write_npz and dropped by io.read.
+    ev = canonical([1, 2], [0, 1], [0, 0], [1, 0])
+    with pytest.raises(uavsnn.ParameterError, match="metadata must be a mapping"):
+        Recording(ev, (4, 4), metadata)  # type: ignore[arg-type]
+
+
+def test_recording_metadata_is_its_own_dict() -> None:
+    from types import MappingProxyType
+
+    given = {"scene": "lab"}
+    rec = Recording(canonical([1], [0], [0], [1]), (4, 4), given)
+    assert rec.metadata == given and rec.metadata is not given
+    given["scene"] = "changed"
+    assert rec.metadata == {"scene": "lab"}
+    proxy = Recording(rec.events, (4, 4), MappingProxyType({"seed": 3}))  # type: ignore[arg-type]
+    assert type(proxy.metadata) is dict and proxy.metadata == {"seed": 3}

@@ -127,6 +127,45 @@ def test_write_npz_leaves_the_old_file_when_it_fails(tmp_path: Path) -> None:
     assert [p.name for p in tmp_path.iterdir()] == ["rec.npz"]
 
 
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [(("x", 0, 1000), r"event 0: \(x=1000"), (("t", 5, 0), "event 5: t=0 goes backwards")],
+)
+def test_write_npz_refuses_events_changed_after_the_recording_was_built(
+    tmp_path: Path, change: tuple[str, int, int], message: str
+) -> None:
+    # What it would write, io.read would refuse.
+    rec = Recording(_events(10), (64, 48))
+    field, index, value = change
+    rec.events[field][index] = value
+    path = tmp_path / "rec.npz"
+    path.write_bytes(b"old content")
+    with pytest.raises(uavsnn.EventError, match=message):
+        io.write_npz(rec, path)
+    assert path.read_bytes() == b"old content"
+    assert [p.name for p in tmp_path.iterdir()] == ["rec.npz"]
+
+
+@pytest.mark.parametrize("name", ["rec", "rec.npy", "rec.npz.tmp"])
+def test_write_npz_refuses_a_path_that_is_no_npz(tmp_path: Path, name: str) -> None:
+    # io.read knows a recording by its suffix: it would refuse these as of unknown type.
+    with pytest.raises(uavsnn.ParameterError, match=r"must end in \.npz"):
+        io.write_npz(Recording(_events(10), (64, 48)), tmp_path / name)
+    assert list(tmp_path.iterdir()) == []
+    io.write_npz(Recording(_events(10), (64, 48)), tmp_path / "rec.NPZ")
+    assert len(io.read(tmp_path / "rec.NPZ")) == 10
+
+
+def test_a_path_of_bytes_is_a_parameter_error(tmp_path: Path) -> None:
+    path = tmp_path / "rec.npz"
+    with pytest.raises(uavsnn.ParameterError, match="path"):
+        io.write_npz(Recording(_events(10), (64, 48)), bytes(path))
+    assert not path.exists()
+    io.write_npz(Recording(_events(10), (64, 48)), path)
+    with pytest.raises(uavsnn.ParameterError, match="path"):
+        io.read(bytes(path))
+
+
 def test_npy_infers_or_takes_the_sensor(tmp_path: Path) -> None:
     ev = _events()
     path = tmp_path / "ev.npy"

@@ -27,6 +27,7 @@ Timestamps must be integer microseconds: floating-point times are refused rather
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -76,7 +77,9 @@ class Recording:
     """Events sorted by time, the sensor size ``(width, height)``, and free-form metadata.
 
     Building one validates every event: a wrong dtype, an event outside the sensor or a time
-    going backwards raises :class:`~uavsnn.EventError` naming the event.
+    going backwards raises :class:`~uavsnn.EventError` naming the event. ``metadata`` must be a
+    mapping (it is kept as a new ``dict`` of its items); anything else, ``None`` included, is a
+    :class:`~uavsnn.ParameterError`.
     """
 
     events: np.ndarray
@@ -84,10 +87,15 @@ class Recording:
     metadata: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
+        if not isinstance(self.metadata, Mapping):
+            raise ParameterError(
+                f"metadata must be a mapping (a dict), got {type(self.metadata).__name__}"
+            )
         size = check_sensor_size(self.sensor_size)
-        object.__setattr__(self, "sensor_size", size)
         buf = packed_bytes(self.events)
         _core.validate_events(buf, size[0], size[1])
+        object.__setattr__(self, "sensor_size", size)
+        object.__setattr__(self, "metadata", dict(self.metadata))
 
     @property
     def width(self) -> int:

@@ -44,9 +44,10 @@ from typing import Any
 
 import numpy as np
 
+from uavsnn import _core
 from uavsnn._validate import MAX_TIME_US, check_sensor_size
 from uavsnn.errors import EventError, ParameterError, RecordingFileError
-from uavsnn.events import EVENT_DTYPE, Recording, convert
+from uavsnn.events import EVENT_DTYPE, Recording, convert, packed_bytes
 
 __all__ = ["CAMERA_SENSOR_SIZES", "FAERY_FALLBACK_SIZE", "FORMATS", "read", "write_npz"]
 
@@ -86,9 +87,10 @@ def read(path: str | os.PathLike[str], sensor_size: tuple[int, int] | None = Non
 
     Raises:
         RecordingFileError: the file is missing, empty, of an unknown type, truncated or corrupt.
-        ParameterError: ``sensor_size`` is malformed or contradicts the file's own.
+        ParameterError: ``sensor_size`` is malformed or contradicts the file's own, or
+            ``path`` is not a ``str`` or ``os.PathLike[str]``.
     """
-    file = Path(path)
+    file = _path(path)
     given = None if sensor_size is None else check_sensor_size(sensor_size)
     kind = FORMATS.get(file.suffix.lower())
     if kind is None:
@@ -101,6 +103,17 @@ def read(path: str | os.PathLike[str], sensor_size: tuple[int, int] | None = Non
         raise
     except OSError as exc:  # permissions, I/O errors: the readers' own open() calls
         raise RecordingFileError(f"{file}: cannot read: {exc.strerror or exc}") from exc
+
+
+def _path(path: Any) -> Path:
+    """A file path from a ``str`` or an ``os.PathLike[str]`` (bytes are refused)."""
+    try:
+        name = os.fspath(path)
+    except TypeError:
+        name = None
+    if not isinstance(name, str):
+        raise ParameterError(f"path must be a str or os.PathLike[str], got {path!r}")
+    return Path(name)
 
 
 def _read(file: Path, kind: str, given: tuple[int, int] | None) -> Recording:
@@ -683,18 +696,33 @@ def write_npz(recording: Recording, path: str | os.PathLike[str]) -> None:
     """Write a recording as ``.npz`` (arrays ``events``, ``sensor_size``, ``metadata`` as JSON),
     atomically: to a temporary file in the same directory, then renamed over ``path``.
 
+    ``path`` must end in ``.npz`` (any case), the suffix :func:`read` knows the file by: it is
+    refused, not completed, so the file is always written where ``path`` says (``np.savez``
+    would write ``out`` as ``out.npz``). The events are checked again before writing (on the
+    sensor, in time order), so an array changed after the recording was built is refused
+    rather than written as a file :func:`read` would refuse.
+
     Raises:
-        ParameterError: ``recording`` is not a :class:`~uavsnn.Recording` or its metadata is
-            not JSON-serialisable.
+        ParameterError: ``recording`` is not a :class:`~uavsnn.Recording`, its metadata is
+            not JSON-serialisable, or ``path`` is not a ``str``/``os.PathLike[str]`` ending in
+            ``.npz``.
+        EventError: an event is off the sensor or out of time order (nothing is written).
         RecordingFileError: the file cannot be written.
     """
     if not isinstance(recording, Recording):
         raise ParameterError(f"expected a Recording, got {type(recording).__name__}")
+    target = _path(path)
+    if target.suffix.lower() != ".npz":
+        raise ParameterError(
+            f"{target}: a recording is written as .npz: the path must end in .npz, got "
+            f"{target.suffix!r}"
+        )
+    width, height = recording.sensor_size
+    _core.validate_events(packed_bytes(recording.events), width, height)
     try:
         meta = json.dumps(recording.metadata, default=_json_default)
     except (TypeError, ValueError) as exc:
         raise ParameterError(f"recording metadata is not JSON-serialisable: {exc}") from exc
-    target = Path(path)
     tmp = target.with_name(f".{target.name}.{secrets.token_hex(6)}.tmp")
     try:
         fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
