@@ -613,6 +613,90 @@ def test_bad_weights_raise_typed_errors() -> None:
     assert np.array_equal(net.weights("conv2"), w), "failed calls change nothing"
 
 
+@pytest.mark.parametrize(
+    ("rates", "message"),
+    [
+        ({"a_plus": -0.5}, "a_plus must be >"),
+        ({"a_plus": 0.0}, "a_plus must be >"),
+        ({"a_plus": 1e-50}, "a_plus must be > 0 as a float32"),
+        ({"a_plus": 1e50}, "a_plus must be <="),
+        ({"a_minus": 0.5}, "a_minus must be <="),
+        ({"a_minus": -1e50}, "a_minus must be >="),
+        ({"a_plus": "x"}, "a_plus must be a number"),
+        ({"a_plus": np.array([0.1, 0.2])}, "a_plus must be a number"),
+        ({"a_minus": True}, "a_minus must be a number"),
+        ({"a_minus": float("nan")}, "a_minus must be finite"),
+    ],
+)
+def test_stdp_rate_overrides_keep_the_configs_signs(rates: dict[str, Any], message: str) -> None:
+    # The config refuses a_plus <= 0 and a_minus > 0; an override is refused the same way
+    # (a_plus = -0.5 would depress the winners' weights), and the weights are left alone.
+    net = Network(chain_config(conv2_maps=2, inhibition=True) | {"conv1": {"threshold": 4.0}})
+    t, x, y = vertical_line()
+    before = net.weights("conv2")
+    with pytest.raises(uavsnn.ParameterError, match=message):
+        net.stdp_step("conv2", t, x, y, 0, **rates)
+    assert np.array_equal(net.weights("conv2"), before)
+    # The rates the config accepts are accepted as overrides, NumPy scalars included.
+    assert len(net.stdp_step("conv2", t, x, y, 0, a_plus=np.float32(0.25), a_minus=0))
+
+
+def test_a_config_of_numpy_scalars_is_the_config_of_their_numbers() -> None:
+    given = small_config(conv1={"maps": np.int64(4)}, pent={"beta": np.float32(2.5)})
+    assert Network(given) == Network(small_config(conv1={"maps": 4}, pent={"beta": 2.5}))
+    with pytest.raises(uavsnn.ParameterError, match=r"config\.pent\.beta"):
+        Network(small_config(pent={"beta": np.float32("nan")}))
+
+
+@pytest.mark.parametrize("layer", [None, 3, b"conv2"])
+def test_a_layer_that_is_no_name_is_a_parameter_error(layer: Any) -> None:
+    net = Network(small_config())
+    t, x, y = random_window(np.random.default_rng(1), 48, 36, 0, 1000)
+    w = net.weights("conv2")
+    with pytest.raises(uavsnn.ParameterError, match="layer"):
+        net.weights(layer)
+    with pytest.raises(uavsnn.ParameterError, match="layer"):
+        net.set_weights(layer, w)
+    with pytest.raises(uavsnn.ParameterError, match="layer"):
+        net.stdp_step(layer, t, x, y, 0)
+    with pytest.raises(uavsnn.ParameterError, match="layer"):
+        net.train_layer(layer, training_windows(1, 2))
+    assert np.array_equal(net.weights("conv2"), w)
+
+
+def test_a_model_path_of_bytes_is_a_parameter_error(tmp_path: Path) -> None:
+    net = Network(small_config())
+    target = tmp_path / "m.npz"
+    with pytest.raises(uavsnn.ParameterError, match="path"):
+        net.save(bytes(target))
+    assert not target.exists()
+    net.save(target)
+    with pytest.raises(uavsnn.ParameterError, match="path"):
+        Network.load(bytes(target))
+
+
+def test_inference_concatenate_takes_an_iterable_of_inferences_only() -> None:
+    net = Network(small_config())
+    windows = training_windows(2, 3)
+    run = net.infer(windows)
+    twice = Inference.concatenate([run, run])
+    joined = Inference.concatenate(iter([run, run]))
+    for field in ("detected", "counts", "first_detection_t", "detections", "thresholds"):
+        assert np.array_equal(getattr(joined, field), getattr(twice, field)), field
+    for parts in ([run, 3], [run, None], 3, run):
+        with pytest.raises(uavsnn.ParameterError):
+            Inference.concatenate(parts)  # type: ignore[arg-type]
+
+
+def test_windows_of_a_fractional_sensor_size_are_refused() -> None:
+    net = Network(small_config())
+    good = training_windows(1, 2)
+    for size in ((48.9, 36.2), (True, 36), ("48", "36")):
+        with pytest.raises(uavsnn.ParameterError, match="sensor_size"):
+            net.infer(WindowColumns(**(vars(good) | {"sensor_size": size})))
+    assert len(net.infer(WindowColumns(**(vars(good) | {"sensor_size": (48.0, 36.0)}))))
+
+
 def test_bad_windows_raise_typed_errors() -> None:
     net = Network(small_config())
     good = training_windows(1, 3)

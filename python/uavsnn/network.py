@@ -20,7 +20,7 @@ from __future__ import annotations
 import itertools
 import json
 import os
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any, Protocol
 
@@ -28,7 +28,7 @@ import numpy as np
 import numpy.typing as npt
 
 from uavsnn import _core
-from uavsnn._validate import U64_MAX, check_int
+from uavsnn._validate import U64_MAX, check_int, check_real, check_sensor_size
 from uavsnn.errors import EventError, ModelFileError, ParameterError, ShapeError
 
 __all__ = [
@@ -198,15 +198,25 @@ class Inference:
         return len(self.detected)
 
     @classmethod
-    def concatenate(cls, parts: Sequence[Inference]) -> Inference:
+    def concatenate(cls, parts: Iterable[Inference]) -> Inference:
         """The inference of consecutive runs of windows as one: ``parts[k]``'s windows follow
         those of ``parts[k - 1]``, and the ``window`` field of its detections and spikes counts
         from the windows of the parts before it. ``spikes`` is kept only when every part has
-        it. At least one part.
+        it. At least one part; ``parts`` may be any iterable (a list, a generator).
 
         Raises:
             ShapeError: no parts, or parts of different map counts.
+            ParameterError: ``parts`` is not an iterable of :class:`Inference`.
         """
+        try:
+            parts = list(parts)
+        except TypeError as exc:
+            raise ParameterError(
+                f"parts must be an iterable of Inference, got {type(parts).__name__}"
+            ) from exc
+        for i, part in enumerate(parts):
+            if not isinstance(part, Inference):
+                raise ParameterError(f"parts[{i}] is a {type(part).__name__}, not an Inference")
         if not parts:
             raise ShapeError("concatenate needs at least one Inference")
         maps = {p.thresholds.shape[1:] for p in parts}
@@ -214,7 +224,7 @@ class Inference:
             raise ShapeError(f"parts have thresholds of different shapes: {sorted(maps)}")
         starts = np.cumsum([0] + [len(p) for p in parts[:-1]])
 
-        def renumbered(rows: Sequence[np.ndarray]) -> np.ndarray:
+        def renumbered(rows: list[np.ndarray]) -> np.ndarray:
             out = np.concatenate(rows)
             out["window"] += np.repeat(starts, [len(r) for r in rows])
             return out
@@ -295,10 +305,7 @@ def _window_columns(windows: WindowsLike) -> dict[str, Any]:
         raise ParameterError(
             f"windows must be a uavsnn.windows.Windows (or have its columns): {exc}"
         ) from exc
-    try:
-        width, height = (int(v) for v in sensor_size)
-    except (TypeError, ValueError) as exc:
-        raise ParameterError(f"sensor_size must be (width, height), got {sensor_size!r}") from exc
+    width, height = check_sensor_size(sensor_size)
     offsets_array = np.asarray(offsets)
     if offsets_array.ndim != 1 or (offsets_array.size and offsets_array.dtype.kind not in "ui"):
         raise ShapeError(
@@ -335,9 +342,10 @@ class Network:
     def __init__(self, config: Mapping[str, Any] | None = None, seed: int = 0) -> None:
         if config is not None and not isinstance(config, Mapping):
             raise ParameterError(f"config must be a dict, got {type(config).__name__}")
-        _check_finite(config or {}, "config")
+        plain = _plain(config or {})
+        _check_finite(plain, "config")
         try:
-            text = json.dumps(dict(config or {}), allow_nan=False)
+            text = json.dumps(plain, allow_nan=False)
         except (TypeError, ValueError) as exc:
             raise ParameterError(f"config must be JSON-serialisable: {exc}") from exc
         self._core = _core.NetworkCore(text, _count("seed", seed))
@@ -369,7 +377,7 @@ class Network:
 
     def weights(self, layer: str) -> np.ndarray:
         """A copy of a conv layer's weights, ``(maps, in_channels, k, k)`` float32."""
-        return self._core.weights(layer)
+        return self._core.weights(_layer(layer))
 
     def set_weights(self, layer: str, w: npt.ArrayLike) -> None:
         """Replace a conv layer's weights: float32 of shape ``(maps, in_channels, k, k)``, every
@@ -379,7 +387,7 @@ class Network:
             raise ParameterError(f"weights must be float32, got {array.dtype}")
         if array.ndim != 4:
             raise ShapeError(f"weights must be 4-D (maps, in_channels, k, k), got {array.shape}")
-        self._core.set_weights(layer, np.ascontiguousarray(array))
+        self._core.set_weights(_layer(layer), np.ascontiguousarray(array))
 
     def conv1_thresholds(self, n_in: int) -> np.ndarray:
         """conv1's per-map thresholds (float32) for a window whose PENT estimate is ``n_in``."""
@@ -441,14 +449,16 @@ class Network:
 
         Layers below run in inference mode; ``layer`` runs without lateral inhibition and its
         crossings compete (winner-take-all); the winners' kernels are updated in place with
-        ``a_plus``/``a_minus`` (default: the config's initial rates). Returns the winners in
-        acceptance order (:data:`SPIKE_DTYPE`).
+        ``a_plus``/``a_minus`` (default: the config's initial rates; an override must keep the
+        config's signs, ``a_plus > 0`` and ``a_minus <= 0``, as a finite float32). Returns the
+        winners in acceptance order (:data:`SPIKE_DTYPE`).
         """
+        layer = _layer(layer)
+        plus = None if a_plus is None else _rate("a_plus", a_plus)
+        minus = None if a_minus is None else _rate("a_minus", a_minus)
         t_, x_, y_ = self._inputs(t, x, y)
         n = None if n_in is None else _count("n_in", n_in)
-        columns = self._core.stdp_step(
-            layer, t_, x_, y_, _count("t0", t0), n, _rate(a_plus), _rate(a_minus)
-        )
+        columns = self._core.stdp_step(layer, t_, x_, y_, _count("t0", t0), n, plus, minus)
         return _spikes(columns, SPIKE_DTYPE)
 
     def infer(
@@ -504,6 +514,7 @@ class Network:
         ``callback(done, total, convergence)`` is called every ``every`` windows and at the end;
         returning ``False`` stops training early. The GIL is released between calls.
         """
+        layer = _layer(layer)
         columns = _window_columns(windows)
         convergence, a_plus, seen, winners = self._core.train_layer(
             layer,
@@ -525,10 +536,15 @@ class Network:
     def save(self, path: str | os.PathLike[str]) -> None:
         """Write a model file (``.npz``: weights + versioned config, no pickle), atomically;
         with :attr:`identification`, its arrays too (``identify.*``, uncompressed entries the
-        engine's reader skips)."""
-        self._core.save(os.fspath(path))
+        engine's reader skips).
+
+        Raises:
+            ParameterError: ``path`` is not a ``str`` or ``os.PathLike[str]`` (bytes refused).
+        """
+        file = _path(path)
+        self._core.save(file)
         if self.identification is not None:
-            _add_arrays(os.fspath(path), self.identification.to_arrays())
+            _add_arrays(file, self.identification.to_arrays())
 
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> Network:
@@ -543,7 +559,8 @@ class Network:
         from uavsnn.identifier import Identifier
         from uavsnn.tracks import DEFAULT_GATE_PX, GATE_SHARE
 
-        net = cls._wrap(_core.NetworkCore.load(os.fspath(path)))
+        path = _path(path)
+        net = cls._wrap(_core.NetworkCore.load(path))
         try:
             with np.load(os.fspath(path), allow_pickle=False) as arrays:
                 net.identification = Identifier.from_arrays(arrays)
@@ -622,10 +639,45 @@ def _check_finite(value: Any, path: str) -> None:
         raise ParameterError(f"{path} must be a finite number, got {value}")
 
 
-def _rate(value: float | None) -> float | None:
-    if value is None:
-        return None
-    rate = float(value)
-    if not np.isfinite(rate):
-        raise ParameterError(f"learning rates must be finite, got {value!r}")
-    return rate
+_F32_MAX = float(np.finfo(np.float32).max)
+
+
+def _rate(name: str, value: Any) -> float:
+    """A learning-rate override with the sign the config requires of it (``a_plus > 0``,
+    ``a_minus <= 0``), finite and nonzero (``a_plus``) as the engine's float32."""
+    if name == "a_plus":
+        rate = check_real(name, value, low=0.0, low_open=True, high=_F32_MAX)
+        if np.float32(rate) == 0:
+            raise ParameterError(f"a_plus must be > 0 as a float32, got {rate!r}")
+        return rate
+    return check_real(name, value, low=-_F32_MAX, high=0.0)
+
+
+def _layer(layer: Any) -> str:
+    """A layer name as a ``str`` (the engine checks which names are conv layers)."""
+    if not isinstance(layer, str):
+        raise ParameterError(f"layer must be one of {', '.join(CONV_LAYERS)}, got {layer!r}")
+    return layer
+
+
+def _path(path: Any) -> str:
+    """A file path as ``str``: a ``str`` or an ``os.PathLike[str]`` (bytes are refused)."""
+    try:
+        file = os.fspath(path)
+    except TypeError:
+        file = None
+    if not isinstance(file, str):
+        raise ParameterError(f"path must be a str or os.PathLike[str], got {path!r}")
+    return file
+
+
+def _plain(value: Any) -> Any:
+    """A config with its NumPy scalars (``np.int64(4)``, ``np.bool_``) as Python numbers, so
+    that they serialise as the numbers they are."""
+    if isinstance(value, Mapping):
+        return {key: _plain(item) for key, item in value.items()}
+    if isinstance(value, list | tuple):
+        return [_plain(item) for item in value]
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
