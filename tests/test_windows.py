@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 import uavsnn
 from uavsnn import io
 from uavsnn.events import EVENT_DTYPE, Recording
-from uavsnn.windows import Windows, add_noise, make_windows, window_step
+from uavsnn.windows import Windows, add_noise, make_windows, noise_per_window, window_step
 
 OVERLAPS = st.one_of(st.sampled_from([0.0, 0.1, 0.5, 0.9]), st.floats(0.0, 0.95))
 
@@ -299,6 +299,65 @@ def test_bad_ranges_and_inputs_are_typed_errors() -> None:
     other = make_windows(rec, 20)
     with pytest.raises(uavsnn.ShapeError, match="length"):
         Windows.concatenate([w, other])
+
+
+WINDOW = {
+    "sensor_size": (4, 4),
+    "length_us": 10,
+    "t0": [0],
+    "offsets": [0, 2],
+    "t": [1, 2],
+    "x": [0, 1],
+    "y": [0, 0],
+    "n_preceding": [0],
+}
+
+
+@pytest.mark.parametrize("size", [(64.9, 48.2), (True, 4), (4, 4.5), ("4", "4"), 4, None])
+def test_a_sensor_size_that_is_no_whole_pixels_is_refused_not_truncated(size: object) -> None:
+    with pytest.raises(uavsnn.ParameterError, match="sensor_size"):
+        Windows(**{**WINDOW, "sensor_size": size})
+    assert Windows(**{**WINDOW, "sensor_size": (4.0, np.int64(4))}).sensor_size == (4, 4)
+
+
+def test_windows_concatenate_takes_any_iterable_of_windows() -> None:
+    w = make_windows(small_recording(), 10)
+    twice = Windows.concatenate([w, w])
+    for parts in (iter([w, w]), (p for p in (w, w)), (w, w)):
+        joined = Windows.concatenate(parts)
+        assert len(joined) == 2 * len(w)
+        for name in ("t0", "offsets", "t", "x", "y", "n_preceding"):
+            assert np.array_equal(getattr(joined, name), getattr(twice, name)), name
+    for bad in (w, 3, None):
+        with pytest.raises(uavsnn.ParameterError, match="iterable of Windows"):
+            Windows.concatenate(bad)  # type: ignore[arg-type]
+    with pytest.raises(uavsnn.ParameterError, match=r"parts\[1\]"):
+        Windows.concatenate(iter([w, 3]))  # type: ignore[list-item]
+    with pytest.raises(uavsnn.ParameterError, match="at least one"):
+        Windows.concatenate(iter([]))
+
+
+@pytest.mark.parametrize("median", ["no", "", 0, 1, None, np.array([True])])
+def test_median_must_be_a_bool(median: object) -> None:
+    # bool("no") is True: the filter would run.
+    with pytest.raises(uavsnn.ParameterError, match="median"):
+        make_windows(small_recording(), 10, median=median)  # type: ignore[arg-type]
+    assert len(make_windows(small_recording(), 10, median=np.bool_(True))) == 1
+
+
+def test_noise_per_window_refuses_what_add_noise_refuses() -> None:
+    w = make_windows(small_recording(), 10)
+    for fraction in (-1, 2, -0.1, 1.1, float("nan"), "half", None, True):
+        with pytest.raises(uavsnn.ParameterError, match="fraction"):
+            noise_per_window(fraction, (64, 48))  # type: ignore[arg-type]
+        with pytest.raises(uavsnn.ParameterError, match="fraction"):
+            add_noise(w, fraction, seed=0)  # type: ignore[arg-type]
+    for size in ((64.5, 48), (0, 48), None):
+        with pytest.raises(uavsnn.ParameterError, match="sensor_size"):
+            noise_per_window(0.5, size)  # type: ignore[arg-type]
+    assert noise_per_window(0.5, (64, 48)) == 1536
+    assert noise_per_window(1, (64, 48)) == 64 * 48
+    assert noise_per_window(np.float32(0.0), (64, 48)) == 0
 
 
 def test_inconsistent_windows_are_refused() -> None:

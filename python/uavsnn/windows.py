@@ -18,14 +18,14 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Sequence
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from uavsnn import _core
-from uavsnn._validate import MAX_TIME_US, int_param
+from uavsnn._validate import MAX_TIME_US, check_sensor_size, int_param
 from uavsnn.errors import ParameterError, ShapeError
 from uavsnn.events import Recording, packed_bytes
 
@@ -142,14 +142,7 @@ class Windows:
     n_preceding: np.ndarray
 
     def __post_init__(self) -> None:
-        try:
-            width, height = (int(v) for v in self.sensor_size)
-        except (TypeError, ValueError) as exc:
-            raise ParameterError(
-                f"sensor_size must be (width, height), got {self.sensor_size!r}"
-            ) from exc
-        if not (0 < width <= 65535 and 0 < height <= 65535):
-            raise ParameterError(f"sensor_size must be positive and < 65536, got {width}x{height}")
+        width, height = check_sensor_size(self.sensor_size)
         object.__setattr__(self, "sensor_size", (width, height))
         length = int_param("length_us", self.length_us, 1, MAX_TIME_US)
         object.__setattr__(self, "length_us", length)
@@ -244,8 +237,15 @@ class Windows:
         )
 
     @staticmethod
-    def concatenate(parts: Sequence[Windows]) -> Windows:
-        """The windows of ``parts`` one after the other; all must share sensor and length."""
+    def concatenate(parts: Iterable[Windows]) -> Windows:
+        """The windows of ``parts`` (any iterable: a list, a generator) one after the other;
+        all must share sensor and length."""
+        try:
+            parts = list(parts)
+        except TypeError as exc:
+            raise ParameterError(
+                f"parts must be an iterable of Windows, got {type(parts).__name__}"
+            ) from exc
         if len(parts) == 0:
             raise ParameterError("concatenate needs at least one Windows")
         first = parts[0]
@@ -290,18 +290,21 @@ def make_windows(
         length_us: window length ``L`` in µs (≥ 1).
         overlap: fraction of a window shared with the next; windows start every
             :func:`window_step` µs.
-        median: apply the 3×3 median filter to each window's active pixels.
+        median: apply the 3×3 median filter to each window's active pixels (a ``bool``).
         start_us: start of the first window (default: the first event's time).
         end_us: windows start before this time and events at or after it are ignored
             (default: one past the last event's time).
 
     Raises:
         ParameterError: a length below 1 µs, an overlap outside ``[0, 1)`` or NaN, negative
-            or inverted ``start_us``/``end_us``, more windows than the engine's limit, or a
-            recording whose windows may need more than :data:`MEMORY_LIMIT` bytes.
+            or inverted ``start_us``/``end_us``, a ``median`` that is not a ``bool``, more
+            windows than the engine's limit, or a recording whose windows may need more than
+            :data:`MEMORY_LIMIT` bytes.
     """
     if not isinstance(recording, Recording):
         raise ParameterError(f"expected a Recording, got {type(recording).__name__}")
+    if not isinstance(median, bool | np.bool_):
+        raise ParameterError(f"median must be True or False, got {median!r}")
     length = int_param("length_us", length_us, 1, MAX_TIME_US)
     start = None if start_us is None else int_param("start_us", start_us, 0, MAX_TIME_US)
     end = None if end_us is None else int_param("end_us", end_us, 0, MAX_TIME_US)
@@ -321,10 +324,30 @@ def make_windows(
     return Windows._from_engine(recording.sensor_size, length, columns)
 
 
+def _fraction(value: Any) -> float:
+    """A noise fraction: a number (not ``bool``) in ``[0, 1]``."""
+    if isinstance(value, bool | np.bool_):
+        raise ParameterError(f"fraction must be a number in [0, 1], got {value!r}")
+    try:
+        frac = float(value)
+    except (TypeError, ValueError) as exc:
+        raise ParameterError(f"fraction must be a number in [0, 1], got {value!r}") from exc
+    if not (0.0 <= frac <= 1.0):  # also refuses NaN
+        raise ParameterError(f"fraction must be in [0, 1], got {value!r}")
+    return frac
+
+
 def noise_per_window(fraction: float, sensor_size: tuple[int, int]) -> int:
     """The noise events :func:`add_noise` draws per window on a ``sensor_size`` sensor:
-    ``fraction · W · H`` rounded half away from zero, as the engine rounds it."""
-    return math.floor(float(fraction) * sensor_size[0] * sensor_size[1] + 0.5)
+    ``fraction · W · H`` rounded half away from zero, as the engine rounds it.
+
+    Raises:
+        ParameterError: ``fraction`` outside ``[0, 1]`` or NaN (as :func:`add_noise`), or a bad
+            ``sensor_size``.
+    """
+    frac = _fraction(fraction)
+    width, height = check_sensor_size(sensor_size)
+    return math.floor(frac * width * height + 0.5)
 
 
 def add_noise(
@@ -352,12 +375,7 @@ def add_noise(
     """
     if not isinstance(windows, Windows):
         raise ParameterError(f"expected Windows, got {type(windows).__name__}")
-    try:
-        frac = float(fraction)
-    except (TypeError, ValueError) as exc:
-        raise ParameterError(f"fraction must be a number in [0, 1], got {fraction!r}") from exc
-    if not (0.0 <= frac <= 1.0):
-        raise ParameterError(f"fraction must be in [0, 1], got {fraction!r}")
+    frac = _fraction(fraction)
     seed_value = int_param("seed", seed, 0)
     first_value = int_param("first", first, 0)
     width, height = windows.sensor_size
