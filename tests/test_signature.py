@@ -25,6 +25,7 @@ from uavsnn.signature import (
     SPECTRUM_DEFAULTS,
     RotorSignature,
     RotorSpectrum,
+    estimate_motion,
     measure_box,
     rotor_signature,
     rotor_spectrum,
@@ -235,6 +236,44 @@ def test_bad_parameters_are_parameter_errors(kwargs, name):
 def test_bad_boxes_are_parameter_errors(box):
     with pytest.raises(ParameterError, match="box"):
         RotorSignature(box)
+
+
+@pytest.mark.parametrize(
+    ("make", "name"),
+    [
+        (lambda: RotorSignature((0, 0, 4, 4), bins=64.9), "bins"),
+        (lambda: RotorSignature((0, 0, 4, 4), min_pixels=2.9), "min_pixels"),
+        (lambda: RotorSignature((0, 0, 4, 4), bins=True), "bins"),
+        (lambda: RotorSignature((10.9, 0, 4, 4)), "box"),
+        (lambda: RotorSignature((0, 0, 4, 4.5)), "box"),
+        (lambda: RotorSignature((True, 0, 4, 4)), "box"),
+        (lambda: RotorSignature((2**64, 10, 8, 8)), "box"),
+        (lambda: rotor_signature(np.zeros(0, EVENT_DTYPE), (2**64, 10, 8, 8)), "box"),
+        (lambda: RotorSignature((0, 0, 4, 4)).count_rate(0.7, 5000, 40), "start_us"),
+        (lambda: RotorSignature((0, 0, 4, 4)).count_rate(0, 5000.9, 40), "bin_us"),
+        (lambda: RotorSignature((0, 0, 4, 4)).count_rate(0, 5000, 40.2), "bins"),
+        (lambda: RotorSignature((0, 0, 4, 4)).count_rate(2**64, 5000, 40), "start_us"),
+        (lambda: RotorSignature((0, 0, 4, 4)).count_rate(0, "5000", 40), "bin_us"),
+        (lambda: rotor_spectrum(np.zeros(0, EVENT_DTYPE), (0, 0, 4, 4), bin_us=250.9), "bin_us"),
+        (lambda: rotor_spectrum(np.zeros(0, EVENT_DTYPE), (0, 0, 4, 4), span_us=2**64), "span_us"),
+        (lambda: RotorSpectrum((0, 0, 4, 4), min_events=3.5), "min_events"),
+        (lambda: estimate_motion(np.zeros(0, EVENT_DTYPE), (0, 0, 4, 4), min_events=2.5), "min_e"),
+        (lambda: estimate_motion(np.zeros(0, EVENT_DTYPE), (0, 0, 4, 4), min_gain="x"), "min_gain"),
+    ],
+)
+def test_fractions_and_huge_integers_are_refused_not_truncated(make, name):
+    with pytest.raises(ParameterError, match=name):
+        make()
+
+
+def test_whole_floats_and_numpy_integers_are_the_integers_they_hold():
+    events = np.zeros(0, EVENT_DTYPE)
+    box = (np.uint16(2), np.int64(3), 4.0, 5)
+    assert RotorSignature(box, bins=64.0).box == (2, 3, 4, 5)
+    assert rotor_spectrum(events, box, bin_us=np.int64(250)) == rotor_spectrum(events, (2, 3, 4, 5))
+    s = RotorSignature((0, 0, 4, 4))
+    s.count_rate(np.uint64(0), 5000.0, np.int32(4))
+    assert s.rate.tolist() == [0] * 4
 
 
 def test_the_cap_is_the_documented_one():

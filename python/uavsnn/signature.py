@@ -21,6 +21,8 @@ feature.
 
 from __future__ import annotations
 
+import math
+import numbers
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, NamedTuple
@@ -84,11 +86,45 @@ class RotorEstimate:
     detected: bool
 
 
-def _box(box: object) -> tuple[int, int, int, int]:
+#: The range of the integers the engine's estimators take (``i64``).
+_I64 = (-(1 << 63), (1 << 63) - 1)
+
+
+def _whole(value: Any) -> int | None:
+    """``value`` as an ``int`` if it is a whole number (an integer, not ``bool``, or an integral
+    float), else ``None``."""
+    if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):
+        return None
+    if isinstance(value, numbers.Integral):
+        return int(value)
+    v = float(value)
+    return int(v) if math.isfinite(v) and v.is_integer() else None
+
+
+def _integer(name: str, value: Any, what: str = "") -> int:
+    """An integer parameter for the engine: a whole number (a fraction is refused, not
+    truncated) that fits its ``i64`` (the engine checks the parameter's own range).
+    ``what`` prefixes the message."""
+    result = _whole(value)
+    if result is None:
+        raise ParameterError(f"{what}{name} must be a whole number, got {value!r}")
+    if not _I64[0] <= result <= _I64[1]:
+        raise ParameterError(f"{what}{name} must be in [-2**63, 2**63 - 1], got {result}")
+    return result
+
+
+def _box(box: Any) -> tuple[int, int, int, int]:
+    """A box ``(x0, y0, width, height)`` of whole numbers in ``[0, 65535]``."""
     try:
-        x0, y0, width, height = (int(v) for v in box)  # type: ignore[attr-defined]
-    except (TypeError, ValueError) as exc:
-        raise ParameterError(f"box must be (x0, y0, width, height), got {box!r}") from exc
+        sides: tuple[Any, ...] = () if isinstance(box, str | bytes) else tuple(box)
+    except TypeError:
+        sides = ()
+    values = [v for v in map(_whole, sides) if v is not None and 0 <= v <= 65535]
+    if len(sides) != 4 or len(values) != 4:
+        raise ParameterError(
+            f"box must be (x0, y0, width, height), four whole numbers in [0, 65535], got {box!r}"
+        )
+    x0, y0, width, height = values
     return x0, y0, width, height
 
 
@@ -153,9 +189,11 @@ class RotorSignature(_BoxEstimator):
         min_pixels: int = int(DEFAULTS["min_pixels"]),
     ) -> None:
         x0, y0, width, height = _box(box)
+        what = "rotor signature parameters must be numbers: "
+        whole = (_integer("bins", bins, what), _integer("min_pixels", min_pixels, what))
         try:
-            args = (float(f_min_hz), float(f_max_hz), int(bins), float(consistency))
-            rest = (float(agree), float(threshold), int(min_pixels))
+            args = (float(f_min_hz), float(f_max_hz), whole[0], float(consistency))
+            rest = (float(agree), float(threshold), whole[1])
         except (TypeError, ValueError, OverflowError) as exc:
             raise ParameterError(f"rotor signature parameters must be numbers: {exc}") from exc
         self._inner: _core.RotorSignature = _core.RotorSignature(
@@ -187,13 +225,14 @@ class RotorSignature(_BoxEstimator):
         counts and keeps the bins.
 
         Raises:
-            ParameterError: ``bin_us`` below 1, ``bins`` outside ``1..=4096``, or a negative
-                ``start_us``.
+            ParameterError: a value that is not a whole number, ``bin_us`` below 1, ``bins``
+                outside ``1..=4096``, or ``start_us`` outside ``0..=2**63-1``.
         """
-        try:
-            args = (int(start_us), int(bin_us), int(bins))
-        except (TypeError, ValueError, OverflowError) as exc:
-            raise ParameterError(f"rate bins must be integers: {exc}") from exc
+        args = (
+            _integer("start_us", start_us, "rate bins: "),
+            _integer("bin_us", bin_us, "rate bins: "),
+            _integer("bins", bins, "rate bins: "),
+        )
         self._inner.count_rate(*args)
 
     @property
@@ -330,10 +369,12 @@ class RotorSpectrum(_BoxEstimator):
         if unknown:
             raise ParameterError(f"unknown rotor spectrum parameters {sorted(unknown)}")
         p = {**SPECTRUM_DEFAULTS, **params}
+        what = "rotor spectrum parameters must be numbers: "
+        ints = {
+            k: _integer(k, p[k], what)
+            for k in ("bin_us", "span_us", "freqs", "min_events", "min_pixels")
+        }
         try:
-            ints = {
-                k: int(p[k]) for k in ("bin_us", "span_us", "freqs", "min_events", "min_pixels")
-            }
             floats = {k: float(p[k]) for k in ("f_min_hz", "f_max_hz", "agree", "threshold")}
         except (TypeError, ValueError, OverflowError) as exc:
             raise ParameterError(f"rotor spectrum parameters must be numbers: {exc}") from exc
@@ -499,9 +540,15 @@ def estimate_motion(
     x0, y0, width, height = _box(box)
     if width <= 0 or height <= 0:
         raise ParameterError(f"box must have a positive width and height, got {box!r}")
-    if int(min_events) < 2 or not float(min_gain) >= 0.0 or int(coarse_steps) < 1:
+    min_events = _integer("min_events", min_events)
+    coarse_steps = _integer("coarse_steps", coarse_steps)
+    max_events = _integer("max_events", max_events)
+    for name, value in (("min_gain", min_gain), ("finest_px", finest_px)):
+        if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):
+            raise ParameterError(f"{name} must be a number, got {value!r}")
+    if min_events < 2 or not float(min_gain) >= 0.0 or coarse_steps < 1:
         raise ParameterError("min_events >= 2, min_gain >= 0 and coarse_steps >= 1 needed")
-    if int(max_events) < int(min_events):
+    if max_events < min_events:
         raise ParameterError(f"max_events must be at least min_events, got {max_events!r}")
     if not 0.0 < float(finest_px) <= 1.0:
         raise ParameterError(f"finest_px must be in (0, 1], got {finest_px!r}")
