@@ -52,13 +52,24 @@ def test_in_box_is_the_half_open_rule(points, box) -> None:
     assert in_box(ev, box)["t"].tolist() == [i for i, e in enumerate(expected) if e]
 
 
-@pytest.mark.parametrize("box", [(0, 0, 4), "abcd", None, (0, 0, "a", 4)])
+@pytest.mark.parametrize(
+    "box", [(0, 0, 4), "abcd", None, (0, 0, "a", 4), (0.9, 0, 4, 4), (0, 0, 4, True)]
+)
 def test_a_bad_box_is_a_parameter_error(box) -> None:
+    # A fraction was truncated (0.9 read as 0) and True read as 1.
     ev = events_at([(1, 1)])
     with pytest.raises(ParameterError, match="box"):
         box_mask(ev, box)
     with pytest.raises(ParameterError, match="box"):
         xywh(box)
+
+
+def test_whole_floats_and_numpy_integers_are_box_corners() -> None:
+    ev = events_at([(1, 1), (3, 2)])
+    want = box_mask(ev, (0, 0, 2, 2))
+    for box in [(0.0, 0.0, 2.0, 2.0), tuple(np.array([0, 0, 2, 2], np.uint16))]:
+        assert box_mask(ev, box).tolist() == want.tolist()
+    assert xywh((np.int64(1), 2.0, 5, 6)) == (1, 2, 4, 4)
 
 
 @pytest.mark.parametrize("events", [np.zeros(3), np.zeros(2, dtype=[("t", "<u8")]), [1, 2]])

@@ -57,10 +57,9 @@ def int_param(name: str, value: Any, minimum: int, maximum: int = U64_MAX) -> in
     """An integer parameter (an integral float is accepted), or :class:`ParameterError`."""
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise ParameterError(f"{name} must be an integer, got {value!r}")
-    if not _whole(value):
-        raise ParameterError(f"{name} must be a whole number of microseconds, got {value!r}")
-    # an Integral exactly (a float would round a large one), a whole float through float
-    result = int(value) if isinstance(value, numbers.Integral) else int(float(value))
+    result = whole(value)
+    if result is None:
+        raise ParameterError(f"{name} must be a whole number, got {value!r}")
     if not minimum <= result <= maximum:
         raise ParameterError(f"{name} must be in [{minimum}, {maximum}], got {result}")
     return result
@@ -73,20 +72,23 @@ def check_sensor_size(sensor_size: Any) -> tuple[int, int]:
         sides = () if isinstance(sensor_size, (str, bytes)) else tuple(sensor_size)
     except TypeError:
         sides = ()
-    if len(sides) != 2 or not all(_whole(v) for v in sides):
+    values = [v for v in map(whole, sides) if v is not None]
+    if len(sides) != 2 or len(values) != 2:
         raise ParameterError(
             f"sensor_size must be (width, height) in whole pixels, got {sensor_size!r}"
         )
-    width, height = (int(v) for v in sides)
+    width, height = values
     if not (0 < width <= 65535 and 0 < height <= 65535):
         raise ParameterError(f"sensor_size must be positive and < 65536, got {width}x{height}")
     return width, height
 
 
-def _whole(value: Any) -> bool:
-    """Whether ``value`` is a whole number: an integer (not ``bool``) or an integral float."""
-    if isinstance(value, (bool, np.bool_)):
-        return False
+def whole(value: Any) -> int | None:
+    """``value`` as an ``int`` if it is a whole number (an integer, not ``bool``, or an integral
+    float: ``64.0`` is 64), else ``None`` (a fraction is not truncated)."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        return None
     if isinstance(value, numbers.Integral):
-        return True
-    return isinstance(value, numbers.Real) and math.isfinite(value) and float(value).is_integer()
+        return int(value)
+    v = float(value)
+    return int(v) if math.isfinite(v) and v.is_integer() else None

@@ -10,18 +10,31 @@ take a box as ``(x0, y0, width, height)`` instead (:func:`xywh`).
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
+from uavsnn._validate import whole
 from uavsnn.errors import EventError, ParameterError
 
 __all__ = ["box_mask", "in_box", "xywh"]
 
 
-def _corners(box: object) -> tuple[int, int, int, int]:
+def corners(box: Any) -> tuple[int, int, int, int]:
+    """``box`` as four ints ``(x0, y0, x1, y1)``: whole numbers (``5.0`` is 5; a fraction is
+    refused, not truncated).
+
+    Raises:
+        ParameterError: ``box`` is not four whole numbers.
+    """
     try:
-        x0, y0, x1, y1 = (int(v) for v in box)  # type: ignore[attr-defined]
-    except (TypeError, ValueError) as exc:
-        raise ParameterError(f"box must be (x0, y0, x1, y1), got {box!r}") from exc
+        sides = () if isinstance(box, (str, bytes)) else tuple(box)
+    except TypeError:
+        sides = ()
+    values = [v for v in map(whole, sides) if v is not None]
+    if len(sides) != 4 or len(values) != 4:
+        raise ParameterError(f"box must be (x0, y0, x1, y1), four whole numbers, got {box!r}")
+    x0, y0, x1, y1 = values
     return x0, y0, x1, y1
 
 
@@ -29,9 +42,9 @@ def xywh(box: tuple[int, int, int, int]) -> tuple[int, int, int, int]:
     """``(x0, y0, x1, y1)`` as ``(x0, y0, width, height)``.
 
     Raises:
-        ParameterError: ``box`` is not four integers.
+        ParameterError: ``box`` is not four whole numbers.
     """
-    x0, y0, x1, y1 = _corners(box)
+    x0, y0, x1, y1 = corners(box)
     return x0, y0, x1 - x0, y1 - y0
 
 
@@ -42,9 +55,9 @@ def box_mask(events: np.ndarray, box: tuple[int, int, int, int]) -> np.ndarray:
 
     Raises:
         EventError: ``events`` has no ``x`` and ``y`` fields.
-        ParameterError: ``box`` is not four integers.
+        ParameterError: ``box`` is not four whole numbers.
     """
-    x0, y0, x1, y1 = _corners(box)
+    x0, y0, x1, y1 = corners(box)
     names = getattr(getattr(events, "dtype", None), "names", None) or ()
     if "x" not in names or "y" not in names:
         got = getattr(events, "dtype", type(events).__name__)

@@ -32,7 +32,7 @@ import numpy as np
 import numpy.typing as npt
 
 from uavsnn import _core
-from uavsnn.boxes import xywh
+from uavsnn.boxes import corners, xywh
 from uavsnn.errors import DatasetError, ParameterError, ShapeError
 from uavsnn.signature import RotorEstimate, measure_box
 from uavsnn.windows import noise_per_window
@@ -230,7 +230,7 @@ def object_features(
         ParameterError: an empty box, or neither ``counts`` (with ``rotor``) nor ``events``
             and ``window``.
     """
-    x0, y0, x1, y1 = (int(v) for v in box)
+    x0, y0, x1, y1 = corners(box)
     w, h = x1 - x0, y1 - y0
     if w < 1 or h < 1:
         raise ParameterError(f"an object's box must not be empty, got {box}")

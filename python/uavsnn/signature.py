@@ -21,7 +21,6 @@ feature.
 
 from __future__ import annotations
 
-import math
 import numbers
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -30,7 +29,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from uavsnn import _core
-from uavsnn._validate import check_sensor_size
+from uavsnn._validate import check_sensor_size, whole
 from uavsnn.errors import ParameterError
 from uavsnn.events import packed_bytes
 
@@ -90,22 +89,11 @@ class RotorEstimate:
 _I64 = (-(1 << 63), (1 << 63) - 1)
 
 
-def _whole(value: Any) -> int | None:
-    """``value`` as an ``int`` if it is a whole number (an integer, not ``bool``, or an integral
-    float), else ``None``."""
-    if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):
-        return None
-    if isinstance(value, numbers.Integral):
-        return int(value)
-    v = float(value)
-    return int(v) if math.isfinite(v) and v.is_integer() else None
-
-
 def _integer(name: str, value: Any, what: str = "") -> int:
     """An integer parameter for the engine: a whole number (a fraction is refused, not
     truncated) that fits its ``i64`` (the engine checks the parameter's own range).
     ``what`` prefixes the message."""
-    result = _whole(value)
+    result = whole(value)
     if result is None:
         raise ParameterError(f"{what}{name} must be a whole number, got {value!r}")
     if not _I64[0] <= result <= _I64[1]:
@@ -119,7 +107,7 @@ def _box(box: Any) -> tuple[int, int, int, int]:
         sides: tuple[Any, ...] = () if isinstance(box, str | bytes) else tuple(box)
     except TypeError:
         sides = ()
-    values = [v for v in map(_whole, sides) if v is not None and 0 <= v <= 65535]
+    values = [v for v in map(whole, sides) if v is not None and 0 <= v <= 65535]
     if len(sides) != 4 or len(values) != 4:
         raise ParameterError(
             f"box must be (x0, y0, width, height), four whole numbers in [0, 65535], got {box!r}"
