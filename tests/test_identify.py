@@ -477,10 +477,44 @@ def test_a_bad_stored_gate_is_refused(tmp_path: Path, stored: np.ndarray) -> Non
         Network.load(tmp_path / "m.npz")
 
 
-@pytest.mark.parametrize("gate", [0.0, -1.0, math.nan, math.inf, True, "24"])
+@pytest.mark.parametrize(
+    "gate",
+    [
+        0.0,
+        -1.0,
+        math.nan,
+        math.inf,
+        True,
+        "24",
+        pytest.param(2**2000, id="2**2000"),
+        np.float32(-1),
+        np.bool_(True),
+    ],
+)
 def test_a_bad_gate_is_a_parameter_error(gate: object) -> None:
     with pytest.raises(ParameterError, match="gate_px"):
         replace(model(), gate_px=gate)
+
+
+def test_numpy_numbers_are_taken_as_python_ones(tmp_path: Path) -> None:
+    """A gate and a confirmation rule of NumPy numbers (as arrays hand them out) are taken,
+    and kept as Python numbers; they were refused as not numbers, or not integers."""
+    with_points = replace(model(), track_alarm_thresholds=((0.1, 0.4),), track_alarm_minutes=2.0)
+    ident = replace(
+        with_points, gate_px=np.float32(24), track_alarm_confirm=(np.int64(2), np.int32(4))
+    )
+    assert ident.gate_px == 24.0 and type(ident.gate_px) is float
+    assert ident.track_alarm_confirm == (2, 4)
+    assert all(type(v) is int for v in ident.track_alarm_confirm)
+    assert replace(model(), gate_px=np.int64(64)).gate_px == 64.0
+    net = small_net()
+    net.identification = ident
+    net.save(tmp_path / "m.npz")
+    back = Network.load(tmp_path / "m.npz").identification
+    assert back is not None and (back.gate_px, back.track_alarm_confirm) == (24.0, (2, 4))
+    for confirm in ((3.0, 5), (np.float64(3), 5), [3, 5], (np.int64(6), 5), (True, 5)):
+        with pytest.raises(ParameterError, match="track_alarm_confirm"):
+            replace(with_points, track_alarm_confirm=confirm)
 
 
 def test_fit_records_the_gate_its_features_were_tracked_with() -> None:

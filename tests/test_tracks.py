@@ -89,7 +89,17 @@ def test_the_gate_scales_with_the_sensor() -> None:
 
 @pytest.mark.parametrize(
     ("width", "kwargs"),
-    [(0, {}), (True, {}), (240.0, {}), (240, {"gate_px": 10.0}), (240, {"alpha": 2.0})],
+    [
+        (0, {}),
+        (True, {}),
+        (240.0, {}),
+        (240, {"gate_px": 10.0}),
+        (240, {"alpha": 2.0}),
+        (np.float64(240), {}),
+        (np.bool_(True), {}),
+        pytest.param(2**2000, {}, id="2**2000"),
+        (65536, {}),
+    ],
 )
 def test_for_sensor_refuses_bad_arguments(width: object, kwargs: dict) -> None:
     with pytest.raises(ParameterError):
@@ -301,11 +311,64 @@ def test_the_live_track_cap() -> None:
         {"max_tracks": 0},
         {"max_tracks": 10**6},
         {"max_tracks": True},
+        {"gate_px": 2**2000},
+        {"alpha": 2**2000},
+        {"beta": -(2**2000)},
+        {"gate_px": np.float32("nan")},
+        {"alpha": np.float64(0.0)},
+        {"confirm_hits": np.float64(3)},
+        {"confirm_windows": np.int64(65)},
+        {"max_tracks": np.bool_(True)},
+        {"max_misses": np.int8(0)},
     ],
 )
 def test_bad_parameters_are_typed_errors(kwargs: dict) -> None:
-    with pytest.raises(ParameterError):
+    with pytest.raises(ParameterError, match="|".join(kwargs)):  # the parameter named
         Tracker(**kwargs)
+
+
+def test_numpy_numbers_are_taken_as_python_ones() -> None:
+    """Parameters of NumPy numbers (as arrays and configurations hand them out) give the
+    tracker Python ones give; they were refused as not numbers, or not integers."""
+    numpy = Tracker(
+        gate_px=np.float32(12),
+        alpha=np.float64(0.5),
+        beta=np.float32(0.25),
+        confirm_hits=np.int64(2),
+        confirm_windows=np.uint8(4),
+        max_misses=np.int32(3),
+        max_tracks=np.int16(8),
+    )
+    plain = Tracker(
+        gate_px=12.0,
+        alpha=0.5,
+        beta=0.25,
+        confirm_hits=2,
+        confirm_windows=4,
+        max_misses=3,
+        max_tracks=8,
+    )
+    for name in ("gate_px", "alpha", "beta", "confirm_hits", "confirm_windows", "max_misses"):
+        assert getattr(numpy, name) == getattr(plain, name)
+        assert type(getattr(numpy, name)) is type(getattr(plain, name))
+    assert numpy.max_tracks == 8 and type(numpy.max_tracks) is int
+    reps = [report(k, [box_at(20 + 4 * k, 30)]) for k in range(8)]
+    assert track_windows(reps, numpy) == track_windows(reps, plain)
+    assert Tracker.for_sensor(np.int64(640)).gate_px == Tracker.for_sensor(640).gate_px == 64.0
+    assert Tracker.for_sensor(np.uint16(240), max_tracks=np.int64(2)).max_tracks == 2
+
+
+def test_track_windows_refuses_what_is_not_a_report_or_a_tracker() -> None:
+    with pytest.raises(ParameterError, match="WindowReports, got 3"):
+        track_windows([3])  # type: ignore[list-item]
+    with pytest.raises(ParameterError, match="iterable"):
+        track_windows(3)  # type: ignore[arg-type]
+    with pytest.raises(ParameterError, match="Tracker"):
+        track_windows([], tracker="x")  # type: ignore[arg-type]
+    tracker = Tracker()
+    with pytest.raises(ParameterError, match="WindowReports"):
+        tracker.update(None)  # type: ignore[arg-type]
+    assert tracker.live == ()
 
 
 def test_windows_out_of_order_are_refused() -> None:

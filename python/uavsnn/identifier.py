@@ -19,6 +19,7 @@ from uavsnn.errors import ModelFileError, ParameterError, ShapeError
 from uavsnn.features import FEATURES, UAV_CLASS, WindowFeatures
 from uavsnn.linear import predict_logistic, predict_softmax
 from uavsnn.track_eval import DEFAULT_CONFIRM, Confirm
+from uavsnn.tracks import check_gate
 from uavsnn.trees import Trees
 
 __all__ = ["VERSION", "Identifier"]
@@ -79,13 +80,8 @@ class Identifier:
 
     def __post_init__(self) -> None:
         d = len(self.features)
-        gate = self.gate_px
-        if gate is not None and (
-            isinstance(gate, bool)
-            or not isinstance(gate, (int, float))
-            or not (math.isfinite(gate) and gate > 0)
-        ):
-            raise ParameterError(f"gate_px must be a finite number > 0 or None, got {gate!r}")
+        if self.gate_px is not None:  # a NumPy number too, kept as float
+            object.__setattr__(self, "gate_px", check_gate(self.gate_px))
         for rate, threshold in self.alarm_thresholds:
             if not (0.0 < rate < 1.0 and math.isfinite(threshold)):
                 raise ParameterError(
@@ -104,9 +100,13 @@ class Identifier:
         if len({rate for rate, _ in tracks}) != len(tracks):
             raise ParameterError(f"track alarm thresholds name a rate twice: {tracks}")
         confirm = self.track_alarm_confirm
-        if not isinstance(confirm, tuple) or any(type(v) is not int for v in confirm):
-            raise ParameterError(f"track_alarm_confirm must be a tuple of ints, got {confirm!r}")
-        Confirm.of_pair(confirm)  # a pair with 1 <= hits <= windows <= 64
+        if not isinstance(confirm, tuple):
+            raise ParameterError(f"track_alarm_confirm must be a tuple, got {confirm!r}")
+        try:  # a pair of integers (NumPy ones too, kept as int), 1 <= hits <= windows <= 64
+            pair = Confirm.of_pair(confirm).pair
+        except ParameterError as err:
+            raise ParameterError(f"track_alarm_confirm: {err}") from err
+        object.__setattr__(self, "track_alarm_confirm", pair)
         minutes = self.track_alarm_minutes
         if not (math.isfinite(minutes) and (minutes > 0) == bool(tracks) and minutes >= 0):
             raise ParameterError(

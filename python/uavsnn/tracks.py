@@ -24,7 +24,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
-from uavsnn._validate import check_int
+from uavsnn._validate import check_int, check_real
 from uavsnn.errors import ParameterError
 from uavsnn.features import activity
 
@@ -279,6 +279,26 @@ class _Live:
         )
 
 
+def check_gate(value: Any, name: str = "gate_px") -> float:
+    """A tracker's gate (px): a finite number > 0 (a NumPy number too), as ``float``.
+
+    Raises:
+        ParameterError: anything else, named ``name``.
+    """
+    return _real(name, value, low=0.0, low_open=True)
+
+
+def _real(name: str, value: Any, **limits: Any) -> float:
+    """:func:`~uavsnn._validate.check_real`, an integer too large for a float refused as
+    not finite (a ParameterError, not the OverflowError of its conversion)."""
+    try:
+        return check_real(name, value, **limits)
+    except OverflowError as err:
+        raise ParameterError(
+            f"{name} must be finite, got an integer of {value.bit_length()} bits"
+        ) from err
+
+
 def _seconds(later_sum: int, earlier_sum: int) -> float:
     """The time (s) between the centres of two windows, each given as ``t0 + t1`` (µs):
     from integers, so that two distinct centres are never one float (the centres of windows
@@ -329,23 +349,13 @@ class Tracker:
         max_misses: int = 5,
         max_tracks: int = 64,
     ) -> None:
-        for name, value in (("gate_px", gate_px), ("alpha", alpha), ("beta", beta)):
-            if isinstance(value, bool) or not isinstance(value, (int, float)):
-                raise ParameterError(f"{name} must be a number, got {value!r}")
-        if not (math.isfinite(gate_px) and gate_px > 0):
-            raise ParameterError(f"gate_px must be a finite number > 0, got {gate_px}")
-        for name, value in (("alpha", alpha), ("beta", beta)):
-            if not (0.0 < value <= 1.0):
-                raise ParameterError(f"{name} must be in (0, 1], got {value}")
-        ints = {
-            "confirm_hits": confirm_hits,
-            "confirm_windows": confirm_windows,
-            "max_misses": max_misses,
-            "max_tracks": max_tracks,
-        }
-        for name, value in ints.items():
-            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-                raise ParameterError(f"{name} must be an integer >= 1, got {value!r}")
+        gate = check_gate(gate_px)
+        alpha = _real("alpha", alpha, low=0.0, low_open=True, high=1.0)
+        beta = _real("beta", beta, low=0.0, low_open=True, high=1.0)
+        confirm_hits = check_int("confirm_hits", confirm_hits, 1)
+        confirm_windows = check_int("confirm_windows", confirm_windows, 1)
+        max_misses = check_int("max_misses", max_misses, 1)
+        max_tracks = check_int("max_tracks", max_tracks, 1)
         if confirm_windows > 64 or confirm_hits > confirm_windows:
             raise ParameterError(
                 f"confirm_hits <= confirm_windows <= 64 needed, got {confirm_hits} of "
@@ -353,9 +363,9 @@ class Tracker:
             )
         if max_tracks > MAX_TRACKS_LIMIT:
             raise ParameterError(f"max_tracks must be at most {MAX_TRACKS_LIMIT}, got {max_tracks}")
-        self.gate_px = float(gate_px)
-        self.alpha = float(alpha)
-        self.beta = float(beta)
+        self.gate_px = gate
+        self.alpha = alpha
+        self.beta = beta
         self.confirm_hits = confirm_hits
         self.confirm_windows = confirm_windows
         self.max_misses = max_misses
@@ -368,11 +378,11 @@ class Tracker:
         width; ``kwargs`` are the other arguments of :class:`Tracker`.
 
         Raises:
-            ParameterError: ``width`` is not an integer >= 1, ``kwargs`` names ``gate_px``, or
-                another argument is out of range.
+            ParameterError: ``width`` is not an integer in ``[1, 65535]`` (a sensor's side; a
+                NumPy integer too), ``kwargs`` names ``gate_px``, or another argument is out
+                of range.
         """
-        if isinstance(width, bool) or not isinstance(width, int) or width < 1:
-            raise ParameterError(f"width must be an integer >= 1, got {width!r}")
+        width = check_int("width", width, 1, 65535)
         if "gate_px" in kwargs:
             raise ParameterError("for_sensor sets gate_px from the width; use Tracker(gate_px=)")
         return cls(gate_px=GATE_SHARE * width, **kwargs)
@@ -406,6 +416,10 @@ class Tracker:
                 later than the previous window's, or an object whose ``counts`` no box gives
                 (:func:`uavsnn.features.activity`); the tracker is then as it was.
         """
+        from uavsnn.detector import WindowReport
+
+        if not isinstance(report, WindowReport):
+            raise ParameterError(f"a tracker takes WindowReports, got {report!r}")
         k = check_int("a window's index", report.window)
         if self._last_window is not None and k <= self._last_window:
             raise ParameterError(
@@ -569,10 +583,23 @@ def tracker_for(network: Network, **kwargs: Any) -> Tracker:
 
 def track_windows(reports: Iterable[WindowReport], tracker: Tracker | None = None) -> TrackResult:
     """The batch path: run a :class:`Tracker` (a fresh default one unless given) over window
-    reports in window order; the same code as the streaming path, so the same tracks."""
+    reports in window order; the same code as the streaming path, so the same tracks.
+
+    Raises:
+        ParameterError: ``reports`` is not an iterable of WindowReports, ``tracker`` not a
+            :class:`Tracker`, or a report :meth:`Tracker.update` refuses.
+    """
     tracker = Tracker() if tracker is None else tracker
+    if not isinstance(tracker, Tracker):
+        raise ParameterError(f"tracker must be a Tracker, got {tracker!r}")
+    try:
+        each = iter(reports)
+    except TypeError as err:
+        raise ParameterError(
+            f"reports must be an iterable of WindowReports, got {reports!r}"
+        ) from err
     out, tracks = [], []
-    for r in reports:
+    for r in each:
         out.append(tracker.update(r))
         tracks += tracker.drain_ended()
     tracks = sorted(tracks + tracker.finish(), key=lambda t: t.id)
