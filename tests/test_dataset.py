@@ -26,6 +26,7 @@ from uavsnn.dataset import (
     read_boxes,
     save_split,
 )
+from uavsnn.dataset.build import check_footage
 from uavsnn.dataset.format import write_manifest
 from uavsnn.dataset.labels import AMBIGUOUS, OK, UNSCORED
 from uavsnn.dataset.real import crop_box
@@ -505,6 +506,27 @@ def test_bad_footage_raises_dataset_errors(tmp_path: Path, videos: Path) -> None
         build(tmp_path / "out", "real", videos=drones, n_test=40, n_train=0)
     with pytest.raises(DatasetError, match="does not exist"):
         build(tmp_path / "out2", "real", videos=tmp_path / "nowhere", n_test=10)
+
+
+def test_check_footage_plans_as_a_real_build_without_decoding(tmp_path: Path, videos: Path) -> None:
+    assert check_footage(videos, n_test=10, n_train=None, seed=3) == 5
+    drones = tmp_path / "drones"
+    drones.mkdir()
+    for c in find_clips(videos):
+        if c.uav:
+            (drones / c.video.name).symlink_to(c.video)
+            (drones / c.boxes.name).symlink_to(c.boxes)
+    # What build refuses of this footage (test_bad_footage_raises_dataset_errors), refused here.
+    with pytest.raises(DatasetError, match="cannot balance the real test pool"):
+        check_footage(drones, n_test=40)
+    with pytest.raises(DatasetError, match="cannot balance the real test pool"):
+        check_footage(videos, n_test=2000)
+    with pytest.raises(DatasetError, match="smaller than the 640x480 sensor"):
+        check_footage(videos, (640, 480), n_test=10)
+    with pytest.raises(DatasetError, match="does not exist"):
+        check_footage(tmp_path / "nowhere", n_test=10)
+    with pytest.raises(ParameterError, match="n_test"):
+        check_footage(videos, n_test=7)
 
 
 @pytest.mark.parametrize(

@@ -23,10 +23,10 @@ import os
 import sys
 
 from uavsnn import __version__
-from uavsnn._files import output_dir, output_file
+from uavsnn._files import check_output_dir, output_dir, output_file
 from uavsnn.errors import UavsnnError
 
-__all__ = ["COMMANDS", "main", "output_dir", "output_file"]
+__all__ = ["COMMANDS", "check_output_dir", "main", "output_dir", "output_file"]
 
 #: The sub-commands, each the name of its module, with the one line ``uavsnn --help`` shows.
 COMMANDS: dict[str, str] = {

@@ -28,8 +28,11 @@ from pathlib import Path
 from typing import Any
 
 from uavsnn import __version__, identify, pictures, report
+from uavsnn._validate import check_int
+from uavsnn.cli import check_output_dir, output_dir
 from uavsnn.clips import clip_table, evaluate_clips
 from uavsnn.dataset import LabelledWindows, build, load, parse_sensor
+from uavsnn.dataset.build import MAX_SPLIT_WINDOWS, check_footage
 from uavsnn.distributed import (
     SERIAL,
     Runner,
@@ -38,7 +41,7 @@ from uavsnn.distributed import (
     runner_for,
     train_task,
 )
-from uavsnn.errors import ParameterError
+from uavsnn.errors import DatasetError, ParameterError
 from uavsnn.evaluation import Evaluation, detection_by_target
 from uavsnn.experiments import (
     NOISE_FRACTIONS,
@@ -68,6 +71,10 @@ _DEFAULT_VIDEOS = Path("../shared/data/svanstrom-dev")
 #: The networks whose false alarms are streamed (and track alarm thresholds set): the paper's
 #: system (combined) and the dvs network.
 STREAMED = ("combined", "dvs")
+#: The most STDP windows per layer reproduce takes (500 times its default): the engine trains a
+#: layer on at most 5·10^7 windows (its MAX_WINDOWS, counted over whole passes of the set), so
+#: a larger count would be refused only when the first network starts, hours into the run.
+MAX_WINDOWS_PER_LAYER = 10**7
 
 
 def register(subparsers: Any) -> None:
@@ -438,10 +445,21 @@ def _real_sizes_table(rows: list[tuple[str, dict[str, Any]]]) -> str:
     return "\n".join(lines)
 
 
-def _reproduce(args: argparse.Namespace) -> int:
-    started = time.perf_counter()
+def _checked(args: argparse.Namespace) -> dict[str, Any]:
+    """Every argument checked before any work, and nothing made: the sensors, the tuning seed
+    and count, the window counts, the minutes streamed, the folder --out (made by the caller
+    once every check has passed) and the real footage (the videos the real builds read, each
+    clip planned at each real sensor size as the build plans it). Returns the values the run
+    uses: ``sensor``, ``real_sensors``, ``tune_seed``, ``n_tune`` and ``videos`` (``None``: no
+    real footage).
+
+    Raises:
+        ParameterError: a bad argument, or an --out that could not be made or written.
+        DatasetError: --videos (or the default folder) lacking what a real build reads.
+    """
     sensor = parse_sensor(args.sensor)
     real_sensors = _real_sensors(args.real_sensors, sensor)
+    check_int("--seed", args.seed, low=0)
     tune_seed = args.seed + 1 if args.tune_seed is None else args.tune_seed
     n_tune = args.n_train if args.n_tune is None else args.n_tune
     if tune_seed == args.seed or tune_seed < 0:
@@ -449,14 +467,47 @@ def _reproduce(args: argparse.Namespace) -> int:
             f"--tune-seed must be a non-negative seed other than --seed ({args.seed}): "
             f"identification is tuned on other recordings than the test's, got {tune_seed}"
         )
-    if n_tune < 2:
-        raise ParameterError(f"--n-tune must be at least 2, got {n_tune}")
+    for flag, n in (("--n-train", args.n_train), ("--n-tune", n_tune)):
+        if not 2 <= n <= MAX_SPLIT_WINDOWS:
+            raise ParameterError(
+                f"{flag} must be at least 2 and at most {MAX_SPLIT_WINDOWS:,} windows, got {n}"
+            )
+    if not (2 <= args.n_test <= MAX_SPLIT_WINDOWS and args.n_test % 2 == 0):
+        raise ParameterError(
+            f"--n-test must be an even number of windows from 2 to {MAX_SPLIT_WINDOWS:,} (half "
+            f"with a UAV), got {args.n_test}"
+        )
+    check_int("--windows-per-layer", args.windows_per_layer, low=1, high=MAX_WINDOWS_PER_LAYER)
     spans = (("--free-minutes", args.free_minutes), ("--track-minutes", args.track_minutes))
     for flag, minutes in spans:
         if not 0 <= minutes <= MAX_MINUTES:
             raise ParameterError(f"{flag} must be in [0, {MAX_MINUTES:g}], got {minutes}")
-    out: Path = args.out
-    out.mkdir(parents=True, exist_ok=True)
+    check_output_dir(args.out, "--out")
+    videos = None
+    if not args.no_real:
+        videos = args.videos or (_DEFAULT_VIDEOS if _DEFAULT_VIDEOS.is_dir() else None)
+    if videos is not None:
+        # What the real builds will read, refused now rather than after the synthetic runs.
+        for real_sensor in real_sensors:
+            try:
+                check_footage(videos, real_sensor, n_test=args.n_test, seed=args.seed)
+            except DatasetError as exc:
+                where = f"--videos {videos} at {_sensor_name(real_sensor)}"
+                skip = "" if args.videos is not None else " (the default; --no-real skips it)"
+                raise DatasetError(f"{where}{skip}: {exc}") from exc
+    return {
+        "sensor": sensor, "real_sensors": real_sensors, "tune_seed": tune_seed,
+        "n_tune": n_tune, "videos": videos,
+    }  # fmt: skip
+
+
+def _reproduce(args: argparse.Namespace) -> int:
+    started = time.perf_counter()
+    checked = _checked(args)
+    sensor, real_sensors = checked["sensor"], checked["real_sensors"]
+    tune_seed, n_tune, videos = checked["tune_seed"], checked["n_tune"], checked["videos"]
+    runner = runner_for(args.ray)  # an unreachable cluster fails now, before --out is made
+    out: Path = output_dir(args.out, "--out")
     progress = not args.quiet
     seed = args.seed
     command = "uavsnn reproduce " + " ".join(shlex.quote(a) for a in sys.argv[2:])
@@ -469,7 +520,6 @@ def _reproduce(args: argparse.Namespace) -> int:
     def step(msg: str) -> None:
         print(f"[{time.perf_counter() - started:7.1f} s] {msg}", flush=True)
 
-    runner = runner_for(args.ray)
     step("dvs dataset")
     dvs_dir = _dataset(
         out / "data/dvs", "dvs", seed, progress, n_train=args.n_train, n_test=args.n_test,
@@ -626,8 +676,7 @@ def _reproduce(args: argparse.Namespace) -> int:
         )
 
     real_text: list[str] = []
-    videos = args.videos or (_DEFAULT_VIDEOS if _DEFAULT_VIDEOS.is_dir() else None)
-    if videos is not None and not args.no_real:
+    if videos is not None:
         size_rows = []
         for real_sensor in real_sensors:
             name = _sensor_name(real_sensor)

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from uavsnn import __version__
-from uavsnn.dataset.footage import real_splits
+from uavsnn.dataset.footage import _draw, plan_clip, real_splits, split_clips
 from uavsnn.dataset.format import (
     FORMAT_NAME,
     FORMAT_VERSION,
@@ -29,6 +29,7 @@ from uavsnn.dataset.format import (
     save_split,
     write_manifest,
 )
+from uavsnn.dataset.real import find_clips
 from uavsnn.dataset.splits import POOL_FACTOR, SENSOR, Progress, Recorder, WindowCut
 from uavsnn.dataset.synthetic import SceneSource, default_source, synthetic_split
 from uavsnn.distributed import Runner
@@ -43,6 +44,7 @@ __all__ = [
     "DatasetPaths",
     "build",
     "build_demo",
+    "check_footage",
     "parse_sensor",
 ]
 
@@ -318,6 +320,47 @@ def build(
     manifest_path = write_manifest(root, _jsonable(manifest))
     getattr(report, "close", lambda: None)()  # the bar's last line
     return DatasetPaths(root, manifest_path, paths)
+
+
+def check_footage(
+    videos: str | Path,
+    sensor: tuple[int, int] | str = SENSOR,
+    *,
+    n_test: int = 2000,
+    n_train: int | None = None,
+    seed: int = 0,
+    window_ms: float = 50.0,
+    overlap: float = 0.5,
+    min_fraction: float = 0.5,
+    test_fraction: float = 0.3,
+) -> int:
+    """Check, without decoding a frame, that the labelled videos in ``videos`` give a real
+    build (:func:`build` with ``domain="real"`` and these arguments) its splits, as the build
+    plans them before it simulates a clip: the clips and their box files are found and read,
+    each container reports its frames and frame rate and is large enough for ``sensor``, the
+    clips are split by class, and each split's windows are drawn. A clip that decodes to fewer
+    frames than its container reports is seen only when the build decodes it. Returns the
+    number of clips.
+
+    Raises:
+        ParameterError: impossible arguments (as :func:`build` refuses them).
+        DatasetError: no such folder, no labelled videos in it, a box file or a container
+            that the build refuses, a video smaller than ``sensor``, or too few windows to
+            fill a balanced split.
+    """
+    _check_build_args(
+        "real", videos, n_test, n_train, window_ms, overlap, seed, min_fraction, test_fraction
+    )
+    sensor = parse_sensor(sensor)
+    cut = WindowCut(round(window_ms * 1000), float(overlap), float(min_fraction))
+    rec = Recorder(seed, cut, lambda _msg: None)
+    plans = [plan_clip(cut, clip, sensor) for clip in find_clips(Path(videos))]
+    is_test = split_clips(rec, plans, n_test, test_fraction)
+    for split, n in (("test", n_test), ("train", n_train)):
+        if n != 0:
+            members = [j for j in range(len(plans)) if is_test[j] == (split == "test")]
+            _draw(rec, plans, members, split, n)
+    return len(plans)
 
 
 def _synthetic(
