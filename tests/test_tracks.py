@@ -465,6 +465,33 @@ def test_window_times_may_be_numpy_integers_and_late_in_a_stream() -> None:
     assert track.horizontal_speed == pytest.approx(1e6) and track.mean_speed == 1e6
 
 
+def test_a_long_gap_in_a_stream_that_keeps_its_tracks() -> None:
+    """With a max_misses of any size, a track outlives a gap of as many windows: the window
+    mask moved on by the whole gap, a number of bits that ran out of memory."""
+    tracker = Tracker(max_misses=10**15, confirm_hits=2, confirm_windows=3)
+    tracker.update(timed(0, 0, 1000, 20.0))
+    tracker.update(timed(1, 500, 1500, 20.0))
+    gap = 10**13
+    out = tracker.update(timed(gap, gap * 500, gap * 500 + 1000, 20.0))
+    (track,) = tracker.live
+    assert ids(out) == [1] and track.hits == 3 and track.misses == 0 and track.confirmed
+    # after the gap the mask holds the latest hit alone, as after any gap of 3 windows or more
+    short = Tracker(confirm_hits=3, confirm_windows=3)
+    long = Tracker(max_misses=10**15, confirm_hits=3, confirm_windows=3)
+    for t in (short, long):
+        t.update(timed(0, 0, 1000, 20.0))
+        t.update(timed(1, 500, 1500, 20.0))
+    short.update(timed(4, 2000, 3000, 20.0))
+    long.update(timed(gap, gap * 500, gap * 500 + 1000, 20.0))
+    for t, k in ((short, 5), (long, gap + 1)):
+        (track,) = t.live
+        assert not track.confirmed
+        t.update(timed(k, 500 * k, 500 * k + 1000, 20.0))
+        assert not t.live[0].confirmed  # 2 hits of the last 3 windows
+        t.update(timed(k + 1, 500 * k + 500, 500 * k + 1500, 20.0))
+        assert t.live[0].confirmed
+
+
 # ---------------------------------------------------------------- through the Detector
 
 SIZE = (40, 30)

@@ -465,7 +465,9 @@ class Tracker:
                 track_of[oi] = self._live[ti]
                 taken.add(ti)
         for tr in self._live:  # the window mask moves on for every live track
-            tr.recent = (tr.recent << (k - tr.now_window)) & ((1 << self.confirm_windows) - 1)
+            # by at most its width: a longer shift (max_misses allows any) is as many bits lost
+            shift = min(k - tr.now_window, self.confirm_windows)
+            tr.recent = (tr.recent << shift) & ((1 << self.confirm_windows) - 1)
             tr.now_window, tr.now_end = k, t1
         for oi, obj in enumerate(objects):
             old = track_of[oi]
