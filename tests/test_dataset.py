@@ -473,6 +473,27 @@ def test_bad_build_arguments_raise_parameter_errors(tmp_path: Path) -> None:
             build(tmp_path / f"bad{i}", **args)
 
 
+def test_a_refused_build_leaves_no_folder_nor_the_folders_above_it(
+    tmp_path: Path, videos: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # Refused arguments: checked before any folder is made.
+    argv = ["dataset", "build", str(tmp_path / "a" / "b" / "set"), "--domain", "dvs"]
+    assert main([*argv, "--n-test", "-1"]) == 2
+    assert "n_test must be an even integer >= 2, got -1" in capsys.readouterr().err
+    assert not (tmp_path / "a").exists()
+    for bad in ({"n_test": -1}, {"window_ms": 0.0}, {"sensor": "big"}, {"n_train": None}):
+        args = {"dvs": DVS, "n_test": 4, "n_train": 0} | bad
+        with pytest.raises(ParameterError):
+            build(tmp_path / "c" / "d" / "set", "dvs", **args)
+        assert not (tmp_path / "c").exists()
+    # A build that fails once writing: the folders it made go, a folder that was there stays.
+    (tmp_path / "keep").mkdir()
+    with pytest.raises(DatasetError, match="cannot balance"):
+        build(tmp_path / "keep" / "e" / "set", "real", videos=videos, n_test=2000, n_train=0)
+    assert [p.name for p in tmp_path.iterdir()] == ["keep"]
+    assert not any((tmp_path / "keep").iterdir())
+
+
 def test_build_refuses_a_non_empty_folder(dvs_set: Path, tmp_path: Path) -> None:
     (tmp_path / "keep.txt").write_text("mine")
     with pytest.raises(DatasetError, match="not empty"):

@@ -184,7 +184,6 @@ def _prepare(out_dir: str | Path, overwrite: bool) -> Path:
     return root
 
 
-@locked_folder
 def build(
     out_dir: str | Path,
     domain: str,
@@ -264,62 +263,73 @@ def build(
     video_dir = Path(videos) if videos is not None else None
     if video_dir is not None and not video_dir.is_dir():
         raise DatasetError(f"video folder {video_dir} does not exist or is not a folder")
-    root = _prepare(out_dir, overwrite)
-    report = _reporter(progress)
-    rec = Recorder(seed, window, report, runner, stratify=stratify)
-    if domain in ("dvs", "sim"):
-        source = dvs if domain == "dvs" else sim
-        if source is None:  # made above; for the type checker
-            raise ParameterError(f"no {domain} source")
-        splits, sources, description = _synthetic(rec, source, n_test, n_train or 0)
-    elif domain == "real":
-        if video_dir is None:  # checked above; for the type checker
-            raise ParameterError("the real domain needs videos")
-        splits = real_splits(
-            rec, video_dir, n_test, n_train, test_fraction, pix2nvs_params, sensor=sensor
-        )
-        sources = [_real_source(video_dir, pix2nvs_params)]
-        description = f"labelled videos in {video_dir} through PIX2NVS"
-    else:
-        if dvs is None or sim is None:  # made above; for the type checker
-            raise ParameterError("the combined domain needs dvs and sim sources")
-        splits, sources, description = _combined(
-            rec, dvs, sim, video_dir, n_test, n_train or 0, test_fraction, pix2nvs_params, sensor
-        )
-    paths: dict[str, Path] = {}
-    for name, data in splits.items():
-        if len(data) == 0:
-            raise DatasetError(f"the {name} split is empty")
-        paths[name] = save_split(root / f"{name}.npz", data)
-    manifest = {
-        "format": FORMAT_NAME,
-        "format_version": FORMAT_VERSION,
-        "created_by": f"uavsnn {__version__}",
-        "domain": domain,
-        "source": description,
-        "seed": seed,
-        "parameters": {
-            "sensor_size": list(sensor),
-            "window_ms": window_ms,
-            "window_us": window.length_us,
-            "overlap": overlap,
-            "step_us": window.step_us,
-            "min_visible_fraction": min_fraction,
-            "n_test": n_test,
-            "n_train": n_train,
-            "test_fraction": test_fraction if domain in ("real", "combined") else None,
-            "pool_factor": POOL_FACTOR,
-            "object_scenes": "stratified" if stratify else "drawn",
-            "sources": sources,
-        },
-        "splits": {
-            name: _summary(data, paths[name].name, data.recording) for name, data in splits.items()
-        },
-        "recordings": rec.records,
-    }
-    manifest_path = write_manifest(root, _jsonable(manifest))
-    getattr(report, "close", lambda: None)()  # the bar's last line
-    return DatasetPaths(root, manifest_path, paths)
+    # Folders are made only now, every argument checked: a refused build leaves none.
+    with locked_folder(out_dir):
+        root = _prepare(out_dir, overwrite)
+        report = _reporter(progress)
+        rec = Recorder(seed, window, report, runner, stratify=stratify)
+        if domain in ("dvs", "sim"):
+            source = dvs if domain == "dvs" else sim
+            if source is None:  # made above; for the type checker
+                raise ParameterError(f"no {domain} source")
+            splits, sources, description = _synthetic(rec, source, n_test, n_train or 0)
+        elif domain == "real":
+            if video_dir is None:  # checked above; for the type checker
+                raise ParameterError("the real domain needs videos")
+            splits = real_splits(
+                rec, video_dir, n_test, n_train, test_fraction, pix2nvs_params, sensor=sensor
+            )
+            sources = [_real_source(video_dir, pix2nvs_params)]
+            description = f"labelled videos in {video_dir} through PIX2NVS"
+        else:
+            if dvs is None or sim is None:  # made above; for the type checker
+                raise ParameterError("the combined domain needs dvs and sim sources")
+            splits, sources, description = _combined(
+                rec,
+                dvs,
+                sim,
+                video_dir,
+                n_test,
+                n_train or 0,
+                test_fraction,
+                pix2nvs_params,
+                sensor,
+            )
+        paths: dict[str, Path] = {}
+        for name, data in splits.items():
+            if len(data) == 0:
+                raise DatasetError(f"the {name} split is empty")
+            paths[name] = save_split(root / f"{name}.npz", data)
+        manifest = {
+            "format": FORMAT_NAME,
+            "format_version": FORMAT_VERSION,
+            "created_by": f"uavsnn {__version__}",
+            "domain": domain,
+            "source": description,
+            "seed": seed,
+            "parameters": {
+                "sensor_size": list(sensor),
+                "window_ms": window_ms,
+                "window_us": window.length_us,
+                "overlap": overlap,
+                "step_us": window.step_us,
+                "min_visible_fraction": min_fraction,
+                "n_test": n_test,
+                "n_train": n_train,
+                "test_fraction": test_fraction if domain in ("real", "combined") else None,
+                "pool_factor": POOL_FACTOR,
+                "object_scenes": "stratified" if stratify else "drawn",
+                "sources": sources,
+            },
+            "splits": {
+                name: _summary(data, paths[name].name, data.recording)
+                for name, data in splits.items()
+            },
+            "recordings": rec.records,
+        }
+        manifest_path = write_manifest(root, _jsonable(manifest))
+        getattr(report, "close", lambda: None)()  # the bar's last line
+        return DatasetPaths(root, manifest_path, paths)
 
 
 def check_footage(

@@ -24,13 +24,13 @@ another build is refused. A build holds a lock on its folder (:data:`LOCK`, an a
 
 from __future__ import annotations
 
+import contextlib
 import fcntl
-import functools
 import hashlib
 import json
 import os
 import zipfile
-from collections.abc import Callable
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -257,40 +257,56 @@ def _sha256(path: Path) -> str:
     return digest.hexdigest()
 
 
-def locked_folder(build: Callable[..., Any]) -> Callable[..., Any]:
-    """Run ``build(out_dir, ...)`` holding :data:`LOCK` in ``out_dir`` (created if missing).
+@contextlib.contextmanager
+def locked_folder(out_dir: str | Path) -> Iterator[Path]:
+    """Hold :data:`LOCK` in the folder ``out_dir`` while the block runs (a build writing there):
+    the folder, and the folders above it, are made if missing; on leaving, the lock is removed,
+    and so are the folders it made that are empty again (a build that failed before writing
+    leaves no folder behind, nor the folders above it).
 
     Raises:
-        DatasetError: another build holds the folder.
+        DatasetError: ``out_dir`` is not a folder, or another build holds it.
+        OSError: the folder cannot be made.
     """
-
-    @functools.wraps(build)
-    def locked(out_dir: str | Path, *args: Any, **kwargs: Any) -> Any:
-        root = Path(out_dir)
-        if root.exists() and not root.is_dir():
-            return build(out_dir, *args, **kwargs)  # which says what is wrong
-        created = not root.exists()
+    root = Path(out_dir)
+    if root.exists() and not root.is_dir():
+        raise DatasetError(f"{root} exists and is not a folder")
+    # The folders to make, the deepest first: removed again, in that order, when left empty.
+    made = []
+    for folder in (root, *root.parents):
+        if folder.exists():
+            break
+        made.append(folder)
+    try:
         root.mkdir(parents=True, exist_ok=True)
-        lock = root / LOCK
-        fd = os.open(lock, os.O_WRONLY | os.O_CREAT, 0o666)
+        fd = os.open(root / LOCK, os.O_WRONLY | os.O_CREAT, 0o666)
+    except BaseException:
+        _remove_empty(made)
+        raise
+    try:
         try:
-            try:
-                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            except BlockingIOError as exc:
-                raise DatasetError(
-                    f"{root}: another build is writing into this folder (it holds {LOCK}); "
-                    "wait for it or choose another folder"
-                ) from exc
-            try:
-                return build(out_dir, *args, **kwargs)
-            finally:
-                lock.unlink(missing_ok=True)
-                if created and not any(root.iterdir()):
-                    root.rmdir()  # a build that failed before writing leaves no folder
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError as exc:
+            raise DatasetError(
+                f"{root}: another build is writing into this folder (it holds {LOCK}); "
+                "wait for it or choose another folder"
+            ) from exc
+        try:
+            yield root
         finally:
-            os.close(fd)
+            (root / LOCK).unlink(missing_ok=True)
+            _remove_empty(made)
+    finally:
+        os.close(fd)
 
-    return locked
+
+def _remove_empty(folders: list[Path]) -> None:
+    """Remove ``folders`` (each inside the next) while they are empty."""
+    for folder in folders:
+        try:
+            folder.rmdir()
+        except OSError:
+            return  # not empty (or gone): the folders above it hold it
 
 
 def write_manifest(root: str | Path, manifest: dict[str, Any]) -> Path:
