@@ -754,12 +754,6 @@ def test_a_fit_over_the_features_in_another_order_scores_as_in_their_order() -> 
     assert np.mean((backwards.scores(test.x) >= 0.5) == test.label) > 0.9
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="identify.fit tunes the threshold on tune.columns(features), rows in the model's "
-    "order, which Identifier reads as rows of FEATURES when they are as many: it must pass "
-    "the rows of FEATURES (ident.window_scores(tune))",
-)
 def test_a_fit_over_the_features_in_another_order_tunes_the_same_threshold() -> None:
     train, tune = interaction_features(800, 0, True), interaction_features(300, 1, True)
     detected = np.ones(tune.windows, bool)

@@ -43,7 +43,10 @@ def check_real(
     """A finite real in the given range, as ``float``."""
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise ParameterError(f"{name} must be a number, got {value!r}")
-    v = float(value)
+    try:
+        v = float(value)
+    except OverflowError:  # an integer beyond a float's range
+        v = math.inf
     if not math.isfinite(v):
         raise ParameterError(f"{name} must be finite, got {v}")
     if low is not None and (v < low or (low_open and v == low)):

@@ -227,7 +227,7 @@ def fit(
         from uavsnn.evaluation import FALSE_ALARM_RATES
 
         label = np.asarray(tune_label, bool)
-        score = np.where(np.asarray(tune_detected, bool), ident.window_scores(tu), -1.0)
+        score = np.where(np.asarray(tune_detected, bool), ident.window_scores(tune), -1.0)
         alarms: tuple[tuple[float, float], ...] = ()
         if (~label).any():
             alarms = tuple(

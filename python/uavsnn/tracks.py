@@ -285,18 +285,7 @@ def check_gate(value: Any, name: str = "gate_px") -> float:
     Raises:
         ParameterError: anything else, named ``name``.
     """
-    return _real(name, value, low=0.0, low_open=True)
-
-
-def _real(name: str, value: Any, **limits: Any) -> float:
-    """:func:`~uavsnn._validate.check_real`, an integer too large for a float refused as
-    not finite (a ParameterError, not the OverflowError of its conversion)."""
-    try:
-        return check_real(name, value, **limits)
-    except OverflowError as err:
-        raise ParameterError(
-            f"{name} must be finite, got an integer of {value.bit_length()} bits"
-        ) from err
+    return check_real(name, value, low=0.0, low_open=True)
 
 
 def _seconds(later_sum: int, earlier_sum: int) -> float:
@@ -350,8 +339,8 @@ class Tracker:
         max_tracks: int = 64,
     ) -> None:
         gate = check_gate(gate_px)
-        alpha = _real("alpha", alpha, low=0.0, low_open=True, high=1.0)
-        beta = _real("beta", beta, low=0.0, low_open=True, high=1.0)
+        alpha = check_real("alpha", alpha, low=0.0, low_open=True, high=1.0)
+        beta = check_real("beta", beta, low=0.0, low_open=True, high=1.0)
         confirm_hits = check_int("confirm_hits", confirm_hits, 1)
         confirm_windows = check_int("confirm_windows", confirm_windows, 1)
         max_misses = check_int("max_misses", max_misses, 1)
