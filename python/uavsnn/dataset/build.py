@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from uavsnn import __version__
-from uavsnn.dataset.footage import _draw, plan_clip, real_splits, split_clips
+from uavsnn.dataset.footage import plan_clip, real_splits, split_clips
 from uavsnn.dataset.format import (
     FORMAT_NAME,
     FORMAT_VERSION,
@@ -30,7 +30,7 @@ from uavsnn.dataset.format import (
     write_manifest,
 )
 from uavsnn.dataset.real import find_clips
-from uavsnn.dataset.splits import POOL_FACTOR, SENSOR, Progress, Recorder, WindowCut
+from uavsnn.dataset.splits import POOL_FACTOR, SENSOR, Progress, Recorder, WindowCut, balanced
 from uavsnn.dataset.synthetic import SceneSource, default_source, synthetic_split
 from uavsnn.distributed import Runner
 from uavsnn.errors import DatasetError, ParameterError
@@ -367,9 +367,15 @@ def check_footage(
     plans = [plan_clip(cut, clip, sensor) for clip in find_clips(Path(videos))]
     is_test = split_clips(rec, plans, n_test, test_fraction)
     for split, n in (("test", n_test), ("train", n_train)):
-        if n != 0:
-            members = [j for j in range(len(plans)) if is_test[j] == (split == "test")]
-            _draw(rec, plans, members, split, n)
+        if n == 0:
+            continue
+        # The usable windows' labels of the split's clips, refused as the build's draw does.
+        members = [p.windows for j, p in enumerate(plans) if is_test[j] == (split == "test")]
+        label = np.concatenate([w.label[w.usable] for w in members] or [np.zeros(0, bool)])
+        if n is None and len(label) == 0:
+            raise DatasetError(f"the real {split} split has no usable windows")
+        if n is not None:
+            balanced(label, n, np.random.default_rng(0), f"real {split} pool")
     return len(plans)
 
 
