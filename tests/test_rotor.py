@@ -68,3 +68,61 @@ def test_spectrum_of_a_known_pulse_train() -> None:
     f, pw = pixel_rate_spectrum(ev)
     assert abs(dominant_frequency(f, pw) - 437.0) < 0.01 * 437.0
     assert np.isnan(dominant_frequency(f, np.zeros_like(pw)))
+
+
+def test_spectra_and_rotation_refuse_what_would_not_fit_before_allocating() -> None:
+    """A span of 10^12 µs asked for 149 GiB of bins, a search of ±10^9 Hz in 10^-3 Hz steps
+    for 298 GiB, and a NaN max_hz was NumPy's ValueError: refused by name, before any array."""
+    from uavsnn import EVENT_DTYPE, EventError, ParameterError
+    from uavsnn.sim.checks import (
+        MAX_ROTATION_GRID,
+        MAX_SPECTRUM_POINTS,
+        estimate_rotation,
+        event_rate_spectrum,
+    )
+
+    far = np.array([0, 10**12])
+    with pytest.raises(ParameterError, match="MAX_SPECTRUM_POINTS"):
+        event_rate_spectrum(far)
+    ev = np.zeros(2, dtype=EVENT_DTYPE)
+    ev["t"] = far
+    with pytest.raises(ParameterError, match="MAX_SPECTRUM_POINTS"):
+        pixel_rate_spectrum(ev)
+    with pytest.raises(ParameterError, match="MAX_SPECTRUM_POINTS"):
+        pixel_rate_spectrum(ev[:1], start_us=0, end_us=10**12)
+    # At the bound, a spectrum is made; a bin more is refused.
+    bins = MAX_SPECTRUM_POINTS // 8
+    f, p = event_rate_spectrum(np.array([0, 50 * bins - 1]), bin_us=50, pad=8)
+    assert len(f) == MAX_SPECTRUM_POINTS // 2 + 1 == len(p)
+    with pytest.raises(ParameterError, match="bin_us=50 us, padded pad=8 times"):
+        event_rate_spectrum(np.array([0, 50 * bins + 49]), bin_us=50, pad=8)
+    for bad in (["a"], [1.5], [-1, 3], np.zeros((2, 2), np.int64)):
+        with pytest.raises(ParameterError, match="t_us"):
+            event_rate_spectrum(bad)
+    with pytest.raises(ParameterError, match="box"):
+        pixel_rate_spectrum(ev, box=(1.0, 2.0))
+    with pytest.raises(ParameterError, match="chunk"):
+        pixel_rate_spectrum(ev[:1], chunk=0)
+    with pytest.raises(EventError, match="fields t, x, y, p"):
+        pixel_rate_spectrum(np.arange(5))
+
+    spun = np.zeros(5, dtype=EVENT_DTYPE)
+    spun["t"], spun["x"], spun["y"] = np.arange(5), [1, 2, 3, 2, 1], [2, 3, 2, 1, 2]
+    with pytest.raises(ParameterError, match="MAX_ROTATION_GRID"):
+        estimate_rotation(spun, max_hz=1e9, step_hz=1e-3)
+    with pytest.raises(ParameterError, match="MAX_ROTATION_GRID"):
+        estimate_rotation(spun, max_hz=1e308, step_hz=1e-300)
+    for name, kw in (
+        ("max_hz", {"max_hz": float("nan")}),
+        ("max_hz", {"max_hz": 0.0}),
+        ("step_hz", {"step_hz": -1.0}),
+        ("step_hz", {"step_hz": float("inf")}),
+        ("max_hz", {"max_hz": "200"}),
+    ):
+        with pytest.raises(ParameterError, match=name):
+            estimate_rotation(spun, **kw)  # type: ignore[arg-type]
+    with pytest.raises(EventError, match="fields t, x, y"):
+        estimate_rotation(np.arange(5))
+    # The largest search the bound allows runs; the default's 801 rates are far below it.
+    step = 2 * 200.0 / (50 * (MAX_ROTATION_GRID - 2))
+    assert np.isfinite(estimate_rotation(spun, max_hz=200.0, step_hz=step)[0])

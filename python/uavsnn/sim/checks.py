@@ -16,10 +16,12 @@ from typing import Any
 
 import numpy as np
 
-from uavsnn._validate import check_int, check_real
-from uavsnn.errors import ParameterError
+from uavsnn._validate import MAX_TIME_US, check_int, check_real
+from uavsnn.errors import EventError, ParameterError
 
 __all__ = [
+    "MAX_ROTATION_GRID",
+    "MAX_SPECTRUM_POINTS",
     "check_choice",
     "check_int",
     "check_real",
@@ -32,6 +34,23 @@ __all__ = [
     "plot_spectra",
     "rotor_events",
 ]
+
+
+#: The most points a spectrum's time series may have once zero-padded (its bins times ``pad``;
+#: 2^22): the rate spectra refuse a longer one before counting a bin (a span of 10^12 µs in
+#: bins of 50 µs asked for 149 GiB). The project's longest is under 40,000 points (a pulse
+#: train of 0.91 s in bins of 100 µs, padded 4 times, in tests/test_rotor.py; the benches' are
+#: at most 24,000), so a spectrum may still span 100 s in bins of 100 µs padded 4 times.
+MAX_SPECTRUM_POINTS = 1 << 22
+#: The most rotation rates :func:`estimate_rotation`'s coarse search tries (each scored over
+#: up to 40,000 events): ``2 · max_hz / (50 · step_hz)``. Its defaults try 801, the project's
+#: only use (benches/python/spinner_compare.py) too; max_hz = 10^9 at step_hz = 10^-3 asked
+#: for 298 GiB.
+MAX_ROTATION_GRID = 100_000
+#: The most matrix cells (channels times padded points) one chunk of
+#: :func:`pixel_rate_spectrum` transforms at a time (2^24: about 130 MB of spectra): its
+#: ``chunk`` channels are fewer when the series are long.
+_CHUNK_POINTS = 1 << 24
 
 
 def check_choice(name: str, value: Any, choices: tuple[str, ...]) -> str:
@@ -80,13 +99,17 @@ def event_rate_spectrum(
     ``relative`` the power of the rate's relative modulation (counts over their mean, minus
     one; per bin, Hann-weighted), comparable between recordings of different rates.
 
-    ``start_us``/``end_us`` bound the time span (default: the events' own span)."""
-    t = np.asarray(t_us, dtype=np.int64)
+    ``start_us``/``end_us`` bound the time span (default: the events' own span).
+
+    Raises:
+        ParameterError: times that are not integer microseconds in ``[0, 2^62]``, a bad
+            ``bin_us``, ``pad``, ``start_us`` or ``end_us``, or a span whose bins, padded, are
+            more than :data:`MAX_SPECTRUM_POINTS`.
+    """
+    t = _times("t_us", t_us)
     bin_us = check_int("bin_us", bin_us, low=1, high=10**9)
     pad = check_int("pad", pad, low=1, high=64)
-    lo = int(t.min()) if start_us is None and len(t) else int(start_us or 0)
-    hi = int(t.max()) + 1 if end_us is None and len(t) else int(end_us or lo + bin_us)
-    n = max((hi - lo) // bin_us, 2)
+    lo, n = _span(t, bin_us, pad, start_us, end_us)
     counts = np.bincount(((t[(t >= lo) & (t < lo + n * bin_us)] - lo) // bin_us), minlength=n)
     x = counts[:n].astype(np.float64)
     mean = x.mean()
@@ -120,12 +143,20 @@ def pixel_rate_spectrum(
 
     Per pixel, not summed: a rotor's blades sweep the same area at every instant, so the box's
     total event rate hardly varies, while each pixel sees a blade pass at the blade-pass
-    frequency (a per-pixel frequency detector's view, as FrequencyCam's)."""
-    ev = np.asarray(events)
+    frequency (a per-pixel frequency detector's view, as FrequencyCam's).
+
+    Raises:
+        EventError: ``events`` without the fields ``t``, ``x``, ``y`` and ``p``.
+        ParameterError: as :func:`event_rate_spectrum`, a ``box`` that is not four finite
+            numbers, or a ``min_events`` or ``chunk`` below 1.
+    """
+    ev = _events(events, ("t", "x", "y", "p"))
     bin_us = check_int("bin_us", bin_us, low=1, high=10**9)
     pad = check_int("pad", pad, low=1, high=64)
+    min_events = check_int("min_events", min_events, low=1)
+    chunk = check_int("chunk", chunk, low=1)
     if box is not None:
-        x0, y0, x1, y1 = box
+        x0, y0, x1, y1 = _box(box)
         keep = (
             (ev["x"] + 0.5 >= x0)
             & (ev["x"] + 0.5 < x1)
@@ -133,10 +164,10 @@ def pixel_rate_spectrum(
             & (ev["y"] + 0.5 < y1)
         )
         ev = ev[keep]
-    t = ev["t"].astype(np.int64)
-    lo = int(t.min()) if start_us is None and len(t) else int(start_us or 0)
-    hi = int(t.max()) + 1 if end_us is None and len(t) else int(end_us or lo + bin_us)
-    n = max((hi - lo) // bin_us, 2)
+    t = _times("events' t", ev["t"])
+    lo, n = _span(t, bin_us, pad, start_us, end_us)
+    # Fewer channels at a time when the series are long: each chunk's spectra stay bounded.
+    chunk = min(chunk, max(1, _CHUNK_POINTS // (n * pad)))
     freqs = np.fft.rfftfreq(n * pad, bin_us * 1e-6)
     total = np.zeros(len(freqs))
     inside = (t >= lo) & (t < lo + n * bin_us)
@@ -165,6 +196,65 @@ def pixel_rate_spectrum(
         total += (np.abs(np.fft.rfft(x, n * pad, axis=1)) ** 2).sum(axis=0)
     top = total.max()
     return freqs, total / top if top > 0 else total
+
+
+def _times(name: str, t_us: Any) -> np.ndarray:
+    """Event times: a 1-D array of integers in ``[0, MAX_TIME_US]``, as ``int64``."""
+    t = np.asarray(t_us)
+    if t.ndim != 1 or not (t.dtype.kind in "iu" or (t.dtype.kind == "f" and len(t) == 0)):
+        raise ParameterError(
+            f"{name} must be a 1-D array of integer microseconds, got {t.dtype} of shape {t.shape}"
+        )
+    if len(t) and (int(t.min()) < 0 or int(t.max()) > MAX_TIME_US):
+        raise ParameterError(
+            f"{name} must lie in [0, 2^62] microseconds, got {int(t.min())} to {int(t.max())}"
+        )
+    return t.astype(np.int64)
+
+
+def _span(t: np.ndarray, bin_us: int, pad: int, start_us: Any, end_us: Any) -> tuple[int, int]:
+    """A rate spectrum's start and its number of bins, refused when they are more than
+    :data:`MAX_SPECTRUM_POINTS` once padded."""
+    if start_us is not None:
+        start_us = check_int("start_us", start_us, low=0, high=MAX_TIME_US)
+    if end_us is not None:
+        end_us = check_int("end_us", end_us, low=0, high=MAX_TIME_US)
+    lo = int(t.min()) if start_us is None and len(t) else int(start_us or 0)
+    hi = int(t.max()) + 1 if end_us is None and len(t) else int(end_us or lo + bin_us)
+    n = max((hi - lo) // bin_us, 2)
+    if n * pad > MAX_SPECTRUM_POINTS:
+        raise ParameterError(
+            f"a span of {hi - lo} us in bins of bin_us={bin_us} us, padded pad={pad} times, is "
+            f"{n * pad:,} points, more than MAX_SPECTRUM_POINTS ({MAX_SPECTRUM_POINTS:,}): "
+            "give a shorter span (start_us, end_us), wider bins or less padding"
+        )
+    return lo, n
+
+
+def _events(events: Any, fields: tuple[str, ...]) -> np.ndarray:
+    """``events`` as a 1-D structured array with ``fields``."""
+    ev = np.asarray(events)
+    names = ev.dtype.names or ()
+    if ev.ndim != 1 or any(f not in names for f in fields):
+        raise EventError(
+            f"events must be a 1-D array with fields {', '.join(fields)} (uavsnn.EVENT_DTYPE), "
+            f"got {ev.dtype} of shape {ev.shape}"
+        )
+    return ev
+
+
+def _box(box: Any) -> tuple[float, float, float, float]:
+    """A box ``(x0, y0, x1, y1)`` of finite numbers."""
+    try:
+        x0, y0, x1, y1 = box
+    except (TypeError, ValueError) as exc:
+        raise ParameterError(f"box must be (x0, y0, x1, y1), got {box!r}") from exc
+    return (
+        check_real("box x0", x0),
+        check_real("box y0", y0),
+        check_real("box x1", x1),
+        check_real("box y1", y1),
+    )
 
 
 def dominant_frequency(
@@ -259,8 +349,23 @@ def estimate_rotation(
     best lines the events up in the rotating frame (the largest mean resultant length of
     ``angle - ω t``, searched over ``±max_hz`` in ``step_hz`` steps then refined). Positive:
     the angle ``atan2(y - cy, x - cx)`` grows (clockwise on screen, y pointing down).
-    ``concentration`` (0-1) says how well one rate explains the events."""
-    ev = np.asarray(events)
+    ``concentration`` (0-1) says how well one rate explains the events.
+
+    Raises:
+        EventError: ``events`` without the fields ``t``, ``x`` and ``y``.
+        ParameterError: fewer than 3 events, a ``max_hz`` or ``step_hz`` that is not a finite
+            number > 0, or a coarse search of more than :data:`MAX_ROTATION_GRID` rates.
+    """
+    ev = _events(events, ("t", "x", "y"))
+    max_hz = check_real("max_hz", max_hz, low=0.0, low_open=True)
+    step_hz = check_real("step_hz", step_hz, low=0.0, low_open=True)
+    coarse = 2 * max_hz / (50 * step_hz)  # the coarse search's steps (inf past a float's range)
+    if not coarse <= MAX_ROTATION_GRID - 2:
+        raise ParameterError(
+            f"max_hz={max_hz:g} in steps of step_hz={step_hz:g} makes a coarse search of "
+            f"{coarse:.3g} rates (2 · max_hz / (50 · step_hz)), more than MAX_ROTATION_GRID "
+            f"({MAX_ROTATION_GRID:,}): give a smaller max_hz or a larger step_hz"
+        )
     if len(ev) < 3:
         raise ParameterError("estimate_rotation needs at least 3 events")
     x, y = ev["x"].astype(np.float64), ev["y"].astype(np.float64)
