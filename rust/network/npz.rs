@@ -210,27 +210,29 @@ fn put32(v: &mut Vec<u8>, x: u32) {
     v.extend_from_slice(&x.to_le_bytes());
 }
 
+/// `len` bytes of `b` from `at`, or a corrupt-file error (never a panic, whatever the offsets a
+/// damaged record gives).
+fn span(b: &[u8], at: usize, len: usize) -> Result<&[u8]> {
+    at.checked_add(len)
+        .and_then(|end| b.get(at..end))
+        .ok_or_else(truncated)
+}
+
 /// Little-endian reads that fail (as a corrupt file) instead of panicking.
 fn get16(b: &[u8], at: usize) -> Result<u16> {
-    b.get(at..at + 2)
-        .map(|s| u16::from_le_bytes([s[0], s[1]]))
-        .ok_or_else(truncated)
+    span(b, at, 2).map(|s| u16::from_le_bytes([s[0], s[1]]))
 }
 
 fn get32(b: &[u8], at: usize) -> Result<u32> {
-    b.get(at..at + 4)
-        .map(|s| u32::from_le_bytes([s[0], s[1], s[2], s[3]]))
-        .ok_or_else(truncated)
+    span(b, at, 4).map(|s| u32::from_le_bytes([s[0], s[1], s[2], s[3]]))
 }
 
 fn get64(b: &[u8], at: usize) -> Result<u64> {
-    b.get(at..at + 8)
-        .map(|s| {
-            let mut a = [0u8; 8];
-            a.copy_from_slice(s);
-            u64::from_le_bytes(a)
-        })
-        .ok_or_else(truncated)
+    span(b, at, 8).map(|s| {
+        let mut a = [0u8; 8];
+        a.copy_from_slice(s);
+        u64::from_le_bytes(a)
+    })
 }
 
 fn truncated() -> Error {
@@ -262,13 +264,8 @@ pub(crate) fn unzip(bytes: &[u8]) -> Result<Vec<(String, Vec<u8>)>> {
         let extra_len = usize::from(get16(bytes, at + 30)?);
         let comment_len = usize::from(get16(bytes, at + 32)?);
         let mut local = u64::from(get32(bytes, at + 42)?);
-        let name_bytes = bytes
-            .get(at + 46..at + 46 + name_len)
-            .ok_or_else(truncated)?;
-        let name = String::from_utf8_lossy(name_bytes).into_owned();
-        let extra = bytes
-            .get(at + 46 + name_len..at + 46 + name_len + extra_len)
-            .ok_or_else(truncated)?;
+        let name = String::from_utf8_lossy(span(bytes, at + 46, name_len)?).into_owned();
+        let extra = span(bytes, at + 46 + name_len, extra_len)?;
         // zip64: sizes and offset that overflow 32 bits live in extra field 0x0001, in the
         // order uncompressed size, compressed size, offset (only those that overflowed).
         let compressed32 = get32(bytes, at + 20)?;
@@ -298,14 +295,22 @@ pub(crate) fn unzip(bytes: &[u8]) -> Result<Vec<(String, Vec<u8>)>> {
                  uncompressed (numpy.savez, not savez_compressed)"
             )));
         }
-        let local = usize::try_from(local).map_err(|_| truncated())?;
-        let size = usize::try_from(size).map_err(|_| truncated())?;
+        // Both within the file, so the sums below stay far from overflowing (zip64 gives them
+        // as any u64).
+        let local = usize::try_from(local)
+            .ok()
+            .filter(|&l| l < bytes.len())
+            .ok_or_else(truncated)?;
+        let size = usize::try_from(size)
+            .ok()
+            .filter(|&s| s <= bytes.len())
+            .ok_or_else(truncated)?;
         check_local_header(bytes, local, &name, method, crc, size)?;
         let data_at = local
             + 30
             + usize::from(get16(bytes, local + 26)?)
             + usize::from(get16(bytes, local + 28)?);
-        let data = bytes.get(data_at..data_at + size).ok_or_else(truncated)?;
+        let data = span(bytes, data_at, size)?;
         if crc32(data) != crc {
             return Err(Error::Model(format!(
                 "entry {name} is corrupt (CRC-32 mismatch)"
@@ -336,7 +341,7 @@ fn check_local_header(
     if get16(bytes, at + 8)? != method {
         return Err(corrupt("method differs from the directory"));
     }
-    if bytes.get(at + 30..at + 30 + name_len) != Some(name.as_bytes()) {
+    if span(bytes, at + 30, name_len)? != name.as_bytes() {
         return Err(corrupt("name differs from the directory"));
     }
     if flags & 0x08 == 0 {
@@ -390,6 +395,61 @@ mod tests {
         assert!(unzip(&bad).is_err());
         for cut in [0, 10, bytes.len() / 2, bytes.len() - 1] {
             assert!(unzip(&bytes[..cut]).is_err(), "cut at {cut}");
+        }
+    }
+
+    /// One stored entry `a.npy` of 3 bytes whose central record gives its sizes and offset in
+    /// a zip64 extra field.
+    fn zip64_archive(size: u64, local: u64) -> Vec<u8> {
+        let plain = zip_stored(&[("a.npy".to_string(), vec![1u8, 2, 3])]).unwrap();
+        let mut out = plain[..30 + 5 + 3].to_vec(); // the local header, name and data
+        let cd_offset = out.len() as u32;
+        let mut cd = Vec::new();
+        put32(&mut cd, CENTRAL);
+        for v in [45, 45, 0, 0, 0, DOS_DATE] {
+            put16(&mut cd, v); // made by, needed, flags, method, time, date
+        }
+        put32(&mut cd, crc32(&[1, 2, 3]));
+        put32(&mut cd, 0xFFFF_FFFF); // compressed size: in zip64
+        put32(&mut cd, 0xFFFF_FFFF); // uncompressed size: in zip64
+        for v in [5, 4 + 24, 0, 0, 0] {
+            put16(&mut cd, v); // name, extra and comment lengths, disk, internal attributes
+        }
+        put32(&mut cd, 0); // external attributes
+        put32(&mut cd, 0xFFFF_FFFF); // offset: in zip64
+        cd.extend_from_slice(b"a.npy");
+        put16(&mut cd, 1);
+        put16(&mut cd, 24);
+        for v in [size, size, local] {
+            cd.extend_from_slice(&v.to_le_bytes());
+        }
+        let cd_size = cd.len() as u32;
+        out.extend_from_slice(&cd);
+        put32(&mut out, END);
+        for v in [0, 0, 1, 1] {
+            put16(&mut out, v);
+        }
+        put32(&mut out, cd_size);
+        put32(&mut out, cd_offset);
+        put16(&mut out, 0);
+        out
+    }
+
+    #[test]
+    fn zip64_sizes_and_offsets_past_the_file_are_corrupt_not_a_panic() {
+        // Sums with these overflowed (a panic in debug builds).
+        assert_eq!(
+            unzip(&zip64_archive(3, 0)).unwrap(),
+            vec![("a.npy".to_string(), vec![1, 2, 3])]
+        );
+        for (size, local) in [
+            (3, u64::MAX),
+            (u64::MAX, 0),
+            (u64::MAX - 20, 0),
+            (3, 1 << 40),
+        ] {
+            let err = unzip(&zip64_archive(size, local)).unwrap_err();
+            assert!(matches!(err, Error::Model(_)), "{size} {local}: {err}");
         }
     }
 }
