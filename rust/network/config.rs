@@ -347,6 +347,25 @@ impl NetworkConfig {
                 ),
             ));
         }
+        // The kernel's terms (gabor.rs) must stay finite over the kernel: a subnormal sigma or
+        // wavelength, or a gamma whose square overflows, made NaN weights (refused later as
+        // the weights' fault).
+        let reach = 2.0 * std::f64::consts::PI * self.conv1.kernel as f64 / g.wavelength;
+        let spread = 2.0 * g.sigma * g.sigma;
+        let finite = spread > 0.0
+            && spread.is_finite()
+            && (g.gamma * g.gamma).is_finite()
+            && reach.is_finite();
+        if !finite {
+            return Err(Error::param(
+                "gabor",
+                format!(
+                    "sigma {}, wavelength {} and gamma {} make a kernel that is not finite: \
+                     2·sigma² must be a positive float, gamma² and 2π·kernel/wavelength finite",
+                    g.sigma, g.wavelength, g.gamma
+                ),
+            ));
+        }
         Ok(())
     }
 
@@ -422,11 +441,33 @@ impl NetworkConfig {
         if s.lr_every == 0 {
             return Err(Error::param("stdp.lr_every", "must be at least 1, got 0"));
         }
+        // The rates are applied in float32: the largest each reaches must be one (a rate past
+        // it became infinite, and the weights it touched NaN).
+        let f32_max = f64::from(f32::MAX);
+        let reached = [
+            ("stdp.a_plus", s.a_plus),
+            ("stdp.a_plus_max", s.a_plus.max(s.a_plus_max)),
+            (
+                "stdp.a_minus",
+                s.a_minus.abs() * (s.a_plus.max(s.a_plus_max) / s.a_plus),
+            ),
+        ];
+        for (name, rate) in reached {
+            // NaN cannot come here: the rates were checked finite and a_plus > 0 above.
+            if rate > f32_max {
+                return Err(Error::param(
+                    name,
+                    format!(
+                        "makes a rate of {rate:e} (a_minus grows with a_plus up to \
+                         a_plus_max), beyond float32's largest ({f32_max:e})"
+                    ),
+                ));
+            }
+        }
         Ok(())
     }
 }
 
-/// Overlay `given` onto `base`, recursing into objects present in both.
 /// Fields a complete config may lack: those added after the first model files were written,
 /// whose default is what those files meant.
 const ADDED_LATER: [&str; 1] = ["pent.max_density"];
@@ -463,6 +504,7 @@ fn missing_under(
     }
 }
 
+/// Overlay `given` onto `base`, recursing into objects present in both.
 fn merge(base: &mut serde_json::Value, given: serde_json::Value) {
     match (base, given) {
         (serde_json::Value::Object(b), serde_json::Value::Object(g)) => {
@@ -613,6 +655,18 @@ mod tests {
             r#"{"widht": 240}"#,
             r#"{"stdp": {"a_plus": 0.004, "a_minus": 0.003, "a_plus_max": 0.15,
                 "lr_every": 500}}"#,
+            // Rates past float32's range: they became infinite and the weights NaN.
+            r#"{"stdp": {"a_plus": 1e39, "a_minus": -0.003, "a_plus_max": 0.15,
+                "lr_every": 500}}"#,
+            r#"{"stdp": {"a_plus": 0.004, "a_minus": -0.003, "a_plus_max": 1e300,
+                "lr_every": 1}}"#,
+            // Subnormal Gabor parameters and a gamma whose square overflows: NaN kernels.
+            r#"{"gabor": {"sigma": 1.0, "wavelength": 1e-320, "gamma": 0.5}}"#,
+            r#"{"gabor": {"sigma": 1e-200, "wavelength": 3.0, "gamma": 0.5}}"#,
+            r#"{"gabor": {"sigma": 1.0, "wavelength": 3.0, "gamma": 1e200}}"#,
+            // a⁻ grows with a⁺: 3e35 · (3e38 / 0.004) is past it too.
+            r#"{"stdp": {"a_plus": 0.004, "a_minus": -3e35, "a_plus_max": 3e38,
+                "lr_every": 1}}"#,
         ];
         for text in cases {
             let err = NetworkConfig::from_json(text).unwrap_err();

@@ -7,7 +7,7 @@ use super::layer::ConvLayer;
 use super::stdp::{self, Rates};
 use super::window::{Network, WindowState};
 use super::winners::Winner;
-use crate::error::Result;
+use crate::error::{Error, Result};
 
 impl Network {
     /// Run `f` with an engine state from the pool (made if none is free), then give it back:
@@ -68,6 +68,20 @@ impl Network {
         n_in: Option<u64>,
         rates: Rates,
     ) -> Result<Vec<Winner>> {
+        // The config's signs, finite (a NaN or infinite rate wrote NaN weights).
+        let signed = rates.a_plus.is_finite()
+            && rates.a_plus > 0.0
+            && rates.a_minus.is_finite()
+            && rates.a_minus <= 0.0;
+        if !signed {
+            return Err(Error::param(
+                "rates",
+                format!(
+                    "a_plus must be finite and > 0 and a_minus finite and <= 0, got {} and {}",
+                    rates.a_plus, rates.a_minus
+                ),
+            ));
+        }
         let thresholds = self.conv1_thresholds(n_in.unwrap_or(spikes.len() as u64));
         state.set_record(false);
         state.begin_training(self, layer, t0, &thresholds)?;

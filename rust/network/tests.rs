@@ -1028,3 +1028,38 @@ fn table1_layers_equal_dense_reference() {
         }
     }
 }
+
+#[test]
+fn stdp_step_refuses_rates_of_the_wrong_sign_or_not_finite() {
+    // A NaN rate wrote NaN weights, which the model file then refused to read back.
+    let c = NetworkConfig {
+        width: 16,
+        height: 12,
+        ..NetworkConfig::default()
+    };
+    let mut net = Network::new(c, 1).unwrap();
+    let before = net.clone();
+    let mut state = net.new_state();
+    let (t, x, y) = (vec![0u64, 1, 2], vec![3u16, 4, 5], vec![3u16, 4, 5]);
+    for (a_plus, a_minus) in [
+        (f32::NAN, -0.003),
+        (0.004, f32::NEG_INFINITY),
+        (f32::INFINITY, -0.003),
+        (-0.5, -0.003),
+        (0.004, 0.5),
+    ] {
+        let rates = Rates { a_plus, a_minus };
+        let spikes = Spikes::new(&t, &x, &y).unwrap();
+        let err = net
+            .stdp_step(&mut state, ConvLayer::Conv1, spikes, 0, None, rates)
+            .unwrap_err();
+        assert!(
+            matches!(err, Error::InvalidParameter { name: "rates", .. }),
+            "{err}"
+        );
+    }
+    assert_eq!(
+        net.conv_weights(ConvLayer::Conv1),
+        before.conv_weights(ConvLayer::Conv1)
+    );
+}
