@@ -312,6 +312,56 @@ def test_process_frame_with_sub_frame_samples_and_bad_patches() -> None:
         emu.process_frame(np.zeros((5, 8), np.float32), 2000)
 
 
+@pytest.mark.parametrize("params", [3, "ideal", {"threshold_on": 0.2}])
+def test_params_of_another_type_are_a_parameter_error(params: object) -> None:
+    # It was a bare TypeError, outside uavsnn's errors (and a command's exit 2).
+    with pytest.raises(ParameterError, match="params must be DvsParams, got"):
+        DvsEmulator((4, 4), params=params)  # type: ignore[arg-type]
+    with pytest.raises(ParameterError, match="params must be DvsParams"):
+        emulate_dvs(np.zeros((2, 4, 4)), [0, 1], params=params)  # type: ignore[arg-type]
+
+
+def test_process_frame_refuses_frames_patches_and_patch_times_it_cannot_take() -> None:
+    """A frame of text was NumPy's ValueError, a patch time of -1 Python's OverflowError (and
+    -1 in an int64 array wrapped to 2^64 - 1), a time of 4000.7 µs was truncated to 4000: each is
+    a SimulationError naming what is wrong, and the emulator is left as it was."""
+    emu = DvsEmulator((4, 4), params=DvsParams.ideal())
+    flat = np.full((4, 4), 10.0, np.float32)
+    for frame, match in (
+        ("abc", "a frame must be real intensities"),
+        (np.full((4, 4), 10 + 1j), "a frame must be real intensities"),
+        (np.ones((4, 4), bool), "a frame must be real intensities"),
+        ([[1.0] * 4, [1.0] * 3], "a frame must be an array of intensities"),
+    ):
+        with pytest.raises(SimulationError, match=match):
+            emu.process_frame(frame, 0)
+    assert emu.frames_seen == 0
+    assert len(emu.process_frame(flat, 0)) == 0
+    v = np.full((1, 2, 2), 200.0, np.float32)
+    for patches, match in (
+        ([(0, 0, [-1], v)], r"times_us: -1 is negative"),
+        ([(0, 0, np.array([-1]), v)], r"times_us: -1 is negative"),
+        ([(0, 0, [4000.7], v)], r"times_us: 4000.7 is not a whole number of microseconds"),
+        ([(0, 0, [float("nan")], v)], "not a whole number"),
+        ([(0, 0, [2.0**64], v)], "beyond 2\\^64 - 1"),
+        ([(0, 0, [2**64], v)], "whole microseconds, got dtype object"),
+        ([(0, 0, [True], v)], "whole microseconds, got dtype bool"),
+        ([(0, 0, "ab", v)], "must be 1-D"),
+        ([(0, 0, [[5]], v)], "must be 1-D"),
+        ([(0, 0, [5], "x")], "patch 0's values must be real intensities"),
+        ([(0, 0, [5])], "patch 0 is"),
+        ([None], "patch 0 is None"),
+        (5, "patches must be a sequence"),
+        ("abcd", "patches must be a sequence"),
+    ):
+        with pytest.raises(SimulationError, match=match):
+            emu.process_frame(flat, 10_000, patches)  # type: ignore[arg-type]
+        assert emu.frames_seen == 1
+    # A whole time given as a float is taken.
+    assert len(emu.process_frame(flat, 10_000, [(0, 0, [4000.0], v)])) > 0
+    assert emu.frames_seen == 2
+
+
 def test_the_gen3_preset_fires_about_1_88_on_events_per_off_event() -> None:
     # A slow rise and fall of the same size: a Gen3-like pixel's ON threshold is its OFF
     # threshold over 1.88, so it makes about 1.88 times as many ON as OFF events.

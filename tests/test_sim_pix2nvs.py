@@ -273,6 +273,15 @@ def test_bad_seed_sizes_and_mismatched_frames():
         sim.process(frames, [20, 30])
 
 
+@pytest.mark.parametrize("params", [3, "defaults", {"threshold": 0.4}])
+def test_params_of_another_type_are_a_parameter_error(params: object) -> None:
+    # It was a bare TypeError, outside uavsnn's errors (and a command's exit 2).
+    with pytest.raises(ParameterError, match="params must be Pix2NvsParams, got"):
+        Pix2NvsSimulator((4, 4), params=params)  # type: ignore[arg-type]
+    with pytest.raises(ParameterError, match="params must be Pix2NvsParams"):
+        pix2nvs(np.zeros((2, 4, 4), np.uint8), [0, 1], params=params)  # type: ignore[arg-type]
+
+
 # ------------------------------------------------------------------------------ real clip
 
 

@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 
 from uavsnn import _core
-from uavsnn.errors import SimulationError
+from uavsnn.errors import ParameterError, SimulationError
 from uavsnn.events import EVENT_DTYPE
 from uavsnn.sim.checks import check_real, check_seed, check_size
 from uavsnn.sim.frames import as_frame_batch, push_frames
@@ -191,7 +191,7 @@ class DvsEmulator:
     ) -> None:
         self.params = params if params is not None else DvsParams()
         if not isinstance(self.params, DvsParams):
-            raise TypeError(f"params must be DvsParams, got {type(self.params).__name__}")
+            raise ParameterError(f"params must be DvsParams, got {type(self.params).__name__}")
         width, height = check_size(sensor_size, "sensor_size")
         self.seed = check_seed(seed)
         p = self.params
@@ -248,17 +248,20 @@ class DvsEmulator:
         frame takes none.
 
         Raises:
-            SimulationError: a frame of the wrong size, a time not after the previous frame's,
-                patches off the sensor, overlapping, with bad times or values.
+            SimulationError: a frame that is not real intensities or of the wrong size, a time
+                not after the previous frame's, patches that are not four-element tuples, off
+                the sensor, overlapping, with times that are not whole microseconds >= 0 or
+                not strictly between the frames, or with bad values.
         """
-        img = np.ascontiguousarray(frame, dtype=np.float32)
+        img = _intensities("a frame", frame)
         if img.shape != (self.sensor_size[1], self.sensor_size[0]):
             raise SimulationError(
                 f"a frame of shape {img.shape}; this sensor needs "
                 f"({self.sensor_size[1]}, {self.sensor_size[0]})"
             )
         subs = []
-        for x0, y0, times, values in patches:
+        for k, patch in enumerate(_patch_list(patches)):
+            x0, y0, times, values = patch
             if not all(
                 isinstance(c, (int, np.integer)) and not isinstance(c, bool) and c >= 0
                 for c in (x0, y0)
@@ -266,13 +269,75 @@ class DvsEmulator:
                 raise SimulationError(
                     f"a patch's corner must be whole pixels >= 0, got ({x0!r}, {y0!r})"
                 )
-            ts = np.ascontiguousarray(times, dtype=np.uint64)
-            v = np.ascontiguousarray(values, dtype=np.float32)
+            ts = _patch_times(k, times)
+            v = _intensities(f"sub-frame patch {k}'s values", values)
             if v.ndim != 3:
                 raise SimulationError(f"sub-frame values must be (n, h, w), got {v.shape}")
             subs.append((int(x0), int(y0), ts, v))
         t = check_int_time(t_us)
         return np.asarray(self._kernel.push_float_samples(img, t, subs)).view(EVENT_DTYPE)
+
+
+def _intensities(what: str, value: Any) -> np.ndarray:
+    """``value`` as a contiguous ``float32`` array, if it holds real numbers."""
+    try:
+        array = np.asarray(value)
+    except (TypeError, ValueError) as exc:  # a ragged nesting of lists
+        raise SimulationError(f"{what} must be an array of intensities: {exc}") from exc
+    kind = array.dtype.kind
+    if kind not in "uif":
+        raise SimulationError(f"{what} must be real intensities (0-255), got dtype {array.dtype}")
+    return np.ascontiguousarray(array, dtype=np.float32)
+
+
+def _patch_list(patches: Any) -> list[tuple[Any, Any, Any, Any]]:
+    """``patches`` as a list of four-element tuples."""
+    what = "patches must be a sequence of (x0, y0, times_us, values)"
+    if isinstance(patches, (str, bytes, np.ndarray)):
+        raise SimulationError(f"{what}, got {type(patches).__name__}")
+    try:
+        items = list(patches)
+    except TypeError as exc:
+        raise SimulationError(f"{what}, got {type(patches).__name__}") from exc
+    for k, patch in enumerate(items):
+        if isinstance(patch, (str, bytes)) or not _four(patch):
+            raise SimulationError(f"{what}: patch {k} is {patch!r:.80}")
+    return [tuple(patch) for patch in items]
+
+
+def _four(patch: Any) -> bool:
+    try:
+        return len(patch) == 4
+    except TypeError:
+        return False
+
+
+def _patch_times(k: int, times: Any) -> np.ndarray:
+    """Patch ``k``'s times as ``uint64``, if each is a whole number of microseconds in
+    ``[0, 2^64)`` (their order is the kernel's to check)."""
+    where = f"sub-frame patch {k}: times_us"
+    try:
+        t = np.asarray(times)
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise SimulationError(f"{where} must be whole microseconds: {exc}") from exc
+    if t.ndim != 1:
+        raise SimulationError(f"{where} must be 1-D, got shape {t.shape}")
+    if len(t) == 0:
+        return np.zeros(0, dtype=np.uint64)
+    if t.dtype.kind not in "uif":
+        raise SimulationError(f"{where} must be whole microseconds, got dtype {t.dtype}")
+    if t.dtype.kind == "f":
+        bad = ~np.isfinite(t) | (t != np.round(t))
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise SimulationError(f"{where}: {t[i]} is not a whole number of microseconds")
+        if (t >= 2.0**64).any():
+            i = int(np.argmax(t >= 2.0**64))
+            raise SimulationError(f"{where}: {t[i]} is beyond 2^64 - 1 microseconds")
+    if (t < 0).any():
+        i = int(np.argmax(t < 0))
+        raise SimulationError(f"{where}: {t[i]} is negative")
+    return np.ascontiguousarray(t, dtype=np.uint64)
 
 
 def emulate_dvs(

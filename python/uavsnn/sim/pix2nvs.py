@@ -146,7 +146,7 @@ class Pix2NvsSimulator:
     ) -> None:
         self.params = params if params is not None else Pix2NvsParams()
         if not isinstance(self.params, Pix2NvsParams):
-            raise TypeError(f"params must be Pix2NvsParams, got {type(self.params).__name__}")
+            raise ParameterError(f"params must be Pix2NvsParams, got {type(self.params).__name__}")
         width, height = check_size(frame_size, "frame_size")
         out = None if output_size is None else check_size(output_size, "output_size")
         check_choice("pooling", pooling, POOLING_MODES)
