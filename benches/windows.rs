@@ -83,8 +83,9 @@ fn bench_windows(c: &mut Criterion) {
         let config = WindowConfig::new(10_000, 0.5).unwrap();
         let windows = make_windows(&events, sensor, &config).unwrap();
         let all: Vec<usize> = (0..windows.len()).collect();
+        let view = windows.view().unwrap();
         group.bench_function("frames_L10ms_o50", |b| {
-            b.iter(|| frames(&windows.view(), &all).unwrap());
+            b.iter(|| frames(&view, &all).unwrap());
         });
         group.finish();
     }

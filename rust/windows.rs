@@ -31,7 +31,8 @@ mod median;
 mod noise;
 
 pub use frames::{frames, frames_into, frames_len};
-pub use median::{median_keep, MedianFilter, MEDIAN_MIN_ACTIVE};
+pub(crate) use median::MedianFilter;
+pub use median::{median_keep, MEDIAN_MIN_ACTIVE};
 pub use noise::{add_noise, NoisyWindows};
 
 use build::{build, build_disjoint, plan_runs};
@@ -88,7 +89,7 @@ pub struct WindowConfig {
     pub length_us: u64,
     /// Step between window starts in µs (from [`window_step`]).
     pub step_us: u64,
-    /// Apply the 3×3 median filter to each window's active pixels ([`median`](MedianFilter)).
+    /// Apply the 3×3 median filter to each window's active pixels (see [`median_keep`]).
     pub median: bool,
     /// Start of the first window; the first event's time when `None`.
     pub start_us: Option<u64>,
@@ -184,30 +185,37 @@ impl Windows {
         self.t0.is_empty()
     }
 
-    /// A borrowed view (already consistent: built by this module).
-    pub fn view(&self) -> WindowsView<'_> {
-        WindowsView {
-            sensor: self.sensor,
-            length_us: self.length_us,
-            t0: &self.t0,
-            offsets: &self.offsets,
-            t: &self.t,
-            x: &self.x,
-            y: &self.y,
-        }
+    /// A borrowed view, checked as [`WindowsView::new`] checks one (`O(spikes)`): the fields
+    /// are public, so windows edited or built outside this module may be inconsistent.
+    ///
+    /// # Errors
+    ///
+    /// As [`WindowsView::new`].
+    pub fn view(&self) -> Result<WindowsView<'_>> {
+        WindowsView::new(
+            self.sensor,
+            self.length_us,
+            &self.t0,
+            &self.offsets,
+            &self.t,
+            &self.x,
+            &self.y,
+        )
     }
 }
 
-/// Borrowed windows, checked for consistency when built from outside data.
+/// Borrowed windows, always consistent: the only way to make one is [`WindowsView::new`] (or
+/// [`Windows::view`]), which checks the columns, so that [`frames`] and [`add_noise`] can trust
+/// them. The fields are read through accessors.
 #[derive(Debug, Clone, Copy)]
 pub struct WindowsView<'a> {
-    pub sensor: SensorSize,
-    pub length_us: u64,
-    pub t0: &'a [u64],
-    pub offsets: &'a [usize],
-    pub t: &'a [u64],
-    pub x: &'a [u16],
-    pub y: &'a [u16],
+    sensor: SensorSize,
+    length_us: u64,
+    t0: &'a [u64],
+    offsets: &'a [usize],
+    t: &'a [u64],
+    x: &'a [u16],
+    y: &'a [u16],
 }
 
 impl<'a> WindowsView<'a> {
@@ -328,8 +336,43 @@ impl<'a> WindowsView<'a> {
         self.t0.is_empty()
     }
 
-    /// The index range of window `i`'s spikes in the columns.
-    pub fn range(&self, i: usize) -> std::ops::Range<usize> {
+    /// Sensor the coordinates refer to.
+    pub fn sensor(&self) -> SensorSize {
+        self.sensor
+    }
+
+    /// Window length `L` in µs.
+    pub fn length_us(&self) -> u64 {
+        self.length_us
+    }
+
+    /// Window starts, `(n,)`.
+    pub fn t0(&self) -> &'a [u64] {
+        self.t0
+    }
+
+    /// Window `i`'s spikes are `offsets[i]..offsets[i + 1]`, `(n + 1,)`.
+    pub fn offsets(&self) -> &'a [usize] {
+        self.offsets
+    }
+
+    /// Spike times.
+    pub fn t(&self) -> &'a [u64] {
+        self.t
+    }
+
+    /// Spike columns.
+    pub fn x(&self) -> &'a [u16] {
+        self.x
+    }
+
+    /// Spike rows.
+    pub fn y(&self) -> &'a [u16] {
+        self.y
+    }
+
+    /// The index range of window `i < len()`'s spikes in the columns.
+    pub(crate) fn range(&self, i: usize) -> std::ops::Range<usize> {
         self.offsets[i]..self.offsets[i + 1]
     }
 }

@@ -147,39 +147,41 @@ pub(super) fn build<E: EventSource + ?Sized>(
         .par_iter()
         .zip(slices)
         .zip(all_firsts)
-        .map(|((&(ka, kb), (ts, xs, ys)), firsts)| {
-            let base = offsets[ka];
-            let mut cursor: Vec<usize> = offsets[ka..kb].iter().map(|o| o - base).collect();
-            for k in 0..firsts.len {
-                let (a, b) = (firsts.a[k] as usize, firsts.b[k] as usize);
-                for c in &mut cursor[a..b] {
-                    let j = *c;
-                    ts[j] = firsts.t[k];
-                    xs[j] = firsts.x[k];
-                    ys[j] = firsts.y[k];
-                    *c = j + 1;
+        .map(
+            |((&(ka, kb), (ts, xs, ys)), firsts)| -> Result<Vec<usize>> {
+                let base = offsets[ka];
+                let mut cursor: Vec<usize> = offsets[ka..kb].iter().map(|o| o - base).collect();
+                for k in 0..firsts.len {
+                    let (a, b) = (firsts.a[k] as usize, firsts.b[k] as usize);
+                    for c in &mut cursor[a..b] {
+                        let j = *c;
+                        ts[j] = firsts.t[k];
+                        xs[j] = firsts.x[k];
+                        ys[j] = firsts.y[k];
+                        *c = j + 1;
+                    }
                 }
-            }
-            drop(firsts);
-            if !median {
-                return Vec::new();
-            }
-            // Filter each window in place, its kept spikes moved to the front of the run.
-            let mut filter = MedianFilter::new(sensor);
-            let mut write = 0;
-            (ka..kb)
-                .map(|k| {
-                    let (a, b) = (offsets[k] - base, offsets[k + 1] - base);
-                    let keep = filter.compact(&mut ts[a..b], &mut xs[a..b], &mut ys[a..b]);
-                    ts.copy_within(a..a + keep, write);
-                    xs.copy_within(a..a + keep, write);
-                    ys.copy_within(a..a + keep, write);
-                    write += keep;
-                    keep
-                })
-                .collect()
-        })
-        .collect();
+                drop(firsts);
+                if !median {
+                    return Ok(Vec::new());
+                }
+                // Filter each window in place, its kept spikes moved to the front of the run.
+                let mut filter = MedianFilter::new(sensor)?;
+                let mut write = 0;
+                Ok((ka..kb)
+                    .map(|k| {
+                        let (a, b) = (offsets[k] - base, offsets[k + 1] - base);
+                        let keep = filter.compact(&mut ts[a..b], &mut xs[a..b], &mut ys[a..b]);
+                        ts.copy_within(a..a + keep, write);
+                        xs.copy_within(a..a + keep, write);
+                        ys.copy_within(a..a + keep, write);
+                        write += keep;
+                        keep
+                    })
+                    .collect())
+            },
+        )
+        .collect::<Result<_>>()?;
 
     if median {
         // Close the gaps the filter left between runs, and recount the offsets.
@@ -280,7 +282,7 @@ fn disjoint_run<E: EventSource + ?Sized>(
     );
     let mut offsets = Vec::with_capacity(n + 1);
     offsets.push(0);
-    let mut filter = median.then(|| MedianFilter::new(sensor));
+    let mut filter = median.then(|| MedianFilter::new(sensor)).transpose()?;
     // Distinct pixels per slot (slots 0..=n).
     let mut counts = vec![0u64; n + 1];
     // Per pixel: 1 + the last slot it fired in (0: not yet); slots fit: n < RUN_MAX_WINDOWS.

@@ -10,33 +10,47 @@
 //! Cost: `O(spikes)` per window, with a per-pixel stamp array that is never cleared (a new stamp
 //! marks each window).
 
-use crate::error::{Error, Result};
+use crate::error::{check_alloc, Error, Result};
 use crate::events::SensorSize;
 
 /// Active pixels (out of 9) a 3×3 neighbourhood needs for its median to be 1.
 pub const MEDIAN_MIN_ACTIVE: u32 = 5;
 
-/// Reusable state of the median filter for one sensor.
+/// Reusable state of the median filter for one sensor (8 bytes a pixel). Internal to windowing:
+/// [`compact`](Self::compact) trusts its spikes to lie on the sensor, as windowing's are; users
+/// filter pixels with [`median_keep`].
 #[derive(Debug, Clone)]
-pub struct MedianFilter {
+pub(crate) struct MedianFilter {
     sensor: SensorSize,
     mark: Vec<u64>,
     stamp: u64,
 }
 
 impl MedianFilter {
-    /// A filter for `sensor`.
-    pub fn new(sensor: SensorSize) -> Self {
-        Self {
+    /// A filter for `sensor`, or [`Error::InvalidParameter`] (`sensor_size`) when its 8 bytes
+    /// a pixel are above [`MAX_ALLOC_BYTES`](crate::error::MAX_ALLOC_BYTES).
+    pub(crate) fn new(sensor: SensorSize) -> Result<Self> {
+        check_alloc(
+            "sensor_size",
+            || {
+                format!(
+                    "the median filter of a {}x{} sensor (8 bytes a pixel)",
+                    sensor.width, sensor.height
+                )
+            },
+            sensor.area(),
+            8,
+        )?;
+        Ok(Self {
             sensor,
             mark: vec![0; sensor.area()],
             stamp: 0,
-        }
+        })
     }
 
     /// Filter one window's spikes (columns of equal length, on the sensor, one per pixel) in
     /// place: the kept spikes move to the front, in order; returns how many were kept.
-    pub fn compact(&mut self, t: &mut [u64], x: &mut [u16], y: &mut [u16]) -> usize {
+    pub(crate) fn compact(&mut self, t: &mut [u64], x: &mut [u16], y: &mut [u16]) -> usize {
         self.stamp += 1;
         for (&xi, &yi) in x.iter().zip(y.iter()) {
             self.mark[self.sensor.index(xi, yi)] = self.stamp;
@@ -67,6 +81,12 @@ impl MedianFilter {
 }
 
 /// Which of the pixels `(x[i], y[i])` (distinct, on the sensor) the median filter keeps.
+///
+/// # Errors
+///
+/// [`Error::Shape`] when the columns differ in length, [`Error::InvalidEvent`] for a pixel off
+/// the sensor, [`Error::InvalidParameter`] (`sensor_size`) when the filter's 8 bytes a pixel are
+/// above [`MAX_ALLOC_BYTES`](crate::error::MAX_ALLOC_BYTES).
 pub fn median_keep(sensor: SensorSize, x: &[u16], y: &[u16]) -> Result<Vec<bool>> {
     if x.len() != y.len() {
         return Err(Error::Shape {
@@ -75,7 +95,7 @@ pub fn median_keep(sensor: SensorSize, x: &[u16], y: &[u16]) -> Result<Vec<bool>
             got: format!("{} and {}", x.len(), y.len()),
         });
     }
-    let mut filter = MedianFilter::new(sensor);
+    let mut filter = MedianFilter::new(sensor)?;
     filter.stamp = 1;
     for (i, (&xi, &yi)) in x.iter().zip(y).enumerate() {
         if !sensor.contains(xi, yi) {

@@ -155,12 +155,12 @@ fn frames_embed_times_and_mark_silence() {
     let sensor = SensorSize::new(3, 2).unwrap();
     let events = [ev(10, 0, 0), ev(13, 2, 1), ev(14, 0, 0)];
     let w = make_windows(&events, sensor, &WindowConfig::new(10, 0.0).unwrap()).unwrap();
-    let f = frames(&w.view(), &[0]).unwrap();
+    let f = frames(&w.view().unwrap(), &[0]).unwrap();
     assert_eq!(f.len(), 6);
     assert_eq!(f[0].to_bits(), 0.0f32.to_bits());
     assert_eq!(f[5].to_bits(), 3.0f32.to_bits());
     assert!(f[1].is_infinite() && f[4].is_infinite());
-    assert!(frames(&w.view(), &[1]).is_err());
+    assert!(frames(&w.view().unwrap(), &[1]).is_err());
 }
 
 #[test]
@@ -180,14 +180,14 @@ fn noise_adds_the_requested_pixels_and_reports_snr() {
     let sensor = SensorSize::new(20, 10).unwrap();
     let events: Vec<Event> = (0..50).map(|i| ev(i * 2, (i % 20) as u16, 0)).collect();
     let w = make_windows(&events, sensor, &WindowConfig::new(50, 0.0).unwrap()).unwrap();
-    let noisy = add_noise(&w.view(), &w.n_preceding, 0.05, 7, 0).unwrap();
+    let noisy = add_noise(&w.view().unwrap(), &w.n_preceding, 0.05, 7, 0).unwrap();
     assert_eq!(noisy.noise_per_window, 10);
-    let again = add_noise(&w.view(), &w.n_preceding, 0.05, 7, 0).unwrap();
+    let again = add_noise(&w.view().unwrap(), &w.n_preceding, 0.05, 7, 0).unwrap();
     assert_eq!(noisy, again);
-    let nv = noisy.windows.view();
+    let nv = noisy.windows.view().unwrap();
     WindowsView::new(sensor, 50, nv.t0, nv.offsets, nv.t, nv.x, nv.y).unwrap();
     for i in 0..w.len() {
-        let signal = w.view().range(i).len();
+        let signal = w.view().unwrap().range(i).len();
         let got = nv.range(i).len();
         assert!(got >= signal && got <= signal + 10);
         let expected = 10.0 * (signal as f64 / 10.0).log10();
@@ -201,7 +201,7 @@ fn noise_adds_the_requested_pixels_and_reports_snr() {
     );
     let area = sensor.area() as f64;
     for fraction in [0.05, 0.5] {
-        let noisy = add_noise(&w.view(), &w.n_preceding, fraction, 7, 0).unwrap();
+        let noisy = add_noise(&w.view().unwrap(), &w.n_preceding, fraction, 7, 0).unwrap();
         let n = noisy.noise_per_window as f64;
         let expected: Vec<u64> = w
             .n_preceding
@@ -210,9 +210,9 @@ fn noise_adds_the_requested_pixels_and_reports_snr() {
             .collect();
         assert_eq!(noisy.windows.n_preceding, expected, "fraction {fraction}");
     }
-    assert!(add_noise(&w.view(), &w.n_preceding, 1.5, 0, 0).is_err());
-    assert!(add_noise(&w.view(), &w.n_preceding, f64::NAN, 0, 0).is_err());
-    let err = add_noise(&w.view(), &w.n_preceding, 0.05, 0, u64::MAX).unwrap_err();
+    assert!(add_noise(&w.view().unwrap(), &w.n_preceding, 1.5, 0, 0).is_err());
+    assert!(add_noise(&w.view().unwrap(), &w.n_preceding, f64::NAN, 0, 0).is_err());
+    let err = add_noise(&w.view().unwrap(), &w.n_preceding, 0.05, 0, u64::MAX).unwrap_err();
     assert!(
         matches!(err, Error::InvalidParameter { name: "first", .. }),
         "{err}"
@@ -226,7 +226,7 @@ fn noise_added_part_by_part_is_the_noise_added_at_once() {
         .map(|i| ev(i * 2, (i % 20) as u16, (i % 7) as u16))
         .collect();
     let w = make_windows(&events, sensor, &WindowConfig::new(50, 0.5).unwrap()).unwrap();
-    let whole = add_noise(&w.view(), &w.n_preceding, 0.1, 11, 0).unwrap();
+    let whole = add_noise(&w.view().unwrap(), &w.n_preceding, 0.1, 11, 0).unwrap();
     let n = w.len();
     assert!(n >= 10, "{n} windows");
     for cut in [1, n / 3, n - 1] {
@@ -271,7 +271,7 @@ fn noise_added_part_by_part_is_the_noise_added_at_once() {
         assert_eq!(spikes, whole.windows.t.len(), "cut at {cut}");
     }
     // Another start draws other noise.
-    let shifted = add_noise(&w.view(), &w.n_preceding, 0.1, 11, 1).unwrap();
+    let shifted = add_noise(&w.view().unwrap(), &w.n_preceding, 0.1, 11, 1).unwrap();
     assert_ne!(shifted.windows.t, whole.windows.t);
 }
 
@@ -405,5 +405,66 @@ fn sensor_sized_allocations_are_capped() {
     is_cap(
         add_noise(&view, &[0; 2000], 1.0, 0, 0).unwrap_err(),
         "fraction",
+    );
+}
+
+#[test]
+fn median_keep_refuses_a_sensor_above_the_memory_cap() {
+    // Its per-pixel marks (8 bytes a pixel, 34 GB here) used to be allocated unchecked.
+    let huge = SensorSize::new(u16::MAX, u16::MAX).unwrap();
+    let err = median_keep(huge, &[0], &[0]).unwrap_err();
+    crate::error::assert_over_cap(&err, "sensor_size");
+    let err = MedianFilter::new(huge).unwrap_err();
+    crate::error::assert_over_cap(&err, "sensor_size");
+    assert_eq!(
+        median_keep(SensorSize::new(3, 3).unwrap(), &[1], &[1]).unwrap(),
+        [false]
+    );
+}
+
+#[test]
+fn view_of_inconsistent_windows_is_refused() {
+    // `Windows` has public fields: edited ones used to give a view that `frames` and
+    // `add_noise` trusted (an index out of bounds, a division by a zero length).
+    let sensor = SensorSize::new(3, 2).unwrap();
+    let events = [ev(10, 0, 0), ev(13, 2, 1), ev(14, 1, 0)];
+    let good = make_windows(&events, sensor, &WindowConfig::new(10, 0.0).unwrap()).unwrap();
+    good.view().unwrap();
+    let mut offsets = good.clone();
+    offsets.offsets = vec![0, 5];
+    assert!(matches!(
+        offsets.view().unwrap_err(),
+        Error::Shape {
+            name: "offsets",
+            ..
+        }
+    ));
+    let mut columns = good.clone();
+    columns.x.pop();
+    assert!(matches!(columns.view().unwrap_err(), Error::Shape { .. }));
+    let mut zero = good.clone();
+    zero.length_us = 0;
+    assert!(matches!(
+        zero.view().unwrap_err(),
+        Error::InvalidParameter {
+            name: "length_us",
+            ..
+        }
+    ));
+    let mut outside = good.clone();
+    outside.x[0] = 3;
+    assert!(matches!(
+        outside.view().unwrap_err(),
+        Error::InvalidEvent { index: 0, .. }
+    ));
+    // A checked view's columns read back through its accessors.
+    let view = good.view().unwrap();
+    assert_eq!(
+        (view.sensor(), view.length_us(), view.t0(), view.offsets()),
+        (sensor, 10, &[10u64][..], &[0usize, 3][..])
+    );
+    assert_eq!(
+        (view.t(), view.x(), view.y()),
+        (&[10u64, 13, 14][..], &[0u16, 2, 1][..], &[0u16, 1, 0][..])
     );
 }
