@@ -166,7 +166,7 @@ def test_output_folders_that_cannot_be_written(
     blocker = tmp_path / "a-file"
     blocker.write_text("x")
     under = str(blocker / "sub")
-    _one_line_exit_2(capsys, ["dataset", "build", under, "--domain", "dvs"], "Not a directory")
+    _one_line_exit_2(capsys, ["dataset", "build", under, "--domain", "dvs"], "OUT_DIR")
     _one_line_exit_2(capsys, ["demo", "--out", under], "--out")
     _one_line_exit_2(capsys, ["evaluate", str(model), str(dataset), "--report", under], "--report")
     # An existing file given as the report folder.

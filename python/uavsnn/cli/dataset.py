@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from uavsnn._files import check_output_dir
 from uavsnn.cli._camera import add_camera_options, fov_option, lens_option, through_lens
 from uavsnn.dataset import (
     DATASET_DOMAINS,
@@ -221,6 +222,8 @@ def _pix2nvs(args: argparse.Namespace) -> Pix2NvsParams | None:
 
 
 def _build(args: argparse.Namespace) -> int:
+    # A folder nobody can make is named here, not by the OSError of making it.
+    check_output_dir(args.out_dir, "OUT_DIR")
     n_train = args.n_train
     if n_train is None and args.domain != "real":
         n_train = 4000
