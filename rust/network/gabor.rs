@@ -1,6 +1,7 @@
 //! conv1's fixed Gabor kernels (docs/model.md §4).
 
 use super::config::GaborConfig;
+use crate::error::{check_alloc, Error, Result};
 
 /// `maps` Gabor kernels of side `k`, orientations `m · 180° / maps` (0°, 45°, 90°, 135° for the
 /// default 4 maps), each min–max scaled into `[0, 1]`; returned in the layout `(maps, 1, k, k)`.
@@ -9,13 +10,29 @@ use super::config::GaborConfig;
 /// `y' = −x sin θ + y cos θ`, `x` to the right and `y` down, both centred on the kernel (from
 /// `−(k−1)/2` to `(k−1)/2`). Computed in float64 and rounded to float32 at the end. A constant
 /// kernel (possible only for degenerate parameters) scales to all ones.
-pub fn gabor_kernels(k: usize, maps: usize, p: &GaborConfig) -> Vec<f32> {
-    let mut out = Vec::with_capacity(maps * k * k);
+///
+/// # Errors
+///
+/// [`Error::InvalidParameter`]: `k` when a kernel's `k²` float64 terms, `maps` when the
+/// `maps · k²` weights are above [`MAX_ALLOC_BYTES`](crate::error::MAX_ALLOC_BYTES) (or their
+/// count overflows); `gabor` when the parameters give a term that is not finite (NaN
+/// `sigma`, a subnormal `wavelength`...; [`NetworkConfig::validate`](super::NetworkConfig::validate)
+/// refuses those first).
+pub fn gabor_kernels(k: usize, maps: usize, p: &GaborConfig) -> Result<Vec<f32>> {
+    let area = k.saturating_mul(k);
+    check_alloc("k", || format!("a {k}x{k} Gabor kernel"), area, 8)?;
+    check_alloc(
+        "maps",
+        || format!("{maps} Gabor kernels of {k}x{k}"),
+        maps.saturating_mul(area),
+        4,
+    )?;
+    let mut out = Vec::with_capacity(maps * area);
     let centre = (k as f64 - 1.0) / 2.0;
     for m in 0..maps {
         let theta = m as f64 * std::f64::consts::PI / maps as f64;
         let (sin, cos) = theta.sin_cos();
-        let raw: Vec<f64> = (0..k * k)
+        let raw: Vec<f64> = (0..area)
             .map(|i| {
                 let y = (i / k) as f64 - centre;
                 let x = (i % k) as f64 - centre;
@@ -26,6 +43,16 @@ pub fn gabor_kernels(k: usize, maps: usize, p: &GaborConfig) -> Vec<f32> {
                 envelope * (2.0 * std::f64::consts::PI * xr / p.wavelength).cos()
             })
             .collect();
+        if let Some(i) = raw.iter().position(|g| !g.is_finite()) {
+            return Err(Error::param(
+                "gabor",
+                format!(
+                    "sigma {}, wavelength {} and gamma {} give a term that is not finite \
+                     (kernel {m}, index {i})",
+                    p.sigma, p.wavelength, p.gamma
+                ),
+            ));
+        }
         let lo = raw.iter().copied().fold(f64::INFINITY, f64::min);
         let hi = raw.iter().copied().fold(f64::NEG_INFINITY, f64::max);
         let span = hi - lo;
@@ -44,7 +71,7 @@ pub fn gabor_kernels(k: usize, maps: usize, p: &GaborConfig) -> Vec<f32> {
             }
         }));
     }
-    out
+    Ok(out)
 }
 
 /// Scaled Gabor weights below this are set to 0 (see [`gabor_kernels`]).
@@ -58,7 +85,7 @@ mod tests {
     #[test]
     fn kernels_are_scaled_and_oriented() {
         let p = NetworkConfig::default().gabor;
-        let w = gabor_kernels(5, 4, &p);
+        let w = gabor_kernels(5, 4, &p).unwrap();
         assert_eq!(w.len(), 100);
         for m in 0..4 {
             let kernel = &w[m * 25..(m + 1) * 25];
@@ -77,6 +104,34 @@ mod tests {
             for c in 0..5 {
                 assert!((k0[r * 5 + c] - k90[c * 5 + r]).abs() < 1e-6);
             }
+        }
+    }
+
+    #[test]
+    fn sizes_above_the_cap_and_bad_parameters_are_refused() {
+        let p = NetworkConfig::default().gabor;
+        // 65535² float64 terms (34 GB), then 2^64 weights (an overflow), used to abort or panic.
+        crate::error::assert_over_cap(&gabor_kernels(65_535, 65_535, &p).unwrap_err(), "k");
+        crate::error::assert_over_cap(&gabor_kernels(1 << 32, 1 << 32, &p).unwrap_err(), "k");
+        crate::error::assert_over_cap(&gabor_kernels(5, 1 << 60, &p).unwrap_err(), "maps");
+        crate::error::assert_over_cap(&gabor_kernels(1 << 14, 1 << 10, &p).unwrap_err(), "maps");
+        assert!(gabor_kernels(0, 4, &p).unwrap().is_empty());
+        assert!(gabor_kernels(5, 0, &p).unwrap().is_empty());
+        for bad in [
+            GaborConfig {
+                sigma: f64::NAN,
+                ..p
+            },
+            GaborConfig {
+                wavelength: 1e-320,
+                ..p
+            },
+        ] {
+            let err = gabor_kernels(5, 4, &bad).unwrap_err();
+            assert!(
+                matches!(err, Error::InvalidParameter { name: "gabor", .. }),
+                "{bad:?}: {err}"
+            );
         }
     }
 }

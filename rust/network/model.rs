@@ -61,7 +61,7 @@ impl<S> NetworkOf<S> {
         config.validate()?;
         let geom = Geometry::new(&config)?;
         let c1 = &geom.conv[0];
-        let gabor = gabor_kernels(c1.k, c1.maps, &config.gabor);
+        let gabor = gabor_kernels(c1.k, c1.maps, &config.gabor)?;
         let weights = [
             ConvWeights::new(c1, gabor)?,
             ConvWeights::random(&geom.conv[1], config.init.mean, config.init.std, seed, 1)?,
