@@ -172,7 +172,7 @@ impl<E: WindowEngine> Detector<E> {
             8 + 2 * 16,
         )?;
         Ok(Self {
-            counter: PrecedingCounter::new(sensor.area(), config.window_us),
+            counter: PrecedingCounter::new(sensor.area(), config.window_us)?,
             engine,
             sensor,
             config,
@@ -364,7 +364,7 @@ impl<E: WindowEngine> Detector<E> {
                     index,
                     t0,
                     end: schedule.end_of(index),
-                    n_in: self.counter.count_before(t0) as u64,
+                    n_in: self.counter.count_valid(t0) as u64,
                     state: None,
                     pending_t: None,
                 });
@@ -372,7 +372,7 @@ impl<E: WindowEngine> Detector<E> {
             }
             self.next_window = self.next_window.max(range.end() + 1);
         }
-        let previous = self.counter.push(e.t, self.sensor.index(e.x, e.y));
+        let previous = self.counter.push_valid(e.t, self.sensor.index(e.x, e.y));
         if let Some(range) = live {
             // The pixel's first event in window k when it has not fired since t0(k).
             let first = previous.map_or(*range.start(), |p| {

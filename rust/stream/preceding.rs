@@ -11,8 +11,14 @@
 
 use std::collections::VecDeque;
 
-/// "Never seen, or seen too long ago to count."
+use crate::error::{check_alloc, Error, Result};
+use crate::windows::MAX_TIME_US;
+
+/// "Never seen, or seen too long ago to count." Above [`MAX_TIME_US`], so no event's time.
 const NEVER: u64 = u64::MAX;
+
+/// Bytes the counter may hold per pixel: its latest time, and up to two queued 16-byte entries.
+const BYTES_PER_PIXEL: usize = 8 + 2 * 16;
 
 /// Distinct active pixels over a sliding span of `length` microseconds.
 #[derive(Debug, Clone)]
@@ -25,24 +31,73 @@ pub struct PrecedingCounter {
     /// Pixels whose latest event has not been evicted yet.
     active: usize,
     compact_at: usize,
+    /// The latest `t0` given to [`count_before`](Self::count_before).
+    last_t0: u64,
 }
 
 impl PrecedingCounter {
     /// A counter for a sensor of `area` pixels and a span of `length` microseconds.
-    pub fn new(area: usize, length: u64) -> Self {
-        Self {
+    ///
+    /// # Errors
+    ///
+    /// [`Error::InvalidParameter`] (`area`) when the counter's memory, up to 40 bytes a pixel,
+    /// is above [`MAX_ALLOC_BYTES`](crate::error::MAX_ALLOC_BYTES).
+    pub fn new(area: usize, length: u64) -> Result<Self> {
+        check_alloc(
+            "area",
+            || format!("a preceding-pixel counter of {area} pixels"),
+            area,
+            BYTES_PER_PIXEL,
+        )?;
+        Ok(Self {
             length,
             latest: vec![NEVER; area],
             queue: VecDeque::new(),
             active: 0,
             compact_at: 2 * area + 64,
-        }
+            last_t0: 0,
+        })
     }
 
-    /// Record an event of `pixel` at `t` (times must not decrease between calls). Returns the
-    /// time of the pixel's previous event if it is still within the counter's memory.
+    /// Record an event of `pixel` at `t`. Returns the time of the pixel's previous event if it
+    /// is still within the counter's memory.
+    ///
+    /// # Errors
+    ///
+    /// [`Error::InvalidParameter`] when `pixel` is not below the counter's area, or `t` is above
+    /// [`MAX_TIME_US`]; [`Error::Stream`] when `t` is before the latest event still counted
+    /// (times must not decrease between calls). Nothing is recorded then.
+    pub fn push(&mut self, t: u64, pixel: usize) -> Result<Option<u64>> {
+        if pixel >= self.latest.len() {
+            return Err(Error::param(
+                "pixel",
+                format!(
+                    "must be below the counter's area, {}, got {pixel}",
+                    self.latest.len()
+                ),
+            ));
+        }
+        if t > MAX_TIME_US {
+            return Err(Error::param(
+                "t",
+                format!("must be at most 2^62 µs (MAX_TIME_US), got {t}"),
+            ));
+        }
+        if let Some(&(last, _)) = self.queue.back() {
+            if t < last {
+                return Err(Error::Stream(format!(
+                    "event at t={t} comes before the previous one (t={last})"
+                )));
+            }
+        }
+        Ok(self.push_valid(t, pixel))
+    }
+
+    /// [`push`](Self::push) for callers that checked its conditions (the stream detector, which
+    /// validates each chunk): `pixel` below the area, `t` at most [`MAX_TIME_US`] and not before
+    /// the previous push's. The hot path: no check beyond the pixel's bounds.
     #[inline]
-    pub fn push(&mut self, t: u64, pixel: usize) -> Option<u64> {
+    pub(crate) fn push_valid(&mut self, t: u64, pixel: usize) -> Option<u64> {
         let previous = self.latest[pixel];
         if previous == t {
             return Some(t);
@@ -59,8 +114,36 @@ impl PrecedingCounter {
     }
 
     /// Distinct pixels with an event in `[t0 − L, t0)`. Every event pushed so far must be earlier
-    /// than `t0`, and `t0` must not decrease between calls.
-    pub fn count_before(&mut self, t0: u64) -> usize {
+    /// than `t0`, and `t0` must not decrease between calls (since construction or
+    /// [`clear`](Self::clear)): the count forgets the events that an earlier `t0` left behind.
+    ///
+    /// # Errors
+    ///
+    /// [`Error::Stream`] when an event pushed so far is at or after `t0`, or `t0` is before an
+    /// earlier call's; nothing changes then.
+    pub fn count_before(&mut self, t0: u64) -> Result<usize> {
+        if t0 < self.last_t0 {
+            return Err(Error::Stream(format!(
+                "count_before({t0}) comes after count_before({}); window starts must not \
+                 decrease",
+                self.last_t0
+            )));
+        }
+        if let Some(&(last, _)) = self.queue.back() {
+            if last >= t0 {
+                return Err(Error::Stream(format!(
+                    "count_before({t0}) after an event at t={last}; every event counted must \
+                     be earlier than the window start"
+                )));
+            }
+        }
+        self.last_t0 = t0;
+        Ok(self.count_valid(t0))
+    }
+
+    /// [`count_before`](Self::count_before) for callers that keep its conditions (the stream
+    /// detector).
+    pub(crate) fn count_valid(&mut self, t0: u64) -> usize {
         let oldest = t0.saturating_sub(self.length);
         while let Some(&(t, pixel)) = self.queue.front() {
             if t >= oldest {
@@ -86,6 +169,7 @@ impl PrecedingCounter {
         self.latest.fill(NEVER);
         self.queue.clear();
         self.active = 0;
+        self.last_t0 = 0;
     }
 
     fn compact(&mut self) {
@@ -113,28 +197,28 @@ mod tests {
 
     #[test]
     fn counts_distinct_pixels_in_the_span() {
-        let mut c = PrecedingCounter::new(4, 10);
-        assert_eq!(c.count_before(0), 0);
-        assert_eq!(c.push(1, 0), None);
-        assert_eq!(c.push(2, 0), Some(1));
-        c.push(5, 1);
-        assert_eq!(c.count_before(6), 2);
+        let mut c = PrecedingCounter::new(4, 10).unwrap();
+        assert_eq!(c.count_before(0).unwrap(), 0);
+        assert_eq!(c.push(1, 0).unwrap(), None);
+        assert_eq!(c.push(2, 0).unwrap(), Some(1));
+        c.push(5, 1).unwrap();
+        assert_eq!(c.count_before(6).unwrap(), 2);
         // At t0 = 12 the span is [2, 12): pixel 0's latest event (t=2) still counts.
-        assert_eq!(c.count_before(12), 2);
+        assert_eq!(c.count_before(12).unwrap(), 2);
         // At t0 = 13 it is [3, 13): pixel 0 has left.
-        assert_eq!(c.count_before(13), 1);
-        assert_eq!(c.push(14, 0), None);
+        assert_eq!(c.count_before(13).unwrap(), 1);
+        assert_eq!(c.push(14, 0).unwrap(), None);
     }
 
     #[test]
     fn memory_stays_bounded_under_a_flood() {
         let area = 16;
-        let mut c = PrecedingCounter::new(area, u64::MAX / 2);
+        let mut c = PrecedingCounter::new(area, u64::MAX / 2).unwrap();
         for t in 0..100_000u64 {
-            c.push(t, (t % area as u64) as usize);
+            c.push(t, (t % area as u64) as usize).unwrap();
             assert!(c.queued() <= 2 * area + 64 + 1);
         }
-        assert_eq!(c.count_before(100_000), area);
+        assert_eq!(c.count_before(100_000).unwrap(), area);
     }
 
     proptest! {
@@ -150,18 +234,59 @@ mod tests {
                 t += d;
                 events.push((t, p));
             }
-            let mut c = PrecedingCounter::new(6, length);
+            let mut c = PrecedingCounter::new(6, length).unwrap();
             c.compact_at = 8; // exercise compaction often
             let mut next = 0;
             let mut t0 = 0;
             while next < events.len() || t0 <= t {
                 while next < events.len() && events[next].0 < t0 {
-                    c.push(events[next].0, events[next].1);
+                    c.push(events[next].0, events[next].1).unwrap();
                     next += 1;
                 }
-                prop_assert_eq!(c.count_before(t0), brute(&events, t0, length));
+                prop_assert_eq!(c.count_before(t0).unwrap(), brute(&events, t0, length));
                 t0 += step;
             }
         }
+    }
+
+    #[test]
+    fn bad_input_is_refused_and_changes_nothing() {
+        // An area whose table overflows or passes the cap used to panic or abort.
+        for area in [usize::MAX / 8, 1 << 40] {
+            let err = PrecedingCounter::new(area, 10).unwrap_err();
+            crate::error::assert_over_cap(&err, "area");
+        }
+        let mut c = PrecedingCounter::new(4, 10).unwrap();
+        // A pixel off the counter used to index out of bounds.
+        let err = c.push(5, 4).unwrap_err();
+        assert!(
+            matches!(err, Error::InvalidParameter { name: "pixel", .. }),
+            "{err}"
+        );
+        // u64::MAX is the "never" mark: such an event was recorded but never counted.
+        for t in [u64::MAX, MAX_TIME_US + 1] {
+            let err = c.push(t, 0).unwrap_err();
+            assert!(
+                matches!(err, Error::InvalidParameter { name: "t", .. }),
+                "{err}"
+            );
+        }
+        assert_eq!(c.push(MAX_TIME_US - 5, 0).unwrap(), None);
+        assert!(matches!(c.push(3, 1), Err(Error::Stream(_))));
+        assert_eq!(c.queued(), 1);
+        // Window starts: after every event, and never going back.
+        assert!(matches!(
+            c.count_before(MAX_TIME_US - 5),
+            Err(Error::Stream(_))
+        ));
+        assert_eq!(c.count_before(MAX_TIME_US).unwrap(), 1);
+        assert!(matches!(
+            c.count_before(MAX_TIME_US - 1),
+            Err(Error::Stream(_))
+        ));
+        assert_eq!(c.count_before(MAX_TIME_US).unwrap(), 1);
+        c.clear();
+        assert_eq!(c.push(7, 3).unwrap(), None);
+        assert_eq!(c.count_before(8).unwrap(), 1);
     }
 }
