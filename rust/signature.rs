@@ -254,9 +254,12 @@ impl RotorSignature {
     ///
     /// # Errors
     ///
-    /// [`Error::InvalidParameter`] when the configuration is invalid ([`RotorConfig::validate`]).
+    /// [`Error::InvalidParameter`] when the configuration is invalid ([`RotorConfig::validate`]),
+    /// or `box` when the region is ([`Region::validate`]: a struct literal may be empty or
+    /// above [`MAX_PIXELS`]).
     pub fn new(config: RotorConfig, region: Region) -> Result<Self> {
         config.validate()?;
+        let region = region.validate()?;
         let ln_min = config.f_min_hz.ln();
         let ln_max = config.f_max_hz.ln();
         Ok(Self {

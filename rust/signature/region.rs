@@ -51,6 +51,16 @@ impl Region {
         })
     }
 
+    /// This region re-checked as [`Region::new`] checks one: the fields are public, so a
+    /// region written as a struct literal may be empty, overflow or exceed [`MAX_PIXELS`].
+    ///
+    /// # Errors
+    ///
+    /// As [`Region::new`].
+    pub fn validate(self) -> Result<Self> {
+        Self::new(self.x0, self.y0, self.width, self.height)
+    }
+
     /// The whole sensor.
     ///
     /// # Errors

@@ -214,10 +214,11 @@ impl RotorSpectrum {
     ///
     /// # Errors
     ///
-    /// [`Error::InvalidParameter`] for an invalid configuration ([`SpectrumConfig::validate`]) or
-    /// a state above [`MAX_STATE_BYTES`] (`box`).
+    /// [`Error::InvalidParameter`] for an invalid configuration ([`SpectrumConfig::validate`]), an
+    /// invalid region ([`Region::validate`], `box`) or a state above [`MAX_STATE_BYTES`] (`box`).
     pub fn new(config: SpectrumConfig, region: Region) -> Result<Self> {
         config.validate()?;
+        let region = region.validate()?;
         let bins = config.bins();
         let channels = 2 * region.area();
         let bytes = channels * (bins + 2) + 8 * (config.freqs + 2 * EDGE) * bins;

@@ -230,6 +230,52 @@ fn bad_parameters_are_typed_errors() {
 }
 
 #[test]
+fn a_region_literal_is_checked_like_region_new() {
+    // A struct literal skipped Region::new's cap: 65535x65535 pixels, 137 GB of state, was
+    // allocated (an abort), and an empty box was accepted.
+    let spectrum = crate::signature::spectrum::SpectrumConfig::default();
+    for region in [
+        Region {
+            x0: 0,
+            y0: 0,
+            width: 65_535,
+            height: 65_535,
+        },
+        Region {
+            x0: 0,
+            y0: 0,
+            width: 0,
+            height: 4,
+        },
+        Region {
+            x0: 65_535,
+            y0: 0,
+            width: 2,
+            height: 2,
+        },
+    ] {
+        for err in [
+            RotorSignature::new(RotorConfig::default(), region).map(|_| ()),
+            crate::signature::spectrum::RotorSpectrum::new(spectrum, region).map(|_| ()),
+        ] {
+            let err = err.unwrap_err();
+            assert!(
+                matches!(err, Error::InvalidParameter { name: "box", .. }),
+                "{region:?}: {err}"
+            );
+        }
+    }
+    let literal = Region {
+        x0: 3,
+        y0: 4,
+        width: 5,
+        height: 6,
+    };
+    assert_eq!(literal.validate().unwrap(), literal);
+    RotorSignature::new(RotorConfig::default(), literal).unwrap();
+}
+
+#[test]
 fn state_is_fixed_at_construction() {
     let mut s =
         RotorSignature::new(RotorConfig::default(), Region::new(0, 0, 16, 16).unwrap()).unwrap();
