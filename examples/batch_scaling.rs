@@ -124,7 +124,7 @@ fn main() {
             &pools[0],
             &mut || {
                 for i in 0..batch.len() {
-                    let w = batch.window(i);
+                    let w = batch.window(i).expect("valid");
                     net.run_window(&mut state, w, batch.t0[i], None, false)
                         .expect("valid");
                 }

@@ -57,6 +57,12 @@ impl<'a> Spikes<'a> {
 
 /// Many windows, as `uavsnn.windows.Windows` holds them: window `i`'s spikes are
 /// `offsets[i]..offsets[i + 1]` of the columns.
+///
+/// [`WindowBatch::new`] checks everything. The fields are public, so a batch written as a
+/// struct literal may be inconsistent: [`window`](Self::window), [`infer`](super::infer) and
+/// [`Trainer::step`](super::Trainer::step) re-check each window they read in `O(1)` (its
+/// index, offsets and count, and that its last spike is before `t0 + L`); the network checks
+/// the spikes themselves (on the sensor, sorted, none before `t0`).
 #[derive(Debug, Clone, Copy)]
 pub struct WindowBatch<'a> {
     /// `(width, height)` of the sensor.
@@ -175,10 +181,97 @@ impl<'a> WindowBatch<'a> {
     }
 
     /// Window `i`'s spikes.
-    pub fn window(&self, i: usize) -> Spikes<'a> {
-        self.spikes
-            .slice(self.offsets[i] as usize..self.offsets[i + 1] as usize)
+    ///
+    /// # Errors
+    ///
+    /// [`Error::InvalidParameter`] (`i`) when there is no window `i`; [`Error::Shape`] when the
+    /// batch's columns disagree about it (possible only for a batch not made by [`Self::new`]).
+    pub fn window(&self, i: usize) -> Result<Spikes<'a>> {
+        self.checked_window(i).map(|w| w.spikes)
     }
+
+    /// Window `i`, re-checked in `O(1)`: it exists in every column, its offsets lie in order
+    /// within the spikes, its `n_preceding` is not negative, and its last spike is before
+    /// `t0 + L` (the network checks the others: sorted, from `t0` on, on the sensor).
+    pub(crate) fn checked_window(&self, i: usize) -> Result<BatchWindow<'a>> {
+        let n = self.t0.len();
+        if i >= n {
+            return Err(Error::param(
+                "i",
+                format!("window {i} is out of range for {n} windows"),
+            ));
+        }
+        let shape = |name, expected: String, got: String| Error::Shape {
+            name,
+            expected,
+            got,
+        };
+        if self.offsets.len() != n + 1 {
+            return Err(shape(
+                "offsets",
+                format!("{} values (windows + 1)", n + 1),
+                format!("{}", self.offsets.len()),
+            ));
+        }
+        if self.n_preceding.len() != n {
+            return Err(shape(
+                "n_preceding",
+                format!("{n} values (one per window)"),
+                format!("{}", self.n_preceding.len()),
+            ));
+        }
+        let (a, b) = (self.offsets[i], self.offsets[i + 1]);
+        let (start, end) = match (usize::try_from(a), usize::try_from(b)) {
+            (Ok(start), Ok(end)) if start <= end && end <= self.spikes.len() => (start, end),
+            _ => {
+                return Err(shape(
+                    "offsets",
+                    format!(
+                        "offsets[{i}] <= offsets[{}] within the {} spikes",
+                        i + 1,
+                        self.spikes.len()
+                    ),
+                    format!("{a} .. {b}"),
+                ))
+            }
+        };
+        let n_preceding = u64::try_from(self.n_preceding[i]).map_err(|_| {
+            Error::param(
+                "n_preceding",
+                format!(
+                    "counts must be >= 0; window {i} has {}",
+                    self.n_preceding[i]
+                ),
+            )
+        })?;
+        if self.length_us == 0 {
+            return Err(Error::param("length_us", "must be at least 1 µs, got 0"));
+        }
+        let t0 = self.t0[i];
+        let spikes = self.spikes.slice(start..end);
+        if let Some(&last) = spikes.t().last() {
+            let t_end = t0.saturating_add(self.length_us);
+            if last >= t_end {
+                return Err(Error::InvalidEvent {
+                    index: end - 1,
+                    reason: format!("t={last} is outside its window {i} [{t0}, {t_end})"),
+                });
+            }
+        }
+        Ok(BatchWindow {
+            t0,
+            spikes,
+            n_preceding,
+        })
+    }
+}
+
+/// One window of a [`WindowBatch`], as [`WindowBatch::checked_window`] gives it.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct BatchWindow<'a> {
+    pub t0: u64,
+    pub spikes: Spikes<'a>,
+    pub n_preceding: u64,
 }
 
 #[cfg(test)]
@@ -192,7 +285,7 @@ mod tests {
         let y = [1u16, 1, 1, 1];
         let s = Spikes::new(&t, &x, &y).unwrap();
         let ok = WindowBatch::new((8, 8), 10, &[0, 10], &[0, 2, 4], s, &[0, 2]).unwrap();
-        assert_eq!(ok.window(1).t(), &[12, 13]);
+        assert_eq!(ok.window(1).unwrap().t(), &[12, 13]);
         assert!(Spikes::new(&t, &x[..3], &y).is_err());
         let bad = [
             WindowBatch::new((8, 8), 10, &[0, 10], &[0, 2], s, &[0, 2]),
@@ -211,5 +304,82 @@ mod tests {
             WindowBatch::new((8, 8), 10, &[0], &[0, 2], s, &[0]),
             Err(Error::InvalidEvent { index: 1, .. })
         ));
+    }
+
+    #[test]
+    fn a_batch_literal_is_rechecked_window_by_window() {
+        let t = [5u64, 6, 12, 13];
+        let x = [1u16, 2, 3, 4];
+        let y = [1u16, 1, 1, 1];
+        let s = Spikes::new(&t, &x, &y).unwrap();
+        let ok = WindowBatch::new((8, 8), 10, &[0, 10], &[0, 2, 4], s, &[0, 2]).unwrap();
+        assert_eq!(ok.checked_window(1).unwrap().n_preceding, 2);
+        assert!(matches!(
+            ok.window(2),
+            Err(Error::InvalidParameter { name: "i", .. })
+        ));
+        // Literals that used to index out of bounds, or read a negative count as 2^64 - 1.
+        let offsets = |offsets| WindowBatch { offsets, ..ok };
+        for bad in [&[0, 2][..], &[0, 5, 4], &[0, 3, 2], &[0, -1, 4], &[0, 2, 9]] {
+            let err = offsets(bad).window(1).unwrap_err();
+            assert!(
+                matches!(
+                    err,
+                    Error::Shape {
+                        name: "offsets",
+                        ..
+                    }
+                ),
+                "{bad:?}: {err}"
+            );
+        }
+        let err = WindowBatch {
+            n_preceding: &[],
+            ..ok
+        }
+        .checked_window(0)
+        .unwrap_err();
+        assert!(
+            matches!(
+                err,
+                Error::Shape {
+                    name: "n_preceding",
+                    ..
+                }
+            ),
+            "{err}"
+        );
+        let err = WindowBatch {
+            n_preceding: &[0, -3],
+            ..ok
+        }
+        .checked_window(1)
+        .unwrap_err();
+        assert!(
+            matches!(
+                err,
+                Error::InvalidParameter {
+                    name: "n_preceding",
+                    ..
+                }
+            ),
+            "{err}"
+        );
+        let err = WindowBatch { length_us: 0, ..ok }.window(0).unwrap_err();
+        assert!(
+            matches!(
+                err,
+                Error::InvalidParameter {
+                    name: "length_us",
+                    ..
+                }
+            ),
+            "{err}"
+        );
+        // A spike at or after t0 + L.
+        let err = WindowBatch { length_us: 3, ..ok }.window(1).unwrap_err();
+        assert!(matches!(err, Error::InvalidEvent { index: 3, .. }), "{err}");
+        assert!(WindowBatch { length_us: 4, ..ok }.window(0).is_err());
+        WindowBatch { length_us: 7, ..ok }.window(0).unwrap();
     }
 }

@@ -4,7 +4,7 @@ use std::sync::{Arc, Mutex};
 
 use rayon::prelude::*;
 
-use super::batch::WindowBatch;
+use super::batch::{BatchWindow, WindowBatch};
 use super::config::PentEstimate;
 use super::detection::Detection;
 use super::layer::Layer;
@@ -50,6 +50,9 @@ const KEPT_POOLS: usize = 2;
 /// Run every window of `batch` through `net` in inference mode, in parallel on `threads`
 /// workers (`None`: rayon's global pool; at most [`MAX_THREADS`]). PENT's `N_in` is the window's spike count or its
 /// `n_preceding`, as the config's `pent.estimate` says. Results are in window order.
+///
+/// Each window is re-checked as it is read ([`WindowBatch::window`]), so a batch written as a
+/// struct literal gives a typed error, not a panic.
 pub fn infer(
     net: &Network,
     batch: &WindowBatch<'_>,
@@ -138,11 +141,11 @@ pub fn check_sensor(net: &Network, sensor: (usize, usize)) -> Result<()> {
     Ok(())
 }
 
-/// PENT's `N_in` for window `i`.
-pub(crate) fn n_in(net: &Network, batch: &WindowBatch<'_>, i: usize) -> u64 {
+/// PENT's `N_in` for a window.
+pub(crate) fn n_in(net: &Network, window: &BatchWindow<'_>) -> u64 {
     match net.config().pent.estimate {
-        PentEstimate::Window => batch.window(i).len() as u64,
-        PentEstimate::Preceding => batch.n_preceding[i] as u64,
+        PentEstimate::Window => window.spikes.len() as u64,
+        PentEstimate::Preceding => window.n_preceding,
     }
 }
 
@@ -153,10 +156,11 @@ fn run_one(
     i: usize,
     record: bool,
 ) -> Result<WindowResult> {
-    let thresholds = net.conv1_thresholds(n_in(net, batch, i));
+    let window = batch.checked_window(i)?;
+    let thresholds = net.conv1_thresholds(n_in(net, &window));
     state.set_record(record);
-    state.begin(net, batch.t0[i], &thresholds)?;
-    feed(net, state, batch.window(i))?;
+    state.begin(net, window.t0, &thresholds)?;
+    feed(net, state, window.spikes)?;
     state.finish(net)?;
     Ok(WindowResult {
         counts: state.counts(),
@@ -218,5 +222,52 @@ mod pool_tests {
         assert_eq!(kept, [6, 5]);
         // The pool of 2 was dropped from the list: asking again starts another.
         assert!(!Arc::ptr_eq(&first, &take_pool(&mut pools, 2, 2).unwrap()));
+    }
+
+    #[test]
+    fn a_batch_literal_with_bad_columns_is_an_error() {
+        use crate::network::{NetworkConfig, Spikes};
+        let config = NetworkConfig {
+            width: 16,
+            height: 12,
+            pent: crate::network::PentConfig {
+                estimate: PentEstimate::Preceding,
+                ..NetworkConfig::default().pent
+            },
+            ..NetworkConfig::default()
+        };
+        let net = Network::new(config, 0).unwrap();
+        let (t, x, y) = ([3u64, 4], [1u16, 3], [2u16, 0]);
+        let spikes = Spikes::new(&t, &x, &y).unwrap();
+        let ok = WindowBatch::new((16, 12), 10, &[0], &[0, 2], spikes, &[1]).unwrap();
+        for threads in [None, Some(1), Some(2)] {
+            assert_eq!(infer(&net, &ok, threads, false).unwrap().len(), 1);
+            // Offsets past the spikes, and no n_preceding with the "preceding" estimate, used
+            // to index out of bounds.
+            for bad in [
+                WindowBatch {
+                    offsets: &[0, 3],
+                    ..ok
+                },
+                WindowBatch {
+                    offsets: &[0],
+                    ..ok
+                },
+                WindowBatch {
+                    n_preceding: &[],
+                    ..ok
+                },
+                WindowBatch {
+                    n_preceding: &[-1],
+                    ..ok
+                },
+                WindowBatch { t0: &[0, 5], ..ok },
+                // Spikes before t0 (the network refuses them), or at t0 + L and after.
+                WindowBatch { t0: &[4], ..ok },
+                WindowBatch { length_us: 4, ..ok },
+            ] {
+                assert!(infer(&net, &bad, threads, false).is_err(), "{bad:?}");
+            }
+        }
     }
 }

@@ -12,7 +12,7 @@ use super::layer::ConvLayer;
 use super::states::feed;
 use super::stdp::{Convergence, Schedule};
 use super::window::{Network, WindowState};
-use crate::error::{Error, Result};
+use crate::error::{check_alloc, Error, Result};
 use crate::windows::MAX_WINDOWS;
 
 /// How to walk the training windows.
@@ -64,14 +64,25 @@ pub struct TrainReport {
 }
 
 /// The order in which to visit `n` windows for `epochs` epochs: `0..n` each epoch, shuffled
-/// with a PCG64 stream seeded by `seed` when `shuffle`. Empty when `n` is 0. Callers check
-/// `n · epochs` first ([`check_training`]): an order longer than memory panics.
-pub fn training_order(n: usize, epochs: usize, seed: u64, shuffle: bool) -> Vec<usize> {
+/// with a PCG64 stream seeded by `seed` when `shuffle`. Empty when `n` is 0.
+///
+/// # Errors
+///
+/// [`Error::InvalidParameter`] (`epochs`) when the order's `n · epochs` entries are above
+/// [`MAX_ALLOC_BYTES`](crate::error::MAX_ALLOC_BYTES) (training refuses far shorter orders,
+/// above [`MAX_WINDOWS`]: see [`check_training`]).
+pub fn training_order(n: usize, epochs: usize, seed: u64, shuffle: bool) -> Result<Vec<usize>> {
     if n == 0 {
-        return Vec::new();
+        return Ok(Vec::new());
     }
+    check_alloc(
+        "epochs",
+        || format!("a training order of {n} windows x {epochs} epochs"),
+        n.saturating_mul(epochs),
+        std::mem::size_of::<usize>(),
+    )?;
     let mut rng = Pcg64::seed_from_u64(seed);
-    let mut order = Vec::with_capacity(n.saturating_mul(epochs));
+    let mut order = Vec::with_capacity(n * epochs);
     for _ in 0..epochs {
         let start = order.len();
         order.extend(0..n);
@@ -79,7 +90,7 @@ pub fn training_order(n: usize, epochs: usize, seed: u64, shuffle: bool) -> Vec<
             order[start..].shuffle(&mut rng);
         }
     }
-    order
+    Ok(order)
 }
 
 /// The training of one layer, one window at a time (for callers that interleave training with
@@ -111,12 +122,20 @@ impl Trainer {
         }
     }
 
-    /// Train on window `i` of `batch` (validated, and of `net`'s sensor).
+    /// Train on window `i` of `batch`.
+    ///
+    /// # Errors
+    ///
+    /// [`Error::Shape`] (`sensor_size`) when `batch` is not of `net`'s sensor; as
+    /// [`WindowBatch::window`] when there is no window `i` (checked in `O(1)`); an error of the
+    /// network for spikes it refuses, or a `net` other than the one the trainer was made for.
     pub fn step(&mut self, net: &mut Network, batch: &WindowBatch<'_>, i: usize) -> Result<()> {
-        let thresholds = net.conv1_thresholds(n_in(net, batch, i));
+        check_sensor(net, batch.sensor)?;
+        let window = batch.checked_window(i)?;
+        let thresholds = net.conv1_thresholds(n_in(net, &window));
         self.state
-            .begin_training(net, self.layer, batch.t0[i], &thresholds)?;
-        feed(net, &mut self.state, batch.window(i))?;
+            .begin_training(net, self.layer, window.t0, &thresholds)?;
+        feed(net, &mut self.state, window.spikes)?;
         self.state.finish(net)?;
         let rates = self.schedule.rates();
         net.apply_stdp(&self.state, self.layer, rates);
@@ -163,7 +182,7 @@ pub fn train_layer(
     mut progress: impl FnMut(&TrainProgress) -> bool,
 ) -> Result<TrainReport> {
     check_training(net, batch, options)?;
-    let order = training_order(batch.len(), options.epochs, options.seed, options.shuffle);
+    let order = training_order(batch.len(), options.epochs, options.seed, options.shuffle)?;
     let mut trainer = Trainer::new(net, layer);
     for (done, &i) in order.iter().enumerate() {
         trainer.step(net, batch, i)?;
@@ -224,7 +243,54 @@ mod tests {
             );
         }
         // No windows: an empty order, at once, whatever the epochs.
-        assert!(training_order(0, usize::MAX, 0, true).is_empty());
-        assert_eq!(training_order(3, 2, 0, false), [0, 1, 2, 0, 1, 2]);
+        assert!(training_order(0, usize::MAX, 0, true).unwrap().is_empty());
+        assert_eq!(training_order(3, 2, 0, false).unwrap(), [0, 1, 2, 0, 1, 2]);
+    }
+
+    #[test]
+    fn an_order_above_the_memory_cap_is_refused() {
+        // 2^40 entries of 8 bytes used to abort on allocation.
+        let err = training_order(1, 1 << 40, 0, true).unwrap_err();
+        crate::error::assert_over_cap(&err, "epochs");
+        let err = training_order(1 << 33, 1 << 33, 0, false).unwrap_err();
+        crate::error::assert_over_cap(&err, "epochs");
+    }
+
+    #[test]
+    fn step_checks_the_window_index_and_the_sensor() {
+        use crate::network::{Spikes, WindowBatch};
+        let config = crate::network::NetworkConfig {
+            width: 16,
+            height: 12,
+            ..Default::default()
+        };
+        let mut net = Network::new(config, 0).unwrap();
+        let empty = Spikes::new(&[], &[], &[]).unwrap();
+        let batch = WindowBatch::new((16, 12), 10, &[0], &[0, 0], empty, &[0]).unwrap();
+        let mut trainer = Trainer::new(&net, ConvLayer::Conv1);
+        // Window 1 of 1 used to index out of bounds.
+        let err = trainer.step(&mut net, &batch, 1).unwrap_err();
+        assert!(
+            matches!(err, Error::InvalidParameter { name: "i", .. }),
+            "{err}"
+        );
+        // A 4x4 batch on a 16x12 network used to train silently.
+        let (t, x, y) = ([3u64, 4], [1u16, 3], [2u16, 0]);
+        let small = Spikes::new(&t, &x, &y).unwrap();
+        let other = WindowBatch::new((4, 4), 10, &[0], &[0, 2], small, &[0]).unwrap();
+        let err = trainer.step(&mut net, &other, 0).unwrap_err();
+        assert!(
+            matches!(
+                err,
+                Error::Shape {
+                    name: "sensor_size",
+                    ..
+                }
+            ),
+            "{err}"
+        );
+        assert_eq!(trainer.report().windows_seen, 0);
+        trainer.step(&mut net, &batch, 0).unwrap();
+        assert_eq!(trainer.report().windows_seen, 1);
     }
 }

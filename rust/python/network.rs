@@ -510,7 +510,7 @@ impl NetworkCore {
                 crate::network::check_training(net, &batch, options)?;
                 Ok((
                     batch,
-                    training_order(batch.len(), epochs, seed, shuffle),
+                    training_order(batch.len(), epochs, seed, shuffle)?,
                     Trainer::new(net, layer),
                 ))
             })?
