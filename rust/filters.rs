@@ -9,11 +9,12 @@ use crate::events::{
 /// Which events the background-activity filter keeps, with the semantics of tonic's
 /// `tonic.functional.denoise_numpy` (tonic 1.x), event for event.
 ///
-/// Events are taken in order. Each pixel remembers `t + dt_us` of its latest event; an event at
-/// `(x, y, t)` is kept iff one of its four neighbours `(x±1, y)`, `(x, y±1)` on the sensor
-/// remembers a value `> t`, that is, fired at `t' > t − dt_us` earlier in the stream. The event
-/// then updates its own pixel (its own past is not a support). As in tonic, a pixel that has not
-/// fired yet remembers `dt_us` (it counts as having fired at `t = 0`), so events with
+/// Events are taken in order. Each pixel remembers the time `t'` of its latest event; an event
+/// at `(x, y, t)` is kept iff one of its four neighbours `(x±1, y)`, `(x, y±1)` on the sensor
+/// fired at `t' > t − dt_us` earlier in the stream (tonic remembers `t' + dt_us > t`; this
+/// compares `t − t' < dt_us`, the same rule without the sum, which could overflow near
+/// `u64::MAX`). The event then updates its own pixel (its own past is not a support). As in
+/// tonic, a pixel that has not fired yet counts as having fired at `t = 0`, so events with
 /// `t < dt_us` are kept wherever they have a neighbour on the sensor.
 ///
 /// One difference from tonic, by design: tonic's grid is the events' bounding box
@@ -39,17 +40,20 @@ pub fn denoise_mask<E: EventSource + ?Sized>(
         8,
     )?;
     validate_source(events, sensor, None, 0)?;
-    let mut memory = vec![dt_us; sensor.area()];
+    // Each pixel's latest time; every neighbour's is at most `t` (the events are sorted), so
+    // `t - last` never wraps.
+    let mut last = vec![0u64; sensor.area()];
     Ok((0..events.len())
         .map(|i| {
             let e = events.get(i);
             let (x, y, t) = (e.x as usize, e.y as usize, e.t);
             let px = y * w + x;
-            memory[px] = t.saturating_add(dt_us);
-            (x > 0 && memory[px - 1] > t)
-                || (x + 1 < w && memory[px + 1] > t)
-                || (y > 0 && memory[px - w] > t)
-                || (y + 1 < h && memory[px + w] > t)
+            last[px] = t;
+            let recent = |n: usize| t - last[n] < dt_us;
+            (x > 0 && recent(px - 1))
+                || (x + 1 < w && recent(px + 1))
+                || (y > 0 && recent(px - w))
+                || (y + 1 < h && recent(px + w))
         })
         .collect())
 }
@@ -80,7 +84,23 @@ pub struct Crop {
 impl Crop {
     /// The largest region of `source` with `target`'s aspect ratio, centred (rounded down to
     /// whole pixels, offsets rounded down).
-    pub fn centred(source: SensorSize, target: SensorSize) -> Self {
+    ///
+    /// # Errors
+    ///
+    /// [`Error::InvalidParameter`] (`sensor_size` or `target`) when either has a zero width or
+    /// height (possible through [`SensorSize`]'s public fields or its deserialisation).
+    pub fn centred(source: SensorSize, target: SensorSize) -> Result<Self> {
+        for (name, size) in [("sensor_size", source), ("target", target)] {
+            if size.width == 0 || size.height == 0 {
+                return Err(Error::param(
+                    name,
+                    format!(
+                        "width and height must be positive, got {}x{}",
+                        size.width, size.height
+                    ),
+                ));
+            }
+        }
         let (sw, sh) = (u64::from(source.width), u64::from(source.height));
         let (tw, th) = (u64::from(target.width), u64::from(target.height));
         // Compare sw/sh with tw/th without division.
@@ -89,12 +109,12 @@ impl Crop {
         } else {
             (sw, (sw * th / tw).max(1))
         };
-        Self {
+        Ok(Self {
             x0: ((sw - width) / 2) as u16,
             y0: ((sh - height) / 2) as u16,
             width: width as u16,
             height: height as u16,
-        }
+        })
     }
 }
 
@@ -110,7 +130,7 @@ pub fn downsample_map<E: EventSource + ?Sized>(
     target: SensorSize,
 ) -> Result<Vec<Option<(u16, u16)>>> {
     validate_source(events, source, None, 0)?;
-    let crop = Crop::centred(source, target);
+    let crop = Crop::centred(source, target)?;
     let (cx, cy) = (u64::from(crop.width), u64::from(crop.height));
     let (tw, th) = (u64::from(target.width), u64::from(target.height));
     Ok((0..events.len())
@@ -133,7 +153,7 @@ pub fn downsample_map<E: EventSource + ?Sized>(
 /// records, with their new coordinates, packed the same way, in one pass after validation.
 pub fn downsample_packed(raw: &[u8], source: SensorSize, target: SensorSize) -> Result<Vec<u8>> {
     validate_source(&PackedEvents::new(raw)?, source, None, 0)?;
-    let crop = Crop::centred(source, target);
+    let crop = Crop::centred(source, target)?;
     let (cx, cy) = (u64::from(crop.width), u64::from(crop.height));
     let (tw, th) = (u64::from(target.width), u64::from(target.height));
     let mut out = Vec::with_capacity(raw.len());
@@ -244,7 +264,8 @@ mod tests {
         let c = Crop::centred(
             SensorSize::new(640, 480).unwrap(),
             SensorSize::new(240, 180).unwrap(),
-        );
+        )
+        .unwrap();
         assert_eq!(
             c,
             Crop {
@@ -257,7 +278,8 @@ mod tests {
         let c = Crop::centred(
             SensorSize::new(1280, 720).unwrap(),
             SensorSize::new(240, 180).unwrap(),
-        );
+        )
+        .unwrap();
         assert_eq!(
             c,
             Crop {
@@ -270,7 +292,8 @@ mod tests {
         let c = Crop::centred(
             SensorSize::new(346, 260).unwrap(),
             SensorSize::new(240, 180).unwrap(),
-        );
+        )
+        .unwrap();
         assert_eq!((c.width, c.height, c.x0, c.y0), (346, 259, 0, 0));
     }
 
@@ -288,5 +311,62 @@ mod tests {
         let out = downsample(&events, source, target).unwrap();
         assert_eq!(out, vec![ev(2, 0, 0), ev(3, 0, 0), ev(4, 239, 179)]);
         assert!(downsample(&[ev(1, 1280, 0)], source, target).is_err());
+    }
+
+    #[test]
+    fn denoise_compares_times_without_overflow() {
+        // The rule is the same at any time: a neighbour 1 µs earlier, within dt, supports.
+        let s = SensorSize::new(4, 4).unwrap();
+        for base in [999, 1 << 62, u64::MAX - 1] {
+            let pair = [ev(base, 0, 0), ev(base + 1, 1, 0)];
+            assert_eq!(denoise_mask(&pair, s, 10).unwrap(), [false, true], "{base}");
+            // and one exactly dt earlier does not.
+            let pair = [ev(base - 9, 0, 0), ev(base + 1, 1, 0)];
+            assert_eq!(
+                denoise_mask(&pair, s, 10).unwrap(),
+                [false, false],
+                "{base}"
+            );
+        }
+        // The widest window: t' = 1 > u64::MAX - u64::MAX supports the event at u64::MAX.
+        let far = [ev(1, 0, 0), ev(u64::MAX, 1, 0)];
+        assert_eq!(denoise_mask(&far, s, u64::MAX).unwrap(), [true, true]);
+        let far = [ev(0, 0, 0), ev(u64::MAX, 1, 0)];
+        assert_eq!(denoise_mask(&far, s, u64::MAX).unwrap(), [true, false]);
+    }
+
+    #[test]
+    fn zero_sized_sensors_are_refused() {
+        // SensorSize's fields are public (and it deserialises): a zero size used to divide by
+        // zero.
+        let s = SensorSize::new(4, 4).unwrap();
+        let zero = SensorSize {
+            width: 0,
+            height: 0,
+        };
+        let flat = SensorSize {
+            width: 4,
+            height: 0,
+        };
+        let err = downsample(&[Event::default()], s, zero).unwrap_err();
+        assert!(
+            matches!(err, Error::InvalidParameter { name: "target", .. }),
+            "{err}"
+        );
+        let err = downsample(&[], flat, s).unwrap_err();
+        assert!(
+            matches!(
+                err,
+                Error::InvalidParameter {
+                    name: "sensor_size",
+                    ..
+                }
+            ),
+            "{err}"
+        );
+        assert!(downsample_packed(&[], s, flat).is_err());
+        assert!(downsample_map(&[] as &[Event], zero, s).is_err());
+        assert!(Crop::centred(s, zero).is_err());
+        assert!(Crop::centred(zero, s).is_err());
     }
 }
