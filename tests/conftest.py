@@ -13,6 +13,7 @@ import sys
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from types import ModuleType
+from typing import Any
 
 import cv2
 import numpy as np
@@ -104,6 +105,19 @@ def write_clip() -> Callable[..., None]:
     dark=20)``: a labelled clip in the Svanström layout (a dark square moving over a bright
     sky)."""
     return _write_clip
+
+
+def unwritable_folder(monkeypatch: pytest.MonkeyPatch, folder: Path) -> Path:
+    """Make ``folder`` and have ``os.access`` call it not writable (the tests run as root, who
+    may write anywhere), for the rest of the test."""
+    folder.mkdir()
+    real_access = os.access
+
+    def access(path: Any, mode: int, **kwargs: Any) -> bool:
+        return Path(path) != folder and real_access(path, mode, **kwargs)
+
+    monkeypatch.setattr(os, "access", access)
+    return folder
 
 
 def one_line_exit_2(capsys: pytest.CaptureFixture[str], argv: list[str], match: str) -> str:

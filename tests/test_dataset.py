@@ -503,6 +503,17 @@ def test_build_refuses_a_non_empty_folder(dvs_set: Path, tmp_path: Path) -> None
     assert (tmp_path / "keep.txt").read_text() == "mine"
 
 
+def drones_only(tmp_path: Path, videos: Path) -> Path:
+    """A folder of the UAV clips of ``videos`` alone (links to them)."""
+    drones = tmp_path / "drones"
+    drones.mkdir()
+    for c in find_clips(videos):
+        if c.uav:
+            (drones / c.video.name).symlink_to(c.video)
+            (drones / c.boxes.name).symlink_to(c.boxes)
+    return drones
+
+
 def test_bad_footage_raises_dataset_errors(tmp_path: Path, videos: Path) -> None:
     empty = tmp_path / "empty"
     empty.mkdir()
@@ -517,12 +528,7 @@ def test_bad_footage_raises_dataset_errors(tmp_path: Path, videos: Path) -> None
         find_clips(lonely)
     # Only drones (a few windows where the target is lost are all the non-UAV windows there
     # are): the test set cannot be balanced.
-    drones = tmp_path / "drones"
-    drones.mkdir()
-    for c in find_clips(videos):
-        if c.uav:
-            (drones / c.video.name).symlink_to(c.video)
-            (drones / c.boxes.name).symlink_to(c.boxes)
+    drones = drones_only(tmp_path, videos)
     with pytest.raises(DatasetError, match="cannot balance"):
         build(tmp_path / "out", "real", videos=drones, n_test=40, n_train=0)
     with pytest.raises(DatasetError, match="does not exist"):
@@ -531,12 +537,7 @@ def test_bad_footage_raises_dataset_errors(tmp_path: Path, videos: Path) -> None
 
 def test_check_footage_plans_as_a_real_build_without_decoding(tmp_path: Path, videos: Path) -> None:
     assert check_footage(videos, n_test=10, n_train=None, seed=3) == 5
-    drones = tmp_path / "drones"
-    drones.mkdir()
-    for c in find_clips(videos):
-        if c.uav:
-            (drones / c.video.name).symlink_to(c.video)
-            (drones / c.boxes.name).symlink_to(c.boxes)
+    drones = drones_only(tmp_path, videos)
     # What build refuses of this footage (test_bad_footage_raises_dataset_errors), refused here.
     with pytest.raises(DatasetError, match="cannot balance the real test pool"):
         check_footage(drones, n_test=40)

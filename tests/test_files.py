@@ -3,12 +3,11 @@ folders: checked before any work, with or without being made."""
 
 from __future__ import annotations
 
-import os
 import re
 from pathlib import Path
-from typing import Any
 
 import pytest
+from conftest import unwritable_folder
 
 from uavsnn._files import check_output_dir, output_dir, write_atomic
 from uavsnn.errors import ParameterError
@@ -59,14 +58,7 @@ def test_both_refuse_the_same_folders_with_the_same_words(
     afile = tmp_path / "afile"
     afile.write_text("x")
     (tmp_path / "link").symlink_to(tmp_path / "nowhere")
-    locked = tmp_path / "locked"
-    locked.mkdir()
-    real_access = os.access
-
-    def access(path: Any, mode: int, **kwargs: Any) -> bool:
-        return Path(path) != locked and real_access(path, mode, **kwargs)
-
-    monkeypatch.setattr(os, "access", access)
+    locked = unwritable_folder(monkeypatch, tmp_path / "locked")
     for path, words in [
         (afile, f"--out {afile}: exists and is not a folder"),
         (afile / "sub", f"cannot create the folder: {afile} is not a folder"),

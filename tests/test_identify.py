@@ -673,6 +673,19 @@ ORDERS = {
 }
 
 
+def columns_of(ident: Identifier, keep: list[int]) -> Identifier:
+    """``ident``'s logistic score over the features ``keep`` (indices into FEATURES), in
+    that order."""
+    return Identifier(
+        tuple(FEATURES[i] for i in keep),
+        ident.coef[[*keep, len(FEATURES)]],
+        ident.mean[keep],
+        ident.scale[keep],
+        ident.threshold,
+        ident.l2,
+    )
+
+
 @pytest.mark.parametrize("order", ORDERS.values(), ids=list(ORDERS))
 @pytest.mark.parametrize("make", [model, with_classes, with_trees])
 def test_a_model_over_the_features_in_another_order_reads_them_by_name(
@@ -707,14 +720,7 @@ def test_a_model_over_the_features_in_another_order_reads_them_by_name(
         np.testing.assert_array_equal(other.scores(x), ident.scores(x))
     # Rows of the model's own features alone, when fewer than FEATURES, are read as they are.
     keep = [i for i in order if i != FEATURES.index("log_rate_swing")]
-    part = Identifier(
-        tuple(FEATURES[i] for i in keep),
-        ident.coef[[*keep, len(FEATURES)]],
-        ident.mean[keep],
-        ident.scale[keep],
-        ident.threshold,
-        ident.l2,
-    )
+    part = columns_of(ident, keep)
     np.testing.assert_array_equal(part.scores(x), part.scores(x[:, keep]))
 
 
@@ -793,14 +799,7 @@ def test_a_feature_that_is_not_a_finite_number_is_refused_by_name(make, value: f
         ident.guess(x, np.array([0.1, 0.2, 0.3]))
     # Rows of a model's own features (fewer than FEATURES): the name in its order.
     keep = [i for i in ORDERS["reversed"] if FEATURES[i] != "log_rate_swing"]
-    part = Identifier(
-        tuple(FEATURES[i] for i in keep),
-        ident.coef[[*keep, len(FEATURES)]],
-        ident.mean[keep],
-        ident.scale[keep],
-        ident.threshold,
-        ident.l2,
-    )
+    part = columns_of(ident, keep)
     column = part.features.index("track_log_speed")
     with pytest.raises(ParameterError, match=f"'track_log_speed' \\(column {column}\\) of row 2"):
         part.scores(x[:, keep])

@@ -5,12 +5,10 @@ empty folder behind."""
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
-from typing import Any
 
 import pytest
-from conftest import one_line_exit_2
+from conftest import one_line_exit_2, unwritable_folder
 
 from uavsnn.cli import main
 from uavsnn.dataset import SceneSource, build
@@ -74,14 +72,7 @@ def test_a_bad_report_folder_is_refused_before_the_model_is_read(
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a-file", "link"]
 
     # Folders that cannot be written (os.access says so; root may write anywhere).
-    locked = tmp_path / "locked"
-    locked.mkdir()
-    real_access = os.access
-
-    def access(path: Any, mode: int, **kwargs: Any) -> bool:
-        return Path(path) != locked and real_access(path, mode, **kwargs)
-
-    monkeypatch.setattr(os, "access", access)
+    locked = unwritable_folder(monkeypatch, tmp_path / "locked")
     one_line_exit_2(capsys, [*evaluate, str(locked)], "not writable")
     one_line_exit_2(capsys, [*evaluate, str(locked / "new" / "report")], "not writable")
     assert list(locked.iterdir()) == []

@@ -361,16 +361,7 @@ def test_noise_per_window_refuses_what_add_noise_refuses() -> None:
 
 
 def test_inconsistent_windows_are_refused() -> None:
-    ok = {
-        "sensor_size": (4, 4),
-        "length_us": 10,
-        "t0": [0],
-        "offsets": [0, 2],
-        "t": [1, 2],
-        "x": [0, 1],
-        "y": [0, 0],
-        "n_preceding": [0],
-    }
+    ok = dict(WINDOW)
     assert len(Windows(**ok)) == 1
     for change, error, message in [
         ({"offsets": [0, 3]}, uavsnn.ShapeError, "offsets"),
