@@ -318,6 +318,25 @@ def test_an_inconsistent_class_model_is_refused(tmp_path: Path) -> None:
         replace(model(), class_coef=np.zeros((2, len(FEATURES) + 1)))
 
 
+@pytest.mark.parametrize(
+    "change",
+    [
+        {"threshold": 2**2000},
+        {"threshold": "0.5"},
+        {"l2": True},
+        {"alarm_thresholds": ((0.01, 10**400),)},
+        {"track_alarm_thresholds": (("0.1", 0.5),), "track_alarm_minutes": 10.0},
+        {"track_alarm_thresholds": ((0.1, 0.5),), "track_alarm_minutes": 2**2000},
+    ],
+)
+def test_numbers_that_are_no_finite_floats_are_parameter_errors(change: dict) -> None:
+    # An integer beyond a float's range raised OverflowError, a string TypeError.
+    with pytest.raises(ParameterError):
+        replace(model(), **change)
+    same = replace(model(), threshold=np.float32(0.25), l2=np.int64(0))
+    assert (same.threshold, same.l2) == (0.25, 0.0)
+
+
 def test_an_old_model_loads_with_the_any_spike_rule_and_a_note(tmp_path: Path) -> None:
     net = small_net()
     net.save(tmp_path / "old.npz")

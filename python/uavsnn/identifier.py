@@ -82,6 +82,18 @@ class Identifier:
         d = len(self.features)
         if self.gate_px is not None:  # a NumPy number too, kept as float
             object.__setattr__(self, "gate_px", check_gate(self.gate_px))
+        # Each number as a float: a string, a bool or an integer beyond a float's range is
+        # refused by the checks below (with NaN or inf), not a TypeError or OverflowError.
+        alarms = tuple((_number(r), _number(t)) for r, t in self.alarm_thresholds)
+        tracks = tuple((_number(r), _number(t)) for r, t in self.track_alarm_thresholds)
+        for name, value in (
+            ("alarm_thresholds", alarms),
+            ("track_alarm_thresholds", tracks),
+            ("track_alarm_minutes", _number(self.track_alarm_minutes)),
+            ("threshold", _number(self.threshold)),
+            ("l2", _number(self.l2)),
+        ):
+            object.__setattr__(self, name, value)
         for rate, threshold in self.alarm_thresholds:
             if not (0.0 < rate < 1.0 and math.isfinite(threshold)):
                 raise ParameterError(
@@ -90,7 +102,6 @@ class Identifier:
                 )
         if len({rate for rate, _ in self.alarm_thresholds}) != len(self.alarm_thresholds):
             raise ParameterError(f"alarm thresholds name a share twice: {self.alarm_thresholds}")
-        tracks = self.track_alarm_thresholds
         for rate, threshold in tracks:
             if not (0.0 < rate < math.inf and math.isfinite(threshold)):
                 raise ParameterError(
@@ -386,6 +397,18 @@ class Identifier:
             # TypeError: an array where one number belongs (float() of a 1-D array), or one
             # number where names belong (iterating a 0-D array).
             raise ModelFileError(f"its identification arrays are inconsistent: {exc}") from exc
+
+
+def _number(value: Any) -> float:
+    """``value`` as a float; NaN for what is not a real number (a string, a bool), inf for an
+    integer beyond a float's range."""
+    real = (int, float, np.integer, np.floating)
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, real):
+        return math.nan
+    try:
+        return float(value)
+    except OverflowError:
+        return math.inf
 
 
 def _floats(name: str, values: Any) -> np.ndarray:
