@@ -20,11 +20,28 @@ pub struct Event {
     pub p: bool,
 }
 
-/// Width and height of a sensor in pixels.
+/// Width and height of a sensor in pixels. Deserialised through [`SensorSize::new`] (a zero
+/// side is refused there as by it).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
+#[serde(try_from = "RawSensorSize")]
 pub struct SensorSize {
     pub width: u16,
     pub height: u16,
+}
+
+/// A [`SensorSize`] as written, before its check.
+#[derive(serde::Deserialize)]
+struct RawSensorSize {
+    width: u16,
+    height: u16,
+}
+
+impl TryFrom<RawSensorSize> for SensorSize {
+    type Error = Error;
+
+    fn try_from(raw: RawSensorSize) -> Result<Self> {
+        Self::new(raw.width, raw.height)
+    }
 }
 
 impl SensorSize {
@@ -273,6 +290,18 @@ mod tests {
 
     fn ev(t: u64, x: u16, y: u16) -> Event {
         Event { t, x, y, p: true }
+    }
+
+    #[test]
+    fn a_sensor_size_is_deserialised_through_its_check() {
+        let size: SensorSize = serde_json::from_str(r#"{"width": 240, "height": 180}"#).unwrap();
+        assert_eq!(size, SensorSize::new(240, 180).unwrap());
+        let err = serde_json::from_str::<SensorSize>(r#"{"width": 0, "height": 0}"#).unwrap_err();
+        assert!(err.to_string().contains("must be positive"), "{err}");
+        assert_eq!(
+            serde_json::to_string(&size).unwrap(),
+            r#"{"width":240,"height":180}"#
+        );
     }
 
     #[test]
