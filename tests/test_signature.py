@@ -259,6 +259,10 @@ def test_bad_boxes_are_parameter_errors(box):
         (lambda: RotorSpectrum((0, 0, 4, 4), min_events=3.5), "min_events"),
         (lambda: estimate_motion(np.zeros(0, EVENT_DTYPE), (0, 0, 4, 4), min_events=2.5), "min_e"),
         (lambda: estimate_motion(np.zeros(0, EVENT_DTYPE), (0, 0, 4, 4), min_gain="x"), "min_gain"),
+        # Numeric strings and bools were converted by float().
+        (lambda: RotorSignature((0, 0, 4, 4), f_min_hz="60"), "f_min_hz"),
+        (lambda: RotorSignature((0, 0, 4, 4), threshold=True), "threshold"),
+        (lambda: RotorSpectrum((0, 0, 4, 4), agree="0.05"), "agree"),
     ],
 )
 def test_fractions_and_huge_integers_are_refused_not_truncated(make, name):

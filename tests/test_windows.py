@@ -347,7 +347,7 @@ def test_median_must_be_a_bool(median: object) -> None:
 
 def test_noise_per_window_refuses_what_add_noise_refuses() -> None:
     w = make_windows(small_recording(), 10)
-    for fraction in (-1, 2, -0.1, 1.1, float("nan"), "half", None, True):
+    for fraction in (-1, 2, -0.1, 1.1, float("nan"), "half", "0.5", None, True, 2**2000):
         with pytest.raises(uavsnn.ParameterError, match="fraction"):
             noise_per_window(fraction, (64, 48))  # type: ignore[arg-type]
         with pytest.raises(uavsnn.ParameterError, match="fraction"):

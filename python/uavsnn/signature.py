@@ -29,7 +29,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from uavsnn import _core
-from uavsnn._validate import check_sensor_size, whole
+from uavsnn._validate import check_real, check_sensor_size, whole
 from uavsnn.errors import ParameterError
 from uavsnn.events import packed_bytes
 
@@ -178,15 +178,18 @@ class RotorSignature(_BoxEstimator):
     ) -> None:
         x0, y0, width, height = _box(box)
         what = "rotor signature parameters must be numbers: "
-        whole = (_integer("bins", bins, what), _integer("min_pixels", min_pixels, what))
-        try:
-            args = (float(f_min_hz), float(f_max_hz), whole[0], float(consistency))
-            rest = (float(agree), float(threshold), whole[1])
-        except (TypeError, ValueError, OverflowError) as exc:
-            raise ParameterError(f"rotor signature parameters must be numbers: {exc}") from exc
-        self._inner: _core.RotorSignature = _core.RotorSignature(
-            x0, y0, width, height, *args, *rest
+        # Real parameters must be finite numbers (a string such as "0.5" or a bool is refused,
+        # not converted); the engine checks each one's range.
+        args = (
+            check_real("f_min_hz", f_min_hz),
+            check_real("f_max_hz", f_max_hz),
+            _integer("bins", bins, what),
+            check_real("consistency", consistency),
+            check_real("agree", agree),
+            check_real("threshold", threshold),
+            _integer("min_pixels", min_pixels, what),
         )
+        self._inner: _core.RotorSignature = _core.RotorSignature(x0, y0, width, height, *args)
 
     @classmethod
     def for_sensor(cls, sensor_size: tuple[int, int], **params: Any) -> RotorSignature:
@@ -362,10 +365,7 @@ class RotorSpectrum(_BoxEstimator):
             k: _integer(k, p[k], what)
             for k in ("bin_us", "span_us", "freqs", "min_events", "min_pixels")
         }
-        try:
-            floats = {k: float(p[k]) for k in ("f_min_hz", "f_max_hz", "agree", "threshold")}
-        except (TypeError, ValueError, OverflowError) as exc:
-            raise ParameterError(f"rotor spectrum parameters must be numbers: {exc}") from exc
+        floats = {k: check_real(k, p[k]) for k in ("f_min_hz", "f_max_hz", "agree", "threshold")}
         self._inner: _core.RotorSpectrum = _core.RotorSpectrum(
             x0,
             y0,

@@ -17,6 +17,7 @@ The work is done by the Rust engine (``rust/windows.rs``) in one pass over the e
 from __future__ import annotations
 
 import math
+import numbers
 import os
 from collections.abc import Iterable
 from dataclasses import dataclass
@@ -325,13 +326,14 @@ def make_windows(
 
 
 def _fraction(value: Any) -> float:
-    """A noise fraction: a number (not ``bool``) in ``[0, 1]``."""
-    if isinstance(value, bool | np.bool_):
+    """A noise fraction: a number (not ``bool``, nor a string such as ``"0.5"``) in
+    ``[0, 1]``."""
+    if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):
         raise ParameterError(f"fraction must be a number in [0, 1], got {value!r}")
     try:
         frac = float(value)
-    except (TypeError, ValueError) as exc:
-        raise ParameterError(f"fraction must be a number in [0, 1], got {value!r}") from exc
+    except OverflowError:  # an integer beyond a float's range
+        frac = math.inf
     if not (0.0 <= frac <= 1.0):  # also refuses NaN
         raise ParameterError(f"fraction must be in [0, 1], got {value!r}")
     return frac
