@@ -40,7 +40,7 @@
 //!   timestamps rather than `frame index / frame rate`.
 //!
 //! With [`Pix2NvsParams::compat`] the simulator instead reproduces the released program's events
-//! exactly, quirks included (see [`compat_luma_row`] and [`compete_band_compat`]): its luma read
+//! exactly, quirks included (see `compat_luma_row` and `compete_band_compat`): its luma read
 //! from the frame's BMP bytes two bytes late, `log(Y)` without an offset (black is `-inf`, and
 //! what the program then does on x86-64 is done here too), updates of the block's top-left
 //! pixel in modes 2 and 3 and for the adaptive threshold, mode 3 starting from a zero reference
