@@ -358,6 +358,18 @@ def test_numpy_numbers_are_taken_as_python_ones() -> None:
     assert Tracker.for_sensor(np.uint16(240), max_tracks=np.int64(2)).max_tracks == 2
 
 
+def test_a_given_tracker_is_unchanged_when_track_windows_refuses_a_report() -> None:
+    # It had taken the reports before the bad one.
+    reps = [report(k, [box_at(20 + 4 * k, 30)]) for k in range(8)]
+    tracker = Tracker()
+    with pytest.raises(ParameterError):
+        track_windows([*reps[:5], reps[2], *reps[5:]], tracker)  # window 2 again: backwards
+    assert tracker.live == () and tracker.finish() == []
+    fresh = Tracker()
+    assert track_windows(reps, tracker) == track_windows(reps, fresh)
+    assert tracker.finish() == fresh.finish() == []  # the run ended both the same way
+
+
 def test_track_windows_refuses_what_is_not_a_report_or_a_tracker() -> None:
     with pytest.raises(ParameterError, match="WindowReports, got 3"):
         track_windows([3])  # type: ignore[list-item]

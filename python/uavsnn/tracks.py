@@ -18,6 +18,7 @@ history), and tracks are deleted after ``max_misses`` windows without a detectio
 
 from __future__ import annotations
 
+import copy
 import math
 from collections import deque
 from collections.abc import Iterable
@@ -578,20 +579,24 @@ def track_windows(reports: Iterable[WindowReport], tracker: Tracker | None = Non
 
     Raises:
         ParameterError: ``reports`` is not an iterable of WindowReports, ``tracker`` not a
-            :class:`Tracker`, or a report :meth:`Tracker.update` refuses.
+            :class:`Tracker`, or a report :meth:`Tracker.update` refuses; a given ``tracker``
+            is then as it was before the call (the run works on a copy of it).
     """
-    tracker = Tracker() if tracker is None else tracker
-    if not isinstance(tracker, Tracker):
-        raise ParameterError(f"tracker must be a Tracker, got {tracker!r}")
+    given = Tracker() if tracker is None else tracker
+    if not isinstance(given, Tracker):
+        raise ParameterError(f"tracker must be a Tracker, got {given!r}")
     try:
         each = iter(reports)
     except TypeError as err:
         raise ParameterError(
             f"reports must be an iterable of WindowReports, got {reports!r}"
         ) from err
+    work = given if tracker is None else copy.deepcopy(given)
     out, tracks = [], []
     for r in each:
-        out.append(tracker.update(r))
-        tracks += tracker.drain_ended()
-    tracks = sorted(tracks + tracker.finish(), key=lambda t: t.id)
+        out.append(work.update(r))
+        tracks += work.drain_ended()
+    tracks = sorted(tracks + work.finish(), key=lambda t: t.id)
+    if work is not given:  # the given tracker takes the run once all of it went through
+        given.__dict__.update(work.__dict__)
     return TrackResult(reports=tuple(out), tracks=tuple(tracks))
