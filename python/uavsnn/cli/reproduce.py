@@ -25,7 +25,7 @@ import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 from uavsnn import __version__, identify, pictures, report
 from uavsnn._validate import check_int
@@ -445,13 +445,22 @@ def _real_sizes_table(rows: list[tuple[str, dict[str, Any]]]) -> str:
     return "\n".join(lines)
 
 
-def _checked(args: argparse.Namespace) -> dict[str, Any]:
+class _Checked(NamedTuple):
+    """What :func:`_checked` found the arguments to mean."""
+
+    sensor: tuple[int, int]
+    real_sensors: list[tuple[int, int]]
+    tune_seed: int
+    n_tune: int
+    videos: Path | None  # None: no real footage
+
+
+def _checked(args: argparse.Namespace) -> _Checked:
     """Every argument checked before any work, and nothing made: the sensors, the tuning seed
     and count, the window counts, the minutes streamed, the folder --out (made by the caller
     once every check has passed) and the real footage (the videos the real builds read, each
     clip planned at each real sensor size as the build plans it). Returns the values the run
-    uses: ``sensor``, ``real_sensors``, ``tune_seed``, ``n_tune`` and ``videos`` (``None``: no
-    real footage).
+    uses.
 
     Raises:
         ParameterError: a bad argument, or an --out that could not be made or written.
@@ -495,17 +504,12 @@ def _checked(args: argparse.Namespace) -> dict[str, Any]:
                 where = f"--videos {videos} at {_sensor_name(real_sensor)}"
                 skip = "" if args.videos is not None else " (the default; --no-real skips it)"
                 raise DatasetError(f"{where}{skip}: {exc}") from exc
-    return {
-        "sensor": sensor, "real_sensors": real_sensors, "tune_seed": tune_seed,
-        "n_tune": n_tune, "videos": videos,
-    }  # fmt: skip
+    return _Checked(sensor, real_sensors, tune_seed, n_tune, videos)
 
 
 def _reproduce(args: argparse.Namespace) -> int:
     started = time.perf_counter()
-    checked = _checked(args)
-    sensor, real_sensors = checked["sensor"], checked["real_sensors"]
-    tune_seed, n_tune, videos = checked["tune_seed"], checked["n_tune"], checked["videos"]
+    sensor, real_sensors, tune_seed, n_tune, videos = _checked(args)
     runner = runner_for(args.ray)  # an unreachable cluster fails now, before --out is made
     out: Path = output_dir(args.out, "--out")
     progress = not args.quiet
