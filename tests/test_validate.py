@@ -25,6 +25,11 @@ def test_check_int() -> None:
         check_int("n", 0, 1)
     with pytest.raises(ParameterError, match=r"n must be in \[0, 18446744073709551615\]"):
         check_int("n", U64_MAX + 1, 0, U64_MAX)
+    # A huge integer is named by its size, not printed in its 603 digits.
+    with pytest.raises(ParameterError, match=r"got an integer of 2001 bits$"):
+        check_int("n", 2**2000, 0, U64_MAX)
+    with pytest.raises(ParameterError, match=r"got an integer of 2001 bits$"):
+        int_param("t", -(2**2000), 0)
 
 
 def test_int_param_takes_integral_floats() -> None:

@@ -25,10 +25,16 @@ def check_int(name: str, value: Any, low: int = 0, high: int | None = None) -> i
         raise ParameterError(f"{name} must be an integer, got {value!r}")
     result = int(value)
     if high is None and result < low:
-        raise ParameterError(f"{name} must be an integer >= {low}, got {result}")
+        raise ParameterError(f"{name} must be an integer >= {low}, got {_shown(result)}")
     if high is not None and not low <= result <= high:
-        raise ParameterError(f"{name} must be in [{low}, {high}], got {result}")
+        raise ParameterError(f"{name} must be in [{low}, {high}], got {_shown(result)}")
     return result
+
+
+def _shown(value: int) -> str:
+    """An integer for a message: in full up to 30 digits, else by its size (2**2000 printed
+    603 digits)."""
+    return str(value) if abs(value) < 10**30 else f"an integer of {value.bit_length()} bits"
 
 
 def check_real(
@@ -64,7 +70,7 @@ def int_param(name: str, value: Any, minimum: int, maximum: int = U64_MAX) -> in
     if result is None:
         raise ParameterError(f"{name} must be a whole number, got {value!r}")
     if not minimum <= result <= maximum:
-        raise ParameterError(f"{name} must be in [{minimum}, {maximum}], got {result}")
+        raise ParameterError(f"{name} must be in [{minimum}, {maximum}], got {_shown(result)}")
     return result
 
 
