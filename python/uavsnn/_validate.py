@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 import numbers
+import os
 from typing import Any
 
 import numpy as np
@@ -101,3 +102,14 @@ def whole(value: Any) -> int | None:
         return int(value)
     v = float(value)
     return int(v) if math.isfinite(v) and v.is_integer() else None
+
+
+def check_path(path: Any) -> str:
+    """A file path as ``str``: a ``str`` or an ``os.PathLike[str]`` (bytes are refused)."""
+    try:
+        name = os.fspath(path)
+    except TypeError:
+        name = None
+    if not isinstance(name, str):
+        raise ParameterError(f"path must be a str or os.PathLike[str], got {path!r}")
+    return name

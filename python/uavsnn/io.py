@@ -45,7 +45,7 @@ from typing import Any
 import numpy as np
 
 from uavsnn import _core
-from uavsnn._validate import MAX_TIME_US, check_sensor_size
+from uavsnn._validate import MAX_TIME_US, check_path, check_sensor_size
 from uavsnn.errors import EventError, ParameterError, RecordingFileError
 from uavsnn.events import EVENT_DTYPE, Recording, convert, packed_bytes
 
@@ -90,7 +90,7 @@ def read(path: str | os.PathLike[str], sensor_size: tuple[int, int] | None = Non
         ParameterError: ``sensor_size`` is malformed or contradicts the file's own, or
             ``path`` is not a ``str`` or ``os.PathLike[str]``.
     """
-    file = _path(path)
+    file = Path(check_path(path))
     given = None if sensor_size is None else check_sensor_size(sensor_size)
     kind = FORMATS.get(file.suffix.lower())
     if kind is None:
@@ -103,17 +103,6 @@ def read(path: str | os.PathLike[str], sensor_size: tuple[int, int] | None = Non
         raise
     except OSError as exc:  # permissions, I/O errors: the readers' own open() calls
         raise RecordingFileError(f"{file}: cannot read: {exc.strerror or exc}") from exc
-
-
-def _path(path: Any) -> Path:
-    """A file path from a ``str`` or an ``os.PathLike[str]`` (bytes are refused)."""
-    try:
-        name = os.fspath(path)
-    except TypeError:
-        name = None
-    if not isinstance(name, str):
-        raise ParameterError(f"path must be a str or os.PathLike[str], got {path!r}")
-    return Path(name)
 
 
 def _read(file: Path, kind: str, given: tuple[int, int] | None) -> Recording:
@@ -711,7 +700,7 @@ def write_npz(recording: Recording, path: str | os.PathLike[str]) -> None:
     """
     if not isinstance(recording, Recording):
         raise ParameterError(f"expected a Recording, got {type(recording).__name__}")
-    target = _path(path)
+    target = Path(check_path(path))
     if target.suffix.lower() != ".npz":
         raise ParameterError(
             f"{target}: a recording is written as .npz: the path must end in .npz, got "

@@ -28,7 +28,7 @@ import numpy as np
 import numpy.typing as npt
 
 from uavsnn import _core
-from uavsnn._validate import U64_MAX, check_int, check_real, check_sensor_size
+from uavsnn._validate import U64_MAX, check_int, check_path, check_real, check_sensor_size
 from uavsnn.errors import EventError, ModelFileError, ParameterError, ShapeError
 
 __all__ = [
@@ -541,7 +541,7 @@ class Network:
         Raises:
             ParameterError: ``path`` is not a ``str`` or ``os.PathLike[str]`` (bytes refused).
         """
-        file = _path(path)
+        file = check_path(path)
         self._core.save(file)
         if self.identification is not None:
             _add_arrays(file, self.identification.to_arrays())
@@ -559,24 +559,24 @@ class Network:
         from uavsnn.identifier import Identifier
         from uavsnn.tracks import DEFAULT_GATE_PX, GATE_SHARE
 
-        path = _path(path)
+        path = check_path(path)
         net = cls._wrap(_core.NetworkCore.load(path))
         try:
-            with np.load(os.fspath(path), allow_pickle=False) as arrays:
+            with np.load(path, allow_pickle=False) as arrays:
                 net.identification = Identifier.from_arrays(arrays)
         except (OSError, ValueError) as exc:
             if isinstance(exc, ModelFileError):
-                raise ModelFileError(f"{os.fspath(path)}: {exc}") from exc
-            raise ModelFileError(f"{os.fspath(path)}: cannot read its arrays: {exc}") from exc
+                raise ModelFileError(f"{path}: {exc}") from exc
+            raise ModelFileError(f"{path}: cannot read its arrays: {exc}") from exc
         width = int(net.config["width"])
         if net.identification is None:
             net.load_note = (
-                f"{os.fspath(path)} has no identification model: only the any-spike rule "
+                f"{path} has no identification model: only the any-spike rule "
                 "decides (`uavsnn train` fits one)"
             )
         elif net.identification.gate_px is None and GATE_SHARE * width > DEFAULT_GATE_PX:
             net.load_note = (
-                f"{os.fspath(path)} does not record the tracker gate its identification was "
+                f"{path} does not record the tracker gate its identification was "
                 f"fitted with: it runs at {GATE_SHARE:g} of the sensor's width "
                 f"({GATE_SHARE * width:g} px), but models fitted before the gate scaled with "
                 f"the sensor were fitted at {DEFAULT_GATE_PX:g} px: fit it again with "
@@ -658,17 +658,6 @@ def _layer(layer: Any) -> str:
     if not isinstance(layer, str):
         raise ParameterError(f"layer must be one of {', '.join(CONV_LAYERS)}, got {layer!r}")
     return layer
-
-
-def _path(path: Any) -> str:
-    """A file path as ``str``: a ``str`` or an ``os.PathLike[str]`` (bytes are refused)."""
-    try:
-        file = os.fspath(path)
-    except TypeError:
-        file = None
-    if not isinstance(file, str):
-        raise ParameterError(f"path must be a str or os.PathLike[str], got {path!r}")
-    return file
 
 
 def _plain(value: Any) -> Any:
