@@ -38,7 +38,7 @@ from uavsnn import _core
 from uavsnn.errors import ParameterError, SimulationError
 from uavsnn.events import EVENT_DTYPE
 from uavsnn.sim.checks import check_real, check_seed, check_size
-from uavsnn.sim.frames import as_frame_batch, push_frames
+from uavsnn.sim.frames import as_frame_batch, push_frames, whole_microseconds
 
 __all__ = ["GEN3_ON_OFF_RATIO", "SCENE_PARAMS", "DvsEmulator", "DvsParams", "emulate_dvs"]
 
@@ -326,18 +326,7 @@ def _patch_times(k: int, times: Any) -> np.ndarray:
         return np.zeros(0, dtype=np.uint64)
     if t.dtype.kind not in "uif":
         raise SimulationError(f"{where} must be whole microseconds, got dtype {t.dtype}")
-    if t.dtype.kind == "f":
-        bad = ~np.isfinite(t) | (t != np.round(t))
-        if bad.any():
-            i = int(np.argmax(bad))
-            raise SimulationError(f"{where}: {t[i]} is not a whole number of microseconds")
-        if (t >= 2.0**64).any():
-            i = int(np.argmax(t >= 2.0**64))
-            raise SimulationError(f"{where}: {t[i]} is beyond 2^64 - 1 microseconds")
-    if (t < 0).any():
-        i = int(np.argmax(t < 0))
-        raise SimulationError(f"{where}: {t[i]} is negative")
-    return np.ascontiguousarray(t, dtype=np.uint64)
+    return np.ascontiguousarray(whole_microseconds(t, lambda i: f"{where}: {t[i]}"))
 
 
 def emulate_dvs(

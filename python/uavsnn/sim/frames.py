@@ -9,7 +9,7 @@ increasing.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -108,20 +108,7 @@ def as_timestamps(timestamps_us: Any, n: int) -> np.ndarray:
         return t.astype(np.uint64)
     if t.dtype == np.bool_ or not np.issubdtype(t.dtype, np.number):
         raise SimulationError(f"timestamps must be integer microseconds, got dtype {t.dtype}")
-    if np.issubdtype(t.dtype, np.floating):
-        bad = ~np.isfinite(t) | (t != np.round(t))
-        if bad.any():
-            i = int(np.argmax(bad))
-            raise SimulationError(f"timestamp {i} ({t[i]}) is not a whole number of microseconds")
-    if (t < 0).any():
-        i = int(np.argmax(t < 0))
-        raise SimulationError(f"timestamp {i} ({t[i]}) is negative")
-    # Compared before the cast, which would wrap a float past 2^64 - 1.
-    late = t >= 2.0**64 if np.issubdtype(t.dtype, np.floating) else np.zeros(t.shape, bool)
-    if late.any():
-        i = int(np.argmax(late))
-        raise SimulationError(f"timestamp {i} ({t[i]}) is beyond 2^64 - 1 microseconds")
-    t = t.astype(np.uint64)
+    t = whole_microseconds(t, lambda i: f"timestamp {i} ({t[i]})")
     if n > 1:
         # Compared as unsigned: a difference through int64 wraps across 2^63.
         back = t[1:] <= t[:-1]
@@ -132,6 +119,26 @@ def as_timestamps(timestamps_us: Any, n: int) -> np.ndarray:
                 "frame times must increase strictly"
             )
     return t
+
+
+def whole_microseconds(t: np.ndarray, label: Callable[[int], str]) -> np.ndarray:
+    """A 1-D array of real numbers ``t`` as ``uint64``, if each is a whole number of
+    microseconds in ``[0, 2^64)``; else :class:`~uavsnn.SimulationError` naming the first bad
+    one by ``label(i)``."""
+    floating = np.issubdtype(t.dtype, np.floating)
+    if floating:
+        bad = ~np.isfinite(t) | (t != np.round(t))
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise SimulationError(f"{label(i)} is not a whole number of microseconds")
+    # Both compared before the cast, which would wrap them.
+    for bad, what in (
+        (t < 0, "is negative"),
+        (t >= 2.0**64 if floating else np.zeros(t.shape, bool), "is beyond 2^64 - 1 microseconds"),
+    ):
+        if bad.any():
+            raise SimulationError(f"{label(int(np.argmax(bad)))} {what}")
+    return t.astype(np.uint64)
 
 
 def push_frames(
