@@ -113,3 +113,14 @@ def check_path(path: Any) -> str:
     if not isinstance(name, str):
         raise ParameterError(f"path must be a str or os.PathLike[str], got {path!r}")
     return name
+
+
+def listed(parts: Any, what: str) -> list[Any]:
+    """``parts`` (any iterable: a list, a generator) as a list, or a :class:`ParameterError`
+    saying it should be an iterable of ``what``."""
+    try:
+        return list(parts)
+    except TypeError as exc:
+        raise ParameterError(
+            f"parts must be an iterable of {what}, got {type(parts).__name__}"
+        ) from exc

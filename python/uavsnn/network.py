@@ -28,7 +28,14 @@ import numpy as np
 import numpy.typing as npt
 
 from uavsnn import _core
-from uavsnn._validate import U64_MAX, check_int, check_path, check_real, check_sensor_size
+from uavsnn._validate import (
+    U64_MAX,
+    check_int,
+    check_path,
+    check_real,
+    check_sensor_size,
+    listed,
+)
 from uavsnn.errors import EventError, ModelFileError, ParameterError, ShapeError
 
 __all__ = [
@@ -208,12 +215,7 @@ class Inference:
             ShapeError: no parts, or parts of different map counts.
             ParameterError: ``parts`` is not an iterable of :class:`Inference`.
         """
-        try:
-            parts = list(parts)
-        except TypeError as exc:
-            raise ParameterError(
-                f"parts must be an iterable of Inference, got {type(parts).__name__}"
-            ) from exc
+        parts = listed(parts, "Inference")
         for i, part in enumerate(parts):
             if not isinstance(part, Inference):
                 raise ParameterError(f"parts[{i}] is a {type(part).__name__}, not an Inference")

@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 
 from uavsnn import _core
-from uavsnn._validate import MAX_TIME_US, check_sensor_size, int_param
+from uavsnn._validate import MAX_TIME_US, check_sensor_size, int_param, listed
 from uavsnn.errors import ParameterError, ShapeError
 from uavsnn.events import Recording, packed_bytes
 
@@ -241,12 +241,7 @@ class Windows:
     def concatenate(parts: Iterable[Windows]) -> Windows:
         """The windows of ``parts`` (any iterable: a list, a generator) one after the other;
         all must share sensor and length."""
-        try:
-            parts = list(parts)
-        except TypeError as exc:
-            raise ParameterError(
-                f"parts must be an iterable of Windows, got {type(parts).__name__}"
-            ) from exc
+        parts = listed(parts, "Windows")
         if len(parts) == 0:
             raise ParameterError("concatenate needs at least one Windows")
         first = parts[0]
