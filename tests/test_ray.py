@@ -277,6 +277,8 @@ def test_ray_reproduce_gives_the_serial_figures(runner: Any, tmp_path: Path) -> 
         argv += extra
         assert main(argv) == 0
         figures.append(_figures(json.loads((out / "results.json").read_text())))
+        text = (out / "RESULTS.md").read_text()
+        assert "## Real footage\n\nNot run: --no-real was given." in text
         for model in ("model-dvs.npz", "model-combined.npz"):
             assert Network.load(out / model) == Network.load(tmp_path / "serial" / model)
     assert figures[0] == figures[1]

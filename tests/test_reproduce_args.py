@@ -135,3 +135,24 @@ def test_good_arguments_reach_the_first_build_with_out_made_after_the_cluster(
     with pytest.raises(Started):
         main([*argv, "--no-real", "--videos", str(tmp_path / "nowhere")])
     assert out.is_dir()
+
+
+def test_a_missing_default_video_folder_is_said_before_any_work(
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    no_work: list[Path],
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # Outside the checkout the default folder is absent: the run goes on without real footage,
+    # and says so at once rather than leaving its section out of RESULTS.md unexplained.
+    monkeypatch.setattr(reproduce, "_DEFAULT_VIDEOS", tmp_path / "absent")
+    argv = ["reproduce", "--out", str(tmp_path / "repro"), "--quiet", "--n-test", "20"]
+    with pytest.raises(Started):
+        main(argv)
+    err = capsys.readouterr().err
+    assert f"no real footage: no --videos was given, and the default folder {tmp_path}" in err
+    assert no_work == [tmp_path / "repro/data/dvs"]
+    # Left out on purpose, it is not a surprise to warn about.
+    with pytest.raises(Started):
+        main([*argv, "--no-real"])
+    assert "no real footage" not in capsys.readouterr().err

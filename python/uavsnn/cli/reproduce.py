@@ -453,6 +453,7 @@ class _Checked(NamedTuple):
     tune_seed: int
     n_tune: int
     videos: Path | None  # None: no real footage
+    no_real: str  # why there is no real footage ("" when there is)
 
 
 def _checked(args: argparse.Namespace) -> _Checked:
@@ -493,8 +494,15 @@ def _checked(args: argparse.Namespace) -> _Checked:
             raise ParameterError(f"{flag} must be in [0, {MAX_MINUTES:g}], got {minutes}")
     check_output_dir(args.out, "--out")
     videos = None
+    no_real = "--no-real was given"
     if not args.no_real:
         videos = args.videos or (_DEFAULT_VIDEOS if _DEFAULT_VIDEOS.is_dir() else None)
+        no_real = (
+            ""
+            if videos is not None
+            else f"no --videos was given, and the default folder {_DEFAULT_VIDEOS} (from the "
+            "working directory) does not exist"
+        )
     if videos is not None:
         # What the real builds will read, refused now rather than after the synthetic runs.
         for real_sensor in real_sensors:
@@ -504,12 +512,20 @@ def _checked(args: argparse.Namespace) -> _Checked:
                 where = f"--videos {videos} at {_sensor_name(real_sensor)}"
                 skip = "" if args.videos is not None else " (the default; --no-real skips it)"
                 raise DatasetError(f"{where}{skip}: {exc}") from exc
-    return _Checked(sensor, real_sensors, tune_seed, n_tune, videos)
+    return _Checked(sensor, real_sensors, tune_seed, n_tune, videos, no_real)
 
 
 def _reproduce(args: argparse.Namespace) -> int:
     started = time.perf_counter()
-    sensor, real_sensors, tune_seed, n_tune, videos = _checked(args)
+    sensor, real_sensors, tune_seed, n_tune, videos, no_real = _checked(args)
+    if no_real and not args.no_real:
+        # Said now, not found hours later as a section missing from RESULTS.md.
+        print(
+            f"uavsnn reproduce: no real footage: {no_real}; RESULTS.md will say so (--videos "
+            "DIR gives the labelled videos; --no-real leaves them out on purpose)",
+            file=sys.stderr,
+            flush=True,
+        )
     runner = runner_for(args.ray)  # an unreachable cluster fails now, before --out is made
     out: Path = output_dir(args.out, "--out")
     progress = not args.quiet
@@ -680,6 +696,8 @@ def _reproduce(args: argparse.Namespace) -> int:
         )
 
     real_text: list[str] = []
+    if no_real:
+        real_text = ["\n## Real footage\n", f"Not run: {no_real}.\n"]
     if videos is not None:
         size_rows = []
         for real_sensor in real_sensors:
