@@ -6,6 +6,9 @@ Convolutional Spiking Neural Network Retina-Neuromorphic Approach" (ICANN 2019).
 
 from __future__ import annotations
 
+import importlib
+from typing import TYPE_CHECKING
+
 from uavsnn._core import __version__
 from uavsnn.detector import Detector
 from uavsnn.errors import (
@@ -48,3 +51,26 @@ __all__ = [
     "rotor_signature",
     "track_windows",
 ]
+
+#: The package's public submodules, reachable as attributes after ``import uavsnn`` as the docs
+#: write them (``uavsnn.io.read(...)``, ``uavsnn.sim.simulate(...)``): each is imported on first
+#: use, so ``import uavsnn`` stays as light as the names above need.
+SUBMODULES = frozenset(
+    {
+        "bench", "boxes", "cli", "clips", "dataset", "detector", "distributed", "errors",
+        "evaluation", "events", "experiments", "false_alarms", "features", "filters",
+        "identifier", "identify", "io", "linear", "network", "pictures", "progress", "report",
+        "scenes", "signature", "sim", "sources", "track_eval", "tracks", "training", "trees",
+        "windows",
+    }
+)  # fmt: skip
+
+if not TYPE_CHECKING:  # a type checker resolves submodules itself, and no other name
+
+    def __getattr__(name: str) -> object:
+        if name in SUBMODULES:
+            return importlib.import_module(f"{__name__}.{name}")
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+    def __dir__() -> list[str]:
+        return sorted({*globals(), *SUBMODULES})

@@ -77,20 +77,26 @@ MAX_ROTOR_BOXES = 8
 MAX_ROTOR_EVENTS = 1 << 21
 
 
-def __getattr__(name: str) -> object:
-    # ``DETECTION_DTYPE`` was this module's name for what uavsnn.network calls
-    # ``WINDOW_DETECTION_DTYPE``; uavsnn.network.DETECTION_DTYPE has no window field.
-    if name == "DETECTION_DTYPE":
-        import warnings
+if TYPE_CHECKING:
+    #: Deprecated: :data:`WINDOW_DETECTION_DTYPE` (read with a ``DeprecationWarning``).
+    DETECTION_DTYPE: np.dtype[np.void]
+else:  # hidden from type checkers, which would take any name of this module as an object
 
-        warnings.warn(
-            "uavsnn.detector.DETECTION_DTYPE is deprecated: use WINDOW_DETECTION_DTYPE "
-            "(uavsnn.network.DETECTION_DTYPE is one window's detection, without a window field)",
-            DeprecationWarning,
-            stacklevel=2,
-        )
-        return WINDOW_DETECTION_DTYPE
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    def __getattr__(name: str) -> object:
+        # ``DETECTION_DTYPE`` was this module's name for what uavsnn.network calls
+        # ``WINDOW_DETECTION_DTYPE``; uavsnn.network.DETECTION_DTYPE has no window field.
+        if name == "DETECTION_DTYPE":
+            import warnings
+
+            warnings.warn(
+                "uavsnn.detector.DETECTION_DTYPE is deprecated: use WINDOW_DETECTION_DTYPE "
+                "(uavsnn.network.DETECTION_DTYPE is one window's detection, without a window "
+                "field)",
+                DeprecationWarning,
+                stacklevel=2,
+            )
+            return WINDOW_DETECTION_DTYPE
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 _NO_DETECTIONS = np.empty(0, dtype=WINDOW_DETECTION_DTYPE)
