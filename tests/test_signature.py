@@ -482,3 +482,20 @@ def test_spinner_rotation_by_two_methods_and_no_false_rotor(shared_data):
     box = (int(x.min()), int(y.min()), int(x.max() - x.min()) + 1, int(y.max() - y.min()) + 1)
     est = rotor_spectrum(events, box)
     assert est.channels > 1000 and not est.detected, est
+
+
+def test_a_misspelt_parameter_passed_on_is_refused_by_name() -> None:
+    # The functions that pass ``**params`` on to an estimator refuse an unknown name as the
+    # spectrum estimator does (a ParameterError naming it), not with Python's bare TypeError.
+    none = np.zeros(0, dtype=EVENT_DTYPE)
+    calls = [
+        lambda: rotor_signature(none, (0, 0, 4, 4), fmin_hz=3.0),
+        lambda: RotorSignature.for_sensor((10, 10), thresold=1.0),
+        lambda: measure_box(none, (0, 0, 4, 4), bin=3),
+        lambda: rotor_spectrum(none, (0, 0, 4, 4), bins=3),
+    ]
+    for call, name in zip(calls, ("fmin_hz", "thresold", "bin", "bins"), strict=True):
+        with pytest.raises(ParameterError, match=f"unknown rotor .* parameters \\['{name}'\\]"):
+            call()
+    # The right names still pass.
+    assert not rotor_signature(none, (0, 0, 4, 4), f_min_hz=60.0).detected

@@ -99,6 +99,7 @@ def test_the_gate_scales_with_the_sensor() -> None:
         (np.bool_(True), {}),
         pytest.param(2**2000, {}, id="2**2000"),
         (65536, {}),
+        (240, {"alfa": 0.5}),  # misspelt: a ParameterError, not Python's TypeError
     ],
 )
 def test_for_sensor_refuses_bad_arguments(width: object, kwargs: dict) -> None:

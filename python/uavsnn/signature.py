@@ -145,6 +145,14 @@ class _BoxEstimator:
         return self._inner.state_bytes
 
 
+def _known(params: dict[str, Any], defaults: dict[str, float | int], what: str) -> None:
+    """Refuse a parameter name not among ``defaults`` (a misspelt keyword passed on through
+    ``**params``, which a type checker cannot see)."""
+    unknown = set(params) - set(defaults)
+    if unknown:
+        raise ParameterError(f"unknown {what} parameters {sorted(unknown)}")
+
+
 class RotorSignature(_BoxEstimator):
     """A rotor-signature estimator over one box of pixels (or a whole sensor).
 
@@ -195,6 +203,7 @@ class RotorSignature(_BoxEstimator):
     def for_sensor(cls, sensor_size: tuple[int, int], **params: Any) -> RotorSignature:
         """An estimator over a whole ``(width, height)`` sensor."""
         width, height = check_sensor_size(sensor_size)
+        _known(params, DEFAULTS, "rotor signature")
         return cls((0, 0, width, height), **params)
 
     def estimate(self) -> RotorEstimate:
@@ -244,6 +253,7 @@ def rotor_signature(
 ) -> RotorEstimate:
     """The rotor signature of ``events`` (canonical dtype, time order) inside ``box``; ``params``
     as :class:`RotorSignature`'s."""
+    _known(params, DEFAULTS, "rotor signature")
     estimator = RotorSignature(box, **params)
     estimator.update(events)
     return estimator.estimate()
@@ -270,6 +280,7 @@ def measure_box(
         EventError: an array not of the canonical dtype.
         ParameterError: as :class:`RotorSignature` and :meth:`RotorSignature.count_rate`.
     """
+    _known(params, DEFAULTS, "rotor signature")
     estimator = RotorSignature(box, **params)
     if rate is not None:
         estimator.count_rate(*rate)
@@ -356,9 +367,7 @@ class RotorSpectrum(_BoxEstimator):
 
     def __init__(self, box: tuple[int, int, int, int], **params: Any) -> None:
         x0, y0, width, height = _box(box)
-        unknown = set(params) - set(SPECTRUM_DEFAULTS)
-        if unknown:
-            raise ParameterError(f"unknown rotor spectrum parameters {sorted(unknown)}")
+        _known(params, SPECTRUM_DEFAULTS, "rotor spectrum")
         p = {**SPECTRUM_DEFAULTS, **params}
         what = "rotor spectrum parameters must be numbers: "
         ints = {

@@ -252,7 +252,9 @@ def delay_stats_ms(values_us: list[int]) -> dict[str, float | int | None]:
 
 
 def decision_figures(
-    uav: Sequence[bool], alarmed: Sequence[bool], classes: Sequence[str]
+    uav: Sequence[bool] | np.ndarray,
+    alarmed: Sequence[bool] | np.ndarray,
+    classes: Sequence[str] | np.ndarray,
 ) -> dict[str, Any]:
     """The decision on whole recordings (or clips), one entry each: decided UAV where a track
     alarmed in it (``alarmed``), right where that is whether it holds a UAV (``uav``).

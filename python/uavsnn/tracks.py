@@ -19,6 +19,7 @@ history), and tracks are deleted after ``max_misses`` windows without a detectio
 from __future__ import annotations
 
 import copy
+import inspect
 import math
 from collections import deque
 from collections.abc import Iterable
@@ -369,12 +370,15 @@ class Tracker:
 
         Raises:
             ParameterError: ``width`` is not an integer in ``[1, 65535]`` (a sensor's side; a
-                NumPy integer too), ``kwargs`` names ``gate_px``, or another argument is out
-                of range.
+                NumPy integer too), ``kwargs`` names ``gate_px`` or no argument of
+                :class:`Tracker`, or another argument is out of range.
         """
         width = check_int("width", width, 1, 65535)
         if "gate_px" in kwargs:
             raise ParameterError("for_sensor sets gate_px from the width; use Tracker(gate_px=)")
+        unknown = set(kwargs) - set(inspect.signature(cls).parameters)
+        if unknown:
+            raise ParameterError(f"unknown Tracker arguments {sorted(unknown)}")
         return cls(gate_px=GATE_SHARE * width, **kwargs)
 
     def reset(self) -> None:
