@@ -68,7 +68,9 @@ def _import_ray() -> Any:
     try:
         import ray
     except ImportError as exc:
-        raise ParameterError(f"--ray needs Ray, which is not installed: {RAY_HINT}") from exc
+        raise ParameterError(
+            f"Ray is not installed (--ray and uavsnn.distributed need it): {RAY_HINT}"
+        ) from exc
     return ray
 
 
