@@ -40,6 +40,7 @@ pub mod signature;
 pub mod sim;
 mod simd;
 pub mod stream;
+pub mod threads;
 pub mod windows;
 
 #[cfg(feature = "python")]

@@ -1,6 +1,6 @@
 //! Inference on many windows in parallel: rayon workers, one [`WindowState`] each.
 
-use std::sync::{Arc, Mutex};
+use std::sync::Mutex;
 
 use rayon::prelude::*;
 
@@ -40,15 +40,11 @@ impl WindowResult {
 /// Windows per rayon task: enough to amortise taking a state from the pool.
 const CHUNK: usize = 8;
 
-/// The most worker threads [`infer`] accepts: more than any machine this runs on has cores,
-/// few enough that starting them stays cheap (a count of thousands took seconds to start).
-pub const MAX_THREADS: usize = 256;
-
-/// Worker pools kept between calls; asking for another count drops the least recently used.
-const KEPT_POOLS: usize = 2;
+pub use crate::threads::MAX_THREADS;
 
 /// Run every window of `batch` through `net` in inference mode, in parallel on `threads`
-/// workers (`None`: rayon's global pool; at most [`MAX_THREADS`]). PENT's `N_in` is the window's spike count or its
+/// workers (`None`: the pool the call runs in, rayon's global one unless it runs in another
+/// (see [`crate::threads`]); at most [`MAX_THREADS`], a pool kept by [`crate::threads::pool`]). PENT's `N_in` is the window's spike count or its
 /// `n_preceding`, as the config's `pent.estimate` says. Results are in window order.
 ///
 /// Each window is re-checked as it is read ([`WindowBatch::window`]), so a batch written as a
@@ -85,48 +81,9 @@ pub fn infer(
                 .map(|i| run_one(net, state, batch, i, record))
                 .collect()
         }
-        Some(n) => pool(n)?.install(run),
+        Some(n) => crate::threads::pool(n)?.install(run),
     }
 }
-
-/// A rayon pool of `n` workers, started on first use and kept for later calls (starting
-/// threads costs more than a small batch). At most [`KEPT_POOLS`] are kept, the most recently
-/// used: a pool dropped here ends its threads once the calls running on it return.
-fn pool(n: usize) -> Result<Arc<rayon::ThreadPool>> {
-    let mut pools = POOLS
-        .lock()
-        .map_err(|_| Error::Internal("thread pools poisoned".into()))?;
-    take_pool(&mut pools, n, KEPT_POOLS)
-}
-
-/// The pool of `n` workers in `pools` (most recently used last), started if missing, keeping
-/// at most `keep` pools.
-fn take_pool(
-    pools: &mut Vec<(usize, Arc<rayon::ThreadPool>)>,
-    n: usize,
-    keep: usize,
-) -> Result<Arc<rayon::ThreadPool>> {
-    if let Some(i) = pools.iter().position(|(m, _)| *m == n) {
-        let entry = pools.remove(i);
-        let p = Arc::clone(&entry.1);
-        pools.push(entry);
-        return Ok(p);
-    }
-    let p = Arc::new(
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(n)
-            .build()
-            .map_err(|e| Error::Internal(format!("cannot start {n} threads: {e}")))?,
-    );
-    if pools.len() >= keep {
-        pools.remove(0);
-    }
-    pools.push((n, Arc::clone(&p)));
-    Ok(p)
-}
-
-/// The kept pools, with their worker counts, least recently used first.
-static POOLS: Mutex<Vec<(usize, Arc<rayon::ThreadPool>)>> = Mutex::new(Vec::new());
 
 /// Check that a sensor `(width, height)` is the network's input.
 pub fn check_sensor(net: &Network, sensor: (usize, usize)) -> Result<()> {
@@ -206,23 +163,6 @@ impl Drop for StateGuard<'_> {
 #[cfg(test)]
 mod pool_tests {
     use super::*;
-
-    #[test]
-    fn pools_are_reused_and_bounded() {
-        let mut pools = Vec::new();
-        let first = take_pool(&mut pools, 2, 2).unwrap();
-        assert!(Arc::ptr_eq(&first, &take_pool(&mut pools, 2, 2).unwrap()));
-        for n in [3, 2, 4, 5, 6, 5] {
-            let p = take_pool(&mut pools, n, 2).unwrap();
-            assert_eq!(p.current_num_threads(), n);
-            assert!(pools.len() <= 2);
-            assert_eq!(pools.last().map(|e| e.0), Some(n));
-        }
-        let kept: Vec<usize> = pools.iter().map(|e| e.0).collect();
-        assert_eq!(kept, [6, 5]);
-        // The pool of 2 was dropped from the list: asking again starts another.
-        assert!(!Arc::ptr_eq(&first, &take_pool(&mut pools, 2, 2).unwrap()));
-    }
 
     #[test]
     fn a_batch_literal_with_bad_columns_is_an_error() {

@@ -27,13 +27,16 @@ pub fn to_pyerr(py: Python<'_>, err: &Error) -> PyErr {
     }
 }
 
-/// Run `f` with the GIL released; map its error, and any panic, to a `uavsnn` exception.
+/// Run `f` with the GIL released, its parallel work on threads this process has (in a forked
+/// child too: [`crate::threads::in_live_pool`]); map its error, and any panic, to a `uavsnn`
+/// exception.
 pub fn detach<T, F>(py: Python<'_>, f: F) -> PyResult<T>
 where
     T: Send,
     F: FnOnce() -> crate::Result<T> + Send,
 {
-    let outcome = py.detach(|| catch_unwind(AssertUnwindSafe(f)));
+    let run = || crate::threads::in_live_pool(f).and_then(|result| result);
+    let outcome = py.detach(|| catch_unwind(AssertUnwindSafe(run)));
     match outcome {
         Ok(Ok(value)) => Ok(value),
         Ok(Err(err)) => Err(to_pyerr(py, &err)),

@@ -29,6 +29,9 @@ fn _panic_for_test(py: Python<'_>) -> PyResult<()> {
 #[pyo3(name = "_core")]
 fn core_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    // Before any work: the process whose rayon pool the engine may use, and that pool's size.
+    crate::threads::note_process();
+    crate::threads::cap_global_threads();
     events::register(m)?;
     windows::register(m)?;
     network::register(m)?;

@@ -119,20 +119,26 @@ fn detection_columns<'py>(
     )
 }
 
-fn slice<'a, T: numpy::Element>(
-    a: &'a PyReadonlyArray1<'_, T>,
+/// The engine's own copy of a contiguous 1-D array (a typed error naming it otherwise). The
+/// engine checks its input once and then trusts it while the GIL is released (or while a
+/// training callback runs), so it must read memory no Python thread can change meanwhile: a
+/// borrowed slice of the caller's array, rewritten by another thread, sent coordinates checked
+/// as in range out of it. The copy costs a few bytes a spike against the network's work.
+fn owned<T: numpy::Element + Copy>(
+    a: &PyReadonlyArray1<'_, T>,
     name: &'static str,
-) -> PyResult<&'a [T]> {
-    a.as_slice().map_err(|_| {
-        super::errors::to_pyerr(
+) -> PyResult<Vec<T>> {
+    match a.as_slice() {
+        Ok(s) => Ok(s.to_vec()),
+        Err(_) => Err(super::errors::to_pyerr(
             a.py(),
             &Error::Shape {
                 name,
                 expected: "a contiguous 1-D array".into(),
                 got: "a strided view".into(),
             },
-        )
-    })
+        )),
+    }
 }
 
 fn parse_layer(py: Python<'_>, layer: &str) -> PyResult<ConvLayer> {
@@ -151,39 +157,39 @@ pub struct NetworkCore {
     net: Network,
 }
 
-/// The columns of a `uavsnn.windows.Windows`, borrowed as slices.
-struct BatchArgs<'a> {
+/// The columns of a `uavsnn.windows.Windows`, copied (see [`owned`]).
+struct BatchArgs {
     sensor: (usize, usize),
     length_us: u64,
-    t0: &'a [u64],
-    offsets: &'a [i64],
-    t: &'a [u64],
-    x: &'a [u16],
-    y: &'a [u16],
-    n_preceding: &'a [i64],
+    t0: Vec<u64>,
+    offsets: Vec<i64>,
+    t: Vec<u64>,
+    x: Vec<u16>,
+    y: Vec<u16>,
+    n_preceding: Vec<i64>,
 }
 
-impl<'a> BatchArgs<'a> {
-    /// The columns as slices: each must be contiguous (a typed error naming it otherwise).
+impl BatchArgs {
+    /// The columns, copied: each must be contiguous (a typed error naming it otherwise).
     fn new(
         sensor: (usize, usize),
         length_us: u64,
-        t0: &'a PyReadonlyArray1<'_, u64>,
-        offsets: &'a PyReadonlyArray1<'_, i64>,
-        t: &'a PyReadonlyArray1<'_, u64>,
-        x: &'a PyReadonlyArray1<'_, u16>,
-        y: &'a PyReadonlyArray1<'_, u16>,
-        n_preceding: &'a PyReadonlyArray1<'_, i64>,
+        t0: &PyReadonlyArray1<'_, u64>,
+        offsets: &PyReadonlyArray1<'_, i64>,
+        t: &PyReadonlyArray1<'_, u64>,
+        x: &PyReadonlyArray1<'_, u16>,
+        y: &PyReadonlyArray1<'_, u16>,
+        n_preceding: &PyReadonlyArray1<'_, i64>,
     ) -> PyResult<Self> {
         Ok(Self {
             sensor,
             length_us,
-            t0: slice(t0, "t0")?,
-            offsets: slice(offsets, "offsets")?,
-            t: slice(t, "t")?,
-            x: slice(x, "x")?,
-            y: slice(y, "y")?,
-            n_preceding: slice(n_preceding, "n_preceding")?,
+            t0: owned(t0, "t0")?,
+            offsets: owned(offsets, "offsets")?,
+            t: owned(t, "t")?,
+            x: owned(x, "x")?,
+            y: owned(y, "y")?,
+            n_preceding: owned(n_preceding, "n_preceding")?,
         })
     }
 
@@ -193,10 +199,10 @@ impl<'a> BatchArgs<'a> {
         WindowBatch::new(
             self.sensor,
             self.length_us,
-            self.t0,
-            self.offsets,
-            Spikes::new(self.t, self.x, self.y)?,
-            self.n_preceding,
+            &self.t0,
+            &self.offsets,
+            Spikes::new(&self.t, &self.x, &self.y)?,
+            &self.n_preceding,
         )
     }
 }
@@ -302,12 +308,12 @@ impl NetworkCore {
         n_in: Option<u64>,
     ) -> PyResult<PackedTrace<'py>> {
         let py = slf.py();
-        let (ts, xs, ys) = (slice(&t, "t")?, slice(&x, "x")?, slice(&y, "y")?);
+        let (ts, xs, ys) = (owned(&t, "t")?, owned(&x, "x")?, owned(&y, "y")?);
         let this = Self::read(slf)?;
         let net = &this.net;
         let (spikes, counts, thresholds, detections) = detach(py, || {
             net.with_state(|state| {
-                net.run_window(state, Spikes::new(ts, xs, ys)?, t0, n_in, true)?;
+                net.run_window(state, Spikes::new(&ts, &xs, &ys)?, t0, n_in, true)?;
                 // Every layer's spikes as records of SPIKE_DTYPE, one buffer for all.
                 let total: usize = Layer::ALL.iter().map(|&l| state.spikes(l).len()).sum();
                 let mut packed = Vec::with_capacity(total * SPIKE_RECORD);
@@ -351,7 +357,7 @@ impl NetworkCore {
     ) -> PyResult<SpikeColumns<'py>> {
         let py = slf.py();
         let layer = parse_layer(py, layer)?;
-        let (ts, xs, ys) = (slice(&t, "t")?, slice(&x, "x")?, slice(&y, "y")?);
+        let (ts, xs, ys) = (owned(&t, "t")?, owned(&x, "x")?, owned(&y, "y")?);
         let mut this = Self::write(slf)?;
         let initial = Rates::initial(&this.net.config().stdp);
         let rates = Rates {
@@ -367,8 +373,14 @@ impl NetworkCore {
         let net = &mut this.net;
         let winners = detach(py, || {
             let mut state = net.take_state();
-            let winners =
-                net.stdp_step(&mut state, layer, Spikes::new(ts, xs, ys)?, t0, n_in, rates);
+            let winners = net.stdp_step(
+                &mut state,
+                layer,
+                Spikes::new(&ts, &xs, &ys)?,
+                t0,
+                n_in,
+                rates,
+            );
             net.put_state(state);
             winners
         })?;

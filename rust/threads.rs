@@ -1,0 +1,154 @@
+//! The engine's worker threads: rayon's global pool, pools of a chosen size, and `fork`.
+//!
+//! A forked process (Python's `multiprocessing` and `concurrent.futures.ProcessPoolExecutor`
+//! with the `fork` start method, Linux's default before Python 3.14, or `os.fork`) holds a
+//! copy of its parent's rayon pools but none of their threads: parallel work handed to them
+//! there waits forever. [`in_live_pool`] therefore runs work directly only in the process the
+//! engine first ran in ([`note_process`]); in any other it runs it on a pool started in that
+//! process, so the parent's pools are never used. The parent's pools are forgotten there, not
+//! dropped: dropping one would signal threads that do not exist, under locks the fork may have
+//! copied while held.
+
+use std::mem;
+use std::num::NonZeroUsize;
+use std::sync::{Arc, Mutex, OnceLock};
+
+use crate::error::{Error, Result};
+
+/// The most worker threads a pool may have: more than any machine this runs on has cores,
+/// few enough that starting them stays cheap (a count of thousands took seconds to start).
+pub const MAX_THREADS: usize = 256;
+
+/// Worker pools kept between calls; asking for another count drops the least recently used.
+const KEPT_POOLS: usize = 2;
+
+/// The pools of a chosen size, with the process they were started in.
+struct Kept {
+    pid: u32,
+    /// Least recently used first.
+    pools: Vec<(usize, Arc<rayon::ThreadPool>)>,
+}
+
+static KEPT: Mutex<Kept> = Mutex::new(Kept {
+    pid: 0,
+    pools: Vec::new(),
+});
+
+/// The process the engine first ran in (set by [`note_process`] or the first
+/// [`in_live_pool`]).
+static FIRST_PROCESS: OnceLock<u32> = OnceLock::new();
+
+/// Note the current process as the one whose rayon global pool [`in_live_pool`] may use. The
+/// Python binding calls it when the module loads, before any work; a later call changes
+/// nothing.
+pub fn note_process() {
+    FIRST_PROCESS.get_or_init(std::process::id);
+}
+
+/// Run `f`, whose parallel work runs on the pool it is called in, where that work has live
+/// threads: on rayon's global pool in the process the engine first ran in; in a forked child,
+/// on a pool of this process (one worker per core, at most [`MAX_THREADS`]).
+///
+/// # Errors
+///
+/// [`Error::Internal`] when a forked child cannot start its pool.
+pub fn in_live_pool<T: Send>(f: impl FnOnce() -> T + Send) -> Result<T> {
+    let pid = std::process::id();
+    if *FIRST_PROCESS.get_or_init(|| pid) == pid {
+        return Ok(f());
+    }
+    let cores = std::thread::available_parallelism().map_or(1, NonZeroUsize::get);
+    Ok(pool(cores.min(MAX_THREADS))?.install(f))
+}
+
+/// A rayon pool of `n` workers of this process, started on first use and kept for later calls
+/// (starting threads costs more than a small batch). At most two are kept, the most
+/// recently used: a pool dropped here ends its threads once the calls running on it return.
+///
+/// # Errors
+///
+/// [`Error::Internal`] when the pools' lock is poisoned or the threads cannot start.
+pub fn pool(n: usize) -> Result<Arc<rayon::ThreadPool>> {
+    let mut kept = KEPT
+        .lock()
+        .map_err(|_| Error::Internal("thread pools poisoned".into()))?;
+    let pid = std::process::id();
+    if kept.pid != pid {
+        // Pools of a parent process (this one is a forked child): their threads are not here.
+        mem::forget(mem::take(&mut kept.pools));
+        kept.pid = pid;
+    }
+    take_pool(&mut kept.pools, n, KEPT_POOLS)
+}
+
+/// The pool of `n` workers in `pools` (most recently used last), started if missing, keeping
+/// at most `keep` pools.
+fn take_pool(
+    pools: &mut Vec<(usize, Arc<rayon::ThreadPool>)>,
+    n: usize,
+    keep: usize,
+) -> Result<Arc<rayon::ThreadPool>> {
+    if let Some(i) = pools.iter().position(|(m, _)| *m == n) {
+        let entry = pools.remove(i);
+        let p = Arc::clone(&entry.1);
+        pools.push(entry);
+        return Ok(p);
+    }
+    let p = Arc::new(
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build()
+            .map_err(|e| Error::Internal(format!("cannot start {n} threads: {e}")))?,
+    );
+    if pools.len() >= keep {
+        pools.remove(0);
+    }
+    pools.push((n, Arc::clone(&p)));
+    Ok(p)
+}
+
+/// Size rayon's global pool at [`MAX_THREADS`] when the environment asks for more
+/// (`RAYON_NUM_THREADS`, read by rayon as a whole number): 2,000 threads took seconds to start
+/// for a call of milliseconds, and 100,000 failed to start, after which every parallel call
+/// panicked. Any other value is left to rayon (0, or a value that is not a number: one worker
+/// per core). Returns whether it capped the pool; does nothing once the global pool is built.
+pub fn cap_global_threads() -> bool {
+    let asked = std::env::var("RAYON_NUM_THREADS")
+        .ok()
+        .and_then(|v| v.parse::<usize>().ok());
+    asked.is_some_and(|n| n > MAX_THREADS)
+        && rayon::ThreadPoolBuilder::new()
+            .num_threads(MAX_THREADS)
+            .build_global()
+            .is_ok()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pools_are_reused_and_bounded() {
+        let mut pools = Vec::new();
+        let first = take_pool(&mut pools, 2, 2).unwrap();
+        assert!(Arc::ptr_eq(&first, &take_pool(&mut pools, 2, 2).unwrap()));
+        for n in [3, 2, 4, 5, 6, 5] {
+            let p = take_pool(&mut pools, n, 2).unwrap();
+            assert_eq!(p.current_num_threads(), n);
+            assert!(pools.len() <= 2);
+            assert_eq!(pools.last().map(|e| e.0), Some(n));
+        }
+        let kept: Vec<usize> = pools.iter().map(|e| e.0).collect();
+        assert_eq!(kept, [6, 5]);
+        // The pool of 2 was dropped from the list: asking again starts another.
+        assert!(!Arc::ptr_eq(&first, &take_pool(&mut pools, 2, 2).unwrap()));
+    }
+
+    #[test]
+    fn work_runs_directly_in_the_first_process() {
+        note_process();
+        // Not on a pool of this module: the caller's thread, outside any pool.
+        let on = in_live_pool(rayon::current_thread_index).unwrap();
+        assert_eq!(on, None);
+    }
+}

@@ -1,0 +1,130 @@
+"""The package in a program's lifecycle: arrays changed by another thread during an engine
+call, engine calls in a forked child, and the size of rayon's pool from the environment. Each
+case runs in a fresh interpreter under a timeout, so that a crash or a hang fails the test
+rather than the suite."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+EVENTS = """
+import numpy as np
+import uavsnn
+from uavsnn.network import Network
+from uavsnn.windows import make_windows
+
+
+def events(n, seed):
+    # A blob crossing the sensor over noise: conv1 fires in every window.
+    r = np.random.default_rng(seed)
+    e = np.zeros(n, uavsnn.EVENT_DTYPE)
+    e["t"] = np.sort(r.integers(0, 1_000_000, n))
+    k = r.random(n) < 0.7
+    e["x"] = np.where(k, (40 + e["t"] // 10_000 + r.integers(0, 8, n)) % 240, r.integers(0, 240, n))
+    e["y"] = np.where(k, 90 + r.integers(0, 8, n), r.integers(0, 180, n))
+    e["p"] = r.random(n) < 0.5
+    return uavsnn.Recording(e, (240, 180))
+
+
+def job(seed, threads=None):
+    # More than 250,000 events: make_windows works on rayon's global pool.
+    w = make_windows(events(300_000, seed), 50_000)
+    out = Network().infer(w, threads=threads)
+    return len(w), out.counts.sum(axis=0).tolist()
+"""
+
+
+def run(code: str, timeout: float = 180, **env: str) -> subprocess.CompletedProcess[str]:
+    """``code`` after :data:`EVENTS` in a fresh interpreter of its own process group, killed
+    whole (forked children included) when it runs past ``timeout`` seconds."""
+    script = textwrap.dedent(EVENTS) + textwrap.dedent(code)
+    with subprocess.Popen(
+        [sys.executable, "-c", script],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env={**os.environ, **env},
+        start_new_session=True,
+    ) as proc:
+        try:
+            out, err = proc.communicate(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.communicate()
+            pytest.fail(f"still running after {timeout} s (a hang)")
+    return subprocess.CompletedProcess(proc.args, proc.returncode, out, err)
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="os.fork is a POSIX call")
+def test_the_engine_works_in_a_forked_child_after_the_parent_used_its_pools() -> None:
+    # The parent's rayon pools (global, and one of 2 workers) are copied into a forked child
+    # without their threads: work handed to them there waited forever.
+    out = run(
+        """
+        import multiprocessing as mp
+        parent = [job(1), job(2, threads=2)]
+        assert parent[0][1][0] > 0, parent  # conv1 fired
+        with mp.get_context("fork").Pool(2) as p:
+            children = p.starmap(job, [(1,), (2, 2)])
+        assert children == parent, (children, parent)
+        print("ok")
+        """
+    )
+    assert out.returncode == 0 and out.stdout.strip() == "ok", out.stderr[-2000:]
+
+
+def test_arrays_rewritten_by_another_thread_during_a_call_cannot_crash_the_engine() -> None:
+    # The engine checks a window's coordinates once and trusts them; it reads them without the
+    # GIL. A thread rewriting the caller's arrays meanwhile made checked coordinates out of
+    # range (a segmentation fault): the engine reads its own copy now.
+    out = run(
+        """
+        import threading, time
+        net = Network()
+        n = 4000
+        r = np.random.default_rng(0)
+        t = np.sort(r.integers(0, 50_000, n)).astype(np.uint64)
+        good_x = r.integers(0, 240, n).astype(np.uint16)
+        good_y = r.integers(0, 180, n).astype(np.uint16)
+        x, y = good_x.copy(), good_y.copy()
+        stop = time.monotonic() + 3
+        def rewrite():
+            while time.monotonic() < stop:
+                x[:] = 65535; y[:] = 65535; x[:] = good_x; y[:] = good_y
+        writer = threading.Thread(target=rewrite)
+        writer.start()
+        refused = ran = 0
+        while time.monotonic() < stop:
+            try:
+                net.run_window(t, x, y, 0)
+                ran += 1
+            except uavsnn.EventError:
+                refused += 1  # seen out of the sensor when copied: a typed refusal
+        writer.join()
+        print("ok", ran + refused > 0)
+        """
+    )
+    assert out.returncode == 0 and out.stdout.strip() == "ok True", (out.returncode, out.stderr)
+
+
+@pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="counts threads in /proc")
+def test_rayon_num_threads_beyond_the_cap_is_capped() -> None:
+    # RAYON_NUM_THREADS=100000 failed to start the pool and every parallel call then raised
+    # an internal error; 2000 started 2000 threads for a call of milliseconds.
+    out = run(
+        """
+        import os
+        from uavsnn.network import MAX_THREADS
+        assert job(3)[0] == 20
+        print(len(os.listdir("/proc/self/task")) <= MAX_THREADS + 32)
+        """,
+        RAYON_NUM_THREADS="100000",
+    )
+    assert out.returncode == 0 and out.stdout.strip() == "True", out.stderr[-2000:]
