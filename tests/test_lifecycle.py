@@ -10,9 +10,15 @@ import signal
 import subprocess
 import sys
 import textwrap
+import threading
+from collections.abc import Callable
 from pathlib import Path
 
+import numpy as np
 import pytest
+
+from uavsnn import Detector, Network, RotorSignature, StreamError
+from uavsnn.events import EVENT_DTYPE
 
 EVENTS = """
 import numpy as np
@@ -128,3 +134,39 @@ def test_rayon_num_threads_beyond_the_cap_is_capped() -> None:
         RAYON_NUM_THREADS="100000",
     )
     assert out.returncode == 0 and out.stdout.strip() == "True", out.stderr[-2000:]
+
+
+def _collisions(call: Callable[[], object], read: Callable[[], object]) -> list[type]:
+    """The exception types ``read`` raised while ``call`` ran on another thread."""
+    seen: list[type] = []
+    worker = threading.Thread(target=call)
+    worker.start()
+    while worker.is_alive():
+        try:
+            read()
+        except Exception as exc:
+            seen.append(type(exc))
+    worker.join()
+    return seen
+
+
+def _blob(n: int) -> np.ndarray:
+    r = np.random.default_rng(5)
+    e = np.zeros(n, dtype=EVENT_DTYPE)
+    e["t"] = np.sort(r.integers(0, 20_000_000, n))
+    e["x"] = r.integers(0, 240, n)
+    e["y"] = r.integers(0, 180, n)
+    return e
+
+
+def test_a_call_while_another_thread_holds_the_object_is_a_typed_error() -> None:
+    # push and update let the GIL go holding their object; a monitoring thread reading it
+    # meanwhile got pyo3's untyped RuntimeError("Already mutably borrowed").
+    events = _blob(3_000_000)
+    det = Detector(Network(), window_us=50_000)
+    seen = _collisions(lambda: det.push(events), lambda: det.events_seen)
+    assert seen and set(seen) == {StreamError}, seen
+    assert det.events_seen == len(events)  # the push went through
+    est = RotorSignature((0, 0, 240, 180))
+    seen = _collisions(lambda: est.update(events), lambda: est.stats)
+    assert seen and set(seen) == {StreamError}, seen

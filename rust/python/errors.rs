@@ -4,6 +4,7 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
+use pyo3::PyClass;
 
 use crate::error::Error;
 
@@ -55,4 +56,33 @@ where
 #[allow(dead_code)] // used by the area wrappers as they land
 pub fn map<T>(py: Python<'_>, r: crate::Result<T>) -> PyResult<T> {
     r.map_err(|e| to_pyerr(py, &e))
+}
+
+/// The error of a call on an object whose other call, on another thread, holds it (such calls
+/// let the GIL go while they run): a `StreamError` naming the object (`what`: "the network")
+/// and what to do (`instead`), not pyo3's untyped `RuntimeError("Already borrowed")`.
+fn in_use(py: Python<'_>, (what, instead): InUse) -> PyErr {
+    to_pyerr(
+        py,
+        &Error::Stream(format!(
+            "{what} is in use by another thread (one of its calls is running); wait for it to \
+             return, or {instead}"
+        )),
+    )
+}
+
+/// How a class names itself and its remedy in [`in_use`]'s error.
+pub type InUse = (&'static str, &'static str);
+
+/// `slf` borrowed to read, or a `StreamError` when another thread's call is changing it.
+pub fn read<'py, T: PyClass>(slf: &Bound<'py, T>, names: InUse) -> PyResult<PyRef<'py, T>> {
+    slf.try_borrow().map_err(|_| in_use(slf.py(), names))
+}
+
+/// `slf` borrowed to change, or a `StreamError` when another thread's call holds it.
+pub fn write<'py, T>(slf: &Bound<'py, T>, names: InUse) -> PyResult<PyRefMut<'py, T>>
+where
+    T: PyClass<Frozen = pyo3::pyclass::boolean_struct::False>,
+{
+    slf.try_borrow_mut().map_err(|_| in_use(slf.py(), names))
 }

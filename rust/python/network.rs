@@ -9,7 +9,7 @@ use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1, PyReadonlyArray4};
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
 
-use super::errors::{detach, map};
+use super::errors::{detach, map, InUse};
 use crate::error::Error;
 use crate::network::{
     check_sensor, infer, training_order, ConvLayer, Detection, Layer, Network, NetworkConfig,
@@ -60,19 +60,6 @@ pub(super) fn pack_detection(out: &mut Vec<u8>, d: &Detection) {
     for v in [d.x0, d.y0, d.x1, d.y1] {
         out.extend_from_slice(&v.to_le_bytes());
     }
-}
-
-/// The error of a call on a network that another thread is using (`infer` running without
-/// the GIL while `train_layer` needs to write the weights, or the other way round).
-fn in_use(py: Python<'_>) -> PyErr {
-    super::errors::to_pyerr(
-        py,
-        &Error::Stream(
-            "the network is in use by another thread (a call such as infer or train_layer is \
-             running on it); wait for it to return, or use a copy() per thread"
-                .into(),
-        ),
-    )
 }
 
 fn spike_columns<'py>(py: Python<'py>, spikes: &[Spike]) -> SpikeColumns<'py> {
@@ -214,12 +201,14 @@ type LayerShape = (usize, usize, usize);
 /// it (`infer` and `run_window` read it without the GIL, `train_layer` and `stdp_step` write
 /// it) is a `StreamError` (`in_use`), not pyo3's untyped `RuntimeError("Already borrowed")`.
 impl NetworkCore {
+    const IN_USE: InUse = ("the network", "use a copy() per thread");
+
     fn read<'py>(slf: &Bound<'py, Self>) -> PyResult<PyRef<'py, Self>> {
-        slf.try_borrow().map_err(|_| in_use(slf.py()))
+        super::errors::read(slf, Self::IN_USE)
     }
 
     fn write<'py>(slf: &Bound<'py, Self>) -> PyResult<PyRefMut<'py, Self>> {
-        slf.try_borrow_mut().map_err(|_| in_use(slf.py()))
+        super::errors::write(slf, Self::IN_USE)
     }
 }
 

@@ -7,7 +7,7 @@ use numpy::PyReadonlyArray1;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use super::errors::detach;
+use super::errors::{detach, read, write, InUse};
 use crate::error::{Error, Result};
 use crate::events::PackedEvents;
 use crate::signature::spectrum::{RotorSpectrum, SpectrumConfig};
@@ -41,9 +41,11 @@ macro_rules! estimator_methods {
             $($own)*
 
             /// Feed packed canonical event records (a `uint8` view of the canonical dtype).
-            fn update(&mut self, py: Python<'_>, events: PyReadonlyArray1<'_, u8>) -> PyResult<()> {
+            fn update(slf: &Bound<'_, Self>, events: PyReadonlyArray1<'_, u8>) -> PyResult<()> {
+                let py = slf.py();
+                let mut this = write(slf, Self::IN_USE)?;
                 let raw = events.as_slice()?;
-                let inner = &mut self.inner;
+                let inner = &mut this.inner;
                 detach(py, || {
                     let packed = PackedEvents::new(raw)?;
                     inner.extend(&packed);
@@ -52,8 +54,10 @@ macro_rules! estimator_methods {
             }
 
             /// Forget every event.
-            fn clear(&mut self, py: Python<'_>) -> PyResult<()> {
-                let inner = &mut self.inner;
+            fn clear(slf: &Bound<'_, Self>) -> PyResult<()> {
+                let py = slf.py();
+                let mut this = write(slf, Self::IN_USE)?;
+                let inner = &mut this.inner;
                 detach(py, || {
                     inner.clear();
                     Ok(())
@@ -62,14 +66,16 @@ macro_rules! estimator_methods {
 
             /// `(x0, y0, width, height)`.
             #[getter]
-            fn r#box(&self) -> (u16, u16, u16, u16) {
-                let r = self.inner.region();
-                (r.x0, r.y0, r.width, r.height)
+            fn r#box(slf: &Bound<'_, Self>) -> PyResult<(u16, u16, u16, u16)> {
+                let this = read(slf, Self::IN_USE)?;
+                let r = this.inner.region();
+                Ok((r.x0, r.y0, r.width, r.height))
             }
 
             #[getter]
-            fn state_bytes(&self) -> usize {
-                self.inner.state_bytes()
+            fn state_bytes(slf: &Bound<'_, Self>) -> PyResult<usize> {
+                let this = read(slf, Self::IN_USE)?;
+                Ok(this.inner.state_bytes())
             }
         }
     };
@@ -101,6 +107,11 @@ fn rate_swing(counts: Vec<u32>) -> f64 {
 #[pyclass(name = "RotorSignature", module = "uavsnn._core")]
 struct PyRotorSignature {
     inner: RotorSignature,
+}
+
+/// Every call borrows the estimator by hand (see [`read`]): `update` lets the GIL go holding it.
+impl PyRotorSignature {
+    const IN_USE: InUse = ("the estimator", "give each thread its own estimator");
 }
 
 estimator_methods!(PyRotorSignature {
@@ -137,8 +148,10 @@ estimator_methods!(PyRotorSignature {
     }
 
     /// The estimate from everything fed so far.
-    fn estimate(&self, py: Python<'_>) -> PyResult<EstimateTuple> {
-        let inner = &self.inner;
+    fn estimate(slf: &Bound<'_, Self>) -> PyResult<EstimateTuple> {
+        let py = slf.py();
+        let this = read(slf, Self::IN_USE)?;
+        let inner = &this.inner;
         detach(py, || {
             let s = inner.estimate();
             Ok((
@@ -155,14 +168,17 @@ estimator_methods!(PyRotorSignature {
 
     /// `(events, outside, late, on)` since construction or the last clear.
     #[getter]
-    fn stats(&self) -> (u64, u64, u64, u64) {
-        let s = self.inner.stats();
-        (s.events, s.outside, s.late, s.on)
+    fn stats(slf: &Bound<'_, Self>) -> PyResult<(u64, u64, u64, u64)> {
+        let this = read(slf, Self::IN_USE)?;
+        let s = this.inner.stats();
+        Ok((s.events, s.outside, s.late, s.on))
     }
 
     /// Count the box's events in `bins` bins of `bin_us` from `start_us` from now on.
-    fn count_rate(&mut self, py: Python<'_>, start_us: i64, bin_us: i64, bins: i64) -> PyResult<()> {
-        let inner = &mut self.inner;
+    fn count_rate(slf: &Bound<'_, Self>, start_us: i64, bin_us: i64, bins: i64) -> PyResult<()> {
+        let py = slf.py();
+        let mut this = write(slf, Self::IN_USE)?;
+        let inner = &mut this.inner;
         detach(py, || {
             let start_us = convert::<u64>("start_us", start_us, "0..=2**63-1")?;
             let bin_us = convert::<u64>("bin_us", bin_us, "1..=2**63-1")?;
@@ -173,14 +189,16 @@ estimator_methods!(PyRotorSignature {
 
     /// The box's events per rate bin (empty when the rate is not counted).
     #[getter]
-    fn rate(&self) -> Vec<u32> {
-        self.inner.rate()
+    fn rate(slf: &Bound<'_, Self>) -> PyResult<Vec<u32>> {
+        let this = read(slf, Self::IN_USE)?;
+        Ok(this.inner.rate())
     }
 
     /// The swing of those bins (`rate_swing`).
     #[getter]
-    fn rate_swing(&self) -> f64 {
-        self.inner.rate_swing()
+    fn rate_swing(slf: &Bound<'_, Self>) -> PyResult<f64> {
+        let this = read(slf, Self::IN_USE)?;
+        Ok(this.inner.rate_swing())
     }
 });
 
@@ -212,6 +230,11 @@ fn spectrum_defaults(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
 #[pyclass(name = "RotorSpectrum", module = "uavsnn._core")]
 struct PyRotorSpectrum {
     inner: RotorSpectrum,
+}
+
+/// Every call borrows the estimator by hand (see [`read`]): `update` lets the GIL go holding it.
+impl PyRotorSpectrum {
+    const IN_USE: InUse = ("the estimator", "give each thread its own estimator");
 }
 
 estimator_methods!(PyRotorSpectrum {
@@ -252,8 +275,10 @@ estimator_methods!(PyRotorSpectrum {
     }
 
     /// The estimate from everything fed so far.
-    fn estimate(&self, py: Python<'_>) -> PyResult<SpectrumTuple> {
-        let inner = &self.inner;
+    fn estimate(slf: &Bound<'_, Self>) -> PyResult<SpectrumTuple> {
+        let py = slf.py();
+        let this = read(slf, Self::IN_USE)?;
+        let inner = &this.inner;
         detach(py, || {
             let s = inner.estimate();
             Ok((
@@ -268,16 +293,19 @@ estimator_methods!(PyRotorSpectrum {
     }
 
     /// `(grid_hz, power)`: the summed power spectrum.
-    fn power(&self, py: Python<'_>) -> PyResult<(Vec<f64>, Vec<f64>)> {
-        let inner = &self.inner;
+    fn power(slf: &Bound<'_, Self>) -> PyResult<(Vec<f64>, Vec<f64>)> {
+        let py = slf.py();
+        let this = read(slf, Self::IN_USE)?;
+        let inner = &this.inner;
         detach(py, || Ok((inner.grid().to_vec(), inner.power())))
     }
 
     /// `(events, outside, late, beyond)` since construction or the last clear.
     #[getter]
-    fn stats(&self) -> (u64, u64, u64, u64) {
-        let s = self.inner.stats();
-        (s.events, s.outside, s.late, s.beyond)
+    fn stats(slf: &Bound<'_, Self>) -> PyResult<(u64, u64, u64, u64)> {
+        let this = read(slf, Self::IN_USE)?;
+        let s = this.inner.stats();
+        Ok((s.events, s.outside, s.late, s.beyond))
     }
 });
 

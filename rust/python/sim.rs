@@ -7,7 +7,7 @@ use numpy::{
 };
 use pyo3::prelude::*;
 
-use super::errors::{detach, map};
+use super::errors::{detach, map, read, write, InUse};
 use crate::error::{Error, Result};
 use crate::events::{Event, PACKED_EVENT_SIZE};
 use crate::sim::{
@@ -152,35 +152,35 @@ macro_rules! frame_kernel_methods {
 
             /// Feed `(n, h, w)` uint8 gray frames; returns packed events.
             fn push_gray<'py>(
-                &mut self,
-                py: Python<'py>,
+                slf: &Bound<'py, Self>,
                 frames: PyReadonlyArray3<'_, u8>,
                 timestamps_us: PyReadonlyArray1<'_, u64>,
             ) -> PyResult<Bound<'py, PyArray1<u8>>> {
                 let batch = Batch::Gray(frames.as_array());
-                run_batch(py, &mut self.inner, &batch, &timestamps_us)
+                let mut this = write(slf, Self::IN_USE)?;
+                run_batch(slf.py(), &mut this.inner, &batch, &timestamps_us)
             }
 
             /// Feed `(n, h, w, 3)` uint8 BGR frames; returns packed events.
             fn push_bgr<'py>(
-                &mut self,
-                py: Python<'py>,
+                slf: &Bound<'py, Self>,
                 frames: PyReadonlyArray4<'_, u8>,
                 timestamps_us: PyReadonlyArray1<'_, u64>,
             ) -> PyResult<Bound<'py, PyArray1<u8>>> {
                 let batch = Batch::Bgr(frames.as_array());
-                run_batch(py, &mut self.inner, &batch, &timestamps_us)
+                let mut this = write(slf, Self::IN_USE)?;
+                run_batch(slf.py(), &mut this.inner, &batch, &timestamps_us)
             }
 
             /// Feed `(n, h, w)` float32 gray frames (0–255 scale); returns packed events.
             fn push_float<'py>(
-                &mut self,
-                py: Python<'py>,
+                slf: &Bound<'py, Self>,
                 frames: PyReadonlyArray3<'_, f32>,
                 timestamps_us: PyReadonlyArray1<'_, u64>,
             ) -> PyResult<Bound<'py, PyArray1<u8>>> {
                 let batch = Batch::Float(frames.as_array());
-                run_batch(py, &mut self.inner, &batch, &timestamps_us)
+                let mut this = write(slf, Self::IN_USE)?;
+                run_batch(slf.py(), &mut this.inner, &batch, &timestamps_us)
             }
         }
     };
@@ -190,6 +190,12 @@ macro_rules! frame_kernel_methods {
 #[pyclass(module = "uavsnn._core")]
 pub struct Pix2NvsKernel {
     inner: Pix2Nvs,
+}
+
+/// Every call borrows the simulator by hand (see [`read`]): a batch of frames lets the GIL go
+/// holding it.
+impl Pix2NvsKernel {
+    const IN_USE: InUse = ("the simulator", "give each video its own simulator");
 }
 
 frame_kernel_methods! {
@@ -240,14 +246,14 @@ impl Pix2NvsKernel {
 
     /// `(width, height)` of the events written.
     #[getter]
-    fn output_size(&self) -> (usize, usize) {
-        self.inner.output_size()
+    fn output_size(slf: &Bound<'_, Self>) -> PyResult<(usize, usize)> {
+        Ok(read(slf, Self::IN_USE)?.inner.output_size())
     }
 
     /// Frames consumed so far.
     #[getter]
-    fn frames_seen(&self) -> usize {
-        self.inner.frames_seen()
+    fn frames_seen(slf: &Bound<'_, Self>) -> PyResult<usize> {
+        Ok(read(slf, Self::IN_USE)?.inner.frames_seen())
     }
 }
 }
@@ -256,6 +262,12 @@ impl Pix2NvsKernel {
 #[pyclass(module = "uavsnn._core")]
 pub struct DvsKernel {
     inner: DvsEmulator,
+}
+
+/// Every call borrows the emulator by hand (see [`read`]): a batch of frames lets the GIL go
+/// holding it.
+impl DvsKernel {
+    const IN_USE: InUse = ("the emulator", "give each video its own emulator");
 }
 
 frame_kernel_methods! {
@@ -305,19 +317,19 @@ impl DvsKernel {
 
     /// `(width, height)` of the sensor.
     #[getter]
-    fn size(&self) -> (usize, usize) {
-        self.inner.size()
+    fn size(slf: &Bound<'_, Self>) -> PyResult<(usize, usize)> {
+        Ok(read(slf, Self::IN_USE)?.inner.size())
     }
 
     /// Frames consumed so far.
     #[getter]
-    fn frames_seen(&self) -> usize {
-        self.inner.frames_seen()
+    fn frames_seen(slf: &Bound<'_, Self>) -> PyResult<usize> {
+        Ok(read(slf, Self::IN_USE)?.inner.frames_seen())
     }
 
     /// Row-major indices of the hot pixels.
-    fn hot_pixels(&self) -> Vec<usize> {
-        self.inner.hot_pixels()
+    fn hot_pixels(slf: &Bound<'_, Self>) -> PyResult<Vec<usize>> {
+        Ok(read(slf, Self::IN_USE)?.inner.hot_pixels())
     }
 
     /// Feed one `(h, w)` float32 gray frame at `t_us` with sub-frame samples: `patches` is a
@@ -325,8 +337,7 @@ impl DvsKernel {
     /// of the patch at those times (strictly between the previous frame and this one).
     /// Returns packed events.
     fn push_float_samples<'py>(
-        &mut self,
-        py: Python<'py>,
+        slf: &Bound<'py, Self>,
         frame: PyReadonlyArray2<'_, f32>,
         t_us: u64,
         patches: Vec<(
@@ -336,6 +347,7 @@ impl DvsKernel {
             PyReadonlyArray3<'_, f32>,
         )>,
     ) -> PyResult<Bound<'py, PyArray1<u8>>> {
+        let py = slf.py();
         let frame = frame.as_array();
         let mut subs = Vec::with_capacity(patches.len());
         for (x0, y0, times, values) in &patches {
@@ -358,7 +370,8 @@ impl DvsKernel {
                 values: values.as_slice()?,
             });
         }
-        let inner = &mut self.inner;
+        let mut this = write(slf, Self::IN_USE)?;
+        let inner = &mut this.inner;
         let bytes = detach(py, || {
             let mut events = Vec::new();
             inner.push_with_samples(&Frame::GrayF32(frame), t_us, &subs, &mut events)?;

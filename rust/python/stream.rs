@@ -8,7 +8,7 @@
 use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1};
 use pyo3::prelude::*;
 
-use super::errors::{detach, map};
+use super::errors::{detach, map, read, write, InUse};
 use super::network::pack_detection;
 use crate::events::{Event, PackedEvents, SensorSize, PACKED_EVENT_SIZE};
 use crate::network::{Network, NetworkConfig};
@@ -32,6 +32,12 @@ fn pack_detections(found: &[StreamDetection]) -> Vec<u8> {
 struct PyStreamDetector {
     inner: NetworkDetector,
     found: Vec<StreamDetection>,
+}
+
+/// Every call borrows the detector by hand (see [`read`]): `push` and `flush` let the GIL go
+/// holding it.
+impl PyStreamDetector {
+    const IN_USE: InUse = ("the detector", "give each stream its own Detector");
 }
 
 #[pymethods]
@@ -72,8 +78,10 @@ impl PyStreamDetector {
     }
 
     /// Push packed event records (`bytes`); return the packed detections they decided.
-    fn push<'py>(&mut self, py: Python<'py>, raw: &[u8]) -> PyResult<Bound<'py, PyArray1<u8>>> {
-        let Self { inner, found } = self;
+    fn push<'py>(slf: &Bound<'py, Self>, raw: &[u8]) -> PyResult<Bound<'py, PyArray1<u8>>> {
+        let py = slf.py();
+        let mut this = write(slf, Self::IN_USE)?;
+        let Self { inner, found } = &mut *this;
         let bytes = detach(py, || {
             // Read in place: decoding the chunk first took 16 bytes an event.
             let events = PackedEvents::new(raw)?;
@@ -85,8 +93,10 @@ impl PyStreamDetector {
     }
 
     /// End the stream; return the packed detections still pending.
-    fn flush<'py>(&mut self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<u8>>> {
-        let Self { inner, found, .. } = self;
+    fn flush<'py>(slf: &Bound<'py, Self>) -> PyResult<Bound<'py, PyArray1<u8>>> {
+        let py = slf.py();
+        let mut this = write(slf, Self::IN_USE)?;
+        let Self { inner, found } = &mut *this;
         let bytes = detach(py, || {
             found.clear();
             inner.flush(found)?;
@@ -96,59 +106,70 @@ impl PyStreamDetector {
     }
 
     /// Forget the stream.
-    fn reset(&mut self) {
-        self.inner.reset();
+    fn reset(slf: &Bound<'_, Self>) -> PyResult<()> {
+        write(slf, Self::IN_USE)?.inner.reset();
+        Ok(())
     }
 
     #[getter]
-    fn sensor_size(&self) -> (u16, u16) {
-        let s = self.inner.sensor();
-        (s.width, s.height)
+    fn sensor_size(slf: &Bound<'_, Self>) -> PyResult<(u16, u16)> {
+        let this = read(slf, Self::IN_USE)?;
+        let s = this.inner.sensor();
+        Ok((s.width, s.height))
     }
 
     #[getter]
-    fn window_us(&self) -> u64 {
-        self.inner.config().window_us
+    fn window_us(slf: &Bound<'_, Self>) -> PyResult<u64> {
+        let this = read(slf, Self::IN_USE)?;
+        Ok(this.inner.config().window_us)
     }
 
     #[getter]
-    fn overlap(&self) -> f64 {
-        self.inner.config().overlap
+    fn overlap(slf: &Bound<'_, Self>) -> PyResult<f64> {
+        let this = read(slf, Self::IN_USE)?;
+        Ok(this.inner.config().overlap)
     }
 
     #[getter]
-    fn step_us(&self) -> u64 {
-        self.inner.step_us()
+    fn step_us(slf: &Bound<'_, Self>) -> PyResult<u64> {
+        let this = read(slf, Self::IN_USE)?;
+        Ok(this.inner.step_us())
     }
 
     #[getter]
-    fn events_seen(&self) -> u64 {
-        self.inner.stats().events
+    fn events_seen(slf: &Bound<'_, Self>) -> PyResult<u64> {
+        let this = read(slf, Self::IN_USE)?;
+        Ok(this.inner.stats().events)
     }
 
     #[getter]
-    fn windows_opened(&self) -> u64 {
-        self.inner.stats().windows_opened
+    fn windows_opened(slf: &Bound<'_, Self>) -> PyResult<u64> {
+        let this = read(slf, Self::IN_USE)?;
+        Ok(this.inner.stats().windows_opened)
     }
 
     #[getter]
-    fn detections_emitted(&self) -> u64 {
-        self.inner.stats().detections
+    fn detections_emitted(slf: &Bound<'_, Self>) -> PyResult<u64> {
+        let this = read(slf, Self::IN_USE)?;
+        Ok(this.inner.stats().detections)
     }
 
     #[getter]
-    fn live_windows(&self) -> usize {
-        self.inner.live_windows()
+    fn live_windows(slf: &Bound<'_, Self>) -> PyResult<usize> {
+        let this = read(slf, Self::IN_USE)?;
+        Ok(this.inner.live_windows())
     }
 
     #[getter]
-    fn states_allocated(&self) -> usize {
-        self.inner.states_allocated()
+    fn states_allocated(slf: &Bound<'_, Self>) -> PyResult<usize> {
+        let this = read(slf, Self::IN_USE)?;
+        Ok(this.inner.states_allocated())
     }
 
     #[getter]
-    fn last_t(&self) -> Option<u64> {
-        self.inner.last_t()
+    fn last_t(slf: &Bound<'_, Self>) -> PyResult<Option<u64>> {
+        let this = read(slf, Self::IN_USE)?;
+        Ok(this.inner.last_t())
     }
 }
 
@@ -170,6 +191,11 @@ struct PyPacketDecoder {
     scratch: Vec<Event>,
 }
 
+/// Every call that reads or changes the decoder's state borrows it by hand (see [`read`]).
+impl PyPacketDecoder {
+    const IN_USE: InUse = ("the packet decoder", "give each stream its own decoder");
+}
+
 #[pymethods]
 impl PyPacketDecoder {
     #[new]
@@ -185,12 +211,13 @@ impl PyPacketDecoder {
     /// Decode one packet into packed event records (view them with `EVENT_DTYPE`). A malformed
     /// packet raises and leaves the decoder as it was.
     fn decode<'py>(
-        &mut self,
-        py: Python<'py>,
+        slf: &Bound<'py, Self>,
         packet: &[u8],
         arrival_us: u64,
     ) -> PyResult<Bound<'py, PyArray1<u8>>> {
-        let Self { inner, scratch } = self;
+        let py = slf.py();
+        let mut this = write(slf, Self::IN_USE)?;
+        let Self { inner, scratch } = &mut *this;
         let bytes = detach(py, || {
             scratch.clear();
             inner.decode(packet, arrival_us, scratch)?;
@@ -203,14 +230,14 @@ impl PyPacketDecoder {
 
     /// The packet format's name.
     #[getter]
-    fn format(&self) -> &'static str {
-        self.inner.format().name()
+    fn format(slf: &Bound<'_, Self>) -> PyResult<&'static str> {
+        Ok(read(slf, Self::IN_USE)?.inner.format().name())
     }
 
     /// Time of the last event decoded, or `None`.
     #[getter]
-    fn last_t(&self) -> Option<u64> {
-        self.inner.last_t()
+    fn last_t(slf: &Bound<'_, Self>) -> PyResult<Option<u64>> {
+        Ok(read(slf, Self::IN_USE)?.inner.last_t())
     }
 }
 
