@@ -170,3 +170,68 @@ def test_a_call_while_another_thread_holds_the_object_is_a_typed_error() -> None
     est = RotorSignature((0, 0, 240, 180))
     seen = _collisions(lambda: est.update(events), lambda: est.stats)
     assert seen and set(seen) == {StreamError}, seen
+
+
+def test_ctrl_c_stops_a_long_engine_call_part_way() -> None:
+    # Ctrl-C waited for the whole call (11 s for a long batch of frames); the engine now
+    # checks Python's signals between parts of its work. Each call below would run for
+    # seconds: the SIGINT comes 0.3 s in, and the call stops part way through its input.
+    out = run(
+        """
+        import os, signal, threading, time
+        from uavsnn.sim.dvs import DvsEmulator
+
+        def interrupted(call, after=0.3):
+            timer = threading.Timer(after, os.kill, (os.getpid(), signal.SIGINT))
+            timer.start()
+            began = time.monotonic()
+            try:
+                call()
+            except KeyboardInterrupt:
+                return time.monotonic() - began
+            finally:
+                timer.cancel()
+            raise SystemExit("not interrupted")
+
+        # The emulator: 400 frames of 640x480, a moving gradient.
+        n = 400
+        ys, xs = np.mgrid[0:480, 0:640].astype(np.float32)
+        frames = np.stack([(xs + 7 * k) % 256 for k in range(n)]).astype(np.uint8)
+        times = np.arange(n, dtype=np.uint64) * 1000
+        emu = DvsEmulator((640, 480))
+        interrupted(lambda: emu.process(frames, times))
+        assert 0 < emu.frames_seen < n, emu.frames_seen
+        try:
+            emu.process(frames[:1], times[-1:] + 1000)
+        except uavsnn.SimulationError as exc:
+            assert "interrupted part way" in str(exc)
+        else:
+            raise SystemExit("an interrupted emulator went on")
+
+        # A push of a long chunk: the detector stops between slices, and says so after.
+        det = uavsnn.Detector(Network(), window_us=50_000)
+        chunk = events(6_000_000, 5).events  # tenths of a second of the engine's work
+        interrupted(lambda: det.push(chunk), after=0.15)
+        assert det.interrupted and 0 < det.events_seen < len(chunk), det.events_seen
+        try:
+            det.push(chunk[-1:])
+        except uavsnn.StreamError as exc:
+            assert "interrupted" in str(exc)
+        else:
+            raise SystemExit("an interrupted detector went on")
+
+        # Inference: the same batch whole, then interrupted; the network is unchanged. Each
+        # event is in 20 windows (about 12 million input spikes).
+        w = make_windows(events(2_000_000, 4), 5_000, overlap=0.95)
+        net = Network()
+        began = time.monotonic()
+        whole = net.infer(w, threads=1).counts
+        full = time.monotonic() - began
+        took = interrupted(lambda: net.infer(w, threads=1))
+        if full > 0.8:  # long enough for the part running at 0.3 s to end well before
+            assert took < 0.75 * full, (took, full)
+        assert (net.infer(w, threads=1).counts == whole).all()
+        print("ok")
+        """
+    )
+    assert out.returncode == 0 and out.stdout.strip() == "ok", out.stderr[-3000:]

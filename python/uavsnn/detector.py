@@ -38,9 +38,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from uavsnn import _core
+from uavsnn._state import EngineState
 from uavsnn._validate import U64_MAX, check_int, check_sensor_size
 from uavsnn.boxes import xywh
-from uavsnn.errors import ParameterError, ShapeError, StreamError
+from uavsnn.errors import ParameterError, ShapeError, StreamError, UavsnnError
 from uavsnn.events import EVENT_DTYPE, packed_bytes
 from uavsnn.features import MAX_RATE_BINS, RATE_BIN_US, rate_bins
 from uavsnn.network import WINDOW_DETECTION_DTYPE
@@ -108,8 +109,20 @@ def _detections(packed: np.ndarray) -> np.ndarray:
     return packed.view(WINDOW_DETECTION_DTYPE) if len(packed) else _NO_DETECTIONS
 
 
-class Detector:
+class Detector(EngineState):
     """Low-latency UAV detection on a live event stream.
+
+    A detector cannot be copied (``copy.copy``, ``copy.deepcopy``) nor pickled: its stream
+    lives in the engine, and a copy sharing it would advance the original. Make another with
+    ``Detector(...)`` for a second stream.
+
+    A call that changes the stream (:meth:`push`, :meth:`push_windows`, :meth:`flush`,
+    :meth:`flush_windows`, :meth:`reset`) and is stopped part way by anything but the
+    package's own errors (``KeyboardInterrupt`` from Ctrl-C, a ``MemoryError``, an error
+    inside the tracker) leaves the stream unknown: the engine may have taken events whose
+    detections never reached the caller. The detector notes it (:attr:`interrupted`), and
+    every later call of those but :meth:`reset` raises :class:`~uavsnn.StreamError` saying so,
+    rather than number windows wrongly or refuse the chunk again as "time goes backwards".
 
     Args:
         model: a :class:`uavsnn.network.Network` (the detector copies its weights; later
@@ -204,6 +217,10 @@ class Detector:
         self._lost_until = 0  # events before this time were dropped from _recent
         # Per live track: scored objects, the sum of their UAV scores and class probabilities.
         self._identity: dict[int, tuple[int, float, np.ndarray]] = {}
+        # The call that changes the stream and was stopped part way (see _interrupt), or None.
+        self._interrupted: str | None = None
+
+    _remake = "make another with Detector(...) for a second stream"
 
     # ------------------------------------------------------------------ the stream
 
@@ -221,13 +238,23 @@ class Detector:
             EventError: a wrong dtype, an event outside the sensor, or times out of order
                 inside the chunk.
             StreamError: the chunk starts before the previous one ended, or the stream was
-                flushed. After any error the detector is as it was before the call.
+                flushed, or an earlier call was interrupted part way (:attr:`interrupted`;
+                :meth:`reset` starts a new stream). After any of these errors the detector is
+                as it was before the call; a call stopped by anything else (Ctrl-C) leaves it
+                :attr:`interrupted`.
         """
+        self._check_whole("push")
         if self._grouper is not None:
             raise self._mixed("push", "push_windows")
-        found = self._push(events)
-        self._plain = self._plain or len(events) > 0
-        return found
+        taken = False
+        try:
+            found = self._push(events)
+            taken = True
+            self._plain = self._plain or len(events) > 0
+            return found
+        except BaseException as exc:
+            self._interrupt("push", exc, taken)
+            raise
 
     def _push(self, events: np.ndarray) -> np.ndarray:
         # Cheap checks first: a one-event push should cost microseconds, not a dtype walk.
@@ -243,13 +270,30 @@ class Detector:
         self._busy_ns += time.perf_counter_ns() - start
         return _detections(out)
 
+    def _interrupt(self, call: str, exc: BaseException, taken: bool) -> None:
+        """Note that ``call`` was stopped part way by ``exc`` (:attr:`interrupted`), unless
+        ``exc`` is one of the package's errors raised before the engine took the call's
+        input (``taken``): those are refusals that leave the detector as it was."""
+        if taken or not isinstance(exc, UavsnnError):
+            self._interrupted = call
+
     def flush(self) -> np.ndarray:
         """End the stream: return the detections still pending (the last timestamp's) and
         close every window. Further pushes raise :class:`~uavsnn.StreamError` until
-        :meth:`reset`."""
+        :meth:`reset`.
+
+        Raises:
+            StreamError: an earlier call was interrupted part way (:attr:`interrupted`):
+                the detections pending would not be those of the stream pushed.
+        """
+        self._check_whole("flush")
         if self._grouper is not None:
             raise self._mixed("flush", "push_windows")
-        return self._flush()
+        try:
+            return self._flush()
+        except BaseException as exc:
+            self._interrupt("flush", exc, False)
+            raise
 
     def _flush(self) -> np.ndarray:
         start = time.perf_counter_ns()
@@ -258,14 +302,39 @@ class Detector:
         return _detections(out)
 
     def reset(self) -> None:
-        """Forget the stream (counters and tracks included); the next event starts a new one."""
-        self._inner.reset()
-        self._busy_ns = 0
-        self._tracker.reset()
-        self._grouper = None
-        self._plain = False
-        self._recent, self._recent_n, self._lost_until = [], 0, 0
-        self._identity = {}
+        """Forget the stream (counters and tracks included); the next event starts a new one.
+        This is how a stream left :attr:`interrupted` is ended; a reset that is itself
+        interrupted part way leaves the detector :attr:`interrupted`."""
+        taken = False
+        try:
+            self._inner.reset()
+            taken = True
+            self._busy_ns = 0
+            self._tracker.reset()
+            self._grouper = None
+            self._plain = False
+            self._recent, self._recent_n, self._lost_until = [], 0, 0
+            self._identity = {}
+            self._interrupted = None
+        except BaseException as exc:
+            self._interrupt("reset", exc, taken)
+            raise
+
+    @property
+    def interrupted(self) -> bool:
+        """Whether a call that changes the stream was stopped part way (by Ctrl-C, or by any
+        error but a refusal of its input, which changes nothing): the stream is then unknown,
+        and every call but :meth:`reset` that depends on it raises
+        :class:`~uavsnn.StreamError`."""
+        return self._interrupted is not None
+
+    def _check_whole(self, call: str) -> None:
+        if self._interrupted is not None:
+            raise StreamError(
+                f"{call}() after an earlier {self._interrupted}() was interrupted part way: "
+                "the engine may have taken events whose detections never came back, so this "
+                "stream cannot go on; reset() starts a new one"
+            )
 
     def _mixed(self, call: str, used: str) -> StreamError:
         return StreamError(
@@ -287,22 +356,43 @@ class Detector:
 
         Raises:
             EventError, StreamError: as :meth:`push`; the detector, its tracks included, is
-                then as it was before the call.
+                then as it was before the call. A call stopped by anything else once the
+                engine has the chunk (Ctrl-C, an error while the windows are grouped, tracked
+                or scored) leaves it :attr:`interrupted`.
         """
+        self._check_whole("push_windows")
         if self._plain:
             raise self._mixed("push_windows", "push")
-        found = self._push(events)
-        grouper = self._windows()
-        if self._rotor and len(events):
-            self._keep(events)
-        return self._finish_reports(grouper.add(events, found))
+        taken = False
+        try:
+            found = self._push(events)
+            taken = True
+            grouper = self._windows()
+            if self._rotor and len(events):
+                self._keep(events)
+            return self._finish_reports(grouper.add(events, found))
+        except BaseException as exc:
+            self._interrupt("push_windows", exc, taken)
+            raise
 
     def flush_windows(self) -> list[WindowReport]:
         """End the stream (as :meth:`flush`) and return every window still open, tracked.
-        The live tracks stay in :attr:`tracker` (``tracker.finish()`` ends them)."""
+        The live tracks stay in :attr:`tracker` (``tracker.finish()`` ends them).
+
+        Raises:
+            StreamError: as :meth:`flush`.
+        """
+        self._check_whole("flush_windows")
         if self._plain:
             raise self._mixed("flush_windows", "push")
-        return self._finish_reports(self._windows().finish(self._flush()))
+        taken = False
+        try:
+            found = self._flush()
+            taken = True
+            return self._finish_reports(self._windows().finish(found))
+        except BaseException as exc:
+            self._interrupt("flush_windows", exc, taken)
+            raise
 
     @property
     def tracker(self) -> Tracker:

@@ -43,9 +43,10 @@ const CHUNK: usize = 8;
 pub use crate::threads::MAX_THREADS;
 
 /// Run every window of `batch` through `net` in inference mode, in parallel on `threads`
-/// workers (`None`: the pool the call runs in, rayon's global one unless it runs in another
-/// (see [`crate::threads`]); at most [`MAX_THREADS`], a pool kept by [`crate::threads::pool`]). PENT's `N_in` is the window's spike count or its
-/// `n_preceding`, as the config's `pent.estimate` says. Results are in window order.
+/// workers (`None`: the pool the call runs in, rayon's global one unless it runs in another,
+/// see [`crate::threads`]; at most [`MAX_THREADS`], a pool kept by [`crate::threads::pool`]).
+/// PENT's `N_in` is the window's spike count or its `n_preceding`, as the config's
+/// `pent.estimate` says. Results are in window order.
 ///
 /// Each window is re-checked as it is read ([`WindowBatch::window`]), so a batch written as a
 /// struct literal gives a typed error, not a panic.
@@ -55,9 +56,35 @@ pub fn infer(
     threads: Option<usize>,
     record: bool,
 ) -> Result<Vec<WindowResult>> {
+    infer_range(net, batch, 0..batch.len(), threads, record)
+}
+
+/// [`infer`] on the windows `windows` of `batch` only (the same results as those of the whole
+/// batch): a caller that must stay responsive (to Ctrl-C, say) runs a long batch part by part.
+///
+/// # Errors
+///
+/// As [`infer`]; [`Error::InvalidParameter`] (`windows`) for a range beyond the batch.
+pub fn infer_range(
+    net: &Network,
+    batch: &WindowBatch<'_>,
+    windows: std::ops::Range<usize>,
+    threads: Option<usize>,
+    record: bool,
+) -> Result<Vec<WindowResult>> {
     check_sensor(net, batch.sensor)?;
+    if windows.start > windows.end || windows.end > batch.len() {
+        return Err(Error::param(
+            "windows",
+            format!(
+                "{windows:?} is not a range of the batch's {} windows",
+                batch.len()
+            ),
+        ));
+    }
     let run = || {
-        (0..batch.len())
+        windows
+            .clone()
             .into_par_iter()
             .with_min_len(CHUNK)
             .map_init(
@@ -77,7 +104,8 @@ pub fn infer(
         Some(1) => {
             let mut guard = StateGuard::take(net.state_pool(), net);
             let state = guard.state()?;
-            (0..batch.len())
+            windows
+                .clone()
                 .map(|i| run_one(net, state, batch, i, record))
                 .collect()
         }

@@ -55,7 +55,7 @@ pub use config::{
 pub use detection::Detection;
 pub use gabor::gabor_kernels;
 pub use geometry::{ConvGeom, Geometry, PoolGeom};
-pub use inference::{check_sensor, infer, WindowResult, MAX_THREADS};
+pub use inference::{check_sensor, infer, infer_range, WindowResult, MAX_THREADS};
 pub use layer::{ConvLayer, Layer};
 pub use model::NetworkOf;
 pub use model_io::MODEL_FORMAT;

@@ -12,8 +12,8 @@ use pyo3::types::PyTuple;
 use super::errors::{detach, map, InUse};
 use crate::error::Error;
 use crate::network::{
-    check_sensor, infer, training_order, ConvLayer, Detection, Layer, Network, NetworkConfig,
-    Rates, Spike, Spikes, TrainOptions, Trainer, WindowBatch, Winner,
+    check_sensor, infer_range, training_order, ConvLayer, Detection, Layer, Network, NetworkConfig,
+    Rates, Spike, Spikes, TrainOptions, Trainer, WindowBatch, WindowResult, Winner, MAX_THREADS,
 };
 
 /// Columns `(t, map, row, col, v)` of spikes.
@@ -192,6 +192,44 @@ impl BatchArgs {
             &self.n_preceding,
         )
     }
+}
+
+/// The wall time one part of a long `infer` aims at: Ctrl-C waits about this long at most.
+const PART_SECONDS: f64 = 0.1;
+
+/// The fewest windows of one part, per worker (a part ends when its slowest worker does).
+const PART_WINDOWS_PER_WORKER: usize = 32;
+
+/// `infer` on the batch `args`, run a part at a time with the GIL let go, Python's signals
+/// checked between parts: Ctrl-C stops a long batch within about [`PART_SECONDS`] rather than
+/// when it ends (the network is not changed by inference, so nothing is left half done). The
+/// parts grow or shrink toward that time; the results are those of one call.
+fn infer_in_parts(
+    py: Python<'_>,
+    net: &Network,
+    args: &BatchArgs,
+    threads: Option<usize>,
+    record: bool,
+) -> PyResult<Vec<WindowResult>> {
+    let batch = detach(py, || args.batch(net))?;
+    let workers = threads.unwrap_or_else(|| {
+        std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
+    });
+    let least = PART_WINDOWS_PER_WORKER * workers.clamp(1, MAX_THREADS);
+    let (n, mut part, mut start) = (batch.len(), least, 0);
+    let mut results = Vec::with_capacity(n);
+    while start < n {
+        let end = n.min(start + part);
+        let began = std::time::Instant::now();
+        results.extend(detach(py, || {
+            infer_range(net, &batch, start..end, threads, record)
+        })?);
+        py.check_signals()?;
+        let scale = (PART_SECONDS / began.elapsed().as_secs_f64().max(1e-6)).clamp(0.5, 4.0);
+        part = ((part as f64 * scale) as usize).max(least);
+        start = end;
+    }
+    Ok(results)
 }
 
 /// A layer's output: `(maps, rows, cols)`.
@@ -406,7 +444,7 @@ impl NetworkCore {
         let py = slf.py();
         let this = Self::read(slf)?;
         let net = &this.net;
-        let results = detach(py, || infer(net, &args.batch(net)?, threads, record))?;
+        let results = infer_in_parts(py, net, &args, threads, record)?;
         let n = results.len();
         let maps = net.geometry().conv[0].maps;
         let counts: Vec<i64> = results
@@ -465,7 +503,8 @@ impl NetworkCore {
     }
 
     /// Train `layer` on windows with winner-take-all and STDP. `callback(done, total, C)` is
-    /// called (with the GIL) every `every` windows and at the end; returning `False` stops.
+    /// called (with the GIL) every `every` windows and at the end; returning `False` stops, as
+    /// Ctrl-C does (checked as often), the windows taken so far kept in the weights.
     /// Returns `(convergence, a_plus, windows_seen, winners)`.
     #[pyo3(signature = (layer, sensor_size, length_us, t0, offsets, t, x, y, n_preceding, epochs=1, seed=0, shuffle=true, callback=None, every=64))]
     fn train_layer(
@@ -532,6 +571,9 @@ impl NetworkCore {
                 })?;
             }
             done += chunk.len();
+            // Ctrl-C stops training between chunks (the layer's weights are then those of
+            // the windows taken so far, as when the callback stops it).
+            py.check_signals()?;
             if let Some(cb) = &callback {
                 let p = trainer.progress(done, total);
                 let go_on = cb.call1((p.done, p.total, p.convergence))?;

@@ -98,24 +98,58 @@ impl Kernel for DvsEmulator {
     }
 }
 
-/// Run a batch through a kernel with the GIL released; packed events out.
+/// The wall time the frames of one batch run between checks of Python's signals: Ctrl-C
+/// waits about this long at most.
+const PART_SECONDS: f64 = 0.1;
+
+/// Run a batch through a kernel with the GIL released, Python's signals checked about every
+/// [`PART_SECONDS`]; packed events out. An interruption (Ctrl-C) leaves the kernel past the
+/// frames it ran, whose events are lost: `interrupted` is set, and every later batch refused.
 fn run_batch<'py, K: Kernel>(
     py: Python<'py>,
     kernel: &mut K,
+    interrupted: &mut bool,
     batch: &Batch<'_>,
     times: &PyReadonlyArray1<'_, u64>,
 ) -> PyResult<Bound<'py, PyArray1<u8>>> {
+    refuse_interrupted(py, *interrupted)?;
     let times = times.as_slice()?;
     let last = kernel.last_time();
-    let bytes = detach(py, || {
-        check_times(batch.len(), times, last)?;
-        let mut events = Vec::new();
-        for (i, &t) in times.iter().enumerate() {
-            kernel.push(&batch.frame(i), t, &mut events)?;
+    detach(py, || check_times(batch.len(), times, last))?;
+    let mut events = Vec::new();
+    let mut next = 0;
+    while next < times.len() {
+        next = detach(py, || {
+            let began = std::time::Instant::now();
+            let mut i = next;
+            while i < times.len() && began.elapsed().as_secs_f64() < PART_SECONDS {
+                kernel.push(&batch.frame(i), times[i], &mut events)?;
+                i += 1;
+            }
+            Ok(i)
+        })?;
+        if let Err(err) = py.check_signals() {
+            *interrupted = next < times.len();
+            return Err(err);
         }
-        Ok(pack(&events))
-    })?;
+    }
+    let bytes = detach(py, || Ok(pack(&events)))?;
     Ok(bytes.into_pyarray(py))
+}
+
+/// The error of a kernel whose earlier batch was interrupted part way (see [`run_batch`]).
+fn refuse_interrupted(py: Python<'_>, interrupted: bool) -> PyResult<()> {
+    if interrupted {
+        return map(
+            py,
+            Err(Error::Simulation(
+                "an earlier batch of frames was interrupted part way: this simulator is past \
+                 frames whose events were lost; make a new one"
+                    .into(),
+            )),
+        );
+    }
+    Ok(())
 }
 
 fn reference_mode(name: &str) -> Result<ReferenceUpdate> {
@@ -158,7 +192,8 @@ macro_rules! frame_kernel_methods {
             ) -> PyResult<Bound<'py, PyArray1<u8>>> {
                 let batch = Batch::Gray(frames.as_array());
                 let mut this = write(slf, Self::IN_USE)?;
-                run_batch(slf.py(), &mut this.inner, &batch, &timestamps_us)
+                let this = &mut *this;
+                run_batch(slf.py(), &mut this.inner, &mut this.interrupted, &batch, &timestamps_us)
             }
 
             /// Feed `(n, h, w, 3)` uint8 BGR frames; returns packed events.
@@ -169,7 +204,8 @@ macro_rules! frame_kernel_methods {
             ) -> PyResult<Bound<'py, PyArray1<u8>>> {
                 let batch = Batch::Bgr(frames.as_array());
                 let mut this = write(slf, Self::IN_USE)?;
-                run_batch(slf.py(), &mut this.inner, &batch, &timestamps_us)
+                let this = &mut *this;
+                run_batch(slf.py(), &mut this.inner, &mut this.interrupted, &batch, &timestamps_us)
             }
 
             /// Feed `(n, h, w)` float32 gray frames (0–255 scale); returns packed events.
@@ -180,7 +216,8 @@ macro_rules! frame_kernel_methods {
             ) -> PyResult<Bound<'py, PyArray1<u8>>> {
                 let batch = Batch::Float(frames.as_array());
                 let mut this = write(slf, Self::IN_USE)?;
-                run_batch(slf.py(), &mut this.inner, &batch, &timestamps_us)
+                let this = &mut *this;
+                run_batch(slf.py(), &mut this.inner, &mut this.interrupted, &batch, &timestamps_us)
             }
         }
     };
@@ -190,6 +227,8 @@ macro_rules! frame_kernel_methods {
 #[pyclass(module = "uavsnn._core")]
 pub struct Pix2NvsKernel {
     inner: Pix2Nvs,
+    /// A batch was interrupted part way ([`run_batch`]).
+    interrupted: bool,
 }
 
 /// Every call borrows the simulator by hand (see [`read`]): a batch of frames lets the GIL go
@@ -241,7 +280,10 @@ impl Pix2NvsKernel {
             )
         };
         let inner = map(py, build())?;
-        Ok(Self { inner })
+        Ok(Self {
+            inner,
+            interrupted: false,
+        })
     }
 
     /// `(width, height)` of the events written.
@@ -262,6 +304,8 @@ impl Pix2NvsKernel {
 #[pyclass(module = "uavsnn._core")]
 pub struct DvsKernel {
     inner: DvsEmulator,
+    /// A batch was interrupted part way ([`run_batch`]).
+    interrupted: bool,
 }
 
 /// Every call borrows the emulator by hand (see [`read`]): a batch of frames lets the GIL go
@@ -312,7 +356,10 @@ impl DvsKernel {
             linlog_threshold,
         };
         let inner = detach(py, || DvsEmulator::new(params, width, height, seed))?;
-        Ok(Self { inner })
+        Ok(Self {
+            inner,
+            interrupted: false,
+        })
     }
 
     /// `(width, height)` of the sensor.
@@ -371,6 +418,7 @@ impl DvsKernel {
             });
         }
         let mut this = write(slf, Self::IN_USE)?;
+        refuse_interrupted(py, this.interrupted)?;
         let inner = &mut this.inner;
         let bytes = detach(py, || {
             let mut events = Vec::new();

@@ -82,14 +82,27 @@ impl PyStreamDetector {
         let py = slf.py();
         let mut this = write(slf, Self::IN_USE)?;
         let Self { inner, found } = &mut *this;
+        let mut signal = None;
         let bytes = detach(py, || {
             // Read in place: decoding the chunk first took 16 bytes an event.
             let events = PackedEvents::new(raw)?;
             found.clear();
-            inner.push(&events, found)?;
+            // Between slices, Python's signals (Ctrl-C), the GIL taken for the moment it takes.
+            inner.push_while(&events, found, || {
+                // A closure, not `Python::check_signals`: that names one lifetime.
+                #[allow(clippy::redundant_closure_for_method_calls)]
+                let checked = Python::attach(|py| py.check_signals());
+                signal = checked.err();
+                signal.is_none()
+            })?;
             Ok(pack_detections(found))
         })?;
-        Ok(bytes.into_pyarray(py))
+        match signal {
+            // Interrupted part way: the detections of the slices read go with it
+            // (`uavsnn.Detector` then refuses the stream until `reset`).
+            Some(err) => Err(err),
+            None => Ok(bytes.into_pyarray(py)),
+        }
     }
 
     /// End the stream; return the packed detections still pending.

@@ -289,11 +289,32 @@ impl<E: WindowEngine> Detector<E> {
         events: &S,
         out: &mut Vec<StreamDetection>,
     ) -> Result<()> {
+        self.push_while(events, out, || true).map(|_| ())
+    }
+
+    /// [`push`](Self::push), asking `go_on` after each slice of [`PUSH_SLICE`] events whether
+    /// to read the next (a caller that must stay responsive, to Ctrl-C say). Returns whether
+    /// the whole chunk was read: when `go_on` stops it, the slices before are read and their
+    /// detections appended, the rest is not, and the stream stands part way through the
+    /// chunk (the caller decides whether to go on from there, or to reset it).
+    ///
+    /// # Errors
+    ///
+    /// As [`push`](Self::push).
+    pub fn push_while<S: EventSource + ?Sized>(
+        &mut self,
+        events: &S,
+        out: &mut Vec<StreamDetection>,
+        mut go_on: impl FnMut() -> bool,
+    ) -> Result<bool> {
         self.check(events)?;
         let before = out.len();
         let mut result = Ok(());
         let mut from = 0;
         while from < events.len() && result.is_ok() {
+            if from > 0 && !go_on() {
+                break;
+            }
             let to = events.len().min(from + PUSH_SLICE);
             self.spikes.clear();
             for i in from..to {
@@ -305,7 +326,7 @@ impl<E: WindowEngine> Detector<E> {
         // Stable: one window's detections of one time stay in firing order.
         out[before..].sort_by_key(|d| (d.detection.t, d.window));
         self.stats.detections += (out.len() - before) as u64;
-        result
+        result.map(|()| from >= events.len())
     }
 
     /// End of the stream: settle the last timestamp, close every window and append the

@@ -13,7 +13,8 @@ without one, or an object beyond the rotor's limit); ``--per-spike`` prints
 every conv3 spike instead, as it is decided; ``--json`` makes JSON lines of either. A rate
 summary goes to standard error every ``--summary-every`` seconds and at the
 end. Malformed packets, and chunks the detector rejects (an event outside the sensor, time going
-backwards), are counted as drops and skipped.
+backwards), are counted as drops and skipped. Ctrl-C ends the stream: the windows still open are
+reported, then the command exits 130 (``interrupted``), as every command does.
 """
 
 from __future__ import annotations
@@ -396,7 +397,10 @@ def _tracker(text: str | None, network: Any) -> Any:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run detection until the source ends (or Ctrl-C); returns the exit code."""
+    """Run detection until the source ends, or Ctrl-C: what was found is still reported (the
+    windows still open flushed), and the exit code is then 130, as for any interruption.
+    Returns the exit code."""
+    from uavsnn.cli import EXIT_INTERRUPTED
     from uavsnn.detector import Detector
     from uavsnn.network import Network
     from uavsnn.sources import UdpSource, open_source
@@ -491,11 +495,14 @@ def run(args: argparse.Namespace) -> int:
             else:
                 emit(detector.flush_windows())
 
+        interrupted = False
         try:
             for chunk in source:
                 try:
                     push(chunk)
                 except (EventError, StreamError) as exc:
+                    if detector.interrupted:
+                        raise  # not a chunk refused: the stream cannot go on
                     rejected += 1
                     if rejected <= 5:
                         print(f"uavsnn detect: dropped a chunk: {exc}", file=err, flush=True)
@@ -503,11 +510,26 @@ def run(args: argparse.Namespace) -> int:
                 summary.maybe(detector, source, rejected)
             flush()
         except KeyboardInterrupt:
-            flush()
+            # Ctrl-C: report what the stream found so far, then exit as interrupted. Stopped
+            # inside the detector's own work, the stream is unknown: nothing more to report.
+            interrupted = True
+            if detector.interrupted:
+                print(
+                    "uavsnn detect: Ctrl-C stopped the detector inside a chunk: the windows "
+                    "still open are not reported",
+                    file=err,
+                    flush=True,
+                )
+            else:
+                flush()
         except BrokenPipeError:
             # The reader went away (``| head``): stop quietly, as command-line tools do.
             os.dup2(os.open(os.devnull, os.O_WRONLY), out.fileno())
         summary.write(detector, source, rejected, final=True)
+    if interrupted:
+        # As the command line reports any Ctrl-C (uavsnn.cli.main): one line, exit 130.
+        print("uavsnn detect: interrupted", file=err, flush=True)
+        return EXIT_INTERRUPTED
     return 0
 
 
