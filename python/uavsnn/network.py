@@ -17,11 +17,14 @@ event of each active pixel, polarities merged), sorted by ``t``; a repeated pixe
 
 from __future__ import annotations
 
+import copy
 import itertools
 import json
 import os
+import secrets
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, Protocol
 
 import numpy as np
@@ -514,7 +517,9 @@ class Network:
 
         Each epoch visits every window once, shuffled with ``seed`` unless ``shuffle=False``.
         ``callback(done, total, convergence)`` is called every ``every`` windows and at the end;
-        returning ``False`` stops training early. The GIL is released between calls.
+        returning ``False`` stops training early. The GIL is released between calls. Ctrl-C
+        (checked as often, callback or not) stops it too, with a ``KeyboardInterrupt``: the
+        layer's weights then hold the windows taken so far.
         """
         layer = _layer(layer)
         columns = _window_columns(windows)
@@ -538,15 +543,34 @@ class Network:
     def save(self, path: str | os.PathLike[str]) -> None:
         """Write a model file (``.npz``: weights + versioned config, no pickle), atomically;
         with :attr:`identification`, its arrays too (``identify.*``, uncompressed entries the
-        engine's reader skips).
+        engine's reader skips). The whole file, identification included, is written to a
+        temporary file beside ``path`` and renamed over it: readers, and a save that fails or
+        is interrupted, see the old file or the whole new one, never the new network without
+        its identification.
 
         Raises:
             ParameterError: ``path`` is not a ``str`` or ``os.PathLike[str]`` (bytes refused).
+            ModelFileError: the file cannot be written (the old one is left as it was).
         """
         file = check_path(path)
-        self._core.save(file)
-        if self.identification is not None:
-            _add_arrays(file, self.identification.to_arrays())
+        if self.identification is None:
+            self._core.save(file)
+            return
+        arrays = self.identification.to_arrays()
+        target = Path(file)
+        tmp = target.with_name(f".{target.name}.{secrets.token_hex(6)}.tmp")
+        try:
+            try:
+                self._core.save(str(tmp))
+            except ModelFileError as exc:
+                # The engine names the file it wrote, the temporary one: name the user's.
+                raise ModelFileError(str(exc).replace(str(tmp), file)) from exc
+            _add_arrays(str(tmp), arrays)
+            os.replace(tmp, target)
+        except OSError as exc:
+            raise ModelFileError(f"cannot write {file}: {exc.strerror or exc}") from exc
+        finally:
+            tmp.unlink(missing_ok=True)  # gone once renamed; else the failed write's part
 
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> Network:
@@ -592,6 +616,21 @@ class Network:
         net.identification = self.identification
         return net
 
+    def __copy__(self) -> Network:
+        """``copy.copy(net)``: an independent copy, as :meth:`copy` (the weights live in the
+        engine: a copy sharing them would change the original through the copy)."""
+        net = self.copy()
+        net.load_note = self.load_note
+        return net
+
+    def __deepcopy__(self, memo: dict[int, Any]) -> Network:
+        """``copy.deepcopy(net)``: an independent copy, its identification copied too."""
+        net = self.copy()
+        memo[id(self)] = net
+        net.identification = copy.deepcopy(self.identification, memo)
+        net.load_note = self.load_note
+        return net
+
     def __eq__(self, other: object) -> bool:
         """Same config and bit-identical weights."""
         if not isinstance(other, Network):
@@ -608,18 +647,16 @@ class Network:
 
 
 def _add_arrays(path: str, arrays: Mapping[str, np.ndarray]) -> None:
-    """Rewrite the model file at ``path`` with ``arrays`` added (``.npy`` entries, stored),
-    atomically (:func:`uavsnn._files.write_atomic`)."""
+    """Rewrite the model file at ``path`` with ``arrays`` added (``.npy`` entries, stored), in
+    place and flushed to disk: ``path`` is :meth:`Network.save`'s temporary file, renamed over
+    the model file once whole."""
     import io
     import zipfile
-
-    from uavsnn._files import write_atomic
 
     with zipfile.ZipFile(path) as old:
         entries = [(info.filename, old.read(info)) for info in old.infolist()]
     names = {f"{name}.npy" for name in arrays}
-
-    def write(out: Any) -> None:
+    with open(path, "wb") as out:
         with zipfile.ZipFile(out, "w", zipfile.ZIP_STORED) as z:
             for name, data in entries:
                 if name not in names:
@@ -628,8 +665,8 @@ def _add_arrays(path: str, arrays: Mapping[str, np.ndarray]) -> None:
                 buf = io.BytesIO()
                 np.save(buf, np.asarray(value), allow_pickle=False)
                 z.writestr(f"{name}.npy", buf.getvalue())
-
-    write_atomic(path, write)
+        out.flush()
+        os.fsync(out.fileno())
 
 
 def _check_finite(value: Any, path: str) -> None:

@@ -29,6 +29,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from uavsnn import _core
+from uavsnn._state import EngineState
 from uavsnn._validate import check_real, check_sensor_size, whole
 from uavsnn.errors import ParameterError
 from uavsnn.events import packed_bytes
@@ -116,8 +117,9 @@ def _box(box: Any) -> tuple[int, int, int, int]:
     return x0, y0, width, height
 
 
-class _BoxEstimator:
-    """What both rotor estimators do the same way: one engine estimator over one box."""
+class _BoxEstimator(EngineState):
+    """What both rotor estimators do the same way: one engine estimator over one box (not
+    copied nor pickled: :class:`~uavsnn._state.EngineState`)."""
 
     _inner: _core.RotorSignature | _core.RotorSpectrum
 
@@ -167,6 +169,9 @@ class RotorSignature(_BoxEstimator):
             (default 0.05).
         threshold: detection threshold on the strength (default: the documented one).
         min_pixels: fewest agreeing pixels for a detection (default 3).
+
+    It cannot be copied nor pickled (a ``TypeError``): its state lives in the engine; make
+    another and feed it the same events.
 
     Raises:
         ParameterError: a parameter out of range, or an empty or oversized box.
@@ -359,6 +364,8 @@ class RotorSpectrum(_BoxEstimator):
         agree: relative distance of a channel's own peak for its pixel to agree (default 0.03).
         threshold: detection threshold on the prominence (default: the documented one).
         min_pixels: fewest agreeing pixels for a detection (default 2).
+
+    It cannot be copied nor pickled (a ``TypeError``), as :class:`RotorSignature`.
 
     Raises:
         ParameterError: a parameter out of range, an empty box, or a state above

@@ -6,10 +6,13 @@ what each domain contains — are in ``docs/dataset.md``; this module carries th
 
 from __future__ import annotations
 
+import contextlib
 import math
+import os
 import re
+import secrets
 import shutil
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -162,6 +165,9 @@ def _check_build_args(
 
 
 def _prepare(out_dir: str | Path, overwrite: bool) -> Path:
+    """Check that a build may write its dataset into ``out_dir`` (empty, or a dataset and
+    ``overwrite``); nothing there is removed yet: :func:`_replace_contents` does it once the
+    new dataset is whole."""
     root = Path(out_dir)
     if root.exists() and not root.is_dir():
         raise DatasetError(f"{root} exists and is not a folder")
@@ -173,15 +179,66 @@ def _prepare(out_dir: str | Path, overwrite: bool) -> Path:
             )
         if not (root / MANIFEST).is_file():
             raise DatasetError(f"{root} is not empty and not a dataset: refusing to overwrite it")
-        for path in root.iterdir():
-            if path.name == LOCK:
-                continue
-            if path.is_dir():
-                shutil.rmtree(path)
-            else:
-                path.unlink()
     root.mkdir(parents=True, exist_ok=True)
     return root
+
+
+@contextlib.contextmanager
+def _staging(root: Path) -> Iterator[Path]:
+    """A new, empty, hidden folder to build ``root``'s dataset in, removed with whatever it
+    holds when the block is left (by :func:`_replace_contents`, the old dataset). It lies
+    beside ``root`` (the folder it resolves to, so that a link is followed), or inside it
+    where the folder beside it could not be made or is on another file system (a rename
+    cannot move a file between file systems)."""
+    real = root.resolve()
+    token = secrets.token_hex(6)
+    stage = real.parent / f".{real.name}.building-{token}"
+    try:
+        stage.mkdir()
+    except OSError:
+        beside = False
+    else:
+        beside = stage.stat().st_dev == real.stat().st_dev
+        if not beside:
+            stage.rmdir()
+    if not beside:
+        stage = real / f".building-{token}"
+        stage.mkdir()
+    try:
+        yield stage
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
+
+
+def _replace_contents(root: Path, stage: Path) -> None:
+    """Put the dataset built in ``stage`` in ``root`` in place of what ``root`` holds (but its
+    :data:`LOCK`, held by the build), which goes into ``stage`` (removed with it). Each file is
+    renamed, no data copied: the old manifest goes first and the new one comes last, so the
+    folder is never a dataset of mixed files; should a rename fail, or be interrupted, the
+    ones done are undone, and ``root`` is as it was."""
+    old = stage / ".old"
+    old.mkdir()
+    # The old manifest first, the new one last.
+    leaving = sorted(
+        (p.name for p in root.iterdir() if p.name not in (LOCK, stage.name)),
+        key=lambda name: name != MANIFEST,
+    )
+    coming = sorted((p.name for p in stage.iterdir() if p != old), key=lambda n: n == MANIFEST)
+    gone: list[str] = []
+    came: list[str] = []
+    try:
+        for name in leaving:
+            os.replace(root / name, old / name)
+            gone.append(name)
+        for name in coming:
+            os.replace(stage / name, root / name)
+            came.append(name)
+    except BaseException:
+        for name in reversed(came):
+            os.replace(root / name, stage / name)
+        for name in reversed(gone):
+            os.replace(old / name, root / name)
+        raise
 
 
 def build(
@@ -227,6 +284,10 @@ def build(
     (:func:`uavsnn.scenes.object_shares`) instead of drawing it, so that a small set — a
     tuning set — holds every kind (manifest: ``"object_scenes": "stratified"``).
 
+    The dataset is built in a hidden folder beside ``out_dir`` and put in its place only once
+    whole (with ``overwrite``, the old dataset goes then): a build that fails or is
+    interrupted leaves ``out_dir`` as it was, the old dataset whole, and no folder it made.
+
     Raises:
         ParameterError: impossible arguments.
         DatasetError: a non-empty ``out_dir`` (unless ``overwrite`` and it holds a dataset),
@@ -263,9 +324,10 @@ def build(
     video_dir = Path(videos) if videos is not None else None
     if video_dir is not None and not video_dir.is_dir():
         raise DatasetError(f"video folder {video_dir} does not exist or is not a folder")
-    # Folders are made only now, every argument checked: a refused build leaves none.
-    with locked_folder(out_dir):
-        root = _prepare(out_dir, overwrite)
+    # Folders are made only now, every argument checked: a refused build leaves none. The
+    # dataset is built in a folder of its own, and put in place of what ``out_dir`` holds only
+    # once whole: a build that fails or is interrupted leaves ``out_dir`` as it was.
+    with locked_folder(out_dir) as root, _staging(_prepare(root, overwrite)) as stage:
         report = _reporter(progress)
         rec = Recorder(seed, window, report, runner, stratify=stratify)
         if domain in ("dvs", "sim"):
@@ -299,7 +361,7 @@ def build(
         for name, data in splits.items():
             if len(data) == 0:
                 raise DatasetError(f"the {name} split is empty")
-            paths[name] = save_split(root / f"{name}.npz", data)
+            paths[name] = root / save_split(stage / f"{name}.npz", data).name
         manifest = {
             "format": FORMAT_NAME,
             "format_version": FORMAT_VERSION,
@@ -327,9 +389,10 @@ def build(
             },
             "recordings": rec.records,
         }
-        manifest_path = write_manifest(root, _jsonable(manifest))
+        write_manifest(stage, _jsonable(manifest))
+        _replace_contents(root, stage)
         getattr(report, "close", lambda: None)()  # the bar's last line
-        return DatasetPaths(root, manifest_path, paths)
+        return DatasetPaths(root, root / MANIFEST, paths)
 
 
 def check_footage(

@@ -35,6 +35,7 @@ from typing import Any
 import numpy as np
 
 from uavsnn import _core
+from uavsnn._state import EngineState
 from uavsnn.errors import ParameterError, SimulationError
 from uavsnn.events import EVENT_DTYPE
 from uavsnn.sim.checks import check_real, check_seed, check_size
@@ -172,9 +173,11 @@ def check_int_time(t_us: Any) -> int:
     return int(t_us)
 
 
-class DvsEmulator:
+class DvsEmulator(EngineState):
     """The emulator fed frames in batches, keeping each pixel's state between calls, so that a
-    long rendering runs in bounded memory.
+    long rendering runs in bounded memory. It cannot be copied nor pickled (a ``TypeError``):
+    its state lives in the engine. A batch stopped part way (Ctrl-C) leaves it past frames
+    whose events were lost: every later batch is refused (make a new one).
 
     Args:
         sensor_size: ``(width, height)`` of the frames, which is the sensor's size.

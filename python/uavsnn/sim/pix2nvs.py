@@ -44,6 +44,7 @@ from typing import Any, Literal
 import numpy as np
 
 from uavsnn import _core
+from uavsnn._state import EngineState
 from uavsnn.errors import ParameterError
 from uavsnn.sim.checks import check_choice, check_int, check_real, check_seed, check_size
 from uavsnn.sim.frames import as_frame_batch, push_frames
@@ -121,9 +122,10 @@ class Pix2NvsParams:
             )
 
 
-class Pix2NvsSimulator:
+class Pix2NvsSimulator(EngineState):
     """PIX2NVS fed frames in batches, keeping its state (references, thresholds) between calls,
-    so that a long video runs in bounded memory.
+    so that a long video runs in bounded memory. It cannot be copied nor pickled, and refuses
+    every batch after one stopped part way, as :class:`~uavsnn.sim.DvsEmulator`.
 
     Args:
         frame_size: ``(width, height)`` of the frames it will be fed.
