@@ -29,6 +29,35 @@ settings.load_profile(os.environ.get("UAVSNN_HYPOTHESIS_PROFILE", "ci"))
 SHARED_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 BENCHES = Path(__file__).resolve().parents[1] / "benches" / "python"
 
+#: The small sensor of the streaming tests, and a network on it whose conv3 fires often.
+SMALL_SENSOR = (40, 30)
+
+
+def small_config(estimate: str = "preceding") -> dict[str, Any]:
+    """A 40x30 network whose conv3 fires often, PENT on."""
+    return {
+        "width": SMALL_SENSOR[0],
+        "height": SMALL_SENSOR[1],
+        "pent": {"mode": "pent", "beta": 2.0, "theta_min": 1.5, "estimate": estimate},
+        "conv2": {"threshold": 3.0},
+        "conv3": {"threshold": 1.5},
+    }
+
+
+def blob_events(seed: int, n: int, *, t0: int = 5_000) -> np.ndarray:
+    """A blob drifting right over sparse noise on the 40x30 sensor; many equal times."""
+    from uavsnn.events import EVENT_DTYPE
+
+    rng = np.random.default_rng(seed)
+    ev = np.zeros(n, dtype=EVENT_DTYPE)
+    ev["t"] = t0 + np.cumsum(rng.integers(0, 40, n) * (rng.random(n) < 0.7))
+    noise = rng.random(n) < 0.25
+    cx = 5 + np.arange(n) * 30 // max(n, 1)
+    ev["x"] = np.where(noise, rng.integers(0, SMALL_SENSOR[0], n), cx + rng.integers(0, 5, n))
+    ev["y"] = np.where(noise, rng.integers(0, SMALL_SENSOR[1], n), 12 + rng.integers(0, 5, n))
+    ev["p"] = rng.random(n) < 0.5
+    return ev
+
 
 @pytest.fixture(scope="session")
 def shared_data() -> Path:

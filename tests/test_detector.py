@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import SMALL_SENSOR, blob_events, small_config
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -31,37 +32,13 @@ from uavsnn.network import DETECTION_DTYPE, Network
 from uavsnn.sources import FileSource, StdinSource
 from uavsnn.windows import make_windows
 
-SIZE = (40, 30)
+SIZE = SMALL_SENSOR
 ORDER = ["window", "t", "map", "row", "col"]
-
-
-def small_config(estimate: str = "preceding") -> dict:
-    """A 40x30 network whose conv3 fires often, PENT on."""
-    return {
-        "width": SIZE[0],
-        "height": SIZE[1],
-        "pent": {"mode": "pent", "beta": 2.0, "theta_min": 1.5, "estimate": estimate},
-        "conv2": {"threshold": 3.0},
-        "conv3": {"threshold": 1.5},
-    }
 
 
 @pytest.fixture(scope="module")
 def net() -> Network:
     return Network(small_config(), seed=3)
-
-
-def blob_events(seed: int, n: int, *, t0: int = 5_000) -> np.ndarray:
-    """A blob drifting right over sparse noise on the 40x30 sensor; many equal times."""
-    rng = np.random.default_rng(seed)
-    ev = np.zeros(n, dtype=EVENT_DTYPE)
-    ev["t"] = t0 + np.cumsum(rng.integers(0, 40, n) * (rng.random(n) < 0.7))
-    noise = rng.random(n) < 0.25
-    cx = 5 + np.arange(n) * 30 // max(n, 1)
-    ev["x"] = np.where(noise, rng.integers(0, SIZE[0], n), cx + rng.integers(0, 5, n))
-    ev["y"] = np.where(noise, rng.integers(0, SIZE[1], n), 12 + rng.integers(0, 5, n))
-    ev["p"] = rng.random(n) < 0.5
-    return ev
 
 
 def stream(

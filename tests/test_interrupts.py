@@ -17,9 +17,10 @@ from typing import Any
 
 import numpy as np
 import pytest
+from conftest import SMALL_SENSOR, blob_events, small_config
 
 import uavsnn.network as network_module
-from uavsnn import EVENT_DTYPE, EventError, ModelFileError, StreamError
+from uavsnn import EventError, ModelFileError, StreamError
 from uavsnn.cli import main
 from uavsnn.dataset import SceneSource, build, load
 from uavsnn.dataset.format import LOCK, MANIFEST
@@ -29,14 +30,8 @@ from uavsnn.network import Network
 from uavsnn.signature import RotorSignature, RotorSpectrum
 from uavsnn.sim import DvsEmulator, Pix2NvsSimulator
 
-SIZE = (40, 30)
-CONFIG = {
-    "width": SIZE[0],
-    "height": SIZE[1],
-    "pent": {"mode": "pent", "beta": 2.0, "theta_min": 1.5, "estimate": "preceding"},
-    "conv2": {"threshold": 3.0},
-    "conv3": {"threshold": 1.5},
-}
+SIZE = SMALL_SENSOR
+CONFIG = small_config()
 WINDOW_US = 3_000
 # Small recordings so that a build takes about a second.
 DVS = SceneSource("dvs", (240, 180), 200.0, 0.3)
@@ -47,19 +42,6 @@ dataset_build = importlib.import_module("uavsnn.dataset.build")
 @pytest.fixture(scope="module")
 def net() -> Network:
     return Network(CONFIG, seed=3)
-
-
-def blob_events(seed: int, n: int, *, t0: int = 5_000) -> np.ndarray:
-    """A blob drifting right over sparse noise on the 40x30 sensor; many equal times."""
-    rng = np.random.default_rng(seed)
-    ev = np.zeros(n, dtype=EVENT_DTYPE)
-    ev["t"] = t0 + np.cumsum(rng.integers(0, 40, n) * (rng.random(n) < 0.7))
-    noise = rng.random(n) < 0.25
-    cx = 5 + np.arange(n) * 30 // max(n, 1)
-    ev["x"] = np.where(noise, rng.integers(0, SIZE[0], n), cx + rng.integers(0, 5, n))
-    ev["y"] = np.where(noise, rng.integers(0, SIZE[1], n), 12 + rng.integers(0, 5, n))
-    ev["p"] = rng.random(n) < 0.5
-    return ev
 
 
 @pytest.fixture(scope="module")
