@@ -188,3 +188,12 @@ def test_rss_noise_runs_a_level_in_parts_with_the_points_of_one(bench_script) ->
     assert parts["input_spikes"] == whole["input_spikes"] >= 8 * 2160
     assert parts["points"] == whole["points"] and len(parts["points"]) == 2
     assert parts["peak_growth_mib"] >= 0
+
+
+def test_infer_batch_times_one_call(bench_script, capsys) -> None:
+    bench = bench_script("infer_batch")
+    r = bench.measure(6, 0.01, (40, 30), 1, 2)
+    assert r["windows"] == 6 and r["input_spikes"] > 0
+    assert 0 <= r["cpu_s_best"] <= r["cpu_s_median"] and r["wall_s_best"] > 0
+    assert bench.main(["--windows", "4", "--size", "40x30", "--repeats", "1", "--json"]) == 0
+    assert '"windows": 4' in capsys.readouterr().out
