@@ -198,7 +198,7 @@ impl BatchArgs {
 const PART_SECONDS: f64 = 0.1;
 
 /// The fewest windows of one part, per worker (a part ends when its slowest worker does).
-const PART_WINDOWS_PER_WORKER: usize = 32;
+const PART_WINDOWS_PER_WORKER: usize = 64;
 
 /// `infer` on the batch `args`, run a part at a time with the GIL let go, Python's signals
 /// checked between parts: Ctrl-C stops a long batch within about [`PART_SECONDS`] rather than
@@ -225,7 +225,7 @@ fn infer_in_parts(
             infer_range(net, &batch, start..end, threads, record)
         })?);
         py.check_signals()?;
-        let scale = (PART_SECONDS / began.elapsed().as_secs_f64().max(1e-6)).clamp(0.5, 4.0);
+        let scale = (PART_SECONDS / began.elapsed().as_secs_f64().max(1e-6)).clamp(0.5, 16.0);
         part = ((part as f64 * scale) as usize).max(least);
         start = end;
     }
