@@ -337,7 +337,7 @@ def test_a_save_stopped_before_the_identification_leaves_the_old_file(
     new = Network(seed=2)
     new.identification = _Identification()
 
-    def stopped(_path: str, _arrays: object) -> None:
+    def stopped(_path: str, _arrays: object, **_source: object) -> None:
         raise failure
 
     monkeypatch.setattr(network_module, "_add_arrays", stopped)

@@ -80,13 +80,19 @@ def output_file(path: Path, flag: str) -> Path:
     return path
 
 
+def temporary_beside(target: Path) -> Path:
+    """A fresh hidden name beside ``target`` for a file written before it is renamed over
+    ``target`` (on the same file system, so that the rename is atomic)."""
+    return target.with_name(f".{target.name}.{secrets.token_hex(6)}.tmp")
+
+
 def write_atomic(path: str | os.PathLike[str], write: Callable[[BinaryIO], object]) -> None:
     """Write ``path`` through ``write(handle)``: into a new temporary file beside it (created
     exclusively, under a random name), flushed to disk, then renamed over ``path``. On any
     error, the temporary file is removed, ``path`` is left as it was, and the error is raised
     again."""
     target = Path(path)
-    tmp = target.with_name(f".{target.name}.{secrets.token_hex(6)}.tmp")
+    tmp = temporary_beside(target)
     try:
         fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
         with os.fdopen(fd, "wb") as handle:

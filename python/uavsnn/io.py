@@ -36,7 +36,6 @@ from __future__ import annotations
 import json
 import os
 import re
-import secrets
 import struct
 from collections.abc import Iterator
 from pathlib import Path
@@ -45,6 +44,7 @@ from typing import Any
 import numpy as np
 
 from uavsnn import _core
+from uavsnn._files import write_atomic
 from uavsnn._validate import MAX_TIME_US, check_path, check_sensor_size
 from uavsnn.errors import EventError, ParameterError, RecordingFileError
 from uavsnn.events import EVENT_DTYPE, Recording, convert, packed_bytes
@@ -712,22 +712,15 @@ def write_npz(recording: Recording, path: str | os.PathLike[str]) -> None:
         meta = json.dumps(recording.metadata, default=_json_default)
     except (TypeError, ValueError) as exc:
         raise ParameterError(f"recording metadata is not JSON-serialisable: {exc}") from exc
-    tmp = target.with_name(f".{target.name}.{secrets.token_hex(6)}.tmp")
     try:
-        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
-        with os.fdopen(fd, "wb") as handle:
-            np.savez(
+        write_atomic(
+            target,
+            lambda handle: np.savez(
                 handle,
                 events=np.ascontiguousarray(recording.events),
                 sensor_size=np.asarray(recording.sensor_size, dtype=np.int64),
                 metadata=np.asarray(meta),
-            )
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(tmp, target)
+            ),
+        )
     except OSError as exc:
-        tmp.unlink(missing_ok=True)
         raise RecordingFileError(f"{target}: cannot write: {exc}") from exc
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise

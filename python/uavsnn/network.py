@@ -21,7 +21,6 @@ import copy
 import itertools
 import json
 import os
-import secrets
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -31,6 +30,7 @@ import numpy as np
 import numpy.typing as npt
 
 from uavsnn import _core
+from uavsnn._files import temporary_beside, write_atomic
 from uavsnn._validate import (
     U64_MAX,
     check_int,
@@ -557,20 +557,19 @@ class Network:
             self._core.save(file)
             return
         arrays = self.identification.to_arrays()
-        target = Path(file)
-        tmp = target.with_name(f".{target.name}.{secrets.token_hex(6)}.tmp")
+        # The engine's part first, beside the file; then the whole file from it, atomically.
+        tmp = temporary_beside(Path(file))
         try:
             try:
                 self._core.save(str(tmp))
             except ModelFileError as exc:
                 # The engine names the file it wrote, the temporary one: name the user's.
                 raise ModelFileError(str(exc).replace(str(tmp), file)) from exc
-            _add_arrays(str(tmp), arrays)
-            os.replace(tmp, target)
+            _add_arrays(file, arrays, source=tmp)
         except OSError as exc:
             raise ModelFileError(f"cannot write {file}: {exc.strerror or exc}") from exc
         finally:
-            tmp.unlink(missing_ok=True)  # gone once renamed; else the failed write's part
+            tmp.unlink(missing_ok=True)
 
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> Network:
@@ -646,17 +645,18 @@ class Network:
         return f"Network({c['width']}x{c['height']}, maps {maps}, {c['pent']['mode']})"
 
 
-def _add_arrays(path: str, arrays: Mapping[str, np.ndarray]) -> None:
-    """Rewrite the model file at ``path`` with ``arrays`` added (``.npy`` entries, stored), in
-    place and flushed to disk: ``path`` is :meth:`Network.save`'s temporary file, renamed over
-    the model file once whole."""
+def _add_arrays(path: str, arrays: Mapping[str, np.ndarray], *, source: Path | None = None) -> None:
+    """Write the model file ``path`` atomically (:func:`uavsnn._files.write_atomic`): the
+    entries of ``source`` (:meth:`Network.save`'s engine part; default: ``path`` itself) with
+    ``arrays`` added (``.npy`` entries, stored)."""
     import io
     import zipfile
 
-    with zipfile.ZipFile(path) as old:
+    with zipfile.ZipFile(source if source is not None else path) as old:
         entries = [(info.filename, old.read(info)) for info in old.infolist()]
     names = {f"{name}.npy" for name in arrays}
-    with open(path, "wb") as out:
+
+    def write(out: Any) -> None:
         with zipfile.ZipFile(out, "w", zipfile.ZIP_STORED) as z:
             for name, data in entries:
                 if name not in names:
@@ -665,8 +665,8 @@ def _add_arrays(path: str, arrays: Mapping[str, np.ndarray]) -> None:
                 buf = io.BytesIO()
                 np.save(buf, np.asarray(value), allow_pickle=False)
                 z.writestr(f"{name}.npy", buf.getvalue())
-        out.flush()
-        os.fsync(out.fileno())
+
+    write_atomic(path, write)
 
 
 def _check_finite(value: Any, path: str) -> None:
