@@ -57,8 +57,14 @@ pub fn in_live_pool<T: Send>(f: impl FnOnce() -> T + Send) -> Result<T> {
     if *FIRST_PROCESS.get_or_init(|| pid) == pid {
         return Ok(f());
     }
-    let cores = std::thread::available_parallelism().map_or(1, NonZeroUsize::get);
-    Ok(pool(cores.min(MAX_THREADS))?.install(f))
+    Ok(pool(cores())?.install(f))
+}
+
+/// One worker per core the system reports (1 when it reports none), at most [`MAX_THREADS`].
+pub fn cores() -> usize {
+    std::thread::available_parallelism()
+        .map_or(1, NonZeroUsize::get)
+        .min(MAX_THREADS)
 }
 
 /// A rayon pool of `n` workers of this process, started on first use and kept for later calls

@@ -28,6 +28,10 @@ pub fn to_pyerr(py: Python<'_>, err: &Error) -> PyErr {
     }
 }
 
+/// The wall time a long call runs between checks of Python's signals (the parts of `infer`,
+/// the frames of a simulator's batch): Ctrl-C waits about this long at most.
+pub const SIGNAL_CHECK_SECONDS: f64 = 0.1;
+
 /// Run `f` with the GIL released, its parallel work on threads this process has (in a forked
 /// child too: [`crate::threads::in_live_pool`]); map its error, and any panic, to a `uavsnn`
 /// exception.

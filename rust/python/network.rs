@@ -9,7 +9,7 @@ use numpy::{IntoPyArray, PyArray1, PyReadonlyArray1, PyReadonlyArray4};
 use pyo3::prelude::*;
 use pyo3::types::PyTuple;
 
-use super::errors::{detach, map, InUse};
+use super::errors::{detach, map, InUse, SIGNAL_CHECK_SECONDS};
 use crate::error::Error;
 use crate::network::{
     check_sensor, infer_range, training_order, ConvLayer, Detection, Layer, Network, NetworkConfig,
@@ -194,14 +194,11 @@ impl BatchArgs {
     }
 }
 
-/// The wall time one part of a long `infer` aims at: Ctrl-C waits about this long at most.
-const PART_SECONDS: f64 = 0.1;
-
 /// The fewest windows of one part, per worker (a part ends when its slowest worker does).
 const PART_WINDOWS_PER_WORKER: usize = 64;
 
 /// `infer` on the batch `args`, run a part at a time with the GIL let go, Python's signals
-/// checked between parts: Ctrl-C stops a long batch within about [`PART_SECONDS`] rather than
+/// checked between parts: Ctrl-C stops a long batch within about [`SIGNAL_CHECK_SECONDS`] rather than
 /// when it ends (the network is not changed by inference, so nothing is left half done). The
 /// parts grow or shrink toward that time; the results are those of one call.
 fn infer_in_parts(
@@ -212,9 +209,7 @@ fn infer_in_parts(
     record: bool,
 ) -> PyResult<Vec<WindowResult>> {
     let batch = detach(py, || args.batch(net))?;
-    let workers = threads.unwrap_or_else(|| {
-        std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get)
-    });
+    let workers = threads.unwrap_or_else(crate::threads::cores);
     let least = PART_WINDOWS_PER_WORKER * workers.clamp(1, MAX_THREADS);
     let (n, mut part, mut start) = (batch.len(), least, 0);
     let mut results = Vec::with_capacity(n);
@@ -225,7 +220,8 @@ fn infer_in_parts(
             infer_range(net, &batch, start..end, threads, record)
         })?);
         py.check_signals()?;
-        let scale = (PART_SECONDS / began.elapsed().as_secs_f64().max(1e-6)).clamp(0.5, 16.0);
+        let scale =
+            (SIGNAL_CHECK_SECONDS / began.elapsed().as_secs_f64().max(1e-6)).clamp(0.5, 16.0);
         part = ((part as f64 * scale) as usize).max(least);
         start = end;
     }

@@ -7,7 +7,7 @@ use numpy::{
 };
 use pyo3::prelude::*;
 
-use super::errors::{detach, map, read, write, InUse};
+use super::errors::{detach, map, read, write, InUse, SIGNAL_CHECK_SECONDS};
 use crate::error::{Error, Result};
 use crate::events::{Event, PACKED_EVENT_SIZE};
 use crate::sim::{
@@ -98,12 +98,8 @@ impl Kernel for DvsEmulator {
     }
 }
 
-/// The wall time the frames of one batch run between checks of Python's signals: Ctrl-C
-/// waits about this long at most.
-const PART_SECONDS: f64 = 0.1;
-
 /// Run a batch through a kernel with the GIL released, Python's signals checked about every
-/// [`PART_SECONDS`]; packed events out. An interruption (Ctrl-C) leaves the kernel past the
+/// [`SIGNAL_CHECK_SECONDS`]; packed events out. An interruption (Ctrl-C) leaves the kernel past the
 /// frames it ran, whose events are lost: `interrupted` is set, and every later batch refused.
 fn run_batch<'py, K: Kernel>(
     py: Python<'py>,
@@ -122,7 +118,7 @@ fn run_batch<'py, K: Kernel>(
         next = detach(py, || {
             let began = std::time::Instant::now();
             let mut i = next;
-            while i < times.len() && began.elapsed().as_secs_f64() < PART_SECONDS {
+            while i < times.len() && began.elapsed().as_secs_f64() < SIGNAL_CHECK_SECONDS {
                 kernel.push(&batch.frame(i), times[i], &mut events)?;
                 i += 1;
             }
