@@ -27,11 +27,12 @@ Example::
 from __future__ import annotations
 
 import bisect
+import contextlib
 import json
 import os
 import time
 from collections import Counter
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
@@ -217,8 +218,10 @@ class Detector(EngineState):
         self._lost_until = 0  # events before this time were dropped from _recent
         # Per live track: scored objects, the sum of their UAV scores and class probabilities.
         self._identity: dict[int, tuple[int, float, np.ndarray]] = {}
-        # The call that changes the stream and was stopped part way (see _interrupt), or None.
+        # The call that changes the stream and was stopped part way (see _changing), or None.
         self._interrupted: str | None = None
+        # Whether the current call's engine part took its input (see _changing).
+        self._taken = False
 
     _remake = "make another with Detector(...) for a second stream"
 
@@ -246,15 +249,10 @@ class Detector(EngineState):
         self._check_whole("push")
         if self._grouper is not None:
             raise self._mixed("push", "push_windows")
-        taken = False
-        try:
+        with self._changing("push"):
             found = self._push(events)
-            taken = True
             self._plain = self._plain or len(events) > 0
             return found
-        except BaseException as exc:
-            self._interrupt("push", exc, taken)
-            raise
 
     def _push(self, events: np.ndarray) -> np.ndarray:
         # Cheap checks first: a one-event push should cost microseconds, not a dtype walk.
@@ -267,15 +265,23 @@ class Detector(EngineState):
         raw = events.tobytes()  # the packed records, copied (cheaper than a dtype view)
         start = time.perf_counter_ns()
         out = self._inner.push(raw)
+        self._taken = True
         self._busy_ns += time.perf_counter_ns() - start
         return _detections(out)
 
-    def _interrupt(self, call: str, exc: BaseException, taken: bool) -> None:
-        """Note that ``call`` was stopped part way by ``exc`` (:attr:`interrupted`), unless
-        ``exc`` is one of the package's errors raised before the engine took the call's
-        input (``taken``): those are refusals that leave the detector as it was."""
-        if taken or not isinstance(exc, UavsnnError):
-            self._interrupted = call
+    @contextlib.contextmanager
+    def _changing(self, call: str) -> Iterator[None]:
+        """The body of ``call``, which changes the stream: stopped by an exception, the
+        detector notes it (:attr:`interrupted`), unless it is one of the package's errors
+        raised before the engine took the call's input (the engine calls set ``_taken``):
+        those are refusals that leave the detector as it was."""
+        self._taken = False
+        try:
+            yield
+        except BaseException as exc:
+            if self._taken or not isinstance(exc, UavsnnError):
+                self._interrupted = call
+            raise
 
     def flush(self) -> np.ndarray:
         """End the stream: return the detections still pending (the last timestamp's) and
@@ -289,15 +295,13 @@ class Detector(EngineState):
         self._check_whole("flush")
         if self._grouper is not None:
             raise self._mixed("flush", "push_windows")
-        try:
+        with self._changing("flush"):
             return self._flush()
-        except BaseException as exc:
-            self._interrupt("flush", exc, False)
-            raise
 
     def _flush(self) -> np.ndarray:
         start = time.perf_counter_ns()
         out = self._inner.flush()
+        self._taken = True
         self._busy_ns += time.perf_counter_ns() - start
         return _detections(out)
 
@@ -305,10 +309,9 @@ class Detector(EngineState):
         """Forget the stream (counters and tracks included); the next event starts a new one.
         This is how a stream left :attr:`interrupted` is ended; a reset that is itself
         interrupted part way leaves the detector :attr:`interrupted`."""
-        taken = False
-        try:
+        with self._changing("reset"):
             self._inner.reset()
-            taken = True
+            self._taken = True
             self._busy_ns = 0
             self._tracker.reset()
             self._grouper = None
@@ -316,9 +319,6 @@ class Detector(EngineState):
             self._recent, self._recent_n, self._lost_until = [], 0, 0
             self._identity = {}
             self._interrupted = None
-        except BaseException as exc:
-            self._interrupt("reset", exc, taken)
-            raise
 
     @property
     def interrupted(self) -> bool:
@@ -363,17 +363,12 @@ class Detector(EngineState):
         self._check_whole("push_windows")
         if self._plain:
             raise self._mixed("push_windows", "push")
-        taken = False
-        try:
+        with self._changing("push_windows"):
             found = self._push(events)
-            taken = True
             grouper = self._windows()
             if self._rotor and len(events):
                 self._keep(events)
             return self._finish_reports(grouper.add(events, found))
-        except BaseException as exc:
-            self._interrupt("push_windows", exc, taken)
-            raise
 
     def flush_windows(self) -> list[WindowReport]:
         """End the stream (as :meth:`flush`) and return every window still open, tracked.
@@ -385,14 +380,8 @@ class Detector(EngineState):
         self._check_whole("flush_windows")
         if self._plain:
             raise self._mixed("flush_windows", "push")
-        taken = False
-        try:
-            found = self._flush()
-            taken = True
-            return self._finish_reports(self._windows().finish(found))
-        except BaseException as exc:
-            self._interrupt("flush_windows", exc, taken)
-            raise
+        with self._changing("flush_windows"):
+            return self._finish_reports(self._windows().finish(self._flush()))
 
     @property
     def tracker(self) -> Tracker:
