@@ -328,7 +328,8 @@ def test_identification_markdown_and_roc_chart(tiny, tmp_path: Path) -> None:
 def test_streaming_scores_every_object_of_a_window() -> None:
     """A window with several objects gets a rotor, score and guess for each, equal to the
     batch features' score (a name reused inside the loop once broke the second object)."""
-    from uavsnn.detector import WindowObject, WindowReport, _with_rotor, _with_scores
+    from uavsnn.detector import _with_rotor, _with_scores
+    from uavsnn.grouping import WindowObject, WindowReport
     from uavsnn.identify import object_features
 
     rng = np.random.default_rng(4)

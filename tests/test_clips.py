@@ -16,8 +16,8 @@ from hypothesis import strategies as st
 
 from uavsnn import EVENT_DTYPE, Network
 from uavsnn.clips import box_events, clip_alarms, clip_set, clip_table, evaluate_clips
-from uavsnn.detector import _NO_DETECTIONS, WindowObject, WindowReport
 from uavsnn.errors import DatasetError, ParameterError, ShapeError
+from uavsnn.grouping import _NO_DETECTIONS, WindowObject, WindowReport
 from uavsnn.track_eval import Confirm, decision_figures
 
 STEP, L = 25_000, 50_000

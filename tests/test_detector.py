@@ -23,10 +23,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import uavsnn.detector
+import uavsnn.grouping
 import uavsnn.network
 from uavsnn import EVENT_DTYPE, EventError, ParameterError, Recording, ShapeError, StreamError
-from uavsnn.detector import WINDOW_DETECTION_DTYPE, Detector, WindowGrouper, merge_boxes
+from uavsnn.detector import WINDOW_DETECTION_DTYPE, Detector
 from uavsnn.filters import downsample
+from uavsnn.grouping import WindowGrouper, merge_boxes
 from uavsnn.io import write_npz
 from uavsnn.network import DETECTION_DTYPE, Network
 from uavsnn.sources import FileSource, StdinSource
@@ -574,7 +576,7 @@ def test_a_chunk_is_grouped_a_slice_at_a_time(net, monkeypatch, start) -> None:
         return [(r.window, r.t0, r.spikes, r.objects, r.detections.tobytes()) for r in found]
 
     whole = reports()
-    monkeypatch.setattr(uavsnn.detector, "_GROUP_SLICE", 7)
+    monkeypatch.setattr(uavsnn.grouping, "_GROUP_SLICE", 7)
     assert reports() == whole and len(whole) > 5
 
 
@@ -731,7 +733,7 @@ def test_merge_boxes_equals_the_reference_rule_for_a_few_boxes(boxes) -> None:
 @given(
     boxes=st.lists(
         st.tuples(st.integers(0, 300), st.integers(0, 300), st.integers(1, 6), st.integers(1, 6)),
-        min_size=uavsnn.detector._MERGE_IN_NUMPY_FROM + 1,
+        min_size=uavsnn.grouping._MERGE_IN_NUMPY_FROM + 1,
         max_size=300,
         unique=True,
     ),

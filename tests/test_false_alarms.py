@@ -11,7 +11,6 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from uavsnn import Network
-from uavsnn.detector import WindowObject, WindowReport
 from uavsnn.errors import ParameterError
 from uavsnn.false_alarms import (
     TUNE_KEY,
@@ -25,6 +24,7 @@ from uavsnn.false_alarms import (
     tune_track_alarms,
     uav_free_scenes,
 )
+from uavsnn.grouping import WindowObject, WindowReport
 
 
 def _obj(score, track, confirmed, track_score):

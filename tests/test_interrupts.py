@@ -24,8 +24,9 @@ from uavsnn import EventError, ModelFileError, StreamError
 from uavsnn.cli import main
 from uavsnn.dataset import SceneSource, build, load
 from uavsnn.dataset.format import LOCK, MANIFEST
-from uavsnn.detector import Detector, WindowGrouper
+from uavsnn.detector import Detector
 from uavsnn.errors import DatasetError
+from uavsnn.grouping import WindowGrouper
 from uavsnn.network import Network
 from uavsnn.signature import RotorSignature, RotorSpectrum
 from uavsnn.sim import DvsEmulator, Pix2NvsSimulator

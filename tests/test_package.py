@@ -20,6 +20,23 @@ def test_every_public_submodule_is_reachable_from_the_package() -> None:
     assert uavsnn.SUBMODULES <= set(dir(uavsnn))
 
 
+def test_window_reports_can_still_be_imported_from_the_detector_module() -> None:
+    # They lived in uavsnn.detector before uavsnn.grouping: a program's imports, and reports
+    # pickled by an older uavsnn (Ray sends them between processes), still find them there.
+    import pickle
+
+    import uavsnn.detector
+    import uavsnn.grouping
+
+    for name in uavsnn.grouping.__all__:
+        assert getattr(uavsnn.detector, name) is getattr(uavsnn.grouping, name)
+        assert name in uavsnn.detector.__all__
+    old = pickle.dumps(uavsnn.grouping.WindowObject(box=(1, 2, 3, 4), spikes=5)).replace(
+        b"uavsnn.grouping", b"uavsnn.detector"
+    )
+    assert pickle.loads(old) == uavsnn.grouping.WindowObject(box=(1, 2, 3, 4), spikes=5)
+
+
 def test_submodules_are_imported_on_first_use() -> None:
     # A fresh interpreter: ``import uavsnn`` leaves the simulator and the file readers
     # unimported, and the docs' dotted calls import them.

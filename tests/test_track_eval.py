@@ -14,8 +14,8 @@ import pytest
 
 from uavsnn import Network
 from uavsnn.dataset import LabelledWindows
-from uavsnn.detector import _NO_DETECTIONS, WindowObject, WindowReport
 from uavsnn.errors import ParameterError, ShapeError
+from uavsnn.grouping import _NO_DETECTIONS, WindowObject, WindowReport
 from uavsnn.identify import FEATURES, WindowFeatures, window_steps
 from uavsnn.track_eval import Confirm, confirm_flags, poisson_upper, track_figures, track_table
 from uavsnn.tracks import Tracker

@@ -13,13 +13,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from uavsnn import EVENT_DTYPE, Detector, Network, ParameterError
-from uavsnn.detector import (
-    _NO_DETECTIONS,
-    WindowGrouper,
-    WindowObject,
-    WindowReport,
-    _with_rotor,
-)
+from uavsnn.detector import _with_rotor
+from uavsnn.grouping import _NO_DETECTIONS, WindowGrouper, WindowObject, WindowReport
 from uavsnn.tracks import GATE_SHARE, Tracker, track_windows, tracker_for
 
 STEP = 25_000  # µs between window starts (50 ms windows, overlap 0.5)

@@ -42,7 +42,6 @@ from typing import Any
 
 from uavsnn import Network
 from uavsnn.clips import StreamedClip, clip_alarms, clip_set, clip_stream
-from uavsnn.detector import WindowReport
 from uavsnn.false_alarms import (
     FREE_KEY,
     TUNE_KEY,
@@ -51,6 +50,7 @@ from uavsnn.false_alarms import (
     scene_reports,
     track_alarm_threshold,
 )
+from uavsnn.grouping import WindowReport
 
 #: Scores are clipped to [EPS, 1 − EPS] before their log-odds are taken.
 EPS = 1e-4

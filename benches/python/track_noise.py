@@ -27,7 +27,7 @@ import argparse
 
 import numpy as np
 
-from uavsnn.detector import WindowObject, WindowReport
+from uavsnn.grouping import WindowObject, WindowReport
 from uavsnn.tracks import Tracker, track_windows
 
 STEP = 25_000

@@ -58,7 +58,7 @@ __all__ = [
 SUBMODULES = frozenset(
     {
         "bench", "boxes", "cli", "clips", "dataset", "detector", "distributed", "errors",
-        "evaluation", "events", "experiments", "false_alarms", "features", "filters",
+        "evaluation", "events", "experiments", "false_alarms", "features", "filters", "grouping",
         "identifier", "identify", "io", "linear", "network", "pictures", "progress", "report",
         "scenes", "signature", "sim", "sources", "track_eval", "tracks", "training", "trees",
         "windows",

@@ -2,7 +2,7 @@
 
 A box here is half-open ``(x0, y0, x1, y1)``: the pixels with ``x0 <= x < x1`` and
 ``y0 <= y < y1``, as the network's causal boxes and the objects merged from them
-(:func:`uavsnn.detector.merge_boxes`) give it. The rotor estimators of :mod:`uavsnn.signature`
+(:func:`uavsnn.grouping.merge_boxes`) give it. The rotor estimators of :mod:`uavsnn.signature`
 take a box as ``(x0, y0, width, height)`` instead (:func:`xywh`).
 
     >>> inside = in_box(events, (10, 20, 34, 36))      # the events of that 24x16 box

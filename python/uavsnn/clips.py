@@ -52,7 +52,7 @@ if TYPE_CHECKING:
     from uavsnn.dataset.labels import WindowLabels
     from uavsnn.dataset.splits import WindowCut
     from uavsnn.dataset.synthetic import SceneSource
-    from uavsnn.detector import WindowReport
+    from uavsnn.grouping import WindowReport
     from uavsnn.network import Network
     from uavsnn.scenes import SceneSpec
     from uavsnn.sim import Pix2NvsParams

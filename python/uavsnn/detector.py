@@ -12,8 +12,10 @@ Spikes that share a timestamp are decided together, so a detection at time ``t``
 the first :meth:`Detector.push` that carries an event later than ``t`` (or by
 :meth:`Detector.flush` at the end of the stream). Memory stays bounded however long the stream.
 
-:class:`WindowGrouper` turns the spikes into one :class:`WindowReport` per window (the decision
-and the merged boxes), which is what ``uavsnn detect`` prints.
+:meth:`Detector.push_windows` returns one :class:`~uavsnn.grouping.WindowReport` per window
+instead (the decision and the merged boxes, grouped by :class:`~uavsnn.grouping.WindowGrouper`,
+with each object's rotor signature, track and identification), which is what ``uavsnn detect``
+prints. The names of :mod:`uavsnn.grouping` can also be imported from here.
 
 Example::
 
@@ -31,9 +33,8 @@ import contextlib
 import json
 import os
 import time
-from collections import Counter
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -45,9 +46,10 @@ from uavsnn.boxes import xywh
 from uavsnn.errors import ParameterError, ShapeError, StreamError, UavsnnError
 from uavsnn.events import EVENT_DTYPE, packed_bytes
 from uavsnn.features import MAX_RATE_BINS, RATE_BIN_US, rate_bins
+from uavsnn.grouping import WindowGrouper, WindowObject, WindowReport, merge_boxes
 from uavsnn.network import WINDOW_DETECTION_DTYPE
-from uavsnn.signature import BoxMeasure, RotorEstimate, measure_box
-from uavsnn.tracks import Track, Tracker, tracker_for
+from uavsnn.signature import BoxMeasure, measure_box
+from uavsnn.tracks import Tracker, tracker_for
 
 if TYPE_CHECKING:
     from uavsnn.network import Network
@@ -527,305 +529,6 @@ class Detector(EngineState):
             f"sensor_size={self.sensor_size}, events_seen={self.events_seen}, "
             f"windows_opened={self.windows_opened}, detections={self.detections_emitted})"
         )
-
-
-# ---------------------------------------------------------------------- one decision per window
-
-
-@dataclass(frozen=True)
-class WindowObject:
-    """One merged box of a window (see :func:`merge_boxes`), its track and rotor signature
-    (filled by :meth:`Detector.push_windows`; ``None`` when not measured), and the
-    identification's UAV score and class guess (:meth:`uavsnn.identify.Identifier.guess`:
-    ``"uav"``, or the likeliest other class, ``"other"`` for a model without a class part),
-    for the object and for its track so far (filled by :meth:`Detector.push_windows` when the
-    model has identification and the rotor was measured, else ``None``; the score uses the
-    track as it stands after this window)."""
-
-    #: ``(x0, y0, x1, y1)``, half-open sensor pixels (``x0 <= x < x1``).
-    box: tuple[int, int, int, int]
-    #: conv3 spikes whose causal boxes were merged into this one.
-    spikes: int
-    uav_score: float | None = None
-    class_guess: str | None = None
-    track_id: int | None = None
-    #: Whether the track (:class:`uavsnn.tracks.Tracker`) was confirmed by this window.
-    track_confirmed: bool | None = None
-    #: The rotor signature of the window's raw events inside :attr:`box`
-    #: (:func:`uavsnn.signature.rotor_signature`), whether detected or not; ``None`` when not
-    #: measured (see :data:`MAX_ROTOR_BOXES`, :data:`MAX_ROTOR_EVENTS`).
-    rotor: RotorEstimate | None = None
-    #: The object's track as it stands after this window (:meth:`uavsnn.tracks.Tracker.update`:
-    #: its age, hits, speed and path so far); ``None`` without a track.
-    track: Track | None = None
-    #: The mean UAV score of the track's scored objects so far, this one included (the
-    #: track-level rule of :mod:`uavsnn.track_eval` compares it with the threshold).
-    track_score: float | None = None
-    #: The object's probability of each class of the model's class part
-    #: (:attr:`uavsnn.identify.Identifier.classes`; empty without one).
-    class_probabilities: tuple[float, ...] | None = None
-    #: The track's class guess: :attr:`track_score` and the mean class probabilities of its
-    #: scored objects so far, through :meth:`uavsnn.identify.Identifier.guess_from`.
-    track_class: str | None = None
-    #: Measured with :attr:`rotor`: ``(events, on, rate_swing)``, the window's raw events inside
-    #: :attr:`box`, the ON ones among them and how strongly their rate swings
-    #: (:func:`uavsnn.signature.measure_box`); they count in its track's activity history.
-    counts: tuple[int, int, float] | None = None
-
-    @property
-    def centre(self) -> tuple[float, float]:
-        """The middle of :attr:`box` (it always lies inside the box)."""
-        x0, y0, x1, y1 = self.box
-        return (x0 + x1) / 2, (y0 + y1) / 2
-
-
-@dataclass(frozen=True)
-class WindowReport:
-    """The decision of one window ``[t0, t1)``: its conv3 spikes, merged into objects."""
-
-    window: int
-    t0: int
-    t1: int
-    #: At least ``min_detections`` conv3 spikes (the paper's rule, docs/model.md §5).
-    detected: bool
-    #: The window's spikes, as :meth:`Detector.push` returned them, in time order.
-    detections: np.ndarray
-    objects: tuple[WindowObject, ...]
-
-    @property
-    def spikes(self) -> int:
-        """Number of conv3 spikes in the window."""
-        return len(self.detections)
-
-
-def merge_boxes(detections: np.ndarray) -> tuple[WindowObject, ...]:
-    """Merge the causal boxes of some detections into objects.
-
-    The rule: two boxes that overlap or share an edge (half-open boxes ``a`` and ``b`` with
-    ``a.x0 <= b.x1``, ``b.x0 <= a.x1`` and the same in y) are replaced by their bounding box,
-    repeatedly, until no two boxes overlap or touch. Each object counts the spikes whose boxes
-    it absorbed. Objects come largest spike count first, then by ``x0, y0``. The result does
-    not depend on the order of ``detections``.
-    """
-    if len(detections) == 0:
-        return ()
-    # The distinct boxes in ascending (x0, y0, x1, y1) order, each with its spike count.
-    tally = Counter(zip(*(detections[f].tolist() for f in ("x0", "y0", "x1", "y1")), strict=True))
-    boxes = sorted(tally)
-    counts = [tally[b] for b in boxes]
-    if len(boxes) > _MERGE_IN_NUMPY_FROM:
-        merged = _merge_passes_numpy(boxes, counts)
-    else:
-        merged = _merge_passes(boxes, counts)
-    merged.sort(key=lambda bc: (-bc[1], bc[0][0], bc[0][1]))
-    return tuple(WindowObject(box=box, spikes=n) for box, n in merged)
-
-
-#: :func:`merge_boxes` merges up to this many distinct boxes in plain Python (a window holds a
-#: few, where NumPy's cost per call dominates) and more with NumPy (a pass makes
-#: ``O(boxes²)`` comparisons; vectorised, thousands of boxes stay fast). Both give the same
-#: objects.
-_MERGE_IN_NUMPY_FROM = 64
-
-#: Events :meth:`WindowGrouper.add` reads at a time (its working arrays stay near 3 MB).
-_GROUP_SLICE = 1 << 16
-
-_Box = tuple[int, int, int, int]
-
-
-def _merge_passes(boxes: list[_Box], counts: list[int]) -> list[tuple[_Box, int]]:
-    """:func:`merge_boxes`'s passes, in plain Python. A pass takes the first box left and
-    absorbs every box left that overlaps or touches it (all of them at once, then again
-    against the grown box) until none does, then moves on to the next box left. Passes repeat
-    until one merges nothing. Returns ``(box, spikes)`` in the last pass's order."""
-    while True:
-        merged: list[tuple[_Box, int]] = []
-        rest = list(zip(boxes, counts, strict=True))
-        while rest:
-            (x0, y0, x1, y1), n = rest.pop(0)
-            while rest:
-                hit, keep = [], []
-                for r in rest:
-                    b = r[0]
-                    if b[0] <= x1 and x0 <= b[2] and b[1] <= y1 and y0 <= b[3]:
-                        hit.append(r)
-                    else:
-                        keep.append(r)
-                if not hit:
-                    break
-                x0 = min(x0, *(b[0] for b, _ in hit))
-                y0 = min(y0, *(b[1] for b, _ in hit))
-                x1 = max(x1, *(b[2] for b, _ in hit))
-                y1 = max(y1, *(b[3] for b, _ in hit))
-                n += sum(c for _, c in hit)
-                rest = keep
-            merged.append(((x0, y0, x1, y1), n))
-        if len(merged) == len(boxes):  # a pass merged nothing: no two boxes touch
-            return merged
-        boxes, counts = [b for b, _ in merged], [c for _, c in merged]
-
-
-def _merge_passes_numpy(boxes: list[_Box], counts: list[int]) -> list[tuple[_Box, int]]:
-    """:func:`_merge_passes` with each comparison of a box against those left vectorised."""
-    rows, n_of = np.array(boxes, dtype=np.int64), np.array(counts, dtype=np.int64)
-    while True:
-        merged_rows: list[np.ndarray] = []
-        merged_counts: list[int] = []
-        rest, rest_n = rows, n_of
-        while len(rest):
-            cur, n = rest[0].copy(), int(rest_n[0])
-            rest, rest_n = rest[1:], rest_n[1:]
-            while len(rest):
-                hit = (
-                    (rest[:, 0] <= cur[2])
-                    & (cur[0] <= rest[:, 2])
-                    & (rest[:, 1] <= cur[3])
-                    & (cur[1] <= rest[:, 3])
-                )
-                if not hit.any():
-                    break
-                cur[:2] = np.minimum(cur[:2], rest[hit, :2].min(axis=0))
-                cur[2:] = np.maximum(cur[2:], rest[hit, 2:].max(axis=0))
-                n += int(rest_n[hit].sum())
-                rest, rest_n = rest[~hit], rest_n[~hit]
-            merged_rows.append(cur)
-            merged_counts.append(n)
-        stable = len(merged_rows) == len(rows)
-        rows, n_of = np.array(merged_rows), np.array(merged_counts, dtype=np.int64)
-        if stable:  # a pass merged nothing: no two boxes touch
-            return [
-                ((int(r[0]), int(r[1]), int(r[2]), int(r[3])), int(c))
-                for r, c in zip(rows, n_of, strict=True)
-            ]
-
-
-class WindowGrouper:
-    """Group a :class:`Detector`'s spikes by window: one :class:`WindowReport` per window,
-    returned as soon as the window is closed (an event at or after its end has been pushed,
-    so every spike of it has been returned), or at the end of the stream.
-
-    A report is made for every window the detector opens, i.e. every window holding at least
-    one event (windows wholly inside a silent gap are skipped, as the detector skips them);
-    windows without a spike are reported with ``detected=False``.
-
-    Feed it every chunk the detector accepted, with what the detector returned::
-
-        det = Detector(network)
-        windows = WindowGrouper.of(det)
-        for chunk in source:
-            for w in windows.add(chunk, det.push(chunk)):
-                print(w.window, w.detected, [o.box for o in w.objects])
-        for w in windows.finish(det.flush()):
-            ...
-
-    Args:
-        window_us, step_us: the detector's window length and step.
-        start_us: start of window 0, or ``None`` for the first event's time.
-        min_detections: conv3 spikes that make a window a detection.
-    """
-
-    def __init__(
-        self, window_us: int, step_us: int, *, start_us: int | None = None, min_detections: int = 1
-    ) -> None:
-        if window_us < 1 or step_us < 1 or min_detections < 1:
-            raise ParameterError(
-                f"window_us, step_us and min_detections must be at least 1, got "
-                f"{window_us}, {step_us} and {min_detections}"
-            )
-        self.window_us = int(window_us)
-        self.step_us = int(step_us)
-        self.min_detections = int(min_detections)
-        self._start = None if start_us is None else int(start_us)
-        self._next = 0  # the first window not opened yet
-        self._open: list[int] = []  # opened, not yet reported, in order
-        self._found: dict[int, list[np.ndarray]] = {}
-
-    @classmethod
-    def of(cls, detector: Detector) -> WindowGrouper:
-        """A grouper for ``detector``'s windows, to be fed from its first push on."""
-        return cls(
-            detector.window_us,
-            detector.step_us,
-            start_us=detector.start_us,
-            min_detections=int(detector.network.config["detection"]["min_detections"]),
-        )
-
-    def add(self, events: np.ndarray, detections: np.ndarray) -> list[WindowReport]:
-        """Note a chunk the detector accepted and the detections it returned for it; return
-        the windows that chunk closed."""
-        self._note(detections)
-        if len(events) == 0:
-            return []
-        times = events["t"]
-        if self._start is None:
-            self._start = int(times[0])
-        if int(times[-1]) < self._start:
-            return []
-        # A slice at a time: the arrays below take about 40 bytes an event.
-        for s in range(0, len(times), _GROUP_SLICE):
-            self._open_windows(times[s : s + _GROUP_SLICE].astype(np.int64) - self._start)
-        # Window k is closed once an event at or after its end has been pushed.
-        last = int(times[-1]) - self._start
-        closed = 0
-        while closed < len(self._open) and self._end(self._open[closed]) <= last:
-            closed += 1
-        return self._report(closed)
-
-    def _open_windows(self, t: np.ndarray) -> None:
-        """Open the windows that events at ``t`` (from the start, in order) are the first of."""
-        t = t[t >= 0]
-        if len(t) == 0:
-            return
-        # The windows holding each event: lo..=hi (hi and lo never decrease along the chunk).
-        hi = t // self.step_us
-        lo = np.where(t >= self.window_us, (t - self.window_us) // self.step_us + 1, 0)
-        prev = np.concatenate([[self._next - 1], np.maximum.accumulate(hi)[:-1]])
-        first = np.maximum(lo, prev + 1)
-        for i in np.flatnonzero(first <= hi):
-            self._open.extend(range(int(first[i]), int(hi[i]) + 1))
-        self._next = max(self._next, int(hi[-1]) + 1)
-
-    def finish(self, detections: np.ndarray) -> list[WindowReport]:
-        """The end of the stream: note the detections :meth:`Detector.flush` returned and
-        report every window still open."""
-        self._note(detections)
-        return self._report(len(self._open))
-
-    def open_since(self) -> int | None:
-        """Start of the earliest window not yet reported, or of the next one to open; events
-        before it belong to no window still to come. ``None`` before the first event."""
-        if self._start is None:
-            return None
-        return self._start + (self._open[0] if self._open else self._next) * self.step_us
-
-    def _end(self, k: int) -> int:
-        return k * self.step_us + self.window_us
-
-    def _note(self, detections: np.ndarray) -> None:
-        if len(detections) == 0:
-            return
-        windows = detections["window"]
-        for k in np.unique(windows).tolist():
-            self._found.setdefault(int(k), []).append(detections[windows == k])
-
-    def _report(self, n: int) -> list[WindowReport]:
-        start = self._start or 0
-        out = []
-        for k in self._open[:n]:
-            parts: Sequence[np.ndarray] = self._found.pop(k, [])
-            spikes = np.concatenate(parts) if parts else _NO_DETECTIONS
-            out.append(
-                WindowReport(
-                    window=k,
-                    t0=start + k * self.step_us,
-                    t1=start + self._end(k),
-                    detected=len(spikes) >= self.min_detections,
-                    detections=spikes,
-                    objects=merge_boxes(spikes),
-                )
-            )
-        del self._open[:n]
-        return out
 
 
 def _with_rotor(

@@ -45,7 +45,7 @@ if TYPE_CHECKING:
     import numpy as np
 
     from uavsnn.dataset.synthetic import LabelledRecording
-    from uavsnn.detector import WindowReport
+    from uavsnn.grouping import WindowReport
     from uavsnn.identifier import Identifier
     from uavsnn.network import Network
     from uavsnn.scenes import Lens
@@ -120,7 +120,7 @@ def alarm_rules(
 def count_alarms(reports: Sequence[WindowReport], rules: dict[str, float | None]) -> dict:
     """Per rule, the windows (``"alarming"``) and the tracks (``"tracks"``) that alarm among
     ``reports``, the windows of one stream; ``"track_peaks"``: for each confirmed track with a
-    score, the highest :attr:`~uavsnn.detector.WindowObject.track_score` it reached while
+    score, the highest :attr:`~uavsnn.grouping.WindowObject.track_score` it reached while
     confirmed in a detected window, largest first; and ``"window_peaks"``: each detected
     window's highest object score (windows without a scored object left out), largest first.
     With identification at a threshold ``θ``, the tracks and the windows that alarm are those

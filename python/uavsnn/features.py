@@ -1,7 +1,7 @@
 """The objects identification describes, and their features (SPEC §3).
 
-Each window's conv3 detections are merged into objects (:func:`uavsnn.detector.merge_boxes`,
-as :class:`uavsnn.detector.WindowGrouper` groups them in the streaming path, so batch and
+Each window's conv3 detections are merged into objects (:func:`uavsnn.grouping.merge_boxes`,
+as :class:`uavsnn.grouping.WindowGrouper` groups them in the streaming path, so batch and
 streaming see the same boxes). Each object is described by :data:`FEATURES`, measured on the
 window's raw events (``[t0, t0 + L)``) inside its box:
 
@@ -356,7 +356,8 @@ def window_features(
             (:func:`window_steps`).
         ShapeError: the dataset's sensor size is not the network's input.
     """
-    from uavsnn.detector import MAX_ROTOR_BOXES, WindowReport, merge_boxes
+    from uavsnn.detector import MAX_ROTOR_BOXES
+    from uavsnn.grouping import WindowReport, merge_boxes
     from uavsnn.tracks import Tracker, tracker_for
 
     expected = (int(network.config["width"]), int(network.config["height"]))

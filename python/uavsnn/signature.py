@@ -311,7 +311,7 @@ class BoxMeasure(NamedTuple):
 
     @property
     def counts(self) -> tuple[int, int, float]:
-        """``(events, on, rate_swing)``: what :attr:`uavsnn.detector.WindowObject.counts`
+        """``(events, on, rate_swing)``: what :attr:`uavsnn.grouping.WindowObject.counts`
         holds."""
         return self.events, self.on, self.rate_swing
 

@@ -1,6 +1,6 @@
 """Tracks: the merged objects of each window linked from window to window.
 
-A :class:`Tracker` is fed one :class:`~uavsnn.detector.WindowReport` at a time, in window order,
+A :class:`Tracker` is fed one :class:`~uavsnn.grouping.WindowReport` at a time, in window order,
 and returns it with each object's ``track_id`` filled in. :func:`track_windows` runs the same
 tracker over a whole sequence of reports (the batch path): both give the same tracks, since the
 batch path is the streaming one in a loop. The model, the assignment rule, confirmation,
@@ -31,7 +31,7 @@ from uavsnn.errors import ParameterError
 from uavsnn.features import activity
 
 if TYPE_CHECKING:
-    from uavsnn.detector import WindowReport
+    from uavsnn.grouping import WindowReport
     from uavsnn.network import Network
 
 __all__ = [
@@ -410,7 +410,7 @@ class Tracker:
                 later than the previous window's, or an object whose ``counts`` no box gives
                 (:func:`uavsnn.features.activity`); the tracker is then as it was.
         """
-        from uavsnn.detector import WindowReport
+        from uavsnn.grouping import WindowReport
 
         if not isinstance(report, WindowReport):
             raise ParameterError(f"a tracker takes WindowReports, got {report!r}")

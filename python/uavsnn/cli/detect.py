@@ -6,7 +6,7 @@ packed``: canonical 13-byte records; ``csv``: ``t,x,y,p`` lines), or ``udp://HOS
 receiving faery's or aestream's UDP packets (``--udp-format``; see :mod:`uavsnn.sources` for the
 exact layouts). Standard output gets one line per window, as soon as the window closes: the
 decision, the count of conv3 spikes and their causal boxes merged into objects
-(:func:`uavsnn.detector.merge_boxes`), each with its track id (:mod:`uavsnn.tracks`) and its rotor
+(:func:`uavsnn.grouping.merge_boxes`), each with its track id (:mod:`uavsnn.tracks`) and its rotor
 signature when one is detected (:mod:`uavsnn.signature`), and the UAV score and class guess of
 the model's identification stage (:mod:`uavsnn.identify`; ``-``, JSON ``null``, for a model
 without one, or an object beyond the rotor's limit); ``--per-spike`` prints
