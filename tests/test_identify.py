@@ -236,6 +236,22 @@ def test_save_load_round_trip_with_identification(tmp_path: Path) -> None:
     ]
 
 
+def test_the_same_network_saves_the_same_bytes_at_any_time(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A model file carries no time of writing (a checksum compares two trainings)."""
+    import time
+
+    net = small_net()
+    net.identification = model()
+    saved = []
+    for when in (0.0, 3e8):  # two times of writing, years apart
+        monkeypatch.setattr(time, "time", lambda when=when: 1.6e9 + when)
+        net.save(tmp_path / "m.npz")
+        saved.append((tmp_path / "m.npz").read_bytes())
+    assert saved[0] == saved[1]
+
+
 def test_a_model_fitted_before_the_rate_swing_scores_with_its_own_features(
     tmp_path: Path,
 ) -> None:

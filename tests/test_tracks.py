@@ -564,6 +564,29 @@ def test_streaming_in_any_chunks_equals_batch(net: Network, cuts: list[int], see
     assert any(o.track_id is not None for r in reps for o in r.objects)
 
 
+@pytest.mark.parametrize("whole_chunk", [3000, 700])
+def test_a_large_chunk_keeps_the_events_of_the_windows_it_closes(
+    net: Network, monkeypatch: pytest.MonkeyPatch, whole_chunk: int
+) -> None:
+    """The rotor is measured on the same events whether the stream comes in one chunk larger
+    than MAX_ROTOR_EVENTS or in small ones (the limits shrunk: the windows still open hold
+    about 450 events, a chunk of 3000 or 700 more than the 600 kept)."""
+    import uavsnn.detector
+
+    monkeypatch.setattr(uavsnn.detector, "MAX_ROTOR_EVENTS", 600)
+    monkeypatch.setattr(uavsnn.detector, "_ROTOR_SLICE", 64)
+    events = blob_events(0, 3000)
+
+    def rotors(cut: int) -> list:
+        det = Detector(net, window_us=3_000, overlap=0.5, tracker=Tracker(gate_px=8))
+        reps = streamed(det, events, list(range(cut, len(events), cut)))
+        return [(r.window, [(o.box, repr(o.rotor), o.counts) for o in r.objects]) for r in reps]
+
+    small = rotors(50)
+    assert sum(o[1] != "None" for _, objs in small for o in objs) > 10
+    assert rotors(whole_chunk) == small
+
+
 def test_a_detector_tracks_with_its_sensors_gate(net: Network) -> None:
     assert Detector(net).tracker.gate_px == pytest.approx(GATE_SHARE * SIZE[0])
     mine = Tracker(gate_px=5.0)

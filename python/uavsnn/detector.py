@@ -80,6 +80,12 @@ MAX_ROTOR_BOXES = 8
 #: window, the oldest are dropped and the windows that lost events get ``rotor=None``.
 MAX_ROTOR_EVENTS = 1 << 21
 
+#: Events of a chunk :meth:`Detector.push_windows` keeps and closes windows for at a time, so
+#: that a chunk of millions of events keeps the events of the windows it closes, as small
+#: chunks do: the reports do not depend on the chunking unless the windows still open hold
+#: more than :data:`MAX_ROTOR_EVENTS` less one slice.
+_ROTOR_SLICE = 1 << 16
+
 
 if TYPE_CHECKING:
     #: Deprecated: :data:`WINDOW_DETECTION_DTYPE` (read with a ``DeprecationWarning``).
@@ -368,9 +374,16 @@ class Detector(EngineState):
         with self._changing("push_windows"):
             found = self._push(events)
             grouper = self._windows()
-            if self._rotor and len(events):
-                self._keep(events)
-            return self._finish_reports(grouper.add(events, found))
+            grouper.add(events[:0], found)  # the whole chunk's spikes, noted at once
+            # The windows closed a slice at a time, each slice's events kept for the rotor
+            # just before: a large chunk keeps as many events for its windows as small ones.
+            out: list[WindowReport] = []
+            for s in range(0, len(events), _ROTOR_SLICE):
+                part = events[s : s + _ROTOR_SLICE]
+                if self._rotor:
+                    self._keep(part)
+                out += self._finish_reports(grouper.add(part, _NO_DETECTIONS))
+            return out
 
     def flush_windows(self) -> list[WindowReport]:
         """End the stream (as :meth:`flush`) and return every window still open, tracked.

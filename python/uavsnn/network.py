@@ -656,15 +656,21 @@ def _add_arrays(path: str, arrays: Mapping[str, np.ndarray], *, source: Path | N
         entries = [(info.filename, old.read(info)) for info in old.infolist()]
     names = {f"{name}.npy" for name in arrays}
 
+    def entry(name: str) -> zipfile.ZipInfo:
+        # A fixed time, as the engine's part has: the same network gives the same bytes.
+        info = zipfile.ZipInfo(name, date_time=(1980, 1, 1, 0, 0, 0))
+        info.external_attr = 0o644 << 16
+        return info
+
     def write(out: Any) -> None:
         with zipfile.ZipFile(out, "w", zipfile.ZIP_STORED) as z:
             for name, data in entries:
                 if name not in names:
-                    z.writestr(name, data)
+                    z.writestr(entry(name), data)
             for name, value in arrays.items():
                 buf = io.BytesIO()
                 np.save(buf, np.asarray(value), allow_pickle=False)
-                z.writestr(f"{name}.npy", buf.getvalue())
+                z.writestr(entry(f"{name}.npy"), buf.getvalue())
 
     write_atomic(path, write)
 
