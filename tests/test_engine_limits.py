@@ -120,6 +120,32 @@ def test_large_real_sensors_are_accepted() -> None:
     assert Network({"width": 2048, "height": 2048}).shapes["conv1"] == (4, 2048, 2048)
 
 
+def test_live_windows_whose_states_exceed_memory_are_refused() -> None:
+    # One window's state of an 8000x8000 network is about 2.6 GB: allowed alone, but an
+    # overlap of 0.5 keeps two windows live (the process aborted allocating the second).
+    from uavsnn.detector import Detector
+
+    net = Network({"width": 8000, "height": 8000})
+    with pytest.raises(uavsnn.ParameterError, match=r"overlap.*2 live windows.*MAX_ALLOC_BYTES"):
+        Detector(net, overlap=0.5)
+
+
+def test_a_model_file_listing_an_entry_twice_is_refused(tmp_path) -> None:
+    # A zip directory may name one stored entry many times (a 10 MB file asked for 655 GB).
+    import warnings
+    import zipfile
+
+    path = tmp_path / "m.npz"
+    Network(seed=1).save(path)
+    with zipfile.ZipFile(path) as z:
+        conv3 = z.read("conv3.npy")
+    with warnings.catch_warnings(), zipfile.ZipFile(path, "a") as z:
+        warnings.simplefilter("ignore")  # zipfile warns of the duplicate name it writes
+        z.writestr("conv3.npy", conv3)
+    with pytest.raises(uavsnn.ModelFileError, match=r"conv3\.npy appears twice"):
+        Network.load(path)
+
+
 # 5. Allocations sized by a sensor are capped (MAX_ALLOC_BYTES).
 def test_denoise_on_a_huge_sensor_is_refused() -> None:
     rec = Recording(np.zeros(0, EVENT_DTYPE), HUGE)

@@ -46,7 +46,11 @@ pub use crate::threads::MAX_THREADS;
 /// workers (`None`: the pool the call runs in, rayon's global one unless it runs in another,
 /// see [`crate::threads`]; at most [`MAX_THREADS`], a pool kept by [`crate::threads::pool`]).
 /// PENT's `N_in` is the window's spike count or its `n_preceding`, as the config's
-/// `pent.estimate` says. Results are in window order.
+/// `pent.estimate` says. Results are in window order, and the same on any number of workers.
+///
+/// Each worker holds a network state: where the states of that many workers would take more
+/// than [`MAX_ALLOC_BYTES`](crate::MAX_ALLOC_BYTES) together (a network of a few thousand
+/// pixels a side), fewer workers run ([`workers_that_fit`]).
 ///
 /// Each window is re-checked as it is read ([`WindowBatch::window`]), so a batch written as a
 /// struct literal gives a typed error, not a panic.
@@ -82,6 +86,12 @@ pub fn infer_range(
             ),
         ));
     }
+    let fit = workers_that_fit(net);
+    let threads = match threads {
+        Some(n) if n <= MAX_THREADS => Some(n.min(fit)),
+        None if fit < rayon::current_num_threads() => Some(fit),
+        other => other, // 0 or above MAX_THREADS: refused below
+    };
     let run = || {
         windows
             .clone()
@@ -111,6 +121,16 @@ pub fn infer_range(
         }
         Some(n) => crate::threads::pool(n)?.install(run),
     }
+}
+
+/// The most workers whose network states, one each, take at most
+/// [`MAX_ALLOC_BYTES`](crate::MAX_ALLOC_BYTES) together; at least one (a single state is capped
+/// at that size when the network is made).
+pub fn workers_that_fit(net: &Network) -> usize {
+    let one = net.geometry().state_bytes().max(1);
+    usize::try_from(crate::MAX_ALLOC_BYTES as u128 / one)
+        .unwrap_or(usize::MAX)
+        .max(1)
 }
 
 /// Check that a sensor `(width, height)` is the network's input.
@@ -191,6 +211,31 @@ impl Drop for StateGuard<'_> {
 #[cfg(test)]
 mod pool_tests {
     use super::*;
+
+    #[test]
+    fn as_many_workers_run_as_their_states_fit_in_the_memory_cap() {
+        use crate::network::NetworkConfig;
+        let small = Network::new(NetworkConfig::default(), 0).unwrap();
+        assert!(workers_that_fit(&small) > MAX_THREADS);
+        let sized = |side: usize| {
+            let config = NetworkConfig {
+                width: side,
+                height: side,
+                ..NetworkConfig::default()
+            };
+            Network::new(config, 0).unwrap()
+        };
+        // About 2.6 GB a state at 8000 x 8000 (made, never run): one worker fits, not two.
+        let big = sized(8000);
+        let one = big.geometry().state_bytes();
+        assert!(one <= crate::MAX_ALLOC_BYTES as u128 && 2 * one > crate::MAX_ALLOC_BYTES as u128);
+        assert_eq!(workers_that_fit(&big), 1);
+        let mid = sized(3000);
+        let n = workers_that_fit(&mid) as u128;
+        let one = mid.geometry().state_bytes();
+        assert!(n * one <= crate::MAX_ALLOC_BYTES as u128);
+        assert!((n + 1) * one > crate::MAX_ALLOC_BYTES as u128);
+    }
 
     #[test]
     fn a_batch_literal_with_bad_columns_is_an_error() {

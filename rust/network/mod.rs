@@ -55,10 +55,12 @@ pub use config::{
 pub use detection::Detection;
 pub use gabor::gabor_kernels;
 pub use geometry::{ConvGeom, Geometry, PoolGeom};
-pub use inference::{check_sensor, infer, infer_range, WindowResult, MAX_THREADS};
+pub use inference::{
+    check_sensor, infer, infer_range, workers_that_fit, WindowResult, MAX_THREADS,
+};
 pub use layer::{ConvLayer, Layer};
 pub use model::NetworkOf;
-pub use model_io::MODEL_FORMAT;
+pub use model_io::{MAX_MODEL_FILE_BYTES, MODEL_FORMAT};
 pub use stdp::{Convergence, Rates, Schedule};
 
 /// A xorshift64 generator for tests: each call advances the state and returns it.

@@ -11,7 +11,7 @@
 //! `[0, 1]`, and reports any problem as [`Error::Model`]. No pickled code, ever.
 
 use std::fs;
-use std::io::Write;
+use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -23,6 +23,11 @@ use crate::error::{Error, Result};
 
 /// The format marker stored in every model file.
 pub const MODEL_FORMAT: &str = "uavsnn-model";
+
+/// The largest model file [`Network::load`] reads: four times the bytes of the most weights a
+/// network may hold ([`MAX_WEIGHTS`](super::config::MAX_WEIGHTS) float32s), room for its config
+/// and identification part (at most tens of MB).
+pub const MAX_MODEL_FILE_BYTES: u64 = 1 << 30;
 
 impl Network {
     /// The model file's bytes (see the module docs).
@@ -110,14 +115,34 @@ impl Network {
             .map_err(|e| Error::Model(format!("cannot write {}: {e}", path.display())))
     }
 
-    /// Load from `path` (checked; see the module docs).
+    /// Load from `path` (checked; see the module docs). A file larger than
+    /// [`MAX_MODEL_FILE_BYTES`] is refused before more than that is read.
     pub fn load(path: impl AsRef<Path>) -> Result<Self> {
         let path = path.as_ref();
-        let bytes = fs::read(path)
-            .map_err(|e| Error::Model(format!("cannot read {}: {e}", path.display())))?;
+        let bytes = read_at_most(path, MAX_MODEL_FILE_BYTES)?;
         Self::from_npz_bytes(&bytes)
             .map_err(|e| Error::Model(format!("{}: {}", path.display(), strip(&e))))
     }
+}
+
+/// The bytes of the file at `path`, refused (before more than `limit + 1` bytes are read) when
+/// it holds more than `limit`: a device or a huge file named by mistake.
+fn read_at_most(path: &Path, limit: u64) -> Result<Vec<u8>> {
+    let cannot = |e: std::io::Error| Error::Model(format!("cannot read {}: {e}", path.display()));
+    let file = fs::File::open(path).map_err(cannot)?;
+    let hint = file.metadata().map_or(0, |m| m.len()).min(limit);
+    let mut bytes = Vec::with_capacity(usize::try_from(hint).unwrap_or(0));
+    file.take(limit.saturating_add(1))
+        .read_to_end(&mut bytes)
+        .map_err(cannot)?;
+    if bytes.len() as u64 > limit {
+        return Err(Error::Model(format!(
+            "{}: larger than {limit} bytes (MAX_MODEL_FILE_BYTES), more than any network's \
+             weights and identification take; not a model file",
+            path.display()
+        )));
+    }
+    Ok(bytes)
 }
 
 /// An error's message without the `model file:` prefix (it is added again by the caller).
@@ -183,6 +208,23 @@ fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_file_above_the_limit_is_refused_after_reading_one_byte_more() {
+        let dir = std::env::temp_dir().join(format!("uavsnn-read-at-most-{}", std::process::id()));
+        fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("big.npz");
+        fs::write(&path, vec![1u8; 101]).unwrap();
+        assert_eq!(read_at_most(&path, 101).unwrap().len(), 101);
+        let err = read_at_most(&path, 100).unwrap_err();
+        assert!(err.to_string().contains("larger than 100 bytes"), "{err}");
+        fs::remove_dir_all(&dir).unwrap();
+        #[cfg(unix)] // endless: read only up to the limit
+        {
+            let err = read_at_most(Path::new("/dev/zero"), 1000).unwrap_err();
+            assert!(err.to_string().contains("larger than 1000 bytes"), "{err}");
+        }
+    }
 
     fn small() -> Network {
         let c = NetworkConfig {

@@ -251,7 +251,12 @@ pub(crate) fn unzip(bytes: &[u8]) -> Result<Vec<(String, Vec<u8>)>> {
         })?;
     let count = usize::from(get16(bytes, end + 10)?);
     let cd_offset = get32(bytes, end + 16)? as usize;
-    let mut entries = Vec::with_capacity(count);
+    let mut entries: Vec<(String, Vec<u8>)> = Vec::with_capacity(count);
+    let mut names = std::collections::BTreeSet::new();
+    // The entries' data lie apart in a sound archive: together they fit in the file. A
+    // directory listing one entry many times (65535 names of one 10 MB entry) would otherwise
+    // copy it each time.
+    let mut total = 0usize;
     let mut at = cd_offset;
     for _ in 0..count {
         if get32(bytes, at)? != CENTRAL {
@@ -305,6 +310,15 @@ pub(crate) fn unzip(bytes: &[u8]) -> Result<Vec<(String, Vec<u8>)>> {
             .ok()
             .filter(|&s| s <= bytes.len())
             .ok_or_else(truncated)?;
+        if !names.insert(name.clone()) {
+            return Err(Error::Model(format!("entry {name} appears twice")));
+        }
+        total = total.saturating_add(size);
+        if total > bytes.len() {
+            return Err(Error::Model(
+                "corrupt zip directory: its entries hold more data than the file".into(),
+            ));
+        }
         check_local_header(bytes, local, &name, method, crc, size)?;
         let data_at = local
             + 30
@@ -433,6 +447,80 @@ mod tests {
         put32(&mut out, cd_offset);
         put16(&mut out, 0);
         out
+    }
+
+    /// `entries` archived, with the central record of the first entry listed `times` times.
+    fn listed_again(entries: &[(String, Vec<u8>)], times: u16) -> Vec<u8> {
+        let plain = zip_stored(entries).unwrap();
+        let end = plain.len() - 22;
+        let cd_offset = get32(&plain, end + 16).unwrap() as usize;
+        let first = 46 + entries[0].0.len();
+        let mut out = plain[..end].to_vec();
+        for _ in 0..times {
+            out.extend_from_slice(&plain[cd_offset..cd_offset + first]);
+        }
+        let count = entries.len() as u16 + times;
+        put32(&mut out, END);
+        for v in [0, 0, count, count] {
+            put16(&mut out, v);
+        }
+        let cd_size = (out.len() - 12 - cd_offset) as u32;
+        put32(&mut out, cd_size);
+        put32(&mut out, cd_offset as u32);
+        put16(&mut out, 0);
+        out
+    }
+
+    #[test]
+    fn an_entry_listed_twice_is_refused_before_it_is_copied_again() {
+        let entries = vec![
+            ("a.npy".to_string(), vec![7u8; 1000]),
+            ("b.npy".to_string(), vec![1u8, 2]),
+        ];
+        assert_eq!(unzip(&listed_again(&entries, 0)).unwrap(), entries);
+        for times in [1, 100, u16::MAX - 2] {
+            let err = unzip(&listed_again(&entries, times)).unwrap_err();
+            assert!(err.to_string().contains("a.npy appears twice"), "{err}");
+        }
+    }
+
+    #[test]
+    fn entries_holding_more_data_than_the_file_are_refused() {
+        // b.npy's local header lies inside a.npy's data, so their data overlap: each entry is
+        // sound alone, but together they claim more bytes than the file has.
+        let inner = zip_stored(&[("b.npy".to_string(), vec![5u8; 600])]).unwrap();
+        let b_local = 30 + 5; // within a.npy's data, which starts after its header and name
+        let mut a_data = inner[..30 + 5 + 600].to_vec();
+        a_data.extend_from_slice(&[0u8; 100]);
+        let archive = zip_stored(&[("a.npy".to_string(), a_data)]).unwrap();
+        let end = archive.len() - 22;
+        let cd_offset = get32(&archive, end + 16).unwrap() as usize;
+        let mut out = archive[..end].to_vec();
+        // A second central record: b.npy at b_local.
+        put32(&mut out, CENTRAL);
+        put16(&mut out, 20);
+        for v in [20, 0, 0, 0, DOS_DATE] {
+            put16(&mut out, v);
+        }
+        put32(&mut out, crc32(&[5u8; 600]));
+        put32(&mut out, 600);
+        put32(&mut out, 600);
+        for v in [5, 0, 0, 0, 0] {
+            put16(&mut out, v);
+        }
+        put32(&mut out, 0);
+        put32(&mut out, b_local as u32);
+        out.extend_from_slice(b"b.npy");
+        put32(&mut out, END);
+        for v in [0, 0, 2, 2] {
+            put16(&mut out, v);
+        }
+        let cd_size = (out.len() - 12 - cd_offset) as u32;
+        put32(&mut out, cd_size);
+        put32(&mut out, cd_offset as u32);
+        put16(&mut out, 0);
+        let err = unzip(&out).unwrap_err();
+        assert!(err.to_string().contains("more data than the file"), "{err}");
     }
 
     #[test]

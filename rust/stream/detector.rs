@@ -48,6 +48,12 @@ pub trait WindowEngine {
     /// A fresh state; states are reused through [`WindowEngine::begin`].
     fn new_state(&self) -> Self::State;
 
+    /// Bytes one state takes (a detector holds one per live window), for the memory cap
+    /// [`Detector::new`] checks; 0 for states too small to count.
+    fn state_bytes(&self) -> usize {
+        0
+    }
+
     /// Start a window at `t0` whose PENT estimate is `n_in` input spikes.
     fn begin(&self, state: &mut Self::State, t0: u64, n_in: u64) -> Result<()>;
 
@@ -158,6 +164,18 @@ impl<E: WindowEngine> Detector<E> {
                 format!("must be at most 2^62 µs, got {start}"),
             ));
         }
+        // Each live window holds a state: their sum is one request the overlap sizes.
+        check_alloc(
+            "overlap",
+            || {
+                format!(
+                    "the network states of {live} live windows (an overlap of {})",
+                    config.overlap
+                )
+            },
+            usize::try_from(live).unwrap_or(usize::MAX),
+            engine.state_bytes(),
+        )?;
         let sensor = engine.sensor()?;
         // The counter keeps 8 bytes a pixel and queues up to two 16-byte entries a pixel.
         check_alloc(

@@ -26,6 +26,11 @@ impl WindowEngine for Network {
         Network::new_state(self)
     }
 
+    fn state_bytes(&self) -> usize {
+        // At most MAX_WINDOW_STATE_BYTES: a config needing more is refused when made.
+        usize::try_from(self.geometry().state_bytes()).unwrap_or(usize::MAX)
+    }
+
     /// PENT from the "preceding" estimate `n_in`, whatever the config's `pent.estimate`: a
     /// live stream cannot know a window's own count before the window is over.
     fn begin(&self, state: &mut WindowState, t0: u64, n_in: u64) -> Result<()> {

@@ -550,6 +550,44 @@ fn a_sensor_above_the_memory_cap_is_refused_before_allocating() {
     crate::error::assert_over_cap(&err, "sensor_size");
 }
 
+/// An engine whose state takes just over half the memory cap, never run.
+struct Fat;
+
+impl WindowEngine for Fat {
+    type State = ();
+
+    fn sensor(&self) -> Result<SensorSize> {
+        SensorSize::new(64, 48)
+    }
+
+    fn new_state(&self) {}
+
+    fn state_bytes(&self) -> usize {
+        crate::MAX_ALLOC_BYTES / 2 + 1
+    }
+
+    fn begin(&self, (): &mut (), _: u64, _: u64) -> Result<()> {
+        Ok(())
+    }
+
+    fn push(&self, (): &mut (), _: u64, _: u16, _: u16) -> Result<()> {
+        Ok(())
+    }
+
+    fn settle(&self, (): &mut (), _: &mut Vec<Detection>) -> Result<()> {
+        Ok(())
+    }
+}
+
+#[test]
+fn live_windows_whose_states_exceed_the_memory_cap_are_refused() {
+    assert!(Detector::new(Fat, config(1000, 0.0)).is_ok()); // one live window
+    let Err(err) = Detector::new(Fat, config(1000, 0.5)) else {
+        panic!("two states of over half the cap were accepted");
+    };
+    crate::error::assert_over_cap(&err, "overlap");
+}
+
 /// A chunk of more than [`PUSH_SLICE`] events, pushed whole (as events or as packed records),
 /// gives the detections of the same stream pushed in small chunks, in the same order, and the
 /// detector holds room for one slice's input spikes, not the chunk's.
