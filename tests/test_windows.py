@@ -381,3 +381,28 @@ def test_inconsistent_windows_are_refused() -> None:
     ]:
         with pytest.raises(error, match=message):
             Windows(**{**ok, **change})
+
+
+def test_the_memory_limit_is_the_least_the_process_can_have(tmp_path: Path) -> None:
+    import subprocess
+    import sys
+
+    from uavsnn.windows import _memory_limit
+
+    physical = _memory_limit(cgroup_files=())
+    assert physical is not None and physical > 0
+    (tmp_path / "none").write_text("max\n")
+    (tmp_path / "small").write_text("123456789\n")
+    assert _memory_limit(cgroup_files=[str(tmp_path / "none")]) == physical
+    assert _memory_limit(cgroup_files=[str(tmp_path / "small")]) == min(physical, 123456789)
+    # The first file found is the hierarchy's: a missing one is skipped, a later one not read.
+    found = [str(tmp_path / "missing"), str(tmp_path / "none"), str(tmp_path / "small")]
+    assert _memory_limit(cgroup_files=found) == physical
+    # ulimit -v: a process allowed less address space than the machine's memory.
+    code = (
+        "import resource; hard = resource.getrlimit(resource.RLIMIT_AS)[1]; cap = 6 << 30\n"
+        "if hard != resource.RLIM_INFINITY: cap = min(cap, hard)\n"
+        "resource.setrlimit(resource.RLIMIT_AS, (cap, hard)); import uavsnn.windows as w\n"
+        "assert w.MEMORY_LIMIT is not None and w.MEMORY_LIMIT <= cap, w.MEMORY_LIMIT"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True, timeout=120)

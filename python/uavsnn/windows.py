@@ -19,8 +19,9 @@ from __future__ import annotations
 import math
 import numbers
 import os
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -40,17 +41,45 @@ __all__ = [
 ]
 
 
-def _physical_memory() -> int | None:
+#: Where a container's memory limit is written (cgroup v2, then v1); "max" or a number past
+#: the machine's memory means none.
+_CGROUP_LIMITS = ("/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory/memory.limit_in_bytes")
+
+
+def _memory_limit(cgroup_files: Sequence[str] = _CGROUP_LIMITS) -> int | None:
+    """The most memory this process can have: the least of the machine's physical memory, its
+    container's limit (cgroup) and its address-space limit (``ulimit -v``); ``None`` when none
+    is known."""
+    limits = []
     try:
-        return int(os.sysconf("SC_PHYS_PAGES")) * int(os.sysconf("SC_PAGE_SIZE"))
+        limits.append(int(os.sysconf("SC_PHYS_PAGES")) * int(os.sysconf("SC_PAGE_SIZE")))
     except (AttributeError, OSError, ValueError):
-        return None
+        pass
+    for name in cgroup_files:
+        try:
+            text = Path(name).read_text().strip()
+        except OSError:
+            continue
+        if text.isdigit():
+            limits.append(int(text))
+        break  # the first file found is this process's hierarchy
+    try:
+        import resource
+
+        soft = resource.getrlimit(resource.RLIMIT_AS)[0]
+        if soft != resource.RLIM_INFINITY:
+            limits.append(int(soft))
+    except (ImportError, OSError, ValueError):
+        pass
+    return min(limits) if limits else None
 
 
-#: Bytes :func:`make_windows` may plan to allocate (``None``: no bound); by default the
-#: machine's physical memory. A recording whose windows could need more is refused with its
-#: size, instead of dying on an allocation the system cannot honour.
-MEMORY_LIMIT: int | None = _physical_memory()
+#: Bytes :func:`make_windows` and the recording readers may plan to allocate (``None``: no
+#: bound); by default the most this process can have (:func:`_memory_limit`: the machine's
+#: physical memory, less where a container or ``ulimit -v`` sets less). A recording whose
+#: windows could need more is refused with its size, instead of dying on an allocation the
+#: system cannot honour.
+MEMORY_LIMIT: int | None = _memory_limit()
 
 # Bytes the engine allocates per input event (its time, place and window range while sweeping)
 # and per window spike (time and place in the output columns).
