@@ -371,12 +371,23 @@ def test_a_split_file_from_another_build_is_refused(dataset: Path, tmp_path: Pat
 def test_windowing_beyond_the_memory_limit_is_refused(monkeypatch: pytest.MonkeyPatch) -> None:
     rec = uavsnn.Recording(_events(10_000), SIZE)
     assert len(make_windows(rec, 5_000, 0.5).t0)
-    # 10,000 events at 50 % overlap may take 10,000 * (16 + 2 * 12) bytes.
-    monkeypatch.setattr(uwindows, "MEMORY_LIMIT", 400_000 - 1)
+    # 10,000 events at 50 % overlap may take 10,000 * (16 + 2 * 12) bytes, and a window every
+    # 2,500 µs over their span 24 bytes each.
+    t = rec.events["t"]
+    need = 10_000 * 40 + ((int(t[-1]) + 1 - int(t[0])) // 2_500 + 1) * 24
+    monkeypatch.setattr(uwindows, "MEMORY_LIMIT", need - 1)
     with pytest.raises(ParameterError, match=r"windowing 10,000 events .* uavsnn.Detector"):
         make_windows(rec, 5_000, 0.5)
-    monkeypatch.setattr(uwindows, "MEMORY_LIMIT", 400_000)
+    monkeypatch.setattr(uwindows, "MEMORY_LIMIT", need)
     assert len(make_windows(rec, 5_000, 0.5).t0)
+    # Two events far apart hold few spikes but a window every microsecond between them.
+    two = uavsnn.Recording(_events(2)[[0, 1]], SIZE)
+    two.events["t"][1] = two.events["t"][0] + 10_000_000
+    monkeypatch.setattr(uwindows, "MEMORY_LIMIT", 100_000_000)
+    with pytest.raises(ParameterError, match=r"windowing 2 events"):
+        make_windows(two, 1)
+    monkeypatch.setattr(uwindows, "MEMORY_LIMIT", 300_000_000)
+    assert len(make_windows(two, 1).t0) > 0
 
 
 def test_the_command_line_reports_a_failed_allocation_in_one_line(

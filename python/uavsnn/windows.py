@@ -85,16 +85,18 @@ MEMORY_LIMIT: int | None = _memory_limit()
 # and per window spike (time and place in the output columns).
 _BYTES_PER_EVENT = 16
 _BYTES_PER_SPIKE = 12
+# ... and per window (its start, offset and preceding count).
+_BYTES_PER_WINDOW = 24
 
 
-def _check_memory(n_events: int, length_us: int, overlap: float) -> None:
-    """Refuse a windowing whose worst case (every event in every window that holds it)
-    exceeds :data:`MEMORY_LIMIT`."""
+def _check_memory(n_events: int, length_us: int, overlap: float, span_us: int = 0) -> None:
+    """Refuse a windowing whose worst case (every event in every window that holds it, and a
+    window every step over ``span_us``) exceeds :data:`MEMORY_LIMIT`."""
     if MEMORY_LIMIT is None or n_events == 0:
         return
     step = max(1, math.floor(length_us * (1.0 - overlap)))
     per_event = _BYTES_PER_EVENT + _BYTES_PER_SPIKE * -(-length_us // step)
-    need = n_events * per_event
+    need = n_events * per_event + (span_us // step + 1) * _BYTES_PER_WINDOW
     if need > MEMORY_LIMIT:
         raise ParameterError(
             f"windowing {n_events:,} events (overlap {overlap}) may need {need / 2**30:.1f} GiB, "
@@ -335,7 +337,11 @@ def make_windows(
     end = None if end_us is None else int_param("end_us", end_us, 0, MAX_TIME_US)
     width, height = recording.sensor_size
     overlap = _overlap(overlap)
-    _check_memory(len(recording.events), length, overlap)
+    times = recording.events["t"]
+    if len(times):
+        first = int(times[0]) if start is None else start
+        last = int(times[-1]) + 1 if end is None else end
+        _check_memory(len(times), length, overlap, max(0, last - first))
     columns = _core.make_windows(
         packed_bytes(recording.events),
         width,
