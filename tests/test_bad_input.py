@@ -433,6 +433,29 @@ def test_garbage_npy_and_folders_are_named_for_what_they_are(tmp_path: Path) -> 
         uio.read(tmp_path / "absent.npz")
 
 
+def test_selecting_windows_beyond_the_memory_limit_is_refused(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    wins = make_windows(uavsnn.Recording(_events(2_000), SIZE), 5_000)
+    spikes = int(np.diff(wins.offsets).max())
+    busiest = int(np.argmax(np.diff(wins.offsets)))
+    monkeypatch.setattr(uwindows, "MEMORY_LIMIT", 1_000 * spikes * 20)
+    assert len(wins.select([busiest] * 1_000).t) == 1_000 * spikes
+    with pytest.raises(ParameterError, match=r"selecting 1,001 windows copies"):
+        wins.select([busiest] * 1_001)
+
+
+def test_training_snapshots_are_capped() -> None:
+    from uavsnn.network import Network
+    from uavsnn.training import MAX_SNAPSHOTS, train
+
+    wins = make_windows(uavsnn.Recording(_events(2_000), SIZE), 5_000)
+    net = Network({"width": SIZE[0], "height": SIZE[1]})
+    for bad in (MAX_SNAPSHOTS + 1, 10**9, -1, "6", 2.5):
+        with pytest.raises(ParameterError, match="snapshots"):
+            train(net, wins, snapshots=bad, windows_per_layer=1)
+
+
 def test_reading_a_recording_beyond_the_memory_limit_is_refused(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

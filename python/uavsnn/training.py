@@ -40,6 +40,7 @@ from uavsnn.errors import DatasetError, ModelFileError, ParameterError
 from uavsnn.network import CONV_LAYERS, Network, TrainReport, WindowsLike
 
 __all__ = [
+    "MAX_SNAPSHOTS",
     "STATE_FILE",
     "LayerResult",
     "TrainingResult",
@@ -50,6 +51,10 @@ __all__ = [
 
 STATE_FILE = "state.json"
 """The checkpoint folder's record of finished layers."""
+
+#: The most weight copies :func:`train` keeps per layer (``snapshots``; each is a copy of the
+#: layer's weights, and the pictures use six).
+MAX_SNAPSHOTS = 1000
 
 #: Called with (layer, windows done, windows planned, convergence C).
 ProgressFn = Callable[[str, int, int, float], None]
@@ -115,8 +120,8 @@ def train(
     over the set. Training stops at the first progress report at or past the count (every
     ``max(1, min(64, windows_per_layer // snapshots))`` windows, and after the last epoch), so a
     layer may see fewer than one such interval more. The learning-rate schedule restarts from
-    the config's rates for each layer. ``snapshots`` weight copies per layer are kept for the
-    pictures of how features evolve.
+    the config's rates for each layer. ``snapshots`` (at most :data:`MAX_SNAPSHOTS`) weight
+    copies per layer are kept for the pictures of how features evolve.
     Layer ``i`` shuffles with seed ``seed + i``.
 
     Raises:
@@ -140,9 +145,7 @@ def train(
         windows_per_layer = check_int("windows_per_layer", windows_per_layer, 1)
         epochs = math.ceil(windows_per_layer / n)
     planned = windows_per_layer or n * check_int("epochs", epochs, 1)
-    snapshots = int(snapshots)
-    if snapshots < 0:
-        raise ParameterError(f"snapshots must be >= 0, got {snapshots}")
+    snapshots = check_int("snapshots", snapshots, 0, MAX_SNAPSHOTS)
     report_progress = _progress_fn(progress)
 
     ckpt = None if checkpoint_dir is None else _checkpoint_folder(Path(checkpoint_dir), names)

@@ -255,6 +255,15 @@ class Windows:
         counts = self.offsets[idx + 1] - starts
         offsets = np.zeros(len(idx) + 1, np.int64)
         np.cumsum(counts, out=offsets[1:])
+        # A window chosen many times is copied each time: its position and columns, 20 bytes a
+        # spike.
+        need = int(offsets[-1]) * 20
+        if MEMORY_LIMIT is not None and need > MEMORY_LIMIT:
+            raise ParameterError(
+                f"selecting {len(idx):,} windows copies {int(offsets[-1]):,} spikes "
+                f"({need / 2**30:.1f} GiB), more than the {MEMORY_LIMIT / 2**30:.1f} GiB allowed "
+                f"(uavsnn.windows.MEMORY_LIMIT)"
+            )
         # Position of each selected spike in the original columns.
         gather = np.repeat(starts - offsets[:-1], counts) + np.arange(offsets[-1], dtype=np.int64)
         return Windows(
