@@ -157,6 +157,7 @@ def test_an_address_that_is_no_ray_cluster_fails_fast_with_exit_2(
         {"timeout_s": True},
         {"num_cpus": "x"},
         {"num_cpus": 0},
+        {"num_cpus": 257},
     ],
 )
 def test_connect_refuses_bad_arguments_before_anything(kwargs: dict[str, Any]) -> None:
@@ -338,6 +339,17 @@ def test_a_stream_worker_polls_without_touching_the_busy_detector(
         seen = counts["events_seen"]
     assert strangers == []
     assert seen == 20_000 and counts["windows"] > 0 and counts["error"] is None
+
+
+def test_more_streams_than_allowed_are_refused_before_any_actor(
+    runner: Any, model: Network
+) -> None:
+    from uavsnn.distributed import MAX_STREAMS, detect_streams
+    from uavsnn.errors import ParameterError
+
+    sources = [f"missing-{i}.npz" for i in range(MAX_STREAMS + 1)]
+    with pytest.raises(ParameterError, match=f"{MAX_STREAMS + 1} streams: at most"):
+        detect_streams(runner, sources, model)
 
 
 def test_four_udp_streams_through_four_actors(runner: Any, model: Network) -> None:

@@ -38,6 +38,8 @@ from uavsnn.errors import ParameterError, UavsnnError
 from uavsnn.network import CONV_LAYERS, Network
 
 __all__ = [
+    "MAX_CPUS",
+    "MAX_STREAMS",
     "RAY_HINT",
     "SERIAL",
     "RayRunner",
@@ -55,6 +57,12 @@ __all__ = [
 RAY_HINT = "pip install 'uavsnn[ray]'"
 #: Seconds an unreachable ``--ray`` address may take to fail.
 CONNECT_TIMEOUT_S = 5.0
+#: The most CPUs a local cluster may be given (``num_cpus``; Ray starts a worker process for
+#: each task it runs at once), the engine's most threads.
+MAX_CPUS = 256
+#: The most streams :func:`detect_streams` runs at once: each is an actor, a process of its own
+#: holding the model.
+MAX_STREAMS = 256
 
 
 def ray_available() -> bool:
@@ -256,18 +264,19 @@ def connect(
 ) -> RayRunner:
     """Join a Ray cluster and return a runner for it.
 
-    ``address``: ``None`` or ``"local"`` starts a local cluster on this machine (``num_cpus``
-    caps its CPUs; default all), as ``ray.init()`` does; ``"auto"`` joins the cluster this
-    machine is part of (``ray start``, or ``RAY_ADDRESS``); ``HOST:PORT`` or ``ray://HOST:PORT``
-    joins that cluster. An address where nothing answers fails within ``timeout_s``. When Ray
-    is already initialised in this process, that cluster is used.
+    ``address``: ``None`` or ``"local"`` starts a local cluster on this machine (``num_cpus``,
+    at most :data:`MAX_CPUS`, caps its CPUs; default all), as ``ray.init()`` does; ``"auto"``
+    joins the cluster this machine is part of (``ray start``, or ``RAY_ADDRESS``);
+    ``HOST:PORT`` or ``ray://HOST:PORT`` joins that cluster. An address where nothing answers
+    fails within ``timeout_s``. When Ray is already initialised in this process, that cluster
+    is used.
 
     Raises:
         ParameterError: Ray is not installed, or the cluster cannot be reached.
     """
     timeout = check_real("timeout_s", timeout_s, low=0.0, low_open=True)
     if num_cpus is not None:
-        check_int("num_cpus", num_cpus, 1)  # 0 CPUs: every task would wait for ever
+        check_int("num_cpus", num_cpus, 1, MAX_CPUS)  # 0 CPUs: every task would wait for ever
     ray = _import_ray()
     local = address in (None, "", "local")
     if not local and address != "auto":
@@ -483,6 +492,10 @@ def detect_streams(
     ``source_options``: as :func:`uavsnn.sources.open_source` (``sensor_size``, ``realtime``,
     ``udp_format``, ``max_packets``, ``idle_timeout``), and ``downsample`` (fit files to the
     model's input).
+
+    Raises:
+        ParameterError: a runner that is not Ray's, names missing or repeated, or more than
+            :data:`MAX_STREAMS` sources (before any actor starts).
     """
     if not isinstance(runner, RayRunner):
         raise ParameterError("streams run in Ray actors: pass the runner connect() returns")
@@ -490,6 +503,11 @@ def detect_streams(
     names = list(names) if names is not None else list(sources)
     if len(names) != len(sources) or len(set(names)) != len(names):
         raise ParameterError("every stream needs a name of its own")
+    if len(sources) > MAX_STREAMS:
+        raise ParameterError(
+            f"{len(sources)} streams: at most {MAX_STREAMS} run at once (uavsnn.distributed."
+            f"MAX_STREAMS), each an actor process holding the model"
+        )
     options = {"window_us": window_us, "overlap": overlap, **source_options}
     # Every stream must run at once however many CPUs the cluster has: an actor reserves
     # none (Ray's default for a running actor), so none waits for another to finish.
