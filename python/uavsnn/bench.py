@@ -36,11 +36,12 @@ from uavsnn._validate import check_int
 from uavsnn.detector import Detector
 from uavsnn.errors import ParameterError
 from uavsnn.events import EVENT_DTYPE
-from uavsnn.network import LAYERS, Network
+from uavsnn.network import LAYERS, MAX_THREADS, Network
 from uavsnn.windows import Windows
 
 __all__ = [
     "DENSITIES",
+    "MAX_BENCH_REPEAT",
     "MAX_BENCH_SPIKES",
     "BenchRow",
     "bench",
@@ -56,6 +57,10 @@ DENSITIES = (0.001, 0.01, 0.05)
 #: The most input spikes one density's bench windows hold (about 1.2 GB with their stream):
 #: ``windows`` or ``events`` asking for more is refused, not hours of work and all memory.
 MAX_BENCH_SPIKES = 10**8
+
+#: The most runs of each figure (``repeat``; the default is 5): more is refused, not a bench
+#: that runs for days.
+MAX_BENCH_REPEAT = 100
 
 _T = TypeVar("_T")
 
@@ -198,14 +203,22 @@ def bench_density(
 ) -> BenchRow:
     """Measure the engine on ``windows`` bench windows at ``density`` (see the module docs);
     by default on as many windows as hold about ``events`` input events, so that the fixed
-    cost of a call does not weigh on sparse windows."""
-    if repeat < 1:
-        raise ParameterError(f"repeat must be at least 1, got {repeat}")
+    cost of a call does not weigh on sparse windows.
+
+    Raises:
+        ParameterError: ``repeat`` outside ``1..=MAX_BENCH_REPEAT``, ``threads`` outside
+            ``1..=uavsnn.network.MAX_THREADS`` (both checked before any run), or windows of
+            more than :data:`MAX_BENCH_SPIKES` spikes.
+    """
+    repeat = check_int("repeat", repeat, 1, MAX_BENCH_REPEAT)
     if chunk_us < 1:
         raise ParameterError(f"chunk_us must be at least 1, got {chunk_us}")
-    workers = (os.cpu_count() or 1) if threads is None else threads
-    if workers < 1:
-        raise ParameterError(f"threads must be at least 1, got {threads}")
+    # Checked before any run (Network.infer would refuse it only after the one-thread run).
+    workers = (
+        min(os.cpu_count() or 1, MAX_THREADS)
+        if threads is None
+        else check_int("threads", threads, 1, MAX_THREADS)
+    )
     width, height = int(network.config["width"]), int(network.config["height"])
     per_window = _active_pixels(width, height, density)
     if windows is None:

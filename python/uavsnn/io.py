@@ -28,15 +28,21 @@ here before faery reads it, sizes beyond the file, a description that is not UTF
 A RAW file cut exactly on a word boundary is indistinguishable from a shorter recording: the
 format has no length field. A recording whose events would not fit in
 ``uavsnn.windows.MEMORY_LIMIT`` (the machine's physical memory by default) is refused while it
-is read, before the allocation that would fail.
+is read, before the allocation that would fail; for ``.npz`` and ``.npy`` files, from the
+arrays' headers, before any data is read (a compressed ``.npz`` may expand a thousandfold), and
+an array header that claims more data than its file or member holds is refused as corrupt.
+A CSV line longer than :data:`CSV_MAX_LINE` bytes, or a time of more than 20 digits, is
+refused.
 """
 
 from __future__ import annotations
 
 import json
+import math
 import os
 import re
 import struct
+import zipfile
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -45,6 +51,7 @@ import numpy as np
 
 from uavsnn import _core
 from uavsnn._files import write_atomic
+from uavsnn._npy import npy_header, npz_arrays, npz_header, npz_read
 from uavsnn._validate import MAX_TIME_US, check_path, check_sensor_size
 from uavsnn.errors import EventError, ParameterError, RecordingFileError
 from uavsnn.events import EVENT_DTYPE, Recording, convert, packed_bytes
@@ -131,26 +138,65 @@ def _recording(
         raise RecordingFileError(f"{file}: corrupt or not a recording: {exc}") from exc
 
 
+def _memory_limit() -> int | None:
+    """``uavsnn.windows.MEMORY_LIMIT``, read when it is needed (a test may change it)."""
+    from uavsnn import windows
+
+    return windows.MEMORY_LIMIT
+
+
+def _check_event_memory(file: Path, count: int, stored: int) -> None:
+    """Refuse a recording of ``count`` events whose arrays take ``stored`` bytes as stored
+    when those and the canonical copy of the events would exceed
+    ``uavsnn.windows.MEMORY_LIMIT``."""
+    limit = _memory_limit()
+    need = stored + count * EVENT_DTYPE.itemsize
+    if limit is not None and need > limit:
+        raise RecordingFileError(
+            f"{file}: {count:,} events would take {need / 2**30:.2f} GiB to read (the arrays as "
+            f"stored and the events' canonical copy), more than the {limit / 2**30:.2f} GiB "
+            "allowed (uavsnn.windows.MEMORY_LIMIT): cut the recording into shorter files"
+        )
+
+
 def _read_npz(file: Path, given: tuple[int, int] | None) -> Recording:
     try:
-        with np.load(file, allow_pickle=False) as data:
-            missing = {"events", "sensor_size"} - set(data.files)
+        with zipfile.ZipFile(file) as archive:
+            members = npz_arrays(archive)
+            missing = {"events", "sensor_size"} - set(members)
             if missing:
                 raise RecordingFileError(
                     f"{file}: an .npz recording needs arrays 'events' and 'sensor_size', "
                     f"missing {sorted(missing)}"
                 )
-            raw_events = data["events"]
-            stored_size = data["sensor_size"]
-            stored_meta = data["metadata"] if "metadata" in data.files else None
+            # Only these are read; each header is checked before any data is.
+            names = [n for n in ("events", "sensor_size", "metadata") if n in members]
+            headers = {name: npz_header(archive, members[name]) for name in names}
+            shape, _, stored = headers["events"]
+            # The other arrays are read whole and converted to Python objects (the metadata
+            # parsed as JSON): twice their bytes, at least 8 bytes an item.
+            others = 2 * sum(
+                max(nbytes, 8 * math.prod(dims))
+                for n, (dims, _, nbytes) in headers.items()
+                if n != "events"
+            )
+            _check_event_memory(file, math.prod(shape[:1]), stored + others)
+            arrays = [npz_read(archive, members[n]) for n in names]
     except RecordingFileError:
         raise
+    except MemoryError as exc:
+        raise RecordingFileError(f"{file}: not enough memory to read it") from exc
     except Exception as exc:  # zipfile, numpy format and pickle refusals alike
         raise RecordingFileError(f"{file}: cannot read as .npz: {exc}") from exc
+    raw_events, stored_size, *rest = arrays
+    stored_meta = rest[0] if rest else None
     try:
         events = convert(raw_events)
     except EventError as exc:
         raise RecordingFileError(f"{file}: bad 'events' array: {exc}") from exc
+    except MemoryError as exc:
+        raise RecordingFileError(f"{file}: not enough memory to read its events") from exc
+    del raw_events, arrays
     try:
         sensor = check_sensor_size(stored_size.tolist())
     except ParameterError as exc:
@@ -178,13 +224,30 @@ def _read_npy(file: Path, given: tuple[int, int] | None) -> Recording:
         # NumPy calls any file without its magic "pickled"; say what it is.
         raise RecordingFileError(f"{file}: not a NumPy .npy file (no .npy header)")
     try:
+        with open(file, "rb") as handle:
+            shape, dtype, header = npy_header(handle)
+        size = file.stat().st_size
+        nbytes = math.prod(shape) * dtype.itemsize
+        if not dtype.hasobject and nbytes > size - header:
+            raise RecordingFileError(
+                f"{file}: truncated or corrupt: its header claims {nbytes:,} bytes of data "
+                f"({shape} of {dtype}), the file holds {max(size - header, 0):,}"
+            )
+        _check_event_memory(file, math.prod(shape[:1]), nbytes)
         raw_events = np.load(file, allow_pickle=False)
+    except RecordingFileError:
+        raise
+    except MemoryError as exc:
+        raise RecordingFileError(f"{file}: not enough memory to read it") from exc
     except Exception as exc:
         raise RecordingFileError(f"{file}: cannot read as .npy: {exc}") from exc
     try:
         events = convert(raw_events)
     except EventError as exc:
         raise RecordingFileError(f"{file}: not an event array: {exc}") from exc
+    except MemoryError as exc:
+        raise RecordingFileError(f"{file}: not enough memory to read its events") from exc
+    del raw_events
     if given is not None:
         sensor, source = given, "argument"
     elif len(events):
@@ -587,6 +650,14 @@ def _read_chunks(file: Path, stream: Any) -> list[np.ndarray]:
     return chunks
 
 
+#: The longest line of a CSV recording, in bytes (an event line ``t,x,y,p`` takes at most 40;
+#: a header line a few dozen): a longer one is refused, so a file without line breaks is not
+#: gathered into memory.
+CSV_MAX_LINE = 4096
+# The most digits of a CSV time or coordinate (2^62 has 19): a longer field is refused before
+# it is parsed (Python refuses to parse more than 4,300 digits, and takes quadratic time below).
+_CSV_MAX_DIGITS = 20
+
 # A number that is not a plain integer (a first CSV field like this is a time, not a header).
 _NUMBER = re.compile(rb"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?")
 _BOM = b"\xef\xbb\xbf"
@@ -610,6 +681,11 @@ def _check_csv(file: Path) -> tuple[bool, np.ndarray | None]:
     with open(file, "rb") as handle:
         while True:
             block = handle.read(1 << 22)
+            if len(rest) > CSV_MAX_LINE:
+                raise RecordingFileError(
+                    f"{file}: line {line_no + 1} is longer than {CSV_MAX_LINE:,} bytes: not a "
+                    "CSV event line (t,x,y,p)"
+                )
             data = rest + block
             if line_no == 0 and not rest and data.startswith(_BOM):
                 data = data[len(_BOM) :]
@@ -630,6 +706,14 @@ def _check_csv(file: Path) -> tuple[bool, np.ndarray | None]:
                 bom_line = lines[0]
             # Negative or malformed times are left to faery, which refuses them.
             numbers = [(i, f) for i, f in enumerate(first) if f.isdigit()]
+            long = [(i, f) for i, f in numbers if len(f) > _CSV_MAX_DIGITS]
+            if long:
+                i, f = long[0]
+                raise RecordingFileError(
+                    f"{file}: line {line_no + i + 1}: a time of {len(f):,} digits "
+                    f"({f[:20].decode()}...) is not a time the detector takes (at most 2^62 = "
+                    f"{MAX_TIME_US} µs)"
+                )
             late = [k for k, (_, f) in enumerate(numbers) if len(f) > 18 and int(f) > MAX_TIME_US]
             if late:
                 i, f = numbers[late[0]]
@@ -663,7 +747,7 @@ def _csv_event(file: Path, line: bytes) -> np.ndarray:
     parts = [part.strip() for part in line.split(b",")]
     if not (
         len(parts) >= 4
-        and all(part.isdigit() for part in parts[:3])
+        and all(part.isdigit() and len(part) <= _CSV_MAX_DIGITS for part in parts[:3])
         and max(int(parts[1]), int(parts[2])) < 65536
         and parts[3] in (b"0", b"1")
     ):

@@ -36,6 +36,7 @@ from uavsnn.events import packed_bytes
 
 __all__ = [
     "DEFAULTS",
+    "MAX_COARSE_STEPS",
     "MAX_PIXELS",
     "MAX_SPECTRUM_BYTES",
     "MOTION_DEFAULTS",
@@ -434,6 +435,9 @@ MOTION_DEFAULTS: dict[str, float | int] = {
     "finest_px": 0.25,
     "max_events": 4096,
 }
+#: The most coarse steps :func:`estimate_motion` takes each way (its search evaluates
+#: ``(2 * coarse_steps + 1)**2`` velocities before refining).
+MAX_COARSE_STEPS = 32
 
 
 @dataclass(frozen=True)
@@ -490,6 +494,11 @@ def _in_box(events: np.ndarray, box: tuple[int, int, int, int]) -> np.ndarray:
     return events[(x >= x0) & (x < x0 + width) & (y >= y0) & (y < y0 + height)]
 
 
+#: The largest image :func:`_contrast` splats into densely (a larger one, for events spread over
+#: a large box, is accumulated sparsely).
+_DENSE_PIXELS = 1 << 16
+
+
 def _contrast(x: np.ndarray, y: np.ndarray, dt: np.ndarray, vx: float, vy: float) -> float:
     """Sum of squares of the bilinearly splatted image of the events warped by ``(vx, vy)``
     (box-local coordinates; the image is bounded by the box and its margin)."""
@@ -508,6 +517,14 @@ def _contrast(x: np.ndarray, y: np.ndarray, dt: np.ndarray, vx: float, vy: float
     h = int(iy.max()) + 2
     flat = iy * w + ix
     size = w * h
+    if size > max(_DENSE_PIXELS, 16 * len(x)):
+        # A sparse image (events spread over a large box): its cost follows the events, not
+        # the box's area.
+        keys = np.concatenate((flat, flat + 1, flat + w, flat + w + 1))
+        weights = np.concatenate(((1 - fx) * (1 - fy), fx * (1 - fy), (1 - fx) * fy, fx * fy))
+        _, inverse = np.unique(keys, return_inverse=True)
+        sparse = np.bincount(inverse.ravel(), weights)
+        return float(np.dot(sparse, sparse))
     image = np.bincount(flat, (1 - fx) * (1 - fy), size)
     image += np.bincount(flat + 1, fx * (1 - fy), size)
     image += np.bincount(flat + w, (1 - fx) * fy, size)
@@ -535,17 +552,30 @@ def estimate_motion(
     halving the step down to ``finest_px`` of displacement. A velocity that sharpens the image
     by less than ``min_gain`` (relative) is reported as 0: a still source stays unwarped.
     Beyond ``max_events`` events in the box, an evenly strided subset of that many is used, so
-    the cost is bounded whatever the box holds.
+    the cost is bounded whatever the box holds; the box may hold at most :data:`MAX_PIXELS`
+    pixels (as the rotor estimators' boxes) and ``coarse_steps`` is at most
+    :data:`MAX_COARSE_STEPS`.
 
     Raises:
-        ParameterError: a bad box or parameter.
+        ParameterError: a bad box or parameter, a box above :data:`MAX_PIXELS` pixels, or
+            ``coarse_steps`` outside ``1..=MAX_COARSE_STEPS``.
         EventError: events not a 1-D array of the canonical dtype.
     """
     x0, y0, width, height = _box(box)
     if width <= 0 or height <= 0:
         raise ParameterError(f"box must have a positive width and height, got {box!r}")
+    if width * height > MAX_PIXELS:
+        raise ParameterError(
+            f"box {width}x{height} = {width * height} pixels is above the cap of {MAX_PIXELS} "
+            "(uavsnn.signature.MAX_PIXELS, as for the rotor estimators)"
+        )
     min_events = _integer("min_events", min_events)
     coarse_steps = _integer("coarse_steps", coarse_steps)
+    if coarse_steps > MAX_COARSE_STEPS:
+        raise ParameterError(
+            f"coarse_steps must be at most {MAX_COARSE_STEPS} (uavsnn.signature."
+            f"MAX_COARSE_STEPS), got {coarse_steps}"
+        )
     max_events = _integer("max_events", max_events)
     for name, value in (("min_gain", min_gain), ("finest_px", finest_px)):
         if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):

@@ -15,9 +15,10 @@ Standard input (``-``)
     (``events.tobytes()`` of an ``EVENT_DTYPE`` array); a record split across reads is kept until
     its end arrives. ``csv``: one ``t,x,y,p`` line per event (integers; ``p`` is 1/0 or 1/-1, any
     value > 0 is ON; a first line that is not numbers is taken as a header). Each event that
-    cannot be used — a malformed line, an event outside the sensor, a time earlier than an
-    event before it — is dropped alone and counted in :attr:`SourceStats.dropped`; the events
-    around it are kept. A stream that ends without a single usable event raises
+    cannot be used — a malformed line, a line longer than :data:`uavsnn.io.CSV_MAX_LINE` bytes
+    (not held: its bytes are skipped up to its end), an event outside the sensor, a time earlier
+    than an event before it — is dropped alone and counted in :attr:`SourceStats.dropped`; the
+    events around it are kept. A stream that ends without a single usable event raises
     :class:`~uavsnn.StreamError` (most likely the wrong ``--stdin-format``).
 UDP (``udp://HOST:PORT``)
     One datagram = one packet, decoded whole or dropped (:class:`uavsnn._core.PacketDecoder`):
@@ -54,6 +55,7 @@ from uavsnn import _core
 from uavsnn._validate import MAX_TIME_US, check_sensor_size
 from uavsnn.errors import ParameterError, StreamError, UavsnnError
 from uavsnn.events import EVENT_DTYPE
+from uavsnn.io import CSV_MAX_LINE
 
 __all__ = [
     "PACKET_FORMATS",
@@ -228,6 +230,7 @@ class StdinSource(EventSource):
 
     def __iter__(self) -> Iterator[np.ndarray]:
         rest = b""
+        skipping = False  # inside a CSV line too long to keep, until its newline
         while True:
             data = self._read()
             if not data:
@@ -239,8 +242,17 @@ class StdinSource(EventSource):
                 rest = data[whole:]
                 chunk = np.frombuffer(data[:whole], dtype=EVENT_DTYPE)
             else:
+                if skipping:
+                    end = data.find(b"\n")
+                    data = b"" if end < 0 else data[end + 1 :]
+                    skipping = end < 0
                 cut = data.rfind(b"\n") + 1
                 rest = data[cut:]
+                if len(rest) > CSV_MAX_LINE:
+                    # Not an event line: dropped, not held (its end is skipped as it comes).
+                    rest, skipping = b"", True
+                    self.stats.dropped += 1
+                    self._lines += 1
                 chunk = self._parse_csv(data[:cut])
             chunk = self._usable(chunk)
             if len(chunk):

@@ -28,6 +28,7 @@ import contextlib
 import fcntl
 import hashlib
 import json
+import math
 import os
 import zipfile
 from collections.abc import Iterator
@@ -37,7 +38,9 @@ from typing import Any
 
 import numpy as np
 
+from uavsnn import windows as windows_module
 from uavsnn._files import write_atomic
+from uavsnn._npy import npz_arrays, npz_header, npz_read
 from uavsnn.errors import DatasetError, UavsnnError
 from uavsnn.events import EVENT_DTYPE
 from uavsnn.windows import Windows
@@ -77,6 +80,7 @@ _LABEL_COLUMNS = {"label": np.bool_, "recording": np.int64}
 
 
 _RAW_COLUMNS = {"raw_t": np.uint64, "raw_x": np.uint16, "raw_y": np.uint16, "raw_p": np.bool_}
+_RAW_NAMES = {*_RAW_COLUMNS, "raw_start", "raw_stop", "raw_before_us"}
 
 
 @dataclass(frozen=True)
@@ -393,11 +397,6 @@ def load(root: str | Path, split: str) -> LabelledWindows:
     path = root / str(splits[split].get("file", f"{split}.npz"))
     if not path.is_file():
         raise DatasetError(f"split file {path} is missing")
-    try:
-        with np.load(path, allow_pickle=False) as z:
-            arrays = {k: z[k] for k in z.files}
-    except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
-        raise DatasetError(f"cannot read split file {path}: {exc}") from exc
     need = {
         "format_version",
         "sensor_size",
@@ -409,6 +408,7 @@ def load(root: str | Path, split: str) -> LabelledWindows:
         *_WINDOW_COLUMNS,
         *_LABEL_COLUMNS,
     }
+    arrays = _read_split(path, need | _RAW_NAMES)
     version = None
     if "format_version" in arrays:
         stored = arrays["format_version"]
@@ -431,9 +431,8 @@ def load(root: str | Path, split: str) -> LabelledWindows:
             raise DatasetError(
                 f"{path}: {name} has dtype {arrays[name].dtype}, expected {np.dtype(dtype)}"
             )
-    raw_names = {*_RAW_COLUMNS, "raw_start", "raw_stop", "raw_before_us"}
-    if raw_names & set(arrays) and not raw_names <= set(arrays):
-        lacking = ", ".join(sorted(raw_names - set(arrays)))
+    if _RAW_NAMES & set(arrays) and not _RAW_NAMES <= set(arrays):
+        lacking = ", ".join(sorted(_RAW_NAMES - set(arrays)))
         raise DatasetError(f"split file {path} has raw events but lacks arrays: {lacking}")
     for name, dtype in _RAW_COLUMNS.items():
         if name in arrays and arrays[name].dtype != dtype:
@@ -477,6 +476,34 @@ def load(root: str | Path, split: str) -> LabelledWindows:
             "it was changed or comes from another build; rebuild the dataset"
         )
     return data
+
+
+def _read_split(path: Path, names: set[str]) -> dict[str, np.ndarray]:
+    """The arrays of a split file named in ``names`` (others are not read), each header
+    checked first: a file whose arrays, with the raw events' canonical copy, would exceed
+    ``uavsnn.windows.MEMORY_LIMIT``, or whose header claims more than its member holds, is
+    refused before any data is read."""
+    try:
+        with zipfile.ZipFile(path) as archive:
+            members = {k: v for k, v in npz_arrays(archive).items() if k in names}
+            sizes = {name: npz_header(archive, info) for name, info in members.items()}
+            # At least a byte an item (an array of empty strings is converted too).
+            need = sum(max(nbytes, math.prod(shape)) for shape, _, nbytes in sizes.values())
+            if "raw_t" in sizes:  # the raw events are joined into one array
+                need += math.prod(sizes["raw_t"][0][:1]) * EVENT_DTYPE.itemsize
+            limit = windows_module.MEMORY_LIMIT
+            if limit is not None and need > limit:
+                raise DatasetError(
+                    f"split file {path} would take {need / 2**30:.2f} GiB to load, more than "
+                    f"the {limit / 2**30:.2f} GiB allowed (uavsnn.windows.MEMORY_LIMIT)"
+                )
+            return {name: npz_read(archive, info) for name, info in members.items()}
+    except DatasetError:
+        raise
+    except MemoryError as exc:
+        raise DatasetError(f"cannot read split file {path}: not enough memory") from exc
+    except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
+        raise DatasetError(f"cannot read split file {path}: {exc}") from exc
 
 
 def _raw(arrays: dict[str, np.ndarray]) -> RawEvents:

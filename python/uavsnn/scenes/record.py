@@ -16,7 +16,14 @@ import numpy as np
 from uavsnn.errors import ParameterError, SimulationError
 from uavsnn.events import EVENT_DTYPE, Recording
 from uavsnn.scenes.renderer import LABEL_DTYPE, SAMPLES_PER_PASS, frames
-from uavsnn.scenes.spec import Background, Lighting, ObjectSpec, PathSpec, SceneSpec
+from uavsnn.scenes.spec import (
+    MAX_OBJECTS,
+    Background,
+    Lighting,
+    ObjectSpec,
+    PathSpec,
+    SceneSpec,
+)
 from uavsnn.sim.checks import check_seed, check_size
 from uavsnn.sim.dvs import SCENE_PARAMS, DvsEmulator, DvsParams
 
@@ -167,6 +174,10 @@ def spec_from_dict(data: Any) -> SceneSpec:
     objects = fields.get("objects", [])
     if not isinstance(objects, list):
         raise SimulationError("objects must be a list")
+    if len(objects) > MAX_OBJECTS:  # refused before any is built
+        raise SimulationError(
+            f"a scene has at most {MAX_OBJECTS} objects (MAX_OBJECTS), got {len(objects)}"
+        )
     built = []
     for i, o in enumerate(objects):
         if not isinstance(o, dict) or "path" not in o:

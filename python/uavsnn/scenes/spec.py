@@ -62,6 +62,13 @@ MAX_SIZE_M = 1e4
 #: :func:`uavsnn.scenes.sample_spec` draws, a Tello's rotors, turn at up to 260). Between
 #: frames a "dvs" scene samples fast parts at most once a microsecond.
 MAX_RATE_HZ = 1e4
+#: A path has at most this many wobble terms (``amplitudes``/``freqs``/``phases``; the paths
+#: that :func:`uavsnn.scenes.sample_spec` draws have at most 3): each is evaluated at every
+#: sample of the object's position.
+MAX_HARMONICS = 16
+#: A scene has at most this many objects (:func:`uavsnn.scenes.sample_spec` draws at most 2):
+#: each is drawn in every frame (about half a millisecond each at 240×180).
+MAX_OBJECTS = 64
 #: A scene has at most this many frames (500 fps for 600 s is 300,000)...
 MAX_FRAMES = 1_000_000
 #: ...and its frames, as the float32 gray that the renderer draws, at most this many bytes
@@ -137,7 +144,8 @@ class PathSpec:
     One form covers every path the sampler makes: ``"linear"`` (no acceleration, no wobble),
     ``"curved"`` (a turn and a slow sway), ``"hover"`` (no velocity, small jitter),
     ``"ballistic"`` (gravity), ``"erratic"`` (large fast wobble) and ``"falling"``. ``kind`` only
-    names the shape. Every value lies within ±:data:`MAX_PATH_VALUE` (10⁹).
+    names the shape. Every value lies within ±:data:`MAX_PATH_VALUE` (10⁹); a path has at
+    most :data:`MAX_HARMONICS` (16) wobble terms.
     """
 
     kind: str
@@ -159,6 +167,10 @@ class PathSpec:
                 f"path.amplitudes, freqs and phases must be lists, got {self.amplitudes!r}, "
                 f"{self.freqs!r}, {self.phases!r}"
             ) from exc
+        if k > MAX_HARMONICS:
+            raise SimulationError(
+                f"path wobble has {k} terms, more than {MAX_HARMONICS} (MAX_HARMONICS)"
+            )
         if counts[0] != k or counts[2] != k:
             raise SimulationError(
                 f"path wobble needs as many amplitudes, freqs and phases: got "
@@ -328,8 +340,9 @@ class SceneSpec:
     ``aperture_mm = 0`` is a pinhole: every range sharp, as scenes were drawn before the lens
     (:class:`uavsnn.scenes.Lens` sets both from an f-number and the sensor's pixel pitch).
 
-    Size: a scene has at most :data:`MAX_FRAMES` (10⁶) frames, and its frames as float32 (4
-    bytes a pixel, as the renderer draws them) at most :data:`MAX_SCENE_BYTES` (8·10⁹ bytes);
+    Size: a scene has at most :data:`MAX_OBJECTS` (64) objects and :data:`MAX_FRAMES` (10⁶)
+    frames, and its frames as float32 (4 bytes a pixel, as the renderer draws them) at most
+    :data:`MAX_SCENE_BYTES` (8·10⁹ bytes);
     the scenes :func:`uavsnn.scenes.sample_spec` draws by default have at most 500 frames, of
     at most 1.8·10⁹ bytes (1 s at 500 fps on a 1280×720 sensor). :func:`uavsnn.scenes.render`, which
     holds every frame at once, takes less (:data:`uavsnn.scenes.renderer.MAX_RENDER_BYTES`).
@@ -391,6 +404,10 @@ class SceneSpec:
             raise SimulationError(f"background must be a Background, got {self.background!r}")
         if not isinstance(self.lighting, Lighting):
             raise SimulationError(f"lighting must be a Lighting, got {self.lighting!r}")
+        if len(self.objects) > MAX_OBJECTS:
+            raise SimulationError(
+                f"a scene has at most {MAX_OBJECTS} objects (MAX_OBJECTS), got {len(self.objects)}"
+            )
         for i, obj in enumerate(self.objects):
             if not isinstance(obj, ObjectSpec):
                 raise SimulationError(f"objects[{i}] must be an ObjectSpec, got {obj!r}")
