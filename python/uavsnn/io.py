@@ -27,7 +27,7 @@ or out of order, a header geometry that cannot be a sensor size; AEDAT4: a conta
 here before faery reads it, sizes beyond the file, a description that is not UTF-8).
 A RAW file cut exactly on a word boundary is indistinguishable from a shorter recording: the
 format has no length field. A recording whose events would not fit in
-``uavsnn.windows.MEMORY_LIMIT`` (the machine's physical memory by default) is refused while it
+``uavsnn.windows.MEMORY_LIMIT`` (by default the most this process can have) is refused while it
 is read, before the allocation that would fail; for ``.npz`` and ``.npy`` files, from the
 arrays' headers, before any data is read (a compressed ``.npz`` may expand a thousandfold), and
 an array header that claims more data than its file or member holds is refused as corrupt.
