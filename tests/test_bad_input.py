@@ -374,7 +374,7 @@ def test_windowing_beyond_the_memory_limit_is_refused(monkeypatch: pytest.Monkey
     # 10,000 events at 50 % overlap may take 10,000 * (16 + 2 * 12) bytes, and a window every
     # 2,500 µs over their span 24 bytes each.
     t = rec.events["t"]
-    need = 10_000 * 40 + ((int(t[-1]) + 1 - int(t[0])) // 2_500 + 1) * 24
+    need = 10_000 * 40 + -(-(int(t[-1]) + 1 - int(t[0])) // 2_500) * 24
     monkeypatch.setattr(uwindows, "MEMORY_LIMIT", need - 1)
     with pytest.raises(ParameterError, match=r"windowing 10,000 events .* uavsnn.Detector"):
         make_windows(rec, 5_000, 0.5)

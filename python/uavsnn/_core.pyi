@@ -36,6 +36,8 @@ _WindowArrays = tuple[
     npt.NDArray[np.int64],
 ]
 
+MAX_WINDOWS: int
+
 def window_step(length_us: int, overlap: float) -> int: ...
 def make_windows(
     events: npt.NDArray[np.uint8],

@@ -96,7 +96,9 @@ def _check_memory(n_events: int, length_us: int, overlap: float, span_us: int = 
         return
     step = max(1, math.floor(length_us * (1.0 - overlap)))
     per_event = _BYTES_PER_EVENT + _BYTES_PER_SPIKE * -(-length_us // step)
-    need = n_events * per_event + (span_us // step + 1) * _BYTES_PER_WINDOW
+    # Windows beyond the engine's limit are its to refuse (it says to check the time unit).
+    windows = min(-(-span_us // step), _core.MAX_WINDOWS)
+    need = n_events * per_event + windows * _BYTES_PER_WINDOW
     if need > MEMORY_LIMIT:
         raise ParameterError(
             f"windowing {n_events:,} events (overlap {overlap}) may need {need / 2**30:.1f} GiB, "

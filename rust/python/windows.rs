@@ -225,6 +225,7 @@ fn add_noise<'py>(
 }
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("MAX_WINDOWS", windows::MAX_WINDOWS)?;
     m.add_function(wrap_pyfunction!(window_step, m)?)?;
     m.add_function(wrap_pyfunction!(make_windows, m)?)?;
     m.add_function(wrap_pyfunction!(check_windows, m)?)?;
