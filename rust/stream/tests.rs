@@ -517,17 +517,25 @@ fn the_small_network_detects_the_blob() {
     assert!(!network_batch(&net, &events, 3_000, 0.5).is_empty());
 }
 
-/// An engine on the largest sensor the coordinates allow, whose windows are never run.
-struct Huge;
+/// An engine of a given sensor and state size whose windows are never run: only what
+/// [`Detector::new`] checks.
+struct Inert {
+    sensor: (u16, u16),
+    state_bytes: usize,
+}
 
-impl WindowEngine for Huge {
+impl WindowEngine for Inert {
     type State = ();
 
     fn sensor(&self) -> Result<SensorSize> {
-        SensorSize::new(u16::MAX, u16::MAX)
+        SensorSize::new(self.sensor.0, self.sensor.1)
     }
 
     fn new_state(&self) {}
+
+    fn state_bytes(&self) -> usize {
+        self.state_bytes
+    }
 
     fn begin(&self, (): &mut (), _: u64, _: u64) -> Result<()> {
         Ok(())
@@ -544,45 +552,24 @@ impl WindowEngine for Huge {
 
 #[test]
 fn a_sensor_above_the_memory_cap_is_refused_before_allocating() {
-    let Err(err) = Detector::new(Huge, config(1000, 0.0)) else {
+    let huge = Inert {
+        sensor: (u16::MAX, u16::MAX),
+        state_bytes: 0,
+    };
+    let Err(err) = Detector::new(huge, config(1000, 0.0)) else {
         panic!("a 65535x65535 detector was accepted");
     };
     crate::error::assert_over_cap(&err, "sensor_size");
 }
 
-/// An engine whose state takes just over half the memory cap, never run.
-struct Fat;
-
-impl WindowEngine for Fat {
-    type State = ();
-
-    fn sensor(&self) -> Result<SensorSize> {
-        SensorSize::new(64, 48)
-    }
-
-    fn new_state(&self) {}
-
-    fn state_bytes(&self) -> usize {
-        crate::MAX_ALLOC_BYTES / 2 + 1
-    }
-
-    fn begin(&self, (): &mut (), _: u64, _: u64) -> Result<()> {
-        Ok(())
-    }
-
-    fn push(&self, (): &mut (), _: u64, _: u16, _: u16) -> Result<()> {
-        Ok(())
-    }
-
-    fn settle(&self, (): &mut (), _: &mut Vec<Detection>) -> Result<()> {
-        Ok(())
-    }
-}
-
 #[test]
 fn live_windows_whose_states_exceed_the_memory_cap_are_refused() {
-    assert!(Detector::new(Fat, config(1000, 0.0)).is_ok()); // one live window
-    let Err(err) = Detector::new(Fat, config(1000, 0.5)) else {
+    let fat = || Inert {
+        sensor: (64, 48),
+        state_bytes: crate::MAX_ALLOC_BYTES / 2 + 1,
+    };
+    assert!(Detector::new(fat(), config(1000, 0.0)).is_ok()); // one live window
+    let Err(err) = Detector::new(fat(), config(1000, 0.5)) else {
         panic!("two states of over half the cap were accepted");
     };
     crate::error::assert_over_cap(&err, "overlap");
