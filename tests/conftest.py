@@ -44,6 +44,19 @@ def small_config(estimate: str = "preceding") -> dict[str, Any]:
     }
 
 
+def random_events(n: int, size: tuple[int, int], seed: int = 0) -> np.ndarray:
+    """``n`` events at random pixels of a ``size`` sensor, from 1000 µs, 0-29 µs apart."""
+    from uavsnn.events import EVENT_DTYPE
+
+    rng = np.random.default_rng(seed)
+    ev = np.zeros(n, dtype=EVENT_DTYPE)
+    ev["t"] = 1_000 + np.cumsum(rng.integers(0, 30, n))
+    ev["x"] = rng.integers(0, size[0], n)
+    ev["y"] = rng.integers(0, size[1], n)
+    ev["p"] = rng.random(n) < 0.5
+    return ev
+
+
 def blob_events(seed: int, n: int, *, t0: int = 5_000) -> np.ndarray:
     """A blob drifting right over sparse noise on the 40x30 sensor; many equal times."""
     from uavsnn.events import EVENT_DTYPE

@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from conftest import one_line_exit_2 as _one_line_exit_2
+from conftest import random_events
 
 import uavsnn
 import uavsnn.cli.dataset
@@ -64,13 +65,7 @@ def dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def _events(n: int, seed: int = 0, size: tuple[int, int] = SIZE) -> np.ndarray:
-    rng = np.random.default_rng(seed)
-    ev = np.zeros(n, dtype=EVENT_DTYPE)
-    ev["t"] = 1_000 + np.cumsum(rng.integers(0, 30, n))
-    ev["x"] = rng.integers(0, size[0], n)
-    ev["y"] = rng.integers(0, size[1], n)
-    ev["p"] = rng.random(n) < 0.5
-    return ev
+    return random_events(n, size, seed)
 
 
 # -- 1. overlaps that keep too many windows live ------------------------------------------------

@@ -22,7 +22,7 @@ from typing import Any, TypeVar
 
 import numpy as np
 import pytest
-from conftest import one_line_exit_2
+from conftest import one_line_exit_2, random_events
 
 from uavsnn import DatasetError, ParameterError, RecordingFileError, SimulationError, StreamError
 from uavsnn import bench as ubench
@@ -50,13 +50,7 @@ _T = TypeVar("_T")
 
 
 def _events(n: int, seed: int = 0) -> np.ndarray:
-    rng = np.random.default_rng(seed)
-    ev = np.zeros(n, dtype=EVENT_DTYPE)
-    ev["t"] = 1_000 + np.cumsum(rng.integers(0, 30, n))
-    ev["x"] = rng.integers(0, SIZE[0], n)
-    ev["y"] = rng.integers(0, SIZE[1], n)
-    ev["p"] = rng.random(n) < 0.5
-    return ev
+    return random_events(n, SIZE, seed)
 
 
 def _peak(call: Callable[[], _T]) -> tuple[_T | BaseException, int]:
