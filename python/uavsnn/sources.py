@@ -30,12 +30,19 @@ UDP (``udp://HOST:PORT``)
     - ``spif`` (aestream's UDP output, the spif/spiffer event word): little-endian 32-bit words,
       bit 31 = no-timestamp flag, bits 30..16 = x, bit 15 = polarity, bits 14..0 = y; when bit 31
       is clear the next word is the event's u32 time in µs. Events without a time (aestream's
-      default) are stamped with their packet's arrival time on a monotonic clock, in µs since the
-      source opened.
+      default) are stamped with the time their packet is read from the socket (a monotonic
+      clock, in µs since the source opened), not the time it arrived: packets that wait in the
+      socket's buffer while the consumer works on a chunk are stamped together when read, so a
+      consumer that falls behind compresses the stream's time. Send timestamped packets where
+      that matters.
 
     A packet that is not a whole number of records, holds an event outside the sensor, goes back
     in time, or mixes stamped and unstamped ``spif`` events is counted in
-    :attr:`SourceStats.dropped` and skipped; it never stops the stream.
+    :attr:`SourceStats.dropped` and skipped; it never stops the stream. The socket asks the
+    kernel for a receive buffer of :data:`RECEIVE_BUFFER` bytes; :attr:`UdpSource.buffer_note`
+    says when it granted less (packets beyond it are dropped by the kernel). On Linux the
+    datagrams the kernel dropped for want of room are counted in :attr:`SourceStats.lost`
+    (``SO_RXQ_OVFL``; a drop is known when the next datagram is read).
 """
 
 from __future__ import annotations
@@ -58,7 +65,9 @@ from uavsnn.events import EVENT_DTYPE
 from uavsnn.io import CSV_MAX_LINE
 
 __all__ = [
+    "MAX_IDLE_TIMEOUT",
     "PACKET_FORMATS",
+    "RECEIVE_BUFFER",
     "STDIN_FORMATS",
     "EventSource",
     "FileSource",
@@ -78,6 +87,14 @@ _RECORD = EVENT_DTYPE.itemsize
 _MAX_TIME_US = np.uint64(MAX_TIME_US)
 _EMPTY = np.empty(0, dtype=EVENT_DTYPE)
 
+#: The receive buffer (bytes) a :class:`UdpSource` asks the kernel for.
+RECEIVE_BUFFER = 1 << 22
+#: The longest ``idle_timeout`` (seconds, about 31 years): a socket's timeout holds no more.
+MAX_IDLE_TIMEOUT = 1e9
+# Linux's SO_RXQ_OVFL (socket(7); Python's socket module does not name it): each datagram then
+# carries the count of datagrams the socket dropped, since it opened, before this one was queued.
+_SO_RXQ_OVFL = 40
+
 
 @dataclass
 class SourceStats:
@@ -89,6 +106,9 @@ class SourceStats:
     packets: int = 0
     #: What was malformed and skipped: UDP packets; events (or CSV lines) on standard input.
     dropped: int = 0
+    #: UDP datagrams the kernel dropped before they were read (its receive buffer full), as far
+    #: as known; ``None`` where the source cannot tell (other sources; UDP off Linux).
+    lost: int | None = None
 
 
 class EventSource:
@@ -171,19 +191,23 @@ class FileSource(EventSource):
             return
         t = events["t"]
         first = int(t[0])
-        edges = np.arange(first, int(t[-1]) + self.chunk_us + 1, self.chunk_us, dtype=np.uint64)
-        cuts = np.searchsorted(t, edges[1:], side="left")
         start_wall = time.monotonic()
         begin = 0
-        for edge, end in zip(edges[1:], cuts, strict=True):
-            if end == begin:
-                continue
-            # The chunk is complete once the clock passes its window's end.
-            wait = (int(edge) - first) / 1e6 - (time.monotonic() - start_wall)
+        while begin < len(events):
+            # The chunk_us-long slot from the first event that holds the next event (empty
+            # slots are skipped), found from where the last chunk ended: nothing is held for
+            # the recording's whole span, however long its gaps.
+            edge = first + ((int(t[begin]) - first) // self.chunk_us + 1) * self.chunk_us
+            if edge >> 64:  # past any u64 time: the rest of the recording
+                end = len(events)
+            else:
+                end = begin + int(np.searchsorted(t[begin:], np.uint64(edge), side="left"))
+            # The chunk is complete once the clock passes its slot's end.
+            wait = (edge - first) / 1e6 - (time.monotonic() - start_wall)
             if wait > 0:
                 time.sleep(wait)
             chunk = events[begin:end]
-            begin = int(end)
+            begin = end
             self._count(chunk)
             yield chunk
 
@@ -328,7 +352,13 @@ class UdpSource(EventSource):
         sensor_size: ``(width, height)`` the events must lie in (packets carry no size).
         max_packets: stop after this many datagrams (dropped ones included); ``None``: never.
         idle_timeout: stop when no datagram arrived for this many seconds; ``None``: never.
+        receive_buffer: the socket's receive buffer to ask the kernel for, in bytes (a burst
+            beyond it is dropped by the kernel); :attr:`buffer_note` says when less was granted.
     """
+
+    #: One line saying the kernel granted a smaller receive buffer than asked, and how to raise
+    #: its cap; ``None`` when it granted it.
+    buffer_note: str | None = None
 
     def __init__(
         self,
@@ -339,14 +369,21 @@ class UdpSource(EventSource):
         sensor_size: tuple[int, int],
         max_packets: int | None = None,
         idle_timeout: float | None = None,
+        receive_buffer: int | None = None,
     ) -> None:
         super().__init__()
+        asked = RECEIVE_BUFFER if receive_buffer is None else receive_buffer
+        if not 1 <= asked < 1 << 31:
+            raise ParameterError(f"receive_buffer must be 1 to 2^31 - 1 bytes, got {asked}")
         if fmt not in PACKET_FORMATS:
             raise ParameterError(f"UDP format must be one of {PACKET_FORMATS}, got {fmt!r}")
         if max_packets is not None and max_packets < 1:
             raise ParameterError(f"max_packets must be >= 1, got {max_packets}")
-        if idle_timeout is not None and not idle_timeout > 0:
-            raise ParameterError(f"idle_timeout must be > 0 seconds, got {idle_timeout}")
+        if idle_timeout is not None and not 0 < idle_timeout <= MAX_IDLE_TIMEOUT:
+            raise ParameterError(
+                f"idle_timeout must be > 0 and at most {MAX_IDLE_TIMEOUT:g} seconds, "
+                f"got {idle_timeout}"
+            )
         width, height = check_sensor_size(sensor_size)
         self.sensor_size = (width, height)
         self.decoder = _core.PacketDecoder(fmt, width, height)
@@ -355,13 +392,57 @@ class UdpSource(EventSource):
         family = socket.AF_INET6 if ":" in host else socket.AF_INET
         self.socket = socket.socket(family, socket.SOCK_DGRAM)
         try:
-            self.socket.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 22)
+            self.buffer_note = self._ask_buffer(asked)
             self.socket.bind((host, port))
         except OSError as exc:
             self.socket.close()
             raise ParameterError(f"cannot listen on udp://{host}:{port}: {exc}") from exc
+        self._overflows = 0  # the kernel's last count of drops (SO_RXQ_OVFL)
+        self._count_overflows = False
+        if sys.platform.startswith("linux"):
+            try:
+                self.socket.setsockopt(socket.SOL_SOCKET, _SO_RXQ_OVFL, 1)
+                self._count_overflows = True
+                self.stats.lost = 0
+            except OSError:
+                pass
         self.socket.settimeout(idle_timeout)
         self._opened_ns = time.monotonic_ns()
+
+    def _ask_buffer(self, asked: int) -> str | None:
+        """Ask for a receive buffer of ``asked`` bytes; a line saying so when less is granted."""
+        try:
+            self.socket.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, asked)
+        except OSError:
+            pass  # beyond the system's cap (macOS: ENOBUFS): its default stays
+        reported = self.socket.getsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF)
+        linux = sys.platform.startswith("linux")
+        # Linux reports twice the size set (the other half for its bookkeeping), capped at
+        # twice net.core.rmem_max.
+        granted = reported // 2 if linux else reported
+        if granted >= asked:
+            return None
+        how = (
+            f"raise the cap with `sysctl -w net.core.rmem_max={asked}` (as root)"
+            if linux
+            else "raise the system's cap on socket buffers (macOS: kern.ipc.maxsockbuf)"
+        )
+        return (
+            f"the kernel granted a UDP receive buffer of {granted // 1024} KiB, not the "
+            f"{asked // 1024} KiB asked: a burst of packets beyond it is dropped unread; {how}"
+        )
+
+    def _receive(self, buffer: bytearray) -> int:
+        """Read one datagram into ``buffer``; its size. Counts the kernel's drops where known."""
+        if not self._count_overflows:
+            return self.socket.recv_into(buffer)
+        size, ancillary, _flags, _address = self.socket.recvmsg_into([buffer], socket.CMSG_SPACE(4))
+        for level, kind, data in ancillary:
+            if level == socket.SOL_SOCKET and kind == _SO_RXQ_OVFL and len(data) >= 4:
+                count = int.from_bytes(data[:4], sys.byteorder)  # since the socket opened
+                self.stats.lost = (self.stats.lost or 0) + (count - self._overflows) % (1 << 32)
+                self._overflows = count
+        return size
 
     @property
     def address(self) -> tuple[str, int]:
@@ -374,7 +455,7 @@ class UdpSource(EventSource):
         view = memoryview(buffer)
         while self.max_packets is None or self.stats.packets < self.max_packets:
             try:
-                size = self.socket.recv_into(buffer)
+                size = self._receive(buffer)
             except TimeoutError:
                 return
             self.stats.packets += 1

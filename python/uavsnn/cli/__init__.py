@@ -13,20 +13,40 @@ Every failure a user can cause ends in one line on standard error and a document
 enough memory), 130 for Ctrl-C (``interrupted``; files are written atomically, so nothing is
 left half-written), and 1, silently, when the reader of standard output goes away
 (``uavsnn info F | head -3``), as Python's documentation recommends for a broken pipe.
+SIGTERM and SIGHUP (a service manager stopping the command, a closed terminal) take Ctrl-C's
+path (:class:`Terminated`, a ``KeyboardInterrupt``) and exit 128 + the signal's number: 143 and
+129, as shells report them. Their handlers are installed only in the main thread and only where
+the signal's disposition is the default (a handler the embedding program set, or ``nohup``'s
+ignored SIGHUP, is left alone), and put back when :func:`main` returns.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import os
+import signal
 import sys
+import threading
+from collections.abc import Iterator
+from types import FrameType
+from typing import Any
 
 from uavsnn import __version__
 from uavsnn._files import check_output_dir, output_dir, output_file
 from uavsnn.errors import UavsnnError
 
-__all__ = ["COMMANDS", "check_output_dir", "main", "output_dir", "output_file"]
+__all__ = [
+    "COMMANDS",
+    "Terminated",
+    "check_output_dir",
+    "exit_code",
+    "interrupted_line",
+    "main",
+    "output_dir",
+    "output_file",
+]
 
 #: The sub-commands, each the name of its module, with the one line ``uavsnn --help`` shows.
 COMMANDS: dict[str, str] = {
@@ -43,6 +63,66 @@ COMMANDS: dict[str, str] = {
 
 #: Exit code of a command stopped by Ctrl-C (128 + SIGINT, as shells report it).
 EXIT_INTERRUPTED = 130
+
+#: The signals that stop a command as Ctrl-C does (those present on this platform).
+STOP_SIGNALS: tuple[signal.Signals, ...] = tuple(
+    getattr(signal, name) for name in ("SIGTERM", "SIGHUP") if hasattr(signal, name)
+)
+
+
+class Terminated(KeyboardInterrupt):
+    """A command stopped by a signal other than Ctrl-C's (SIGTERM, SIGHUP): a
+    ``KeyboardInterrupt``, so that every Ctrl-C path (flush what can be, report, leave files
+    whole) applies; :attr:`signum` gives the exit code, 128 + it."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signum)
+        #: The signal's number.
+        self.signum = int(signum)
+
+    @property
+    def name(self) -> str:
+        """The signal's name, e.g. ``"SIGTERM"``."""
+        try:
+            return signal.Signals(self.signum).name
+        except ValueError:
+            return f"signal {self.signum}"
+
+
+def exit_code(interrupt: KeyboardInterrupt) -> int:
+    """The exit code of a command stopped by ``interrupt``: 128 + its signal's number (130 for
+    Ctrl-C, 143 for SIGTERM, 129 for SIGHUP)."""
+    if isinstance(interrupt, Terminated):
+        return 128 + interrupt.signum
+    return EXIT_INTERRUPTED
+
+
+def interrupted_line(name: str, interrupt: KeyboardInterrupt) -> str:
+    """The one line a command stopped by ``interrupt`` prints: ``uavsnn detect: interrupted``,
+    with the signal's name when it is not Ctrl-C's."""
+    if isinstance(interrupt, Terminated):
+        return f"{name}: interrupted ({interrupt.name})"
+    return f"{name}: interrupted"
+
+
+def _terminate(signum: int, _frame: FrameType | None) -> None:
+    raise Terminated(signum)
+
+
+@contextlib.contextmanager
+def _stop_signals() -> Iterator[None]:
+    """SIGTERM and SIGHUP raise :class:`Terminated` inside the block, where their disposition
+    is the default and this is the main thread; the previous handlers are put back after."""
+    previous: list[tuple[signal.Signals, Any]] = []
+    if threading.current_thread() is threading.main_thread():
+        for sig in STOP_SIGNALS:
+            if signal.getsignal(sig) == signal.SIG_DFL:
+                previous.append((sig, signal.signal(sig, _terminate)))
+    try:
+        yield
+    finally:
+        for sig, handler in previous:
+            signal.signal(sig, handler)
 
 
 def _build_parser(command: str | None = None) -> argparse.ArgumentParser:
@@ -75,6 +155,12 @@ def main(argv: list[str] | None = None) -> int:
     if handler is None:
         parser.error(f"unknown command {args.command!r}")
     name = f"uavsnn {args.command}"
+    with _stop_signals():
+        return _run(name, handler, args)
+
+
+def _run(name: str, handler: Any, args: argparse.Namespace) -> int:
+    """Run the command's handler; every failure becomes its line and exit code."""
     try:
         code = int(handler(args) or 0)
         sys.stdout.flush()  # a closed pipe shows here, not at exit
@@ -82,9 +168,9 @@ def main(argv: list[str] | None = None) -> int:
     except UavsnnError as exc:
         print(f"{name}: error: {exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print(f"{name}: interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
+    except KeyboardInterrupt as exc:
+        print(interrupted_line(name, exc), file=sys.stderr)
+        return exit_code(exc)
     except BrokenPipeError:
         # The reader went away: send what is still buffered to /dev/null so that the flush
         # at exit does not fail again, and stop quietly.

@@ -14,7 +14,9 @@ every conv3 spike instead, as it is decided; ``--json`` makes JSON lines of eith
 summary goes to standard error every ``--summary-every`` seconds and at the
 end. Malformed packets, and chunks the detector rejects (an event outside the sensor, time going
 backwards), are counted as drops and skipped. Ctrl-C ends the stream: the windows still open are
-reported, then the command exits 130 (``interrupted``), as every command does.
+reported, then the command exits 130 (``interrupted``), as every command does; SIGTERM and SIGHUP
+do the same and exit 143 and 129 (:class:`uavsnn.cli.Terminated`). When the reader of standard
+output goes away (``| head -1``) the command stops quietly, without its summary, and exits 1.
 """
 
 from __future__ import annotations
@@ -330,7 +332,7 @@ class _Summary:
             f"events={detector.events_seen} ({detector.events_seen / wall:,.0f} ev/s, "
             f"engine {detector.rate:,.0f} ev/s) windows={detector.windows_opened} "
             f"detections={detector.detections_emitted} packets={s.packets} "
-            f"dropped={s.dropped + rejected}",
+            f"dropped={s.dropped + rejected}" + ("" if s.lost is None else f" lost={s.lost}"),
             file=self.err,
             flush=True,
         )
@@ -342,6 +344,8 @@ MAX_WINDOW_MS = float(1 << 62) / 1000
 
 def _check_args(args: argparse.Namespace) -> None:
     """Refuse flag values that make no sense before opening anything."""
+    from uavsnn.sources import MAX_IDLE_TIMEOUT
+
     if not (math.isfinite(args.window_ms) and 0.001 <= args.window_ms <= MAX_WINDOW_MS):
         raise ParameterError(
             f"--window-ms must be a number of ms from 0.001 (1 µs) to {MAX_WINDOW_MS:.3g}, "
@@ -362,8 +366,21 @@ def _check_args(args: argparse.Namespace) -> None:
         )
     if args.downsample and live:
         raise ParameterError("--downsample applies to files; '-' and UDP give --sensor-size")
+    if not any(s.startswith("udp://") for s in (args.source, *args.more_sources)):
+        udp_only = (("--max-packets", args.max_packets), ("--idle-timeout", args.idle_timeout))
+        for flag, value in udp_only:
+            if value is not None:
+                raise ParameterError(
+                    f"{flag} applies to UDP sources (udp://HOST:PORT); standard input and "
+                    "files end by themselves"
+                )
     if args.max_packets is not None and args.max_packets < 1:
         raise ParameterError(f"--max-packets must be >= 1, got {args.max_packets}")
+    if args.idle_timeout is not None and not 0 < args.idle_timeout <= MAX_IDLE_TIMEOUT:
+        raise ParameterError(
+            f"--idle-timeout must be a number of seconds > 0 and at most {MAX_IDLE_TIMEOUT:g}, "
+            f"got {args.idle_timeout}"
+        )
     for flag, value in (("--false-alarm", args.false_alarm), ("--false-tracks", args.false_tracks)):
         if value is not None and (args.more_sources or args.ray is not None):
             raise ParameterError(
@@ -397,10 +414,11 @@ def _tracker(text: str | None, network: Any) -> Any:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run detection until the source ends, or Ctrl-C: what was found is still reported (the
-    windows still open flushed), and the exit code is then 130, as for any interruption.
+    """Run detection until the source ends, or Ctrl-C (SIGTERM, SIGHUP): what was found is
+    still reported (the windows still open flushed), and the exit code is then 130 (143, 129),
+    as for any interruption; 1, without the summary, when standard output's reader went away.
     Returns the exit code."""
-    from uavsnn.cli import EXIT_INTERRUPTED
+    from uavsnn.cli import exit_code, interrupted_line
     from uavsnn.detector import Detector
     from uavsnn.network import Network
     from uavsnn.sources import UdpSource, open_source
@@ -470,6 +488,8 @@ def run(args: argparse.Namespace) -> int:
         if isinstance(source, UdpSource):
             host, port = source.address
             print(f"uavsnn detect: listening on udp://{host}:{port}", file=err, flush=True)
+            if source.buffer_note:
+                print(f"uavsnn detect: warning: {source.buffer_note}", file=err, flush=True)
         if network.load_note:
             print(f"uavsnn detect: note: {network.load_note}", file=err, flush=True)
         summary = _Summary(args.summary_every, err)
@@ -495,7 +515,7 @@ def run(args: argparse.Namespace) -> int:
             else:
                 emit(detector.flush_windows())
 
-        interrupted = False
+        interrupted: KeyboardInterrupt | None = None
         try:
             for chunk in source:
                 try:
@@ -509,27 +529,32 @@ def run(args: argparse.Namespace) -> int:
                     continue
                 summary.maybe(detector, source, rejected)
             flush()
-        except KeyboardInterrupt:
-            # Ctrl-C: report what the stream found so far, then exit as interrupted. Stopped
-            # inside the detector's own work, the stream is unknown: nothing more to report.
-            interrupted = True
+        except KeyboardInterrupt as exc:
+            # Ctrl-C (SIGTERM, SIGHUP): report what the stream found so far, then exit as
+            # interrupted. Stopped inside the detector's own work, the stream is unknown:
+            # nothing more to report.
+            interrupted = exc
             if detector.interrupted:
+                what = getattr(exc, "name", "Ctrl-C")
                 print(
-                    "uavsnn detect: Ctrl-C stopped the detector inside a chunk: the windows "
+                    f"uavsnn detect: {what} stopped the detector inside a chunk: the windows "
                     "still open are not reported",
                     file=err,
                     flush=True,
                 )
             else:
-                flush()
+                flush()  # a closed pipe here ends as any (uavsnn.cli.main: exit 1)
         except BrokenPipeError:
-            # The reader went away (``| head``): stop quietly, as command-line tools do.
+            # The reader went away (``| head``): stop quietly, as command-line tools do (exit
+            # 1, no summary: uavsnn.cli).
             os.dup2(os.open(os.devnull, os.O_WRONLY), out.fileno())
+            return 1
         summary.write(detector, source, rejected, final=True)
-    if interrupted:
-        # As the command line reports any Ctrl-C (uavsnn.cli.main): one line, exit 130.
-        print("uavsnn detect: interrupted", file=err, flush=True)
-        return EXIT_INTERRUPTED
+    if interrupted is not None:
+        # As the command line reports any interruption (uavsnn.cli.main): one line, 128 + the
+        # signal's number.
+        print(interrupted_line("uavsnn detect", interrupted), file=err, flush=True)
+        return exit_code(interrupted)
     return 0
 
 

@@ -1,0 +1,436 @@
+"""Live streaming with ``uavsnn detect``: stopped by a service manager's signal, its output's
+reader gone, options that apply to UDP only, ``--realtime`` over long gaps, and what the kernel
+does to a UDP socket (its receive buffer, the datagrams it drops). Runs that need a process of
+their own (signals, a closed pipe) run in a fresh interpreter of their own process group,
+killed whole by a watchdog should they hang."""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import tracemalloc
+import types
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from conftest import SMALL_SENSOR, blob_events, one_line_exit_2, small_config
+
+from uavsnn import EVENT_DTYPE, ParameterError
+from uavsnn import sources as sources_module
+from uavsnn.cli import main
+from uavsnn.detector import Detector
+from uavsnn.network import Network
+from uavsnn.sources import FileSource, UdpSource
+
+WINDOW_MS = "3"
+LOOPBACK = "127.0.0.1"
+LINUX = sys.platform.startswith("linux")
+
+
+@pytest.fixture(scope="module")
+def net() -> Network:
+    return Network(small_config(), seed=3)
+
+
+@pytest.fixture(scope="module")
+def model(net: Network, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("model") / "model.npz"
+    net.save(path)
+    return path
+
+
+@pytest.fixture(scope="module")
+def events() -> np.ndarray:
+    return blob_events(11, 1_500)
+
+
+def detect_argv(model: Path, *more: str) -> list[str]:
+    argv = ["detect", "-", "-m", str(model), "--window-ms", WINDOW_MS]
+    return [*argv, "--summary-every", "0", *more]
+
+
+def run_in_process(
+    argv: list[str],
+    data: bytes,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> tuple[int, list[str], str]:
+    """``main(argv)`` with ``data`` on standard input: exit code, stdout lines, stderr."""
+    monkeypatch.setattr(sys, "stdin", types.SimpleNamespace(buffer=io.BytesIO(data)))
+    code = main(argv)
+    out, err = capsys.readouterr()
+    return code, out.splitlines(), err
+
+
+# A fresh interpreter running the command line as a service manager would start it, with
+# SIGTERM and SIGHUP at their default and SIGINT ignored (as in a shell's background job).
+CHILD = """
+import signal, sys
+signal.signal(signal.SIGINT, signal.SIG_IGN)
+for name in ("SIGTERM", "SIGHUP"):
+    signal.signal(getattr(signal, name), signal.SIG_DFL)
+from uavsnn.cli import main
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+@pytest.fixture
+def child() -> Iterator[Callable[[list[str]], subprocess.Popen[bytes]]]:
+    """Start the command line in a process group of its own; killed whole after the test, or
+    by a watchdog after 120 s (a hang then fails the test instead of stalling the run)."""
+    started: list[subprocess.Popen[bytes]] = []
+    timers: list[threading.Timer] = []
+
+    def kill(proc: subprocess.Popen[bytes]) -> None:
+        if proc.poll() is None:
+            try:
+                os.killpg(proc.pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+
+    def start(argv: list[str]) -> subprocess.Popen[bytes]:
+        proc = subprocess.Popen(
+            [sys.executable, "-c", CHILD, *argv],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            start_new_session=True,
+        )
+        started.append(proc)
+        timer = threading.Timer(120, kill, (proc,))
+        timer.daemon = True
+        timer.start()
+        timers.append(timer)
+        return proc
+
+    yield start
+    for timer in timers:
+        timer.cancel()
+    for proc in started:
+        kill(proc)
+        for pipe in (proc.stdin, proc.stdout, proc.stderr):
+            try:
+                if pipe is not None:
+                    pipe.close()
+            except OSError:
+                pass
+        proc.wait()
+
+
+# -- 1. SIGTERM and SIGHUP take the Ctrl-C path ------------------------------------------------
+
+
+@pytest.mark.skipif(not hasattr(signal, "SIGHUP"), reason="POSIX signals")
+@pytest.mark.parametrize("name", ["SIGTERM", "SIGHUP"])
+def test_a_service_managers_signal_reports_what_was_found_and_exits_128_plus_it(
+    name: str,
+    net: Network,
+    model: Path,
+    events: np.ndarray,
+    child: Callable[[list[str]], subprocess.Popen[bytes]],
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    # A last event well after the others: once the windows it closes are printed, every
+    # event has been pushed, and the signal comes while the stream waits for more.
+    last = np.array(events[-1:])
+    last["t"] += 10 * int(WINDOW_MS) * 1000
+    data = np.concatenate([events, last]).tobytes()
+    argv = detect_argv(model, "--json")
+    code, ended, _ = run_in_process(argv, data, monkeypatch, capsys)
+    assert code == 0
+    det = Detector(net, window_us=int(WINDOW_MS) * 1000, overlap=0.5, sensor_size=SMALL_SENSOR)
+    closed = len(det.push_windows(np.frombuffer(data, dtype=EVENT_DTYPE)))
+    assert 0 < closed < len(ended)  # some windows are still open when the signal comes
+
+    proc = child(argv)
+    assert proc.stdin is not None and proc.stdout is not None
+    proc.stdin.write(data)
+    proc.stdin.flush()
+    got = [proc.stdout.readline() for _ in range(closed)]
+    assert all(got), got  # (an empty line: the child ended, or the watchdog killed it)
+    sig = getattr(signal, name)
+    proc.send_signal(sig)
+    out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 128 + sig, err.decode()[-2000:]
+    # Every window, the ones still open flushed, as if the stream had ended.
+    lines = [line.decode() for line in got] + out.decode().splitlines()
+    assert [json.loads(x) for x in lines] == [json.loads(x) for x in ended]
+    last_lines = err.decode().splitlines()[-2:]
+    assert last_lines[0].startswith("uavsnn detect: done"), err.decode()
+    assert last_lines[1] == f"uavsnn detect: interrupted ({name})"
+
+
+class _Watching(io.BytesIO):
+    """Standard input's bytes, noting SIGTERM's and SIGHUP's handlers while being read."""
+
+    def __init__(self, data: bytes) -> None:
+        super().__init__(data)
+        self.seen: list[tuple[Any, Any]] = []
+
+    def read1(self, size: int = -1, /) -> bytes:
+        self.seen.append((signal.getsignal(signal.SIGTERM), signal.getsignal(signal.SIGHUP)))
+        return super().read1(size)
+
+
+@pytest.fixture
+def dispositions() -> Iterator[None]:
+    """Put SIGTERM's and SIGHUP's handlers back as they were after the test."""
+    before = {s: signal.getsignal(s) for s in (signal.SIGTERM, signal.SIGHUP)}
+    yield
+    for s, handler in before.items():
+        signal.signal(s, handler)
+
+
+@pytest.mark.skipif(not hasattr(signal, "SIGHUP"), reason="POSIX signals")
+@pytest.mark.usefixtures("dispositions")
+@pytest.mark.parametrize("embedded", [False, True])
+def test_main_handles_the_stop_signals_only_where_default_and_puts_them_back(
+    embedded: bool,
+    model: Path,
+    events: np.ndarray,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    def own(signum: int, frame: Any) -> None:  # an embedding program's handler
+        pass
+
+    before = (own, signal.SIG_IGN) if embedded else (signal.SIG_DFL, signal.SIG_DFL)
+    signal.signal(signal.SIGTERM, before[0])
+    signal.signal(signal.SIGHUP, before[1])
+    stdin = _Watching(events.tobytes())
+    monkeypatch.setattr(sys, "stdin", types.SimpleNamespace(buffer=stdin))
+    assert main(detect_argv(model)) == 0
+    capsys.readouterr()
+    assert stdin.seen
+    for during in stdin.seen:
+        if embedded:
+            assert during == before  # left alone
+        else:
+            assert all(callable(h) for h in during), during  # installed
+    assert (signal.getsignal(signal.SIGTERM), signal.getsignal(signal.SIGHUP)) == before
+
+
+def test_main_runs_outside_the_main_thread(
+    model: Path, events: np.ndarray, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # Handlers can only be installed from the main thread: elsewhere none is, and main runs.
+    monkeypatch.setattr(sys, "stdin", types.SimpleNamespace(buffer=io.BytesIO(events.tobytes())))
+    codes: list[int] = []
+    thread = threading.Thread(target=lambda: codes.append(main(detect_argv(model))), daemon=True)
+    thread.start()
+    thread.join(timeout=60)
+    assert codes == [0]
+
+
+# -- 2. the reader of standard output goes away ------------------------------------------------
+
+
+@pytest.mark.parametrize("mode", ["--json", "--per-spike"])
+def test_a_reader_gone_ends_detect_quietly_with_exit_1(
+    mode: str,
+    net: Network,
+    model: Path,
+    events: np.ndarray,
+    child: Callable[[list[str]], subprocess.Popen[bytes]],
+) -> None:
+    first, second = events[:700], events[700:]
+    det = Detector(net, window_us=int(WINDOW_MS) * 1000, overlap=0.5, sensor_size=SMALL_SENSOR)
+    assert len(det.push(first)) > 0
+    assert len(det.push(second)) + len(det.flush()) > 0  # more to print after the reader goes
+    proc = child(detect_argv(model, mode))
+    assert proc.stdin is not None and proc.stdout is not None and proc.stderr is not None
+    proc.stdin.write(first.tobytes())
+    proc.stdin.flush()
+    assert proc.stdout.readline()  # the command is printing: now its reader goes (`| head -1`)
+    proc.stdout.close()
+    try:
+        proc.stdin.write(second.tobytes())
+        proc.stdin.close()
+    except BrokenPipeError:
+        pass
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=60) == 1, err
+    assert "done" not in err and "Traceback" not in err, err
+
+
+# -- 3. options of UDP only --------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("source", ["-", "recording.npy"])
+@pytest.mark.parametrize("flag", [["--max-packets", "1"], ["--idle-timeout", "0.5"]])
+def test_udp_only_options_are_refused_for_stdin_and_files(
+    source: str, flag: list[str], capsys: pytest.CaptureFixture[str]
+) -> None:
+    argv = ["detect", source, "-m", "model.npz", *flag]
+    line = one_line_exit_2(capsys, argv, f"{flag[0]} applies to UDP")
+    assert "udp://" in line
+
+
+@pytest.mark.parametrize("value", ["0", "-1", "nan", "inf", "1e300"])
+def test_an_idle_timeout_a_socket_cannot_hold_is_refused(
+    value: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    argv = ["detect", "udp://127.0.0.1:0", "-m", "model.npz", "--idle-timeout", value]
+    one_line_exit_2(capsys, argv, "--idle-timeout must be")
+    with pytest.raises(ParameterError, match="idle_timeout"):
+        UdpSource(LOOPBACK, 0, sensor_size=SMALL_SENSOR, idle_timeout=float(value))
+
+
+# -- 4. --realtime over long gaps --------------------------------------------------------------
+
+
+class _Clock:
+    """A stand-in for the ``time`` module: ``sleep`` moves the clock on, instantly."""
+
+    def __init__(self) -> None:
+        self.now = 100.0
+
+    def monotonic(self) -> float:
+        return self.now
+
+    def sleep(self, seconds: float) -> None:
+        self.now += seconds
+
+
+def replay(
+    path: Path, monkeypatch: pytest.MonkeyPatch, chunk_us: int = 1000
+) -> list[tuple[float, np.ndarray]]:
+    """The chunks of a ``realtime`` replay of ``path``, each with its release time (seconds
+    from the start), on a clock that does not wait."""
+    clock = _Clock()
+    monkeypatch.setattr(sources_module, "time", clock)
+    source = FileSource(path, sensor_size=(240, 180), realtime=True, chunk_us=chunk_us)
+    return [(clock.now - 100.0, chunk) for chunk in source]
+
+
+def old_rule(events: np.ndarray, chunk_us: int) -> list[tuple[float, np.ndarray]]:
+    """The chunks as they were cut before: every ``chunk_us`` edge from the first event's time
+    to past the last, empty chunks skipped, each released at its edge."""
+    t = events["t"]
+    first = int(t[0])
+    edges = np.arange(first, int(t[-1]) + chunk_us + 1, chunk_us, dtype=np.uint64)
+    cuts = np.searchsorted(t, edges[1:], side="left")
+    out, begin = [], 0
+    for edge, end in zip(edges[1:], cuts, strict=True):
+        if end > begin:
+            out.append(((int(edge) - first) / 1e6, events[begin:end]))
+            begin = int(end)
+    return out
+
+
+def test_realtime_cuts_the_same_chunks_at_the_same_times(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    rng = np.random.default_rng(5)
+    ev = np.zeros(3_000, dtype=EVENT_DTYPE)
+    # Bursts, gaps of many chunks, equal times, and events on chunk edges.
+    steps = rng.choice([0, 1, 7, 250, 999, 1000, 1001, 40_000], size=len(ev))
+    ev["t"] = 123_456 + np.cumsum(steps)
+    ev["x"] = rng.integers(0, 240, len(ev))
+    ev["y"] = rng.integers(0, 180, len(ev))
+    np.save(tmp_path / "rec.npy", ev)
+    for chunk_us in (1000, 333):
+        got = replay(tmp_path / "rec.npy", monkeypatch, chunk_us)
+        want = old_rule(ev, chunk_us)
+        assert len(got) == len(want) > 100
+        for (t_got, c_got), (t_want, c_want) in zip(got, want, strict=True):
+            assert t_got == pytest.approx(t_want, abs=1e-9)
+            np.testing.assert_array_equal(c_got, c_want)
+
+
+@pytest.mark.parametrize("span_us", [3_600_000_000, 1 << 62])
+def test_realtime_over_a_long_gap_holds_nothing_for_it(
+    span_us: int, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # Four events, the last an hour (or 2^62 µs, the engine's latest time) after the others:
+    # one entry per millisecond of the span took 58 MB for the hour, and 2^62 µs failed.
+    ev = np.zeros(4, dtype=EVENT_DTYPE)
+    ev["t"] = [0, 10, 20, span_us]
+    np.save(tmp_path / "gap.npy", ev)
+    tracemalloc.start()
+    try:
+        chunks = replay(tmp_path / "gap.npy", monkeypatch)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 1 << 20
+    assert [len(c) for _, c in chunks] == [3, 1]
+    assert chunks[1][0] == pytest.approx((span_us + 1000 - span_us % 1000) / 1e6)
+
+
+# -- 5. the kernel's side of a UDP socket ------------------------------------------------------
+
+
+def rmem_max() -> int:
+    return int(Path("/proc/sys/net/core/rmem_max").read_text())
+
+
+@pytest.mark.skipif(not LINUX, reason="Linux's cap on receive buffers")
+def test_a_receive_buffer_smaller_than_asked_is_reported() -> None:
+    cap = rmem_max()
+    if cap >= 1 << 30:
+        pytest.skip(f"net.core.rmem_max is {cap}: no buffer to ask beyond it")
+    with UdpSource(LOOPBACK, 0, sensor_size=SMALL_SENSOR, receive_buffer=cap + (1 << 20)) as src:
+        note = src.buffer_note
+    assert note is not None and "net.core.rmem_max" in note and str(cap + (1 << 20)) in note
+    with UdpSource(LOOPBACK, 0, sensor_size=SMALL_SENSOR, receive_buffer=1 << 16) as src:
+        assert src.buffer_note is None
+
+
+@pytest.mark.skipif(not LINUX, reason="Linux's cap on receive buffers")
+def test_detect_warns_of_a_small_receive_buffer(
+    model: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    cap = rmem_max()
+    if cap >= 1 << 30:
+        pytest.skip(f"net.core.rmem_max is {cap}: no buffer to ask beyond it")
+    monkeypatch.setattr(sources_module, "RECEIVE_BUFFER", cap + (1 << 20))
+    argv = ["detect", "udp://127.0.0.1:0", "-m", str(model), "--idle-timeout", "0.05"]
+    assert main([*argv, "--summary-every", "0"]) == 0
+    lines = capsys.readouterr().err.splitlines()
+    assert lines[0].startswith("uavsnn detect: listening on udp://")
+    assert lines[1].startswith("uavsnn detect: warning: the kernel granted a UDP receive buffer")
+    assert "net.core.rmem_max" in lines[1]
+    assert lines[-1].startswith("uavsnn detect: done") and lines[-1].endswith(" lost=0")
+
+
+def udp_packets(n: int, per_packet: int = 100) -> list[bytes]:
+    ev = np.zeros(n * per_packet, dtype=EVENT_DTYPE)
+    ev["t"] = 1_000 + np.arange(len(ev))
+    ev["x"] = np.arange(len(ev)) % SMALL_SENSOR[0]
+    return [ev[i : i + per_packet].tobytes() for i in range(0, len(ev), per_packet)]
+
+
+@pytest.mark.skipif(not LINUX, reason="SO_RXQ_OVFL is Linux's")
+def test_datagrams_the_kernel_drops_are_counted_as_lost() -> None:
+    packets = udp_packets(61)
+    with (
+        UdpSource(LOOPBACK, 0, sensor_size=SMALL_SENSOR, idle_timeout=0.2, receive_buffer=1) as src,
+        socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s,
+    ):
+        assert src.stats.lost == 0
+        # A burst into the smallest buffer while nobody reads: most of it is dropped.
+        for p in packets[:60]:
+            s.sendto(p, src.address)
+        list(src)
+        # The kernel says how many it dropped with the next datagram it queues.
+        s.sendto(packets[60], src.address)
+        list(src)
+    assert src.stats.packets < 60
+    assert src.stats.lost == len(packets) - src.stats.packets
+
+
+@pytest.mark.parametrize("size", [0, 1 << 31])
+def test_a_receive_buffer_a_socket_cannot_take_is_refused(size: int) -> None:
+    with pytest.raises(ParameterError, match="receive_buffer"):
+        UdpSource(LOOPBACK, 0, sensor_size=SMALL_SENSOR, receive_buffer=size)
