@@ -434,3 +434,103 @@ def test_datagrams_the_kernel_drops_are_counted_as_lost() -> None:
 def test_a_receive_buffer_a_socket_cannot_take_is_refused(size: int) -> None:
     with pytest.raises(ParameterError, match="receive_buffer"):
         UdpSource(LOOPBACK, 0, sensor_size=SMALL_SENSOR, receive_buffer=size)
+
+
+# -- a sensor that restarts ---------------------------------------------------------------------
+
+HOUR_US = 3_600_000_000
+
+
+def restarted(n: int = 3_000) -> tuple[np.ndarray, np.ndarray]:
+    """A stream an hour in, then the sensor restarted: its clock from 1000 µs again."""
+    old = blob_events(21, n)
+    old["t"] += np.uint64(HOUR_US)
+    return old, blob_events(22, n)
+
+
+def test_a_udp_source_follows_a_restarted_sensor() -> None:
+    from uavsnn import _core
+
+    old, new = restarted()
+    per = 100
+    packets = [a[i : i + per].tobytes() for a in (old, new) for i in range(0, len(a), per)]
+    with (
+        UdpSource(LOOPBACK, 0, sensor_size=SMALL_SENSOR, idle_timeout=0.5) as src,
+        socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s,
+    ):
+        for p in packets:
+            s.sendto(p, src.address)
+        chunks, restarts = [], []
+        for chunk in src:
+            chunks.append(chunk)
+            restarts.append(src.stats.restarts)
+    assert src.stats.lost in (None, 0)
+    assert src.stats.restarts == 1
+    first_new = restarts.index(1)
+    assert all(c["t"][0] >= HOUR_US for c in chunks[:first_new])
+    after = np.concatenate(chunks[first_new:])
+    # The new stream from the packet after RESTART_AFTER refused ones, whole and in order.
+    np.testing.assert_array_equal(after, new[_core.RESTART_AFTER * per :])
+    assert src.stats.dropped == _core.RESTART_AFTER
+
+
+@pytest.mark.parametrize("fmt", ["packed", "csv"])
+@pytest.mark.parametrize("read_size", [13 * 100, 1 << 16])
+def test_standard_input_follows_a_restarted_sensor(fmt: str, read_size: int) -> None:
+    from uavsnn.sources import STDIN_RESTART_EVENTS, StdinSource
+
+    old, new = restarted()
+    glitch = old[-1:].copy()
+    glitch["t"] += np.uint64(10**12)  # and a glitch far ahead before the restart
+    stream = np.concatenate([old, glitch, new])
+    if fmt == "packed":
+        data = stream.tobytes()
+    else:
+        data = "".join(f"{e['t']},{e['x']},{e['y']},{int(e['p'])}\n" for e in stream).encode()
+    src = StdinSource(io.BytesIO(data), fmt=fmt, sensor_size=SMALL_SENSOR, read_size=read_size)
+    parts = []
+    for chunk in src:
+        parts.append((src.stats.restarts, chunk))
+    assert src.stats.restarts == 1 and src.stats.dropped == 0
+    before = np.concatenate([c for r, c in parts if r == 0])
+    after = np.concatenate([c for r, c in parts if r == 1])
+    np.testing.assert_array_equal(before, np.concatenate([old, glitch]))
+    np.testing.assert_array_equal(after, new)  # nothing of the new stream lost
+    assert len(new) > STDIN_RESTART_EVENTS
+
+
+def test_a_few_events_back_on_standard_input_are_dropped_not_a_restart() -> None:
+    from uavsnn.sources import STDIN_RESTART_EVENTS, StdinSource
+
+    old, _ = restarted()
+    back = old[: STDIN_RESTART_EVENTS - 1].copy()
+    back["t"] -= np.uint64(HOUR_US // 2)
+    later = old[-10:].copy()
+    later["t"] += np.uint64(1_000_000)
+    stream = np.concatenate([old, back, later])
+    src = StdinSource(io.BytesIO(stream.tobytes()), sensor_size=SMALL_SENSOR, read_size=1 << 12)
+    got = np.concatenate(list(src))
+    assert src.stats.restarts == 0 and src.stats.dropped == len(back)
+    np.testing.assert_array_equal(got, np.concatenate([old, later]))
+
+
+def test_detect_reports_the_old_stream_and_starts_again_after_a_restart(
+    model: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    old, new = restarted()
+    data = np.concatenate([old, new]).tobytes()
+    code, lines, err = run_in_process(detect_argv(model, "--json"), data, monkeypatch, capsys)
+    assert code == 0, err
+    windows = [json.loads(line) for line in lines]
+    t0 = [w["t0"] for w in windows]
+    back = [i for i in range(1, len(t0)) if t0[i] < t0[i - 1]]
+    assert len(back) == 1  # the old stream's windows, every one, then the new stream's
+    assert t0[back[0] - 1] >= HOUR_US and t0[back[0]] < HOUR_US
+    assert "the sensor restarted (its clock went back to t=" in err
+    assert "restarts=1" in err
+    # Each stream's windows are those of a detector run on it alone.
+    for part, stream in ((windows[: back[0]], old), (windows[back[0] :], new)):
+        code, alone, _ = run_in_process(
+            detect_argv(model, "--json"), stream.tobytes(), monkeypatch, capsys
+        )
+        assert [json.loads(line) for line in alone] == part

@@ -396,6 +396,41 @@ def test_four_udp_streams_through_four_actors(runner: Any, model: Network) -> No
         assert np.array_equal(both, r.detections)
 
 
+def test_a_stream_whose_sensor_restarts_starts_its_detector_again(
+    runner: Any, model: Network
+) -> None:
+    from uavsnn import Detector
+    from uavsnn._core import RESTART_AFTER
+    from uavsnn.distributed import detect_streams
+
+    per_packet, packets = 200, 30
+    old = _events(packets * per_packet, 7, t0=3_600_000_000)  # an hour in
+    new = _events(packets * per_packet, 8)  # then restarted: from 0 again
+
+    def send(addresses: dict[str, Any], _actors: Any) -> None:
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+            for events in (old, new):
+                for i in range(packets):
+                    s.sendto(events[i * per_packet : (i + 1) * per_packet].tobytes(),
+                             addresses["cam"])  # fmt: skip
+
+    results = detect_streams(
+        runner, ["udp://127.0.0.1:0"], model, names=["cam"], window_us=20_000,
+        on_ready=send, max_packets=2 * packets, idle_timeout=20.0,
+    )  # fmt: skip
+    r = results["cam"]
+    assert r.ok, r.error
+    assert (r.restarts, r.dropped, r.rejected_events) == (1, RESTART_AFTER, 0)
+    # The detections of one detector on the old stream, then of a fresh one on the new
+    # stream from the packet that restarted it.
+    want = []
+    for events in (old, new[RESTART_AFTER * per_packet :]):
+        det = Detector(model, window_us=20_000)
+        want += [det.push(events), det.flush()]
+    assert np.array_equal(r.detections, np.concatenate(want))
+    assert r.events_seen == len(old) + len(new) - RESTART_AFTER * per_packet
+
+
 def test_a_killed_stream_is_reported_and_the_others_finish(
     runner: Any, model: Network, tmp_path: Path
 ) -> None:

@@ -258,6 +258,7 @@ class DvsKernel:
 # (`final` comes from the network section's import above.)
 
 PACKET_FORMATS: list[str]
+RESTART_AFTER: int
 
 @final
 class PacketDecoder:
@@ -267,6 +268,8 @@ class PacketDecoder:
     def format(self) -> str: ...
     @property
     def last_t(self) -> int | None: ...
+    @property
+    def restarts(self) -> int: ...
 
 DETECTION_RECORD_SIZE: int
 

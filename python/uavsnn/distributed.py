@@ -347,8 +347,9 @@ def noise_task(networks: dict[str, Network], data: Any, fraction: float, seed: i
 @dataclass
 class StreamResult:
     """What one stream gave: its name, every detection in time order
-    (:data:`~uavsnn.detector.WINDOW_DETECTION_DTYPE`), the source's and detector's counts, and the
-    error that ended it early (``None`` when it ran to its end)."""
+    (:data:`~uavsnn.detector.WINDOW_DETECTION_DTYPE`; after a sensor restart, in time order
+    again from the new clock), the source's and detector's counts, and the error that ended
+    it early (``None`` when it ran to its end)."""
 
     name: str
     detections: np.ndarray
@@ -358,6 +359,9 @@ class StreamResult:
     dropped: int = 0
     rejected_events: int = 0
     windows: int = 0
+    #: Sensor restarts (:attr:`uavsnn.sources.SourceStats.restarts`): at each the detector
+    #: was flushed and started again, so the detections after it start again in time.
+    restarts: int = 0
     error: str | None = None
     address: tuple[str, int] | None = None
     extra: dict[str, Any] = field(default_factory=dict)
@@ -406,27 +410,35 @@ class _StreamWorker:
     def _run(self) -> None:
         from uavsnn.errors import EventError, StreamError
 
+        restarts = 0
+        before = (0, 0)  # the counts of the streams before a sensor restart
+
+        def note(found: np.ndarray) -> None:
+            seen = before[0] + self.detector.events_seen
+            windows = before[1] + self.detector.windows_opened
+            with self._lock:
+                self._seen, self._windows = seen, windows
+                if len(found):
+                    self._found.append(found.copy())
+                    self._lock.notify_all()
+
         try:
             with self.source:
                 for chunk in self.source:
+                    if self.source.stats.restarts != restarts:
+                        # The sensor restarted: end the old stream, start the detector again.
+                        restarts = self.source.stats.restarts
+                        note(self.detector.flush())
+                        before = (self._seen, self._windows)
+                        self.detector.reset()
                     try:
                         found = self.detector.push(chunk)
                     except (EventError, StreamError):
                         with self._lock:
                             self._rejected += len(chunk)
                         continue
-                    seen, windows = self.detector.events_seen, self.detector.windows_opened
-                    with self._lock:
-                        self._seen, self._windows = seen, windows
-                        if len(found):
-                            self._found.append(found.copy())
-                            self._lock.notify_all()
-                tail = self.detector.flush()
-                seen, windows = self.detector.events_seen, self.detector.windows_opened
-                with self._lock:
-                    self._seen, self._windows = seen, windows
-                    if len(tail):
-                        self._found.append(tail.copy())
+                    note(found)
+                note(self.detector.flush())
         except Exception as exc:  # reported with the stream's name; the others go on
             with self._lock:
                 self._error = f"{type(exc).__name__}: {exc}"
@@ -460,6 +472,7 @@ class _StreamWorker:
                 "dropped": s.dropped,
                 "rejected_events": self._rejected,
                 "windows": self._windows,
+                "restarts": s.restarts,
                 "error": self._error,
             }
         return found, counts, done
@@ -541,7 +554,7 @@ def detect_streams(
             r = results[name]
             for key in ("events", "events_seen", "packets", "dropped", "rejected_events"):
                 setattr(r, key, counts[key])
-            r.windows = counts["windows"]
+            r.windows, r.restarts = counts["windows"], counts["restarts"]
             r.error = counts["error"]
             if len(found):
                 parts[name].append(found)

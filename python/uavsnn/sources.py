@@ -43,6 +43,18 @@ UDP (``udp://HOST:PORT``)
     says when it granted less (packets beyond it are dropped by the kernel). On Linux the
     datagrams the kernel dropped for want of room are counted in :attr:`SourceStats.lost`
     (``SO_RXQ_OVFL``; a drop is known when the next datagram is read).
+
+A sensor that restarts
+----------------------
+A restarted sensor (or one whose driver restarts) sends times from zero again, and an event
+stamped far ahead by a glitch moves the stream's last time there: every later event would go
+back in time and be dropped until the new clock passed the old one, hours later. So a clock that
+goes back and stays back starts a new stream: after ``_core.RESTART_AFTER`` (8) UDP packets in
+a row refused for going back, the next one; on standard input, from the first of
+:data:`STDIN_RESTART_EVENTS` (1024) usable events in a row that went back. Each restart is
+counted in :attr:`SourceStats.restarts`, and no chunk spans one: a consumer ends its windows of
+the old stream when the count changes (``uavsnn detect`` reports them, says so on standard
+error and starts its detector again).
 """
 
 from __future__ import annotations
@@ -69,6 +81,7 @@ __all__ = [
     "PACKET_FORMATS",
     "RECEIVE_BUFFER",
     "STDIN_FORMATS",
+    "STDIN_RESTART_EVENTS",
     "EventSource",
     "FileSource",
     "SourceStats",
@@ -87,6 +100,10 @@ _RECORD = EVENT_DTYPE.itemsize
 _MAX_TIME_US = np.uint64(MAX_TIME_US)
 _EMPTY = np.empty(0, dtype=EVENT_DTYPE)
 
+#: Usable events in a row going back in time after which standard input's events are taken
+#: for a restarted sensor's, a new stream from the first of them (UDP counts packets instead:
+#: ``_core.RESTART_AFTER``).
+STDIN_RESTART_EVENTS = 1024
 #: The receive buffer (bytes) a :class:`UdpSource` asks the kernel for.
 RECEIVE_BUFFER = 1 << 22
 #: The longest ``idle_timeout`` (seconds, about 31 years): a socket's timeout holds no more.
@@ -109,6 +126,13 @@ class SourceStats:
     #: UDP datagrams the kernel dropped before they were read (its receive buffer full), as far
     #: as known; ``None`` where the source cannot tell (other sources; UDP off Linux).
     lost: int | None = None
+    #: Times the sensor restarted: its clock went back and stayed back (UDP: for
+    #: ``_core.RESTART_AFTER`` packets in a row; standard input: for
+    #: :data:`STDIN_RESTART_EVENTS` events), so the
+    #: events that follow are of a new stream, in time order from there. A consumer ends its
+    #: windows of the old stream when this changes (``uavsnn detect`` flushes and resets its
+    #: detector); the chunks never span a restart.
+    restarts: int = 0
 
 
 class EventSource:
@@ -247,6 +271,8 @@ class StdinSource(EventSource):
         self.read_size = read_size
         self._lines = 0
         self._last_t = 0
+        self._back_run = 0  # usable events in a row that went back, up to now
+        self._held: list[np.ndarray] = []  # those events, while their run is short
 
     def _read(self) -> bytes:
         read1 = getattr(self.stream, "read1", None)
@@ -278,46 +304,100 @@ class StdinSource(EventSource):
                     self.stats.dropped += 1
                     self._lines += 1
                 chunk = self._parse_csv(data[:cut])
-            chunk = self._usable(chunk)
-            if len(chunk):
-                self.stats.events += len(chunk)
-                yield chunk
+            for part in self._usable(chunk):
+                self.stats.events += len(part)
+                yield part
         if rest:
             if self.fmt == "csv":
-                chunk = self._usable(self._parse_csv(rest + b"\n"))
-                if len(chunk):
-                    self.stats.events += len(chunk)
-                    yield chunk
+                for part in self._usable(self._parse_csv(rest + b"\n")):
+                    self.stats.events += len(part)
+                    yield part
             else:
                 # A truncated last record: its bytes never made an event.
                 self.stats.dropped += 1
+        self._drop_held()  # a run going back too short to be a restart
         if self.stats.events == 0 and self.stats.dropped:
             raise StreamError(
                 f"standard input held no usable {self.fmt} event ({self.stats.dropped} dropped): "
                 "is --stdin-format right, and the sensor size?"
             )
 
-    def _usable(self, chunk: np.ndarray) -> np.ndarray:
+    def _usable(self, chunk: np.ndarray) -> Iterator[np.ndarray]:
         """The events of ``chunk`` inside the sensor and not earlier than any event before them
-        (each other one is a drop)."""
-        if not len(chunk):
-            return chunk
-        t = chunk["t"]
-        ok = t <= _MAX_TIME_US
-        if self.sensor_size is not None:
-            width, height = self.sensor_size
-            ok &= (chunk["x"] < width) & (chunk["y"] < height)
-        # The latest time before each event, among the usable ones: a backwards event is
-        # dropped alone, not the events that follow it.
-        times = np.where(ok, t, np.uint64(0))
-        first = np.array([self._last_t], dtype=np.uint64)
-        before = np.maximum.accumulate(np.concatenate((first, times[:-1])))
-        ok &= t >= before
-        kept = chunk if ok.all() else chunk[ok]
-        self.stats.dropped += len(chunk) - len(kept)
-        if len(kept):
-            self._last_t = max(self._last_t, int(kept["t"][-1]))
-        return kept
+        (each other one is a drop), in one part; in two where the sensor restarted inside it
+        (:data:`STDIN_RESTART_EVENTS` usable events in a row went back), with
+        :attr:`SourceStats.restarts` counted between them (once the first part is taken).
+
+        Events going back at the end of a chunk are held, not dropped, while their run is
+        shorter than a restart's: if it becomes one, they are the new stream's first events."""
+        while len(chunk):
+            t = chunk["t"]
+            inside = t <= _MAX_TIME_US
+            if self.sensor_size is not None:
+                width, height = self.sensor_size
+                inside &= (chunk["x"] < width) & (chunk["y"] < height)
+            # The latest time before each event, among the usable ones: a backwards event is
+            # dropped alone, not the events that follow it.
+            times = np.where(inside, t, np.uint64(0))
+            first = np.array([self._last_t], dtype=np.uint64)
+            before = np.maximum.accumulate(np.concatenate((first, times[:-1])))
+            ok = inside & (t >= before)
+            back = inside & ~ok
+            restart = self._restart_point(inside, ok)
+            if restart is None:
+                oks = np.flatnonzero(ok)
+                if len(oks):  # the run held so far is broken: those events are dropped
+                    self._drop_held()
+                # The run the chunk ends in (after its last good event) is held.
+                tail = back.copy()
+                tail[: (int(oks[-1]) + 1 if len(oks) else 0)] = False
+                if tail.any():
+                    self._held.append(chunk[tail])
+                kept = chunk if ok.all() else chunk[ok]
+                self.stats.dropped += len(chunk) - len(kept) - int(tail.sum())
+                if len(kept):
+                    self._last_t = max(self._last_t, int(kept["t"][-1]))
+                    yield kept
+                return
+            begin, carried = restart
+            head, head_ok = chunk[:begin], ok[:begin]
+            kept = head if head_ok.all() else head[head_ok]
+            self.stats.dropped += len(head) - len(kept)
+            replay = self._held if carried else []
+            if not carried:
+                self._drop_held()
+            self._held = []
+            if len(kept):
+                self._last_t = max(self._last_t, int(kept["t"][-1]))
+                yield kept
+            # The run's events, held ones first, start a new stream from their own clock.
+            self.stats.restarts += 1
+            self._last_t, self._back_run = 0, 0
+            chunk = np.concatenate([*replay, chunk[begin:]])
+
+    def _drop_held(self) -> None:
+        self.stats.dropped += sum(len(h) for h in self._held)
+        self._held = []
+
+    def _restart_point(self, inside: np.ndarray, ok: np.ndarray) -> tuple[int, bool] | None:
+        """Where in the chunk a run of :data:`STDIN_RESTART_EVENTS` usable events going back
+        starts, and whether it began before the chunk (its first events held); ``None`` when
+        none does, keeping the length of the run the chunk ends in."""
+        at = np.flatnonzero(inside)
+        if not len(at):
+            return None
+        back = ~ok[at]
+        index = np.arange(len(at))
+        # For each usable event, the last one before or at it that did not go back (-1: none).
+        last = np.maximum.accumulate(np.where(back, -1, index))
+        run = np.where(last < 0, index + 1 + self._back_run, index - last)
+        hit = np.flatnonzero(back & (run >= STDIN_RESTART_EVENTS))
+        if len(hit):
+            begin = int(last[hit[0]]) + 1
+            carried = begin == 0 and self._back_run > 0
+            return (0 if carried else int(at[begin])), carried
+        self._back_run = int(run[-1]) if back[-1] else 0
+        return None
 
     def _parse_csv(self, text: bytes) -> np.ndarray:
         rows: list[tuple[int, int, int, bool]] = []
@@ -465,6 +545,8 @@ class UdpSource(EventSource):
             except (UavsnnError, ValueError):
                 self.stats.dropped += 1
                 continue
+            # A packet that started a new time base (a restarted sensor) is its own chunk.
+            self.stats.restarts = self.decoder.restarts
             chunk = raw.view(EVENT_DTYPE)
             if len(chunk):
                 self.stats.events += len(chunk)

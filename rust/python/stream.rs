@@ -252,6 +252,13 @@ impl PyPacketDecoder {
     fn last_t(slf: &Bound<'_, Self>) -> PyResult<Option<u64>> {
         Ok(read(slf, Self::IN_USE)?.inner.last_t())
     }
+
+    /// New time bases started (sensor restarts), each after `RESTART_AFTER` packets in a row
+    /// refused for going back in time.
+    #[getter]
+    fn restarts(slf: &Bound<'_, Self>) -> PyResult<u64> {
+        Ok(read(slf, Self::IN_USE)?.inner.restarts())
+    }
 }
 
 pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -259,5 +266,6 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyPacketDecoder>()?;
     m.add("DETECTION_RECORD_SIZE", DETECTION_RECORD)?;
     m.add("PACKET_FORMATS", PacketFormat::NAMES.to_vec())?;
+    m.add("RESTART_AFTER", crate::stream::RESTART_AFTER)?;
     Ok(())
 }

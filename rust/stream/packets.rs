@@ -15,6 +15,13 @@
 //! an event outside the sensor, a time going backwards, or a `spif` packet mixing stamped and
 //! unstamped events is an error, and the decoder's state (last time, wrap count) is unchanged,
 //! so the caller can count the packet as dropped and go on with the next one.
+//!
+//! A sensor that restarts sends times from zero again, and a packet stamped far ahead by a
+//! glitch moves the last time there: every later packet would go backwards, and the stream
+//! would be lost until the new times passed the old one (hours). So after [`RESTART_AFTER`]
+//! packets in a row refused only because their times go back, the next such packet starts a
+//! new time base if it is good in itself: it is decoded, and [`PacketDecoder::restarts`]
+//! counts the restart, for the caller to end the windows of the old stream before it.
 
 use std::fmt;
 use std::str::FromStr;
@@ -76,6 +83,11 @@ impl FromStr for PacketFormat {
 
 const WRAP: u64 = 1 << 32;
 
+/// Packets in a row refused only for going back in time after which the next one, if good in
+/// itself, starts a new time base (a restarted sensor; see the module docs): a few reordered
+/// or repeated datagrams never reach it, a restarted sensor loses these packets.
+pub const RESTART_AFTER: u32 = 8;
+
 /// Decodes packets of one format into validated events, keeping the time base across packets.
 #[derive(Debug, Clone)]
 pub struct PacketDecoder {
@@ -86,6 +98,10 @@ pub struct PacketDecoder {
     wrap_base: u64,
     /// Last 32-bit timestamp read, to detect wraps.
     last_raw: Option<u32>,
+    /// Packets refused in a row only because their times go back.
+    backwards: u32,
+    /// New time bases started (sensor restarts).
+    restarts: u64,
 }
 
 impl PacketDecoder {
@@ -97,6 +113,8 @@ impl PacketDecoder {
             last_t: None,
             wrap_base: 0,
             last_raw: None,
+            backwards: 0,
+            restarts: 0,
         }
     }
 
@@ -110,32 +128,76 @@ impl PacketDecoder {
         self.last_t
     }
 
+    /// New time bases started so far: each is a sensor restart (or the end of a glitch's time
+    /// far ahead), after [`RESTART_AFTER`] packets refused for going back. The events decoded
+    /// since the last restart are in time order; those before it are of another stream.
+    pub fn restarts(&self) -> u64 {
+        self.restarts
+    }
+
     /// Decode one packet, appending its events to `out`. `arrival_us` stamps events that carry
-    /// no time (`spif` without timestamps). On error nothing is appended and no state changes.
+    /// no time (`spif` without timestamps). On error nothing is appended and no state changes
+    /// but the count of packets refused in a row for going back, which may make this packet
+    /// start a new time base (see the module docs and [`Self::restarts`]).
     pub fn decode(&mut self, packet: &[u8], arrival_us: u64, out: &mut Vec<Event>) -> Result<()> {
-        let mark = out.len();
         let mut clock = Clock {
             last_t: self.last_t,
             wrap_base: self.wrap_base,
             last_raw: self.last_raw,
+            went_back: false,
         };
-        let result = match self.format {
-            PacketFormat::T64X16Y16On8 => self.decode_t64(packet, &mut clock, out),
-            PacketFormat::T32X16Y15On1 => self.decode_t32(packet, &mut clock, out),
-            PacketFormat::Spif => self.decode_spif(packet, arrival_us, &mut clock, out),
-        };
-        match result {
+        match self.decode_with(packet, arrival_us, &mut clock, out) {
             Ok(()) => {
-                self.last_t = clock.last_t;
-                self.wrap_base = clock.wrap_base;
-                self.last_raw = clock.last_raw;
+                self.commit(&clock);
                 Ok(())
             }
-            Err(err) => {
-                out.truncate(mark);
-                Err(err)
+            Err(err) if clock.went_back => {
+                self.backwards = self.backwards.saturating_add(1);
+                if self.backwards <= RESTART_AFTER {
+                    return Err(err);
+                }
+                // A new time base, if the packet is good in itself.
+                let mut fresh = Clock {
+                    last_t: None,
+                    wrap_base: 0,
+                    last_raw: None,
+                    went_back: false,
+                };
+                self.decode_with(packet, arrival_us, &mut fresh, out)
+                    .map_err(|_| err)?;
+                self.commit(&fresh);
+                self.restarts += 1;
+                Ok(())
             }
+            Err(err) => Err(err),
         }
+    }
+
+    /// Decode with `clock`; on error nothing is appended.
+    fn decode_with(
+        &self,
+        packet: &[u8],
+        arrival_us: u64,
+        clock: &mut Clock,
+        out: &mut Vec<Event>,
+    ) -> Result<()> {
+        let mark = out.len();
+        let result = match self.format {
+            PacketFormat::T64X16Y16On8 => self.decode_t64(packet, clock, out),
+            PacketFormat::T32X16Y15On1 => self.decode_t32(packet, clock, out),
+            PacketFormat::Spif => self.decode_spif(packet, arrival_us, clock, out),
+        };
+        if result.is_err() {
+            out.truncate(mark);
+        }
+        result
+    }
+
+    fn commit(&mut self, clock: &Clock) {
+        self.last_t = clock.last_t;
+        self.wrap_base = clock.wrap_base;
+        self.last_raw = clock.last_raw;
+        self.backwards = 0;
     }
 
     fn whole(&self, packet: &[u8], record: usize) -> Result<()> {
@@ -225,6 +287,8 @@ struct Clock {
     last_t: Option<u64>,
     wrap_base: u64,
     last_raw: Option<u32>,
+    /// An event was refused for going back in time.
+    went_back: bool,
 }
 
 impl Clock {
@@ -250,6 +314,7 @@ impl Clock {
         }
         if let Some(previous) = self.last_t {
             if e.t < previous {
+                self.went_back = true;
                 return Err(Error::InvalidEvent {
                     index,
                     reason: format!("t={} goes backwards (previous event at t={previous})", e.t),
@@ -394,6 +459,97 @@ mod tests {
             d.decode(&encode(&later), 0, &mut out).unwrap();
             assert_eq!(&out[n..], &later[..], "{format}");
         }
+    }
+
+    fn encoder(format: PacketFormat) -> impl Fn(&[Event]) -> Vec<u8> {
+        move |e: &[Event]| match format {
+            PacketFormat::T64X16Y16On8 => t64(e),
+            PacketFormat::T32X16Y15On1 => t32(e),
+            PacketFormat::Spif => spif(e, true),
+        }
+    }
+
+    /// A sensor that restarts (times from 0 again after an hour, or for the 32-bit formats
+    /// after 30 minutes: less than half a wrap back, so no wrap) loses `RESTART_AFTER` packets,
+    /// then the next one starts a new time base.
+    #[test]
+    fn a_restarted_sensor_is_followed_after_a_few_packets() {
+        for format in PacketFormat::ALL {
+            let encode = encoder(format);
+            let before = if format == PacketFormat::T64X16Y16On8 {
+                3_600_000_000
+            } else {
+                1_800_000_000
+            };
+            let mut d = PacketDecoder::new(format, sensor());
+            let mut out = Vec::new();
+            d.decode(&encode(&[ev(before, 1, 1, true)]), 0, &mut out)
+                .unwrap();
+            for k in 0..u64::from(RESTART_AFTER) {
+                let err = d
+                    .decode(&encode(&[ev(k * 10, 2, 2, true)]), 0, &mut out)
+                    .unwrap_err();
+                assert!(err.to_string().contains("backwards"), "{format}: {err}");
+                assert_eq!(d.restarts(), 0, "{format}");
+            }
+            let first = ev(u64::from(RESTART_AFTER) * 10, 3, 3, false);
+            d.decode(&encode(&[first]), 0, &mut out).unwrap();
+            assert_eq!(d.restarts(), 1, "{format}");
+            assert_eq!(out, vec![ev(before, 1, 1, true), first], "{format}");
+            // The new base goes on as any stream: later times accepted, earlier refused.
+            d.decode(&encode(&[ev(500, 4, 4, true)]), 0, &mut out)
+                .unwrap();
+            assert!(d
+                .decode(&encode(&[ev(400, 4, 4, true)]), 0, &mut out)
+                .is_err());
+            assert_eq!(d.restarts(), 1, "{format}");
+        }
+    }
+
+    /// A glitch far ahead is accepted; the stream it cut off comes back after a few packets.
+    #[test]
+    fn a_packet_stamped_far_ahead_costs_a_few_packets_not_the_stream() {
+        let encode = encoder(PacketFormat::T64X16Y16On8);
+        let mut d = PacketDecoder::new(PacketFormat::T64X16Y16On8, sensor());
+        let mut out = Vec::new();
+        d.decode(&encode(&[ev(1_000, 1, 1, true)]), 0, &mut out)
+            .unwrap();
+        d.decode(&encode(&[ev(100_000_000_000, 1, 1, true)]), 0, &mut out)
+            .unwrap();
+        let mut accepted = 0;
+        for k in 0..20u64 {
+            if d.decode(&encode(&[ev(2_000 + k, 1, 1, true)]), 0, &mut out)
+                .is_ok()
+            {
+                accepted += 1;
+            }
+        }
+        assert_eq!(accepted, 20 - RESTART_AFTER);
+        assert_eq!(d.restarts(), 1);
+    }
+
+    /// Reordered, repeated or malformed packets between good ones never restart the stream,
+    /// and a packet bad in itself never starts a new base.
+    #[test]
+    fn reordering_and_bad_packets_start_no_new_base() {
+        let encode = encoder(PacketFormat::T64X16Y16On8);
+        let mut d = PacketDecoder::new(PacketFormat::T64X16Y16On8, sensor());
+        let mut out = Vec::new();
+        for k in 0..100u64 {
+            // Packet k arrives after k+1: one of every two refused, never two in a row.
+            let (a, b) = (ev(100 * k + 50, 1, 1, true), ev(100 * k, 1, 1, true));
+            d.decode(&encode(&[a]), 0, &mut out).unwrap();
+            assert!(d.decode(&encode(&[b]), 0, &mut out).is_err());
+            assert!(d.decode(&encode(&[a]), 0, &mut out).is_ok()); // repeated: equal times
+        }
+        assert_eq!(d.restarts(), 0);
+        let last = d.last_t();
+        for _ in 0..2 * RESTART_AFTER {
+            // Going back and outside the sensor: refused whatever the time base.
+            let bad = encode(&[ev(0, 1, 1, true), ev(1, 640, 1, true)]);
+            assert!(d.decode(&bad, 0, &mut out).is_err());
+        }
+        assert_eq!((d.restarts(), d.last_t()), (0, last));
     }
 
     #[test]

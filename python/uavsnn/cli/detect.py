@@ -317,6 +317,17 @@ class _Summary:
         self.err = err
         self.start = time.monotonic()
         self.last = self.start
+        # The counts of the streams before a sensor restart (the detector's start again).
+        self.before = (0, 0, 0)
+
+    def restarted(self, detector: Any) -> None:
+        """The detector is about to be reset for a new stream: keep its counts."""
+        e, w, d = self.before
+        self.before = (
+            e + detector.events_seen,
+            w + detector.windows_opened,
+            d + detector.detections_emitted,
+        )
 
     def maybe(self, detector: Any, source: Any, rejected: int) -> None:
         now = time.monotonic()
@@ -327,12 +338,16 @@ class _Summary:
     def write(self, detector: Any, source: Any, rejected: int, *, final: bool) -> None:
         wall = max(time.monotonic() - self.start, 1e-9)
         s = source.stats
+        events = self.before[0] + detector.events_seen
         print(
             f"uavsnn detect: {'done' if final else 'live'} {wall:.1f}s "
-            f"events={detector.events_seen} ({detector.events_seen / wall:,.0f} ev/s, "
-            f"engine {detector.rate:,.0f} ev/s) windows={detector.windows_opened} "
-            f"detections={detector.detections_emitted} packets={s.packets} "
-            f"dropped={s.dropped + rejected}" + ("" if s.lost is None else f" lost={s.lost}"),
+            f"events={events} ({events / wall:,.0f} ev/s, "
+            f"engine {detector.rate:,.0f} ev/s) "
+            f"windows={self.before[1] + detector.windows_opened} "
+            f"detections={self.before[2] + detector.detections_emitted} packets={s.packets} "
+            f"dropped={s.dropped + rejected}"
+            + ("" if s.lost is None else f" lost={s.lost}")
+            + (f" restarts={s.restarts}" if s.restarts else ""),
             file=self.err,
             flush=True,
         )
@@ -517,7 +532,22 @@ def run(args: argparse.Namespace) -> int:
 
         interrupted: KeyboardInterrupt | None = None
         try:
+            restarts = 0
             for chunk in source:
+                if source.stats.restarts != restarts:
+                    # The sensor restarted (its clock went back and stayed back): end the old
+                    # stream's windows, and start the detector again on the new one.
+                    restarts = source.stats.restarts
+                    flush()
+                    summary.restarted(detector)
+                    detector.reset()
+                    print(
+                        f"uavsnn detect: the sensor restarted (its clock went back to "
+                        f"t={int(chunk['t'][0]) if len(chunk) else 0} µs): the old stream's "
+                        "windows are reported, and detection starts again from there",
+                        file=err,
+                        flush=True,
+                    )
                 try:
                     push(chunk)
                 except (EventError, StreamError) as exc:
@@ -603,7 +633,8 @@ def _run_many(args: argparse.Namespace) -> int:
         print(
             f"uavsnn detect: {r.name}: {state} events={r.events} windows={r.windows} "
             f"detections={len(r.detections)} packets={r.packets} "
-            f"dropped={r.dropped} rejected_events={r.rejected_events}",
+            f"dropped={r.dropped} rejected_events={r.rejected_events}"
+            + (f" restarts={r.restarts}" if r.restarts else ""),
             file=err, flush=True,
         )  # fmt: skip
     return 0 if all(r.ok for r in results.values()) else 1
