@@ -534,3 +534,122 @@ def test_detect_reports_the_old_stream_and_starts_again_after_a_restart(
             detect_argv(model, "--json"), stream.tobytes(), monkeypatch, capsys
         )
         assert [json.loads(line) for line in alone] == part
+
+
+# -- a quiet stream: the stream's time advanced without events -----------------------------------
+
+
+def test_advancing_between_chunks_decides_sooner_and_changes_nothing(
+    net: Network, events: np.ndarray
+) -> None:
+    plain = Detector(net, window_us=int(WINDOW_MS) * 1000)
+    want = [plain.push(events), plain.flush()]
+    # Chunks that end at a detection's time: only a later time decides it.
+    spike_t = np.unique(np.concatenate(want)["t"])
+    assert len(spike_t) > 3
+    cuts = sorted({int(i) for i in np.searchsorted(events["t"], spike_t, "right")} - {len(events)})
+    bounds = list(zip([0, *cuts], [*cuts, len(events)], strict=True))
+    det = Detector(net, window_us=int(WINDOW_MS) * 1000)
+    got, early = [], 0
+    for a, b in bounds:
+        got.append(det.push(events[a:b]))
+        if b < len(events):
+            found = det.advance(int(events["t"][b]))
+            early += len(found)
+            got.append(found)
+    got.append(det.flush())
+    assert early > 0  # some detections came out sooner
+    np.testing.assert_array_equal(np.concatenate(got), np.concatenate(want))
+
+
+def test_advancing_a_quiet_stream_reports_its_last_windows(
+    net: Network, events: np.ndarray
+) -> None:
+    from uavsnn.errors import StreamError
+
+    windows_us = int(WINDOW_MS) * 1000
+    whole = Detector(net, window_us=windows_us)
+    want = whole.push_windows(events) + whole.flush_windows()
+    det = Detector(net, window_us=windows_us)
+    got = det.push_windows(events)
+    assert len(got) < len(want)  # the last windows wait for a later event...
+    quiet = int(events["t"][-1]) + 10 * windows_us
+    got += det.advance_windows(quiet)  # ...or for the stream's time to pass their end
+    assert [(w.window, w.t0, w.detected, w.objects) for w in got] == [
+        (w.window, w.t0, w.detected, w.objects) for w in want
+    ]
+    assert det.flush_windows() == []
+    # A watermark is a promise: refused when it goes back, with nothing changed.
+    det2 = Detector(net, window_us=windows_us)
+    det2.push(events[:100])
+    with pytest.raises(StreamError, match="already at"):
+        det2.advance(int(events["t"][50]))
+    assert not det2.interrupted
+    with pytest.raises(ParameterError, match="t_us"):
+        det2.advance(-1)
+    det2.advance(int(events["t"][99]) + 5)
+    with pytest.raises(StreamError, match="backwards"):
+        det2.push(events[99:100])  # before the watermark
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="select on a pipe")
+def test_idle_flush_reports_a_quiet_streams_last_windows(
+    model: Path,
+    events: np.ndarray,
+    child: Callable[[list[str]], subprocess.Popen[bytes]],
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    data = events.tobytes()
+    code, ended, _ = run_in_process(detect_argv(model, "--json"), data, monkeypatch, capsys)
+    assert code == 0
+    # Live, the stream stays open after its burst: without --idle-flush its last windows wait
+    # for a later event; with it they come out once it has been quiet for 0.2 s and more.
+    proc = child(detect_argv(model, "--json", "--idle-flush", "0.2"))
+    assert proc.stdin is not None and proc.stdout is not None
+    proc.stdin.write(data)
+    proc.stdin.flush()
+    got = [proc.stdout.readline() for _ in range(len(ended))]  # before the stream ends
+    assert all(got), got
+    assert [json.loads(x) for x in got] == [json.loads(x) for x in ended]
+    # An event stamped before the time the stream was taken to reach is dropped; a later one
+    # is taken, and ends the stream as any would.
+    late = events[-1:].copy()
+    later = events[-1:].copy()
+    later["t"] += np.uint64(10**9)
+    out, err = proc.communicate(np.concatenate([late, later]).tobytes(), timeout=60)
+    assert proc.returncode == 0, err.decode()[-2000:]
+    assert len(out.decode().splitlines()) >= 1  # the later event's window, at the end
+    summary = [line for line in err.decode().splitlines() if "detect: done" in line]
+    assert summary and "dropped=1 " in summary[0] + " ", err.decode()
+    assert f"events={len(events) + 1} " in summary[0]
+
+
+def test_idle_flush_applies_to_one_live_source(
+    model: Path, capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    path = tmp_path / "r.npy"
+    np.save(path, blob_events(1, 50))
+    argv = ["detect", str(path), "-m", str(model), "--idle-flush", "0.5"]
+    one_line_exit_2(capsys, argv, "--idle-flush applies to one live source")
+    for bad in ("0", "-1", "inf", "nan"):
+        one_line_exit_2(capsys, [*detect_argv(model), "--idle-flush", bad], "--idle-flush must")
+
+
+def test_a_quiet_udp_source_beats_until_its_idle_timeout() -> None:
+    packets = udp_packets(2)
+    with (
+        UdpSource(LOOPBACK, 0, sensor_size=SMALL_SENSOR, idle_timeout=0.6, heartbeat_s=0.05) as src,
+        socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s,
+    ):
+        for p in packets:
+            s.sendto(p, src.address)
+        chunks = list(src)
+    full = [c for c in chunks if len(c)]
+    assert len(full) == 2 and np.array_equal(np.concatenate(full), np.concatenate(
+        [np.frombuffer(p, dtype=EVENT_DTYPE) for p in packets]
+    ))  # fmt: skip
+    beats = len(chunks) - len(full)
+    assert 3 <= beats <= 13  # about one every 0.05 s of the 0.6 s of silence
+    with pytest.raises(ParameterError, match="heartbeat_s"):
+        UdpSource(LOOPBACK, 0, sensor_size=SMALL_SENSOR, heartbeat_s=0)

@@ -41,7 +41,7 @@ import numpy as np
 
 from uavsnn import _core
 from uavsnn._state import EngineState
-from uavsnn._validate import U64_MAX, check_int, check_sensor_size
+from uavsnn._validate import MAX_TIME_US, U64_MAX, check_int, check_sensor_size
 from uavsnn.boxes import xywh
 from uavsnn.errors import ParameterError, ShapeError, StreamError, UavsnnError
 from uavsnn.events import EVENT_DTYPE, packed_bytes
@@ -277,6 +277,33 @@ class Detector(EngineState):
         self._busy_ns += time.perf_counter_ns() - start
         return _detections(out)
 
+    def advance(self, t_us: int) -> np.ndarray:
+        """The stream has reached ``t_us`` without more events: a promise (a watermark) that
+        every event still to come is at or after ``t_us``. Returns the detections that decides
+        — those a later event would return, only sooner — so that a quiet stream's last
+        detections need not wait for its next event (``uavsnn detect --idle-flush`` calls it
+        when a live source falls silent). A chunk that starts before ``t_us`` is refused
+        afterwards.
+
+        Raises:
+            ParameterError: ``t_us`` not an integer in ``[0, 2**62]``.
+            StreamError: the stream is already past ``t_us``, was flushed, or an earlier call
+                was interrupted part way; the detector is then as it was.
+        """
+        self._check_whole("advance")
+        if self._grouper is not None:
+            raise self._mixed("advance", "push_windows")
+        with self._changing("advance"):
+            return self._advance(t_us)
+
+    def _advance(self, t_us: int) -> np.ndarray:
+        t = check_int("t_us", t_us, 0, MAX_TIME_US)
+        start = time.perf_counter_ns()
+        out = self._inner.advance(t)
+        self._taken = True
+        self._busy_ns += time.perf_counter_ns() - start
+        return _detections(out)
+
     @contextlib.contextmanager
     def _changing(self, call: str) -> Iterator[None]:
         """The body of ``call``, which changes the stream: stopped by an exception, the
@@ -384,6 +411,20 @@ class Detector(EngineState):
                     self._keep(part)
                 out += self._finish_reports(grouper.add(part, _NO_DETECTIONS))
             return out
+
+    def advance_windows(self, t_us: int) -> list[WindowReport]:
+        """:meth:`advance` for a stream read with :meth:`push_windows`: the windows that end by
+        ``t_us``, tracked, as the next chunk would return them.
+
+        Raises:
+            ParameterError, StreamError: as :meth:`advance`.
+        """
+        self._check_whole("advance_windows")
+        if self._plain:
+            raise self._mixed("advance_windows", "push")
+        with self._changing("advance_windows"):
+            found = self._advance(t_us)
+            return self._finish_reports(self._windows().advance(t_us, found))
 
     def flush_windows(self) -> list[WindowReport]:
         """End the stream (as :meth:`flush`) and return every window still open, tracked.

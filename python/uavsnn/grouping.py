@@ -271,6 +271,19 @@ class WindowGrouper:
             closed += 1
         return self._report(closed)
 
+    def advance(self, t_us: int, detections: np.ndarray) -> list[WindowReport]:
+        """Note the detections :meth:`Detector.advance <uavsnn.detector.Detector.advance>`
+        returned for ``t_us``, and return the windows that ends: every event still to come is
+        at or after ``t_us``, so a window ending by then is closed."""
+        self._note(detections)
+        if self._start is None:
+            return []
+        last = int(t_us) - self._start
+        closed = 0
+        while closed < len(self._open) and self._end(self._open[closed]) <= last:
+            closed += 1
+        return self._report(closed)
+
     def _open_windows(self, t: np.ndarray) -> None:
         """Open the windows that events at ``t`` (from the start, in order) are the first of."""
         t = t[t >= 0]

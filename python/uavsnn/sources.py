@@ -59,6 +59,8 @@ error and starts its detector again).
 
 from __future__ import annotations
 
+import os
+import select
 import socket
 import sys
 import time
@@ -140,6 +142,10 @@ class EventSource:
 
     #: Sensor size ``(width, height)``; ``None`` when the source cannot tell.
     sensor_size: tuple[int, int] | None = None
+    #: Seconds of silence after which a live source yields an empty chunk, a heartbeat, and
+    #: again after as many more (for a consumer that advances its stream's time when it falls
+    #: silent: ``uavsnn detect --idle-flush``); ``None``: never. Files never do.
+    heartbeat_s: float | None = None
 
     def __init__(self) -> None:
         self.stats = SourceStats()
@@ -259,8 +265,10 @@ class StdinSource(EventSource):
         fmt: str = "packed",
         sensor_size: tuple[int, int] | None = None,
         read_size: int = 1 << 16,
+        heartbeat_s: float | None = None,
     ) -> None:
         super().__init__()
+        self.heartbeat_s = _heartbeat(heartbeat_s)
         if fmt not in STDIN_FORMATS:
             raise ParameterError(f"stdin format must be one of {STDIN_FORMATS}, got {fmt!r}")
         if read_size < _RECORD:
@@ -273,8 +281,21 @@ class StdinSource(EventSource):
         self._last_t = 0
         self._back_run = 0  # usable events in a row that went back, up to now
         self._held: list[np.ndarray] = []  # those events, while their run is short
+        # With heartbeats the descriptor is read directly, once select says it holds bytes (a
+        # buffered reader may hold bytes select cannot see); a stream without one has none.
+        self._fd: int | None = None
+        if self.heartbeat_s is not None:
+            try:
+                self._fd = self.stream.fileno()
+            except (AttributeError, OSError, ValueError):
+                self._fd = None
 
-    def _read(self) -> bytes:
+    def _read(self) -> bytes | None:
+        """The next bytes (empty at the end), or ``None`` after :attr:`heartbeat_s` of
+        silence."""
+        if self._fd is not None:
+            ready, _, _ = select.select([self._fd], [], [], self.heartbeat_s)
+            return os.read(self._fd, self.read_size) if ready else None
         read1 = getattr(self.stream, "read1", None)
         return read1(self.read_size) if read1 is not None else self.stream.read(self.read_size)
 
@@ -283,6 +304,9 @@ class StdinSource(EventSource):
         skipping = False  # inside a CSV line too long to keep, until its newline
         while True:
             data = self._read()
+            if data is None:
+                yield _EMPTY  # silence: a heartbeat
+                continue
             if not data:
                 break
             self.stats.packets += 1
@@ -450,8 +474,10 @@ class UdpSource(EventSource):
         max_packets: int | None = None,
         idle_timeout: float | None = None,
         receive_buffer: int | None = None,
+        heartbeat_s: float | None = None,
     ) -> None:
         super().__init__()
+        self.heartbeat_s = _heartbeat(heartbeat_s)
         asked = RECEIVE_BUFFER if receive_buffer is None else receive_buffer
         if not 1 <= asked < 1 << 31:
             raise ParameterError(f"receive_buffer must be 1 to 2^31 - 1 bytes, got {asked}")
@@ -486,7 +512,9 @@ class UdpSource(EventSource):
                 self.stats.lost = 0
             except OSError:
                 pass
-        self.socket.settimeout(idle_timeout)
+        self.idle_timeout = idle_timeout
+        waits = [w for w in (idle_timeout, self.heartbeat_s) if w is not None]
+        self.socket.settimeout(min(waits) if waits else None)
         self._opened_ns = time.monotonic_ns()
 
     def _ask_buffer(self, asked: int) -> str | None:
@@ -533,11 +561,17 @@ class UdpSource(EventSource):
     def __iter__(self) -> Iterator[np.ndarray]:
         buffer = bytearray(1 << 16)
         view = memoryview(buffer)
+        quiet_since = time.monotonic()
         while self.max_packets is None or self.stats.packets < self.max_packets:
             try:
                 size = self._receive(buffer)
             except TimeoutError:
-                return
+                quiet = time.monotonic() - quiet_since
+                if self.idle_timeout is not None and quiet >= self.idle_timeout:
+                    return
+                yield _EMPTY  # silence: a heartbeat
+                continue
+            quiet_since = time.monotonic()
             self.stats.packets += 1
             arrival_us = (time.monotonic_ns() - self._opened_ns) // 1000
             try:
@@ -557,6 +591,14 @@ class UdpSource(EventSource):
         self.socket.close()
 
 
+def _heartbeat(value: float | None) -> float | None:
+    if value is not None and not 0 < value <= MAX_IDLE_TIMEOUT:
+        raise ParameterError(
+            f"heartbeat_s must be > 0 and at most {MAX_IDLE_TIMEOUT:g} seconds, got {value}"
+        )
+    return value
+
+
 def open_source(
     spec: str,
     *,
@@ -567,17 +609,19 @@ def open_source(
     max_packets: int | None = None,
     idle_timeout: float | None = None,
     downsample_to: tuple[int, int] | None = None,
+    heartbeat_s: float | None = None,
 ) -> EventSource:
     """Open a source from its command-line spelling: a path, ``-`` or ``udp://HOST:PORT``.
 
     ``sensor_size`` is required for ``-`` and UDP (their bytes carry none) and overrides a
     file's own. ``realtime`` and ``downsample_to`` apply to files, ``stdin_format`` to ``-``,
-    and ``udp_format``, ``max_packets`` and ``idle_timeout`` to UDP.
+    and ``udp_format``, ``max_packets`` and ``idle_timeout`` to UDP; ``heartbeat_s`` to
+    ``-`` and UDP (:attr:`EventSource.heartbeat_s`).
     """
     if spec == "-":
         if sensor_size is None:
             raise ParameterError("standard input carries no sensor size: give sensor_size")
-        return StdinSource(fmt=stdin_format, sensor_size=sensor_size)
+        return StdinSource(fmt=stdin_format, sensor_size=sensor_size, heartbeat_s=heartbeat_s)
     if spec.startswith("udp://"):
         if sensor_size is None:
             raise ParameterError("UDP packets carry no sensor size: give sensor_size")
@@ -595,5 +639,6 @@ def open_source(
             sensor_size=sensor_size,
             max_packets=max_packets,
             idle_timeout=idle_timeout,
+            heartbeat_s=heartbeat_s,
         )
     return FileSource(spec, sensor_size=sensor_size, realtime=realtime, downsample_to=downsample_to)

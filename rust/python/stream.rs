@@ -105,6 +105,20 @@ impl PyStreamDetector {
         }
     }
 
+    /// The stream has reached `t_us` without more events; return the packed detections that
+    /// decides (those a later event would decide).
+    fn advance<'py>(slf: &Bound<'py, Self>, t_us: u64) -> PyResult<Bound<'py, PyArray1<u8>>> {
+        let py = slf.py();
+        let mut this = write(slf, Self::IN_USE)?;
+        let Self { inner, found } = &mut *this;
+        let bytes = detach(py, || {
+            found.clear();
+            inner.advance(t_us, found)?;
+            Ok(pack_detections(found))
+        })?;
+        Ok(bytes.into_pyarray(py))
+    }
+
     /// End the stream; return the packed detections still pending.
     fn flush<'py>(slf: &Bound<'py, Self>) -> PyResult<Bound<'py, PyArray1<u8>>> {
         let py = slf.py();

@@ -347,6 +347,43 @@ impl<E: WindowEngine> Detector<E> {
         result.map(|()| from >= events.len())
     }
 
+    /// The stream has reached time `t` without more events: a promise (a watermark) that
+    /// every event still to come is at or after `t`. Decides what a later event would decide —
+    /// the timestamps before `t`, and the windows that end by `t` — and appends those
+    /// detections to `out`, so that a quiet stream's last windows need not wait for its next
+    /// event. The detections are those the stream gives without the call, only sooner; a chunk
+    /// that starts before `t` is refused afterwards.
+    ///
+    /// # Errors
+    ///
+    /// [`Error::Stream`] when the stream was flushed or is already past `t`;
+    /// [`Error::InvalidEvent`] for a `t` beyond 2^62 µs. Nothing changes then.
+    pub fn advance(&mut self, t: u64, out: &mut Vec<StreamDetection>) -> Result<()> {
+        if self.finished {
+            return Err(Error::Stream(
+                "the stream was flushed; call reset() before advancing it".into(),
+            ));
+        }
+        if t > MAX_TIME_US {
+            return Err(Error::InvalidEvent {
+                index: 0,
+                reason: format!("t={t} is beyond the largest time streamed (2^62 µs)"),
+            });
+        }
+        if let Some(previous) = self.last_t.filter(|&p| t < p) {
+            return Err(Error::Stream(format!(
+                "cannot advance to t={t}: the stream is already at t={previous}"
+            )));
+        }
+        let before = out.len();
+        self.spikes.clear();
+        let result = self.run_windows(t, out);
+        out[before..].sort_by_key(|d| (d.detection.t, d.window));
+        self.stats.detections += (out.len() - before) as u64;
+        self.last_t = Some(t);
+        result
+    }
+
     /// End of the stream: settle the last timestamp, close every window and append the
     /// remaining detections. Later pushes fail until [`Detector::reset`].
     pub fn flush(&mut self, out: &mut Vec<StreamDetection>) -> Result<()> {

@@ -213,6 +213,65 @@ proptest! {
     }
 }
 
+proptest! {
+    /// Advancing the stream's time between chunks (a watermark up to the next chunk's first
+    /// time) gives the same detections, each no later than without it.
+    #[test]
+    fn advancing_between_chunks_changes_no_detection(
+        events in arb_events(),
+        cuts in prop::collection::vec(0usize..120, 0..12),
+        window_us in 1u64..40,
+        overlap in prop::sample::select(vec![0.0, 0.5, 0.9]),
+    ) {
+        let mut cuts = cuts;
+        cuts.sort_unstable();
+        let mut d = Detector::new(echo(), config(window_us, overlap)).unwrap();
+        let mut out = Vec::new();
+        let mut from = 0;
+        for &cut in &cuts {
+            let to = cut.clamp(from, events.len());
+            d.push(&events[from..to], &mut out).unwrap();
+            if let Some(next) = events.as_slice().get(to) {
+                let before = out.len();
+                d.advance(next.t, &mut out).unwrap();
+                // All it decided is before the next event's time.
+                prop_assert!(out[before..].iter().all(|o| o.detection.t < next.t));
+            }
+            from = to;
+        }
+        d.push(&events[from..], &mut out).unwrap();
+        d.flush(&mut out).unwrap();
+        let mut got: Vec<Echoed> = out.iter().map(key).collect();
+        got.sort_unstable();
+        prop_assert_eq!(&got, &brute(&events, window_us, overlap));
+    }
+}
+
+#[test]
+fn advancing_a_quiet_stream_decides_its_last_windows() {
+    let mut d = Detector::new(echo(), config(100, 0.0)).unwrap();
+    let mut out = Vec::new();
+    d.push(&[ev(10, 1, 1), ev(10, 2, 2), ev(150, 3, 3)], &mut out)
+        .unwrap();
+    assert_eq!(out.len(), 2); // t=10, decided by t=150
+    d.advance(150, &mut out).unwrap();
+    assert_eq!(out.len(), 2, "t=150 may still receive events");
+    d.advance(151, &mut out).unwrap();
+    assert_eq!(out.len(), 3);
+    // Windows from the first event: [10, 110), [110, 210).
+    assert_eq!(d.live_windows(), 1); // window 1 is still open
+    d.advance(210, &mut out).unwrap();
+    assert_eq!(d.live_windows(), 0);
+    // A watermark is a promise: earlier events, or going back, are refused.
+    assert!(d.push(&[ev(209, 1, 1)], &mut out).is_err());
+    assert!(d.advance(209, &mut out).is_err());
+    assert!(d.advance(1 << 63, &mut out).is_err());
+    d.push(&[ev(210, 1, 1)], &mut out).unwrap();
+    d.flush(&mut out).unwrap();
+    assert_eq!(out.len(), 4);
+    assert!(d.advance(300, &mut out).is_err(), "flushed");
+}
+
 #[test]
 fn detections_leave_as_soon_as_their_time_is_complete() {
     let mut d = Detector::new(echo(), config(100, 0.0)).unwrap();

@@ -136,6 +136,15 @@ def register(subparsers: Any) -> None:
         help="UDP: stop after this many seconds without a packet",
     )
     p.add_argument(
+        "--idle-flush",
+        type=float,
+        metavar="S",
+        help="'-' and UDP: after S seconds without an event, take the stream's time to move on "
+        "with the wall clock, less S, and report the windows that closes (the last windows "
+        "of a quiet stream otherwise wait for its next event); an event stamped before that "
+        "time arriving later is dropped. Off by default",
+    )
+    p.add_argument(
         "--summary-every",
         type=float,
         default=1.0,
@@ -353,6 +362,39 @@ class _Summary:
         )
 
 
+class _Quiet:
+    """``--idle-flush``: the time a quiet stream is taken to have reached — its last event's
+    time, moved on with the wall clock since that event arrived, less ``lag_s`` seconds —
+    and the events that arrive stamped before it."""
+
+    def __init__(self, lag_s: float | None) -> None:
+        self.lag_s = lag_s
+        self.last_t: int | None = None
+        self.heard_at = 0.0
+        self.reached = 0  # the latest time the stream was advanced to
+
+    def heard(self, chunk: np.ndarray) -> None:
+        self.last_t = int(chunk["t"][-1])
+        self.heard_at = time.monotonic()
+
+    def mark(self) -> int | None:
+        """The time to advance the stream to, when it has moved on since the last one."""
+        if self.lag_s is None or self.last_t is None:
+            return None
+        moved = time.monotonic() - self.heard_at - self.lag_s
+        mark = self.last_t + int(moved * 1e6) if moved > 0 else 0
+        if mark <= max(self.reached, self.last_t):
+            return None
+        self.reached = mark
+        return mark
+
+    def late(self, chunk: np.ndarray) -> int:
+        """How many of ``chunk``'s first events are stamped before the time reached."""
+        if not self.reached or int(chunk["t"][0]) >= self.reached:
+            return 0
+        return int(np.searchsorted(chunk["t"], np.uint64(self.reached), "left"))
+
+
 #: The longest window ``--window-ms`` accepts: 2^62 µs, the engine's limit on times.
 MAX_WINDOW_MS = float(1 << 62) / 1000
 
@@ -389,6 +431,17 @@ def _check_args(args: argparse.Namespace) -> None:
                     f"{flag} applies to UDP sources (udp://HOST:PORT); standard input and "
                     "files end by themselves"
                 )
+    if args.idle_flush is not None:
+        if not live or args.more_sources or args.ray is not None:
+            raise ParameterError(
+                "--idle-flush applies to one live source ('-' or udp://HOST:PORT): a file ends "
+                "by itself"
+            )
+        if not 0 < args.idle_flush <= MAX_IDLE_TIMEOUT:
+            raise ParameterError(
+                f"--idle-flush must be a number of seconds > 0 and at most "
+                f"{MAX_IDLE_TIMEOUT:g}, got {args.idle_flush}"
+            )
     if args.max_packets is not None and args.max_packets < 1:
         raise ParameterError(f"--max-packets must be >= 1, got {args.max_packets}")
     if args.idle_timeout is not None and not 0 < args.idle_timeout <= MAX_IDLE_TIMEOUT:
@@ -477,6 +530,8 @@ def run(args: argparse.Namespace) -> int:
         max_packets=args.max_packets,
         idle_timeout=args.idle_timeout,
         downsample_to=model_size if args.downsample else None,
+        # Heartbeats often enough that the stream's time moves on smoothly while it is quiet.
+        heartbeat_s=None if args.idle_flush is None else max(0.01, args.idle_flush / 4),
     )
     if source.sensor_size is not None and tuple(source.sensor_size) != model_size:
         source.close()
@@ -530,10 +585,25 @@ def run(args: argparse.Namespace) -> int:
             else:
                 emit(detector.flush_windows())
 
+        quiet = _Quiet(args.idle_flush)
+
+        def advance(mark: int) -> None:
+            if args.per_spike:
+                for d in detector.advance(mark):
+                    print(_spike(d, args.json), file=out, flush=True)
+            else:
+                emit(detector.advance_windows(mark))
+
         interrupted: KeyboardInterrupt | None = None
         try:
             restarts = 0
             for chunk in source:
+                if not len(chunk):  # a heartbeat: the source is quiet
+                    mark = quiet.mark()
+                    if mark is not None:
+                        advance(mark)
+                    summary.maybe(detector, source, rejected)
+                    continue
                 if source.stats.restarts != restarts:
                     # The sensor restarted (its clock went back and stayed back): end the old
                     # stream's windows, and start the detector again on the new one.
@@ -541,6 +611,7 @@ def run(args: argparse.Namespace) -> int:
                     flush()
                     summary.restarted(detector)
                     detector.reset()
+                    quiet = _Quiet(args.idle_flush)
                     print(
                         f"uavsnn detect: the sensor restarted (its clock went back to "
                         f"t={int(chunk['t'][0]) if len(chunk) else 0} µs): the old stream's "
@@ -548,8 +619,15 @@ def run(args: argparse.Namespace) -> int:
                         file=err,
                         flush=True,
                     )
+                late = quiet.late(chunk)
+                if late:  # stamped before a time the stream was taken to have reached
+                    rejected += late
+                    chunk = chunk[late:]
+                    if not len(chunk):
+                        continue
                 try:
                     push(chunk)
+                    quiet.heard(chunk)
                 except (EventError, StreamError) as exc:
                     if detector.interrupted:
                         raise  # not a chunk refused: the stream cannot go on
