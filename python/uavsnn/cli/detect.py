@@ -31,6 +31,7 @@ from typing import Any, TextIO
 
 import numpy as np
 
+from uavsnn._validate import MAX_TIME_US
 from uavsnn.distributed import add_ray_option
 from uavsnn.errors import EventError, ParameterError, StreamError
 from uavsnn.track_eval import Confirm
@@ -382,7 +383,7 @@ class _Quiet:
         if self.lag_s is None or self.last_t is None:
             return None
         moved = time.monotonic() - self.heard_at - self.lag_s
-        mark = self.last_t + int(moved * 1e6) if moved > 0 else 0
+        mark = min(self.last_t + int(moved * 1e6), MAX_TIME_US) if moved > 0 else 0
         if mark <= max(self.reached, self.last_t):
             return None
         self.reached = mark
@@ -614,7 +615,7 @@ def run(args: argparse.Namespace) -> int:
                     quiet = _Quiet(args.idle_flush)
                     print(
                         f"uavsnn detect: the sensor restarted (its clock went back to "
-                        f"t={int(chunk['t'][0]) if len(chunk) else 0} µs): the old stream's "
+                        f"t={int(chunk['t'][0])} µs): the old stream's "
                         "windows are reported, and detection starts again from there",
                         file=err,
                         flush=True,
