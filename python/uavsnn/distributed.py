@@ -17,12 +17,11 @@ connect, and ``import uavsnn`` never does. Without Ray every job runs serially t
 :data:`SERIAL`, the same code path with the same results.
 
 Networks are sent between processes as their config, weights and identification (what a model
-file holds): importing this module registers that with :mod:`copyreg`.
+file holds), as a network pickles itself (``Network.__reduce__``).
 """
 
 from __future__ import annotations
 
-import copyreg
 import os
 import socket
 import threading
@@ -35,7 +34,7 @@ import numpy as np
 
 from uavsnn._validate import check_int, check_real
 from uavsnn.errors import ParameterError, UavsnnError
-from uavsnn.network import CONV_LAYERS, Network
+from uavsnn.network import Network
 
 __all__ = [
     "MAX_CPUS",
@@ -88,19 +87,13 @@ def _import_ray() -> Any:
 def _network_from_state(
     config: dict[str, Any], weights: dict[str, np.ndarray], identification: Any = None
 ) -> Network:
+    """A network pickled by an older uavsnn, which registered its pickling here (a network
+    pickles itself now: ``Network.__reduce__``)."""
     net = Network(config)
     for layer, w in weights.items():
         net.set_weights(layer, w)
     net.identification = identification
     return net
-
-
-def _network_state(net: Network) -> tuple[Any, ...]:
-    weights = {layer: net.weights(layer) for layer in CONV_LAYERS}
-    return _network_from_state, (net.config, weights, net.identification)
-
-
-copyreg.pickle(Network, _network_state)
 
 
 # ---------------------------------------------------------------------------- runners

@@ -470,9 +470,16 @@ class Network:
         self, windows: WindowsLike, *, threads: int | None = None, spikes: bool = False
     ) -> Inference:
         """Run every window in inference mode, in parallel (``threads`` workers; default: all
-        cores; at most :data:`MAX_THREADS`), without holding the GIL. PENT's ``N_in`` is each
-        window's spike count or its ``n_preceding``, as ``config["pent"]["estimate"]`` says.
-        With ``spikes=True`` every layer's spikes are returned too."""
+        cores, or ``RAYON_NUM_THREADS``; at most :data:`MAX_THREADS`), without holding the GIL.
+        PENT's ``N_in`` is each window's spike count or its ``n_preceding``, as
+        ``config["pent"]["estimate"]`` says. With ``spikes=True`` every layer's spikes are
+        returned too. The results do not depend on the number of workers; fewer run than asked
+        where their network states would not fit in the engine's 4 GiB cap together.
+
+        A ``threads`` count other than the default starts a pool of that many threads, kept
+        for later calls (starting threads costs more than a small batch): at most two such
+        pools are kept, the two counts used last, and their threads live as long as the
+        process or until a third count replaces one."""
         columns = _window_columns(windows)
         workers = None if threads is None else _count("threads", threads, minimum=1)
         if workers is not None and workers > MAX_THREADS:
@@ -628,6 +635,26 @@ class Network:
         memo[id(self)] = net
         net.identification = copy.deepcopy(self.identification, memo)
         net.load_note = self.load_note
+        return net
+
+    def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:
+        """Pickled (for a process pool, Ray) as its config, weights, identification and load
+        note, whatever else is imported."""
+        weights = {layer: self.weights(layer) for layer in CONV_LAYERS}
+        return Network._restore, (self.config, weights, self.identification, self.load_note)
+
+    @staticmethod
+    def _restore(
+        config: dict[str, Any],
+        weights: dict[str, np.ndarray],
+        identification: Any,
+        load_note: str | None,
+    ) -> Network:
+        net = Network(config)
+        for layer, w in weights.items():
+            net.set_weights(layer, w)
+        net.identification = identification
+        net.load_note = load_note
         return net
 
     def __eq__(self, other: object) -> bool:
