@@ -47,7 +47,8 @@ pub fn note_process() {
 
 /// Run `f`, whose parallel work runs on the pool it is called in, where that work has live
 /// threads: on rayon's global pool in the process the engine first ran in; in a forked child,
-/// on a pool of this process (one worker per core, at most [`MAX_THREADS`]).
+/// on a pool of this process of as many workers as rayon's global pool takes there
+/// ([`global_threads`]: `RAYON_NUM_THREADS`, else one per core).
 ///
 /// # Errors
 ///
@@ -57,7 +58,23 @@ pub fn in_live_pool<T: Send>(f: impl FnOnce() -> T + Send) -> Result<T> {
     if *FIRST_PROCESS.get_or_init(|| pid) == pid {
         return Ok(f());
     }
-    Ok(pool(cores())?.install(f))
+    Ok(pool(global_threads())?.install(f))
+}
+
+/// The workers rayon's global pool takes in this process: `RAYON_NUM_THREADS` when it is a
+/// positive whole number (at most [`MAX_THREADS`], as [`cap_global_threads`] caps it), else one
+/// per core ([`cores`]). A forked child's pool is sized so, so that `RAYON_NUM_THREADS=1` keeps
+/// a pool of forked workers from taking every core each.
+pub fn global_threads() -> usize {
+    threads_for(std::env::var("RAYON_NUM_THREADS").ok().as_deref())
+}
+
+/// [`global_threads`] for the value `asked` of `RAYON_NUM_THREADS`.
+fn threads_for(asked: Option<&str>) -> usize {
+    match asked.and_then(|v| v.parse::<usize>().ok()) {
+        Some(n) if n > 0 => n.min(MAX_THREADS),
+        _ => cores(),
+    }
 }
 
 /// One worker per core the system reports (1 when it reports none), at most [`MAX_THREADS`].
@@ -132,6 +149,16 @@ pub fn cap_global_threads() -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_forked_childs_pool_takes_what_rayon_would() {
+        assert_eq!(threads_for(Some("1")), 1);
+        assert_eq!(threads_for(Some("3")), 3);
+        assert_eq!(threads_for(Some("100000")), MAX_THREADS);
+        for unset in [None, Some("0"), Some("many"), Some("-2"), Some("")] {
+            assert_eq!(threads_for(unset), cores(), "{unset:?}");
+        }
+    }
 
     #[test]
     fn pools_are_reused_and_bounded() {

@@ -86,6 +86,32 @@ def test_the_engine_works_in_a_forked_child_after_the_parent_used_its_pools() ->
     assert out.returncode == 0 and out.stdout.strip() == "ok", out.stderr[-2000:]
 
 
+@pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="counts threads in /proc")
+def test_a_forked_child_takes_as_many_workers_as_rayon_num_threads_says() -> None:
+    # RAYON_NUM_THREADS=1 is how a pool of worker processes keeps each to one thread; a
+    # forked child's own pool took one worker per core whatever it said.
+    out = run(
+        """
+        import multiprocessing as mp, os
+
+        def threads():
+            return len(os.listdir("/proc/self/task"))
+
+        def child_job(_):
+            before = threads()
+            job(3)
+            return threads() - before
+
+        job(1)  # the parent's pools started
+        with mp.get_context("fork").Pool(1) as p:
+            print(p.map(child_job, [0])[0])
+        """,
+        RAYON_NUM_THREADS="1",
+    )
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert int(out.stdout.strip()) == 1  # one worker started in the child
+
+
 def test_arrays_rewritten_by_another_thread_during_a_call_cannot_crash_the_engine() -> None:
     # The engine checks a window's coordinates once and trusts them; it reads them without the
     # GIL. A thread rewriting the caller's arrays meanwhile made checked coordinates out of
