@@ -726,3 +726,19 @@ def test_a_recording_without_metadata_is_refused_where_it_is_built() -> None:
     with pytest.raises(ParameterError, match="metadata"):
         uavsnn.Recording(events, SIZE, None)  # type: ignore[arg-type]
     assert len(denoise(uavsnn.Recording(events, SIZE), 1000)) <= 2
+
+
+def test_library_calls_that_make_a_folder_raise_the_packages_errors(tmp_path: Path) -> None:
+    # dataset.build and report.figures raised the OSError of mkdir (a path under a file);
+    # the command line checked first, a library caller met NotADirectoryError.
+    from uavsnn.network import Network
+    from uavsnn.report import figures
+
+    (tmp_path / "afile").write_text("x")
+    under = tmp_path / "afile" / "sub"
+    source = SceneSource("dvs", (64, 48), 200.0, 0.3, sensor=(64, 48))
+    with pytest.raises(uavsnn.DatasetError, match="cannot create the folder"):
+        build(under, "dvs", n_test=4, n_train=0, seed=3, sensor=(64, 48), dvs=source)
+    with pytest.raises(ParameterError, match="out_dir"):
+        figures(under, Network({"width": 64, "height": 48}), None, None)
+    assert not under.exists()

@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from uavsnn import pictures
+from uavsnn._files import output_dir
 from uavsnn.dataset import LabelledWindows
 from uavsnn.evaluation import ClassFigures, Evaluation, detection_by_target
 from uavsnn.experiments import PAPER_TABLE3, NoisePoint
@@ -56,9 +57,11 @@ def figures(
     ``evaluation`` must have been made with ``keep_inference=True`` for the detection
     pictures. ``static`` (the same weights under static thresholds) adds the PENT on/off
     picture.
+
+    Raises:
+        ParameterError: ``out_dir`` is a file, cannot be created, or is not writable.
     """
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    out = output_dir(Path(out_dir), "out_dir")
     written: dict[str, Path] = {}
 
     def put(name: str, image: np.ndarray) -> None:

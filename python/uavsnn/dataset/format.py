@@ -284,6 +284,9 @@ def locked_folder(out_dir: str | Path) -> Iterator[Path]:
     try:
         root.mkdir(parents=True, exist_ok=True)
         fd = os.open(root / LOCK, os.O_WRONLY | os.O_CREAT, 0o666)
+    except OSError as exc:
+        _remove_empty(made)
+        raise DatasetError(f"{root}: cannot create the folder or its lock: {exc}") from exc
     except BaseException:
         _remove_empty(made)
         raise
