@@ -304,12 +304,21 @@ def test_info_command_survives_bad_files(
     assert "bad.aedat4" in capsys.readouterr().err
 
 
-def _evt21(head: bytes, tmp_path: Path, name: str) -> Path:
+def _evt21_word(v: int, legacy: bool) -> bytes:
+    """A 64-bit EVT 2.1 word's bytes: little-endian, or (``legacy``) as the IMX636 sends it,
+    its high 32-bit half first, each half little-endian."""
+    if legacy:
+        return (v >> 32).to_bytes(4, "little") + (v & 0xFFFF_FFFF).to_bytes(4, "little")
+    return int(v).to_bytes(8, "little")
+
+
+def _evt21(head: bytes, tmp_path: Path, name: str, *, legacy: bool = False) -> Path:
     """A small EVT 2.1 file: TIME_HIGH words and CD words with pixel masks (Prophesee's
-    layout; faery 0.7 cannot decode this format)."""
+    layout; faery 0.7 cannot decode this format), its words as :func:`_evt21_word` writes
+    them."""
 
     def word(v: int) -> bytes:
-        return int(v).to_bytes(8, "little")
+        return _evt21_word(v, legacy)
 
     def time_high(t: int) -> bytes:
         return word((0x8 << 60) | ((t >> 6) << 32))
@@ -358,6 +367,26 @@ def test_evt21_and_genx320_format_lines_are_read(tmp_path: Path) -> None:
     cut.write_bytes(written["format"].read_bytes()[:-3])
     with pytest.raises(uavsnn.RecordingFileError, match="truncated"):
         io.read(cut)
+
+
+def test_evt21_of_the_imx636_family_is_read_with_its_halves_swapped(tmp_path: Path) -> None:
+    # OpenEB writes "endianness=legacy" for the IMX636, Gen4.1 and IMX646: each 64-bit word's
+    # halves high first (Prophesee: 0x0102030405060708 arrives as 04 03 02 01 08 07 06 05).
+    # Read as plain little-endian words, the file gave no event and no error.
+    assert _evt21_word(0x0102030405060708, True) == bytes([4, 3, 2, 1, 8, 7, 6, 5])
+    assert _evt21_word(0x0102030405060708, False) == bytes([8, 7, 6, 5, 4, 3, 2, 1])
+    head = b"% format EVT21;height=720;width=1280;endianness=legacy\n"
+    rec = io.read(_evt21(head, tmp_path, "imx636.raw", legacy=True))
+    assert rec.sensor_size == (1280, 720)
+    assert rec.events.tolist() == [
+        (1000, 32, 5, True),
+        (1000, 34, 5, True),
+        (1010, 64, 7, False),
+        (2001, 31, 319, True),
+    ]
+    big = _evt21(b"% format EVT21;height=720;width=1280;endianness=big\n", tmp_path, "b.raw")
+    with pytest.raises(uavsnn.RecordingFileError, match="endianness=big is not read"):
+        io.read(big)
 
 
 def _small_aedat4(path: Path) -> bytes:
@@ -525,3 +554,16 @@ def test_npy_events_beyond_any_sensor_are_a_file_error(tmp_path: Path) -> None:
     np.save(path, ev)
     with pytest.raises(uavsnn.RecordingFileError, match=r"wide\.npy: events reach x=65535"):
         io.read(path)
+
+
+@pytest.mark.parametrize("suffix", [".npy", ".npz"])
+def test_a_plain_column_array_says_how_to_convert_it(tmp_path: Path, suffix: str) -> None:
+    # The reader has no layout= argument: its message named one.
+    plain = np.zeros((3, 4), np.int64)
+    path = tmp_path / f"plain{suffix}"
+    if suffix == ".npy":
+        np.save(path, plain)
+    else:
+        np.savez(path, events=plain, sensor_size=np.array([10, 10]))
+    with pytest.raises(uavsnn.RecordingFileError, match=r"uavsnn\.events\.convert\(array, layout"):
+        io.read(path, sensor_size=(10, 10))

@@ -3,8 +3,14 @@
 The formats that event cameras and their tools write (AEDAT4, Prophesee RAW EVT 2.0/2.1/3.0,
 DAT, ES, CSV) are decoded by `faery <https://github.com/aestream/faery>`_, the field's maintained
 Rust decoder, except EVT 2.1 (faery 0.7 does not implement it), which is decoded here, from
-``% evt 2.1`` headers and from GenX320's ``% format EVT21;height=...;width=...``; NumPy ``.npz``
-and ``.npy`` are read natively, and recordings are written as ``.npz``.
+``% evt 2.1`` headers and from ``% format EVT21;height=...;width=...`` (GenX320's, each 64-bit
+word little-endian; and the IMX636's, Gen4.1's and IMX646's ``...;endianness=legacy``, whose two
+32-bit halves come high half first); NumPy ``.npz`` and ``.npy`` are read natively, and
+recordings are written as ``.npz``. DAT files of CD events are read; the Event2D DAT files of
+the Gen1 automotive and N-CARS sets are refused (faery 0.7 reads only CD). Known limit of
+faery 0.7's EVT 3.0 decoder: in a file whose events lie more than about 4 ms apart (as faery's
+own writer writes a sparse recording; camera recordings were not checked), the times after the
+24-bit time base wraps (16.8 s) come out wrong and are clamped, so no error is raised.
 
 The sensor size comes from the file when the file has one (AEDAT4, ES, and RAW/DAT files whose
 header carries the geometry). Otherwise it is the ``sensor_size`` argument; or, for a RAW/DAT
@@ -193,7 +199,7 @@ def _read_npz(file: Path, given: tuple[int, int] | None) -> Recording:
     try:
         events = convert(raw_events)
     except EventError as exc:
-        raise RecordingFileError(f"{file}: bad 'events' array: {exc}") from exc
+        raise RecordingFileError(f"{file}: bad 'events' array: {_why(raw_events, exc)}") from exc
     except MemoryError as exc:
         raise RecordingFileError(f"{file}: not enough memory to read its events") from exc
     del raw_events, arrays
@@ -215,6 +221,18 @@ def _read_npz(file: Path, given: tuple[int, int] | None) -> Recording:
             metadata.update(loaded)
     metadata.update(path=str(file), format="npz", sensor_size_source="file")
     return _recording(file, events, sensor, metadata)
+
+
+def _why(array: np.ndarray, exc: EventError) -> str:
+    """Why ``array`` is not events: ``exc``'s reason, or for a plain array without field names
+    (which ``convert`` takes with ``layout=``, a reader cannot), how to convert it."""
+    if array.dtype.names is None and array.ndim == 2 and array.shape[1] == 4:
+        return (
+            f"a plain {array.dtype} array of shape {array.shape} has no field names to say "
+            "which column is the time: convert it with uavsnn.events.convert(array, layout=...) "
+            "and save it with uavsnn.io.write_npz"
+        )
+    return str(exc)
 
 
 def _read_npy(file: Path, given: tuple[int, int] | None) -> Recording:
@@ -244,7 +262,7 @@ def _read_npy(file: Path, given: tuple[int, int] | None) -> Recording:
     try:
         events = convert(raw_events)
     except EventError as exc:
-        raise RecordingFileError(f"{file}: not an event array: {exc}") from exc
+        raise RecordingFileError(f"{file}: not an event array: {_why(raw_events, exc)}") from exc
     except MemoryError as exc:
         raise RecordingFileError(f"{file}: not enough memory to read its events") from exc
     del raw_events
@@ -352,14 +370,20 @@ def _file_geometry(file: Path) -> tuple[int, int] | None:
     return (int(first[0]), int(first[1])) if tuple(first) == tuple(second) else None
 
 
+def _format_options(fields: dict[str, str]) -> dict[str, str]:
+    """The ``key=value`` options of a ``% format`` header line (``height``, ``width``,
+    ``endianness``)."""
+    return dict(
+        part.split("=", 1) for part in fields.get("format", "").split(";")[1:] if "=" in part
+    )
+
+
 def _format_geometry(file: Path, fields: dict[str, str]) -> tuple[int, int] | None:
     """The geometry of a RAW/DAT header (``% format EVT21;height=320;width=320``, ``% geometry
     320x320``, ``% Width 320`` and ``% Height 320``, the lines faery reads, in that order of
     precedence), or ``None`` if it has none. A line that states a geometry that cannot be a
     sensor size (faery would ignore it and take its fallback) is refused, naming it."""
-    options = dict(
-        part.split("=", 1) for part in fields.get("format", "").split(";")[1:] if "=" in part
-    )
+    options = _format_options(fields)
     stated = []  # (the line(s), the form expected, width, height)
     if "width" in options or "height" in options:
         line = f"% format {fields['format']}"
@@ -387,18 +411,24 @@ def _format_geometry(file: Path, fields: dict[str, str]) -> tuple[int, int] | No
 # EVT 2.1 words (Prophesee's 64-bit vectorised format), little-endian: type in bits 63..60;
 # CD events (0: OFF, 1: ON) hold the time's low 6 bits in 59..54, x (a multiple of 32) in
 # 53..43, y in 42..32 and a mask of 32 pixels x..x+31 in 31..0; TIME_HIGH (8) holds the time's
-# high 28 bits in 59..32. Other types (triggers, others, continued) carry no CD event.
+# high 28 bits in 59..32. Other types (triggers, others, continued) carry no CD event. The
+# IMX636 family sends each word as its two 32-bit halves, the high half first ("endianness=
+# legacy" in OpenEB's header; Prophesee: 0x0102030405060708 arrives as bytes 04 03 02 01 08 07
+# 06 05): read little-endian, its halves are swapped back.
 _EVT21_TIME_HIGH = 8
 _EVT21_CHUNK_WORDS = 1 << 18
 
 
-def _decode_evt21(file: Path, offset: int) -> Iterator[np.ndarray]:
+def _decode_evt21(file: Path, offset: int, *, legacy: bool = False) -> Iterator[np.ndarray]:
     """The CD events of an EVT 2.1 data section, decoded in bounded chunks (faery 0.7 does not
-    implement EVT 2.1). Events before the first TIME_HIGH word have no time and are skipped."""
+    implement EVT 2.1). Events before the first TIME_HIGH word have no time and are skipped.
+    ``legacy``: each word's 32-bit halves come high half first (the IMX636's)."""
     words = np.memmap(file, dtype="<u8", mode="r", offset=offset)
     high = -1  # the last TIME_HIGH value, -1 before the first
     for start in range(0, len(words), _EVT21_CHUNK_WORDS):
         w = np.asarray(words[start : start + _EVT21_CHUNK_WORDS])
+        if legacy:
+            w = (w << np.uint64(32)) | (w >> np.uint64(32))
         kind = (w >> np.uint64(60)).astype(np.int64)
         is_high = kind == _EVT21_TIME_HIGH
         # The TIME_HIGH in force at each word: the last one at or before it.
@@ -461,8 +491,15 @@ def _read_evt21(file: Path, header: dict[str, str], given: tuple[int, int] | Non
     camera = _camera_size(header)
     metadata: dict[str, Any] = {"path": str(file), "format": "evt"}
     sensor, source = _sensor_size(file, geometry, given, camera, metadata)
+    endianness = _format_options(header).get("endianness", "little").strip().lower()
+    if endianness not in ("little", "legacy"):
+        raise RecordingFileError(
+            f"{file}: EVT 2.1 with endianness={endianness} is not read (little-endian words, "
+            "and the IMX636's 'legacy' halves, are)"
+        )
+    legacy = endianness == "legacy"
     try:
-        chunks = _read_chunks(file, _decode_evt21(file, int(header["<data>"])))
+        chunks = _read_chunks(file, _decode_evt21(file, int(header["<data>"]), legacy=legacy))
     except RecordingFileError:
         raise
     except (ValueError, OSError) as exc:
