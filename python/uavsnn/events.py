@@ -7,6 +7,8 @@ The canonical event layout is the one faery and aedat use::
 ``t`` is in microseconds, ``x``/``y`` are pixel coordinates with the origin at the top left and
 ``p`` is the polarity (``True`` = ON). A :class:`Recording` is events sorted by time plus the
 sensor size; it is validated when built, and a bad event is reported by index and reason.
+faery's own functions check the field's title too (``on``): hand them
+``events.view(faery.EVENTS_DTYPE)``, the same bytes.
 
 :func:`convert` turns the layouts users hold into the canonical one, explicitly:
 
