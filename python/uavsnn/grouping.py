@@ -265,11 +265,7 @@ class WindowGrouper:
         for s in range(0, len(times), _GROUP_SLICE):
             self._open_windows(times[s : s + _GROUP_SLICE].astype(np.int64) - self._start)
         # Window k is closed once an event at or after its end has been pushed.
-        last = int(times[-1]) - self._start
-        closed = 0
-        while closed < len(self._open) and self._end(self._open[closed]) <= last:
-            closed += 1
-        return self._report(closed)
+        return self._close_by(int(times[-1]) - self._start)
 
     def advance(self, t_us: int, detections: np.ndarray) -> list[WindowReport]:
         """Note the detections :meth:`Detector.advance <uavsnn.detector.Detector.advance>`
@@ -278,7 +274,11 @@ class WindowGrouper:
         self._note(detections)
         if self._start is None:
             return []
-        last = int(t_us) - self._start
+        return self._close_by(int(t_us) - self._start)
+
+    def _close_by(self, last: int) -> list[WindowReport]:
+        """Report the open windows that end by ``last`` µs from the start (the stream has
+        reached it)."""
         closed = 0
         while closed < len(self._open) and self._end(self._open[closed]) <= last:
             closed += 1
