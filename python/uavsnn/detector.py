@@ -33,7 +33,7 @@ import contextlib
 import json
 import os
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
@@ -271,8 +271,14 @@ class Detector(EngineState):
         ):
             packed_bytes(events)  # raises the EventError that says what is wrong
         raw = events.tobytes()  # the packed records, copied (cheaper than a dtype view)
+        return self._engine(self._inner.push, raw)
+
+    def _engine(self, call: Callable[..., np.ndarray], *args: Any) -> np.ndarray:
+        """An engine call that changes the stream (push, advance, flush): timed into
+        :attr:`rate`, noted as having taken its input (see :meth:`_changing`), its packed
+        detections viewed."""
         start = time.perf_counter_ns()
-        out = self._inner.push(raw)
+        out = call(*args)
         self._taken = True
         self._busy_ns += time.perf_counter_ns() - start
         return _detections(out)
@@ -297,12 +303,7 @@ class Detector(EngineState):
             return self._advance(t_us)
 
     def _advance(self, t_us: int) -> np.ndarray:
-        t = check_int("t_us", t_us, 0, MAX_TIME_US)
-        start = time.perf_counter_ns()
-        out = self._inner.advance(t)
-        self._taken = True
-        self._busy_ns += time.perf_counter_ns() - start
-        return _detections(out)
+        return self._engine(self._inner.advance, check_int("t_us", t_us, 0, MAX_TIME_US))
 
     @contextlib.contextmanager
     def _changing(self, call: str) -> Iterator[None]:
@@ -334,11 +335,7 @@ class Detector(EngineState):
             return self._flush()
 
     def _flush(self) -> np.ndarray:
-        start = time.perf_counter_ns()
-        out = self._inner.flush()
-        self._taken = True
-        self._busy_ns += time.perf_counter_ns() - start
-        return _detections(out)
+        return self._engine(self._inner.flush)
 
     def reset(self) -> None:
         """Forget the stream (counters and tracks included); the next event starts a new one.
