@@ -89,11 +89,7 @@ def _network_from_state(
 ) -> Network:
     """A network pickled by an older uavsnn, which registered its pickling here (a network
     pickles itself now: ``Network.__reduce__``)."""
-    net = Network(config)
-    for layer, w in weights.items():
-        net.set_weights(layer, w)
-    net.identification = identification
-    return net
+    return Network._restore(config, weights, identification, None)
 
 
 # ---------------------------------------------------------------------------- runners
