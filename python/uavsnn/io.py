@@ -144,7 +144,7 @@ def _recording(
         raise RecordingFileError(f"{file}: corrupt or not a recording: {exc}") from exc
 
 
-def _memory_limit() -> int | None:
+def _allowed_memory() -> int | None:
     """``uavsnn.windows.MEMORY_LIMIT``, read when it is needed (a test may change it)."""
     from uavsnn import windows
 
@@ -155,7 +155,7 @@ def _check_event_memory(file: Path, count: int, stored: int) -> None:
     """Refuse a recording of ``count`` events whose arrays take ``stored`` bytes as stored
     when those and the canonical copy of the events would exceed
     ``uavsnn.windows.MEMORY_LIMIT``."""
-    limit = _memory_limit()
+    limit = _allowed_memory()
     need = stored + count * EVENT_DTYPE.itemsize
     if limit is not None and need > limit:
         raise RecordingFileError(
@@ -667,9 +667,7 @@ def _read_faery(file: Path, kind: str, size: int, given: tuple[int, int] | None)
 def _read_chunks(file: Path, stream: Any) -> list[np.ndarray]:
     """The decoded chunks of a faery stream, refusing a recording whose events (twice: the
     chunks, then the joined array) would exceed ``uavsnn.windows.MEMORY_LIMIT``."""
-    from uavsnn import windows
-
-    limit = windows.MEMORY_LIMIT
+    limit = _allowed_memory()
     chunks = []
     held = 0
     for chunk in stream:
