@@ -157,12 +157,7 @@ impl PacketDecoder {
                     return Err(err);
                 }
                 // A new time base, if the packet is good in itself.
-                let mut fresh = Clock {
-                    last_t: None,
-                    wrap_base: 0,
-                    last_raw: None,
-                    went_back: false,
-                };
+                let mut fresh = Clock::default();
                 self.decode_with(packet, arrival_us, &mut fresh, out)
                     .map_err(|_| err)?;
                 self.commit(&fresh);
@@ -282,7 +277,9 @@ impl PacketDecoder {
     }
 }
 
-/// The time base while a packet is decoded, committed only when the whole packet is good.
+/// The time base while a packet is decoded, committed only when the whole packet is good
+/// (the default: a stream's first, or a new one's).
+#[derive(Default)]
 struct Clock {
     last_t: Option<u64>,
     wrap_base: u64,
