@@ -341,9 +341,7 @@ impl<E: WindowEngine> Detector<E> {
             result = self.run_windows(events.get(to - 1).t, out);
             from = to;
         }
-        // Stable: one window's detections of one time stay in firing order.
-        out[before..].sort_by_key(|d| (d.detection.t, d.window));
-        self.stats.detections += (out.len() - before) as u64;
+        self.emitted(out, before);
         result.map(|()| from >= events.len())
     }
 
@@ -378,8 +376,7 @@ impl<E: WindowEngine> Detector<E> {
         let before = out.len();
         self.spikes.clear();
         let result = self.run_windows(t, out);
-        out[before..].sort_by_key(|d| (d.detection.t, d.window));
-        self.stats.detections += (out.len() - before) as u64;
+        self.emitted(out, before);
         self.last_t = Some(t);
         result
     }
@@ -412,6 +409,13 @@ impl<E: WindowEngine> Detector<E> {
         self.last_t = None;
         self.finished = false;
         self.stats = StreamStats::default();
+    }
+
+    /// Put the detections appended to `out` since `before` in time order and count them.
+    fn emitted(&mut self, out: &mut [StreamDetection], before: usize) {
+        // Stable: one window's detections of one time stay in firing order.
+        out[before..].sort_by_key(|d| (d.detection.t, d.window));
+        self.stats.detections += (out.len() - before) as u64;
     }
 
     fn release_all(&mut self) {
