@@ -268,7 +268,7 @@ class StdinSource(EventSource):
         heartbeat_s: float | None = None,
     ) -> None:
         super().__init__()
-        self.heartbeat_s = _heartbeat(heartbeat_s)
+        self.heartbeat_s = _seconds("heartbeat_s", heartbeat_s)
         if fmt not in STDIN_FORMATS:
             raise ParameterError(f"stdin format must be one of {STDIN_FORMATS}, got {fmt!r}")
         if read_size < _RECORD:
@@ -477,7 +477,7 @@ class UdpSource(EventSource):
         heartbeat_s: float | None = None,
     ) -> None:
         super().__init__()
-        self.heartbeat_s = _heartbeat(heartbeat_s)
+        self.heartbeat_s = _seconds("heartbeat_s", heartbeat_s)
         asked = RECEIVE_BUFFER if receive_buffer is None else receive_buffer
         if not 1 <= asked < 1 << 31:
             raise ParameterError(f"receive_buffer must be 1 to 2^31 - 1 bytes, got {asked}")
@@ -485,11 +485,7 @@ class UdpSource(EventSource):
             raise ParameterError(f"UDP format must be one of {PACKET_FORMATS}, got {fmt!r}")
         if max_packets is not None and max_packets < 1:
             raise ParameterError(f"max_packets must be >= 1, got {max_packets}")
-        if idle_timeout is not None and not 0 < idle_timeout <= MAX_IDLE_TIMEOUT:
-            raise ParameterError(
-                f"idle_timeout must be > 0 and at most {MAX_IDLE_TIMEOUT:g} seconds, "
-                f"got {idle_timeout}"
-            )
+        _seconds("idle_timeout", idle_timeout)
         width, height = check_sensor_size(sensor_size)
         self.sensor_size = (width, height)
         self.decoder = _core.PacketDecoder(fmt, width, height)
@@ -591,10 +587,12 @@ class UdpSource(EventSource):
         self.socket.close()
 
 
-def _heartbeat(value: float | None) -> float | None:
+def _seconds(name: str, value: float | None) -> float | None:
+    """A wait in seconds (``idle_timeout``, ``heartbeat_s``): ``None``, or more than 0 and at
+    most :data:`MAX_IDLE_TIMEOUT` (a socket's timeout holds no more)."""
     if value is not None and not 0 < value <= MAX_IDLE_TIMEOUT:
         raise ParameterError(
-            f"heartbeat_s must be > 0 and at most {MAX_IDLE_TIMEOUT:g} seconds, got {value}"
+            f"{name} must be > 0 and at most {MAX_IDLE_TIMEOUT:g} seconds, got {value}"
         )
     return value
 

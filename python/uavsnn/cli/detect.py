@@ -438,18 +438,14 @@ def _check_args(args: argparse.Namespace) -> None:
                 "--idle-flush applies to one live source ('-' or udp://HOST:PORT): a file ends "
                 "by itself"
             )
-        if not 0 < args.idle_flush <= MAX_IDLE_TIMEOUT:
-            raise ParameterError(
-                f"--idle-flush must be a number of seconds > 0 and at most "
-                f"{MAX_IDLE_TIMEOUT:g}, got {args.idle_flush}"
-            )
     if args.max_packets is not None and args.max_packets < 1:
         raise ParameterError(f"--max-packets must be >= 1, got {args.max_packets}")
-    if args.idle_timeout is not None and not 0 < args.idle_timeout <= MAX_IDLE_TIMEOUT:
-        raise ParameterError(
-            f"--idle-timeout must be a number of seconds > 0 and at most {MAX_IDLE_TIMEOUT:g}, "
-            f"got {args.idle_timeout}"
-        )
+    for flag, seconds in (("--idle-flush", args.idle_flush), ("--idle-timeout", args.idle_timeout)):
+        if seconds is not None and not 0 < seconds <= MAX_IDLE_TIMEOUT:
+            raise ParameterError(
+                f"{flag} must be a number of seconds > 0 and at most {MAX_IDLE_TIMEOUT:g}, "
+                f"got {seconds}"
+            )
     for flag, value in (("--false-alarm", args.false_alarm), ("--false-tracks", args.false_tracks)):
         if value is not None and (args.more_sources or args.ray is not None):
             raise ParameterError(
