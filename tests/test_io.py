@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 import uavsnn
+from uavsnn import _prophesee as prophesee
 from uavsnn import io
 from uavsnn.cli import main
 from uavsnn.events import EVENT_DTYPE, Recording
@@ -459,7 +460,9 @@ def test_unreadable_files_are_a_recording_file_error(
         raise PermissionError(13, "Permission denied", str(file))
 
     with monkeypatch.context() as patch:
-        patch.setattr(io, "open", refuse, raising=False)  # the readers' own open() calls
+        # The readers' own open() calls (RAW/DAT headers are read by uavsnn._prophesee).
+        for module in (io, prophesee):
+            patch.setattr(module, "open", refuse, raising=False)
         with pytest.raises(uavsnn.RecordingFileError, match=r"locked\..*Permission denied"):
             io.read(path, sensor_size=(64, 48))
     if os.geteuid() != 0:  # root reads a chmod 000 file
