@@ -350,6 +350,17 @@ def test_stdin_csv_with_header_and_a_malformed_line() -> None:
     assert source.stats.events == len(events)
 
 
+def test_stdin_csv_columns_in_the_order_the_header_names_them() -> None:
+    events = blob_events(11, 30)
+    lines = ["Y, polarity, x, timestamp, extra"] + [
+        f"{e['y']},{1 if e['p'] else 0},{e['x']},{e['t']},9" for e in events
+    ]
+    lines.insert(5, f"{events[0]['t']},1,1,1")  # the usual order: a line of the wrong width
+    source = StdinSource(Trickle("\n".join(lines).encode(), step=50), fmt="csv", sensor_size=SIZE)
+    np.testing.assert_array_equal(np.concatenate(list(source)), events)
+    assert source.stats.dropped == 1
+
+
 def test_stdin_csv_negative_time_is_a_drop() -> None:
     text = b"5,1,2,1\n-3,1,2,1\n7,2,2,0\n"
     source = StdinSource(io.BytesIO(text), fmt="csv", sensor_size=SIZE)

@@ -489,6 +489,34 @@ def test_csv_byte_order_mark_and_numeric_first_lines_lose_nothing(tmp_path: Path
             io.read(path, sensor_size=(64, 48))
 
 
+@pytest.mark.parametrize(
+    "text",
+    [
+        "5,2,3,1\n6,4,5,-1\n",  # OFF as -1 (tonic, many datasets' CSVs)
+        "x,y,t,p\n2,3,5,1\n4,5,6,0\n",  # columns named in another order
+        "Timestamp, X, Y, Polarity\n5,2,3,1\n6,4,5,-1\n",
+        "\ufeffx,y,p,t\n2,3,1,5\n4,5,-1,6\n",
+        "\ufeff5,2,3,1\n6,4,5,-1\n",
+        "t,x,y,p\n5,2,3,1\n6,4,5,-1\n",
+    ],
+)
+def test_csv_columns_named_by_the_header_and_off_as_minus_one(tmp_path: Path, text: str) -> None:
+    path = tmp_path / "rec.csv"
+    path.write_bytes(text.encode())
+    rec = io.read(path, sensor_size=(64, 48))
+    assert rec.events.tolist() == [(5, 2, 3, True), (6, 4, 5, False)]
+
+
+def test_csv_off_events_written_both_ways_are_refused(tmp_path: Path) -> None:
+    path = tmp_path / "mixed.csv"
+    path.write_text("5,2,3,-1\n6,4,5,1\n7,4,5,0\n")
+    with pytest.raises(uavsnn.RecordingFileError, match=r"line 3: an OFF event written 0.*line 1"):
+        io.read(path, sensor_size=(64, 48))
+    # A header naming fewer than the four fields leaves the usual order (t, x, y, p).
+    path.write_text("time,x,y,brightness\n5,2,3,1\n")
+    assert io.read(path, sensor_size=(64, 48)).events.tolist() == [(5, 2, 3, True)]
+
+
 def test_csv_times_beyond_the_engine_limit_are_refused(tmp_path: Path) -> None:
     path = tmp_path / "late.csv"
     for t in (2**63, 2**62 + 1, 2**64 + 5):

@@ -23,7 +23,10 @@ file whose header names the camera generation (Prophesee Gen3 files carry no geo
 
 A CSV file may start with a header line or not (faery would take the first line as a header
 always; a UTF-8 byte-order mark is skipped, and a first line that starts with a number is not a
-header); its times must be integers up to the engine's 2^62 µs and must not go backwards
+header). Its columns are ``t,x,y,p`` in that order, unless the header names all four in another
+(``t``/``ts``/``time``/``timestamp``, ``x``, ``y``, ``p``/``pol``/``polarity``/``on``, any
+case, ``_us`` allowed on the time); OFF events are ``0`` or ``-1`` (ON ``1``), one or the other
+throughout. Its times must be integers up to the engine's 2^62 µs and must not go backwards
 (faery would clamp them): such a file is refused, naming the line.
 
 Every failure to read is a :class:`~uavsnn.RecordingFileError` naming the file: missing,
@@ -43,18 +46,20 @@ refused.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import os
 import re
 import struct
 import zipfile
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from uavsnn import _core
+from uavsnn import _core, _csv
 from uavsnn._files import write_atomic
 from uavsnn._npy import npy_header, npz_arrays, npz_header, npz_read
 from uavsnn._prophesee import (
@@ -448,9 +453,7 @@ def _read_faery(file: Path, kind: str, size: int, given: tuple[int, int] | None)
         # GenX320 cameras write "% format EVT21", which faery refuses; faery 0.7 cannot decode
         # EVT 2.1 at all ("not yet implemented").
         return _read_evt21(file, header, given)
-    first_event = None
-    if kind == "csv":
-        has_header, first_event = _check_csv(file)
+    csv_layout = _check_csv(file) if kind == "csv" else None
     geometry: tuple[int, int] | None = None
     sensor, source = FAERY_FALLBACK_SIZE, "fallback"
     camera = camera_size(header)
@@ -465,12 +468,9 @@ def _read_faery(file: Path, kind: str, size: int, given: tuple[int, int] | None)
             width, height = faery.events_stream_from_file(file).dimensions()
             geometry = (int(width), int(height))
         sensor, source = _sensor_size(file, geometry, given, camera, metadata)
-        if kind == "csv":
-            props = faery.CsvProperties.default()
+        if csv_layout is not None:
             stream = faery.events_stream_from_file(
-                file,
-                dimensions_fallback=sensor,
-                csv_properties=faery.CsvProperties(**(vars(props) | {"has_header": has_header})),
+                file, dimensions_fallback=sensor, csv_properties=csv_layout.properties(faery)
             )
         else:
             stream = faery.events_stream_from_file(file, dimensions_fallback=sensor)
@@ -486,8 +486,8 @@ def _read_faery(file: Path, kind: str, size: int, given: tuple[int, int] | None)
                 f" (the file has no geometry; the sensor was taken as {sensor}: give sensor_size)"
             )
         raise RecordingFileError(f"{file}: cannot decode as {kind}: {exc}{hint}") from exc
-    if first_event is not None:
-        chunks.insert(0, first_event)
+    if csv_layout is not None and csv_layout.first_event is not None:
+        chunks.insert(0, csv_layout.first_event)
     events = np.concatenate(chunks) if chunks else np.empty(0, EVENT_DTYPE)
     metadata["sensor_size_source"] = source
     return _recording(file, events, sensor, metadata)
@@ -527,21 +527,52 @@ _NUMBER = re.compile(rb"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?")
 _BOM = b"\xef\xbb\xbf"
 
 
-def _check_csv(file: Path) -> tuple[bool, np.ndarray | None]:
-    """Whether a CSV recording starts with a header line, and the event of its first line when
-    faery cannot read it (a data line behind a UTF-8 byte-order mark, which faery would take
-    as part of the time; faery is then told to skip it as a header). Refuse a first line whose
-    time is a number but not an integer (it is not a header), times beyond the engine's 2^62
-    µs, and times that go backwards (faery would clamp them to the time before, silently),
-    naming the line.
+@dataclass(frozen=True)
+class _CsvLayout:
+    """How a CSV recording is laid out: a header line or not, the index of each column, the
+    value of an OFF polarity, and the event of a first line faery cannot read."""
 
-    Lines are read in blocks; the time is the first column, as faery reads it.
+    has_header: bool = False
+    t: int = 0
+    x: int = 1
+    y: int = 2
+    p: int = 3
+    off: bytes = b"0"
+    first_event: np.ndarray | None = None
+
+    def properties(self, faery: Any) -> Any:
+        """faery's ``CsvProperties`` for this layout."""
+        props = vars(faery.CsvProperties.default()) | {
+            "has_header": self.has_header,
+            "t_index": self.t,
+            "x_index": self.x,
+            "y_index": self.y,
+            "on_index": self.p,
+            "off_value": self.off,
+        }
+        return faery.CsvProperties(**props)
+
+
+def _check_csv(file: Path) -> _CsvLayout:
+    """How a CSV recording is laid out (:class:`_CsvLayout`): whether it starts with a header
+    line, and if the header names the columns, which is which; whether its OFF events are
+    ``0`` or ``-1``; and the event of its first line when faery cannot read it (a data line
+    behind a UTF-8 byte-order mark, which faery would take as part of the time; faery is then
+    told to skip it as a header). Refuse a first line whose time is a number but not an integer
+    (it is not a header), times beyond the engine's 2^62 µs, times that go backwards (faery
+    would clamp them to the time before, silently), and OFF events written both as ``0`` and
+    ``-1``, naming the line.
+
+    Lines are read in blocks.
     """
     has_header = False
+    columns = dict(_csv.DEFAULT_COLUMNS)
     bom_line = None
     previous = -1
     line_no = 0
     rest = b""
+    # The first line of an OFF event written 0, and of one written -1.
+    off_lines: dict[bytes, int] = {}
     with open(file, "rb") as handle:
         while True:
             block = handle.read(1 << 22)
@@ -557,17 +588,41 @@ def _check_csv(file: Path) -> tuple[bool, np.ndarray | None]:
             cut = len(data) if not block else data.rfind(b"\n") + 1
             rest = data[cut:]
             lines = data[:cut].splitlines()
-            first = [line.split(b",", 1)[0].strip() for line in lines]
-            if line_no == 0 and first and not first[0].lstrip(b"-").isdigit():
-                if _NUMBER.fullmatch(first[0]):
-                    raise RecordingFileError(
-                        f"{file}: line 1: time {first[0].decode('latin-1')!r} is not an "
-                        "integer: times must be integers (microseconds), and a first line that "
-                        "starts with a number is not a header"
-                    )
-                has_header = True
-            elif line_no == 0 and first and bom_line is not None:
-                bom_line = lines[0]
+            if line_no == 0 and lines:
+                head = lines[0].split(b",", 1)[0].strip()
+                if not head.lstrip(b"-").isdigit():
+                    if _NUMBER.fullmatch(head):
+                        raise RecordingFileError(
+                            f"{file}: line 1: time {head.decode('latin-1')!r} is not an "
+                            "integer: times must be integers (microseconds), and a first line "
+                            "that starts with a number is not a header"
+                        )
+                    has_header = True
+                    columns = _csv.columns(lines[0])
+                elif bom_line is not None:
+                    bom_line = lines[0]
+            # Each line split as it is read (a list kept per line would cost the collector
+            # more than the split).
+            start = int(line_no == 0 and has_header)
+            tc, pc = columns["t"], columns["p"]
+            seen = {
+                parts[pc] if len(parts := line.split(b",", pc + 1)) > pc else b""
+                for line in lines[start:]
+            }
+            for value in {v.strip() for v in seen} & {b"0", b"-1"} - off_lines.keys():
+                k = next(k for k in range(start, len(lines)) if _field(lines[k], pc) == value)
+                off_lines[value] = line_no + k + 1
+            if len(off_lines) == 2:
+                raise RecordingFileError(
+                    f"{file}: line {max(off_lines.values())}: an OFF event written "
+                    f"{'0' if off_lines[b'0'] > off_lines[b'-1'] else '-1'}, after OFF events "
+                    "written the other way (line "
+                    f"{min(off_lines.values())}): polarities must be 1/0 or 1/-1 throughout"
+                )
+            first = [
+                parts[tc].strip() if len(parts := line.split(b",", tc + 1)) > tc else b""
+                for line in lines
+            ]
             # Negative or malformed times are left to faery, which refuses them.
             numbers = [(i, f) for i, f in enumerate(first) if f.isdigit()]
             long = [(i, f) for i, f in numbers if len(f) > _CSV_MAX_DIGITS]
@@ -599,25 +654,40 @@ def _check_csv(file: Path) -> tuple[bool, np.ndarray | None]:
                 previous = int(t[-1])
             line_no += len(lines)
             if not block:
-                if bom_line is None:
-                    return has_header, None
-                # faery cannot read the line behind the mark: it skips it as a header, and its
-                # event, if it is not a header, is read here.
-                return True, _csv_event(file, bom_line) if bom_line else None
+                break
+    layout = _CsvLayout(
+        has_header,
+        t=columns["t"],
+        x=columns["x"],
+        y=columns["y"],
+        p=columns["p"],
+        off=b"-1" if b"-1" in off_lines else b"0",
+    )
+    if bom_line is None:
+        return layout
+    # faery cannot read the line behind the mark: it skips it as a header, and its event, if
+    # it is not a header, is read here.
+    first_event = _csv_event(file, bom_line, layout) if bom_line else None
+    return dataclasses.replace(layout, has_header=True, first_event=first_event)
 
 
-def _csv_event(file: Path, line: bytes) -> np.ndarray:
-    """The event of one CSV line ``t,x,y,p`` (``p`` 1 or 0, as faery reads them)."""
-    parts = [part.strip() for part in line.split(b",")]
+def _field(line: bytes, index: int) -> bytes:
+    """Field ``index`` of a CSV line, stripped; empty where the line has fewer."""
+    fields = line.split(b",", index + 1)
+    return fields[index].strip() if index < len(fields) else b""
+
+
+def _csv_event(file: Path, line: bytes, layout: _CsvLayout) -> np.ndarray:
+    """The event of one CSV line laid out as ``layout`` says (``p`` 1 or the OFF value)."""
+    t, x, y, p = (_field(line, i) for i in (layout.t, layout.x, layout.y, layout.p))
     if not (
-        len(parts) >= 4
-        and all(part.isdigit() and len(part) <= _CSV_MAX_DIGITS for part in parts[:3])
-        and max(int(parts[1]), int(parts[2])) < 65536
-        and parts[3] in (b"0", b"1")
+        all(part.isdigit() and len(part) <= _CSV_MAX_DIGITS for part in (t, x, y))
+        and max(int(x), int(y)) < 65536
+        and p in (b"1", layout.off)
     ):
         raise RecordingFileError(f"{file}: line 1: not an event t,x,y,p: {line[:80]!r}")
     event = np.zeros(1, EVENT_DTYPE)
-    event[0] = (int(parts[0]), int(parts[1]), int(parts[2]), parts[3] == b"1")
+    event[0] = (int(t), int(x), int(y), p == b"1")
     return event
 
 

@@ -14,12 +14,14 @@ Standard input (``-``)
     ``packed``: the canonical 13-byte little-endian records ``t u64, x u16, y u16, p u8``
     (``events.tobytes()`` of an ``EVENT_DTYPE`` array); a record split across reads is kept until
     its end arrives. ``csv``: one ``t,x,y,p`` line per event (integers; ``p`` is 1/0 or 1/-1, any
-    value > 0 is ON; a first line that is not numbers is taken as a header). Each event that
-    cannot be used — a malformed line, a line longer than :data:`uavsnn.io.CSV_MAX_LINE` bytes
-    (not held: its bytes are skipped up to its end), an event outside the sensor, a time earlier
-    than an event before it — is dropped alone and counted in :attr:`SourceStats.dropped`; the
-    events around it are kept. A stream that ends without a single usable event raises
-    :class:`~uavsnn.StreamError` (most likely the wrong ``--stdin-format``).
+    value > 0 is ON; a first line that is not numbers is taken as a header, and if it names the
+    four columns in another order, as :func:`uavsnn.io.read` reads them, that order is read).
+    Each event that cannot be used — a malformed line, a line longer than
+    :data:`uavsnn.io.CSV_MAX_LINE` bytes (not held: its bytes are skipped up to its end), an
+    event outside the sensor, a time earlier than an event before it — is dropped alone and
+    counted in :attr:`SourceStats.dropped`; the events around it are kept. A stream that ends
+    without a single usable event raises :class:`~uavsnn.StreamError` (most likely the wrong
+    ``--stdin-format``).
 UDP (``udp://HOST:PORT``)
     One datagram = one packet, decoded whole or dropped (:class:`uavsnn._core.PacketDecoder`):
 
@@ -72,7 +74,7 @@ from urllib.parse import urlsplit
 
 import numpy as np
 
-from uavsnn import _core
+from uavsnn import _core, _csv
 from uavsnn._validate import MAX_TIME_US, check_sensor_size
 from uavsnn.errors import ParameterError, StreamError, UavsnnError
 from uavsnn.events import EVENT_DTYPE
@@ -278,6 +280,9 @@ class StdinSource(EventSource):
         self.sensor_size = None if sensor_size is None else check_sensor_size(sensor_size)
         self.read_size = read_size
         self._lines = 0
+        # The columns of t, x, y, p, and how many a line has (as a header names them).
+        self._columns = dict(_csv.DEFAULT_COLUMNS)
+        self._width = 4
         self._last_t = 0
         self._back_run = 0  # usable events in a row that went back, up to now
         self._held: list[np.ndarray] = []  # those events, while their run is short
@@ -425,17 +430,25 @@ class StdinSource(EventSource):
 
     def _parse_csv(self, text: bytes) -> np.ndarray:
         rows: list[tuple[int, int, int, bool]] = []
+        at = self._columns
         for line in text.splitlines():
             fields = line.strip()
             if not fields:
                 continue
             try:
-                t, x, y, p = (int(v) for v in fields.split(b","))
+                values = fields.split(b",")
+                if len(values) != self._width:
+                    raise ValueError
+                t, x, y, p = (int(values[at[field]]) for field in "txyp")
                 # A time beyond 64 bits is as malformed as a negative one.
                 if not (0 <= t < 1 << 64 and 0 <= x < 65536 and 0 <= y < 65536):
                     raise ValueError
             except ValueError:
-                # The stream's first line may be a header; any other bad line is a drop.
+                # The stream's first line may be a header (naming the columns, or not); any
+                # other bad line is a drop.
+                if self._lines == 0 and (named := _csv.columns(fields)) != at:
+                    at = self._columns = named
+                    self._width = len(fields.split(b","))
                 self.stats.dropped += self._lines > 0
                 self._lines += 1
                 continue
