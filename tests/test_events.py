@@ -34,6 +34,16 @@ def test_tonic_dtype_matches_the_library() -> None:
     assert tonic_io.make_structured_array([1], [2], [3], [True]).dtype == TONIC_DTYPE
 
 
+def test_a_tonic_dataset_sensor_size_is_taken_as_it_is() -> None:
+    tonic = pytest.importorskip("tonic")
+    events = tonic.io.make_structured_array([2, 33], [3, 33], [1, 5], [True, False])  # x, y, t, p
+    size = tonic.datasets.NMNIST.sensor_size  # (34, 34, 2): width, height, polarities
+    assert len(size) == 3
+    got = convert(events, sensor_size=size)
+    assert got.tolist() == [(1, 2, 3, True), (5, 33, 33, False)]
+    assert uavsnn.Recording(got, size).sensor_size == (34, 34)
+
+
 @pytest.mark.parametrize(
     ("dtype", "names", "pol"),
     [

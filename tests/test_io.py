@@ -517,6 +517,14 @@ def test_csv_off_events_written_both_ways_are_refused(tmp_path: Path) -> None:
     assert io.read(path, sensor_size=(64, 48)).events.tolist() == [(5, 2, 3, True)]
 
 
+def test_an_npz_with_tonic_sensor_size_reads(tmp_path: Path) -> None:
+    path = tmp_path / "tonic.npz"
+    np.savez(path, events=_events(20), sensor_size=np.array([64, 48, 2]))
+    rec = io.read(path)
+    assert rec.sensor_size == (64, 48)
+    np.testing.assert_array_equal(rec.events, _events(20))
+
+
 def test_csv_times_beyond_the_engine_limit_are_refused(tmp_path: Path) -> None:
     path = tmp_path / "late.csv"
     for t in (2**63, 2**62 + 1, 2**64 + 5):

@@ -55,6 +55,11 @@ def test_check_sensor_size() -> None:
     events = np.zeros(1, dtype=uavsnn.EVENT_DTYPE)
     with pytest.raises(ParameterError, match="whole pixels"):
         uavsnn.Recording(events, (240.5, 180))
+    # tonic's (width, height, channels): its polarity channels, 1 or 2, are not a size.
+    assert check_sensor_size((34, 34, 2)) == check_sensor_size(np.array([34, 34, 1])) == (34, 34)
+    for bad in ((34, 34, 3), (34, 34, 0), (34, 34, 2.5), (34, 34, 2, 1)):
+        with pytest.raises(ParameterError, match="whole pixels"):
+            check_sensor_size(bad)
 
 
 # Private modules (``_core``, ``_validate``) and dunders are fine; the renderer's ``_draw``, used

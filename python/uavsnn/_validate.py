@@ -77,15 +77,19 @@ def int_param(name: str, value: Any, minimum: int, maximum: int = U64_MAX) -> in
 
 def check_sensor_size(sensor_size: Any) -> tuple[int, int]:
     """A sensor size ``(width, height)``, each a whole number (an integral float is accepted)
-    in ``[1, 65535]``; a fraction, a ``bool`` or a string is refused, not truncated."""
+    in ``[1, 65535]``; a fraction, a ``bool`` or a string is refused, not truncated. tonic's
+    ``(width, height, channels)``, with 1 or 2 (polarity) channels, gives its first two."""
     try:
         sides = () if isinstance(sensor_size, (str, bytes)) else tuple(sensor_size)
     except TypeError:
         sides = ()
     values = [v for v in map(whole, sides) if v is not None]
+    if len(sides) == 3 and len(values) == 3 and values[2] in (1, 2):
+        sides, values = sides[:2], values[:2]
     if len(sides) != 2 or len(values) != 2:
         raise ParameterError(
-            f"sensor_size must be (width, height) in whole pixels, got {sensor_size!r}"
+            "sensor_size must be (width, height) in whole pixels (or tonic's (width, height, "
+            f"channels) with 1 or 2 channels), got {sensor_size!r}"
         )
     width, height = values
     if not (0 < width <= 65535 and 0 < height <= 65535):
