@@ -469,9 +469,11 @@ def test_a_udp_source_follows_a_restarted_sensor() -> None:
     first_new = restarts.index(1)
     assert all(c["t"][0] >= HOUR_US for c in chunks[:first_new])
     after = np.concatenate(chunks[first_new:])
-    # The new stream from the packet after RESTART_AFTER refused ones, whole and in order.
-    np.testing.assert_array_equal(after, new[_core.RESTART_AFTER * per :])
-    assert src.stats.dropped == _core.RESTART_AFTER
+    # The new stream whole and in order: the RESTART_AFTER packets refused before the restart
+    # were held and taken back.
+    np.testing.assert_array_equal(after, new)
+    assert src.stats.dropped == 0
+    assert len(chunks[first_new]) == (_core.RESTART_AFTER + 1) * per
 
 
 @pytest.mark.parametrize("fmt", ["packed", "csv"])
@@ -625,13 +627,15 @@ def test_idle_flush_reports_a_quiet_streams_last_windows(
     assert f"events={len(events) + 1} " in summary[0]
 
 
-def test_idle_flush_applies_to_one_live_source(
+def test_idle_flush_applies_to_live_sources(
     model: Path, capsys: pytest.CaptureFixture[str], tmp_path: Path
 ) -> None:
     path = tmp_path / "r.npy"
     np.save(path, blob_events(1, 50))
     argv = ["detect", str(path), "-m", str(model), "--idle-flush", "0.5"]
-    one_line_exit_2(capsys, argv, "--idle-flush applies to one live source")
+    one_line_exit_2(capsys, argv, "--idle-flush applies to live sources")
+    argv = ["detect", "udp://127.0.0.1:0", str(path), "-m", str(model), "--idle-flush", "0.5"]
+    one_line_exit_2(capsys, argv, "r.npy is a file")
     for bad in ("0", "-1", "inf", "nan"):
         one_line_exit_2(capsys, [*detect_argv(model), "--idle-flush", bad], "--idle-flush must")
 

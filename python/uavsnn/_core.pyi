@@ -259,6 +259,7 @@ class DvsKernel:
 
 PACKET_FORMATS: list[str]
 RESTART_AFTER: int
+MAX_HELD_BYTES: int
 
 @final
 class PacketDecoder:
@@ -270,6 +271,8 @@ class PacketDecoder:
     def last_t(self) -> int | None: ...
     @property
     def restarts(self) -> int: ...
+    @property
+    def dropped(self) -> int: ...
 
 DETECTION_RECORD_SIZE: int
 

@@ -51,9 +51,11 @@ A sensor that restarts
 A restarted sensor (or one whose driver restarts) sends times from zero again, and an event
 stamped far ahead by a glitch moves the stream's last time there: every later event would go
 back in time and be dropped until the new clock passed the old one, hours later. So a clock that
-goes back and stays back starts a new stream: after ``_core.RESTART_AFTER`` (8) UDP packets in
-a row refused for going back, the next one; on standard input, from the first of
-:data:`STDIN_RESTART_EVENTS` (1024) usable events in a row that went back. Each restart is
+goes back and stays back starts a new stream: on UDP, after ``_core.RESTART_AFTER`` (8) packets
+in a row refused for going back, the next one, with those 8 (held meanwhile, up to
+``_core.MAX_HELD_BYTES``, and no longer counted as dropped once taken back); on standard input,
+from the first of :data:`STDIN_RESTART_EVENTS` (1024) usable events in a row that went back
+(held likewise). Either way none of the new stream is lost. Each restart is
 counted in :attr:`SourceStats.restarts`, and no chunk spans one: a consumer ends its windows of
 the old stream when the count changes (``uavsnn detect`` reports them, says so on standard
 error and starts its detector again).
@@ -586,9 +588,11 @@ class UdpSource(EventSource):
             try:
                 raw = self.decoder.decode(bytes(view[:size]), arrival_us)
             except (UavsnnError, ValueError):
-                self.stats.dropped += 1
+                self.stats.dropped = self.decoder.dropped
                 continue
-            # A packet that started a new time base (a restarted sensor) is its own chunk.
+            # A packet that started a new time base (a restarted sensor) is its own chunk,
+            # with the packets refused before it that the new base took back.
+            self.stats.dropped = self.decoder.dropped
             self.stats.restarts = self.decoder.restarts
             chunk = raw.view(EVENT_DTYPE)
             if len(chunk):

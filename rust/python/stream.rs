@@ -268,10 +268,16 @@ impl PyPacketDecoder {
     }
 
     /// New time bases started (sensor restarts), each after `RESTART_AFTER` packets in a row
-    /// refused for going back in time.
+    /// refused for going back in time (held, and decoded on the new base).
     #[getter]
     fn restarts(slf: &Bound<'_, Self>) -> PyResult<u64> {
         Ok(read(slf, Self::IN_USE)?.inner.restarts())
+    }
+
+    /// Packets refused (each `decode` that raised), less those a restart took back.
+    #[getter]
+    fn dropped(slf: &Bound<'_, Self>) -> PyResult<u64> {
+        Ok(read(slf, Self::IN_USE)?.inner.dropped())
     }
 }
 
@@ -281,5 +287,6 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("DETECTION_RECORD_SIZE", DETECTION_RECORD)?;
     m.add("PACKET_FORMATS", PacketFormat::NAMES.to_vec())?;
     m.add("RESTART_AFTER", crate::stream::RESTART_AFTER)?;
+    m.add("MAX_HELD_BYTES", crate::stream::MAX_HELD_BYTES)?;
     Ok(())
 }

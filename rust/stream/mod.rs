@@ -21,7 +21,7 @@ pub use detector::{
     PUSH_SLICE,
 };
 pub use engine::NetworkDetector;
-pub use packets::{PacketDecoder, PacketFormat, RESTART_AFTER};
+pub use packets::{PacketDecoder, PacketFormat, MAX_HELD_BYTES, RESTART_AFTER};
 pub use preceding::PrecedingCounter;
 pub use schedule::{window_step, WindowSchedule};
 

@@ -20,8 +20,10 @@
 //! glitch moves the last time there: every later packet would go backwards, and the stream
 //! would be lost until the new times passed the old one (hours). So after [`RESTART_AFTER`]
 //! packets in a row refused only because their times go back, the next such packet starts a
-//! new time base if it is good in itself: it is decoded, and [`PacketDecoder::restarts`]
-//! counts the restart, for the caller to end the windows of the old stream before it.
+//! new time base if it is good in itself: the refused packets, held meanwhile (at most
+//! [`MAX_HELD_BYTES`] of them), are decoded on the new base before it, and
+//! [`PacketDecoder::restarts`] counts the restart, for the caller to end the windows of the old
+//! stream before it. [`PacketDecoder::dropped`] counts the packets refused and not taken back.
 
 use std::fmt;
 use std::str::FromStr;
@@ -85,8 +87,14 @@ const WRAP: u64 = 1 << 32;
 
 /// Packets in a row refused only for going back in time after which the next one, if good in
 /// itself, starts a new time base (a restarted sensor; see the module docs): a few reordered
-/// or repeated datagrams never reach it, a restarted sensor loses these packets.
+/// or repeated datagrams never reach it. The refused packets are held and decoded on the new
+/// base, so a restarted sensor loses none of them (up to [`MAX_HELD_BYTES`]).
 pub const RESTART_AFTER: u32 = 8;
+
+/// The most bytes of refused packets held for a possible restart: [`RESTART_AFTER`] UDP
+/// datagrams of the largest size. A packet that would take more is not held, and is lost if
+/// the restart comes.
+pub const MAX_HELD_BYTES: usize = RESTART_AFTER as usize * 65_536;
 
 /// Decodes packets of one format into validated events, keeping the time base across packets.
 #[derive(Debug, Clone)]
@@ -100,8 +108,12 @@ pub struct PacketDecoder {
     last_raw: Option<u32>,
     /// Packets refused in a row only because their times go back.
     backwards: u32,
+    /// Those of them held for a restart, with their arrival times, in order.
+    held: Vec<(Vec<u8>, u64)>,
     /// New time bases started (sensor restarts).
     restarts: u64,
+    /// Packets refused and not taken back by a restart.
+    dropped: u64,
 }
 
 impl PacketDecoder {
@@ -114,7 +126,9 @@ impl PacketDecoder {
             wrap_base: 0,
             last_raw: None,
             backwards: 0,
+            held: Vec::new(),
             restarts: 0,
+            dropped: 0,
         }
     }
 
@@ -135,10 +149,18 @@ impl PacketDecoder {
         self.restarts
     }
 
+    /// Packets refused so far (each call that returned an error), less those a restart took
+    /// back: the packets of the stream lost.
+    pub fn dropped(&self) -> u64 {
+        self.dropped
+    }
+
     /// Decode one packet, appending its events to `out`. `arrival_us` stamps events that carry
     /// no time (`spif` without timestamps). On error nothing is appended and no state changes
-    /// but the count of packets refused in a row for going back, which may make this packet
-    /// start a new time base (see the module docs and [`Self::restarts`]).
+    /// but the packets refused in a row for going back, which are held (those good in
+    /// themselves) and may make this packet start a new time base (see the module docs and
+    /// [`Self::restarts`]): then the held packets' events, decoded on the new base, come before
+    /// its own, and the call succeeds (the packet itself is dropped if it goes back from them).
     pub fn decode(&mut self, packet: &[u8], arrival_us: u64, out: &mut Vec<Event>) -> Result<()> {
         let mut clock = Clock {
             last_t: self.last_t,
@@ -146,26 +168,61 @@ impl PacketDecoder {
             last_raw: self.last_raw,
             went_back: false,
         };
-        match self.decode_with(packet, arrival_us, &mut clock, out) {
+        let err = match self.decode_with(packet, arrival_us, &mut clock, out) {
             Ok(()) => {
                 self.commit(&clock);
-                Ok(())
+                return Ok(());
             }
-            Err(err) if clock.went_back => {
+            Err(err) => err,
+        };
+        if !clock.went_back || !self.good_alone(packet, arrival_us, out) {
+            if clock.went_back {
                 self.backwards = self.backwards.saturating_add(1);
-                if self.backwards <= RESTART_AFTER {
-                    return Err(err);
-                }
-                // A new time base, if the packet is good in itself.
-                let mut fresh = Clock::default();
-                self.decode_with(packet, arrival_us, &mut fresh, out)
-                    .map_err(|_| err)?;
-                self.commit(&fresh);
-                self.restarts += 1;
-                Ok(())
             }
-            Err(err) => Err(err),
+            self.dropped += 1;
+            return Err(err);
         }
+        self.backwards = self.backwards.saturating_add(1);
+        if self.backwards <= RESTART_AFTER {
+            let held: usize = self.held.iter().map(|(bytes, _)| bytes.len()).sum();
+            if held + packet.len() <= MAX_HELD_BYTES {
+                self.held.push((packet.to_vec(), arrival_us));
+            }
+            self.dropped += 1;
+            return Err(err);
+        }
+        // A new time base: the held packets first, each taken back if good on it (one that
+        // is not, reordered within the restart, stays dropped), then this one.
+        let mut fresh = Clock::default();
+        for (bytes, arrival) in std::mem::take(&mut self.held) {
+            let mut trial = fresh.clone();
+            if self.decode_with(&bytes, arrival, &mut trial, out).is_ok() {
+                fresh = trial;
+                self.dropped -= 1;
+            }
+        }
+        let mut trial = fresh.clone();
+        if self
+            .decode_with(packet, arrival_us, &mut trial, out)
+            .is_ok()
+        {
+            fresh = trial;
+        } else {
+            self.dropped += 1;
+        }
+        self.commit(&fresh);
+        self.restarts += 1;
+        Ok(())
+    }
+
+    /// Whether `packet` decodes on a new time base (nothing is appended to `out`).
+    fn good_alone(&self, packet: &[u8], arrival_us: u64, out: &mut Vec<Event>) -> bool {
+        let mark = out.len();
+        let good = self
+            .decode_with(packet, arrival_us, &mut Clock::default(), out)
+            .is_ok();
+        out.truncate(mark);
+        good
     }
 
     /// Decode with `clock`; on error nothing is appended.
@@ -193,6 +250,7 @@ impl PacketDecoder {
         self.wrap_base = clock.wrap_base;
         self.last_raw = clock.last_raw;
         self.backwards = 0;
+        self.held.clear();
     }
 
     fn whole(&self, packet: &[u8], record: usize) -> Result<()> {
@@ -279,7 +337,7 @@ impl PacketDecoder {
 
 /// The time base while a packet is decoded, committed only when the whole packet is good
 /// (the default: a stream's first, or a new one's).
-#[derive(Default)]
+#[derive(Default, Clone)]
 struct Clock {
     last_t: Option<u64>,
     wrap_base: u64,
@@ -467,10 +525,10 @@ mod tests {
     }
 
     /// A sensor that restarts (times from 0 again after an hour, or for the 32-bit formats
-    /// after 30 minutes: less than half a wrap back, so no wrap) loses `RESTART_AFTER` packets,
-    /// then the next one starts a new time base.
+    /// after 30 minutes: less than half a wrap back, so no wrap) has `RESTART_AFTER` packets
+    /// refused and held, then the next one starts a new time base with them: none is lost.
     #[test]
-    fn a_restarted_sensor_is_followed_after_a_few_packets() {
+    fn a_restarted_sensor_is_followed_after_a_few_packets_and_loses_none() {
         for format in PacketFormat::ALL {
             let encode = encoder(format);
             let before = if format == PacketFormat::T64X16Y16On8 {
@@ -482,30 +540,36 @@ mod tests {
             let mut out = Vec::new();
             d.decode(&encode(&[ev(before, 1, 1, true)]), 0, &mut out)
                 .unwrap();
-            for k in 0..u64::from(RESTART_AFTER) {
-                let err = d
-                    .decode(&encode(&[ev(k * 10, 2, 2, true)]), 0, &mut out)
-                    .unwrap_err();
+            let new: Vec<Event> = (0..=u64::from(RESTART_AFTER))
+                .map(|k| ev(k * 10, 2, 2, k % 2 == 0))
+                .collect();
+            for (k, e) in new[..new.len() - 1].iter().enumerate() {
+                let err = d.decode(&encode(&[*e]), 0, &mut out).unwrap_err();
                 assert!(err.to_string().contains("backwards"), "{format}: {err}");
                 assert_eq!(d.restarts(), 0, "{format}");
+                assert_eq!(d.dropped(), k as u64 + 1, "{format}");
             }
-            let first = ev(u64::from(RESTART_AFTER) * 10, 3, 3, false);
-            d.decode(&encode(&[first]), 0, &mut out).unwrap();
-            assert_eq!(d.restarts(), 1, "{format}");
-            assert_eq!(out, vec![ev(before, 1, 1, true), first], "{format}");
+            assert_eq!(out.len(), 1, "{format}: refused packets append nothing");
+            d.decode(&encode(&new[new.len() - 1..]), 0, &mut out)
+                .unwrap();
+            assert_eq!((d.restarts(), d.dropped()), (1, 0), "{format}");
+            let mut want = vec![ev(before, 1, 1, true)];
+            want.extend(&new);
+            assert_eq!(out, want, "{format}");
             // The new base goes on as any stream: later times accepted, earlier refused.
             d.decode(&encode(&[ev(500, 4, 4, true)]), 0, &mut out)
                 .unwrap();
             assert!(d
                 .decode(&encode(&[ev(400, 4, 4, true)]), 0, &mut out)
                 .is_err());
-            assert_eq!(d.restarts(), 1, "{format}");
+            assert_eq!((d.restarts(), d.dropped()), (1, 1), "{format}");
         }
     }
 
-    /// A glitch far ahead is accepted; the stream it cut off comes back after a few packets.
+    /// A glitch far ahead is accepted; the stream it cut off comes back after a few packets,
+    /// whole.
     #[test]
-    fn a_packet_stamped_far_ahead_costs_a_few_packets_not_the_stream() {
+    fn a_packet_stamped_far_ahead_costs_no_packet_of_the_stream() {
         let encode = encoder(PacketFormat::T64X16Y16On8);
         let mut d = PacketDecoder::new(PacketFormat::T64X16Y16On8, sensor());
         let mut out = Vec::new();
@@ -513,16 +577,66 @@ mod tests {
             .unwrap();
         d.decode(&encode(&[ev(100_000_000_000, 1, 1, true)]), 0, &mut out)
             .unwrap();
-        let mut accepted = 0;
-        for k in 0..20u64 {
-            if d.decode(&encode(&[ev(2_000 + k, 1, 1, true)]), 0, &mut out)
-                .is_ok()
-            {
-                accepted += 1;
-            }
+        let stream: Vec<Event> = (0..20u64).map(|k| ev(2_000 + k, 1, 1, true)).collect();
+        let accepted = stream
+            .iter()
+            .filter(|e| d.decode(&encode(&[**e]), 0, &mut out).is_ok())
+            .count();
+        assert_eq!(accepted, 20 - RESTART_AFTER as usize);
+        assert_eq!((d.restarts(), d.dropped()), (1, 0));
+        assert_eq!(&out[2..], &stream[..]);
+    }
+
+    /// Within a restart, a held packet that goes back from those before it (reordered), or a
+    /// packet bad in itself, is not taken back; the rest are, in order; the packets held are
+    /// bounded by `MAX_HELD_BYTES`.
+    #[test]
+    fn a_restart_takes_back_the_held_packets_good_on_the_new_base() {
+        let encode = encoder(PacketFormat::T64X16Y16On8);
+        let mut d = PacketDecoder::new(PacketFormat::T64X16Y16On8, sensor());
+        let mut out = Vec::new();
+        d.decode(&encode(&[ev(1_000_000, 1, 1, true)]), 0, &mut out)
+            .unwrap();
+        out.clear();
+        let mut sent = vec![ev(100, 1, 1, true), ev(50, 1, 1, true)]; // the second reordered
+        sent.extend((2..u64::from(RESTART_AFTER)).map(|k| ev(100 + k, 1, 1, true)));
+        for e in &sent {
+            assert!(d.decode(&encode(&[*e]), 0, &mut out).is_err());
         }
-        assert_eq!(accepted, 20 - RESTART_AFTER);
-        assert_eq!(d.restarts(), 1);
+        // Going back and outside the sensor: refused, not held, and no restart.
+        assert!(d
+            .decode(&encode(&[ev(0, 640, 1, true)]), 0, &mut out)
+            .is_err());
+        assert_eq!(d.restarts(), 0);
+        d.decode(&encode(&[ev(200, 2, 2, true)]), 0, &mut out)
+            .unwrap();
+        let mut want = vec![sent[0]];
+        want.extend(&sent[2..]);
+        want.push(ev(200, 2, 2, true));
+        assert_eq!(out, want);
+        assert_eq!((d.restarts(), d.dropped()), (1, 2));
+
+        // Packets too large to hold are refused and lost, and the restart still comes.
+        let mut d = PacketDecoder::new(PacketFormat::T64X16Y16On8, sensor());
+        d.decode(&encode(&[ev(1_000_000, 1, 1, true)]), 0, &mut out)
+            .unwrap();
+        out.clear();
+        let big = MAX_HELD_BYTES / PACKED_EVENT_SIZE / 2 + 1;
+        for k in 0..u64::from(RESTART_AFTER) {
+            let events: Vec<Event> = (0..big as u64)
+                .map(|i| ev(k * 1_000 + i / 100, 1, 1, true))
+                .collect();
+            assert!(d.decode(&encode(&events), 0, &mut out).is_err());
+        }
+        assert!(d.held.iter().map(|(b, _)| b.len()).sum::<usize>() <= MAX_HELD_BYTES);
+        assert_eq!(d.held.len(), 1);
+        d.decode(&encode(&[ev(9_000, 2, 2, true)]), 0, &mut out)
+            .unwrap();
+        assert_eq!(
+            (d.restarts(), d.dropped()),
+            (1, u64::from(RESTART_AFTER) - 1)
+        );
+        assert_eq!(out.len(), big + 1);
     }
 
     /// Reordered, repeated or malformed packets between good ones never restart the stream,
@@ -539,7 +653,7 @@ mod tests {
             assert!(d.decode(&encode(&[b]), 0, &mut out).is_err());
             assert!(d.decode(&encode(&[a]), 0, &mut out).is_ok()); // repeated: equal times
         }
-        assert_eq!(d.restarts(), 0);
+        assert_eq!((d.restarts(), d.dropped()), (0, 100));
         let last = d.last_t();
         for _ in 0..2 * RESTART_AFTER {
             // Going back and outside the sensor: refused whatever the time base.
@@ -547,6 +661,7 @@ mod tests {
             assert!(d.decode(&bad, 0, &mut out).is_err());
         }
         assert_eq!((d.restarts(), d.last_t()), (0, last));
+        assert!(d.held.is_empty());
     }
 
     #[test]
