@@ -382,7 +382,8 @@ impl<E: WindowEngine> Detector<E> {
     }
 
     /// End of the stream: settle the last timestamp, close every window and append the
-    /// remaining detections. Later pushes fail until [`Detector::reset`].
+    /// remaining detections, in time order as a push appends them. Later pushes fail until
+    /// [`Detector::reset`].
     pub fn flush(&mut self, out: &mut Vec<StreamDetection>) -> Result<()> {
         if self.finished {
             return Ok(());
@@ -396,7 +397,7 @@ impl<E: WindowEngine> Detector<E> {
         }
         self.release_all();
         self.finished = true;
-        self.stats.detections += (out.len() - before) as u64;
+        self.emitted(out, before);
         result
     }
 

@@ -177,6 +177,8 @@ fn run(events: &[Event], cuts: &[usize], config: StreamConfig) -> (Vec<Echoed>, 
     d.flush(&mut out).unwrap();
     let made = d.engine().states_made.get();
     assert!(d.states_allocated() <= made);
+    // Pushes and the flush append in time order (and window order within a time).
+    assert!(out.is_sorted_by_key(|o| (o.detection.t, o.window)));
     let mut got: Vec<Echoed> = out.iter().map(key).collect();
     got.sort_unstable();
     (got, made)
