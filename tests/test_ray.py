@@ -18,12 +18,13 @@ from typing import Any
 
 import numpy as np
 import pytest
+from conftest import blob_events
 
-from uavsnn import EVENT_DTYPE, Network
+from uavsnn import Network
 from uavsnn.cli import main
 from uavsnn.dataset import build, load, read_manifest
 from uavsnn.dataset.synthetic import SceneSource
-from uavsnn.errors import DatasetError
+from uavsnn.errors import DatasetError, ParameterError
 
 try:
     import ray
@@ -291,13 +292,9 @@ def test_ray_reproduce_gives_the_serial_figures(runner: Any, tmp_path: Path) -> 
 
 
 def _events(n: int, seed: int, t0: int = 0) -> np.ndarray:
-    rng = np.random.default_rng(seed)
-    ev = np.zeros(n, dtype=EVENT_DTYPE)
-    ev["t"] = t0 + np.sort(rng.integers(0, 200_000, n)).astype(np.uint64)
-    ev["x"] = rng.integers(0, 240, n)
-    ev["y"] = rng.integers(0, 180, n)
-    ev["p"] = rng.integers(0, 2, n)
-    return ev
+    """A blob drifting over sparse noise (``conftest.blob_events``), from ``t0``: the model
+    below detects it in most windows, so the streams' detections compared are not empty."""
+    return blob_events(seed, n, t0=t0 + 5_000)
 
 
 @pytest.fixture(scope="module")
@@ -430,6 +427,65 @@ def test_a_stream_whose_sensor_restarts_starts_its_detector_again(
     assert r.events_seen == len(old) + len(new)
 
 
+def test_a_quiet_stream_on_ray_reports_its_last_windows_with_idle_flush(
+    runner: Any, model: Network
+) -> None:
+    import threading
+
+    from uavsnn import Detector
+    from uavsnn.distributed import detect_streams
+
+    per_packet, packets = 200, 10
+    burst = _events(packets * per_packet, 9)
+    det = Detector(model, window_us=20_000)
+    want = np.concatenate([det.push(burst), det.flush()])
+    assert len(want)
+    later = burst[-1:].copy()
+    later["t"] += np.uint64(10**9)  # far after any time the quiet stream is taken to reach
+    got: list[np.ndarray] = []
+    all_in = threading.Event()
+    before_the_end: list[bool] = []
+
+    def found(_name: str, chunk: np.ndarray) -> None:
+        got.append(chunk)
+        if sum(map(len, got)) >= len(want):
+            all_in.set()
+
+    def send(addresses: dict[str, Any], _actors: Any) -> None:
+        def run() -> None:
+            with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+                for i in range(packets):
+                    s.sendto(burst[i * per_packet : (i + 1) * per_packet].tobytes(),
+                             addresses["cam"])  # fmt: skip
+                # Quiet: the burst's last windows come out without another event...
+                before_the_end.append(all_in.wait(30))
+                # ... and the stream ends with its next packet.
+                s.sendto(later.tobytes(), addresses["cam"])
+
+        threading.Thread(target=run, daemon=True).start()
+
+    results = detect_streams(
+        runner, ["udp://127.0.0.1:0"], model, names=["cam"], window_us=20_000,
+        on_ready=send, on_detections=found, max_packets=packets + 1, idle_timeout=60.0,
+        idle_flush_s=0.2,
+    )  # fmt: skip
+    r = results["cam"]
+    assert r.ok, r.error
+    assert before_the_end == [True]
+    assert np.array_equal(r.detections[: len(want)], want)
+    assert (r.rejected_events, r.events_seen) == (0, len(burst) + 1)
+
+
+@pytest.mark.parametrize("bad", [0, -1.0, float("inf"), float("nan")])
+def test_idle_flush_on_ray_is_checked_before_any_actor(
+    runner: Any, model: Network, bad: float
+) -> None:
+    from uavsnn.distributed import detect_streams
+
+    with pytest.raises(ParameterError, match="idle_flush_s must be"):
+        detect_streams(runner, ["udp://127.0.0.1:0"], model, idle_flush_s=bad)
+
+
 def test_a_killed_stream_is_reported_and_the_others_finish(
     runner: Any, model: Network, tmp_path: Path
 ) -> None:
@@ -465,7 +521,12 @@ def test_detect_command_over_several_files(
     for k in range(2):
         files.append(str(tmp_path / f"s{k}.npy"))
         np.save(files[-1], _events(3000, 20 + k))
-    assert main(["detect", *files, "-m", str(tmp_path / "m.npz"), "--json", "--ray"]) == 0
+    argv = ["detect", *files, "-m", str(tmp_path / "m.npz"), "--json", "--ray"]
+    # An .npy recording's sensor is its events' bounding box unless given: here the blob's
+    # corner, which the model refuses, and the stream says why.
+    assert main(argv) == 1
+    assert "ShapeError: sensor_size (" in capsys.readouterr().err
+    assert main([*argv, "--sensor-size", "240x180"]) == 0
     captured = capsys.readouterr()
     lines = [json.loads(line) for line in captured.out.splitlines()]
     for name in files:

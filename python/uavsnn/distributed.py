@@ -367,15 +367,19 @@ class _StreamWorker:
 
     def __init__(self, name: str, spec: str, model: Network, options: dict[str, Any]) -> None:
         from uavsnn.detector import Detector
-        from uavsnn.sources import UdpSource, open_source
+        from uavsnn.sources import IdleClock, UdpSource, open_source
 
         self.name = name
         opts = dict(options)
         window_us, overlap = opts.pop("window_us"), opts.pop("overlap")
+        idle_flush_s = opts.pop("idle_flush_s", None)
         model_size = (int(model.config["width"]), int(model.config["height"]))
         live = spec == "-" or spec.startswith("udp://")
         if opts.get("sensor_size") is None and live:
             opts["sensor_size"] = model_size
+        self.idle = IdleClock(idle_flush_s if live else None)
+        if live:
+            opts["heartbeat_s"] = IdleClock.heartbeat_for(idle_flush_s)
         if opts.pop("downsample", False):
             opts["downsample_to"] = model_size
         self.source = open_source(spec, **opts)
@@ -398,6 +402,7 @@ class _StreamWorker:
 
     def _run(self) -> None:
         from uavsnn.errors import EventError, StreamError
+        from uavsnn.sources import IdleClock
 
         restarts = 0
         before = (0, 0)  # the counts of the streams before a sensor restart
@@ -414,14 +419,26 @@ class _StreamWorker:
         try:
             with self.source:
                 for chunk in self.source:
+                    if not len(chunk):  # a heartbeat: the source is quiet
+                        mark = self.idle.mark()
+                        if mark is not None:
+                            note(self.detector.advance(mark))
+                        continue
                     if self.source.stats.restarts != restarts:
                         # The sensor restarted: end the old stream, start the detector again.
                         restarts = self.source.stats.restarts
                         note(self.detector.flush())
                         before = (self._seen, self._windows)
                         self.detector.reset()
+                        self.idle = IdleClock(self.idle.lag_s)
+                    late = self.idle.late(chunk)
+                    if late:  # stamped before a time the stream was taken to have reached
+                        with self._lock:
+                            self._rejected += late
+                        chunk = chunk[late:]
                     try:
                         found = self.detector.push(chunk)
+                        self.idle.heard(chunk)
                     except (EventError, StreamError):
                         with self._lock:
                             self._rejected += len(chunk)
@@ -478,6 +495,7 @@ def detect_streams(
     on_ready: Callable[[dict[str, tuple[str, int] | None], dict[str, Any]], None] | None = None,
     on_detections: Callable[[str, np.ndarray], None] | None = None,
     poll_s: float = 0.1,
+    idle_flush_s: float | None = None,
     **source_options: Any,
 ) -> dict[str, StreamResult]:
     """Run one :class:`~uavsnn.Detector` per source, each in a Ray actor, until every stream
@@ -493,11 +511,14 @@ def detect_streams(
 
     ``source_options``: as :func:`uavsnn.sources.open_source` (``sensor_size``, ``realtime``,
     ``udp_format``, ``max_packets``, ``idle_timeout``), and ``downsample`` (fit files to the
-    model's input).
+    model's input). ``idle_flush_s``: a live stream quiet for that many seconds is advanced
+    with the wall clock (:class:`uavsnn.sources.IdleClock`; ``uavsnn detect --idle-flush``),
+    so its last windows need not wait for its next event; events then stamped before the time
+    reached are counted in ``rejected_events``. ``None``: never.
 
     Raises:
-        ParameterError: a runner that is not Ray's, names missing or repeated, or more than
-            :data:`MAX_STREAMS` sources (before any actor starts).
+        ParameterError: a runner that is not Ray's, names missing or repeated, more than
+            :data:`MAX_STREAMS` sources, or a bad ``idle_flush_s`` (before any actor starts).
     """
     if not isinstance(runner, RayRunner):
         raise ParameterError("streams run in Ray actors: pass the runner connect() returns")
@@ -510,7 +531,18 @@ def detect_streams(
             f"{len(sources)} streams: at most {MAX_STREAMS} run at once (uavsnn.distributed."
             f"MAX_STREAMS), each an actor process holding the model"
         )
-    options = {"window_us": window_us, "overlap": overlap, **source_options}
+    from uavsnn.sources import MAX_IDLE_TIMEOUT
+
+    if idle_flush_s is not None and not 0 < idle_flush_s <= MAX_IDLE_TIMEOUT:
+        raise ParameterError(
+            f"idle_flush_s must be > 0 and at most {MAX_IDLE_TIMEOUT:g} seconds, got {idle_flush_s}"
+        )
+    options = {
+        "window_us": window_us,
+        "overlap": overlap,
+        "idle_flush_s": idle_flush_s,
+        **source_options,
+    }
     # Every stream must run at once however many CPUs the cluster has: an actor reserves
     # none (Ray's default for a running actor), so none waits for another to finish.
     actor_class = ray.remote(num_cpus=0, max_restarts=0, max_task_retries=0)(_StreamWorker)
@@ -572,5 +604,10 @@ def _actor_error(exc: BaseException) -> str:
     text = str(exc).strip().splitlines()
     kind = type(exc).__name__
     if "ActorDied" in kind or "ActorError" in kind:
+        if "creation task" in str(exc) and text:
+            # The stream could not start (its source or detector refused it): Ray gives the
+            # error as the last line of the traceback it prints, "module.Error: message".
+            error, _, message = text[-1].strip().partition(": ")
+            return f"{error.rpartition('.')[2]}: {message}"
         return "its actor died (killed, or its node was lost)"
     return f"{kind}: {text[0] if text else ''}"

@@ -90,6 +90,7 @@ __all__ = [
     "STDIN_RESTART_EVENTS",
     "EventSource",
     "FileSource",
+    "IdleClock",
     "SourceStats",
     "StdinSource",
     "UdpSource",
@@ -139,6 +140,54 @@ class SourceStats:
     #: windows of the old stream when this changes (``uavsnn detect`` flushes and resets its
     #: detector); the chunks never span a restart.
     restarts: int = 0
+
+
+class IdleClock:
+    """The time a quiet live stream is taken to have reached, for a consumer that advances its
+    detector while the source is silent (``uavsnn detect --idle-flush``,
+    :func:`uavsnn.distributed.detect_streams`' ``idle_flush_s``): the stream's last event time,
+    moved on with the wall clock since that event arrived, less ``lag_s`` seconds (which must
+    cover the sender's batching); and the events that arrive stamped before it, which the
+    consumer drops. ``lag_s=None``: never moves on.
+
+    Feed it each chunk pushed (:meth:`heard`); at each heartbeat (an empty chunk from a source
+    opened with ``heartbeat_s=IdleClock.heartbeat_for(lag_s)``) advance the detector to
+    :meth:`mark`; before pushing a chunk, drop its first :meth:`late` events.
+    """
+
+    def __init__(self, lag_s: float | None) -> None:
+        self.lag_s = _seconds("lag_s", lag_s)
+        self.last_t: int | None = None
+        self.heard_at = 0.0
+        self.reached = 0  # the latest time the stream was advanced to
+
+    @staticmethod
+    def heartbeat_for(lag_s: float | None) -> float | None:
+        """The heartbeat a source needs for the stream's time to move on smoothly while it is
+        quiet: a quarter of ``lag_s`` (at least 10 ms); ``None`` for ``None``."""
+        return None if lag_s is None else max(0.01, lag_s / 4)
+
+    def heard(self, chunk: np.ndarray) -> None:
+        """``chunk`` (not empty) was pushed."""
+        self.last_t = int(chunk["t"][-1])
+        self.heard_at = time.monotonic()
+
+    def mark(self) -> int | None:
+        """The time to advance the stream to, when it has moved on since the last one."""
+        if self.lag_s is None or self.last_t is None:
+            return None
+        moved = time.monotonic() - self.heard_at - self.lag_s
+        mark = min(self.last_t + int(moved * 1e6), MAX_TIME_US) if moved > 0 else 0
+        if mark <= max(self.reached, self.last_t):
+            return None
+        self.reached = mark
+        return mark
+
+    def late(self, chunk: np.ndarray) -> int:
+        """How many of ``chunk``'s first events are stamped before the time reached."""
+        if not self.reached or int(chunk["t"][0]) >= self.reached:
+            return 0
+        return int(np.searchsorted(chunk["t"], np.uint64(self.reached), "left"))
 
 
 class EventSource:

@@ -31,7 +31,6 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from uavsnn._validate import MAX_TIME_US
 from uavsnn.distributed import add_ray_option
 from uavsnn.errors import EventError, ParameterError, StreamError
 from uavsnn.track_eval import Confirm
@@ -140,7 +139,8 @@ def register(subparsers: Any) -> None:
         "--idle-flush",
         type=float,
         metavar="S",
-        help="'-' and UDP: after S seconds without an event, take the stream's time to move on "
+        help="'-' and UDP (each stream, with several): after S seconds without an event, take "
+        "the stream's time to move on "
         "with the wall clock, less S, and report the windows that closes (the last windows "
         "of a quiet stream otherwise wait for its next event); an event stamped before that "
         "time arriving later is dropped. Off by default",
@@ -363,41 +363,13 @@ class _Summary:
         )
 
 
-class _Quiet:
-    """``--idle-flush``: the time a quiet stream is taken to have reached — its last event's
-    time, moved on with the wall clock since that event arrived, less ``lag_s`` seconds —
-    and the events that arrive stamped before it."""
-
-    def __init__(self, lag_s: float | None) -> None:
-        self.lag_s = lag_s
-        self.last_t: int | None = None
-        self.heard_at = 0.0
-        self.reached = 0  # the latest time the stream was advanced to
-
-    def heard(self, chunk: np.ndarray) -> None:
-        self.last_t = int(chunk["t"][-1])
-        self.heard_at = time.monotonic()
-
-    def mark(self) -> int | None:
-        """The time to advance the stream to, when it has moved on since the last one."""
-        if self.lag_s is None or self.last_t is None:
-            return None
-        moved = time.monotonic() - self.heard_at - self.lag_s
-        mark = min(self.last_t + int(moved * 1e6), MAX_TIME_US) if moved > 0 else 0
-        if mark <= max(self.reached, self.last_t):
-            return None
-        self.reached = mark
-        return mark
-
-    def late(self, chunk: np.ndarray) -> int:
-        """How many of ``chunk``'s first events are stamped before the time reached."""
-        if not self.reached or int(chunk["t"][0]) >= self.reached:
-            return 0
-        return int(np.searchsorted(chunk["t"], np.uint64(self.reached), "left"))
-
-
 #: The longest window ``--window-ms`` accepts: 2^62 µs, the engine's limit on times.
 MAX_WINDOW_MS = float(1 << 62) / 1000
+
+
+def _live(source: str) -> bool:
+    """Standard input or UDP: a source that ends only when told."""
+    return source == "-" or source.startswith("udp://")
 
 
 def _check_args(args: argparse.Namespace) -> None:
@@ -416,7 +388,7 @@ def _check_args(args: argparse.Namespace) -> None:
             f"--summary-every must be a number of seconds >= 0 (0: only at the end), "
             f"got {args.summary_every}"
         )
-    live = args.source == "-" or args.source.startswith("udp://")
+    live = _live(args.source)
     if args.realtime and live:
         raise ParameterError(
             "--realtime replays a file at its own pace; standard input and UDP already "
@@ -433,10 +405,11 @@ def _check_args(args: argparse.Namespace) -> None:
                     "files end by themselves"
                 )
     if args.idle_flush is not None:
-        if not live or args.more_sources or args.ray is not None:
+        files = [s for s in (args.source, *args.more_sources) if not _live(s)]
+        if files:
             raise ParameterError(
-                "--idle-flush applies to one live source ('-' or udp://HOST:PORT): a file ends "
-                "by itself"
+                f"--idle-flush applies to live sources ('-' or udp://HOST:PORT): {files[0]} is "
+                "a file, which ends by itself"
             )
     if args.max_packets is not None and args.max_packets < 1:
         raise ParameterError(f"--max-packets must be >= 1, got {args.max_packets}")
@@ -486,7 +459,7 @@ def run(args: argparse.Namespace) -> int:
     from uavsnn.cli import exit_code, interrupted_line
     from uavsnn.detector import Detector
     from uavsnn.network import Network
-    from uavsnn.sources import UdpSource, open_source
+    from uavsnn.sources import IdleClock, UdpSource, open_source
 
     _check_args(args)
     if args.more_sources or args.ray is not None:
@@ -516,7 +489,7 @@ def run(args: argparse.Namespace) -> int:
             args.confirm = stored
     model_size = (int(network.config["width"]), int(network.config["height"]))
     # '-' and UDP carry no sensor size: default to the model's; a file has its own.
-    live = args.source == "-" or args.source.startswith("udp://")
+    live = _live(args.source)
     sensor_size = _sensor_size(args.sensor_size) or (model_size if live else None)
     source = open_source(
         args.source,
@@ -527,8 +500,7 @@ def run(args: argparse.Namespace) -> int:
         max_packets=args.max_packets,
         idle_timeout=args.idle_timeout,
         downsample_to=model_size if args.downsample else None,
-        # Heartbeats often enough that the stream's time moves on smoothly while it is quiet.
-        heartbeat_s=None if args.idle_flush is None else max(0.01, args.idle_flush / 4),
+        heartbeat_s=IdleClock.heartbeat_for(args.idle_flush),
     )
     if source.sensor_size is not None and tuple(source.sensor_size) != model_size:
         source.close()
@@ -582,7 +554,7 @@ def run(args: argparse.Namespace) -> int:
             else:
                 emit(detector.flush_windows())
 
-        quiet = _Quiet(args.idle_flush)
+        quiet = IdleClock(args.idle_flush)
 
         def advance(mark: int) -> None:
             if args.per_spike:
@@ -608,7 +580,7 @@ def run(args: argparse.Namespace) -> int:
                     flush()
                     summary.restarted(detector)
                     detector.reset()
-                    quiet = _Quiet(args.idle_flush)
+                    quiet = IdleClock(args.idle_flush)
                     print(
                         f"uavsnn detect: the sensor restarted (its clock went back to "
                         f"t={int(chunk['t'][0])} µs): the old stream's "
@@ -702,6 +674,7 @@ def _run_many(args: argparse.Namespace) -> int:
         sensor_size=_sensor_size(args.sensor_size), realtime=args.realtime,
         udp_format=args.udp_format, max_packets=args.max_packets,
         idle_timeout=args.idle_timeout, downsample=args.downsample,
+        idle_flush_s=args.idle_flush,
     )  # fmt: skip
     for r in results.values():
         state = "done" if r.ok else f"failed ({r.error})"
