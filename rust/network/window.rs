@@ -34,7 +34,6 @@
 use super::batch::Spikes;
 use super::cause::{self, Causes};
 use super::config::NetworkConfig;
-#[cfg(target_arch = "x86_64")]
 use super::conv::{ConvState, Crossing, Fired};
 use super::detection::{detection, Detection};
 use super::geometry::Geometry;
