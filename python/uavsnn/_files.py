@@ -7,11 +7,11 @@ import os
 import secrets
 from collections.abc import Callable
 from pathlib import Path
-from typing import BinaryIO
+from typing import Any, BinaryIO
 
 from uavsnn.errors import ParameterError
 
-__all__ = ["check_output_dir", "output_dir", "output_file", "write_atomic"]
+__all__ = ["check_output_dir", "output_dir", "output_file", "write_atomic", "write_image"]
 
 
 def check_output_dir(path: Path, flag: str) -> None:
@@ -94,7 +94,9 @@ def write_atomic(path: str | os.PathLike[str], write: Callable[[BinaryIO], objec
     target = Path(path)
     tmp = temporary_beside(target)
     try:
-        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+        # O_BINARY: on Windows os.open is in text mode otherwise, and writes each \n as \r\n.
+        flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0)
+        fd = os.open(tmp, flags, 0o666)
         with os.fdopen(fd, "wb") as handle:
             write(handle)
             handle.flush()
@@ -103,3 +105,21 @@ def write_atomic(path: str | os.PathLike[str], write: Callable[[BinaryIO], objec
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
+
+
+def write_image(path: str | os.PathLike[str], image: Any) -> bool:
+    """Write ``image`` (a NumPy array OpenCV takes) to ``path`` in the format its suffix names
+    (``.png``), encoded by OpenCV and written by Python: OpenCV's own writer cannot open a path
+    that is not ASCII on Windows. ``False`` when OpenCV cannot encode it or the file cannot be
+    written (as ``cv2.imwrite`` says)."""
+    import cv2
+
+    target = Path(path)
+    ok, data = cv2.imencode(target.suffix, image)
+    if not ok:
+        return False
+    try:
+        target.write_bytes(data.tobytes())
+    except OSError:
+        return False
+    return True

@@ -596,7 +596,7 @@ def estimate_motion(
         return MotionEstimate(0.0, 0.0, float(t_ref), 0.0, len(ev))
     n = len(ev)
     if n > int(max_events):
-        pick = (np.arange(int(max_events)) * n) // int(max_events)
+        pick = (np.arange(int(max_events), dtype=np.int64) * n) // int(max_events)
         ev, t = ev[pick], t[pick]
     dt = (t - t_ref) * 1e-6
     x = ev["x"].astype(np.float64) - x0

@@ -340,6 +340,11 @@ class StdinSource(EventSource):
         # With heartbeats the descriptor is read directly, once select says it holds bytes (a
         # buffered reader may hold bytes select cannot see); a stream without one has none.
         self._fd: int | None = None
+        if self.heartbeat_s is not None and sys.platform == "win32":
+            raise ParameterError(
+                "heartbeats on standard input (--idle-flush) wait on it with select(), which "
+                "Windows has only for sockets: send the events over UDP instead"
+            )
         if self.heartbeat_s is not None:
             try:
                 self._fd = self.stream.fileno()
@@ -575,7 +580,9 @@ class UdpSource(EventSource):
         self.idle_timeout = idle_timeout
         waits = [w for w in (idle_timeout, self.heartbeat_s) if w is not None]
         self.socket.settimeout(min(waits) if waits else None)
-        self._opened_ns = time.monotonic_ns()
+        # perf_counter: monotonic, and fine-grained on every OS (Windows' monotonic clock
+        # ticks every 15.6 ms before Python 3.13).
+        self._opened_ns = time.perf_counter_ns()
 
     def _ask_buffer(self, asked: int) -> str | None:
         """Ask for a receive buffer of ``asked`` bytes; a line saying so when less is granted."""
@@ -633,7 +640,7 @@ class UdpSource(EventSource):
                 continue
             quiet_since = time.monotonic()
             self.stats.packets += 1
-            arrival_us = (time.monotonic_ns() - self._opened_ns) // 1000
+            arrival_us = (time.perf_counter_ns() - self._opened_ns) // 1000
             try:
                 raw = self.decoder.decode(bytes(view[:size]), arrival_us)
             except (UavsnnError, ValueError):

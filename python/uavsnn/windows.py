@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 import numbers
 import os
+import sys
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -54,7 +55,9 @@ def _memory_limit(cgroup_files: Sequence[str] = _CGROUP_LIMITS) -> int | None:
     try:
         limits.append(int(os.sysconf("SC_PHYS_PAGES")) * int(os.sysconf("SC_PAGE_SIZE")))
     except (AttributeError, OSError, ValueError):
-        pass
+        physical = _windows_physical_memory() if sys.platform == "win32" else None
+        if physical:
+            limits.append(physical)
     for name in cgroup_files:
         try:
             text = Path(name).read_text().strip()
@@ -72,6 +75,33 @@ def _memory_limit(cgroup_files: Sequence[str] = _CGROUP_LIMITS) -> int | None:
     except (ImportError, OSError, ValueError):
         pass
     return min(limits) if limits else None
+
+
+def _windows_physical_memory() -> int | None:
+    """The machine's physical memory on Windows (``GlobalMemoryStatusEx``), which has no
+    ``sysconf``; ``None`` when it cannot be read."""
+    import ctypes
+
+    class MemoryStatus(ctypes.Structure):
+        _fields_ = [
+            ("dwLength", ctypes.c_uint32),
+            ("dwMemoryLoad", ctypes.c_uint32),
+            ("ullTotalPhys", ctypes.c_uint64),
+            ("ullAvailPhys", ctypes.c_uint64),
+            ("ullTotalPageFile", ctypes.c_uint64),
+            ("ullAvailPageFile", ctypes.c_uint64),
+            ("ullTotalVirtual", ctypes.c_uint64),
+            ("ullAvailVirtual", ctypes.c_uint64),
+            ("ullAvailExtendedVirtual", ctypes.c_uint64),
+        ]
+
+    status = MemoryStatus()
+    status.dwLength = ctypes.sizeof(MemoryStatus)
+    try:
+        ok = ctypes.windll.kernel32.GlobalMemoryStatusEx(ctypes.byref(status))  # type: ignore[attr-defined]
+    except (AttributeError, OSError):
+        return None
+    return int(status.ullTotalPhys) if ok else None
 
 
 #: Bytes :func:`make_windows` and the recording readers may plan to allocate (``None``: no

@@ -25,6 +25,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import importlib
+import io
 import os
 import signal
 import sys
@@ -155,8 +156,23 @@ def main(argv: list[str] | None = None) -> int:
     if handler is None:
         parser.error(f"unknown command {args.command!r}")
     name = f"uavsnn {args.command}"
+    for stream in (sys.stdout, sys.stderr):
+        _write_what_it_can(stream)
     with _stop_signals():
         return _run(name, handler, args)
+
+
+def _write_what_it_can(stream: Any) -> None:
+    """Let a text stream that cannot encode the commands' few non-ASCII characters (µs, ≥, —:
+    a console or pipe in a legacy code page, such as cp932 on Windows) write them escaped
+    rather than fail."""
+    encoding = getattr(stream, "encoding", None)
+    if not isinstance(stream, io.TextIOWrapper) or not encoding or stream.errors != "strict":
+        return
+    try:
+        "µ≥—".encode(encoding)
+    except (UnicodeEncodeError, LookupError):
+        stream.reconfigure(errors="backslashreplace")
 
 
 def _run(name: str, handler: Any, args: argparse.Namespace) -> int:

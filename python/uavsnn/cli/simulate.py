@@ -126,7 +126,7 @@ def _scene(args: argparse.Namespace, size: tuple[int, int]) -> Recording:
                 "--duration sets a sampled scene's length; a JSON scene has its own"
             )
         try:
-            data = json.loads(Path(args.scene).read_text())
+            data = json.loads(Path(args.scene).read_text(encoding="utf-8"))
         except (OSError, ValueError, RecursionError) as exc:
             # RecursionError: arrays or objects nested too deep for the JSON parser.
             what = "nested too deep" if isinstance(exc, RecursionError) else exc

@@ -25,11 +25,11 @@ another build is refused. A build holds a lock on its folder (:data:`LOCK`, an a
 from __future__ import annotations
 
 import contextlib
-import fcntl
 import hashlib
 import json
 import math
 import os
+import sys
 import zipfile
 from collections.abc import Iterator
 from dataclasses import dataclass, field
@@ -291,20 +291,47 @@ def locked_folder(out_dir: str | Path) -> Iterator[Path]:
         _remove_empty(made)
         raise
     try:
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError as exc:
+        if not _lock(fd):
             raise DatasetError(
                 f"{root}: another build is writing into this folder (it holds {LOCK}); "
                 "wait for it or choose another folder"
-            ) from exc
+            )
         try:
             yield root
         finally:
-            (root / LOCK).unlink(missing_ok=True)
+            if sys.platform == "win32":
+                # Windows removes no file that is open (here, or in a build refused now).
+                os.close(fd)
+                fd = -1
+                with contextlib.suppress(PermissionError):
+                    (root / LOCK).unlink(missing_ok=True)
+            else:
+                (root / LOCK).unlink(missing_ok=True)
             _remove_empty(made)
     finally:
-        os.close(fd)
+        if fd >= 0:
+            os.close(fd)
+
+
+def _lock(fd: int) -> bool:
+    """Lock the open file ``fd`` for this process, without waiting: ``False`` when another
+    holds it. POSIX: ``flock``; Windows: ``msvcrt.locking`` of its first byte. Either ends
+    with the process."""
+    if sys.platform == "win32":
+        import msvcrt
+
+        try:
+            msvcrt.locking(fd, msvcrt.LK_NBLCK, 1)
+        except OSError:
+            return False
+        return True
+    import fcntl
+
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return False
+    return True
 
 
 def _remove_empty(folders: list[Path]) -> None:

@@ -65,7 +65,7 @@ def find_clips(folder: str | Path) -> list[Clip]:
     if not root.is_dir():
         raise DatasetError(f"video folder {root} does not exist or is not a folder")
     clips = []
-    for path in sorted(root.iterdir()):
+    for path in sorted(root.iterdir(), key=lambda p: p.name):  # as on every OS
         if path.suffix.lower() not in VIDEO_SUFFIXES or not path.is_file():
             continue
         m = _NAME.match(path.stem)

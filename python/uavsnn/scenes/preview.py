@@ -8,6 +8,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from uavsnn._files import write_image
 from uavsnn.errors import ParameterError, ShapeError
 
 __all__ = ["contact_sheet", "sheet_frames", "write_png"]
@@ -76,6 +77,6 @@ def contact_sheet(
 def write_png(path: str | Path, image: np.ndarray) -> Path:
     """Write an 8-bit image as PNG; returns the path."""
     path = Path(path)
-    if not cv2.imwrite(str(path), image):
+    if not write_image(path, image):
         raise ParameterError(f"could not write a PNG to {path}")
     return path

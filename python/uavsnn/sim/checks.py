@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from uavsnn._files import write_image
 from uavsnn._validate import MAX_TIME_US, check_int, check_real
 from uavsnn.errors import EventError, ParameterError
 
@@ -449,5 +450,5 @@ def plot_spectra(
     cv2.putText(
         img, "Hz", (right - 20, h - 4), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (0, 0, 0), 1, cv2.LINE_AA
     )
-    if not cv2.imwrite(str(path), img):
+    if not write_image(path, img):
         raise OSError(f"could not write {path}")

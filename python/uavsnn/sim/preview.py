@@ -12,6 +12,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from uavsnn._files import write_image
 from uavsnn.errors import SimulationError
 from uavsnn.events import Recording
 from uavsnn.sim.checks import check_int
@@ -85,6 +86,6 @@ def write_preview(
     if p.suffix.lower() != ".png":
         raise SimulationError(f"preview must be a .png file, got {str(p)!r}")
     img = event_strip(recording, panels=panels, slice_us=slice_us, scale=scale)
-    if not p.parent.is_dir() or not cv2.imwrite(str(p), img):
+    if not p.parent.is_dir() or not write_image(p, img):
         raise SimulationError(f"could not write the preview to {str(p)!r}")
     return p

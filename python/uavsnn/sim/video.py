@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 import queue
+import sys
 import threading
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import asdict
@@ -87,7 +88,10 @@ def _open(path: str | Path) -> cv2.VideoCapture:
     cap = cv2.VideoCapture(str(p))
     if not cap.isOpened():
         cap.release()
-        raise SimulationError(f"cannot read {str(p)!r} as a video (unknown format or corrupt)")
+        why = "unknown format or corrupt"
+        if sys.platform == "win32" and not str(p).isascii():
+            why += "; or its path, which is not ASCII: OpenCV cannot open such a path on Windows"
+        raise SimulationError(f"cannot read {str(p)!r} as a video ({why})")
     return cap
 
 
