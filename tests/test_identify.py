@@ -1229,6 +1229,32 @@ def test_identification_figures_on_hand_made_windows() -> None:
         identification_figures(detected[:3], scores, data, 0.5)
 
 
+@pytest.mark.parametrize("uav", [True, False])
+def test_identification_figures_of_one_class(uav: bool) -> None:
+    """Drone-only (or UAV-free) footage under --unbalanced: no ROC and no point read off one,
+    but both rules' figures, and the measurable rates at thresholds set beforehand."""
+    from uavsnn.report import identification_markdown
+
+    n = 40
+    label = np.full(n, uav)
+    windows = make_windows(Recording(scene()[:50], SIZE), 100_000, 0.0)
+    data = LabelledWindows(
+        windows.select(np.zeros(n, np.int64)), label, np.full(n, "drone" if uav else "bird"),
+        np.arange(n) // 10, np.full((n, 4), np.nan, np.float32),
+        size_px=np.full(n, 8.0 if uav else np.nan, np.float32),
+    )  # fmt: skip
+    scores = np.linspace(0, 1, n)
+    f = identification_figures(np.ones(n, bool), scores, data, 0.5, alarm_thresholds=[(0.01, 0.75)])
+    assert (f["roc"], f["at_false_alarm"]) == (None, [])
+    assert f["identified"]["accuracy"] == 0.5  # half the scores reach 0.5
+    (point,) = f["at_tuned_false_alarm"]
+    measured, missing = ("detection_rate", "false_alarm_rate")[:: 1 if uav else -1]
+    assert point[missing] is None
+    assert point[measured] == pytest.approx(0.25)
+    text = identification_markdown(f)
+    assert "one class only" in text and "| 1 % false alarms | 0.750 | " in text
+
+
 # ---------------------------------------------------------------- the commands
 
 

@@ -605,7 +605,10 @@ def identification_figures(
     figures at each of those thresholds, where this set's false-alarm share is measured, not
     chosen — what a user who sets the threshold beforehand gets — with the 95 % intervals of
     the false-alarm share and of the detection over this set's recordings
-    (:func:`recording_interval`: ``"false_alarm_interval"``, ``"detection_interval"``)."""
+    (:func:`recording_interval`: ``"false_alarm_interval"``, ``"detection_interval"``).
+
+    A set of one class (all UAV, or none) has no ROC: ``"roc"`` is ``None`` and
+    ``"at_false_alarm"`` empty, and a rate of the class it lacks is ``None``."""
     fired = _bools("detected", detected)
     s = np.asarray(scores, dtype=np.float64)
     actual = np.asarray(data.label, dtype=bool)
@@ -623,19 +626,23 @@ def identification_figures(
             "per_class": {str(c): float(pred[data.cls == c].mean()) for c in np.unique(data.cls)},
         }
 
-    fa, pd = roc_curve(combined, actual)
-    keep = np.unique(np.linspace(0, len(fa) - 1, min(roc_points, len(fa))).round().astype(int))
     others = [str(c) for c in np.unique(data.cls[~actual])]
+    # A set of one class (drone-only footage under --unbalanced) has no ROC and no point read
+    # off one; the rules' figures and the rates at thresholds set beforehand remain.
+    both = bool(actual.any() and (~actual).any())
 
     rec = np.asarray(data.recording)
 
+    def share(hit: np.ndarray) -> float | None:
+        return float(hit.mean()) if hit.size else None
+
     def at(rate: float, t: float, intervals: bool = False) -> dict[str, Any]:
         alarm = combined >= t
-        point = {
+        point: dict[str, Any] = {
             "false_alarm_target": rate,
             "threshold": t,
-            "false_alarm_rate": float(alarm[~actual].mean()),
-            "detection_rate": float(alarm[actual].mean()),
+            "false_alarm_rate": share(alarm[~actual]),
+            "detection_rate": share(alarm[actual]),
             "by_size_px": _binned_rate(alarm[actual], data.size_px[actual], SIZE_BINS_PX),
             "by_range_m": _binned_rate(alarm[actual], data.range_m[actual], RANGE_BINS_M),
             "false_alarms_per_class": {
@@ -647,17 +654,23 @@ def identification_figures(
             point["detection_interval"] = list(recording_interval(alarm[actual], rec[actual]))
         return point
 
-    at_fa = [at(r, threshold_at_false_alarm(combined, actual, r)) for r in FALSE_ALARM_RATES]
-    out = {
-        "threshold": float(threshold),
-        "any_spike": rule(fired),
-        "identified": rule(combined >= threshold),
-        "roc": {
+    roc: dict[str, Any] | None = None
+    at_fa = []
+    if both:
+        fa, pd = roc_curve(combined, actual)
+        keep = np.unique(np.linspace(0, len(fa) - 1, min(roc_points, len(fa))).round().astype(int))
+        roc = {
             "false_alarm": fa[keep].tolist(),
             "detection": pd[keep].tolist(),
             # Up to the any-spike rule's own false-alarm rate: windows it misses never alarm.
             "area_reachable": float(np.sum(np.diff(fa) * (pd[1:] + pd[:-1]) / 2)),
-        },
+        }
+        at_fa = [at(r, threshold_at_false_alarm(combined, actual, r)) for r in FALSE_ALARM_RATES]
+    out = {
+        "threshold": float(threshold),
+        "any_spike": rule(fired),
+        "identified": rule(combined >= threshold),
+        "roc": roc,
         "at_false_alarm": at_fa,
     }
     if alarm_thresholds:

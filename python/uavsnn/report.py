@@ -385,12 +385,43 @@ def _bin_name(low: float, high: float | None, unit: str) -> str:
     return f"≥ {low:g} {unit}" if high is None else f"{low:g}–{high:g} {unit}"
 
 
-def _with_interval(share: float, interval: Sequence[float] | None) -> str:
+def _with_interval(share: float | None, interval: Sequence[float] | None) -> str:
     """``share`` in per cent, with its interval in brackets when there is one."""
-    text = f"{100 * share:.1f} %"
-    if interval is None or any(math.isnan(v) for v in interval):
+    text = percent(share)
+    if share is None or interval is None or any(math.isnan(v) for v in interval):
         return text
     return f"{text} ({100 * interval[0]:.1f}–{100 * interval[1]:.1f})"
+
+
+def _operating_points(points: list[dict[str, Any]]) -> list[str]:
+    """The lines of :func:`identification_markdown` at the points read off the ROC: detection
+    by size and range, false alarms per class, overall detection."""
+    lines: list[str] = []
+    head = " | ".join(f"at {100 * p['false_alarm_target']:g} % false alarms" for p in points)
+    for key, unit, what in (("by_size_px", "px", "size"), ("by_range_m", "m", "range")):
+        if not points[0][key]:
+            lines += [f"No UAV window has a labelled {what}.\n"]
+            continue
+        lines += [f"Detection by the UAV's {what}:\n", f"| {what} | UAV windows | {head} |"]
+        lines.append("|---|---|" + "---|" * len(points))
+        for k, b in enumerate(points[0][key]):
+            cells = " | ".join(
+                f"{p[key][k]['detected']} ({100 * p[key][k]['rate']:.1f} %)" for p in points
+            )
+            lines.append(f"| {_bin_name(b['low'], b['high'], unit)} | {b['windows']} | {cells} |")
+        lines.append("")
+    lines += ["False alarms per class of other object:\n", f"| class | {head} |"]
+    lines.append("|---|" + "---|" * len(points))
+    for cls in points[0]["false_alarms_per_class"]:
+        cells = " | ".join(f"{100 * p['false_alarms_per_class'][cls]:.1f} %" for p in points)
+        lines.append(f"| {cls} | {cells} |")
+    overall = "; ".join(
+        f"{100 * p['detection_rate']:.1f} % of the UAV windows at "
+        f"{100 * p['false_alarm_rate']:.1f} % false alarms"
+        for p in points
+    )
+    lines += ["", f"Overall detection: {overall}."]
+    return lines
 
 
 def identification_markdown(figures: dict[str, Any]) -> str:
@@ -417,36 +448,19 @@ def identification_markdown(figures: dict[str, Any]) -> str:
         other = figures["identified"]["per_class"][cls]
         lines.append(f"| {cls} | {100 * rate:.1f} % | {100 * other:.1f} % |")
     roc = figures["roc"]
-    lines.append(
-        f"\nROC of the combined score: it ends at the any-spike rule's own false-alarm rate "
-        f"({100 * roc['false_alarm'][-1]:.1f} %, detection {100 * roc['detection'][-1]:.1f} %); "
-        f"area up to there {roc['area_reachable']:.3f}.\n"
-    )
     points = figures["at_false_alarm"]
-    head = " | ".join(f"at {100 * p['false_alarm_target']:g} % false alarms" for p in points)
-    for key, unit, what in (("by_size_px", "px", "size"), ("by_range_m", "m", "range")):
-        if not points[0][key]:
-            lines += [f"No UAV window has a labelled {what}.\n"]
-            continue
-        lines += [f"Detection by the UAV's {what}:\n", f"| {what} | UAV windows | {head} |"]
-        lines.append("|---|---|" + "---|" * len(points))
-        for k, b in enumerate(points[0][key]):
-            cells = " | ".join(
-                f"{p[key][k]['detected']} ({100 * p[key][k]['rate']:.1f} %)" for p in points
-            )
-            lines.append(f"| {_bin_name(b['low'], b['high'], unit)} | {b['windows']} | {cells} |")
-        lines.append("")
-    lines += ["False alarms per class of other object:\n", f"| class | {head} |"]
-    lines.append("|---|" + "---|" * len(points))
-    for cls in points[0]["false_alarms_per_class"]:
-        cells = " | ".join(f"{100 * p['false_alarms_per_class'][cls]:.1f} %" for p in points)
-        lines.append(f"| {cls} | {cells} |")
-    overall = "; ".join(
-        f"{100 * p['detection_rate']:.1f} % of the UAV windows at "
-        f"{100 * p['false_alarm_rate']:.1f} % false alarms"
-        for p in points
-    )
-    lines += ["", f"Overall detection: {overall}."]
+    if roc is None:
+        lines.append(
+            "\nThe windows are of one class only (all UAV, or none): no ROC, and no point "
+            "read off one.\n"
+        )
+    else:
+        lines.append(
+            f"\nROC of the combined score: it ends at the any-spike rule's own false-alarm rate "
+            f"({100 * roc['false_alarm'][-1]:.1f} %, detection "
+            f"{100 * roc['detection'][-1]:.1f} %); area up to there {roc['area_reachable']:.3f}.\n"
+        )
+        lines += _operating_points(points)
     tuned = figures.get("at_tuned_false_alarm", [])
     if tuned:
         lines += [

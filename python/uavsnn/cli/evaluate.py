@@ -175,6 +175,11 @@ def _evaluate(args: argparse.Namespace) -> int:
     if args.roc is not None:
         if "roc" not in ident:
             raise ParameterError("--roc needs a model with identification (`uavsnn train`)")
+        if ident["roc"] is None:
+            raise ParameterError(
+                f"--roc: the {args.split} split holds windows of one class only (all UAV, or "
+                "none): no ROC"
+            )
         from uavsnn import pictures
 
         chart = pictures.line_chart(
@@ -316,13 +321,20 @@ def _print_identification(ident: dict[str, Any]) -> None:
                 f"  at {100 * point['false_alarm_target']:g} % false alarms: detection "
                 f"{100 * point['detection_rate']:.1f} % ({sizes})"
             )
+        if ident["roc"] is None:
+            print("  one class only (all UAV, or none): no ROC, no point read off one")
         for point in ident.get("at_tuned_false_alarm", []):
             lo, hi = point["false_alarm_interval"]
+            alarms = (
+                "none to measure (no UAV-free window)"
+                if point["false_alarm_rate"] is None
+                else f"{100 * point['false_alarm_rate']:.1f} % (95 % interval over recordings "
+                f"{100 * lo:.1f}-{100 * hi:.1f})"
+            )
             print(
                 f"  at the threshold tuned for {100 * point['false_alarm_target']:g} % false "
-                f"alarms ({point['threshold']:.3f}): false alarms "
-                f"{100 * point['false_alarm_rate']:.1f} % (95 % interval over recordings "
-                f"{100 * lo:.1f}-{100 * hi:.1f}), detection {100 * point['detection_rate']:.1f} %"
+                f"alarms ({point['threshold']:.3f}): false alarms {alarms}, detection "
+                f"{report.percent(point['detection_rate'])}"
             )
     classes = ident.get("classes")
     if classes and classes["classes"] and classes["objects"]:
