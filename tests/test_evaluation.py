@@ -299,6 +299,10 @@ def test_recording_interval_draws_recordings_not_windows() -> None:
     lo50, hi50 = recording_interval(hit, rec, level=0.5)
     assert lo <= lo50 <= hi50 <= hi
     assert all(np.isnan(recording_interval(np.zeros(0, bool), np.zeros(0, int))))
+    # No alarm in 30 recordings is not a share known to be 0: at most 11.6 % of recordings
+    # (1 - 0.025^(1/30)), so of windows, may alarm. The rule of three gives 10 %.
+    lo, hi = recording_interval(np.zeros(900, bool), rec)
+    assert lo == 0.0 and hi == pytest.approx(0.1157, abs=1e-4)
 
 
 @given(
@@ -317,7 +321,9 @@ def test_recording_interval_holds_the_share_when_each_recording_agrees(rows, see
     lo, hi = recording_interval(hit, rec, resamples=200, seed=seed)
     assert 0.0 <= lo <= hi <= 1.0
     if hit.all() or not hit.any():
-        assert lo == hi == float(hit[0])
+        # Clopper-Pearson's bound for none (or all) of the recordings hitting.
+        bound = 0.025 ** (1 / len(set(rec.tolist())))
+        assert (lo, hi) == pytest.approx((bound, 1.0) if hit.all() else (0.0, 1 - bound))
 
 
 def test_recording_interval_refuses_what_it_cannot_draw() -> None:

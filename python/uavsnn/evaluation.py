@@ -537,6 +537,13 @@ def recording_interval(
     set how well a share is known. ``(nan, nan)`` for no windows. The same inputs and ``seed``
     give the same interval.
 
+    Where no window hits (or every one does), every resample gives 0 (or 1), and the bootstrap
+    would say the share is known exactly: the interval is then Clopper-Pearson's for no
+    recording of ``r`` hitting (``(0, 1 - ((1 - level) / 2) ** (1 / r))``; the mirror for all),
+    a bound on the share of recordings that hit at all, so on the share of windows. Near such
+    shares (a few alarms in a few dozen recordings) the bootstrap covers less than ``level``:
+    read its interval as a lower bound on the uncertainty.
+
     Raises:
         ShapeError: ``hit`` and ``recording`` differ in length.
         ParameterError: ``level`` outside (0, 1) or ``resamples`` < 1.
@@ -555,6 +562,9 @@ def recording_interval(
     hits = np.bincount(which, weights=h).astype(np.float64)
     windows = np.bincount(which).astype(np.float64)
     r = len(windows)
+    if not h.any() or h.all():
+        bound = ((1 - level) / 2) ** (1 / r)
+        return (0.0, float(1 - bound)) if not h.any() else (float(bound), 1.0)
     rng = np.random.default_rng(seed)
     shares = []
     for start in range(0, resamples, _RESAMPLE_CHUNK):
