@@ -108,6 +108,12 @@ def test_train_then_evaluate(
     lines = [ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("  noise ")]
     assert len(lines) == len(figures["noise"]) == 2 * len(NOISE_FRACTIONS)
     assert any("with identification" in line for line in lines)  # the model has one
+    # Without a train split, the static threshold is set on the windows scored, and it says so.
+    bare = tmp_path / "bare"
+    shutil.copytree(dataset, bare)
+    (bare / "train.npz").unlink()
+    assert main(["evaluate", str(model), str(bare), "--noise", "--json"]) == 0
+    assert "has no train split: the static threshold" in capsys.readouterr().err
     for line, point in zip(lines, figures["noise"], strict=True):
         assert f"{100 * point['accuracy']:.1f} %" in line
         ident = point.get("identified")

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -196,7 +197,16 @@ def _evaluate(args: argparse.Namespace) -> int:
     static = None
     if args.noise or args.report:
         # The static twin's threshold: the one PENT sets on a typical clean training window.
-        train = load(args.dataset, "train") if (args.dataset / "train.npz").exists() else data
+        if (args.dataset / "train.npz").exists():
+            train = load(args.dataset, "train")
+        else:
+            train = data
+            print(
+                f"uavsnn evaluate: note: {args.dataset} has no train split: the static "
+                f"threshold is the one PENT sets on the median window of the {args.split} "
+                "split scored here (its spike counts, not its labels)",
+                file=sys.stderr,
+            )
         static, _ = static_twin(network, train.windows)
     if args.noise and static is not None:
         points = noise_sweep(
