@@ -179,9 +179,12 @@ def test_noise_levels_score_both_rules_on_the_same_noisy_windows(tiny) -> None:
     assert noise_level({"pent": bare}, test, 0.02, seed=5)[0].identified is None
     assert both_rules(bare, test, e.inference) is None
     table = noise_table(clean + noisy)
-    assert "| pent + identification | static + identification |" in table
+    assert "| pent + identification | static + identification | the paper" in table
     first, _, second = table.partition("The paper's Table 3")
     assert first.count("\n| ") == 2  # one row per level after the header
+    # The paper's figure beside SPEC §5's share of 2 % (its fourth, 72 %), none at 0 %.
+    assert first.split("\n| 2 % |")[1].split("\n")[0].endswith("| 72 % |")
+    assert first.split("\n| 0 % |")[1].split("\n")[0].endswith("|  |")
     # Detection at fixed false-alarm rates, per mode and level, for both modes.
     assert "| pent, at 1 % false alarms | pent, at 5 % false alarms | static, at 1 %" in second
     assert second.count("\n| 0 % |") == 1 and second.count("\n| 2 % |") == 1

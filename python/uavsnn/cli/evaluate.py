@@ -240,7 +240,7 @@ def _evaluate(args: argparse.Namespace) -> int:
         print(f"  {name:12s} {c.windows:6d} windows, called UAV {100 * c.called_uav_rate:5.1f} %")
     for z in result.per_size:
         print(
-            f"  object {z.label:10s} UAV: {z.uav.called_uav}/{z.uav.windows} called UAV, "
+            f"  box side {z.label:10s} UAV: {z.uav.called_uav}/{z.uav.windows} called UAV, "
             f"others: {z.other.called_uav}/{z.other.windows}"
         )
     if len(result.latency_us):
@@ -329,7 +329,7 @@ def _print_identification(ident: dict[str, Any]) -> None:
             )
             print(
                 f"  at {100 * point['false_alarm_target']:g} % false alarms: detection "
-                f"{100 * point['detection_rate']:.1f} % ({sizes})"
+                f"{100 * point['detection_rate']:.1f} % (by drawn size: {sizes})"
             )
         if ident["roc"] is None:
             print("  one class only (all UAV, or none): no ROC, no point read off one")
