@@ -191,28 +191,36 @@ impl PacketDecoder {
             self.dropped += 1;
             return Err(err);
         }
-        // A new time base: the held packets first, each taken back if good on it (one that
-        // is not, reordered within the restart, stays dropped), then this one.
-        let mut fresh = Clock::default();
-        for (bytes, arrival) in std::mem::take(&mut self.held) {
-            let mut trial = fresh.clone();
-            if self.decode_with(&bytes, arrival, &mut trial, out).is_ok() {
-                fresh = trial;
-                self.dropped -= 1;
+        // A new time base: the held packets, each taken back if good on it (one that is not,
+        // reordered within the restart, stays dropped), then this one. The new stream is this
+        // packet's: the held packets it goes back from (the old stream's last, reordered
+        // before the restart) are left out, from the first on.
+        let held = std::mem::take(&mut self.held);
+        for start in 0..=held.len() {
+            let mark = out.len();
+            let mut fresh = Clock::default();
+            let mut taken = 0;
+            for (bytes, arrival) in &held[start..] {
+                let mut trial = fresh.clone();
+                if self.decode_with(bytes, *arrival, &mut trial, out).is_ok() {
+                    fresh = trial;
+                    taken += 1;
+                }
             }
+            if self
+                .decode_with(packet, arrival_us, &mut fresh, out)
+                .is_ok()
+            {
+                self.commit(&fresh);
+                self.dropped -= taken;
+                self.restarts += 1;
+                return Ok(());
+            }
+            out.truncate(mark);
         }
-        let mut trial = fresh.clone();
-        if self
-            .decode_with(packet, arrival_us, &mut trial, out)
-            .is_ok()
-        {
-            fresh = trial;
-        } else {
-            self.dropped += 1;
-        }
-        self.commit(&fresh);
-        self.restarts += 1;
-        Ok(())
+        // Not reached: the packet alone is good on a new base (the last start above).
+        self.dropped += 1;
+        Err(err)
     }
 
     /// Whether `packet` decodes on a new time base (nothing is appended to `out`).
@@ -588,7 +596,8 @@ mod tests {
     }
 
     /// Within a restart, a held packet that goes back from those before it (reordered), or a
-    /// packet bad in itself, is not taken back; the rest are, in order; the packets held are
+    /// packet bad in itself, is not taken back; the rest are, in order; a held packet of the
+    /// old stream (reordered just before the restart) is left out; the packets held are
     /// bounded by `MAX_HELD_BYTES`.
     #[test]
     fn a_restart_takes_back_the_held_packets_good_on_the_new_base() {
@@ -615,6 +624,25 @@ mod tests {
         want.push(ev(200, 2, 2, true));
         assert_eq!(out, want);
         assert_eq!((d.restarts(), d.dropped()), (1, 2));
+
+        // The old stream's last packet arrives late, just as the sensor restarts.
+        let mut d = PacketDecoder::new(PacketFormat::T64X16Y16On8, sensor());
+        d.decode(&encode(&[ev(1_000_000, 1, 1, true)]), 0, &mut out)
+            .unwrap();
+        out.clear();
+        let late = ev(999_000, 1, 1, true);
+        let new: Vec<Event> = (0..=u64::from(RESTART_AFTER))
+            .map(|k| ev(10 + k, 2, 2, true))
+            .collect();
+        assert!(d.decode(&encode(&[late]), 0, &mut out).is_err());
+        for e in &new {
+            let _ = d.decode(&encode(&[*e]), 0, &mut out);
+        }
+        assert_eq!(d.restarts(), 1);
+        assert_eq!(out, new);
+        assert_eq!(d.dropped(), 1); // the late packet alone
+        d.decode(&encode(&[ev(100, 3, 3, true)]), 0, &mut out)
+            .unwrap();
 
         // Packets too large to hold are refused and lost, and the restart still comes.
         let mut d = PacketDecoder::new(PacketFormat::T64X16Y16On8, sensor());
