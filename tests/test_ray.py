@@ -25,6 +25,7 @@ from uavsnn.cli import main
 from uavsnn.dataset import build, load, read_manifest
 from uavsnn.dataset.synthetic import SceneSource
 from uavsnn.errors import DatasetError, ParameterError
+from uavsnn.experiments import NOISE_FRACTIONS
 
 try:
     import ray
@@ -284,7 +285,7 @@ def test_ray_reproduce_gives_the_serial_figures(runner: Any, tmp_path: Path) -> 
         for model in ("model-dvs.npz", "model-combined.npz"):
             assert Network.load(out / model) == Network.load(tmp_path / "serial" / model)
     assert figures[0] == figures[1]
-    assert len(figures[1]["noise"]) == 18 and "table2" in figures[1]
+    assert len(figures[1]["noise"]) == 2 * len(NOISE_FRACTIONS) and "table2" in figures[1]
     assert figures[1]["false_alarms"]["dvs"]["recordings"] == 3
 
 
