@@ -19,7 +19,8 @@ Files are written to a temporary name and renamed, so a file is either whole or 
 manifest is written last, so a folder with a manifest is a finished dataset. The manifest holds
 each split file's SHA-256 (``splits.<name>.sha256``), checked on load, so a split file from
 another build is refused. A build holds a lock on its folder (:data:`LOCK`, an advisory
-``flock`` that ends with the process), so a second build into the same folder fails at once.
+``flock``, on Windows ``msvcrt.locking``, that ends with the process), so a second build into
+the same folder fails at once.
 """
 
 from __future__ import annotations
