@@ -192,12 +192,34 @@ def _same_dataset(a: Path, b: Path) -> None:
                 assert np.array_equal(x, y, equal_nan=x.dtype.kind == "f"), (name, key)
 
 
-def test_ray_build_is_the_serial_build(runner: Any, tmp_path: Path) -> None:
+@pytest.fixture
+def ray_tasks(monkeypatch: pytest.MonkeyPatch) -> list[str]:
+    """The names of the functions that ran as Ray tasks (their handle a Ray object reference)
+    while the test runs: a run compared with the serial one must have gone through Ray, or the
+    comparison shows nothing."""
+    from uavsnn.distributed import RayRunner
+
+    names: list[str] = []
+    submit = RayRunner.submit
+
+    def counted(self: Any, fn: Callable[..., Any], *args: Any) -> Any:
+        handle = submit(self, fn, *args)
+        if isinstance(handle, ray.ObjectRef):
+            names.append(getattr(fn, "__name__", repr(fn)))
+        return handle
+
+    monkeypatch.setattr(RayRunner, "submit", counted)
+    return names
+
+
+def test_ray_build_is_the_serial_build(runner: Any, tmp_path: Path, ray_tasks: list[str]) -> None:
     kwargs: dict[str, Any] = {"n_test": 20, "n_train": 16, "seed": 3, "dvs": DVS}
     serial = build(tmp_path / "serial", "dvs", **kwargs).root
+    assert not ray_tasks
     on_ray = build(tmp_path / "ray", "dvs", runner=runner, **kwargs).root
     _same_dataset(serial, on_ray)
-    assert len(read_manifest(on_ray)["recordings"]) > 2  # several tasks, some in flight at once
+    recordings = len(read_manifest(on_ray)["recordings"])
+    assert recordings > 2 and len(ray_tasks) >= recordings  # a task a recording, at least
 
 
 def test_ray_build_of_real_footage_is_the_serial_build(
@@ -205,6 +227,7 @@ def test_ray_build_of_real_footage_is_the_serial_build(
     tmp_path: Path,
     write_clip: Callable[..., None],
     capsys: pytest.CaptureFixture[str],
+    ray_tasks: list[str],
 ) -> None:
     videos = tmp_path / "videos"
     videos.mkdir()
@@ -215,20 +238,27 @@ def test_ray_build_of_real_footage_is_the_serial_build(
     serial = build(tmp_path / "serial", "real", **kwargs).root
     on_ray = build(tmp_path / "ray", "real", runner=runner, **kwargs).root
     _same_dataset(serial, on_ray)
+    assert len(ray_tasks) >= 5  # a clip a task, at least
     # Its test clips streamed whole, a clip a task: the serial figures.
     from uavsnn.clips import evaluate_clips
 
     net = Network({"width": 240, "height": 180, "conv2": {"threshold": 10.0}}, seed=0)
+    ray_tasks.clear()
     clips = evaluate_clips(net, serial, videos=videos)
+    assert not ray_tasks
     assert evaluate_clips(net, serial, videos=videos, runner=runner) == clips
-    assert clips["clips"] > 1
+    assert clips["clips"] > 1 and len(ray_tasks) >= clips["clips"]
     net.save(tmp_path / "m.npz")
     argv = ["evaluate", str(tmp_path / "m.npz"), str(serial), "--clips", "--videos", str(videos)]
+    ray_tasks.clear()
     assert main([*argv, "--json", "--ray"]) == 0
     assert json.loads(capsys.readouterr().out)["clips"] == clips
+    assert len(ray_tasks) >= clips["clips"]
 
 
-def test_interrupted_ray_build_leaves_no_dataset(runner: Any, tmp_path: Path) -> None:
+def test_interrupted_ray_build_leaves_no_dataset(
+    runner: Any, tmp_path: Path, ray_tasks: list[str]
+) -> None:
     calls = []
 
     def interrupt(msg: str) -> None:
@@ -239,6 +269,7 @@ def test_interrupted_ray_build_leaves_no_dataset(runner: Any, tmp_path: Path) ->
     out = tmp_path / "d"
     with pytest.raises(KeyboardInterrupt):
         build(out, "dvs", n_test=20, n_train=16, seed=3, dvs=DVS, runner=runner, progress=interrupt)
+    assert ray_tasks  # interrupted with tasks on the cluster
     assert not (out / "manifest.json").exists()
     with pytest.raises(DatasetError):
         load(out, "test")
@@ -263,7 +294,9 @@ def _figures(obj: Any) -> Any:
     return obj
 
 
-def test_ray_reproduce_gives_the_serial_figures(runner: Any, tmp_path: Path) -> None:
+def test_ray_reproduce_gives_the_serial_figures(
+    runner: Any, tmp_path: Path, ray_tasks: list[str]
+) -> None:
     # Tiny datasets, built once and given to both runs (the builds are compared above).
     data = tmp_path / "data"
     build(data / "dvs", "dvs", n_test=20, n_train=30, seed=0, dvs=DVS)
@@ -278,7 +311,9 @@ def test_ray_reproduce_gives_the_serial_figures(runner: Any, tmp_path: Path) -> 
         argv = ["reproduce", "--out", str(out), "--n-train", "30", "--n-test", "20"]
         argv += ["--windows-per-layer", "30", "--no-real", "--quiet", "--free-minutes", "0.05"]
         argv += extra
+        ray_tasks.clear()
         assert main(argv) == 0
+        assert bool(ray_tasks) == bool(extra), ray_tasks  # the --ray run went through Ray
         figures.append(_figures(json.loads((out / "results.json").read_text())))
         text = (out / "RESULTS.md").read_text()
         assert "## Real footage\n\nNot run: --no-real was given." in text
@@ -530,7 +565,13 @@ def test_detect_command_over_several_files(
     assert main([*argv, "--sensor-size", "240x180"]) == 0
     captured = capsys.readouterr()
     lines = [json.loads(line) for line in captured.out.splitlines()]
+    from uavsnn import Detector
+
     for name in files:
         mine = [d["t"] for d in lines if d["stream"] == name]
-        assert mine == sorted(mine)
+        # What one Detector finds in the file, in time order (the command's defaults).
+        det = Detector(model, window_us=50_000, overlap=0.5)
+        events = np.load(name)
+        want = np.concatenate([det.push(events), det.flush()])["t"].tolist()
+        assert want and mine == want
         assert f"{name}: done events=3000" in captured.err
