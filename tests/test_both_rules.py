@@ -7,6 +7,7 @@ from __future__ import annotations
 import pickle
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -153,14 +154,31 @@ def test_fit_identification_attaches_a_model_or_says_why_not(tiny) -> None:
     assert fresh.identification is None
 
 
-def test_noise_levels_score_both_rules_on_the_same_noisy_windows(tiny) -> None:
+def test_noise_levels_score_both_rules_on_the_same_noisy_windows(
+    tiny, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from uavsnn import experiments
+
     net, _, test = tiny
     if net.identification is None:
         net = net.copy()
         net.identification = _identifier()
     static, _ = static_twin(net, test.windows)
+    # Identification at a noise level measures the raw events with that level's noise.
+    raw_noise: list[Any] = []
+    scored = experiments.both_rules
+
+    def both_rules_seen(*args: Any, **kwargs: Any) -> Any:
+        raw_noise.append(kwargs.get("raw_noise"))
+        return scored(*args, **kwargs)
+
+    monkeypatch.setattr(experiments, "both_rules", both_rules_seen)
     clean = noise_level({"pent": net, "static": static}, test, 0.0, seed=5)
+    assert set(raw_noise) == {None}
+    raw_noise.clear()
     noisy = noise_level({"pent": net, "static": static}, test, 0.02, seed=5)
+    assert raw_noise == [(0.02, 5)] * 2
+    monkeypatch.undo()
     for point in clean + noisy:
         ident = point.identified
         assert ident is not None
@@ -168,11 +186,25 @@ def test_noise_levels_score_both_rules_on_the_same_noisy_windows(tiny) -> None:
         assert ident["any_spike"]["confusion"] == point.evaluation.confusion.tolist()
         assert sum(map(sum, ident["identified"]["confusion"])) == len(test)
         assert point.to_dict()["identified"]["accuracy"] == ident["identified"]["accuracy"]
+    # The noise is there (more input spikes at 2 % than clean, under both thresholds), and the
+    # static twin is not PENT under another name: at 2 % they call other windows UAV.
+    assert [p.mode for p in noisy] == ["pent", "static"]
+    for c, n in zip(clean, noisy, strict=True):
+        assert n.evaluation.input_spikes > c.evaluation.input_spikes
+    assert static.config["pent"]["mode"] == "static" != net.config["pent"]["mode"]
+    assert not np.array_equal(noisy[0].evaluation.predicted, noisy[1].evaluation.predicted)
     # At no noise the figures are both_rules' on the clean windows.
     from uavsnn.evaluation import evaluate
 
     e = evaluate(net, test, keep_inference=True)
     assert both_rules(net, test, e.inference) == clean[0].identified
+    # Identification measures noisy raw events at a noise level: its features change.
+    from uavsnn.features import window_features
+
+    plain = window_features(net, test, e.inference)
+    raw = window_features(net, test, e.inference, raw_noise=(0.02, 5))
+    assert len(plain.x) and plain.x.shape == raw.x.shape
+    assert not np.allclose(plain.x, raw.x, equal_nan=True)
     # Without identification: the any-spike rule only.
     bare = net.copy()
     bare.identification = None
@@ -558,3 +590,32 @@ def _without_alarms(net: Network) -> Network:
     assert out.identification is not None
     out.identification = replace(out.identification, alarm_thresholds=())
     return out
+
+
+def test_mix_windows_draws_equal_shares_of_each_part(tiny) -> None:
+    """The combined network's training set: as many windows of each part, each part's own
+    (drawn without replacement), its recordings kept apart from the other part's."""
+    from uavsnn.experiments import mix_windows
+
+    _, _, test = tiny
+    n = len(test)
+    other = replace(test, cls=np.full(n, "from-sim"))
+    mixed = mix_windows([test, other], 20, seed=4)
+    assert len(mixed) == 20
+    first, second = mixed.cls[:10], mixed.cls[10:]
+    assert "from-sim" not in set(first.tolist()) and set(second.tolist()) == {"from-sim"}
+    rec = np.asarray(mixed.recording)
+    assert not set(rec[:10].tolist()) & set(rec[10:].tolist())
+    assert rec[10:].min() > np.asarray(test.recording).max()
+    # Without replacement: ten different windows of each part (a window is its recording and
+    # its start), each one of the part's.
+    t0 = np.asarray(mixed.windows.t0)
+    have = set(
+        zip(np.asarray(test.recording).tolist(), np.asarray(test.windows.t0).tolist(), strict=True)
+    )
+    offset = int(np.asarray(test.recording).max()) + 1  # the second part's numbers follow
+    for half, shift in ((slice(0, 10), 0), (slice(10, 20), offset)):
+        keys = set(zip((rec[half] - shift).tolist(), t0[half].tolist(), strict=True))
+        assert len(keys) == 10 and keys <= have
+    again = mix_windows([test, other], 20, seed=4)  # the same seed, the same draw
+    assert np.array_equal(again.windows.t0, t0) and np.array_equal(again.recording, rec)
