@@ -171,6 +171,21 @@ fn check_packets(format: PacketFormat, packets: &[Vec<u8>], arrival: u64) {
     }
 }
 
+/// 9 to 15 packets of a target's seeds that hold whole events, a fifth of them edited.
+fn restarting(target: &'static str) -> impl Strategy<Value = Vec<Vec<u8>>> {
+    let seeds: Vec<Vec<u8>> = corpus(target)
+        .into_iter()
+        .filter(|s| !s.is_empty() && s.len() % 13 == 0)
+        .collect();
+    let n = seeds.len();
+    let packet = (
+        0..n,
+        prop::option::weighted(0.2, prop::collection::vec(edit(), 1..3)),
+    )
+        .prop_map(move |(i, edits)| apply(seeds[i].clone(), &edits.unwrap_or_default()));
+    prop::collection::vec(packet, 9..16)
+}
+
 fn packets(target: &'static str) -> impl Strategy<Value = Vec<Vec<u8>>> {
     prop::collection::vec(inputs(target), 1..5)
 }
@@ -181,6 +196,19 @@ proptest! {
     #[test]
     fn udp_t64_packets(p in packets("udp_t64")) {
         check_packets(PacketFormat::T64X16Y16On8, &p, 0);
+    }
+
+    /// A packet stamped far ahead, then enough packets of the stream to restart it (more than
+    /// `RESTART_AFTER` in a row going back: the seeds with events, a fifth of them edited, so
+    /// that most runs restart): the contract holds through the restart.
+    #[test]
+    fn udp_t64_packets_through_a_restart(p in restarting("udp_t64")) {
+        let mut ahead = Vec::with_capacity(13);
+        ahead.extend_from_slice(&(1u64 << 40).to_le_bytes());
+        ahead.extend_from_slice(&[0, 0, 0, 0, 1]);
+        let mut packets = vec![ahead];
+        packets.extend(p);
+        check_packets(PacketFormat::T64X16Y16On8, &packets, 0);
     }
 
     #[test]

@@ -168,7 +168,11 @@ impl PacketDecoder {
             last_raw: self.last_raw,
             went_back: false,
         };
+        let before = out.len();
         let err = match self.decode_with(packet, arrival_us, &mut clock, out) {
+            // A packet without events says nothing of the time: it ends no run of packets
+            // going back (a sender's empty keep-alives would otherwise hold off a restart).
+            Ok(()) if out.len() == before => return Ok(()),
             Ok(()) => {
                 self.commit(&clock);
                 return Ok(());
@@ -572,6 +576,27 @@ mod tests {
                 .is_err());
             assert_eq!((d.restarts(), d.dropped()), (1, 1), "{format}");
         }
+    }
+
+    /// Empty packets between the refused ones (a sender's keep-alives) neither end the run
+    /// nor are held: the restart comes as without them.
+    #[test]
+    fn empty_packets_do_not_hold_off_a_restart() {
+        let encode = encoder(PacketFormat::T64X16Y16On8);
+        let mut d = PacketDecoder::new(PacketFormat::T64X16Y16On8, sensor());
+        let mut out = Vec::new();
+        d.decode(&encode(&[ev(1_000_000, 1, 1, true)]), 0, &mut out)
+            .unwrap();
+        out.clear();
+        let new: Vec<Event> = (0..=u64::from(RESTART_AFTER))
+            .map(|k| ev(10 + k, 2, 2, true))
+            .collect();
+        for e in &new {
+            d.decode(&[], 0, &mut out).unwrap();
+            let _ = d.decode(&encode(&[*e]), 0, &mut out);
+        }
+        assert_eq!((d.restarts(), d.dropped()), (1, 0));
+        assert_eq!(out, new);
     }
 
     /// A glitch far ahead is accepted; the stream it cut off comes back after a few packets,
