@@ -374,6 +374,42 @@ def test_a_stream_worker_polls_without_touching_the_busy_detector(
     assert seen == 20_000 and counts["windows"] > 0 and counts["error"] is None
 
 
+def test_a_stream_worker_drops_a_chunk_stamped_wholly_before_the_idle_mark(
+    model: Network,
+) -> None:
+    """A quiet stream advanced with the wall clock (idle_flush_s): a packet that arrives
+    stamped wholly before the time reached is rejected, and the stream goes on (the worker
+    once pushed the empty rest and failed). No Ray needed."""
+    from uavsnn.distributed import _StreamWorker
+
+    burst = _events(1_000, 12)
+    # After the burst's last event (so the packet decoder takes it, in time order) but before
+    # the time the quiet stream is then taken to have reached.
+    late = burst[-10:].copy()
+    late["t"] = burst["t"][-1] + np.arange(1, 11, dtype=np.uint64)
+    later = burst[-1:].copy()
+    later["t"] += np.uint64(10**9)
+    options = {"window_us": 20_000, "overlap": 0.5, "idle_flush_s": 0.1, "max_packets": 3,
+               "idle_timeout": 30.0}  # fmt: skip
+    worker = _StreamWorker("cam", "udp://127.0.0.1:0", model, options)
+    address = worker.bound()
+    assert address is not None
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.sendto(burst.tobytes(), address)
+        deadline = time.monotonic() + 20
+        while worker.idle.reached <= int(late["t"][-1]) and time.monotonic() < deadline:
+            time.sleep(0.05)  # until the quiet stream has been advanced past those times
+        assert worker.idle.reached > int(late["t"][-1])
+        s.sendto(late.tobytes(), address)
+        s.sendto(later.tobytes(), address)
+        done, counts = False, {}
+        while not done and time.monotonic() < deadline + 20:
+            _, counts, done = worker.poll(0.2)
+    assert done and counts["error"] is None, counts
+    assert counts["rejected_events"] == len(late)
+    assert counts["events_seen"] == len(burst) + 1
+
+
 def test_more_streams_than_allowed_are_refused_before_any_actor(
     runner: Any, model: Network
 ) -> None:

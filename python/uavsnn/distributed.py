@@ -367,14 +367,14 @@ class _StreamWorker:
 
     def __init__(self, name: str, spec: str, model: Network, options: dict[str, Any]) -> None:
         from uavsnn.detector import Detector
-        from uavsnn.sources import IdleClock, UdpSource, open_source
+        from uavsnn.sources import IdleClock, UdpSource, is_live, open_source
 
         self.name = name
         opts = dict(options)
         window_us, overlap = opts.pop("window_us"), opts.pop("overlap")
         idle_flush_s = opts.pop("idle_flush_s", None)
         model_size = (int(model.config["width"]), int(model.config["height"]))
-        live = spec == "-" or spec.startswith("udp://")
+        live = is_live(spec)
         if opts.get("sensor_size") is None and live:
             opts["sensor_size"] = model_size
         self.idle = IdleClock(idle_flush_s if live else None)
@@ -436,6 +436,8 @@ class _StreamWorker:
                         with self._lock:
                             self._rejected += late
                         chunk = chunk[late:]
+                        if not len(chunk):
+                            continue
                     try:
                         found = self.detector.push(chunk)
                         self.idle.heard(chunk)

@@ -94,6 +94,7 @@ __all__ = [
     "SourceStats",
     "StdinSource",
     "UdpSource",
+    "is_live",
     "open_source",
 ]
 
@@ -668,6 +669,12 @@ def _seconds(name: str, value: float | None) -> float | None:
             f"{name} must be > 0 and at most {MAX_IDLE_TIMEOUT:g} seconds, got {value}"
         )
     return value
+
+
+def is_live(spec: str) -> bool:
+    """Whether a source's command-line spelling names a live stream, which ends only when
+    told (``-`` or ``udp://HOST:PORT``), rather than a file."""
+    return spec == "-" or spec.startswith("udp://")
 
 
 def open_source(

@@ -367,14 +367,9 @@ class _Summary:
 MAX_WINDOW_MS = float(1 << 62) / 1000
 
 
-def _live(source: str) -> bool:
-    """Standard input or UDP: a source that ends only when told."""
-    return source == "-" or source.startswith("udp://")
-
-
 def _check_args(args: argparse.Namespace) -> None:
     """Refuse flag values that make no sense before opening anything."""
-    from uavsnn.sources import MAX_IDLE_TIMEOUT
+    from uavsnn.sources import MAX_IDLE_TIMEOUT, is_live
 
     if not (math.isfinite(args.window_ms) and 0.001 <= args.window_ms <= MAX_WINDOW_MS):
         raise ParameterError(
@@ -388,7 +383,7 @@ def _check_args(args: argparse.Namespace) -> None:
             f"--summary-every must be a number of seconds >= 0 (0: only at the end), "
             f"got {args.summary_every}"
         )
-    live = _live(args.source)
+    live = is_live(args.source)
     if args.realtime and live:
         raise ParameterError(
             "--realtime replays a file at its own pace; standard input and UDP already "
@@ -405,7 +400,7 @@ def _check_args(args: argparse.Namespace) -> None:
                     "files end by themselves"
                 )
     if args.idle_flush is not None:
-        files = [s for s in (args.source, *args.more_sources) if not _live(s)]
+        files = [s for s in (args.source, *args.more_sources) if not is_live(s)]
         if files:
             raise ParameterError(
                 f"--idle-flush applies to live sources ('-' or udp://HOST:PORT): {files[0]} is "
@@ -459,7 +454,7 @@ def run(args: argparse.Namespace) -> int:
     from uavsnn.cli import exit_code, interrupted_line
     from uavsnn.detector import Detector
     from uavsnn.network import Network
-    from uavsnn.sources import IdleClock, UdpSource, open_source
+    from uavsnn.sources import IdleClock, UdpSource, is_live, open_source
 
     _check_args(args)
     if args.more_sources or args.ray is not None:
@@ -489,7 +484,7 @@ def run(args: argparse.Namespace) -> int:
             args.confirm = stored
     model_size = (int(network.config["width"]), int(network.config["height"]))
     # '-' and UDP carry no sensor size: default to the model's; a file has its own.
-    live = _live(args.source)
+    live = is_live(args.source)
     sensor_size = _sensor_size(args.sensor_size) or (model_size if live else None)
     source = open_source(
         args.source,
