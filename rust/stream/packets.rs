@@ -578,16 +578,21 @@ mod tests {
         }
     }
 
+    /// A `t64` decoder that has taken one event at t = 1 s.
+    fn past_a_second() -> PacketDecoder {
+        let mut d = PacketDecoder::new(PacketFormat::T64X16Y16On8, sensor());
+        d.decode(&t64(&[ev(1_000_000, 1, 1, true)]), 0, &mut Vec::new())
+            .unwrap();
+        d
+    }
+
     /// Empty packets between the refused ones (a sender's keep-alives) neither end the run
     /// nor are held: the restart comes as without them.
     #[test]
     fn empty_packets_do_not_hold_off_a_restart() {
         let encode = encoder(PacketFormat::T64X16Y16On8);
-        let mut d = PacketDecoder::new(PacketFormat::T64X16Y16On8, sensor());
+        let mut d = past_a_second();
         let mut out = Vec::new();
-        d.decode(&encode(&[ev(1_000_000, 1, 1, true)]), 0, &mut out)
-            .unwrap();
-        out.clear();
         let new: Vec<Event> = (0..=u64::from(RESTART_AFTER))
             .map(|k| ev(10 + k, 2, 2, true))
             .collect();
@@ -627,11 +632,8 @@ mod tests {
     #[test]
     fn a_restart_takes_back_the_held_packets_good_on_the_new_base() {
         let encode = encoder(PacketFormat::T64X16Y16On8);
-        let mut d = PacketDecoder::new(PacketFormat::T64X16Y16On8, sensor());
+        let mut d = past_a_second();
         let mut out = Vec::new();
-        d.decode(&encode(&[ev(1_000_000, 1, 1, true)]), 0, &mut out)
-            .unwrap();
-        out.clear();
         let mut sent = vec![ev(100, 1, 1, true), ev(50, 1, 1, true)]; // the second reordered
         sent.extend((2..u64::from(RESTART_AFTER)).map(|k| ev(100 + k, 1, 1, true)));
         for e in &sent {
@@ -651,9 +653,7 @@ mod tests {
         assert_eq!((d.restarts(), d.dropped()), (1, 2));
 
         // The old stream's last packet arrives late, just as the sensor restarts.
-        let mut d = PacketDecoder::new(PacketFormat::T64X16Y16On8, sensor());
-        d.decode(&encode(&[ev(1_000_000, 1, 1, true)]), 0, &mut out)
-            .unwrap();
+        let mut d = past_a_second();
         out.clear();
         let late = ev(999_000, 1, 1, true);
         let new: Vec<Event> = (0..=u64::from(RESTART_AFTER))
@@ -670,9 +670,7 @@ mod tests {
             .unwrap();
 
         // Packets too large to hold are refused and lost, and the restart still comes.
-        let mut d = PacketDecoder::new(PacketFormat::T64X16Y16On8, sensor());
-        d.decode(&encode(&[ev(1_000_000, 1, 1, true)]), 0, &mut out)
-            .unwrap();
+        let mut d = past_a_second();
         out.clear();
         let big = MAX_HELD_BYTES / PACKED_EVENT_SIZE / 2 + 1;
         for k in 0..u64::from(RESTART_AFTER) {
