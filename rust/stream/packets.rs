@@ -179,14 +179,13 @@ impl PacketDecoder {
             }
             Err(err) => err,
         };
+        if clock.went_back {
+            self.backwards = self.backwards.saturating_add(1);
+        }
         if !clock.went_back || !self.good_alone(packet, arrival_us, out) {
-            if clock.went_back {
-                self.backwards = self.backwards.saturating_add(1);
-            }
             self.dropped += 1;
             return Err(err);
         }
-        self.backwards = self.backwards.saturating_add(1);
         if self.backwards <= RESTART_AFTER {
             let held: usize = self.held.iter().map(|(bytes, _)| bytes.len()).sum();
             if held + packet.len() <= MAX_HELD_BYTES {
