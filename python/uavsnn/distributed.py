@@ -533,12 +533,9 @@ def detect_streams(
             f"{len(sources)} streams: at most {MAX_STREAMS} run at once (uavsnn.distributed."
             f"MAX_STREAMS), each an actor process holding the model"
         )
-    from uavsnn.sources import MAX_IDLE_TIMEOUT
+    from uavsnn.sources import check_seconds
 
-    if idle_flush_s is not None and not 0 < idle_flush_s <= MAX_IDLE_TIMEOUT:
-        raise ParameterError(
-            f"idle_flush_s must be > 0 and at most {MAX_IDLE_TIMEOUT:g} seconds, got {idle_flush_s}"
-        )
+    check_seconds("idle_flush_s", idle_flush_s)
     options = {
         "window_us": window_us,
         "overlap": overlap,

@@ -94,6 +94,7 @@ __all__ = [
     "SourceStats",
     "StdinSource",
     "UdpSource",
+    "check_seconds",
     "is_live",
     "open_source",
 ]
@@ -157,7 +158,7 @@ class IdleClock:
     """
 
     def __init__(self, lag_s: float | None) -> None:
-        self.lag_s = _seconds("lag_s", lag_s)
+        self.lag_s = check_seconds("lag_s", lag_s)
         self.last_t: int | None = None
         self.heard_at = 0.0
         self.reached = 0  # the latest time the stream was advanced to
@@ -322,7 +323,7 @@ class StdinSource(EventSource):
         heartbeat_s: float | None = None,
     ) -> None:
         super().__init__()
-        self.heartbeat_s = _seconds("heartbeat_s", heartbeat_s)
+        self.heartbeat_s = check_seconds("heartbeat_s", heartbeat_s)
         if fmt not in STDIN_FORMATS:
             raise ParameterError(f"stdin format must be one of {STDIN_FORMATS}, got {fmt!r}")
         if read_size < _RECORD:
@@ -547,7 +548,7 @@ class UdpSource(EventSource):
         heartbeat_s: float | None = None,
     ) -> None:
         super().__init__()
-        self.heartbeat_s = _seconds("heartbeat_s", heartbeat_s)
+        self.heartbeat_s = check_seconds("heartbeat_s", heartbeat_s)
         asked = RECEIVE_BUFFER if receive_buffer is None else receive_buffer
         if not 1 <= asked < 1 << 31:
             raise ParameterError(f"receive_buffer must be 1 to 2^31 - 1 bytes, got {asked}")
@@ -555,7 +556,7 @@ class UdpSource(EventSource):
             raise ParameterError(f"UDP format must be one of {PACKET_FORMATS}, got {fmt!r}")
         if max_packets is not None and max_packets < 1:
             raise ParameterError(f"max_packets must be >= 1, got {max_packets}")
-        _seconds("idle_timeout", idle_timeout)
+        check_seconds("idle_timeout", idle_timeout)
         width, height = check_sensor_size(sensor_size)
         self.sensor_size = (width, height)
         self.decoder = _core.PacketDecoder(fmt, width, height)
@@ -661,9 +662,10 @@ class UdpSource(EventSource):
         self.socket.close()
 
 
-def _seconds(name: str, value: float | None) -> float | None:
-    """A wait in seconds (``idle_timeout``, ``heartbeat_s``): ``None``, or more than 0 and at
-    most :data:`MAX_IDLE_TIMEOUT` (a socket's timeout holds no more)."""
+def check_seconds(name: str, value: float | None) -> float | None:
+    """A wait in seconds (``idle_timeout``, ``heartbeat_s``, an idle flush's lag; ``name`` as the
+    caller spells it): ``None``, or more than 0 and at most :data:`MAX_IDLE_TIMEOUT` (a
+    socket's timeout holds no more)."""
     if value is not None and not 0 < value <= MAX_IDLE_TIMEOUT:
         raise ParameterError(
             f"{name} must be > 0 and at most {MAX_IDLE_TIMEOUT:g} seconds, got {value}"

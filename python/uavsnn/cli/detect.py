@@ -369,7 +369,7 @@ MAX_WINDOW_MS = float(1 << 62) / 1000
 
 def _check_args(args: argparse.Namespace) -> None:
     """Refuse flag values that make no sense before opening anything."""
-    from uavsnn.sources import MAX_IDLE_TIMEOUT, is_live
+    from uavsnn.sources import check_seconds, is_live
 
     if not (math.isfinite(args.window_ms) and 0.001 <= args.window_ms <= MAX_WINDOW_MS):
         raise ParameterError(
@@ -409,11 +409,7 @@ def _check_args(args: argparse.Namespace) -> None:
     if args.max_packets is not None and args.max_packets < 1:
         raise ParameterError(f"--max-packets must be >= 1, got {args.max_packets}")
     for flag, seconds in (("--idle-flush", args.idle_flush), ("--idle-timeout", args.idle_timeout)):
-        if seconds is not None and not 0 < seconds <= MAX_IDLE_TIMEOUT:
-            raise ParameterError(
-                f"{flag} must be a number of seconds > 0 and at most {MAX_IDLE_TIMEOUT:g}, "
-                f"got {seconds}"
-            )
+        check_seconds(flag, seconds)
     for flag, value in (("--false-alarm", args.false_alarm), ("--false-tracks", args.false_tracks)):
         if value is not None and (args.more_sources or args.ray is not None):
             raise ParameterError(
