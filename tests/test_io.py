@@ -535,6 +535,20 @@ def test_csv_times_beyond_the_engine_limit_are_refused(tmp_path: Path) -> None:
     assert int(io.read(path, sensor_size=(64, 48)).events["t"][0]) == 2**62
 
 
+@pytest.mark.parametrize("stored", [["lab", 3], "lab", 3.5, None])
+def test_npz_metadata_other_than_an_object_is_kept(stored: object, tmp_path: Path) -> None:
+    # A writer other than this package may store a list or a string: it was dropped.
+    path = tmp_path / "other.npz"
+    np.savez(
+        path,
+        events=_events(3),
+        sensor_size=np.array([64, 48]),
+        metadata=np.array(json.dumps(stored)),
+    )
+    meta = io.read(path).metadata
+    assert meta["stored"] == stored and meta["format"] == "npz"
+
+
 def test_npz_metadata_nested_too_deeply_is_a_file_error(tmp_path: Path) -> None:
     path = tmp_path / "deep.npz"
     np.savez(

@@ -140,10 +140,13 @@ def test_arrays_rewritten_by_another_thread_during_a_call_cannot_crash_the_engin
             except uavsnn.EventError:
                 refused += 1  # seen out of the sensor when copied: a typed refusal
         writer.join()
-        print("ok", ran + refused > 0)
+        print(ran, refused)
         """
     )
-    assert out.returncode == 0 and out.stdout.strip() == "ok True", (out.returncode, out.stderr)
+    assert out.returncode == 0, (out.returncode, out.stderr)
+    # Both outcomes were seen: calls ran while the other thread rewrote the arrays.
+    ran, refused = map(int, out.stdout.split())
+    assert ran > 0 and refused > 0, (ran, refused)
 
 
 @pytest.mark.skipif(not Path("/proc/self/task").is_dir(), reason="counts threads in /proc")

@@ -105,7 +105,8 @@ def read(path: str | os.PathLike[str], sensor_size: tuple[int, int] | None = Non
 
     Returns:
         the :class:`~uavsnn.Recording`, with ``metadata`` holding ``path``, ``format`` and
-        ``sensor_size_source``.
+        ``sensor_size_source``; an ``.npz`` file's own metadata beside them (its keys, or
+        under ``stored`` when it is not a JSON object).
 
     Raises:
         RecordingFileError: the file is missing, empty, of an unknown type, truncated or corrupt.
@@ -228,6 +229,8 @@ def _read_npz(file: Path, given: tuple[int, int] | None) -> Recording:
             raise RecordingFileError(f"{file}: bad 'metadata': JSON nested too deeply") from exc
         if isinstance(loaded, dict):
             metadata.update(loaded)
+        else:  # a list, a string or a number (files of other writers): kept whole
+            metadata["stored"] = loaded
     metadata.update(path=str(file), format="npz", sensor_size_source="file")
     return _recording(file, events, sensor, metadata)
 
