@@ -24,7 +24,7 @@ import numpy as np
 import pytest
 from conftest import SMALL_SENSOR, blob_events, one_line_exit_2, small_config
 
-from uavsnn import EVENT_DTYPE, ParameterError
+from uavsnn import EVENT_DTYPE, ParameterError, StreamError
 from uavsnn import sources as sources_module
 from uavsnn.cli import main
 from uavsnn.detector import Detector
@@ -538,6 +538,101 @@ def test_detect_reports_the_old_stream_and_starts_again_after_a_restart(
         assert [json.loads(line) for line in alone] == part
 
 
+# -- StreamDriver: the loop `uavsnn detect` and the Ray workers share ------------------------------
+
+
+class ListSource(sources_module.EventSource):
+    """Chunks given in advance; ``restart_at``: the chunk from which the sensor has restarted."""
+
+    sensor_size = SMALL_SENSOR
+
+    def __init__(self, chunks: list[np.ndarray], restart_at: int | None = None) -> None:
+        super().__init__()
+        self.chunks, self.restart_at = chunks, restart_at
+
+    def __iter__(self) -> Iterator[np.ndarray]:
+        for i, chunk in enumerate(self.chunks):
+            if i == self.restart_at:
+                self.stats.restarts += 1
+            yield chunk
+
+
+def detections(det: Detector, chunks: list[np.ndarray]) -> np.ndarray:
+    return np.concatenate([*(det.push(c) for c in chunks), det.flush()])
+
+
+@pytest.mark.parametrize("windows", [False, True])
+def test_the_stream_driver_skips_a_refused_chunk_and_counts_its_events(
+    net: Network, events: np.ndarray, windows: bool
+) -> None:
+    good = np.array_split(events, 4)
+    bad = good[1][:7].copy()
+    bad["x"][3] = SMALL_SENSOR[0]  # outside the sensor: the whole chunk is refused
+    source = ListSource([good[0], good[1], bad, good[2], good[3]])
+    driver = sources_module.StreamDriver(source, Detector(net, window_us=3_000), windows=windows)
+    steps = list(driver)
+    assert [s.kind for s in steps] == ["found", "found", "refused", "found", "found", "found"]
+    assert steps[2].events == len(bad) and "outside" in str(steps[2].error)
+    assert driver.rejected == len(bad)
+    found = [s.found for s in steps if s.kind == "found"]
+    want = Detector(net, window_us=3_000)
+    if windows:
+        expected = [w for c in good for w in want.push_windows(c)] + want.flush_windows()
+        rows = [(w.window, w.t0, w.t1, w.spikes) for f in found for w in f]
+        assert rows == [(w.window, w.t0, w.t1, w.spikes) for w in expected]
+        assert any(w.spikes for w in expected)
+    else:
+        expected = detections(want, good)
+        assert len(expected) > 0
+        np.testing.assert_array_equal(np.concatenate(found), expected)
+
+
+def test_the_stream_driver_ends_the_old_stream_and_resets_at_a_restart(
+    net: Network, events: np.ndarray
+) -> None:
+    old, new = np.array_split(events, 2)
+    old = old.copy()
+    old["t"] += np.uint64(HOUR_US)
+    parts = [*np.array_split(old, 2), *np.array_split(new, 2)]
+    det = Detector(net, window_us=3_000)
+    steps = list(sources_module.StreamDriver(ListSource(parts, restart_at=2), det))
+    kinds = [s.kind for s in steps]
+    assert kinds == ["found", "found", "found", "restarted", "found", "found", "found"]
+    assert steps[3].t == int(new["t"][0])
+    before = np.concatenate([s.found for s in steps[:3]])
+    after = np.concatenate([s.found for s in steps[4:]])
+    # Each stream's detections are those of a detector run on it alone.
+    np.testing.assert_array_equal(before, detections(Detector(net, window_us=3_000), parts[:2]))
+    np.testing.assert_array_equal(after, detections(Detector(net, window_us=3_000), parts[2:]))
+    assert len(before) and len(after)
+
+
+def test_the_stream_driver_stops_when_the_detector_was_stopped_part_way(
+    net: Network, events: np.ndarray, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A refusal from a detector stopped inside its own work is not a chunk refused: the
+    stream cannot go on, and the driver says so rather than count every later chunk."""
+    parts = np.array_split(events, 3)
+    det = Detector(net, window_us=3_000)
+    pushed = []
+
+    def stopped(chunk: np.ndarray) -> np.ndarray:
+        # The first chunk goes in; the second finds the detector stopped part way before.
+        if pushed:
+            monkeypatch.setattr(Detector, "interrupted", property(lambda _self: True))
+            raise StreamError("push() was interrupted part way; call reset()")
+        pushed.append(chunk)
+        return Detector.push(det, chunk)
+
+    monkeypatch.setattr(det, "push", stopped)
+    driver = sources_module.StreamDriver(ListSource(parts), det)
+    steps = iter(driver)
+    assert next(steps).kind == "found"
+    with pytest.raises(StreamError, match="interrupted part way"):
+        next(steps)
+    assert driver.rejected == 0
+
+
 # -- a quiet stream: the stream's time advanced without events -----------------------------------
 
 
@@ -623,7 +718,7 @@ def test_idle_flush_reports_a_quiet_streams_last_windows(
     assert proc.returncode == 0, err.decode()[-2000:]
     assert len(out.decode().splitlines()) >= 1  # the later event's window, at the end
     summary = [line for line in err.decode().splitlines() if "detect: done" in line]
-    assert summary and "dropped=1 " in summary[0] + " ", err.decode()
+    assert summary and "dropped=0 rejected_events=1 " in summary[0] + " ", err.decode()
     assert f"events={len(events) + 1} " in summary[0]
 
 

@@ -397,9 +397,9 @@ def test_a_stream_worker_drops_a_chunk_stamped_wholly_before_the_idle_mark(
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
         s.sendto(burst.tobytes(), address)
         deadline = time.monotonic() + 20
-        while worker.idle.reached <= int(late["t"][-1]) and time.monotonic() < deadline:
+        while worker.driver.idle.reached <= int(late["t"][-1]) and time.monotonic() < deadline:
             time.sleep(0.05)  # until the quiet stream has been advanced past those times
-        assert worker.idle.reached > int(late["t"][-1])
+        assert worker.driver.idle.reached > int(late["t"][-1])
         s.sendto(late.tobytes(), address)
         s.sendto(later.tobytes(), address)
         done, counts = False, {}

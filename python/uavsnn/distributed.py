@@ -367,7 +367,7 @@ class _StreamWorker:
 
     def __init__(self, name: str, spec: str, model: Network, options: dict[str, Any]) -> None:
         from uavsnn.detector import Detector
-        from uavsnn.sources import IdleClock, UdpSource, is_live, open_source
+        from uavsnn.sources import IdleClock, StreamDriver, UdpSource, is_live, open_source
 
         self.name = name
         opts = dict(options)
@@ -377,7 +377,6 @@ class _StreamWorker:
         live = is_live(spec)
         if opts.get("sensor_size") is None and live:
             opts["sensor_size"] = model_size
-        self.idle = IdleClock(idle_flush_s if live else None)
         if live:
             opts["heartbeat_s"] = IdleClock.heartbeat_for(idle_flush_s)
         if opts.pop("downsample", False):
@@ -385,6 +384,9 @@ class _StreamWorker:
         self.source = open_source(spec, **opts)
         self.detector = Detector(
             model, window_us=window_us, overlap=overlap, sensor_size=self.source.sensor_size
+        )
+        self.driver = StreamDriver(
+            self.source, self.detector, idle_flush_s=idle_flush_s if live else None
         )
         self.address = self.source.address if isinstance(self.source, UdpSource) else None
         self._lock = threading.Condition()
@@ -401,57 +403,31 @@ class _StreamWorker:
         self._thread.start()
 
     def _run(self) -> None:
-        from uavsnn.errors import EventError, StreamError
-        from uavsnn.sources import IdleClock
-
-        restarts = 0
         before = (0, 0)  # the counts of the streams before a sensor restart
 
-        def note(found: np.ndarray) -> None:
+        def note(found: np.ndarray | None) -> None:
             seen = before[0] + self.detector.events_seen
             windows = before[1] + self.detector.windows_opened
             with self._lock:
                 self._seen, self._windows = seen, windows
-                if len(found):
+                self._rejected = self.driver.rejected
+                if found is not None and len(found):
                     self._found.append(found.copy())
                     self._lock.notify_all()
 
         try:
             with self.source:
-                for chunk in self.source:
-                    if not len(chunk):  # a heartbeat: the source is quiet
-                        mark = self.idle.mark()
-                        if mark is not None:
-                            note(self.detector.advance(mark))
-                        continue
-                    if self.source.stats.restarts != restarts:
-                        # The sensor restarted: end the old stream, start the detector again.
-                        restarts = self.source.stats.restarts
-                        note(self.detector.flush())
+                for step in self.driver:
+                    if step.kind == "restarted":  # the detector starts again from here
                         before = (self._seen, self._windows)
-                        self.detector.reset()
-                        self.idle = IdleClock(self.idle.lag_s)
-                    late = self.idle.late(chunk)
-                    if late:  # stamped before a time the stream was taken to have reached
-                        with self._lock:
-                            self._rejected += late
-                        chunk = chunk[late:]
-                        if not len(chunk):
-                            continue
-                    try:
-                        found = self.detector.push(chunk)
-                        self.idle.heard(chunk)
-                    except (EventError, StreamError):
-                        with self._lock:
-                            self._rejected += len(chunk)
-                        continue
-                    note(found)
-                note(self.detector.flush())
+                    else:
+                        note(step.found)
         except Exception as exc:  # reported with the stream's name; the others go on
             with self._lock:
                 self._error = f"{type(exc).__name__}: {exc}"
         finally:
             with self._lock:
+                self._rejected = self.driver.rejected
                 self._done = True
                 self._lock.notify_all()
 

@@ -12,8 +12,9 @@ the model's identification stage (:mod:`uavsnn.identify`; ``-``, JSON ``null``, 
 without one, or an object beyond the rotor's limit); ``--per-spike`` prints
 every conv3 spike instead, as it is decided; ``--json`` makes JSON lines of either. A rate
 summary goes to standard error every ``--summary-every`` seconds and at the
-end. Malformed packets, and chunks the detector rejects (an event outside the sensor, time going
-backwards), are counted as drops and skipped. Ctrl-C ends the stream: the windows still open are
+end. Malformed packets are counted as drops (``dropped=``), the events of chunks the detector
+rejects (an event outside the sensor, time going backwards) in ``rejected_events=``, and
+skipped. Ctrl-C ends the stream: the windows still open are
 reported, then the command exits 130 (``interrupted``), as every command does; SIGTERM and SIGHUP
 do the same and exit 143 and 129 (:class:`uavsnn.cli.Terminated`). When the reader of standard
 output goes away (``| head -1``) the command stops quietly, without its summary, and exits 1.
@@ -32,7 +33,7 @@ from typing import Any, TextIO
 import numpy as np
 
 from uavsnn.distributed import add_ray_option
-from uavsnn.errors import EventError, ParameterError, StreamError
+from uavsnn.errors import ParameterError
 from uavsnn.track_eval import Confirm
 
 __all__ = ["register"]
@@ -355,7 +356,7 @@ class _Summary:
             f"engine {detector.rate:,.0f} ev/s) "
             f"windows={self.before[1] + detector.windows_opened} "
             f"detections={self.before[2] + detector.detections_emitted} packets={s.packets} "
-            f"dropped={s.dropped + rejected}"
+            f"dropped={s.dropped} rejected_events={rejected}"
             + ("" if s.lost is None else f" lost={s.lost}")
             + (f" restarts={s.restarts}" if s.restarts else ""),
             file=self.err,
@@ -450,7 +451,7 @@ def run(args: argparse.Namespace) -> int:
     from uavsnn.cli import exit_code, interrupted_line
     from uavsnn.detector import Detector
     from uavsnn.network import Network
-    from uavsnn.sources import IdleClock, UdpSource, is_live, open_source
+    from uavsnn.sources import IdleClock, StreamDriver, UdpSource, is_live, open_source
 
     _check_args(args)
     if args.more_sources or args.ray is not None:
@@ -523,80 +524,42 @@ def run(args: argparse.Namespace) -> int:
         if network.load_note:
             print(f"uavsnn detect: note: {network.load_note}", file=err, flush=True)
         summary = _Summary(args.summary_every, err)
-        rejected = 0
         ident = network.identification
         classes = tuple(ident.classes) if ident is not None else ()
 
-        def emit(closed: list[Any]) -> None:
-            for w in closed:
-                print(_window(w, args.json, classes), file=out, flush=True)
+        def emit(found: Any) -> None:
+            if found is None:
+                return
+            for item in found:
+                line = (
+                    _spike(item, args.json) if args.per_spike else _window(item, args.json, classes)
+                )
+                print(line, file=out, flush=True)
 
-        def push(chunk: np.ndarray) -> None:
-            if args.per_spike:
-                for d in detector.push(chunk):
-                    print(_spike(d, args.json), file=out, flush=True)
-            else:
-                emit(detector.push_windows(chunk))
-
-        def flush() -> None:
-            if args.per_spike:
-                for d in detector.flush():
-                    print(_spike(d, args.json), file=out, flush=True)
-            else:
-                emit(detector.flush_windows())
-
-        quiet = IdleClock(args.idle_flush)
-
-        def advance(mark: int) -> None:
-            if args.per_spike:
-                for d in detector.advance(mark):
-                    print(_spike(d, args.json), file=out, flush=True)
-            else:
-                emit(detector.advance_windows(mark))
-
+        driver = StreamDriver(
+            source, detector, idle_flush_s=args.idle_flush, windows=not args.per_spike
+        )
         interrupted: KeyboardInterrupt | None = None
         try:
-            restarts = 0
-            for chunk in source:
-                if not len(chunk):  # a heartbeat: the source is quiet
-                    mark = quiet.mark()
-                    if mark is not None:
-                        advance(mark)
-                    summary.maybe(detector, source, rejected)
-                    continue
-                if source.stats.restarts != restarts:
-                    # The sensor restarted (its clock went back and stayed back): end the old
-                    # stream's windows, and start the detector again on the new one.
-                    restarts = source.stats.restarts
-                    flush()
+            refused = 0
+            for step in driver:
+                if step.kind == "restarted":
                     summary.restarted(detector)
-                    detector.reset()
-                    quiet = IdleClock(args.idle_flush)
                     print(
                         f"uavsnn detect: the sensor restarted (its clock went back to "
-                        f"t={int(chunk['t'][0])} µs): the old stream's "
+                        f"t={step.t} µs): the old stream's "
                         "windows are reported, and detection starts again from there",
                         file=err,
                         flush=True,
                     )
-                late = quiet.late(chunk)
-                if late:  # stamped before a time the stream was taken to have reached
-                    rejected += late
-                    chunk = chunk[late:]
-                    if not len(chunk):
-                        continue
-                try:
-                    push(chunk)
-                    quiet.heard(chunk)
-                except (EventError, StreamError) as exc:
-                    if detector.interrupted:
-                        raise  # not a chunk refused: the stream cannot go on
-                    rejected += 1
-                    if rejected <= 5:
-                        print(f"uavsnn detect: dropped a chunk: {exc}", file=err, flush=True)
                     continue
-                summary.maybe(detector, source, rejected)
-            flush()
+                if step.kind == "refused":
+                    refused += 1
+                    if refused <= 5:
+                        print(f"uavsnn detect: dropped a chunk: {step.error}", file=err, flush=True)
+                    continue
+                emit(step.found)
+                summary.maybe(detector, source, driver.rejected)
         except KeyboardInterrupt as exc:
             # Ctrl-C (SIGTERM, SIGHUP): report what the stream found so far, then exit as
             # interrupted. Stopped inside the detector's own work, the stream is unknown:
@@ -611,13 +574,13 @@ def run(args: argparse.Namespace) -> int:
                     flush=True,
                 )
             else:
-                flush()  # a closed pipe here ends as any (uavsnn.cli.main: exit 1)
+                emit(driver.flush())  # a closed pipe here ends as any (uavsnn.cli.main: exit 1)
         except BrokenPipeError:
             # The reader went away (``| head``): stop quietly, as command-line tools do (exit
             # 1, no summary: uavsnn.cli).
             os.dup2(os.open(os.devnull, os.O_WRONLY), out.fileno())
             return 1
-        summary.write(detector, source, rejected, final=True)
+        summary.write(detector, source, driver.rejected, final=True)
     if interrupted is not None:
         # As the command line reports any interruption (uavsnn.cli.main): one line, 128 + the
         # signal's number.
