@@ -197,3 +197,23 @@ def test_infer_batch_times_one_call(bench_script, capsys) -> None:
     assert 0 <= r["cpu_s_best"] <= r["cpu_s_median"] and r["wall_s_best"] > 0
     assert bench.main(["--windows", "4", "--size", "40x30", "--repeats", "1", "--json"]) == 0
     assert '"windows": 4' in capsys.readouterr().out
+
+
+def test_identify_by_domain_keeps_the_windows_of_the_domains_named(bench_script, tmp_path):
+    from uavsnn.dataset import SceneSource, build, load
+
+    by_domain = bench_script("identify_by_domain")
+    dvs = SceneSource("dvs", (240, 180), 200.0, 0.3)
+    sim = SceneSource("sim", (480, 360), None, 0.5, sensor=(240, 180))
+    build(tmp_path / "c", "combined", n_test=2, n_train=12, seed=1, dvs=dvs, sim=sim)
+    data = load(tmp_path / "c", "train")
+    domain = {r["id"]: r["domain"] for r in data.manifest["recordings"]}
+    seen = {domain[int(r)] for r in data.recording}
+    assert seen == {"dvs", "sim"}
+    for kept in ("dvs", "sim"):
+        part = by_domain.of_domains(data, {kept})
+        assert {domain[int(r)] for r in part.recording} == {kept}
+        assert len(part) == sum(domain[int(r)] == kept for r in data.recording)
+    assert len(by_domain.of_domains(data, {"dvs", "sim"})) == len(data)
+    with pytest.raises(SystemExit, match="no window of a real recording"):
+        by_domain.of_domains(data, {"real"})
