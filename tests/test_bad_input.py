@@ -714,6 +714,15 @@ def test_evaluate_checks_roc_and_seed_before_evaluating(
     _one_line_exit_2(capsys, [*argv, "--roc", str(tmp_path / "no" / "roc.png")], "does not exist")
     _one_line_exit_2(capsys, [*argv, "--roc", str(tmp_path / "roc.png")], "identification")
     _one_line_exit_2(capsys, [*argv, "--noise", "--seed", "-1"], "--seed must be >= 0")
+    for shares, says in (
+        ("0.01,x", "got 'x'"),
+        ("0.01,0", "above 0 and at most 1, got 0"),
+        ("1.5", "at most 1, got 1.5"),
+        ("nan", "got nan"),
+        ("0.01,0.01", "0.01 is given twice"),
+    ):
+        _one_line_exit_2(capsys, [*argv, "--noise", "--noise-shares", shares], says)
+    _one_line_exit_2(capsys, [*argv, "--noise-shares", "table3"], "give --noise")
     assert list(tmp_path.iterdir()) == []
 
 

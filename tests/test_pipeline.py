@@ -15,7 +15,7 @@ import pytest
 from uavsnn import Network
 from uavsnn.cli import main
 from uavsnn.dataset import SceneSource, build
-from uavsnn.experiments import NOISE_FRACTIONS, describe_cpu
+from uavsnn.experiments import NOISE_FRACTIONS, PAPER_TABLE3_BY_SHARE, describe_cpu
 from uavsnn.network import _add_arrays
 
 DVS = SceneSource("dvs", (240, 180), 200.0, 0.3)
@@ -114,6 +114,14 @@ def test_train_then_evaluate(
     (bare / "train.npz").unlink()
     assert main(["evaluate", str(model), str(bare), "--noise", "--json"]) == 0
     assert "has no train split: the static threshold" in capsys.readouterr().err
+    # --noise-shares: the shares given (SPEC §5's six for table3), no noise first.
+    table3 = [0.0, *PAPER_TABLE3_BY_SHARE]
+    for shares, want in (("0.02,0.005", [0.0, 0.02, 0.005]), ("table3", table3)):
+        argv = ["evaluate", str(model), str(dataset), "--noise", "--noise-shares", shares]
+        assert main([*argv, "--json"]) == 0
+        swept = json.loads(capsys.readouterr().out)["noise"]
+        assert [p["fraction"] for p in swept if p["mode"] == "static"] == want
+        assert [p["fraction"] for p in swept if p["mode"] == "pent"] == want
     for line, point in zip(lines, figures["noise"], strict=True):
         assert f"{100 * point['accuracy']:.1f} %" in line
         ident = point.get("identified")

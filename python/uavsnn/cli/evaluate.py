@@ -15,7 +15,13 @@ from uavsnn.dataset import load
 from uavsnn.distributed import add_ray_option, runner_for
 from uavsnn.errors import ParameterError
 from uavsnn.evaluation import evaluate
-from uavsnn.experiments import NOISE_FRACTIONS, both_rules, noise_sweep, static_twin
+from uavsnn.experiments import (
+    NOISE_FRACTIONS,
+    PAPER_TABLE3_BY_SHARE,
+    both_rules,
+    noise_sweep,
+    static_twin,
+)
 from uavsnn.network import MAX_THREADS, Network
 from uavsnn.track_eval import Confirm, rule_name
 
@@ -36,6 +42,16 @@ def register(subparsers: Any) -> None:
     p.add_argument("dataset", type=Path, help="dataset folder")
     p.add_argument("--split", default="test", help="split to score (test)")
     p.add_argument("--noise", action="store_true", help="also sweep added noise (Table 3)")
+    p.add_argument(
+        "--noise-shares",
+        metavar="LIST",
+        help="the shares of the sensor's pixels --noise sweeps, comma-separated (0.005,0.01), "
+        "or 'table3': SPEC §5's six from 0.5 %% to 5 %%; no noise is always swept beside them "
+        "(default: "
+        + ",".join(f"{f:g}" for f in NOISE_FRACTIONS if f > 0)
+        + "). Static thresholds under 10 %% or more of noise make every layer fire: on "
+        "1280x720 windows that is seconds a window",
+    )
     p.add_argument("--report", type=Path, help="write report.md and its pictures to this folder")
     p.add_argument("--unbalanced", action="store_true", help="score a set that is not half UAV")
     p.add_argument(
@@ -102,6 +118,33 @@ def register(subparsers: Any) -> None:
     p.set_defaults(handler=_evaluate)
 
 
+def _noise_shares(text: str | None) -> tuple[float, ...]:
+    """--noise-shares: ``None`` for :data:`NOISE_FRACTIONS`; ``table3`` for SPEC §5's six; else
+    comma-separated shares in (0, 1], in the order given, with no noise first."""
+    if text is None:
+        return NOISE_FRACTIONS
+    if text.strip().lower() == "table3":
+        return (0.0, *PAPER_TABLE3_BY_SHARE)
+    shares: list[float] = []
+    for part in text.split(","):
+        try:
+            share = float(part)
+        except ValueError:
+            raise ParameterError(
+                f"--noise-shares takes shares of the pixels such as 0.005,0.01 (or table3), "
+                f"got {part.strip()!r}"
+            ) from None
+        if not 0 < share <= 1:  # NaN too
+            raise ParameterError(
+                "--noise-shares: a share of the pixels is above 0 and at most 1, got "
+                + part.strip()
+            )
+        if share in shares:
+            raise ParameterError(f"--noise-shares: {part.strip()} is given twice")
+        shares.append(share)
+    return (0.0, *shares)
+
+
 def _evaluate(args: argparse.Namespace) -> int:
     if args.threads is not None and not 1 <= args.threads <= MAX_THREADS:
         raise ParameterError(f"--threads must be from 1 to {MAX_THREADS}, got {args.threads}")
@@ -126,6 +169,9 @@ def _evaluate(args: argparse.Namespace) -> int:
         )
     if args.seed < 0:
         raise ParameterError(f"--seed must be >= 0, got {args.seed}")
+    shares = _noise_shares(args.noise_shares)
+    if args.noise_shares is not None and not args.noise:
+        raise ParameterError("--noise-shares sets the shares --noise sweeps: give --noise")
     if args.roc is not None:
         if args.roc.suffix.lower() != ".png":
             raise ParameterError(f"--roc {args.roc}: the picture is a PNG: name it .png")
@@ -210,7 +256,7 @@ def _evaluate(args: argparse.Namespace) -> int:
         static, _ = static_twin(network, train.windows)
     if args.noise and static is not None:
         points = noise_sweep(
-            {"pent": network, "static": static}, data, NOISE_FRACTIONS, seed=args.seed,
+            {"pent": network, "static": static}, data, shares, seed=args.seed,
             threads=args.threads,
         )  # fmt: skip
         figures["noise"] = [p.to_dict() for p in points]
