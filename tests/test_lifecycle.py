@@ -282,3 +282,59 @@ def test_ctrl_c_stops_a_long_engine_call_part_way() -> None:
         """
     )
     assert out.returncode == 0 and out.stdout.strip() == "ok", out.stderr[-3000:]
+
+
+def test_ctrl_c_stops_inference_over_a_few_slow_windows() -> None:
+    # The engine checks Python's signals between parts of a batch; a part was at least 64
+    # windows per worker, so over fewer windows than that, each slow (a static network under
+    # heavy noise at 1280x720 takes tens of seconds a window), Ctrl-C waited for the whole
+    # call. The first part is a window per worker now: it stops after about one.
+    out = run(
+        """
+        import os, signal, threading, time
+        from uavsnn.network import default_config
+        from uavsnn.training import apply_overrides
+
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+        r = np.random.default_rng(4)
+        n = 3_000_000
+        e = np.zeros(n, uavsnn.EVENT_DTYPE)
+        e["t"] = np.sort(r.integers(0, 1_500_000, n))
+        e["x"], e["y"] = r.integers(0, 240, n), r.integers(0, 180, n)
+        e["p"] = r.random(n) < 0.5
+        w = make_windows(uavsnn.Recording(e, (240, 180)), 25_000)
+        assert len(w) < 64, len(w)
+        # Static thresholds on dense input: every layer fires widely, milliseconds a window.
+        net = Network(apply_overrides(default_config(), ["pent.mode=static"]))
+        began = time.monotonic()
+        whole = net.infer(w, threads=1).counts
+        full = time.monotonic() - began
+        same = net.weights("conv2")
+        done = threading.Event()
+
+        def watch():
+            while not done.is_set():
+                try:
+                    net.set_weights("conv2", same)
+                except uavsnn.StreamError:  # the call holds the object: it runs
+                    os.kill(os.getpid(), signal.SIGINT)
+                    return
+                time.sleep(0.001)
+
+        watcher = threading.Thread(target=watch)
+        watcher.start()
+        began = time.monotonic()
+        try:
+            net.infer(w, threads=1)
+            raise SystemExit(f"not interrupted ({full:.2f} s whole)")
+        except KeyboardInterrupt:
+            took = time.monotonic() - began
+        finally:
+            done.set()
+            watcher.join()
+        assert took < 0.5 * full, (took, full)
+        assert (net.infer(w, threads=1).counts == whole).all()
+        print("ok")
+        """
+    )
+    assert out.returncode == 0 and out.stdout.strip() == "ok", out.stderr[-3000:]

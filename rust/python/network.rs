@@ -194,8 +194,11 @@ impl BatchArgs {
     }
 }
 
-/// The fewest windows of one part, per worker (a part ends when its slowest worker does).
-const PART_WINDOWS_PER_WORKER: usize = 64;
+/// The fewest windows of one part, per worker, and the first part's size: one, so that Ctrl-C
+/// waits for about a window per worker where windows are slow (a static network under heavy
+/// noise at 1280×720 takes tens of seconds a window: a floor of 64 made Ctrl-C wait minutes).
+/// Parts of cheap windows grow from there toward [`SIGNAL_CHECK_SECONDS`], 16 times at a step.
+const PART_WINDOWS_PER_WORKER: usize = 1;
 
 /// `infer` on the batch `args`, run a part at a time with the GIL let go, Python's signals
 /// checked between parts: Ctrl-C stops a long batch within about [`SIGNAL_CHECK_SECONDS`] rather than
