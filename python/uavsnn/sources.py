@@ -2,7 +2,8 @@
 
 Every source is an iterable of event chunks (1-D arrays of :data:`uavsnn.EVENT_DTYPE`, in time
 order) with a :class:`SourceStats` of what it received and dropped. Open one from a command-line
-spelling with :func:`open_source`.
+spelling with :func:`open_source`; run a :class:`~uavsnn.detector.Detector` over it with
+:class:`StreamDriver`, the loop ``uavsnn detect`` runs.
 
 Formats read
 ------------
