@@ -39,6 +39,50 @@ def events(n, seed):
     return uavsnn.Recording(e, (240, 180))
 
 
+def interrupted(name, call, busy):
+    # Run call(); as soon as another thread sees it hold its object (busy() raises a
+    # StreamError), send SIGINT. Returns the seconds the call ran until Ctrl-C stopped it.
+    # Ctrl-C's own handler, whatever this process inherited: a job started in the background
+    # by a non-interactive shell (a CI runner) ignores SIGINT, and Python then installs none.
+    import os, signal, threading, time
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    done = threading.Event()
+    def watch():
+        while not done.is_set():
+            try:
+                busy()
+            except uavsnn.StreamError:  # the call holds the object: it runs
+                os.kill(os.getpid(), signal.SIGINT)
+                return
+            time.sleep(0.001)
+    watcher = threading.Thread(target=watch)
+    watcher.start()
+    began = time.monotonic()
+    try:
+        call()
+    except KeyboardInterrupt:
+        return time.monotonic() - began
+    finally:
+        done.set()
+        watcher.join()
+    raise SystemExit(f"{name}: not interrupted")
+
+
+def infer_stops_part_way(net, w):
+    # net.infer(w) on one thread whole, then interrupted: it stops in under half the whole
+    # call's time, and the network is unchanged.
+    import time
+    began = time.monotonic()
+    whole = net.infer(w, threads=1).counts
+    full = time.monotonic() - began
+    same = net.weights("conv2")
+    took = interrupted(
+        "infer", lambda: net.infer(w, threads=1), lambda: net.set_weights("conv2", same)
+    )
+    assert took < 0.5 * full, (took, full)
+    assert (net.infer(w, threads=1).counts == whole).all()
+
+
 def job(seed, threads=None):
     # More than 250,000 events: make_windows works on rayon's global pool.
     w = make_windows(events(300_000, seed), 50_000)
@@ -208,35 +252,7 @@ def test_ctrl_c_stops_a_long_engine_call_part_way() -> None:
     # (a StreamError from a probe), and the call stops part way through its input.
     out = run(
         """
-        import os, signal, threading, time
         from uavsnn.sim.dvs import DvsEmulator
-
-        # Ctrl-C's own handler, whatever this process inherited: a job started in the
-        # background by a non-interactive shell (a CI runner) ignores SIGINT, and Python then
-        # installs no handler.
-        signal.signal(signal.SIGINT, signal.default_int_handler)
-
-        def interrupted(name, call, busy):
-            done = threading.Event()
-            def watch():
-                while not done.is_set():
-                    try:
-                        busy()
-                    except uavsnn.StreamError:  # the call holds the object: it runs
-                        os.kill(os.getpid(), signal.SIGINT)
-                        return
-                    time.sleep(0.001)
-            watcher = threading.Thread(target=watch)
-            watcher.start()
-            began = time.monotonic()
-            try:
-                call()
-            except KeyboardInterrupt:
-                return time.monotonic() - began
-            finally:
-                done.set()
-                watcher.join()
-            raise SystemExit(f"{name}: not interrupted")
 
         # The emulator: 400 frames of 640x480, a moving gradient.
         n = 400
@@ -269,15 +285,7 @@ def test_ctrl_c_stops_a_long_engine_call_part_way() -> None:
         # event is in 20 windows (about 12 million input spikes).
         w = make_windows(events(2_000_000, 4), 5_000, overlap=0.95)
         net = Network()
-        began = time.monotonic()
-        whole = net.infer(w, threads=1).counts
-        full = time.monotonic() - began
-        same = net.weights("conv2")
-        took = interrupted(
-            "infer", lambda: net.infer(w, threads=1), lambda: net.set_weights("conv2", same)
-        )
-        assert took < 0.5 * full, (took, full)  # a part or two of about 0.1 s, of 1 s or more
-        assert (net.infer(w, threads=1).counts == whole).all()
+        infer_stops_part_way(net, w)  # a part or two of about 0.1 s, of 1 s or more
         print("ok")
         """
     )
@@ -291,11 +299,9 @@ def test_ctrl_c_stops_inference_over_a_few_slow_windows() -> None:
     # call. The first part is a window per worker now: it stops after about one.
     out = run(
         """
-        import os, signal, threading, time
         from uavsnn.network import default_config
         from uavsnn.training import apply_overrides
 
-        signal.signal(signal.SIGINT, signal.default_int_handler)
         r = np.random.default_rng(4)
         n = 3_000_000
         e = np.zeros(n, uavsnn.EVENT_DTYPE)
@@ -306,34 +312,7 @@ def test_ctrl_c_stops_inference_over_a_few_slow_windows() -> None:
         assert len(w) < 64, len(w)
         # Static thresholds on dense input: every layer fires widely, milliseconds a window.
         net = Network(apply_overrides(default_config(), ["pent.mode=static"]))
-        began = time.monotonic()
-        whole = net.infer(w, threads=1).counts
-        full = time.monotonic() - began
-        same = net.weights("conv2")
-        done = threading.Event()
-
-        def watch():
-            while not done.is_set():
-                try:
-                    net.set_weights("conv2", same)
-                except uavsnn.StreamError:  # the call holds the object: it runs
-                    os.kill(os.getpid(), signal.SIGINT)
-                    return
-                time.sleep(0.001)
-
-        watcher = threading.Thread(target=watch)
-        watcher.start()
-        began = time.monotonic()
-        try:
-            net.infer(w, threads=1)
-            raise SystemExit(f"not interrupted ({full:.2f} s whole)")
-        except KeyboardInterrupt:
-            took = time.monotonic() - began
-        finally:
-            done.set()
-            watcher.join()
-        assert took < 0.5 * full, (took, full)
-        assert (net.infer(w, threads=1).counts == whole).all()
+        infer_stops_part_way(net, w)
         print("ok")
         """
     )
