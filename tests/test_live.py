@@ -25,6 +25,7 @@ import pytest
 from conftest import SMALL_SENSOR, blob_events, one_line_exit_2, small_config
 
 from uavsnn import EVENT_DTYPE, ParameterError, StreamError
+from uavsnn import driver as driver_module
 from uavsnn import sources as sources_module
 from uavsnn.cli import main
 from uavsnn.detector import Detector
@@ -569,7 +570,7 @@ def test_the_stream_driver_skips_a_refused_chunk_and_counts_its_events(
     bad = good[1][:7].copy()
     bad["x"][3] = SMALL_SENSOR[0]  # outside the sensor: the whole chunk is refused
     source = ListSource([good[0], good[1], bad, good[2], good[3]])
-    driver = sources_module.StreamDriver(source, Detector(net, window_us=3_000), windows=windows)
+    driver = driver_module.StreamDriver(source, Detector(net, window_us=3_000), windows=windows)
     steps = list(driver)
     assert [s.kind for s in steps] == ["found", "found", "refused", "found", "found", "found"]
     assert steps[2].events == len(bad) and "outside" in str(steps[2].error)
@@ -595,7 +596,7 @@ def test_the_stream_driver_ends_the_old_stream_and_resets_at_a_restart(
     old["t"] += np.uint64(HOUR_US)
     parts = [*np.array_split(old, 2), *np.array_split(new, 2)]
     det = Detector(net, window_us=3_000)
-    steps = list(sources_module.StreamDriver(ListSource(parts, restart_at=2), det))
+    steps = list(driver_module.StreamDriver(ListSource(parts, restart_at=2), det))
     kinds = [s.kind for s in steps]
     assert kinds == ["found", "found", "found", "restarted", "found", "found", "found"]
     assert steps[3].t == int(new["t"][0])
@@ -625,7 +626,7 @@ def test_the_stream_driver_stops_when_the_detector_was_stopped_part_way(
         return Detector.push(det, chunk)
 
     monkeypatch.setattr(det, "push", stopped)
-    driver = sources_module.StreamDriver(ListSource(parts), det)
+    driver = driver_module.StreamDriver(ListSource(parts), det)
     steps = iter(driver)
     assert next(steps).kind == "found"
     with pytest.raises(StreamError, match="interrupted part way"):

@@ -57,7 +57,7 @@ __all__ = [
 #: use, so ``import uavsnn`` stays as light as the names above need.
 SUBMODULES = frozenset(
     {
-        "bench", "boxes", "cli", "clips", "dataset", "detector", "distributed", "errors",
+        "bench", "boxes", "cli", "clips", "dataset", "detector", "distributed", "driver", "errors",
         "evaluation", "events", "experiments", "false_alarms", "features", "filters", "grouping",
         "identifier", "identify", "io", "linear", "network", "pictures", "progress", "report",
         "scenes", "signature", "sim", "sources", "track_eval", "tracks", "training", "trees",

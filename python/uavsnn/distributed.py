@@ -367,7 +367,8 @@ class _StreamWorker:
 
     def __init__(self, name: str, spec: str, model: Network, options: dict[str, Any]) -> None:
         from uavsnn.detector import Detector
-        from uavsnn.sources import IdleClock, StreamDriver, UdpSource, is_live, open_source
+        from uavsnn.driver import StreamDriver
+        from uavsnn.sources import IdleClock, UdpSource, is_live, open_source
 
         self.name = name
         opts = dict(options)

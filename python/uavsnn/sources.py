@@ -3,7 +3,7 @@
 Every source is an iterable of event chunks (1-D arrays of :data:`uavsnn.EVENT_DTYPE`, in time
 order) with a :class:`SourceStats` of what it received and dropped. Open one from a command-line
 spelling with :func:`open_source`; run a :class:`~uavsnn.detector.Detector` over it with
-:class:`StreamDriver`, the loop ``uavsnn detect`` runs.
+:class:`uavsnn.driver.StreamDriver`, the loop ``uavsnn detect`` runs.
 
 Formats read
 ------------
@@ -72,19 +72,16 @@ import time
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, BinaryIO
+from typing import BinaryIO
 from urllib.parse import urlsplit
 
 import numpy as np
 
 from uavsnn import _core, _csv
 from uavsnn._validate import MAX_TIME_US, check_sensor_size
-from uavsnn.errors import EventError, ParameterError, StreamError, UavsnnError
+from uavsnn.errors import ParameterError, StreamError, UavsnnError
 from uavsnn.events import EVENT_DTYPE
 from uavsnn.io import CSV_MAX_LINE
-
-if TYPE_CHECKING:
-    from uavsnn.detector import Detector
 
 __all__ = [
     "MAX_IDLE_TIMEOUT",
@@ -97,8 +94,6 @@ __all__ = [
     "IdleClock",
     "SourceStats",
     "StdinSource",
-    "StreamDriver",
-    "StreamStep",
     "UdpSource",
     "check_seconds",
     "is_live",
@@ -196,102 +191,6 @@ class IdleClock:
         if not self.reached or int(chunk["t"][0]) >= self.reached:
             return 0
         return int(np.searchsorted(chunk["t"], np.uint64(self.reached), "left"))
-
-
-@dataclass(frozen=True)
-class StreamStep:
-    """What a :class:`StreamDriver` did with one chunk (or heartbeat) of its source.
-
-    ``kind``: ``"found"`` (a chunk pushed, or the stream advanced or flushed: ``found`` holds
-    what the detector returned, ``None`` at a heartbeat that moved nothing); ``"refused"``
-    (the detector refused a chunk, ``error`` says why; its ``events`` are counted in
-    :attr:`StreamDriver.rejected`, the stream goes on); ``"restarted"`` (the sensor restarted:
-    the old stream's windows were flushed in the step before, and the detector is reset once
-    the step has been taken; ``t`` is the new stream's first time)."""
-
-    kind: str
-    found: Any = None
-    error: UavsnnError | None = None
-    events: int = 0
-    t: int = 0
-
-
-class StreamDriver:
-    """Drive a :class:`~uavsnn.detector.Detector` over a live source's chunks, as ``uavsnn
-    detect`` and :func:`uavsnn.distributed.detect_streams`' workers do: iterate to run it, one
-    :class:`StreamStep` per chunk.
-
-    - A chunk the detector refuses (an event outside the sensor, out of order) is skipped and
-      its events counted in :attr:`rejected`; the stream goes on. A push stopped part way
-      (the detector ``interrupted``) raises: the stream cannot go on.
-    - With ``idle_flush_s`` (open the source with ``heartbeat_s=IdleClock.heartbeat_for(
-      idle_flush_s)``) a quiet stream's time moves on with the wall clock (:class:`IdleClock`,
-      :attr:`idle`): its windows close without waiting for the next event, and the events that
-      arrive stamped before the time reached are dropped and counted in :attr:`rejected`.
-    - At a sensor restart (:attr:`SourceStats.restarts`) the old stream's windows are flushed,
-      then the detector is reset for the new stream.
-    - At the source's end the windows still open are flushed.
-
-    ``windows``: push with ``push_windows`` (closed windows, each with its objects) instead of
-    ``push`` (detections). After an interruption (Ctrl-C), :meth:`flush` reports what is still
-    open unless the detector was stopped inside its own work."""
-
-    def __init__(
-        self,
-        source: EventSource,
-        detector: Detector,
-        *,
-        idle_flush_s: float | None = None,
-        windows: bool = False,
-    ) -> None:
-        self.source = source
-        self.detector = detector
-        self.windows = bool(windows)
-        self.idle = IdleClock(idle_flush_s)
-        #: Events the detector did not take: in chunks it refused, or stamped before the time
-        #: a quiet stream was taken to have reached.
-        self.rejected = 0
-        self._restarts = source.stats.restarts
-
-    def flush(self) -> Any:
-        """End the stream's windows: what the detector's ``flush`` (``flush_windows``) gives."""
-        d = self.detector
-        return d.flush_windows() if self.windows else d.flush()
-
-    def __iter__(self) -> Iterator[StreamStep]:
-        d = self.detector
-        push = d.push_windows if self.windows else d.push
-        advance = d.advance_windows if self.windows else d.advance
-        for chunk in self.source:
-            if not len(chunk):  # a heartbeat: the source is quiet
-                mark = self.idle.mark()
-                yield StreamStep("found", None if mark is None else advance(mark))
-                continue
-            if self.source.stats.restarts != self._restarts:
-                # The sensor restarted (its clock went back and stayed back): end the old
-                # stream's windows, and start the detector again on the new one.
-                self._restarts = self.source.stats.restarts
-                yield StreamStep("found", self.flush())
-                yield StreamStep("restarted", t=int(chunk["t"][0]))
-                d.reset()
-                self.idle = IdleClock(self.idle.lag_s)
-            late = self.idle.late(chunk)
-            if late:  # stamped before a time the stream was taken to have reached
-                self.rejected += late
-                chunk = chunk[late:]
-                if not len(chunk):
-                    continue
-            try:
-                found = push(chunk)
-            except (EventError, StreamError) as exc:
-                if d.interrupted:
-                    raise  # not a chunk refused: the stream cannot go on
-                self.rejected += len(chunk)
-                yield StreamStep("refused", error=exc, events=len(chunk))
-                continue
-            self.idle.heard(chunk)
-            yield StreamStep("found", found)
-        yield StreamStep("found", self.flush())
 
 
 class EventSource:

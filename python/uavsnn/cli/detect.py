@@ -450,8 +450,9 @@ def run(args: argparse.Namespace) -> int:
     Returns the exit code."""
     from uavsnn.cli import exit_code, interrupted_line
     from uavsnn.detector import Detector
+    from uavsnn.driver import StreamDriver
     from uavsnn.network import Network
-    from uavsnn.sources import IdleClock, StreamDriver, UdpSource, is_live, open_source
+    from uavsnn.sources import IdleClock, UdpSource, is_live, open_source
 
     _check_args(args)
     if args.more_sources or args.ray is not None:
