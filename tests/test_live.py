@@ -596,7 +596,8 @@ def test_the_stream_driver_ends_the_old_stream_and_resets_at_a_restart(
     old["t"] += np.uint64(HOUR_US)
     parts = [*np.array_split(old, 2), *np.array_split(new, 2)]
     det = Detector(net, window_us=3_000)
-    steps = list(driver_module.StreamDriver(ListSource(parts, restart_at=2), det))
+    driver = driver_module.StreamDriver(ListSource(parts, restart_at=2), det)
+    steps = list(driver)
     kinds = [s.kind for s in steps]
     assert kinds == ["found", "found", "found", "restarted", "found", "found", "found"]
     assert steps[3].t == int(new["t"][0])
@@ -606,6 +607,13 @@ def test_the_stream_driver_ends_the_old_stream_and_resets_at_a_restart(
     np.testing.assert_array_equal(before, detections(Detector(net, window_us=3_000), parts[:2]))
     np.testing.assert_array_equal(after, detections(Detector(net, window_us=3_000), parts[2:]))
     assert len(before) and len(after)
+    # The counts go on over both streams, where the detector's start again.
+    alone = [Detector(net, window_us=3_000) for _ in range(2)]
+    for d, stream in zip(alone, (parts[:2], parts[2:]), strict=True):
+        detections(d, stream)
+    assert (driver.events_seen, det.events_seen) == (len(events), len(new))
+    assert driver.windows_opened == sum(d.windows_opened for d in alone) > det.windows_opened
+    assert driver.detections_emitted == len(before) + len(after)
 
 
 def test_the_stream_driver_stops_when_the_detector_was_stopped_part_way(

@@ -404,11 +404,8 @@ class _StreamWorker:
         self._thread.start()
 
     def _run(self) -> None:
-        before = (0, 0)  # the counts of the streams before a sensor restart
-
         def note(found: np.ndarray | None) -> None:
-            seen = before[0] + self.detector.events_seen
-            windows = before[1] + self.detector.windows_opened
+            seen, windows = self.driver.events_seen, self.driver.windows_opened
             with self._lock:
                 self._seen, self._windows = seen, windows
                 self._rejected = self.driver.rejected
@@ -419,9 +416,7 @@ class _StreamWorker:
         try:
             with self.source:
                 for step in self.driver:
-                    if step.kind == "restarted":  # the detector starts again from here
-                        before = (self._seen, self._windows)
-                    else:
+                    if step.kind != "restarted":
                         note(step.found)
         except Exception as exc:  # reported with the stream's name; the others go on
             with self._lock:

@@ -78,6 +78,24 @@ class StreamDriver:
         #: a quiet stream was taken to have reached.
         self.rejected = 0
         self._restarts = source.stats.restarts
+        # The detector's counts of the streams before a sensor restart (it starts again).
+        self._before = (0, 0, 0)
+
+    @property
+    def events_seen(self) -> int:
+        """Events the detector took, over every stream since the first (it counts again from
+        zero after a sensor restart)."""
+        return self._before[0] + self.detector.events_seen
+
+    @property
+    def windows_opened(self) -> int:
+        """Windows the detector opened, over every stream since the first."""
+        return self._before[1] + self.detector.windows_opened
+
+    @property
+    def detections_emitted(self) -> int:
+        """Detections the detector emitted, over every stream since the first."""
+        return self._before[2] + self.detector.detections_emitted
 
     def flush(self) -> Any:
         """End the stream's windows: what the detector's ``flush`` (``flush_windows``) gives."""
@@ -99,6 +117,7 @@ class StreamDriver:
                 self._restarts = self.source.stats.restarts
                 yield StreamStep("found", self.flush())
                 yield StreamStep("restarted", t=int(chunk["t"][0]))
+                self._before = (self.events_seen, self.windows_opened, self.detections_emitted)
                 d.reset()
                 self.idle = IdleClock(self.idle.lag_s)
             late = self.idle.late(chunk)

@@ -328,35 +328,24 @@ class _Summary:
         self.err = err
         self.start = time.monotonic()
         self.last = self.start
-        # The counts of the streams before a sensor restart (the detector's start again).
-        self.before = (0, 0, 0)
 
-    def restarted(self, detector: Any) -> None:
-        """The detector is about to be reset for a new stream: keep its counts."""
-        e, w, d = self.before
-        self.before = (
-            e + detector.events_seen,
-            w + detector.windows_opened,
-            d + detector.detections_emitted,
-        )
-
-    def maybe(self, detector: Any, source: Any, rejected: int) -> None:
+    def maybe(self, driver: Any) -> None:
         now = time.monotonic()
         if self.every > 0 and now - self.last >= self.every:
             self.last = now
-            self.write(detector, source, rejected, final=False)
+            self.write(driver, final=False)
 
-    def write(self, detector: Any, source: Any, rejected: int, *, final: bool) -> None:
+    def write(self, driver: Any, *, final: bool) -> None:
         wall = max(time.monotonic() - self.start, 1e-9)
-        s = source.stats
-        events = self.before[0] + detector.events_seen
+        s = driver.source.stats
+        events = driver.events_seen
         print(
             f"uavsnn detect: {'done' if final else 'live'} {wall:.1f}s "
             f"events={events} ({events / wall:,.0f} ev/s, "
-            f"engine {detector.rate:,.0f} ev/s) "
-            f"windows={self.before[1] + detector.windows_opened} "
-            f"detections={self.before[2] + detector.detections_emitted} packets={s.packets} "
-            f"dropped={s.dropped} rejected_events={rejected}"
+            f"engine {driver.detector.rate:,.0f} ev/s) "
+            f"windows={driver.windows_opened} "
+            f"detections={driver.detections_emitted} packets={s.packets} "
+            f"dropped={s.dropped} rejected_events={driver.rejected}"
             + ("" if s.lost is None else f" lost={s.lost}")
             + (f" restarts={s.restarts}" if s.restarts else ""),
             file=self.err,
@@ -545,7 +534,6 @@ def run(args: argparse.Namespace) -> int:
             refused = 0
             for step in driver:
                 if step.kind == "restarted":
-                    summary.restarted(detector)
                     print(
                         f"uavsnn detect: the sensor restarted (its clock went back to "
                         f"t={step.t} µs): the old stream's "
@@ -560,7 +548,7 @@ def run(args: argparse.Namespace) -> int:
                         print(f"uavsnn detect: dropped a chunk: {step.error}", file=err, flush=True)
                     continue
                 emit(step.found)
-                summary.maybe(detector, source, driver.rejected)
+                summary.maybe(driver)
         except KeyboardInterrupt as exc:
             # Ctrl-C (SIGTERM, SIGHUP): report what the stream found so far, then exit as
             # interrupted. Stopped inside the detector's own work, the stream is unknown:
@@ -581,7 +569,7 @@ def run(args: argparse.Namespace) -> int:
             # 1, no summary: uavsnn.cli).
             os.dup2(os.open(os.devnull, os.O_WRONLY), out.fileno())
             return 1
-        summary.write(detector, source, driver.rejected, final=True)
+        summary.write(driver, final=True)
     if interrupted is not None:
         # As the command line reports any interruption (uavsnn.cli.main): one line, 128 + the
         # signal's number.
