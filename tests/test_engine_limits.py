@@ -292,7 +292,7 @@ def test_window_starts_past_max_time_are_refused() -> None:
 
 def test_the_noise_sweep_runs_its_largest_level_first(monkeypatch: pytest.MonkeyPatch) -> None:
     """What fails for its size fails before the others have run for hours; the points keep
-    the order of the fractions and each level its seed."""
+    the order of the fractions and each level the seed of its share, whatever the others."""
     from uavsnn import experiments
 
     calls: list[tuple[float, int]] = []
@@ -303,5 +303,15 @@ def test_the_noise_sweep_runs_its_largest_level_first(monkeypatch: pytest.Monkey
 
     monkeypatch.setattr(experiments, "noise_level", level)
     points = experiments.noise_sweep({}, None, (0.0, 0.2, 0.05), seed=10)  # type: ignore[arg-type]
-    assert calls[0] == (0.2, 11) and sorted(calls) == [(0.0, 10), (0.05, 12), (0.2, 11)]
+    assert calls[0] == (0.2, 200_010)
+    assert sorted(calls) == [(0.0, 10), (0.05, 50_010), (0.2, 200_010)]
     assert points == [0.0, 0.2, 0.05]
+    # A share alone, or in another list, draws the same noise.
+    calls.clear()
+    experiments.noise_sweep({}, None, (0.05,), seed=10)  # type: ignore[arg-type]
+    experiments.noise_sweep({}, None, (0.01, 0.05, 0.015), seed=10)  # type: ignore[arg-type]
+    assert [s for f, s in calls if f == 0.05] == [50_010, 50_010]
+    assert len({s for _, s in calls}) == 3
+    for bad in (float("nan"), -0.01, 1.5):
+        with pytest.raises(uavsnn.ParameterError, match="noise share"):
+            experiments.noise_seed(0, bad)

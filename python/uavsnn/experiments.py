@@ -49,6 +49,7 @@ __all__ = [
     "have_dataset",
     "mix_windows",
     "noise_level",
+    "noise_seed",
     "noise_sweep",
     "recipe_config",
     "static_threshold",
@@ -400,6 +401,19 @@ def noise_level(
     return points
 
 
+def noise_seed(seed: int, fraction: float) -> int:
+    """The seed a noise level of ``fraction`` draws from in a sweep of ``seed``: ``seed`` plus
+    the share in parts per million (``0.01`` -> ``seed + 10000``), so a share gets the same
+    noise whichever other shares are swept beside it.
+
+    Raises:
+        ParameterError: ``fraction`` outside ``[0, 1]`` or NaN."""
+    share = float(fraction)
+    if not 0.0 <= share <= 1.0:
+        raise ParameterError(f"a noise share is a fraction in [0, 1], got {fraction!r}")
+    return int(seed) + round(share * 1_000_000)
+
+
 def noise_sweep(
     networks: dict[str, Network],
     data: LabelledWindows,
@@ -411,21 +425,24 @@ def noise_sweep(
 ) -> list[NoisePoint]:
     """Evaluate each of ``networks`` (by mode name, e.g. ``{"pent": a, "static": b}``) on
     ``data`` with each noise ``fraction`` added; every network sees the same noisy windows.
-    Level ``i`` draws its noise from ``seed + i``. ``runner`` runs the levels (as Ray tasks,
+    A level draws its noise from :func:`noise_seed` of ``seed`` and its share, whatever other
+    levels the list holds. ``runner`` runs the levels (as Ray tasks,
     :mod:`uavsnn.distributed`; default here, one after the other, the largest first, so what
     fails for its size fails before the others have run): the points are the same, in the
     order of ``fractions``."""
     if runner is None or runner is SERIAL:
         order = sorted(range(len(fractions)), key=lambda i: -fractions[i])
         done = {
-            i: noise_level(networks, data, fractions[i], seed=seed + i, threads=threads)
+            i: noise_level(
+                networks, data, fractions[i], seed=noise_seed(seed, fractions[i]), threads=threads
+            )
             for i in order
         }
         levels: Iterable[list[NoisePoint]] = (done[i] for i in range(len(fractions)))
     else:
         nets, shared = runner.put(networks), runner.put(data)
         levels = runner.imap(
-            noise_task, ((nets, shared, f, seed + i) for i, f in enumerate(fractions))
+            noise_task, ((nets, shared, f, noise_seed(seed, f)) for f in fractions)
         )
     return [point for level in levels for point in level]
 
