@@ -217,3 +217,9 @@ def test_identify_by_domain_keeps_the_windows_of_the_domains_named(bench_script,
     assert len(by_domain.of_domains(data, {"dvs", "sim"})) == len(data)
     with pytest.raises(SystemExit, match="no window of a real recording"):
         by_domain.of_domains(data, {"real"})
+    # Several sets together: every window of each, their recordings kept apart.
+    both = by_domain.gathered([tmp_path / "c", tmp_path / "c"], None)
+    assert len(both) == 2 * len(data)
+    assert len(np.unique(both.recording)) == 2 * len(np.unique(data.recording))
+    dvs_only = by_domain.gathered([tmp_path / "c", tmp_path / "c"], {"dvs"})
+    assert len(dvs_only) == 2 * len(by_domain.of_domains(data, {"dvs"}))
