@@ -223,3 +223,40 @@ def test_identify_by_domain_keeps_the_windows_of_the_domains_named(bench_script,
     assert len(np.unique(both.recording)) == 2 * len(np.unique(data.recording))
     dvs_only = by_domain.gathered([tmp_path / "c", tmp_path / "c"], {"dvs"})
     assert len(dvs_only) == 2 * len(by_domain.of_domains(data, {"dvs"}))
+
+
+def test_feature_groups_fits_each_group_as_the_ablation_does(bench_script, tmp_path) -> None:
+    from uavsnn import identify
+    from uavsnn.dataset import SceneSource, build, load
+    from uavsnn.experiments import recipe_config
+    from uavsnn.training import train
+
+    groups = bench_script("feature_groups")
+    source = SceneSource("dvs", (240, 180), 200.0, 0.3)
+    build(tmp_path / "a", "dvs", n_test=24, n_train=60, seed=21, dvs=source)
+    build(tmp_path / "b", "dvs", n_test=2, n_train=40, seed=22, dvs=source)
+    fit_on, test = load(tmp_path / "a", "train"), load(tmp_path / "a", "test")
+    tune = load(tmp_path / "b", "train")
+    net = train(Network(recipe_config(), seed=0), fit_on.windows, windows_per_layer=60).network
+    rows = groups.measure(net, fit_on, tune, {"test": test}, ("track", "all"))
+    assert list(rows) == ["track", "all"]
+    assert 2 * np.count_nonzero(test.label) == len(test)
+    # The same fit, tuning and scores as `uavsnn evaluate --ablation`'s.
+    inf, tune_inf = net.infer(test.windows), net.infer(tune.windows)
+    ablation = identify.ablation(
+        identify.window_features(net, fit_on),
+        identify.window_features(net, tune, tune_inf),
+        identify.window_features(net, test, inf),
+        tune_detected=tune_inf.detected, tune_label=tune.label,
+        test_detected=inf.detected, test_label=test.label,
+    )  # fmt: skip
+    for name, row in rows.items():
+        assert row["features"] == len(identify.GROUPS[name])
+        for rate in ("0.01", "0.05"):
+            key = f"detection_at_{rate}"
+            assert row["test"][key] == ablation[name][key]
+            assert 0 <= row["tune"][key] <= 1
+        # On a test split half UAV, the balanced accuracy is the ablation's accuracy.
+        assert row["test"]["balanced_accuracy"] == pytest.approx(ablation[name]["accuracy"])
+        area = row["tune"]["object_roc_area"]
+        assert area is None or 0 <= area <= 1
