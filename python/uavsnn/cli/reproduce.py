@@ -568,8 +568,8 @@ def _reproduce(args: argparse.Namespace) -> int:
     dvs_tune, sim_tune = (load(d, "train") for d in tune_dirs)
     tuned_on = (
         f"dvs recordings of seed {tune_seed} (`data/tune-dvs`, each kind of object in its "
-        "share); the combined network's identification reads the dvs half of its training "
-        "data, all of the dvs set's training windows, as the dvs network's does"
+        "share); a combined network's identification is fitted on the dvs set's training "
+        "windows, as the dvs network's is: the sim windows, made from video, carry no rotor"
     )
     size = {"width": sensor[0], "height": sensor[1]}
     recipe = recipe_config() | size
