@@ -7,7 +7,9 @@ one with ``UAVSNN_HYPOTHESIS_PROFILE``.
 from __future__ import annotations
 
 import csv
+import errno
 import importlib.util
+import io
 import os
 import sys
 from collections.abc import Callable, Iterator, Sequence
@@ -172,3 +174,34 @@ def one_line_exit_2(capsys: pytest.CaptureFixture[str], argv: list[str], match: 
     assert len(lines) == 1, err
     assert "error:" in lines[0] and match in lines[0], lines[0]
     return lines[0]
+
+
+class WindowsClosedPipe(io.RawIOBase):
+    """The write end of a pipe whose reader has gone, as Windows reports it: a write raises
+    ``OSError(EINVAL)`` (Linux raises ``BrokenPipeError``) until the descriptor is pointed
+    elsewhere, as a command does with ``os.dup2`` onto the null device."""
+
+    def __init__(self) -> None:
+        read, self.fd = os.pipe()
+        os.close(read)
+        stat = os.fstat(self.fd)
+        self.pipe = (stat.st_dev, stat.st_ino)
+        self.refused = 0
+
+    def writable(self) -> bool:
+        return True
+
+    def fileno(self) -> int:
+        return self.fd
+
+    def write(self, data: Any) -> int:
+        stat = os.fstat(self.fd)
+        if (stat.st_dev, stat.st_ino) == self.pipe:
+            self.refused += 1
+            raise OSError(errno.EINVAL, "Invalid argument")
+        return os.write(self.fd, bytes(data))
+
+    def close(self) -> None:
+        if not self.closed:
+            os.close(self.fd)
+        super().close()

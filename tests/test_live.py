@@ -22,7 +22,13 @@ from typing import Any
 
 import numpy as np
 import pytest
-from conftest import SMALL_SENSOR, blob_events, one_line_exit_2, small_config
+from conftest import (
+    SMALL_SENSOR,
+    WindowsClosedPipe,
+    blob_events,
+    one_line_exit_2,
+    small_config,
+)
 
 from uavsnn import EVENT_DTYPE, ParameterError, StreamError
 from uavsnn import driver as driver_module
@@ -262,6 +268,28 @@ def test_a_reader_gone_ends_detect_quietly_with_exit_1(
     err = proc.stderr.read().decode()
     assert proc.wait(timeout=60) == 1, err
     assert "done" not in err and "Traceback" not in err, err
+
+
+def test_a_reader_gone_on_windows_ends_detect_quietly_too(
+    model: Path,
+    events: np.ndarray,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """Windows reports the closed pipe as EINVAL, not BrokenPipeError: detect still stops
+    quietly with exit 1 (it once ended in "[Errno 22] Invalid argument" and exit 2)."""
+    pipe = WindowsClosedPipe()
+    out = io.TextIOWrapper(io.BufferedWriter(pipe), encoding="utf-8")
+    monkeypatch.setattr(sys, "platform", "win32")
+    monkeypatch.setattr(sys, "stdout", out)
+    monkeypatch.setattr(sys, "stdin", types.SimpleNamespace(buffer=io.BytesIO(events.tobytes())))
+    try:
+        assert main(detect_argv(model)) == 1
+        assert pipe.refused > 0
+        err = capsys.readouterr().err
+        assert "done" not in err and "Errno" not in err, err
+    finally:
+        out.close()
 
 
 # -- 3. options of UDP only --------------------------------------------------------------------

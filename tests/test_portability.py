@@ -1,9 +1,11 @@
 """What works on Linux and must work on Windows and macOS too, checked here by emulating what
 those systems lack or do otherwise: modules that do not exist there, Windows' file locking and
-text-mode files, a console that cannot encode every character."""
+text-mode files, a console that cannot encode every character, a closed pipe that Windows
+reports as EINVAL."""
 
 from __future__ import annotations
 
+import errno
 import io
 import os
 import subprocess
@@ -14,6 +16,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from conftest import WindowsClosedPipe
 
 import uavsnn
 from uavsnn.errors import DatasetError, ParameterError
@@ -150,3 +153,66 @@ def test_images_are_written_to_any_path(tmp_path: Path) -> None:
     assert write_image(path, image)
     np.testing.assert_array_equal(cv2.imdecode(np.fromfile(path, np.uint8), 0), image)
     assert not write_image(tmp_path / "missing" / "a.png", image)
+
+
+def _recording(tmp_path: Path) -> Path:
+    events = np.zeros(3, dtype=uavsnn.EVENT_DTYPE)
+    events["t"] = [1, 2, 3]
+    path = tmp_path / "r.npz"
+    uavsnn.io.write_npz(uavsnn.Recording(events, (64, 48)), path)
+    return path
+
+
+def test_a_closed_pipe_reported_as_einval_on_windows_ends_quietly(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`uavsnn info F | more` on Windows: the closed pipe raises EINVAL, not BrokenPipeError;
+    the command stops quietly with exit 1, as on Linux (it once printed "[Errno 22] Invalid
+    argument" and exited 2)."""
+    from uavsnn.cli import main
+
+    path = _recording(tmp_path)
+    pipe = WindowsClosedPipe()
+    out = io.TextIOWrapper(io.BufferedWriter(pipe), encoding="utf-8")
+    monkeypatch.setattr(sys, "platform", "win32")
+    monkeypatch.setattr(sys, "stdout", out)
+    try:
+        assert main(["info", str(path)]) == 1
+        assert pipe.refused > 0  # the pipe was written to, and refused it
+        assert capsys.readouterr().err == ""
+        out.flush()  # what was still buffered now goes to the null device
+    finally:
+        out.close()
+
+
+def test_einval_of_a_file_on_windows_is_still_an_error(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """EINVAL is also what Windows raises for a file name it refuses: with standard output
+    still writable, that is the user's error, said in one line with exit 2."""
+    from uavsnn.cli import info, main, pipe_closed
+
+    def refused(*_: Any, **__: Any) -> None:
+        raise OSError(errno.EINVAL, "Invalid argument", "r?.npz")
+
+    monkeypatch.setattr(sys, "platform", "win32")
+    monkeypatch.setattr(info.io, "read", refused)
+    assert main(["info", str(_recording(tmp_path))]) == 2
+    assert "uavsnn info: error: [Errno 22] Invalid argument: 'r?.npz'" in capsys.readouterr().err
+    # The rule itself: a broken pipe anywhere; EINVAL only on Windows, only when the stream
+    # cannot be flushed.
+    healthy = io.StringIO("x")
+    assert pipe_closed(BrokenPipeError(), healthy)
+    assert not pipe_closed(OSError(errno.EINVAL, "Invalid argument"), healthy)
+    assert not pipe_closed(OSError(errno.ENOENT, "No such file"), healthy)
+    monkeypatch.setattr(sys, "platform", "linux")
+    pipe = WindowsClosedPipe()
+    broken = io.TextIOWrapper(io.BufferedWriter(pipe), encoding="utf-8")
+    broken.write("x")
+    assert not pipe_closed(OSError(errno.EINVAL, "Invalid argument"), broken)
+    monkeypatch.setattr(sys, "platform", "win32")
+    assert pipe_closed(OSError(errno.EINVAL, "Invalid argument"), broken)
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, pipe.fd)
+    os.close(devnull)
+    broken.close()

@@ -4,6 +4,7 @@ standard error is piped, nothing with --quiet."""
 
 from __future__ import annotations
 
+import errno
 import io
 import os
 import subprocess
@@ -36,6 +37,27 @@ def test_lines_start_at_most_every_interval_and_end() -> None:
     assert lines[-1] == "train conv2: 100/100 win [C=99] (99 s) done"
     assert len(lines) == 2 + int(99 // EVERY_S)
     assert lines[1].startswith("train conv2: 11/100 win [C=10] (10 s)")
+
+
+def test_a_progress_line_the_reader_cannot_take_does_not_stop_the_work() -> None:
+    """Standard error piped to a reader that went away: Linux raises BrokenPipeError,
+    Windows OSError(EINVAL); either way the work goes on without its progress lines."""
+
+    class Gone(io.StringIO):
+        def __init__(self, exc: OSError) -> None:
+            super().__init__()
+            self.exc = exc
+
+        def write(self, text: str) -> int:
+            raise self.exc
+
+    for exc in (BrokenPipeError(), OSError(errno.EINVAL, "Invalid argument")):
+        clock = Clock()
+        p = LineProgress(10, "train conv2", stream=Gone(exc), clock=clock)
+        clock.now = 100.0
+        p.update(10)
+        p.close()
+        assert p.n == 10
 
 
 def test_bar_is_lines_when_stderr_is_not_a_terminal(capsys) -> None:

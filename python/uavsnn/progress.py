@@ -77,7 +77,9 @@ class LineProgress:
                 file=self.stream,
                 flush=True,
             )
-        except (BrokenPipeError, ValueError):  # the reader went away, or the stream closed
+        except (OSError, ValueError):
+            # The reader went away (a closed pipe: BrokenPipeError, or on Windows EINVAL), or
+            # the stream closed: a progress line is never worth stopping the work for.
             pass
 
 

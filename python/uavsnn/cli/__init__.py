@@ -12,7 +12,8 @@ Every failure a user can cause ends in one line on standard error and a document
 2 for bad input (any :class:`uavsnn.UavsnnError`, a file that cannot be read or written, not
 enough memory), 130 for Ctrl-C (``interrupted``; files are written atomically, so nothing is
 left half-written), and 1, silently, when the reader of standard output goes away
-(``uavsnn info F | head -3``), as Python's documentation recommends for a broken pipe.
+(``uavsnn info F | head -3``), as Python's documentation recommends for a broken pipe (Windows
+reports one as ``EINVAL``: :func:`pipe_closed`).
 SIGTERM and SIGHUP (a service manager stopping the command, a closed terminal) take Ctrl-C's
 path (:class:`Terminated`, a ``KeyboardInterrupt``) and exit 128 + the signal's number: 143 and
 129, as shells report them. Their handlers are installed only in the main thread and only where
@@ -24,6 +25,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import errno
 import importlib
 import io
 import os
@@ -104,6 +106,31 @@ def interrupted_line(name: str, interrupt: KeyboardInterrupt) -> str:
     if isinstance(interrupt, Terminated):
         return f"{name}: interrupted ({interrupt.name})"
     return f"{name}: interrupted"
+
+
+def pipe_closed(exc: OSError, stream: Any) -> bool:
+    """Whether ``exc``, raised while a command ran, says that the reader of ``stream`` (its
+    standard output) went away. A ``BrokenPipeError`` does. On Windows a write to a closed pipe
+    raises ``OSError`` with ``EINVAL`` instead, which a file name Windows refuses raises too:
+    there it is the pipe when ``stream`` still cannot be flushed (the data a failed write left
+    in its buffer fails again), not when it can."""
+    if isinstance(exc, BrokenPipeError):
+        return True
+    if sys.platform != "win32" or exc.errno != errno.EINVAL:
+        return False
+    try:
+        stream.flush()
+    except OSError as again:
+        return isinstance(again, BrokenPipeError) or again.errno == errno.EINVAL
+    return False
+
+
+def quiet_stdout(stream: Any) -> None:
+    """After its reader went away, send what ``stream`` still buffers to the null device, so
+    that the flush at exit does not fail again."""
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, stream.fileno())
+    os.close(devnull)
 
 
 def _terminate(signum: int, _frame: FrameType | None) -> None:
@@ -187,12 +214,6 @@ def _run(name: str, handler: Any, args: argparse.Namespace) -> int:
     except KeyboardInterrupt as exc:
         print(interrupted_line(name, exc), file=sys.stderr)
         return exit_code(exc)
-    except BrokenPipeError:
-        # The reader went away: send what is still buffered to /dev/null so that the flush
-        # at exit does not fail again, and stop quietly.
-        devnull = os.open(os.devnull, os.O_WRONLY)
-        os.dup2(devnull, sys.stdout.fileno())
-        return 1
     except MemoryError:
         print(
             f"{name}: error: not enough memory; give a smaller input (a shorter recording, "
@@ -201,6 +222,10 @@ def _run(name: str, handler: Any, args: argparse.Namespace) -> int:
         )
         return 2
     except OSError as exc:
+        if pipe_closed(exc, sys.stdout):
+            # The reader went away (`| head`): stop quietly.
+            quiet_stdout(sys.stdout)
+            return 1
         # A file or folder the user named cannot be read or written.
         print(f"{name}: error: {exc}", file=sys.stderr)
         return 2

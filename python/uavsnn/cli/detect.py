@@ -25,7 +25,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
 import sys
 import time
 from typing import Any, TextIO
@@ -437,7 +436,7 @@ def run(args: argparse.Namespace) -> int:
     still reported (the windows still open flushed), and the exit code is then 130 (143, 129),
     as for any interruption; 1, without the summary, when standard output's reader went away.
     Returns the exit code."""
-    from uavsnn.cli import exit_code, interrupted_line
+    from uavsnn.cli import exit_code, interrupted_line, pipe_closed, quiet_stdout
     from uavsnn.detector import Detector
     from uavsnn.driver import StreamDriver
     from uavsnn.network import Network
@@ -564,10 +563,12 @@ def run(args: argparse.Namespace) -> int:
                 )
             else:
                 emit(driver.flush())  # a closed pipe here ends as any (uavsnn.cli.main: exit 1)
-        except BrokenPipeError:
+        except OSError as exc:
+            if not pipe_closed(exc, out):
+                raise
             # The reader went away (``| head``): stop quietly, as command-line tools do (exit
             # 1, no summary: uavsnn.cli).
-            os.dup2(os.open(os.devnull, os.O_WRONLY), out.fileno())
+            quiet_stdout(out)
             return 1
         summary.write(driver, final=True)
     if interrupted is not None:
