@@ -49,6 +49,8 @@ __all__ = [
     "main",
     "output_dir",
     "output_file",
+    "pipe_closed",
+    "quiet_stdout",
 ]
 
 #: The sub-commands, each the name of its module, with the one line ``uavsnn --help`` shows.
