@@ -315,3 +315,8 @@ def test_the_noise_sweep_runs_its_largest_level_first(monkeypatch: pytest.Monkey
     for bad in (float("nan"), -0.01, 1.5):
         with pytest.raises(uavsnn.ParameterError, match="noise share"):
             experiments.noise_seed(0, bad)
+    # A bad share in a sweep is refused before any level has run.
+    calls.clear()
+    with pytest.raises(uavsnn.ParameterError, match="noise share"):
+        experiments.noise_sweep({}, None, (0.2, 0.05, 1.5), seed=10)  # type: ignore[arg-type]
+    assert calls == []

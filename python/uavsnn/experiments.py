@@ -430,19 +430,18 @@ def noise_sweep(
     :mod:`uavsnn.distributed`; default here, one after the other, the largest first, so what
     fails for its size fails before the others have run): the points are the same, in the
     order of ``fractions``."""
+    seeds = [noise_seed(seed, f) for f in fractions]  # a bad share refused before any level
     if runner is None or runner is SERIAL:
         order = sorted(range(len(fractions)), key=lambda i: -fractions[i])
         done = {
-            i: noise_level(
-                networks, data, fractions[i], seed=noise_seed(seed, fractions[i]), threads=threads
-            )
+            i: noise_level(networks, data, fractions[i], seed=seeds[i], threads=threads)
             for i in order
         }
         levels: Iterable[list[NoisePoint]] = (done[i] for i in range(len(fractions)))
     else:
         nets, shared = runner.put(networks), runner.put(data)
         levels = runner.imap(
-            noise_task, ((nets, shared, f, noise_seed(seed, f)) for f in fractions)
+            noise_task, ((nets, shared, f, s) for f, s in zip(fractions, seeds, strict=True))
         )
     return [point for level in levels for point in level]
 
