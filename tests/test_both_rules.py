@@ -619,3 +619,11 @@ def test_mix_windows_draws_equal_shares_of_each_part(tiny) -> None:
         assert len(keys) == 10 and keys <= have
     again = mix_windows([test, other], 20, seed=4)  # the same seed, the same draw
     assert np.array_equal(again.windows.t0, t0) and np.array_equal(again.recording, rec)
+    # No total: the parts joined whole, each in its order, their recordings kept apart.
+    whole = mix_windows([test, other], None, seed=4)
+    assert len(whole) == 2 * n
+    t0_test = np.asarray(test.windows.t0)
+    assert np.array_equal(np.asarray(whole.windows.t0), np.concatenate([t0_test, t0_test]))
+    rec_test = np.asarray(test.recording)
+    assert np.array_equal(whole.recording, np.concatenate([rec_test, rec_test + offset]))
+    assert np.array_equal(whole.cls[n:], other.cls)

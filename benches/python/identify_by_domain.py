@@ -50,13 +50,9 @@ def gathered(
     parts = [load(f, "train") for f in folders]
     if domains is not None:
         parts = [of_domains(p, domains) for p in parts]
-    if mix is not None:
-        return mix_windows(parts, mix, seed=seed)
-    if len(parts) == 1:
-        return parts[0]
-    # mix_windows draws total // len(parts) of each part: with that at least the largest part,
-    # it takes every window of each.
-    return mix_windows(parts, len(parts) * max(len(p) for p in parts), seed=0)
+    if mix is None and len(parts) == 1:
+        return parts[0]  # with its manifest (the windows' step)
+    return mix_windows(parts, mix, seed=seed)
 
 
 def main(argv: Sequence[str] | None = None) -> None:

@@ -49,7 +49,7 @@ def joined(spec: str) -> LabelledWindows:
         return parts[0]
     if len({len(p) for p in parts}) != 1:
         raise SystemExit(f"--fit {spec}: the joined train splits must be of one size")
-    return mix_windows(parts, sum(len(p) for p in parts), seed=0)
+    return mix_windows(parts, None, seed=0)
 
 
 def scored(net: Network, ident: identify.Identifier, data: LabelledWindows) -> dict[str, Any]:

@@ -446,17 +446,23 @@ def noise_sweep(
     return [point for level in levels for point in level]
 
 
-def mix_windows(parts: Sequence[LabelledWindows], total: int, *, seed: int) -> LabelledWindows:
+def mix_windows(
+    parts: Sequence[LabelledWindows], total: int | None, *, seed: int
+) -> LabelledWindows:
     """``total`` training windows drawn in equal shares from ``parts`` (uniformly, without
     replacement, so each part's label balance holds in expectation), concatenated — the
-    paper's "proposed system" trains on real and simulated events together."""
+    paper's "proposed system" trains on real and simulated events together. ``total``
+    ``None``: every window of each part, in its order (the parts joined whole). Each part's
+    recordings keep ids of their own."""
     if not parts:
         raise ParameterError("mix_windows needs at least one part")
     rng = np.random.default_rng(seed)
-    share = total // len(parts)
     chosen = []
     for part in parts:
-        take = min(share, len(part))
+        if total is None:
+            chosen.append(np.arange(len(part)))
+            continue
+        take = min(total // len(parts), len(part))
         chosen.append(np.sort(rng.choice(len(part), size=take, replace=False)))
     windows = Windows.concatenate(
         [p.windows.select(idx) for p, idx in zip(parts, chosen, strict=True)]
