@@ -260,3 +260,34 @@ def test_feature_groups_fits_each_group_as_the_ablation_does(bench_script, tmp_p
         assert row["test"]["balanced_accuracy"] == pytest.approx(ablation[name]["accuracy"])
         area = row["tune"]["object_roc_area"]
         assert area is None or 0 <= area <= 1
+
+
+def test_roc_point_coverage_draws_sets_of_recordings_from_the_pool(bench_script) -> None:
+    cover = bench_script("roc_point_coverage")
+    r = np.random.default_rng(3)
+
+    def scored_set(n_rec: int, offset: float) -> dict[str, np.ndarray]:
+        rec = np.repeat(np.arange(n_rec), 20)
+        actual = np.tile(np.arange(20) < 10, n_rec)  # each recording both kinds
+        scores = r.normal(0, 1, rec.size) + 1.5 * actual + offset * r.normal(0, 1, n_rec)[rec]
+        return {"scores": scores, "actual": actual, "recording": rec}
+
+    sets = [scored_set(30, 1.0), scored_set(34, 1.0)]
+    free, uav = cover.units(sets)
+    # Each recording's UAV-free windows and its UAV windows, as two units.
+    assert len(free) == len(uav) == 64 and all(u.size == 10 for u in free + uav)
+    s, a, rec = cover.draw_set(r, free, uav, 5, 7)
+    assert s.size == 120 and a.sum() == 70 and (~a).sum() == 50 and len(np.unique(rec)) == 12
+    assert all(len(np.unique(a[rec == i])) == 1 for i in np.unique(rec))
+    got = cover.coverage(sets, 0.05, draws=40, resamples=200, seed=0)
+    assert got["units_per_set"] == {"uav_free": 32, "uav": 32}
+    assert got["point_spread"]["sd"] > 0 and got["mean_width"] > 0
+    assert 0.5 <= got["coverage"] <= 1
+    twice = cover.coverage(sets, 0.05, draws=40, resamples=200, seed=0, scale=2)
+    assert twice["units_per_set"] == {"uav_free": 64, "uav": 64}
+    # Units all alike: every drawn set is the pool again, its interval the pool's point.
+    same = [{k: np.tile(v[:20], 8) if k != "recording" else np.repeat(np.arange(8), 20)
+             for k, v in sets[0].items()}]  # fmt: skip
+    alike = cover.coverage(same, 0.05, draws=10, resamples=100, seed=0)
+    assert alike["coverage"] == 1.0 and alike["mean_width"] == 0.0
+    assert alike["point_spread"]["sd"] == pytest.approx(0.0, abs=1e-12)

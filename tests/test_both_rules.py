@@ -330,6 +330,21 @@ def test_identification_markdown_and_roc_chart(tiny, tmp_path: Path) -> None:
     (tp, fn), (fp, tn) = figures["identified"]["confusion"]
     assert f"| any-spike + identification | {tp} | {fn} | {fp} | {tn} |" in text
     assert "at 1 % false alarms" in text and "at 5 % false alarms" in text
+    # Each point read off the ROC with its interval over the recordings, the threshold read
+    # again on each draw (evaluation.roc_point_interval), in the text beside its detection.
+    from uavsnn import identify
+    from uavsnn.evaluation import roc_point_interval
+
+    inference = net.infer(test.windows)
+    feats = identify.window_features(net, test, inference)
+    combined = np.where(inference.detected, net.identification.window_scores(feats), -np.inf)
+    for point in figures["at_false_alarm"]:
+        lo, hi = point["detection_interval"]
+        assert (lo, hi) == roc_point_interval(
+            combined, test.label, test.recording, point["false_alarm_target"]
+        )
+        assert lo <= point["detection_rate"] <= hi
+        assert f"{100 * point['detection_rate']:.1f} % ({100 * lo:.1f}–{100 * hi:.1f})" in text
     for cls in figures["any_spike"]["per_class"]:
         assert f"| {cls} |" in text
     classes = class_markdown(figures["classes"])

@@ -341,3 +341,85 @@ def test_recording_interval_refuses_what_it_cannot_draw() -> None:
         recording_interval(np.ones(3, bool), np.zeros(3, int), level=1.0)
     with pytest.raises(ParameterError, match="resamples"):
         recording_interval(np.ones(3, bool), np.zeros(3, int), resamples=0)
+
+
+def _identical_recordings(scores: np.ndarray, copies: int) -> np.ndarray:
+    """Recording ids for ``copies`` copies of ``scores`` laid end to end, one per copy."""
+    return np.repeat(np.arange(copies), len(scores))
+
+
+def test_roc_point_interval_reads_the_threshold_again_on_each_draw() -> None:
+    from uavsnn.evaluation import detection_at_false_alarm, roc_point_interval
+
+    r = np.random.default_rng(5)
+    # Every UAV-free recording holds the same 100 scores (ties and never-alarming windows
+    # among them), and every UAV recording the same 50: any draw of recordings is the set
+    # again, so the interval is the set's own point, at each rate (the threshold's tie rule
+    # and the -inf windows as threshold_at_false_alarm has them).
+    free = np.round(r.normal(0, 1, 100), 1)
+    free[:20] = -np.inf
+    uav = np.round(r.normal(1, 1, 50), 1)
+    uav[:5] = -np.inf
+    scores = np.concatenate([np.tile(free, 10), np.tile(uav, 8)])
+    actual = np.concatenate([np.zeros(1000, bool), np.ones(400, bool)])
+    rec = np.concatenate([_identical_recordings(free, 10), 10 + _identical_recordings(uav, 8)])
+    for rate in (0.0, 0.01, 0.05, 0.3, 0.8, 1.0):
+        point = detection_at_false_alarm(scores, actual, rate)
+        assert roc_point_interval(scores, actual, rec, rate, resamples=300) == pytest.approx(
+            (point, point)
+        ), rate
+
+
+def test_roc_point_interval_widens_when_a_recording_sets_the_threshold() -> None:
+    from uavsnn.evaluation import detection_at_false_alarm, roc_point_interval
+
+    r = np.random.default_rng(6)
+    scores = np.concatenate([r.normal(0, 1, 2000), r.normal(2, 1, 2000)])
+    actual = np.concatenate([np.zeros(2000, bool), np.ones(2000, bool)])
+    mixed = np.tile(np.arange(40), 100)  # every recording a fair share of each score
+    # The same scores, the highest UAV-free ones all in one recording of 40: whether a draw
+    # holds it (0, 1, 2 ... times) moves the 1 % threshold across the UAV scores.
+    clustered = np.empty(4000, int)
+    order = np.argsort(-scores[:2000])
+    clustered[:2000][order] = np.repeat(np.arange(20), 100)
+    clustered[2000:] = 20 + np.repeat(np.arange(20), 100)
+    point = detection_at_false_alarm(scores, actual, 0.01)
+    lo_m, hi_m = roc_point_interval(scores, actual, mixed, 0.01)
+    lo_c, hi_c = roc_point_interval(scores, actual, clustered, 0.01)
+    assert lo_m <= point <= hi_m and lo_c <= point <= hi_c
+    assert hi_c - lo_c > 2 * (hi_m - lo_m)
+    # The same inputs and seed, the same interval; a narrower level inside it.
+    assert roc_point_interval(scores, actual, clustered, 0.01) == (lo_c, hi_c)
+    lo50, hi50 = roc_point_interval(scores, actual, clustered, 0.01, level=0.5)
+    assert lo_c <= lo50 <= hi50 <= hi_c
+
+
+def test_roc_point_interval_with_nothing_detected_bounds_the_share() -> None:
+    from uavsnn.evaluation import recording_interval, roc_point_interval
+
+    # No UAV window scores finite: every draw detects nothing, which is not a share known to
+    # be 0; the interval is the recordings' Clopper-Pearson bound, as recording_interval's.
+    scores = np.concatenate([np.linspace(0, 1, 300), np.full(300, -np.inf)])
+    actual = np.arange(600) >= 300
+    rec = np.repeat(np.arange(60), 10)
+    got = roc_point_interval(scores, actual, rec, 0.05)
+    assert got == recording_interval(np.zeros(300, bool), rec[300:])
+    assert got[0] == 0.0 and got[1] > 0.05
+
+
+def test_roc_point_interval_refuses_what_it_cannot_draw() -> None:
+    from uavsnn.evaluation import roc_point_interval
+
+    s, a, rec = np.zeros(4), np.array([0, 0, 1, 1], bool), np.arange(4)
+    with pytest.raises(ShapeError, match="recording 3"):
+        roc_point_interval(s, a, rec[:3], 0.01)
+    with pytest.raises(ParameterError, match="NaN"):
+        roc_point_interval(np.array([0, np.nan, 0, 0]), a, rec, 0.01)
+    with pytest.raises(ParameterError, match="rate"):
+        roc_point_interval(s, a, rec, 1.5)
+    with pytest.raises(ParameterError, match="level"):
+        roc_point_interval(s, a, rec, 0.01, level=0)
+    with pytest.raises(ParameterError, match="resamples"):
+        roc_point_interval(s, a, rec, 0.01, resamples=True)
+    with pytest.raises(DatasetError, match="UAV and UAV-free"):
+        roc_point_interval(s, np.ones(4, bool), rec, 0.01)

@@ -62,6 +62,7 @@ __all__ = [
     "recording_interval",
     "roc_area",
     "roc_curve",
+    "roc_point_interval",
     "score",
     "threshold_at_false_alarm",
 ]
@@ -574,6 +575,91 @@ def recording_interval(
     return (float(lo), float(hi))
 
 
+def _draw_counts(rng: np.random.Generator, groups: int, draws: int) -> np.ndarray:
+    """``draws`` rows of how often each of ``groups`` recordings is drawn when ``groups`` are
+    drawn with replacement (float64, shape ``(draws, groups)``)."""
+    pick = rng.integers(0, groups, size=(draws, groups))
+    counts = np.zeros((draws, groups))
+    np.add.at(counts, (np.arange(draws)[:, None], pick), 1.0)
+    return counts
+
+
+def roc_point_interval(
+    scores: npt.ArrayLike,
+    actual: npt.ArrayLike,
+    recording: npt.ArrayLike,
+    rate: float,
+    *,
+    level: float = 0.95,
+    resamples: int = INTERVAL_RESAMPLES,
+    seed: int = 0,
+) -> tuple[float, float]:
+    """The ``level`` interval of :func:`detection_at_false_alarm` at ``rate`` when the
+    recordings are drawn again: the recordings of the UAV-free windows and those of the UAV
+    windows, each drawn with replacement as many as there are, the threshold read again off
+    each draw's UAV-free windows and the detection measured on its UAV windows (a percentile
+    bootstrap over recordings, as :func:`recording_interval`'s).
+
+    A point read off a set's own ROC moves with the set twice: the threshold is set by the few
+    UAV-free windows scoring highest (10 of 1000 at 1 %), often from a few recordings, and the
+    detection is a share of the UAV windows. This interval holds both. How well it covers is
+    measured, not assumed (``benches/python/roc_point_coverage.py``; docs/identification.md,
+    "How well a point read off the ROC is known"). Where every draw gives the same detection (0
+    or 1), the interval is :func:`recording_interval`'s for the UAV windows at the set's own
+    threshold. The same inputs and ``seed`` give the same interval.
+
+    Raises:
+        ShapeError: the arrays differ in length.
+        ParameterError: ``rate`` outside [0, 1], ``level`` outside (0, 1) or ``resamples`` < 1.
+        DatasetError: no UAV or no UAV-free window.
+    """
+    s = np.asarray(scores, dtype=np.float64)
+    a = _bools("actual", actual)
+    rec = np.asarray(recording)
+    if not s.shape == a.shape == rec.shape:
+        raise ShapeError(f"scores has {s.size}, actual {a.size} and recording {rec.size} windows")
+    if np.isnan(s).any():
+        raise ParameterError("scores hold NaN")
+    if not 0 <= rate <= 1:
+        raise ParameterError(f"rate must be in [0, 1], got {rate}")
+    if not 0 < level < 1:
+        raise ParameterError(f"level must be in (0, 1), got {level}")
+    if isinstance(resamples, bool) or not isinstance(resamples, int) or resamples < 1:
+        raise ParameterError(f"resamples must be an integer >= 1, got {resamples!r}")
+    if a.all() or not a.any():
+        raise DatasetError("a point on the ROC needs UAV and UAV-free windows")
+    # The UAV-free windows from the highest score down, each with its recording's index.
+    order = np.argsort(-s[~a], kind="stable")
+    neg = s[~a][order]
+    neg_rec = np.unique(rec[~a], return_inverse=True)[1].ravel()[order]
+    pos = s[a]
+    pos_rec = np.unique(rec[a], return_inverse=True)[1].ravel()
+    rng = np.random.default_rng(seed)
+    found = []
+    for start in range(0, resamples, _RESAMPLE_CHUNK):
+        draws = min(_RESAMPLE_CHUNK, resamples - start)
+        # Each window weighs as often as its recording was drawn: the draw's windows in order.
+        weight = _draw_counts(rng, int(neg_rec.max()) + 1, draws)[:, neg_rec]
+        cum = np.cumsum(weight, axis=1)
+        # threshold_at_false_alarm on the draw: just above its (k+1)-th highest UAV-free score.
+        k = np.floor(rate * cum[:, -1] + 1e-9)
+        past = cum > k[:, None]
+        threshold = np.where(
+            past.any(axis=1),
+            np.nextafter(neg[np.argmax(past, axis=1)], np.inf),
+            np.nextafter(-np.inf, 0),
+        )
+        pos_weight = _draw_counts(rng, int(pos_rec.max()) + 1, draws)[:, pos_rec]
+        hit = pos[None, :] >= threshold[:, None]
+        found.append((pos_weight * hit).sum(axis=1) / pos_weight.sum(axis=1))
+    shares = np.concatenate(found)
+    if np.all(shares == shares[0]) and shares[0] in (0.0, 1.0):
+        at_own = pos >= threshold_at_false_alarm(s, a, rate)
+        return recording_interval(at_own, rec[a], level=level, seed=seed)
+    lo, hi = np.percentile(shares, [50 * (1 - level), 50 * (1 + level)])
+    return (float(lo), float(hi))
+
+
 def _binned_rate(hit: np.ndarray, value: np.ndarray, edges: Sequence[float]) -> list[dict]:
     out = []
     for low, high in itertools.pairwise(edges):
@@ -608,7 +694,9 @@ def identification_figures(
     thresholds where :data:`FALSE_ALARM_RATES` of the UAV-free windows alarm, the detection
     rate against size (``data.size_px``, :data:`SIZE_BINS_PX`) and range (``data.range_m``,
     :data:`RANGE_BINS_M`) and the false alarms per class of other object. Those thresholds are
-    read off this set's UAV-free windows (points on its ROC), not tuned for it.
+    read off this set's UAV-free windows (points on its ROC), not tuned for it; each point's
+    ``"detection_interval"`` is its 95 % interval when the recordings are drawn again, the
+    threshold read again each time (:func:`roc_point_interval`).
 
     ``alarm_thresholds`` (:attr:`uavsnn.identify.Identifier.alarm_thresholds`: thresholds set
     on other recordings for a false-alarm share) adds ``"at_tuned_false_alarm"``: the same
@@ -675,7 +763,10 @@ def identification_figures(
             # Up to the any-spike rule's own false-alarm rate: windows it misses never alarm.
             "area_reachable": float(np.sum(np.diff(fa) * (pd[1:] + pd[:-1]) / 2)),
         }
-        at_fa = [at(r, threshold_at_false_alarm(combined, actual, r)) for r in FALSE_ALARM_RATES]
+        for r in FALSE_ALARM_RATES:
+            point = at(r, threshold_at_false_alarm(combined, actual, r))
+            point["detection_interval"] = list(roc_point_interval(combined, actual, rec, r))
+            at_fa.append(point)
     out = {
         "threshold": float(threshold),
         "any_spike": rule(fired),

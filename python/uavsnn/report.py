@@ -432,11 +432,18 @@ def _operating_points(points: list[dict[str, Any]]) -> list[str]:
         cells = " | ".join(f"{100 * p['false_alarms_per_class'][cls]:.1f} %" for p in points)
         lines.append(f"| {cls} | {cells} |")
     overall = "; ".join(
-        f"{100 * p['detection_rate']:.1f} % of the UAV windows at "
-        f"{100 * p['false_alarm_rate']:.1f} % false alarms"
+        f"{_with_interval(p['detection_rate'], p.get('detection_interval'))} of the UAV windows "
+        f"at {100 * p['false_alarm_rate']:.1f} % false alarms"
         for p in points
     )
     lines += ["", f"Overall detection: {overall}."]
+    if any(p.get("detection_interval") for p in points):
+        lines.append(
+            "In brackets, its 95 % interval when the set's recordings are drawn again and the "
+            "threshold read again on each draw (`evaluation.roc_point_interval`; at 1 % it "
+            'covers less than 95 %: docs/identification.md, "How well a point read off the '
+            'ROC is known").'
+        )
     return lines
 
 

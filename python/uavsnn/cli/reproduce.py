@@ -186,18 +186,25 @@ def _set_beforehand(point: dict[str, Any]) -> str:
     )
 
 
+def _read_off(point: dict[str, Any]) -> str:
+    """Detection at a point read off the test ROC (its 95 % interval over the test recordings,
+    the threshold read again on each draw)."""
+    lo, hi = point["detection_interval"]
+    return f"{100 * point['detection_rate']:.1f} % ({100 * lo:.1f}–{100 * hi:.1f})"
+
+
 def _row(name: str, e: Evaluation, paper: float | None, ident: dict[str, Any] | None) -> str:
     (tp, fn), (fp, tn) = e.confusion.tolist()
     ref = "" if paper is None else f"{100 * paper:.0f} %"
     if ident is None:
         cells = "– | – | – | – | –"
     else:
-        at = detection_by_target(ident["at_false_alarm"])
+        read = {p["false_alarm_target"]: p for p in ident["at_false_alarm"]}
         tuned = {p["false_alarm_target"]: p for p in ident.get("at_tuned_false_alarm", [])}
         set_for = [_set_beforehand(tuned[r]) if r in tuned else "–" for r in (0.01, 0.05)]
         cells = (
-            f"**{100 * ident['identified']['accuracy']:.1f} %** | {100 * at[0.01]:.1f} % | "
-            f"{100 * at[0.05]:.1f} % | {' | '.join(set_for)}"
+            f"**{100 * ident['identified']['accuracy']:.1f} %** | {_read_off(read[0.01])} | "
+            f"{_read_off(read[0.05])} | {' | '.join(set_for)}"
         )
     return (
         f"| {name} | {tp} | {fn} | {fp} | {tn} | **{100 * e.accuracy:.1f} %** | {ref} | {cells} |"
@@ -206,8 +213,8 @@ def _row(name: str, e: Evaluation, paper: float | None, ident: dict[str, Any] | 
 
 _TABLE2_HEAD = [
     "| trained on | TP | FN | FP | TN | any-spike accuracy | paper | with identification | "
-    "detection at 1 % false alarms | at 5 % | set beforehand for 1 %: detection (false "
-    "alarms; their 95 % interval) | for 5 % |",
+    "detection at 1 % false alarms (its 95 % interval) | at 5 % | set beforehand for 1 %: "
+    "detection (false alarms; their 95 % interval) | for 5 % |",
     "|---|---|---|---|---|---|---|---|---|---|---|---|",
 ]
 
@@ -755,9 +762,13 @@ def _reproduce(args: argparse.Namespace) -> int:
         "identification (also the best object's UAV score at least the threshold tuned on "
         f"recordings of seed {tune_seed}); and the detection rate of the second where 1 % and 5 % "
         "of the UAV-free test windows alarm (thresholds read off the test set's ROC, not "
-        "tuned on it), and the detection and false-alarm rates on the test set at the "
-        f"thresholds where 1 % and 5 % of the UAV-free windows of seed {tune_seed} alarmed: "
-        "an operating point fixed beforehand, as a user fixes it (the interval: the false "
+        "tuned on it; in brackets the detection's 95 % interval when the test recordings are "
+        "drawn again and the threshold read again on each draw, "
+        "`evaluation.roc_point_interval`, which at 1 % covers less than 95 %: "
+        'docs/identification.md, "How well a point read off the ROC is known"), and the '
+        "detection and false-alarm rates on the test set at the thresholds where 1 % and 5 % "
+        f"of the UAV-free windows of seed {tune_seed} alarmed: an operating point fixed "
+        "beforehand, as a user fixes it (the interval: the false "
         "alarms' 95 % interval when the test recordings are drawn again, "
         "`evaluation.recording_interval`).\n",
         *_TABLE2_HEAD,

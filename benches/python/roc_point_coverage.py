@@ -1,0 +1,188 @@
+"""How well is a point read off a test set's ROC known? The coverage of
+``evaluation.roc_point_interval``, measured.
+
+``uavsnn evaluate`` and ``reproduce`` report the detection where 1 % and 5 % of the test set's
+UAV-free windows alarm, with a 95 % interval when the recordings are drawn again and the
+threshold read again on each draw. This script scores a model with identification on several
+datasets' splits (draws of recordings of other seeds), then measures two things:
+
+- **across the draws**: each set's point and interval, and whether each interval holds the
+  other sets' points;
+- **coverage**: the recordings of all the sets pooled (the UAV-free windows of a recording and
+  its UAV windows as two units, as the interval draws them) are a population whose point is
+  known. ``--draws`` test sets, each of as many units of each kind as one scored set has on
+  average, are drawn from it with replacement; the share of their 95 % intervals that hold the
+  population's point is the interval's coverage (the nominal is 95 %), beside the spread of
+  the drawn sets' points and the intervals' mean width. ``--scale K`` draws sets of K times as
+  many units: how the spread narrows with a test set of more recordings.
+
+    python benches/python/roc_point_coverage.py runs/reproduce/model-combined.npz \\
+        runs/reproduce/data/dvs runs/val2-dvs runs/val3-dvs [--split test] [--json]
+
+The datasets must be of the model's sensor size; use sets no fit or tuning of the model saw.
+"""
+
+from __future__ import annotations
+
+import os
+
+for _var in ("RAYON_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ[_var] = "1"
+
+import argparse  # noqa: E402
+import json  # noqa: E402
+from typing import Any  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+from uavsnn import Network, identify  # noqa: E402
+from uavsnn.dataset import load  # noqa: E402
+from uavsnn.evaluation import (  # noqa: E402
+    FALSE_ALARM_RATES,
+    detection_at_false_alarm,
+    roc_point_interval,
+)
+
+
+def combined_scores(net: Network, data_dir: str, split: str) -> dict[str, np.ndarray]:
+    """The combined score of each window of ``data_dir``'s ``split`` (the UAV score where the
+    network detects, ``-inf`` where it does not), its label and its recording."""
+    ident = net.identification
+    if ident is None:
+        raise SystemExit(f"{net}: the model has no identification part")
+    data = load(data_dir, split)
+    inference = net.infer(data.windows, threads=1)
+    feats = identify.window_features(net, data, inference)
+    scores = np.where(inference.detected, ident.window_scores(feats), -np.inf)
+    return {
+        "scores": scores,
+        "actual": np.asarray(data.label, bool),
+        "recording": np.asarray(data.recording),
+    }
+
+
+def units(sets: list[dict[str, np.ndarray]]) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """The pool: each set's recordings' UAV-free windows' scores, and UAV windows' scores, one
+    array per recording and kind."""
+    free: list[np.ndarray] = []
+    uav: list[np.ndarray] = []
+    for s in sets:
+        for r in np.unique(s["recording"]):
+            mine = s["recording"] == r
+            for pool, kind in ((free, False), (uav, True)):
+                part = s["scores"][mine & (s["actual"] == kind)]
+                if part.size:
+                    pool.append(part)
+    return free, uav
+
+
+def draw_set(
+    rng: np.random.Generator, free: list[np.ndarray], uav: list[np.ndarray], n_free: int, n_uav: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A test set of ``n_free`` UAV-free and ``n_uav`` UAV units drawn with replacement from the
+    pool: its scores, labels and recording ids (one id per unit drawn)."""
+    picks = [free[i] for i in rng.integers(0, len(free), n_free)]
+    picks += [uav[i] for i in rng.integers(0, len(uav), n_uav)]
+    scores = np.concatenate(picks)
+    sizes = [p.size for p in picks]
+    actual = np.repeat(np.arange(len(picks)) >= n_free, sizes)
+    return scores, actual, np.repeat(np.arange(len(picks)), sizes)
+
+
+def coverage(
+    sets: list[dict[str, np.ndarray]],
+    rate: float,
+    draws: int,
+    resamples: int,
+    seed: int,
+    scale: float = 1.0,
+) -> dict[str, Any]:
+    """The interval's coverage of the pool's point at ``rate`` over ``draws`` drawn sets, each
+    of ``scale`` times a scored set's units."""
+    free, uav = units(sets)
+    pooled_s = np.concatenate([np.concatenate(free), np.concatenate(uav)])
+    pooled_a = np.repeat([False, True], [sum(f.size for f in free), sum(u.size for u in uav)])
+    truth = detection_at_false_alarm(pooled_s, pooled_a, rate)
+    n_free = max(1, round(scale * len(free) / len(sets)))
+    n_uav = max(1, round(scale * len(uav) / len(sets)))
+    rng = np.random.default_rng(seed)
+    points, held, widths = [], 0, []
+    for i in range(draws):
+        s, a, rec = draw_set(rng, free, uav, n_free, n_uav)
+        points.append(detection_at_false_alarm(s, a, rate))
+        lo, hi = roc_point_interval(s, a, rec, rate, resamples=resamples, seed=i)
+        held += lo <= truth <= hi
+        widths.append(hi - lo)
+    return {
+        "rate": rate,
+        "pool": {"uav_free_units": len(free), "uav_units": len(uav), "point": truth},
+        "units_per_set": {"uav_free": n_free, "uav": n_uav},
+        "draws": draws,
+        "coverage": held / draws,
+        "point_spread": {
+            "sd": float(np.std(points)),
+            "p2.5": float(np.percentile(points, 2.5)),
+            "p97.5": float(np.percentile(points, 97.5)),
+        },
+        "mean_width": float(np.mean(widths)),
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("model")
+    parser.add_argument("datasets", nargs="+", metavar="DATASET")
+    parser.add_argument("--split", default="test")
+    parser.add_argument("--draws", type=int, default=1000, help="drawn test sets (1000)")
+    parser.add_argument(
+        "--resamples", type=int, default=1000, help="bootstrap draws per interval (1000)"
+    )
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument(
+        "--scale", type=float, default=1.0, help="units per drawn set, times a scored set's (1)"
+    )
+    parser.add_argument("--json", action="store_true")
+    args = parser.parse_args()
+    if args.draws < 1 or args.resamples < 1 or not args.scale > 0:
+        raise SystemExit("--draws and --resamples must be at least 1, --scale above 0")
+    net = Network.load(args.model)
+    sets = [combined_scores(net, d, args.split) for d in args.datasets]
+    out: dict[str, Any] = {"model": args.model, "split": args.split, "rates": []}
+    for rate in FALSE_ALARM_RATES:
+        per_set = []
+        for d, s in zip(args.datasets, sets, strict=True):
+            point = detection_at_false_alarm(s["scores"], s["actual"], rate)
+            lo, hi = roc_point_interval(s["scores"], s["actual"], s["recording"], rate)
+            per_set.append({"dataset": d, "point": point, "interval": [lo, hi]})
+        for one in per_set:
+            one["holds_others"] = [
+                o["dataset"]
+                for o in per_set
+                if o is not one and one["interval"][0] <= o["point"] <= one["interval"][1]
+            ]
+        cov = coverage(sets, rate, args.draws, args.resamples, args.seed, args.scale)
+        out["rates"].append({"rate": rate, "sets": per_set, "coverage": cov})
+    if args.json:
+        print(json.dumps(out, indent=1))
+        return
+    for r in out["rates"]:
+        print(f"detection at {100 * r['rate']:g} % false alarms")
+        for one in r["sets"]:
+            lo, hi = one["interval"]
+            print(
+                f"  {one['dataset']}: {100 * one['point']:.1f} % ({100 * lo:.1f}–{100 * hi:.1f}); "
+                f"holds {len(one['holds_others'])} of {len(r['sets']) - 1} other sets' points"
+            )
+        c = r["coverage"]
+        print(
+            f"  pool of {c['pool']['uav_free_units']} UAV-free and {c['pool']['uav_units']} UAV "
+            f"units, point {100 * c['pool']['point']:.1f} %; {c['draws']} sets of "
+            f"{c['units_per_set']['uav_free']} + {c['units_per_set']['uav']} units drawn: "
+            f"coverage {100 * c['coverage']:.1f} % (nominal 95 %), points "
+            f"{100 * c['point_spread']['p2.5']:.1f}–{100 * c['point_spread']['p97.5']:.1f} "
+            f"(sd {100 * c['point_spread']['sd']:.1f}), mean width {100 * c['mean_width']:.1f}"
+        )
+
+
+if __name__ == "__main__":
+    main()
