@@ -407,6 +407,35 @@ def test_roc_point_interval_with_nothing_detected_bounds_the_share() -> None:
     assert got[0] == 0.0 and got[1] > 0.05
 
 
+def test_roc_point_interval_of_a_difference_draws_both_models_on_the_same_recordings() -> None:
+    from uavsnn.evaluation import detection_at_false_alarm, roc_point_interval
+
+    r = np.random.default_rng(8)
+    rec = np.repeat(np.arange(60), 30)
+    actual = rec % 2 == 1
+    # Windows of a recording score together (its own level), as the dataset's do.
+    base = r.normal(0, 1, rec.size) + r.normal(0, 1.5, 60)[rec] + 1.5 * actual
+    # A score that ranks the windows as `base` does detects the same on every draw.
+    assert roc_point_interval(base, actual, rec, 0.01, against=2 * base + 1) == (0.0, 0.0)
+    # A model a little off `base`: the difference, drawn on the same recordings, moves much
+    # less than either model's figure, whose threshold moves with the draw.
+    near = base + r.normal(0, 0.3, rec.size)
+    lo, hi = roc_point_interval(base, actual, rec, 0.05)
+    d_lo, d_hi = roc_point_interval(near, actual, rec, 0.05, against=base)
+    lead = detection_at_false_alarm(near, actual, 0.05) - detection_at_false_alarm(
+        base, actual, 0.05
+    )
+    assert d_lo <= lead <= d_hi and d_hi - d_lo < (hi - lo) / 2
+    # A model whose UAV windows score higher leads on every draw.
+    better = base + 2.0 * actual
+    b_lo, _ = roc_point_interval(better, actual, rec, 0.05, against=base)
+    assert b_lo > 0
+    with pytest.raises(ShapeError, match="against 5"):
+        roc_point_interval(base, actual, rec, 0.05, against=base[:5])
+    with pytest.raises(ParameterError, match="NaN"):
+        roc_point_interval(base, actual, rec, 0.05, against=np.full(rec.size, np.nan))
+
+
 def test_roc_point_interval_refuses_what_it_cannot_draw() -> None:
     from uavsnn.evaluation import roc_point_interval
 

@@ -16,6 +16,11 @@ datasets' splits (draws of recordings of other seeds), then measures two things:
   the drawn sets' points and the intervals' mean width. ``--scale K`` draws sets of K times as
   many units: how the spread narrows with a test set of more recordings.
 
+``--against OTHER`` scores a second model on the same sets and gives, for each set, the first
+model's detection minus the other's with the interval of that difference on the same draws of
+recordings (``roc_point_interval(..., against=...)``): whether one model's lead on a set is more
+than the draw of its recordings.
+
     python benches/python/roc_point_coverage.py runs/reproduce/model-combined.npz \\
         runs/reproduce/data/dvs runs/val2-dvs runs/val3-dvs [--split test] [--json]
 
@@ -141,12 +146,17 @@ def main() -> None:
     parser.add_argument(
         "--scale", type=float, default=1.0, help="units per drawn set, times a scored set's (1)"
     )
+    parser.add_argument("--against", metavar="MODEL", help="a second model to compare with")
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
     if args.draws < 1 or args.resamples < 1 or not args.scale > 0:
         raise SystemExit("--draws and --resamples must be at least 1, --scale above 0")
     net = Network.load(args.model)
     sets = [combined_scores(net, d, args.split) for d in args.datasets]
+    theirs = None
+    if args.against is not None:
+        other = Network.load(args.against)
+        theirs = [combined_scores(other, d, args.split)["scores"] for d in args.datasets]
     out: dict[str, Any] = {"model": args.model, "split": args.split, "rates": []}
     for rate in FALSE_ALARM_RATES:
         per_set = []
@@ -154,6 +164,13 @@ def main() -> None:
             point = detection_at_false_alarm(s["scores"], s["actual"], rate)
             lo, hi = roc_point_interval(s["scores"], s["actual"], s["recording"], rate)
             per_set.append({"dataset": d, "point": point, "interval": [lo, hi]})
+            if theirs is not None:
+                against = theirs[len(per_set) - 1]
+                lead = point - detection_at_false_alarm(against, s["actual"], rate)
+                d_lo, d_hi = roc_point_interval(
+                    s["scores"], s["actual"], s["recording"], rate, against=against
+                )
+                per_set[-1]["lead"] = {"point": lead, "interval": [d_lo, d_hi]}
         for one in per_set:
             one["holds_others"] = [
                 o["dataset"]
@@ -173,6 +190,12 @@ def main() -> None:
                 f"  {one['dataset']}: {100 * one['point']:.1f} % ({100 * lo:.1f}–{100 * hi:.1f}); "
                 f"holds {len(one['holds_others'])} of {len(r['sets']) - 1} other sets' points"
             )
+            if "lead" in one:
+                d_lo, d_hi = one["lead"]["interval"]
+                print(
+                    f"    minus {args.against}: {100 * one['lead']['point']:+.1f} points "
+                    f"({100 * d_lo:+.1f} to {100 * d_hi:+.1f})"
+                )
         c = r["coverage"]
         print(
             f"  pool of {c['pool']['uav_free_units']} UAV-free and {c['pool']['uav_units']} UAV "

@@ -590,6 +590,7 @@ def roc_point_interval(
     recording: npt.ArrayLike,
     rate: float,
     *,
+    against: npt.ArrayLike | None = None,
     level: float = 0.95,
     resamples: int = INTERVAL_RESAMPLES,
     seed: int = 0,
@@ -608,6 +609,11 @@ def roc_point_interval(
     or 1), the interval is :func:`recording_interval`'s for the UAV windows at the set's own
     threshold. The same inputs and ``seed`` give the same interval.
 
+    ``against``: another score of the same windows (another model's); the interval is then
+    that of the difference, ``scores``' detection minus ``against``'s, each at its own
+    threshold on the same draws of recordings: whether one model's lead on a set is more than
+    the set's draw.
+
     Raises:
         ShapeError: the arrays differ in length.
         ParameterError: ``rate`` outside [0, 1], ``level`` outside (0, 1) or ``resamples`` < 1.
@@ -616,9 +622,13 @@ def roc_point_interval(
     s = np.asarray(scores, dtype=np.float64)
     a = _bools("actual", actual)
     rec = np.asarray(recording)
-    if not s.shape == a.shape == rec.shape:
-        raise ShapeError(f"scores has {s.size}, actual {a.size} and recording {rec.size} windows")
-    if np.isnan(s).any():
+    other = None if against is None else np.asarray(against, dtype=np.float64)
+    if not s.shape == a.shape == rec.shape or (other is not None and other.shape != s.shape):
+        theirs = "" if other is None else f", against {other.size}"
+        raise ShapeError(
+            f"scores has {s.size}, actual {a.size} and recording {rec.size} windows{theirs}"
+        )
+    if np.isnan(s).any() or (other is not None and np.isnan(other).any()):
         raise ParameterError("scores hold NaN")
     if not 0 <= rate <= 1:
         raise ParameterError(f"rate must be in [0, 1], got {rate}")
@@ -628,36 +638,53 @@ def roc_point_interval(
         raise ParameterError(f"resamples must be an integer >= 1, got {resamples!r}")
     if a.all() or not a.any():
         raise DatasetError("a point on the ROC needs UAV and UAV-free windows")
-    # The UAV-free windows from the highest score down, each with its recording's index.
-    order = np.argsort(-s[~a], kind="stable")
-    neg = s[~a][order]
-    neg_rec = np.unique(rec[~a], return_inverse=True)[1].ravel()[order]
-    pos = s[a]
+    # Each window's recording, numbered among the UAV-free (and the UAV) windows' recordings.
+    neg_rec = np.unique(rec[~a], return_inverse=True)[1].ravel()
     pos_rec = np.unique(rec[a], return_inverse=True)[1].ravel()
     rng = np.random.default_rng(seed)
     found = []
     for start in range(0, resamples, _RESAMPLE_CHUNK):
         draws = min(_RESAMPLE_CHUNK, resamples - start)
-        # Each window weighs as often as its recording was drawn: the draw's windows in order.
-        weight = _draw_counts(rng, int(neg_rec.max()) + 1, draws)[:, neg_rec]
-        cum = np.cumsum(weight, axis=1)
-        # threshold_at_false_alarm on the draw: just above its (k+1)-th highest UAV-free score.
-        k = np.floor(rate * cum[:, -1] + 1e-9)
-        past = cum > k[:, None]
-        threshold = np.where(
-            past.any(axis=1),
-            np.nextafter(neg[np.argmax(past, axis=1)], np.inf),
-            np.nextafter(-np.inf, 0),
-        )
-        pos_weight = _draw_counts(rng, int(pos_rec.max()) + 1, draws)[:, pos_rec]
-        hit = pos[None, :] >= threshold[:, None]
-        found.append((pos_weight * hit).sum(axis=1) / pos_weight.sum(axis=1))
+        neg_counts = _draw_counts(rng, int(neg_rec.max()) + 1, draws)
+        pos_counts = _draw_counts(rng, int(pos_rec.max()) + 1, draws)
+        mine = _detection_on_draws(s, a, neg_rec, pos_rec, neg_counts, pos_counts, rate)
+        if other is not None:
+            mine -= _detection_on_draws(other, a, neg_rec, pos_rec, neg_counts, pos_counts, rate)
+        found.append(mine)
     shares = np.concatenate(found)
-    if np.all(shares == shares[0]) and shares[0] in (0.0, 1.0):
-        at_own = pos >= threshold_at_false_alarm(s, a, rate)
+    if other is None and np.all(shares == shares[0]) and shares[0] in (0.0, 1.0):
+        at_own = s[a] >= threshold_at_false_alarm(s, a, rate)
         return recording_interval(at_own, rec[a], level=level, seed=seed)
     lo, hi = np.percentile(shares, [50 * (1 - level), 50 * (1 + level)])
     return (float(lo), float(hi))
+
+
+def _detection_on_draws(
+    s: np.ndarray,
+    a: np.ndarray,
+    neg_rec: np.ndarray,
+    pos_rec: np.ndarray,
+    neg_counts: np.ndarray,
+    pos_counts: np.ndarray,
+    rate: float,
+) -> np.ndarray:
+    """:func:`detection_at_false_alarm` on each draw of recordings (a row of ``neg_counts`` and
+    of ``pos_counts``: how often each recording of the UAV-free and of the UAV windows is
+    drawn), each window weighing as often as its recording was drawn."""
+    order = np.argsort(-s[~a], kind="stable")
+    neg = s[~a][order]
+    cum = np.cumsum(neg_counts[:, neg_rec[order]], axis=1)
+    # threshold_at_false_alarm on the draw: just above its (k+1)-th highest UAV-free score.
+    k = np.floor(rate * cum[:, -1] + 1e-9)
+    past = cum > k[:, None]
+    threshold = np.where(
+        past.any(axis=1),
+        np.nextafter(neg[np.argmax(past, axis=1)], np.inf),
+        np.nextafter(-np.inf, 0),
+    )
+    weight = pos_counts[:, pos_rec]
+    hit = s[a][None, :] >= threshold[:, None]
+    return (weight * hit).sum(axis=1) / weight.sum(axis=1)
 
 
 def _binned_rate(hit: np.ndarray, value: np.ndarray, edges: Sequence[float]) -> list[dict]:
