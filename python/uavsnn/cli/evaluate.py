@@ -376,8 +376,8 @@ def _print_identification(ident: dict[str, Any]) -> None:
             lo, hi = point["detection_interval"]
             print(
                 f"  at {100 * point['false_alarm_target']:g} % false alarms: detection "
-                f"{100 * point['detection_rate']:.1f} % (95 % interval over the recordings "
-                f"{100 * lo:.1f}–{100 * hi:.1f}; by drawn size: {sizes})"
+                f"{100 * point['detection_rate']:.1f} % (95 % interval over recordings "
+                f"{100 * lo:.1f}-{100 * hi:.1f}; by drawn size: {sizes})"
             )
         if ident["roc"] is None:
             print("  one class only (all UAV, or none): no ROC, no point read off one")
