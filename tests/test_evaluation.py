@@ -348,7 +348,8 @@ def _identical_recordings(scores: np.ndarray, copies: int) -> np.ndarray:
     return np.repeat(np.arange(copies), len(scores))
 
 
-def test_roc_point_interval_reads_the_threshold_again_on_each_draw() -> None:
+def test_roc_point_interval_reads_the_threshold_again_on_each_draw(monkeypatch) -> None:
+    from uavsnn import evaluation
     from uavsnn.evaluation import detection_at_false_alarm, roc_point_interval
 
     r = np.random.default_rng(5)
@@ -368,6 +369,12 @@ def test_roc_point_interval_reads_the_threshold_again_on_each_draw() -> None:
         assert roc_point_interval(scores, actual, rec, rate, resamples=300) == pytest.approx(
             (point, point)
         ), rate
+    # A set too large for its draws' weights at once is drawn a few draws at a time (here one).
+    monkeypatch.setattr(evaluation, "_DRAW_ELEMENTS", 1000)
+    point = detection_at_false_alarm(scores, actual, 0.05)
+    assert roc_point_interval(scores, actual, rec, 0.05, resamples=30) == pytest.approx(
+        (point, point)
+    )
 
 
 def test_roc_point_interval_widens_when_a_recording_sets_the_threshold() -> None:

@@ -521,6 +521,8 @@ def threshold_at_false_alarm(scores: npt.ArrayLike, actual: npt.ArrayLike, rate:
 #: Resamples of :func:`recording_interval`, and how many are drawn at once (memory bound).
 INTERVAL_RESAMPLES = 2000
 _RESAMPLE_CHUNK = 100
+# The most window weights roc_point_interval holds at once (float64: 32 MiB an array).
+_DRAW_ELEMENTS = 1 << 22
 
 
 def recording_interval(
@@ -642,9 +644,11 @@ def roc_point_interval(
     neg_rec = np.unique(rec[~a], return_inverse=True)[1].ravel()
     pos_rec = np.unique(rec[a], return_inverse=True)[1].ravel()
     rng = np.random.default_rng(seed)
+    # Draws at once: _RESAMPLE_CHUNK, fewer where a draw's window weights would pass the bound.
+    chunk = max(1, min(_RESAMPLE_CHUNK, _DRAW_ELEMENTS // max(neg_rec.size, pos_rec.size)))
     found = []
-    for start in range(0, resamples, _RESAMPLE_CHUNK):
-        draws = min(_RESAMPLE_CHUNK, resamples - start)
+    for start in range(0, resamples, chunk):
+        draws = min(chunk, resamples - start)
         neg_counts = _draw_counts(rng, int(neg_rec.max()) + 1, draws)
         pos_counts = _draw_counts(rng, int(pos_rec.max()) + 1, draws)
         mine = _detection_on_draws(s, a, neg_rec, pos_rec, neg_counts, pos_counts, rate)
