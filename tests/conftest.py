@@ -11,6 +11,8 @@ import errno
 import importlib.util
 import io
 import os
+import signal
+import subprocess
 import sys
 from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
@@ -149,6 +151,27 @@ def write_clip() -> Callable[..., None]:
     dark=20)``: a labelled clip in the Svanström layout (a dark square moving over a bright
     sky)."""
     return _write_clip
+
+
+def symlink(link: Path, target: Path) -> None:
+    """``link`` made a symbolic link to ``target``; the test is skipped where links cannot be
+    made (Windows without the privilege to make them)."""
+    try:
+        link.symlink_to(target)
+    except OSError as exc:
+        pytest.skip(f"cannot make a symbolic link here: {exc}")
+
+
+def kill_group(proc: subprocess.Popen[Any]) -> None:
+    """Kill ``proc`` and, on POSIX, its process group (started with ``start_new_session``:
+    its forked children too); Windows has no process groups to kill: the process alone."""
+    try:
+        if hasattr(os, "killpg"):
+            os.killpg(proc.pid, signal.SIGKILL)
+        else:
+            proc.kill()
+    except ProcessLookupError:
+        pass
 
 
 def unwritable_folder(monkeypatch: pytest.MonkeyPatch, folder: Path) -> Path:

@@ -3,7 +3,6 @@ standard error, exit 2; Ctrl-C: one "interrupted" line, exit 130) and loses noth
 
 from __future__ import annotations
 
-import fcntl
 import io
 import json
 import os
@@ -27,7 +26,7 @@ from uavsnn import io as uio
 from uavsnn import windows as uwindows
 from uavsnn.cli import main
 from uavsnn.dataset import SceneSource, build, load
-from uavsnn.dataset.format import LOCK
+from uavsnn.dataset.format import LOCK, locked_folder
 from uavsnn.detector import MAX_LIVE_WINDOWS, Detector
 from uavsnn.errors import DatasetError
 from uavsnn.network import MAX_THREADS, Network, _window_columns
@@ -333,17 +332,13 @@ def test_resume_refuses_changed_settings_or_data(dataset: Path, tmp_path: Path) 
 
 def test_a_second_build_into_a_locked_folder_fails_fast(tmp_path: Path) -> None:
     root = tmp_path / "set"
-    root.mkdir()
-    fd = os.open(root / LOCK, os.O_WRONLY | os.O_CREAT)
-    try:
-        fcntl.flock(fd, fcntl.LOCK_EX)  # as a running build holds it
+    with locked_folder(root):  # as a running build holds it (flock, or msvcrt on Windows)
+        assert (root / LOCK).exists()
         start = time.monotonic()
         with pytest.raises(DatasetError, match="another build is writing"):
             build(root, "dvs", n_test=10, n_train=16, seed=3, dvs=DVS)
         assert time.monotonic() - start < 5
-    finally:
-        os.close(fd)
-    assert [p.name for p in root.iterdir()] == [LOCK]  # nothing written
+        assert [p.name for p in root.iterdir()] == [LOCK]  # nothing written
 
 
 def test_a_split_file_from_another_build_is_refused(dataset: Path, tmp_path: Path) -> None:

@@ -9,6 +9,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+from conftest import symlink
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -509,8 +510,8 @@ def drones_only(tmp_path: Path, videos: Path) -> Path:
     drones.mkdir()
     for c in find_clips(videos):
         if c.uav:
-            (drones / c.video.name).symlink_to(c.video)
-            (drones / c.boxes.name).symlink_to(c.boxes)
+            symlink(drones / c.video.name, c.video)
+            symlink(drones / c.boxes.name, c.boxes)
     return drones
 
 

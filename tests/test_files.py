@@ -7,7 +7,7 @@ import re
 from pathlib import Path
 
 import pytest
-from conftest import unwritable_folder
+from conftest import symlink, unwritable_folder
 
 from uavsnn._files import check_output_dir, output_dir, write_atomic
 from uavsnn.errors import ParameterError
@@ -57,7 +57,7 @@ def test_both_refuse_the_same_folders_with_the_same_words(
     check = output_dir if make else check_output_dir
     afile = tmp_path / "afile"
     afile.write_text("x")
-    (tmp_path / "link").symlink_to(tmp_path / "nowhere")
+    symlink(tmp_path / "link", tmp_path / "nowhere")
     locked = unwritable_folder(monkeypatch, tmp_path / "locked")
     for path, words in [
         (afile, f"--out {afile}: exists and is not a folder"),

@@ -6,7 +6,6 @@ rather than the suite."""
 from __future__ import annotations
 
 import os
-import signal
 import subprocess
 import sys
 import textwrap
@@ -16,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import kill_group
 
 from uavsnn import Detector, Network, RotorSignature, StreamError
 from uavsnn.events import EVENT_DTYPE
@@ -106,7 +106,7 @@ def run(code: str, timeout: float = 180, **env: str) -> subprocess.CompletedProc
         try:
             out, err = proc.communicate(timeout=timeout)
         except subprocess.TimeoutExpired:
-            os.killpg(proc.pid, signal.SIGKILL)
+            kill_group(proc)
             proc.communicate()
             pytest.fail(f"still running after {timeout} s (a hang)")
     return subprocess.CompletedProcess(proc.args, proc.returncode, out, err)

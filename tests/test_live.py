@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import io
 import json
-import os
 import signal
 import socket
 import subprocess
@@ -26,6 +25,7 @@ from conftest import (
     SMALL_SENSOR,
     WindowsClosedPipe,
     blob_events,
+    kill_group,
     one_line_exit_2,
     small_config,
 )
@@ -99,10 +99,7 @@ def child() -> Iterator[Callable[[list[str]], subprocess.Popen[bytes]]]:
 
     def kill(proc: subprocess.Popen[bytes]) -> None:
         if proc.poll() is None:
-            try:
-                os.killpg(proc.pid, signal.SIGKILL)
-            except ProcessLookupError:
-                pass
+            kill_group(proc)
 
     def start(argv: list[str]) -> subprocess.Popen[bytes]:
         proc = subprocess.Popen(

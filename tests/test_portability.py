@@ -45,6 +45,33 @@ print("\\n".join(failed))
     assert done.stdout.strip() == "", done.stdout
 
 
+def test_every_test_module_imports_without_the_unix_only_modules() -> None:
+    """The same for the test suite: a test module importing fcntl at its top fails to collect on
+    Windows, and every test in it with it (test_bad_input.py did, for one lock test)."""
+    script = """
+import importlib, pathlib, sys
+for name in ("fcntl", "resource", "termios"):
+    sys.modules[name] = None
+sys.path.insert(0, sys.argv[1])
+failed = []
+for f in sorted(pathlib.Path(sys.argv[1]).glob("test_*.py")):
+    try:
+        importlib.import_module(f.stem)
+    except ImportError as exc:
+        failed.append(f"{f.name}: {exc}")
+print("\\n".join(failed))
+"""
+    tests = Path(__file__).resolve().parent
+    done = subprocess.run(
+        [sys.executable, "-c", script, str(tests)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=True,
+    )
+    assert done.stdout.strip() == "", done.stdout
+
+
 class _FakeMsvcrt(types.ModuleType):
     """Windows' ``msvcrt.locking`` on this machine: a byte range locked by one file handle at
     a time, across handles of the same file."""

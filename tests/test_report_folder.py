@@ -8,7 +8,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from conftest import one_line_exit_2, unwritable_folder
+from conftest import one_line_exit_2, symlink, unwritable_folder
 
 from uavsnn.cli import main
 from uavsnn.dataset import SceneSource, build
@@ -66,7 +66,7 @@ def test_a_bad_report_folder_is_refused_before_the_model_is_read(
     evaluate = ["evaluate", str(tmp_path / "no-model.npz"), str(dataset), "--report"]
     one_line_exit_2(capsys, [*evaluate, str(blocker)], "exists and is not a folder")
     one_line_exit_2(capsys, [*evaluate, str(blocker / "sub" / "report")], "a-file is not a folder")
-    (tmp_path / "link").symlink_to(tmp_path / "nowhere")
+    symlink(tmp_path / "link", tmp_path / "nowhere")
     one_line_exit_2(capsys, [*evaluate, str(tmp_path / "link")], "--report")
     assert blocker.read_text() == "x"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a-file", "link"]

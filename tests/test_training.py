@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import one_line_exit_2
+from conftest import one_line_exit_2, symlink
 
 import uavsnn
 import uavsnn.cli.train
@@ -313,7 +313,7 @@ def test_a_bad_checkpoint_folder_is_refused_before_the_data_is_read(
     monkeypatch.setattr(uavsnn.cli.train, "load", no_reading)
     afile = tmp_path / "afile"
     afile.write_text("x")
-    (tmp_path / "link").symlink_to(tmp_path / "nowhere")
+    symlink(tmp_path / "link", tmp_path / "nowhere")
     argv = ["train", str(tmp_path / "no-dataset"), "-o", str(tmp_path / "m.npz"), "--quiet",
             "--checkpoint-dir"]  # fmt: skip
     for ckpt, match in [
