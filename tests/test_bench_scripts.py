@@ -275,9 +275,9 @@ def test_roc_point_coverage_draws_sets_of_recordings_from_the_pool(bench_script)
     sets = [scored_set(30, 1.0), scored_set(34, 1.0)]
     free, uav = cover.units(sets)
     # Each recording's UAV-free windows and its UAV windows, as two units.
-    assert len(free) == len(uav) == 64 and all(u.size == 10 for u in free + uav)
+    assert len(free) == len(uav) == 64 and all(u.shape == (1, 10) for u in free + uav)
     s, a, rec = cover.draw_set(r, free, uav, 5, 7)
-    assert s.size == 120 and a.sum() == 70 and (~a).sum() == 50 and len(np.unique(rec)) == 12
+    assert s.shape == (1, 120) and a.sum() == 70 and (~a).sum() == 50 and len(np.unique(rec)) == 12
     assert all(len(np.unique(a[rec == i])) == 1 for i in np.unique(rec))
     got = cover.coverage(sets, 0.05, draws=40, resamples=200, seed=0)
     assert got["units_per_set"] == {"uav_free": 32, "uav": 32}
@@ -291,3 +291,17 @@ def test_roc_point_coverage_draws_sets_of_recordings_from_the_pool(bench_script)
     alike = cover.coverage(same, 0.05, draws=10, resamples=100, seed=0)
     assert alike["coverage"] == 1.0 and alike["mean_width"] == 0.0
     assert alike["point_spread"]["sd"] == pytest.approx(0.0, abs=1e-12)
+    # Against a second score the units carry both, and the point is the lead: none for a
+    # score that ranks the windows alike, on every draw; some for one that does not.
+    for one in sets:
+        one["against"] = 3 * one["scores"] - 1
+    free, uav = cover.units(sets)
+    assert all(u.shape == (2, 10) for u in free + uav)
+    tied = cover.coverage(sets, 0.05, draws=20, resamples=100, seed=0)
+    assert tied["paired"] and tied["pool"]["point"] == 0.0
+    assert tied["coverage"] == 1.0 and tied["mean_width"] == 0.0
+    for one in sets:
+        one["against"] = one["scores"] + r.normal(0, 1, one["scores"].size)
+    noisy = cover.coverage(sets, 0.05, draws=40, resamples=200, seed=0)
+    assert noisy["pool"]["point"] > 0 and noisy["mean_width"] > 0
+    assert 0.5 <= noisy["coverage"] <= 1

@@ -19,7 +19,8 @@ datasets' splits (draws of recordings of other seeds), then measures two things:
 ``--against OTHER`` scores a second model on the same sets and gives, for each set, the first
 model's detection minus the other's with the interval of that difference on the same draws of
 recordings (``roc_point_interval(..., against=...)``): whether one model's lead on a set is more
-than the draw of its recordings.
+than the draw of its recordings; the coverage is then that of this paired interval, of the
+pool's lead.
 
     python benches/python/roc_point_coverage.py runs/reproduce/model-combined.npz \\
         runs/reproduce/data/dvs runs/val2-dvs runs/val3-dvs [--split test] [--json]
@@ -66,18 +67,25 @@ def combined_scores(net: Network, data_dir: str, split: str) -> dict[str, np.nda
     }
 
 
+def _keys(sets: list[dict[str, np.ndarray]]) -> tuple[str, ...]:
+    """The scores each window carries: its model's, and the other model's where compared."""
+    return ("scores", "against") if all("against" in s for s in sets) else ("scores",)
+
+
 def units(sets: list[dict[str, np.ndarray]]) -> tuple[list[np.ndarray], list[np.ndarray]]:
-    """The pool: each set's recordings' UAV-free windows' scores, and UAV windows' scores, one
-    array per recording and kind."""
+    """The pool: each set's recordings' UAV-free windows, and UAV windows, one unit per
+    recording and kind: an array of the windows' scores, one row per score they carry (the
+    model's, and the other model's where the sets hold ``"against"``)."""
+    keys = _keys(sets)
     free: list[np.ndarray] = []
     uav: list[np.ndarray] = []
     for s in sets:
         for r in np.unique(s["recording"]):
             mine = s["recording"] == r
             for pool, kind in ((free, False), (uav, True)):
-                part = s["scores"][mine & (s["actual"] == kind)]
-                if part.size:
-                    pool.append(part)
+                part = mine & (s["actual"] == kind)
+                if part.any():
+                    pool.append(np.stack([s[k][part] for k in keys]))
     return free, uav
 
 
@@ -85,13 +93,23 @@ def draw_set(
     rng: np.random.Generator, free: list[np.ndarray], uav: list[np.ndarray], n_free: int, n_uav: int
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """A test set of ``n_free`` UAV-free and ``n_uav`` UAV units drawn with replacement from the
-    pool: its scores, labels and recording ids (one id per unit drawn)."""
+    pool: its scores (a row per score the units carry), labels and recording ids (one id per
+    unit drawn)."""
     picks = [free[i] for i in rng.integers(0, len(free), n_free)]
     picks += [uav[i] for i in rng.integers(0, len(uav), n_uav)]
-    scores = np.concatenate(picks)
-    sizes = [p.size for p in picks]
+    scores = np.concatenate(picks, axis=1)
+    sizes = [p.shape[1] for p in picks]
     actual = np.repeat(np.arange(len(picks)) >= n_free, sizes)
     return scores, actual, np.repeat(np.arange(len(picks)), sizes)
+
+
+def _figure(scores: np.ndarray, actual: np.ndarray, rate: float) -> float:
+    """The point of a set: its model's detection at ``rate``, less the other's where there is
+    one."""
+    point = detection_at_false_alarm(scores[0], actual, rate)
+    if len(scores) > 1:
+        point -= detection_at_false_alarm(scores[1], actual, rate)
+    return point
 
 
 def coverage(
@@ -103,23 +121,30 @@ def coverage(
     scale: float = 1.0,
 ) -> dict[str, Any]:
     """The interval's coverage of the pool's point at ``rate`` over ``draws`` drawn sets, each
-    of ``scale`` times a scored set's units."""
+    of ``scale`` times a scored set's units. Where the sets hold ``"against"``, the point is
+    the lead over the other model and the interval the paired one (``against=``)."""
     free, uav = units(sets)
-    pooled_s = np.concatenate([np.concatenate(free), np.concatenate(uav)])
-    pooled_a = np.repeat([False, True], [sum(f.size for f in free), sum(u.size for u in uav)])
-    truth = detection_at_false_alarm(pooled_s, pooled_a, rate)
+    pooled = np.concatenate(free + uav, axis=1)
+    pooled_a = np.repeat(
+        [False, True], [sum(f.shape[1] for f in free), sum(u.shape[1] for u in uav)]
+    )
+    truth = _figure(pooled, pooled_a, rate)
     n_free = max(1, round(scale * len(free) / len(sets)))
     n_uav = max(1, round(scale * len(uav) / len(sets)))
     rng = np.random.default_rng(seed)
     points, held, widths = [], 0, []
     for i in range(draws):
         s, a, rec = draw_set(rng, free, uav, n_free, n_uav)
-        points.append(detection_at_false_alarm(s, a, rate))
-        lo, hi = roc_point_interval(s, a, rec, rate, resamples=resamples, seed=i)
+        points.append(_figure(s, a, rate))
+        against = s[1] if len(s) > 1 else None
+        lo, hi = roc_point_interval(
+            s[0], a, rec, rate, against=against, resamples=resamples, seed=i
+        )
         held += lo <= truth <= hi
         widths.append(hi - lo)
     return {
         "rate": rate,
+        "paired": len(_keys(sets)) > 1,
         "pool": {"uav_free_units": len(free), "uav_units": len(uav), "point": truth},
         "units_per_set": {"uav_free": n_free, "uav": n_uav},
         "draws": draws,
@@ -153,10 +178,10 @@ def main() -> None:
         raise SystemExit("--draws and --resamples must be at least 1, --scale above 0")
     net = Network.load(args.model)
     sets = [combined_scores(net, d, args.split) for d in args.datasets]
-    theirs = None
     if args.against is not None:
         other = Network.load(args.against)
-        theirs = [combined_scores(other, d, args.split)["scores"] for d in args.datasets]
+        for d, s in zip(args.datasets, sets, strict=True):
+            s["against"] = combined_scores(other, d, args.split)["scores"]
     out: dict[str, Any] = {"model": args.model, "split": args.split, "rates": []}
     for rate in FALSE_ALARM_RATES:
         per_set = []
@@ -164,11 +189,10 @@ def main() -> None:
             point = detection_at_false_alarm(s["scores"], s["actual"], rate)
             lo, hi = roc_point_interval(s["scores"], s["actual"], s["recording"], rate)
             per_set.append({"dataset": d, "point": point, "interval": [lo, hi]})
-            if theirs is not None:
-                against = theirs[len(per_set) - 1]
-                lead = point - detection_at_false_alarm(against, s["actual"], rate)
+            if "against" in s:
+                lead = point - detection_at_false_alarm(s["against"], s["actual"], rate)
                 d_lo, d_hi = roc_point_interval(
-                    s["scores"], s["actual"], s["recording"], rate, against=against
+                    s["scores"], s["actual"], s["recording"], rate, against=s["against"]
                 )
                 per_set[-1]["lead"] = {"point": lead, "interval": [d_lo, d_hi]}
         for one in per_set:
@@ -197,11 +221,12 @@ def main() -> None:
                     f"({100 * d_lo:+.1f} to {100 * d_hi:+.1f})"
                 )
         c = r["coverage"]
+        what = "lead" if c["paired"] else "point"
         print(
             f"  pool of {c['pool']['uav_free_units']} UAV-free and {c['pool']['uav_units']} UAV "
-            f"units, point {100 * c['pool']['point']:.1f} %; {c['draws']} sets of "
+            f"units, {what} {100 * c['pool']['point']:.1f} %; {c['draws']} sets of "
             f"{c['units_per_set']['uav_free']} + {c['units_per_set']['uav']} units drawn: "
-            f"coverage {100 * c['coverage']:.1f} % (nominal 95 %), points "
+            f"coverage {100 * c['coverage']:.1f} % (nominal 95 %), {what}s "
             f"{100 * c['point_spread']['p2.5']:.1f}–{100 * c['point_spread']['p97.5']:.1f} "
             f"(sd {100 * c['point_spread']['sd']:.1f}), mean width {100 * c['mean_width']:.1f}"
         )
