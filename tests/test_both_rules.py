@@ -157,7 +157,6 @@ def test_fit_identification_attaches_a_model_or_says_why_not(tiny) -> None:
 def test_noise_levels_score_both_rules_on_the_same_noisy_windows(
     tiny, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    from uavsnn import experiments
 
     net, _, test = tiny
     if net.identification is None:
@@ -165,14 +164,16 @@ def test_noise_levels_score_both_rules_on_the_same_noisy_windows(
         net.identification = _identifier()
     static, _ = static_twin(net, test.windows)
     # Identification at a noise level measures the raw events with that level's noise.
+    from uavsnn import identify
+
     raw_noise: list[Any] = []
-    scored = experiments.both_rules
+    measured = identify.window_features
 
-    def both_rules_seen(*args: Any, **kwargs: Any) -> Any:
+    def features_seen(*args: Any, **kwargs: Any) -> Any:
         raw_noise.append(kwargs.get("raw_noise"))
-        return scored(*args, **kwargs)
+        return measured(*args, **kwargs)
 
-    monkeypatch.setattr(experiments, "both_rules", both_rules_seen)
+    monkeypatch.setattr(identify, "window_features", features_seen)
     clean = noise_level({"pent": net, "static": static}, test, 0.0, seed=5)
     assert set(raw_noise) == {None}
     raw_noise.clear()
@@ -198,6 +199,31 @@ def test_noise_levels_score_both_rules_on_the_same_noisy_windows(
 
     e = evaluate(net, test, keep_inference=True)
     assert both_rules(net, test, e.inference) == clean[0].identified
+    # PENT's lead over the static twin at each false-alarm rate, on the same windows, with its
+    # paired interval over the recordings; the static point carries none.
+    from uavsnn.evaluation import detection_at_false_alarm, roc_point_interval
+
+    def combined(network: Network) -> np.ndarray:
+        inference = evaluate(network, test, keep_inference=True).inference
+        assert network.identification is not None and inference is not None
+        scores = network.identification.window_scores(
+            identify.window_features(network, test, inference)
+        )
+        return np.where(inference.detected, scores, -np.inf)
+
+    mine, theirs = combined(net), combined(static)
+    assert clean[0].leads is not None and clean[1].leads is None
+    assert list(clean[0].leads) == ["static"]
+    for rate in (0.01, 0.05):
+        lead = clean[0].leads["static"][f"{rate:g}"]
+        assert lead["lead"] == detection_at_false_alarm(
+            mine, test.label, rate
+        ) - detection_at_false_alarm(theirs, test.label, rate)
+        assert tuple(lead["interval"]) == roc_point_interval(
+            mine, test.label, test.recording, rate, against=theirs
+        )
+    assert clean[0].to_dict()["leads"] == clean[0].leads
+    assert noisy[0].leads is not None and noisy[0].leads != clean[0].leads
     # Identification measures noisy raw events at a noise level: its features change.
     from uavsnn.features import window_features
 
@@ -220,6 +246,12 @@ def test_noise_levels_score_both_rules_on_the_same_noisy_windows(
     # Detection at fixed false-alarm rates, per mode and level, for both modes.
     assert "| pent, at 1 % false alarms | pent, at 5 % false alarms | static, at 1 %" in second
     assert second.count("\n| 0 % |") == 1 and second.count("\n| 2 % |") == 1
+    # With PENT's lead over static, in points, beside them.
+    assert "| pent − static, at 1 % | pent − static, at 5 % |" in second
+    lead = clean[0].leads["static"]["0.01"]
+    lo, hi = lead["interval"]
+    cell = f"{100 * lead['lead']:+.1f} ({100 * lo:+.1f} to {100 * hi:+.1f})"
+    assert second.split("\n| 0 % |")[1].split("\n")[0].count(cell) >= 1
 
 
 def test_noise_levels_in_parts_are_the_noise_levels_at_once(tiny) -> None:

@@ -20,11 +20,14 @@ from uavsnn.dataset import LabelledWindows, RawEvents, read_manifest
 from uavsnn.distributed import SERIAL, Runner, noise_task
 from uavsnn.errors import DatasetError, ParameterError
 from uavsnn.evaluation import (
+    FALSE_ALARM_RATES,
     Evaluation,
     WindowInputs,
     check_test_set,
+    detection_at_false_alarm,
     detection_by_target,
     identification_figures,
+    roc_point_interval,
     score,
 )
 from uavsnn.network import CONV_LAYERS, Inference, Network, default_config
@@ -238,6 +241,12 @@ class NoisePoint:
     #: Both rules on the same noisy windows (:func:`both_rules`; the raw events get noise of
     #: the same density), when the network has identification.
     identified: dict[str, Any] | None = None
+    #: The first mode's lead over each other mode with identification, on the same noisy
+    #: windows: ``{other: {rate: {"lead", "interval"}}}``, the detection at each of
+    #: :data:`~uavsnn.evaluation.FALSE_ALARM_RATES` (each at its own threshold) minus the
+    #: other's, with the paired 95 % interval over the recordings
+    #: (:func:`~uavsnn.evaluation.roc_point_interval` with ``against``); ``None`` elsewhere.
+    leads: dict[str, dict[str, dict[str, Any]]] | None = None
 
     def to_dict(self) -> dict[str, object]:
         """JSON-ready figures (no per-window arrays)."""
@@ -251,6 +260,8 @@ class NoisePoint:
         }
         if self.identified is not None:
             out["identified"] = _rule_summary(self.identified)
+        if self.leads is not None:
+            out["leads"] = self.leads
         return out
 
 
@@ -363,7 +374,8 @@ def noise_level(
     noisy windows. The noisy windows are made and run a part at a time, at most
     ``part_spikes`` input spikes each (:data:`NOISE_PART_SPIKES`; window ``i`` gets the same
     noise in whichever part, :func:`uavsnn.windows.add_noise`), so the points do not depend on
-    it."""
+    it. Where more than one network has identification, the first's point carries its lead
+    over each other at each false-alarm rate (:attr:`NoisePoint.leads`)."""
     budget = check_int("part_spikes", part_spikes, 1)
     if not networks:
         return []
@@ -389,16 +401,51 @@ def noise_level(
     snr = np.concatenate(snrs) if snrs else np.zeros(0)
     finite = snr[np.isfinite(snr)]
     level = float(np.median(finite)) if finite.size else float("inf")
+    from uavsnn import identify
+
     seen = WindowInputs.concatenate(inputs)
     points = []
+    combined: dict[str, np.ndarray] = {}
     for mode, network in networks.items():
         inference = Inference.concatenate(runs.pop(mode))
         e = score(inference, data, seconds=seconds[mode], network=network, inputs=seen)
-        # The features read the windows' starts and the raw events, which get noise of their
-        # own (raw_noise), not the noisy windows' spikes: the data without noise serves.
-        ident = both_rules(network, data, inference, raw_noise=(fraction, seed) if noise else None)
+        ident = None
+        if network.identification is not None:
+            # The features read the windows' starts and the raw events, which get noise of
+            # their own (raw_noise), not the noisy windows' spikes: the data without noise
+            # serves.
+            feats = identify.window_features(
+                network, data, inference, raw_noise=(fraction, seed) if noise else None
+            )
+            ident = both_rules(network, data, inference, feats=feats)
+            scores = network.identification.window_scores(feats)
+            combined[mode] = np.where(inference.detected, scores, -np.inf)
         points.append(NoisePoint(float(fraction), level, mode, e, ident))
+    first = next(iter(networks))
+    if first in combined and len(combined) > 1 and data.label.any() and not data.label.all():
+        leads = {
+            other: {
+                f"{rate:g}": _lead(combined[first], theirs, data, rate)
+                for rate in FALSE_ALARM_RATES
+            }
+            for other, theirs in combined.items()
+            if other != first
+        }
+        points[0] = replace(points[0], leads=leads)
     return points
+
+
+def _lead(
+    mine: np.ndarray, theirs: np.ndarray, data: LabelledWindows, rate: float
+) -> dict[str, Any]:
+    """``mine``'s detection at ``rate`` minus ``theirs`` (each at its own threshold on ``data``),
+    with the paired interval over the recordings."""
+    actual = np.asarray(data.label, dtype=bool)
+    lead = detection_at_false_alarm(mine, actual, rate) - detection_at_false_alarm(
+        theirs, actual, rate
+    )
+    interval = roc_point_interval(mine, actual, data.recording, rate, against=theirs)
+    return {"lead": lead, "interval": list(interval)}
 
 
 def noise_seed(seed: int, fraction: float) -> int:

@@ -376,9 +376,22 @@ def _noise_detection_table(points: Sequence[NoisePoint], modes: Sequence[str]) -
     assert first is not None
     rates = [a["false_alarm_target"] for a in first["at_false_alarm"]]
     names = [f"{m}, at {100 * r:g} % false alarms" for m in modes for r in rates]
+    # The first mode's lead over each other, where the sweep measured it (NoisePoint.leads).
+    led = next((p for p in points if p.leads), None)
+    others = list(led.leads) if led is not None and led.leads else []
+    if led is not None:
+        names += [f"{led.mode} − {o}, at {100 * r:g} %" for o in others for r in rates]
     rows = [
         "Detection + identification: UAV windows detected where the given share of the UAV-free "
-        "windows alarm (thresholds read off each level's own ROC):\n",
+        "windows alarm (thresholds read off each level's own ROC)"
+        + (
+            f"; and {led.mode}'s lead over {', '.join(others)} in points, with its 95 % "
+            "interval when the test recordings are drawn again, both on the same draws "
+            "(`evaluation.roc_point_interval` with `against`)"
+            if led
+            else ""
+        )
+        + ":\n",
         "| noise (share of pixels) | " + " | ".join(names) + " |",
         "|---|" + "---|" * len(names),
     ]
@@ -389,8 +402,19 @@ def _noise_detection_table(points: Sequence[NoisePoint], modes: Sequence[str]) -
             ident = here.get(mode)
             at = {} if ident is None else detection_by_target(ident["at_false_alarm"])
             cells += [f"{100 * at[r]:.1f} %" if r in at else "–" for r in rates]
+        leads = next((p.leads for p in points if p.fraction == fraction and p.leads), None)
+        for other in others:
+            for r in rates:
+                lead = (leads or {}).get(other, {}).get(f"{r:g}")
+                cells.append("–" if lead is None else _lead_text(lead))
         rows.append(f"| {100 * fraction:g} % | {' | '.join(cells)} |")
     return "\n".join(rows) + "\n"
+
+
+def _lead_text(lead: dict[str, Any]) -> str:
+    """``"+1.9 (−3.1 to +6.0)"``: a lead in points, with its interval."""
+    lo, hi = lead["interval"]
+    return f"{100 * lead['lead']:+.1f} ({100 * lo:+.1f} to {100 * hi:+.1f})"
 
 
 def _bin_name(low: float, high: float | None, unit: str) -> str:
