@@ -346,6 +346,23 @@ def test_class_markdown_names_each_class_and_its_mistakes() -> None:
     assert class_markdown(figures, []) == class_markdown(figures)
 
 
+def test_the_combined_score_is_the_uav_score_where_the_network_detects(tiny) -> None:
+    from uavsnn import identify
+    from uavsnn.errors import ShapeError
+
+    net, _, test = tiny
+    ident = net.identification if net.identification is not None else _identifier()
+    inference = net.infer(test.windows)
+    feats = identify.window_features(net, test, inference)
+    detected = np.asarray(inference.detected, bool)
+    assert detected.any() and not detected.all(), "the test needs both kinds of window"
+    got = ident.combined_scores(feats, inference.detected)
+    np.testing.assert_array_equal(got[detected], ident.window_scores(feats)[detected])
+    assert np.all(got[~detected] == -np.inf)
+    with pytest.raises(ShapeError, match="detected must be"):
+        ident.combined_scores(feats, detected[:-1])
+
+
 def test_identification_markdown_and_roc_chart(tiny, tmp_path: Path) -> None:
     from uavsnn import pictures
 

@@ -38,7 +38,7 @@ def window_figures(
     """The combined rule on these windows: balanced accuracy at ``ident``'s threshold, and
     the detection where each of :data:`FALSE_ALARM_RATES` of the UAV-free windows alarm."""
     label = np.asarray(label, dtype=bool)
-    score = np.where(np.asarray(detected, dtype=bool), ident.window_scores(feats), -np.inf)
+    score = ident.combined_scores(feats, detected)
     called = score >= ident.threshold
     out = {"balanced_accuracy": float((called[label].mean() + (~called[~label]).mean()) / 2)}
     for rate in FALSE_ALARM_RATES:

@@ -105,7 +105,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     inference = net.infer(d.windows)
     feats = identify.window_features(net, d, inference)
     fired = np.asarray(inference.detected, bool)
-    combined = np.where(fired, ident.window_scores(feats), -np.inf)
+    combined = ident.combined_scores(feats, fired)
     label = np.asarray(d.label, bool)
     rotor = window_rotor(feats.x[:, FEATURES.index("rotor_detected")], feats.window, len(label))
     t0s = np.asarray(d.windows.t0, dtype=np.int64)

@@ -59,9 +59,8 @@ def combined_scores(net: Network, data_dir: str, split: str) -> dict[str, np.nda
     data = load(data_dir, split)
     inference = net.infer(data.windows, threads=1)
     feats = identify.window_features(net, data, inference)
-    scores = np.where(inference.detected, ident.window_scores(feats), -np.inf)
     return {
-        "scores": scores,
+        "scores": ident.combined_scores(feats, inference.detected),
         "actual": np.asarray(data.label, bool),
         "recording": np.asarray(data.recording),
     }

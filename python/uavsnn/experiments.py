@@ -418,8 +418,7 @@ def noise_level(
                 network, data, inference, raw_noise=(fraction, seed) if noise else None
             )
             ident = both_rules(network, data, inference, feats=feats)
-            scores = network.identification.window_scores(feats)
-            combined[mode] = np.where(inference.detected, scores, -np.inf)
+            combined[mode] = network.identification.combined_scores(feats, inference.detected)
         points.append(NoisePoint(float(fraction), level, mode, e, ident))
     first = next(iter(networks))
     if first in combined and len(combined) > 1 and data.label.any() and not data.label.all():

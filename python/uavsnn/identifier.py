@@ -14,6 +14,7 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from uavsnn.errors import ModelFileError, ParameterError, ShapeError
 from uavsnn.features import FEATURES, UAV_CLASS, WindowFeatures
@@ -289,6 +290,15 @@ class Identifier:
         if len(feats.x):
             np.maximum.at(out, feats.window, self.scores(feats.x))
         return out
+
+    def combined_scores(self, feats: WindowFeatures, detected: npt.ArrayLike) -> np.ndarray:
+        """Per window, the score of detection + identification: :meth:`window_scores` where the
+        network detected (``detected``, one flag a window), ``-inf`` (never an alarm) where it
+        did not. A threshold on it is the combined rule; its ROC is the rule's."""
+        fired = np.asarray(detected, dtype=bool)
+        if fired.shape != (feats.windows,):
+            raise ShapeError(f"detected must be ({feats.windows},), got {fired.shape}")
+        return np.where(fired, self.window_scores(feats), -np.inf)
 
     def to_arrays(self) -> dict[str, np.ndarray]:
         """The arrays stored in a model file."""

@@ -461,7 +461,6 @@ def ablation(
     from uavsnn.track_eval import identified_track_figures
 
     label = np.asarray(test_label, dtype=bool)
-    fired = np.asarray(test_detected, dtype=bool)
     out = {}
     for name, names in GROUPS.items():
         ident = fit(
@@ -473,7 +472,7 @@ def ablation(
             classes=False,
             model=model,
         )
-        score = np.where(fired, ident.window_scores(test), -np.inf)
+        score = ident.combined_scores(test, test_detected)
         row: dict[str, Any] = {
             "features": len(names),
             "l2": ident.l2,
