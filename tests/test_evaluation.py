@@ -349,7 +349,7 @@ def _identical_recordings(scores: np.ndarray, copies: int) -> np.ndarray:
 
 
 def test_roc_point_interval_reads_the_threshold_again_on_each_draw(monkeypatch) -> None:
-    from uavsnn import evaluation
+    from uavsnn import roc
     from uavsnn.evaluation import detection_at_false_alarm, roc_point_interval
 
     r = np.random.default_rng(5)
@@ -370,7 +370,7 @@ def test_roc_point_interval_reads_the_threshold_again_on_each_draw(monkeypatch) 
             (point, point)
         ), rate
     # A set too large for its draws' weights at once is drawn a few draws at a time (here one).
-    monkeypatch.setattr(evaluation, "_DRAW_ELEMENTS", 1000)
+    monkeypatch.setattr(roc, "_DRAW_ELEMENTS", 1000)
     point = detection_at_false_alarm(scores, actual, 0.05)
     assert roc_point_interval(scores, actual, rec, 0.05, resamples=30) == pytest.approx(
         (point, point)

@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from uavsnn.errors import ParameterError
+from uavsnn.errors import ParameterError, ShapeError
 
 U64_MAX = (1 << 64) - 1
 #: The latest event time and the longest window the engine takes (its ``MAX_TIME_US``, 2^62 µs),
@@ -128,3 +128,14 @@ def listed(parts: Any, what: str) -> list[Any]:
         raise ParameterError(
             f"parts must be an iterable of {what}, got {type(parts).__name__}"
         ) from exc
+
+
+def check_bools(name: str, values: Any) -> np.ndarray:
+    """``values`` as a 1-D boolean array (one flag a window), refused otherwise: a
+    :class:`~uavsnn.ShapeError` for another shape, a ParameterError for another dtype."""
+    array = np.asarray(values)
+    if array.ndim != 1:
+        raise ShapeError(f"{name} must be 1-D, got shape {array.shape}")
+    if array.dtype != np.bool_:
+        raise ParameterError(f"{name} must be boolean, got dtype {array.dtype}")
+    return array

@@ -1,0 +1,261 @@
+"""Operating points of a score against labels: its ROC, the threshold where a share of the
+UAV-free windows alarm, the detection there, and how well such figures are known when the
+test recordings are drawn again (percentile bootstraps over recordings, not windows: windows
+of one recording alarm together).
+
+The figures :mod:`uavsnn.evaluation` reports are read with these; it re-exports each name.
+
+    >>> threshold = threshold_at_false_alarm(scores, actual, 0.01)
+    >>> lo, hi = roc_point_interval(scores, actual, recording, 0.01)
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import numpy.typing as npt
+
+from uavsnn._validate import check_bools
+from uavsnn.errors import DatasetError, ParameterError, ShapeError
+
+__all__ = [
+    "INTERVAL_RESAMPLES",
+    "detection_at_false_alarm",
+    "recording_interval",
+    "roc_area",
+    "roc_curve",
+    "roc_point_interval",
+    "threshold_at_false_alarm",
+]
+
+
+def roc_curve(scores: npt.ArrayLike, actual: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+    """The ROC of a score (higher: more UAV-like; ``-inf``: never an alarm): false-alarm rates
+    and detection rates (float64), from the strictest threshold to the loosest, starting at
+    ``(0, 0)`` and ending where every window with a finite score alarms."""
+    s = np.asarray(scores, dtype=np.float64)
+    a = check_bools("actual", actual)
+    if s.shape != a.shape:
+        raise ShapeError(f"scores has {s.size} windows, actual {a.size}")
+    if np.isnan(s).any():
+        raise ParameterError("scores hold NaN")
+    pos, neg = int(a.sum()), int((~a).sum())
+    if pos == 0 or neg == 0:
+        raise DatasetError("a ROC needs UAV and UAV-free windows")
+    finite = np.isfinite(s)
+    levels = np.unique(s[finite])[::-1]
+    tp = np.array([np.sum(a & finite & (s >= t)) for t in levels], dtype=np.float64)
+    fp = np.array([np.sum(~a & finite & (s >= t)) for t in levels], dtype=np.float64)
+    return np.concatenate([[0.0], fp / neg]), np.concatenate([[0.0], tp / pos])
+
+
+def roc_area(scores: npt.ArrayLike, actual: npt.ArrayLike) -> float | None:
+    """The area under the ROC of ``scores`` against ``actual``: the Mann-Whitney statistic, the
+    chance that a UAV scores above a UAV-free one, ties counted half. ``None`` without both
+    kinds."""
+    s = np.asarray(scores, dtype=np.float64)
+    a = check_bools("actual", actual)
+    pos, neg = int(a.sum()), int((~a).sum())
+    if pos == 0 or neg == 0:
+        return None
+    _, inverse, counts = np.unique(s, return_inverse=True, return_counts=True)
+    # Mid-ranks: the values' ranks, a tie sharing the mean of its ranks.
+    ranks = (np.cumsum(counts) - (counts - 1) / 2)[inverse.ravel()]
+    return float((ranks[a].sum() - pos * (pos + 1) / 2) / (pos * neg))
+
+
+def detection_at_false_alarm(scores: npt.ArrayLike, actual: npt.ArrayLike, rate: float) -> float:
+    """The share of the UAV windows scoring at or above :func:`threshold_at_false_alarm`."""
+    s = np.asarray(scores, dtype=np.float64)
+    a = check_bools("actual", actual)
+    return float(np.mean(s[a] >= threshold_at_false_alarm(s, a, rate)))
+
+
+def threshold_at_false_alarm(scores: npt.ArrayLike, actual: npt.ArrayLike, rate: float) -> float:
+    """The lowest threshold at which at most ``rate`` of the UAV-free windows score at or above
+    it (windows scoring ``-inf`` never alarm)."""
+    if not 0 <= rate <= 1:
+        raise ParameterError(f"rate must be in [0, 1], got {rate}")
+    s = np.asarray(scores, dtype=np.float64)
+    a = check_bools("actual", actual)
+    neg = np.sort(s[~a])[::-1]
+    if len(neg) == 0:
+        raise DatasetError("no UAV-free windows to set a false-alarm rate on")
+    k = int(np.floor(rate * len(neg) + 1e-9))
+    if k >= len(neg):
+        return float(np.nextafter(-np.inf, 0))
+    return float(np.nextafter(neg[k], np.inf))
+
+
+#: Resamples of :func:`recording_interval`, and how many are drawn at once (memory bound).
+INTERVAL_RESAMPLES = 2000
+_RESAMPLE_CHUNK = 100
+# The most window weights roc_point_interval holds at once (float64: 32 MiB an array).
+_DRAW_ELEMENTS = 1 << 22
+
+
+def recording_interval(
+    hit: npt.ArrayLike,
+    recording: npt.ArrayLike,
+    *,
+    level: float = 0.95,
+    resamples: int = INTERVAL_RESAMPLES,
+    seed: int = 0,
+) -> tuple[float, float]:
+    """The ``level`` interval of the share of ``hit`` windows when the recordings are drawn
+    again: whole recordings with replacement, as many as there are (a percentile bootstrap
+    over recordings). Windows of one recording are not independent — a recording of a
+    helicopter alarms in most of its windows or in none — so the recordings, not the windows,
+    set how well a share is known. ``(nan, nan)`` for no windows. The same inputs and ``seed``
+    give the same interval.
+
+    Where no window hits (or every one does), every resample gives 0 (or 1), and the bootstrap
+    would say the share is known exactly: the interval is then Clopper-Pearson's for no
+    recording of ``r`` hitting (``(0, 1 - ((1 - level) / 2) ** (1 / r))``; the mirror for all),
+    a bound on the share of recordings that hit at all, so on the share of windows. Near such
+    shares (a few alarms in a few dozen recordings) the bootstrap covers less than ``level``:
+    read its interval as a lower bound on the uncertainty.
+
+    Raises:
+        ShapeError: ``hit`` and ``recording`` differ in length.
+        ParameterError: ``level`` outside (0, 1) or ``resamples`` < 1.
+    """
+    h = check_bools("hit", hit)
+    rec = np.asarray(recording)
+    if h.shape != rec.shape:
+        raise ShapeError(f"hit has {h.size} windows, recording {rec.size}")
+    if not 0 < level < 1:
+        raise ParameterError(f"level must be in (0, 1), got {level}")
+    if isinstance(resamples, bool) or not isinstance(resamples, int) or resamples < 1:
+        raise ParameterError(f"resamples must be an integer >= 1, got {resamples!r}")
+    if h.size == 0:
+        return (math.nan, math.nan)
+    _, which = np.unique(rec, return_inverse=True)
+    hits = np.bincount(which, weights=h).astype(np.float64)
+    windows = np.bincount(which).astype(np.float64)
+    r = len(windows)
+    if not h.any() or h.all():
+        bound = ((1 - level) / 2) ** (1 / r)
+        return (0.0, float(1 - bound)) if not h.any() else (float(bound), 1.0)
+    rng = np.random.default_rng(seed)
+    shares = []
+    for start in range(0, resamples, _RESAMPLE_CHUNK):
+        pick = rng.integers(0, r, size=(min(_RESAMPLE_CHUNK, resamples - start), r))
+        shares.append(hits[pick].sum(axis=1) / windows[pick].sum(axis=1))
+    lo, hi = np.percentile(np.concatenate(shares), [50 * (1 - level), 50 * (1 + level)])
+    return (float(lo), float(hi))
+
+
+def _draw_counts(rng: np.random.Generator, groups: int, draws: int) -> np.ndarray:
+    """``draws`` rows of how often each of ``groups`` recordings is drawn when ``groups`` are
+    drawn with replacement (float64, shape ``(draws, groups)``)."""
+    pick = rng.integers(0, groups, size=(draws, groups))
+    counts = np.zeros((draws, groups))
+    np.add.at(counts, (np.arange(draws)[:, None], pick), 1.0)
+    return counts
+
+
+def roc_point_interval(
+    scores: npt.ArrayLike,
+    actual: npt.ArrayLike,
+    recording: npt.ArrayLike,
+    rate: float,
+    *,
+    against: npt.ArrayLike | None = None,
+    level: float = 0.95,
+    resamples: int = INTERVAL_RESAMPLES,
+    seed: int = 0,
+) -> tuple[float, float]:
+    """The ``level`` interval of :func:`detection_at_false_alarm` at ``rate`` when the
+    recordings are drawn again: the recordings of the UAV-free windows and those of the UAV
+    windows, each drawn with replacement as many as there are, the threshold read again off
+    each draw's UAV-free windows and the detection measured on its UAV windows (a percentile
+    bootstrap over recordings, as :func:`recording_interval`'s).
+
+    A point read off a set's own ROC moves with the set twice: the threshold is set by the few
+    UAV-free windows scoring highest (10 of 1000 at 1 %), often from a few recordings, and the
+    detection is a share of the UAV windows. This interval holds both. How well it covers is
+    measured, not assumed (``benches/python/roc_point_coverage.py``; docs/identification.md,
+    "How well a point read off the ROC is known"). Where every draw gives the same detection (0
+    or 1), the interval is :func:`recording_interval`'s for the UAV windows at the set's own
+    threshold. The same inputs and ``seed`` give the same interval.
+
+    ``against``: another score of the same windows (another model's); the interval is then
+    that of the difference, ``scores``' detection minus ``against``'s, each at its own
+    threshold on the same draws of recordings: whether one model's lead on a set is more than
+    the set's draw.
+
+    Raises:
+        ShapeError: the arrays differ in length.
+        ParameterError: ``rate`` outside [0, 1], ``level`` outside (0, 1) or ``resamples`` < 1.
+        DatasetError: no UAV or no UAV-free window.
+    """
+    s = np.asarray(scores, dtype=np.float64)
+    a = check_bools("actual", actual)
+    rec = np.asarray(recording)
+    other = None if against is None else np.asarray(against, dtype=np.float64)
+    if not s.shape == a.shape == rec.shape or (other is not None and other.shape != s.shape):
+        theirs = "" if other is None else f", against {other.size}"
+        raise ShapeError(
+            f"scores has {s.size}, actual {a.size} and recording {rec.size} windows{theirs}"
+        )
+    if np.isnan(s).any() or (other is not None and np.isnan(other).any()):
+        raise ParameterError("scores hold NaN")
+    if not 0 <= rate <= 1:
+        raise ParameterError(f"rate must be in [0, 1], got {rate}")
+    if not 0 < level < 1:
+        raise ParameterError(f"level must be in (0, 1), got {level}")
+    if isinstance(resamples, bool) or not isinstance(resamples, int) or resamples < 1:
+        raise ParameterError(f"resamples must be an integer >= 1, got {resamples!r}")
+    if a.all() or not a.any():
+        raise DatasetError("a point on the ROC needs UAV and UAV-free windows")
+    # Each window's recording, numbered among the UAV-free (and the UAV) windows' recordings.
+    neg_rec = np.unique(rec[~a], return_inverse=True)[1].ravel()
+    pos_rec = np.unique(rec[a], return_inverse=True)[1].ravel()
+    rng = np.random.default_rng(seed)
+    # Draws at once: _RESAMPLE_CHUNK, fewer where a draw's window weights would pass the bound.
+    chunk = max(1, min(_RESAMPLE_CHUNK, _DRAW_ELEMENTS // max(neg_rec.size, pos_rec.size)))
+    found = []
+    for start in range(0, resamples, chunk):
+        draws = min(chunk, resamples - start)
+        neg_counts = _draw_counts(rng, int(neg_rec.max()) + 1, draws)
+        pos_counts = _draw_counts(rng, int(pos_rec.max()) + 1, draws)
+        mine = _detection_on_draws(s, a, neg_rec, pos_rec, neg_counts, pos_counts, rate)
+        if other is not None:
+            mine -= _detection_on_draws(other, a, neg_rec, pos_rec, neg_counts, pos_counts, rate)
+        found.append(mine)
+    shares = np.concatenate(found)
+    if other is None and np.all(shares == shares[0]) and shares[0] in (0.0, 1.0):
+        at_own = s[a] >= threshold_at_false_alarm(s, a, rate)
+        return recording_interval(at_own, rec[a], level=level, seed=seed)
+    lo, hi = np.percentile(shares, [50 * (1 - level), 50 * (1 + level)])
+    return (float(lo), float(hi))
+
+
+def _detection_on_draws(
+    s: np.ndarray,
+    a: np.ndarray,
+    neg_rec: np.ndarray,
+    pos_rec: np.ndarray,
+    neg_counts: np.ndarray,
+    pos_counts: np.ndarray,
+    rate: float,
+) -> np.ndarray:
+    """:func:`detection_at_false_alarm` on each draw of recordings (a row of ``neg_counts`` and
+    of ``pos_counts``: how often each recording of the UAV-free and of the UAV windows is
+    drawn), each window weighing as often as its recording was drawn."""
+    order = np.argsort(-s[~a], kind="stable")
+    neg = s[~a][order]
+    cum = np.cumsum(neg_counts[:, neg_rec[order]], axis=1)
+    # threshold_at_false_alarm on the draw: just above its (k+1)-th highest UAV-free score.
+    k = np.floor(rate * cum[:, -1] + 1e-9)
+    past = cum > k[:, None]
+    threshold = np.where(
+        past.any(axis=1),
+        np.nextafter(neg[np.argmax(past, axis=1)], np.inf),
+        np.nextafter(-np.inf, 0),
+    )
+    weight = pos_counts[:, pos_rec]
+    hit = s[a][None, :] >= threshold[:, None]
+    return (weight * hit).sum(axis=1) / weight.sum(axis=1)
