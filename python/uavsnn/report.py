@@ -35,6 +35,7 @@ __all__ = [
     "identification_markdown",
     "noise_table",
     "percent",
+    "percent_with_interval",
     "picture_links",
     "roc_chart",
 ]
@@ -421,7 +422,7 @@ def _bin_name(low: float, high: float | None, unit: str) -> str:
     return f"≥ {low:g} {unit}" if high is None else f"{low:g}–{high:g} {unit}"
 
 
-def _with_interval(share: float | None, interval: Sequence[float] | None) -> str:
+def percent_with_interval(share: float | None, interval: Sequence[float] | None) -> str:
     """``share`` in per cent, with its interval in brackets when there is one."""
     text = percent(share)
     if share is None or interval is None or any(math.isnan(v) for v in interval):
@@ -456,8 +457,8 @@ def _operating_points(points: list[dict[str, Any]]) -> list[str]:
         cells = " | ".join(f"{100 * p['false_alarms_per_class'][cls]:.1f} %" for p in points)
         lines.append(f"| {cls} | {cells} |")
     overall = "; ".join(
-        f"{_with_interval(p['detection_rate'], p.get('detection_interval'))} of the UAV windows "
-        f"at {100 * p['false_alarm_rate']:.1f} % false alarms"
+        f"{percent_with_interval(p['detection_rate'], p.get('detection_interval'))} of the UAV "
+        f"windows at {100 * p['false_alarm_rate']:.1f} % false alarms"
         for p in points
     )
     lines += ["", f"Overall detection: {overall}."]
@@ -521,8 +522,8 @@ def identification_markdown(figures: dict[str, Any]) -> str:
         ]
         lines += [
             f"| {100 * p['false_alarm_target']:g} % false alarms | {p['threshold']:.3f} | "
-            f"{_with_interval(p['false_alarm_rate'], p.get('false_alarm_interval'))} | "
-            f"{_with_interval(p['detection_rate'], p.get('detection_interval'))} |"
+            f"{percent_with_interval(p['false_alarm_rate'], p.get('false_alarm_interval'))} | "
+            f"{percent_with_interval(p['detection_rate'], p.get('detection_interval'))} |"
             for p in tuned
         ]
     return "\n".join(lines) + "\n"

@@ -186,25 +186,26 @@ def _set_beforehand(point: dict[str, Any]) -> str:
     )
 
 
-def _read_off(point: dict[str, Any]) -> str:
-    """Detection at a point read off the test ROC (its 95 % interval over the test recordings,
-    the threshold read again on each draw)."""
-    lo, hi = point["detection_interval"]
-    return f"{100 * point['detection_rate']:.1f} % ({100 * lo:.1f}–{100 * hi:.1f})"
-
-
 def _row(name: str, e: Evaluation, paper: float | None, ident: dict[str, Any] | None) -> str:
     (tp, fn), (fp, tn) = e.confusion.tolist()
     ref = "" if paper is None else f"{100 * paper:.0f} %"
     if ident is None:
         cells = "– | – | – | – | –"
     else:
-        read = {p["false_alarm_target"]: p for p in ident["at_false_alarm"]}
+        # Detection at the points read off the test ROC, each with its interval over the test
+        # recordings (the threshold read again on each draw).
+        points = {p["false_alarm_target"]: p for p in ident["at_false_alarm"]}
+        read = [
+            report.percent_with_interval(
+                points[r]["detection_rate"], points[r]["detection_interval"]
+            )
+            for r in (0.01, 0.05)
+        ]
         tuned = {p["false_alarm_target"]: p for p in ident.get("at_tuned_false_alarm", [])}
         set_for = [_set_beforehand(tuned[r]) if r in tuned else "–" for r in (0.01, 0.05)]
         cells = (
-            f"**{100 * ident['identified']['accuracy']:.1f} %** | {_read_off(read[0.01])} | "
-            f"{_read_off(read[0.05])} | {' | '.join(set_for)}"
+            f"**{100 * ident['identified']['accuracy']:.1f} %** | {' | '.join(read)} | "
+            f"{' | '.join(set_for)}"
         )
     return (
         f"| {name} | {tp} | {fn} | {fp} | {tn} | **{100 * e.accuracy:.1f} %** | {ref} | {cells} |"
