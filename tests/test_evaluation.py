@@ -343,6 +343,51 @@ def test_recording_interval_refuses_what_it_cannot_draw() -> None:
         recording_interval(np.ones(3, bool), np.zeros(3, int), resamples=0)
 
 
+def test_recording_interval_of_a_difference_draws_both_on_the_same_recordings() -> None:
+    from uavsnn.evaluation import recording_interval
+
+    r = np.random.default_rng(11)
+    rec = np.repeat(np.arange(40), 25)
+    # Each recording has its own difficulty, shared by both rules: a hit for one is a hit for
+    # the other in most windows.
+    hard = r.random(40)[rec]
+    noise = r.random(rec.size)
+    mine, theirs = noise > hard - 0.05, noise > hard
+    lead = mine.mean() - theirs.mean()
+    lo, hi = recording_interval(mine, rec, against=theirs)
+    one_lo, one_hi = recording_interval(mine, rec)
+    # The difference holds the set's lead, is above zero (mine hits wherever theirs does, and
+    # more), and is much narrower than either share's interval, which moves with the draw
+    # (drawn apart, the difference would move more than either).
+    assert 0 < lo <= lead <= hi and hi - lo < (one_hi - one_lo) / 4
+    # Against itself: no lead on any draw; the other way round, the mirror.
+    assert recording_interval(mine, rec, against=mine) == (0.0, 0.0)
+    back = recording_interval(theirs, rec, against=mine)
+    assert back == pytest.approx((-hi, -lo))
+    with pytest.raises(ShapeError, match="against 5"):
+        recording_interval(mine, rec, against=theirs[:5])
+
+
+def test_recording_interval_by_strata_keeps_each_group_drawn_apart() -> None:
+    from uavsnn.evaluation import recording_interval
+
+    # 10 UAV recordings whose windows are all decided right, 10 UAV-free ones all wrong, of
+    # one size: the set's share is 1/2. Drawn together, a draw may hold 3 UAV recordings or
+    # 17; drawn within each label, every draw holds 10 and 10: the share is 1/2 on each.
+    rec = np.repeat(np.arange(20), 10)
+    label = rec < 10
+    right = label.copy()
+    lo, hi = recording_interval(right, rec)
+    assert lo < 0.35 and hi > 0.65
+    assert recording_interval(right, rec, strata=label) == (0.5, 0.5)
+    # A group of mixed recordings is drawn as its recordings, as without strata.
+    rec2 = np.repeat(np.arange(30), 30)
+    hit2 = rec2 == 7
+    assert recording_interval(hit2, rec2, strata=np.zeros(900)) == recording_interval(hit2, rec2)
+    with pytest.raises(ShapeError, match="strata 3"):
+        recording_interval(right, rec, strata=label[:3])
+
+
 def _identical_recordings(scores: np.ndarray, copies: int) -> np.ndarray:
     """Recording ids for ``copies`` copies of ``scores`` laid end to end, one per copy."""
     return np.repeat(np.arange(copies), len(scores))

@@ -99,6 +99,8 @@ def recording_interval(
     hit: npt.ArrayLike,
     recording: npt.ArrayLike,
     *,
+    against: npt.ArrayLike | None = None,
+    strata: npt.ArrayLike | None = None,
     level: float = 0.95,
     resamples: int = INTERVAL_RESAMPLES,
     seed: int = 0,
@@ -117,32 +119,59 @@ def recording_interval(
     shares (a few alarms in a few dozen recordings) the bootstrap covers less than ``level``:
     read its interval as a lower bound on the uncertainty.
 
+    ``against``: other hits of the same windows (another model's, or another rule's); the
+    interval is then that of the difference, ``hit``'s share minus ``against``'s, both on the
+    same draws of recordings: whether one's lead is more than the draw (an accuracy lead, with
+    ``hit`` the windows one decides right). ``strata``: a group per window (the windows'
+    labels, for a set balanced by design); the recordings of each group's windows are then drawn
+    apart, each as many as there are, as :func:`roc_point_interval` draws the UAV and the
+    UAV-free windows, so every draw keeps the groups' sizes near the set's.
+
     Raises:
-        ShapeError: ``hit`` and ``recording`` differ in length.
+        ShapeError: the arrays differ in length.
         ParameterError: ``level`` outside (0, 1) or ``resamples`` < 1.
     """
     h = check_bools("hit", hit)
     rec = np.asarray(recording)
-    if h.shape != rec.shape:
-        raise ShapeError(f"hit has {h.size} windows, recording {rec.size}")
+    other = None if against is None else check_bools("against", against)
+    group = np.zeros(h.shape, np.int64) if strata is None else np.asarray(strata)
+    if not h.shape == rec.shape == group.shape or (other is not None and other.shape != h.shape):
+        theirs = "" if other is None else f", against {other.size}"
+        named = "" if strata is None else f", strata {group.size}"
+        raise ShapeError(f"hit has {h.size} windows, recording {rec.size}{theirs}{named}")
     if not 0 < level < 1:
         raise ParameterError(f"level must be in (0, 1), got {level}")
     if isinstance(resamples, bool) or not isinstance(resamples, int) or resamples < 1:
         raise ParameterError(f"resamples must be an integer >= 1, got {resamples!r}")
     if h.size == 0:
         return (math.nan, math.nan)
-    _, which = np.unique(rec, return_inverse=True)
-    hits = np.bincount(which, weights=h).astype(np.float64)
-    windows = np.bincount(which).astype(np.float64)
-    r = len(windows)
-    if not h.any() or h.all():
+    if other is None and (not h.any() or h.all()):
+        r = len(np.unique(rec))
         bound = ((1 - level) / 2) ** (1 / r)
         return (0.0, float(1 - bound)) if not h.any() else (float(bound), 1.0)
+    # The units drawn: each (group, recording) pair, numbered within its group.
+    _, stratum = np.unique(group, return_inverse=True)
+    stratum = stratum.ravel()
+    units = [
+        np.unique(rec[stratum == k], return_inverse=True)[1].ravel()
+        for k in range(stratum.max() + 1)
+    ]
     rng = np.random.default_rng(seed)
     shares = []
     for start in range(0, resamples, _RESAMPLE_CHUNK):
-        pick = rng.integers(0, r, size=(min(_RESAMPLE_CHUNK, resamples - start), r))
-        shares.append(hits[pick].sum(axis=1) / windows[pick].sum(axis=1))
+        draws = min(_RESAMPLE_CHUNK, resamples - start)
+        mine = np.zeros(draws)
+        paired = np.zeros(draws)
+        windows = np.zeros(draws)
+        for k, unit in enumerate(units):
+            inside = stratum == k
+            r = int(unit.max()) + 1
+            pick = rng.integers(0, r, size=(draws, r))
+            windows += np.bincount(unit, minlength=r).astype(np.float64)[pick].sum(axis=1)
+            mine += np.bincount(unit, weights=h[inside], minlength=r)[pick].sum(axis=1)
+            if other is not None:
+                paired += np.bincount(unit, weights=other[inside], minlength=r)[pick].sum(axis=1)
+        shares.append((mine - paired) / windows)
     lo, hi = np.percentile(np.concatenate(shares), [50 * (1 - level), 50 * (1 + level)])
     return (float(lo), float(hi))
 
