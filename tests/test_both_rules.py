@@ -224,6 +224,32 @@ def test_noise_levels_score_both_rules_on_the_same_noisy_windows(
         )
     assert clean[0].to_dict()["leads"] == clean[0].leads
     assert noisy[0].leads is not None and noisy[0].leads != clean[0].leads
+    # PENT's accuracy lead by each rule: the difference of the two points' accuracies, with
+    # the interval of the windows each decides right, drawn on the same recordings, UAV and
+    # UAV-free apart.
+    from uavsnn.evaluation import recording_interval
+
+    for c, n in ((clean, 0.0), (noisy, 0.02)):
+        assert c[0].accuracy_leads is not None and c[1].accuracy_leads is None
+        by_rule = c[0].accuracy_leads["static"]
+        assert list(by_rule) == ["any_spike", "identified"]
+        for rule in by_rule:
+            accuracy = [
+                p.evaluation.accuracy
+                if rule == "any_spike"
+                else p.identified["identified"]["accuracy"]
+                for p in c
+            ]
+            assert by_rule[rule]["lead"] == pytest.approx(accuracy[0] - accuracy[1], abs=1e-12), (
+                n,
+                rule,
+            )
+        assert c[0].to_dict()["accuracy_leads"] == c[0].accuracy_leads
+    actual = np.asarray(test.label, bool)
+    right = [p.evaluation.predicted == actual for p in noisy]
+    assert tuple(noisy[0].accuracy_leads["static"]["any_spike"]["interval"]) == recording_interval(
+        right[0], test.recording, against=right[1], strata=actual
+    )
     # Identification measures noisy raw events at a noise level: its features change.
     from uavsnn.features import window_features
 
@@ -237,12 +263,23 @@ def test_noise_levels_score_both_rules_on_the_same_noisy_windows(
     assert noise_level({"pent": bare}, test, 0.02, seed=5)[0].identified is None
     assert both_rules(bare, test, e.inference) is None
     table = noise_table(clean + noisy)
-    assert "| pent + identification | static + identification | the paper" in table
+    assert (
+        "| pent + identification | static + identification | the paper (PENT), SPEC §5's point "
+        "| pent − static | pent − static (+ identification) |" in table
+    )
     first, _, second = table.partition("The paper's Table 3")
     assert first.count("\n| ") == 2  # one row per level after the header
-    # The paper's figure beside SPEC §5's share of 2 % (its fourth, 72 %), none at 0 %.
-    assert first.split("\n| 2 % |")[1].split("\n")[0].endswith("| 72 % |")
-    assert first.split("\n| 0 % |")[1].split("\n")[0].endswith("|  |")
+    # The paper's figure beside SPEC §5's share of 2 % (its fourth, 72 %), none at 0 %; then
+    # PENT's accuracy leads with their intervals.
+    row2 = first.split("\n| 2 % |")[1].split("\n")[0].split(" | ")
+    assert row2[-3] == "72 %"
+    assert first.split("\n| 0 % |")[1].split("\n")[0].split(" | ")[-3] == ""
+    for rule, cell in zip(("any_spike", "identified"), row2[-2:], strict=True):
+        lead = noisy[0].accuracy_leads["static"][rule]
+        lo, hi = lead["interval"]
+        text = f"{100 * lead['lead']:+.1f} ({100 * lo:+.1f} to {100 * hi:+.1f})"
+        assert cell.rstrip(" |") == text
+    assert "pent − static: the accuracy lead in points" in second
     # Detection at fixed false-alarm rates, per mode and level, for both modes.
     assert "| pent, at 1 % false alarms | pent, at 5 % false alarms | static, at 1 %" in second
     assert second.count("\n| 0 % |") == 1 and second.count("\n| 2 % |") == 1

@@ -27,6 +27,7 @@ from uavsnn.evaluation import (
     detection_at_false_alarm,
     detection_by_target,
     identification_figures,
+    recording_interval,
     roc_point_interval,
     score,
 )
@@ -247,6 +248,13 @@ class NoisePoint:
     #: other's, with the paired 95 % interval over the recordings
     #: (:func:`~uavsnn.evaluation.roc_point_interval` with ``against``); ``None`` elsewhere.
     leads: dict[str, dict[str, dict[str, Any]]] | None = None
+    #: The first mode's accuracy lead over each other mode on the same noisy windows, by
+    #: rule: ``{other: {"any_spike" | "identified": {"lead", "interval"}}}``, its accuracy
+    #: minus the other's (``"identified"`` where both have identification, each at its own
+    #: model's threshold), with the paired 95 % interval over the recordings, the UAV and the
+    #: UAV-free recordings drawn apart (:func:`~uavsnn.evaluation.recording_interval` with
+    #: ``against`` and ``strata``); ``None`` on the other modes' points.
+    accuracy_leads: dict[str, dict[str, dict[str, Any]]] | None = None
 
     def to_dict(self) -> dict[str, object]:
         """JSON-ready figures (no per-window arrays)."""
@@ -262,6 +270,8 @@ class NoisePoint:
             out["identified"] = _rule_summary(self.identified)
         if self.leads is not None:
             out["leads"] = self.leads
+        if self.accuracy_leads is not None:
+            out["accuracy_leads"] = self.accuracy_leads
         return out
 
 
@@ -375,7 +385,9 @@ def noise_level(
     ``part_spikes`` input spikes each (:data:`NOISE_PART_SPIKES`; window ``i`` gets the same
     noise in whichever part, :func:`uavsnn.windows.add_noise`), so the points do not depend on
     it. Where more than one network has identification, the first's point carries its lead
-    over each other at each false-alarm rate (:attr:`NoisePoint.leads`)."""
+    over each other at each false-alarm rate (:attr:`NoisePoint.leads`); where there is more
+    than one network, its accuracy lead over each other by each rule
+    (:attr:`NoisePoint.accuracy_leads`)."""
     budget = check_int("part_spikes", part_spikes, 1)
     if not networks:
         return []
@@ -406,10 +418,14 @@ def noise_level(
     seen = WindowInputs.concatenate(inputs)
     points = []
     combined: dict[str, np.ndarray] = {}
+    # Per mode and rule, whether each window is decided right.
+    right: dict[str, dict[str, np.ndarray]] = {}
+    actual = np.asarray(data.label, dtype=bool)
     for mode, network in networks.items():
         inference = Inference.concatenate(runs.pop(mode))
         e = score(inference, data, seconds=seconds[mode], network=network, inputs=seen)
         ident = None
+        right[mode] = {"any_spike": np.asarray(e.predicted, dtype=bool) == actual}
         if network.identification is not None:
             # The features read the windows' starts and the raw events, which get noise of
             # their own (raw_noise), not the noisy windows' spikes: the data without noise
@@ -419,8 +435,21 @@ def noise_level(
             )
             ident = both_rules(network, data, inference, feats=feats)
             combined[mode] = network.identification.combined_scores(feats, inference.detected)
+            uav = combined[mode] >= network.identification.threshold
+            right[mode]["identified"] = uav == actual
         points.append(NoisePoint(float(fraction), level, mode, e, ident))
     first = next(iter(networks))
+    if len(right) > 1 and n:
+        accuracy_leads = {
+            other: {
+                rule: _accuracy_lead(right[first][rule], theirs[rule], data)
+                for rule in right[first]
+                if rule in theirs
+            }
+            for other, theirs in right.items()
+            if other != first
+        }
+        points[0] = replace(points[0], accuracy_leads=accuracy_leads)
     if first in combined and len(combined) > 1 and data.label.any() and not data.label.all():
         leads = {
             other: {
@@ -445,6 +474,13 @@ def _lead(
     )
     interval = roc_point_interval(mine, actual, data.recording, rate, against=theirs)
     return {"lead": lead, "interval": list(interval)}
+
+
+def _accuracy_lead(mine: np.ndarray, theirs: np.ndarray, data: LabelledWindows) -> dict[str, Any]:
+    """The share of windows ``mine`` decides right minus ``theirs``' (an accuracy lead), with
+    the paired interval over the recordings, UAV and UAV-free drawn apart."""
+    interval = recording_interval(mine, data.recording, against=theirs, strata=data.label)
+    return {"lead": float(mine.mean() - theirs.mean()), "interval": list(interval)}
 
 
 def noise_seed(seed: int, fraction: float) -> int:

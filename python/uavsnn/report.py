@@ -338,12 +338,17 @@ def noise_table(points: Sequence[NoisePoint]) -> str:
     with_ident = {p.mode for p in points if p.identified is not None}
     columns = [(m, False) for m in modes] + [(m, True) for m in modes if m in with_ident]
     names = [f"{m} + identification" if ident else m for m, ident in columns]
-    header = (
-        "| noise (share of pixels) | median SNR (dB) | "
-        + " | ".join(names)
-        + " | the paper (PENT), SPEC §5's point |"
-    )
-    rows = [header, "|---|---|" + "---|" * (len(columns) + 1)]
+    # The first mode's accuracy lead over each other, by rule (NoisePoint.accuracy_leads).
+    led = next((p for p in points if p.accuracy_leads), None)
+    first = "" if led is None else led.mode
+    by_other = {} if led is None or led.accuracy_leads is None else led.accuracy_leads
+    leads = [(other, rule) for other, by_rule in by_other.items() for rule in by_rule]
+    names += ["the paper (PENT), SPEC §5's point"] + [
+        f"{first} − {o}" + (" (+ identification)" if rule == "identified" else "")
+        for o, rule in leads
+    ]
+    header = "| noise (share of pixels) | median SNR (dB) | " + " | ".join(names) + " |"
+    rows = [header, "|---|---|" + "---|" * len(names)]
     for fraction in dict.fromkeys(p.fraction for p in points):
         level = next(p.snr_db for p in points if p.fraction == fraction)
         here = {p.mode: p for p in points if p.fraction == fraction}
@@ -358,12 +363,25 @@ def noise_table(points: Sequence[NoisePoint]) -> str:
         snr = "no noise" if not np.isfinite(level) else f"{level:.1f}"
         theirs = PAPER_TABLE3_BY_SHARE.get(fraction)
         cells.append("" if theirs is None else f"{100 * theirs:.0f} %")
+        mine = here[first].accuracy_leads if first in here else None
+        for other, rule in leads:
+            lead = (mine or {}).get(other, {}).get(rule)
+            cells.append("–" if lead is None else _lead_text(lead))
         rows.append(f"| {100 * fraction:g} % | {snr} | {' | '.join(cells)} |")
     paper = ", ".join(f"{snr:g} dB: {100 * acc:.0f} %" for snr, acc in PAPER_TABLE3.items())
     out = "\n".join(rows) + (
         f"\n\nThe paper's Table 3 (PENT): {paper}; its SNR labels cannot all come from one "
         "signal, so SPEC §5 sets its six figures, in order, beside the six shares from 0.5 % "
-        "to 5 % (the last column).\n"
+        "to 5 % (the paper's column)."
+        + (
+            f" {first} − {', '.join(by_other)}: the accuracy lead in points, by rule, on the "
+            "same noisy windows, with its 95 % interval when the test recordings are drawn "
+            "again, UAV and UAV-free apart, both on the same draws "
+            "(`evaluation.recording_interval` with `against` and `strata`)."
+            if leads
+            else ""
+        )
+        + "\n"
     )
     if with_ident:
         out += "\n" + _noise_detection_table(points, [m for m in modes if m in with_ident])
