@@ -22,6 +22,12 @@ recordings (``roc_point_interval(..., against=...)``): whether one model's lead 
 than the draw of its recordings; the coverage is then that of this paired interval, of the
 pool's lead.
 
+Beside the points on the ROC, the same for the accuracy at the model's own threshold (the
+share of windows the combined rule decides right): each set's accuracy with its interval over
+the recordings, UAV and UAV-free drawn apart (``recording_interval(..., strata=labels)``), and
+with ``--against`` the accuracy lead with the paired interval (``against=``), each with its
+coverage measured on the same pool.
+
     python benches/python/roc_point_coverage.py runs/reproduce/model-combined.npz \\
         runs/reproduce/data/dvs runs/val2-dvs runs/val3-dvs [--split test] [--json]
 
@@ -46,36 +52,45 @@ from uavsnn.dataset import load  # noqa: E402
 from uavsnn.evaluation import (  # noqa: E402
     FALSE_ALARM_RATES,
     detection_at_false_alarm,
+    recording_interval,
     roc_point_interval,
 )
 
 
 def combined_scores(net: Network, data_dir: str, split: str) -> dict[str, np.ndarray]:
     """The combined score of each window of ``data_dir``'s ``split`` (the UAV score where the
-    network detects, ``-inf`` where it does not), its label and its recording."""
+    network detects, ``-inf`` where it does not), its label, its recording, and whether the
+    combined rule at the model's threshold decides it right."""
     ident = net.identification
     if ident is None:
         raise SystemExit(f"{net}: the model has no identification part")
     data = load(data_dir, split)
     inference = net.infer(data.windows, threads=1)
     feats = identify.window_features(net, data, inference)
+    scores = ident.combined_scores(feats, inference.detected)
+    actual = np.asarray(data.label, bool)
     return {
-        "scores": ident.combined_scores(feats, inference.detected),
-        "actual": np.asarray(data.label, bool),
+        "scores": scores,
+        "actual": actual,
         "recording": np.asarray(data.recording),
+        "right": (scores >= ident.threshold) == actual,
     }
 
 
-def _keys(sets: list[dict[str, np.ndarray]]) -> tuple[str, ...]:
-    """The scores each window carries: its model's, and the other model's where compared."""
-    return ("scores", "against") if all("against" in s for s in sets) else ("scores",)
+def _keys(sets: list[dict[str, np.ndarray]], measure: str = "scores") -> tuple[str, ...]:
+    """What each window carries for ``measure`` (``"scores"`` or ``"right"``): its model's, and
+    the other model's where compared (``"against"``, ``"right_against"``)."""
+    paired = "against" if measure == "scores" else f"{measure}_against"
+    return (measure, paired) if all(paired in s for s in sets) else (measure,)
 
 
-def units(sets: list[dict[str, np.ndarray]]) -> tuple[list[np.ndarray], list[np.ndarray]]:
+def units(
+    sets: list[dict[str, np.ndarray]], measure: str = "scores"
+) -> tuple[list[np.ndarray], list[np.ndarray]]:
     """The pool: each set's recordings' UAV-free windows, and UAV windows, one unit per
-    recording and kind: an array of the windows' scores, one row per score they carry (the
-    model's, and the other model's where the sets hold ``"against"``)."""
-    keys = _keys(sets)
+    recording and kind: an array of what the windows carry for ``measure``, one row per model
+    (the other model's where the sets hold it, :func:`_keys`)."""
+    keys = _keys(sets, measure)
     free: list[np.ndarray] = []
     uav: list[np.ndarray] = []
     for s in sets:
@@ -111,9 +126,28 @@ def _figure(scores: np.ndarray, actual: np.ndarray, rate: float) -> float:
     return point
 
 
+def _accuracy(right: np.ndarray) -> float:
+    """The share of windows decided right, less the other model's where there is one."""
+    point = float(right[0].mean())
+    if len(right) > 1:
+        point -= float(right[1].mean())
+    return point
+
+
+def accuracy_interval(
+    right: np.ndarray, actual: np.ndarray, recording: np.ndarray, resamples: int, seed: int
+) -> tuple[float, float]:
+    """:func:`_accuracy`'s interval over the recordings, UAV and UAV-free drawn apart (paired
+    where ``right`` holds two rows)."""
+    against = right[1] if len(right) > 1 else None
+    return recording_interval(
+        right[0], recording, against=against, strata=actual, resamples=resamples, seed=seed
+    )
+
+
 def coverage(
     sets: list[dict[str, np.ndarray]],
-    rate: float,
+    rate: float | None,
     draws: int,
     resamples: int,
     seed: int,
@@ -121,29 +155,35 @@ def coverage(
 ) -> dict[str, Any]:
     """The interval's coverage of the pool's point at ``rate`` over ``draws`` drawn sets, each
     of ``scale`` times a scored set's units. Where the sets hold ``"against"``, the point is
-    the lead over the other model and the interval the paired one (``against=``)."""
-    free, uav = units(sets)
+    the lead over the other model and the interval the paired one (``against=``). ``rate``
+    ``None``: the accuracy at the model's threshold instead (:func:`accuracy_interval`)."""
+    measure = "scores" if rate is not None else "right"
+    free, uav = units(sets, measure)
     pooled = np.concatenate(free + uav, axis=1)
     pooled_a = np.repeat(
         [False, True], [sum(f.shape[1] for f in free), sum(u.shape[1] for u in uav)]
     )
-    truth = _figure(pooled, pooled_a, rate)
+    truth = _accuracy(pooled) if rate is None else _figure(pooled, pooled_a, rate)
     n_free = max(1, round(scale * len(free) / len(sets)))
     n_uav = max(1, round(scale * len(uav) / len(sets)))
     rng = np.random.default_rng(seed)
     points, held, widths = [], 0, []
     for i in range(draws):
         s, a, rec = draw_set(rng, free, uav, n_free, n_uav)
-        points.append(_figure(s, a, rate))
-        against = s[1] if len(s) > 1 else None
-        lo, hi = roc_point_interval(
-            s[0], a, rec, rate, against=against, resamples=resamples, seed=i
-        )
+        if rate is None:
+            points.append(_accuracy(s))
+            lo, hi = accuracy_interval(s.astype(bool), a, rec, resamples, i)
+        else:
+            points.append(_figure(s, a, rate))
+            against = s[1] if len(s) > 1 else None
+            lo, hi = roc_point_interval(
+                s[0], a, rec, rate, against=against, resamples=resamples, seed=i
+            )
         held += lo <= truth <= hi
         widths.append(hi - lo)
     return {
         "rate": rate,
-        "paired": len(_keys(sets)) > 1,
+        "paired": len(_keys(sets, measure)) > 1,
         "pool": {"uav_free_units": len(free), "uav_units": len(uav), "point": truth},
         "units_per_set": {"uav_free": n_free, "uav": n_uav},
         "draws": draws,
@@ -180,20 +220,37 @@ def main() -> None:
     if args.against is not None:
         other = Network.load(args.against)
         for d, s in zip(args.datasets, sets, strict=True):
-            s["against"] = combined_scores(other, d, args.split)["scores"]
+            theirs = combined_scores(other, d, args.split)
+            s["against"], s["right_against"] = theirs["scores"], theirs["right"]
     out: dict[str, Any] = {"model": args.model, "split": args.split, "rates": []}
-    for rate in FALSE_ALARM_RATES:
+    # Each false-alarm rate's point on the ROC, then (None) the accuracy at the model's threshold.
+    for rate in [*FALSE_ALARM_RATES, None]:
         per_set = []
         for d, s in zip(args.datasets, sets, strict=True):
-            point = detection_at_false_alarm(s["scores"], s["actual"], rate)
-            lo, hi = roc_point_interval(s["scores"], s["actual"], s["recording"], rate)
+            if rate is None:
+                right = np.stack([s["right"]])
+                point = _accuracy(right)
+                lo, hi = accuracy_interval(
+                    right, s["actual"], s["recording"], args.resamples, args.seed
+                )
+            else:
+                point = detection_at_false_alarm(s["scores"], s["actual"], rate)
+                lo, hi = roc_point_interval(s["scores"], s["actual"], s["recording"], rate)
             per_set.append({"dataset": d, "point": point, "interval": [lo, hi]})
-            if "against" in s:
+            if "against" not in s:
+                continue
+            if rate is None:
+                both = np.stack([s["right"], s["right_against"]])
+                lead = _accuracy(both)
+                d_lo, d_hi = accuracy_interval(
+                    both, s["actual"], s["recording"], args.resamples, args.seed
+                )
+            else:
                 lead = point - detection_at_false_alarm(s["against"], s["actual"], rate)
                 d_lo, d_hi = roc_point_interval(
                     s["scores"], s["actual"], s["recording"], rate, against=s["against"]
                 )
-                per_set[-1]["lead"] = {"point": lead, "interval": [d_lo, d_hi]}
+            per_set[-1]["lead"] = {"point": lead, "interval": [d_lo, d_hi]}
         for one in per_set:
             one["holds_others"] = [
                 o["dataset"]
@@ -206,7 +263,8 @@ def main() -> None:
         print(json.dumps(out, indent=1))
         return
     for r in out["rates"]:
-        print(f"detection at {100 * r['rate']:g} % false alarms")
+        what = "accuracy at the model's threshold" if r["rate"] is None else "detection"
+        print(what if r["rate"] is None else f"{what} at {100 * r['rate']:g} % false alarms")
         for one in r["sets"]:
             lo, hi = one["interval"]
             print(
