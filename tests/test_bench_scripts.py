@@ -3,6 +3,8 @@ readouts and features of benches/python/probe_readout.py."""
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import pytest
 
@@ -199,7 +201,9 @@ def test_infer_batch_times_one_call(bench_script, capsys) -> None:
     assert '"windows": 4' in capsys.readouterr().out
 
 
-def test_identify_by_domain_keeps_the_windows_of_the_domains_named(bench_script, tmp_path):
+def test_identify_by_domain_keeps_the_windows_of_the_domains_named(
+    bench_script, tmp_path, monkeypatch
+):
     from uavsnn.dataset import SceneSource, build, load
 
     by_domain = bench_script("identify_by_domain")
@@ -223,6 +227,22 @@ def test_identify_by_domain_keeps_the_windows_of_the_domains_named(bench_script,
     assert len(np.unique(both.recording)) == 2 * len(np.unique(data.recording))
     dvs_only = by_domain.gathered([tmp_path / "c", tmp_path / "c"], {"dvs"})
     assert len(dvs_only) == 2 * len(by_domain.of_domains(data, {"dvs"}))
+    # Without --tune the fit is handed no tuning set (it holds recordings out, as `uavsnn
+    # train` does), and the kept training windows.
+    seen: list[Any] = []
+
+    def fit(network: Any, train: Any, tune: Any) -> dict[str, str]:
+        seen.append((train, tune))
+        return {"skipped": "caught"}
+
+    monkeypatch.setattr(by_domain, "fit_identification", fit)
+    model = tmp_path / "m.npz"
+    Network({"width": 240, "height": 180}, seed=0).save(model)
+    argv = [str(model), str(tmp_path / "c"), "--domain", "dvs", "-o", str(tmp_path / "o.npz")]
+    with pytest.raises(SystemExit, match="caught"):
+        by_domain.main(argv)
+    ((train, tune),) = seen
+    assert tune is None and len(train) == len(by_domain.of_domains(data, {"dvs"}))
 
 
 def test_feature_groups_fits_each_group_as_the_ablation_does(bench_script, tmp_path) -> None:

@@ -8,7 +8,9 @@ network's identification on the train splits of every ``dataset`` named, togethe
 reproduce`` builds one set per domain), tuned on the train splits of every ``--tune`` set,
 keeping with ``--domain`` only the windows of those domains' recordings (the domain of each
 recording is in the manifest), and writes the model to ``-o``; score it with ``uavsnn evaluate
-OUT DATASET --tracks --json`` beside the model as trained. No test split is read here.
+OUT DATASET --tracks --json`` beside the model as trained. Without ``--tune`` it is tuned on a
+quarter of the kept training recordings held out, as ``uavsnn train`` tunes without one. No
+test split is read here.
 
     python benches/python/identify_by_domain.py runs/comb1280/model.npz runs/comb1280 \\
         --tune runs/tunecomb1280st --domain dvs -o runs/comb1280/model-dvs-ident.npz
@@ -64,8 +66,8 @@ def main(argv: Sequence[str] | None = None) -> None:
     p.add_argument(
         "--tune",
         action="append",
-        required=True,
-        help="a tuning dataset (its train split; repeatable)",
+        help="a tuning dataset (its train split; repeatable; default: a quarter of the kept "
+        "training recordings held out, as `uavsnn train` without --tune)",
     )
     p.add_argument("--domain", action="append", help="a domain kept (repeatable; default: all)")
     p.add_argument(
@@ -83,7 +85,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     domains = set(args.domain) if args.domain else None
     network = Network.load(args.model)
     train = gathered(args.dataset, domains, args.mix, seed=0)
-    tune = gathered(args.tune, domains, args.mix, seed=1)
+    tune = None if args.tune is None else gathered(args.tune, domains, args.mix, seed=1)
     summary = fit_identification(network, train, tune)
     if "skipped" in summary:
         raise SystemExit(f"no identification: {summary['skipped']}")
@@ -91,8 +93,8 @@ def main(argv: Sequence[str] | None = None) -> None:
     shown = {k: v for k, v in summary.items() if not isinstance(v, (list, dict))}
     kept = "/".join(sorted(domains)) if domains else "all"
     print(
-        f"fitted on {len(train)} training and {len(tune)} tuning windows of {kept} "
-        f"recordings; wrote {args.output}"
+        f"fitted on {summary['train_windows']} training and {summary['tune_windows']} tuning "
+        f"windows ({summary['tune']}) of {kept} recordings; wrote {args.output}"
     )
     print(json.dumps(shown, indent=1, default=str))
 
