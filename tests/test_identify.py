@@ -19,6 +19,7 @@ from uavsnn.evaluation import (
     detection_at_false_alarm,
     detection_by_target,
     identification_figures,
+    recording_interval,
     roc_area,
     roc_curve,
     threshold_at_false_alarm,
@@ -1207,13 +1208,25 @@ def test_identification_figures_on_hand_made_windows() -> None:
     detected = np.ones(n, bool)
     windows = make_windows(Recording(scene()[:50], SIZE), 100_000, 0.0)
     data = LabelledWindows(
-        windows.select(np.zeros(n, np.int64)), label, cls, np.zeros(n, np.int64),
+        windows.select(np.zeros(n, np.int64)), label, cls, np.arange(n) // 10,
         np.full((n, 4), np.nan, np.float32), size_px=size,
     )  # fmt: skip
     f = identification_figures(detected, scores, data, threshold=0.7)
     assert f["any_spike"]["confusion"] == [[100, 0], [100, 0]]
     assert f["identified"]["confusion"] == [[50, 50], [0, 100]]
     assert f["identified"]["accuracy"] == 0.75
+    # Each rule's accuracy with its interval over the recordings, UAV and UAV-free drawn apart:
+    # with identification the 20 px UAVs' recordings are all right and the 4 px ones' all
+    # wrong, so a draw moves the share; the any-spike rule is right on every UAV window and
+    # on no UAV-free one, the same on every draw.
+    for key, pred in (("any_spike", detected), ("identified", detected & (scores >= 0.7))):
+        want = recording_interval(pred == label, data.recording, strata=label)
+        assert f[key]["accuracy_interval"] == list(want)
+    lo, hi = f["identified"]["accuracy_interval"]
+    assert lo < 0.75 < hi and f["any_spike"]["accuracy_interval"] == [0.5, 0.5]
+    from uavsnn.report import identification_markdown
+
+    assert f"**75.0 %** ({100 * lo:.1f}–{100 * hi:.1f}) |" in identification_markdown(f)
     # Big UAVs, then birds, then small UAVs, then balls: 0.5 * 0.5 + 0.5 * 1.0.
     assert f["roc"]["area_reachable"] == pytest.approx(0.75)
     at1 = f["at_false_alarm"][0]

@@ -497,7 +497,9 @@ def identification_figures(
     :data:`RANGE_BINS_M`) and the false alarms per class of other object. Those thresholds are
     read off this set's UAV-free windows (points on its ROC), not tuned for it; each point's
     ``"detection_interval"`` is its 95 % interval when the recordings are drawn again, the
-    threshold read again each time (:func:`roc_point_interval`).
+    threshold read again each time (:func:`roc_point_interval`). Each rule's
+    ``"accuracy_interval"`` is its accuracy's, the UAV and the UAV-free recordings drawn apart
+    (:func:`recording_interval` with ``strata``).
 
     ``alarm_thresholds`` (:attr:`uavsnn.identify.Identifier.alarm_thresholds`: thresholds set
     on other recordings for a false-alarm share) adds ``"at_tuned_false_alarm"``: the same
@@ -516,12 +518,14 @@ def identification_figures(
             f"detected has {fired.size} and scores {s.size} windows, the data {actual.size}"
         )
     combined = np.where(fired, s, -np.inf)
+    rec = np.asarray(data.recording)
 
     def rule(pred: np.ndarray) -> dict[str, Any]:
         m = confusion_matrix(pred, actual)
         return {
             "confusion": m.tolist(),
             "accuracy": accuracy(m),
+            "accuracy_interval": list(recording_interval(pred == actual, rec, strata=actual)),
             "per_class": {str(c): float(pred[data.cls == c].mean()) for c in np.unique(data.cls)},
         }
 
@@ -529,8 +533,6 @@ def identification_figures(
     # A set of one class (drone-only footage under --unbalanced) has no ROC and no point read
     # off one; the rules' figures and the rates at thresholds set beforehand remain.
     both = bool(actual.any() and (~actual).any())
-
-    rec = np.asarray(data.recording)
 
     def share(hit: np.ndarray) -> float | None:
         return float(hit.mean()) if hit.size else None

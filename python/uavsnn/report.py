@@ -440,9 +440,12 @@ def _bin_name(low: float, high: float | None, unit: str) -> str:
     return f"≥ {low:g} {unit}" if high is None else f"{low:g}–{high:g} {unit}"
 
 
-def percent_with_interval(share: float | None, interval: Sequence[float] | None) -> str:
-    """``share`` in per cent, with its interval in brackets when there is one."""
-    text = percent(share)
+def percent_with_interval(
+    share: float | None, interval: Sequence[float] | None, *, bold: bool = False
+) -> str:
+    """``share`` in per cent (in bold with ``bold``), with its interval in brackets when there
+    is one."""
+    text = f"**{percent(share)}**" if bold and share is not None else percent(share)
     if share is None or interval is None or any(math.isnan(v) for v in interval):
         return text
     return f"{text} ({100 * interval[0]:.1f}–{100 * interval[1]:.1f})"
@@ -501,13 +504,14 @@ def identification_markdown(figures: dict[str, Any]) -> str:
         "these figures is measured on). A window is called UAV by the any-spike rule when a "
         "conv3 neuron fires; with identification, when also its best object's UAV score "
         "reaches the threshold.\n",
-        "| rule | TP | FN | FP | TN | accuracy |",
+        "| rule | TP | FN | FP | TN | accuracy (its 95 % interval over the recordings) |",
         "|---|---|---|---|---|---|",
     ]
     for key, name in (("any_spike", "any-spike"), ("identified", "any-spike + identification")):
-        (tp, fn), (fp, tn) = figures[key]["confusion"]
-        acc = 100 * figures[key]["accuracy"]
-        lines.append(f"| {name} | {tp} | {fn} | {fp} | {tn} | **{acc:.1f} %** |")
+        rule = figures[key]
+        (tp, fn), (fp, tn) = rule["confusion"]
+        acc = percent_with_interval(rule["accuracy"], rule.get("accuracy_interval"), bold=True)
+        lines.append(f"| {name} | {tp} | {fn} | {fp} | {tn} | {acc} |")
     lines += ["", "Called UAV, per class:\n", "| class | any-spike | + identification |"]
     lines.append("|---|---|---|")
     for cls, rate in figures["any_spike"]["per_class"].items():

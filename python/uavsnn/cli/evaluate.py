@@ -363,8 +363,10 @@ def _print_identification(ident: dict[str, Any]) -> None:
     if "identified" in ident:
         for name, label in (("any_spike", "any-spike rule"), ("identified", "+ identification")):
             (tp, fn), (fp, tn) = ident[name]["confusion"]
+            lo, hi = ident[name]["accuracy_interval"]
             print(
                 f"{label:18s} accuracy {100 * ident[name]['accuracy']:.1f} % "
+                f"(95 % interval {100 * lo:.1f}-{100 * hi:.1f}) "
                 f"[[TP {tp}, FN {fn}], [FP {fp}, TN {tn}]]"
             )
         for point in ident["at_false_alarm"]:
