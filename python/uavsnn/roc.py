@@ -149,29 +149,32 @@ def recording_interval(
         r = len(np.unique(rec))
         bound = ((1 - level) / 2) ** (1 / r)
         return (0.0, float(1 - bound)) if not h.any() else (float(bound), 1.0)
-    # The units drawn: each (group, recording) pair, numbered within its group.
+    # The units drawn: each group's recordings; per unit its windows, its hits and the other
+    # hits (zero without against).
     _, stratum = np.unique(group, return_inverse=True)
     stratum = stratum.ravel()
-    units = [
-        np.unique(rec[stratum == k], return_inverse=True)[1].ravel()
-        for k in range(stratum.max() + 1)
-    ]
+    units = []
+    for k in range(int(stratum.max()) + 1):
+        inside = stratum == k
+        which = np.unique(rec[inside], return_inverse=True)[1].ravel()
+        their_hits = np.zeros(which.size) if other is None else other[inside]
+        units.append(
+            (
+                np.bincount(which).astype(np.float64),
+                np.bincount(which, weights=h[inside]) - np.bincount(which, weights=their_hits),
+            )
+        )
     rng = np.random.default_rng(seed)
     shares = []
     for start in range(0, resamples, _RESAMPLE_CHUNK):
         draws = min(_RESAMPLE_CHUNK, resamples - start)
-        mine = np.zeros(draws)
-        paired = np.zeros(draws)
+        lead = np.zeros(draws)
         windows = np.zeros(draws)
-        for k, unit in enumerate(units):
-            inside = stratum == k
-            r = int(unit.max()) + 1
-            pick = rng.integers(0, r, size=(draws, r))
-            windows += np.bincount(unit, minlength=r).astype(np.float64)[pick].sum(axis=1)
-            mine += np.bincount(unit, weights=h[inside], minlength=r)[pick].sum(axis=1)
-            if other is not None:
-                paired += np.bincount(unit, weights=other[inside], minlength=r)[pick].sum(axis=1)
-        shares.append((mine - paired) / windows)
+        for count, net in units:
+            pick = rng.integers(0, len(count), size=(draws, len(count)))
+            windows += count[pick].sum(axis=1)
+            lead += net[pick].sum(axis=1)
+        shares.append(lead / windows)
     lo, hi = np.percentile(np.concatenate(shares), [50 * (1 - level), 50 * (1 + level)])
     return (float(lo), float(hi))
 

@@ -258,9 +258,9 @@ def _print_identification(ident: dict[str, Any]) -> None:
         if ident.get("tune") == identify.HELD_OUT_TUNING:
             print(
                 "note: identification was tuned on a quarter of the training recordings held "
-                "out; a tuning set of other recordings (`uavsnn dataset build TUNE --seed OTHER "
-                "--stratify`, then --tune TUNE) set thresholds that detected more at 1 % false "
-                'alarms on unseen recordings (docs/identification.md, "Tuned on other seeds")'
+                "out; with a tuning set of other recordings (`uavsnn dataset build TUNE --seed "
+                "OTHER --stratify`, then --tune TUNE) the fit detected more at 1 % false alarms "
+                'on unseen recordings (docs/identification.md, "Tuned on other seeds")'
             )
         if ident.get("tune_lacks"):
             print(
