@@ -455,6 +455,11 @@ def test_identification_markdown_and_roc_chart(tiny, tmp_path: Path) -> None:
                 assert uav_here >= uav_there
     chart = roc_chart({"a": figures["roc"], "b": figures["roc"]}, "ROC")
     assert chart.ndim == 3 and chart.shape[2] == 3
+    # With the points read off each ROC, their detection intervals are drawn as bars.
+    barred = roc_chart(
+        {"a": figures["roc"], "b": figures["roc"]}, "ROC", points={"a": figures["at_false_alarm"]}
+    )
+    assert barred.shape == chart.shape and (barred != chart).any()
     assert pictures.write_png(tmp_path / "roc.png", chart).stat().st_size > 0
 
 

@@ -227,6 +227,29 @@ def test_line_chart_sorts_x_and_handles_edge_cases() -> None:
     assert not colour_mask(all_nan[:-30], blue).any()
 
 
+def test_line_chart_draws_interval_bars_in_their_series_colour() -> None:
+    kw: dict[str, Any] = {"title": "t", "xlabel": "x", "ylabel": "y", "y_range": (0, 1)}
+    blue = np.array([180, 119, 31], np.uint8)
+    plain = pictures.line_chart([0, 1], {"a": [0.5, 0.5], "b": [0.1, 0.1]}, **kw)
+    barred = pictures.line_chart(
+        [0, 1], {"a": [0.5, 0.5], "b": [0.1, 0.1]}, **kw, intervals={"a": [(0.5, 0.2, 0.9)]}
+    )
+    new = colour_mask(barred[:-30], blue) & ~colour_mask(plain[:-30], blue)
+    rows, cols = np.nonzero(new)
+    # A vertical bar: about 0.7 of the plot's height tall, in one column bar its caps, in the
+    # middle of the x axis.
+    assert rows.max() - rows.min() > 0.6 * (barred.shape[0] - 150)
+    column = np.bincount(cols).argmax()
+    assert abs(column - barred.shape[1] / 2) < 60 and (cols == column).sum() > 100
+    for bad, match in (
+        ({"c": [(0.5, 0.2, 0.9)]}, "not a series"),
+        ({"a": [(0.5, 0.2)]}, "triples"),
+        ({"a": [(0.5, np.nan, 0.9)]}, "triples"),
+    ):
+        with pytest.raises(uavsnn.ParameterError, match=match):
+            pictures.line_chart([0, 1], {"a": [0.5, 0.5]}, **kw, intervals=bad)
+
+
 def test_confusion_image_depends_on_the_counts() -> None:
     a = pictures.confusion_image([[90, 10], [5, 95]], title="test")
     b = pictures.confusion_image([[10, 90], [5, 95]], title="test")

@@ -410,12 +410,20 @@ def line_chart(
     size: tuple[int, int] = (640, 400),
     markers: bool = True,
     gaps: bool = True,
+    intervals: Mapping[str, Sequence[tuple[float, float, float]]] | None = None,
 ) -> np.ndarray:
     """A line chart ``size = (width, height)``: one colour per series (legend below), round
     ticks with values, gridlines. Points are drawn in order of ``x``; a NaN is a gap (a point
     between gaps still gets its marker), or with ``gaps=False`` a value not measured at that
     ``x`` (the series' other points are joined: series measured at different x); ``y_range``
-    fixes the y axis, else it fits the data."""
+    fixes the y axis, else it fits the data. ``intervals``: per series, ``(x, low, high)``
+    bars drawn in its colour (a vertical line with caps)."""
+    bars = {} if intervals is None else {str(k): list(v) for k, v in intervals.items()}
+    for name, rows in bars.items():
+        if name not in series:
+            raise ParameterError(f"intervals name {name!r}, which is not a series")
+        if any(len(r) != 3 or not np.isfinite(np.asarray(r, np.float64)).all() for r in rows):
+            raise ParameterError(f"intervals of {name!r} must be finite (x, low, high) triples")
     xs = np.asarray(x, dtype=np.float64)
     if xs.ndim != 1 or xs.size == 0 or not np.isfinite(xs).all():
         raise ParameterError(f"x must be a non-empty 1-D sequence of finite numbers, got {xs!r}")
@@ -477,6 +485,11 @@ def line_chart(
                 cv2.polylines(plot, [pts[run]], False, colour, 2, cv2.LINE_AA)
                 for k in run if markers or len(run) == 1 else []:
                     cv2.circle(plot, (int(pts[k, 0]), int(pts[k, 1])), 3, colour, -1)
+        for bx, low, high in bars.get(list(ys)[i], []):
+            (c, top), (_, bottom) = px(bx, high), px(bx, low)
+            cv2.line(plot, (int(c), int(top)), (int(c), int(bottom)), colour, 1)
+            for r in (top, bottom):
+                cv2.line(plot, (int(c) - 4, int(r)), (int(c) + 4, int(r)), colour, 1)
     _text(img, title, (left, 24), 0.5)
     _text(img, xlabel, (left + (pw - _width(xlabel)) // 2, 36 + ph + 32))
     label = np.rot90(_bar(ylabel, 0, 0.4)[:, : min(_width(ylabel) + 12, ph + 30)])

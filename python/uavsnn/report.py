@@ -10,7 +10,7 @@ evaluation into Markdown tables. ``uavsnn demo``, ``uavsnn evaluate --report`` a
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -230,7 +230,8 @@ CAPTIONS = {
     "roc": "Detection + identification on the dvs test windows, one curve per network: the "
     "share of UAV windows detected against the share of UAV-free windows alarming, as the "
     "threshold on the UAV score moves. A window the any-spike rule misses never alarms, so each "
-    "curve ends at that rule's own point.",
+    "curve ends at that rule's own point. The bars at 1 % and 5 % false alarms: each point's "
+    "95 % interval when the test recordings are drawn again.",
 }
 
 
@@ -591,9 +592,15 @@ def class_markdown(figures: dict[str, Any], at_points: list[dict[str, Any]] | No
     return "\n".join(lines) + "\n"
 
 
-def roc_chart(rocs: dict[str, dict[str, Any]], title: str) -> np.ndarray:
+def roc_chart(
+    rocs: dict[str, dict[str, Any]],
+    title: str,
+    points: Mapping[str, Sequence[Mapping[str, Any]]] | None = None,
+) -> np.ndarray:
     """The ROC curves of :func:`identification_figures` outputs (``{name: figures["roc"]}``)
-    as one chart: detection rate against false-alarm rate."""
+    as one chart: detection rate against false-alarm rate. ``points``: per curve, its points
+    read off the ROC (``figures["at_false_alarm"]``), each drawn as its detection's 95 %
+    interval over the recordings at its false-alarm rate."""
     # One x axis, the union of the curves' false-alarm points; each curve is joined over its
     # own points (a NaN is a point it was not measured at), its best detection at each.
     xs = np.unique(np.concatenate([np.asarray(r["false_alarm"]) for r in rocs.values()]))
@@ -612,4 +619,17 @@ def roc_chart(rocs: dict[str, dict[str, Any]], title: str) -> np.ndarray:
         y_range=(0.0, 1.0),
         markers=False,
         gaps=False,
+        intervals={
+            name: [
+                (
+                    float(p["false_alarm_rate"]),
+                    float(p["detection_interval"][0]),
+                    float(p["detection_interval"][1]),
+                )
+                for p in at
+                if p.get("detection_interval") is not None
+            ]
+            for name, at in (points or {}).items()
+            if name in rocs
+        },
     )

@@ -229,14 +229,11 @@ def _evaluate(args: argparse.Namespace) -> int:
             )
         from uavsnn import pictures
 
-        chart = pictures.line_chart(
-            ident["roc"]["false_alarm"],
-            {"any-spike + identification": ident["roc"]["detection"]},
-            title=f"ROC on {args.dataset.name}/{args.split}",
-            xlabel="UAV-free windows alarming",
-            ylabel="UAV windows detected",
-            y_range=(0.0, 1.0),
-            markers=False,
+        name = "any-spike + identification"
+        chart = report.roc_chart(
+            {name: ident["roc"]},
+            f"ROC on {args.dataset.name}/{args.split}",
+            points={name: ident["at_false_alarm"]},
         )
         figures["roc_png"] = str(pictures.write_png(args.roc, chart))
     points = []

@@ -707,9 +707,10 @@ def _reproduce(args: argparse.Namespace) -> int:
     )  # fmt: skip
     rocs = {name: f["roc"] for name, f in idents.items() if f is not None}
     if rocs:
+        title = f"detection + identification, {len(dvs_test)} dvs test windows"
+        at = {name: f["at_false_alarm"] for name, f in idents.items() if f is not None}
         written["roc"] = pictures.write_png(
-            out / "figures/roc.png",
-            report.roc_chart(rocs, f"detection + identification, {len(dvs_test)} dvs test windows"),
+            out / "figures/roc.png", report.roc_chart(rocs, title, points=at)
         )
 
     real_text: list[str] = []
