@@ -113,9 +113,18 @@ def test_train_then_evaluate(
     assert f"{tp} (TP)" in text and "![confusion](confusion.png)" in text
     # The text output gives the noise sweep for both rules where the model has identification.
     assert main(["evaluate", str(model), str(dataset), "--noise"]) == 0
-    lines = [ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("  noise ")]
+    printed = capsys.readouterr().out.splitlines()
+    lines = [ln for ln in printed if ln.startswith("  noise ")]
     assert len(lines) == len(figures["noise"]) == 2 * len(NOISE_FRACTIONS)
     assert any("with identification" in line for line in lines)  # the model has one
+    # Under each level's first line, PENT's accuracy lead over static by rule, as the JSON's.
+    leads = [ln for ln in printed if ln.startswith("    accuracy lead over static")]
+    with_leads = [p for p in figures["noise"] if "accuracy_leads" in p]
+    assert len(leads) == len(with_leads) == len(NOISE_FRACTIONS)
+    for line, point in zip(leads, with_leads, strict=True):
+        lead = point["accuracy_leads"]["static"]["any_spike"]
+        lo, hi = lead["interval"]
+        assert f"any-spike {100 * lead['lead']:+.1f} ({100 * lo:+.1f} to {100 * hi:+.1f})" in line
     # Without a train split, the static threshold is set on the windows scored, and it says so.
     bare = tmp_path / "bare"
     shutil.copytree(dataset, bare)

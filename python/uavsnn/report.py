@@ -33,6 +33,7 @@ __all__ = [
     "evaluation_markdown",
     "figures",
     "identification_markdown",
+    "lead_text",
     "noise_table",
     "percent",
     "percent_with_interval",
@@ -367,7 +368,7 @@ def noise_table(points: Sequence[NoisePoint]) -> str:
         mine = here[first].accuracy_leads if first in here else None
         for other, rule in leads:
             lead = (mine or {}).get(other, {}).get(rule)
-            cells.append("–" if lead is None else _lead_text(lead))
+            cells.append("–" if lead is None else lead_text(lead))
         rows.append(f"| {100 * fraction:g} % | {snr} | {' | '.join(cells)} |")
     paper = ", ".join(f"{snr:g} dB: {100 * acc:.0f} %" for snr, acc in PAPER_TABLE3.items())
     out = "\n".join(rows) + (
@@ -426,12 +427,12 @@ def _noise_detection_table(points: Sequence[NoisePoint], modes: Sequence[str]) -
         for other in others:
             for r in rates:
                 lead = (leads or {}).get(other, {}).get(f"{r:g}")
-                cells.append("–" if lead is None else _lead_text(lead))
+                cells.append("–" if lead is None else lead_text(lead))
         rows.append(f"| {100 * fraction:g} % | {' | '.join(cells)} |")
     return "\n".join(rows) + "\n"
 
 
-def _lead_text(lead: dict[str, Any]) -> str:
+def lead_text(lead: dict[str, Any]) -> str:
     """``"+1.9 (−3.1 to +6.0)"``: a lead in points, with its interval."""
     lo, hi = lead["interval"]
     return f"{100 * lead['lead']:+.1f} ({100 * lo:+.1f} to {100 * hi:+.1f})"

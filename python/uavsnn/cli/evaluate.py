@@ -304,6 +304,13 @@ def _evaluate(args: argparse.Namespace) -> int:
             f"  noise {100 * point.fraction:5g} % ({point.snr_db:6.1f} dB) {point.mode:7s} "
             f"{100 * point.evaluation.accuracy:.1f} %{both}"
         )
+        for other, by_rule in (point.accuracy_leads or {}).items():
+            leads = ", ".join(
+                f"{'with identification' if rule == 'identified' else 'any-spike'} "
+                f"{report.lead_text(lead)}"
+                for rule, lead in by_rule.items()
+            )
+            print(f"    accuracy lead over {other} in points (95 % interval): {leads}")
     if ident:
         _print_identification(ident)
     if args.tracks:
