@@ -1224,9 +1224,21 @@ def test_identification_figures_on_hand_made_windows() -> None:
         assert f[key]["accuracy_interval"] == list(want)
     lo, hi = f["identified"]["accuracy_interval"]
     assert lo < 0.75 < hi and f["any_spike"]["accuracy_interval"] == [0.5, 0.5]
+    # What identification adds: +25 points, on the same draws of recordings (the any-spike
+    # rule's share is the same on every draw, so the lead's interval is the share's, shifted).
+    lead = f["accuracy_lead"]
+    assert lead["lead"] == pytest.approx(0.25)
+    pred = detected & (scores >= 0.7)
+    assert lead["interval"] == list(
+        recording_interval(pred == label, data.recording, against=detected == label, strata=label)
+    )
+    assert lead["interval"] == pytest.approx([lo - 0.5, hi - 0.5])
     from uavsnn.report import identification_markdown
 
-    assert f"**75.0 %** ({100 * lo:.1f}–{100 * hi:.1f}) |" in identification_markdown(f)
+    text = identification_markdown(f)
+    assert f"**75.0 %** ({100 * lo:.1f}–{100 * hi:.1f}) |" in text
+    d_lo, d_hi = lead["interval"]
+    assert f"+25.0 ({100 * d_lo:+.1f} to {100 * d_hi:+.1f}) points of accuracy" in text
     # Big UAVs, then birds, then small UAVs, then balls: 0.5 * 0.5 + 0.5 * 1.0.
     assert f["roc"]["area_reachable"] == pytest.approx(0.75)
     at1 = f["at_false_alarm"][0]

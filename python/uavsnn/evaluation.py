@@ -499,7 +499,9 @@ def identification_figures(
     ``"detection_interval"`` is its 95 % interval when the recordings are drawn again, the
     threshold read again each time (:func:`roc_point_interval`). Each rule's
     ``"accuracy_interval"`` is its accuracy's, the UAV and the UAV-free recordings drawn apart
-    (:func:`recording_interval` with ``strata``).
+    (:func:`recording_interval` with ``strata``); ``"accuracy_lead"`` is the second rule's
+    accuracy minus the first's, with the paired interval (``against``: both rules on the same
+    draws).
 
     ``alarm_thresholds`` (:attr:`uavsnn.identify.Identifier.alarm_thresholds`: thresholds set
     on other recordings for a false-alarm share) adds ``"at_tuned_false_alarm"``: the same
@@ -570,10 +572,18 @@ def identification_figures(
             point = at(r, threshold_at_false_alarm(combined, actual, r))
             point["detection_interval"] = list(roc_point_interval(combined, actual, rec, r))
             at_fa.append(point)
+    identified = combined >= threshold
+    right, right_any = identified == actual, fired == actual
     out = {
         "threshold": float(threshold),
         "any_spike": rule(fired),
-        "identified": rule(combined >= threshold),
+        "identified": rule(identified),
+        # What identification adds to the any-spike rule's accuracy on these windows, with the
+        # paired interval: both rules on the same draws of the recordings.
+        "accuracy_lead": {
+            "lead": float(right.mean() - right_any.mean()) if actual.size else float("nan"),
+            "interval": list(recording_interval(right, rec, against=right_any, strata=actual)),
+        },
         "roc": roc,
         "at_false_alarm": at_fa,
     }

@@ -373,6 +373,11 @@ def _print_identification(ident: dict[str, Any]) -> None:
                 f"(95 % interval {100 * lo:.1f}-{100 * hi:.1f}) "
                 f"[[TP {tp}, FN {fn}], [FP {fp}, TN {tn}]]"
             )
+        if "accuracy_lead" in ident:
+            print(
+                "identification's accuracy lead over the any-spike rule: "
+                f"{report.lead_text(ident['accuracy_lead'])} points (95 % interval)"
+            )
         for point in ident["at_false_alarm"]:
             sizes = ", ".join(
                 f"{z['low']:g}-{z['high'] if z['high'] is not None else 'inf'} px "
