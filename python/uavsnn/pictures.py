@@ -417,7 +417,8 @@ def line_chart(
     between gaps still gets its marker), or with ``gaps=False`` a value not measured at that
     ``x`` (the series' other points are joined: series measured at different x); ``y_range``
     fixes the y axis, else it fits the data. ``intervals``: per series, ``(x, low, high)``
-    bars drawn in its colour (a vertical line with caps)."""
+    bars drawn in its colour (a vertical line with caps); where several series have bars, each
+    series' are set a few pixels apart around their x, so bars at the same x stay apart."""
     bars = {} if intervals is None else {str(k): list(v) for k, v in intervals.items()}
     for name, rows in bars.items():
         if name not in series:
@@ -485,8 +486,11 @@ def line_chart(
                 cv2.polylines(plot, [pts[run]], False, colour, 2, cv2.LINE_AA)
                 for k in run if markers or len(run) == 1 else []:
                     cv2.circle(plot, (int(pts[k, 0]), int(pts[k, 1])), 3, colour, -1)
-        for bx, low, high in bars.get(list(ys)[i], []):
+        barred = [name for name in ys if bars.get(name)]
+        name = list(ys)[i]
+        for bx, low, high in bars.get(name, []):
             (c, top), (_, bottom) = px(bx, high), px(bx, low)
+            c += 5 * barred.index(name) - 5 * (len(barred) - 1) // 2
             cv2.line(plot, (int(c), int(top)), (int(c), int(bottom)), colour, 1)
             for r in (top, bottom):
                 cv2.line(plot, (int(c) - 4, int(r)), (int(c) + 4, int(r)), colour, 1)
