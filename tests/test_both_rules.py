@@ -246,6 +246,14 @@ def test_noise_levels_score_both_rules_on_the_same_noisy_windows(
             )
         assert c[0].to_dict()["accuracy_leads"] == c[0].accuracy_leads
     actual = np.asarray(test.label, bool)
+    # Each evaluation's accuracy carries its interval over the recordings, UAV and UAV-free
+    # drawn apart, in its JSON and its report.
+    from uavsnn.report import evaluation_markdown
+
+    lo, hi = e.accuracy_interval
+    assert (lo, hi) == recording_interval(e.predicted == actual, test.recording, strata=actual)
+    assert lo <= e.accuracy <= hi and e.to_dict()["accuracy_interval"] == [lo, hi]
+    assert f"({100 * lo:.1f}–{100 * hi:.1f}) on {len(test)} windows" in evaluation_markdown(e)
     right = [p.evaluation.predicted == actual for p in noisy]
     assert tuple(noisy[0].accuracy_leads["static"]["any_spike"]["interval"]) == recording_interval(
         right[0], test.recording, against=right[1], strata=actual

@@ -155,6 +155,9 @@ class Evaluation:
     box_centre_error_px: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
     #: By the labelled object's size (:data:`SIZE_BINS_PX`; windows without a box left out).
     per_size: tuple[SizeFigures, ...] = ()
+    #: The accuracy's 95 % interval when the recordings are drawn again, the UAV and the
+    #: UAV-free ones apart (:func:`recording_interval` with ``strata``).
+    accuracy_interval: tuple[float, float] = (float("nan"), float("nan"))
 
     @property
     def accuracy(self) -> float:
@@ -194,6 +197,7 @@ class Evaluation:
             "windows": self.windows,
             "confusion": [[tp, fn], [fp, tn]],
             "accuracy": self.accuracy,
+            "accuracy_interval": list(self.accuracy_interval),
             "tp": tp,
             "fn": fn,
             "fp": fp,
@@ -378,6 +382,7 @@ def score(
         box_iou=iou,
         box_centre_error_px=centre,
         per_size=tuple(per_size),
+        accuracy_interval=recording_interval(predicted == actual, data.recording, strata=actual),
     )
 
 

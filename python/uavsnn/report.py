@@ -279,8 +279,9 @@ def evaluation_markdown(evaluation: Evaluation) -> str:
     """Accuracy, the confusion matrix, per-class figures, latency, sparsity and cost."""
     d = evaluation.to_dict()
     lines = [
-        f"Accuracy **{100 * d['accuracy']:.1f} %** on {d['windows']} windows (a window is a UAV "
-        f"when at least {d['min_detections']} conv3 neuron fires).",
+        f"Accuracy {percent_with_interval(d['accuracy'], d['accuracy_interval'], bold=True)} on "
+        f"{d['windows']} windows (a window is a UAV when at least {d['min_detections']} conv3 "
+        "neuron fires; in brackets its 95 % interval when the recordings are drawn again).",
         "",
         confusion_table(evaluation.confusion),
         "| class | windows | called UAV | right |",

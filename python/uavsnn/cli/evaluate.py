@@ -277,7 +277,11 @@ def _evaluate(args: argparse.Namespace) -> int:
     if network.load_note:
         print(f"note: {network.load_note}")
     (tp, fn), (fp, tn) = result.confusion.tolist()
-    print(f"accuracy {100 * result.accuracy:.1f} % on {result.windows} windows")
+    lo, hi = result.accuracy_interval
+    print(
+        f"accuracy {100 * result.accuracy:.1f} % (95 % interval {100 * lo:.1f}-{100 * hi:.1f}) "
+        f"on {result.windows} windows"
+    )
     print(f"confusion [[TP {tp}, FN {fn}], [FP {fp}, TN {tn}]]")
     for name, c in sorted(result.per_class.items()):
         print(f"  {name:12s} {c.windows:6d} windows, called UAV {100 * c.called_uav_rate:5.1f} %")
