@@ -472,6 +472,7 @@ def line_chart(
         _text(img, s, (left - 4 - _width(s, 0.35), 36 + r + 4), 0.35)
     cv2.rectangle(img, (left - 1, 35), (left + pw, 36 + ph), _DIM, 1)
     order = np.argsort(xs, kind="stable")
+    barred = [name for name in ys if bars.get(name)]  # the series with bars, set apart in x
     for i, v in enumerate(ys.values()):
         colour, ok = _PALETTE[i % len(_PALETTE)], np.isfinite(v[order])
         pts = px(xs[order], np.where(ok, v[order], y0))
@@ -486,7 +487,6 @@ def line_chart(
                 cv2.polylines(plot, [pts[run]], False, colour, 2, cv2.LINE_AA)
                 for k in run if markers or len(run) == 1 else []:
                     cv2.circle(plot, (int(pts[k, 0]), int(pts[k, 1])), 3, colour, -1)
-        barred = [name for name in ys if bars.get(name)]
         name = list(ys)[i]
         for bx, low, high in bars.get(name, []):
             (c, top), (_, bottom) = px(bx, high), px(bx, low)

@@ -434,7 +434,7 @@ def _noise_detection_table(points: Sequence[NoisePoint], modes: Sequence[str]) -
 
 
 def lead_text(lead: dict[str, Any]) -> str:
-    """``"+1.9 (−3.1 to +6.0)"``: a lead in points, with its interval."""
+    """``"+1.9 (-3.1 to +6.0)"``: a lead in points, with its interval."""
     lo, hi = lead["interval"]
     return f"{100 * lead['lead']:+.1f} ({100 * lo:+.1f} to {100 * hi:+.1f})"
 
