@@ -388,6 +388,26 @@ def test_recording_interval_by_strata_keeps_each_group_drawn_apart() -> None:
         recording_interval(right, rec, strata=label[:3])
 
 
+def test_accuracy_lead_is_the_paired_interval_of_the_windows_decided_right() -> None:
+    from uavsnn.evaluation import accuracy_lead, recording_interval
+
+    r = np.random.default_rng(12)
+    n = 400
+    rec = np.repeat(np.arange(20), 20)
+    label = rec % 2 == 0
+    data = LabelledWindows(
+        _windows([[] for _ in range(n)]), label, np.where(label, "drone", "bird"), rec,
+        np.full((n, 4), np.nan, np.float32),
+    )  # fmt: skip
+    mine, theirs = r.random(n) < 0.7, r.random(n) < 0.6
+    got = accuracy_lead(mine, theirs, data)
+    assert got["lead"] == pytest.approx(mine.mean() - theirs.mean())
+    assert got["interval"] == list(recording_interval(mine, rec, against=theirs, strata=label))
+    assert accuracy_lead(mine, mine, data) == {"lead": 0.0, "interval": [0.0, 0.0]}
+    with pytest.raises(ShapeError, match="against 3"):
+        accuracy_lead(mine, theirs[:3], data)
+
+
 def _identical_recordings(scores: np.ndarray, copies: int) -> np.ndarray:
     """Recording ids for ``copies`` copies of ``scores`` laid end to end, one per copy."""
     return np.repeat(np.arange(copies), len(scores))

@@ -59,6 +59,7 @@ __all__ = [
     "SizeFigures",
     "WindowInputs",
     "accuracy",
+    "accuracy_lead",
     "box_iou",
     "centre_distance",
     "check_test_set",
@@ -100,6 +101,32 @@ def accuracy(matrix: npt.ArrayLike) -> float:
         raise ShapeError(f"a confusion matrix is 2x2, got shape {m.shape}")
     total = int(m.sum())
     return float("nan") if total == 0 else float(m[0, 0] + m[1, 1]) / total
+
+
+def _accuracy_interval(
+    predicted: np.ndarray, actual: np.ndarray, recording: np.ndarray
+) -> tuple[float, float]:
+    """The 95 % interval of the share of windows ``predicted`` decides right, the UAV and the
+    UAV-free recordings drawn again apart (:func:`recording_interval` with ``strata``)."""
+    return recording_interval(predicted == actual, recording, strata=actual)
+
+
+def accuracy_lead(
+    right: npt.ArrayLike, their_right: npt.ArrayLike, data: LabelledWindows
+) -> dict[str, Any]:
+    """How much more of ``data``'s windows one rule or network decides right (``right``, one
+    flag a window) than another (``their_right``): ``{"lead", "interval"}``, the difference of
+    the two accuracies and its paired 95 % interval when the recordings are drawn again, both
+    on the same draws, the UAV and the UAV-free recordings apart (:func:`recording_interval`
+    with ``against`` and ``strata``). The lead is NaN for no windows.
+
+    Raises:
+        ShapeError: the flags and ``data`` differ in length."""
+    mine = check_bools("right", right)
+    theirs = check_bools("their_right", their_right)
+    interval = recording_interval(mine, data.recording, against=theirs, strata=data.label)
+    lead = float(mine.mean() - theirs.mean()) if mine.size else float("nan")
+    return {"lead": lead, "interval": list(interval)}
 
 
 @dataclass(frozen=True)
@@ -382,7 +409,7 @@ def score(
         box_iou=iou,
         box_centre_error_px=centre,
         per_size=tuple(per_size),
-        accuracy_interval=recording_interval(predicted == actual, data.recording, strata=actual),
+        accuracy_interval=_accuracy_interval(predicted, actual, np.asarray(data.recording)),
     )
 
 
@@ -532,7 +559,7 @@ def identification_figures(
         return {
             "confusion": m.tolist(),
             "accuracy": accuracy(m),
-            "accuracy_interval": list(recording_interval(pred == actual, rec, strata=actual)),
+            "accuracy_interval": list(_accuracy_interval(pred, actual, rec)),
             "per_class": {str(c): float(pred[data.cls == c].mean()) for c in np.unique(data.cls)},
         }
 
@@ -578,17 +605,13 @@ def identification_figures(
             point["detection_interval"] = list(roc_point_interval(combined, actual, rec, r))
             at_fa.append(point)
     identified = combined >= threshold
-    right, right_any = identified == actual, fired == actual
     out = {
         "threshold": float(threshold),
         "any_spike": rule(fired),
         "identified": rule(identified),
         # What identification adds to the any-spike rule's accuracy on these windows, with the
         # paired interval: both rules on the same draws of the recordings.
-        "accuracy_lead": {
-            "lead": float(right.mean() - right_any.mean()) if actual.size else float("nan"),
-            "interval": list(recording_interval(right, rec, against=right_any, strata=actual)),
-        },
+        "accuracy_lead": accuracy_lead(identified == actual, fired == actual, data),
         "roc": roc,
         "at_false_alarm": at_fa,
     }

@@ -23,11 +23,11 @@ from uavsnn.evaluation import (
     FALSE_ALARM_RATES,
     Evaluation,
     WindowInputs,
+    accuracy_lead,
     check_test_set,
     detection_at_false_alarm,
     detection_by_target,
     identification_figures,
-    recording_interval,
     roc_point_interval,
     score,
 )
@@ -252,8 +252,8 @@ class NoisePoint:
     #: rule: ``{other: {"any_spike" | "identified": {"lead", "interval"}}}``, its accuracy
     #: minus the other's (``"identified"`` where both have identification, each at its own
     #: model's threshold), with the paired 95 % interval over the recordings, the UAV and the
-    #: UAV-free recordings drawn apart (:func:`~uavsnn.evaluation.recording_interval` with
-    #: ``against`` and ``strata``); ``None`` on the other modes' points.
+    #: UAV-free recordings drawn apart (:func:`~uavsnn.evaluation.accuracy_lead`); ``None`` on
+    #: the other modes' points.
     accuracy_leads: dict[str, dict[str, dict[str, Any]]] | None = None
 
     def to_dict(self) -> dict[str, object]:
@@ -442,7 +442,7 @@ def noise_level(
     if len(right) > 1 and n:
         accuracy_leads = {
             other: {
-                rule: _accuracy_lead(right[first][rule], theirs[rule], data)
+                rule: accuracy_lead(right[first][rule], theirs[rule], data)
                 for rule in right[first]
                 if rule in theirs
             }
@@ -474,13 +474,6 @@ def _lead(
     )
     interval = roc_point_interval(mine, actual, data.recording, rate, against=theirs)
     return {"lead": lead, "interval": list(interval)}
-
-
-def _accuracy_lead(mine: np.ndarray, theirs: np.ndarray, data: LabelledWindows) -> dict[str, Any]:
-    """The share of windows ``mine`` decides right minus ``theirs``' (an accuracy lead), with
-    the paired interval over the recordings, UAV and UAV-free drawn apart."""
-    interval = recording_interval(mine, data.recording, against=theirs, strata=data.label)
-    return {"lead": float(mine.mean() - theirs.mean()), "interval": list(interval)}
 
 
 def noise_seed(seed: int, fraction: float) -> int:
