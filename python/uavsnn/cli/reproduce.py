@@ -23,13 +23,23 @@ import json
 import shlex
 import sys
 import time
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any, NamedTuple
 
 from uavsnn import __version__, identify, pictures, report
 from uavsnn._validate import check_int
 from uavsnn.cli import check_output_dir, output_dir
+from uavsnn.cli._results_text import (
+    TABLE2_HEAD,
+    ablation_table,
+    identification_leads,
+    identification_text,
+    per_network,
+    real_sizes_table,
+    table2_row,
+    track_points_text,
+    tracks_text,
+)
 from uavsnn.clips import clip_table, evaluate_clips
 from uavsnn.dataset import LabelledWindows, build, load, parse_sensor
 from uavsnn.dataset.build import MAX_SPLIT_WINDOWS, check_footage
@@ -42,7 +52,7 @@ from uavsnn.distributed import (
     train_task,
 )
 from uavsnn.errors import DatasetError, ParameterError
-from uavsnn.evaluation import Evaluation, detection_by_target
+from uavsnn.evaluation import Evaluation
 from uavsnn.experiments import (
     NOISE_FRACTIONS,
     PAPER_TABLE2,
@@ -63,7 +73,7 @@ from uavsnn.false_alarms import (
     tune_track_alarms,
 )
 from uavsnn.network import Network, default_config
-from uavsnn.track_eval import evaluate_tracks, rule_name, track_table
+from uavsnn.track_eval import evaluate_tracks
 
 __all__ = ["register"]
 
@@ -176,94 +186,6 @@ def _train_all(
     return jobs
 
 
-def _set_beforehand(point: dict[str, Any]) -> str:
-    """Detection (false alarms; their 95 % interval over the test recordings) at a threshold
-    set beforehand."""
-    lo, hi = point["false_alarm_interval"]
-    return (
-        f"{100 * point['detection_rate']:.1f} % ({100 * point['false_alarm_rate']:.1f} %; "
-        f"{100 * lo:.1f}–{100 * hi:.1f})"
-    )
-
-
-def _row(name: str, e: Evaluation, paper: float | None, ident: dict[str, Any] | None) -> str:
-    (tp, fn), (fp, tn) = e.confusion.tolist()
-    ref = "" if paper is None else f"{100 * paper:.0f} %"
-    # The any-spike accuracy with its interval over the test recordings, where both rules were
-    # scored (identification_figures gives it).
-    interval = None if ident is None else ident["any_spike"].get("accuracy_interval")
-    any_spike = report.percent_with_interval(e.accuracy, interval, bold=True)
-    if ident is None:
-        cells = "– | – | – | – | –"
-    else:
-        # Detection at the points read off the test ROC, each with its interval over the test
-        # recordings (the threshold read again on each draw).
-        points = {p["false_alarm_target"]: p for p in ident["at_false_alarm"]}
-        read = [
-            report.percent_with_interval(
-                points[r]["detection_rate"], points[r]["detection_interval"]
-            )
-            for r in (0.01, 0.05)
-        ]
-        tuned = {p["false_alarm_target"]: p for p in ident.get("at_tuned_false_alarm", [])}
-        set_for = [_set_beforehand(tuned[r]) if r in tuned else "–" for r in (0.01, 0.05)]
-        identified = ident["identified"]
-        with_ident = report.percent_with_interval(
-            identified["accuracy"], identified.get("accuracy_interval"), bold=True
-        )
-        cells = f"{with_ident} | {' | '.join(read)} | {' | '.join(set_for)}"
-    return f"| {name} | {tp} | {fn} | {fp} | {tn} | {any_spike} | {ref} | {cells} |"
-
-
-def _identification_leads(idents: dict[str, dict[str, Any] | None]) -> str:
-    """The line under Table 2: each network's accuracy with identification minus its any-spike
-    accuracy, with the paired interval."""
-    leads = [
-        f"{name} {report.lead_text(f['accuracy_lead'])}"
-        for name, f in idents.items()
-        if f is not None and "accuracy_lead" in f
-    ]
-    if not leads:
-        return ""
-    return (
-        "\nWhat identification adds to the any-spike rule's accuracy, in points, with its 95 % "
-        "interval when the test recordings are drawn again, both rules on the same draws: "
-        + "; ".join(leads)
-        + ".\n"
-    )
-
-
-_TABLE2_HEAD = [
-    "| trained on | TP | FN | FP | TN | any-spike accuracy (its 95 % interval) | paper | "
-    "with identification | detection at 1 % false alarms (its 95 % interval) | at 5 % | "
-    "set beforehand for 1 %: "
-    "detection (false alarms; their 95 % interval) | for 5 % |",
-    "|---|---|---|---|---|---|---|---|---|---|---|---|",
-]
-
-
-def _identification_text(
-    fit: dict[str, Any], figures: dict[str, Any] | None, tuned_on: str
-) -> list[str]:
-    """``tuned_on``: what the separate tuning windows are, when the fit had some."""
-    if figures is None:
-        return [f"\nNo identification: {fit.get('skipped', 'not fitted')}.\n"]
-    if fit["tune"] == identify.HELD_OUT_TUNING:
-        tuned_on = "a quarter of the training recordings held out (not fitted on)"
-    return [
-        f"\nIdentification fitted on {fit['train_windows']} training windows and tuned on "
-        f"{fit['tune_windows']} windows of {tuned_on} (UAV score: "
-        f"{fit['model']}; L2 {fit['l2']:g}, threshold "
-        f"{fit['threshold']:.3f}).\n",
-        report.identification_markdown(figures),
-        *(
-            [report.class_markdown(figures["classes"], figures.get("classes_at_tuned"))]
-            if "classes" in figures
-            else []
-        ),
-    ]
-
-
 #: The raw material of some figures (every streamed track's and window's peak score), left
 #: out of results.json: thousands of numbers that the figures beside them summarise, and that
 #: ``benches/python/false_alarms.py --json`` and ``uavsnn evaluate --clips --json`` give.
@@ -279,13 +201,6 @@ def _lean(obj: Any) -> Any:
     return obj
 
 
-def _per_network(figures: dict[str, Any], table: Callable[[Any], str]) -> list[str]:
-    """Each network's ``table`` of its ``figures``, under its name."""
-    return [
-        part for name, f in figures.items() for part in (f"\n**The {name} network.**\n", table(f))
-    ]
-
-
 def _ablation(
     network: Network,
     train: LabelledWindows,
@@ -296,7 +211,6 @@ def _ablation(
     """:func:`uavsnn.identify.ablation` of ``network`` fitted on ``train``, tuned on ``tune``
     and measured on ``test`` (``result``: its evaluation there, with the inference), tracks
     included."""
-    from uavsnn import identify
 
     assert result.inference is not None
     tune_inference = network.infer(tune.windows)
@@ -309,47 +223,6 @@ def _ablation(
         test_detected=result.inference.detected,
         test_label=test.label,
         test_data=test,
-    )
-
-
-def _ablation_table(rows: dict[str, Any]) -> str:
-    lines = [
-        "| features | columns | accuracy with identification | detection at 1 % / 5 % false "
-        "alarms | UAV recordings found | false tracks |",
-        "|---|---|---|---|---|---|",
-    ]
-    for name, row in rows.items():
-        tracks = row["tracks"]
-        lines.append(
-            f"| {name} | {row['features']} | {100 * row['accuracy']:.1f} % "
-            f"| {100 * row['detection_at_0.01']:.1f} / {100 * row['detection_at_0.05']:.1f} % "
-            f"| {tracks['found']} | {tracks['false_tracks']} |"
-        )
-    return "\n".join(lines)
-
-
-def _tracks_text(figures: dict[str, Any]) -> str:
-    return (
-        f"{figures['recordings']} test recordings ({figures['uav_recordings']} with a UAV), "
-        "each one's windows in time order through a tracker (`uavsnn evaluate --tracks`; "
-        'docs/identification.md, "Track-level figures"); a window the dataset left out '
-        "counts as a window without a detection.\n\n" + track_table(figures)
-    )
-
-
-def _track_points_text(fit: dict[str, Any], name: str) -> str:
-    """What the track alarm thresholds of ``name``'s fit were set on, or nothing."""
-    tracks = fit.get("tracks")
-    if not tracks:
-        return ""
-    points = ", ".join(
-        f"{threshold:.3f} for {rate:g}" for rate, threshold in tracks["track_alarm_thresholds"]
-    )
-    return (
-        f"\nThe {name} network's track alarm thresholds (the rules 'set for … false tracks per "
-        f"minute'), set on {tracks['minutes']:.2f} minutes of other UAV-free recordings of seed "
-        f"{tracks['seed']} ({tracks['confirmed_tracks']} confirmed tracks; "
-        "`uavsnn.false_alarms.tune_track_alarms`): " + points + " false tracks per minute."
     )
 
 
@@ -428,9 +301,9 @@ def _real_footage(
         "drone). Trained on the real train clips with the same recipe "
         f"(`model-real{suffix}.npz`).\n",
         report.evaluation_markdown(real),
-        *_identification_text(real_fit, real_ident, ""),
+        *identification_text(real_fit, real_ident, ""),
         f"\n### Tracks on the real test clips ({name})\n",
-        _tracks_text(real_tracks),
+        tracks_text(real_tracks),
         f"\n### The real test clips streamed whole ({name})\n",
         "Each test clip made into events again as the dataset's build made them and "
         "streamed whole through the detector, as `uavsnn detect` runs (`uavsnn evaluate "
@@ -441,38 +314,6 @@ def _real_footage(
         clip_table(real_clips),
     ]
     return entry, lines
-
-
-def _real_sizes_table(rows: list[tuple[str, dict[str, Any]]]) -> str:
-    """One row per sensor size: the test windows under both rules, detection where 5 % of
-    their UAV-free windows alarm, and the test clips decided right under each rule."""
-    first = rows[0][1]["clips"]["rules"]
-    rules = [r for r in first if all(r in e["clips"]["rules"] for _, e in rows)]
-    lines = [
-        "| sensor | windows, any-spike | windows, with identification | detection at 5 % false "
-        "alarms | " + " | ".join(f"clips decided right: {rule_name(r)}" for r in rules) + " |",
-        "|---|---|---|---|" + "---|" * len(rules),
-    ]
-    for name, entry in rows:
-        ident = entry["identification"]
-        clips = entry["clips"]
-        if ident is None:
-            with_ident = detection = "–"
-        else:
-            at = detection_by_target(ident["at_false_alarm"])
-            with_ident = f"{100 * ident['identified']['accuracy']:.1f} %"
-            detection = f"{100 * at[0.05]:.1f} %" if 0.05 in at else "–"
-        cells = [
-            f"{clips['rules'][r]['right']} of {clips['clips']} "
-            f"({100 * clips['rules'][r]['right'] / max(1, clips['clips']):.1f} %)"
-            for r in rules
-        ]
-        lines.append(
-            f"| {name} | {100 * entry['accuracy']:.1f} % | {with_ident} | {detection} | "
-            + " | ".join(cells)
-            + " |"
-        )
-    return "\n".join(lines)
 
 
 class _Checked(NamedTuple):
@@ -677,7 +518,7 @@ def _reproduce(args: argparse.Namespace) -> int:
             "every feature but the track's activity history). Detection is read off the test "
             "set's ROC.\n",
         ]
-        ablation_text += _per_network(log["ablation"], _ablation_table)
+        ablation_text += per_network(log["ablation"], ablation_table)
     step("the test recordings streamed whole")
     log["clips"] = {
         name: evaluate_clips(networks[name], dvs_dir, runner=runner) for name in STREAMED
@@ -690,7 +531,7 @@ def _reproduce(args: argparse.Namespace) -> int:
         "through the `Detector`, as `uavsnn detect` runs (`uavsnn evaluate --clips`): every "
         "window counts. A recording is decided UAV when a track alarms in it.\n",
     ]
-    streamed_text += _per_network(log["clips"], clip_table)
+    streamed_text += per_network(log["clips"], clip_table)
     free_text: list[str] = []
     if args.free_minutes:
         step(f"false alarms over {args.free_minutes:g} minutes of UAV-free recording")
@@ -709,7 +550,7 @@ def _reproduce(args: argparse.Namespace) -> int:
             "(`uavsnn.false_alarms`); every window of them counts. The same recordings for "
             "both networks.\n",
         ]
-        free_text += _per_network(log["false_alarms"], false_alarm_table)
+        free_text += per_network(log["false_alarms"], false_alarm_table)
 
     step("noise sweep")
     best = networks["combined"]
@@ -756,7 +597,7 @@ def _reproduce(args: argparse.Namespace) -> int:
                 "as large as the sensor; each size's section below): the test split's windows "
                 "under both rules, and the test clips streamed whole, decided right under each "
                 "rule.\n",
-                _real_sizes_table(size_rows),
+                real_sizes_table(size_rows),
                 *real_text,
             ]
     log["seconds"] = round(time.perf_counter() - started, 1)
@@ -797,16 +638,16 @@ def _reproduce(args: argparse.Namespace) -> int:
         "beforehand, as a user fixes it (the interval: the false "
         "alarms' 95 % interval when the test recordings are drawn again, "
         "`evaluation.recording_interval`).\n",
-        *_TABLE2_HEAD,
-        *[_row(name, e, PAPER_TABLE2.get(name), idents[name]) for name, e in results.items()],
-        _identification_leads(idents),
+        *TABLE2_HEAD,
+        *[table2_row(name, e, PAPER_TABLE2.get(name), idents[name]) for name, e in results.items()],
+        identification_leads(idents),
         "\n### The combined network in detail\n",
         report.evaluation_markdown(results["combined"]),
         "\n### The combined network with identification\n",
-        *_identification_text(fits["combined"], idents["combined"], tuned_on),
+        *identification_text(fits["combined"], idents["combined"], tuned_on),
         "\n### Tracks: the test recordings followed as streams (combined network)\n",
-        _tracks_text(tracks),
-        *[_track_points_text(fits[name], name) for name in STREAMED],
+        tracks_text(tracks),
+        *[track_points_text(fits[name], name) for name in STREAMED],
         *streamed_text,
         *ablation_text,
         *free_text,
