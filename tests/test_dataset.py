@@ -195,6 +195,19 @@ def test_manifest_fields(dvs_set: Path) -> None:
     for r in m["recordings"]:
         assert r["usable"] <= r["windows"] and r["windows_used"] <= r["usable"]
         assert r["domain"] == "dvs" and r["kind"] in ("uav", "object", "empty")
+        # The first UAV window of all the build cut: on the grid, none without a UAV window.
+        assert (r["first_uav_us"] is None) == (r["usable_uav"] == 0)
+        if r["first_uav_us"] is not None:
+            assert r["first_uav_us"] % p["step_us"] == 0
+    # No UAV window a split kept starts before it; some split left out its recording's first.
+    first = {r["id"]: r["first_uav_us"] for r in m["recordings"]}
+    kept_first = {}
+    for name in ("test", "train"):
+        data = load(dvs_set, name)
+        for t0, rec in zip(data.windows.t0[data.label], data.recording[data.label], strict=True):
+            kept_first[int(rec)] = min(kept_first.get(int(rec), int(t0)), int(t0))
+    assert kept_first and all(first[r] <= t for r, t in kept_first.items())
+    assert any(first[r] < t for r, t in kept_first.items())
 
 
 def test_same_seed_same_dataset_other_seed_other(dvs_set: Path, tmp_path: Path) -> None:

@@ -17,7 +17,14 @@ from uavsnn.dataset import LabelledWindows
 from uavsnn.errors import ParameterError, ShapeError
 from uavsnn.grouping import _NO_DETECTIONS, WindowObject, WindowReport
 from uavsnn.identify import FEATURES, WindowFeatures, window_steps
-from uavsnn.track_eval import Confirm, confirm_flags, poisson_upper, track_figures, track_table
+from uavsnn.track_eval import (
+    Confirm,
+    confirm_flags,
+    first_uav_starts,
+    poisson_upper,
+    track_figures,
+    track_table,
+)
 from uavsnn.tracks import Tracker
 from uavsnn.windows import Windows
 
@@ -227,6 +234,30 @@ def test_left_out_windows_count_as_misses() -> None:
         # Without the manifest's step, the step is the gaps' greatest common divisor.
         bare = labelled([(0, k, True, "drone") for k in ks], manifest=False)
         assert window_steps(bare)[1] == keep * STEP
+
+
+def test_the_first_alarm_runs_from_the_recordings_first_uav_window() -> None:
+    """The split left out windows 4 and 5 of a recording whose UAV is labelled from window 4
+    on, and detected in every window kept: confirmed at window 8 (hits at 6, 7, 8), the alarm
+    at 250 ms. Where the manifest gives the recording's first UAV window (window 4, 100 ms),
+    the clock runs from it: 150 ms; where it does not, from the first kept (window 6): 100 ms,
+    and the figures and the table say so."""
+    ks = [k for k in range(20) if k not in (4, 5)]
+    bare = labelled([(0, k, k >= 4, "drone" if k >= 4 else "none") for k in ks])
+    objects = {i: [on_uav(k)] for i, k in enumerate(ks) if k >= 6}
+    f = track_figures(bare, tracked(bare, objects))
+    assert f["alarm_clock"] == "kept windows"
+    assert f["rules"]["any_spike"]["time_to_alarm_ms"]["median"] == 100.0
+    assert "the first UAV window the split kept" in track_table(f)
+    entry = {"id": 0, "first_uav_us": 1_000_000 + 4 * STEP}
+    built = replace(bare, manifest=bare.manifest | {"recordings": [entry]})
+    f = track_figures(built, tracked(built, objects))
+    assert f["alarm_clock"] == "recording"
+    assert f["rules"]["any_spike"]["time_to_alarm_ms"]["median"] == 150.0
+    assert "from each recording's first UAV window" in track_table(f)
+    # A manifest that says a later start than a kept UAV window cannot push the clock past it.
+    late = replace(bare, manifest=bare.manifest | {"recordings": [entry | {"first_uav_us": 2**40}]})
+    assert first_uav_starts(late) == ({0: 1_000_000 + 6 * STEP}, True)
 
 
 def test_a_track_beside_the_uav_is_stray_not_found() -> None:

@@ -20,7 +20,9 @@ From the alarms (:func:`track_figures`):
 - a UAV recording (one with a labelled UAV window) is **found** when an alarming track has,
   at or after its alarm, an object meeting the labelled UAV box of a UAV window; the **time
   to first alarm** is the end of the earliest such window minus the start of the
-  recording's first labelled UAV window, in event time;
+  recording's first labelled UAV window, in event time: the first of every window the build
+  cut from the recording (the manifest's ``first_uav_us``), not only of those the split kept
+  (:func:`first_uav_starts`);
 - a **false track** is an alarming track whose alarm window has no UAV; the rate divides
   them by the **UAV-free time**: the union of the recordings' UAV-free windows
   ``[t0, t0 + L)``. With few counts the one-sided 95 % Poisson upper bound is given beside;
@@ -57,10 +59,12 @@ __all__ = [
     "Confirm",
     "at_rule",
     "box_meets",
+    "clock_text",
     "confirm_flags",
     "decision_figures",
     "delay_stats_ms",
     "evaluate_tracks",
+    "first_uav_starts",
     "identified_track_figures",
     "poisson_upper",
     "recording_class",
@@ -298,6 +302,33 @@ def recording_class(classes: np.ndarray) -> str:
     return str(names[np.argmax(counts)]) if len(names) else "none"
 
 
+def first_uav_starts(data: LabelledWindows) -> tuple[dict[int, int], bool]:
+    """Each UAV recording of ``data`` (one with a UAV window in it) and the start of its first
+    UAV window, where the time to first alarm starts: the manifest's ``first_uav_us`` (the
+    first usable UAV window among every window the build cut from the recording), else the
+    first UAV window the split kept, which may be a step or more later (a split keeps only
+    some of a recording's steps). Returns the starts and whether every one came from the
+    manifest (datasets built before it carried ``first_uav_us`` do not)."""
+    label = np.asarray(data.label, dtype=bool)
+    rec = np.asarray(data.recording, dtype=np.int64)
+    t0 = np.asarray(data.windows.t0, dtype=np.int64)
+    built = {
+        int(r["id"]): r.get("first_uav_us")
+        for r in data.manifest.get("recordings", [])
+        if isinstance(r, dict) and "id" in r
+    }
+    starts: dict[int, int] = {}
+    every = True
+    for r in np.unique(rec[label]).tolist():
+        kept = int(t0[(rec == r) & label].min())
+        first = built.get(r)
+        if isinstance(first, int) and not isinstance(first, bool):
+            starts[r] = min(first, kept)
+        else:
+            starts[r], every = kept, False
+    return starts, every
+
+
 def track_figures(
     data: LabelledWindows,
     feats: WindowFeatures,
@@ -319,7 +350,10 @@ def track_figures(
 
     Returns a plain dict (JSON-ready): ``windows``, ``recordings``, ``uav_recordings``,
     ``step_us``, ``window_us``, ``window_coverage`` (the windows present over the steps
-    their recordings span), ``uav_free_minutes``, ``rules`` (per rule of :data:`RULES`:
+    their recordings span), ``alarm_clock`` (where the time to first alarm starts:
+    ``"recording"``, each recording's first UAV window of all it was cut into, or ``"kept
+    windows"``, the first the split kept, for a dataset whose manifest does not carry it;
+    :func:`first_uav_starts`), ``uav_free_minutes``, ``rules`` (per rule of :data:`RULES`:
     ``found``, ``found_rate``, ``missed`` (recording ids), ``time_to_alarm_ms`` (``n``,
     ``median``, ``p90``, ``max``), ``alarming_tracks``, ``false_tracks``,
     ``false_tracks_per_class`` (by the class labelled in the alarm window),
@@ -373,9 +407,7 @@ def track_figures(
             tracks.setdefault((int(rec[feats.window[j]]), tid), []).append(j)
 
     recordings = np.unique(rec).tolist()
-    first_uav = {
-        r: int(t0[(rec == r) & label].min()) for r in recordings if (label & (rec == r)).any()
-    }
+    first_uav, from_manifest = first_uav_starts(data)
     found: dict[str, dict[int, int]] = {rule: {} for rule in rules}
     false: dict[str, dict[int, list[str]]] = {rule: {r: [] for r in recordings} for rule in rules}
     stray = dict.fromkeys(rules, 0)
@@ -432,6 +464,7 @@ def track_figures(
         "step_us": step,
         "window_us": window_us,
         "window_coverage": len(data) / sum(span.values()) if recordings else 0.0,
+        "alarm_clock": "recording" if from_manifest else "kept windows",
         "uav_free_minutes": free_minutes,
         "confirm": None if confirm is None else str(confirm),
         "rules": {},
@@ -617,6 +650,17 @@ def track_table(figures: dict[str, Any]) -> str:
     lines.append(
         f"{figures['recordings']} recordings, {figures['windows']} windows "
         f"({100 * figures['window_coverage']:.1f} % of the steps they span), "
-        f"{60 * minutes:.2f} s of UAV-free recording."
+        f"{60 * minutes:.2f} s of UAV-free recording; {clock_text(figures)}."
     )
     return "\n".join(lines)
+
+
+def clock_text(figures: dict[str, Any]) -> str:
+    """Where :func:`track_figures`' time to first alarm starts, in words."""
+    if figures.get("alarm_clock") == "recording":
+        return "the time to first alarm runs from each recording's first UAV window"
+    return (
+        "the time to first alarm runs from the first UAV window the split kept, which may be "
+        "a step or more after the recording's first (the dataset's manifest does not give it: "
+        "build the dataset again)"
+    )

@@ -23,7 +23,7 @@ from uavsnn.experiments import (
     static_twin,
 )
 from uavsnn.network import MAX_THREADS, Network
-from uavsnn.track_eval import Confirm, rule_name
+from uavsnn.track_eval import Confirm, clock_text, rule_name
 
 __all__ = ["register"]
 
@@ -456,7 +456,7 @@ def _print_tracks(tracks: dict[str, Any]) -> None:
         f"tracks (confirmed at {tracks['confirm']}): {tracks['recordings']} recordings "
         f"({tracks['uav_recordings']} with a UAV), "
         f"{tracks['windows']} windows ({100 * tracks['window_coverage']:.1f} % of their steps), "
-        f"{60 * tracks['uav_free_minutes']:.2f} s UAV-free"
+        f"{60 * tracks['uav_free_minutes']:.2f} s UAV-free; {clock_text(tracks)}"
     )
     for rule, f in tracks["rules"].items():
         t = f["time_to_alarm_ms"]

@@ -24,6 +24,7 @@ from uavsnn.dataset.splits import (
     Recorder,
     WindowCut,
     balanced,
+    first_uav_us,
     keyed_rng,
     keyed_seed,
     take_labels,
@@ -254,6 +255,7 @@ def real_splits(
                     "windows": len(w.label),
                     "usable": int(w.usable.sum()),
                     "usable_uav": int((w.usable & w.label).sum()),
+                    "first_uav_us": first_uav_us(rec.cut.starts(plan.end_us), w),
                 }
             )
             splits = [s for s in chosen if j in chosen[s]]

@@ -27,6 +27,7 @@ __all__ = [
     "Recorder",
     "WindowCut",
     "balanced",
+    "first_uav_us",
     "keyed_rng",
     "keyed_seed",
     "take_labels",
@@ -89,6 +90,14 @@ class WindowCut:
     def cut(self, recording: Recording, end_us: int) -> Windows:
         """The windows of a recording of ``[0, end_us)``, starting at 0."""
         return make_windows(recording, self.length_us, self.overlap, start_us=0, end_us=end_us)
+
+
+def first_uav_us(t0: np.ndarray, labels: WindowLabels) -> int | None:
+    """The start of a recording's first usable UAV window among all its windows (starting at
+    ``t0``, labelled ``labels``), or ``None`` without one: the manifest's ``first_uav_us``, from
+    which the track-level time to first alarm runs (a split keeps only some of the windows)."""
+    uav = labels.usable & labels.label
+    return int(np.asarray(t0)[uav].min()) if uav.any() else None
 
 
 def take_labels(labels: WindowLabels, idx: np.ndarray) -> WindowLabels:

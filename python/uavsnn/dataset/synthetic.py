@@ -39,6 +39,7 @@ from uavsnn.dataset.splits import (
     Recorder,
     WindowCut,
     balanced,
+    first_uav_us,
     keyed_rng,
     keyed_seed,
     take_labels,
@@ -290,6 +291,7 @@ def synthetic_windows(
         "windows": len(windows),
         "usable": int(labels.usable.sum()),
         "usable_uav": int((labels.usable & labels.label).sum()),
+        "first_uav_us": first_uav_us(windows.t0, labels),
     }
     keep = np.flatnonzero(labels.usable)
     kept = windows.select(keep)
