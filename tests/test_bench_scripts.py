@@ -282,6 +282,42 @@ def test_feature_groups_fits_each_group_as_the_ablation_does(bench_script, tmp_p
         assert area is None or 0 <= area <= 1
 
 
+def test_roc_interval_methods_read_four_intervals_off_the_same_draws(bench_script) -> None:
+    from uavsnn.evaluation import roc_point_interval
+
+    methods = bench_script("roc_interval_methods")
+    r = np.random.default_rng(5)
+
+    def scored_set(n_rec: int) -> dict[str, np.ndarray]:
+        rec = np.repeat(np.arange(n_rec), 20)
+        actual = np.tile(np.arange(20) < 10, n_rec)
+        scores = r.normal(0, 1, rec.size) + 1.5 * actual + r.normal(0, 1, n_rec)[rec]
+        return {"scores": scores, "actual": actual, "recording": rec}
+
+    one = scored_set(30)
+    got = methods.intervals(one["scores"], one["actual"], one["recording"], 0.05, 300, 7)
+    assert set(got) == set(methods.METHODS)
+    # The percentile interval is the one evaluate reports, off the same draws.
+    assert got["percentile"] == roc_point_interval(
+        one["scores"], one["actual"], one["recording"], 0.05, resamples=300, seed=7
+    )
+    point = methods.detection_at_false_alarm(one["scores"], one["actual"], 0.05)
+    lo, hi = got["percentile"]
+    assert got["basic"] == pytest.approx((2 * point - hi, 2 * point - lo))
+    assert all(lo <= hi for lo, hi in got.values())
+    # No unit moves the point of recordings all alike: no acceleration, BCa is BC.
+    alike = {k: np.tile(v[:20], 8) for k, v in one.items() if k != "recording"}
+    rec = np.repeat(np.arange(8), 20)
+    assert methods.acceleration(alike["scores"], alike["actual"], rec, 0.05) == 0.0
+    same = methods.intervals(alike["scores"], alike["actual"], rec, 0.05, 100, 0)
+    assert same["bca"] == same["bc"]
+    out = methods.compare([scored_set(30), scored_set(34)], 0.05, draws=20, resamples=100, seed=0)
+    assert out["draws"] == 20 and set(out["methods"]) == set(methods.METHODS)
+    for m in out["methods"].values():
+        assert m["coverage"] + m["above_pool"] + m["below_pool"] == pytest.approx(1.0)
+        assert m["mean_width"] > 0
+
+
 def test_roc_point_coverage_draws_sets_of_recordings_from_the_pool(bench_script) -> None:
     cover = bench_script("roc_point_coverage")
     r = np.random.default_rng(3)

@@ -46,6 +46,7 @@ from uavsnn.roc import (
     recording_interval,
     roc_area,
     roc_curve,
+    roc_point_draws,
     roc_point_interval,
     threshold_at_false_alarm,
 )
@@ -73,6 +74,7 @@ __all__ = [
     "recording_interval",
     "roc_area",
     "roc_curve",
+    "roc_point_draws",
     "roc_point_interval",
     "score",
     "threshold_at_false_alarm",

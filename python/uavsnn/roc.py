@@ -25,6 +25,7 @@ __all__ = [
     "recording_interval",
     "roc_area",
     "roc_curve",
+    "roc_point_draws",
     "roc_point_interval",
     "threshold_at_false_alarm",
 ]
@@ -188,39 +189,27 @@ def _draw_counts(rng: np.random.Generator, groups: int, draws: int) -> np.ndarra
     return counts
 
 
-def roc_point_interval(
+def roc_point_draws(
     scores: npt.ArrayLike,
     actual: npt.ArrayLike,
     recording: npt.ArrayLike,
     rate: float,
     *,
     against: npt.ArrayLike | None = None,
-    level: float = 0.95,
     resamples: int = INTERVAL_RESAMPLES,
     seed: int = 0,
-) -> tuple[float, float]:
-    """The ``level`` interval of :func:`detection_at_false_alarm` at ``rate`` when the
-    recordings are drawn again: the recordings of the UAV-free windows and those of the UAV
-    windows, each drawn with replacement as many as there are, the threshold read again off
-    each draw's UAV-free windows and the detection measured on its UAV windows (a percentile
-    bootstrap over recordings, as :func:`recording_interval`'s).
-
-    A point read off a set's own ROC moves with the set twice: the threshold is set by the few
-    UAV-free windows scoring highest (10 of 1000 at 1 %), often from a few recordings, and the
-    detection is a share of the UAV windows. This interval holds both. How well it covers is
-    measured, not assumed (``benches/python/roc_point_coverage.py``; docs/identification.md,
-    "How well a point read off the ROC is known"). Where every draw gives the same detection (0
-    or 1), the interval is :func:`recording_interval`'s for the UAV windows at the set's own
-    threshold. The same inputs and ``seed`` give the same interval.
-
-    ``against``: another score of the same windows (another model's); the interval is then
-    that of the difference, ``scores``' detection minus ``against``'s, each at its own
-    threshold on the same draws of recordings: whether one model's lead on a set is more than
-    the set's draw.
+) -> np.ndarray:
+    """:func:`detection_at_false_alarm` at ``rate`` on each of ``resamples`` draws of the
+    recordings (the bootstrap distribution :func:`roc_point_interval` reads its interval off):
+    the recordings of the UAV-free windows and those of the UAV windows, each drawn with
+    replacement as many as there are, the threshold read again off each draw's UAV-free
+    windows and the detection measured on its UAV windows. ``against``: another score of the
+    same windows; each draw then gives ``scores``' detection minus ``against``'s, each at its
+    own threshold. The same inputs and ``seed`` give the same draws.
 
     Raises:
         ShapeError: the arrays differ in length.
-        ParameterError: ``rate`` outside [0, 1], ``level`` outside (0, 1) or ``resamples`` < 1.
+        ParameterError: NaN scores, ``rate`` outside [0, 1] or ``resamples`` < 1.
         DatasetError: no UAV or no UAV-free window.
     """
     s = np.asarray(scores, dtype=np.float64)
@@ -236,8 +225,6 @@ def roc_point_interval(
         raise ParameterError("scores hold NaN")
     if not 0 <= rate <= 1:
         raise ParameterError(f"rate must be in [0, 1], got {rate}")
-    if not 0 < level < 1:
-        raise ParameterError(f"level must be in (0, 1), got {level}")
     if isinstance(resamples, bool) or not isinstance(resamples, int) or resamples < 1:
         raise ParameterError(f"resamples must be an integer >= 1, got {resamples!r}")
     if a.all() or not a.any():
@@ -257,10 +244,53 @@ def roc_point_interval(
         if other is not None:
             mine -= _detection_on_draws(other, a, neg_rec, pos_rec, neg_counts, pos_counts, rate)
         found.append(mine)
-    shares = np.concatenate(found)
-    if other is None and np.all(shares == shares[0]) and shares[0] in (0.0, 1.0):
+    return np.concatenate(found)
+
+
+def roc_point_interval(
+    scores: npt.ArrayLike,
+    actual: npt.ArrayLike,
+    recording: npt.ArrayLike,
+    rate: float,
+    *,
+    against: npt.ArrayLike | None = None,
+    level: float = 0.95,
+    resamples: int = INTERVAL_RESAMPLES,
+    seed: int = 0,
+) -> tuple[float, float]:
+    """The ``level`` interval of :func:`detection_at_false_alarm` at ``rate`` when the
+    recordings are drawn again: the middle ``level`` of :func:`roc_point_draws` (a percentile
+    bootstrap over recordings, as :func:`recording_interval`'s).
+
+    A point read off a set's own ROC moves with the set twice: the threshold is set by the few
+    UAV-free windows scoring highest (10 of 1000 at 1 %), often from a few recordings, and the
+    detection is a share of the UAV windows. This interval holds both. How well it covers is
+    measured, not assumed (``benches/python/roc_point_coverage.py``, and against other ways of
+    reading an interval off the same draws ``benches/python/roc_interval_methods.py``;
+    docs/identification.md, "How well a point read off the ROC is known"). Where every draw
+    gives the same detection (0 or 1), the interval is :func:`recording_interval`'s for the UAV
+    windows at the set's own threshold. The same inputs and ``seed`` give the same interval.
+
+    ``against``: another score of the same windows (another model's); the interval is then
+    that of the difference, ``scores``' detection minus ``against``'s, each at its own
+    threshold on the same draws of recordings: whether one model's lead on a set is more than
+    the set's draw.
+
+    Raises:
+        ShapeError: the arrays differ in length.
+        ParameterError: ``rate`` outside [0, 1], ``level`` outside (0, 1) or ``resamples`` < 1.
+        DatasetError: no UAV or no UAV-free window.
+    """
+    if not 0 < level < 1:
+        raise ParameterError(f"level must be in (0, 1), got {level}")
+    shares = roc_point_draws(
+        scores, actual, recording, rate, against=against, resamples=resamples, seed=seed
+    )
+    if against is None and np.all(shares == shares[0]) and shares[0] in (0.0, 1.0):
+        s = np.asarray(scores, dtype=np.float64)
+        a = check_bools("actual", actual)
         at_own = s[a] >= threshold_at_false_alarm(s, a, rate)
-        return recording_interval(at_own, rec[a], level=level, seed=seed)
+        return recording_interval(at_own, np.asarray(recording)[a], level=level, seed=seed)
     lo, hi = np.percentile(shares, [50 * (1 - level), 50 * (1 + level)])
     return (float(lo), float(hi))
 
