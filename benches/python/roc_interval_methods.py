@@ -38,7 +38,7 @@ from statistics import NormalDist  # noqa: E402
 from typing import Any  # noqa: E402
 
 import numpy as np  # noqa: E402
-from roc_point_coverage import _figure, combined_scores, draw_set, units  # noqa: E402
+from roc_point_coverage import combined_scores, draw_set, units  # noqa: E402
 
 from uavsnn import Network  # noqa: E402
 from uavsnn.evaluation import FALSE_ALARM_RATES, detection_at_false_alarm, roc_point_draws  # noqa: E402
@@ -112,7 +112,7 @@ def compare(
     pooled_a = np.repeat(
         [False, True], [sum(f.shape[1] for f in free), sum(u.shape[1] for u in uav)]
     )
-    truth = _figure(pooled, pooled_a, rate)
+    truth = detection_at_false_alarm(pooled[0], pooled_a, rate)
     n_free = max(1, round(len(free) / len(sets)))
     n_uav = max(1, round(len(uav) / len(sets)))
     rng = np.random.default_rng(seed)
