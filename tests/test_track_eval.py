@@ -258,6 +258,10 @@ def test_the_first_alarm_runs_from_the_recordings_first_uav_window() -> None:
     # A manifest that says a later start than a kept UAV window cannot push the clock past it.
     late = replace(bare, manifest=bare.manifest | {"recordings": [entry | {"first_uav_us": 2**40}]})
     assert first_uav_starts(late) == ({0: 1_000_000 + 6 * STEP}, True)
+    # A manifest whose entries are not what a build writes is not read: the kept windows' clock.
+    for bad in (5, [3, {"id": "0", "first_uav_us": 0}], [{"id": True, "first_uav_us": 0}]):
+        odd = replace(bare, manifest=bare.manifest | {"recordings": bad})
+        assert first_uav_starts(odd) == ({0: 1_000_000 + 6 * STEP}, False)
 
 
 def test_a_track_beside_the_uav_is_stray_not_found() -> None:

@@ -39,7 +39,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeGuard
 
 import numpy as np
 
@@ -312,21 +312,27 @@ def first_uav_starts(data: LabelledWindows) -> tuple[dict[int, int], bool]:
     label = np.asarray(data.label, dtype=bool)
     rec = np.asarray(data.recording, dtype=np.int64)
     t0 = np.asarray(data.windows.t0, dtype=np.int64)
+    entries = data.manifest.get("recordings")
     built = {
-        int(r["id"]): r.get("first_uav_us")
-        for r in data.manifest.get("recordings", [])
-        if isinstance(r, dict) and "id" in r
+        r["id"]: r.get("first_uav_us")
+        for r in (entries if isinstance(entries, list) else [])
+        if isinstance(r, dict) and _is_int(r.get("id"))
     }
     starts: dict[int, int] = {}
     every = True
     for r in np.unique(rec[label]).tolist():
         kept = int(t0[(rec == r) & label].min())
         first = built.get(r)
-        if isinstance(first, int) and not isinstance(first, bool):
+        if _is_int(first):
             starts[r] = min(first, kept)
         else:
             starts[r], every = kept, False
     return starts, every
+
+
+def _is_int(value: object) -> TypeGuard[int]:
+    """A JSON integer (not a bool)."""
+    return isinstance(value, int) and not isinstance(value, bool)
 
 
 def track_figures(
