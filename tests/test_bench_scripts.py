@@ -282,6 +282,47 @@ def test_feature_groups_fits_each_group_as_the_ablation_does(bench_script, tmp_p
         assert area is None or 0 <= area <= 1
 
 
+def test_roc_point_coverage_scores_a_noise_level_as_the_table3_sweep_does(
+    bench_script, tmp_path
+) -> None:
+    """With --noise and --static-threshold the script scores the model and its static twin on
+    the noisy windows a Table 3 level gives them: the same decisions as noise_level's."""
+    from uavsnn.dataset import SceneSource, build, load
+    from uavsnn.experiments import noise_level, noise_seed, with_config
+    from uavsnn.identifier import Identifier
+    from uavsnn.identify import FEATURES
+
+    cover = bench_script("roc_point_coverage")
+    root = build(
+        tmp_path / "set", "dvs", n_test=24, n_train=0, seed=5,
+        dvs=SceneSource("dvs", (240, 180), 200.0, 0.4),
+    ).root  # fmt: skip
+    net = Network({"width": 240, "height": 180, "conv2": {"threshold": 10.0}}, seed=0)
+    k = len(FEATURES)
+    net.identification = Identifier(
+        FEATURES, np.r_[np.full(k, 0.1), -0.5], np.zeros(k), np.ones(k), 0.5, 1.0
+    )
+    static = with_config(net, pent={"mode": "static"}, conv1={"threshold": 3.0})
+    data = load(root, "test")
+    points = noise_level(
+        {"pent": net, "static": static}, data, 0.05, seed=noise_seed(0, 0.05), threads=1
+    )
+    actual = np.asarray(data.label, bool)
+    for point, model in zip(points, (net, static), strict=True):
+        for any_spike in (False, True):
+            got = cover.combined_scores(model, str(root), "test", noise=0.05, any_spike=any_spike)
+            assert np.array_equal(got["actual"], actual)
+            identified = point.identified
+            assert identified is not None
+            expected = (
+                point.evaluation.accuracy if any_spike else identified["identified"]["accuracy"]
+            )
+            assert got["right"].mean() == pytest.approx(expected)
+    clean = cover.combined_scores(net, str(root), "test")
+    noisy = cover.combined_scores(net, str(root), "test", noise=0.05)
+    assert not np.array_equal(clean["scores"], noisy["scores"])
+
+
 def test_roc_interval_methods_read_four_intervals_off_the_same_draws(bench_script) -> None:
     from uavsnn.evaluation import roc_point_interval
 

@@ -26,10 +26,18 @@ Beside the points on the ROC, the same for the accuracy at the model's own thres
 share of windows the combined rule decides right): each set's accuracy with its interval over
 the recordings, UAV and UAV-free drawn apart (``recording_interval(..., strata=labels)``), and
 with ``--against`` the accuracy lead with the paired interval (``against=``), each with its
-coverage measured on the same pool.
+coverage measured on the same pool (``--any-spike``: the any-spike rule's accuracy instead).
+
+``--static-threshold THETA`` compares the model with its static twin instead of another model
+(PENT off, conv1's threshold ``THETA``: ``results.json``'s ``static_threshold``), and
+``--noise SHARE`` adds noise to every set as a Table 3 level adds it: PENT's lead over static
+at that level, and how well its paired interval covers.
 
     python benches/python/roc_point_coverage.py runs/reproduce/model-combined.npz \\
         runs/reproduce/data/dvs runs/val2-dvs runs/val3-dvs [--split test] [--json]
+    python benches/python/roc_point_coverage.py runs/reproduce/model-combined.npz \\
+        runs/reproduce/data/dvs runs/val2-dvs runs/val3-dvs --static-threshold 3.024791717529297 \\
+        --noise 0.01 [--any-spike]
 
 The datasets must be of the model's sensor size; use sets no fit or tuning of the model saw.
 """
@@ -55,25 +63,44 @@ from uavsnn.evaluation import (  # noqa: E402
     recording_interval,
     roc_point_interval,
 )
+from uavsnn.experiments import noise_seed, with_config  # noqa: E402
+from uavsnn.windows import add_noise  # noqa: E402
 
 
-def combined_scores(net: Network, data_dir: str, split: str) -> dict[str, np.ndarray]:
+def combined_scores(
+    net: Network,
+    data_dir: str,
+    split: str,
+    *,
+    noise: float = 0.0,
+    seed: int = 0,
+    any_spike: bool = False,
+) -> dict[str, np.ndarray]:
     """The combined score of each window of ``data_dir``'s ``split`` (the UAV score where the
     network detects, ``-inf`` where it does not), its label, its recording, and whether the
-    combined rule at the model's threshold decides it right."""
+    combined rule at the model's threshold decides it right (``any_spike``: whether the
+    any-spike rule does). ``noise``: uniform noise on that share of the pixels, as a Table 3
+    level adds it (drawn from ``experiments.noise_seed(seed, noise)``; the raw events
+    identification measures get noise of the same density)."""
     ident = net.identification
     if ident is None:
         raise SystemExit(f"{net}: the model has no identification part")
     data = load(data_dir, split)
-    inference = net.infer(data.windows, threads=1)
-    feats = identify.window_features(net, data, inference)
+    windows, raw_noise = data.windows, None
+    if noise > 0:
+        level_seed = noise_seed(seed, noise)
+        windows, _ = add_noise(data.windows, noise, seed=level_seed)
+        raw_noise = (noise, level_seed)
+    inference = net.infer(windows, threads=1)
+    feats = identify.window_features(net, data, inference, raw_noise=raw_noise)
     scores = ident.combined_scores(feats, inference.detected)
     actual = np.asarray(data.label, bool)
+    decided = np.asarray(inference.detected, bool) if any_spike else scores >= ident.threshold
     return {
         "scores": scores,
         "actual": actual,
         "recording": np.asarray(data.recording),
-        "right": (scores >= ident.threshold) == actual,
+        "right": decided == actual,
     }
 
 
@@ -211,18 +238,54 @@ def main() -> None:
         "--scale", type=float, default=1.0, help="units per drawn set, times a scored set's (1)"
     )
     parser.add_argument("--against", metavar="MODEL", help="a second model to compare with")
+    parser.add_argument(
+        "--static-threshold",
+        type=float,
+        metavar="THETA",
+        help="compare with the model's static twin (conv1 threshold THETA, PENT off: "
+        "results.json's static_threshold), as Table 3 does",
+    )
+    parser.add_argument(
+        "--noise",
+        type=float,
+        default=0.0,
+        metavar="SHARE",
+        help="noise on this share of the pixels, as a Table 3 level (0)",
+    )
+    parser.add_argument(
+        "--any-spike",
+        action="store_true",
+        help="the accuracy of the any-spike rule, not of the combined rule",
+    )
     parser.add_argument("--json", action="store_true")
     args = parser.parse_args()
     if args.draws < 1 or args.resamples < 1 or not args.scale > 0:
         raise SystemExit("--draws and --resamples must be at least 1, --scale above 0")
+    if not 0 <= args.noise <= 1:
+        raise SystemExit("--noise is a share of the pixels, in [0, 1]")
+    if args.against is not None and args.static_threshold is not None:
+        raise SystemExit("give --against or --static-threshold, not both")
+    how = {"noise": args.noise, "seed": args.seed, "any_spike": args.any_spike}
     net = Network.load(args.model)
-    sets = [combined_scores(net, d, args.split) for d in args.datasets]
+    sets = [combined_scores(net, d, args.split, **how) for d in args.datasets]
+    other = None
     if args.against is not None:
         other = Network.load(args.against)
+    elif args.static_threshold is not None:
+        other = with_config(
+            net, pent={"mode": "static"}, conv1={"threshold": args.static_threshold}
+        )
+    if other is not None:
         for d, s in zip(args.datasets, sets, strict=True):
-            theirs = combined_scores(other, d, args.split)
+            theirs = combined_scores(other, d, args.split, **how)
             s["against"], s["right_against"] = theirs["scores"], theirs["right"]
-    out: dict[str, Any] = {"model": args.model, "split": args.split, "rates": []}
+    out: dict[str, Any] = {
+        "model": args.model,
+        "split": args.split,
+        "noise": args.noise,
+        "accuracy_rule": "any_spike" if args.any_spike else "identified",
+        "rates": [],
+    }
     # Each false-alarm rate's point on the ROC, then (None) the accuracy at the model's threshold.
     for rate in [*FALSE_ALARM_RATES, None]:
         per_set = []
@@ -263,7 +326,8 @@ def main() -> None:
         print(json.dumps(out, indent=1))
         return
     for r in out["rates"]:
-        what = "accuracy at the model's threshold" if r["rate"] is None else "detection"
+        rule = "by the any-spike rule" if args.any_spike else "at the model's threshold"
+        what = f"accuracy {rule}" if r["rate"] is None else "detection"
         print(what if r["rate"] is None else f"{what} at {100 * r['rate']:g} % false alarms")
         for one in r["sets"]:
             lo, hi = one["interval"]
@@ -273,8 +337,9 @@ def main() -> None:
             )
             if "lead" in one:
                 d_lo, d_hi = one["lead"]["interval"]
+                them = args.against or "the static twin"
                 print(
-                    f"    minus {args.against}: {100 * one['lead']['point']:+.1f} points "
+                    f"    minus {them}: {100 * one['lead']['point']:+.1f} points "
                     f"({100 * d_lo:+.1f} to {100 * d_hi:+.1f})"
                 )
         c = r["coverage"]
