@@ -380,6 +380,9 @@ def test_roc_point_coverage_draws_sets_of_recordings_from_the_pool(bench_script)
     assert got["units_per_set"] == {"uav_free": 32, "uav": 32}
     assert got["point_spread"]["sd"] > 0 and got["mean_width"] > 0
     assert 0.5 <= got["coverage"] <= 1
+    # The pool as one set: its interval holds its point, narrower than one set's on average.
+    lo, hi = got["pool"]["interval"]
+    assert lo <= got["pool"]["point"] <= hi and 0 < hi - lo < got["mean_width"]
     twice = cover.coverage(sets, 0.05, draws=40, resamples=200, seed=0, scale=2)
     assert twice["units_per_set"] == {"uav_free": 64, "uav": 64}
     # Units all alike: every drawn set is the pool again, its interval the pool's point.
@@ -388,6 +391,7 @@ def test_roc_point_coverage_draws_sets_of_recordings_from_the_pool(bench_script)
     alike = cover.coverage(same, 0.05, draws=10, resamples=100, seed=0)
     assert alike["coverage"] == 1.0 and alike["mean_width"] == 0.0
     assert alike["point_spread"]["sd"] == pytest.approx(0.0, abs=1e-12)
+    assert alike["pool"]["interval"] == [alike["pool"]["point"]] * 2
     # Against a second score the units carry both, and the point is the lead: none for a
     # score that ranks the windows alike, on every draw; some for one that does not.
     for one in sets:

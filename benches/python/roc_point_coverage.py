@@ -191,6 +191,20 @@ def coverage(
         [False, True], [sum(f.shape[1] for f in free), sum(u.shape[1] for u in uav)]
     )
     truth = _accuracy(pooled) if rate is None else _figure(pooled, pooled_a, rate)
+    # The pool as one test set of all the scored sets' recordings, with its own interval.
+    unit_ids = np.repeat(np.arange(len(free) + len(uav)), [u.shape[1] for u in free + uav])
+    if rate is None:
+        pool_interval = accuracy_interval(pooled.astype(bool), pooled_a, unit_ids, resamples, seed)
+    else:
+        pool_interval = roc_point_interval(
+            pooled[0],
+            pooled_a,
+            unit_ids,
+            rate,
+            against=pooled[1] if len(pooled) > 1 else None,
+            resamples=resamples,
+            seed=seed,
+        )
     n_free = max(1, round(scale * len(free) / len(sets)))
     n_uav = max(1, round(scale * len(uav) / len(sets)))
     rng = np.random.default_rng(seed)
@@ -211,7 +225,12 @@ def coverage(
     return {
         "rate": rate,
         "paired": len(_keys(sets, measure)) > 1,
-        "pool": {"uav_free_units": len(free), "uav_units": len(uav), "point": truth},
+        "pool": {
+            "uav_free_units": len(free),
+            "uav_units": len(uav),
+            "point": truth,
+            "interval": list(pool_interval),
+        },
         "units_per_set": {"uav_free": n_free, "uav": n_uav},
         "draws": draws,
         "coverage": held / draws,
@@ -346,7 +365,9 @@ def main() -> None:
         what = "lead" if c["paired"] else "point"
         print(
             f"  pool of {c['pool']['uav_free_units']} UAV-free and {c['pool']['uav_units']} UAV "
-            f"units, {what} {100 * c['pool']['point']:.1f} %; {c['draws']} sets of "
+            f"units, {what} {100 * c['pool']['point']:.1f} % "
+            f"({100 * c['pool']['interval'][0]:.1f}–{100 * c['pool']['interval'][1]:.1f}); "
+            f"{c['draws']} sets of "
             f"{c['units_per_set']['uav_free']} + {c['units_per_set']['uav']} units drawn: "
             f"coverage {100 * c['coverage']:.1f} % (nominal 95 %), {what}s "
             f"{100 * c['point_spread']['p2.5']:.1f}–{100 * c['point_spread']['p97.5']:.1f} "
