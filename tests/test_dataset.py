@@ -182,6 +182,7 @@ def test_manifest_fields(dvs_set: Path) -> None:
     assert p["n_test"] == 20 and p["n_train"] == 16 and p["min_visible_fraction"] == 0.5
     assert p["object_scenes"] == "drawn"
     assert p["sources"][0]["simulator_params"]["threshold_on"] > 0
+    kept_first: dict[int, int] = {}  # each recording's first UAV window the splits kept
     for name in ("test", "train"):
         s = m["splits"][name]
         data = load(dvs_set, name)
@@ -189,6 +190,8 @@ def test_manifest_fields(dvs_set: Path) -> None:
         assert s["uav"] == int(data.label.sum()) and s["non_uav"] == len(data) - s["uav"]
         assert s["classes"] == data.class_counts()
         assert s["recordings"] == sorted(set(data.recording.tolist()))
+        for t0, rec in zip(data.windows.t0[data.label], data.recording[data.label], strict=True):
+            kept_first[int(rec)] = min(kept_first.get(int(rec), int(t0)), int(t0))
     used = {r["id"]: r["windows_used"] for r in m["recordings"]}
     total = sum(m["splits"][n]["windows"] for n in ("test", "train"))
     assert sum(used.values()) == total
@@ -201,11 +204,6 @@ def test_manifest_fields(dvs_set: Path) -> None:
             assert r["first_uav_us"] % p["step_us"] == 0
     # No UAV window a split kept starts before it; some split left out its recording's first.
     first = {r["id"]: r["first_uav_us"] for r in m["recordings"]}
-    kept_first = {}
-    for name in ("test", "train"):
-        data = load(dvs_set, name)
-        for t0, rec in zip(data.windows.t0[data.label], data.recording[data.label], strict=True):
-            kept_first[int(rec)] = min(kept_first.get(int(rec), int(t0)), int(t0))
     assert kept_first and all(first[r] <= t for r, t in kept_first.items())
     assert any(first[r] < t for r, t in kept_first.items())
 
