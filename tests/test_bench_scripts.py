@@ -427,3 +427,29 @@ def test_roc_point_coverage_draws_sets_of_recordings_from_the_pool(bench_script)
     truth = pooled.mean() - np.concatenate([one["right_against"] for one in sets]).mean()
     assert led["pool"]["point"] == pytest.approx(truth) and led["mean_width"] > 0
     assert 0.5 <= led["coverage"] <= 1
+
+
+def test_scene_bits_counts_what_differs_between_two_renders(bench_script, tmp_path) -> None:
+    bits = bench_script("scene_bits")
+    a, b = tmp_path / "a", tmp_path / "b"
+    a.mkdir()
+    b.mkdir()
+    frames = np.zeros((4, 3, 5), dtype=np.float32)
+    events = np.arange(6)
+    for domain in ("dvs", "sim"):
+        np.save(a / f"{domain}-0-frames.npy", frames)
+        np.save(a / f"{domain}-0-events.npy", events)
+        other = frames.copy()
+        if domain == "sim":
+            other[1, 0, :2] = 1.0  # two values of frame 1
+            other[3, 2, 4] = 1.0  # one of frame 3
+        np.save(b / f"{domain}-0-frames.npy", other)
+        np.save(b / f"{domain}-0-events.npy", events[:5] if domain == "sim" else events)
+    got = bits.compare(a, b, 1)
+    assert got["dvs"] == {
+        "values": 60, "values_differ": 0, "frames": 4, "frames_differ": 0,
+        "events": 6, "event_sets_differ": 0, "scenes": 1,
+    }  # fmt: skip
+    assert got["sim"]["values_differ"] == 3 and got["sim"]["frames_differ"] == 2
+    assert got["sim"]["event_sets_differ"] == 1
+    assert "opencv" in bits.variants()

@@ -9,6 +9,7 @@
 mod errors;
 mod events;
 mod network;
+mod portable;
 mod signature;
 mod sim;
 mod stream;
@@ -36,6 +37,7 @@ fn core_module(m: &Bound<'_, PyModule>) -> PyResult<()> {
     windows::register(m)?;
     network::register(m)?;
     sim::register(m)?;
+    portable::register(m)?;
     signature::register(m)?;
     stream::register(m)?;
     m.add_function(wrap_pyfunction!(_panic_for_test, m)?)?;

@@ -17,6 +17,7 @@ import cv2
 import numpy as np
 
 from uavsnn.errors import SimulationError
+from uavsnn.scenes import portable
 from uavsnn.scenes.camera import Camera
 from uavsnn.scenes.spec import SceneSpec
 
@@ -40,7 +41,7 @@ def tone(color: tuple[float, float, float] | np.ndarray, channels: int) -> np.nd
     """A BGR colour as ``channels`` values: itself for 3, its luma for 1."""
     c = np.asarray(color, dtype=np.float32)
     if channels == 1:
-        return (c @ _LUMA).reshape(1)
+        return portable.matmul(c, _LUMA).reshape(1)
     return c
 
 
@@ -172,7 +173,7 @@ class Backdrop:
     def _row_elevation(self) -> np.ndarray:
         cam = self.cam
         v = np.arange(self.th, dtype=np.float32) + 0.5 - self.my
-        return cam.tilt + np.arctan((cam.cy - v) / cam.f)
+        return cam.tilt + portable.arctan((cam.cy - v) / cam.f).astype(np.float32)
 
     # -- sky -----------------------------------------------------------------------------------
 
@@ -180,7 +181,7 @@ class Backdrop:
         bg = self.spec.background
         c = self.c
         elev = np.clip(self._row_elevation(), 0.0, math.pi / 2)
-        mix = (elev / (math.pi / 3)).clip(0, 1) ** 0.6
+        mix = portable.power((elev / (math.pi / 3)).clip(0, 1), 0.6).astype(np.float32)
         zenith = (1 - bg.overcast) * tone((0.62, 0.30, 0.12), c) + bg.overcast * tone(
             (0.55, 0.55, 0.55), c
         )
@@ -223,7 +224,7 @@ class Backdrop:
         grass = 0.75 + 0.5 * (lookup(fine, 2.0) - 0.5) * fade + 0.5 * (lookup(coarse, 40.0) - 0.5)
         base = tone((0.05, 0.16, 0.09) if bg.variant % 2 == 0 else (0.06, 0.13, 0.16), c)
         col = base[None, None, :] * grass[:, :, None]
-        haze = (1 - np.exp(-dist / 3000.0))[:, :, None]
+        haze = (1 - portable.exp(-dist / 3000.0).astype(np.float32))[:, :, None]
         col = col * (1 - haze) + tone((0.6, 0.6, 0.6), c)[None, None, :] * haze
         alpha = below.astype(np.float32)
         fg = np.concatenate([col, alpha[:, :, None]], axis=2).astype(np.float32)
@@ -341,7 +342,7 @@ class Backdrop:
         # Floor: planks along the hall, then court lines.
         floor = which == 0
         plank = np.floor(px / 0.12)
-        grain = 0.85 + 0.15 * np.sin(plank * 12.9898) ** 2
+        grain = 0.85 + 0.15 * portable.sin(plank * 12.9898).astype(np.float32) ** 2
         paint(floor, (0.08, 0.20, 0.36))
         img[floor] *= grain[floor][:, None]
         lw = 0.06
@@ -426,7 +427,7 @@ class Backdrop:
                 ii = np.arange(w, dtype=np.float32)[None, :] + ox
                 jj = np.arange(h, dtype=np.float32)[:, None] + oy
                 amp = self._crop(self.sway[:, :, None], ox, oy)[:, :, 0]
-                dx = amp * np.sin(2 * np.pi * 0.6 * t + 0.05 * ii).astype(np.float32)
+                dx = amp * portable.sin(2 * np.pi * 0.6 * t + 0.05 * ii).astype(np.float32)
                 map_x = (ii + dx).astype(np.float32)
                 map_y = np.broadcast_to(jj, (h, w)).astype(np.float32)
                 fg = cv2.remap(

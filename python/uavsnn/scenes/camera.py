@@ -14,6 +14,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from uavsnn.errors import SimulationError
+from uavsnn.scenes import portable
 from uavsnn.scenes.spec import NEAR_FOCUS_M, SceneSpec
 
 __all__ = ["PIXEL_PITCH_UM", "Camera", "Lens", "attitude", "view_rotation"]
@@ -113,7 +114,7 @@ def attitude(heading: float, pitch: float = 0.0, roll: float = 0.0) -> np.ndarra
     """Rotation from an object's body axes (x forward, y up, z to its right) to the world axes
     (x to the camera's right, y up, z away), angles in radians: roll about x, then pitch about
     z (nose up for ``pitch > 0``), then heading about y."""
-    return _rot_y(heading) @ _rot_z(pitch) @ _rot_x(roll)
+    return portable.matmul(portable.matmul(_rot_y(heading), _rot_z(pitch)), _rot_x(roll))
 
 
 def view_rotation(elevation: float) -> np.ndarray:
@@ -166,4 +167,4 @@ class Camera:
     def elevation(self, points: np.ndarray) -> np.ndarray:
         """Elevation of the line of sight (radians above the horizontal) to camera-frame
         points ``(n, 3)``."""
-        return self.tilt + np.arctan2(-points[:, 1], np.maximum(points[:, 2], NEAR_M))
+        return self.tilt + portable.arctan2(-points[:, 1], np.maximum(points[:, 2], NEAR_M))

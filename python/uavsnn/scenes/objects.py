@@ -14,6 +14,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from uavsnn.scenes import portable
 from uavsnn.scenes.camera import attitude
 from uavsnn.scenes.spec import ObjectSpec
 
@@ -42,7 +43,7 @@ class Part(NamedTuple):
 
 def _ring(n: int, phase: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     a = phase + np.linspace(0.0, 2 * np.pi, n, endpoint=False)
-    return np.cos(a), np.sin(a)
+    return portable.cos(a), portable.sin(a)
 
 
 def ellipsoid(
@@ -111,8 +112,9 @@ def rotor_parts(
     camera's exposure makes; ``disc=False`` for an event camera, which sees the blades at each
     instant), then ``blades`` blades at ``angle`` (radians) and evenly spaced from it."""
     a = angle + 2 * np.pi * np.arange(blades) / blades
-    d = np.stack([np.cos(a), np.zeros(blades), np.sin(a)], axis=1)
-    nrm = np.stack([-np.sin(a), np.zeros(blades), np.cos(a)], axis=1) * (radius * BLADE_ROOT / 2)
+    ca, sa = portable.cos(a), portable.sin(a)
+    d = np.stack([ca, np.zeros(blades), sa], axis=1)
+    nrm = np.stack([-sa, np.zeros(blades), ca], axis=1) * (radius * BLADE_ROOT / 2)
     tip = hub + d * radius
     tip_w = BLADE_TIP / BLADE_ROOT
     quads = np.stack([hub - nrm, tip - tip_w * nrm, tip + tip_w * nrm, hub + nrm], axis=1)
@@ -257,10 +259,9 @@ class Quadcopter(Model):
         """As :meth:`Model.parts`: the fixed parts scaled once, the eight blades built and
         scaled as one array."""
         angle = self.turn * self.spin * t + self.offset  # (8,)
-        d = np.stack([np.cos(angle), np.zeros(8), np.sin(angle)], axis=1)
-        n = np.stack([-np.sin(angle), np.zeros(8), np.cos(angle)], axis=1) * (
-            self.prop_r * BLADE_ROOT / 2
-        )
+        ca, sa = portable.cos(angle), portable.sin(angle)
+        d = np.stack([ca, np.zeros(8), sa], axis=1)
+        n = np.stack([-sa, np.zeros(8), ca], axis=1) * (self.prop_r * BLADE_ROOT / 2)
         hub = self.blade_hubs
         tip = hub + d * self.prop_r
         tip_w = BLADE_TIP / BLADE_ROOT
@@ -272,7 +273,7 @@ class Quadcopter(Model):
             tilt_x = math.radians(max(-25.0, min(25.0, -2.5 * vx)))
             tilt_z = math.radians(max(-25.0, min(25.0, 2.5 * vz)))
             # The frame and its sub-frame samples share a velocity: kept for the next call.
-            self._bank = ((vx, vz), attitude(0.0, tilt_x, tilt_z) @ self.heading)
+            self._bank = ((vx, vz), portable.matmul(attitude(0.0, tilt_x, tilt_z), self.heading))
         return self.static_scaled + blades, self._bank[1]
 
 
@@ -465,10 +466,10 @@ class Ball(Model):
         spin = 2 * math.pi * self.obj.rate_hz * t + self.obj.phase
         # The panel: a cap of 40° around a direction turning about a tilted axis.
         d = np.array([math.cos(spin), 0.35, math.sin(spin)])
-        d /= np.linalg.norm(d)
+        d /= portable.norm(d)
         if d[2] < -0.2:  # facing the camera (the viewer looks along +z)
             u = np.cross(d, [0.0, 1.0, 0.0])
-            u /= np.linalg.norm(u)
+            u /= portable.norm(u)
             v = np.cross(d, u)
             c, s = _ring(14)
             ring = 0.5 * (math.cos(0.7) * d + math.sin(0.7) * (c[:, None] * u + s[:, None] * v))
@@ -501,7 +502,8 @@ class Insect(Model):
             pts[:, 2] *= side
             if side < 0:
                 rot = rot.T
-            parts.append(Part(pts @ rot.T + (0.02, 0.03, 0.0), (0.7, 0.7, 0.7), 0.45))
+            wing = portable.matmul(pts, rot.T) + np.array([0.02, 0.03, 0.0])
+            parts.append(Part(wing, (0.7, 0.7, 0.7), 0.45))
         return parts, attitude(self.heading_of(velocity))
 
 

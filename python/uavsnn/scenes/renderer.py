@@ -31,6 +31,7 @@ import cv2
 import numpy as np
 
 from uavsnn.errors import SimulationError
+from uavsnn.scenes import portable
 from uavsnn.scenes.backgrounds import Backdrop, tone
 from uavsnn.scenes.camera import Camera, view_rotation
 from uavsnn.scenes.objects import Model, Part, model_for
@@ -104,8 +105,8 @@ def _draw(
     Parts of one colour and opacity share a mask; these groups are painted far to near by
     their mean depth along the line of sight.
     """
-    m = (np.eye(3) if faces_camera else view_rotation(elevation)) @ rot
-    pts = np.concatenate([p.points for p in parts]) @ m.T
+    m = portable.matmul(np.eye(3) if faces_camera else view_rotation(elevation), rot)
+    pts = portable.matmul(np.concatenate([p.points for p in parts]), m.T)
     xy = np.empty((len(pts), 2))
     xy[:, 0] = uv[0] + scale * pts[:, 0]
     xy[:, 1] = uv[1] - scale * pts[:, 1]  # screen y points down
@@ -349,7 +350,7 @@ class _Objects:
                 blur=float(self.spec.blur_px(scale[k])),
             )
         self.boxes = boxes
-        ranges = [float(np.linalg.norm(track[0][k])) for track in self.tracks]
+        ranges = [portable.norm(track[0][k]) for track in self.tracks]
         return _label(self.spec, boxes, ranges, self.spec.width, self.spec.height)
 
 

@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from uavsnn.errors import SimulationError
+from uavsnn.scenes import portable
 
 __all__ = [
     "BACKGROUNDS",
@@ -192,7 +193,7 @@ class PathSpec:
         if self.freqs:
             amps = np.asarray(self.amplitudes)  # (k, 3)
             arg = 2 * np.pi * np.asarray(self.freqs)[None, :] * t + np.asarray(self.phases)
-            p = p + np.sin(arg) @ amps
+            p = p + portable.matmul(portable.sin(arg), amps)
         return p
 
     def velocity_at(self, t: np.ndarray) -> np.ndarray:
@@ -202,7 +203,7 @@ class PathSpec:
         if self.freqs:
             w = 2 * np.pi * np.asarray(self.freqs)
             arg = w[None, :] * t + np.asarray(self.phases)
-            v = v + (np.cos(arg) * w[None, :]) @ np.asarray(self.amplitudes)
+            v = v + portable.matmul(portable.cos(arg) * w[None, :], np.asarray(self.amplitudes))
         return v
 
 
