@@ -10,6 +10,7 @@ import platform
 import subprocess
 import sys
 
+import cv2
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -97,23 +98,61 @@ def test_norm_is_the_root_of_the_squares_added_in_order() -> None:
     assert portable.norm(np.zeros(3)) == 0.0
 
 
+def test_interpolation_is_opencvs_to_float32_rounding() -> None:
+    """The renderer's own interpolation has OpenCV's geometry and weights: at positions on
+    OpenCV's 1/32-pixel grid (it rounds its linear weights to it) the two agree to a few
+    float32 roundings."""
+    rng = np.random.default_rng(0)
+    grid = rng.random((13, 17), dtype=np.float32)
+    size = (int(17 * 7.3), int(13 * 7.3))
+    want = cv2.resize(grid, size, interpolation=cv2.INTER_CUBIC)
+    got = portable.resize_cubic(grid, size, (size[0] - 5, size[1] - 3))
+    assert got.shape == (size[1] - 3, size[0] - 5) and got.dtype == np.float32
+    np.testing.assert_allclose(got, want[: size[1] - 3, : size[0] - 5], atol=1e-6)
+    tex = rng.random((50, 60, 3), dtype=np.float32)
+    for ox, oy in ((3.25, 4.5), (-2.125, 1.0), (10.40625, 20.96875), (30.0, 40.5)):
+        shift = np.array([[1.0, 0.0, ox], [0.0, 1.0, oy]])
+        flags = cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP
+        want = cv2.warpAffine(tex, shift, (40, 30), flags=flags, borderMode=cv2.BORDER_REPLICATE)
+        got = portable.shift_linear(tex, ox, oy, 40, 30)
+        assert got.shape == (30, 40, 3) and got.dtype == np.float32
+        np.testing.assert_allclose(got, want, atol=1e-6)
+    flat = rng.random((32, 32), dtype=np.float32)
+    mx = (np.round(rng.uniform(0, 32, (20, 25)) * 32) / 32 % 32).astype(np.float32)
+    my = (np.round(rng.uniform(0, 32, (20, 25)) * 32) / 32 % 32).astype(np.float32)
+    want = cv2.remap(flat, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_WRAP)
+    np.testing.assert_allclose(portable.remap_linear(flat, mx, my, wrap=True), want, atol=1e-6)
+    mx = (np.round(rng.uniform(-3, 63, (20, 25)) * 32) / 32).astype(np.float32)
+    my = np.arange(20, dtype=np.float32)[:, None] + np.float32(2.5)
+    want = cv2.remap(tex, mx, np.broadcast_to(my, mx.shape).copy(), cv2.INTER_LINEAR,
+                     borderMode=cv2.BORDER_REPLICATE)  # fmt: skip
+    got = portable.remap_linear(tex, mx, my, wrap=False)
+    assert got.shape == (20, 25, 3)
+    np.testing.assert_allclose(got, want, atol=1e-6)
+
+
 #: Renders a short scene of each domain (the uav and the object scenes whose bits moved with
-#: the kernels before) and prints a digest of their frames and events.
+#: the kernels before) and prints a digest of each domain's frames and events; with the
+#: argument "scalar", on OpenCV's scalar code.
 RENDER = """
 import hashlib
+import sys
+import cv2
 import numpy as np
 from uavsnn.dataset.synthetic import SceneSource, scene_spec, sim_render_size, synthetic_recording
 from uavsnn.scenes import render
-digest = hashlib.sha256()
+if sys.argv[1:] == ["scalar"]:
+    cv2.setUseOptimized(False)
 for source in (
     SceneSource("dvs", (240, 180), 500.0, 0.1, sensor=(240, 180)),
     SceneSource("sim", sim_render_size((240, 180)), None, 1.0, sensor=(240, 180)),
 ):
+    digest = hashlib.sha256()
     for kind, seed in (("uav", 11), ("object", 12)):
         frames, _, _ = render(scene_spec(source, kind, seed), seed=seed)
         digest.update(np.ascontiguousarray(frames).tobytes())
         digest.update(synthetic_recording(source, kind, seed).recording.events.tobytes())
-print(digest.hexdigest())
+    print(source.domain, digest.hexdigest())
 """
 
 
@@ -127,9 +166,10 @@ def _dispatched_numpy_features() -> list[str]:
     return [name for name in umath.__cpu_dispatch__ if found.get(name)]
 
 
-def _digest(env: dict[str, str]) -> str:
+def _digests(env: dict[str, str], *args: str) -> dict[str, str]:
+    """Each domain's digest, rendered in a fresh process with ``env`` added."""
     proc = subprocess.run(
-        [sys.executable, "-c", RENDER],
+        [sys.executable, "-c", RENDER, *args],
         env={**os.environ, **env},
         capture_output=True,
         text=True,
@@ -137,7 +177,7 @@ def _digest(env: dict[str, str]) -> str:
         check=False,
     )
     assert proc.returncode == 0, proc.stderr[-2000:]
-    return proc.stdout.strip()
+    return dict(line.split() for line in proc.stdout.splitlines())
 
 
 def test_scenes_render_the_same_bits_whichever_kernels_numpy_picks() -> None:
@@ -153,6 +193,14 @@ def test_scenes_render_the_same_bits_whichever_kernels_numpy_picks() -> None:
         variants.append({"NPY_DISABLE_CPU_FEATURES": " ".join(dispatched)})
     if not variants:
         pytest.skip("neither OpenBLAS's kernels nor NumPy's SIMD loops can be changed here")
-    base = _digest({})
+    base = _digests({})
+    assert set(base) == {"dvs", "sim"}
     for env in variants:
-        assert _digest(env) == base, f"other bits with {env}"
+        assert _digests(env) == base, f"other bits with {env}"
+
+
+def test_dvs_scenes_render_the_same_bits_on_opencvs_scalar_code() -> None:
+    """The renderer interpolates its float32 textures itself (OpenCV's SIMD and scalar
+    ``resize``, ``remap`` and ``warpAffine`` moved every dvs frame). The sim domain's gamma
+    (``cv2.pow``) and a lens's blur (``cv2.filter2D``) are still OpenCV's."""
+    assert _digests({}, "scalar")["dvs"] == _digests({})["dvs"]

@@ -1,8 +1,9 @@
 """What lies behind the objects: sky with drifting clouds, a field with trees, a sports hall.
 
 Each background is built once per render as textures a little larger than the frame (so that a
-panning camera and drifting clouds stay covered) and each frame is a sub-pixel crop of them:
-one ``cv2.warpAffine`` or ``cv2.remap`` per layer, no per-pixel Python. The ground and the hall
+panning camera and drifting clouds stay covered) and each frame is a sub-pixel crop of them,
+one bilinear shift per layer (``portable.shift_linear``: the same bits on every CPU, which
+OpenCV's ``warpAffine`` is not), no per-pixel Python. The ground and the hall
 are ray-cast through the same pinhole camera as the objects, so the horizon, the court lines
 and the trees sit where the camera's tilt puts them.
 
@@ -76,8 +77,8 @@ def fractal_noise(
         s = max(scale / (2**o), 2.0)
         gh, gw = math.ceil(height / s) + 3, math.ceil(width / s) + 3
         grid = rng.random((gh, gw), dtype=np.float32)
-        up = cv2.resize(grid, (int(gw * s), int(gh * s)), interpolation=cv2.INTER_CUBIC)
-        total += amp * up[:height, :width]
+        up = portable.resize_cubic(grid, (int(gw * s), int(gh * s)), (width, height))
+        total += amp * up
         norm += amp
         amp *= 0.5
     total /= norm
@@ -216,7 +217,7 @@ class Backdrop:
         def lookup(tex: np.ndarray, period_m: float) -> np.ndarray:
             mx = ((gx / period_m) % 1.0 * 256).astype(np.float32)
             my = ((gd / period_m) % 1.0 * 256).astype(np.float32)
-            return cv2.remap(tex, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_WRAP)
+            return portable.remap_linear(tex, mx, my, wrap=True)
 
         # Detail fades where its period shrinks below a few pixels, so the far field is smooth.
         dist = np.maximum(gd, 1e-3)
@@ -390,15 +391,7 @@ class Backdrop:
         if ox == round(ox) and oy == round(oy):
             i, j = round(ox), round(oy)
             return np.array(tex[j : j + h, i : i + w])
-        m = np.array([[1.0, 0.0, ox], [0.0, 1.0, oy]])
-        out = cv2.warpAffine(
-            tex,
-            m,
-            (w, h),
-            flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
-            borderMode=cv2.BORDER_REPLICATE,
-        )
-        return out.reshape(h, w, -1)
+        return portable.shift_linear(tex, ox, oy, w, h).reshape(h, w, -1)
 
     def frame(self, t: float, shift: np.ndarray) -> np.ndarray:
         """The background at time ``t`` (seconds) with the pan's image ``shift``: ``(h, w, c)``
@@ -424,15 +417,14 @@ class Backdrop:
             out = np.zeros((h, w, c), dtype=np.float32)
         if self.fg is not None:
             if swaying and self.sway is not None:
-                ii = np.arange(w, dtype=np.float32)[None, :] + ox
-                jj = np.arange(h, dtype=np.float32)[:, None] + oy
+                fg = self._crop(self.fg, ox, oy)
                 amp = self._crop(self.sway[:, :, None], ox, oy)[:, :, 0]
-                dx = amp * portable.sin(2 * np.pi * 0.6 * t + 0.05 * ii).astype(np.float32)
-                map_x = (ii + dx).astype(np.float32)
-                map_y = np.broadcast_to(jj, (h, w)).astype(np.float32)
-                fg = cv2.remap(
-                    self.fg, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE
-                ).reshape(h, w, c + 1)
+                j, i = np.nonzero(amp)
+                # The swaying pixels move off the pan's crop, each by its own amount.
+                x = i.astype(np.float32) + ox
+                dx = amp[j, i] * portable.sin(2 * np.pi * 0.6 * t + 0.05 * x).astype(np.float32)
+                y = j.astype(np.float32) + oy
+                fg[j, i] = portable.remap_linear(self.fg, x + dx, y, wrap=False)
             else:
                 fg = self._crop(self.fg, ox, oy)
             a = fg[:, :, c:]
