@@ -176,8 +176,8 @@ def shift_linear(tex: np.ndarray, ox: float, oy: float, width: int, height: int)
     # A whole-pixel step leaves a weight of 0 and one of 1: the sums below without those
     # terms, bit for bit.
     if fy == 0:
-        rows = sub[:-1]
-        return np.array(rows[:, :-1]) if fx == 0 else _lerp(rows[:, :-1], rows[:, 1:], fx)
+        top = sub[:-1]
+        return np.array(top[:, :-1]) if fx == 0 else _lerp(top[:, :-1], top[:, 1:], fx)
     if fx == 0:
         return _lerp(sub[:-1, :-1], sub[1:, :-1], fy)
     top = _lerp(sub[:-1, :-1], sub[:-1, 1:], fx)
