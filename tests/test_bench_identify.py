@@ -14,7 +14,7 @@ from uavsnn import EVENT_DTYPE, Network
 from uavsnn.dataset import LabelledWindows
 from uavsnn.dataset.format import RawEvents
 from uavsnn.events import Recording
-from uavsnn.identify import FEATURES, Identifier, alarm_threshold
+from uavsnn.identify import FEATURES, Identifier, alarm_threshold, best_threshold
 from uavsnn.windows import make_windows
 
 SIZE = (40, 30)
@@ -151,6 +151,17 @@ def test_tune_halves_balanced_accuracy_weighs_both_kinds_alike(bench_script):
     call = np.array([True, True, True, False, True, False])
     assert halves.balanced(call, label) == 0.5 * (0.75 + 0.5)
     assert halves.balanced(label, label) == 1.0 and halves.balanced(~label, label) == 0.0
+
+
+def test_tune_halves_near_best_spans_the_thresholds_of_a_flat_best(bench_script):
+    halves = bench_script("tune_halves")
+    # UAV windows score 0.6-0.9, UAV-free ones 0.1-0.4 (and one the rule missed): every
+    # threshold from 0.5 to 0.6 separates them; 0.4 lets one UAV-free window through.
+    label = np.array([True] * 4 + [False] * 5)
+    score = np.array([0.6, 0.7, 0.8, 0.9, 0.1, 0.2, 0.3, 0.4, -1.0])
+    assert halves.near_best(score, label, 0.0) == (0.5, 0.6, 2)
+    assert halves.near_best(score, label, 0.15) == (0.4, 0.7, 4)
+    assert best_threshold(score, label) == 0.5
 
 
 def test_tune_spread_sets_points_on_redrawn_recordings(bench_script):

@@ -4,11 +4,13 @@ For each ``--tune`` dataset (its train split: the tuning windows ``uavsnn reprod
 from, e.g. ``data/tune-dvs`` and ``data/tune-sim`` for the combined network), prints the
 any-spike rule's balanced accuracy, the threshold ``identify.best_threshold`` would choose on
 that set alone and its balanced accuracy, the balanced accuracy at the model's own threshold,
-and the shares of UAV and UAV-free windows the network fires on. Tuning data only: no test
-split is read.
+and the shares of UAV and UAV-free windows the network fires on. Then how flat the best is:
+the range of candidate thresholds whose balanced accuracy is within ``--within`` (default one
+point) of the best, and the balanced accuracy at each ``--at`` threshold (another run's, say).
+Tuning data only: no test split is read.
 
     python benches/python/tune_halves.py runs/reproduce/model-combined.npz \\
-        --tune runs/reproduce/data/tune-dvs --tune runs/reproduce/data/tune-sim
+        --tune runs/reproduce/data/tune-dvs --tune runs/reproduce/data/tune-sim [--at 0.608]
 """
 
 from __future__ import annotations
@@ -48,11 +50,26 @@ def balanced(call: np.ndarray, label: np.ndarray) -> float:
     return float(0.5 * (call[label].mean() + (~call[~label]).mean()))
 
 
+def near_best(score: np.ndarray, label: np.ndarray, within: float) -> tuple[float, float, int]:
+    """The lowest and highest of ``identify.best_threshold``'s candidates whose balanced
+    accuracy is within ``within`` of the best, and how many candidates that is."""
+    score = np.asarray(score, dtype=np.float64)
+    label = np.asarray(label, bool)
+    candidates = np.unique(np.concatenate([[0.5], score[score >= 0]]))
+    acc = np.array([balanced(score >= c, label) for c in candidates])
+    near = candidates[acc >= acc.max() - within]
+    return float(near.min()), float(near.max()), len(near)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("model")
     parser.add_argument("--tune", action="append", required=True, metavar="DIR")
+    parser.add_argument("--at", type=float, action="append", default=[], metavar="THRESHOLD")
+    parser.add_argument("--within", type=float, default=0.01, help="of the best (0.01)")
     args = parser.parse_args()
+    if not 0 <= args.within < 1:
+        raise SystemExit(f"--within must be in [0, 1), got {args.within}")
     net, ident = load_identified(args.model)
     print(f"{args.model}: {identify.model_name(ident)}, threshold {ident.threshold:.3f}")
     for path in args.tune:
@@ -63,6 +80,12 @@ def main() -> None:
             f"{best:.3f} -> {balanced(score >= best, label):.3f}; at the model's "
             f"{balanced(score >= ident.threshold, label):.3f}; fired on {fired[label].mean():.3f}"
             f" of UAV windows, {fired[~label].mean():.3f} of UAV-free ones"
+        )
+        lo, hi, n = near_best(score, label, args.within)
+        at = "; ".join(f"at {t:.3f} {balanced(score >= t, label):.3f}" for t in args.at)
+        print(
+            f"    within {args.within:g} of the best: thresholds {lo:.3f}-{hi:.3f} ({n} "
+            f"candidates){'; ' + at if at else ''}"
         )
 
 
