@@ -96,15 +96,11 @@ def matmul(a: Any, b: Any) -> np.ndarray:
         raise ParameterError(
             f"matmul takes (..., k) @ (k,) or (k, m) with k >= 1, got {a.shape} @ {b.shape}"
         )
-    if b.ndim == 1:
-        out = a[..., 0] * b[0]
-        for j in range(1, b.shape[0]):
-            out = out + a[..., j] * b[j]
-        return np.asarray(out)
-    out = a[..., 0, None] * b[0]
-    for j in range(1, b.shape[0]):
-        out = out + a[..., j, None] * b[j]
-    return np.asarray(out)
+    rows = b if b.ndim == 2 else b[:, None]  # a vector as one column
+    out = a[..., 0, None] * rows[0]
+    for j in range(1, rows.shape[0]):
+        out = out + a[..., j, None] * rows[j]
+    return np.asarray(out if b.ndim == 2 else out[..., 0])
 
 
 def norm(v: Any) -> float:
