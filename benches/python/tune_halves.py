@@ -53,10 +53,7 @@ def balanced(call: np.ndarray, label: np.ndarray) -> float:
 def near_best(score: np.ndarray, label: np.ndarray, within: float) -> tuple[float, float, int]:
     """The lowest and highest of ``identify.best_threshold``'s candidates whose balanced
     accuracy is within ``within`` of the best, and how many candidates that is."""
-    score = np.asarray(score, dtype=np.float64)
-    label = np.asarray(label, bool)
-    candidates = np.unique(np.concatenate([[0.5], score[score >= 0]]))
-    acc = np.array([balanced(score >= c, label) for c in candidates])
+    candidates, acc = identify.threshold_accuracies(score, label)
     near = candidates[acc >= acc.max() - within]
     return float(near.min()), float(near.max()), len(near)
 

@@ -105,6 +105,7 @@ __all__ = [
     "raw_noise_events",
     "rotor_coverage",
     "split_by_recording",
+    "threshold_accuracies",
     "track_features",
     "window_features",
     "window_steps",
@@ -337,13 +338,22 @@ def alarm_threshold(score: np.ndarray, label: np.ndarray, rate: float) -> float:
     return max(threshold_at_false_alarm(score, label, rate), 0.0)
 
 
+def threshold_accuracies(score: np.ndarray, label: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The thresholds :func:`best_threshold` chooses among (0.5 and each non-negative score,
+    ascending) and the balanced accuracy against ``label`` of calling UAV the windows whose
+    ``score`` reaches each."""
+    score = np.asarray(score, dtype=np.float64)
+    label = np.asarray(label, bool)
+    candidates = np.unique(np.concatenate([[0.5], score[score >= 0]]))
+    acc = np.array([_balanced_accuracy(score >= c, label) for c in candidates])
+    return candidates, acc
+
+
 def best_threshold(score: np.ndarray, label: np.ndarray) -> float:
     """The threshold of :func:`fit` on window scores (``score``; negative for windows the
     any-spike rule does not call UAV) that gives the best balanced accuracy against ``label``:
     0.5 or one of the scores, the smallest of the best."""
-    score = np.asarray(score, dtype=np.float64)
-    candidates = np.unique(np.concatenate([[0.5], score[score >= 0]]))
-    acc = [_balanced_accuracy(score >= c, np.asarray(label, bool)) for c in candidates]
+    candidates, acc = threshold_accuracies(score, label)
     return float(candidates[int(np.argmax(acc))])
 
 
