@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import random
 from dataclasses import replace
 from pathlib import Path
 
@@ -42,6 +43,7 @@ from uavsnn.identify import (
     predict_logistic,
     predict_softmax,
     rate_swing,
+    threshold_accuracies,
     track_features,
     window_features,
 )
@@ -200,6 +202,40 @@ def test_best_threshold_maximises_balanced_accuracy() -> None:
     assert best_threshold(score, label) == 0.45
     # windows the any-spike rule did not call (negative) are never candidates
     assert best_threshold(np.array([-1.0, -1.0]), np.array([True, False])) == 0.5
+
+
+def test_best_threshold_takes_the_highest_of_a_flat_best() -> None:
+    # 4 UAV windows, 4 others: 0.45 calls every UAV and one other (balanced accuracy 0.875),
+    # 0.7 misses one UAV and calls no other (0.875 too)
+    score = np.array([0.9, 0.8, 0.7, 0.6, 0.45, 0.3, 0.2, 0.1])
+    label = np.array([True, True, True, True, False, False, False, False])
+    # every threshold from 0.5 to 0.6 separates them exactly: the highest of the best
+    assert best_threshold(score, label, within=0.0) == 0.6
+    # within an eighth of the best (1 - 0.125): 0.45 and 0.7 count too, the highest is taken
+    assert best_threshold(score, label, within=0.125) == 0.7
+    assert best_threshold(score, label, within=0.124) == 0.6
+    for bad in (-0.01, 1.0, float("nan")):
+        with pytest.raises(ParameterError, match="within"):
+            best_threshold(score, label, within=bad)
+
+
+@given(
+    st.lists(st.floats(0.0, 1.0), min_size=2, max_size=40),
+    st.randoms(use_true_random=False),
+    st.floats(0.0, 0.2),
+)
+def test_best_threshold_is_the_highest_within_of_the_best(
+    scores: list[float], rnd: random.Random, within: float
+) -> None:
+    score = np.array(scores)
+    label = np.array([rnd.random() < 0.5 for _ in scores])
+    label[0], label[1] = True, False
+    candidates, acc = threshold_accuracies(score, label)
+    chosen = best_threshold(score, label, within)
+    assert chosen in candidates
+    assert acc[candidates == chosen][0] >= acc.max() - within
+    # no higher candidate is within of the best
+    assert (acc[candidates > chosen] < acc.max() - within).all()
 
 
 # ---------------------------------------------------------------- the model file

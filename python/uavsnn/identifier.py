@@ -42,8 +42,9 @@ class Identifier:
     standardised columns), the trees' (``coef`` is then the logistic fit they were chosen
     over, kept for the record).
 
-    ``threshold`` is the operating point the model was tuned for (the best balanced accuracy of
-    the combined rule on the tuning windows). ``alarm_thresholds``: further operating points
+    ``threshold`` is the operating point the model was tuned for (the highest threshold whose
+    balanced accuracy of the combined rule on the tuning windows is within a point of the best,
+    :func:`uavsnn.identify.best_threshold`). ``alarm_thresholds``: further operating points
     set on the same tuning windows, ``(false-alarm share, threshold)`` pairs: at that threshold,
     at most that share of the tuning set's UAV-free windows alarms
     (:data:`uavsnn.evaluation.FALSE_ALARM_RATES`); :meth:`at_false_alarm` switches to one.

@@ -74,6 +74,7 @@ __all__ = [
     "MIN_CLASS_OBJECTS",
     "MODELS",
     "RATE_BIN_US",
+    "THRESHOLD_WITHIN",
     "TRACK_ACTIVITY",
     "TRACK_FEATURES",
     "TREE_COUNT",
@@ -167,10 +168,11 @@ def fit(
     ``tune``'s usable objects (a ranking, not a calibration: every threshold is set on the
     tuning windows afterwards); and, when
     ``tune_detected`` (the any-spike rule's calls) and ``tune_label`` (the windows' truth) are
-    given, the threshold on the window score that gives the combined rule the best balanced
-    accuracy on ``tune`` (the mean of its accuracy on UAV and on UAV-free windows, so that the
-    tuning set's share of UAV windows, which is not the test set's, does not move it; else
-    0.5), and the thresholds at
+    given, the threshold on the window score of :func:`best_threshold`: the highest whose
+    balanced accuracy on ``tune`` is within :data:`THRESHOLD_WITHIN` of the best (the mean of
+    the combined rule's accuracy on UAV and on UAV-free windows, so that the tuning set's share
+    of UAV windows, which is not the test set's, does not move it; else 0.5), and the
+    thresholds at
     which at most :data:`uavsnn.evaluation.FALSE_ALARM_RATES` of ``tune``'s UAV-free windows
     alarm (:attr:`Identifier.alarm_thresholds`).
     ``tune`` must come from other recordings than ``train`` and never from the test set.
@@ -349,12 +351,29 @@ def threshold_accuracies(score: np.ndarray, label: np.ndarray) -> tuple[np.ndarr
     return candidates, acc
 
 
-def best_threshold(score: np.ndarray, label: np.ndarray) -> float:
+#: How far below the best balanced accuracy on the tuning windows a threshold may fall and still
+#: count as one of the best (:func:`best_threshold`): a point. The tuning set's balanced
+#: accuracy is flat near its best (within a point over a span of 0.3 in the score,
+#: docs/identification.md); along that span the detection rate and the false alarms fall
+#: together, and the highest threshold of it calls other objects UAV least at an accuracy the
+#: tuning set cannot tell from the best.
+THRESHOLD_WITHIN = 0.01
+
+
+def best_threshold(score: np.ndarray, label: np.ndarray, within: float = THRESHOLD_WITHIN) -> float:
     """The threshold of :func:`fit` on window scores (``score``; negative for windows the
-    any-spike rule does not call UAV) that gives the best balanced accuracy against ``label``:
-    0.5 or one of the scores, the smallest of the best."""
+    any-spike rule does not call UAV): of the candidates of :func:`threshold_accuracies` (0.5
+    and each non-negative score) whose balanced accuracy against ``label`` is within
+    ``within`` of the best, the highest — the one that raises the fewest false alarms among
+    those the tuning windows cannot tell apart (``within`` 0: the highest of the best).
+
+    Raises:
+        ParameterError: ``within`` not in [0, 1).
+    """
+    if not 0 <= within < 1:
+        raise ParameterError(f"within must be in [0, 1), got {within!r}")
     candidates, acc = threshold_accuracies(score, label)
-    return float(candidates[int(np.argmax(acc))])
+    return float(candidates[acc >= acc.max() - within].max())
 
 
 #: Objects a class needs in the training windows to enter the class model.

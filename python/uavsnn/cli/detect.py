@@ -164,7 +164,7 @@ def register(subparsers: Any) -> None:
         metavar="SHARE",
         help="identification's operating point: the threshold at which this share of the "
         "tuning recordings' UAV-free windows alarmed (0.01 or 0.05, as the model was tuned; "
-        "default: the threshold of the best balanced accuracy)",
+        "default: the threshold tuned for balanced accuracy)",
     )
     p.add_argument(
         "--false-tracks",
