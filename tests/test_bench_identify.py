@@ -191,6 +191,30 @@ def test_tune_spread_sets_points_on_redrawn_recordings(bench_script):
     assert np.all(same == alarm_threshold(score[one], label[one], 0.05))
 
 
+def test_threshold_rule_sets_each_rule_on_the_flat_best(bench_script):
+    rule = bench_script("threshold_rule")
+    # UAV windows 0.6-0.9, UAV-free 0.1-0.45: 0.5 and 0.6 separate them (balanced accuracy
+    # 1), 0.45 and 0.7 each miss one window of four (0.875)
+    label = np.array([True] * 4 + [False] * 4)
+    score = np.array([0.6, 0.7, 0.8, 0.9, 0.1, 0.2, 0.3, 0.45])
+    assert rule.rule_thresholds(score, label, (0.0, 0.125)) == {
+        rule.SMALLEST: 0.5,
+        "within 0": 0.6,
+        "within 0.125": 0.7,
+    }
+    # two recordings a kind, drawn again apart: the best separates the drawn windows exactly,
+    # so "within 0" is the lowest UAV score drawn: 0.6 with UAV recording 0, 0.8 without it;
+    # the smallest of the best stays 0.5 (above either UAV-free recording's scores)
+    recording = np.array([0, 0, 2, 2, 1, 1, 3, 3])
+    again = rule.redrawn_thresholds(score, label, recording, (0.0,), 100, seed=1)
+    assert set(again) == {rule.SMALLEST, "within 0"} and again["within 0"].shape == (100,)
+    assert set(again["within 0"]) == {0.6, 0.8} and set(again[rule.SMALLEST]) == {0.5}
+    assert np.array_equal(
+        again["within 0"],
+        rule.redrawn_thresholds(score, label, recording, (0.0,), 100, seed=1)["within 0"],
+    )
+
+
 def test_class_ranking_gives_each_class_its_own_area(bench_script):
     ranking = bench_script("class_ranking")
     label = np.array([True, True, False, False, False, False, False])
