@@ -214,6 +214,7 @@ def test_best_threshold_takes_the_highest_of_a_flat_best() -> None:
     # within an eighth of the best (1 - 0.125): 0.45 and 0.7 count too, the highest is taken
     assert best_threshold(score, label, within=0.125) == 0.7
     assert best_threshold(score, label, within=0.124) == 0.6
+    assert best_threshold(np.zeros(0), np.zeros(0, bool)) == 0.5
     for bad in (-0.01, 1.0, float("nan")):
         with pytest.raises(ParameterError, match="within"):
             best_threshold(score, label, within=bad)

@@ -365,13 +365,16 @@ def best_threshold(score: np.ndarray, label: np.ndarray, within: float = THRESHO
     any-spike rule does not call UAV): of the candidates of :func:`threshold_accuracies` (0.5
     and each non-negative score) whose balanced accuracy against ``label`` is within
     ``within`` of the best, the highest — the one that raises the fewest false alarms among
-    those the tuning windows cannot tell apart (``within`` 0: the highest of the best).
+    those the tuning windows cannot tell apart (``within`` 0: the highest of the best); 0.5
+    for no windows.
 
     Raises:
         ParameterError: ``within`` not in [0, 1).
     """
     if not 0 <= within < 1:
         raise ParameterError(f"within must be in [0, 1), got {within!r}")
+    if np.asarray(label).size == 0:
+        return 0.5
     candidates, acc = threshold_accuracies(score, label)
     return float(candidates[acc >= acc.max() - within].max())
 
