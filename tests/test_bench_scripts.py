@@ -452,4 +452,9 @@ def test_scene_bits_counts_what_differs_between_two_renders(bench_script, tmp_pa
     }  # fmt: skip
     assert got["sim"]["values_differ"] == 3 and got["sim"]["frames_differ"] == 2
     assert got["sim"]["event_sets_differ"] == 1
+    libc = np.arange(8.0).reshape(2, 4)
+    np.save(a / "libc.npy", libc)
+    libc[1, 2] = np.nextafter(libc[1, 2], 9.0)  # one value a bit off
+    np.save(b / "libc.npy", libc)
+    assert bits.compare_libc(a, b) == {"values": 8, "values_differ": 1}
     assert "opencv" in bits.variants()

@@ -8,10 +8,16 @@ machine's own choice:
 - ``openblas``: OpenBLAS's baseline kernel (``OPENBLAS_CORETYPE=Prescott``, x86-64 only);
 - ``numpy``: NumPy's baseline loops in place of every SIMD target it dispatched to
   (``NPY_DISABLE_CPU_FEATURES``);
-- ``opencv``: OpenCV's scalar code (``cv2.setUseOptimized(False)``).
+- ``opencv``: OpenCV's scalar code (``cv2.setUseOptimized(False)``);
+- ``glibc``: the C library's variants of ``log``, ``exp``, ``sin``, ``cos``, ``pow`` ... for a
+  CPU without AVX2 and FMA (``GLIBC_TUNABLES=glibc.cpu.hwcaps=-AVX2,-FMA``, Linux x86-64 with
+  glibc only): what Python's ``math``, and the engine's ``f64::ln`` and ``exp``, call. Each
+  variant also counts the C library's values on fixed arguments that differ, a control that
+  shows whether the variant took effect at all.
 
-The renderer takes its products and transcendental functions from ``uavsnn.scenes.portable``,
-so the first two should change nothing; OpenCV's float32 interpolation is left to OpenCV.
+The renderer takes its products and transcendental functions of arrays from
+``uavsnn.scenes.portable``, so the first two should change nothing; the rest are left to OpenCV
+and to the C library.
 
     python benches/python/scene_bits.py [--scenes 3] [--json]
 """
@@ -50,6 +56,11 @@ for domain, source in sources.items():
         events = synthetic_recording(source, kind, seed).recording.events
         np.save(f"{out}/{domain}-{i}-frames.npy", frames)
         np.save(f"{out}/{domain}-{i}-events.npy", events)
+# A control: the C library's functions on fixed arguments, as Python's math calls them
+import math
+xs = np.random.default_rng(0).uniform(-50.0, 50.0, 100_000).tolist()
+fs = (math.sin, math.cos, lambda x: math.exp(x / 10), lambda x: math.log(abs(x) + 1e-3))
+np.save(f"{out}/libc.npy", np.array([[f(x) for x in xs] for f in fs]))
 """
 
 
@@ -72,6 +83,8 @@ def variants() -> dict[str, tuple[dict[str, str], bool]]:
     if features:
         out["numpy"] = ({"NPY_DISABLE_CPU_FEATURES": " ".join(features)}, False)
     out["opencv"] = ({}, True)
+    if platform.system() == "Linux" and platform.libc_ver()[0] == "glibc" and "openblas" in out:
+        out["glibc"] = ({"GLIBC_TUNABLES": "glibc.cpu.hwcaps=-AVX2,-FMA"}, False)
     return out
 
 
@@ -105,6 +118,13 @@ def compare(base: Path, other: Path, scenes: int) -> dict[str, dict[str, int]]:
     return out
 
 
+def compare_libc(base: Path, other: Path) -> dict[str, int]:
+    """The control: how many of the C library's values (``sin``, ``cos``, ``exp``, ``log`` on
+    fixed arguments, through Python's ``math``) differ between two renders' processes."""
+    a, b = np.load(base / "libc.npy"), np.load(other / "libc.npy")
+    return {"values": int(a.size), "values_differ": int((a != b).sum())}
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scenes", type=int, default=3, help="scenes per domain (default 3)")
@@ -122,10 +142,16 @@ def main(argv: list[str] | None = None) -> int:
             folder.mkdir()
             render_into(folder, args.scenes, env, scalar)
             results[name] = compare(base, folder, args.scenes)
+            results[name]["c_library"] = compare_libc(base, folder)
     if args.json:
         print(json.dumps(results, indent=2))
         return 0
     for name, per_domain in results.items():
+        libc = per_domain.pop("c_library")
+        print(
+            f"{name:9s} the C library's sin, cos, exp, log: {libc['values_differ']:,} of "
+            f"{libc['values']:,} values differ"
+        )
         for domain, t in per_domain.items():
             print(
                 f"{name:9s} {domain}: {t['values_differ']:,} of {t['values']:,} frame values in "
