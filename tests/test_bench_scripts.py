@@ -456,5 +456,9 @@ def test_scene_bits_counts_what_differs_between_two_renders(bench_script, tmp_pa
     np.save(a / "libc.npy", libc)
     libc[1, 2] = np.nextafter(libc[1, 2], 9.0)  # one value a bit off
     np.save(b / "libc.npy", libc)
-    assert bits.compare_libc(a, b) == {"values": 8, "values_differ": 1}
+    for folder in (a, b):
+        np.save(folder / "conv1.npy", np.ones((4, 1, 5, 5), np.float32))
+    assert bits.compare_libc(a, b) == {
+        "values": 8, "values_differ": 1, "conv1_weights": 100, "conv1_weights_differ": 0,
+    }  # fmt: skip
     assert "opencv" in bits.variants()

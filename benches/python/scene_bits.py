@@ -61,6 +61,9 @@ import math
 xs = np.random.default_rng(0).uniform(-50.0, 50.0, 100_000).tolist()
 fs = (math.sin, math.cos, lambda x: math.exp(x / 10), lambda x: math.log(abs(x) + 1e-3))
 np.save(f"{out}/libc.npy", np.array([[f(x) for x in xs] for f in fs]))
+# conv1's Gabor kernels, which the engine computes with the C library's sin, cos and exp
+from uavsnn import Network
+np.save(f"{out}/conv1.npy", Network().weights("conv1"))
 """
 
 
@@ -120,9 +123,16 @@ def compare(base: Path, other: Path, scenes: int) -> dict[str, dict[str, int]]:
 
 def compare_libc(base: Path, other: Path) -> dict[str, int]:
     """The control: how many of the C library's values (``sin``, ``cos``, ``exp``, ``log`` on
-    fixed arguments, through Python's ``math``) differ between two renders' processes."""
+    fixed arguments, through Python's ``math``) differ between two renders' processes, and how
+    many of conv1's Gabor weights (which the engine computes with them)."""
     a, b = np.load(base / "libc.npy"), np.load(other / "libc.npy")
-    return {"values": int(a.size), "values_differ": int((a != b).sum())}
+    wa, wb = np.load(base / "conv1.npy"), np.load(other / "conv1.npy")
+    return {
+        "values": int(a.size),
+        "values_differ": int((a != b).sum()),
+        "conv1_weights": int(wa.size),
+        "conv1_weights_differ": int((wa != wb).sum()),
+    }
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -150,7 +160,8 @@ def main(argv: list[str] | None = None) -> int:
         libc = per_domain.pop("c_library")
         print(
             f"{name:9s} the C library's sin, cos, exp, log: {libc['values_differ']:,} of "
-            f"{libc['values']:,} values differ"
+            f"{libc['values']:,} values differ; conv1's Gabor weights: "
+            f"{libc['conv1_weights_differ']} of {libc['conv1_weights']}"
         )
         for domain, t in per_domain.items():
             print(
