@@ -21,6 +21,7 @@ from uavsnn.track_eval import (
     Confirm,
     confirm_flags,
     first_uav_starts,
+    ms_text,
     poisson_upper,
     track_figures,
     track_table,
@@ -141,6 +142,13 @@ def test_a_found_uav_a_false_bird_track_and_a_missed_uav() -> None:
     table = track_table(f)
     assert "| any-spike | 1 of 2 | 100 / 100 | 1 |" in table and "identification" not in table
     assert "| 1 of 3 (25.0 %) |" in table
+
+
+def test_ms_text_keeps_a_half_step_and_drops_a_whole_one() -> None:
+    # a median between two 25 ms steps is a half: printed as it is, never rounded to even
+    assert ms_text(137.5) == "137.5" and ms_text(612.5) == "612.5"
+    assert ms_text(100.0) == "100" and ms_text(555.0000000000001) == "555"
+    assert ms_text(6530.0) == "6,530" and ms_text(None) == "–"
 
 
 def test_identification_alarms_on_the_running_mean_of_the_track_scores() -> None:

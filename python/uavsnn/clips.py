@@ -42,6 +42,7 @@ from uavsnn.track_eval import (
     box_meets,
     decision_figures,
     delay_stats_ms,
+    ms_text,
     poisson_upper,
     recording_class,
     rule_name,
@@ -523,7 +524,7 @@ def clip_table(figures: dict[str, Any]) -> str:
     ]
     for rule, f in figures["rules"].items():
         t = f["time_to_alarm_ms"]
-        med = "–" if t["median"] is None else f"{t['median']:,.0f} / {t['p90']:,.0f}"
+        med = "–" if t["median"] is None else f"{ms_text(t['median'])} / {ms_text(t['p90'])}"
         rate = f["false_tracks_per_minute"]
         per_minute = (
             "–" if rate is None else f"{rate:.2f} ({f['false_tracks_per_minute_upper95']:.2f})"

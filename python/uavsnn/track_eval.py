@@ -66,6 +66,7 @@ __all__ = [
     "evaluate_tracks",
     "first_uav_starts",
     "identified_track_figures",
+    "ms_text",
     "poisson_upper",
     "recording_class",
     "rule_name",
@@ -628,6 +629,13 @@ def _fmt(value: float | None, digits: int = 0) -> str:
     return "–" if value is None else f"{value:,.{digits}f}"
 
 
+def ms_text(value: float | None) -> str:
+    """A delay in ms as the reports print it: to a tenth, without a trailing ``.0`` (a median
+    of two 25 ms steps, 137.5, stays 137.5 instead of rounding to the even 138, as 612.5 would
+    to 612); ``–`` for none."""
+    return "–" if value is None else f"{value:,.1f}".removesuffix(".0")
+
+
 def _decided(d: dict[str, Any], recordings: int) -> str:
     balanced = d["balanced_accuracy"]
     share = "" if balanced is None else f" ({100 * balanced:.1f} %)"
@@ -647,7 +655,7 @@ def track_table(figures: dict[str, Any]) -> str:
         t = f["time_to_alarm_ms"]
         lines.append(
             f"| {rule_name(rule)} | {f['found']} of {figures['uav_recordings']} "
-            f"| {_fmt(t['median'])} / {_fmt(t['p90'])} | {f['false_tracks']} "
+            f"| {ms_text(t['median'])} / {ms_text(t['p90'])} | {f['false_tracks']} "
             f"| {_fmt(f['false_tracks_per_minute'], 2)} "
             f"({_fmt(f['false_tracks_per_minute_upper95'], 2)}) | {f['stray_tracks']} "
             f"| {_decided(f['decided'], figures['recordings'])} |"

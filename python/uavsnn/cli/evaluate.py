@@ -23,7 +23,7 @@ from uavsnn.experiments import (
     static_twin,
 )
 from uavsnn.network import MAX_THREADS, Network
-from uavsnn.track_eval import Confirm, clock_text, rule_name
+from uavsnn.track_eval import Confirm, clock_text, ms_text, rule_name
 
 __all__ = ["register"]
 
@@ -442,7 +442,7 @@ def _print_identification(ident: dict[str, Any]) -> None:
             median = t["time_to_alarm_ms"]["median"]
             tracks = (
                 f"; tracks: found {t['found']}, median alarm "
-                f"{'-' if median is None else f'{median:.0f} ms'}, false {t['false_tracks']}"
+                f"{'-' if median is None else f'{ms_text(median)} ms'}, false {t['false_tracks']}"
             )
         print(
             f"  ablation {name:{width}s}: accuracy {100 * row['accuracy']:.1f} %, detection at "
@@ -463,7 +463,7 @@ def _print_tracks(tracks: dict[str, Any]) -> None:
         delay = (
             "-"
             if t["median"] is None
-            else f"median {t['median']:.0f} ms, 90th percentile {t['p90']:.0f} ms"
+            else f"median {ms_text(t['median'])} ms, 90th percentile {ms_text(t['p90'])} ms"
         )
         per_minute = f["false_tracks_per_minute"]
         rate = (
