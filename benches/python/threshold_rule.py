@@ -30,7 +30,7 @@ from uavsnn.dataset import load
 from uavsnn.evaluation import recording_interval
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from tune_halves import load_identified, tuning_scores
+from tune_halves import balanced, load_identified, tuning_scores
 
 #: The rule before ``best_threshold`` took the highest within a point.
 SMALLEST = "smallest of the best"
@@ -110,14 +110,11 @@ def main() -> None:
     base = s >= rules[SMALLEST]
     for rule, t in rules.items():
         call = s >= t
-        tune_call = score >= t
-        tune_bal = 0.5 * (tune_call[label].mean() + (~tune_call[~label]).mean())
-        line = (
-            f"  {rule:21s} threshold {t:.3f} (tuning balanced {tune_bal:.3f}): accuracy "
-            f"{(call == lab).mean():.3f}, UAV windows called {call[lab].mean():.3f}, "
+        print(
+            f"  {rule:21s} threshold {t:.3f} (tuning balanced {balanced(score >= t, label):.3f}):"
+            f" accuracy {(call == lab).mean():.3f}, UAV windows called {call[lab].mean():.3f}, "
             f"UAV-free {call[~lab].mean():.3f}"
         )
-        print(line)
         print("    called UAV: " + ", ".join(f"{c} {call[cls == c].mean():.3f}" for c in classes))
         if rule == SMALLEST:
             continue
