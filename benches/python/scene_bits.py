@@ -80,13 +80,14 @@ def dispatched_numpy_features() -> list[str]:
 def variants() -> dict[str, tuple[dict[str, str], bool]]:
     """Each variant's environment and whether it turns OpenCV's optimized code off."""
     out: dict[str, tuple[dict[str, str], bool]] = {}
-    if platform.machine().lower() in ("x86_64", "amd64"):
+    x86 = platform.machine().lower() in ("x86_64", "amd64")
+    if x86:
         out["openblas"] = ({"OPENBLAS_CORETYPE": "Prescott"}, False)
     features = dispatched_numpy_features()
     if features:
         out["numpy"] = ({"NPY_DISABLE_CPU_FEATURES": " ".join(features)}, False)
     out["opencv"] = ({}, True)
-    if platform.system() == "Linux" and platform.libc_ver()[0] == "glibc" and "openblas" in out:
+    if x86 and platform.system() == "Linux" and platform.libc_ver()[0] == "glibc":
         out["glibc"] = ({"GLIBC_TUNABLES": "glibc.cpu.hwcaps=-AVX2,-FMA"}, False)
     return out
 
