@@ -633,7 +633,7 @@ def ms_text(value: float | None) -> str:
     """A delay in ms as the reports print it: to a tenth, without a trailing ``.0`` (a median
     of two 25 ms steps, 137.5, stays 137.5 instead of rounding to the even 138, as 612.5 would
     to 612); ``–`` for none."""
-    return "–" if value is None else f"{value:,.1f}".removesuffix(".0")
+    return _fmt(value, 1).removesuffix(".0")
 
 
 def _decided(d: dict[str, Any], recordings: int) -> str:
