@@ -19,6 +19,7 @@ import uavsnn
 from uavsnn import _prophesee as prophesee
 from uavsnn import io
 from uavsnn.cli import main
+from uavsnn.cli.info import summary
 from uavsnn.events import EVENT_DTYPE, Recording
 
 # Third-party facts, not our results: event counts, first/last timestamps and sensors of the real
@@ -294,6 +295,23 @@ def test_info_command_reports_counts_and_rates(
     text = capsys.readouterr().out
     assert "640x480 (the gen3 camera named in the header" in text
     assert "busiest 1 ms bin" in text
+
+
+def test_info_gives_no_peak_rate_for_events_shorter_than_a_bin(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # 207 events over 18 µs: one 1 ms bin's count, times 1000, would read 207,000 ev/s
+    # against a mean of 11.5 M ev/s.
+    ev = _events(207)
+    ev["t"] = np.linspace(1_000, 1_018, len(ev)).astype(np.uint64)
+    assert summary(Recording(ev, (64, 48)))["peak_rate_ev_per_s"] is None
+    ev["t"][-1] = 2_000  # one whole bin: a peak again
+    assert summary(Recording(ev, (64, 48)))["peak_rate_ev_per_s"] == 206_000
+    path = tmp_path / "short.npz"
+    ev["t"][-1] = 1_018
+    np.savez(path, events=ev, sensor_size=np.array([64, 48]))
+    assert main(["info", str(path)]) == 0
+    assert "peak rate:   n/a (the events span less than 1 ms)" in capsys.readouterr().out
 
 
 def test_info_command_survives_bad_files(

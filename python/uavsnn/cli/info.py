@@ -23,13 +23,14 @@ def summary(recording: Recording) -> dict[str, Any]:
 
     The mean rate is events per second over ``last t − first t`` (``None`` for fewer than two
     distinct times); the peak rate is the most events in one 1 ms bin (bins aligned on the first
-    event), times 1000.
+    event), times 1000, and ``None`` when the events span less than one bin, whose count would
+    read as a rate lower than the mean.
     """
     t = recording.events["t"]
     n = len(t)
     duration = recording.duration_us
     peak = None
-    if n:
+    if n and duration >= PEAK_BIN_US:
         bins = (t - t[0]) // PEAK_BIN_US
         edges = np.flatnonzero(np.diff(bins)) + 1
         counts = np.diff(np.concatenate(([0], edges, [n])))
@@ -91,7 +92,9 @@ def run(args: argparse.Namespace) -> int:
         print(f"time:        {info['first_t_us']} .. {info['last_t_us']} µs")
     print(f"duration:    {duration / 1e6:.6f} s")
     print(f"mean rate:   {_format(info['mean_rate_ev_per_s'], 'ev/s')}")
-    print(f"peak rate:   {_format(info['peak_rate_ev_per_s'], 'ev/s')} (busiest 1 ms bin)")
+    peak = info["peak_rate_ev_per_s"]
+    bin_text = "busiest 1 ms bin" if peak is not None else "the events span less than 1 ms"
+    print(f"peak rate:   {_format(peak, 'ev/s')} ({bin_text})")
     return 0
 
 
