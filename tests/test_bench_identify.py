@@ -10,7 +10,7 @@ import functools
 import numpy as np
 import pytest
 
-from uavsnn import EVENT_DTYPE, Network
+from uavsnn import EVENT_DTYPE, Network, identify
 from uavsnn.dataset import LabelledWindows
 from uavsnn.dataset.format import RawEvents
 from uavsnn.events import Recording
@@ -163,6 +163,25 @@ def test_tune_halves_near_best_spans_the_thresholds_of_a_flat_best(bench_script)
     assert halves.near_best(score, label, 0.15) == (0.4, 0.7, 4)
     # the rule of fit: the highest of the best
     assert best_threshold(score, label, within=0.0) == 0.6
+
+
+def test_tune_halves_scores_the_held_out_recordings_train_tunes_on(bench_script, monkeypatch):
+    halves = bench_script("tune_halves")
+    net, data = tiny()
+    m = len(data)
+    # four recordings in turn (windows 0-5): split_by_recording holds out recording 0
+    data = LabelledWindows(
+        data.windows, np.arange(m) % 2 == 0, data.cls, np.arange(m) % 4, data.box, raw=data.raw
+    )
+    monkeypatch.setattr(halves, "load", lambda path, split: data)
+    fired, score, label, recording = halves.tuning_scores(net, "any", held_out=True)
+    held = identify.split_by_recording(data)[1]
+    assert list(recording) == [0, 0] and np.array_equal(recording, held.recording)
+    assert np.array_equal(label, held.label) and len(fired) == len(score) == len(held)
+    whole = halves.tuning_scores(net, "any")
+    assert np.array_equal(whole[3], data.recording)
+    # the held-out windows score as they do among all the windows
+    assert np.array_equal(score, whole[1][data.recording == 0])
 
 
 def test_tune_spread_sets_points_on_redrawn_recordings(bench_script):

@@ -32,14 +32,18 @@ def load_identified(path: str) -> tuple[Network, Identifier]:
     return net, net.identification
 
 
-def tuning_scores(net: Network, path: str) -> tuple[np.ndarray, ...]:
+def tuning_scores(net: Network, path: str, *, held_out: bool = False) -> tuple[np.ndarray, ...]:
     """A dataset's train split through ``net``: per window the any-spike rule's call, the score
     of "any-spike AND UAV score" that ``identify.fit`` sets its thresholds on (-1 where the rule
-    does not fire), the truth and the recording."""
+    does not fire), the truth and the recording. ``held_out``: only the quarter of the split's
+    recordings that ``uavsnn train`` holds out to tune on when given no tuning set
+    (``identify.split_by_recording``), as the real network of ``reproduce`` is tuned."""
     ident = net.identification
     if ident is None:
         raise SystemExit("the model has no identification to look at")
     data = load(path, "train")
+    if held_out:
+        data = identify.split_by_recording(data)[1]
     fired = np.asarray(net.infer(data.windows).detected, bool)
     score = np.where(fired, ident.window_scores(identify.window_features(net, data)), -1.0)
     return fired, score, np.asarray(data.label, bool), np.asarray(data.recording)
