@@ -174,10 +174,11 @@ def test_tune_halves_scores_the_held_out_recordings_train_tunes_on(bench_script,
         data.windows, np.arange(m) % 2 == 0, data.cls, np.arange(m) % 4, data.box, raw=data.raw
     )
     monkeypatch.setattr(halves, "load", lambda path, split: data)
-    fired, score, label, recording = halves.tuning_scores(net, "any", held_out=True)
+    fired, score, label, recording, cls = halves.tuning_scores(net, "any", held_out=True)
     held = identify.split_by_recording(data)[1]
     assert list(recording) == [0, 0] and np.array_equal(recording, held.recording)
     assert np.array_equal(label, held.label) and len(fired) == len(score) == len(held)
+    assert np.array_equal(cls, held.cls)
     whole = halves.tuning_scores(net, "any")
     assert np.array_equal(whole[3], data.recording)
     # the held-out windows score as they do among all the windows
@@ -232,6 +233,23 @@ def test_threshold_rule_sets_each_rule_on_the_flat_best(bench_script):
         again["within 0"],
         rule.redrawn_thresholds(score, label, recording, (0.0,), 100, seed=1)["within 0"],
     )
+
+
+def test_threshold_rule_class_share_holds_every_other_class_under_the_share(bench_script):
+    rule = bench_script("threshold_rule")
+    # UAV windows 0.5-0.9; four birds 0.1-0.4, two helicopters 0.6 and 0.85, four empty scenes
+    # 0.05 and one the any-spike rule missed (-1)
+    label = np.array([True] * 5 + [False] * 10)
+    cls = np.array(["drone"] * 5 + ["bird"] * 4 + ["helicopter"] * 2 + ["none"] * 4)
+    score = np.r_[0.5, 0.6, 0.7, 0.8, 0.9, 0.1, 0.2, 0.3, 0.4, 0.6, 0.85, 0.05, 0.05, 0.05, -1]
+    # half of the helicopters may pass: just above the lower one (the birds never reach it)
+    assert rule.class_share_threshold(score, label, cls, 0.5) == 0.7
+    # none: above the higher helicopter, though only 2 of 10 UAV-free windows score above 0.6
+    assert rule.class_share_threshold(score, label, cls, 0.25) == 0.9
+    # every class of other object at or above every UAV window: above every score
+    cls[9:11] = "bird"
+    score[5:11] = 0.95
+    assert rule.class_share_threshold(score, label, cls, 0.0) > 0.95
 
 
 def test_class_ranking_gives_each_class_its_own_area(bench_script):

@@ -35,8 +35,8 @@ def load_identified(path: str) -> tuple[Network, Identifier]:
 def tuning_scores(net: Network, path: str, *, held_out: bool = False) -> tuple[np.ndarray, ...]:
     """A dataset's train split through ``net``: per window the any-spike rule's call, the score
     of "any-spike AND UAV score" that ``identify.fit`` sets its thresholds on (-1 where the rule
-    does not fire), the truth and the recording. ``held_out``: only the quarter of the split's
-    recordings that ``uavsnn train`` holds out to tune on when given no tuning set
+    does not fire), the truth, the recording and the class. ``held_out``: only the quarter of
+    the split's recordings that ``uavsnn train`` holds out to tune on when given no tuning set
     (``identify.split_by_recording``), as the real network of ``reproduce`` is tuned."""
     ident = net.identification
     if ident is None:
@@ -46,7 +46,8 @@ def tuning_scores(net: Network, path: str, *, held_out: bool = False) -> tuple[n
         data = identify.split_by_recording(data)[1]
     fired = np.asarray(net.infer(data.windows).detected, bool)
     score = np.where(fired, ident.window_scores(identify.window_features(net, data)), -1.0)
-    return fired, score, np.asarray(data.label, bool), np.asarray(data.recording)
+    label, cls = np.asarray(data.label, bool), np.asarray(data.cls).astype(str)
+    return fired, score, label, np.asarray(data.recording), cls
 
 
 def balanced(call: np.ndarray, label: np.ndarray) -> float:
@@ -74,7 +75,7 @@ def main() -> None:
     net, ident = load_identified(args.model)
     print(f"{args.model}: {identify.model_name(ident)}, threshold {ident.threshold:.3f}")
     for path in args.tune:
-        fired, score, label, _ = tuning_scores(net, path)
+        fired, score, label, _, _ = tuning_scores(net, path)
         best = identify.best_threshold(score, label)
         print(
             f"  {path}: any-spike {balanced(fired, label):.3f}; best threshold on it alone "

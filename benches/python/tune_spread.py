@@ -68,7 +68,7 @@ def main() -> None:
         raise SystemExit(f"--draws must be in 1..10000, got {args.draws}")
     net, ident = load_identified(args.model)
     rates = tuple(FALSE_ALARM_RATES)
-    _, score, label, recording = tuning_scores(net, args.tune)
+    _, score, label, recording, _ = tuning_scores(net, args.tune)
     own = [alarm_threshold(score, label, rate) for rate in rates]
     again = redrawn_thresholds(score, label, recording, rates, args.draws)
     free = len(np.unique(recording[~label]))
@@ -80,7 +80,7 @@ def main() -> None:
         lo, hi = np.percentile(again[:, k], [2.5, 97.5])
         print(f"  set for {100 * rate:g} %: threshold {own[k]:.3f} (redrawn: {lo:.3f}-{hi:.3f})")
     for path in args.score:
-        _, s, y, rec = tuning_scores(net, path)
+        _, s, y, rec, _ = tuning_scores(net, path)
         print(
             f"  {path}: {int((~y).sum())} UAV-free windows of {len(np.unique(rec[~y]))} recordings"
         )
