@@ -252,6 +252,31 @@ def test_threshold_rule_class_share_holds_every_other_class_under_the_share(benc
     assert rule.class_share_threshold(score, label, cls, 0.0) > 0.95
 
 
+def test_polarity_flips_count_each_pixels_flips_in_time_order(bench_script):
+    flips = bench_script("polarity_flips")
+
+    def events(rows: list[tuple[int, int, int, bool]]) -> np.ndarray:
+        ev = np.zeros(len(rows), dtype=EVENT_DTYPE)
+        for k, (t, x, y, on) in enumerate(rows):
+            ev[k] = (t, x, y, on)
+        return ev[np.argsort(ev["t"], kind="stable")]
+
+    box = (2, 2, 6, 6)
+    # pixel (3, 3) alternates ON/OFF every 1 ms (9 flips of 10 events, all fast); pixel (4, 4)
+    # gives two ON events 10 ms apart (no flip); (8, 8) lies outside the box
+    rows = [(1_000 * k, 3, 3, k % 2 == 0) for k in range(10)]
+    rows += [(500, 4, 4, True), (10_500, 4, 4, True), (700, 8, 8, False), (800, 8, 8, True)]
+    got = flips.flip_columns(events(rows), box, 16)
+    assert got == pytest.approx([9 / 12, 9 / 12, 1 / 2])
+    # every 5 ms: the same flips, none fast
+    slow = [(5_000 * k, 3, 3, k % 2 == 0) for k in range(10)]
+    assert flips.flip_columns(events(slow), box, 16) == pytest.approx([0.9, 0.0, 1.0])
+    # the pixels are told apart by row too: (3, 3) all ON and (3, 4) all OFF, interleaved
+    mixed = [(1_000 * k, 3, 3 + k % 2, k % 2 == 0) for k in range(10)]
+    assert flips.flip_columns(events(mixed), box, 16) == pytest.approx([0.0, 0.0, 0.0])
+    assert list(flips.flip_columns(events(rows[-2:]), box, 16)) == [0.0, 0.0, 0.0]
+
+
 def test_class_ranking_gives_each_class_its_own_area(bench_script):
     ranking = bench_script("class_ranking")
     label = np.array([True, True, False, False, False, False, False])

@@ -1,0 +1,196 @@
+"""Do an object's polarity flips tell a rotor from a wing, a ball or a body?
+
+The rotor signature (``uavsnn.signature``) votes only where a pixel repeats its period, which
+the dataset's moving, dim drones rarely allow (docs/identification.md, "Why the dataset's
+drones show no rotor"). A cruder cue needs no period: a pixel under a blade flips between ON
+and OFF at the blade-pass rate, a pixel an edge sweeps over flips about once. For each object
+of each window (as ``uavsnn.identify.window_features`` finds them) this counts, over the
+window's raw events inside its box, taken pixel by pixel in time order:
+
+- ``flip_share``: the events whose polarity differs from their pixel's event before, over all
+  the box's events;
+- ``fast_flip_share``: those that flip within :data:`FAST_US` of it;
+- ``pixels_3_flips``: the share of the box's active pixels that flip three times or more.
+
+Then it fits the UAV score without and with these columns, each kind (a logistic regression as
+``identify.fit_score`` fits it, boosted trees as ``identify.fit_tree_score``), on ``--train``'s
+train split, tuned on ``--tune``'s (L2 or trees and the threshold of ``identify.best_threshold``),
+and reads both on the test splits of the ``VALIDATION`` sets pooled (datasets of other seeds,
+never a reported test set): accuracy at the tuned threshold and detection where 1 % and 5 % of
+the UAV-free windows alarm, each difference with its paired 95 % interval over the validation
+recordings (``evaluation.recording_interval``, ``evaluation.roc_point_interval``). First the
+columns' mean per class on the tuning objects.
+
+    python benches/python/polarity_flips.py runs/reproduce/model-combined.npz \\
+        --train runs/reproduce/data/dvs --tune runs/reproduce/data/tune-dvs \\
+        runs/val2-dvs runs/val3-dvs
+"""
+
+from __future__ import annotations
+
+import argparse
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from uavsnn import Network, identify
+from uavsnn.dataset import LabelledWindows, load
+from uavsnn.evaluation import (
+    FALSE_ALARM_RATES,
+    detection_at_false_alarm,
+    recording_interval,
+    roc_point_interval,
+)
+from uavsnn.linear import predict_logistic
+
+#: The flip columns, in order.
+FLIP_COLUMNS = ("flip_share", "fast_flip_share", "pixels_3_flips")
+
+#: A flip within this long of its pixel's event before counts as fast (µs): half a cycle of
+#: 125 Hz. A blade pass (200–520 Hz) flips faster, a bird's wing beat (2–15 Hz) far slower.
+FAST_US = 4_000
+
+
+def flip_columns(events: np.ndarray, box: tuple[int, int, int, int], width: int) -> np.ndarray:
+    """The :data:`FLIP_COLUMNS` of the ``events`` (time order) inside ``box`` ``(x0, y0, x1,
+    y1)``, ``x1`` and ``y1`` excluded, on a sensor ``width`` pixels wide; zeros for fewer than
+    two events."""
+    x0, y0, x1, y1 = box
+    inside = (events["x"] >= x0) & (events["x"] < x1) & (events["y"] >= y0) & (events["y"] < y1)
+    ev = events[inside]
+    if len(ev) < 2:
+        return np.zeros(len(FLIP_COLUMNS))
+    pixel = ev["y"].astype(np.int64) * width + ev["x"]
+    order = np.lexsort((ev["t"], pixel))
+    pixel, t, on = pixel[order], ev["t"][order].astype(np.int64), ev["p"][order].astype(bool)
+    flip = (pixel[1:] == pixel[:-1]) & (on[1:] != on[:-1])
+    fast = flip & (np.diff(t) < FAST_US)
+    active = np.unique(pixel)
+    per_pixel = np.bincount(np.searchsorted(active, pixel[1:][flip]), minlength=len(active))
+    return np.array([flip.sum() / len(ev), fast.sum() / len(ev), (per_pixel >= 3).mean()])
+
+
+@dataclass(frozen=True)
+class Split:
+    """One split's objects (their features and flip columns) and its windows' calls, truth and
+    recordings."""
+
+    feats: identify.WindowFeatures
+    flips: np.ndarray
+    detected: np.ndarray
+    label: np.ndarray
+    recording: np.ndarray
+
+
+def split(net: Network, data: LabelledWindows, tag: str = "") -> Split:
+    """``data`` through ``net``: its objects with their flip columns; ``tag`` prefixes the
+    recording ids (to pool sets)."""
+    inference = net.infer(data.windows)
+    feats = identify.window_features(net, data, inference)
+    width = int(net.config["width"])
+    flips = np.array(
+        [
+            flip_columns(data.raw.window(int(i)), tuple(int(v) for v in box), width)
+            for i, box in zip(feats.window, feats.boxes, strict=True)
+        ]
+    ).reshape(-1, len(FLIP_COLUMNS))
+    return Split(
+        feats,
+        flips,
+        np.asarray(inference.detected, dtype=bool),
+        np.asarray(data.label, dtype=bool),
+        np.char.add(tag, np.asarray(data.recording).astype(str)),
+    )
+
+
+def _columns(s: Split, with_flips: bool) -> np.ndarray:
+    return np.hstack([s.feats.x, s.flips]) if with_flips else s.feats.x
+
+
+def _window_scores(s: Split, objects: np.ndarray) -> np.ndarray:
+    best = np.zeros(s.feats.windows)
+    np.maximum.at(best, s.feats.window, objects)
+    return np.where(s.detected, best, -1.0)
+
+
+def fit_scorer(
+    kind: str, train: Split, tune: Split, with_flips: bool
+) -> Callable[[Split], np.ndarray]:
+    """The window scores of the UAV score of ``kind`` (``"logistic"`` or ``"trees"``) fitted on
+    ``train``'s usable objects, tuned on ``tune``'s, with or without the flip columns."""
+    x, u = _columns(train, with_flips), train.feats.usable
+    xt, ut = _columns(tune, with_flips), tune.feats.usable
+    mean, scale, coef, _ = identify.fit_score(
+        x[u], train.feats.label[u], xt[ut], tune.feats.label[ut]
+    )
+    if kind == "logistic":
+        return lambda s: _window_scores(
+            s, predict_logistic(coef, (_columns(s, with_flips) - mean) / scale)
+        )
+    trees, _ = identify.fit_tree_score(
+        (x[u] - mean) / scale,
+        train.feats.label[u],
+        (xt[ut] - mean) / scale,
+        tune.feats.label[ut],
+    )
+    return lambda s: _window_scores(s, trees.predict((_columns(s, with_flips) - mean) / scale))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("model")
+    parser.add_argument("validation", nargs="+", metavar="VALIDATION")
+    parser.add_argument("--train", required=True, metavar="DIR")
+    parser.add_argument("--tune", required=True, metavar="DIR")
+    args = parser.parse_args()
+    net = Network.load(args.model)
+    train = split(net, load(args.train, "train"))
+    tune = split(net, load(args.tune, "train"))
+    parts = [split(net, load(p, "test"), f"{k}:") for k, p in enumerate(args.validation)]
+    print(f"{args.model}: {len(train.flips)} training objects, {len(tune.flips)} tuning objects")
+    print("  the columns' mean per class of the tuning objects (usable ones):")
+    u = tune.feats.usable
+    for c in np.unique(tune.feats.cls[u]):
+        rows = u & (tune.feats.cls == c)
+        means = ", ".join(
+            f"{n} {m:.3f}" for n, m in zip(FLIP_COLUMNS, tune.flips[rows].mean(0), strict=True)
+        )
+        print(f"    {c or 'unnamed (off the labelled box)'} ({int(rows.sum())}): {means}")
+    label = np.concatenate([p.label for p in parts])
+    recording = np.concatenate([p.recording for p in parts])
+    for kind in ("logistic", "trees"):
+        calls, scores = {}, {}
+        for with_flips in (False, True):
+            scorer = fit_scorer(kind, train, tune, with_flips)
+            threshold = identify.best_threshold(scorer(tune), tune.label)
+            scores[with_flips] = np.concatenate([scorer(p) for p in parts])
+            calls[with_flips] = scores[with_flips] >= threshold
+            name = "+ flips" if with_flips else "features alone"
+            det = ", ".join(
+                f"{100 * detection_at_false_alarm(scores[with_flips], label, r):.1f} % at "
+                f"{100 * r:g} %"
+                for r in FALSE_ALARM_RATES
+            )
+            print(
+                f"  {kind}, {name}: threshold {threshold:.3f}, accuracy "
+                f"{100 * (calls[with_flips] == label).mean():.1f} %, detection {det}"
+            )
+        right, base = calls[True] == label, calls[False] == label
+        lo, hi = recording_interval(right, recording, against=base, strata=label)
+        leads = [f"accuracy {_points(right.mean() - base.mean(), lo, hi)}"]
+        for r in FALSE_ALARM_RATES:
+            lead = detection_at_false_alarm(scores[True], label, r) - detection_at_false_alarm(
+                scores[False], label, r
+            )
+            lo, hi = roc_point_interval(scores[True], label, recording, r, against=scores[False])
+            leads.append(f"detection at {100 * r:g} % {_points(lead, lo, hi)}")
+        print("    the flips' lead: " + "; ".join(leads))
+
+
+def _points(lead: float, lo: float, hi: float) -> str:
+    return f"{100 * lead:+.2f} ({100 * lo:+.2f} to {100 * hi:+.2f})"
+
+
+if __name__ == "__main__":
+    main()
