@@ -275,6 +275,12 @@ def test_polarity_flips_count_each_pixels_flips_in_time_order(bench_script):
     mixed = [(1_000 * k, 3, 3 + k % 2, k % 2 == 0) for k in range(10)]
     assert flips.flip_columns(events(mixed), box, 16) == pytest.approx([0.0, 0.0, 0.0])
     assert list(flips.flip_columns(events(rows[-2:]), box, 16)) == [0.0, 0.0, 0.0]
+    # timed from the pixel's flip before, its first flip is never fast: 8 of the 12 events
+    assert flips.flip_columns(events(rows), box, 16, "flip") == pytest.approx([0.75, 8 / 12, 0.5])
+    # two pixels flipping 1 ms apart, once each: neither is timed from the other's flip
+    two = [(0, 3, 3, True), (1_000, 3, 3, False), (500, 4, 4, True), (2_000, 4, 4, False)]
+    assert flips.flip_columns(events(two), box, 16, "flip") == pytest.approx([0.5, 0.0, 0.0])
+    assert flips.flip_columns(events(two), box, 16) == pytest.approx([0.5, 0.5, 0.0])
 
 
 def test_class_ranking_gives_each_class_its_own_area(bench_script):

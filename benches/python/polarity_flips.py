@@ -9,7 +9,8 @@ window's raw events inside its box, taken pixel by pixel in time order:
 
 - ``flip_share``: the events whose polarity differs from their pixel's event before, over all
   the box's events;
-- ``fast_flip_share``: those that flip within :data:`FAST_US` of it;
+- ``fast_flip_share``: those that flip within :data:`FAST_US` of it (``--fast-from flip``: of
+  the pixel's flip before);
 - ``pixels_3_flips``: the share of the box's active pixels that flip three times or more.
 
 Then it fits the UAV score without and with these columns, each kind (a logistic regression as
@@ -51,11 +52,18 @@ FLIP_COLUMNS = ("flip_share", "fast_flip_share", "pixels_3_flips")
 #: 125 Hz. A blade pass (200–520 Hz) flips faster, a bird's wing beat (2–15 Hz) far slower.
 FAST_US = 4_000
 
+#: What a fast flip is timed from: the pixel's event before, or its flip before (the time the
+#: rotor estimator keeps per pixel, so the cue would cost it no state).
+FAST_FROM = ("event", "flip")
 
-def flip_columns(events: np.ndarray, box: tuple[int, int, int, int], width: int) -> np.ndarray:
+
+def flip_columns(
+    events: np.ndarray, box: tuple[int, int, int, int], width: int, fast_from: str = "event"
+) -> np.ndarray:
     """The :data:`FLIP_COLUMNS` of the ``events`` (time order) inside ``box`` ``(x0, y0, x1,
-    y1)``, ``x1`` and ``y1`` excluded, on a sensor ``width`` pixels wide; zeros for fewer than
-    two events."""
+    y1)``, ``x1`` and ``y1`` excluded, on a sensor ``width`` pixels wide, a fast flip timed
+    from the pixel's event or flip before (``fast_from``, one of :data:`FAST_FROM`); zeros for
+    fewer than two events."""
     x0, y0, x1, y1 = box
     inside = (events["x"] >= x0) & (events["x"] < x1) & (events["y"] >= y0) & (events["y"] < y1)
     ev = events[inside]
@@ -65,10 +73,14 @@ def flip_columns(events: np.ndarray, box: tuple[int, int, int, int], width: int)
     order = np.lexsort((ev["t"], pixel))
     pixel, t, on = pixel[order], ev["t"][order].astype(np.int64), ev["p"][order].astype(bool)
     flip = (pixel[1:] == pixel[:-1]) & (on[1:] != on[:-1])
-    fast = flip & (np.diff(t) < FAST_US)
+    if fast_from == "flip":
+        ft, fp = t[1:][flip], pixel[1:][flip]
+        fast_n = int(((fp[1:] == fp[:-1]) & (np.diff(ft) < FAST_US)).sum())
+    else:
+        fast_n = int((flip & (np.diff(t) < FAST_US)).sum())
     active = np.unique(pixel)
     per_pixel = np.bincount(np.searchsorted(active, pixel[1:][flip]), minlength=len(active))
-    return np.array([flip.sum() / len(ev), fast.sum() / len(ev), (per_pixel >= 3).mean()])
+    return np.array([flip.sum() / len(ev), fast_n / len(ev), (per_pixel >= 3).mean()])
 
 
 @dataclass(frozen=True)
@@ -83,15 +95,15 @@ class Split:
     recording: np.ndarray
 
 
-def split(net: Network, data: LabelledWindows, tag: str = "") -> Split:
-    """``data`` through ``net``: its objects with their flip columns; ``tag`` prefixes the
-    recording ids (to pool sets)."""
+def split(net: Network, data: LabelledWindows, tag: str = "", fast_from: str = "event") -> Split:
+    """``data`` through ``net``: its objects with their flip columns (``fast_from`` as
+    :func:`flip_columns`'); ``tag`` prefixes the recording ids (to pool sets)."""
     inference = net.infer(data.windows)
     feats = identify.window_features(net, data, inference)
     width = int(net.config["width"])
     flips = np.array(
         [
-            flip_columns(data.raw.window(int(i)), tuple(int(v) for v in box), width)
+            flip_columns(data.raw.window(int(i)), tuple(int(v) for v in box), width, fast_from)
             for i, box in zip(feats.window, feats.boxes, strict=True)
         ]
     ).reshape(-1, len(FLIP_COLUMNS))
@@ -143,11 +155,18 @@ def main() -> None:
     parser.add_argument("validation", nargs="+", metavar="VALIDATION")
     parser.add_argument("--train", required=True, metavar="DIR")
     parser.add_argument("--tune", required=True, metavar="DIR")
+    parser.add_argument(
+        "--fast-from",
+        choices=FAST_FROM,
+        default="event",
+        help="time a fast flip from the pixel's event before (default) or its flip before",
+    )
     args = parser.parse_args()
     net = Network.load(args.model)
-    train = split(net, load(args.train, "train"))
-    tune = split(net, load(args.tune, "train"))
-    parts = [split(net, load(p, "test"), f"{k}:") for k, p in enumerate(args.validation)]
+    fast = args.fast_from
+    train = split(net, load(args.train, "train"), fast_from=fast)
+    tune = split(net, load(args.tune, "train"), fast_from=fast)
+    parts = [split(net, load(p, "test"), f"{k}:", fast) for k, p in enumerate(args.validation)]
     print(f"{args.model}: {len(train.flips)} training objects, {len(tune.flips)} tuning objects")
     print("  the columns' mean per class of the tuning objects (usable ones):")
     u = tune.feats.usable
