@@ -211,6 +211,7 @@ def test_best_threshold_takes_the_highest_of_a_flat_best() -> None:
     label = np.array([True, True, True, True, False, False, False, False])
     # every threshold from 0.5 to 0.6 separates them exactly: the highest of the best
     assert best_threshold(score, label, within=0.0) == 0.6
+    assert best_threshold(score, label) == 0.6  # the default: the highest of the best
     # within an eighth of the best (1 - 0.125): 0.45 and 0.7 count too, the highest is taken
     assert best_threshold(score, label, within=0.125) == 0.7
     assert best_threshold(score, label, within=0.124) == 0.6

@@ -43,7 +43,7 @@ class Identifier:
     over, kept for the record).
 
     ``threshold`` is the operating point the model was tuned for (the highest threshold whose
-    balanced accuracy of the combined rule on the tuning windows is within a point of the best,
+    balanced accuracy of the combined rule on the tuning windows is the best,
     :func:`uavsnn.identify.best_threshold`). ``alarm_thresholds``: further operating points
     set on the same tuning windows, ``(false-alarm share, threshold)`` pairs: at that threshold,
     at most that share of the tuning set's UAV-free windows alarms
