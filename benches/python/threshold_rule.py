@@ -21,7 +21,7 @@ The real clips have no second draw, and their network is tuned on a quarter of i
 recordings held out (``--held-out``); read on the real test split, this measures what the rule,
 chosen on the synthetic seeds, costs or gains there, and chooses nothing:
 
-    python benches/python/threshold_rule.py runs/reproduce/model-real.npz \\
+    python benches/python/threshold_rule.py runs/reproduce/model-real.npz --within 0.01 \\
         --tune runs/reproduce/data/real --held-out runs/reproduce/data/real
 """
 
@@ -107,7 +107,11 @@ def main() -> None:
     parser.add_argument("validation", nargs="+", metavar="VALIDATION")
     parser.add_argument("--tune", required=True, metavar="DIR")
     parser.add_argument(
-        "--within", type=float, action="append", metavar="W", help="of the best (0.01)"
+        "--within",
+        type=float,
+        action="append",
+        metavar="W",
+        help=f"of the best (default: identify.THRESHOLD_WITHIN, {identify.THRESHOLD_WITHIN:g})",
     )
     parser.add_argument("--draws", type=int, default=200, help="redraws of the tuning set (200)")
     parser.add_argument(
