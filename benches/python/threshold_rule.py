@@ -57,18 +57,26 @@ def rule_thresholds(
     return rules
 
 
+def highest_class_share(
+    score: np.ndarray, label: np.ndarray, cls: np.ndarray, threshold: float
+) -> float:
+    """The largest share of its windows that any class of the UAV-free windows (``cls`` of the
+    windows ``label`` calls UAV-free; ``none`` for empty scenes) has scoring at or above
+    ``threshold``."""
+    free = ~np.asarray(label, bool)
+    return max((score[free & (cls == c)] >= threshold).mean() for c in np.unique(cls[free]))
+
+
 def class_share_threshold(
     score: np.ndarray, label: np.ndarray, cls: np.ndarray, share: float
 ) -> float:
     """The smallest of ``identify.threshold_accuracies``' candidates at which no class of the
-    UAV-free windows (``cls`` of the windows ``label`` calls UAV-free; ``none`` for empty
-    scenes) has more than ``share`` of its windows scoring at or above it: SPEC's per-class
-    target (5 %) as a rule set on the tuning windows. Above every score when none is low
-    enough."""
+    UAV-free windows has more than ``share`` of its windows scoring at or above it
+    (:func:`highest_class_share`): SPEC's per-class target (5 %) as a rule set on the tuning
+    windows. Above every score when none is low enough."""
     candidates, _ = identify.threshold_accuracies(score, label)
-    free = ~np.asarray(label, bool)
     for t in candidates:
-        if all((score[free & (cls == c)] >= t).mean() <= share for c in np.unique(cls[free])):
+        if highest_class_share(score, label, cls, t) <= share:
             return float(t)
     return float(np.nextafter(score.max(), np.inf))
 
@@ -156,10 +164,9 @@ def main() -> None:
     s, lab, cls, rec = (np.concatenate(p) for p in zip(*parts, strict=True))
     classes = [c for c in np.unique(cls) if c]
     base = s >= rules[SMALLEST]
-    free = ~label
     for rule, t in rules.items():
         call = s >= t
-        worst = max((score[free & (tune_cls == c)] >= t).mean() for c in np.unique(tune_cls[free]))
+        worst = highest_class_share(score, label, tune_cls, t)
         print(
             f"  {rule:21s} threshold {t:.3f} (tuning balanced {balanced(score >= t, label):.3f},"
             f" highest class {worst:.3f}): accuracy {(call == lab).mean():.3f}, UAV windows "
