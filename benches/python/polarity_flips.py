@@ -126,27 +126,32 @@ def _window_scores(s: Split, objects: np.ndarray) -> np.ndarray:
     return np.where(s.detected, best, -1.0)
 
 
-def fit_scorer(
-    kind: str, train: Split, tune: Split, with_flips: bool
-) -> Callable[[Split], np.ndarray]:
-    """The window scores of the UAV score of ``kind`` (``"logistic"`` or ``"trees"``) fitted on
-    ``train``'s usable objects, tuned on ``tune``'s, with or without the flip columns."""
+def fit_scorers(
+    train: Split, tune: Split, with_flips: bool
+) -> dict[str, Callable[[Split], np.ndarray]]:
+    """The window scores of each kind of UAV score (``"logistic"``, ``"trees"``) fitted on
+    ``train``'s usable objects, tuned on ``tune``'s, with or without the flip columns: the
+    logistic fit standardises the columns, and the trees are fitted on the same standardised
+    columns."""
     x, u = _columns(train, with_flips), train.feats.usable
     xt, ut = _columns(tune, with_flips), tune.feats.usable
     mean, scale, coef, _ = identify.fit_score(
         x[u], train.feats.label[u], xt[ut], tune.feats.label[ut]
     )
-    if kind == "logistic":
-        return lambda s: _window_scores(
-            s, predict_logistic(coef, (_columns(s, with_flips) - mean) / scale)
-        )
     trees, _ = identify.fit_tree_score(
         (x[u] - mean) / scale,
         train.feats.label[u],
         (xt[ut] - mean) / scale,
         tune.feats.label[ut],
     )
-    return lambda s: _window_scores(s, trees.predict((_columns(s, with_flips) - mean) / scale))
+
+    def z(s: Split) -> np.ndarray:
+        return (_columns(s, with_flips) - mean) / scale
+
+    return {
+        "logistic": lambda s: _window_scores(s, predict_logistic(coef, z(s))),
+        "trees": lambda s: _window_scores(s, trees.predict(z(s))),
+    }
 
 
 def main() -> None:
@@ -178,10 +183,11 @@ def main() -> None:
         print(f"    {c or 'unnamed (off the labelled box)'} ({int(rows.sum())}): {means}")
     label = np.concatenate([p.label for p in parts])
     recording = np.concatenate([p.recording for p in parts])
+    fitted = {with_flips: fit_scorers(train, tune, with_flips) for with_flips in (False, True)}
     for kind in ("logistic", "trees"):
         calls, scores = {}, {}
         for with_flips in (False, True):
-            scorer = fit_scorer(kind, train, tune, with_flips)
+            scorer = fitted[with_flips][kind]
             threshold = identify.best_threshold(scorer(tune), tune.label)
             scores[with_flips] = np.concatenate([scorer(p) for p in parts])
             calls[with_flips] = scores[with_flips] >= threshold
