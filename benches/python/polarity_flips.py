@@ -34,6 +34,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+from track_window_score import window_scores  # per window its best object, -1 where not fired
 
 from uavsnn import Network, identify
 from uavsnn.dataset import LabelledWindows, load
@@ -120,12 +121,6 @@ def _columns(s: Split, with_flips: bool) -> np.ndarray:
     return np.hstack([s.feats.x, s.flips]) if with_flips else s.feats.x
 
 
-def _window_scores(s: Split, objects: np.ndarray) -> np.ndarray:
-    best = np.zeros(s.feats.windows)
-    np.maximum.at(best, s.feats.window, objects)
-    return np.where(s.detected, best, -1.0)
-
-
 def fit_scorers(
     train: Split, tune: Split, with_flips: bool
 ) -> dict[str, Callable[[Split], np.ndarray]]:
@@ -149,8 +144,8 @@ def fit_scorers(
         return (_columns(s, with_flips) - mean) / scale
 
     return {
-        "logistic": lambda s: _window_scores(s, predict_logistic(coef, z(s))),
-        "trees": lambda s: _window_scores(s, trees.predict(z(s))),
+        "logistic": lambda s: window_scores(s.feats, predict_logistic(coef, z(s)), s.detected),
+        "trees": lambda s: window_scores(s.feats, trees.predict(z(s)), s.detected),
     }
 
 
