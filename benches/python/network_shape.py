@@ -24,6 +24,7 @@ import json  # noqa: E402
 from dataclasses import dataclass  # noqa: E402
 
 import numpy as np  # noqa: E402
+from track_window_score import window_scores  # noqa: E402
 
 from uavsnn import Network, identify  # noqa: E402
 from uavsnn.dataset import LabelledWindows, load  # noqa: E402
@@ -117,9 +118,7 @@ def score_variant(extra, train, tune, test, base=None) -> dict[str, float]:
 
     def window_score(o, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         objects = identify.predict_logistic(coef, (x - mean) / scale)
-        best = np.zeros(o.feats.windows)
-        np.maximum.at(best, o.feats.window, objects)
-        return np.where(o.detected, best, -1.0), objects
+        return window_scores(o.feats, objects, o.detected), objects
 
     threshold = identify.best_threshold(window_score(tune, xs["tune"])[0], tune.label)
     score, objects = window_score(test, xs["test"])
