@@ -350,3 +350,50 @@ def test_rotor_by_class_reads_the_labelled_drones_blade_pass(bench_script):
     heli = rotor.windows_of(source, cut, "helicopter", 500)
     assert heli and all(r["rec"] == 500 for r in heli)
     assert scene_spec(source, "object", 500, "helicopter").objects[0].kind == "helicopter"
+
+
+def test_pix2nvs_choice_leads_pair_windows_and_clips_by_name(bench_script):
+    choice = bench_script("pix2nvs_choice")
+
+    def read(name, keys, label, called, clip_right):
+        n = len(keys)
+        label = np.array(label)
+        rows = [
+            {"clip": c, "uav": u, "rules": {"identified": {"alarmed": u == ok}}}
+            for c, (u, ok) in clip_right.items()
+        ]
+        clip = np.array([k[0] for k in keys])
+        flags = np.array(called)
+        return choice.Read(name, keys, label, clip, flags, flags, np.zeros(n), rows)
+
+    # clip a: two UAV windows; clip b: two UAV-free ones; c: one of each
+    keys = [("a", 0), ("a", 25), ("b", 0), ("b", 25), ("c", 0), ("c", 25)]
+    label = [True, True, False, False, True, False]
+    clips = {"a": (True, True), "b": (False, True), "c": (True, True)}
+    ref = read("ref", keys, label, [True, False, False, False, False, False], clips)
+    # the same calls listed in another order, and a window the reference does not keep
+    order = [5, 4, 3, 2, 1, 0]
+    same = read(
+        "same",
+        [keys[i] for i in order] + [("d", 0)],
+        [label[i] for i in order] + [True],
+        [ref.called[i] for i in order] + [True],
+        clips,
+    )
+    assert choice.window_lead(same, ref, "called") == (0.0, (0.0, 0.0), 6)
+    # one more UAV window called (of three) and one UAV-free window called (of three)
+    mine = read("mine", keys, label, [True, True, False, True, False, False], clips)
+    lead, (lo, hi), n = choice.window_lead(mine, ref, "fired")
+    assert n == 6 and lead == pytest.approx(0.5 * (1 / 3 - 1 / 3)) and lo <= lead <= hi
+    better = read("better", keys, label, [True, True, False, False, True, False], clips)
+    lead, (lo, hi), _ = choice.window_lead(better, ref, "called")
+    assert lead == pytest.approx(0.5 * 2 / 3) and 0 < lo <= lead <= hi
+    # a shared window labelled otherwise is two datasets' disagreement, not a lead
+    relabelled = read("x", keys, [not v for v in label], ref.called.tolist(), clips)
+    with pytest.raises(SystemExit, match="label a shared window differently"):
+        choice.window_lead(relabelled, ref, "called")
+    # clips: b decided wrong by the other, paired by name
+    wrong_b = read("w", keys, label, ref.called.tolist(), clips | {"b": (False, False)})
+    assert choice.clip_right(wrong_b, "identified") == {"a": True, "b": False, "c": True}
+    diff, (lo, hi) = choice.clip_lead(wrong_b, ref, "identified")
+    assert diff == -1 and lo <= -1 / 3 <= hi <= 0
