@@ -19,12 +19,17 @@ for _var in ("RAYON_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MK
 
 import argparse  # noqa: E402
 import json  # noqa: E402
+import sys  # noqa: E402
+from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
 from uavsnn import Network, identify, report  # noqa: E402
 from uavsnn.dataset import load  # noqa: E402
 from uavsnn.evaluation import FALSE_ALARM_RATES, detection_at_false_alarm  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from track_window_score import window_scores  # noqa: E402
 
 
 def main() -> None:
@@ -46,9 +51,7 @@ def main() -> None:
     if uav is not None:
         scores["class_part"] = ident.class_probabilities(feats.x)[:, uav]
     for name, s in scores.items():
-        w = np.zeros(len(test))
-        np.maximum.at(w, feats.window, s)
-        w = np.where(inference.detected, w, -np.inf)
+        w = window_scores(feats, s, inference.detected)
         detection[name] = {
             f"{r:g}": detection_at_false_alarm(w, label, r) for r in FALSE_ALARM_RATES
         }
