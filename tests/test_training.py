@@ -118,6 +118,34 @@ def test_checkpoint_survives_an_interruption_and_resume_gives_the_same_model(
     assert json.loads((ckpt / STATE_FILE).read_text())["done"] == ["conv2", "conv3"]
 
 
+def test_resume_before_any_checkpoint_trains_every_layer(
+    windows: uavsnn.windows.Windows, tmp_path: Path
+) -> None:
+    # A run stopped in its first layer has written nothing: resuming it raised KeyError 'done'.
+    whole = uavsnn.Network(CONFIG, seed=3)
+    train(whole, windows, windows_per_layer=100, seed=4, snapshots=0)
+
+    class Stop(Exception):
+        pass
+
+    def interrupt(layer: str, done: int, total: int, convergence: float) -> None:
+        if done > 32:
+            raise Stop
+
+    ckpt = tmp_path / "ckpt"
+    with pytest.raises(Stop):
+        train(uavsnn.Network(CONFIG, seed=3), windows, windows_per_layer=100, seed=4,
+              snapshots=0, checkpoint_dir=ckpt, progress=interrupt)  # fmt: skip
+    assert not (ckpt / STATE_FILE).exists()
+    for folder in (ckpt, tmp_path / "never-made"):
+        net = uavsnn.Network(CONFIG, seed=3)
+        result = train(net, windows, windows_per_layer=100, seed=4, snapshots=0,
+                       checkpoint_dir=folder, resume=True)  # fmt: skip
+        assert result.resumed == () and list(result.layers) == ["conv2", "conv3"]
+        assert net == whole
+        assert json.loads((folder / STATE_FILE).read_text())["done"] == ["conv2", "conv3"]
+
+
 def test_resume_refuses_a_checkpoint_of_other_layers(
     windows: uavsnn.windows.Windows, tmp_path: Path
 ) -> None:

@@ -122,7 +122,9 @@ def train(
     layer may see fewer than one such interval more. The learning-rate schedule restarts from
     the config's rates for each layer. ``snapshots`` (at most :data:`MAX_SNAPSHOTS`) weight
     copies per layer are kept for the pictures of how features evolve.
-    Layer ``i`` shuffles with seed ``seed + i``.
+    Layer ``i`` shuffles with seed ``seed + i``. With ``checkpoint_dir`` the model is written
+    there after each layer; ``resume`` continues after the last layer written, and trains
+    every layer where none was (a run stopped in its first layer, or a folder not made yet).
 
     Raises:
         ParameterError: an unknown layer, layers out of order, a bad count, ``resume``
@@ -296,7 +298,8 @@ def _progress_fn(progress: bool | ProgressFn) -> ProgressFn:
 
 
 def _new_state() -> dict[str, Any]:
-    return {"format": "uavsnn-training-state", "version": 1, "layers": {}}
+    """The state of a run that has written no checkpoint: no layer done."""
+    return {"format": "uavsnn-training-state", "version": 1, "done": [], "layers": {}}
 
 
 def _write_checkpoint(
