@@ -138,3 +138,38 @@ def test_any_fit_predicts_probabilities_and_lowers_the_training_loss(n, d, depth
         return float(np.mean(np.logaddexp(0.0, np.where(y, -raw, raw))))
 
     assert loss(model.raw(x)) <= loss(np.full(n, model.base)) + 1e-12
+
+
+def test_rows_of_another_width_than_the_fit_are_refused() -> None:
+    # Rows of five columns scored by trees fitted on four gave probabilities, silently wrong.
+    x, y = xor(200, 1)
+    model = fit_trees(x, y, trees=5)
+    assert model.width == 4 and model.predict(x).shape == (200,)
+    for rows in (np.zeros((2, 5)), np.zeros((2, 3)), np.zeros(4)):
+        with pytest.raises(ShapeError, match=r"x must be \(n, 4\)"):
+            model.predict(rows)
+    # without a width (a model file's trees) rows need the columns split on, and may have more
+    loaded = Trees(model.feature, model.threshold, model.leaf, model.base)
+    assert np.array_equal(loaded.predict(np.hstack([x, x])), model.predict(x))
+    with pytest.raises(ParameterError, match="width must be an integer >= 2"):
+        Trees(np.array([[1]]), np.zeros((1, 1)), np.zeros((1, 2)), 0.0, width=1)
+
+
+def test_logistic_and_softmax_coefficients_of_another_width_are_refused() -> None:
+    from uavsnn.linear import fit_softmax, predict_softmax
+
+    x, y = xor(50, 2)
+    coef = fit_logistic(x, y)
+    assert predict_logistic(coef, x).shape == (50,)
+    soft = fit_softmax(x, y.astype(np.int64), 2)
+    assert predict_softmax(soft, x).shape == (50, 2)
+    # NumPy's ValueError from the product came out before
+    for rows in (x[:, :3], x[0]):
+        with pytest.raises(ShapeError, match="coefficients"):
+            predict_logistic(coef, rows)
+        with pytest.raises(ShapeError, match="coefficients"):
+            predict_softmax(soft, rows)
+    with pytest.raises(ShapeError, match="coefficients"):
+        predict_logistic(soft, x)
+    with pytest.raises(ShapeError, match="coefficients"):
+        predict_softmax(coef, x)

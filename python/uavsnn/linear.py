@@ -76,8 +76,29 @@ def labelled(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def predict_logistic(coef: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """``sigmoid(x @ coef[:-1] + coef[-1])``."""
-    return sigmoid(np.asarray(x, dtype=np.float64) @ coef[:-1] + coef[-1])
+    """``sigmoid(x @ coef[:-1] + coef[-1])``.
+
+    Raises:
+        ShapeError: ``coef`` not ``(d + 1,)`` for ``x`` ``(n, d)``.
+    """
+    coef = np.asarray(coef, dtype=np.float64)
+    x = _rows(x, coef.shape[-1] - 1 if coef.ndim == 1 else -1, "(d + 1,)", coef.shape)
+    return sigmoid(x @ coef[:-1] + coef[-1])
+
+
+def _rows(x: np.ndarray, d: int, expected: str, shape: tuple[int, ...]) -> np.ndarray:
+    """``x`` as float64 ``(n, d)``; ``d`` < 0 when the coefficients' ``shape`` is not the
+    ``expected`` one.
+
+    Raises:
+        ShapeError: either shape wrong.
+    """
+    x = np.asarray(x, dtype=np.float64)
+    if d < 0 or x.ndim != 2 or x.shape[1] != d:
+        raise ShapeError(
+            f"coefficients {expected} take x (n, d): got coefficients {shape} and x {x.shape}"
+        )
+    return x
 
 
 def sigmoid(z: np.ndarray) -> np.ndarray:
@@ -146,8 +167,14 @@ def fit_softmax(
 
 
 def predict_softmax(coef: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """Class probabilities ``(m, classes)``: ``softmax(x @ coef[:, :-1].T + coef[:, -1])``."""
-    z = np.asarray(x, dtype=np.float64) @ coef[:, :-1].T + coef[:, -1]
+    """Class probabilities ``(m, classes)``: ``softmax(x @ coef[:, :-1].T + coef[:, -1])``.
+
+    Raises:
+        ShapeError: ``coef`` not ``(classes, d + 1)`` for ``x`` ``(m, d)``.
+    """
+    coef = np.asarray(coef, dtype=np.float64)
+    d = coef.shape[1] - 1 if coef.ndim == 2 else -1
+    z = _rows(x, d, "(classes, d + 1)", coef.shape) @ coef[:, :-1].T + coef[:, -1]
     z -= z.max(axis=1, keepdims=True)
     e = np.exp(z)
     return e / e.sum(axis=1, keepdims=True)

@@ -51,7 +51,9 @@ class Trees:
     of each tree splits on; ``threshold`` ``(T, D)`` float64: a row goes right at that level
     when its value is above it; ``leaf`` ``(T, 2^D)`` float64: the value each leaf adds;
     ``base``: the raw score before any tree. The probability is ``sigmoid(base + sum of
-    leaves)``.
+    leaves)``. ``width``: the columns of the rows :func:`fit_trees` fitted it on, which every
+    row scored must have (``None`` where not known, as in a model file: a row then needs the
+    columns the trees split on, :attr:`columns`).
 
     Raises:
         ShapeError: arrays that do not fit together.
@@ -62,6 +64,7 @@ class Trees:
     threshold: np.ndarray
     leaf: np.ndarray
     base: float
+    width: int | None = None
 
     def __post_init__(self) -> None:
         f, t, v = self.feature, self.threshold, self.leaf
@@ -78,6 +81,13 @@ class Trees:
             raise ParameterError("tree features must be column indices >= 0")
         if not (np.isfinite(t).all() and np.isfinite(v).all() and math.isfinite(self.base)):
             raise ParameterError("tree thresholds, leaves and base must be finite")
+        if self.width is not None and not (
+            isinstance(self.width, int) and self.width >= max(self.columns, 1)
+        ):
+            raise ParameterError(
+                f"width must be an integer >= {max(self.columns, 1)} (the columns split on), "
+                f"got {self.width!r}"
+            )
 
     @property
     def columns(self) -> int:
@@ -87,6 +97,8 @@ class Trees:
     def raw(self, x: np.ndarray) -> np.ndarray:
         """The raw score (log odds) of each row of ``x`` ``(n, d)``."""
         x = np.asarray(x, dtype=np.float64)
+        if self.width is not None and (x.ndim != 2 or x.shape[1] != self.width):
+            raise ShapeError(f"x must be (n, {self.width}), the rows fitted on, got {x.shape}")
         if x.ndim != 2 or x.shape[1] < self.columns:
             raise ShapeError(f"x must be (n, >= {self.columns}), got {x.shape}")
         count, depth = self.feature.shape
@@ -219,4 +231,4 @@ def fit_trees(
                 best_loss, kept = loss, t + 1
         else:
             kept = t + 1
-    return Trees(feats[:kept].copy(), thresholds[:kept].copy(), leaves[:kept].copy(), base)
+    return Trees(feats[:kept].copy(), thresholds[:kept].copy(), leaves[:kept].copy(), base, d)
