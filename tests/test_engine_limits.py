@@ -130,6 +130,18 @@ def test_live_windows_whose_states_exceed_memory_are_refused() -> None:
         Detector(net, overlap=0.5)
 
 
+def test_the_first_event_past_the_largest_streamed_time_is_named() -> None:
+    # The chunk's last event was named ("event 2") though event 1 is the first past the limit.
+    from uavsnn.detector import Detector
+
+    det = Detector(Network({"width": 16, "height": 16}))
+    events = np.zeros(3, dtype=EVENT_DTYPE)
+    events["t"] = [1, MAX_TIME_US + 5, MAX_TIME_US + 6]
+    with pytest.raises(uavsnn.EventError, match=rf"^event 1: t={MAX_TIME_US + 5} is beyond"):
+        det.push(events)
+    assert len(det.push(events[:1])) == 0  # the refused chunk changed nothing
+
+
 def test_a_model_file_listing_an_entry_twice_is_refused(tmp_path) -> None:
     # A zip directory may name one stored entry many times (a 10 MB file asked for 655 GB).
     import warnings

@@ -274,11 +274,24 @@ impl<E: WindowEngine> Detector<E> {
         let Some(n) = events.len().checked_sub(1) else {
             return Ok(());
         };
-        let (first, last) = (events.get(0), events.get(n));
-        if last.t > MAX_TIME_US {
+        let first = events.get(0);
+        if events.get(n).t > MAX_TIME_US {
+            // The chunk is in time order: the first event past the limit, by bisection.
+            let (mut lo, mut hi) = (0, n);
+            while lo < hi {
+                let mid = lo + (hi - lo) / 2;
+                if events.get(mid).t > MAX_TIME_US {
+                    hi = mid;
+                } else {
+                    lo = mid + 1;
+                }
+            }
             return Err(Error::InvalidEvent {
-                index: n,
-                reason: format!("t={} is beyond the largest time streamed (2^62 µs)", last.t),
+                index: lo,
+                reason: format!(
+                    "t={} is beyond the largest time streamed (2^62 µs)",
+                    events.get(lo).t
+                ),
             });
         }
         if let Some(previous) = self.last_t.filter(|&p| first.t < p) {

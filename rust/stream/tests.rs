@@ -410,6 +410,23 @@ fn empty_chunks_are_fine_and_parameters_are_checked() {
         .push(&[ev(1, 0, 0), ev(u64::MAX, 0, 0)], &mut out)
         .unwrap_err();
     assert!(matches!(err, Error::InvalidEvent { index: 1, .. }), "{err}");
+    // The first event past 2^62 µs is named, not the chunk's last.
+    let past = crate::windows::MAX_TIME_US + 5;
+    for (chunk, first) in [
+        (vec![ev(1, 0, 0), ev(past, 0, 0), ev(past + 1, 0, 0)], 1),
+        (vec![ev(past, 0, 0), ev(past, 1, 0)], 0),
+        (
+            vec![ev(1, 0, 0), ev(2, 0, 0), ev(3, 0, 0), ev(past, 0, 0)],
+            3,
+        ),
+    ] {
+        let err = d.push(&chunk, &mut out).unwrap_err();
+        assert!(
+            matches!(err, Error::InvalidEvent { index, .. } if index == first),
+            "{chunk:?}: {err}"
+        );
+        assert!(err.to_string().contains(&format!("t={past} ")), "{err}");
+    }
 }
 
 #[test]
