@@ -105,6 +105,32 @@ def test_every_faery_format_round_trips(tmp_path: Path, ext: str) -> None:
     assert rec.metadata["format"] == io.FORMATS[f".{ext}"]
 
 
+def test_every_format_reads_whatever_the_case_of_its_extension(tmp_path: Path) -> None:
+    # faery was handed the file to guess its format from the suffix, which it takes in lower
+    # case only: "UP.RAW", "UP.EVT" and "UP.CSV" were refused ("unsupported file extension").
+    faery = pytest.importorskip("faery")
+    ev = _events()
+    for ext in ("aedat4", "es", "dat", "raw", "csv", "npz", "npy"):
+        lower = tmp_path / f"rec.{ext}"
+        if ext == "npz":
+            io.write_npz(Recording(ev, (64, 48)), lower)
+        elif ext == "npy":
+            np.save(lower, ev)
+        else:
+            stream = faery.events_stream_from_array(ev.astype(faery.EVENTS_DTYPE), (64, 48))
+            stream.to_file(lower, zero_t0=False)
+        names = [f"REC.{ext.upper()}", f"Rec.{ext[:1].upper()}{ext[1:]}"]
+        names += ["REC.EVT"] if ext == "raw" else []
+        for name in names:
+            shutil.copyfile(lower, tmp_path / name)
+            rec = io.read(tmp_path / name, sensor_size=(64, 48))
+            np.testing.assert_array_equal(rec.events, ev)
+            assert rec.metadata["format"] == io.FORMATS[f".{ext}"], name
+    # Written with an upper-case suffix, read back the same.
+    io.write_npz(Recording(ev, (64, 48)), tmp_path / "OUT.NPZ")
+    np.testing.assert_array_equal(io.read(tmp_path / "OUT.NPZ").events, ev)
+
+
 def test_npz_round_trip_is_exact_and_atomic(tmp_path: Path) -> None:
     rec = Recording(_events(), (64, 48), {"scene": "lab", "seed": np.int64(3)})
     path = tmp_path / "rec.npz"
@@ -127,6 +153,17 @@ def test_write_npz_leaves_the_old_file_when_it_fails(tmp_path: Path) -> None:
         io.write_npz(Recording(_events(20), (64, 48)), tmp_path / "missing" / "rec.npz")
     assert path.read_bytes() == before
     assert [p.name for p in tmp_path.iterdir()] == ["rec.npz"]
+
+
+def test_write_npz_into_a_missing_folder_names_the_path_not_a_temporary_file(
+    tmp_path: Path,
+) -> None:
+    # The error named the hidden temporary file beside it ("nodir/.rec.npz.36f74a899a13.tmp").
+    path = tmp_path / "nodir" / "rec.npz"
+    with pytest.raises(uavsnn.RecordingFileError) as caught:
+        io.write_npz(Recording(_events(10), (64, 48)), path)
+    assert str(caught.value) == f"{path}: cannot write: {os.strerror(2)}"
+    assert list(tmp_path.iterdir()) == []
 
 
 @pytest.mark.parametrize(
@@ -239,6 +276,32 @@ def test_truncated_dat_files_are_refused(tmp_path: Path) -> None:
         io.read(cut, sensor_size=(64, 48))
 
 
+def _dat(path: Path, times: list[int]) -> Path:
+    """A DAT file of CD events (type 0x0C, 8-byte records: the time in the low 32 bits, then
+    x, y and the polarity) at pixel (1, 2), ON, at these 32-bit times."""
+    head = b"% Width 640\n% Height 480\n"
+    records = np.array([t | (1 << 32) | (2 << 46) | (1 << 60) for t in times], "<u8")
+    path.write_bytes(head + bytes([0x0C, 8]) + records.tobytes())
+    return path
+
+
+def test_dat_times_going_backwards_are_refused_and_their_rollover_is_read(tmp_path: Path) -> None:
+    # faery clamps a time earlier than the one before to it: 10, 5, 20 read as 10, 10, 20.
+    back = _dat(tmp_path / "back.dat", [10, 5, 20])
+    message = r"back\.dat: event 1 \(byte 35\): time 5 is earlier than the time before it \(10\)"
+    with pytest.raises(uavsnn.RecordingFileError, match=message):
+        io.read(back)
+    # A jump back of more than 2^31 µs is the 32-bit time rolling over, read as such; an
+    # earlier time after it is refused as well, as it reads.
+    wrap = 2**32
+    rolled = io.read(_dat(tmp_path / "rolled.dat", [10, wrap - 5, 3, 3, 7]))
+    assert rolled.events["t"].tolist() == [10, wrap - 5, wrap + 3, wrap + 3, wrap + 7]
+    assert rolled.events[["x", "y", "p"]].tolist() == [(1, 2, True)] * 5
+    with pytest.raises(uavsnn.RecordingFileError, match=f"event 3 .*time {wrap + 1} is earlier"):
+        io.read(_dat(tmp_path / "late.dat", [10, wrap - 5, 3, 1]))
+    assert len(io.read(_dat(tmp_path / "none.dat", []))) == 0
+
+
 def test_npz_sensor_size_contradicting_the_file_is_refused(tmp_path: Path) -> None:
     path = tmp_path / "rec.npz"
     io.write_npz(Recording(_events(), (64, 48)), path)
@@ -288,7 +351,7 @@ def test_info_command_reports_counts_and_rates(
     t = rec.events["t"].astype(np.int64)
     assert info["events"] == len(rec) and info["sensor_size"] == [640, 480]
     assert info["duration_us"] == t[-1] - t[0]
-    assert info["mean_rate_ev_per_s"] == pytest.approx(len(t) / ((t[-1] - t[0]) * 1e-6))
+    assert info["mean_rate_ev_per_s"] == pytest.approx((len(t) - 1) / ((t[-1] - t[0]) * 1e-6))
     busiest = np.bincount((t - t[0]) // 1000).max()
     assert info["peak_rate_ev_per_s"] == busiest * 1000
     assert main(["info", str(path)]) == 0
@@ -312,6 +375,32 @@ def test_info_gives_no_peak_rate_for_events_shorter_than_a_bin(
     np.savez(path, events=ev, sensor_size=np.array([64, 48]))
     assert main(["info", str(path)]) == 0
     assert "peak rate:   n/a (the events span less than 1 ms)" in capsys.readouterr().out
+
+
+def test_info_mean_rate_is_not_above_the_peak_for_events_spread_evenly(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # 1,001 events over 0..1000 µs read a mean of 1,001,000 ev/s against a peak of 1,000,000:
+    # N over last - first counts one interval too many.
+    ev = np.zeros(1001, EVENT_DTYPE)
+    ev["t"] = np.arange(1001)
+    info = summary(Recording(ev, (64, 48)))
+    assert info["mean_rate_ev_per_s"] == info["peak_rate_ev_per_s"] == 1_000_000
+    # Events every `step` µs over 1 to 3 ms: a mean of 1 / step at most their busiest bin's.
+    for step in (1, 2, 3, 7, 10):
+        for count in range(1000 // step + 1, 3000 // step + 2):
+            ev = np.zeros(count, EVENT_DTYPE)
+            ev["t"] = step * np.arange(count)
+            info = summary(Recording(ev, (64, 48)))
+            if info["peak_rate_ev_per_s"] is not None:
+                assert info["mean_rate_ev_per_s"] <= info["peak_rate_ev_per_s"], (step, count)
+    path = tmp_path / "ms.npz"
+    ev = np.zeros(1001, EVENT_DTYPE)
+    ev["t"] = np.arange(1001)
+    io.write_npz(Recording(ev, (64, 48)), path)
+    assert main(["info", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "mean rate:   1,000,000 ev/s" in out and "peak rate:   1,000,000 ev/s" in out
 
 
 def test_info_command_survives_bad_files(
@@ -534,6 +623,48 @@ def test_csv_off_events_written_both_ways_are_refused(tmp_path: Path) -> None:
     # A header naming fewer than the four fields leaves the usual order (t, x, y, p).
     path.write_text("time,x,y,brightness\n5,2,3,1\n")
     assert io.read(path, sensor_size=(64, 48)).events.tolist() == [(5, 2, 3, True)]
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        "t,x,y,p\n5,2,3,1\n6,4,5,0\n\n",  # a blank last line (faery refused it)
+        "t,x,y,p\r\n5,2,3,1\r\n6,4,5,0\r\n\r\n \r\n\t\n",
+        "t,x,y,p\n5,2,3,1\n\n\n6,4,5,0\n  ",
+        "\n\nt,x,y,p\n5,2,3,1\n6,4,5,0\n",  # blank lines before the header
+        "\n5,2,3,1\n\n6,4,5,0\n",
+        "\n\nx,y,t,p\n2,3,5,1\n\n4,5,6,-1\n",
+        "\ufeff5,2,3,1\n\n6,4,5,0\n\n",
+        "\ufeff\nt,x,y,p\n5,2,3,1\n6,4,5,0\n",
+    ],
+)
+def test_csv_blank_lines_are_skipped(tmp_path: Path, text: str) -> None:
+    path = tmp_path / "rec.csv"
+    path.write_bytes(text.encode())
+    rec = io.read(path, sensor_size=(64, 48))
+    assert rec.events.tolist() == [(5, 2, 3, True), (6, 4, 5, False)]
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ("t,x,y,p\n5,1,2,1\n6,a,2,1\n", "line 3: '6,a,2,1': x 'a' is not an integer"),
+        ("t,x,y,p\n5,1,2,1\n\n6,a,2,1\n\n", "line 4: '6,a,2,1': x 'a' is not an integer"),
+        ("\n5,1,2,1\n6,1\n", r"line 3: '6,1': no y \(field 3\)"),
+        ("t,x,y,p\n\n5,1,2,1\n-6,1,2,1\n", "line 4: '-6,1,2,1': t '-6' is not a whole"),
+        ("t,x,y,p\n5,1,2,1\n6,1,2,2\n", "line 3: '6,1,2,2': p '2' is neither 1 nor 0"),
+        ("5,1,2,1\n\n6,64,2,1\n", "line 3: '6,64,2,1': x=64, y=2 is off the 64x48 sensor"),
+        # faery reads "+6" as 6: a time that goes backwards too.
+        ("10,1,2,1\n+6,1,2,1\n", "line 2: time 6 is earlier than the time before it"),
+    ],
+)
+def test_csv_lines_faery_cannot_read_are_refused_naming_the_line(
+    tmp_path: Path, text: str, message: str
+) -> None:
+    path = tmp_path / "bad.csv"
+    path.write_text(text)
+    with pytest.raises(uavsnn.RecordingFileError, match=f"^{re.escape(str(path))}: {message}"):
+        io.read(path, sensor_size=(64, 48))
 
 
 def test_an_npz_with_tonic_sensor_size_reads(tmp_path: Path) -> None:

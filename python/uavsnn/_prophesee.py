@@ -18,6 +18,7 @@ from uavsnn.events import EVENT_DTYPE
 __all__ = [
     "CAMERA_SENSOR_SIZES",
     "camera_size",
+    "check_dat_times",
     "decode_evt21",
     "file_geometry",
     "format_geometry",
@@ -80,6 +81,44 @@ def raw_header(file: Path, kind: str, size: int) -> dict[str, str]:
     return fields
 
 
+# DAT records (8 bytes, little-endian) hold the time in µs in their low 32 bits. faery 0.7 reads
+# a time more than 2^31 µs earlier than the one before as the 32-bit time rolling over, and
+# clamps any other earlier time to the one before, silently.
+_DAT_ROLLOVER = 1 << 31
+_DAT_CHUNK_RECORDS = 1 << 20
+
+
+def check_dat_times(file: Path, offset: int) -> None:
+    """Refuse a DAT file of 8-byte records whose data section (its type and size bytes at
+    ``offset``, then the records) has a time earlier than the one before it, other than the
+    32-bit time rolling over (a jump back of more than 2^31 µs), naming the event: faery would
+    clamp it to the time before."""
+    start = offset + 2
+    previous = 0  # the last time (low 32 bits), as faery starts
+    turns = 0  # the rollovers so far
+    first = 0  # the index of the chunk's first record
+    with open(file, "rb") as handle:
+        handle.seek(start)
+        while chunk := handle.read(8 * _DAT_CHUNK_RECORDS):
+            words = np.frombuffer(chunk, "<u8", count=len(chunk) // 8)
+            t = (words & 0xFFFF_FFFF).astype(np.int64)
+            back = np.concatenate(([previous], t[:-1])) - t  # > 0: earlier than the one before
+            rollover = back > _DAT_ROLLOVER
+            late = np.flatnonzero((back > 0) & ~rollover)
+            if len(late):
+                k = int(late[0])
+                base = (turns + int(rollover[:k].sum())) << 32
+                index = first + k
+                raise RecordingFileError(
+                    f"{file}: event {index} (byte {start + 8 * index}): time {base + int(t[k])} "
+                    f"is earlier than the time before it ({base + int(t[k]) + int(back[k])}); "
+                    "events must be in time order"
+                )
+            turns += int(rollover.sum())
+            previous = int(t[-1]) if len(t) else previous
+            first += len(t)
+
+
 #: Sensor sizes of Prophesee's camera generations, found in a RAW/DAT header's
 #: ``plugin_name`` (``hal_plugin_gen3_fx3``, ``hal_plugin_gen41_evk3`` ...) or
 #: ``integrator_name``/``sensor_generation`` lines, for files whose header carries no geometry.
@@ -106,16 +145,19 @@ def camera_size(fields: dict[str, str]) -> tuple[str, tuple[int, int]] | None:
     return None
 
 
-def file_geometry(file: Path) -> tuple[int, int] | None:
-    """The sensor size written in a RAW/DAT file's header, or ``None`` if it has none.
+def file_geometry(file: Path, kind: str) -> tuple[int, int] | None:
+    """The sensor size written in the header of a RAW (``kind`` ``"evt"``) or DAT (``"dat"``)
+    file, or ``None`` if it has none.
 
     faery reports the fallback it is given when the header has no geometry, so two different
     fallbacks tell the cases apart.
     """
     import faery
 
-    first = faery.events_stream_from_file(file, dimensions_fallback=(1, 1)).dimensions()
-    second = faery.events_stream_from_file(file, dimensions_fallback=(2, 2)).dimensions()
+    first, second = (
+        faery.events_stream_from_file(file, dimensions_fallback=size, file_type=kind).dimensions()
+        for size in ((1, 1), (2, 2))
+    )
     return (int(first[0]), int(first[1])) if tuple(first) == tuple(second) else None
 
 

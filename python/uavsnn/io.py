@@ -6,8 +6,12 @@ Rust decoder, except EVT 2.1 (faery 0.7 does not implement it), which is decoded
 ``% evt 2.1`` headers and from ``% format EVT21;height=...;width=...`` (GenX320's, each 64-bit
 word little-endian; and the IMX636's, Gen4.1's and IMX646's ``...;endianness=legacy``, whose two
 32-bit halves come high half first); NumPy ``.npz`` and ``.npy`` are read natively, and
-recordings are written as ``.npz``. DAT files of CD events are read; the Event2D DAT files of
-the Gen1 automotive and N-CARS sets are refused (faery 0.7 reads only CD). Known limit of
+recordings are written as ``.npz``. A file's format is named by its extension, in any case
+(``.RAW`` as ``.raw``), and faery is told it (faery's own guess takes lower case only). DAT
+files of CD events are read; the Event2D DAT files of the Gen1 automotive and N-CARS sets are
+refused (faery 0.7 reads only CD). A DAT time more than 2^31 µs earlier than the one before is
+the 32-bit time rolling over, as faery reads it; any other time earlier than the one before
+is refused, naming the event (faery would clamp it to the time before). Known limit of
 faery 0.7's EVT 3.0 decoder: in a file whose events lie more than about 4 ms apart (as faery's
 own writer writes a sparse recording; camera recordings were not checked), the times after the
 24-bit time base wraps (16.8 s) come out wrong and are clamped, so no error is raised.
@@ -23,11 +27,13 @@ file whose header names the camera generation (Prophesee Gen3 files carry no geo
 
 A CSV file may start with a header line or not (faery would take the first line as a header
 always; a UTF-8 byte-order mark is skipped, and a first line that starts with a number is not a
-header). Its columns are ``t,x,y,p`` in that order, unless the header names all four in another
-(``t``/``ts``/``time``/``timestamp``, ``x``, ``y``, ``p``/``pol``/``polarity``/``on``, any
-case, ``_us`` allowed on the time); OFF events are ``0`` or ``-1`` (ON ``1``), one or the other
-throughout. Its times must be integers up to the engine's 2^62 µs and must not go backwards
-(faery would clamp them): such a file is refused, naming the line.
+header); blank lines (or white space only) are skipped, wherever they are. Its columns are
+``t,x,y,p`` in that order, unless the header names all four in another (``t``/``ts``/``time``/
+``timestamp``, ``x``, ``y``, ``p``/``pol``/``polarity``/``on``, any case, ``_us`` allowed on the
+time); OFF events are ``0`` or ``-1`` (ON ``1``), one or the other throughout. Its times must
+be integers up to the engine's 2^62 µs and must not go backwards (faery would clamp them): such
+a file is refused, naming the line, as is a line faery cannot read as an event (a field missing
+or not a number, another polarity, an event off the sensor).
 
 Every failure to read is a :class:`~uavsnn.RecordingFileError` naming the file: missing,
 unreadable, empty, of an unknown extension, truncated (RAW and DAT: a data section that is not
@@ -53,6 +59,7 @@ import os
 import re
 import struct
 import zipfile
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -65,6 +72,7 @@ from uavsnn._npy import npy_header, npz_arrays, npz_header, npz_read
 from uavsnn._prophesee import (
     CAMERA_SENSOR_SIZES,
     camera_size,
+    check_dat_times,
     decode_evt21,
     file_geometry,
     format_geometry,
@@ -464,36 +472,45 @@ def _read_faery(file: Path, kind: str, size: int, given: tuple[int, int] | None)
     try:
         if kind in ("evt", "dat"):
             stated = format_geometry(file, header)
-            geometry = file_geometry(file) or stated  # faery skips a "64X48"
+            geometry = file_geometry(file, kind) or stated  # faery skips a "64X48"
         elif kind == "csv":
             geometry = None
         else:
-            width, height = faery.events_stream_from_file(file).dimensions()
+            width, height = faery.events_stream_from_file(file, file_type=kind).dimensions()
             geometry = (int(width), int(height))
         sensor, source = _sensor_size(file, geometry, given, camera, metadata)
+        # The format is named: faery would guess it from the suffix, which must be lower-case.
+        options: dict[str, Any] = {"dimensions_fallback": sensor, "file_type": kind}
         if csv_layout is not None:
-            stream = faery.events_stream_from_file(
-                file, dimensions_fallback=sensor, csv_properties=csv_layout.properties(faery)
-            )
-        else:
-            stream = faery.events_stream_from_file(file, dimensions_fallback=sensor)
+            options["csv_properties"] = csv_layout.properties(faery)
+        stream = faery.events_stream_from_file(file, **options)
         chunks = _read_chunks(file, stream)
     except (ParameterError, RecordingFileError):
         raise
     except (KeyboardInterrupt, SystemExit):
         raise
     except BaseException as exc:  # faery raises RuntimeError, bare Exception, and panics
-        hint = ""
-        if source == "fallback" and "overflow" in str(exc):
-            hint = (
-                f" (the file has no geometry; the sensor was taken as {sensor}: give sensor_size)"
-            )
+        hint = _fallback_hint(sensor) if source == "fallback" and "overflow" in str(exc) else ""
         raise RecordingFileError(f"{file}: cannot decode as {kind}: {exc}{hint}") from exc
-    if csv_layout is not None and csv_layout.first_event is not None:
-        chunks.insert(0, csv_layout.first_event)
+    if kind == "dat" and "<data>" in header:  # (not found in a header beyond 64 KiB)
+        check_dat_times(file, int(header["<data>"]))
+    if csv_layout is not None:
+        count = sum(len(chunk) for chunk in chunks)
+        if count != csv_layout.events:
+            # faery skipped a line it could not read (it is told to, for blank lines).
+            hint = _fallback_hint(sensor) if source == "fallback" else ""
+            why = _csv_bad_line(file, csv_layout, sensor, count, hint)
+            raise RecordingFileError(f"{file}: {why}")
+        if csv_layout.first_event is not None:
+            chunks.insert(0, csv_layout.first_event)
     events = np.concatenate(chunks) if chunks else np.empty(0, EVENT_DTYPE)
     metadata["sensor_size_source"] = source
     return _recording(file, events, sensor, metadata)
+
+
+def _fallback_hint(sensor: tuple[int, int]) -> str:
+    """What an event off the sensor of a file without geometry may mean."""
+    return f" (the file has no geometry; the sensor was taken as {sensor}: give sensor_size)"
 
 
 def _read_chunks(file: Path, stream: Any) -> list[np.ndarray]:
@@ -530,10 +547,18 @@ _NUMBER = re.compile(rb"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?")
 _BOM = b"\xef\xbb\xbf"
 
 
+# What faery strips from a CSV line and from each of its fields (Rust's ``trim_ascii``), and a
+# field faery reads as an unsigned integer (Rust's ``parse``: an optional "+", then digits).
+_ASCII_SPACE = b" \t\n\x0c\r"
+_UNSIGNED = re.compile(rb"\+?[0-9]+")
+
+
 @dataclass(frozen=True)
 class _CsvLayout:
-    """How a CSV recording is laid out: a header line or not, the index of each column, the
-    value of an OFF polarity, and the event of a first line faery cannot read."""
+    """How a CSV recording is laid out: a header line or not (faery skips the first line), the
+    index of each column, the value of an OFF polarity, the event of a first line faery cannot
+    read, the number of the header line (0: none), and how many events faery is to read (one a
+    line, blank lines, the header and the first line's event read here aside)."""
 
     has_header: bool = False
     t: int = 0
@@ -542,9 +567,13 @@ class _CsvLayout:
     p: int = 3
     off: bytes = b"0"
     first_event: np.ndarray | None = None
+    header: int = 0
+    events: int = 0
 
     def properties(self, faery: Any) -> Any:
-        """faery's ``CsvProperties`` for this layout."""
+        """faery's ``CsvProperties`` for this layout. faery is told to skip the lines it cannot
+        read, as it cannot read a blank line: a line skipped otherwise leaves it fewer events
+        than :attr:`events`, which the reader refuses (:func:`_csv_bad_line`)."""
         props = vars(faery.CsvProperties.default()) | {
             "has_header": self.has_header,
             "t_index": self.t,
@@ -552,31 +581,20 @@ class _CsvLayout:
             "y_index": self.y,
             "on_index": self.p,
             "off_value": self.off,
+            "skip_errors": True,
         }
         return faery.CsvProperties(**props)
 
 
-def _check_csv(file: Path) -> _CsvLayout:
-    """How a CSV recording is laid out (:class:`_CsvLayout`): whether it starts with a header
-    line, and if the header names the columns, which is which; whether its OFF events are
-    ``0`` or ``-1``; and the event of its first line when faery cannot read it (a data line
-    behind a UTF-8 byte-order mark, which faery would take as part of the time; faery is then
-    told to skip it as a header). Refuse a first line whose time is a number but not an integer
-    (it is not a header), times beyond the engine's 2^62 µs, times that go backwards (faery
-    would clamp them to the time before, silently), and OFF events written both as ``0`` and
-    ``-1``, naming the line.
-
-    Lines are read in blocks.
-    """
-    has_header = False
-    columns = dict(_csv.DEFAULT_COLUMNS)
-    bom_line = None
-    previous = -1
+def _csv_blocks(file: Path) -> Iterator[list[bytes]]:
+    """The lines of a CSV recording, a UTF-8 byte-order mark dropped, in blocks of about 4 MiB.
+    A line longer than :data:`CSV_MAX_LINE` is refused, so that a file without line breaks is
+    not gathered into memory."""
     line_no = 0
     rest = b""
-    # The first line of an OFF event written 0, and of one written -1.
-    off_lines: dict[bytes, int] = {}
     with open(file, "rb") as handle:
+        if handle.read(len(_BOM)) != _BOM:
+            handle.seek(0)
         while True:
             block = handle.read(1 << 22)
             if len(rest) > CSV_MAX_LINE:
@@ -585,93 +603,187 @@ def _check_csv(file: Path) -> _CsvLayout:
                     "CSV event line (t,x,y,p)"
                 )
             data = rest + block
-            if line_no == 0 and not rest and data.startswith(_BOM):
-                data = data[len(_BOM) :]
-                bom_line = b""
             cut = len(data) if not block else data.rfind(b"\n") + 1
             rest = data[cut:]
             lines = data[:cut].splitlines()
-            if line_no == 0 and lines:
-                head = lines[0].split(b",", 1)[0].strip()
+            yield lines
+            line_no += len(lines)
+            if not block:
+                return
+
+
+def _check_csv(file: Path) -> _CsvLayout:
+    """How a CSV recording is laid out (:class:`_CsvLayout`): whether it has a header line (its
+    first line that is not blank), and if the header names the columns, which is which;
+    whether its OFF events are ``0`` or ``-1``; the event of its first line when faery cannot
+    read it (a data line behind a UTF-8 byte-order mark, which faery would take as part of the
+    time; faery is then told to skip it as a header); and how many events faery is to read.
+    Refuse a first line whose time is a number but not an integer (it is not a header), times
+    beyond the engine's 2^62 µs, times that go backwards (faery would clamp them to the time
+    before, silently), and OFF events written both as ``0`` and ``-1``, naming the line.
+
+    Lines are read in blocks.
+    """
+    has_header = False
+    columns = dict(_csv.DEFAULT_COLUMNS)
+    with open(file, "rb") as handle:
+        bom = handle.read(len(_BOM)) == _BOM
+    bom_line = None  # the line behind a byte-order mark, when it is an event
+    header = 0
+    text_seen = False  # a line that is not blank was seen (the first may be the header)
+    blank = 0
+    previous = -1
+    line_no = 0
+    # The first line of an OFF event written 0, and of one written -1.
+    off_lines: dict[bytes, int] = {}
+    for lines in _csv_blocks(file):
+        start = 0  # the block's first line after the header
+        if not text_seen:
+            k = next((k for k, line in enumerate(lines) if line.strip()), None)
+            if k is not None:
+                text_seen = True
+                head = lines[k].split(b",", 1)[0].strip()
                 if not head.lstrip(b"-").isdigit():
                     if _NUMBER.fullmatch(head):
                         raise RecordingFileError(
-                            f"{file}: line 1: time {head.decode('latin-1')!r} is not an "
-                            "integer: times must be integers (microseconds), and a first line "
-                            "that starts with a number is not a header"
+                            f"{file}: line {line_no + k + 1}: time {head.decode('latin-1')!r} "
+                            "is not an integer: times must be integers (microseconds), and a "
+                            "first line that starts with a number is not a header"
                         )
                     has_header = True
-                    columns = _csv.columns(lines[0])
-                elif bom_line is not None:
+                    header = line_no + k + 1
+                    columns = _csv.columns(lines[k])
+                    start = k + 1
+                elif bom and line_no + k == 0:
                     bom_line = lines[0]
-            # Each line split as it is read (a list kept per line would cost the collector
-            # more than the split).
-            start = int(line_no == 0 and has_header)
-            tc, pc = columns["t"], columns["p"]
-            seen = {
-                parts[pc] if len(parts := line.split(b",", pc + 1)) > pc else b""
-                for line in lines[start:]
-            }
-            for value in {v.strip() for v in seen} & {b"0", b"-1"} - off_lines.keys():
-                k = next(k for k in range(start, len(lines)) if _field(lines[k], pc) == value)
-                off_lines[value] = line_no + k + 1
-            if len(off_lines) == 2:
+        # Each line split as it is read (a list kept per line would cost the collector
+        # more than the split).
+        tc, pc = columns["t"], columns["p"]
+        seen = {
+            parts[pc] if len(parts := line.split(b",", pc + 1)) > pc else b""
+            for line in lines[start:]
+        }
+        for value in {v.strip() for v in seen} & {b"0", b"-1"} - off_lines.keys():
+            k = next(k for k in range(start, len(lines)) if _field(lines[k], pc) == value)
+            off_lines[value] = line_no + k + 1
+        if len(off_lines) == 2:
+            raise RecordingFileError(
+                f"{file}: line {max(off_lines.values())}: an OFF event written "
+                f"{'0' if off_lines[b'0'] > off_lines[b'-1'] else '-1'}, after OFF events "
+                "written the other way (line "
+                f"{min(off_lines.values())}): polarities must be 1/0 or 1/-1 throughout"
+            )
+        first = [
+            parts[tc].strip() if len(parts := line.split(b",", tc + 1)) > tc else b""
+            for line in lines
+        ]
+        if b"" in first:
+            blank += sum(1 for i, f in enumerate(first) if not f and not lines[i].strip())
+        # Negative or malformed times are left to faery, which refuses them ("+5" it reads).
+        numbers = [
+            (i, f)
+            for i, f in enumerate(first)
+            if f.isdigit() or (f[:1] == b"+" and f[1:].isdigit())
+        ]
+        long = [(i, f) for i, f in numbers if len(f) > _CSV_MAX_DIGITS]
+        if long:
+            i, f = long[0]
+            raise RecordingFileError(
+                f"{file}: line {line_no + i + 1}: a time of {len(f):,} digits "
+                f"({f[:20].decode()}...) is not a time the detector takes (at most 2^62 = "
+                f"{MAX_TIME_US} µs)"
+            )
+        late = [k for k, (_, f) in enumerate(numbers) if len(f) > 18 and int(f) > MAX_TIME_US]
+        if late:
+            i, f = numbers[late[0]]
+            raise RecordingFileError(
+                f"{file}: line {line_no + i + 1}: time {int(f)} is beyond the latest the "
+                f"detector takes (2^62 = {MAX_TIME_US} µs)"
+            )
+        if numbers:
+            t = np.array([int(f) for _, f in numbers], dtype=np.int64)
+            back = np.flatnonzero(np.diff(t, prepend=previous) < 0)
+            if len(back):
+                k = int(back[0])
+                before = previous if k == 0 else int(t[k - 1])
                 raise RecordingFileError(
-                    f"{file}: line {max(off_lines.values())}: an OFF event written "
-                    f"{'0' if off_lines[b'0'] > off_lines[b'-1'] else '-1'}, after OFF events "
-                    "written the other way (line "
-                    f"{min(off_lines.values())}): polarities must be 1/0 or 1/-1 throughout"
+                    f"{file}: line {line_no + numbers[k][0] + 1}: time {int(t[k])} is "
+                    f"earlier than the time before it ({before}); events must be in time "
+                    "order"
                 )
-            first = [
-                parts[tc].strip() if len(parts := line.split(b",", tc + 1)) > tc else b""
-                for line in lines
-            ]
-            # Negative or malformed times are left to faery, which refuses them.
-            numbers = [(i, f) for i, f in enumerate(first) if f.isdigit()]
-            long = [(i, f) for i, f in numbers if len(f) > _CSV_MAX_DIGITS]
-            if long:
-                i, f = long[0]
-                raise RecordingFileError(
-                    f"{file}: line {line_no + i + 1}: a time of {len(f):,} digits "
-                    f"({f[:20].decode()}...) is not a time the detector takes (at most 2^62 = "
-                    f"{MAX_TIME_US} µs)"
-                )
-            late = [k for k, (_, f) in enumerate(numbers) if len(f) > 18 and int(f) > MAX_TIME_US]
-            if late:
-                i, f = numbers[late[0]]
-                raise RecordingFileError(
-                    f"{file}: line {line_no + i + 1}: time {int(f)} is beyond the latest the "
-                    f"detector takes (2^62 = {MAX_TIME_US} µs)"
-                )
-            if numbers:
-                t = np.array([int(f) for _, f in numbers], dtype=np.int64)
-                back = np.flatnonzero(np.diff(t, prepend=previous) < 0)
-                if len(back):
-                    k = int(back[0])
-                    before = previous if k == 0 else int(t[k - 1])
-                    raise RecordingFileError(
-                        f"{file}: line {line_no + numbers[k][0] + 1}: time {int(t[k])} is "
-                        f"earlier than the time before it ({before}); events must be in time "
-                        "order"
-                    )
-                previous = int(t[-1])
-            line_no += len(lines)
-            if not block:
-                break
+            previous = int(t[-1])
+        line_no += len(lines)
     layout = _CsvLayout(
-        has_header,
+        # faery cannot read the line behind a byte-order mark: it skips it as a header, and
+        # its event, if it is not a header, is read here.
+        has_header or bom,
         t=columns["t"],
         x=columns["x"],
         y=columns["y"],
         p=columns["p"],
         off=b"-1" if b"-1" in off_lines else b"0",
+        header=header,
+        events=line_no - blank - bool(header) - (bom_line is not None),
     )
     if bom_line is None:
         return layout
-    # faery cannot read the line behind the mark: it skips it as a header, and its event, if
-    # it is not a header, is read here.
-    first_event = _csv_event(file, bom_line, layout) if bom_line else None
-    return dataclasses.replace(layout, has_header=True, first_event=first_event)
+    return dataclasses.replace(layout, first_event=_csv_event(file, bom_line, layout))
+
+
+def _csv_bad_line(
+    file: Path, layout: _CsvLayout, sensor: tuple[int, int], read: int, hint: str
+) -> str:
+    """Why faery read ``read`` events from a CSV recording, not one for each of its event
+    lines: the first line that is not blank and that faery cannot read as an event
+    (:func:`_csv_fault`), named by its number. ``hint`` is added to an event off the sensor."""
+    line_no = 0
+    for lines in _csv_blocks(file):
+        for line in lines:
+            line_no += 1
+            if not line.strip() or line_no == layout.header:
+                continue
+            if line_no == 1 and layout.first_event is not None:
+                continue  # read here, not by faery
+            text = line.strip(_ASCII_SPACE)
+            fields = [field.strip(_ASCII_SPACE) for field in text.split(b",")]
+            why = _csv_fault(fields, layout, sensor, hint)
+            if why:
+                return f"line {line_no}: {text[:80].decode('latin-1')!r}: {why}"
+    return f"cannot decode as csv: {read:,} events read from its {layout.events:,} event lines"
+
+
+def _csv_fault(fields: list[bytes], layout: _CsvLayout, sensor: tuple[int, int], hint: str) -> str:
+    """Why faery cannot read the fields of a CSV line as an event (``""`` when it can): it
+    reads t, x and y as unsigned integers of 64, 16 and 16 bits, p as the ON or the OFF value,
+    and refuses an event off the sensor."""
+    columns = {"t": layout.t, "x": layout.x, "y": layout.y, "p": layout.p}
+    for name, index in columns.items():
+        if index >= len(fields):
+            return f"no {name} (field {index + 1})"
+    t, x, y, p = (fields[index] for index in columns.values())
+    if _unsigned(t, 2**64 - 1) is None:
+        return f"t {t[:40].decode('latin-1')!r} is not a whole number of µs"
+    at = []
+    for name, value in (("x", x), ("y", y)):
+        number = _unsigned(value, 65535)
+        if number is None:
+            return f"{name} {value[:40].decode('latin-1')!r} is not an integer from 0 to 65535"
+        at.append(number)
+    if p not in (b"1", layout.off):
+        return f"p {p[:40].decode('latin-1')!r} is neither 1 nor {layout.off.decode()}"
+    width, height = sensor
+    if at[0] >= width or at[1] >= height:
+        return f"x={at[0]}, y={at[1]} is off the {width}x{height} sensor{hint}"
+    return ""
+
+
+def _unsigned(field: bytes, top: int) -> int | None:
+    """The value of a CSV field as faery reads an unsigned integer (an optional "+", then
+    digits: Rust's ``parse``), ``None`` when it is not one or above ``top``."""
+    if not _UNSIGNED.fullmatch(field):
+        return None
+    digits = field.lstrip(b"+").lstrip(b"0") or b"0"
+    return int(digits) if len(digits) <= 20 and int(digits) <= top else None
 
 
 def _field(line: bytes, index: int) -> bytes:
@@ -744,4 +856,5 @@ def write_npz(recording: Recording, path: str | os.PathLike[str]) -> None:
             ),
         )
     except OSError as exc:
-        raise RecordingFileError(f"{target}: cannot write: {exc}") from exc
+        # Its reason only, as Network.save gives it: the error names the temporary file.
+        raise RecordingFileError(f"{target}: cannot write: {exc.strerror or exc}") from exc

@@ -21,10 +21,12 @@ PEAK_BIN_US = 1_000
 def summary(recording: Recording) -> dict[str, Any]:
     """Sensor size, event count, first/last time, duration, and mean and peak event rates.
 
-    The mean rate is events per second over ``last t − first t`` (``None`` for fewer than two
-    distinct times); the peak rate is the most events in one 1 ms bin (bins aligned on the first
-    event), times 1000, and ``None`` when the events span less than one bin, whose count would
-    read as a rate lower than the mean.
+    The mean rate is events per second from the intervals between the events: ``n − 1`` of
+    them over ``last t − first t`` (``None`` for fewer than two distinct times; ``n`` over that
+    span would count the last event's interval, which lies beyond it, and read above the peak
+    for events spread evenly over about 1 ms). The peak rate is the most events in one 1 ms bin
+    (bins aligned on the first event), times 1000, and ``None`` when the events span less than
+    one bin, whose count would read as a rate lower than the mean.
     """
     t = recording.events["t"]
     n = len(t)
@@ -45,7 +47,7 @@ def summary(recording: Recording) -> dict[str, Any]:
         "first_t_us": int(t[0]) if n else None,
         "last_t_us": int(t[-1]) if n else None,
         "duration_us": duration,
-        "mean_rate_ev_per_s": n / (duration * 1e-6) if duration > 0 else None,
+        "mean_rate_ev_per_s": (n - 1) * 1_000_000 / duration if duration > 0 else None,
         "peak_rate_ev_per_s": peak,
         "peak_bin_us": PEAK_BIN_US,
     }
