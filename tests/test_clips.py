@@ -353,9 +353,10 @@ def test_a_lower_pix2nvs_threshold_is_built_and_streamed_again(
     assert [r["clip"] for r in at_low] == [r["clip"] for r in at_default]
     assert sum(r["events"] for r in at_low) > sum(r["events"] for r in at_default)
     capsys.readouterr()
-    for bad in (["--domain", "dvs", "--pix2nvs-threshold", "0.2"], ["--pix2nvs-threshold", "-1"],
-                ["--pix2nvs-threshold", "nan"]):  # fmt: skip
-        args = [*base, str(tmp_path / "bad"), *bad]
+    dvs = ["dataset", "build", "--domain", "dvs", "--n-test", "10"]  # (--videos is refused)
+    for start, bad in ((dvs, ["--pix2nvs-threshold", "0.2"]), (base, ["--pix2nvs-threshold", "-1"]),
+                       (base, ["--pix2nvs-threshold", "nan"])):  # fmt: skip
+        args = [*start, str(tmp_path / "bad"), *bad]
         assert main(args) == 2, bad
         err = capsys.readouterr().err
         assert len(err.strip().splitlines()) == 1 and "threshold" in err, bad

@@ -69,13 +69,18 @@ def register(subparsers: Any) -> None:
     )
     b.add_argument("out_dir", type=Path, help="folder to write (created; must be empty)")
     b.add_argument("--domain", choices=DATASET_DOMAINS, required=True)
-    b.add_argument("--videos", type=Path, help="labelled videos (V_<CLASS>_<ID>.mp4 + .csv)")
+    b.add_argument(
+        "--videos",
+        type=Path,
+        help="real and combined: labelled videos (V_<CLASS>_<ID>.mp4 + .csv)",
+    )
     b.add_argument("--n-test", type=int, default=2000, help="test windows, half UAV (2000)")
     b.add_argument(
         "--n-train",
         type=int,
         default=None,
-        help="train windows, half UAV (default: 4000; for --domain real all usable windows)",
+        help="train windows, half UAV: an even number, or 0 for no train split (default: "
+        "4000; for --domain real all usable windows)",
     )
     b.add_argument("--window-ms", type=float, default=50.0, help="window length (50)")
     b.add_argument("--overlap", type=float, default=0.5, help="window overlap in [0, 1) (0.5)")
@@ -87,7 +92,10 @@ def register(subparsers: Any) -> None:
         help="share of a window the UAV must be visible to count (0.5)",
     )
     b.add_argument(
-        "--test-fraction", type=float, default=0.3, help="share of real clips kept for test (0.3)"
+        "--test-fraction",
+        type=float,
+        default=None,
+        help="real, and combined with --videos: share of the real clips kept for test (0.3)",
     )
     b.add_argument(
         "--sensor",
@@ -210,11 +218,33 @@ def _done(paths: DatasetPaths, as_json: bool) -> int:
     return 0
 
 
+#: The default of ``--test-fraction``: the share of the real clips kept for test.
+_TEST_FRACTION = 0.3
+
+
+def _check_domain_options(args: argparse.Namespace) -> None:
+    """Refuse the options that the domain would ignore: the real clips' (``--videos``,
+    ``--test-fraction``) where no real clip is read, PIX2NVS's where nothing goes through it.
+    (``--lens``, ``--focus-m`` and ``--fov`` outside dvs and combined: :func:`_dvs_source`.)"""
+    if args.videos is not None and args.domain in ("dvs", "sim"):
+        raise ParameterError(
+            f"--videos holds real clips: for --domain real or combined, not --domain {args.domain}"
+        )
+    if args.test_fraction is not None and args.videos is None and args.domain != "real":
+        raise ParameterError(
+            "--test-fraction splits the real clips: for --domain real, or combined with "
+            f"--videos, not --domain {args.domain}"
+            + (" without --videos" if args.domain == "combined" else "")
+        )
+
+
 def _pix2nvs(args: argparse.Namespace) -> Pix2NvsParams | None:
     """The PIX2NVS parameters of --pix2nvs-compat and --pix2nvs-threshold (None: defaults)."""
     theta = args.pix2nvs_threshold
     if theta is not None and args.domain == "dvs":
         raise ParameterError("--pix2nvs-threshold sets PIX2NVS: for sim, real or combined")
+    if args.pix2nvs_compat and args.domain == "dvs":
+        raise ParameterError("--pix2nvs-compat sets PIX2NVS: for sim, real or combined")
     options = {} if theta is None else {"threshold": theta}
     if args.pix2nvs_compat:
         return Pix2NvsParams.original(**options)
@@ -224,6 +254,7 @@ def _pix2nvs(args: argparse.Namespace) -> Pix2NvsParams | None:
 def _build(args: argparse.Namespace) -> int:
     # A folder nobody can make is named here, not by the OSError of making it.
     check_output_dir(args.out_dir, "OUT_DIR")
+    _check_domain_options(args)
     n_train = args.n_train
     if n_train is None and args.domain != "real":
         n_train = 4000
@@ -237,7 +268,7 @@ def _build(args: argparse.Namespace) -> int:
         overlap=args.overlap,
         seed=args.seed,
         min_fraction=args.min_fraction,
-        test_fraction=args.test_fraction,
+        test_fraction=_TEST_FRACTION if args.test_fraction is None else args.test_fraction,
         sensor=args.sensor,
         pix2nvs_params=_pix2nvs(args),
         dvs=_dvs_source(args),

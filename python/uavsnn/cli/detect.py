@@ -27,6 +27,7 @@ import json
 import math
 import sys
 import time
+from pathlib import Path
 from typing import Any, TextIO
 
 import numpy as np
@@ -61,10 +62,18 @@ it across windows; '7?' while the track is tentative, '7' once confirmed) and it
 signature when one is detected (frequency/strength/agreeing pixels, else '-'); uav_score and
 class come from the model's identification stage, '-' (null in JSON) for a model without one
 (a note on standard error says so). --per-spike prints every
-conv3 spike instead, as it is decided. --json makes JSON lines of either. A rate summary goes
+conv3 spike instead, as it is decided; so do several sources and --ray, one line per spike led
+by the stream's name (their detectors run in Ray actors and send back spikes only: no objects,
+uav_score, class or tracks). --json makes JSON lines of either. A rate summary goes
 to standard error. Malformed packets, and chunks the detector rejects (events outside the
 sensor, time going backwards), are counted as drops and skipped.
 """
+
+
+#: The defaults of ``--stdin-format`` and ``--udp-format`` (``None`` unless given, so that
+#: either is refused only when given for a source it does not apply to).
+_STDIN_FORMAT = "packed"
+_UDP_FORMAT = "t64_x16_y16_on8"
 
 
 def register(subparsers: Any) -> None:
@@ -94,7 +103,8 @@ def register(subparsers: Any) -> None:
     p.add_argument(
         "--per-spike",
         action="store_true",
-        help="print every conv3 spike as it is decided instead of one line per window",
+        help="print every conv3 spike as it is decided instead of one line per window (what "
+        "several sources and --ray print)",
     )
     p.add_argument(
         "--realtime", action="store_true", help="replay a file at its own pace (files only)"
@@ -118,14 +128,15 @@ def register(subparsers: Any) -> None:
     p.add_argument(
         "--stdin-format",
         choices=("packed", "csv"),
-        default="packed",
-        help="layout of standard input (default packed 13-byte records)",
+        default=None,
+        help=f"'-': layout of standard input (default {_STDIN_FORMAT}, 13-byte records)",
     )
     p.add_argument(
         "--udp-format",
         choices=("t64_x16_y16_on8", "t32_x16_y15_on1", "spif"),
-        default="t64_x16_y16_on8",
-        help="UDP packet format: faery's two formats or aestream's spif words",
+        default=None,
+        help="UDP: packet format, faery's two formats or aestream's spif words (default "
+        f"{_UDP_FORMAT})",
     )
     p.add_argument(
         "--max-packets", type=int, help="UDP: stop after this many packets (for scripts, tests)"
@@ -175,7 +186,10 @@ def register(subparsers: Any) -> None:
         "model was tuned with `uavsnn train --track-minutes`), with the confirmation rule they "
         "were set with",
     )
-    add_ray_option(p, "one detector per stream, each in a Ray actor")
+    add_ray_option(
+        p,
+        "one detector per stream, each in a Ray actor, printing every conv3 spike (as --per-spike)",
+    )
     p.set_defaults(handler=run)
 
 
@@ -358,12 +372,22 @@ MAX_WINDOW_MS = float(1 << 62) / 1000
 
 def _check_args(args: argparse.Namespace) -> None:
     """Refuse flag values that make no sense before opening anything."""
+    from uavsnn.features import MAX_RATE_BINS, RATE_BIN_US
     from uavsnn.sources import check_seconds, is_live
 
     if not (math.isfinite(args.window_ms) and 0.001 <= args.window_ms <= MAX_WINDOW_MS):
         raise ParameterError(
             f"--window-ms must be a number of ms from 0.001 (1 µs) to {MAX_WINDOW_MS:.3g}, "
             f"got {args.window_ms}"
+        )
+    longest_us = MAX_RATE_BINS * RATE_BIN_US
+    if round(args.window_ms * 1000) > longest_us:
+        # The detector refuses it, advising its Python argument rotor=False, which the command
+        # line has not: its objects' rotor and event rate are always measured.
+        raise ParameterError(
+            f"--window-ms {args.window_ms:g} is longer than {longest_us / 1000:g} ms, the "
+            "longest window whose objects' rotor and event rate are measured: give a shorter "
+            "--window-ms"
         )
     if not (math.isfinite(args.overlap) and 0.0 <= args.overlap < 1.0):
         raise ParameterError(f"--overlap must be in [0, 1), got {args.overlap}")
@@ -379,15 +403,24 @@ def _check_args(args: argparse.Namespace) -> None:
             "arrive at theirs"
         )
     if args.downsample and live:
-        raise ParameterError("--downsample applies to files; '-' and UDP give --sensor-size")
-    if not any(s.startswith("udp://") for s in (args.source, *args.more_sources)):
-        udp_only = (("--max-packets", args.max_packets), ("--idle-timeout", args.idle_timeout))
-        for flag, value in udp_only:
+        raise ParameterError(
+            "--downsample applies to files: '-' and UDP are not cropped or scaled, their "
+            "--sensor-size must be the model's input (the default)"
+        )
+    sources = (args.source, *args.more_sources)
+    if not any(s.startswith("udp://") for s in sources):
+        udp_only = (
+            ("--max-packets", args.max_packets, "standard input and files end by themselves"),
+            ("--idle-timeout", args.idle_timeout, "standard input and files end by themselves"),
+            ("--udp-format", args.udp_format, "files and standard input have their own layouts"),
+        )
+        for flag, value, why in udp_only:
             if value is not None:
-                raise ParameterError(
-                    f"{flag} applies to UDP sources (udp://HOST:PORT); standard input and "
-                    "files end by themselves"
-                )
+                raise ParameterError(f"{flag} applies to UDP sources (udp://HOST:PORT); {why}")
+    if args.stdin_format is not None and "-" not in sources:
+        raise ParameterError(
+            "--stdin-format applies to standard input ('-'); files and UDP have their own layouts"
+        )
     if args.idle_flush is not None:
         files = [s for s in (args.source, *args.more_sources) if not is_live(s)]
         if files:
@@ -418,6 +451,42 @@ def _check_args(args: argparse.Namespace) -> None:
                 f"--confirm {args.confirm}: detect takes HITS/WINDOWS; the score-aware rule "
                 "(FAST+HITS/WINDOWS) is measured by `uavsnn evaluate --tracks` only"
             )
+
+
+def _check_live_size(size: tuple[int, int], model_size: tuple[int, int]) -> None:
+    """Refuse a ``--sensor-size`` for '-' or UDP other than the model's input: a live stream is
+    not cropped or scaled (``--downsample`` fits files only).
+
+    Raises:
+        ParameterError: the sizes differ, saying what the command line can do.
+    """
+    if tuple(size) == model_size:
+        return
+    w, h = size
+    mw, mh = model_size
+    raise ParameterError(
+        f"the stream's sensor is {w}x{h} (--sensor-size), the model's input {mw}x{mh}: '-' and "
+        f"UDP are not cropped or scaled (--downsample fits files only); send events of a "
+        f"{mw}x{mh} sensor (--sensor-size {mw}x{mh}, the default), or a model of {w}x{h} ("
+        f"uavsnn train --set width={w} --set height={h}, on a dataset built with --sensor {w}x{h})"
+    )
+
+
+def _check_distinct(sources: list[str]) -> None:
+    """Refuse a source named twice, however spelled (``A.npz``, ``./A.npz``, a link to it).
+
+    Raises:
+        ParameterError: naming it.
+    """
+    from uavsnn.sources import is_live
+
+    seen: dict[str, str] = {}
+    for spec in sources:
+        key = spec if is_live(spec) else str(Path(spec).resolve())
+        if key in seen:
+            same = "" if seen[key] == spec else f" (as {seen[key]} and {spec})"
+            raise ParameterError(f"a source is named twice: {spec}{same}")
+        seen[key] = spec
 
 
 def _tracker(text: str | None, network: Any) -> Any:
@@ -471,13 +540,16 @@ def run(args: argparse.Namespace) -> int:
     model_size = (int(network.config["width"]), int(network.config["height"]))
     # '-' and UDP carry no sensor size: default to the model's; a file has its own.
     live = is_live(args.source)
-    sensor_size = _sensor_size(args.sensor_size) or (model_size if live else None)
+    sensor_size = _sensor_size(args.sensor_size)
+    if live:
+        sensor_size = sensor_size or model_size
+        _check_live_size(sensor_size, model_size)
     source = open_source(
         args.source,
         sensor_size=sensor_size,
         realtime=args.realtime,
-        stdin_format=args.stdin_format,
-        udp_format=args.udp_format,
+        stdin_format=args.stdin_format or _STDIN_FORMAT,
+        udp_format=args.udp_format or _UDP_FORMAT,
         max_packets=args.max_packets,
         idle_timeout=args.idle_timeout,
         downsample_to=model_size if args.downsample else None,
@@ -586,15 +658,18 @@ def _run_many(args: argparse.Namespace) -> int:
     reported and the others go on (exit 1 when any failed)."""
     from uavsnn.distributed import detect_streams, runner_for
     from uavsnn.network import Network
+    from uavsnn.sources import is_live
 
     sources = [args.source, *args.more_sources]
     if "-" in sources:
         raise ParameterError("standard input ('-') cannot be one of several streams")
-    if len(set(sources)) != len(sources):
-        raise ParameterError("a source is named twice")
+    _check_distinct(sources)
     if args.ray is None:
         raise ParameterError("several sources need --ray (one detector per stream, on Ray)")
     network = Network.load(args.model)
+    if any(is_live(s) for s in sources):
+        model_size = (int(network.config["width"]), int(network.config["height"]))
+        _check_live_size(_sensor_size(args.sensor_size) or model_size, model_size)
     runner = runner_for(args.ray)
     out, err = sys.stdout, sys.stderr
 
@@ -616,7 +691,7 @@ def _run_many(args: argparse.Namespace) -> int:
         runner, sources, network, window_us=round(args.window_ms * 1000),
         overlap=args.overlap, on_ready=ready, on_detections=found,
         sensor_size=_sensor_size(args.sensor_size), realtime=args.realtime,
-        udp_format=args.udp_format, max_packets=args.max_packets,
+        udp_format=args.udp_format or _UDP_FORMAT, max_packets=args.max_packets,
         idle_timeout=args.idle_timeout, downsample=args.downsample,
         idle_flush_s=args.idle_flush,
     )  # fmt: skip

@@ -185,9 +185,10 @@ def run(args: argparse.Namespace) -> int:
             f"uavsnn simulate: error: output must end in .npz, got {args.output}", file=sys.stderr
         )
         return 2
-    if (args.video is None) == (args.scene is None):
-        print("uavsnn simulate: error: give a video or --scene, not both", file=sys.stderr)
-        return 2
+    if args.video is None and args.scene is None:
+        raise ParameterError("give a video to simulate, or --scene to render and record one")
+    if args.video is not None and args.scene is not None:
+        raise ParameterError("give a video or --scene, not both")
     _check_outputs(args)  # before any work: a refusal writes nothing
     if args.scene is not None:
         _check_scene_options(args)

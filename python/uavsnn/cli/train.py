@@ -36,7 +36,7 @@ def register(subparsers: Any) -> None:
     p.add_argument("dataset", type=Path, help="dataset folder (with manifest.json)")
     p.add_argument("-o", "--output", type=Path, required=True, help="model file to write (.npz)")
     p.add_argument("--split", default="train", help="split to train on (train)")
-    p.add_argument("--layers", default="conv2,conv3", help="layers in order (conv2,conv3)")
+    p.add_argument("--layers", default=None, help="layers in order (conv2,conv3)")
     p.add_argument(
         "--windows-per-layer",
         type=int,
@@ -44,7 +44,10 @@ def register(subparsers: Any) -> None:
         help="windows each layer sees, in shuffled passes (default: one pass; the paper: 20000)",
     )
     p.add_argument(
-        "--epochs", type=int, default=1, help="passes when --windows-per-layer is not given"
+        "--epochs",
+        type=int,
+        default=None,
+        help="passes when --windows-per-layer is not given (1)",
     )
     p.add_argument("--config", type=Path, help="a JSON network config (default: Table 1)")
     p.add_argument(
@@ -55,7 +58,7 @@ def register(subparsers: Any) -> None:
         metavar="KEY=VALUE",
         help="change one config field, e.g. --set conv2.threshold=15 (repeatable)",
     )
-    p.add_argument("--seed", type=int, default=0, help="initial weights and shuffling (0)")
+    p.add_argument("--seed", type=int, default=None, help="initial weights and shuffling (0)")
     p.add_argument("--checkpoint-dir", type=Path, help="write the model after each layer here")
     p.add_argument("--resume", action="store_true", help="continue from --checkpoint-dir")
     p.add_argument(
@@ -67,7 +70,7 @@ def register(subparsers: Any) -> None:
     p.add_argument(
         "--identify-model",
         choices=identify.MODELS,
-        default="auto",
+        default=None,
         help="the UAV score's model: a logistic regression, boosted trees, or whichever "
         "ranks the tuning objects better (auto, the default)",
     )
@@ -127,6 +130,18 @@ def network_config(config_file: Path | None, settings: list[str]) -> dict[str, A
     return apply_overrides(base, settings)
 
 
+# The defaults of --layers, --epochs, --seed and --identify-model, which are None unless
+# given: --identify-only and --no-identify refuse them only when given.
+_LAYERS = "conv2,conv3"
+_EPOCHS = 1
+_SEED = 0
+
+
+def _identify_model(args: argparse.Namespace) -> str:
+    """``--identify-model``, ``auto`` when not given."""
+    return "auto" if args.identify_model is None else str(args.identify_model)
+
+
 def _check_track_flags(args: argparse.Namespace) -> None:
     """Refuse bad --track-minutes / --track-seed before any work."""
     if not 0 <= args.track_minutes <= MAX_MINUTES:
@@ -139,6 +154,12 @@ def _check_track_flags(args: argparse.Namespace) -> None:
         raise ParameterError(
             "--track-minutes sets identification's thresholds: not with --no-identify"
         )
+    if args.identify_model is not None and args.no_identify:
+        raise ParameterError(
+            "--identify-model chooses identification's model: not with --no-identify"
+        )
+    if args.track_seed is not None and not args.track_minutes:
+        raise ParameterError("--track-seed applies to --track-minutes: give it too")
     if args.track_seed is not None and args.track_seed < 0:
         raise ParameterError(f"--track-seed must be non-negative, got {args.track_seed}")
     if args.ray is not None and not args.track_minutes:
@@ -189,14 +210,16 @@ def _train(args: argparse.Namespace) -> int:
     data = load(args.dataset, args.split)
     tune = None if args.tune is None or args.no_identify else load(args.tune, "train")
     runner = runner_for(args.ray)  # an unreachable cluster fails now, not after the training
-    network = Network(config, seed=args.seed)
+    seed = _SEED if args.seed is None else args.seed
+    layers = _LAYERS if args.layers is None else args.layers
+    network = Network(config, seed=seed)
     result = train(
         network,
         data.windows,
-        layers=[name.strip() for name in args.layers.split(",") if name.strip()],
+        layers=[name.strip() for name in layers.split(",") if name.strip()],
         windows_per_layer=args.windows_per_layer,
-        epochs=args.epochs,
-        seed=args.seed,
+        epochs=_EPOCHS if args.epochs is None else args.epochs,
+        seed=seed,
         checkpoint_dir=args.checkpoint_dir,
         resume=args.resume,
         progress=not args.quiet,
@@ -205,7 +228,7 @@ def _train(args: argparse.Namespace) -> int:
     if not args.no_identify:
         try:
             network.identification, summary["identify"] = identify.fit_network(
-                network, data, tune, model=args.identify_model
+                network, data, tune, model=_identify_model(args)
             )
         except DatasetError as exc:  # the STDP result is kept: only the any-spike rule
             summary["identify"] = {"skipped": str(exc)}
@@ -275,10 +298,21 @@ def _identify_only(args: argparse.Namespace) -> int:
     """``--identify-only MODEL``: MODEL's network, its identification fitted again."""
     if args.no_identify:
         raise ParameterError("--identify-only fits identification; --no-identify skips it")
-    if args.resume or args.checkpoint_dir is not None or args.config is not None or args.settings:
+    stdp = {
+        "--config": args.config is not None,
+        "--set": bool(args.settings),
+        "--layers": args.layers is not None,
+        "--windows-per-layer": args.windows_per_layer is not None,
+        "--epochs": args.epochs is not None,
+        "--seed": args.seed is not None,
+        "--checkpoint-dir": args.checkpoint_dir is not None,
+        "--resume": args.resume,
+    }
+    given = [flag for flag, on in stdp.items() if on]
+    if given:
         raise ParameterError(
-            "--identify-only trains no layer: --config, --set, --checkpoint-dir and --resume "
-            "do not apply"
+            f"--identify-only trains no layer: {', '.join(given)} "
+            f"{'does' if len(given) == 1 else 'do'} not apply (options of STDP)"
         )
     network = Network.load(args.identify_only)
     data = load(args.dataset, args.split)
@@ -286,7 +320,7 @@ def _identify_only(args: argparse.Namespace) -> int:
     output_file(args.output, "-o")
     runner = runner_for(args.ray)  # an unreachable cluster fails now, not after the fit
     network.identification, ident = identify.fit_network(
-        network, data, tune, model=args.identify_model
+        network, data, tune, model=_identify_model(args)
     )
     tracks = _tune_tracks(network, args, data, tune, runner)
     if tracks is not None:

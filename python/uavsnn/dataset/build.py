@@ -143,6 +143,12 @@ def _check_build_args(
         isinstance(n_train, bool) or not isinstance(n_train, int) or n_train < 0
     ):
         raise ParameterError(f"n_train must be a non-negative integer or None, got {n_train!r}")
+    if n_train is not None and n_train % 2:
+        # Half UAV, as the test split: 1 window had no UAV, 3 had 1 UAV and 2 not.
+        raise ParameterError(
+            f"n_train must be an even integer >= 2 (half UAV) or 0 (no train split), "
+            f"got {n_train!r}"
+        )
     for name, n in (("n_test", n_test), ("n_train", n_train or 0)):
         if n > MAX_SPLIT_WINDOWS:
             # A split is held whole before it is written: 2·10^9 windows ran until killed.
@@ -467,7 +473,10 @@ def _combined(
     splits = {"test": synthetic_split(rec, dvs, "test", n_test)}
     sources = [dvs.describe(), sim.describe()]
     names = ["dvs", "sim"] + (["real"] if video_dir is not None else [])
-    share = [n_train // len(names) + (k < n_train % len(names)) for k in range(len(names))]
+    # Shared in pairs, so that each part, and so the whole, is half UAV (shares of 3 windows
+    # from 6 held 1 UAV each: 2 of 6).
+    pairs = n_train // 2
+    share = [2 * (pairs // len(names) + (k < pairs % len(names))) for k in range(len(names))]
     parts = []
     if share[0]:
         parts.append(synthetic_split(rec, dvs, "train", share[0]))
