@@ -57,6 +57,39 @@ def test_figures_come_from_the_runs_they_describe() -> None:
         assert math.isfinite(value) and value > 0
 
 
+def test_each_timed_run_follows_an_untimed_run_of_its_kind(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # The one-thread batch was timed right after the stream, which slowed it by about a fifth:
+    # `--threads 1` read 1.12-1.18x one.
+    import uavsnn.bench as bench_module
+
+    calls: list[str] = []
+    net = Network({"width": 32, "height": 24}, seed=1)
+    infer = Network.infer
+
+    def recorded(self: Network, windows: object, **kwargs: object) -> object:
+        calls.append(f"batch {kwargs.get('threads')}")
+        return infer(self, windows, **kwargs)
+
+    def timed(fn: object) -> tuple[float, object]:
+        calls.append("timed")
+        return bench_module.time.perf_counter(), fn()
+
+    class Recorded(bench_module.Detector):
+        def __init__(self, *args: object, **kwargs: object) -> None:
+            calls.append("stream")
+            super().__init__(*args, **kwargs)
+
+    monkeypatch.setattr(Network, "infer", recorded)
+    monkeypatch.setattr(bench_module, "_timed", timed)
+    monkeypatch.setattr(bench_module, "Detector", Recorded)
+    bench_density(net, 0.05, windows=2, threads=2, repeat=2, seed=1)
+    one_round = ["batch 1", "timed", "batch 1", "batch 2", "timed", "batch 2"]
+    one_round += ["stream", "timed", "stream"]
+    assert calls == one_round * 2
+
+
 def test_default_windows_hold_about_the_events_asked_for() -> None:
     net = Network({"width": 64, "height": 48}, seed=0)
     row = bench_density(net, 0.01, events=400, repeat=1)
