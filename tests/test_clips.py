@@ -258,6 +258,37 @@ def test_evaluate_clips_decides_every_test_clip(footage: tuple[Path, Path, Path]
     assert strict["rules"]["any_spike"]["uav_alarmed"] <= rule["uav_alarmed"]
 
 
+def test_clips_are_found_from_the_dataset_whatever_the_working_folder(
+    footage: tuple[Path, Path, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # A build given --videos as a relative path recorded it as typed, so the clips were not
+    # found from another working folder ("read from videos, which is not a folder here").
+    root, videos, _ = footage
+    manifest = json.loads((root / "manifest.json").read_text())
+    (real,) = [s for s in manifest["parameters"]["sources"] if s["domain"] == "real"]
+    assert real["videos_from_dataset"] == "../videos"
+    # The dataset and its videos moved together, the folder recorded as a build in their
+    # parent folder was given it.
+    shutil.copytree(root, tmp_path / "real")
+    shutil.copytree(videos, tmp_path / "videos")
+    moved = json.loads((tmp_path / "real" / "manifest.json").read_text())
+    for source in moved["parameters"]["sources"]:
+        if source["domain"] == "real":
+            source["videos"] = "videos"
+    (tmp_path / "real" / "manifest.json").write_text(json.dumps(moved))
+    (tmp_path / "elsewhere").mkdir()
+    monkeypatch.chdir(tmp_path / "elsewhere")
+    found = clip_set(tmp_path / "real", "test")
+    assert [c.name for c in found.clips] == [c.name for c in clip_set(root, "test").clips]
+    # A manifest of a build before (no videos_from_dataset) reads the folder as given.
+    del source["videos_from_dataset"]
+    (tmp_path / "real" / "manifest.json").write_text(json.dumps(moved))
+    with pytest.raises(DatasetError, match="were read from videos, which is not a folder here"):
+        clip_set(tmp_path / "real", "test")
+    monkeypatch.chdir(tmp_path)
+    assert len(clip_set(tmp_path / "real", "test").clips) == len(found.clips)
+
+
 def test_bad_clip_sets_are_typed_errors(
     footage: tuple[Path, Path, Path], tmp_path: Path, write_clip: Callable[..., None]
 ) -> None:
@@ -273,6 +304,7 @@ def test_bad_clip_sets_are_typed_errors(
     for source in manifest["parameters"]["sources"]:
         if source["domain"] == "real":
             source["videos"] = str(tmp_path / "gone")
+            source["videos_from_dataset"] = "../gone"
     (moved / "manifest.json").write_text(json.dumps(manifest))
     with pytest.raises(DatasetError, match=r"were read from .*gone, which is not a folder here"):
         clip_set(moved, "test")

@@ -200,6 +200,11 @@ def _clip_set(
         folder = Path(sources["real"]["videos"] if videos is None else videos)
         if not folder.is_dir() and videos is not None:
             raise DatasetError(f"the folder of videos {folder} is not a folder")
+        # The folder as the build was given it is relative to the build's working folder; a
+        # build also records it from the dataset's folder, which holds from anywhere.
+        from_dataset = sources["real"].get("videos_from_dataset")
+        if videos is None and from_dataset is not None and (root / from_dataset).is_dir():
+            folder = root / from_dataset
         if not folder.is_dir():
             raise DatasetError(
                 f"the clips of {root} were read from {folder}, which is not a folder here: "

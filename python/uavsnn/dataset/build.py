@@ -363,6 +363,9 @@ def build(
                 pix2nvs_params,
                 sensor,
             )
+        for described in sources:
+            if described["domain"] == "real" and video_dir is not None:
+                described.update(_videos_from(root, video_dir))
         paths: dict[str, Path] = {}
         for name, data in splits.items():
             if len(data) == 0:
@@ -501,6 +504,18 @@ def _combined(
     if parts:
         splits["train"] = _concat(parts)
     return splits, sources, f"train: {' + '.join(names)}; test: dvs"
+
+
+def _videos_from(root: Path, video_dir: Path) -> dict[str, str]:
+    """``videos_from_dataset``: the folder of videos as a path from the dataset's folder
+    ``root``, so that a dataset read from another working folder finds its clips again
+    (``videos`` is the folder as it was given, relative to the build's working folder); none
+    where there is no such path (another drive)."""
+    try:
+        relative = os.path.relpath(video_dir.resolve(), root.resolve())
+    except ValueError:
+        return {}
+    return {"videos_from_dataset": Path(relative).as_posix()}
 
 
 def _real_source(video_dir: Path, params: Pix2NvsParams | None) -> dict[str, Any]:
