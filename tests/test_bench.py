@@ -137,6 +137,9 @@ def test_cli_json_and_text(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -
     assert out["model"] is None
     assert [r["density_percent"] for r in out["rows"]] == [1.0, 5.0]
     assert all(r["sensor"] == "64x48" and r["windows"] == 2 for r in out["rows"])
+    assert all(r["stream_chunk_us"] == 1000 for r in out["rows"])
+    assert main([*args, "--json", "--chunk-ms", "12.5"]) == 0
+    assert {r["stream_chunk_us"] for r in json.loads(capsys.readouterr().out)["rows"]} == {12500}
 
     model = tmp_path / "m.npz"
     Network({"width": 80, "height": 60}, seed=1).save(model)
@@ -154,6 +157,9 @@ def test_cli_errors(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
         with pytest.raises(SystemExit) as exc:
             main(["bench", *bad])
         assert exc.value.code == 2
+    for chunk in ("0", "-1", "nan", "inf", "1e9"):
+        assert main(["bench", "--size", "64x48", "--windows", "1", "--chunk-ms", chunk]) == 2
+        assert "--chunk-ms must be" in capsys.readouterr().err
 
 
 def test_cli_events_as_its_help_writes_them(capsys: pytest.CaptureFixture[str]) -> None:

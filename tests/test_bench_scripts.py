@@ -462,3 +462,13 @@ def test_scene_bits_counts_what_differs_between_two_renders(bench_script, tmp_pa
         "values": 8, "values_differ": 1, "conv1_weights": 100, "conv1_weights_differ": 0,
     }  # fmt: skip
     assert "opencv" in bits.variants()
+
+
+def test_the_push_cost_compares_the_same_pushes(bench_script) -> None:
+    calls = bench_script("bench_python_calls")
+    got = calls.push_cost(Network({"width": 16, "height": 12}), repeats=1, pushes=40)
+    assert got["pushes"] == 40
+    assert got["push_us_per_call"] > 0 and got["engine_push_us_per_call"] > 0
+    assert got["python_us_per_push"] == pytest.approx(
+        got["push_us_per_call"] - got["engine_push_us_per_call"]
+    )

@@ -11,6 +11,9 @@ reference measured in the same run (so that a shared or throttled machine skews 
    ``target_size``) on the same events: the speed ratio (> 1: uavsnn faster). The two do not
    compute the same thing (uavsnn crops to the target's aspect and keeps the events in order;
    tonic scales both axes by their own factor), but both read and write every event.
+4. ``Detector.push`` of one-event chunks, against the engine's own push of the same packed
+   events (the detector's ``_inner``, a fresh one each): what the Python layer adds to each
+   push of a stream fed in small chunks.
 
 Each timing is the best of ``--repeats`` rounds, the rounds of a pair interleaved. Work is
 counted (events, spikes, windows) and printed beside each time, and each result is checked
@@ -122,6 +125,32 @@ def run_window_cost(net: Network, repeats: int) -> dict[str, Any]:
     return out
 
 
+def push_cost(net: Network, repeats: int, pushes: int = 5000) -> dict[str, Any]:
+    from uavsnn.detector import Detector
+
+    events = np.zeros(pushes, dtype=EVENT_DTYPE)
+    events["t"] = np.arange(1, pushes + 1)
+    chunks = [events[k : k + 1] for k in range(pushes)]
+    packed = [c.tobytes() for c in chunks]
+
+    def python_pushes() -> int:
+        det = Detector(net, window_us=50_000, overlap=0.0, start_us=0)
+        return sum(len(det.push(c)) for c in chunks)
+
+    def engine_pushes() -> int:
+        det = Detector(net, window_us=50_000, overlap=0.0, start_us=0)
+        return sum(len(det._inner.push(raw)) for raw in packed)
+
+    assert python_pushes() == 0 == engine_pushes()  # the same work: no detection either way
+    t_python, t_engine = paired(python_pushes, engine_pushes, repeats)
+    return {
+        "pushes": pushes,
+        "push_us_per_call": 1e6 * t_python / pushes,
+        "engine_push_us_per_call": 1e6 * t_engine / pushes,
+        "python_us_per_push": 1e6 * (t_python - t_engine) / pushes,
+    }
+
+
 def infer_threads(net: Network, repeats: int) -> dict[str, Any]:
     size = (int(net.config["width"]), int(net.config["height"]))
     n = int(0.01 * size[0] * size[1] * 20)
@@ -186,6 +215,7 @@ def main(argv: list[str] | None = None) -> int:
         "run_window": run_window_cost(net, args.repeats),
         "infer_20_windows": infer_threads(net, args.repeats),
         "downsample": {"recording": source, **downsample_vs_tonic(rec, args.repeats)},
+        "detector_push": push_cost(net, args.repeats),
     }
     if args.json:
         print(json.dumps(result, indent=2))
@@ -208,6 +238,12 @@ def main(argv: list[str] | None = None) -> int:
         f"downsample to 240x180, {r['recording']} ({r['events_in']:,} events, "
         f"{r['events_kept_by_uavsnn']:,} kept): uavsnn {r['uavsnn_ms']:.1f} ms, tonic "
         f"{r['tonic_ms']:.1f} ms (uavsnn x{r['uavsnn_speed_over_tonic']:.2f} tonic's speed)"
+    )
+    r = result["detector_push"]
+    print(
+        f"Detector.push of one event: {r['push_us_per_call']:.2f} us/call against the engine's "
+        f"{r['engine_push_us_per_call']:.2f} us ({r['python_us_per_push']:.2f} us of Python a "
+        f"push; {r['pushes']} pushes)"
     )
     return 0
 

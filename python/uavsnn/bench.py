@@ -163,6 +163,7 @@ class BenchRow:
     scaling: float
     stream_events_per_s: float
     stream_vs_batch: float
+    stream_chunk_us: int
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -271,6 +272,7 @@ def bench_density(
         scaling=one_wall_s / all_wall_s,
         stream_events_per_s=spikes / stream_s,
         stream_vs_batch=one_wall_s / stream_s,
+        stream_chunk_us=chunk_us,
     )
 
 

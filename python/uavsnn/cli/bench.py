@@ -14,6 +14,9 @@ from uavsnn.network import Network
 from uavsnn.progress import bar as new_bar
 from uavsnn.sim.checks import check_size
 
+#: The longest ``--chunk-ms``: an hour of event time (a bench's windows span less).
+MAX_CHUNK_MS = 3_600_000.0
+
 __all__ = ["register"]
 
 
@@ -66,6 +69,10 @@ def register(subparsers: Any) -> None:
     p.add_argument("--events", type=_count, default=300_000, help="input events per density (3e5)")
     p.add_argument("--repeat", type=int, default=5, help="runs per figure; the best counts (5)")
     p.add_argument("--threads", type=int, default=None, help="workers of the batch (all cores)")
+    p.add_argument(
+        "--chunk-ms", type=float, default=1.0,
+        help="event time the stream takes per push, in ms (1; from 0.001)",
+    )  # fmt: skip
     p.add_argument("--seed", type=int, default=0, help="seed of the windows and network (0)")
     p.add_argument("--json", action="store_true", help="print the figures as JSON")
     p.add_argument("--quiet", action="store_true", help="no progress on standard error")
@@ -80,6 +87,10 @@ def _bench(args: argparse.Namespace) -> int:
     else:
         width, height = check_size(args.size or "240x180", "--size")
         network = Network({"width": width, "height": height}, seed=args.seed)
+    if not (math.isfinite(args.chunk_ms) and 0.001 <= args.chunk_ms <= MAX_CHUNK_MS):
+        raise ParameterError(
+            f"--chunk-ms must be a number of ms from 0.001 to {MAX_CHUNK_MS:g}, got {args.chunk_ms}"
+        )
     progress = (
         None if args.quiet else new_bar(total=len(args.density), desc="bench", unit="density")
     )
@@ -87,7 +98,7 @@ def _bench(args: argparse.Namespace) -> int:
     for density in args.density:
         rows.append(bench_density(
             network, density, windows=args.windows, events=args.events, threads=args.threads,
-            repeat=args.repeat, seed=args.seed,
+            repeat=args.repeat, chunk_us=round(args.chunk_ms * 1000), seed=args.seed,
         ))  # fmt: skip
         if progress is not None:
             progress.update(1)
@@ -104,7 +115,8 @@ def _bench(args: argparse.Namespace) -> int:
             f"one thread {r.one_thread_ns_per_event:.0f} ns/event "
             f"({r.one_thread_events_per_s / 1e6:.2f} M events/s, "
             f"{r.real_time_factor:.0f}x real time); "
-            f"{r.threads} threads {r.scaling:.2f}x one; stream {r.stream_vs_batch:.2f}x batch"
+            f"{r.threads} threads {r.scaling:.2f}x one; stream ({r.stream_chunk_us / 1000:g} ms "
+            f"chunks) {r.stream_vs_batch:.2f}x batch"
         )
         spikes = ", ".join(f"{k} {v:.1f}" for k, v in r.spikes_per_window.items())
         print(f"    spikes/window: {spikes}; windows detected {r.detected_windows}/{r.windows}")
