@@ -338,3 +338,12 @@ def test_detect_help_says_that_ray_prints_spikes(capsys: pytest.CaptureFixture[s
     text = " ".join(capsys.readouterr().out.split())
     assert "so do several sources and --ray, one line per spike" in text
     assert "printing every conv3 spike (as --per-spike)" in text
+
+
+@pytest.mark.parametrize("domain", ["dvs", "sim"])
+def test_build_refuses_videos_for_a_domain_that_reads_none(domain: str, tmp_path: Path) -> None:
+    # build(..., "dvs", videos=...) built a dvs set and left the videos unread, as the CLI did.
+    out = tmp_path / "d"
+    with pytest.raises(ParameterError, match=f"videos are real clips: .* not {domain}"):
+        build(out, domain, videos=tmp_path, n_test=4, n_train=2)
+    assert not out.exists()

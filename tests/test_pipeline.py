@@ -333,7 +333,7 @@ def test_reproduce_refuses_a_bad_sensor_before_writing(tmp_path: Path, capsys) -
     [
         (["--seed", "3", "--tune-seed", "3"], "--tune-seed must be a non-negative seed other"),
         (["--tune-seed", "-1"], "--tune-seed must be a non-negative seed other"),
-        (["--n-tune", "1"], "--n-tune must be at least 2"),
+        (["--n-tune", "1"], "--n-tune must be an even number of windows from 2"),
         (["--free-minutes", "-1"], "--free-minutes must be in"),
         (["--track-minutes", "601"], "--track-minutes must be in"),
         (["--real-sensors", "640x480,big"], "sensor must be WIDTHxHEIGHT"),

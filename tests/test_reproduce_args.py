@@ -47,9 +47,12 @@ def clips(tmp_path: Path, write_clip: Callable[..., None]) -> Path:
 @pytest.mark.parametrize(
     ("extra", "message"),
     [
-        (["--n-train", "1"], "--n-train must be at least 2 and at most 1,000,000 windows, got 1"),
-        (["--n-train", "2000000"], "--n-train must be at least 2"),
-        (["--n-tune", "1000001"], "--n-tune must be at least 2 and at most 1,000,000"),
+        (["--n-train", "1"], "--n-train must be an even number of windows from 2 to 1,000,000"),
+        (["--n-train", "2000000"], "--n-train must be an even number"),
+        (["--n-tune", "1000002"], "--n-tune must be an even number of windows from 2 to 1,000,000"),
+        # odd: a build would refuse it only after the datasets before it (half UAV)
+        (["--n-train", "3"], "--n-train must be an even number"),
+        (["--n-tune", "5"], "--n-tune must be an even number"),
         (["--n-test", "7"], "--n-test must be an even number of windows from 2 to 1,000,000"),
         (["--n-test", "0"], "--n-test must be an even number"),
         (["--n-test", "-2"], "--n-test must be an even number"),

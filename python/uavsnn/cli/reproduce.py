@@ -349,9 +349,10 @@ def _checked(args: argparse.Namespace) -> _Checked:
             f"identification is tuned on other recordings than the test's, got {tune_seed}"
         )
     for flag, n in (("--n-train", args.n_train), ("--n-tune", n_tune)):
-        if not 2 <= n <= MAX_SPLIT_WINDOWS:
+        if not (2 <= n <= MAX_SPLIT_WINDOWS and n % 2 == 0):
             raise ParameterError(
-                f"{flag} must be at least 2 and at most {MAX_SPLIT_WINDOWS:,} windows, got {n}"
+                f"{flag} must be an even number of windows from 2 to {MAX_SPLIT_WINDOWS:,} (half "
+                f"with a UAV), got {n}"
             )
     if not (2 <= args.n_test <= MAX_SPLIT_WINDOWS and args.n_test % 2 == 0):
         raise ParameterError(

@@ -137,6 +137,11 @@ def _check_build_args(
         raise ParameterError(f"domain must be one of {DATASET_DOMAINS}, got {domain!r}")
     if domain == "real" and videos is None:
         raise ParameterError("the real domain needs videos: a folder like svanstrom-dev")
+    if domain in ("dvs", "sim") and videos is not None:
+        raise ParameterError(
+            f"videos are real clips: for the real or combined domain, not {domain} (a {domain} "
+            "build would leave them unread)"
+        )
     if isinstance(n_test, bool) or not isinstance(n_test, int) or n_test < 2 or n_test % 2:
         raise ParameterError(f"n_test must be an even integer >= 2, got {n_test!r}")
     if n_train is not None and (
