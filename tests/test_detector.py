@@ -871,7 +871,9 @@ def test_cli_false_tracks_sets_the_track_operating_point(
     # The points were set with the default 3 of 5: another rule is refused with why.
     other = run_cli(detect_cmd(*args, "--false-tracks", "1", "--confirm", "2/5"), stdin=b"")
     assert other.returncode == 2 and b"set with --confirm 3/5, not 2/5" in other.stderr
-    same = run_cli(detect_cmd(*args, "--false-tracks", "1", "--confirm", "3/5"), stdin=b"")
+    same = run_cli(
+        detect_cmd(*args, "--false-tracks", "1", "--confirm", "3/5"), stdin=events.tobytes()
+    )
     assert same.returncode == 0, same.stderr.decode()
 
 

@@ -501,7 +501,9 @@ def test_a_model_without_a_recorded_gate_runs_at_its_sensors_with_a_note(
     assert note is not None and "does not record the tracker gate" in note
     assert "(128 px)" in note and "24 px" in note and "--identify-only" in note
     cmd = [sys.executable, "-m", "uavsnn", "detect", "-", "--model", str(tmp_path / "1280.npz")]
-    done = subprocess.run(cmd, input=b"", capture_output=True)
+    # one event: a stream without a usable event is refused (exit 2)
+    one = np.zeros(1, EVENT_DTYPE).tobytes()
+    done = subprocess.run(cmd, input=one, capture_output=True)
     assert done.returncode == 0 and "does not record the tracker gate" in done.stderr.decode()
 
 

@@ -652,7 +652,10 @@ def _check_csv(file: Path) -> _CsvLayout:
                         )
                     has_header = True
                     header = line_no + k + 1
-                    columns = _csv.columns(lines[k])
+                    try:
+                        columns = _csv.columns(lines[k])
+                    except RecordingFileError as exc:
+                        raise RecordingFileError(f"{file}: line {header}: {exc}") from exc
                     start = k + 1
                 elif bom and line_no + k == 0:
                     bom_line = lines[0]

@@ -16,7 +16,9 @@ Standard input (``-``)
     (``events.tobytes()`` of an ``EVENT_DTYPE`` array); a record split across reads is kept until
     its end arrives. ``csv``: one ``t,x,y,p`` line per event (integers; ``p`` is 1/0 or 1/-1, any
     value > 0 is ON; a first line that is not numbers is taken as a header, and if it names the
-    four columns in another order, as :func:`uavsnn.io.read` reads them, that order is read).
+    four columns in another order, as :func:`uavsnn.io.read` reads them, that order is read;
+    one that names some of them, not all four, where the default order does not put them is
+    refused with a :class:`~uavsnn.StreamError`).
     Each event that cannot be used — a malformed line, a line longer than
     :data:`uavsnn.io.CSV_MAX_LINE` bytes (not held: its bytes are skipped up to its end), an
     event outside the sensor, a time earlier than an event before it — is dropped alone and
@@ -79,7 +81,7 @@ import numpy as np
 
 from uavsnn import _core, _csv
 from uavsnn._validate import MAX_TIME_US, check_sensor_size
-from uavsnn.errors import ParameterError, StreamError, UavsnnError
+from uavsnn.errors import ParameterError, RecordingFileError, StreamError, UavsnnError
 from uavsnn.events import EVENT_DTYPE
 from uavsnn.io import CSV_MAX_LINE
 
@@ -404,7 +406,9 @@ class StdinSource(EventSource):
                 # A truncated last record: its bytes never made an event.
                 self.stats.dropped += 1
         self._drop_held()  # a run going back too short to be a restart
-        if self.stats.events == 0 and self.stats.dropped:
+        # Nothing usable, whether or not anything was dropped (an empty stream, a header
+        # alone, one line taken as a header): most likely the wrong format.
+        if self.stats.events == 0:
             raise StreamError(
                 f"standard input held no usable {self.fmt} event ({self.stats.dropped} dropped): "
                 "is --stdin-format right, and the sensor size?"
@@ -504,10 +508,16 @@ class StdinSource(EventSource):
                     raise ValueError
             except ValueError:
                 # The stream's first line may be a header (naming the columns, or not); any
-                # other bad line is a drop.
-                if self._lines == 0 and (named := _csv.columns(fields)) != at:
-                    at = self._columns = named
-                    self._width = len(fields.split(b","))
+                # other bad line is a drop. One naming some columns out of the default order,
+                # but not all four, is refused (read in that order, its events would be wrong).
+                if self._lines == 0:
+                    try:
+                        named = _csv.columns(fields)
+                    except RecordingFileError as exc:
+                        raise StreamError(f"standard input: {exc}") from exc
+                    if named != at:
+                        at = self._columns = named
+                        self._width = len(fields.split(b","))
                 self.stats.dropped += self._lines > 0
                 self._lines += 1
                 continue

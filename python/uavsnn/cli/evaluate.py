@@ -60,7 +60,12 @@ def register(subparsers: Any) -> None:
         default=None,
         help=f"worker threads, at most {MAX_THREADS} (default: all cores)",
     )
-    p.add_argument("--seed", type=int, default=0, help="seed of the added noise (0)")
+    p.add_argument(
+        "--seed",
+        type=int,
+        default=None,
+        help="with --noise or --report: seed of the added noise (0)",
+    )
     p.add_argument(
         "--ablation",
         type=Path,
@@ -167,6 +172,12 @@ def _evaluate(args: argparse.Namespace) -> int:
             f"--clips streams through the detector, which confirms by HITS/WINDOWS alone: "
             f"--confirm {confirm} is for --tracks"
         )
+    if args.seed is not None and not (args.noise or args.report):
+        raise ParameterError(
+            "--seed seeds the noise added by --noise and in --report's pictures: give --noise or "
+            "--report"
+        )
+    args.seed = 0 if args.seed is None else args.seed
     if args.seed < 0:
         raise ParameterError(f"--seed must be >= 0, got {args.seed}")
     shares = _noise_shares(args.noise_shares)

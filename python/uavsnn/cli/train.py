@@ -41,7 +41,9 @@ def register(subparsers: Any) -> None:
         "--windows-per-layer",
         type=int,
         default=None,
-        help="windows each layer sees, in shuffled passes (default: one pass; the paper: 20000)",
+        help="at least this many windows each layer sees, in shuffled passes (a layer stops at "
+        "its first progress report at or past the count, so it may see a few more; default: "
+        "one pass; the paper: 20000)",
     )
     p.add_argument(
         "--epochs",
