@@ -197,12 +197,16 @@ def test_measure_box_is_the_rotor_and_counts_of_the_events_in_the_box(gen):
         measure_box(events, (18, 9, 10, 8), rate=(0, 0, 8))
     with pytest.raises(ParameterError, match="bins"):
         measure_box(events, (18, 9, 10, 8), rate=(0, 10, 5000))
-    # Events out of time order are ignored by the estimator, as rotor_signature ignores them,
-    # and still counted.
+    # Events out of time order are ignored by the estimator, as a stream's late events are,
+    # and still counted; rotor_signature, given one array, refuses them.
     shuffled = events[rng.permutation(len(events))]
     inside = in_box(shuffled, (18, 9, 28, 17))
-    expected = (rotor_signature(inside, (18, 9, 10, 8)), len(inside), int(inside["p"].sum()))
+    streamed = RotorSignature((18, 9, 10, 8))
+    streamed.update(inside)
+    expected = (streamed.estimate(), len(inside), int(inside["p"].sum()))
     assert measure_box(shuffled, (18, 9, 10, 8))[:3] == expected
+    with pytest.raises(EventError, match="in time order"):
+        rotor_signature(inside, (18, 9, 10, 8))
     with pytest.raises(EventError):
         measure_box([events, np.zeros(3)], (0, 0, 4, 4))
     with pytest.raises(ParameterError, match="box"):

@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from uavsnn._validate import check_bools
+from uavsnn._validate import check_bools, check_int
 from uavsnn.dataset import LabelledWindows
 from uavsnn.errors import DatasetError, ParameterError, ShapeError
 from uavsnn.network import Inference, Network
@@ -416,8 +416,14 @@ def score(
 
 
 def first_detection_boxes(inference: Inference, windows: int) -> np.ndarray:
-    """Per window, the box ``x0, y0, x1, y1`` (float64) of its first detection (the earliest,
-    then the first reported), NaN where it has none."""
+    """Per window of the ``windows`` (a count) ``inference`` ran, the box ``x0, y0, x1, y1``
+    (float64) of its first detection (the earliest, then the first reported), NaN where it has
+    none.
+
+    Raises:
+        ParameterError: ``windows`` not a count.
+    """
+    windows = check_int("windows", windows, 0)
     out = np.full((windows, 4), np.nan)
     found = inference.detections
     if len(found):
@@ -431,7 +437,7 @@ def first_detection_boxes(inference: Inference, windows: int) -> np.ndarray:
 def _box_pairs(a: npt.ArrayLike, b: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """Two ``(n, 4)`` float64 arrays of boxes to compare row by row, or a ShapeError."""
     a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
-    if a.shape != b.shape or a.shape[-1:] != (4,):
+    if a.shape != b.shape or a.ndim != 2 or a.shape[1] != 4:
         raise ShapeError(f"boxes must be (n, 4) alike, got {a.shape} and {b.shape}")
     return a, b
 

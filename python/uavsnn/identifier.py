@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from uavsnn._validate import check_real
 from uavsnn.errors import ModelFileError, ParameterError, ShapeError
 from uavsnn.features import FEATURES, UAV_CLASS, WindowFeatures
 from uavsnn.linear import predict_logistic, predict_softmax
@@ -160,8 +161,10 @@ class Identifier:
         alarmed (one of :attr:`alarm_thresholds`' shares), e.g. ``ident.at_false_alarm(0.01)``.
 
         Raises:
-            ParameterError: the model was not tuned for that share (see :attr:`alarm_thresholds`).
+            ParameterError: ``rate`` not a number, or the model was not tuned for that share
+                (see :attr:`alarm_thresholds`).
         """
+        rate = check_real("rate", rate)
         for share, threshold in self.alarm_thresholds:
             if math.isclose(share, rate, rel_tol=0.0, abs_tol=1e-12):
                 return replace(self, threshold=threshold)
@@ -177,8 +180,9 @@ class Identifier:
         rates), e.g. ``ident.at_false_tracks(0.1)``.
 
         Raises:
-            ParameterError: the model was not tuned for that rate.
+            ParameterError: ``rate`` not a number, or the model was not tuned for that rate.
         """
+        rate = check_real("rate", rate)
         for have, threshold in self.track_alarm_thresholds:
             if math.isclose(have, rate, rel_tol=1e-12, abs_tol=0.0):
                 return replace(self, threshold=threshold)

@@ -343,9 +343,14 @@ def alarm_threshold(score: np.ndarray, label: np.ndarray, rate: float) -> float:
 def threshold_accuracies(score: np.ndarray, label: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The thresholds :func:`best_threshold` chooses among (0.5 and each non-negative score,
     ascending) and the balanced accuracy against ``label`` of calling UAV the windows whose
-    ``score`` reaches each."""
-    score = np.asarray(score, dtype=np.float64)
-    label = np.asarray(label, bool)
+    ``score`` reaches each.
+
+    Raises:
+        ShapeError, ParameterError: as :func:`uavsnn.roc.check_scores` (NaN scores).
+    """
+    from uavsnn.roc import check_scores
+
+    score, label = check_scores(score, np.asarray(label, dtype=bool))
     candidates = np.unique(np.concatenate([[0.5], score[score >= 0]]))
     acc = np.array([_balanced_accuracy(score >= c, label) for c in candidates])
     return candidates, acc
@@ -370,7 +375,8 @@ def best_threshold(score: np.ndarray, label: np.ndarray, within: float = THRESHO
     for no windows.
 
     Raises:
-        ParameterError: ``within`` not in [0, 1).
+        ParameterError: ``within`` not in [0, 1), or NaN scores.
+        ShapeError: not one score and one label a window.
     """
     if not 0 <= within < 1:
         raise ParameterError(f"within must be in [0, 1), got {within!r}")

@@ -481,7 +481,7 @@ class Network:
         pools are kept, the two counts used last, and their threads live as long as the
         process or until a third count replaces one."""
         columns = _window_columns(windows)
-        workers = None if threads is None else _count("threads", threads, minimum=1)
+        workers = None if threads is None else check_int("threads", threads, 1)
         if workers is not None and workers > MAX_THREADS:
             raise ParameterError(f"threads must be at most {MAX_THREADS}, got {workers}")
         counts, thresholds, detections, layer_spikes = self._core.infer(

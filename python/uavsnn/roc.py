@@ -21,6 +21,7 @@ from uavsnn.errors import DatasetError, ParameterError, ShapeError
 
 __all__ = [
     "INTERVAL_RESAMPLES",
+    "check_scores",
     "detection_at_false_alarm",
     "recording_interval",
     "roc_area",
@@ -31,16 +32,27 @@ __all__ = [
 ]
 
 
+def check_scores(scores: npt.ArrayLike, actual: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+    """``scores`` as float64 and ``actual`` as bool, one of each a window.
+
+    Raises:
+        ShapeError: not one of each a window.
+        ParameterError: NaN scores (``-inf``, never an alarm, is a score).
+    """
+    s = np.asarray(scores, dtype=np.float64)
+    a = check_bools("actual", actual)
+    if s.shape != a.shape or s.ndim != 1:
+        raise ShapeError(f"scores and actual must be one a window: got {s.shape} and {a.shape}")
+    if np.isnan(s).any():
+        raise ParameterError("scores hold NaN")
+    return s, a
+
+
 def roc_curve(scores: npt.ArrayLike, actual: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """The ROC of a score (higher: more UAV-like; ``-inf``: never an alarm): false-alarm rates
     and detection rates (float64), from the strictest threshold to the loosest, starting at
     ``(0, 0)`` and ending where every window with a finite score alarms."""
-    s = np.asarray(scores, dtype=np.float64)
-    a = check_bools("actual", actual)
-    if s.shape != a.shape:
-        raise ShapeError(f"scores has {s.size} windows, actual {a.size}")
-    if np.isnan(s).any():
-        raise ParameterError("scores hold NaN")
+    s, a = check_scores(scores, actual)
     pos, neg = int(a.sum()), int((~a).sum())
     if pos == 0 or neg == 0:
         raise DatasetError("a ROC needs UAV and UAV-free windows")
@@ -55,8 +67,7 @@ def roc_area(scores: npt.ArrayLike, actual: npt.ArrayLike) -> float | None:
     """The area under the ROC of ``scores`` against ``actual``: the Mann-Whitney statistic, the
     chance that a UAV scores above a UAV-free one, ties counted half. ``None`` without both
     kinds."""
-    s = np.asarray(scores, dtype=np.float64)
-    a = check_bools("actual", actual)
+    s, a = check_scores(scores, actual)
     pos, neg = int(a.sum()), int((~a).sum())
     if pos == 0 or neg == 0:
         return None
@@ -68,18 +79,23 @@ def roc_area(scores: npt.ArrayLike, actual: npt.ArrayLike) -> float | None:
 
 def detection_at_false_alarm(scores: npt.ArrayLike, actual: npt.ArrayLike, rate: float) -> float:
     """The share of the UAV windows scoring at or above :func:`threshold_at_false_alarm`."""
-    s = np.asarray(scores, dtype=np.float64)
-    a = check_bools("actual", actual)
+    s, a = check_scores(scores, actual)
     return float(np.mean(s[a] >= threshold_at_false_alarm(s, a, rate)))
 
 
 def threshold_at_false_alarm(scores: npt.ArrayLike, actual: npt.ArrayLike, rate: float) -> float:
     """The lowest threshold at which at most ``rate`` of the UAV-free windows score at or above
-    it (windows scoring ``-inf`` never alarm)."""
+    it (windows scoring ``-inf`` never alarm).
+
+    Raises:
+        ShapeError, ParameterError: as :func:`check_scores`; ``rate`` outside [0, 1].
+        DatasetError: no UAV-free window.
+    """
+    if isinstance(rate, bool) or not isinstance(rate, (int, float, np.integer, np.floating)):
+        raise ParameterError(f"rate must be a number in [0, 1], got {rate!r}")
     if not 0 <= rate <= 1:
         raise ParameterError(f"rate must be in [0, 1], got {rate}")
-    s = np.asarray(scores, dtype=np.float64)
-    a = check_bools("actual", actual)
+    s, a = check_scores(scores, actual)
     neg = np.sort(s[~a])[::-1]
     if len(neg) == 0:
         raise DatasetError("no UAV-free windows to set a false-alarm rate on")

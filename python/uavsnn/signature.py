@@ -31,7 +31,7 @@ import numpy as np
 from uavsnn import _core
 from uavsnn._state import EngineState
 from uavsnn._validate import check_real, check_sensor_size, whole
-from uavsnn.errors import ParameterError
+from uavsnn.errors import EventError, ParameterError
 from uavsnn.events import packed_bytes
 
 __all__ = [
@@ -258,11 +258,29 @@ def rotor_signature(
     events: np.ndarray, box: tuple[int, int, int, int], **params: Any
 ) -> RotorEstimate:
     """The rotor signature of ``events`` (canonical dtype, time order) inside ``box``; ``params``
-    as :class:`RotorSignature`'s."""
+    as :class:`RotorSignature`'s.
+
+    Raises:
+        EventError: not a 1-D array of the canonical dtype, or not in time order (a stream's
+            :meth:`RotorSignature.update` counts an earlier event as late and skips it; one
+            array is refused).
+    """
     _known(params, DEFAULTS, "rotor signature")
     estimator = RotorSignature(box, **params)
     estimator.update(events)
+    _check_time_order(events)
     return estimator.estimate()
+
+
+def _check_time_order(events: np.ndarray) -> None:
+    """Refuse canonical ``events`` not in time order, naming the first event out of it."""
+    back = np.flatnonzero(np.diff(events["t"].astype(np.int64)) < 0)
+    if len(back):
+        k = int(back[0]) + 1
+        raise EventError(
+            f"event {k}: t={int(events['t'][k])} is earlier than the event before it "
+            f"(t={int(events['t'][k - 1])}): events must be in time order"
+        )
 
 
 def measure_box(
@@ -419,9 +437,14 @@ def rotor_spectrum(
     events: np.ndarray, box: tuple[int, int, int, int], **params: Any
 ) -> SpectrumEstimate:
     """The event-rate spectrum estimate of ``events`` (canonical dtype, time order) inside
-    ``box``; ``params`` as :class:`RotorSpectrum`'s."""
+    ``box``; ``params`` as :class:`RotorSpectrum`'s.
+
+    Raises:
+        EventError: as :func:`rotor_signature`.
+    """
     estimator = RotorSpectrum(box, **params)
     estimator.update(events)
+    _check_time_order(events)
     return estimator.estimate()
 
 

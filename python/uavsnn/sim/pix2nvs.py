@@ -38,7 +38,7 @@ signature, and is recorded with the recording; it changes nothing.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from typing import Any, Literal
 
 import numpy as np
@@ -100,7 +100,19 @@ class Pix2NvsParams:
         """The released PIX2NVS program as it runs: ``compat=True`` and its compiled-in
         defaults (``θ = 0.4``, ``n_max = 5``, ``-r 1``, block 1, ``adaptive = 0.05``);
         ``overrides`` set its options (``threshold``, ``n_max``, ``reference``,
-        ``block_size``, ``adaptive``)."""
+        ``block_size``, ``adaptive``).
+
+        Raises:
+            ParameterError: a name that is no option (or ``compat``), a value out of its
+                range, or one the released program cannot take.
+        """
+        options = [f.name for f in fields(cls) if f.name != "compat"]
+        unknown = sorted(set(overrides) - set(options))
+        if unknown:
+            raise ParameterError(
+                f"Pix2NvsParams.original has no option {unknown[0]!r} (it is the released "
+                f"program, compat=True): its options are {', '.join(options)}"
+            )
         return cls(**{"adaptive": 0.05, **overrides, "compat": True})
 
     def __post_init__(self) -> None:
