@@ -16,7 +16,7 @@ import uavsnn.cli.train
 from uavsnn.cli import main
 from uavsnn.dataset import SceneSource, build, load
 from uavsnn.errors import DatasetError, ModelFileError, ParameterError
-from uavsnn.training import STATE_FILE, apply_overrides, parse_override, train
+from uavsnn.training import STATE_FILE, ProgressFn, apply_overrides, parse_override, train
 
 CONFIG = {"conv2": {"threshold": 15.0}}
 
@@ -88,23 +88,30 @@ def test_layers_must_be_known_and_in_order(windows: uavsnn.windows.Windows) -> N
         train(net, windows.select([]))
 
 
+class _Stop(Exception):
+    """A run stopped part way, as Ctrl-C stops one."""
+
+
+def _stop_in(layer: str, *, after: int) -> ProgressFn:
+    """A progress function that stops the run in ``layer`` once it has seen ``after`` windows."""
+
+    def stop(name: str, done: int, total: int, convergence: float) -> None:
+        if name == layer and done > after:
+            raise _Stop
+
+    return stop
+
+
 def test_checkpoint_survives_an_interruption_and_resume_gives_the_same_model(
     windows: uavsnn.windows.Windows, tmp_path: Path
 ) -> None:
     whole = uavsnn.Network(CONFIG, seed=3)
     train(whole, windows, windows_per_layer=200, seed=4, snapshots=0)
-
-    class Stop(Exception):
-        pass
-
-    def interrupt(layer: str, done: int, total: int, convergence: float) -> None:
-        if layer == "conv3" and done > 64:
-            raise Stop
-
     ckpt = tmp_path / "ckpt"
     net = uavsnn.Network(CONFIG, seed=3)
-    with pytest.raises(Stop):
-        train(net, windows, windows_per_layer=200, seed=4, checkpoint_dir=ckpt, progress=interrupt)
+    with pytest.raises(_Stop):
+        train(net, windows, windows_per_layer=200, seed=4, checkpoint_dir=ckpt,
+              progress=_stop_in("conv3", after=64))  # fmt: skip
     state = json.loads((ckpt / STATE_FILE).read_text())
     assert state["done"] == ["conv2"]
     assert sorted(p.name for p in ckpt.iterdir()) == ["after-conv2.npz", STATE_FILE]
@@ -124,18 +131,10 @@ def test_resume_before_any_checkpoint_trains_every_layer(
     # A run stopped in its first layer has written nothing: resuming it raised KeyError 'done'.
     whole = uavsnn.Network(CONFIG, seed=3)
     train(whole, windows, windows_per_layer=100, seed=4, snapshots=0)
-
-    class Stop(Exception):
-        pass
-
-    def interrupt(layer: str, done: int, total: int, convergence: float) -> None:
-        if done > 32:
-            raise Stop
-
     ckpt = tmp_path / "ckpt"
-    with pytest.raises(Stop):
+    with pytest.raises(_Stop):
         train(uavsnn.Network(CONFIG, seed=3), windows, windows_per_layer=100, seed=4,
-              snapshots=0, checkpoint_dir=ckpt, progress=interrupt)  # fmt: skip
+              snapshots=0, checkpoint_dir=ckpt, progress=_stop_in("conv2", after=32))  # fmt: skip
     assert not (ckpt / STATE_FILE).exists()
     for folder in (ckpt, tmp_path / "never-made"):
         net = uavsnn.Network(CONFIG, seed=3)
