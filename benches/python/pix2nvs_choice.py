@@ -11,8 +11,10 @@ seen that the test clips do not hold, so this reads each θ there and never on t
 - the held-out windows: accuracy (balanced) with the any-spike rule and with identification at
   the model's threshold (tuned on these very windows, so optimistic alike for every θ), and
   detection at 1 % and 5 % false alarms read off their ROC;
+- the shares of the UAV and the UAV-free windows each rule calls UAV;
 - the held-out clips streamed whole (``uavsnn.clips.stream_clip``, as ``uavsnn evaluate
-  --clips`` streams the test clips): clips decided right under each rule;
+  --clips`` streams the test clips): clips decided right under each rule, and those decided
+  otherwise than at the reference with identification;
 - against the first ``--at`` (the reference): each lead with its paired 95 % interval, the
   clips drawn again (windows: those both datasets keep, matched by clip and start; clips with
   a UAV and the others apart).
@@ -168,6 +170,15 @@ def main() -> None:
             f"  windows: any-spike {balanced(r.fired, r.label):.3f}, with identification "
             f"{balanced(r.called, r.label):.3f}; detection {detect}"
         )
+        shares = "; ".join(
+            f"{what} {100 * flag[r.label].mean():.1f} % of the UAV windows and "
+            f"{100 * flag[~r.label].mean():.1f} % of the UAV-free ones"
+            for what, flag in (
+                ("any-spike fires on", r.fired),
+                ("identification calls UAV", r.called),
+            )
+        )
+        print(f"  {shares}")
         right = {rule: sum(clip_right(r, rule).values()) for rule in rules}
         print("  clips decided right: " + ", ".join(f"{k} {v}/{clips}" for k, v in right.items()))
         if r is ref:
@@ -178,6 +189,13 @@ def main() -> None:
                 f"  against θ {ref.name}, {flag} windows: {100 * lead:+.2f} points "
                 f"({100 * lo:+.2f} to {100 * hi:+.2f}; {n} windows both keep)"
             )
+        mine, theirs = clip_right(r, "identified"), clip_right(ref, "identified")
+        moved = [
+            f"{name} ({'right' if mine[name] else 'wrong'} here)"
+            for name in sorted(mine)
+            if mine[name] != theirs[name]
+        ]
+        print(f"  clips decided otherwise with identification: {', '.join(moved) or 'none'}")
         for rule in rules:
             diff, (lo, hi) = clip_lead(r, ref, rule)
             print(
