@@ -44,7 +44,7 @@ from uavsnn._validate import MAX_TIME_US, U64_MAX, check_int, check_sensor_size
 from uavsnn.boxes import xywh
 from uavsnn.errors import ParameterError, ShapeError, StreamError, UavsnnError
 from uavsnn.events import EVENT_DTYPE, packed_bytes
-from uavsnn.features import MAX_RATE_BINS, RATE_BIN_US, rate_bins
+from uavsnn.features import MAX_MEASURED_WINDOW_US, MAX_RATE_BINS, RATE_BIN_US, rate_bins
 from uavsnn.grouping import WindowGrouper, WindowObject, WindowReport, merge_boxes
 from uavsnn.network import WINDOW_DETECTION_DTYPE
 from uavsnn.signature import BoxMeasure, measure_box
@@ -210,10 +210,10 @@ class Detector(EngineState):
         # The engine takes both times as u64: a larger one is refused here, not an
         # OverflowError; the overlap's range is the engine's check.
         window_us = check_int("window_us", window_us, 1, U64_MAX)
-        if rotor and window_us > MAX_RATE_BINS * RATE_BIN_US:
+        if rotor and window_us > MAX_MEASURED_WINDOW_US:
             # Refused later, in push_windows, once the events were taken.
             raise ParameterError(
-                f"window_us {window_us} is longer than {MAX_RATE_BINS * RATE_BIN_US} µs, the "
+                f"window_us {window_us} is longer than {MAX_MEASURED_WINDOW_US} µs, the "
                 f"longest window whose objects are measured (their event rate is counted in at "
                 f"most {MAX_RATE_BINS} bins of {RATE_BIN_US} µs); pass rotor=False to detect "
                 "without measuring them"

@@ -97,6 +97,9 @@ RATE_BIN_US = 5000
 #: The most bins the engine counts a box's rate in (``rust/signature/rate.rs``), so the
 #: longest window whose objects are measured is ``MAX_RATE_BINS * RATE_BIN_US``, 20.48 s.
 MAX_RATE_BINS = 4096
+#: The longest window whose objects are measured, µs (:data:`MAX_RATE_BINS` bins of
+#: :data:`RATE_BIN_US`): the limit the Detector and ``uavsnn detect --window-ms`` refuse past.
+MAX_MEASURED_WINDOW_US = MAX_RATE_BINS * RATE_BIN_US
 
 
 def rate_bins(t0: int, length_us: int) -> tuple[int, int, int]:

@@ -372,7 +372,7 @@ MAX_WINDOW_MS = float(1 << 62) / 1000
 
 def _check_args(args: argparse.Namespace) -> None:
     """Refuse flag values that make no sense before opening anything."""
-    from uavsnn.features import MAX_RATE_BINS, RATE_BIN_US
+    from uavsnn.features import MAX_MEASURED_WINDOW_US
     from uavsnn.sources import check_seconds, is_live
 
     if not (math.isfinite(args.window_ms) and 0.001 <= args.window_ms <= MAX_WINDOW_MS):
@@ -380,14 +380,13 @@ def _check_args(args: argparse.Namespace) -> None:
             f"--window-ms must be a number of ms from 0.001 (1 µs) to {MAX_WINDOW_MS:.3g}, "
             f"got {args.window_ms}"
         )
-    longest_us = MAX_RATE_BINS * RATE_BIN_US
-    if round(args.window_ms * 1000) > longest_us:
+    if round(args.window_ms * 1000) > MAX_MEASURED_WINDOW_US:
         # The detector refuses it, advising its Python argument rotor=False, which the command
         # line has not: its objects' rotor and event rate are always measured.
         raise ParameterError(
-            f"--window-ms {args.window_ms:g} is longer than {longest_us / 1000:g} ms, the "
-            "longest window whose objects' rotor and event rate are measured: give a shorter "
-            "--window-ms"
+            f"--window-ms {args.window_ms:g} is longer than {MAX_MEASURED_WINDOW_US / 1000:g} "
+            "ms, the longest window whose objects' rotor and event rate are measured: give a "
+            "shorter --window-ms"
         )
     if not (math.isfinite(args.overlap) and 0.0 <= args.overlap < 1.0):
         raise ParameterError(f"--overlap must be in [0, 1), got {args.overlap}")
