@@ -16,7 +16,7 @@ import math
 import numpy as np
 import numpy.typing as npt
 
-from uavsnn._validate import check_bools
+from uavsnn._validate import check_bools, check_real
 from uavsnn.errors import DatasetError, ParameterError, ShapeError
 
 __all__ = [
@@ -91,8 +91,7 @@ def threshold_at_false_alarm(scores: npt.ArrayLike, actual: npt.ArrayLike, rate:
         ShapeError, ParameterError: as :func:`check_scores`; ``rate`` outside [0, 1].
         DatasetError: no UAV-free window.
     """
-    if isinstance(rate, bool) or not isinstance(rate, (int, float, np.integer, np.floating)):
-        raise ParameterError(f"rate must be a number in [0, 1], got {rate!r}")
+    rate = check_real("rate", rate)
     if not 0 <= rate <= 1:
         raise ParameterError(f"rate must be in [0, 1], got {rate}")
     s, a = check_scores(scores, actual)
