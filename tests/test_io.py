@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 import uavsnn
+from uavsnn import _csv as csv_reader
 from uavsnn import _prophesee as prophesee
 from uavsnn import io
 from uavsnn.cli import main
@@ -567,8 +568,9 @@ def test_unreadable_files_are_a_recording_file_error(
         raise PermissionError(13, "Permission denied", str(file))
 
     with monkeypatch.context() as patch:
-        # The readers' own open() calls (RAW/DAT headers are read by uavsnn._prophesee).
-        for module in (io, prophesee):
+        # The readers' own open() calls (RAW/DAT headers are read by uavsnn._prophesee, CSV
+        # files checked by uavsnn._csv).
+        for module in (io, prophesee, csv_reader):
             patch.setattr(module, "open", refuse, raising=False)
         with pytest.raises(uavsnn.RecordingFileError, match=r"locked\..*Permission denied"):
             io.read(path, sensor_size=(64, 48))

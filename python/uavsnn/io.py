@@ -52,21 +52,18 @@ refused.
 
 from __future__ import annotations
 
-import dataclasses
 import json
 import math
 import os
-import re
 import struct
 import zipfile
-from collections.abc import Iterator
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from uavsnn import _core, _csv
+from uavsnn._csv import CSV_MAX_LINE as CSV_MAX_LINE  # uavsnn.io.CSV_MAX_LINE, as before
 from uavsnn._files import write_atomic
 from uavsnn._npy import npy_header, npz_arrays, npz_header, npz_read
 from uavsnn._prophesee import (
@@ -79,7 +76,7 @@ from uavsnn._prophesee import (
     format_options,
     raw_header,
 )
-from uavsnn._validate import MAX_TIME_US, check_path, check_sensor_size
+from uavsnn._validate import check_path, check_sensor_size
 from uavsnn.errors import EventError, ParameterError, RecordingFileError
 from uavsnn.events import EVENT_DTYPE, Recording, convert, packed_bytes
 
@@ -464,7 +461,7 @@ def _read_faery(file: Path, kind: str, size: int, given: tuple[int, int] | None)
         # GenX320 cameras write "% format EVT21", which faery refuses; faery 0.7 cannot decode
         # EVT 2.1 at all ("not yet implemented").
         return _read_evt21(file, header, given)
-    csv_layout = _check_csv(file) if kind == "csv" else None
+    csv_layout = _csv.check_file(file) if kind == "csv" else None
     geometry: tuple[int, int] | None = None
     sensor, source = FAERY_FALLBACK_SIZE, "fallback"
     camera = camera_size(header)
@@ -499,7 +496,7 @@ def _read_faery(file: Path, kind: str, size: int, given: tuple[int, int] | None)
         if count != csv_layout.events:
             # faery skipped a line it could not read (it is told to, for blank lines).
             hint = _fallback_hint(sensor) if source == "fallback" else ""
-            why = _csv_bad_line(file, csv_layout, sensor, count, hint)
+            why = _csv.bad_line(file, csv_layout, sensor, count, hint)
             raise RecordingFileError(f"{file}: {why}")
         if csv_layout.first_event is not None:
             chunks.insert(0, csv_layout.first_event)
@@ -532,281 +529,6 @@ def _read_chunks(file: Path, stream: Any) -> list[np.ndarray]:
                 "the recording into shorter files (e.g. with faery's time slicing)"
             )
     return chunks
-
-
-#: The longest line of a CSV recording, in bytes (an event line ``t,x,y,p`` takes at most 40;
-#: a header line a few dozen): a longer one is refused, so a file without line breaks is not
-#: gathered into memory.
-CSV_MAX_LINE = 4096
-# The most digits of a CSV time or coordinate (2^62 has 19): a longer field is refused before
-# it is parsed (Python refuses to parse more than 4,300 digits, and takes quadratic time below).
-_CSV_MAX_DIGITS = 20
-
-# A number that is not a plain integer (a first CSV field like this is a time, not a header).
-_NUMBER = re.compile(rb"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?")
-_BOM = b"\xef\xbb\xbf"
-
-
-# What faery strips from a CSV line and from each of its fields (Rust's ``trim_ascii``), and a
-# field faery reads as an unsigned integer (Rust's ``parse``: an optional "+", then digits).
-_ASCII_SPACE = b" \t\n\x0c\r"
-_UNSIGNED = re.compile(rb"\+?[0-9]+")
-
-
-@dataclass(frozen=True)
-class _CsvLayout:
-    """How a CSV recording is laid out: a header line or not (faery skips the first line), the
-    index of each column, the value of an OFF polarity, the event of a first line faery cannot
-    read, the number of the header line (0: none), and how many events faery is to read (one a
-    line, blank lines, the header and the first line's event read here aside)."""
-
-    has_header: bool = False
-    t: int = 0
-    x: int = 1
-    y: int = 2
-    p: int = 3
-    off: bytes = b"0"
-    first_event: np.ndarray | None = None
-    header: int = 0
-    events: int = 0
-
-    def properties(self, faery: Any) -> Any:
-        """faery's ``CsvProperties`` for this layout. faery is told to skip the lines it cannot
-        read, as it cannot read a blank line: a line skipped otherwise leaves it fewer events
-        than :attr:`events`, which the reader refuses (:func:`_csv_bad_line`)."""
-        props = vars(faery.CsvProperties.default()) | {
-            "has_header": self.has_header,
-            "t_index": self.t,
-            "x_index": self.x,
-            "y_index": self.y,
-            "on_index": self.p,
-            "off_value": self.off,
-            "skip_errors": True,
-        }
-        return faery.CsvProperties(**props)
-
-
-def _csv_blocks(file: Path) -> Iterator[list[bytes]]:
-    """The lines of a CSV recording, a UTF-8 byte-order mark dropped, in blocks of about 4 MiB.
-    A line longer than :data:`CSV_MAX_LINE` is refused, so that a file without line breaks is
-    not gathered into memory."""
-    line_no = 0
-    rest = b""
-    with open(file, "rb") as handle:
-        if handle.read(len(_BOM)) != _BOM:
-            handle.seek(0)
-        while True:
-            block = handle.read(1 << 22)
-            if len(rest) > CSV_MAX_LINE:
-                raise RecordingFileError(
-                    f"{file}: line {line_no + 1} is longer than {CSV_MAX_LINE:,} bytes: not a "
-                    "CSV event line (t,x,y,p)"
-                )
-            data = rest + block
-            cut = len(data) if not block else data.rfind(b"\n") + 1
-            rest = data[cut:]
-            lines = data[:cut].splitlines()
-            yield lines
-            line_no += len(lines)
-            if not block:
-                return
-
-
-def _check_csv(file: Path) -> _CsvLayout:
-    """How a CSV recording is laid out (:class:`_CsvLayout`): whether it has a header line (its
-    first line that is not blank), and if the header names the columns, which is which;
-    whether its OFF events are ``0`` or ``-1``; the event of its first line when faery cannot
-    read it (a data line behind a UTF-8 byte-order mark, which faery would take as part of the
-    time; faery is then told to skip it as a header); and how many events faery is to read.
-    Refuse a first line whose time is a number but not an integer (it is not a header), times
-    beyond the engine's 2^62 µs, times that go backwards (faery would clamp them to the time
-    before, silently), and OFF events written both as ``0`` and ``-1``, naming the line.
-
-    Lines are read in blocks.
-    """
-    has_header = False
-    columns = dict(_csv.DEFAULT_COLUMNS)
-    with open(file, "rb") as handle:
-        bom = handle.read(len(_BOM)) == _BOM
-    bom_line = None  # the line behind a byte-order mark, when it is an event
-    header = 0
-    text_seen = False  # a line that is not blank was seen (the first may be the header)
-    blank = 0
-    previous = -1
-    line_no = 0
-    # The first line of an OFF event written 0, and of one written -1.
-    off_lines: dict[bytes, int] = {}
-    for lines in _csv_blocks(file):
-        start = 0  # the block's first line after the header
-        if not text_seen:
-            k = next((k for k, line in enumerate(lines) if line.strip()), None)
-            if k is not None:
-                text_seen = True
-                head = lines[k].split(b",", 1)[0].strip()
-                if not head.lstrip(b"-").isdigit():
-                    if _NUMBER.fullmatch(head):
-                        raise RecordingFileError(
-                            f"{file}: line {line_no + k + 1}: time {head.decode('latin-1')!r} "
-                            "is not an integer: times must be integers (microseconds), and a "
-                            "first line that starts with a number is not a header"
-                        )
-                    has_header = True
-                    header = line_no + k + 1
-                    try:
-                        columns = _csv.columns(lines[k])
-                    except RecordingFileError as exc:
-                        raise RecordingFileError(f"{file}: line {header}: {exc}") from exc
-                    start = k + 1
-                elif bom and line_no + k == 0:
-                    bom_line = lines[0]
-        # Each line split as it is read (a list kept per line would cost the collector
-        # more than the split).
-        tc, pc = columns["t"], columns["p"]
-        seen = {
-            parts[pc] if len(parts := line.split(b",", pc + 1)) > pc else b""
-            for line in lines[start:]
-        }
-        for value in {v.strip() for v in seen} & {b"0", b"-1"} - off_lines.keys():
-            k = next(k for k in range(start, len(lines)) if _field(lines[k], pc) == value)
-            off_lines[value] = line_no + k + 1
-        if len(off_lines) == 2:
-            raise RecordingFileError(
-                f"{file}: line {max(off_lines.values())}: an OFF event written "
-                f"{'0' if off_lines[b'0'] > off_lines[b'-1'] else '-1'}, after OFF events "
-                "written the other way (line "
-                f"{min(off_lines.values())}): polarities must be 1/0 or 1/-1 throughout"
-            )
-        first = [
-            parts[tc].strip() if len(parts := line.split(b",", tc + 1)) > tc else b""
-            for line in lines
-        ]
-        if b"" in first:
-            blank += sum(1 for i, f in enumerate(first) if not f and not lines[i].strip())
-        # Negative or malformed times are left to faery, which refuses them ("+5" it reads).
-        numbers = [
-            (i, f)
-            for i, f in enumerate(first)
-            if f.isdigit() or (f[:1] == b"+" and f[1:].isdigit())
-        ]
-        long = [(i, f) for i, f in numbers if len(f) > _CSV_MAX_DIGITS]
-        if long:
-            i, f = long[0]
-            raise RecordingFileError(
-                f"{file}: line {line_no + i + 1}: a time of {len(f):,} digits "
-                f"({f[:20].decode()}...) is not a time the detector takes (at most 2^62 = "
-                f"{MAX_TIME_US} µs)"
-            )
-        late = [k for k, (_, f) in enumerate(numbers) if len(f) > 18 and int(f) > MAX_TIME_US]
-        if late:
-            i, f = numbers[late[0]]
-            raise RecordingFileError(
-                f"{file}: line {line_no + i + 1}: time {int(f)} is beyond the latest the "
-                f"detector takes (2^62 = {MAX_TIME_US} µs)"
-            )
-        if numbers:
-            t = np.array([int(f) for _, f in numbers], dtype=np.int64)
-            back = np.flatnonzero(np.diff(t, prepend=previous) < 0)
-            if len(back):
-                k = int(back[0])
-                before = previous if k == 0 else int(t[k - 1])
-                raise RecordingFileError(
-                    f"{file}: line {line_no + numbers[k][0] + 1}: time {int(t[k])} is "
-                    f"earlier than the time before it ({before}); events must be in time "
-                    "order"
-                )
-            previous = int(t[-1])
-        line_no += len(lines)
-    layout = _CsvLayout(
-        # faery cannot read the line behind a byte-order mark: it skips it as a header, and
-        # its event, if it is not a header, is read here.
-        has_header or bom,
-        t=columns["t"],
-        x=columns["x"],
-        y=columns["y"],
-        p=columns["p"],
-        off=b"-1" if b"-1" in off_lines else b"0",
-        header=header,
-        events=line_no - blank - bool(header) - (bom_line is not None),
-    )
-    if bom_line is None:
-        return layout
-    return dataclasses.replace(layout, first_event=_csv_event(file, bom_line, layout))
-
-
-def _csv_bad_line(
-    file: Path, layout: _CsvLayout, sensor: tuple[int, int], read: int, hint: str
-) -> str:
-    """Why faery read ``read`` events from a CSV recording, not one for each of its event
-    lines: the first line that is not blank and that faery cannot read as an event
-    (:func:`_csv_fault`), named by its number. ``hint`` is added to an event off the sensor."""
-    line_no = 0
-    for lines in _csv_blocks(file):
-        for line in lines:
-            line_no += 1
-            if not line.strip() or line_no == layout.header:
-                continue
-            if line_no == 1 and layout.first_event is not None:
-                continue  # read here, not by faery
-            text = line.strip(_ASCII_SPACE)
-            fields = [field.strip(_ASCII_SPACE) for field in text.split(b",")]
-            why = _csv_fault(fields, layout, sensor, hint)
-            if why:
-                return f"line {line_no}: {text[:80].decode('latin-1')!r}: {why}"
-    return f"cannot decode as csv: {read:,} events read from its {layout.events:,} event lines"
-
-
-def _csv_fault(fields: list[bytes], layout: _CsvLayout, sensor: tuple[int, int], hint: str) -> str:
-    """Why faery cannot read the fields of a CSV line as an event (``""`` when it can): it
-    reads t, x and y as unsigned integers of 64, 16 and 16 bits, p as the ON or the OFF value,
-    and refuses an event off the sensor."""
-    columns = {"t": layout.t, "x": layout.x, "y": layout.y, "p": layout.p}
-    for name, index in columns.items():
-        if index >= len(fields):
-            return f"no {name} (field {index + 1})"
-    t, x, y, p = (fields[index] for index in columns.values())
-    if _unsigned(t, 2**64 - 1) is None:
-        return f"t {t[:40].decode('latin-1')!r} is not a whole number of µs"
-    at = []
-    for name, value in (("x", x), ("y", y)):
-        number = _unsigned(value, 65535)
-        if number is None:
-            return f"{name} {value[:40].decode('latin-1')!r} is not an integer from 0 to 65535"
-        at.append(number)
-    if p not in (b"1", layout.off):
-        return f"p {p[:40].decode('latin-1')!r} is neither 1 nor {layout.off.decode()}"
-    width, height = sensor
-    if at[0] >= width or at[1] >= height:
-        return f"x={at[0]}, y={at[1]} is off the {width}x{height} sensor{hint}"
-    return ""
-
-
-def _unsigned(field: bytes, top: int) -> int | None:
-    """The value of a CSV field as faery reads an unsigned integer (an optional "+", then
-    digits: Rust's ``parse``), ``None`` when it is not one or above ``top``."""
-    if not _UNSIGNED.fullmatch(field):
-        return None
-    digits = field.lstrip(b"+").lstrip(b"0") or b"0"
-    return int(digits) if len(digits) <= 20 and int(digits) <= top else None
-
-
-def _field(line: bytes, index: int) -> bytes:
-    """Field ``index`` of a CSV line, stripped; empty where the line has fewer."""
-    fields = line.split(b",", index + 1)
-    return fields[index].strip() if index < len(fields) else b""
-
-
-def _csv_event(file: Path, line: bytes, layout: _CsvLayout) -> np.ndarray:
-    """The event of one CSV line laid out as ``layout`` says (``p`` 1 or the OFF value)."""
-    t, x, y, p = (_field(line, i) for i in (layout.t, layout.x, layout.y, layout.p))
-    if not (
-        all(part.isdigit() and len(part) <= _CSV_MAX_DIGITS for part in (t, x, y))
-        and max(int(x), int(y)) < 65536
-        and p in (b"1", layout.off)
-    ):
-        raise RecordingFileError(f"{file}: line 1: not an event t,x,y,p: {line[:80]!r}")
-    event = np.zeros(1, EVENT_DTYPE)
-    event[0] = (int(t), int(x), int(y), p == b"1")
-    return event
 
 
 def _json_default(value: Any) -> Any:
