@@ -121,8 +121,8 @@ def window_lead(
         idx = np.flatnonzero(group)
         if len(idx):
             pick = idx[rng.integers(0, len(idx), size=(resamples, len(idx)))]
-            for row, chosen in enumerate(pick):
-                np.add.at(counts[row], chosen, 1)
+            rows = np.repeat(np.arange(resamples), len(idx))
+            np.add.at(counts, (rows, pick.ravel()), 1)  # how often each draw takes each clip
     draws = lead(counts)
     lo, hi = np.percentile(draws[np.isfinite(draws)], [2.5, 97.5])
     return float(lead(np.ones(len(names)))), (float(lo), float(hi)), len(a)
