@@ -332,12 +332,15 @@ def test_detect_finds_a_source_named_twice_however_spelled(
             _one_line_exit_2(capsys, argv, "a source is named twice")
 
 
-def test_detect_help_says_that_ray_prints_spikes(capsys: pytest.CaptureFixture[str]) -> None:
+def test_detect_help_says_that_ray_prints_the_window_lines(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    # Several sources and --ray print one stream's lines (tests/test_ray.py checks them).
     with pytest.raises(SystemExit):
         main(["detect", "--help"])
     text = " ".join(capsys.readouterr().out.split())
-    assert "so do several sources and --ray, one line per spike" in text
-    assert "printing every conv3 spike (as --per-spike)" in text
+    assert "print the same lines led by the stream's name" in text
+    assert "one line per spike" not in text
 
 
 @pytest.mark.parametrize("domain", ["dvs", "sim"])

@@ -593,7 +593,7 @@ def test_detect_command_over_several_files(
     for k in range(2):
         files.append(str(tmp_path / f"s{k}.npy"))
         np.save(files[-1], _events(3000, 20 + k))
-    argv = ["detect", *files, "-m", str(tmp_path / "m.npz"), "--json", "--ray"]
+    argv = ["detect", *files, "-m", str(tmp_path / "m.npz"), "--json", "--per-spike", "--ray"]
     # An .npy recording's sensor is its events' bounding box unless given: here the blob's
     # corner, which the model refuses, and the stream says why.
     assert main(argv) == 1
@@ -611,3 +611,114 @@ def test_detect_command_over_several_files(
         want = np.concatenate([det.push(events), det.flush()])["t"].tolist()
         assert want and mine == want
         assert f"{name}: done events=3000" in captured.err
+
+
+def _identified(model: Network) -> Network:
+    """``model`` with a small identification (two shape features; points set for 1 % and 5 %
+    false alarms), so that the window lines carry UAV scores and class guesses."""
+    from dataclasses import replace
+
+    from uavsnn.identify import Identifier
+
+    net = model.copy()
+    ident = Identifier(
+        ("log_width", "log_height"), np.array([0.5, -0.25, 0.1]), np.zeros(2), np.ones(2),
+        0.4, 1.0,
+    )  # fmt: skip
+    net.identification = replace(ident, alarm_thresholds=((0.01, 0.62), (0.05, 0.55)))
+    return net
+
+
+def test_several_files_on_ray_print_one_streams_window_lines(
+    runner: Any, model: Network, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """SPEC §6: the same command on Ray gives what one machine gives. Each stream's window
+    lines (objects, tracks, UAV scores and classes, at the operating point and confirmation
+    rule given) are those ``uavsnn detect`` prints for that file alone, led by its name."""
+    _identified(model).save(tmp_path / "m.npz")
+    files = []
+    for k in range(2):
+        files.append(str(tmp_path / f"s{k}.npy"))
+        np.save(files[-1], _events(3000, 30 + k))
+    opts = ["-m", str(tmp_path / "m.npz"), "--sensor-size", "240x180"]
+    opts += ["--false-alarm", "0.05", "--confirm", "2/3"]
+    for as_json in (True, False):
+        fmt = ["--json"] if as_json else []
+        assert main(["detect", *files, *opts, *fmt, "--ray"]) == 0
+        captured = capsys.readouterr()
+        lines = captured.out.splitlines()
+        for name in files:
+            assert main(["detect", name, *opts, *fmt]) == 0
+            alone = capsys.readouterr().out.splitlines()
+            if as_json:
+                mine = [json.loads(line) for line in lines if json.loads(line)["stream"] == name]
+                assert [m.pop("stream") for m in mine] == [name] * len(mine)
+                assert mine == [json.loads(line) for line in alone]
+                objects = [o for w in mine for o in w["objects"]]
+                # Not a comparison of empty lines: objects scored, classed and tracked.
+                assert any(w["detected"] for w in mine)
+                assert all(o["uav_score"] is not None and o["class"] for o in objects)
+                assert any(o["track_confirmed"] for o in objects)
+                spikes = sum(w["spikes"] for w in mine)
+                detected = sum(w["detected"] for w in mine)
+                assert f"{name}: done events=3000 windows={len(mine)} detected={detected} " \
+                    f"detections={spikes} " in captured.err  # fmt: skip
+            else:
+                assert [line for line in lines if line.startswith(f"[{name}] ")] == [
+                    f"[{name}] {line}" for line in alone
+                ]
+
+
+def test_streams_report_their_windows_through_the_python_function(
+    runner: Any, model: Network, tmp_path: Path
+) -> None:
+    """``detect_streams(..., windows=True)``: each stream's window reports are one
+    ``Detector.push_windows``' on the same events, with the tracker's parameters given (a copy
+    per stream, without its tracks); ``keep=False`` keeps the counts only."""
+    from uavsnn import Detector
+    from uavsnn.distributed import detect_streams
+    from uavsnn.tracks import Tracker
+
+    net = _identified(model)
+    events = {str(tmp_path / f"c{k}.npy"): _events(2500, 40 + k) for k in range(2)}
+    for path, ev in events.items():
+        np.save(path, ev)
+    tracker = Tracker(confirm_hits=2, confirm_windows=2)
+    # A track of its own, which no stream may inherit.
+    from uavsnn.grouping import WindowObject, WindowReport
+
+    obj = (WindowObject((0, 0, 4, 4), 1),)
+    tracker.update(WindowReport(0, 0, 20_000, True, np.zeros(0), obj))
+    got: dict[str, list[Any]] = {path: [] for path in events}
+    kw: dict[str, Any] = {"window_us": 20_000, "sensor_size": (240, 180), "windows": True}
+    kept = detect_streams(
+        runner, list(events), net, tracker=tracker,
+        on_detections=lambda name, found: got[name].extend(found), **kw,
+    )  # fmt: skip
+    counted = detect_streams(runner, list(events), net, tracker=tracker, keep=False, **kw)
+    for path, ev in events.items():
+        det = Detector(net, window_us=20_000, tracker=Tracker(confirm_hits=2, confirm_windows=2))
+        want = det.push_windows(ev) + det.flush_windows()
+        r, c = kept[path], counted[path]
+        assert r.ok and c.ok, (r.error, c.error)
+
+        def shown(reports: list[Any]) -> list[Any]:
+            return [
+                (w.window, w.t0, w.t1, w.detected, w.detections.tolist(),
+                 [(o.box, o.spikes, o.track_id, o.track_confirmed, o.uav_score, o.class_guess,
+                   o.track_score, o.rotor) for o in w.objects])
+                for w in reports
+            ]  # fmt: skip
+
+        assert shown(r.reports) == shown(want) == shown(got[path])
+        assert any(o.track_confirmed for w in want for o in w.objects)
+        assert min(o.track_id for w in want for o in w.objects if o.track_id) == 1
+        spikes = np.concatenate([w.detections for w in want])
+        assert np.array_equal(r.detections, spikes) and r.spikes == len(spikes)
+        assert r.windows_reported == len(want) == c.windows_reported
+        assert r.windows_detected == sum(w.detected for w in want) == c.windows_detected
+        assert c.spikes == r.spikes and c.reports == [] and len(c.detections) == 0
+    with pytest.raises(ParameterError, match="give windows=True"):
+        detect_streams(runner, list(events), net, tracker=tracker)
+    with pytest.raises(ParameterError, match="must be a uavsnn"):
+        detect_streams(runner, list(events), net, windows=True, tracker="2/3")  # type: ignore[arg-type]

@@ -27,7 +27,7 @@ import socket
 import threading
 from collections.abc import Callable, Generator, Iterable, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 from urllib.parse import urlsplit
 
 import numpy as np
@@ -35,6 +35,9 @@ import numpy as np
 from uavsnn._validate import check_int, check_real
 from uavsnn.errors import ParameterError, UavsnnError
 from uavsnn.network import Network
+
+if TYPE_CHECKING:
+    from uavsnn.tracks import Tracker
 
 __all__ = [
     "MAX_CPUS",
@@ -337,11 +340,20 @@ def noise_task(networks: dict[str, Network], data: Any, fraction: float, seed: i
 class StreamResult:
     """What one stream gave: its name, every detection in time order
     (:data:`~uavsnn.detector.WINDOW_DETECTION_DTYPE`; after a sensor restart, in time order
-    again from the new clock), the source's and detector's counts, and the error that ended
-    it early (``None`` when it ran to its end)."""
+    again from the new clock), its closed windows with their objects when run with
+    ``windows=True`` (:class:`~uavsnn.grouping.WindowReport`, in window order; their spikes are
+    :attr:`detections`), the source's and detector's counts, and the error that ended it early
+    (``None`` when it ran to its end). With ``keep=False`` :attr:`detections` and
+    :attr:`reports` stay empty and only the counts are kept."""
 
     name: str
     detections: np.ndarray
+    reports: list[Any] = field(default_factory=list)
+    #: conv3 spikes the stream's detector gave (kept or not).
+    spikes: int = 0
+    #: Windows reported closed (``windows=True``; kept or not), and those of them detected.
+    windows_reported: int = 0
+    windows_detected: int = 0
     events: int = 0
     events_seen: int = 0
     packets: int = 0
@@ -374,6 +386,8 @@ class _StreamWorker:
         opts = dict(options)
         window_us, overlap = opts.pop("window_us"), opts.pop("overlap")
         idle_flush_s = opts.pop("idle_flush_s", None)
+        windows = bool(opts.pop("windows", False))
+        opts_tracker = opts.pop("tracker", None)
         model_size = (int(model.config["width"]), int(model.config["height"]))
         live = is_live(spec)
         if opts.get("sensor_size") is None and live:
@@ -383,15 +397,27 @@ class _StreamWorker:
         if opts.pop("downsample", False):
             opts["downsample_to"] = model_size
         self.source = open_source(spec, **opts)
+        tracker = opts_tracker
+        if tracker is not None:
+            tracker.reset()  # a copy of the caller's, with its parameters and none of its tracks
+        self.windows = windows
         self.detector = Detector(
-            model, window_us=window_us, overlap=overlap, sensor_size=self.source.sensor_size
+            model,
+            window_us=window_us,
+            overlap=overlap,
+            sensor_size=self.source.sensor_size,
+            tracker=tracker,
         )
         self.driver = StreamDriver(
-            self.source, self.detector, idle_flush_s=idle_flush_s if live else None
+            self.source,
+            self.detector,
+            idle_flush_s=idle_flush_s if live else None,
+            windows=windows,
         )
         self.address = self.source.address if isinstance(self.source, UdpSource) else None
         self._lock = threading.Condition()
-        self._found: list[np.ndarray] = []
+        # Detections (arrays) or closed windows (WindowReports) not yet polled.
+        self._found: list[Any] = []
         self._rejected = 0
         # The detector's counters as the worker thread last read them: poll must not touch the
         # detector itself, which push holds (its engine call releases the GIL; a getter from
@@ -404,13 +430,16 @@ class _StreamWorker:
         self._thread.start()
 
     def _run(self) -> None:
-        def note(found: np.ndarray | None) -> None:
+        def note(found: Any) -> None:
             seen, windows = self.driver.events_seen, self.driver.windows_opened
             with self._lock:
                 self._seen, self._windows = seen, windows
                 self._rejected = self.driver.rejected
                 if found is not None and len(found):
-                    self._found.append(found.copy())
+                    if self.windows:
+                        self._found.extend(found)  # WindowReports: immutable, sent as they are
+                    else:
+                        self._found.append(found.copy())
                     self._lock.notify_all()
 
         try:
@@ -431,17 +460,20 @@ class _StreamWorker:
         """The UDP address the source listens on (``None`` for other sources)."""
         return self.address
 
-    def poll(self, wait_s: float) -> tuple[np.ndarray, dict[str, Any], bool]:
-        """Detections found since the last poll (time order), the counts, and whether the
-        stream has ended; waits up to ``wait_s`` for something to report."""
-        from uavsnn.detector import WINDOW_DETECTION_DTYPE
-
+    def poll(self, wait_s: float) -> tuple[Any, dict[str, Any], bool]:
+        """Detections found since the last poll (time order; the windows closed since, a list
+        of WindowReports, when the stream reports windows), the counts, and whether the stream
+        has ended; waits up to ``wait_s`` for something to report."""
         with self._lock:
             if not self._found and not self._done:
                 self._lock.wait(wait_s)
-            found = (
-                np.concatenate(self._found) if self._found else np.empty(0, WINDOW_DETECTION_DTYPE)
-            )
+            found: Any
+            if self.windows:
+                found = self._found
+            else:
+                found = (
+                    np.concatenate(self._found) if self._found else np.empty(0, _detection_dtype())
+                )
             self._found = []
             done = self._done
             s = self.source.stats
@@ -470,6 +502,9 @@ def detect_streams(
     on_detections: Callable[[str, np.ndarray], None] | None = None,
     poll_s: float = 0.1,
     idle_flush_s: float | None = None,
+    windows: bool = False,
+    tracker: Tracker | None = None,
+    keep: bool = True,
     **source_options: Any,
 ) -> dict[str, StreamResult]:
     """Run one :class:`~uavsnn.Detector` per source, each in a Ray actor, until every stream
@@ -477,11 +512,23 @@ def detect_streams(
 
     Each actor opens its own source (a file path or ``udp://HOST:PORT`` on the node it runs
     on), so events go from the source into the actor's detector and nowhere else; only
-    detections come back. The model goes through the object store once. ``on_ready`` gets
+    detections come back. The model goes through the object store once, with its
+    identification (set its operating point before: ``model.identification =
+    model.identification.at_false_alarm(0.01)``). ``on_ready`` gets
     each stream's bound UDP address (``None`` for a file) and its actor (``ray.kill(actor)``
     stops the stream) once every source is open; ``on_detections(name, found)``
     gets each stream's detections as they come, in time order. A stream whose actor dies or
     whose source fails is reported in its result's ``error``; the others go on.
+
+    ``windows``: each detector reports its windows as they close
+    (:meth:`Detector.push_windows <uavsnn.detector.Detector.push_windows>`: the decision, the
+    merged objects with their tracks, rotor signatures, UAV scores and class guesses, as one
+    stream's ``uavsnn detect`` prints them); ``on_detections`` then gets lists of
+    :class:`~uavsnn.grouping.WindowReport`, in window order. ``tracker``: the parameters of
+    every stream's tracker (each detector gets a copy, without its tracks; default
+    :func:`uavsnn.tracks.tracker_for` the model, as a ``Detector``'s). ``keep``: whether the
+    results keep every detection and window (``False`` for a stream of any length: only the
+    counts, in bounded memory; ``on_detections`` still gets them all).
 
     ``source_options``: as :func:`uavsnn.sources.open_source` (``sensor_size``, ``realtime``,
     ``udp_format``, ``max_packets``, ``idle_timeout``), and ``downsample`` (fit files to the
@@ -492,10 +539,19 @@ def detect_streams(
 
     Raises:
         ParameterError: a runner that is not Ray's, names missing or repeated, more than
-            :data:`MAX_STREAMS` sources, or a bad ``idle_flush_s`` (before any actor starts).
+            :data:`MAX_STREAMS` sources, a bad ``idle_flush_s``, or a ``tracker`` that is no
+            :class:`~uavsnn.tracks.Tracker` or is given without ``windows`` (before any actor
+            starts).
     """
+    from uavsnn.tracks import Tracker
+
     if not isinstance(runner, RayRunner):
         raise ParameterError("streams run in Ray actors: pass the runner connect() returns")
+    if tracker is not None:
+        if not isinstance(tracker, Tracker):
+            raise ParameterError(f"tracker must be a uavsnn.tracks.Tracker, got {tracker!r}")
+        if not windows:
+            raise ParameterError("tracker links the objects of windows: give windows=True")
     ray = runner._ray
     names = list(names) if names is not None else list(sources)
     if len(names) != len(sources) or len(set(names)) != len(names):
@@ -512,6 +568,8 @@ def detect_streams(
         "window_us": window_us,
         "overlap": overlap,
         "idle_flush_s": idle_flush_s,
+        "windows": bool(windows),
+        "tracker": tracker,
         **source_options,
     }
     # Every stream must run at once however many CPUs the cluster has: an actor reserves
@@ -524,6 +582,7 @@ def detect_streams(
     }
     results = {name: StreamResult(name, np.empty(0, dtype=_detection_dtype())) for name in names}
     parts: dict[str, list[np.ndarray]] = {name: [] for name in names}
+    keep = bool(keep)
     live: dict[str, Any] = {}
     for name, actor in actors.items():
         try:
@@ -549,7 +608,15 @@ def detect_streams(
             r.windows, r.restarts = counts["windows"], counts["restarts"]
             r.error = counts["error"]
             if len(found):
-                parts[name].append(found)
+                spikes = [w.detections for w in found] if windows else [found]
+                r.spikes += sum(len(a) for a in spikes)
+                if windows:
+                    r.windows_reported += len(found)
+                    r.windows_detected += sum(bool(w.detected) for w in found)
+                if keep:
+                    parts[name].extend(spikes)
+                    if windows:
+                        r.reports.extend(found)
                 if on_detections is not None:
                     on_detections(name, found)
             if done:
@@ -557,7 +624,7 @@ def detect_streams(
             else:
                 pending[live[name].poll.remote(poll_s)] = name
     for name, chunks in parts.items():
-        if chunks:
+        if any(len(c) for c in chunks):
             results[name].detections = np.concatenate(chunks)
     return results
 

@@ -62,9 +62,9 @@ it across windows; '7?' while the track is tentative, '7' once confirmed) and it
 signature when one is detected (frequency/strength/agreeing pixels, else '-'); uav_score and
 class come from the model's identification stage, '-' (null in JSON) for a model without one
 (a note on standard error says so). --per-spike prints every
-conv3 spike instead, as it is decided; so do several sources and --ray, one line per spike led
-by the stream's name (their detectors run in Ray actors and send back spikes only: no objects,
-uav_score, class or tracks). --json makes JSON lines of either. A rate summary goes
+conv3 spike instead, as it is decided. Several sources (and --ray) run a detector per stream,
+each in a Ray actor, and print the same lines led by the stream's name. --json makes JSON
+lines of either. A rate summary goes
 to standard error. Malformed packets, and chunks the detector rejects (events outside the
 sensor, time going backwards), are counted as drops and skipped.
 """
@@ -103,8 +103,7 @@ def register(subparsers: Any) -> None:
     p.add_argument(
         "--per-spike",
         action="store_true",
-        help="print every conv3 spike as it is decided instead of one line per window (what "
-        "several sources and --ray print)",
+        help="print every conv3 spike as it is decided instead of one line per window",
     )
     p.add_argument(
         "--realtime", action="store_true", help="replay a file at its own pace (files only)"
@@ -188,7 +187,7 @@ def register(subparsers: Any) -> None:
     )
     add_ray_option(
         p,
-        "one detector per stream, each in a Ray actor, printing every conv3 spike (as --per-spike)",
+        "one detector per stream, each in a Ray actor (its lines led by the stream's name)",
     )
     p.set_defaults(handler=run)
 
@@ -431,18 +430,13 @@ def _check_args(args: argparse.Namespace) -> None:
         raise ParameterError(f"--max-packets must be >= 1, got {args.max_packets}")
     for flag, seconds in (("--idle-flush", args.idle_flush), ("--idle-timeout", args.idle_timeout)):
         check_seconds(flag, seconds)
-    for flag, value in (("--false-alarm", args.false_alarm), ("--false-tracks", args.false_tracks)):
-        if value is not None and (args.more_sources or args.ray is not None):
-            raise ParameterError(
-                f"{flag} sets one detector's identification: not with several sources or --ray"
-            )
     if args.false_alarm is not None and args.false_tracks is not None:
         raise ParameterError("--false-alarm and --false-tracks each set the threshold: give one")
     if args.confirm is not None:
-        if args.per_spike or args.more_sources or args.ray is not None:
+        if args.per_spike:
             raise ParameterError(
-                "--confirm sets the tracks of the window lines: not with --per-spike, several "
-                "sources or --ray (they print spikes, without tracks)"
+                "--confirm sets the tracks of the window lines: not with --per-spike (it prints "
+                "spikes, without tracks)"
             )
         rule = Confirm.parse(args.confirm)
         if rule.fast is not None:
@@ -499,20 +493,17 @@ def _tracker(text: str | None, network: Any) -> Any:
     return tracker_for(network, confirm_hits=rule.hits, confirm_windows=rule.windows)
 
 
-def run(args: argparse.Namespace) -> int:
-    """Run detection until the source ends, or Ctrl-C (SIGTERM, SIGHUP): what was found is
-    still reported (the windows still open flushed), and the exit code is then 130 (143, 129),
-    as for any interruption; 1, without the summary, when standard output's reader went away.
-    Returns the exit code."""
-    from uavsnn.cli import exit_code, interrupted_line, pipe_closed, quiet_stdout
-    from uavsnn.detector import Detector
-    from uavsnn.driver import StreamDriver
-    from uavsnn.network import Network
-    from uavsnn.sources import IdleClock, UdpSource, is_live, open_source
+def _load(args: argparse.Namespace) -> Any:
+    """The model of ``--model``, its identification at the operating point of
+    ``--false-alarm`` or ``--false-tracks`` (``args.confirm`` then becomes the rule its track
+    points were set with).
 
-    _check_args(args)
-    if args.more_sources or args.ray is not None:
-        return _run_many(args)
+    Raises:
+        ParameterError: either option for a model without identification, or ``--confirm``
+            other than the track points' rule with ``--false-tracks``.
+    """
+    from uavsnn.network import Network
+
     network = Network.load(args.model)
     if args.false_alarm is not None or args.false_tracks is not None:
         flag = "--false-alarm" if args.false_alarm is not None else "--false-tracks"
@@ -536,6 +527,23 @@ def run(args: argparse.Namespace) -> int:
                     f"set with --confirm {stored}, not {args.confirm}"
                 )
             args.confirm = stored
+    return network
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run detection until the source ends, or Ctrl-C (SIGTERM, SIGHUP): what was found is
+    still reported (the windows still open flushed), and the exit code is then 130 (143, 129),
+    as for any interruption; 1, without the summary, when standard output's reader went away.
+    Returns the exit code."""
+    from uavsnn.cli import exit_code, interrupted_line, pipe_closed, quiet_stdout
+    from uavsnn.detector import Detector
+    from uavsnn.driver import StreamDriver
+    from uavsnn.sources import IdleClock, UdpSource, is_live, open_source
+
+    _check_args(args)
+    if args.more_sources or args.ray is not None:
+        return _run_many(args)
+    network = _load(args)
     model_size = (int(network.config["width"]), int(network.config["height"]))
     # '-' and UDP carry no sensor size: default to the model's; a file has its own.
     live = is_live(args.source)
@@ -652,11 +660,10 @@ def run(args: argparse.Namespace) -> int:
 
 def _run_many(args: argparse.Namespace) -> int:
     """Several streams at once, one Detector per stream in a Ray actor (docs/distributed.md):
-    detections as they come, one line per conv3 spike (as ``--per-spike``), each led by its
-    stream's name; a stream that fails is
+    each stream's window lines as they close (its conv3 spikes with ``--per-spike``), each led
+    by its stream's name, as one stream's ``detect`` prints them; a stream that fails is
     reported and the others go on (exit 1 when any failed)."""
     from uavsnn.distributed import detect_streams, runner_for
-    from uavsnn.network import Network
     from uavsnn.sources import is_live
 
     sources = [args.source, *args.more_sources]
@@ -665,12 +672,16 @@ def _run_many(args: argparse.Namespace) -> int:
     _check_distinct(sources)
     if args.ray is None:
         raise ParameterError("several sources need --ray (one detector per stream, on Ray)")
-    network = Network.load(args.model)
+    network = _load(args)
     if any(is_live(s) for s in sources):
         model_size = (int(network.config["width"]), int(network.config["height"]))
         _check_live_size(_sensor_size(args.sensor_size) or model_size, model_size)
     runner = runner_for(args.ray)
     out, err = sys.stdout, sys.stderr
+    if network.load_note:
+        print(f"uavsnn detect: note: {network.load_note}", file=err, flush=True)
+    ident = network.identification
+    classes = tuple(ident.classes) if ident is not None else ()
 
     def ready(addresses: dict[str, tuple[str, int] | None], _actors: Any) -> None:
         for name, address in addresses.items():
@@ -678,17 +689,19 @@ def _run_many(args: argparse.Namespace) -> int:
                 print(f"uavsnn detect: {name}: listening on udp://{address[0]}:{address[1]}",
                       file=err, flush=True)  # fmt: skip
 
-    def found(name: str, detections: np.ndarray) -> None:
-        for d in detections:
+    def found(name: str, items: Any) -> None:
+        for item in items:
+            line = _spike(item, args.json) if args.per_spike else _window(item, args.json, classes)
             if args.json:
-                print(json.dumps({"stream": name, **json.loads(_spike(d, True))}), file=out)
+                print(json.dumps({"stream": name, **json.loads(line)}), file=out)
             else:
-                print(f"[{name}] {_spike(d, False)}", file=out)
+                print(f"[{name}] {line}", file=out)
         out.flush()
 
     results = detect_streams(
         runner, sources, network, window_us=round(args.window_ms * 1000),
         overlap=args.overlap, on_ready=ready, on_detections=found,
+        windows=not args.per_spike, tracker=_tracker(args.confirm, network), keep=False,
         sensor_size=_sensor_size(args.sensor_size), realtime=args.realtime,
         udp_format=args.udp_format or _UDP_FORMAT, max_packets=args.max_packets,
         idle_timeout=args.idle_timeout, downsample=args.downsample,
@@ -696,9 +709,10 @@ def _run_many(args: argparse.Namespace) -> int:
     )  # fmt: skip
     for r in results.values():
         state = "done" if r.ok else f"failed ({r.error})"
+        detected = "" if args.per_spike else f" detected={r.windows_detected}"
         print(
-            f"uavsnn detect: {r.name}: {state} events={r.events} windows={r.windows} "
-            f"detections={len(r.detections)} packets={r.packets} "
+            f"uavsnn detect: {r.name}: {state} events={r.events} windows={r.windows}"
+            f"{detected} detections={r.spikes} packets={r.packets} "
             f"dropped={r.dropped} rejected_events={r.rejected_events}"
             + (f" restarts={r.restarts}" if r.restarts else ""),
             file=err, flush=True,
