@@ -1,7 +1,15 @@
 """CSV recordings: the columns of an event line (``t,x,y,p`` by default, or in the order a
 header names them), shared by :func:`uavsnn.io.read` (CSV files) and standard input's ``csv``
 format; and a CSV file's check before faery reads it (:func:`check_file`, the layout faery is
-told) and, when faery skipped a line, which line and why (:func:`bad_line`)."""
+told) and, when faery skipped a line, which line and why (:func:`bad_line`).
+
+Both read a line whose first character that is not white space is ``#`` as a comment, skipped
+wherever it is; the header, if any, is the first line that is neither blank nor a comment. With
+no header, a comment before the first event that names all four columns once each
+(``# t,x,y,p``, as ``np.savetxt`` writes a header; ``# x,y,t,p``) names them. A UTF-8
+byte-order mark at the start is dropped. faery ends lines only at ``\n``: a file with a
+carriage return not followed by one (old Mac line ends) is refused, naming the line; standard
+input ends a line at either."""
 
 from __future__ import annotations
 
@@ -19,6 +27,7 @@ from uavsnn.errors import RecordingFileError
 from uavsnn.events import EVENT_DTYPE
 
 __all__ = [
+    "BOM",
     "COLUMN_NAMES",
     "CSV_MAX_LINE",
     "DEFAULT_COLUMNS",
@@ -26,6 +35,9 @@ __all__ = [
     "bad_line",
     "check_file",
     "columns",
+    "comment_columns",
+    "is_comment",
+    "is_number",
 ]
 
 #: The names a CSV header may give each field (any case; quotes and spaces around are
@@ -54,11 +66,7 @@ def columns(header: bytes) -> dict[str, int]:
             would be wrong. The message quotes the header, not its file or line;
             :class:`~uavsnn.sources.StdinSource` raises it as a ``StreamError``.
     """
-    names = [name.strip().strip(b"\"'").decode("latin-1").lower() for name in header.split(b",")]
-    found = {
-        field: [i for i, name in enumerate(names) if name in synonyms]
-        for field, synonyms in COLUMN_NAMES.items()
-    }
+    names, found = _names(header)
     if all(len(at) == 1 for at in found.values()):
         return {field: at[0] for field, at in found.items()}
     moved = sorted(
@@ -82,6 +90,38 @@ def columns(header: bytes) -> dict[str, int]:
     return dict(DEFAULT_COLUMNS)
 
 
+def _names(header: bytes) -> tuple[list[str], dict[str, list[int]]]:
+    """The names of a header line's columns (lower case, quotes and spaces around dropped),
+    and the columns that name each field."""
+    names = [name.strip().strip(b"\"'").decode("latin-1").lower() for name in header.split(b",")]
+    found = {
+        field: [i for i, name in enumerate(names) if name in synonyms]
+        for field, synonyms in COLUMN_NAMES.items()
+    }
+    return names, found
+
+
+def is_comment(line: bytes) -> bool:
+    """Whether a CSV line is a comment: its first character that is not white space is
+    ``#``."""
+    return line.lstrip()[:1] == b"#"
+
+
+def comment_columns(comment: bytes) -> dict[str, int] | None:
+    """The column of each field that a comment line names as a header would (``# t,x,y,p``,
+    as ``np.savetxt`` writes a header), when it names all four once each; else ``None`` (a
+    comment that names fewer is only a comment)."""
+    _, found = _names(comment.lstrip()[1:])
+    if all(len(at) == 1 for at in found.values()):
+        return {field: at[0] for field, at in found.items()}
+    return None
+
+
+def is_number(field: bytes) -> bool:
+    """Whether a CSV field is a number (a line that starts with one is not a header)."""
+    return bool(_NUMBER.fullmatch(field.strip()))
+
+
 #: The longest line of a CSV recording, in bytes (an event line ``t,x,y,p`` takes at most 40;
 #: a header line a few dozen): a longer one is refused, so a file without line breaks is not
 #: gathered into memory.
@@ -92,7 +132,11 @@ _CSV_MAX_DIGITS = 20
 
 # A number that is not a plain integer (a first CSV field like this is a time, not a header).
 _NUMBER = re.compile(rb"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?")
-_BOM = b"\xef\xbb\xbf"
+#: A UTF-8 byte-order mark, dropped from the start of a recording.
+BOM = b"\xef\xbb\xbf"
+# A carriage return that does not end a line with the newline after it: faery, which splits
+# lines at newlines only, would read it inside a line (and old Mac line ends as one line).
+_LONE_CR = re.compile(rb"\r(?!\n)")
 
 
 # What faery strips from a CSV line and from each of its fields (Rust's ``trim_ascii``), and a
@@ -134,27 +178,43 @@ class CsvLayout:
         return faery.CsvProperties(**props)
 
 
-def _blocks(file: Path) -> Iterator[list[bytes]]:
-    """The lines of a CSV recording, a UTF-8 byte-order mark dropped, in blocks of about 4 MiB.
-    A line longer than :data:`CSV_MAX_LINE` is refused, so that a file without line breaks is
-    not gathered into memory."""
+def _blocks(file: Path) -> Iterator[tuple[list[bytes], dict[int, bytes]]]:
+    """The lines of a CSV recording, a UTF-8 byte-order mark dropped, in blocks of about 4 MiB,
+    each comment line (:func:`is_comment`) blank in its place, and the block's comment lines by
+    their index in it. A line longer than :data:`CSV_MAX_LINE` is refused, so that a file
+    without line breaks is not gathered into memory; so is a carriage return that no newline
+    follows (but at the end of the file), which faery would read inside a line."""
     line_no = 0
     rest = b""
     with open(file, "rb") as handle:
-        if handle.read(len(_BOM)) != _BOM:
+        if handle.read(len(BOM)) != BOM:
             handle.seek(0)
         while True:
             block = handle.read(1 << 22)
+            data = rest + block
+            lone = _LONE_CR.search(data) if b"\r" in data else None
+            # (A last one may be the first half of a "\r\n", or ends the file.)
+            if lone is not None and lone.start() < len(data) - 1:
+                where = line_no + data.count(b"\n", 0, lone.start()) + 1
+                raise RecordingFileError(
+                    f"{file}: line {where}: a carriage return (\\r) that no newline follows: "
+                    "lines must end in \\n or \\r\\n (old Mac line ends, \\r alone, are not "
+                    "read: convert them, e.g. with tr '\\r' '\\n')"
+                )
             if len(rest) > CSV_MAX_LINE:
                 raise RecordingFileError(
                     f"{file}: line {line_no + 1} is longer than {CSV_MAX_LINE:,} bytes: not a "
                     "CSV event line (t,x,y,p)"
                 )
-            data = rest + block
             cut = len(data) if not block else data.rfind(b"\n") + 1
-            rest = data[cut:]
-            lines = data[:cut].splitlines()
-            yield lines
+            text, rest = data[:cut], data[cut:]
+            lines = text.splitlines()
+            comments: dict[int, bytes] = {}
+            if b"#" in text:
+                comments = {k: line for k, line in enumerate(lines) if is_comment(line)}
+                for k in comments:
+                    lines[k] = b""
+            yield lines, comments
             line_no += len(lines)
             if not block:
                 return
@@ -162,7 +222,9 @@ def _blocks(file: Path) -> Iterator[list[bytes]]:
 
 def check_file(file: Path) -> CsvLayout:
     """How a CSV recording is laid out (:class:`CsvLayout`): whether it has a header line (its
-    first line that is not blank), and if the header names the columns, which is which;
+    first line that is neither blank nor a comment), and if the header names the columns (or,
+    without one, a comment before the first event names all four: :func:`comment_columns`),
+    which is which;
     whether its OFF events are ``0`` or ``-1``; the event of its first line when faery cannot
     read it (a data line behind a UTF-8 byte-order mark, which faery would take as part of the
     time; faery is then told to skip it as a header); and how many events faery is to read.
@@ -170,24 +232,32 @@ def check_file(file: Path) -> CsvLayout:
     beyond the engine's 2^62 µs, times that go backwards (faery would clamp them to the time
     before, silently), and OFF events written both as ``0`` and ``-1``, naming the line.
 
-    Lines are read in blocks.
+    Comment lines are skipped as blank lines are (faery cannot read them as events either);
+    one that faery could read as an event (the header's columns leave the first field unread)
+    is refused. Lines are read in blocks.
     """
     has_header = False
     at = dict(DEFAULT_COLUMNS)  # the column of each field
     with open(file, "rb") as handle:
-        bom = handle.read(len(_BOM)) == _BOM
+        bom = handle.read(len(BOM)) == BOM
     bom_line = None  # the line behind a byte-order mark, when it is an event
     header = 0
     text_seen = False  # a line that is not blank was seen (the first may be the header)
     blank = 0
     previous = -1
     line_no = 0
+    commented: dict[str, int] | None = None  # the columns a comment before any text names
+    any_comment = False
     # The first line of an OFF event written 0, and of one written -1.
     off_lines: dict[bytes, int] = {}
-    for lines in _blocks(file):
+    for lines, comments in _blocks(file):
         start = 0  # the block's first line after the header
+        any_comment = any_comment or bool(comments)
         if not text_seen:
             k = next((k for k, line in enumerate(lines) if line.strip()), None)
+            for i, comment in comments.items():
+                if k is None or i < k:
+                    commented = comment_columns(comment) or commented
             if k is not None:
                 text_seen = True
                 head = lines[k].split(b",", 1)[0].strip()
@@ -205,8 +275,10 @@ def check_file(file: Path) -> CsvLayout:
                     except RecordingFileError as exc:
                         raise RecordingFileError(f"{file}: line {header}: {exc}") from exc
                     start = k + 1
-                elif bom and line_no + k == 0:
-                    bom_line = lines[0]
+                else:
+                    at = commented or at
+                    if bom and line_no + k == 0:
+                        bom_line = lines[0]
         # Each line split as it is read (a list kept per line would cost the collector
         # more than the split).
         tc, pc = at["t"], at["p"]
@@ -276,6 +348,8 @@ def check_file(file: Path) -> CsvLayout:
         header=header,
         events=line_no - blank - bool(header) - (bom_line is not None),
     )
+    if any_comment and 0 not in at.values():
+        _refuse_readable_comments(file, layout)
     if bom_line is None:
         return layout
     return dataclasses.replace(layout, first_event=_event(file, bom_line, layout))
@@ -283,10 +357,10 @@ def check_file(file: Path) -> CsvLayout:
 
 def bad_line(file: Path, layout: CsvLayout, sensor: tuple[int, int], read: int, hint: str) -> str:
     """Why faery read ``read`` events from a CSV recording, not one for each of its event
-    lines: the first line that is not blank and that faery cannot read as an event
-    (:func:`_fault`), named by its number. ``hint`` is added to an event off the sensor."""
+    lines: the first line that is neither blank nor a comment and that faery cannot read as an
+    event (:func:`_fault`), named by its number. ``hint`` is added to an event off the sensor."""
     line_no = 0
-    for lines in _blocks(file):
+    for lines, _ in _blocks(file):
         for line in lines:
             line_no += 1
             if not line.strip() or line_no == layout.header:
@@ -299,6 +373,25 @@ def bad_line(file: Path, layout: CsvLayout, sensor: tuple[int, int], read: int, 
             if why:
                 return f"line {line_no}: {text[:80].decode('latin-1')!r}: {why}"
     return f"cannot decode as csv: {read:,} events read from its {layout.events:,} event lines"
+
+
+def _refuse_readable_comments(file: Path, layout: CsvLayout) -> None:
+    """Refuse a comment line that faery would read as an event: one whose first field (the
+    ``#``) is in no column the layout reads, whose other fields are an event (faery skips
+    only the lines it cannot read, and, with a header, the first)."""
+    skipped = 1 if layout.has_header else 0  # faery's header line, whatever it is
+    line_no = 0
+    for lines, comments in _blocks(file):
+        for k, comment in comments.items():
+            text = comment.strip(_ASCII_SPACE)
+            fields = [field.strip(_ASCII_SPACE) for field in text.split(b",")]
+            if line_no + k + 1 != skipped and not _fault(fields, layout, (65536, 65536), ""):
+                raise RecordingFileError(
+                    f"{file}: line {line_no + k + 1}: the comment {text[:80].decode('latin-1')!r}"
+                    " reads as an event in the header's columns (its first column is in none "
+                    "of them): remove the comment"
+                )
+        line_no += len(lines)
 
 
 def _fault(fields: list[bytes], layout: CsvLayout, sensor: tuple[int, int], hint: str) -> str:

@@ -18,7 +18,11 @@ Standard input (``-``)
     value > 0 is ON; a first line that is not numbers is taken as a header, and if it names the
     four columns in another order, as :func:`uavsnn.io.read` reads them, that order is read;
     one that names some of them, not all four, where the default order does not put them is
-    refused with a :class:`~uavsnn.StreamError`).
+    refused with a :class:`~uavsnn.StreamError`). As in a CSV file, a leading UTF-8
+    byte-order mark is dropped, and lines starting with ``#`` are comments, skipped wherever
+    they are (the header is the first line that is not one; without a header, a comment
+    before the first event naming all four columns, ``# x,y,t,p``, names them). Lines end at
+    ``\n``, ``\r\n`` or a lone ``\r`` (a file's lone ``\r`` is refused: faery reads none).
     Each event that cannot be used — a malformed line, a line longer than
     :data:`uavsnn.io.CSV_MAX_LINE` bytes (not held: its bytes are skipped up to its end), an
     event outside the sensor, a time earlier than an event before it — is dropped alone and
@@ -367,7 +371,8 @@ class StdinSource(EventSource):
 
     def __iter__(self) -> Iterator[np.ndarray]:
         rest = b""
-        skipping = False  # inside a CSV line too long to keep, until its newline
+        skipping = False  # inside a CSV line too long to keep, until its line end
+        at_start = self.fmt == "csv"  # a CSV stream's UTF-8 byte-order mark is yet to be seen
         while True:
             data = self._read()
             if data is None:
@@ -382,11 +387,20 @@ class StdinSource(EventSource):
                 rest = data[whole:]
                 chunk = np.frombuffer(data[:whole], dtype=EVENT_DTYPE)
             else:
+                if at_start:
+                    # A byte-order mark is dropped, as a file's is (one cut across reads too).
+                    if len(data) < len(_csv.BOM) and _csv.BOM.startswith(data):
+                        rest = data
+                        continue
+                    at_start = False
+                    data = data.removeprefix(_csv.BOM)
+                # A line ends at "\n", "\r\n" or a lone "\r" (old Mac line ends); the "\n" of a
+                # "\r\n" cut across reads starts a blank line.
                 if skipping:
-                    end = data.find(b"\n")
-                    data = b"" if end < 0 else data[end + 1 :]
-                    skipping = end < 0
-                cut = data.rfind(b"\n") + 1
+                    ends = [end for end in (data.find(b"\n"), data.find(b"\r")) if end >= 0]
+                    data = data[min(ends) + 1 :] if ends else b""
+                    skipping = not ends
+                cut = max(data.rfind(b"\n"), data.rfind(b"\r")) + 1
                 rest = data[cut:]
                 if len(rest) > CSV_MAX_LINE:
                     # Not an event line: dropped, not held (its end is skipped as it comes).
@@ -491,12 +505,26 @@ class StdinSource(EventSource):
         self._back_run = int(run[-1]) if back[-1] else 0
         return None
 
+    def _set_columns(self, named: dict[str, int], width: int) -> dict[str, int]:
+        """Read the columns a header names (a line then has its ``width`` fields); the default
+        order, a line of 4."""
+        self._columns = named
+        self._width = 4 if named == _csv.DEFAULT_COLUMNS else width
+        return named
+
     def _parse_csv(self, text: bytes) -> np.ndarray:
         rows: list[tuple[int, int, int, bool]] = []
         at = self._columns
         for line in text.splitlines():
             fields = line.strip()
             if not fields:
+                continue
+            if fields[:1] == b"#":
+                # A comment, skipped; before the header and the first event, one that names
+                # the four columns (``# x,y,t,p``) names them, as in a file.
+                named = _csv.comment_columns(fields) if self._lines == 0 else None
+                if named is not None:
+                    at = self._set_columns(named, len(fields.split(b",")))
                 continue
             try:
                 values = fields.split(b",")
@@ -507,18 +535,18 @@ class StdinSource(EventSource):
                 if not (0 <= t < 1 << 64 and 0 <= x < 65536 and 0 <= y < 65536):
                     raise ValueError
             except ValueError:
-                # The stream's first line may be a header (naming the columns, or not); any
-                # other bad line is a drop. One naming some columns out of the default order,
-                # but not all four, is refused (read in that order, its events would be wrong).
-                if self._lines == 0:
+                # The stream's first line (but comments) may be a header (naming the columns,
+                # or not) unless it starts with a number; any other bad line is a drop. One
+                # naming some columns out of the default order, but not all four, is refused
+                # (read in that order, its events would be wrong).
+                header = self._lines == 0 and not _csv.is_number(fields.split(b",", 1)[0])
+                if header:
                     try:
                         named = _csv.columns(fields)
                     except RecordingFileError as exc:
                         raise StreamError(f"standard input: {exc}") from exc
-                    if named != at:
-                        at = self._columns = named
-                        self._width = len(fields.split(b","))
-                self.stats.dropped += self._lines > 0
+                    at = self._set_columns(named, len(fields.split(b",")))
+                self.stats.dropped += not header
                 self._lines += 1
                 continue
             self._lines += 1
