@@ -90,14 +90,15 @@ def test_dataset_build_refuses_options_its_domain_ignores(
 @pytest.mark.parametrize(
     ("extra", "fraction"),
     [
-        ([], 0.3),
+        ([], None),
+        (["--domain", "real", "--videos", "v"], None),
         (["--domain", "real", "--videos", "v", "--test-fraction", "0.5"], 0.5),
         (["--domain", "combined", "--videos", "v", "--test-fraction", "0.4"], 0.4),
-        (["--domain", "sim", "--pix2nvs-compat"], 0.3),
+        (["--domain", "sim", "--pix2nvs-compat"], None),
     ],
 )
 def test_dataset_build_takes_the_options_where_they_apply(
-    extra: list[str], fraction: float, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    extra: list[str], fraction: float | None, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     _stop_at(uavsnn.cli.dataset, "build", monkeypatch)
     argv = ["dataset", "build", str(tmp_path / "d"), *(extra or ["--domain", "dvs"])]
@@ -268,7 +269,7 @@ def test_dataset_build_refuses_an_odd_n_train(
 
 
 def test_n_train_of_0_and_the_real_default_are_kept() -> None:
-    args = (50.0, 0.5, 0, 0.5, 0.3)
+    args = (50.0, 0.5, 0, 0.5, None)
     _check_build_args("dvs", None, 4, 0, *args)  # no train split
     _check_build_args("dvs", None, 4, 2, *args)
     _check_build_args("real", "videos", 4, None, *args)  # every usable window
@@ -341,6 +342,20 @@ def test_detect_help_says_that_ray_prints_the_window_lines(
     text = " ".join(capsys.readouterr().out.split())
     assert "print the same lines led by the stream's name" in text
     assert "one line per spike" not in text
+
+
+@pytest.mark.parametrize("domain", ["dvs", "sim", "combined"])
+def test_build_refuses_a_test_fraction_its_domain_ignores(domain: str, tmp_path: Path) -> None:
+    # It built the set and left test_fraction unused, where the CLI refuses --test-fraction.
+    out = tmp_path / "d"
+    with pytest.raises(ParameterError, match=f"test_fraction splits the real clips: .*{domain}"):
+        build(out, domain, test_fraction=0.5, n_test=4, n_train=2)
+    with pytest.raises(ParameterError, match="test_fraction splits the real clips"):
+        build(out, domain, test_fraction=0.3, n_test=4, n_train=2)  # the default too, when given
+    assert not out.exists()
+    with pytest.raises(ParameterError, match="test_fraction must be in"):
+        build(out, "real", videos=tmp_path, test_fraction=1.5, n_test=4, n_train=2)
+    assert not out.exists()
 
 
 @pytest.mark.parametrize("domain", ["dvs", "sim"])

@@ -21,6 +21,7 @@ from uavsnn._files import check_output_dir
 from uavsnn.cli._camera import add_camera_options, fov_option, lens_option, through_lens
 from uavsnn.dataset import (
     DATASET_DOMAINS,
+    TEST_FRACTION,
     DatasetPaths,
     SceneSource,
     build,
@@ -95,7 +96,8 @@ def register(subparsers: Any) -> None:
         "--test-fraction",
         type=float,
         default=None,
-        help="real, and combined with --videos: share of the real clips kept for test (0.3)",
+        help="real, and combined with --videos: share of the real clips kept for test "
+        f"({TEST_FRACTION:g})",
     )
     b.add_argument(
         "--sensor",
@@ -218,10 +220,6 @@ def _done(paths: DatasetPaths, as_json: bool) -> int:
     return 0
 
 
-#: The default of ``--test-fraction``: the share of the real clips kept for test.
-_TEST_FRACTION = 0.3
-
-
 def _check_domain_options(args: argparse.Namespace) -> None:
     """Refuse the options that the domain would ignore: the real clips' (``--videos``,
     ``--test-fraction``) where no real clip is read, PIX2NVS's where nothing goes through it.
@@ -268,7 +266,7 @@ def _build(args: argparse.Namespace) -> int:
         overlap=args.overlap,
         seed=args.seed,
         min_fraction=args.min_fraction,
-        test_fraction=_TEST_FRACTION if args.test_fraction is None else args.test_fraction,
+        test_fraction=args.test_fraction,
         sensor=args.sensor,
         pix2nvs_params=_pix2nvs(args),
         dvs=_dvs_source(args),

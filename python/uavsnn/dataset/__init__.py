@@ -15,6 +15,7 @@ from __future__ import annotations
 from uavsnn.dataset.build import (
     DATASET_DOMAINS,
     SENSOR_SIZES,
+    TEST_FRACTION,
     DatasetPaths,
     build,
     build_demo,
@@ -44,6 +45,7 @@ __all__ = [
     "DATASET_DOMAINS",
     "FORMAT_VERSION",
     "SENSOR_SIZES",
+    "TEST_FRACTION",
     "Clip",
     "DatasetError",
     "DatasetPaths",

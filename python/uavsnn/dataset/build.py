@@ -61,6 +61,8 @@ MAX_SENSOR_SIDE = 4096
 #: counts no build means, not on memory, which grows with the sensor (docs/dataset.md).
 MAX_SPLIT_WINDOWS = 10**6
 _MIN_SENSOR_SIDE = 8
+#: The share of each class's real clips kept for test where ``test_fraction`` is not given.
+TEST_FRACTION = 0.3
 _WXH = re.compile(r"^\s*(\d+)\s*[xX×]\s*(\d+)\s*$")
 
 
@@ -131,7 +133,7 @@ def _check_build_args(
     overlap: float,
     seed: int,
     min_fraction: float,
-    test_fraction: float,
+    test_fraction: float | None,
 ) -> None:
     if domain not in DATASET_DOMAINS:
         raise ParameterError(f"domain must be one of {DATASET_DOMAINS}, got {domain!r}")
@@ -141,6 +143,14 @@ def _check_build_args(
         raise ParameterError(
             f"videos are real clips: for the real or combined domain, not {domain} (a {domain} "
             "build would leave them unread)"
+        )
+    if test_fraction is not None and (
+        domain in ("dvs", "sim") or (domain == "combined" and videos is None)
+    ):
+        raise ParameterError(
+            "test_fraction splits the real clips: for the real domain, or combined with videos, "
+            f"not {domain}" + (" without videos" if domain == "combined" else "") + f" (a "
+            f"{domain} build would leave it unused)"
         )
     if isinstance(n_test, bool) or not isinstance(n_test, int) or n_test < 2 or n_test % 2:
         raise ParameterError(f"n_test must be an even integer >= 2, got {n_test!r}")
@@ -171,7 +181,9 @@ def _check_build_args(
         raise ParameterError(f"seed must be a non-negative integer, got {seed!r}")
     if not (isinstance(min_fraction, (int, float)) and 0.0 < min_fraction <= 1.0):
         raise ParameterError(f"min_fraction must be in (0, 1], got {min_fraction!r}")
-    if not (isinstance(test_fraction, (int, float)) and 0.0 < test_fraction < 1.0):
+    if test_fraction is not None and not (
+        isinstance(test_fraction, (int, float)) and 0.0 < test_fraction < 1.0
+    ):
         raise ParameterError(f"test_fraction must be in (0, 1), got {test_fraction!r}")
 
 
@@ -263,7 +275,7 @@ def build(
     overlap: float = 0.5,
     seed: int = 0,
     min_fraction: float = 0.5,
-    test_fraction: float = 0.3,
+    test_fraction: float | None = None,
     dvs: SceneSource | None = None,
     sim: SceneSource | None = None,
     pix2nvs_params: Pix2NvsParams | None = None,
@@ -284,6 +296,9 @@ def build(
     recording; ``docs/dataset.md`` gives every rule. ``dvs``/``sim`` override how those scenes
     are made (defaults: 1 s at 500 fps at the sensor's size; 3 s at 30/60 fps at
     :func:`~uavsnn.dataset.synthetic.sim_render_size`, 480×360 for 240×180).
+
+    ``test_fraction``: the share of each class's real clips kept for test (default 0.3), for
+    ``domain="real"``, or ``"combined"`` with ``videos``; refused where no real clip is read.
 
     ``sensor``: ``(width, height)`` or ``"WxH"`` (default 240×180; 346×260, 640×480 and
     1280×720 are today's cameras). Scenes keep their field of view in degrees, so the same
@@ -308,6 +323,7 @@ def build(
         domain, videos, n_test, n_train, window_ms, overlap, seed, min_fraction, test_fraction
     )
     sensor = parse_sensor(sensor)
+    fraction = TEST_FRACTION if test_fraction is None else test_fraction
     if n_train is None and domain != "real":
         raise ParameterError("n_train=None (all windows) is only for the real domain")
     if stratify and domain == "real":
@@ -350,7 +366,7 @@ def build(
             if video_dir is None:  # checked above; for the type checker
                 raise ParameterError("the real domain needs videos")
             splits = real_splits(
-                rec, video_dir, n_test, n_train, test_fraction, pix2nvs_params, sensor=sensor
+                rec, video_dir, n_test, n_train, fraction, pix2nvs_params, sensor=sensor
             )
             sources = [_real_source(video_dir, pix2nvs_params)]
             description = f"labelled videos in {video_dir} through PIX2NVS"
@@ -364,7 +380,7 @@ def build(
                 video_dir,
                 n_test,
                 n_train or 0,
-                test_fraction,
+                fraction,
                 pix2nvs_params,
                 sensor,
             )
@@ -392,7 +408,7 @@ def build(
                 "min_visible_fraction": min_fraction,
                 "n_test": n_test,
                 "n_train": n_train,
-                "test_fraction": test_fraction if domain in ("real", "combined") else None,
+                "test_fraction": fraction if domain in ("real", "combined") else None,
                 "pool_factor": POOL_FACTOR,
                 "object_scenes": "stratified" if stratify else "drawn",
                 "sources": sources,
