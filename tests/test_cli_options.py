@@ -311,6 +311,29 @@ def test_detect_refuses_a_window_too_long_with_advice_for_the_command_line(
     # The Python API keeps its Python advice.
     with pytest.raises(ParameterError, match="rotor=False"):
         Detector(Network(small_config()), window_us=10**12)
+    # A window of 0 ms is told the range the command takes (it named 4.61e+15 ms).
+    argv = ["detect", str(recording), "-m", str(model), "--window-ms", "0"]
+    line = _one_line_exit_2(capsys, argv, "--window-ms must be a number of ms from 0.001")
+    assert "to 20480, got 0" in line
+
+
+@pytest.mark.parametrize("size", ["0x0", "40x0"])
+def test_detect_refuses_a_sensor_of_no_pixels(
+    size: str, model: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # It advised training a model of that size.
+    argv = ["detect", "-", "-m", str(model), "--sensor-size", size]
+    line = _one_line_exit_2(capsys, argv, "--sensor-size must be at least 1x1 pixels")
+    assert "uavsnn train" not in line
+
+
+@pytest.mark.parametrize("point", [["--false-alarm", "0.01"], ["--false-tracks", "1"]])
+def test_detect_refuses_an_operating_point_with_per_spike(
+    point: list[str], model: Path, recording: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # Spike lines carry no UAV score: the point was accepted and ignored.
+    argv = ["detect", str(recording), "-m", str(model), "--per-spike", *point]
+    _one_line_exit_2(capsys, argv, f"{point[0]} sets identification's threshold")
 
 
 # -- 6. detect: a source named twice, however spelled; what --ray prints --------------------------

@@ -763,8 +763,10 @@ def test_idle_flush_applies_to_live_sources(
     np.save(path, blob_events(1, 50))
     argv = ["detect", str(path), "-m", str(model), "--idle-flush", "0.5"]
     one_line_exit_2(capsys, argv, "--idle-flush applies to live sources")
-    argv = ["detect", "udp://127.0.0.1:0", str(path), "-m", str(model), "--idle-flush", "0.5"]
-    one_line_exit_2(capsys, argv, "r.npy is a file")
+    # Among several sources it applies to the live ones (the file is not refused; several
+    # sources then need Ray).
+    argv = ["detect", str(path), "udp://127.0.0.1:0", "-m", str(model), "--idle-flush", "0.5"]
+    one_line_exit_2(capsys, argv, "several sources need --ray")
     for bad in ("0", "-1", "inf", "nan"):
         one_line_exit_2(capsys, [*detect_argv(model), "--idle-flush", bad], "--idle-flush must")
 

@@ -7,7 +7,9 @@ those that check that uavsnn never needs it."""
 from __future__ import annotations
 
 import json
+import re
 import shutil
+import signal
 import socket
 import subprocess
 import sys
@@ -482,13 +484,18 @@ def test_a_stream_whose_sensor_restarts_starts_its_detector_again(
                     s.sendto(events[i * per_packet : (i + 1) * per_packet].tobytes(),
                              addresses["cam"])  # fmt: skip
 
+    updates: list[tuple[int, int]] = []
     results = detect_streams(
         runner, ["udp://127.0.0.1:0"], model, names=["cam"], window_us=20_000,
         on_ready=send, max_packets=2 * packets, idle_timeout=20.0,
+        on_update=lambda r: updates.append((r.restarts, r.events_seen)),
     )  # fmt: skip
     r = results["cam"]
     assert r.ok, r.error
     assert (r.restarts, r.dropped, r.rejected_events) == (1, 0, 0)
+    # Each poll's result as it stood, the last with the restart; the counts growing.
+    assert updates[-1] == (1, r.events_seen)
+    assert [u[1] for u in updates] == sorted(u[1] for u in updates)
     # The detections of one detector on the old stream, then of a fresh one on the whole new
     # stream (the packets refused before the restart were held and taken back).
     want = []
@@ -597,7 +604,10 @@ def test_detect_command_over_several_files(
     # An .npy recording's sensor is its events' bounding box unless given: here the blob's
     # corner, which the model refuses, and the stream says why.
     assert main(argv) == 1
-    assert "ShapeError: sensor_size (" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    # One line per stream, saying what fits (no actor's traceback: it did not fail to start).
+    assert f"{files[0]}: failed (ParameterError: the recording's sensor is " in err
+    assert "--downsample" in err and "Traceback" not in err
     assert main([*argv, "--sensor-size", "240x180"]) == 0
     captured = capsys.readouterr()
     lines = [json.loads(line) for line in captured.out.splitlines()]
@@ -610,7 +620,7 @@ def test_detect_command_over_several_files(
         events = np.load(name)
         want = np.concatenate([det.push(events), det.flush()])["t"].tolist()
         assert want and mine == want
-        assert f"{name}: done events=3000" in captured.err
+        assert re.search(rf"{re.escape(name)}: done [0-9.]+s events=3000 ", captured.err)
 
 
 def _identified(model: Network) -> Network:
@@ -661,8 +671,11 @@ def test_several_files_on_ray_print_one_streams_window_lines(
                 assert any(o["track_confirmed"] for o in objects)
                 spikes = sum(w["spikes"] for w in mine)
                 detected = sum(w["detected"] for w in mine)
-                assert f"{name}: done events=3000 windows={len(mine)} detected={detected} " \
-                    f"detections={spikes} " in captured.err  # fmt: skip
+                assert re.search(
+                    rf"{re.escape(name)}: done [0-9.]+s events=3000 \([0-9,]+ ev/s\) "
+                    rf"windows={len(mine)} detected={detected} detections={spikes} ",
+                    captured.err,
+                )
             else:
                 assert [line for line in lines if line.startswith(f"[{name}] ")] == [
                     f"[{name}] {line}" for line in alone
@@ -722,3 +735,115 @@ def test_streams_report_their_windows_through_the_python_function(
         detect_streams(runner, list(events), net, tracker=tracker)
     with pytest.raises(ParameterError, match="must be a uavsnn"):
         detect_streams(runner, list(events), net, windows=True, tracker="2/3")  # type: ignore[arg-type]
+
+
+def test_detect_streams_checks_its_arguments_before_any_actor(
+    runner: Any, model: Network, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """What every stream would refuse is refused once, before any actor starts (each actor
+    used to fail alone, with Ray's traceback)."""
+    from uavsnn import distributed
+    from uavsnn.distributed import detect_streams
+
+    started: list[str] = []
+    monkeypatch.setattr(distributed, "_gather", lambda *a, **k: started.append("gather"))
+    path = str(tmp_path / "r.npy")
+    np.save(path, _events(500, 1))
+    udp = "udp://127.0.0.1:0"
+    cases: list[tuple[Any, dict[str, Any], str]] = [
+        (path, {}, "sources must be a list"),
+        ([path, 3], {}, "sources must be a list"),
+        (["-"], {}, "standard input"),
+        ([path], {"bogus": 1}, "unknown source option 'bogus'"),
+        ([path], {"window_us": 0}, "window_us must be"),
+        ([path], {"overlap": 0.999}, "overlap"),
+        ([udp], {"realtime": True}, "realtime applies to files, and no stream is one"),
+        ([udp], {"downsample": True}, "downsample applies to files"),
+        ([path], {"udp_format": "spif"}, "udp_format applies to UDP sources"),
+        ([path], {"max_packets": 3}, "max_packets applies to UDP sources"),
+        ([path], {"idle_flush_s": 1.0}, "idle_flush_s applies to live streams"),
+        ([path], {"model": 3}, "model must be a uavsnn.Network or the path"),
+    ]
+    for sources, kwargs, match in cases:
+        net = kwargs.pop("model", model)
+        with pytest.raises(ParameterError, match=re.escape(match)):
+            detect_streams(runner, sources, net, **kwargs)
+    assert started == []
+    # A model file's path is taken as a Detector takes it; a stream's own failure is its
+    # result's one-line error, the others go on.
+    model.save(tmp_path / "m.npz")
+    monkeypatch.undo()
+    results = detect_streams(
+        runner, [path, str(tmp_path / "none.npz")], str(tmp_path / "m.npz"),
+        sensor_size=(240, 180),
+    )  # fmt: skip
+    assert results[path].ok and results[path].events_seen == 500
+    bad = results[str(tmp_path / "none.npz")]
+    assert bad.error is not None and bad.error.startswith("RecordingFileError: ")
+    assert "\n" not in bad.error
+
+
+def test_file_options_apply_to_the_files_among_live_streams(
+    runner: Any, model: Network, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """--downsample and --realtime apply to the files among several sources, whatever their
+    order (they were refused when a UDP stream came first)."""
+    from uavsnn.events import Recording
+    from uavsnn.io import write_npz
+
+    big = _events(3000, 50)
+    big["x"] *= 2
+    big["y"] *= 2
+    path = str(tmp_path / "big.npz")
+    write_npz(Recording(big, (480, 360)), path)
+    model.save(tmp_path / "m.npz")
+    opts = ["-m", str(tmp_path / "m.npz"), "--downsample", "--json"]
+    assert main(["detect", path, *opts]) == 0
+    alone = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
+    udp = ["--max-packets", "1", "--idle-timeout", "1"]
+    assert main(["detect", "udp://127.0.0.1:0", path, *opts, *udp, "--ray"]) == 0
+    captured = capsys.readouterr()
+    lines = [json.loads(line) for line in captured.out.splitlines()]
+    mine = [line for line in lines if line.pop("stream") == path]
+    assert alone and mine == alone
+    assert f"{path}: done " in captured.err and "udp://127.0.0.1:0: done " in captured.err
+
+
+@pytest.mark.parametrize(("signum", "code"), [(signal.SIGTERM, 143), (signal.SIGINT, 130)])
+def test_a_stopped_ray_detect_reports_each_stream_and_exits_as_interrupted(
+    runner: Any, model: Network, tmp_path: Path, signum: int, code: int
+) -> None:
+    """SIGTERM exited 15 with Ray's crash dump (ray.init had replaced the command's handler),
+    and neither it nor Ctrl-C printed the streams' summaries."""
+    from conftest import kill_group
+
+    model.save(tmp_path / "m.npz")
+    path = tmp_path / "r.npy"
+    np.save(path, _events(2000, 3))
+    argv = [sys.executable, "-m", "uavsnn", "detect", "udp://127.0.0.1:0", str(path), "-m",
+            str(tmp_path / "m.npz"), "--sensor-size", "240x180", "--summary-every", "0.2",
+            "--ray"]  # fmt: skip
+    proc = subprocess.Popen(
+        argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True
+    )
+    try:
+        assert proc.stderr is not None
+        seen = b""
+        deadline = time.monotonic() + 120
+        while b"udp://127.0.0.1:0: live" not in seen and time.monotonic() < deadline:
+            line = proc.stderr.readline()
+            if not line:
+                break
+            seen += line
+        assert b"udp://127.0.0.1:0: live" in seen, seen.decode()[-2000:]
+        proc.send_signal(signum)
+        out, rest = proc.communicate(timeout=60)
+    finally:
+        kill_group(proc)
+    err = (seen + rest).decode()
+    assert proc.returncode == code, err[-2000:]
+    assert "SIGTERM received" not in err
+    assert f"{path}: done " in err and "udp://127.0.0.1:0: interrupted " in err
+    name = "interrupted" if signum == signal.SIGINT else "interrupted (SIGTERM)"
+    assert err.rstrip().splitlines()[-1] == f"uavsnn detect: {name}"
+    assert out.decode().count(f"[{path}] window=") >= 1

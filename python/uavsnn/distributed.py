@@ -22,7 +22,9 @@ file holds), as a network pickles itself (``Network.__reduce__``).
 
 from __future__ import annotations
 
+import contextlib
 import os
+import signal
 import socket
 import threading
 from collections.abc import Callable, Generator, Iterable, Sequence
@@ -279,12 +281,31 @@ def connect(
             kwargs["include_dashboard"] = False
             if num_cpus is not None:
                 kwargs["num_cpus"] = int(num_cpus)
+        kept = _program_handlers()
         try:
             ray.init(address=None if local else address, **kwargs)
         except (ConnectionError, RuntimeError, ValueError, TimeoutError) as exc:
             first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
             raise ParameterError(f"cannot join the Ray cluster at {address}: {first}") from exc
+        finally:
+            for sig, handler in kept:
+                signal.signal(sig, handler)
     return RayRunner()
+
+
+def _program_handlers() -> list[tuple[signal.Signals, Any]]:
+    """The handlers of SIGTERM and SIGHUP that the program set (``uavsnn``'s commands take
+    them on Ctrl-C's path: :mod:`uavsnn.cli`), to put back after ``ray.init``, which installs
+    its own (SIGTERM then exited 15 with a crash dump, and no summary). Where the program set
+    none, Ray's stay. Only in the main thread, where handlers can be set."""
+    if threading.current_thread() is not threading.main_thread():
+        return []
+    kept = []
+    for name in ("SIGTERM", "SIGHUP"):
+        sig = getattr(signal, name, None)
+        if sig is not None and callable(handler := signal.getsignal(sig)):
+            kept.append((sig, handler))
+    return kept
 
 
 def runner_for(address: str | None, *, num_cpus: int | None = None) -> Runner:
@@ -354,6 +375,8 @@ class StreamResult:
     #: Windows reported closed (``windows=True``; kept or not), and those of them detected.
     windows_reported: int = 0
     windows_detected: int = 0
+    #: The stream has ended: its source's end, or the error that ended it.
+    ended: bool = False
     events: int = 0
     events_seen: int = 0
     packets: int = 0
@@ -373,48 +396,57 @@ class StreamResult:
         return self.error is None
 
 
+#: detect_streams' options for files only, and for UDP sources only (the others' are
+#: :func:`uavsnn.sources.open_source`'s ``sensor_size``, and the stream's own).
+_FILE_OPTIONS = ("realtime", "downsample")
+_UDP_OPTIONS = ("udp_format", "max_packets", "idle_timeout")
+_STREAM_OPTIONS = ("sensor_size", *_FILE_OPTIONS, *_UDP_OPTIONS)
+
+
+def _given(value: Any) -> bool:
+    """Whether a source option was given (``None`` and ``False`` are its defaults)."""
+    return value is not None and value is not False
+
+
+def _check_fits(source: Any, model_size: tuple[int, int]) -> None:
+    """Refuse a source whose sensor is not the model's input, saying what fits it.
+
+    Raises:
+        ParameterError: naming both sizes.
+    """
+    from uavsnn.sources import FileSource
+
+    size = source.sensor_size
+    if size is None or tuple(size) == model_size:
+        return
+    (w, h), (mw, mh) = size, model_size
+    if not isinstance(source, FileSource):  # a live stream: not cropped or scaled
+        raise ParameterError(
+            f"the stream's sensor is {w}x{h}, the model's input {mw}x{mh}: a live stream is "
+            f"not cropped or scaled; send events of a {mw}x{mh} sensor"
+        )
+    if source.recording.metadata.get("sensor_size_source") == "fallback":
+        raise ParameterError(
+            f"the recording records no sensor size ({w}x{h} is only a stand-in): give its "
+            "sensor_size (--sensor-size WxH)"
+        )
+    raise ParameterError(
+        f"the recording's sensor is {w}x{h}, the model's input {mw}x{mh}: crop and scale it to "
+        "the model with --downsample (downsample=True from Python)"
+    )
+
+
 class _StreamWorker:
     """One stream: its source and its Detector, run in a thread so that :meth:`poll` answers
-    while it works. Lives in a Ray actor (see :func:`detect_streams`)."""
+    while it works. Lives in a Ray actor (see :func:`detect_streams`). A stream that cannot
+    start (its source cannot be opened, or does not fit the model) is not an actor that fails
+    to start, which Ray would report with a traceback: its error is :meth:`poll`'s."""
 
     def __init__(self, name: str, spec: str, model: Network, options: dict[str, Any]) -> None:
-        from uavsnn.detector import Detector
-        from uavsnn.driver import StreamDriver
-        from uavsnn.sources import IdleClock, UdpSource, is_live, open_source
-
         self.name = name
-        opts = dict(options)
-        window_us, overlap = opts.pop("window_us"), opts.pop("overlap")
-        idle_flush_s = opts.pop("idle_flush_s", None)
-        windows = bool(opts.pop("windows", False))
-        opts_tracker = opts.pop("tracker", None)
-        model_size = (int(model.config["width"]), int(model.config["height"]))
-        live = is_live(spec)
-        if opts.get("sensor_size") is None and live:
-            opts["sensor_size"] = model_size
-        if live:
-            opts["heartbeat_s"] = IdleClock.heartbeat_for(idle_flush_s)
-        if opts.pop("downsample", False):
-            opts["downsample_to"] = model_size
-        self.source = open_source(spec, **opts)
-        tracker = opts_tracker
-        if tracker is not None:
-            tracker.reset()  # a copy of the caller's, with its parameters and none of its tracks
-        self.windows = windows
-        self.detector = Detector(
-            model,
-            window_us=window_us,
-            overlap=overlap,
-            sensor_size=self.source.sensor_size,
-            tracker=tracker,
-        )
-        self.driver = StreamDriver(
-            self.source,
-            self.detector,
-            idle_flush_s=idle_flush_s if live else None,
-            windows=windows,
-        )
-        self.address = self.source.address if isinstance(self.source, UdpSource) else None
+        self.windows = bool(options.get("windows", False))
+        self.source: Any = None
+        self.address: tuple[str, int] | None = None
         self._lock = threading.Condition()
         # Detections (arrays) or closed windows (WindowReports) not yet polled.
         self._found: list[Any] = []
@@ -426,8 +458,61 @@ class _StreamWorker:
         self._windows = 0
         self._done = False
         self._error: str | None = None
+        try:
+            self._open(spec, model, dict(options))
+        except Exception as exc:
+            self._error = f"{type(exc).__name__}: {exc}"
+            self._done = True
+            return
         self._thread = threading.Thread(target=self._run, name=f"uavsnn-{name}", daemon=True)
         self._thread.start()
+
+    def _open(self, spec: str, model: Network, opts: dict[str, Any]) -> None:
+        from uavsnn.detector import Detector
+        from uavsnn.driver import StreamDriver
+        from uavsnn.sources import IdleClock, UdpSource, is_live, open_source
+
+        window_us, overlap = opts.pop("window_us"), opts.pop("overlap")
+        idle_flush_s = opts.pop("idle_flush_s", None)
+        opts.pop("windows", None)
+        tracker = opts.pop("tracker", None)
+        model_size = (int(model.config["width"]), int(model.config["height"]))
+        live = is_live(spec)
+        # Each source takes the options of its kind (the others apply to the other streams).
+        for key in _UDP_OPTIONS if not spec.startswith("udp://") else ():
+            opts.pop(key, None)
+        for key in _FILE_OPTIONS if live else ():
+            opts.pop(key, None)
+        if opts.get("sensor_size") is None and live:
+            opts["sensor_size"] = model_size
+        if live:
+            opts["heartbeat_s"] = IdleClock.heartbeat_for(idle_flush_s)
+        if opts.pop("downsample", False):
+            opts["downsample_to"] = model_size
+        # What was not given is left to open_source's defaults.
+        opts = {key: value for key, value in opts.items() if _given(value)}
+        self.source = open_source(spec, **opts)
+        try:
+            _check_fits(self.source, model_size)
+        except UavsnnError:
+            self.source.close()
+            raise
+        if tracker is not None:
+            tracker.reset()  # a copy of the caller's, with its parameters and none of its tracks
+        self.detector = Detector(
+            model,
+            window_us=window_us,
+            overlap=overlap,
+            sensor_size=self.source.sensor_size,
+            tracker=tracker,
+        )
+        self.driver = StreamDriver(
+            self.source,
+            self.detector,
+            idle_flush_s=idle_flush_s if live else None,
+            windows=self.windows,
+        )
+        self.address = self.source.address if isinstance(self.source, UdpSource) else None
 
     def _run(self) -> None:
         def note(found: Any) -> None:
@@ -476,15 +561,15 @@ class _StreamWorker:
                 )
             self._found = []
             done = self._done
-            s = self.source.stats
+            s = self.source.stats if self.source is not None else None  # None: never opened
             counts = {
-                "events": s.events,
+                "events": s.events if s else 0,
                 "events_seen": self._seen,
-                "packets": s.packets,
-                "dropped": s.dropped,
+                "packets": s.packets if s else 0,
+                "dropped": s.dropped if s else 0,
                 "rejected_events": self._rejected,
                 "windows": self._windows,
-                "restarts": s.restarts,
+                "restarts": s.restarts if s else 0,
                 "error": self._error,
             }
         return found, counts, done
@@ -499,7 +584,8 @@ def detect_streams(
     overlap: float = 0.5,
     names: Sequence[str] | None = None,
     on_ready: Callable[[dict[str, tuple[str, int] | None], dict[str, Any]], None] | None = None,
-    on_detections: Callable[[str, np.ndarray], None] | None = None,
+    on_detections: Callable[[str, Any], None] | None = None,
+    on_update: Callable[[StreamResult], None] | None = None,
     poll_s: float = 0.1,
     idle_flush_s: float | None = None,
     windows: bool = False,
@@ -528,25 +614,74 @@ def detect_streams(
     every stream's tracker (each detector gets a copy, without its tracks; default
     :func:`uavsnn.tracks.tracker_for` the model, as a ``Detector``'s). ``keep``: whether the
     results keep every detection and window (``False`` for a stream of any length: only the
-    counts, in bounded memory; ``on_detections`` still gets them all).
+    counts, in bounded memory; ``on_detections`` still gets them all). ``on_update(result)``
+    gets a stream's result as it stands after each of its polls (its counts so far, its
+    ``restarts`` and ``error``), for a program's progress lines.
 
+    Stopped (Ctrl-C, or an exception from a callback), it stops every stream's actor and
+    raises: the detections already given to ``on_detections`` are all there is, and the
+    windows still open in the actors are not reported.
+
+    ``model``: a :class:`~uavsnn.network.Network` or the path of a model file.
     ``source_options``: as :func:`uavsnn.sources.open_source` (``sensor_size``, ``realtime``,
     ``udp_format``, ``max_packets``, ``idle_timeout``), and ``downsample`` (fit files to the
-    model's input). ``idle_flush_s``: a live stream quiet for that many seconds is advanced
+    model's input); each applies to the sources of its kind (``realtime`` and ``downsample``
+    to files, the others but ``sensor_size`` to UDP) and is refused when none is of that kind.
+
+    ``idle_flush_s``: a live stream quiet for that many seconds is advanced
     with the wall clock (:class:`uavsnn.sources.IdleClock`; ``uavsnn detect --idle-flush``),
     so its last windows need not wait for its next event; events then stamped before the time
     reached are counted in ``rejected_events``. ``None``: never.
 
     Raises:
-        ParameterError: a runner that is not Ray's, names missing or repeated, more than
-            :data:`MAX_STREAMS` sources, a bad ``idle_flush_s``, or a ``tracker`` that is no
-            :class:`~uavsnn.tracks.Tracker` or is given without ``windows`` (before any actor
-            starts).
+        ParameterError: before any actor starts: a runner that is not Ray's, ``sources`` not a
+            list of file paths and ``udp://HOST:PORT`` addresses (standard input cannot be
+            one), names missing or repeated, more than :data:`MAX_STREAMS` sources, a model
+            that is neither a network nor a model file, a window or overlap a ``Detector``
+            refuses, a bad ``idle_flush_s``, an unknown source option or one for a kind of
+            source none is, or a ``tracker`` that is no :class:`~uavsnn.tracks.Tracker` or is
+            given without ``windows``.
     """
+    from uavsnn.detector import Detector
+    from uavsnn.sources import is_live
     from uavsnn.tracks import Tracker
 
     if not isinstance(runner, RayRunner):
         raise ParameterError("streams run in Ray actors: pass the runner connect() returns")
+    if isinstance(sources, (str, bytes, os.PathLike)) or not all(
+        isinstance(spec, str) for spec in sources
+    ):
+        raise ParameterError(
+            f"sources must be a list of file paths and udp://HOST:PORT addresses (strings), got "
+            f"{sources!r}"
+        )
+    if "-" in sources:
+        raise ParameterError(
+            "standard input ('-') cannot be a stream here: each stream's actor opens its source"
+        )
+    unknown = sorted(set(source_options) - set(_STREAM_OPTIONS))
+    if unknown:
+        raise ParameterError(
+            f"unknown source option {unknown[0]!r}: the options are {', '.join(_STREAM_OPTIONS)}"
+        )
+    for keys, kind, any_of in (
+        (_FILE_OPTIONS, "files", any(not is_live(spec) for spec in sources)),
+        (_UDP_OPTIONS, "UDP sources", any(spec.startswith("udp://") for spec in sources)),
+    ):
+        given = [key for key in keys if _given(source_options.get(key))]
+        if given and not any_of:
+            raise ParameterError(f"{given[0]} applies to {kind}, and no stream is one")
+    if idle_flush_s is not None and not any(is_live(spec) for spec in sources):
+        raise ParameterError("idle_flush_s applies to live streams (UDP), and no stream is one")
+    if isinstance(model, (str, os.PathLike)):
+        model = Network.load(model)
+    elif not isinstance(model, Network):
+        raise ParameterError(
+            f"model must be a uavsnn.Network or the path of a model file, got "
+            f"{type(model).__name__}"
+        )
+    # The window and overlap as every stream's Detector will take them (refused here, once).
+    Detector(model, window_us=window_us, overlap=overlap)
     if tracker is not None:
         if not isinstance(tracker, Tracker):
             raise ParameterError(f"tracker must be a uavsnn.tracks.Tracker, got {tracker!r}")
@@ -592,6 +727,32 @@ def detect_streams(
             results[name].error = _actor_error(exc)
     if on_ready is not None:
         on_ready({name: results[name].address for name in live}, dict(live))
+    try:
+        _gather(ray, live, results, parts, windows, keep, on_detections, on_update, poll_s)
+    except BaseException:
+        # Ctrl-C, or a callback's error (a closed pipe): the actors would stream on.
+        for actor in live.values():
+            with contextlib.suppress(Exception):
+                ray.kill(actor, no_restart=True)
+        raise
+    for name, chunks in parts.items():
+        if any(len(c) for c in chunks):
+            results[name].detections = np.concatenate(chunks)
+    return results
+
+
+def _gather(
+    ray: Any,
+    live: dict[str, Any],
+    results: dict[str, StreamResult],
+    parts: dict[str, list[np.ndarray]],
+    windows: bool,
+    keep: bool,
+    on_detections: Callable[[str, Any], None] | None,
+    on_update: Callable[[StreamResult], None] | None,
+    poll_s: float,
+) -> None:
+    """:func:`detect_streams`' loop: poll every live stream until each has ended."""
     pending: dict[Any, str] = {actor.poll.remote(poll_s): name for name, actor in live.items()}
     while pending:
         ready, _ = ray.wait(list(pending), num_returns=1, timeout=None)
@@ -601,12 +762,15 @@ def detect_streams(
                 found, counts, done = ray.get(ref)
             except Exception as exc:
                 results[name].error = _actor_error(exc)
+                results[name].ended = True
+                if on_update is not None:
+                    on_update(results[name])
                 continue
             r = results[name]
             for key in ("events", "events_seen", "packets", "dropped", "rejected_events"):
                 setattr(r, key, counts[key])
             r.windows, r.restarts = counts["windows"], counts["restarts"]
-            r.error = counts["error"]
+            r.error, r.ended = counts["error"], done
             if len(found):
                 spikes = [w.detections for w in found] if windows else [found]
                 r.spikes += sum(len(a) for a in spikes)
@@ -619,14 +783,12 @@ def detect_streams(
                         r.reports.extend(found)
                 if on_detections is not None:
                     on_detections(name, found)
+            if on_update is not None:
+                on_update(r)
             if done:
                 ray.kill(live[name], no_restart=True)
             else:
                 pending[live[name].poll.remote(poll_s)] = name
-    for name, chunks in parts.items():
-        if any(len(c) for c in chunks):
-            results[name].detections = np.concatenate(chunks)
-    return results
 
 
 def _detection_dtype() -> np.dtype:

@@ -27,6 +27,7 @@ import json
 import math
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 from typing import Any, TextIO
 
@@ -199,6 +200,8 @@ def _sensor_size(text: str | None) -> tuple[int, int] | None:
         width, height = (int(v) for v in text.lower().split("x"))
     except ValueError as exc:
         raise ParameterError(f"--sensor-size must look like 240x180, got {text!r}") from exc
+    if width < 1 or height < 1:
+        raise ParameterError(f"--sensor-size must be at least 1x1 pixels, got {text!r}")
     return width, height
 
 
@@ -374,16 +377,17 @@ def _check_args(args: argparse.Namespace) -> None:
     from uavsnn.features import MAX_MEASURED_WINDOW_US
     from uavsnn.sources import check_seconds, is_live
 
+    longest = MAX_MEASURED_WINDOW_US / 1000
     if not (math.isfinite(args.window_ms) and 0.001 <= args.window_ms <= MAX_WINDOW_MS):
         raise ParameterError(
-            f"--window-ms must be a number of ms from 0.001 (1 µs) to {MAX_WINDOW_MS:.3g}, "
+            f"--window-ms must be a number of ms from 0.001 (1 µs) to {longest:g}, "
             f"got {args.window_ms}"
         )
     if round(args.window_ms * 1000) > MAX_MEASURED_WINDOW_US:
         # The detector refuses it, advising its Python argument rotor=False, which the command
         # line has not: its objects' rotor and event rate are always measured.
         raise ParameterError(
-            f"--window-ms {args.window_ms:g} is longer than {MAX_MEASURED_WINDOW_US / 1000:g} "
+            f"--window-ms {args.window_ms:g} is longer than {longest:g} "
             "ms, the longest window whose objects' rotor and event rate are measured: give a "
             "shorter --window-ms"
         )
@@ -394,7 +398,10 @@ def _check_args(args: argparse.Namespace) -> None:
             f"--summary-every must be a number of seconds >= 0 (0: only at the end), "
             f"got {args.summary_every}"
         )
-    live = is_live(args.source)
+    sources = (args.source, *args.more_sources)
+    # An option of one kind of source applies to the sources of that kind (several sources
+    # may mix them); refused when none is.
+    live = all(is_live(s) for s in sources)
     if args.realtime and live:
         raise ParameterError(
             "--realtime replays a file at its own pace; standard input and UDP already "
@@ -405,7 +412,6 @@ def _check_args(args: argparse.Namespace) -> None:
             "--downsample applies to files: '-' and UDP are not cropped or scaled, their "
             "--sensor-size must be the model's input (the default)"
         )
-    sources = (args.source, *args.more_sources)
     if not any(s.startswith("udp://") for s in sources):
         udp_only = (
             ("--max-packets", args.max_packets, "standard input and files end by themselves"),
@@ -419,19 +425,23 @@ def _check_args(args: argparse.Namespace) -> None:
         raise ParameterError(
             "--stdin-format applies to standard input ('-'); files and UDP have their own layouts"
         )
-    if args.idle_flush is not None:
-        files = [s for s in (args.source, *args.more_sources) if not is_live(s)]
-        if files:
-            raise ParameterError(
-                f"--idle-flush applies to live sources ('-' or udp://HOST:PORT): {files[0]} is "
-                "a file, which ends by itself"
-            )
+    if args.idle_flush is not None and not any(is_live(s) for s in sources):
+        raise ParameterError(
+            f"--idle-flush applies to live sources ('-' or udp://HOST:PORT): {sources[0]} is "
+            "a file, which ends by itself"
+        )
     if args.max_packets is not None and args.max_packets < 1:
         raise ParameterError(f"--max-packets must be >= 1, got {args.max_packets}")
     for flag, seconds in (("--idle-flush", args.idle_flush), ("--idle-timeout", args.idle_timeout)):
         check_seconds(flag, seconds)
     if args.false_alarm is not None and args.false_tracks is not None:
         raise ParameterError("--false-alarm and --false-tracks each set the threshold: give one")
+    for flag, value in (("--false-alarm", args.false_alarm), ("--false-tracks", args.false_tracks)):
+        if value is not None and args.per_spike:
+            raise ParameterError(
+                f"{flag} sets identification's threshold for the window lines: not with "
+                "--per-spike (it prints spikes, without UAV scores)"
+            )
     if args.confirm is not None:
         if args.per_spike:
             raise ParameterError(
@@ -662,8 +672,10 @@ def _run_many(args: argparse.Namespace) -> int:
     """Several streams at once, one Detector per stream in a Ray actor (docs/distributed.md):
     each stream's window lines as they close (its conv3 spikes with ``--per-spike``), each led
     by its stream's name, as one stream's ``detect`` prints them; a stream that fails is
-    reported and the others go on (exit 1 when any failed)."""
-    from uavsnn.distributed import detect_streams, runner_for
+    reported and the others go on (exit 1 when any failed). Ctrl-C (SIGTERM, SIGHUP) stops
+    every stream: each one's summary so far, then the interruption's line and exit code."""
+    from uavsnn.cli import exit_code, interrupted_line
+    from uavsnn.distributed import StreamResult, detect_streams, runner_for
     from uavsnn.sources import is_live
 
     sources = [args.source, *args.more_sources]
@@ -682,6 +694,20 @@ def _run_many(args: argparse.Namespace) -> int:
         print(f"uavsnn detect: note: {network.load_note}", file=err, flush=True)
     ident = network.identification
     classes = tuple(ident.classes) if ident is not None else ()
+    latest: dict[str, StreamResult] = {}
+    start = last = time.monotonic()
+
+    def summary(r: StreamResult, state: str) -> None:
+        wall = max(time.monotonic() - start, 1e-9)
+        detected = "" if args.per_spike else f" detected={r.windows_detected}"
+        print(
+            f"uavsnn detect: {r.name}: {state} {wall:.1f}s events={r.events_seen} "
+            f"({r.events_seen / wall:,.0f} ev/s) windows={r.windows}{detected} "
+            f"detections={r.spikes} packets={r.packets} dropped={r.dropped} "
+            f"rejected_events={r.rejected_events}"
+            + (f" restarts={r.restarts}" if r.restarts else ""),
+            file=err, flush=True,
+        )  # fmt: skip
 
     def ready(addresses: dict[str, tuple[str, int] | None], _actors: Any) -> None:
         for name, address in addresses.items():
@@ -698,23 +724,46 @@ def _run_many(args: argparse.Namespace) -> int:
                 print(f"[{name}] {line}", file=out)
         out.flush()
 
-    results = detect_streams(
-        runner, sources, network, window_us=round(args.window_ms * 1000),
-        overlap=args.overlap, on_ready=ready, on_detections=found,
-        windows=not args.per_spike, tracker=_tracker(args.confirm, network), keep=False,
-        sensor_size=_sensor_size(args.sensor_size), realtime=args.realtime,
-        udp_format=args.udp_format or _UDP_FORMAT, max_packets=args.max_packets,
-        idle_timeout=args.idle_timeout, downsample=args.downsample,
-        idle_flush_s=args.idle_flush,
-    )  # fmt: skip
-    for r in results.values():
-        state = "done" if r.ok else f"failed ({r.error})"
-        detected = "" if args.per_spike else f" detected={r.windows_detected}"
-        print(
-            f"uavsnn detect: {r.name}: {state} events={r.events} windows={r.windows}"
-            f"{detected} detections={r.spikes} packets={r.packets} "
-            f"dropped={r.dropped} rejected_events={r.rejected_events}"
-            + (f" restarts={r.restarts}" if r.restarts else ""),
-            file=err, flush=True,
+    def update(r: StreamResult) -> None:
+        nonlocal last
+        before = latest.get(r.name)
+        if r.restarts > (before.restarts if before is not None else 0):
+            print(
+                f"uavsnn detect: {r.name}: the sensor restarted (its clock went back): the old "
+                "stream's windows are reported, and detection starts again from there",
+                file=err, flush=True,
+            )  # fmt: skip
+        latest[r.name] = replace(r)
+        now = time.monotonic()
+        if args.summary_every > 0 and now - last >= args.summary_every:
+            last = now
+            for name in sorted(latest):
+                if latest[name].ok:
+                    summary(latest[name], "live")
+
+    try:
+        results = detect_streams(
+            runner, sources, network, window_us=round(args.window_ms * 1000),
+            overlap=args.overlap, on_ready=ready, on_detections=found, on_update=update,
+            windows=not args.per_spike, tracker=_tracker(args.confirm, network), keep=False,
+            sensor_size=_sensor_size(args.sensor_size), realtime=args.realtime,
+            udp_format=args.udp_format, max_packets=args.max_packets,
+            idle_timeout=args.idle_timeout, downsample=args.downsample,
+            idle_flush_s=args.idle_flush,
         )  # fmt: skip
+    except KeyboardInterrupt as exc:
+        # Every stream stopped (detect_streams stops the actors): what each found so far.
+        for name in sources:
+            if name in latest:
+                r = latest[name]
+                summary(r, _state(r) if r.ended else "interrupted")
+        print(interrupted_line("uavsnn detect", exc), file=err, flush=True)
+        return exit_code(exc)
+    for r in results.values():
+        summary(r, _state(r))
     return 0 if all(r.ok for r in results.values()) else 1
+
+
+def _state(r: Any) -> str:
+    """How a stream of several ended: ``done``, or ``failed (why)``."""
+    return "done" if r.ok else f"failed ({r.error})"
