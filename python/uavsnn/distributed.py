@@ -408,34 +408,6 @@ def _given(value: Any) -> bool:
     return value is not None and value is not False
 
 
-def _check_fits(source: Any, model_size: tuple[int, int]) -> None:
-    """Refuse a source whose sensor is not the model's input, saying what fits it.
-
-    Raises:
-        ParameterError: naming both sizes.
-    """
-    from uavsnn.sources import FileSource
-
-    size = source.sensor_size
-    if size is None or tuple(size) == model_size:
-        return
-    (w, h), (mw, mh) = size, model_size
-    if not isinstance(source, FileSource):  # a live stream: not cropped or scaled
-        raise ParameterError(
-            f"the stream's sensor is {w}x{h}, the model's input {mw}x{mh}: a live stream is "
-            f"not cropped or scaled; send events of a {mw}x{mh} sensor"
-        )
-    if source.recording.metadata.get("sensor_size_source") == "fallback":
-        raise ParameterError(
-            f"the recording records no sensor size ({w}x{h} is only a stand-in): give its "
-            "sensor_size (--sensor-size WxH)"
-        )
-    raise ParameterError(
-        f"the recording's sensor is {w}x{h}, the model's input {mw}x{mh}: crop and scale it to "
-        "the model with --downsample (downsample=True from Python)"
-    )
-
-
 class _StreamWorker:
     """One stream: its source and its Detector, run in a thread so that :meth:`poll` answers
     while it works. Lives in a Ray actor (see :func:`detect_streams`). A stream that cannot
@@ -470,7 +442,14 @@ class _StreamWorker:
     def _open(self, spec: str, model: Network, opts: dict[str, Any]) -> None:
         from uavsnn.detector import Detector
         from uavsnn.driver import StreamDriver
-        from uavsnn.sources import IdleClock, UdpSource, is_live, open_source
+        from uavsnn.sources import (
+            IdleClock,
+            UdpSource,
+            check_fits,
+            is_live,
+            open_source,
+            source_options,
+        )
 
         window_us, overlap = opts.pop("window_us"), opts.pop("overlap")
         idle_flush_s = opts.pop("idle_flush_s", None)
@@ -478,22 +457,18 @@ class _StreamWorker:
         tracker = opts.pop("tracker", None)
         model_size = (int(model.config["width"]), int(model.config["height"]))
         live = is_live(spec)
-        # Each source takes the options of its kind (the others apply to the other streams).
-        for key in _UDP_OPTIONS if not spec.startswith("udp://") else ():
-            opts.pop(key, None)
-        for key in _FILE_OPTIONS if live else ():
-            opts.pop(key, None)
         if opts.get("sensor_size") is None and live:
             opts["sensor_size"] = model_size
         if live:
             opts["heartbeat_s"] = IdleClock.heartbeat_for(idle_flush_s)
         if opts.pop("downsample", False):
             opts["downsample_to"] = model_size
-        # What was not given is left to open_source's defaults.
-        opts = {key: value for key, value in opts.items() if _given(value)}
-        self.source = open_source(spec, **opts)
+        # Each source takes the options of its kind (the others apply to the other streams);
+        # what was not given is left to open_source's defaults.
+        given = {key: value for key, value in opts.items() if _given(value)}
+        self.source = open_source(spec, **source_options(spec, given))
         try:
-            _check_fits(self.source, model_size)
+            check_fits(self.source, model_size)
         except UavsnnError:
             self.source.close()
             raise

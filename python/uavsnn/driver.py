@@ -14,8 +14,15 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-from uavsnn.errors import EventError, StreamError, UavsnnError
-from uavsnn.sources import EventSource, IdleClock
+from uavsnn.errors import EventError, ParameterError, StreamError, UavsnnError
+from uavsnn.sources import (
+    EventSource,
+    FileSource,
+    IdleClock,
+    StdinSource,
+    UdpSource,
+    check_seconds,
+)
 
 if TYPE_CHECKING:
     from uavsnn.detector import Detector
@@ -60,7 +67,14 @@ class StreamDriver:
 
     ``windows``: push with ``push_windows`` (closed windows, each with its objects) instead of
     ``push`` (detections). After an interruption (Ctrl-C), :meth:`flush` reports what is still
-    open unless the detector was stopped inside its own work."""
+    open unless the detector was stopped inside its own work.
+
+    Raises:
+        ParameterError: a ``source`` that is no :class:`~uavsnn.sources.EventSource`, a
+            ``detector`` that is no :class:`~uavsnn.detector.Detector`, a bad
+            ``idle_flush_s``, or one given for a file (:class:`~uavsnn.sources.FileSource`,
+            which never goes quiet) or for a standard input or UDP source opened without
+            ``heartbeat_s`` (it would never be woken to move the stream on)."""
 
     def __init__(
         self,
@@ -70,6 +84,29 @@ class StreamDriver:
         idle_flush_s: float | None = None,
         windows: bool = False,
     ) -> None:
+        from uavsnn.detector import Detector
+
+        if not isinstance(source, EventSource):
+            raise ParameterError(
+                "source must be a uavsnn.sources.EventSource (a FileSource, StdinSource, "
+                f"UdpSource, or what open_source returns), got {type(source).__name__}"
+            )
+        if not isinstance(detector, Detector):
+            raise ParameterError(
+                f"detector must be a uavsnn.detector.Detector, got {type(detector).__name__}"
+            )
+        if idle_flush_s is not None:
+            check_seconds("idle_flush_s", idle_flush_s)
+            if isinstance(source, FileSource):
+                raise ParameterError(
+                    "idle_flush_s applies to live sources (standard input, UDP): a file ends "
+                    "by itself and never goes quiet; leave it out"
+                )
+            if isinstance(source, (StdinSource, UdpSource)) and source.heartbeat_s is None:
+                raise ParameterError(
+                    "idle_flush_s needs the source's heartbeats: open it with "
+                    "heartbeat_s=IdleClock.heartbeat_for(idle_flush_s)"
+                )
         self.source = source
         self.detector = detector
         self.windows = bool(windows)

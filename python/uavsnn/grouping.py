@@ -14,11 +14,12 @@ from __future__ import annotations
 from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from uavsnn.errors import ParameterError
+from uavsnn.errors import ParameterError, ShapeError
+from uavsnn.events import EVENT_DTYPE
 from uavsnn.network import WINDOW_DETECTION_DTYPE
 
 if TYPE_CHECKING:
@@ -242,7 +243,17 @@ class WindowGrouper:
 
     @classmethod
     def of(cls, detector: Detector) -> WindowGrouper:
-        """A grouper for ``detector``'s windows, to be fed from its first push on."""
+        """A grouper for ``detector``'s windows, to be fed from its first push on.
+
+        Raises:
+            ParameterError: ``detector`` is no :class:`~uavsnn.detector.Detector`.
+        """
+        from uavsnn.detector import Detector
+
+        if not isinstance(detector, Detector):
+            raise ParameterError(
+                f"WindowGrouper.of takes a uavsnn.detector.Detector, got {type(detector).__name__}"
+            )
         return cls(
             detector.window_us,
             detector.step_us,
@@ -252,7 +263,16 @@ class WindowGrouper:
 
     def add(self, events: np.ndarray, detections: np.ndarray) -> list[WindowReport]:
         """Note a chunk the detector accepted and the detections it returned for it; return
-        the windows that chunk closed."""
+        the windows that chunk closed.
+
+        Raises:
+            ParameterError, ShapeError: ``events`` that are not a 1-D array of
+                :data:`uavsnn.EVENT_DTYPE`, ``detections`` not as the detector returns them (a
+                1-D array of :data:`~uavsnn.network.WINDOW_DETECTION_DTYPE`).
+        """
+        _check_array(
+            "events", events, EVENT_DTYPE, "the chunk pushed to the detector (uavsnn.EVENT_DTYPE)"
+        )
         self._note(detections)
         if len(events) == 0:
             return []
@@ -270,7 +290,11 @@ class WindowGrouper:
     def advance(self, t_us: int, detections: np.ndarray) -> list[WindowReport]:
         """Note the detections :meth:`Detector.advance <uavsnn.detector.Detector.advance>`
         returned for ``t_us``, and return the windows that ends: every event still to come is
-        at or after ``t_us``, so a window ending by then is closed."""
+        at or after ``t_us``, so a window ending by then is closed.
+
+        Raises:
+            ParameterError, ShapeError: ``detections`` not as the detector returns them.
+        """
         self._note(detections)
         if self._start is None:
             return []
@@ -300,7 +324,11 @@ class WindowGrouper:
 
     def finish(self, detections: np.ndarray) -> list[WindowReport]:
         """The end of the stream: note the detections :meth:`Detector.flush` returned and
-        report every window still open."""
+        report every window still open.
+
+        Raises:
+            ParameterError, ShapeError: ``detections`` not as the detector returns them.
+        """
         self._note(detections)
         return self._report(len(self._open))
 
@@ -315,6 +343,13 @@ class WindowGrouper:
         return k * self.step_us + self.window_us
 
     def _note(self, detections: np.ndarray) -> None:
+        _check_array(
+            "detections",
+            detections,
+            WINDOW_DETECTION_DTYPE,
+            "what the detector's push, advance or flush returned "
+            "(uavsnn.network.WINDOW_DETECTION_DTYPE)",
+        )
         if len(detections) == 0:
             return
         windows = detections["window"]
@@ -339,3 +374,13 @@ class WindowGrouper:
             )
         del self._open[:n]
         return out
+
+
+def _check_array(name: str, value: object, dtype: np.dtype[Any], what: str) -> None:
+    """Refuse ``value`` unless it is a 1-D array of ``dtype`` (``what``: where it comes from,
+    and the dtype's name)."""
+    if not isinstance(value, np.ndarray) or value.dtype != dtype:
+        got = f"dtype {value.dtype}" if isinstance(value, np.ndarray) else type(value).__name__
+        raise ParameterError(f"{name} must be {what}, got {got}")
+    if value.ndim != 1:
+        raise ShapeError(f"{name} must be a 1-D array ({what}), got shape {value.shape}")

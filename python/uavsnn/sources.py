@@ -75,10 +75,11 @@ import select
 import socket
 import sys
 import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
+from io import TextIOBase
 from pathlib import Path
-from typing import BinaryIO
+from typing import Any, BinaryIO
 from urllib.parse import urlsplit
 
 import numpy as np
@@ -101,9 +102,11 @@ __all__ = [
     "SourceStats",
     "StdinSource",
     "UdpSource",
+    "check_fits",
     "check_seconds",
     "is_live",
     "open_source",
+    "source_options",
 ]
 
 #: UDP packet formats understood by :class:`UdpSource`.
@@ -237,6 +240,8 @@ class FileSource(EventSource):
         chunk_us: event time per chunk when ``realtime``.
         downsample_to: ``(width, height)`` to crop and scale the recording to
             (:func:`uavsnn.filters.downsample`), e.g. a model's input size; ``None`` keeps it.
+            Downsampling only reduces: a target wider or taller than the recording's sensor
+            is refused (:class:`~uavsnn.ParameterError`).
     """
 
     def __init__(
@@ -256,16 +261,27 @@ class FileSource(EventSource):
             raise ParameterError(
                 f"chunk_events and chunk_us must be >= 1, got {chunk_events} and {chunk_us}"
             )
+        target = None if downsample_to is None else check_sensor_size(downsample_to)
+        #: The file read.
+        self.path = Path(path)
         self.recording = io.read(path, sensor_size=sensor_size)
-        if downsample_to is not None and self.recording.sensor_size != tuple(downsample_to):
+        if target is not None and self.recording.sensor_size != target:
+            w, h = self.recording.sensor_size
             if self.recording.metadata.get("sensor_size_source") == "fallback":
                 # Cropping faery's guess to the target's aspect would drop events silently.
-                w, h = self.recording.sensor_size
                 raise ParameterError(
                     f"{path} records no sensor size ({w}x{h} is only a stand-in): give its "
                     "sensor size, then it can be downsampled"
                 )
-            self.recording = filters.downsample(self.recording, downsample_to)
+            tw, th = target
+            if tw > w or th > h:
+                # filters.downsample would scale it up, making pixels the sensor never had.
+                raise ParameterError(
+                    f"{path}: its {w}x{h} sensor cannot be downsampled to {tw}x{th}: "
+                    f"downsampling only reduces (it crops and scales a larger sensor down), "
+                    f"and {tw}x{th} is {_larger(tw > w, th > h)} than {w}x{h}"
+                )
+            self.recording = filters.downsample(self.recording, target)
         self.sensor_size = self.recording.sensor_size
         self.realtime = realtime
         self.chunk_events = chunk_events
@@ -312,7 +328,9 @@ class StdinSource(EventSource):
     """Events from a binary stream (standard input by default).
 
     Args:
-        stream: a binary file object; ``sys.stdin.buffer`` when ``None``.
+        stream: a binary file object (``read1`` or ``read`` returning ``bytes``: a file opened
+            ``"rb"``, ``sys.stdin.buffer``, ``io.BytesIO``); ``sys.stdin.buffer`` when ``None``.
+            A text stream is refused (:class:`~uavsnn.ParameterError`).
         fmt: ``"packed"`` (13-byte records) or ``"csv"`` (``t,x,y,p`` lines).
         sensor_size: ``(width, height)``; events outside it or going back in time are dropped
             one by one (``None``: only times are checked).
@@ -335,6 +353,11 @@ class StdinSource(EventSource):
             raise ParameterError(f"stdin format must be one of {STDIN_FORMATS}, got {fmt!r}")
         if read_size < _RECORD:
             raise ParameterError(f"read_size must be >= {_RECORD}, got {read_size}")
+        if stream is not None and (
+            isinstance(stream, TextIOBase)
+            or not (hasattr(stream, "read1") or hasattr(stream, "read"))
+        ):
+            raise ParameterError(_not_binary(stream))
         self.stream = stream if stream is not None else sys.stdin.buffer
         self.fmt = fmt
         self.sensor_size = None if sensor_size is None else check_sensor_size(sensor_size)
@@ -367,7 +390,10 @@ class StdinSource(EventSource):
             ready, _, _ = select.select([self._fd], [], [], self.heartbeat_s)
             return os.read(self._fd, self.read_size) if ready else None
         read1 = getattr(self.stream, "read1", None)
-        return read1(self.read_size) if read1 is not None else self.stream.read(self.read_size)
+        data = read1(self.read_size) if read1 is not None else self.stream.read(self.read_size)
+        if isinstance(data, str):
+            raise ParameterError(_not_binary(self.stream))
+        return data
 
     def __iter__(self) -> Iterator[np.ndarray]:
         rest = b""
@@ -712,14 +738,122 @@ def check_seconds(name: str, value: float | None) -> float | None:
     return value
 
 
+def check_fits(source: EventSource, model_size: tuple[int, int]) -> None:
+    """Refuse a source whose sensor is not ``model_size``, a model's input, saying what fits
+    it (``uavsnn detect`` and :func:`uavsnn.distributed.detect_streams`' streams check their
+    source here). A source of no known size (standard input, UDP without ``sensor_size``)
+    passes: the detector then checks the events.
+
+    Raises:
+        ParameterError: naming both sizes: a file is cropped and scaled with
+            ``--downsample`` (``downsample_to``), unless it records no sensor size, which is to
+            be given; a live stream is not cropped or scaled.
+    """
+    size = source.sensor_size
+    if size is None or tuple(size) == tuple(model_size):
+        return
+    (w, h), (mw, mh) = size, model_size
+    if not isinstance(source, FileSource):
+        raise ParameterError(
+            f"the stream's sensor is {w}x{h}, the model's input {mw}x{mh}: a live stream is "
+            f"not cropped or scaled; send events of a {mw}x{mh} sensor"
+        )
+    if source.recording.metadata.get("sensor_size_source") == "fallback":
+        raise ParameterError(
+            f"{source.path} records no sensor size ({w}x{h} is only a stand-in): give "
+            "--sensor-size WxH (sensor_size)"
+        )
+    raise ParameterError(
+        f"the recording's sensor is {w}x{h}, the model's input {mw}x{mh}: add --downsample "
+        "(downsample_to) to crop and scale it to the model"
+    )
+
+
 def is_live(spec: str) -> bool:
     """Whether a source's command-line spelling names a live stream, which ends only when
     told (``-`` or ``udp://HOST:PORT``), rather than a file."""
     return spec == "-" or spec.startswith("udp://")
 
 
+def _kind(spec: str) -> str:
+    """``"stdin"``, ``"udp"`` or ``"file"``: the kind of source ``spec`` names."""
+    if spec == "-":
+        return "stdin"
+    return "udp" if spec.startswith("udp://") else "file"
+
+
+_KIND_NAMES = {"stdin": "standard input", "udp": "a UDP source"}
+_FILES = ("file",)
+_LIVE = ("stdin", "udp")
+# Each option of open_source: the kinds of source it applies to, where they are (as the
+# refusal says it), and its default, which changes nothing whatever the source (a caller that
+# spells every option, as `uavsnn detect` does, passes it for every kind).
+_OPTIONS: dict[str, tuple[tuple[str, ...], str, Any]] = {
+    "sensor_size": (("file", *_LIVE), "every source", None),
+    "realtime": (_FILES, "files", False),
+    "downsample_to": (_FILES, "files", None),
+    "stdin_format": (("stdin",), "standard input ('-')", "packed"),
+    "udp_format": (("udp",), "UDP sources (udp://HOST:PORT)", "t64_x16_y16_on8"),
+    "max_packets": (("udp",), "UDP sources (udp://HOST:PORT)", None),
+    "idle_timeout": (("udp",), "UDP sources (udp://HOST:PORT)", None),
+    "heartbeat_s": (_LIVE, "'-' and UDP (live sources)", None),
+}
+
+
+def source_options(spec: str, options: Mapping[str, Any]) -> dict[str, Any]:
+    """The items of ``options`` (keyword arguments of :func:`open_source`) that apply to the
+    kind of source ``spec`` names: for a caller that opens sources of several kinds with one
+    set of options (:func:`uavsnn.distributed.detect_streams`' workers), each gets its own.
+
+    Raises:
+        ParameterError: a name that is no option of :func:`open_source`.
+    """
+    unknown = sorted(set(options) - set(_OPTIONS))
+    if unknown:
+        raise ParameterError(
+            f"no option of open_source: {', '.join(map(repr, unknown))} (its options: "
+            f"{', '.join(_OPTIONS)})"
+        )
+    kind = _kind(spec)
+    return {name: value for name, value in options.items() if kind in _OPTIONS[name][0]}
+
+
+def _check_options(spec: str, given: Mapping[str, Any]) -> None:
+    """Refuse an option given, other than at its default, for a source it does not apply to."""
+    kind = _kind(spec)
+    for name, value in given.items():
+        kinds, where, default = _OPTIONS[name]
+        if kind not in kinds and not _is_default(value, default):
+            what = f"a file ({spec})" if kind == "file" else _KIND_NAMES[kind]
+            raise ParameterError(
+                f"{name} applies to {where}, and this source is {what}: leave it out "
+                f"(got {name}={value!r})"
+            )
+
+
+def _is_default(value: Any, default: Any) -> bool:
+    if default is None or value is None:
+        return value is default
+    return isinstance(value, (bool, int, str)) and value == default
+
+
+def _larger(wider: bool, taller: bool) -> str:
+    return "wider and taller" if wider and taller else "wider" if wider else "taller"
+
+
+def _not_binary(stream: Any) -> str:
+    got = type(stream).__name__
+    if isinstance(stream, TextIOBase):
+        got = f"a text stream ({got})"
+    return (
+        "stream must be a binary stream (its read1 or read returning bytes: a file opened "
+        f"'rb', sys.stdin.buffer, io.BytesIO), got {got}"
+        + (": pass sys.stdin.buffer" if stream is sys.stdin else "")
+    )
+
+
 def open_source(
-    spec: str,
+    spec: str | os.PathLike[str],
     *,
     sensor_size: tuple[int, int] | None = None,
     realtime: bool = False,
@@ -732,11 +866,36 @@ def open_source(
 ) -> EventSource:
     """Open a source from its command-line spelling: a path, ``-`` or ``udp://HOST:PORT``.
 
-    ``sensor_size`` is required for ``-`` and UDP (their bytes carry none) and overrides a
-    file's own. ``realtime`` and ``downsample_to`` apply to files, ``stdin_format`` to ``-``,
-    and ``udp_format``, ``max_packets`` and ``idle_timeout`` to UDP; ``heartbeat_s`` to
-    ``-`` and UDP (:attr:`EventSource.heartbeat_s`).
+    ``sensor_size`` is required for ``-`` and UDP (their bytes carry none); for a file it is
+    needed only when the file records none (CSV, ``.npy``, a RAW/DAT header without geometry),
+    and must agree with a file's own where it has one (as :func:`uavsnn.io.read`: one that
+    contradicts it is refused). ``realtime`` and ``downsample_to`` apply to files,
+    ``stdin_format`` to ``-``, and ``udp_format``, ``max_packets`` and ``idle_timeout`` to UDP;
+    ``heartbeat_s`` to ``-`` and UDP (:attr:`EventSource.heartbeat_s`). An option given for a
+    source it does not apply to is refused (:class:`~uavsnn.ParameterError`), unless it is at
+    its default (which changes nothing: ``realtime=False``, ``stdin_format="packed"``,
+    ``udp_format="t64_x16_y16_on8"``, ``None``); :func:`source_options` picks those of a set
+    that apply to a source. ``downsample_to`` only reduces: a target wider or taller than the
+    file's sensor is refused.
     """
+    if isinstance(spec, os.PathLike):
+        spec = os.fspath(spec)
+    if not isinstance(spec, str):
+        raise ParameterError(
+            f"a source is a path, '-' or udp://HOST:PORT, got {type(spec).__name__}"
+        )
+    _check_options(
+        spec,
+        {
+            "realtime": realtime,
+            "stdin_format": stdin_format,
+            "udp_format": udp_format,
+            "max_packets": max_packets,
+            "idle_timeout": idle_timeout,
+            "downsample_to": downsample_to,
+            "heartbeat_s": heartbeat_s,
+        },
+    )
     if spec == "-":
         if sensor_size is None:
             raise ParameterError("standard input carries no sensor size: give sensor_size")

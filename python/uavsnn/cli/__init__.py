@@ -60,7 +60,10 @@ COMMANDS: dict[str, str] = {
     "demo": "the whole pipeline on a small built-in synthetic set, with a report",
     "detect": "detect UAVs in a recording, standard input or a UDP event stream",
     "evaluate": "score a model on a labelled test set",
-    "info": "sensor size, event count, duration and event rates of a recording",
+    "info": (
+        "a recording's sensor size, event count, duration and event rates; a model file's "
+        "input, layers and identification"
+    ),
     "reproduce": "the paper's experiments at full size, written to RESULTS.md",
     "simulate": "turn a video into events (PIX2NVS 'sim' or DVS emulation 'dvs')",
     "train": "train a detector by STDP, one layer at a time",

@@ -548,7 +548,7 @@ def run(args: argparse.Namespace) -> int:
     from uavsnn.cli import exit_code, interrupted_line, pipe_closed, quiet_stdout
     from uavsnn.detector import Detector
     from uavsnn.driver import StreamDriver
-    from uavsnn.sources import IdleClock, UdpSource, is_live, open_source
+    from uavsnn.sources import IdleClock, UdpSource, check_fits, is_live, open_source
 
     _check_args(args)
     if args.more_sources or args.ray is not None:
@@ -572,19 +572,11 @@ def run(args: argparse.Namespace) -> int:
         downsample_to=model_size if args.downsample else None,
         heartbeat_s=IdleClock.heartbeat_for(args.idle_flush),
     )
-    if source.sensor_size is not None and tuple(source.sensor_size) != model_size:
+    try:
+        check_fits(source, model_size)
+    except ParameterError:
         source.close()
-        w, h = source.sensor_size
-        recording = getattr(source, "recording", None)
-        if recording is not None and recording.metadata.get("sensor_size_source") == "fallback":
-            raise ParameterError(
-                f"{args.source} records no sensor size ({w}x{h} is only a stand-in): give "
-                "--sensor-size WxH"
-            )
-        raise ParameterError(
-            f"the recording's sensor is {w}x{h}, the model's input {model_size[0]}x"
-            f"{model_size[1]}: add --downsample to crop and scale it to the model"
-        )
+        raise
     out, err = sys.stdout, sys.stderr
     with source:
         detector = Detector(

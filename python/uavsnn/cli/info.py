@@ -1,18 +1,25 @@
-"""``uavsnn info FILE``: what a recording holds."""
+"""``uavsnn info FILE``: what a recording holds; for a model file (``uavsnn train`` writes
+them), what the model takes and does."""
 
 from __future__ import annotations
 
 import argparse
 import json
-from typing import Any
+import zipfile
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from uavsnn import io
+from uavsnn._npy import npz_arrays
 from uavsnn.errors import ParameterError
 from uavsnn.events import Recording
 
-__all__ = ["PEAK_BIN_US", "register", "summary"]
+if TYPE_CHECKING:
+    from uavsnn.network import Network
+
+__all__ = ["PEAK_BIN_US", "is_model_file", "model_summary", "register", "summary"]
 
 #: Width of the bins over which the peak event rate is measured.
 PEAK_BIN_US = 1_000
@@ -53,6 +60,101 @@ def summary(recording: Recording) -> dict[str, Any]:
     }
 
 
+#: The arrays that make an ``.npz`` file a model (:meth:`uavsnn.network.Network.save` writes
+#: them; a recording has ``events`` and ``sensor_size`` instead).
+MODEL_ARRAYS = ("format", "config", "conv1", "conv2", "conv3")
+
+
+def is_model_file(path: str | Path) -> bool:
+    """Whether ``path`` is an ``.npz`` archive holding a model's arrays (:data:`MODEL_ARRAYS`)
+    and no events: a model file, which :meth:`uavsnn.network.Network.load` reads."""
+    try:
+        if not zipfile.is_zipfile(path):
+            return False
+        with zipfile.ZipFile(path) as archive:
+            members = npz_arrays(archive)
+    except (OSError, zipfile.BadZipFile):
+        return False
+    return "events" not in members and all(name in members for name in MODEL_ARRAYS)
+
+
+def model_summary(network: Network, path: str | None = None) -> dict[str, Any]:
+    """A model's input size, layers, detection rule, identification and load note (and its
+    whole ``config``), as ``uavsnn info`` prints them for a model file."""
+    config = network.config
+    layers = []
+    for k, name in enumerate(("conv1", "conv2", "conv3"), start=1):
+        conv = config[name]
+        pool = config.get(f"pool{k}")
+        layers.append(
+            {
+                "name": name,
+                "maps": int(conv["maps"]),
+                "kernel": int(conv["kernel"]),
+                "threshold": float(conv["threshold"]),
+                "pool": None if pool is None else [int(pool["kernel"]), int(pool["stride"])],
+            }
+        )
+    ident = network.identification
+    return {
+        "path": path,
+        "format": "model",
+        "input_size": [int(config["width"]), int(config["height"])],
+        "layers": layers,
+        "min_detections": int(config["detection"]["min_detections"]),
+        "pent_mode": config["pent"]["mode"],
+        "pent_estimate": config["pent"].get("estimate"),
+        "identification": None
+        if ident is None
+        else {
+            "features": len(ident.features),
+            "classes": list(ident.classes),
+            "threshold": float(ident.threshold),
+            "trees": ident.trees is not None,
+            "false_alarm_rates": [float(rate) for rate, _ in ident.alarm_thresholds],
+            "false_tracks_per_minute": [float(r) for r, _ in ident.track_alarm_thresholds],
+        },
+        "load_note": network.load_note,
+        "config": config,
+    }
+
+
+def _print_model(info: dict[str, Any]) -> None:
+    width, height = info["input_size"]
+    print(f"file:        {info['path']} (a uavsnn model: `uavsnn train` writes these)")
+    print(f"input:       {width}x{height} (`uavsnn detect --downsample` fits a larger sensor)")
+    parts = []
+    for layer in info["layers"]:
+        size = f"{layer['kernel']}x{layer['kernel']}"
+        text = f"{layer['name']} {layer['maps']} maps {size} (threshold {layer['threshold']:g})"
+        if layer["pool"] is not None:
+            text += f", pool {layer['pool'][0]}/{layer['pool'][1]}"
+        parts.append(text)
+    print(f"layers:      {'; '.join(parts)}")
+    n = info["min_detections"]
+    rule = f"at least {n} conv3 spike{'s' if n != 1 else ''} in a window"
+    if info["pent_mode"] == "pent":
+        rule += f"; conv1 thresholds by PENT (input count: {info['pent_estimate']})"
+    else:
+        rule += f"; conv1 thresholds {info['pent_mode']}"
+    print(f"detection:   {rule}")
+    ident = info["identification"]
+    if ident is None:
+        print(
+            "identify:    no identification model: only the any-spike rule decides "
+            "(`uavsnn train` fits one)"
+        )
+        return
+    classes = ", ".join(ident["classes"]) or "UAV or not"
+    how = "trees" if ident["trees"] else "logistic regression"
+    print(
+        f"identify:    identification model ({how} over {ident['features']} features; "
+        f"classes: {classes}; threshold {ident['threshold']:.3g})"
+    )
+    if info["load_note"]:
+        print(f"note:        {info['load_note']}")
+
+
 def _sensor_size(text: str) -> tuple[int, int]:
     try:
         width, height = (int(v) for v in text.lower().split("x"))
@@ -79,6 +181,8 @@ def run(args: argparse.Namespace) -> int:
     """Print the summary of ``args.file``."""
     if args.sensor_size is not None and min(args.sensor_size) <= 0:
         raise ParameterError(f"--sensor-size must be positive, got {args.sensor_size}")
+    if is_model_file(args.file):
+        return _run_model(args)
     info = summary(io.read(args.file, sensor_size=args.sensor_size))
     if args.json:
         print(json.dumps(info, indent=2))
@@ -100,14 +204,36 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _run_model(args: argparse.Namespace) -> int:
+    """Print the summary of the model file ``args.file``."""
+    from uavsnn.network import Network
+
+    network = Network.load(args.file)
+    if args.sensor_size is not None:
+        w, h = int(network.config["width"]), int(network.config["height"])
+        raise ParameterError(
+            f"--sensor-size gives a recording's sensor size: {args.file} is a model file "
+            f"(its input is {w}x{h})"
+        )
+    info = model_summary(network, str(args.file))
+    if args.json:
+        print(json.dumps(info, indent=2))
+    else:
+        _print_model(info)
+    return 0
+
+
 def register(subparsers: Any) -> None:
     """Add the ``info`` sub-command."""
     parser = subparsers.add_parser(
         "info",
-        help="sensor size, event count, duration and event rates of a recording",
-        description="Read a recording (AEDAT4, RAW, DAT, ES, CSV, NPZ, NPY) and summarise it.",
+        help="a recording's sensor size, event count, duration and event rates; a model "
+        "file's input, layers and identification",
+        description="Read a recording (AEDAT4, RAW, DAT, ES, CSV, NPZ, NPY) and summarise it; "
+        "given a model file (the .npz `uavsnn train` writes), summarise the model: its input "
+        "size, layers, detection rule and identification.",
     )
-    parser.add_argument("file", help="the recording")
+    parser.add_argument("file", help="the recording (or a model file)")
     parser.add_argument("--json", action="store_true", help="print JSON for programs")
     parser.add_argument(
         "--sensor-size",
