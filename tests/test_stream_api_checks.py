@@ -199,6 +199,37 @@ def test_the_window_grouper_refuses_detections_that_are_not_a_detectors(net: Net
     assert reports and reports[0].detected
 
 
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"window_us": 3.5, "step_us": 1}, "window_us must be an integer"),
+        ({"window_us": 3, "step_us": "1"}, "step_us must be an integer"),
+        ({"window_us": 3, "step_us": 1, "min_detections": None}, "min_detections must be"),
+        ({"window_us": 3, "step_us": 1, "start_us": -1}, "start_us must be an integer >= 0"),
+        ({"window_us": 0, "step_us": 1}, "window_us must be an integer >= 1"),
+    ],
+)
+def test_the_window_grouper_refuses_arguments_that_are_no_whole_numbers(
+    kwargs: dict[str, object], match: str
+) -> None:
+    # A float or a string was a TypeError or a ValueError, or taken rounded down.
+    with pytest.raises(ParameterError, match=match):
+        WindowGrouper(**kwargs)  # type: ignore[arg-type]
+
+
+def test_the_window_grouper_refuses_an_advance_to_no_time(net: Network) -> None:
+    det = Detector(net, window_us=3_000)
+    grouper = WindowGrouper.of(det)
+    ev = blob_events(0, 100)
+    grouper.add(ev, det.push(ev))
+    for bad in (1.5, "9", -1, 1 << 63):
+        with pytest.raises(ParameterError, match="t_us must be"):
+            grouper.advance(bad, det.advance(int(ev["t"][-1])))  # type: ignore[arg-type]
+        det.reset()
+        grouper = WindowGrouper.of(det)
+        grouper.add(ev, det.push(ev))
+
+
 def test_standard_input_refuses_a_text_stream() -> None:
     with pytest.raises(ParameterError, match="binary stream"):
         StdinSource(io.StringIO("1,2,3,1\n"), fmt="csv", sensor_size=SMALL_SENSOR)  # type: ignore[arg-type]

@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from uavsnn._validate import MAX_TIME_US, check_int
 from uavsnn.errors import ParameterError, ShapeError
 from uavsnn.events import EVENT_DTYPE
 from uavsnn.network import WINDOW_DETECTION_DTYPE
@@ -223,20 +224,19 @@ class WindowGrouper:
         window_us, step_us: the detector's window length and step.
         start_us: start of window 0, or ``None`` for the first event's time.
         min_detections: conv3 spikes that make a window a detection.
+
+    Raises:
+        ParameterError: an argument that is not an integer, ``window_us``, ``step_us`` or
+            ``min_detections`` below 1, a negative ``start_us``.
     """
 
     def __init__(
         self, window_us: int, step_us: int, *, start_us: int | None = None, min_detections: int = 1
     ) -> None:
-        if window_us < 1 or step_us < 1 or min_detections < 1:
-            raise ParameterError(
-                f"window_us, step_us and min_detections must be at least 1, got "
-                f"{window_us}, {step_us} and {min_detections}"
-            )
-        self.window_us = int(window_us)
-        self.step_us = int(step_us)
-        self.min_detections = int(min_detections)
-        self._start = None if start_us is None else int(start_us)
+        self.window_us = check_int("window_us", window_us, 1)
+        self.step_us = check_int("step_us", step_us, 1)
+        self.min_detections = check_int("min_detections", min_detections, 1)
+        self._start = None if start_us is None else check_int("start_us", start_us, 0)
         self._next = 0  # the first window not opened yet
         self._open: list[int] = []  # opened, not yet reported, in order
         self._found: dict[int, list[np.ndarray]] = {}
@@ -293,12 +293,14 @@ class WindowGrouper:
         at or after ``t_us``, so a window ending by then is closed.
 
         Raises:
-            ParameterError, ShapeError: ``detections`` not as the detector returns them.
+            ParameterError, ShapeError: ``t_us`` not an integer in ``[0, 2**62]``, or
+                ``detections`` not as the detector returns them.
         """
+        t_us = check_int("t_us", t_us, 0, MAX_TIME_US)
         self._note(detections)
         if self._start is None:
             return []
-        return self._close_by(int(t_us) - self._start)
+        return self._close_by(t_us - self._start)
 
     def _close_by(self, last: int) -> list[WindowReport]:
         """Report the open windows that end by ``last`` µs from the start (the stream has
