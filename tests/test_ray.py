@@ -824,7 +824,13 @@ def test_a_stopped_ray_detect_reports_each_stream_and_exits_as_interrupted(
             str(tmp_path / "m.npz"), "--sensor-size", "240x180", "--summary-every", "0.2",
             "--ray"]  # fmt: skip
     proc = subprocess.Popen(
-        argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True
+        argv,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        start_new_session=True,
+        # A shell without job control starts background commands with SIGINT ignored, and
+        # Python then installs no handler for it: give the command Ctrl-C as a terminal would.
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
     try:
         assert proc.stderr is not None
