@@ -1338,10 +1338,14 @@ def test_train_fits_identification_and_evaluate_reports_both_rules(
     build(
         data, "dvs", n_test=20, n_train=40, seed=11, dvs=SceneSource("dvs", (240, 180), 200.0, 0.3)
     )
+    # A tuning set of other recordings (another seed): one of the same is refused.
+    tune = tmp_path / "tune"
+    build(
+        tune, "dvs", n_test=2, n_train=40, seed=12, dvs=SceneSource("dvs", (240, 180), 200.0, 0.3)
+    )
     model = tmp_path / "m.npz"
     args = ["train", str(data), "-o", str(model), "--windows-per-layer", "100", "--quiet"]
-    # --tune names the same set here: this checks the plumbing (a real one holds other recordings).
-    assert main([*args, "--set", "conv2.threshold=10", "--tune", str(data), "--json"]) == 0
+    assert main([*args, "--set", "conv2.threshold=10", "--tune", str(tune), "--json"]) == 0
     summary = json.loads(capsys.readouterr().out)["identify"]
     assert summary["tune"] == "a separate tuning set" and 0 <= summary["threshold"] <= 1
     roc = tmp_path / "roc.png"
@@ -1353,9 +1357,9 @@ def test_train_fits_identification_and_evaluate_reports_both_rules(
     assert [p["false_alarm_target"] for p in ident["at_false_alarm"]] == [0.01, 0.05]
     assert roc.exists() and roc.stat().st_size > 0
     assert list(ident["feature_auc"]) == list(FEATURES)
-    # The ablation (tuned on the same set here: plumbing only), each group with its tracks.
+    # The ablation (tuned on the tuning set), each group with its tracks.
     assert (
-        main(["evaluate", str(model), str(data), "--json", "--tracks", "--ablation", str(data)])
+        main(["evaluate", str(model), str(data), "--json", "--tracks", "--ablation", str(tune)])
         == 0
     )
     figures = json.loads(capsys.readouterr().out)
@@ -1379,7 +1383,7 @@ def test_train_fits_identification_and_evaluate_reports_both_rules(
                 "--tracks",
                 *rule,
                 "--ablation",
-                str(data),
+                str(tune),
             ]
         )
         == 0

@@ -293,9 +293,9 @@ def test_a_refused_train_leaves_no_checkpoint_folder(
     monkeypatch: pytest.MonkeyPatch,
     capsys: pytest.CaptureFixture[str],
 ) -> None:
-    # --checkpoint-dir was made before the later checks, which left it (and the folders above
-    # it) behind, empty.
-    out, ckpt = tmp_path / "m.npz", tmp_path / "runs" / "ckpt"
+    # --checkpoint-dir was made before the later checks, which left it behind, empty (its
+    # parent must exist, as -o's must).
+    out, ckpt = tmp_path / "m.npz", tmp_path / "ckpt"
     base = ["train", str(dataset), "-o", str(out), "--windows-per-layer", "10", "--quiet",
             "--checkpoint-dir", str(ckpt)]  # fmt: skip
     for extra, match in [

@@ -34,6 +34,7 @@ built with, when recorded; no pickle), see :meth:`uavsnn.network.Network.save`.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any
@@ -86,6 +87,7 @@ __all__ = [
     "WindowFeatures",
     "ablation",
     "activity",
+    "alarm_note",
     "alarm_threshold",
     "best_threshold",
     "class_figures",
@@ -338,6 +340,42 @@ def alarm_threshold(score: np.ndarray, label: np.ndarray, rate: float) -> float:
     from uavsnn.evaluation import threshold_at_false_alarm
 
     return max(threshold_at_false_alarm(score, label, rate), 0.0)
+
+
+def alarm_note(
+    tune_label: np.ndarray, alarm_thresholds: Sequence[tuple[float, float]]
+) -> str | None:
+    """Why the operating points :func:`fit` set on tuning windows of truth ``tune_label``
+    (its :attr:`Identifier.alarm_thresholds`) are missing or do not measure their shares, in
+    one sentence; ``None`` when they do. None is set without a UAV-free tuning window. A share
+    ``r`` of ``n`` UAV-free windows allows one of them to alarm only when ``n × r ≥ 1`` (100
+    windows for 1 %, 20 for 5 %); with fewer the point is the threshold at which none of them
+    alarms, which says nothing of ``r``: the point is kept (it is the strictest the windows
+    allow) and the note says so."""
+    label = np.asarray(tune_label, dtype=bool)
+    free = int((~label).sum())
+    if free == 0:
+        return (
+            f"the {label.size} tuning windows hold no UAV-free window: no false-alarm point is "
+            "set (`uavsnn detect --false-alarm` has none to take) and the threshold was chosen "
+            "on UAV windows alone; tune on a set with UAV-free windows (`uavsnn dataset build "
+            "TUNE --seed OTHER --stratify`, then --tune TUNE)"
+        )
+    thin = [
+        (rate, math.ceil(1 / rate - 1e-9)) for rate, _ in alarm_thresholds if free * rate < 1 - 1e-9
+    ]
+    if not thin:
+        return None
+    shares = " and ".join(f"{100 * rate:g} %" for rate, _ in thin)
+    needs = " and ".join(str(need) for _, need in thin)
+    one = len(thin) == 1
+    return (
+        f"the tuning windows hold {free} UAV-free window{'' if free == 1 else 's'}, fewer "
+        f"than the {needs} that {shares} false alarms need for one of "
+        f"them to alarm: at {'that point' if one else 'those points'} none alarms, which "
+        f"does not measure {'the share' if one else 'those shares'} (`uavsnn detect "
+        "--false-alarm` may alarm more often there); tune on more UAV-free windows"
+    )
 
 
 def threshold_accuracies(score: np.ndarray, label: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -596,6 +634,7 @@ def fit_network(
         "l2": fitted.l2,
         "threshold": fitted.threshold,
         "alarm_thresholds": [list(pair) for pair in fitted.alarm_thresholds],
+        "alarm_note": alarm_note(np.asarray(tune.label, dtype=bool), fitted.alarm_thresholds),
         "features": list(fitted.features),
         "gate_px": fitted.gate_px,
     }

@@ -117,7 +117,8 @@ def train(
 
     Each layer sees ``windows_per_layer`` windows (the set is visited in shuffled epochs until
     that many are seen; the paper used about 20,000) or, if that is ``None``, ``epochs`` passes
-    over the set. Training stops at the first progress report at or past the count (every
+    over the set (``epochs`` other than 1 beside a count is refused: the count alone would
+    decide). Training stops at the first progress report at or past the count (every
     ``max(1, min(64, windows_per_layer // snapshots))`` windows, and after the last epoch), so a
     layer may see fewer than one such interval more. The learning-rate schedule restarts from
     the config's rates for each layer. ``snapshots`` (at most :data:`MAX_SNAPSHOTS`) weight
@@ -127,15 +128,17 @@ def train(
     every layer where none was (a run stopped in its first layer, or a folder not made yet).
 
     Raises:
-        ParameterError: an unknown layer, layers out of order, a bad count, ``resume``
-            without ``checkpoint_dir``, a ``checkpoint_dir`` that is a file, cannot be created
+        ParameterError: an unknown layer, layers out of order, a bad count,
+            ``windows_per_layer`` with ``epochs`` other than 1, ``resume`` without
+            ``checkpoint_dir``, a ``checkpoint_dir`` that is a file, cannot be created
             or written, or holds a folder where a checkpoint file goes.
         DatasetError: no training windows.
         ModelFileError: ``resume`` with a damaged state file or a checkpoint of another network
             shape.
         ParameterError: ``resume`` with a checkpoint made with another config, training data,
             seed or schedule (``snapshots`` sets where each layer stops), or without a complete
-            fingerprint of them.
+            fingerprint of them; the message names what was changed, not the settings that
+            follow from it (the passes a count of windows takes over other data).
     """
     names = _check_layers(layers)
     if resume and checkpoint_dir is None:
@@ -145,6 +148,12 @@ def train(
         raise DatasetError("no training windows: the train split is empty")
     if windows_per_layer is not None:
         windows_per_layer = check_int("windows_per_layer", windows_per_layer, 1)
+        if epochs != 1:
+            raise ParameterError(
+                f"windows_per_layer ({windows_per_layer}) and epochs ({epochs}) both say how "
+                "long a layer trains, and windows_per_layer would decide alone (that many "
+                "windows, in as many passes as it takes): give one"
+            )
         epochs = math.ceil(windows_per_layer / n)
     planned = windows_per_layer or n * check_int("epochs", epochs, 1)
     snapshots = check_int("snapshots", snapshots, 0, MAX_SNAPSHOTS)
@@ -158,7 +167,9 @@ def train(
         every = _report_every(planned, snapshots)
         fingerprint = _fingerprint(network, windows, seed, planned, epochs, every)
         if resume:
-            state, loaded = _read_checkpoint(ckpt, names, fingerprint)
+            state, loaded = _read_checkpoint(
+                ckpt, names, fingerprint, per_layer=windows_per_layer is not None
+            )
             done = list(state["done"])
             if loaded is not None:
                 _copy_weights(loaded, network)
@@ -335,11 +346,28 @@ _WHAT = {
 }
 
 
+def _changed(stored: dict[str, Any], fingerprint: dict[str, Any], per_layer: bool) -> list[str]:
+    """What the user changed, in words, of the settings ``fingerprint`` records that differ
+    from ``stored``: a setting that follows from another one that changed is not named (the
+    reporting interval follows from the windows per layer; with ``per_layer`` (a count of
+    windows per layer given) the passes follow from it and from the training windows, without
+    it the windows per layer follow from the passes and the training windows)."""
+    diff = {k for k in fingerprint if stored[k] != fingerprint[k]}
+    follows: dict[str, set[str]] = {"report_every": {"windows_per_layer"}}
+    if per_layer:
+        follows["epochs"] = {"data_sha256", "windows_per_layer"}
+    else:
+        follows["windows_per_layer"] = {"data_sha256", "epochs"}
+    named = [k for k in fingerprint if k in diff and not follows.get(k, set()) & diff]
+    return [_WHAT.get(k, k) for k in named]
+
+
 def _read_checkpoint(
-    root: Path, names: list[str], fingerprint: dict[str, Any]
+    root: Path, names: list[str], fingerprint: dict[str, Any], *, per_layer: bool = True
 ) -> tuple[dict[str, Any], Network | None]:
     """The state of the checkpoint in ``root``, checked against the layers asked for and the
-    run's fingerprint, and the model it names (a fresh state and ``None`` without one)."""
+    run's fingerprint (``per_layer``: the run was given a count of windows per layer, not
+    passes), and the model it names (a fresh state and ``None`` without one)."""
     state_path = root / STATE_FILE
     if not state_path.exists():
         return _new_state(), None
@@ -370,7 +398,7 @@ def _read_checkpoint(
             "(made by an older uavsnn, or damaged): it cannot be checked, so it is not resumed; "
             "start without resume to train afresh"
         )
-    changed = [_WHAT.get(k, k) for k in fingerprint if stored[k] != fingerprint[k]]
+    changed = _changed(stored, fingerprint, per_layer)
     if changed:
         raise ParameterError(
             f"checkpoint in {root} was made with other settings: {', '.join(changed)} "

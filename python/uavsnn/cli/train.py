@@ -4,8 +4,11 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from uavsnn import identify
 from uavsnn._files import check_output_dir
@@ -16,7 +19,7 @@ from uavsnn.errors import DatasetError, ParameterError
 from uavsnn.false_alarms import MAX_MINUTES, TRACK_ALARM_RATES, tune_track_alarms
 from uavsnn.network import Network, default_config
 from uavsnn.track_eval import Confirm
-from uavsnn.training import apply_overrides, train
+from uavsnn.training import STATE_FILE, apply_overrides, parse_override, train
 
 __all__ = ["register"]
 
@@ -30,11 +33,15 @@ def register(subparsers: Any) -> None:
         "winner-take-all STDP on the train split of a dataset made by `uavsnn dataset build`; "
         "fit identification (a logistic regression or boosted trees on rotor, shape, activity and "
         "track features, docs/identification.md) on the split's labels, tuned on --tune (build "
-        "it with `uavsnn dataset build --stratify`) or on held-out recordings; write the model "
-        "file. STDP uses no labels.",
+        "it with `uavsnn dataset build --seed OTHER --stratify`: a dataset of other "
+        "recordings than DATASET's) or on held-out recordings; write the model file. STDP uses "
+        "no labels. The network's input is the dataset's sensor size unless --config or --set "
+        "gives width and height.",
     )
     p.add_argument("dataset", type=Path, help="dataset folder (with manifest.json)")
-    p.add_argument("-o", "--output", type=Path, required=True, help="model file to write (.npz)")
+    p.add_argument(
+        "-o", "--output", type=Path, required=True, help="model file to write (ends in .npz)"
+    )
     p.add_argument("--split", default="train", help="split to train on (train)")
     p.add_argument("--layers", default=None, help="layers in order (conv2,conv3)")
     p.add_argument(
@@ -49,9 +56,15 @@ def register(subparsers: Any) -> None:
         "--epochs",
         type=int,
         default=None,
-        help="passes when --windows-per-layer is not given (1)",
+        help="passes over the training windows (1); not with --windows-per-layer, which "
+        "sets the count alone",
     )
-    p.add_argument("--config", type=Path, help="a JSON network config (default: Table 1)")
+    p.add_argument(
+        "--config",
+        type=Path,
+        help="a JSON network config (default: Table 1 at the dataset's sensor size; width and "
+        "height the file gives must be the dataset's)",
+    )
     p.add_argument(
         "--set",
         dest="settings",
@@ -61,13 +74,23 @@ def register(subparsers: Any) -> None:
         help="change one config field, e.g. --set conv2.threshold=15 (repeatable)",
     )
     p.add_argument("--seed", type=int, default=None, help="initial weights and shuffling (0)")
-    p.add_argument("--checkpoint-dir", type=Path, help="write the model after each layer here")
-    p.add_argument("--resume", action="store_true", help="continue from --checkpoint-dir")
+    p.add_argument(
+        "--checkpoint-dir",
+        type=Path,
+        help="write the model after each layer here (made if missing, in a folder that exists)",
+    )
+    p.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue from --checkpoint-dir (with no checkpoint there, train from the start "
+        "and say so)",
+    )
     p.add_argument(
         "--tune",
         type=Path,
-        help="a dataset of other recordings to tune identification on (its train split; "
-        "default: a quarter of the training recordings held out)",
+        help="a dataset of other recordings to tune identification on (its train split; one "
+        "that shares a recording with DATASET, as a dataset of the same --seed and domain does, "
+        "is refused; default: a quarter of the training recordings held out)",
     )
     p.add_argument(
         "--identify-model",
@@ -94,7 +117,8 @@ def register(subparsers: Any) -> None:
         "detector and set track alarm thresholds on it, for "
         + " and ".join(f"{r:g}" for r in TRACK_ALARM_RATES)
         + " false tracks per minute (uavsnn.false_alarms.tune_track_alarms; 0: none, the "
-        "default)",
+        "default); a rate of r per minute needs at least 1/r minutes, and the output warns of "
+        "a rate set on fewer",
     )
     p.add_argument(
         "--track-seed",
@@ -119,6 +143,11 @@ def register(subparsers: Any) -> None:
 
 def network_config(config_file: Path | None, settings: list[str]) -> dict[str, Any]:
     """The config of ``--config`` (or Table 1) with ``--set`` fields applied."""
+    return apply_overrides(_base_config(config_file), settings)
+
+
+def _base_config(config_file: Path | None) -> dict[str, Any]:
+    """The config of ``--config``, or Table 1."""
     base = default_config()
     if config_file is not None:
         try:
@@ -129,7 +158,153 @@ def network_config(config_file: Path | None, settings: list[str]) -> dict[str, A
             raise ParameterError(f"--config {config_file}: not a JSON file: {exc}") from exc
         if not isinstance(base, dict):
             raise ParameterError(f"--config {config_file}: must hold a JSON object")
-    return apply_overrides(base, settings)
+    return base
+
+
+def _sized(
+    config: dict[str, Any], from_file: dict[str, Any], settings: list[str], data: Any
+) -> dict[str, Any]:
+    """``config`` with the training dataset's sensor size for the width and the height that
+    neither ``--config`` (whose fields are ``from_file``) nor ``--set`` gives.
+
+    Raises:
+        ParameterError: a width or height given is not the dataset's (with the flags that fix
+            it).
+    """
+    if not len(data):  # an empty split sizes nothing: train() refuses it
+        return config
+    sensor = tuple(int(v) for v in data.windows.sensor_size)
+    given: dict[str, str] = {}
+    for key in ("width", "height"):
+        if any(parse_override(text)[0] == [key] for text in settings):
+            given[key] = "--set"
+        elif key in from_file:
+            given[key] = "--config"
+    out = dict(config)
+    for key, side in zip(("width", "height"), sensor, strict=True):
+        if key not in given:
+            out[key] = side
+    size = (out.get("width"), out.get("height"))
+    if not all(isinstance(v, int) and not isinstance(v, bool) for v in size):
+        return out  # the network refuses it, saying why
+    if size != sensor:
+        by = ", ".join(f"{key} by {flag}" for key, flag in given.items())
+        raise ParameterError(
+            f"the network's input is {size[0]}x{size[1]} ({by}), the dataset's sensor "
+            f"{sensor[0]}x{sensor[1]}: give --set width={sensor[0]} --set height={sensor[1]}, "
+            "or leave width and height out of --config and --set to take the dataset's"
+        )
+    return out
+
+
+def _recording_key(entry: Any) -> tuple[Any, ...] | None:
+    """What a manifest's recording entry is, whichever dataset lists it: a rendered scene by
+    its domain and seed (a dataset's recording ``i`` of a split is seeded by the dataset's seed,
+    domain, split and ``i`` alone), a real clip by its video file; ``None`` when unknown."""
+    if not isinstance(entry, dict):
+        return None
+    seed = entry.get("seed")
+    if isinstance(seed, int) and not isinstance(seed, bool):
+        return ("scene", str(entry.get("domain")), seed)
+    video = entry.get("video")
+    if isinstance(video, str) and video:
+        return ("clip", video)
+    return None
+
+
+def _recordings(manifest: dict[str, Any], used: dict[int, str]) -> dict[Any, tuple[str, str]]:
+    """Key (:func:`_recording_key`) -> (name, split) of the recordings ``used`` (id -> split)
+    of a dataset with ``manifest``."""
+    entries = manifest.get("recordings")
+    if not isinstance(entries, list):
+        return {}
+    out: dict[Any, tuple[str, str]] = {}
+    for entry in entries:
+        key = _recording_key(entry)
+        rid = entry.get("id") if isinstance(entry, dict) else None
+        if key is None or not isinstance(rid, int) or rid not in used:
+            continue
+        name = entry["video"] if key[0] == "clip" else str(entry.get("name", rid))
+        out[key] = (name, used[rid])
+    return out
+
+
+def _used_ids(manifest: dict[str, Any]) -> dict[int, str]:
+    """Recording id -> the split whose windows it gave, from the manifest's splits."""
+    out: dict[int, str] = {}
+    splits = manifest.get("splits")
+    for split, entry in (splits if isinstance(splits, dict) else {}).items():
+        ids = entry.get("recordings") if isinstance(entry, dict) else None
+        for rid in ids if isinstance(ids, list) else []:
+            if isinstance(rid, int):
+                out.setdefault(rid, str(split))
+    return out
+
+
+#: The advice for a tuning set of rendered scenes that shares recordings with the training set.
+_OTHER_SEED = (
+    "build the tuning set with another --seed (`uavsnn dataset build TUNE --seed OTHER --stratify`)"
+)
+
+
+def check_tuning_set(
+    dataset: Path, data: Any, tune_path: Path, tune: Any, *, split: str = "train"
+) -> None:
+    """Refuse a ``--tune`` set (``tune``, the train split of ``tune_path``) that shares a
+    recording with the training dataset (``data``, its split ``split``): any of its splits,
+    so that identification is tuned neither on the recordings it is fitted on nor on the test
+    recordings. Recordings are told apart by their manifest entries (:func:`_recording_key`);
+    datasets whose manifests list none are told apart by their domain and seed.
+
+    Raises:
+        ParameterError: the same dataset, or a shared recording.
+    """
+    if Path(dataset).resolve() == Path(tune_path).resolve():
+        raise ParameterError(
+            f"--tune {tune_path} is the training dataset itself: identification must be tuned "
+            f"on other recordings than it is fitted on; {_OTHER_SEED}"
+        )
+    trained_m, tune_m = data.manifest or {}, tune.manifest or {}
+    used = _used_ids(trained_m)
+    for rid in np.unique(np.asarray(data.recording)).tolist():
+        used.setdefault(int(rid), split)
+    mine = _recordings(trained_m, used)
+    theirs = _recordings(tune_m, {int(r): "train" for r in np.unique(np.asarray(tune.recording))})
+    if not mine or not theirs:
+        same = [trained_m.get(k) for k in ("domain", "seed")] == [
+            tune_m.get(k) for k in ("domain", "seed")
+        ]
+        if same and isinstance(trained_m.get("seed"), int):
+            raise ParameterError(
+                f"--tune {tune_path} is a dataset of the domain and seed of {dataset} "
+                f"({trained_m['domain']}, seed {trained_m['seed']}): its recordings are the "
+                f"same; {_OTHER_SEED}"
+            )
+        return
+    shared = [mine[key] for key in theirs if key in mine]
+    if not shared:
+        return
+    by_split: dict[str, list[str]] = {}
+    for name, where in shared:
+        by_split.setdefault(where, []).append(name)
+    listed = "; ".join(
+        f"{', '.join(names[:3])}{f' and {len(names) - 3} more' if len(names) > 3 else ''} of "
+        f"its {where} split"
+        for where, names in sorted(by_split.items())
+    )
+    kinds = {key[0] for key in theirs if key in mine}
+    advice = []
+    if "scene" in kinds:
+        advice.append(_OTHER_SEED)
+    if "clip" in kinds:
+        advice.append(
+            "build it from other videos (a dataset of another seed splits the same clips again)"
+        )
+    raise ParameterError(
+        f"--tune {tune_path}: its train split holds recordings of {dataset} ({listed}): "
+        "identification must be tuned on other recordings than it is fitted on, and never on "
+        f"the test recordings; {'; '.join(advice)}"
+    )
 
 
 # The defaults of --layers, --epochs, --seed and --identify-model, which are None unless
@@ -195,26 +370,83 @@ def _tune_tracks(
         confirm=rule.pair,
         runner=runner,
     )
+    summary["note"] = track_note(
+        summary["minutes"], [r for r, _ in summary["track_alarm_thresholds"]]
+    )
     return summary
 
 
+def track_note(minutes: float, rates: list[float]) -> str | None:
+    """Why the track alarm thresholds set on ``minutes`` of streamed UAV-free recording for
+    ``rates`` false tracks per minute do not measure some of them, in one sentence (``None``
+    when they do). The rule: a rate of ``r`` per minute is set from at least ``1/r`` minutes,
+    so that one false track of the span may alarm (``r × minutes ≥ 1``); over fewer, the
+    threshold only keeps every confirmed track of the span from alarming, which says nothing
+    of ``r`` (a steady threshold needs several times ``1/r``)."""
+    thin = [r for r in rates if r * minutes < 1 - 1e-9]
+    if not thin:
+        return None
+    one = len(thin) == 1
+    return (
+        f"{minutes:.2f} minutes of recording are too short for "
+        f"{' and '.join(f'{r:g}' for r in thin)} false tracks per minute: a rate of r per "
+        "minute needs at least 1/r minutes (here at least "
+        f"{' and '.join(f'{1 / r:g}' for r in thin)} minutes) for one false track to alarm; "
+        f"at {'that threshold' if one else 'those thresholds'} none of the span's tracks "
+        "alarms, which does not measure the rate: give more --track-minutes (several times "
+        "1/r for a steady threshold)"
+    )
+
+
+def _model_file(path: Path) -> None:
+    """Refuse a model file not named ``.npz``, as ``uavsnn simulate`` refuses its output (a
+    folder is refused as such, as :func:`uavsnn.cli.output_file` refuses it)."""
+    if path.is_dir():
+        raise ParameterError(f"-o {path}: is a folder, not a file")
+    if path.suffix.lower() != ".npz":
+        raise ParameterError(f"output must end in .npz, got {path}")
+
+
 def _train(args: argparse.Namespace) -> int:
+    _model_file(args.output)
     _check_track_flags(args)
     if args.identify_only is not None:
         return _identify_only(args)
     if args.resume and args.checkpoint_dir is None:
         raise ParameterError("--resume continues from --checkpoint-dir: give it too")
-    config = network_config(args.config, args.settings)  # bad flags fail before any work
+    if args.epochs is not None and args.windows_per_layer is not None:
+        raise ParameterError(
+            "--epochs and --windows-per-layer both say how long a layer trains, and "
+            "--windows-per-layer would decide alone (that many windows, in as many passes as "
+            "it takes): give one"
+        )
+    base = _base_config(args.config)
+    config = apply_overrides(base, args.settings)  # bad flags fail before any work
     output_file(args.output, "-o")
     if args.checkpoint_dir is not None:
-        # Made by train() with the first checkpoint: a run refused leaves no empty folder.
+        # Made by train() with the first checkpoint: a run refused leaves no empty folder. Its
+        # parent must exist, as -o's folder must.
         check_output_dir(args.checkpoint_dir, "--checkpoint-dir")
+        parent = args.checkpoint_dir.absolute().parent
+        if not args.checkpoint_dir.exists() and not parent.is_dir():
+            raise ParameterError(
+                f"--checkpoint-dir {args.checkpoint_dir}: the folder "
+                f"{args.checkpoint_dir.parent} does not exist"
+            )
     data = load(args.dataset, args.split)
+    config = _sized(config, base if args.config is not None else {}, args.settings, data)
     tune = None if args.tune is None or args.no_identify else load(args.tune, "train")
+    if tune is not None:
+        check_tuning_set(args.dataset, data, args.tune, tune, split=args.split)
     runner = runner_for(args.ray)  # an unreachable cluster fails now, not after the training
     seed = _SEED if args.seed is None else args.seed
     layers = _LAYERS if args.layers is None else args.layers
     network = Network(config, seed=seed)
+    if args.resume and not (args.checkpoint_dir / STATE_FILE).is_file():
+        print(
+            f"note: nothing to resume in {args.checkpoint_dir}: training from the start",
+            file=sys.stderr,
+        )
     result = train(
         network,
         data.windows,
@@ -269,6 +501,8 @@ def _print_identification(ident: dict[str, Any]) -> None:
                 for rate, t in ident.get("alarm_thresholds", [])
             )
         )
+        if ident.get("alarm_note"):
+            print(f"note: {ident['alarm_note']}")
         tracks = ident.get("tracks")
         if tracks:
             print(
@@ -280,6 +514,8 @@ def _print_identification(ident: dict[str, Any]) -> None:
                     for rate, t in tracks["track_alarm_thresholds"]
                 )
             )
+            if tracks.get("note"):
+                print(f"note: {tracks['note']}")
         if ident.get("tune") == identify.HELD_OUT_TUNING:
             print(
                 "note: identification was tuned on a quarter of the training recordings held "
@@ -319,6 +555,8 @@ def _identify_only(args: argparse.Namespace) -> int:
     network = Network.load(args.identify_only)
     data = load(args.dataset, args.split)
     tune = None if args.tune is None else load(args.tune, "train")
+    if tune is not None:
+        check_tuning_set(args.dataset, data, args.tune, tune, split=args.split)
     output_file(args.output, "-o")
     runner = runner_for(args.ray)  # an unreachable cluster fails now, not after the fit
     network.identification, ident = identify.fit_network(
