@@ -133,10 +133,10 @@ def test_good_arguments_reach_the_first_build_with_out_made_after_the_cluster(
     with pytest.raises(Started):
         main([*argv, "--videos", str(clips), "--real-sensors", "240x180,320x240"])
     assert joined == [None] and no_work == [out / "data/dvs"] and out.is_dir()
-    # With --no-real, --videos is not read.
+    # With --no-real, no video is read (--videos beside it is refused: tests/test_cli_checks.py).
     out.rmdir()
     with pytest.raises(Started):
-        main([*argv, "--no-real", "--videos", str(tmp_path / "nowhere")])
+        main([*argv, "--no-real"])
     assert out.is_dir()
 
 

@@ -42,6 +42,7 @@ from uavsnn.network import LAYERS, MAX_THREADS, Inference, Network
 from uavsnn.windows import Windows
 
 __all__ = [
+    "DEFAULT_EVENTS",
     "DENSITIES",
     "MAX_BENCH_REPEAT",
     "MAX_BENCH_SPIKES",
@@ -55,6 +56,9 @@ __all__ = [
 #: Shares of the pixels active per window that ``uavsnn bench`` measures by default (as the
 #: Criterion benches do).
 DENSITIES = (0.001, 0.01, 0.05)
+
+#: Input events per density that :func:`bench_density` sizes its windows for by default.
+DEFAULT_EVENTS = 300_000
 
 #: The most input spikes one density's bench windows hold (about 1.2 GB with their stream):
 #: ``windows`` or ``events`` asking for more is refused, not hours of work and all memory.
@@ -204,15 +208,16 @@ def bench_density(
     density: float,
     *,
     windows: int | None = None,
-    events: int = 300_000,
+    events: int = DEFAULT_EVENTS,
     threads: int | None = None,
     repeat: int = 5,
     chunk_us: int = 1_000,
     seed: int = 0,
 ) -> BenchRow:
     """Measure the engine on ``windows`` bench windows at ``density`` (see the module docs);
-    by default on as many windows as hold about ``events`` input events, so that the fixed
-    cost of a call does not weigh on sparse windows.
+    by default on as many windows as hold about ``events`` input events (at most 10,000), so
+    that the fixed cost of a call does not weigh on sparse windows. ``events`` is not read
+    when ``windows`` is given (``uavsnn bench`` refuses both).
 
     Raises:
         ParameterError: ``repeat`` outside ``1..=MAX_BENCH_REPEAT``, ``threads`` outside

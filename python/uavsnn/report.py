@@ -27,9 +27,11 @@ from uavsnn.windows import add_noise
 
 __all__ = [
     "CAPTIONS",
+    "TRAINED_CONV1_CAPTION",
     "caption",
     "class_markdown",
     "confusion_table",
+    "conv1_trained",
     "evaluation_markdown",
     "figures",
     "identification_markdown",
@@ -236,19 +238,44 @@ CAPTIONS = {
 }
 
 
-def caption(name: str) -> str:
-    """The caption of picture ``name`` of :func:`figures` (empty for an unknown name)."""
+#: The caption of features-conv1 for a network whose conv1 was trained (``uavsnn train
+#: --layers conv1,...``): its kernels are no longer the Gabor bank of :data:`CAPTIONS`.
+TRAINED_CONV1_CAPTION = (
+    "conv1's kernels, trained by STDP (no longer the Gabor kernels its config gives): one tile "
+    "per map, scaled to its own range: white is a strong weight, black a weak one. A kernel "
+    "with clear white strokes responds to edges of that shape; a uniform grey tile is a map "
+    "that STDP has barely moved."
+)
+
+
+def conv1_trained(network: Network) -> bool:
+    """Whether ``network``'s conv1 kernels differ from the Gabor kernels its config gives (a
+    model file holds the weights, not whether a layer was trained: conv1 trained by STDP has
+    moved off them)."""
+    gabor = Network(network.config).weights("conv1")
+    return not np.array_equal(network.weights("conv1"), gabor)
+
+
+def caption(name: str, network: Network | None = None) -> str:
+    """The caption of picture ``name`` of :func:`figures` (empty for an unknown name); with the
+    ``network`` pictured, features-conv1's says whether its kernels are the fixed Gabor ones
+    (:func:`conv1_trained`; without it, they are taken to be)."""
+    if name == "features-conv1" and network is not None and conv1_trained(network):
+        return TRAINED_CONV1_CAPTION
     return CAPTIONS.get(name, "")
 
 
-def picture_links(written: dict[str, Path], markdown_dir: str | Path) -> list[str]:
+def picture_links(
+    written: dict[str, Path], markdown_dir: str | Path, *, network: Network | None = None
+) -> list[str]:
     """Markdown image lines for :func:`figures`' PNGs, relative to the folder of the Markdown
-    file that shows them, each followed by its caption (what it shows, how to read it)."""
+    file that shows them, each followed by its caption (what it shows, how to read it; with
+    the ``network`` pictured, :func:`caption`'s for it)."""
     base = Path(markdown_dir)
     lines = []
     for name, path in written.items():
         lines.append(f"![{name}]({path.relative_to(base).as_posix()})\n")
-        text = caption(name)
+        text = caption(name, network)
         if text:
             lines.append(f"\n*{name}: {text}*\n\n")
     return lines

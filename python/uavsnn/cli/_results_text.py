@@ -137,7 +137,8 @@ def ablation_table(rows: dict[str, Any]) -> str:
 
 def tracks_text(figures: dict[str, Any]) -> str:
     return (
-        f"{figures['recordings']} test recordings ({figures['uav_recordings']} with a UAV), "
+        f"{figures['recordings']} test recording{'' if figures['recordings'] == 1 else 's'} "
+        f"({figures['uav_recordings']} with a UAV), "
         "each one's windows in time order through a tracker (`uavsnn evaluate --tracks`; "
         'docs/identification.md, "Track-level figures"); a window the dataset left out '
         "counts as a window without a detection.\n\n" + track_table(figures)

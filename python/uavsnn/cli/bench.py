@@ -8,7 +8,7 @@ import math
 from pathlib import Path
 from typing import Any
 
-from uavsnn.bench import DENSITIES, bench_density
+from uavsnn.bench import DEFAULT_EVENTS, DENSITIES, bench_density
 from uavsnn.errors import ParameterError
 from uavsnn.network import Network
 from uavsnn.progress import bar as new_bar
@@ -64,9 +64,13 @@ def register(subparsers: Any) -> None:
     )  # fmt: skip
     p.add_argument(
         "--windows", type=_count, default=None,
-        help="windows of 50 ms per density (default: enough for about --events input events)",
+        help="windows of 50 ms per density (default: enough for about --events input events; "
+        "not with --events)",
     )  # fmt: skip
-    p.add_argument("--events", type=_count, default=300_000, help="input events per density (3e5)")
+    p.add_argument(
+        "--events", type=_count, default=None,
+        help="input events per density (3e5; not with --windows, which sets the count itself)",
+    )  # fmt: skip
     p.add_argument("--repeat", type=int, default=5, help="runs per figure; the best counts (5)")
     p.add_argument("--threads", type=int, default=None, help="workers of the batch (all cores)")
     p.add_argument(
@@ -80,6 +84,10 @@ def register(subparsers: Any) -> None:
 
 
 def _bench(args: argparse.Namespace) -> int:
+    if args.windows is not None and args.events is not None:
+        raise ParameterError(
+            "--windows and --events both set how many windows each density runs: give one"
+        )
     if args.model is not None:
         if args.size is not None:
             raise ParameterError("--size is the untrained network's: a --model brings its own")
@@ -97,7 +105,8 @@ def _bench(args: argparse.Namespace) -> int:
     rows = []
     for density in args.density:
         rows.append(bench_density(
-            network, density, windows=args.windows, events=args.events, threads=args.threads,
+            network, density, windows=args.windows,
+            events=DEFAULT_EVENTS if args.events is None else args.events, threads=args.threads,
             repeat=args.repeat, chunk_us=round(args.chunk_ms * 1000), seed=args.seed,
         ))  # fmt: skip
         if progress is not None:

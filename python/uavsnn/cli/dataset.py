@@ -168,13 +168,22 @@ def register(subparsers: Any) -> None:
 _MALFORMED = (KeyError, TypeError, AttributeError, ValueError, IndexError)
 
 
+def _parameters(manifest: dict[str, Any]) -> dict[str, Any]:
+    """The manifest's parameters but its sources; real footage draws no scenes, so its
+    ``object_scenes`` is ``None`` (manifests written before said ``"drawn"``)."""
+    params = {k: v for k, v in manifest["parameters"].items() if k != "sources"}
+    if manifest["domain"] == "real":
+        params["object_scenes"] = None
+    return params
+
+
 def _summary(root: Path, manifest: dict[str, Any]) -> dict[str, Any]:
     return {
         "root": str(root),
         "domain": manifest["domain"],
         "source": manifest["source"],
         "seed": manifest["seed"],
-        "parameters": {k: v for k, v in manifest["parameters"].items() if k not in ("sources",)},
+        "parameters": _parameters(manifest),
         "splits": {
             name: {k: v for k, v in s.items() if k != "recordings"}
             | {"recordings": len(s["recordings"])}
@@ -207,7 +216,7 @@ def _print(summary: dict[str, Any], as_json: bool) -> None:
         classes = ", ".join(f"{k} {v}" for k, v in sorted(s["classes"].items()))
         print(
             f"  {name}: {s['windows']} windows ({s['uav']} UAV, {s['non_uav']} not) from "
-            f"{s['recordings']} recordings — {classes}"
+            f"{s['recordings']} recording{'' if s['recordings'] == 1 else 's'} — {classes}"
         )
 
 

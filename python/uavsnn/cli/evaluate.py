@@ -52,7 +52,12 @@ def register(subparsers: Any) -> None:
         + "). Static thresholds under 10 %% or more of noise make every layer fire: on "
         "1280x720 windows that is seconds a window",
     )
-    p.add_argument("--report", type=Path, help="write report.md and its pictures to this folder")
+    p.add_argument(
+        "--report",
+        type=Path,
+        help="write report.md and its pictures to this folder (made when written; --roc may "
+        "name a picture in it)",
+    )
     p.add_argument("--unbalanced", action="store_true", help="score a set that is not half UAV")
     p.add_argument(
         "--threads",
@@ -108,8 +113,9 @@ def register(subparsers: Any) -> None:
         "--track-score",
         choices=("mean", "max"),
         default=None,
-        help="with --tracks and identification: a track alarms when confirmed and the running "
-        "mean (default) or max of its objects' UAV scores reaches the model's threshold",
+        help="with --tracks and identification (or --ablation): a track alarms when confirmed "
+        "and the running mean (default) or max of its objects' UAV scores reaches the model's "
+        "threshold; recorded in --json",
     )
     p.add_argument(
         "--confirm",
@@ -161,6 +167,7 @@ def _evaluate(args: argparse.Namespace) -> int:
         raise ParameterError(
             "--track-score sets how a track alarms in the --tracks figures: give --tracks"
         )
+    track_score_given = args.track_score is not None
     args.track_score = args.track_score or "mean"
     if args.videos is not None and not args.clips:
         raise ParameterError("--videos names the folder of the clips --clips streams: give --clips")
@@ -183,12 +190,23 @@ def _evaluate(args: argparse.Namespace) -> int:
     shares = _noise_shares(args.noise_shares)
     if args.noise_shares is not None and not args.noise:
         raise ParameterError("--noise-shares sets the shares --noise sweeps: give --noise")
+    if args.report is not None:
+        check_output_dir(args.report, "--report")  # made when the report is written
+    roc_in_report = args.roc is not None and _in_report(args.roc, args.report)
     if args.roc is not None:
         if args.roc.suffix.lower() != ".png":
             raise ParameterError(f"--roc {args.roc}: the picture is a PNG: name it .png")
-        output_file(args.roc, "--roc")
-    if args.report is not None:
-        check_output_dir(args.report, "--report")  # made when the report is written
+        if roc_in_report:
+            # The report folder is checked above and made before the ROC is written.
+            if args.roc.is_dir():
+                raise ParameterError(f"--roc {args.roc}: is a folder, not a file")
+            if args.roc.name in _REPORT_PICTURES:
+                raise ParameterError(
+                    f"--roc {args.roc}: --report writes its own {args.roc.name} there: name the "
+                    "ROC otherwise"
+                )
+        else:
+            output_file(args.roc, "--roc")
     network = Network.load(args.model)
     if args.roc is not None and network.identification is None:
         raise ParameterError("--roc needs a model with identification (`uavsnn train`)")
@@ -196,6 +214,11 @@ def _evaluate(args: argparse.Namespace) -> int:
         raise ParameterError(
             f"--confirm {confirm}: the score-aware rule needs a model with identification "
             "(`uavsnn train`)"
+        )
+    if track_score_given and network.identification is None and args.ablation is None:
+        raise ParameterError(
+            f"--track-score {args.track_score} sets how the identified track rule alarms: it "
+            "needs a model with identification (`uavsnn train`) or --ablation"
         )
     data = load(args.dataset, args.split)
     result = evaluate(
@@ -219,6 +242,10 @@ def _evaluate(args: argparse.Namespace) -> int:
         figures["tracks"] = evaluate_tracks(
             network, data, features=features, track_score=args.track_score, confirm=confirm
         )
+        # Recorded as --confirm is: the running score the identified track rules (and the
+        # ablation's) alarm on, "mean" or "max"; None where only the any-spike rule is scored.
+        identified = network.identification is not None or args.ablation is not None
+        figures["tracks"]["track_score"] = args.track_score if identified else None
     if args.clips:
         from uavsnn.clips import evaluate_clips
 
@@ -240,6 +267,8 @@ def _evaluate(args: argparse.Namespace) -> int:
             )
         from uavsnn import pictures
 
+        if roc_in_report:
+            output_dir(args.report, "--report")  # the ROC is written into it
         name = "any-spike + identification"
         chart = report.roc_chart(
             {name: ident["roc"]},
@@ -279,7 +308,7 @@ def _evaluate(args: argparse.Namespace) -> int:
         ]
         if points:
             text += ["\n## Noise\n", report.noise_table(points)]
-        text += ["\n## Pictures\n", *report.picture_links(written, args.report)]
+        text += ["\n## Pictures\n", *report.picture_links(written, args.report, network=network)]
         (args.report / "report.md").write_text("\n".join(text), encoding="utf-8")
         figures["report"] = str(args.report / "report.md")
     if args.json:
@@ -395,7 +424,7 @@ def _print_identification(ident: dict[str, Any]) -> None:
             )
         for point in ident["at_false_alarm"]:
             sizes = ", ".join(
-                f"{z['low']:g}-{z['high'] if z['high'] is not None else 'inf'} px "
+                f"{z['low']:g}-{'inf' if z['high'] is None else format(z['high'], 'g')} px "
                 f"{100 * z['rate']:.0f} %"
                 for z in point["by_size_px"]
             )
@@ -463,11 +492,13 @@ def _print_identification(ident: dict[str, Any]) -> None:
 
 
 def _print_tracks(tracks: dict[str, Any]) -> None:
+    score = tracks.get("track_score")
+    score_text = f", identified on the running {score} UAV score" if score else ""
     print(
-        f"tracks (confirmed at {tracks['confirm']}): {tracks['recordings']} recordings "
-        f"({tracks['uav_recordings']} with a UAV), "
-        f"{tracks['windows']} windows ({100 * tracks['window_coverage']:.1f} % of their steps), "
-        f"{60 * tracks['uav_free_minutes']:.2f} s UAV-free; {clock_text(tracks)}"
+        f"tracks (confirmed at {tracks['confirm']}{score_text}): "
+        f"{_count(tracks['recordings'], 'recording')} ({tracks['uav_recordings']} with a UAV), "
+        f"{_count(tracks['windows'], 'window')} ({100 * tracks['window_coverage']:.1f} % of "
+        f"their steps), {60 * tracks['uav_free_minutes']:.2f} s UAV-free; {clock_text(tracks)}"
     )
     for rule, f in tracks["rules"].items():
         t = f["time_to_alarm_ms"]
@@ -499,6 +530,27 @@ def _print_tracks(tracks: dict[str, Any]) -> None:
                 for r in missed
             )
         )
+
+
+def _count(n: int, noun: str) -> str:
+    """``"1 recording"``, ``"3 recordings"``."""
+    return f"{n} {noun}{'' if n == 1 else 's'}"
+
+
+def _in_report(path: Path, report_dir: Path | None) -> bool:
+    """Whether the file ``path`` lies directly in the folder --report makes."""
+    if report_dir is None:
+        return False
+    return path.parent.absolute().resolve() == report_dir.absolute().resolve()
+
+
+#: The pictures ``uavsnn evaluate --report`` may write into its folder (beside report.md): all
+#: of :func:`uavsnn.report.figures` but the training's and reproduce's ROC.
+_REPORT_PICTURES = frozenset(
+    f"{name}.png"
+    for name in report.CAPTIONS
+    if name not in ("roc", "convergence") and not name.startswith("evolution-")
+)
 
 
 def _size(px: float | None) -> str:

@@ -135,16 +135,21 @@ def register(subparsers: Any) -> None:
         "--videos",
         type=Path,
         default=None,
-        help=f"labelled real videos (default {_DEFAULT_VIDEOS} when it exists)",
+        help=f"labelled real videos (default {_DEFAULT_VIDEOS} when it exists; not beside "
+        "--no-real)",
     )
-    p.add_argument("--no-real", action="store_true", help="skip the real-footage experiment")
+    p.add_argument(
+        "--no-real",
+        action="store_true",
+        help="skip the real-footage experiment (refused beside --videos or --real-sensors)",
+    )
     p.add_argument(
         "--real-sensors",
         default=None,
         metavar="WxH[,WxH...]",
         help="sensor sizes of the real-footage experiment, one dataset and network each "
         "(default: --sensor, and 640x480 beside it; SPEC §5 asks for real footage at "
-        "240x180 and at a larger sensor)",
+        "240x180 and at a larger sensor; not beside --no-real)",
     )
     p.add_argument(
         "--sensor",
@@ -331,8 +336,8 @@ def _checked(args: argparse.Namespace) -> _Checked:
     """Every argument checked before any work, and nothing made: the sensors, the tuning seed
     and count, the window counts, the minutes streamed, the folder --out (made by the caller
     once every check has passed) and the real footage (the videos the real builds read, each
-    clip planned at each real sensor size as the build plans it). Returns the values the run
-    uses.
+    clip planned at each real sensor size as the build plans it; --videos and --real-sensors
+    refused where the real-footage experiment does not run). Returns the values the run uses.
 
     Raises:
         ParameterError: a bad argument, or an --out that could not be made or written.
@@ -364,6 +369,18 @@ def _checked(args: argparse.Namespace) -> _Checked:
     for flag, minutes in spans:
         if not 0 <= minutes <= MAX_MINUTES:
             raise ParameterError(f"{flag} must be in [0, {MAX_MINUTES:g}], got {minutes}")
+    # Options of the real-footage experiment are refused where it does not run, as other
+    # commands refuse options that would change nothing.
+    real_options = [
+        flag
+        for flag, value in (("--videos", args.videos), ("--real-sensors", args.real_sensors))
+        if value is not None
+    ]
+    if args.no_real and real_options:
+        raise ParameterError(
+            f"{' and '.join(real_options)} {'set' if len(real_options) > 1 else 'sets'} the "
+            "real-footage experiment, which --no-real leaves out: give one or the other"
+        )
     check_output_dir(args.out, "--out")
     videos = None
     no_real = "--no-real was given"
@@ -375,6 +392,11 @@ def _checked(args: argparse.Namespace) -> _Checked:
             else f"no --videos was given, and the default folder {_DEFAULT_VIDEOS} (from the "
             "working directory) does not exist"
         )
+        if videos is None and args.real_sensors is not None:
+            raise ParameterError(
+                "--real-sensors sets the sizes of the real-footage experiment, which cannot "
+                f"run: {no_real} (--videos DIR gives the labelled videos)"
+            )
     if videos is not None:
         # What the real builds will read, refused now rather than after the synthetic runs.
         for real_sensor in real_sensors:
@@ -660,7 +682,7 @@ def _reproduce(args: argparse.Namespace) -> int:
         report.noise_table(points),
         *real_text,
         "\n## Pictures\n",
-        *report.picture_links(written, out),
+        *report.picture_links(written, out, network=best),
     ]
     (out / "RESULTS.md").write_text("\n".join(text), encoding="utf-8")
     step(f"wrote {out / 'RESULTS.md'}")

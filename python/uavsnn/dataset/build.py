@@ -410,7 +410,10 @@ def build(
                 "n_train": n_train,
                 "test_fraction": fraction if domain in ("real", "combined") else None,
                 "pool_factor": POOL_FACTOR,
-                "object_scenes": "stratified" if stratify else "drawn",
+                # Real footage draws no scenes: None (a combined set's dvs and sim ones are).
+                "object_scenes": (
+                    None if domain == "real" else "stratified" if stratify else "drawn"
+                ),
                 "sources": sources,
             },
             "splits": {

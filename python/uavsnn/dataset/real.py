@@ -59,20 +59,32 @@ def find_clips(folder: str | Path) -> list[Clip]:
 
     Raises:
         DatasetError: the folder is missing or holds no video named ``<PREFIX>_<CLASS>_<ID>``,
-            or a video has no ``.csv`` beside it.
+            a video so named is a link to nothing (a clip that cannot be read is an error,
+            never a clip left out), or a video has no ``.csv`` beside it.
     """
     root = Path(folder)
     if not root.is_dir():
         raise DatasetError(f"video folder {root} does not exist or is not a folder")
     clips = []
     for path in sorted(root.iterdir(), key=lambda p: p.name):  # as on every OS
-        if path.suffix.lower() not in VIDEO_SUFFIXES or not path.is_file():
+        if path.suffix.lower() not in VIDEO_SUFFIXES:
             continue
         m = _NAME.match(path.stem)
         if m is None:
             continue
+        if path.is_symlink() and not path.exists():
+            raise DatasetError(
+                f"video {path.name} in {root} is a link to nothing (it points to {path.readlink()})"
+            )
+        if not path.is_file():
+            continue  # a folder so named: not a clip
         boxes = path.with_suffix(".csv")
         if not boxes.is_file():
+            if boxes.is_symlink() and not boxes.exists():
+                raise DatasetError(
+                    f"video {path.name}'s box file {boxes.name} is a link to nothing "
+                    f"(it points to {boxes.readlink()})"
+                )
             raise DatasetError(f"video {path.name} has no box file {boxes.name} beside it")
         cls_name = m.group("cls").upper()
         uav = cls_name in UAV_NAMES

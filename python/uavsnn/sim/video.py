@@ -85,6 +85,10 @@ def _open(path: str | Path) -> cv2.VideoCapture:
         raise SimulationError(f"video {str(p)!r} does not exist")
     if not p.is_file():
         raise SimulationError(f"video {str(p)!r} is not a file")
+    if p.stat().st_size == 0:
+        # Refused before FFmpeg sees it: FFmpeg would print its own line ("moov atom not found")
+        # to standard error, past OpenCV's logging, before this one.
+        raise SimulationError(f"cannot read {str(p)!r} as a video (the file is empty)")
     cap = cv2.VideoCapture(str(p))
     if not cap.isOpened():
         cap.release()
