@@ -153,6 +153,19 @@ def write_clip() -> Callable[..., None]:
     return _write_clip
 
 
+@pytest.fixture
+def clips(tmp_path: Path, write_clip: Callable[..., None]) -> Path:
+    """A folder of five labelled clips of 320x256 (two drones, two birds, an airplane), as the
+    tiny reproduce test's: ``tmp_path / "videos"``."""
+    folder = tmp_path / "videos"
+    folder.mkdir()
+    for i, cls in enumerate(("DRONE", "DRONE", "BIRD", "BIRD", "AIRPLANE")):
+        write_clip(
+            folder, f"V_{cls}_{i + 1:03d}", [(40 + (4 + i) * k, 60 + 2 * k) for k in range(30)]
+        )
+    return folder
+
+
 def symlink(link: Path, target: Path) -> None:
     """``link`` made a symbolic link to ``target``; the test is skipped where links cannot be
     made (Windows without the privilege to make them)."""

@@ -8,7 +8,6 @@ that said "1 recordings", mixed "6-12.0 px" and "object_scenes": "drawn" for rea
 from __future__ import annotations
 
 import json
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -185,17 +184,6 @@ def test_bench_refuses_windows_beside_events(
 
 
 # ------------------------------------------------------------------ 4. real footage
-
-
-@pytest.fixture
-def clips(tmp_path: Path, write_clip: Callable[..., None]) -> Path:
-    folder = tmp_path / "videos"
-    folder.mkdir()
-    for i, cls in enumerate(("DRONE", "DRONE", "BIRD", "BIRD", "AIRPLANE")):
-        write_clip(
-            folder, f"V_{cls}_{i + 1:03d}", [(40 + (4 + i) * k, 60 + 2 * k) for k in range(30)]
-        )
-    return folder
 
 
 def test_a_video_that_is_a_link_to_nothing_is_a_dataset_error(

@@ -4,7 +4,6 @@ that fail when called: a refusal that reaches them comes too late."""
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -30,18 +29,6 @@ def no_work(monkeypatch: pytest.MonkeyPatch) -> list[Path]:
 
     monkeypatch.setattr(reproduce, "build", build)
     return calls
-
-
-@pytest.fixture
-def clips(tmp_path: Path, write_clip: Callable[..., None]) -> Path:
-    """Five labelled clips of 320x256, as the tiny reproduce test's."""
-    folder = tmp_path / "videos"
-    folder.mkdir()
-    for i, cls in enumerate(("DRONE", "DRONE", "BIRD", "BIRD", "AIRPLANE")):
-        write_clip(
-            folder, f"V_{cls}_{i + 1:03d}", [(40 + (4 + i) * k, 60 + 2 * k) for k in range(30)]
-        )
-    return folder
 
 
 @pytest.mark.parametrize(
