@@ -141,11 +141,6 @@ def register(subparsers: Any) -> None:
     p.set_defaults(handler=_train)
 
 
-def network_config(config_file: Path | None, settings: list[str]) -> dict[str, Any]:
-    """The config of ``--config`` (or Table 1) with ``--set`` fields applied."""
-    return apply_overrides(_base_config(config_file), settings)
-
-
 def _base_config(config_file: Path | None) -> dict[str, Any]:
     """The config of ``--config``, or Table 1."""
     base = default_config()
