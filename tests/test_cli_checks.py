@@ -138,6 +138,29 @@ def test_track_score_needs_a_model_with_identification(
     one_line_exit_2(capsys, [*argv[:-1], "mean"], "needs a model with identification")
 
 
+def test_an_ablation_tuned_on_the_evaluated_recordings_is_refused(
+    models: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # `evaluate --ablation DIR` tuned each refit on DIR whatever it held: the dataset itself or
+    # a copy of it gave figures tuned on the recordings they score.
+    import shutil
+
+    data = build(
+        tmp_path / "set",
+        "dvs",
+        n_test=4,
+        n_train=4,
+        seed=5,
+        dvs=SceneSource("dvs", SENSOR, 200.0, 0.3),
+    ).root
+    copy = tmp_path / "copy"
+    shutil.copytree(data, copy)
+    argv = ["evaluate", str(models["ident"]), str(data), "--ablation"]
+    one_line_exit_2(capsys, [*argv, str(data)], "--ablation")
+    line = one_line_exit_2(capsys, [*argv, str(copy)], "holds recordings of")
+    assert line.startswith("uavsnn evaluate: error: --ablation ")
+
+
 def test_track_score_reaches_the_track_figures_and_is_recorded(
     dataset: Path,
     models: dict[str, Path],

@@ -207,6 +207,18 @@ def _evaluate(args: argparse.Namespace) -> int:
                 )
         else:
             output_file(args.roc, "--roc")
+    if args.ablation is not None:
+        # The ablation fits on DATASET's train split and tunes on TUNE_DATASET's: tuned on the
+        # recordings it is fitted on, or on the test recordings, its figures would be no test.
+        from uavsnn.cli.train import check_tuning_set
+
+        check_tuning_set(
+            args.dataset,
+            load(args.dataset, "train"),
+            args.ablation,
+            load(args.ablation, "train"),
+            flag="--ablation",
+        )
     network = Network.load(args.model)
     if args.roc is not None and network.identification is None:
         raise ParameterError("--roc needs a model with identification (`uavsnn train`)")

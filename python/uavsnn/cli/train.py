@@ -243,9 +243,16 @@ _OTHER_SEED = (
 
 
 def check_tuning_set(
-    dataset: Path, data: Any, tune_path: Path, tune: Any, *, split: str = "train"
+    dataset: Path,
+    data: Any,
+    tune_path: Path,
+    tune: Any,
+    *,
+    split: str = "train",
+    flag: str = "--tune",
 ) -> None:
-    """Refuse a ``--tune`` set (``tune``, the train split of ``tune_path``) that shares a
+    """Refuse a ``--tune`` set (``flag``: ``--ablation``'s too; ``tune``, the train split of
+    ``tune_path``) that shares a
     recording with the training dataset (``data``, its split ``split``): any of its splits,
     so that identification is tuned neither on the recordings it is fitted on nor on the test
     recordings. Recordings are told apart by their manifest entries (:func:`_recording_key`);
@@ -256,7 +263,7 @@ def check_tuning_set(
     """
     if Path(dataset).resolve() == Path(tune_path).resolve():
         raise ParameterError(
-            f"--tune {tune_path} is the training dataset itself: identification must be tuned "
+            f"{flag} {tune_path} is the training dataset itself: identification must be tuned "
             f"on other recordings than it is fitted on; {_OTHER_SEED}"
         )
     trained_m, tune_m = data.manifest or {}, tune.manifest or {}
@@ -271,7 +278,7 @@ def check_tuning_set(
         ]
         if same and isinstance(trained_m.get("seed"), int):
             raise ParameterError(
-                f"--tune {tune_path} is a dataset of the domain and seed of {dataset} "
+                f"{flag} {tune_path} is a dataset of the domain and seed of {dataset} "
                 f"({trained_m['domain']}, seed {trained_m['seed']}): its recordings are the "
                 f"same; {_OTHER_SEED}"
             )
@@ -296,7 +303,7 @@ def check_tuning_set(
             "build it from other videos (a dataset of another seed splits the same clips again)"
         )
     raise ParameterError(
-        f"--tune {tune_path}: its train split holds recordings of {dataset} ({listed}): "
+        f"{flag} {tune_path}: its train split holds recordings of {dataset} ({listed}): "
         "identification must be tuned on other recordings than it is fitted on, and never on "
         f"the test recordings; {'; '.join(advice)}"
     )
