@@ -97,6 +97,11 @@ class Terminated(KeyboardInterrupt):
             return f"signal {self.signum}"
 
 
+def counted(n: int, noun: str) -> str:
+    """``"1 recording"``, ``"3 recordings"``: a count and its noun, in the singular for one."""
+    return f"{n} {noun}{'' if n == 1 else 's'}"
+
+
 def exit_code(interrupt: KeyboardInterrupt) -> int:
     """The exit code of a command stopped by ``interrupt``: 128 + its signal's number (130 for
     Ctrl-C, 143 for SIGTERM, 129 for SIGHUP)."""

@@ -8,6 +8,7 @@ from collections.abc import Callable
 from typing import Any
 
 from uavsnn import identify, report
+from uavsnn.cli import counted
 from uavsnn.evaluation import Evaluation, detection_by_target
 from uavsnn.track_eval import rule_name, track_table
 
@@ -137,7 +138,7 @@ def ablation_table(rows: dict[str, Any]) -> str:
 
 def tracks_text(figures: dict[str, Any]) -> str:
     return (
-        f"{figures['recordings']} test recording{'' if figures['recordings'] == 1 else 's'} "
+        f"{counted(figures['recordings'], 'test recording')} "
         f"({figures['uav_recordings']} with a UAV), "
         "each one's windows in time order through a tracker (`uavsnn evaluate --tracks`; "
         'docs/identification.md, "Track-level figures"); a window the dataset left out '

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from uavsnn._files import check_output_dir
+from uavsnn.cli import counted
 from uavsnn.cli._camera import add_camera_options, fov_option, lens_option, through_lens
 from uavsnn.dataset import (
     DATASET_DOMAINS,
@@ -216,7 +217,7 @@ def _print(summary: dict[str, Any], as_json: bool) -> None:
         classes = ", ".join(f"{k} {v}" for k, v in sorted(s["classes"].items()))
         print(
             f"  {name}: {s['windows']} windows ({s['uav']} UAV, {s['non_uav']} not) from "
-            f"{s['recordings']} recording{'' if s['recordings'] == 1 else 's'} — {classes}"
+            f"{counted(s['recordings'], 'recording')} — {classes}"
         )
 
 

@@ -10,7 +10,7 @@ from typing import Any
 
 from uavsnn import report
 from uavsnn._files import check_output_dir
-from uavsnn.cli import output_dir, output_file
+from uavsnn.cli import counted, output_dir, output_file
 from uavsnn.dataset import load
 from uavsnn.distributed import add_ray_option, runner_for
 from uavsnn.errors import ParameterError
@@ -508,8 +508,8 @@ def _print_tracks(tracks: dict[str, Any]) -> None:
     score_text = f", identified on the running {score} UAV score" if score else ""
     print(
         f"tracks (confirmed at {tracks['confirm']}{score_text}): "
-        f"{_count(tracks['recordings'], 'recording')} ({tracks['uav_recordings']} with a UAV), "
-        f"{_count(tracks['windows'], 'window')} ({100 * tracks['window_coverage']:.1f} % of "
+        f"{counted(tracks['recordings'], 'recording')} ({tracks['uav_recordings']} with a UAV), "
+        f"{counted(tracks['windows'], 'window')} ({100 * tracks['window_coverage']:.1f} % of "
         f"their steps), {60 * tracks['uav_free_minutes']:.2f} s UAV-free; {clock_text(tracks)}"
     )
     for rule, f in tracks["rules"].items():
@@ -542,11 +542,6 @@ def _print_tracks(tracks: dict[str, Any]) -> None:
                 for r in missed
             )
         )
-
-
-def _count(n: int, noun: str) -> str:
-    """``"1 recording"``, ``"3 recordings"``."""
-    return f"{n} {noun}{'' if n == 1 else 's'}"
 
 
 def _in_report(path: Path, report_dir: Path | None) -> bool:
