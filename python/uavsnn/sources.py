@@ -71,24 +71,29 @@ error and starts its detector again).
 from __future__ import annotations
 
 import os
-import select
 import socket
 import sys
 import time
 from collections.abc import Iterator, Mapping
-from dataclasses import dataclass
-from io import TextIOBase
 from pathlib import Path
-from typing import Any, BinaryIO
+from typing import Any
 from urllib.parse import urlsplit
 
 import numpy as np
 
-from uavsnn import _core, _csv
-from uavsnn._validate import MAX_TIME_US, check_sensor_size
-from uavsnn.errors import ParameterError, RecordingFileError, StreamError, UavsnnError
+from uavsnn import _core
+from uavsnn._source_base import (
+    EMPTY,
+    MAX_IDLE_TIMEOUT,
+    EventSource,
+    IdleClock,
+    SourceStats,
+    check_seconds,
+)
+from uavsnn._stdin import STDIN_FORMATS, STDIN_RESTART_EVENTS, StdinSource
+from uavsnn._validate import check_sensor_size
+from uavsnn.errors import ParameterError, UavsnnError
 from uavsnn.events import EVENT_DTYPE
-from uavsnn.io import CSV_MAX_LINE
 
 __all__ = [
     "MAX_IDLE_TIMEOUT",
@@ -111,121 +116,12 @@ __all__ = [
 
 #: UDP packet formats understood by :class:`UdpSource`.
 PACKET_FORMATS: tuple[str, ...] = tuple(_core.PACKET_FORMATS)
-#: Formats of standard input understood by :class:`StdinSource`.
-STDIN_FORMATS: tuple[str, ...] = ("packed", "csv")
 
-_RECORD = EVENT_DTYPE.itemsize
-# The latest event time the engine takes, as the events' dtype.
-_MAX_TIME_US = np.uint64(MAX_TIME_US)
-_EMPTY = np.empty(0, dtype=EVENT_DTYPE)
-
-#: Usable events in a row going back in time after which standard input's events are taken
-#: for a restarted sensor's, a new stream from the first of them (UDP counts packets instead:
-#: ``_core.RESTART_AFTER``).
-STDIN_RESTART_EVENTS = 1024
 #: The receive buffer (bytes) a :class:`UdpSource` asks the kernel for.
 RECEIVE_BUFFER = 1 << 22
-#: The longest ``idle_timeout`` (seconds, about 31 years): a socket's timeout holds no more.
-MAX_IDLE_TIMEOUT = 1e9
 # Linux's SO_RXQ_OVFL (socket(7); Python's socket module does not name it): each datagram then
 # carries the count of datagrams the socket dropped, since it opened, before this one was queued.
 _SO_RXQ_OVFL = 40
-
-
-@dataclass
-class SourceStats:
-    """What a source has received so far."""
-
-    #: Events delivered.
-    events: int = 0
-    #: Packets (UDP datagrams, stdin reads or file chunks) received.
-    packets: int = 0
-    #: What was malformed and skipped: UDP packets; events (or CSV lines) on standard input.
-    dropped: int = 0
-    #: UDP datagrams the kernel dropped before they were read (its receive buffer full), as far
-    #: as known; ``None`` where the source cannot tell (other sources; UDP off Linux).
-    lost: int | None = None
-    #: Times the sensor restarted: its clock went back and stayed back (UDP: for
-    #: ``_core.RESTART_AFTER`` packets in a row; standard input: for
-    #: :data:`STDIN_RESTART_EVENTS` events), so the
-    #: events that follow are of a new stream, in time order from there. A consumer ends its
-    #: windows of the old stream when this changes (``uavsnn detect`` flushes and resets its
-    #: detector); the chunks never span a restart.
-    restarts: int = 0
-
-
-class IdleClock:
-    """The time a quiet live stream is taken to have reached, for a consumer that advances its
-    detector while the source is silent (``uavsnn detect --idle-flush``,
-    :func:`uavsnn.distributed.detect_streams`' ``idle_flush_s``): the stream's last event time,
-    moved on with the wall clock since that event arrived, less ``lag_s`` seconds (which must
-    cover the sender's batching); and the events that arrive stamped before it, which the
-    consumer drops. ``lag_s=None``: never moves on.
-
-    Feed it each chunk pushed (:meth:`heard`); at each heartbeat (an empty chunk from a source
-    opened with ``heartbeat_s=IdleClock.heartbeat_for(lag_s)``) advance the detector to
-    :meth:`mark`; before pushing a chunk, drop its first :meth:`late` events.
-    """
-
-    def __init__(self, lag_s: float | None) -> None:
-        self.lag_s = check_seconds("lag_s", lag_s)
-        self.last_t: int | None = None
-        self.heard_at = 0.0
-        self.reached = 0  # the latest time the stream was advanced to
-
-    @staticmethod
-    def heartbeat_for(lag_s: float | None) -> float | None:
-        """The heartbeat a source needs for the stream's time to move on smoothly while it is
-        quiet: a quarter of ``lag_s`` (at least 10 ms); ``None`` for ``None``."""
-        return None if lag_s is None else max(0.01, lag_s / 4)
-
-    def heard(self, chunk: np.ndarray) -> None:
-        """``chunk`` (not empty) was pushed."""
-        self.last_t = int(chunk["t"][-1])
-        self.heard_at = time.monotonic()
-
-    def mark(self) -> int | None:
-        """The time to advance the stream to, when it has moved on since the last one."""
-        if self.lag_s is None or self.last_t is None:
-            return None
-        moved = time.monotonic() - self.heard_at - self.lag_s
-        mark = min(self.last_t + int(moved * 1e6), MAX_TIME_US) if moved > 0 else 0
-        if mark <= max(self.reached, self.last_t):
-            return None
-        self.reached = mark
-        return mark
-
-    def late(self, chunk: np.ndarray) -> int:
-        """How many of ``chunk``'s first events are stamped before the time reached."""
-        if not self.reached or int(chunk["t"][0]) >= self.reached:
-            return 0
-        return int(np.searchsorted(chunk["t"], np.uint64(self.reached), "left"))
-
-
-class EventSource:
-    """Base of the sources: iterate to receive chunks of events in time order."""
-
-    #: Sensor size ``(width, height)``; ``None`` when the source cannot tell.
-    sensor_size: tuple[int, int] | None = None
-    #: Seconds of silence after which a live source yields an empty chunk, a heartbeat, and
-    #: again after as many more (for a consumer that advances its stream's time when it falls
-    #: silent: ``uavsnn detect --idle-flush``); ``None``: never. Files never do.
-    heartbeat_s: float | None = None
-
-    def __init__(self) -> None:
-        self.stats = SourceStats()
-
-    def __iter__(self) -> Iterator[np.ndarray]:
-        raise NotImplementedError
-
-    def close(self) -> None:
-        """Release what the source holds (sockets); iterating afterwards is an error."""
-
-    def __enter__(self) -> EventSource:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
 
 
 class FileSource(EventSource):
@@ -322,264 +218,6 @@ class FileSource(EventSource):
     def _count(self, chunk: np.ndarray) -> None:
         self.stats.packets += 1
         self.stats.events += len(chunk)
-
-
-class StdinSource(EventSource):
-    """Events from a binary stream (standard input by default).
-
-    Args:
-        stream: a binary file object (``read1`` or ``read`` returning ``bytes``: a file opened
-            ``"rb"``, ``sys.stdin.buffer``, ``io.BytesIO``); ``sys.stdin.buffer`` when ``None``.
-            A text stream is refused (:class:`~uavsnn.ParameterError`).
-        fmt: ``"packed"`` (13-byte records) or ``"csv"`` (``t,x,y,p`` lines).
-        sensor_size: ``(width, height)``; events outside it or going back in time are dropped
-            one by one (``None``: only times are checked).
-        read_size: most bytes read at once; a read returns what is available, so a slow
-            producer's events are not held back waiting for a full buffer.
-    """
-
-    def __init__(
-        self,
-        stream: BinaryIO | None = None,
-        *,
-        fmt: str = "packed",
-        sensor_size: tuple[int, int] | None = None,
-        read_size: int = 1 << 16,
-        heartbeat_s: float | None = None,
-    ) -> None:
-        super().__init__()
-        self.heartbeat_s = check_seconds("heartbeat_s", heartbeat_s)
-        if fmt not in STDIN_FORMATS:
-            raise ParameterError(f"stdin format must be one of {STDIN_FORMATS}, got {fmt!r}")
-        if read_size < _RECORD:
-            raise ParameterError(f"read_size must be >= {_RECORD}, got {read_size}")
-        if stream is not None and (
-            isinstance(stream, TextIOBase)
-            or not (hasattr(stream, "read1") or hasattr(stream, "read"))
-        ):
-            raise ParameterError(_not_binary(stream))
-        self.stream = stream if stream is not None else sys.stdin.buffer
-        self.fmt = fmt
-        self.sensor_size = None if sensor_size is None else check_sensor_size(sensor_size)
-        self.read_size = read_size
-        self._lines = 0
-        # The columns of t, x, y, p, and how many a line has (as a header names them).
-        self._columns = dict(_csv.DEFAULT_COLUMNS)
-        self._width = 4
-        self._last_t = 0
-        self._back_run = 0  # usable events in a row that went back, up to now
-        self._held: list[np.ndarray] = []  # those events, while their run is short
-        # With heartbeats the descriptor is read directly, once select says it holds bytes (a
-        # buffered reader may hold bytes select cannot see); a stream without one has none.
-        self._fd: int | None = None
-        if self.heartbeat_s is not None and sys.platform == "win32":
-            raise ParameterError(
-                "heartbeats on standard input (--idle-flush) wait on it with select(), which "
-                "Windows has only for sockets: send the events over UDP instead"
-            )
-        if self.heartbeat_s is not None:
-            try:
-                self._fd = self.stream.fileno()
-            except (AttributeError, OSError, ValueError):
-                self._fd = None
-
-    def _read(self) -> bytes | None:
-        """The next bytes (empty at the end), or ``None`` after :attr:`heartbeat_s` of
-        silence."""
-        if self._fd is not None:
-            ready, _, _ = select.select([self._fd], [], [], self.heartbeat_s)
-            return os.read(self._fd, self.read_size) if ready else None
-        read1 = getattr(self.stream, "read1", None)
-        data = read1(self.read_size) if read1 is not None else self.stream.read(self.read_size)
-        if isinstance(data, str):
-            raise ParameterError(_not_binary(self.stream))
-        return data
-
-    def __iter__(self) -> Iterator[np.ndarray]:
-        rest = b""
-        skipping = False  # inside a CSV line too long to keep, until its line end
-        at_start = self.fmt == "csv"  # a CSV stream's UTF-8 byte-order mark is yet to be seen
-        while True:
-            data = self._read()
-            if data is None:
-                yield _EMPTY  # silence: a heartbeat
-                continue
-            if not data:
-                break
-            self.stats.packets += 1
-            data = rest + data
-            if self.fmt == "packed":
-                whole = len(data) - len(data) % _RECORD
-                rest = data[whole:]
-                chunk = np.frombuffer(data[:whole], dtype=EVENT_DTYPE)
-            else:
-                if at_start:
-                    # A byte-order mark is dropped, as a file's is (one cut across reads too).
-                    if len(data) < len(_csv.BOM) and _csv.BOM.startswith(data):
-                        rest = data
-                        continue
-                    at_start = False
-                    data = data.removeprefix(_csv.BOM)
-                # A line ends at "\n", "\r\n" or a lone "\r" (old Mac line ends); the "\n" of a
-                # "\r\n" cut across reads starts a blank line.
-                if skipping:
-                    ends = [end for end in (data.find(b"\n"), data.find(b"\r")) if end >= 0]
-                    data = data[min(ends) + 1 :] if ends else b""
-                    skipping = not ends
-                cut = max(data.rfind(b"\n"), data.rfind(b"\r")) + 1
-                rest = data[cut:]
-                if len(rest) > CSV_MAX_LINE:
-                    # Not an event line: dropped, not held (its end is skipped as it comes).
-                    rest, skipping = b"", True
-                    self.stats.dropped += 1
-                    self._lines += 1
-                chunk = self._parse_csv(data[:cut])
-            for part in self._usable(chunk):
-                self.stats.events += len(part)
-                yield part
-        if rest:
-            if self.fmt == "csv":
-                for part in self._usable(self._parse_csv(rest + b"\n")):
-                    self.stats.events += len(part)
-                    yield part
-            else:
-                # A truncated last record: its bytes never made an event.
-                self.stats.dropped += 1
-        self._drop_held()  # a run going back too short to be a restart
-        # Nothing usable, whether or not anything was dropped (an empty stream, a header
-        # alone, one line taken as a header): most likely the wrong format.
-        if self.stats.events == 0:
-            raise StreamError(
-                f"standard input held no usable {self.fmt} event ({self.stats.dropped} dropped): "
-                "is --stdin-format right, and the sensor size?"
-            )
-
-    def _usable(self, chunk: np.ndarray) -> Iterator[np.ndarray]:
-        """The events of ``chunk`` inside the sensor and not earlier than any event before them
-        (each other one is a drop), in one part; in two where the sensor restarted inside it
-        (:data:`STDIN_RESTART_EVENTS` usable events in a row went back), with
-        :attr:`SourceStats.restarts` counted between them (once the first part is taken).
-
-        Events going back at the end of a chunk are held, not dropped, while their run is
-        shorter than a restart's: if it becomes one, they are the new stream's first events."""
-        while len(chunk):
-            t = chunk["t"]
-            inside = t <= _MAX_TIME_US
-            if self.sensor_size is not None:
-                width, height = self.sensor_size
-                inside &= (chunk["x"] < width) & (chunk["y"] < height)
-            # The latest time before each event, among the usable ones: a backwards event is
-            # dropped alone, not the events that follow it.
-            times = np.where(inside, t, np.uint64(0))
-            first = np.array([self._last_t], dtype=np.uint64)
-            before = np.maximum.accumulate(np.concatenate((first, times[:-1])))
-            ok = inside & (t >= before)
-            back = inside & ~ok
-            restart = self._restart_point(inside, ok)
-            if restart is None:
-                oks = np.flatnonzero(ok)
-                if len(oks):  # the run held so far is broken: those events are dropped
-                    self._drop_held()
-                # The run the chunk ends in (after its last good event) is held.
-                tail = back.copy()
-                tail[: (int(oks[-1]) + 1 if len(oks) else 0)] = False
-                if tail.any():
-                    self._held.append(chunk[tail])
-                kept = chunk if ok.all() else chunk[ok]
-                self.stats.dropped += len(chunk) - len(kept) - int(tail.sum())
-                if len(kept):
-                    self._last_t = max(self._last_t, int(kept["t"][-1]))
-                    yield kept
-                return
-            begin, carried = restart
-            head, head_ok = chunk[:begin], ok[:begin]
-            kept = head if head_ok.all() else head[head_ok]
-            self.stats.dropped += len(head) - len(kept)
-            replay = self._held if carried else []
-            if not carried:
-                self._drop_held()
-            self._held = []
-            if len(kept):
-                self._last_t = max(self._last_t, int(kept["t"][-1]))
-                yield kept
-            # The run's events, held ones first, start a new stream from their own clock.
-            self.stats.restarts += 1
-            self._last_t, self._back_run = 0, 0
-            chunk = np.concatenate([*replay, chunk[begin:]])
-
-    def _drop_held(self) -> None:
-        self.stats.dropped += sum(len(h) for h in self._held)
-        self._held = []
-
-    def _restart_point(self, inside: np.ndarray, ok: np.ndarray) -> tuple[int, bool] | None:
-        """Where in the chunk a run of :data:`STDIN_RESTART_EVENTS` usable events going back
-        starts, and whether it began before the chunk (its first events held); ``None`` when
-        none does, keeping the length of the run the chunk ends in."""
-        at = np.flatnonzero(inside)
-        if not len(at):
-            return None
-        back = ~ok[at]
-        index = np.arange(len(at))
-        # For each usable event, the last one before or at it that did not go back (-1: none).
-        last = np.maximum.accumulate(np.where(back, -1, index))
-        run = np.where(last < 0, index + 1 + self._back_run, index - last)
-        hit = np.flatnonzero(back & (run >= STDIN_RESTART_EVENTS))
-        if len(hit):
-            begin = int(last[hit[0]]) + 1
-            carried = begin == 0 and self._back_run > 0
-            return (0 if carried else int(at[begin])), carried
-        self._back_run = int(run[-1]) if back[-1] else 0
-        return None
-
-    def _set_columns(self, named: dict[str, int], width: int) -> dict[str, int]:
-        """Read the columns a header names (a line then has its ``width`` fields); the default
-        order, a line of 4."""
-        self._columns = named
-        self._width = 4 if named == _csv.DEFAULT_COLUMNS else width
-        return named
-
-    def _parse_csv(self, text: bytes) -> np.ndarray:
-        rows: list[tuple[int, int, int, bool]] = []
-        at = self._columns
-        for line in text.splitlines():
-            fields = line.strip()
-            if not fields:
-                continue
-            if fields[:1] == b"#":
-                # A comment, skipped; before the header and the first event, one that names
-                # the four columns (``# x,y,t,p``) names them, as in a file.
-                named = _csv.comment_columns(fields) if self._lines == 0 else None
-                if named is not None:
-                    at = self._set_columns(named, len(fields.split(b",")))
-                continue
-            try:
-                values = fields.split(b",")
-                if len(values) != self._width:
-                    raise ValueError
-                t, x, y, p = (int(values[at[field]]) for field in "txyp")
-                # A time beyond 64 bits is as malformed as a negative one.
-                if not (0 <= t < 1 << 64 and 0 <= x < 65536 and 0 <= y < 65536):
-                    raise ValueError
-            except ValueError:
-                # The stream's first line (but comments) may be a header (naming the columns,
-                # or not) unless it starts with a number; any other bad line is a drop. One
-                # naming some columns out of the default order, but not all four, is refused
-                # (read in that order, its events would be wrong).
-                header = self._lines == 0 and not _csv.is_number(fields.split(b",", 1)[0])
-                if header:
-                    try:
-                        named = _csv.columns(fields)
-                    except RecordingFileError as exc:
-                        raise StreamError(f"standard input: {exc}") from exc
-                    at = self._set_columns(named, len(fields.split(b",")))
-                self.stats.dropped += not header
-                self._lines += 1
-                continue
-            self._lines += 1
-            rows.append((t, x, y, p > 0))
-        if not rows:
-            return _EMPTY
-        return np.array(rows, dtype=EVENT_DTYPE)
 
 
 class UdpSource(EventSource):
@@ -703,7 +341,7 @@ class UdpSource(EventSource):
                 quiet = time.monotonic() - quiet_since
                 if self.idle_timeout is not None and quiet >= self.idle_timeout:
                     return
-                yield _EMPTY  # silence: a heartbeat
+                yield EMPTY  # silence: a heartbeat
                 continue
             quiet_since = time.monotonic()
             self.stats.packets += 1
@@ -725,17 +363,6 @@ class UdpSource(EventSource):
     def close(self) -> None:
         """Close the socket."""
         self.socket.close()
-
-
-def check_seconds(name: str, value: float | None) -> float | None:
-    """A wait in seconds (``idle_timeout``, ``heartbeat_s``, an idle flush's lag; ``name`` as the
-    caller spells it): ``None``, or more than 0 and at most :data:`MAX_IDLE_TIMEOUT` (a
-    socket's timeout holds no more)."""
-    if value is not None and not 0 < value <= MAX_IDLE_TIMEOUT:
-        raise ParameterError(
-            f"{name} must be > 0 and at most {MAX_IDLE_TIMEOUT:g} seconds, got {value}"
-        )
-    return value
 
 
 def check_fits(source: EventSource, model_size: tuple[int, int]) -> None:
@@ -839,17 +466,6 @@ def _is_default(value: Any, default: Any) -> bool:
 
 def _larger(wider: bool, taller: bool) -> str:
     return "wider and taller" if wider and taller else "wider" if wider else "taller"
-
-
-def _not_binary(stream: Any) -> str:
-    got = type(stream).__name__
-    if isinstance(stream, TextIOBase):
-        got = f"a text stream ({got})"
-    return (
-        "stream must be a binary stream (its read1 or read returning bytes: a file opened "
-        f"'rb', sys.stdin.buffer, io.BytesIO), got {got}"
-        + (": pass sys.stdin.buffer" if stream is sys.stdin else "")
-    )
 
 
 def open_source(
