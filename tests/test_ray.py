@@ -761,6 +761,7 @@ def test_detect_streams_checks_its_arguments_before_any_actor(
         ([udp], {"downsample": True}, "downsample applies to files"),
         ([path], {"udp_format": "spif"}, "udp_format applies to UDP sources"),
         ([path], {"max_packets": 3}, "max_packets applies to UDP sources"),
+        ([path], {"idle_timeout": 2.0}, "idle_timeout applies to UDP sources"),
         ([path], {"idle_flush_s": 1.0}, "idle_flush_s applies to live streams"),
         ([path], {"model": 3}, "model must be a uavsnn.Network or the path"),
     ]

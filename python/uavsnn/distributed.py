@@ -396,11 +396,17 @@ class StreamResult:
         return self.error is None
 
 
-#: detect_streams' options for files only, and for UDP sources only (the others' are
-#: :func:`uavsnn.sources.open_source`'s ``sensor_size``, and the stream's own).
-_FILE_OPTIONS = ("realtime", "downsample")
-_UDP_OPTIONS = ("udp_format", "max_packets", "idle_timeout")
-_STREAM_OPTIONS = ("sensor_size", *_FILE_OPTIONS, *_UDP_OPTIONS)
+#: detect_streams' source options: :func:`uavsnn.sources.open_source`'s, but standard input's
+#: and heartbeats (set from ``idle_flush_s``), with ``downsample`` (to the model's input) for
+#: ``downsample_to``.
+_STREAM_OPTIONS = (
+    "sensor_size",
+    "realtime",
+    "downsample",
+    "udp_format",
+    "max_packets",
+    "idle_timeout",
+)
 
 
 def _given(value: Any) -> bool:
@@ -618,7 +624,7 @@ def detect_streams(
             given without ``windows``.
     """
     from uavsnn.detector import Detector
-    from uavsnn.sources import is_live
+    from uavsnn.sources import check_applies, is_live
     from uavsnn.tracks import Tracker
 
     if not isinstance(runner, RayRunner):
@@ -639,13 +645,11 @@ def detect_streams(
         raise ParameterError(
             f"unknown source option {unknown[0]!r}: the options are {', '.join(_STREAM_OPTIONS)}"
         )
-    for keys, kind, any_of in (
-        (_FILE_OPTIONS, "files", any(not is_live(spec) for spec in sources)),
-        (_UDP_OPTIONS, "UDP sources", any(spec.startswith("udp://") for spec in sources)),
-    ):
-        given = [key for key in keys if _given(source_options.get(key))]
-        if given and not any_of:
-            raise ParameterError(f"{given[0]} applies to {kind}, and no stream is one")
+    # An option for a kind of source no stream is, by open_source's names and defaults.
+    as_opened = dict(source_options)
+    if "downsample" in as_opened:
+        as_opened["downsample_to"] = True if as_opened.pop("downsample") else None
+    check_applies(sources, as_opened, spelled={"downsample_to": "downsample"})
     if idle_flush_s is not None and not any(is_live(spec) for spec in sources):
         raise ParameterError("idle_flush_s applies to live streams (UDP), and no stream is one")
     if isinstance(model, (str, os.PathLike)):

@@ -74,7 +74,7 @@ import os
 import socket
 import sys
 import time
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 from urllib.parse import urlsplit
@@ -107,6 +107,7 @@ __all__ = [
     "SourceStats",
     "StdinSource",
     "UdpSource",
+    "check_applies",
     "check_fits",
     "check_seconds",
     "is_live",
@@ -443,6 +444,25 @@ def source_options(spec: str, options: Mapping[str, Any]) -> dict[str, Any]:
         )
     kind = _kind(spec)
     return {name: value for name, value in options.items() if kind in _OPTIONS[name][0]}
+
+
+def check_applies(
+    specs: Sequence[str], options: Mapping[str, Any], *, spelled: Mapping[str, str] | None = None
+) -> None:
+    """Refuse an option of :func:`open_source` given (not ``None``, nor at its default) to a set
+    of sources none of which it applies to (:func:`uavsnn.distributed.detect_streams`, whose
+    sources share one set of options). ``spelled``: the caller's name of an option, where it
+    differs, for the message.
+
+    Raises:
+        ParameterError: ``"{name} applies to {where}, and no stream is one"``.
+    """
+    kinds = {_kind(spec) for spec in specs}
+    for name, value in options.items():
+        scope, where, default = _OPTIONS[name]
+        if kinds.isdisjoint(scope) and value is not None and not _is_default(value, default):
+            name = (spelled or {}).get(name, name)
+            raise ParameterError(f"{name} applies to {where}, and no stream is one")
 
 
 def _check_options(spec: str, given: Mapping[str, Any]) -> None:
