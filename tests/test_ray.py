@@ -13,6 +13,7 @@ import signal
 import socket
 import subprocess
 import sys
+import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -854,3 +855,50 @@ def test_a_stopped_ray_detect_reports_each_stream_and_exits_as_interrupted(
     name = "interrupted" if signum == signal.SIGINT else "interrupted (SIGTERM)"
     assert err.rstrip().splitlines()[-1] == f"uavsnn detect: {name}"
     assert out.decode().count(f"[{path}] window=") >= 1
+
+
+def test_streams_stopped_by_ctrl_c_report_the_windows_they_hold_open(
+    runner: Any, model: Network
+) -> None:
+    """Stopped by Ctrl-C, detect_streams killed the actors and the windows still open in them
+    were lost (one stream's detect flushes them): each stream now stops and reports them, the
+    same windows one Detector gives on the same events, flushed."""
+    from uavsnn import Detector
+    from uavsnn.distributed import detect_streams
+
+    events = _events(3000, 5)
+    events = events[events["t"] < 45_000]  # inside the first windows: none closes
+    sent, stopped = threading.Event(), threading.Event()
+
+    def send(addresses: dict[str, Any], _actors: Any) -> None:
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+            s.sendto(events.tobytes(), addresses["cam"])
+        sent.set()
+
+    got: list[Any] = []
+    updates: list[Any] = []
+
+    def update(r: Any) -> None:
+        updates.append(r.ended)
+        if r.events_seen == len(events) and not stopped.is_set():
+            stopped.set()
+            raise KeyboardInterrupt  # Ctrl-C, once every event is in the stream's detector
+
+    with pytest.raises(KeyboardInterrupt):
+        detect_streams(
+            runner,
+            ["udp://127.0.0.1:0"],
+            model,
+            names=["cam"],
+            on_ready=send,
+            on_detections=lambda _name, found: got.extend(found),
+            on_update=update,
+            windows=True,
+            idle_timeout=60.0,
+        )
+    assert sent.is_set()
+    det = Detector(model)
+    want = [*det.push_windows(events), *det.flush_windows()]
+    assert want and [w.t0 for w in got] == [w.t0 for w in want]
+    assert [w.detected for w in got] == [w.detected for w in want]
+    assert not updates[-1]  # stopped, not ended

@@ -27,6 +27,7 @@ import os
 import signal
 import socket
 import threading
+import time
 from collections.abc import Callable, Generator, Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -46,6 +47,7 @@ __all__ = [
     "MAX_STREAMS",
     "RAY_HINT",
     "SERIAL",
+    "STOP_WAIT_S",
     "RayRunner",
     "Runner",
     "SerialRunner",
@@ -67,6 +69,12 @@ MAX_CPUS = 256
 #: The most streams :func:`detect_streams` runs at once: each is an actor, a process of its own
 #: holding the model.
 MAX_STREAMS = 256
+#: Seconds :func:`detect_streams`, stopped by Ctrl-C, waits for the streams to report the
+#: windows they still hold open before it stops their actors.
+STOP_WAIT_S = 5.0
+# The longest a live stream's worker waits on a quiet source before it looks whether it was
+# asked to stop (its source's heartbeat).
+_WAKE_S = 0.25
 
 
 def ray_available() -> bool:
@@ -436,6 +444,7 @@ class _StreamWorker:
         self._windows = 0
         self._done = False
         self._error: str | None = None
+        self._stop = threading.Event()
         try:
             self._open(spec, model, dict(options))
         except Exception as exc:
@@ -466,7 +475,9 @@ class _StreamWorker:
         if opts.get("sensor_size") is None and live:
             opts["sensor_size"] = model_size
         if live:
-            opts["heartbeat_s"] = IdleClock.heartbeat_for(idle_flush_s)
+            # Heartbeats move a quiet stream on (idle_flush_s), and wake the worker to see a stop.
+            beat = IdleClock.heartbeat_for(idle_flush_s)
+            opts["heartbeat_s"] = _WAKE_S if beat is None else min(beat, _WAKE_S)
         if opts.pop("downsample", False):
             opts["downsample_to"] = model_size
         # Each source takes the options of its kind (the others apply to the other streams);
@@ -513,6 +524,11 @@ class _StreamWorker:
                 for step in self.driver:
                     if step.kind != "restarted":
                         note(step.found)
+                    if self._stop.is_set():
+                        # Asked to stop (detect_streams was interrupted): the windows still
+                        # open are reported, as one stream's detect reports them at Ctrl-C.
+                        note(self.driver.flush())
+                        break
         except Exception as exc:  # reported with the stream's name; the others go on
             with self._lock:
                 self._error = f"{type(exc).__name__}: {exc}"
@@ -525,6 +541,16 @@ class _StreamWorker:
     def bound(self) -> tuple[str, int] | None:
         """The UDP address the source listens on (``None`` for other sources)."""
         return self.address
+
+    def stop(self, wait_s: float) -> tuple[Any, dict[str, Any], bool]:
+        """Stop the stream, its windows still open flushed: what :meth:`poll` gives once the
+        worker has stopped, or after ``wait_s`` (the third item says whether it stopped)."""
+        self._stop.set()
+        deadline = time.monotonic() + wait_s
+        with self._lock:
+            while not self._done and (left := deadline - time.monotonic()) > 0:
+                self._lock.wait(left)
+        return self.poll(0.0)
 
     def poll(self, wait_s: float) -> tuple[Any, dict[str, Any], bool]:
         """Detections found since the last poll (time order; the windows closed since, a list
@@ -599,9 +625,12 @@ def detect_streams(
     gets a stream's result as it stands after each of its polls (its counts so far, its
     ``restarts`` and ``error``), for a program's progress lines.
 
-    Stopped (Ctrl-C, or an exception from a callback), it stops every stream's actor and
-    raises: the detections already given to ``on_detections`` are all there is, and the
-    windows still open in the actors are not reported.
+    Stopped by Ctrl-C (:class:`KeyboardInterrupt`), it asks each stream still running to stop
+    and report the windows it holds open, as one stream's ``uavsnn detect`` does, and gives
+    them to ``on_detections`` (waiting up to :data:`STOP_WAIT_S` seconds; a stream that does
+    not answer by then reports nothing more), then stops every actor and raises; its streams'
+    last ``on_update`` results are not ``ended``. Stopped by an exception from a callback, it
+    stops every actor at once and raises.
 
     ``model``: a :class:`~uavsnn.network.Network` or the path of a model file.
     ``source_options``: as :func:`uavsnn.sources.open_source` (``sensor_size``, ``realtime``,
@@ -731,43 +760,72 @@ def _gather(
     on_update: Callable[[StreamResult], None] | None,
     poll_s: float,
 ) -> None:
-    """:func:`detect_streams`' loop: poll every live stream until each has ended."""
-    pending: dict[Any, str] = {actor.poll.remote(poll_s): name for name, actor in live.items()}
-    while pending:
-        ready, _ = ray.wait(list(pending), num_returns=1, timeout=None)
-        for ref in ready:
-            name = pending.pop(ref)
-            try:
-                found, counts, done = ray.get(ref)
-            except Exception as exc:
-                results[name].error = _actor_error(exc)
-                results[name].ended = True
-                if on_update is not None:
-                    on_update(results[name])
-                continue
-            r = results[name]
-            for key in ("events", "events_seen", "packets", "dropped", "rejected_events"):
-                setattr(r, key, counts[key])
-            r.windows, r.restarts = counts["windows"], counts["restarts"]
-            r.error, r.ended = counts["error"], done
-            if len(found):
-                spikes = [w.detections for w in found] if windows else [found]
-                r.spikes += sum(len(a) for a in spikes)
+    """:func:`detect_streams`' loop: poll every live stream until each has ended. Stopped by
+    Ctrl-C, each stream still running is asked to stop and report its open windows (within
+    :data:`STOP_WAIT_S`), after the polls already asked for, then the interruption goes on."""
+
+    def take(name: str, answer: Any, ended: bool) -> None:
+        found, counts, _ = answer
+        r = results[name]
+        for key in ("events", "events_seen", "packets", "dropped", "rejected_events"):
+            setattr(r, key, counts[key])
+        r.windows, r.restarts = counts["windows"], counts["restarts"]
+        r.error, r.ended = counts["error"], ended
+        if len(found):
+            spikes = [w.detections for w in found] if windows else [found]
+            r.spikes += sum(len(a) for a in spikes)
+            if windows:
+                r.windows_reported += len(found)
+                r.windows_detected += sum(bool(w.detected) for w in found)
+            if keep:
+                parts[name].extend(spikes)
                 if windows:
-                    r.windows_reported += len(found)
-                    r.windows_detected += sum(bool(w.detected) for w in found)
-                if keep:
-                    parts[name].extend(spikes)
-                    if windows:
-                        r.reports.extend(found)
-                if on_detections is not None:
-                    on_detections(name, found)
-            if on_update is not None:
-                on_update(r)
-            if done:
-                ray.kill(live[name], no_restart=True)
-            else:
-                pending[live[name].poll.remote(poll_s)] = name
+                    r.reports.extend(found)
+            if on_detections is not None:
+                on_detections(name, found)
+        if on_update is not None:
+            on_update(r)
+
+    def failed(name: str, exc: Exception) -> None:
+        results[name].error = _actor_error(exc)
+        results[name].ended = True
+        if on_update is not None:
+            on_update(results[name])
+
+    pending: dict[Any, str] = {actor.poll.remote(poll_s): name for name, actor in live.items()}
+    try:
+        while pending:
+            ready, _ = ray.wait(list(pending), num_returns=1, timeout=None)
+            for ref in ready:
+                name = pending.pop(ref)
+                try:
+                    answer = ray.get(ref)
+                except Exception as exc:
+                    failed(name, exc)
+                    continue
+                done = answer[2]
+                take(name, answer, done)
+                if done:
+                    ray.kill(live[name], no_restart=True)
+                else:
+                    pending[live[name].poll.remote(poll_s)] = name
+    except KeyboardInterrupt:
+        # Each stream still running (its poll in flight, or the one whose answer was being
+        # taken) stops; an actor answers in order: its poll in flight first, then its stop.
+        asked = list(pending.items())
+        running = [name for name in live if not results[name].ended]
+        asked += [(live[name].stop.remote(STOP_WAIT_S), name) for name in running]
+        ready, _ = ray.wait([ref for ref, _ in asked], num_returns=len(asked),
+                            timeout=STOP_WAIT_S + 1.0)  # fmt: skip
+        for ref, name in asked:
+            if ref in ready:
+                try:
+                    answer = ray.get(ref)
+                except Exception:
+                    continue  # the actor died as it stopped: what it held is lost
+                # Stopped, not ended: a stream that was interrupted.
+                take(name, answer, False)
+        raise
 
 
 def _detection_dtype() -> np.dtype:
