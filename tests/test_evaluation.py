@@ -276,13 +276,26 @@ def test_train_save_load_evaluate_gives_the_same_numbers(small_set: Path, tmp_pa
 # ---------------------------------------------------------------- shares known from recordings
 
 
+def _binomial_tail(n: int, k: int, p: float, *, upper: bool) -> float:
+    """P(X >= k) (``upper``) or P(X <= k) for X binomial (n, p), summed exactly."""
+    from math import comb
+
+    ks = range(k, n + 1) if upper else range(k + 1)
+    return sum(comb(n, j) * p**j * (1 - p) ** (n - j) for j in ks)
+
+
 def test_recording_interval_draws_recordings_not_windows() -> None:
     from uavsnn.evaluation import recording_interval
 
-    # Every recording has the same share: every draw gives it back.
+    # Every recording has the same share: every draw gives it back, which would say the share
+    # is known exactly; the interval is then Clopper-Pearson's over the windows (60 of 200),
+    # whose ends leave 2.5 % of the binomial's tail each side.
     rec = np.repeat(np.arange(20), 10)
     hit = np.tile(np.arange(10) < 3, 20)
-    assert recording_interval(hit, rec) == pytest.approx((0.3, 0.3))
+    lo, hi = recording_interval(hit, rec)
+    assert lo < 0.3 < hi
+    assert _binomial_tail(200, 60, lo, upper=True) == pytest.approx(0.025, rel=1e-6)
+    assert _binomial_tail(200, 60, hi, upper=False) == pytest.approx(0.025, rel=1e-6)
     # One recording of 30 alarms in all its windows, the other 29 never: 30 of 900 windows
     # (3.3 %). Drawn as windows the share would be known to about ±1.2 points; drawn as
     # recordings, a draw without that recording (a third of them) gives 0.
@@ -379,7 +392,11 @@ def test_recording_interval_by_strata_keeps_each_group_drawn_apart() -> None:
     right = label.copy()
     lo, hi = recording_interval(right, rec)
     assert lo < 0.35 and hi > 0.65
-    assert recording_interval(right, rec, strata=label) == (0.5, 0.5)
+    # The share is 1/2 on every draw, which would say it is known exactly: Clopper-Pearson's
+    # interval over the windows (100 of 200) instead.
+    lo, hi = recording_interval(right, rec, strata=label)
+    assert lo < 0.5 < hi and lo + hi == pytest.approx(1.0)
+    assert _binomial_tail(200, 100, lo, upper=True) == pytest.approx(0.025, rel=1e-6)
     # A group of mixed recordings is drawn as its recordings, as without strata.
     rec2 = np.repeat(np.arange(30), 30)
     hit2 = rec2 == 7

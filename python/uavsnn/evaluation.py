@@ -35,13 +35,15 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from uavsnn._validate import check_bools, check_int
+from uavsnn._validate import check_int, check_real
 from uavsnn.dataset import LabelledWindows
 from uavsnn.errors import DatasetError, ParameterError, ShapeError
 from uavsnn.network import Inference, Network
 
 # The operating points and their intervals live in uavsnn.roc; their names stay here too.
 from uavsnn.roc import (
+    check_flags,
+    check_numbers,
     detection_at_false_alarm,
     recording_interval,
     roc_area,
@@ -86,9 +88,14 @@ labelled box, in sensor pixels (each bin holds ``low <= side < high``)."""
 
 
 def confusion_matrix(predicted: npt.ArrayLike, actual: npt.ArrayLike) -> np.ndarray:
-    """``[[TP, FN], [FP, TN]]`` (int64): rows are the truth (UAV, not), columns the call."""
-    p = check_bools("predicted", predicted)
-    a = check_bools("actual", actual)
+    """``[[TP, FN], [FP, TN]]`` (int64): rows are the truth (UAV, not), columns the call.
+
+    Raises:
+        ShapeError: the flags are not 1-D or differ in length.
+        ParameterError: flags that are not boolean (an empty list is no flags).
+    """
+    p = check_flags("predicted", predicted)
+    a = check_flags("actual", actual)
     if p.shape != a.shape:
         raise ShapeError(f"predicted has {p.size} windows, actual {a.size}")
     return np.array(
@@ -97,10 +104,18 @@ def confusion_matrix(predicted: npt.ArrayLike, actual: npt.ArrayLike) -> np.ndar
 
 
 def accuracy(matrix: npt.ArrayLike) -> float:
-    """``(TP + TN) / N`` of a confusion matrix (NaN for an empty one)."""
+    """``(TP + TN) / N`` of a confusion matrix (NaN for an empty one).
+
+    Raises:
+        ShapeError: not 2x2.
+        ParameterError: entries that are not whole counts >= 0 (NaN, a fraction, a string).
+    """
+    counts = check_numbers("matrix", matrix)
+    if counts.shape != (2, 2):
+        raise ShapeError(f"a confusion matrix is 2x2, got shape {counts.shape}")
+    if not (np.isfinite(counts).all() and (counts >= 0).all() and (counts % 1 == 0).all()):
+        raise ParameterError(f"a confusion matrix holds whole counts >= 0, got {counts.tolist()}")
     m = np.asarray(matrix, dtype=np.int64)
-    if m.shape != (2, 2):
-        raise ShapeError(f"a confusion matrix is 2x2, got shape {m.shape}")
     total = int(m.sum())
     return float("nan") if total == 0 else float(m[0, 0] + m[1, 1]) / total
 
@@ -123,9 +138,10 @@ def accuracy_lead(
     with ``against`` and ``strata``). The lead is NaN for no windows.
 
     Raises:
-        ShapeError: the flags and ``data`` differ in length."""
-    mine = check_bools("right", right)
-    theirs = check_bools("their_right", their_right)
+        ShapeError: the flags and ``data`` differ in length.
+        ParameterError: flags that are not boolean."""
+    mine = check_flags("right", right)
+    theirs = check_flags("their_right", their_right)
     interval = recording_interval(mine, data.recording, against=theirs, strata=data.label)
     lead = float(mine.mean() - theirs.mean()) if mine.size else float("nan")
     return {"lead": lead, "interval": list(interval)}
@@ -435,8 +451,9 @@ def first_detection_boxes(inference: Inference, windows: int) -> np.ndarray:
 
 
 def _box_pairs(a: npt.ArrayLike, b: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
-    """Two ``(n, 4)`` float64 arrays of boxes to compare row by row, or a ShapeError."""
-    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
+    """Two ``(n, 4)`` float64 arrays of boxes to compare row by row, or a ShapeError (a
+    ParameterError for boxes that are not numbers)."""
+    a, b = check_numbers("boxes", a), check_numbers("boxes", b)
     if a.shape != b.shape or a.ndim != 2 or a.shape[1] != 4:
         raise ShapeError(f"boxes must be (n, 4) alike, got {a.shape} and {b.shape}")
     return a, b
@@ -551,14 +568,26 @@ def identification_figures(
     (:func:`recording_interval`: ``"false_alarm_interval"``, ``"detection_interval"``).
 
     A set of one class (all UAV, or none) has no ROC: ``"roc"`` is ``None`` and
-    ``"at_false_alarm"`` empty, and a rate of the class it lacks is ``None``."""
-    fired = check_bools("detected", detected)
-    s = np.asarray(scores, dtype=np.float64)
+    ``"at_false_alarm"`` empty, and a rate of the class it lacks is ``None``.
+
+    Raises:
+        ShapeError: ``detected`` or ``scores`` not one a window of ``data``.
+        ParameterError: ``detected`` not boolean, ``scores`` not finite numbers, ``threshold``
+            not a finite number, ``alarm_thresholds`` not pairs of a false-alarm share in
+            [0, 1] and a finite threshold, or ``roc_points`` not an integer >= 2."""
+    fired = check_flags("detected", detected)
+    s = check_numbers("scores", scores)
     actual = np.asarray(data.label, dtype=bool)
     if fired.shape != actual.shape or s.shape != actual.shape:
         raise ShapeError(
             f"detected has {fired.size} and scores {s.size} windows, the data {actual.size}"
         )
+    if not np.isfinite(s).all():
+        bad = int((~np.isfinite(s)).sum())
+        raise ParameterError(f"scores must be finite, got {bad} NaN or infinite")
+    threshold = check_real("threshold", threshold)
+    tuned = _alarm_thresholds(alarm_thresholds)
+    roc_points = check_int("roc_points", roc_points, 2)
     combined = np.where(fired, s, -np.inf)
     rec = np.asarray(data.recording)
 
@@ -623,10 +652,31 @@ def identification_figures(
         "roc": roc,
         "at_false_alarm": at_fa,
     }
-    if alarm_thresholds:
-        out["at_tuned_false_alarm"] = [
-            at(float(r), float(t), intervals=True) for r, t in alarm_thresholds
-        ]
+    if tuned:
+        out["at_tuned_false_alarm"] = [at(r, t, intervals=True) for r, t in tuned]
+    return out
+
+
+def _alarm_thresholds(pairs: Sequence[tuple[float, float]]) -> list[tuple[float, float]]:
+    """:func:`identification_figures`' ``alarm_thresholds`` as ``(share, threshold)`` floats,
+    each share in [0, 1] and each threshold finite, or a ParameterError."""
+    try:
+        items = list(pairs)
+    except TypeError as exc:
+        raise ParameterError(
+            f"alarm_thresholds must be a sequence of pairs, got {pairs!r}"
+        ) from exc
+    out = []
+    for pair in items:
+        try:
+            rate, t = pair
+            rate, t = check_real("rate", rate, low=0, high=1), check_real("threshold", t)
+        except (TypeError, ValueError) as exc:  # ParameterError is a ValueError
+            raise ParameterError(
+                f"alarm_thresholds must be (false-alarm share in [0, 1], finite threshold) "
+                f"pairs, got {pair!r}"
+            ) from exc
+        out.append((rate, t))
     return out
 
 

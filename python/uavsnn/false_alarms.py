@@ -25,10 +25,14 @@ model's threshold and at each operating point set beforehand) it counts:
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Iterator, Sequence
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
+
+from uavsnn._validate import check_int
 from uavsnn.dataset.splits import DOMAIN_KEY, keyed_rng, keyed_seed
 from uavsnn.distributed import SERIAL, Runner
 from uavsnn.errors import ParameterError
@@ -42,8 +46,6 @@ from uavsnn.track_eval import (
 )
 
 if TYPE_CHECKING:
-    import numpy as np
-
     from uavsnn.dataset.synthetic import LabelledRecording
     from uavsnn.grouping import WindowReport
     from uavsnn.identifier import Identifier
@@ -88,7 +90,14 @@ MAX_MINUTES = 600.0
 def uav_free_scenes(seed: int, recordings: int, key: int = FREE_KEY) -> list[tuple[str, int]]:
     """The kind and seed of each UAV-free recording: ``"object"`` 70 %, ``"empty"`` 30 %, as a
     dataset draws its UAV-free scenes, keyed by ``(seed, dvs, key, ...)`` (:data:`FREE_KEY`
-    for measuring, :data:`TUNE_KEY` for setting track alarm thresholds)."""
+    for measuring, :data:`TUNE_KEY` for setting track alarm thresholds).
+
+    Raises:
+        ParameterError: ``seed``, ``recordings`` or ``key`` not an integer >= 0.
+    """
+    seed = check_int("seed", seed, 0)
+    recordings = check_int("recordings", recordings, 0)
+    key = check_int("key", key, 0)
     dkey = DOMAIN_KEY["dvs"]
     kinds = keyed_rng(seed, dkey, key, 0)
     out = []
@@ -167,12 +176,26 @@ def track_alarm_threshold(
     ``minutes`` (``k = 0``) asks that no track of them alarm.
 
     Raises:
-        ParameterError: ``minutes`` or ``rate`` not positive and finite, or a peak not finite.
+        ParameterError: ``minutes`` or ``rate`` not positive and finite, ``peaks`` not a
+            sequence of finite numbers, or ``floor`` not a number below ``inf``.
     """
     for name, value in (("minutes", minutes), ("rate", rate)):
-        if not isinstance(value, (int, float)) or not (0 < value < math.inf):
+        if not _real(value) or not (0 < value < math.inf):
             raise ParameterError(f"{name} must be positive and finite, got {value!r}")
-    values = sorted((float(p) for p in peaks), reverse=True)
+    minutes, rate = float(minutes), float(rate)
+    if not _real(floor) or not floor < math.inf:  # NaN too
+        raise ParameterError(f"floor must be a number below inf (-inf: none), got {floor!r}")
+    floor = float(floor)
+    try:
+        listed = list(peaks)
+    except TypeError as exc:
+        raise ParameterError(
+            f"peaks must be a sequence of numbers, got {type(peaks).__name__}"
+        ) from exc
+    odd = [p for p in listed if not _real(p)]
+    if odd:
+        raise ParameterError(f"peaks must be a sequence of numbers, got one of {odd[0]!r}")
+    values = sorted((float(p) for p in listed), reverse=True)
     if not all(math.isfinite(p) for p in values):
         raise ParameterError("track peaks must be finite")
     # The tolerance keeps a product such as 0.1 × 10 from falling just below its integer.
@@ -180,6 +203,11 @@ def track_alarm_threshold(
     if len(values) <= k:
         return floor
     return max(math.nextafter(values[k], math.inf), floor)
+
+
+def _real(value: Any) -> bool:
+    """Whether ``value`` is a real number (a NumPy one too; a ``bool`` is not)."""
+    return isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_))
 
 
 def stream_reports(
@@ -296,9 +324,10 @@ def scene_batches(minutes: float, seed: int, key: int = FREE_KEY) -> list[list[t
     """
     from uavsnn.dataset.synthetic import default_source
 
-    if not isinstance(minutes, (int, float)) or not 0 < minutes <= MAX_MINUTES:
+    if not _real(minutes) or not 0 < minutes <= MAX_MINUTES:
         raise ParameterError(f"minutes must be in (0, {MAX_MINUTES:g}], got {minutes!r}")
-    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+    minutes = float(minutes)
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise ParameterError(f"seed must be a non-negative integer, got {seed!r}")
     seconds = default_source("dvs").duration_s
     scenes = uav_free_scenes(seed, max(1, round(minutes * 60 / seconds)), key)
@@ -330,7 +359,7 @@ def false_alarm_figures(
         ParameterError: as :func:`scene_batches`.
     """
     rows = _streamed_rows(network, scene_batches(minutes, seed), None, runner)
-    return summarise(rows, alarm_rules(network)) | {"seed": seed}
+    return summarise(rows, alarm_rules(network)) | {"seed": int(seed)}
 
 
 def tune_track_alarms(
@@ -378,7 +407,7 @@ def tune_track_alarms(
         track_alarm_confirm=confirm,
     )
     summary = {
-        "seed": seed,
+        "seed": int(seed),
         "minutes": streamed,
         "recordings": len(rows),
         "confirmed_tracks": len(peaks),
@@ -389,7 +418,8 @@ def tune_track_alarms(
 
 
 def false_alarm_table(figures: dict[str, Any]) -> str:
-    """A Markdown table of :func:`false_alarm_figures`, one row per rule."""
+    """A Markdown table of :func:`false_alarm_figures` (or of :func:`summarise`'s figures,
+    without a seed), one row per rule; ``–`` for a rate per minute of no recording."""
     lines = [
         "| rule | windows alarming | false tracks | per minute (95 % upper bound) | "
         "recordings with one | object kinds behind them |",
@@ -399,12 +429,19 @@ def false_alarm_table(figures: dict[str, Any]) -> str:
         kinds = ", ".join(f"{k} {n}" for k, n in f["false_tracks_per_kind"].items()) or "–"
         lines.append(
             f"| {rule_name(rule)} | {100 * f['window_alarm_share']:.2f} % | {f['false_tracks']} "
-            f"| {f['false_tracks_per_minute']:.2f} ({f['false_tracks_per_minute_upper95']:.2f}) "
+            f"| {_per_minute(f['false_tracks_per_minute'])} "
+            f"({_per_minute(f['false_tracks_per_minute_upper95'])}) "
             f"| {f['recordings_with_a_false_track']} | {kinds} |"
         )
     lines.append("")
+    seed = f" (seed {figures['seed']})" if "seed" in figures else ""
     lines.append(
-        f"{figures['recordings']} UAV-free recordings (seed {figures['seed']}), "
+        f"{figures['recordings']} UAV-free recordings{seed}, "
         f"{figures['minutes']:.2f} minutes, {figures['windows']} windows."
     )
     return "\n".join(lines)
+
+
+def _per_minute(rate: float | None) -> str:
+    """A rate per minute as :func:`false_alarm_table` prints it (``–``: no minutes)."""
+    return "–" if rate is None else f"{rate:.2f}"

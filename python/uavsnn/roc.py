@@ -16,11 +16,13 @@ import math
 import numpy as np
 import numpy.typing as npt
 
-from uavsnn._validate import check_bools, check_real
+from uavsnn._validate import check_bools, check_int, check_real
 from uavsnn.errors import DatasetError, ParameterError, ShapeError
 
 __all__ = [
     "INTERVAL_RESAMPLES",
+    "check_flags",
+    "check_numbers",
     "check_scores",
     "detection_at_false_alarm",
     "recording_interval",
@@ -32,15 +34,39 @@ __all__ = [
 ]
 
 
+def check_flags(name: str, values: npt.ArrayLike) -> np.ndarray:
+    """``values`` as a 1-D boolean array, one flag a window (:func:`uavsnn._validate.check_bools`),
+    an empty list taken as no flags (NumPy reads ``[]`` as float64).
+
+    Raises:
+        ShapeError: not 1-D.
+        ParameterError: not boolean.
+    """
+    array = np.asarray(values)
+    if array.shape == (0,):
+        return np.zeros(0, dtype=bool)
+    return check_bools(name, array)
+
+
+def check_numbers(name: str, values: npt.ArrayLike) -> np.ndarray:
+    """``values`` as float64, or a :class:`~uavsnn.ParameterError` naming ``name`` (strings, a
+    ragged list)."""
+    try:
+        return np.asarray(values, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ParameterError(f"{name} must be numbers ({exc})") from exc
+
+
 def check_scores(scores: npt.ArrayLike, actual: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """``scores`` as float64 and ``actual`` as bool, one of each a window.
 
     Raises:
         ShapeError: not one of each a window.
-        ParameterError: NaN scores (``-inf``, never an alarm, is a score).
+        ParameterError: NaN scores (``-inf``, never an alarm, is a score), scores that are not
+            numbers or ``actual`` not boolean.
     """
-    s = np.asarray(scores, dtype=np.float64)
-    a = check_bools("actual", actual)
+    s = check_numbers("scores", scores)
+    a = check_flags("actual", actual)
     if s.shape != a.shape or s.ndim != 1:
         raise ShapeError(f"scores and actual must be one a window: got {s.shape} and {a.shape}")
     if np.isnan(s).any():
@@ -133,7 +159,12 @@ def recording_interval(
     recording of ``r`` hitting (``(0, 1 - ((1 - level) / 2) ** (1 / r))``; the mirror for all),
     a bound on the share of recordings that hit at all, so on the share of windows. Near such
     shares (a few alarms in a few dozen recordings) the bootstrap covers less than ``level``:
-    read its interval as a lower bound on the uncertainty.
+    read its interval as a lower bound on the uncertainty. Where every resample gives the same
+    share between 0 and 1 (one recording, recordings that each hit in the same share, or with
+    ``strata`` groups of such recordings: every UAV window decided right and every UAV-free
+    one wrong), the bootstrap would again say the share is known exactly: the interval is then
+    Clopper-Pearson's for the hits among the windows taken as independent, which they are not
+    (windows of one recording alarm together), so again a lower bound on the uncertainty.
 
     ``against``: other hits of the same windows (another model's, or another rule's); the
     interval is then that of the difference, ``hit``'s share minus ``against``'s, both on the
@@ -145,20 +176,20 @@ def recording_interval(
 
     Raises:
         ShapeError: the arrays differ in length.
-        ParameterError: ``level`` outside (0, 1) or ``resamples`` < 1.
+        ParameterError: ``hit`` or ``against`` not boolean, ``level`` not a number in (0, 1),
+            ``resamples`` not an integer >= 1 or ``seed`` not one >= 0.
     """
-    h = check_bools("hit", hit)
+    h = check_flags("hit", hit)
     rec = np.asarray(recording)
-    other = None if against is None else check_bools("against", against)
+    other = None if against is None else check_flags("against", against)
     group = np.zeros(h.shape, np.int64) if strata is None else np.asarray(strata)
     if not h.shape == rec.shape == group.shape or (other is not None and other.shape != h.shape):
         theirs = "" if other is None else f", against {other.size}"
         named = "" if strata is None else f", strata {group.size}"
         raise ShapeError(f"hit has {h.size} windows, recording {rec.size}{theirs}{named}")
-    if not 0 < level < 1:
-        raise ParameterError(f"level must be in (0, 1), got {level}")
-    if isinstance(resamples, bool) or not isinstance(resamples, int) or resamples < 1:
-        raise ParameterError(f"resamples must be an integer >= 1, got {resamples!r}")
+    level = _level(level)
+    resamples = check_int("resamples", resamples, 1)
+    seed = check_int("seed", seed, 0)
     if h.size == 0:
         return (math.nan, math.nan)
     if other is None and (not h.any() or h.all()):
@@ -191,8 +222,51 @@ def recording_interval(
             windows += count[pick].sum(axis=1)
             lead += net[pick].sum(axis=1)
         shares.append(lead / windows)
-    lo, hi = np.percentile(np.concatenate(shares), [50 * (1 - level), 50 * (1 + level)])
+    drawn = np.concatenate(shares)
+    if other is None and np.all(drawn == drawn[0]):  # every draw alike, between 0 and 1
+        return _clopper_pearson(int(h.sum()), h.size, level)
+    lo, hi = np.percentile(drawn, [50 * (1 - level), 50 * (1 + level)])
     return (float(lo), float(hi))
+
+
+def _level(level: float) -> float:
+    """An interval's ``level``, a number in (0, 1), as float."""
+    level = check_real("level", level)
+    if not 0 < level < 1:
+        raise ParameterError(f"level must be in (0, 1), got {level}")
+    return level
+
+
+def _clopper_pearson(hits: int, trials: int, level: float) -> tuple[float, float]:
+    """Clopper-Pearson's ``level`` interval of a share of ``hits`` of ``trials`` independent
+    trials, ``0 < hits < trials``: the shares at which ``hits`` or more (or ``hits`` or fewer)
+    have probability ``(1 - level) / 2``, found by bisection."""
+    tail = (1 - level) / 2
+    k = np.arange(trials + 1, dtype=np.float64)
+    # log C(trials, k), summed term by term: the terms underflow for many trials, their logs not.
+    log_choose = np.concatenate([[0.0], np.cumsum(np.log(trials - k[:-1]) - np.log(k[1:]))])
+
+    def chance(share: float, upper: bool) -> float:
+        """P(X >= hits) (``upper``) or P(X <= hits) for X ~ Binomial(trials, share)."""
+        pick = k >= hits if upper else k <= hits
+        terms = (
+            log_choose[pick] + k[pick] * math.log(share) + (trials - k[pick]) * math.log1p(-share)
+        )
+        top = float(terms.max())
+        return math.exp(top) * float(np.exp(terms - top).sum())
+
+    bounds = []
+    for upper in (True, False):
+        lo, hi = 0.0, 1.0
+        for _ in range(100):
+            mid = (lo + hi) / 2
+            # P(X >= hits) grows with the share, P(X <= hits) falls.
+            if (chance(mid, upper) < tail) == upper:
+                lo = mid
+            else:
+                hi = mid
+        bounds.append((lo + hi) / 2)
+    return (bounds[0], bounds[1])
 
 
 def _draw_counts(rng: np.random.Generator, groups: int, draws: int) -> np.ndarray:
@@ -224,13 +298,15 @@ def roc_point_draws(
 
     Raises:
         ShapeError: the arrays differ in length.
-        ParameterError: NaN scores, ``rate`` outside [0, 1] or ``resamples`` < 1.
+        ParameterError: NaN scores (or scores that are not numbers, ``actual`` not boolean),
+            ``rate`` not a number in [0, 1], ``resamples`` not an integer >= 1 or ``seed`` not
+            one >= 0.
         DatasetError: no UAV or no UAV-free window.
     """
-    s = np.asarray(scores, dtype=np.float64)
-    a = check_bools("actual", actual)
+    s = check_numbers("scores", scores)
+    a = check_flags("actual", actual)
     rec = np.asarray(recording)
-    other = None if against is None else np.asarray(against, dtype=np.float64)
+    other = None if against is None else check_numbers("against", against)
     if not s.shape == a.shape == rec.shape or (other is not None and other.shape != s.shape):
         theirs = "" if other is None else f", against {other.size}"
         raise ShapeError(
@@ -238,10 +314,11 @@ def roc_point_draws(
         )
     if np.isnan(s).any() or (other is not None and np.isnan(other).any()):
         raise ParameterError("scores hold NaN")
+    rate = check_real("rate", rate)
     if not 0 <= rate <= 1:
         raise ParameterError(f"rate must be in [0, 1], got {rate}")
-    if isinstance(resamples, bool) or not isinstance(resamples, int) or resamples < 1:
-        raise ParameterError(f"resamples must be an integer >= 1, got {resamples!r}")
+    resamples = check_int("resamples", resamples, 1)
+    seed = check_int("seed", seed, 0)
     if a.all() or not a.any():
         raise DatasetError("a point on the ROC needs UAV and UAV-free windows")
     # Each window's recording, numbered among the UAV-free (and the UAV) windows' recordings.
@@ -293,17 +370,16 @@ def roc_point_interval(
 
     Raises:
         ShapeError: the arrays differ in length.
-        ParameterError: ``rate`` outside [0, 1], ``level`` outside (0, 1) or ``resamples`` < 1.
+        ParameterError: as :func:`roc_point_draws`; ``level`` not a number in (0, 1).
         DatasetError: no UAV or no UAV-free window.
     """
-    if not 0 < level < 1:
-        raise ParameterError(f"level must be in (0, 1), got {level}")
+    level = _level(level)
     shares = roc_point_draws(
         scores, actual, recording, rate, against=against, resamples=resamples, seed=seed
     )
     if against is None and np.all(shares == shares[0]) and shares[0] in (0.0, 1.0):
-        s = np.asarray(scores, dtype=np.float64)
-        a = check_bools("actual", actual)
+        s = check_numbers("scores", scores)
+        a = check_flags("actual", actual)
         at_own = s[a] >= threshold_at_false_alarm(s, a, rate)
         return recording_interval(at_own, np.asarray(recording)[a], level=level, seed=seed)
     lo, hi = np.percentile(shares, [50 * (1 - level), 50 * (1 + level)])

@@ -43,7 +43,9 @@ from typing import TYPE_CHECKING, Any, TypeGuard
 
 import numpy as np
 
+from uavsnn._validate import check_real
 from uavsnn.errors import ParameterError, ShapeError
+from uavsnn.roc import check_flags
 
 if TYPE_CHECKING:
     from uavsnn.dataset import LabelledWindows
@@ -193,9 +195,15 @@ def confirm_flags(
 def poisson_upper(count: int, confidence: float = 0.95) -> float:
     """The one-sided upper confidence bound on a Poisson mean after observing ``count``
     events: the mean at which ``count`` or fewer events have probability ``1 - confidence``
-    (for 0 events at 95 %: 2.996, the "rule of three")."""
+    (for 0 events at 95 %: 2.996, the "rule of three").
+
+    Raises:
+        ParameterError: ``count`` not an integer >= 0 or ``confidence`` not a number in
+            (0, 1).
+    """
     if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 0:
         raise ParameterError(f"count must be an integer >= 0, got {count!r}")
+    confidence = check_real("confidence", confidence)
     if not 0.0 < confidence < 1.0:
         raise ParameterError(f"confidence must be in (0, 1), got {confidence}")
     alpha = 1.0 - confidence
@@ -269,12 +277,16 @@ def decision_figures(
     ``classes``: ``recordings`` and ``decided_uav``).
 
     Raises:
-        ShapeError: sequences of different lengths.
+        ShapeError: sequences of different lengths (or not 1-D).
+        ParameterError: ``uav`` or ``alarmed`` not boolean.
     """
-    if not len(uav) == len(alarmed) == len(classes):
+    truth = check_flags("uav", uav)
+    said = check_flags("alarmed", alarmed)
+    names = np.asarray(classes)
+    if names.ndim != 1:
+        raise ShapeError(f"classes must be 1-D, got shape {names.shape}")
+    if not len(truth) == len(said) == len(names):
         raise ShapeError("uav, alarmed and classes must have one entry per recording")
-    truth = np.asarray(uav, dtype=bool)
-    said = np.asarray(alarmed, dtype=bool)
     shares = []
     if truth.any():
         shares.append(float(said[truth].mean()))
@@ -632,8 +644,12 @@ def _fmt(value: float | None, digits: int = 0) -> str:
 def ms_text(value: float | None) -> str:
     """A delay in ms as the reports print it: to a tenth, without a trailing ``.0`` (a median
     of two 25 ms steps, 137.5, stays 137.5 instead of rounding to the even 138, as 612.5 would
-    to 612); ``–`` for none."""
-    return _fmt(value, 1).removesuffix(".0")
+    to 612); ``–`` for none.
+
+    Raises:
+        ParameterError: ``value`` neither ``None`` nor a finite number.
+    """
+    return _fmt(None if value is None else check_real("value", value), 1).removesuffix(".0")
 
 
 def _decided(d: dict[str, Any], recordings: int) -> str:
