@@ -4,7 +4,10 @@ format; and a CSV file's check before faery reads it (:func:`check_file`, the la
 told) and, when faery skipped a line, which line and why (:func:`bad_line`).
 
 Both read a line whose first character that is not white space is ``#`` as a comment, skipped
-wherever it is; the header, if any, is the first line that is neither blank nor a comment. With
+wherever it is; the header, if any, is the first line that is neither blank nor a comment and
+does not start with a number. A header names its columns (each field a name, or empty: see
+:func:`columns`); a first line that is neither an event line nor a header (numbers separated by
+tabs or semicolons, quoted numbers, a ``nan`` time) is refused, not dropped as a header. With
 no header, a comment before the first event that names all four columns once each
 (``# t,x,y,p``, as ``np.savetxt`` writes a header; ``# x,y,t,p``) names them. A UTF-8
 byte-order mark at the start is dropped. faery ends lines only at ``\n``: a file with a
@@ -60,12 +63,20 @@ def columns(header: bytes) -> dict[str, int]:
     else :data:`DEFAULT_COLUMNS`, when every field it names is where the default order has it
     (a header naming none of them, or ``time,x,y,brightness``).
 
+    A header names its columns: each of its fields, quotes and spaces around dropped, is empty
+    or a name (it holds a letter and is not a number: ``nan``, ``inf`` and ``1e5`` are not
+    names). A first line that is not an event line and not a header (numbers separated by
+    tabs or semicolons, quoted numbers, a ``nan`` time) is refused, so that no event is taken
+    for a header and dropped.
+
     Raises:
-        RecordingFileError: the header names a field in another column than the default order
-            gives it without naming all four once each: read in the default order, its events
-            would be wrong. The message quotes the header, not its file or line;
-            :class:`~uavsnn.sources.StdinSource` raises it as a ``StreamError``.
+        RecordingFileError: a field of the line is not a name; or the header names a field in
+            another column than the default order gives it without naming all four once each:
+            read in the default order, its events would be wrong. The message quotes the
+            header, not its file or line; :class:`~uavsnn.sources.StdinSource` raises it as a
+            ``StreamError``.
     """
+    _check_names(header)
     names, found = _names(header)
     if all(len(at) == 1 for at in found.values()):
         return {field: at[0] for field, at in found.items()}
@@ -73,9 +84,7 @@ def columns(header: bytes) -> dict[str, int]:
         (i, field) for field, at in found.items() for i in at if i != DEFAULT_COLUMNS[field]
     )
     if moved:
-        text = header.strip().decode("latin-1")
-        if len(text) > _QUOTED:
-            text = text[: _QUOTED - 3] + "..."
+        text = _quoted(header)
         said = [
             f"{field} as column {i + 1}" + ("" if names[i] == field else f" ({names[i]!r})")
             for i, field in moved
@@ -88,6 +97,28 @@ def columns(header: bytes) -> dict[str, int]:
             "the columns as t,x,y,p"
         )
     return dict(DEFAULT_COLUMNS)
+
+
+def _check_names(header: bytes) -> None:
+    """Refuse a header line with a field that is not a column name (:func:`columns`)."""
+    fields = [field.strip().strip(b"\"'").strip() for field in header.split(b",")]
+    for i, field in enumerate(fields):
+        if field and not (_LETTER.search(field) and not _NUMBER_WORD.fullmatch(field)):
+            text = _quoted(header)
+            what = field.decode("latin-1")
+            if len(what) > 40:
+                what = what[:37] + "..."
+            raise RecordingFileError(
+                f"{text!r} is neither an event line t,x,y,p (integers separated by commas, "
+                f"unquoted) nor a header naming its columns: its field {i + 1} ({what!r}) is "
+                "not a column name"
+            )
+
+
+def _quoted(header: bytes) -> str:
+    """A header line for a message, cut to :data:`_QUOTED` characters."""
+    text = header.strip().decode("latin-1")
+    return text if len(text) <= _QUOTED else text[: _QUOTED - 3] + "..."
 
 
 def _names(header: bytes) -> tuple[list[str], dict[str, list[int]]]:
@@ -132,6 +163,12 @@ _CSV_MAX_DIGITS = 20
 
 # A number that is not a plain integer (a first CSV field like this is a time, not a header).
 _NUMBER = re.compile(rb"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?")
+# A letter (non-ASCII bytes, UTF-8 letters, count as one): a header's column names hold one.
+_LETTER = re.compile(rb"[A-Za-z\x80-\xff]")
+# A field with letters that is a number all the same: not a column name.
+_NUMBER_WORD = re.compile(
+    rb"[+-]?((\d+\.?\d*|\.\d+)([eE][+-]?\d+)?|nan|inf|infinity)", re.IGNORECASE
+)
 #: A UTF-8 byte-order mark, dropped from the start of a recording.
 BOM = b"\xef\xbb\xbf"
 # A carriage return that does not end a line with the newline after it: faery, which splits
@@ -228,7 +265,8 @@ def check_file(file: Path) -> CsvLayout:
     whether its OFF events are ``0`` or ``-1``; the event of its first line when faery cannot
     read it (a data line behind a UTF-8 byte-order mark, which faery would take as part of the
     time; faery is then told to skip it as a header); and how many events faery is to read.
-    Refuse a first line whose time is a number but not an integer (it is not a header), times
+    Refuse a first line whose time is a number but not an integer (it is not a header), one
+    that is neither an event line nor a header naming its columns (:func:`columns`), times
     beyond the engine's 2^62 µs, times that go backwards (faery would clamp them to the time
     before, silently), and OFF events written both as ``0`` and ``-1``, naming the line.
 

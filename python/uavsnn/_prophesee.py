@@ -72,6 +72,12 @@ def raw_header(file: Path, kind: str, size: int) -> dict[str, str]:
         if size - pos < 2:
             raise RecordingFileError(f"{file}: truncated after its header")
         record = head[pos + 1] if pos + 1 < len(head) else 0
+        if record and record != _DAT_RECORD:
+            # faery reads 8-byte records only: another size is a corrupt header, or no DAT.
+            raise RecordingFileError(
+                f"{file}: not a DAT recording, or its header is corrupt: it gives records of "
+                f"{record} bytes, DAT's are {_DAT_RECORD}"
+            )
         data = size - pos - 2
         if record and data % record:
             raise RecordingFileError(
@@ -85,6 +91,7 @@ def raw_header(file: Path, kind: str, size: int) -> dict[str, str]:
 # a time more than 2^31 µs earlier than the one before as the 32-bit time rolling over, and
 # clamps any other earlier time to the one before, silently.
 _DAT_ROLLOVER = 1 << 31
+_DAT_RECORD = 8
 _DAT_CHUNK_RECORDS = 1 << 20
 
 

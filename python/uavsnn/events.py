@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 
 from uavsnn import _core
-from uavsnn._validate import check_sensor_size
+from uavsnn._validate import MAX_TIME_US, check_sensor_size
 from uavsnn.errors import EventError, ParameterError
 
 __all__ = ["EVENT_DTYPE", "LAYOUTS", "Recording", "convert", "packed_bytes"]
@@ -78,8 +78,9 @@ def packed_bytes(events: np.ndarray) -> np.ndarray:
 class Recording:
     """Events sorted by time, the sensor size ``(width, height)``, and free-form metadata.
 
-    Building one validates every event: a wrong dtype, an event outside the sensor or a time
-    going backwards raises :class:`~uavsnn.EventError` naming the event. ``metadata`` must be a
+    Building one validates every event: a wrong dtype, an event outside the sensor, a time
+    going backwards or a time past the engine's latest, 2^62 µs, raises
+    :class:`~uavsnn.EventError` naming the event. ``metadata`` must be a
     mapping (it is kept as a new ``dict`` of its items); anything else, ``None`` included, is a
     :class:`~uavsnn.ParameterError`.
     """
@@ -96,6 +97,13 @@ class Recording:
         size = check_sensor_size(self.sensor_size)
         buf = packed_bytes(self.events)
         _core.validate_events(buf, size[0], size[1])
+        t = self.events["t"]
+        if len(t) and t[-1] > MAX_TIME_US:  # in time order: the last is the latest
+            i = int(np.searchsorted(t, np.uint64(MAX_TIME_US), side="right"))
+            raise EventError(
+                f"event {i}: t={int(t[i])} is beyond the latest time the engine takes "
+                f"(2^62 = {MAX_TIME_US} µs)"
+            )
         object.__setattr__(self, "sensor_size", size)
         object.__setattr__(self, "metadata", dict(self.metadata))
 
@@ -205,9 +213,10 @@ def convert(
     Raises:
         EventError: unknown fields, float or negative times and coordinates, polarity other
             than bool/0/1/±1, or an event off the sensor, naming the first bad event.
-        ParameterError: an unknown layout or a bad ``sensor_size``.
+        ParameterError: an unknown layout (or one that is not a string) or a bad
+            ``sensor_size``.
     """
-    if layout != "auto" and layout not in LAYOUTS:
+    if not isinstance(layout, str) or (layout != "auto" and layout not in LAYOUTS):
         raise ParameterError(
             f"unknown layout {layout!r}; expected 'auto' or one of {list(LAYOUTS)}"
         )

@@ -27,17 +27,19 @@ file whose header names the camera generation (Prophesee Gen3 files carry no geo
 
 A CSV file may start with a header line or not (faery would take the first line as a header
 always; a UTF-8 byte-order mark is skipped, and a first line that starts with a number is not a
-header); blank lines (or white space only) and comment lines (starting with ``#``) are
-skipped, wherever they are, the header being the first line that is neither (without one, a
-comment before the first event naming all four columns, ``# t,x,y,p`` as ``np.savetxt``
-writes it, names them); lines end in ``\n`` or ``\r\n`` (a carriage return alone is refused,
-naming its line). Its columns are
-``t,x,y,p`` in that order, unless the header names all four in another (``t``/``ts``/``time``/
-``timestamp``, ``x``, ``y``, ``p``/``pol``/``polarity``/``on``, any case, ``_us`` allowed on the
-time); OFF events are ``0`` or ``-1`` (ON ``1``), one or the other throughout. Its times must
-be integers up to the engine's 2^62 µs and must not go backwards (faery would clamp them): such
-a file is refused, naming the line, as is a line faery cannot read as an event (a field missing
-or not a number, another polarity, an event off the sensor).
+header); a header names its columns in words (``t,x,y,p``, ``foo,bar``): a first line that is
+neither an event line nor such a header (numbers separated by tabs or semicolons, quoted
+numbers, a ``nan`` time) is refused, naming its line, rather than dropped as a header; blank
+lines (or white space only) and comment lines (starting with ``#``) are skipped, wherever they
+are, the header being the first line that is neither (without one, a comment before the first
+event naming all four columns, ``# t,x,y,p`` as ``np.savetxt`` writes it, names them); lines
+end in ``\n`` or ``\r\n`` (a carriage return alone is refused, naming its line). Its columns
+are ``t,x,y,p`` in that order, unless the header names all four in another (``t``/``ts``/
+``time``/``timestamp``, ``x``, ``y``, ``p``/``pol``/``polarity``/``on``, any case, ``_us``
+allowed on the time); OFF events are ``0`` or ``-1`` (ON ``1``), one or the other throughout.
+Its times must be integers up to the engine's 2^62 µs and must not go backwards (faery would
+clamp them): such a file is refused, naming the line, as is a line faery cannot read as an
+event (a field missing or not a number, another polarity, an event off the sensor).
 
 Every failure to read is a :class:`~uavsnn.RecordingFileError` naming the file: missing,
 unreadable, empty, of an unknown extension, truncated (RAW and DAT: a data section that is not

@@ -298,21 +298,37 @@ def measure_box(
 
     ``events``: canonical events in time order, one array or the chunks of one stream in
     order (fed as they are, not concatenated). Nothing needs selecting first: the estimator
-    ignores the events outside the box. ``params`` as :class:`RotorSignature`'s.
+    ignores the events outside the box. Events inside it earlier than one before them are not
+    refused: as a stream's late events, the estimator leaves them out of the estimate and
+    counts them (so an array in reverse order measures no rotor; :func:`rotor_signature`,
+    given one array, refuses it). ``params`` as :class:`RotorSignature`'s.
 
     Raises:
         EventError: an array not of the canonical dtype.
-        ParameterError: as :class:`RotorSignature` and :meth:`RotorSignature.count_rate`.
+        ParameterError: as :class:`RotorSignature` and :meth:`RotorSignature.count_rate`, or
+            a ``rate`` that is not three numbers ``(start_us, bin_us, bins)``.
     """
     _known(params, DEFAULTS, "rotor signature")
     estimator = RotorSignature(box, **params)
     if rate is not None:
-        estimator.count_rate(*rate)
+        estimator.count_rate(*_rate(rate))
     for part in (events,) if isinstance(events, np.ndarray) else events:
         estimator.update(part)
     stats = estimator.stats  # the engine counts the box's events as it goes
     n = stats["events"] + stats["late"]
     return BoxMeasure(estimator.estimate(), n, stats["on"], estimator.rate_swing)
+
+
+def _rate(rate: Any) -> tuple[Any, Any, Any]:
+    """``rate`` as its three values ``(start_us, bin_us, bins)`` (each checked by
+    :meth:`RotorSignature.count_rate`)."""
+    try:
+        values = () if isinstance(rate, str | bytes) else tuple(rate)
+    except TypeError:
+        values = ()
+    if len(values) != 3:
+        raise ParameterError(f"rate must be (start_us, bin_us, bins), got {rate!r}")
+    return values[0], values[1], values[2]
 
 
 class BoxMeasure(NamedTuple):

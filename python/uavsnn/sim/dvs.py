@@ -36,6 +36,7 @@ import numpy as np
 
 from uavsnn import _core
 from uavsnn._state import EngineState
+from uavsnn._validate import MAX_TIME_US
 from uavsnn.errors import ParameterError, SimulationError
 from uavsnn.events import EVENT_DTYPE
 from uavsnn.sim.checks import check_real, check_seed, check_size
@@ -165,10 +166,15 @@ SCENE_PARAMS = DvsParams(cutoff_hz=3000.0, cutoff_dark_luma=0.5)
 
 
 def check_int_time(t_us: Any) -> int:
-    """A frame time in microseconds, ``[0, 2**64)``."""
+    """A frame time in microseconds, ``[0, 2^62]`` (the engine's latest time)."""
     if isinstance(t_us, bool) or not isinstance(t_us, (int, np.integer)) or not 0 <= t_us < 2**64:
         raise SimulationError(
             f"a frame time must be an integer number of microseconds, got {t_us!r}"
+        )
+    if t_us > MAX_TIME_US:
+        raise SimulationError(
+            f"a frame time of {int(t_us)} µs is beyond the latest time the engine takes "
+            f"(2^62 = {MAX_TIME_US} µs)"
         )
     return int(t_us)
 
@@ -252,9 +258,9 @@ class DvsEmulator(EngineState):
 
         Raises:
             SimulationError: a frame that is not real intensities or of the wrong size, a time
-                not after the previous frame's, patches that are not four-element tuples, off
-                the sensor, overlapping, with times that are not whole microseconds >= 0 or
-                not strictly between the frames, or with bad values.
+                not after the previous frame's or past 2^62 µs, patches that are not
+                four-element tuples, off the sensor, overlapping, with times that are not whole
+                microseconds >= 0 or not strictly between the frames, or with bad values.
         """
         img = _intensities("a frame", frame)
         if img.shape != (self.sensor_size[1], self.sensor_size[0]):
@@ -345,7 +351,7 @@ def emulate_dvs(
         frames: ``(n, h, w)`` gray or ``(n, h, w, 3)`` BGR, ``uint8`` or float on the 0–255
             scale, or a sequence of such frames (all of one size). Render them at a high frame
             rate: motion between two frames is taken as linear in log intensity.
-        timestamps_us: ``n`` strictly increasing times in microseconds.
+        timestamps_us: ``n`` strictly increasing times in microseconds, at most 2^62.
         params: sensor parameters (defaults: :class:`DvsParams`; :meth:`DvsParams.ideal` for a
             noiseless sensor).
         seed: draws thresholds, leak rates, hot pixels and noise; same seed, same events.
@@ -354,8 +360,9 @@ def emulate_dvs(
         Events of ``uavsnn.EVENT_DTYPE``, sorted by time; ties keep pixel order.
 
     Raises:
-        SimulationError: no frames, frames of mixed sizes or bad shape, non-finite or negative
-            intensities, timestamps that are not one per frame and strictly increasing.
+        SimulationError: no frames, frames of mixed sizes or bad shape, a dtype other than
+            ``uint8`` and float, non-finite or negative intensities, timestamps that are not
+            one per frame and strictly increasing, or past 2^62 µs.
         ParameterError: impossible parameters or seed.
     """
     batch = as_frame_batch(frames)

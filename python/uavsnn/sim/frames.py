@@ -3,8 +3,10 @@
 Frames may be an array ``(n, h, w)`` of gray or ``(n, h, w, 3)`` of BGR (OpenCV's channel
 order), or a sequence of such frames. ``uint8`` passes to the engine untouched (no copy, strided
 views included); every other real dtype becomes ``float32`` on the same 0–255 scale, BGR being
-turned into BT.601 luma first. Timestamps are integer microseconds, one per frame, strictly
-increasing.
+turned into BT.601 luma first (integer frames with a value above 255, a 16-bit sensor's, are
+refused rather than taken as brighter).
+Timestamps are integer microseconds, one per frame, strictly increasing, at most 2^62 µs (the
+engine's latest time).
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ from typing import Any, Literal
 
 import numpy as np
 
+from uavsnn._validate import MAX_TIME_US
 from uavsnn.errors import SimulationError
 from uavsnn.events import EVENT_DTYPE
 
@@ -58,8 +61,8 @@ def as_frame_batch(frames: Any) -> FrameBatch:
     """Check ``frames`` and return them as a :class:`FrameBatch`.
 
     Raises :class:`~uavsnn.SimulationError` for no frames, frames of mixed sizes, a shape that
-    is neither ``(n, h, w)`` nor ``(n, h, w, 3)``, a non-numeric dtype, or non-finite or negative
-    intensities.
+    is neither ``(n, h, w)`` nor ``(n, h, w, 3)``, a non-numeric dtype, integer intensities above
+    255, or non-finite or negative intensities.
     """
     if isinstance(frames, np.ndarray):
         array = frames
@@ -86,6 +89,15 @@ def as_frame_batch(frames: Any) -> FrameBatch:
         raise SimulationError(f"frames must be numeric intensities, got dtype {array.dtype}")
     if np.issubdtype(array.dtype, np.complexfloating):
         raise SimulationError(f"frames must be real intensities, got dtype {array.dtype}")
+    if array.dtype != np.uint8 and np.issubdtype(array.dtype, np.integer) and array.size:
+        # Integer frames are taken on the 0-255 scale as they are: a 16-bit sensor's values
+        # above it would be taken as that much brighter, so they are refused, not guessed at.
+        top = int(array.max())
+        if top > 255:
+            raise SimulationError(
+                f"frames of dtype {array.dtype} must be on the 0-255 scale, got a value of "
+                f"{top}: scale 16-bit frames to it first (frames / 257.0)"
+            )
     gray = array.astype(np.float32) @ BT601_BGR if array.ndim == 4 else array
     gray = np.ascontiguousarray(gray, dtype=np.float32)
     bad = ~np.isfinite(gray) | (gray < 0)
@@ -99,8 +111,8 @@ def as_frame_batch(frames: Any) -> FrameBatch:
 
 
 def as_timestamps(timestamps_us: Any, n: int) -> np.ndarray:
-    """Check timestamps (µs, one per frame, strictly increasing, >= 0) and return them as
-    ``uint64``. Raises :class:`~uavsnn.SimulationError` naming the first bad one."""
+    """Check timestamps (µs, one per frame, strictly increasing, in ``[0, 2^62]``) and return
+    them as ``uint64``. Raises :class:`~uavsnn.SimulationError` naming the first bad one."""
     t = np.asarray(timestamps_us)
     if t.ndim != 1 or t.shape[0] != n:
         raise SimulationError(f"expected {n} timestamps (one per frame), got shape {t.shape}")
@@ -123,8 +135,8 @@ def as_timestamps(timestamps_us: Any, n: int) -> np.ndarray:
 
 def whole_microseconds(t: np.ndarray, label: Callable[[int], str]) -> np.ndarray:
     """A 1-D array of real numbers ``t`` as ``uint64``, if each is a whole number of
-    microseconds in ``[0, 2^64)``; else :class:`~uavsnn.SimulationError` naming the first bad
-    one by ``label(i)``."""
+    microseconds in ``[0, 2^62]`` (the engine's latest time, ``MAX_TIME_US``); else
+    :class:`~uavsnn.SimulationError` naming the first bad one by ``label(i)``."""
     floating = np.issubdtype(t.dtype, np.floating)
     if floating:
         bad = ~np.isfinite(t) | (t != np.round(t))
@@ -138,7 +150,14 @@ def whole_microseconds(t: np.ndarray, label: Callable[[int], str]) -> np.ndarray
     ):
         if bad.any():
             raise SimulationError(f"{label(int(np.argmax(bad)))} {what}")
-    return t.astype(np.uint64)
+    out = t.astype(np.uint64)
+    late = out > np.uint64(MAX_TIME_US)
+    if late.any():
+        raise SimulationError(
+            f"{label(int(np.argmax(late)))} is beyond the latest time the engine takes "
+            f"(2^62 = {MAX_TIME_US} microseconds)"
+        )
+    return out
 
 
 def push_frames(

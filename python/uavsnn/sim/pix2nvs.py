@@ -216,7 +216,7 @@ def pix2nvs(
     Args:
         frames: ``(n, h, w)`` gray or ``(n, h, w, 3)`` BGR, ``uint8`` or float on the 0–255
             scale, or a sequence of such frames (all of one size).
-        timestamps_us: ``n`` strictly increasing times in microseconds.
+        timestamps_us: ``n`` strictly increasing times in microseconds, at most 2^62.
         params: model parameters (defaults: PIX2NVS's own).
         seed: accepted for a signature shared with :func:`~uavsnn.sim.emulate_dvs`; PIX2NVS is
             deterministic and does not use it.
@@ -225,8 +225,9 @@ def pix2nvs(
         Events of ``uavsnn.EVENT_DTYPE``; the first frame makes none.
 
     Raises:
-        SimulationError: no frames, frames of mixed sizes or bad shape, non-finite or negative
-            intensities, timestamps that are not one per frame and strictly increasing.
+        SimulationError: no frames, frames of mixed sizes or bad shape, a dtype other than
+            ``uint8`` and float, non-finite or negative intensities, timestamps that are not
+            one per frame and strictly increasing, or past 2^62 µs.
         ParameterError: impossible parameters or seed.
     """
     check_seed(seed)

@@ -27,6 +27,7 @@ from typing import Any, Literal
 import cv2
 import numpy as np
 
+from uavsnn._validate import check_path
 from uavsnn.errors import ParameterError, SimulationError
 from uavsnn.events import EVENT_DTYPE, Recording
 from uavsnn.sim.checks import check_choice, check_int, check_real, check_seed, check_size
@@ -80,7 +81,7 @@ class VideoInfo:
 
 
 def _open(path: str | Path) -> cv2.VideoCapture:
-    p = Path(path)
+    p = Path(check_path(path))
     if not p.exists():
         raise SimulationError(f"video {str(p)!r} does not exist")
     if not p.is_file():
@@ -109,6 +110,28 @@ def _fps(cap: cv2.VideoCapture, fps: float | None, path: str | Path) -> float:
             "(fps=, uavsnn simulate --fps)"
         )
     return reported
+
+
+def _memory_limit() -> int | None:
+    """``uavsnn.windows.MEMORY_LIMIT``, read when it is needed (a test may change it)."""
+    from uavsnn import windows
+
+    return windows.MEMORY_LIMIT
+
+
+def _check_frame_memory(target: tuple[int, int], color: str) -> None:
+    """Refuse, before any frame is read, frames resized to ``target`` whose bytes (the
+    resized BGR frame, and for ``"gray"`` its gray copy) exceed
+    ``uavsnn.windows.MEMORY_LIMIT``."""
+    limit = _memory_limit()
+    width, height = target
+    need = width * height * (4 if color == "gray" else 3)
+    if limit is not None and need > limit:
+        raise ParameterError(
+            f"size={width}x{height}: a frame resized to it takes {need / 2**30:.2f} GiB (BGR"
+            f"{' and gray' if color == 'gray' else ''}), more than the {limit / 2**30:.2f} "
+            "GiB allowed (uavsnn.windows.MEMORY_LIMIT): give a smaller size"
+        )
 
 
 def probe_video(path: str | Path) -> VideoInfo:
@@ -151,10 +174,15 @@ def iter_video(
     Raises:
         SimulationError: a missing, unreadable or empty video, no usable frame rate, frames
             that change size when ``size`` is ``None``.
+        ParameterError: a bad parameter, a ``path`` that is not a ``str`` or
+            ``os.PathLike[str]``, or frames resized to ``size`` that would not fit in
+            ``uavsnn.windows.MEMORY_LIMIT`` (refused before a frame is read).
     """
     check_choice("color", color, ("gray", "bgr"))
     target = None if size is None else check_size(size)
     limit = None if max_frames is None else check_int("max_frames", max_frames, low=1, high=2**62)
+    if target is not None and resize:
+        _check_frame_memory(target, color)
     cap = _open(path)
     try:
         rate = _fps(cap, fps, path)
@@ -245,10 +273,27 @@ def read_video(
     ratio of ``size`` and resized to it (see :func:`iter_video`); ``timestamps_us`` is
     ``(n,)`` ``uint64``. For long or large videos prefer :func:`iter_video` or
     :func:`video_to_recording`, which stream.
+
+    Raises:
+        SimulationError: as :func:`iter_video`.
+        ParameterError: as :func:`iter_video`, or frames that would not fit in
+            ``uavsnn.windows.MEMORY_LIMIT`` all together (twice: as read, then stacked),
+            refused before the frame that would pass it is kept.
     """
     frames: list[np.ndarray] = []
     times: list[int] = []
+    limit = _memory_limit()
+    held = 0
     for frame, t in iter_video(path, size=size, max_frames=max_frames, color=color, fps=fps):
+        held += frame.nbytes
+        if limit is not None and 2 * held > limit:
+            raise ParameterError(
+                f"read_video holds every frame: {len(frames) + 1} frames of "
+                f"{frame.shape[1]}x{frame.shape[0]} would take {2 * held / 2**30:.2f} GiB (read, "
+                f"then stacked), more than the {limit / 2**30:.2f} GiB allowed "
+                "(uavsnn.windows.MEMORY_LIMIT): give fewer max_frames or a smaller size, or "
+                "stream the video (iter_video, video_to_recording)"
+            )
         frames.append(frame)
         times.append(t)
     return np.stack(frames), np.asarray(times, dtype=np.uint64)
@@ -286,6 +331,11 @@ def video_to_recording(
 
     The metadata holds the source, mode, seed, parameters, frame rate, frame count and
     down-sampling.
+
+    Raises:
+        ParameterError: a bad parameter, or a ``path`` that is not a ``str`` or
+            ``os.PathLike[str]``.
+        SimulationError: as :func:`iter_video`, or frames the simulator cannot take.
     """
     check_choice("mode", mode, ("sim", "dvs"))
     sensor = check_size(size)
