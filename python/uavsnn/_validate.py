@@ -132,10 +132,23 @@ def listed(parts: Any, what: str) -> list[Any]:
 
 def check_bools(name: str, values: Any) -> np.ndarray:
     """``values`` as a 1-D boolean array (one flag a window), refused otherwise: a
-    :class:`~uavsnn.ShapeError` for another shape, a ParameterError for another dtype."""
+    :class:`~uavsnn.ShapeError` for another shape, a ParameterError for another dtype (strings,
+    NaN or numbers are not read as flags). An empty list is no flags (NumPy reads ``[]`` as
+    float64)."""
     array = np.asarray(values)
     if array.ndim != 1:
         raise ShapeError(f"{name} must be 1-D, got shape {array.shape}")
+    if array.size == 0:
+        return np.zeros(0, dtype=np.bool_)
     if array.dtype != np.bool_:
         raise ParameterError(f"{name} must be boolean, got dtype {array.dtype}")
     return array
+
+
+def check_numbers(name: str, values: Any) -> np.ndarray:
+    """``values`` as a float64 array, or a ParameterError naming ``name`` (strings, a ragged
+    list)."""
+    try:
+        return np.asarray(values, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ParameterError(f"{name} must be numbers ({exc})") from exc

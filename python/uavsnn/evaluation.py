@@ -35,15 +35,13 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from uavsnn._validate import check_int, check_real
+from uavsnn._validate import check_bools, check_int, check_numbers, check_real
 from uavsnn.dataset import LabelledWindows
 from uavsnn.errors import DatasetError, ParameterError, ShapeError
 from uavsnn.network import Inference, Network
 
 # The operating points and their intervals live in uavsnn.roc; their names stay here too.
 from uavsnn.roc import (
-    check_flags,
-    check_numbers,
     detection_at_false_alarm,
     recording_interval,
     roc_area,
@@ -94,8 +92,8 @@ def confusion_matrix(predicted: npt.ArrayLike, actual: npt.ArrayLike) -> np.ndar
         ShapeError: the flags are not 1-D or differ in length.
         ParameterError: flags that are not boolean (an empty list is no flags).
     """
-    p = check_flags("predicted", predicted)
-    a = check_flags("actual", actual)
+    p = check_bools("predicted", predicted)
+    a = check_bools("actual", actual)
     if p.shape != a.shape:
         raise ShapeError(f"predicted has {p.size} windows, actual {a.size}")
     return np.array(
@@ -140,8 +138,8 @@ def accuracy_lead(
     Raises:
         ShapeError: the flags and ``data`` differ in length.
         ParameterError: flags that are not boolean."""
-    mine = check_flags("right", right)
-    theirs = check_flags("their_right", their_right)
+    mine = check_bools("right", right)
+    theirs = check_bools("their_right", their_right)
     interval = recording_interval(mine, data.recording, against=theirs, strata=data.label)
     lead = float(mine.mean() - theirs.mean()) if mine.size else float("nan")
     return {"lead": lead, "interval": list(interval)}
@@ -575,7 +573,7 @@ def identification_figures(
         ParameterError: ``detected`` not boolean, ``scores`` not finite numbers, ``threshold``
             not a finite number, ``alarm_thresholds`` not pairs of a false-alarm share in
             [0, 1] and a finite threshold, or ``roc_points`` not an integer >= 2."""
-    fired = check_flags("detected", detected)
+    fired = check_bools("detected", detected)
     s = check_numbers("scores", scores)
     actual = np.asarray(data.label, dtype=bool)
     if fired.shape != actual.shape or s.shape != actual.shape:

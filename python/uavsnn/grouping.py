@@ -108,11 +108,30 @@ def merge_boxes(detections: np.ndarray) -> tuple[WindowObject, ...]:
     repeatedly, until no two boxes overlap or touch. Each object counts the spikes whose boxes
     it absorbed. Objects come largest spike count first, then by ``x0, y0``. The result does
     not depend on the order of ``detections``.
+
+    Raises:
+        ParameterError: ``detections`` that are not a 1-D structured array with the fields
+            ``x0``, ``y0``, ``x1`` and ``y1`` (as a detector returns them).
     """
-    if len(detections) == 0:
-        return ()
+    try:
+        if len(detections) == 0:
+            return ()
+    except TypeError:  # no length: refused below
+        pass
+    names = getattr(getattr(detections, "dtype", None), "names", None) or ()
+    missing = [f for f in _BOX_FIELDS if f not in names]
+    if not isinstance(detections, np.ndarray) or detections.ndim != 1 or missing:
+        got = (
+            f"an array of {detections.dtype} {detections.shape}"
+            if isinstance(detections, np.ndarray)
+            else type(detections).__name__
+        )
+        raise ParameterError(
+            f"detections must be a 1-D structured array with the fields {list(_BOX_FIELDS)} "
+            f"(as a detector returns them), got {got}"
+        )
     # The distinct boxes in ascending (x0, y0, x1, y1) order, each with its spike count.
-    tally = Counter(zip(*(detections[f].tolist() for f in ("x0", "y0", "x1", "y1")), strict=True))
+    tally = Counter(zip(*(detections[f].tolist() for f in _BOX_FIELDS), strict=True))
     boxes = sorted(tally)
     counts = [tally[b] for b in boxes]
     if len(boxes) > _MERGE_IN_NUMPY_FROM:
@@ -122,6 +141,9 @@ def merge_boxes(detections: np.ndarray) -> tuple[WindowObject, ...]:
     merged.sort(key=lambda bc: (-bc[1], bc[0][0], bc[0][1]))
     return tuple(WindowObject(box=box, spikes=n) for box, n in merged)
 
+
+#: The fields of a detection's causal box, which :func:`merge_boxes` reads.
+_BOX_FIELDS = ("x0", "y0", "x1", "y1")
 
 #: :func:`merge_boxes` merges up to this many distinct boxes in plain Python (a window holds a
 #: few, where NumPy's cost per call dominates) and more with NumPy (a pass makes

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from uavsnn._validate import check_real
+from uavsnn._validate import check_numbers, check_real
 from uavsnn.errors import ModelFileError, ParameterError, ShapeError
 from uavsnn.features import FEATURES, UAV_CLASS, WindowFeatures
 from uavsnn.linear import predict_logistic, predict_softmax
@@ -85,18 +85,23 @@ class Identifier:
         d = len(self.features)
         if self.gate_px is not None:  # a NumPy number too, kept as float
             object.__setattr__(self, "gate_px", check_gate(self.gate_px))
-        # Each number as a float: a string, a bool or an integer beyond a float's range is
-        # refused by the checks below (with NaN or inf), not a TypeError or OverflowError.
-        alarms = tuple((_number(r), _number(t)) for r, t in self.alarm_thresholds)
-        tracks = tuple((_number(r), _number(t)) for r, t in self.track_alarm_thresholds)
+        # Each number as a float: a string or a bool is refused here, an integer beyond a
+        # float's range (inf) by the checks below, not a TypeError or OverflowError.
+        alarms = _number_pairs("alarm_thresholds", self.alarm_thresholds)
+        tracks = _number_pairs("track_alarm_thresholds", self.track_alarm_thresholds)
         for name, value in (
             ("alarm_thresholds", alarms),
             ("track_alarm_thresholds", tracks),
-            ("track_alarm_minutes", _number(self.track_alarm_minutes)),
-            ("threshold", _number(self.threshold)),
-            ("l2", _number(self.l2)),
+            ("track_alarm_minutes", _number("track_alarm_minutes", self.track_alarm_minutes)),
+            ("threshold", _number("threshold", self.threshold)),
+            ("l2", _number("l2", self.l2)),
         ):
             object.__setattr__(self, name, value)
+        # The arrays as float64 arrays (a list too); values that are not numbers are refused.
+        for name in ("coef", "mean", "scale", "class_coef"):
+            values = getattr(self, name)
+            if values is not None:
+                object.__setattr__(self, name, check_numbers(name, values))
         for rate, threshold in self.alarm_thresholds:
             if not (0.0 < rate < 1.0 and math.isfinite(threshold)):
                 raise ParameterError(
@@ -204,7 +209,7 @@ class Identifier:
                 standardising it overflows (named: it would score NaN, never an alarm, or
                 1, without a word). No feature computed by uavsnn is either.
         """
-        x = _floats("features", x)
+        x = check_numbers("features", x)
         if x.ndim != 2:
             raise ShapeError(f"features must be (m, d), got {x.shape}")
         if x.shape[1] == len(FEATURES):
@@ -269,7 +274,7 @@ class Identifier:
     def guess_from(self, scores: np.ndarray, probabilities: np.ndarray) -> list[str]:
         """The guess of :meth:`guess` from UAV scores ``(m,)`` and class probabilities
         ``(m, len(classes))`` already computed (or averaged, as a track's are)."""
-        s, p = _floats("scores", scores), _floats("probabilities", probabilities)
+        s, p = check_numbers("scores", scores), check_numbers("probabilities", probabilities)
         if s.ndim != 1 or p.shape != (len(s), len(self.classes)):
             raise ShapeError(
                 f"scores must be (m,) and probabilities (m, {len(self.classes)}), got "
@@ -414,28 +419,42 @@ class Identifier:
             raise ModelFileError(f"its identification arrays are inconsistent: {exc}") from exc
 
 
-def _number(value: Any) -> float:
-    """``value`` as a float; NaN for what is not a real number (a string, a bool), inf for an
-    integer beyond a float's range."""
-    real = (int, float, np.integer, np.floating)
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, real):
-        return math.nan
+def _number(name: str, value: Any) -> float:
+    """``value`` as a float; inf for an integer beyond a float's range.
+
+    Raises:
+        ParameterError: ``value`` is not a real number (a string, a bool), named ``name``.
+    """
+    if not _is_real(value):
+        raise ParameterError(f"{name} must be a number, got {value!r}")
     try:
         return float(value)
     except OverflowError:
         return math.inf
 
 
-def _floats(name: str, values: Any) -> np.ndarray:
-    """``values`` as a float64 array.
+def _is_real(value: Any) -> bool:
+    """Whether ``value`` is a real number (a NumPy one too), not a bool."""
+    real = (int, float, np.integer, np.floating)
+    return isinstance(value, real) and not isinstance(value, (bool, np.bool_))
+
+
+def _number_pairs(name: str, pairs: Any) -> tuple[tuple[float, float], ...]:
+    """``pairs`` (``(rate, threshold)`` pairs) as pairs of floats (:func:`_number`).
 
     Raises:
-        ParameterError: values that are not numbers.
+        ParameterError: ``pairs`` is not an iterable of pairs of two numbers, named ``name``.
     """
     try:
-        return np.asarray(values, dtype=np.float64)
-    except (TypeError, ValueError) as err:
-        raise ParameterError(f"{name} must be numbers: {err}") from err
+        given = [tuple(pair) for pair in pairs]
+    except TypeError:
+        given = None
+    if given is None or any(len(pair) != 2 for pair in given):
+        raise ParameterError(f"{name} must be (rate, threshold) pairs, got {pairs!r}")
+    for pair in given:
+        if not all(_is_real(v) for v in pair):
+            raise ParameterError(f"{name} must pair two numbers, got {pair!r}")
+    return tuple((_number(name, r), _number(name, t)) for r, t in given)
 
 
 def _one(arrays: Any, key: str, kinds: str, what: str) -> np.ndarray:

@@ -41,7 +41,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from uavsnn.errors import DatasetError, ParameterError
+from uavsnn._validate import check_bools, check_numbers, check_real
+from uavsnn.errors import DatasetError, ParameterError, ShapeError
 from uavsnn.features import (
     CLUTTER_CLASS,
     FEATURES,
@@ -60,7 +61,7 @@ from uavsnn.features import (
     window_steps,
 )
 from uavsnn.identifier import VERSION, Identifier
-from uavsnn.linear import fit_logistic, fit_softmax, predict_logistic, predict_softmax
+from uavsnn.linear import fit_logistic, fit_softmax, labelled, predict_logistic, predict_softmax
 from uavsnn.track_eval import Confirm
 from uavsnn.trees import Trees, fit_trees
 
@@ -196,18 +197,32 @@ def fit(
     Raises:
         DatasetError: too few objects of either kind to fit, or ``"trees"`` without usable
             tuning objects (their count is chosen on them).
-        ParameterError: ``model`` not one of :data:`MODELS`, or ``train`` and ``tune`` built
-            with two tracker gates.
+        ParameterError: ``model`` not one of :data:`MODELS`, ``train`` and ``tune`` built
+            with two tracker gates, ``features`` naming one not in :data:`FEATURES`,
+            ``tune_detected`` or ``tune_label`` not boolean, or as :func:`fit_score`.
+        ShapeError: ``tune_detected`` or ``tune_label`` not one flag a window of ``tune``.
     """
     if model not in MODELS:
         raise ParameterError(f"model must be one of {MODELS}, got {model!r}")
+    names = tuple(features)
+    unknown = [f for f in names if f not in FEATURES]
+    if unknown:
+        raise ParameterError(f"features must be names of FEATURES, got unknown {unknown}")
+    l2_grid = tuple(l2_grid)  # read twice: by fit_score and by the class model
+    tuning = None
+    if tune_detected is not None and tune_label is not None:
+        tuning = check_bools("tune_detected", tune_detected), check_bools("tune_label", tune_label)
+        if tuning[0].shape != (tune.windows,) or tuning[1].shape != (tune.windows,):
+            raise ShapeError(
+                f"tune_detected and tune_label must hold one flag a window of tune "
+                f"({tune.windows}), got {len(tuning[0])} and {len(tuning[1])}"
+            )
     gates = (train.gate_px, tune.gate_px)
     if gates[0] is not None and gates[1] is not None and gates[0] != gates[1]:
         raise ParameterError(
             f"the training features were tracked with a {gates[0]:g} px gate, the tuning "
             f"features with {gates[1]:g} px: a model is fitted and tuned at one gate"
         )
-    names = tuple(features)
     tr, tu = train.columns(names), tune.columns(names)
     xs, ys = tr.x[tr.usable], tr.label[tr.usable]
     if ys.sum() < 2 or (~ys).sum() < 2:
@@ -228,11 +243,11 @@ def fit(
         if model == "auto" and not _ranks_better(trees, coef, zt, yt):
             trees = None
     ident = Identifier(names, coef, mean, scale, 0.5, l2, trees=trees, gate_px=train.gate_px)
-    if tune_detected is not None and tune_label is not None:
+    if tuning is not None:
         from uavsnn.evaluation import FALSE_ALARM_RATES
 
-        label = np.asarray(tune_label, bool)
-        score = np.where(np.asarray(tune_detected, bool), ident.window_scores(tune), -1.0)
+        detected, label = tuning
+        score = np.where(detected, ident.window_scores(tune), -1.0)
         alarms: tuple[tuple[float, float], ...] = ()
         if (~label).any():
             alarms = tuple(
@@ -271,18 +286,36 @@ def fit_score(
     """The UAV score's fit of :func:`fit` on plain arrays: the features ``x`` ``(m, d)`` are
     standardised (their mean and scale), a logistic regression (:func:`fit_logistic`) is fitted
     to ``y`` for each L2 weight of ``l2_grid``, and the one with the smallest log loss on
-    ``(x_tune, y_tune)`` is kept. Returns ``(mean, scale, coef, l2)``."""
-    x = np.asarray(x, dtype=np.float64)
+    ``(x_tune, y_tune)`` is kept. Returns ``(mean, scale, coef, l2)``.
+
+    Raises:
+        ShapeError: ``x`` not ``(m, d)`` with ``y`` ``(m,)``, or ``x_tune`` not ``(n, d)``
+            with ``y_tune`` ``(n,)``.
+        ParameterError: ``x`` without a row, features that are not finite numbers, labels
+            that are not boolean, or ``l2_grid`` empty or holding other than numbers >= 0.
+    """
+    x, y = labelled(check_numbers("x", x), y)
+    if len(x) == 0:
+        raise ParameterError("x must hold at least one row")
+    xt, yt = check_numbers("x_tune", x_tune), check_bools("y_tune", y_tune)
+    if xt.ndim != 2 or xt.shape[1] != x.shape[1] or len(xt) != len(yt):
+        raise ShapeError(
+            f"x_tune must be (n, {x.shape[1]}) and y_tune (n,), got {xt.shape} and {yt.shape}"
+        )
+    if not np.isfinite(xt).all():
+        raise ParameterError("x_tune holds NaN or infinite values")
+    grid = [check_real("an L2 weight of l2_grid", l2, low=0.0) for l2 in l2_grid]
+    if not grid:
+        raise ParameterError("l2_grid must hold at least one L2 weight, got none")
     mean, scale = _standardise(x)
     z = (x - mean) / scale
-    zt = (np.asarray(x_tune, dtype=np.float64) - mean) / scale
-    yt = np.asarray(y_tune, dtype=bool)
+    zt = (xt - mean) / scale
     best = None
-    for l2 in l2_grid:
-        coef = fit_logistic(z, y, l2=float(l2))
+    for l2 in grid:
+        coef = fit_logistic(z, y, l2=l2)
         loss = _log_loss(predict_logistic(coef, zt), yt) if len(yt) else 0.0
         if best is None or loss < best[0]:
-            best = (loss, float(l2), coef)
+            best = (loss, l2, coef)
     assert best is not None
     return mean, scale, best[2], best[1]
 
@@ -351,8 +384,12 @@ def alarm_note(
     ``r`` of ``n`` UAV-free windows allows one of them to alarm only when ``n × r ≥ 1`` (100
     windows for 1 %, 20 for 5 %); with fewer the point is the threshold at which none of them
     alarms, which says nothing of ``r``: the point is kept (it is the strictest the windows
-    allow) and the note says so."""
-    label = np.asarray(tune_label, dtype=bool)
+    allow) and the note says so.
+
+    Raises:
+        ParameterError, ShapeError: ``tune_label`` not a 1-D boolean array.
+    """
+    label = check_bools("tune_label", tune_label)
     free = int((~label).sum())
     if free == 0:
         return (
@@ -384,11 +421,12 @@ def threshold_accuracies(score: np.ndarray, label: np.ndarray) -> tuple[np.ndarr
     ``score`` reaches each.
 
     Raises:
-        ShapeError, ParameterError: as :func:`uavsnn.roc.check_scores` (NaN scores).
+        ShapeError, ParameterError: as :func:`uavsnn.roc.check_scores` (NaN scores), or
+            ``label`` not a 1-D boolean array.
     """
     from uavsnn.roc import check_scores
 
-    score, label = check_scores(score, np.asarray(label, dtype=bool))
+    score, label = check_scores(score, check_bools("label", label))
     candidates = np.unique(np.concatenate([[0.5], score[score >= 0]]))
     acc = np.array([_balanced_accuracy(score >= c, label) for c in candidates])
     return candidates, acc
@@ -413,12 +451,14 @@ def best_threshold(score: np.ndarray, label: np.ndarray, within: float = THRESHO
     for no windows.
 
     Raises:
-        ParameterError: ``within`` not in [0, 1), or NaN scores.
+        ParameterError: ``within`` not a number in [0, 1), NaN scores, or labels that are not
+            boolean.
         ShapeError: not one score and one label a window.
     """
+    within = check_real("within", within)
     if not 0 <= within < 1:
         raise ParameterError(f"within must be in [0, 1), got {within!r}")
-    if np.asarray(label).size == 0:
+    if np.asarray(label).size == 0 and np.asarray(score).size == 0:
         return 0.5
     candidates, acc = threshold_accuracies(score, label)
     return float(candidates[acc >= acc.max() - within].max())

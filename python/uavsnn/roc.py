@@ -16,13 +16,11 @@ import math
 import numpy as np
 import numpy.typing as npt
 
-from uavsnn._validate import check_bools, check_int, check_real
+from uavsnn._validate import check_bools, check_int, check_numbers, check_real
 from uavsnn.errors import DatasetError, ParameterError, ShapeError
 
 __all__ = [
     "INTERVAL_RESAMPLES",
-    "check_flags",
-    "check_numbers",
     "check_scores",
     "detection_at_false_alarm",
     "recording_interval",
@@ -34,29 +32,6 @@ __all__ = [
 ]
 
 
-def check_flags(name: str, values: npt.ArrayLike) -> np.ndarray:
-    """``values`` as a 1-D boolean array, one flag a window (:func:`uavsnn._validate.check_bools`),
-    an empty list taken as no flags (NumPy reads ``[]`` as float64).
-
-    Raises:
-        ShapeError: not 1-D.
-        ParameterError: not boolean.
-    """
-    array = np.asarray(values)
-    if array.shape == (0,):
-        return np.zeros(0, dtype=bool)
-    return check_bools(name, array)
-
-
-def check_numbers(name: str, values: npt.ArrayLike) -> np.ndarray:
-    """``values`` as float64, or a :class:`~uavsnn.ParameterError` naming ``name`` (strings, a
-    ragged list)."""
-    try:
-        return np.asarray(values, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ParameterError(f"{name} must be numbers ({exc})") from exc
-
-
 def check_scores(scores: npt.ArrayLike, actual: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """``scores`` as float64 and ``actual`` as bool, one of each a window.
 
@@ -66,7 +41,7 @@ def check_scores(scores: npt.ArrayLike, actual: npt.ArrayLike) -> tuple[np.ndarr
             numbers or ``actual`` not boolean.
     """
     s = check_numbers("scores", scores)
-    a = check_flags("actual", actual)
+    a = check_bools("actual", actual)
     if s.shape != a.shape or s.ndim != 1:
         raise ShapeError(f"scores and actual must be one a window: got {s.shape} and {a.shape}")
     if np.isnan(s).any():
@@ -179,9 +154,9 @@ def recording_interval(
         ParameterError: ``hit`` or ``against`` not boolean, ``level`` not a number in (0, 1),
             ``resamples`` not an integer >= 1 or ``seed`` not one >= 0.
     """
-    h = check_flags("hit", hit)
+    h = check_bools("hit", hit)
     rec = np.asarray(recording)
-    other = None if against is None else check_flags("against", against)
+    other = None if against is None else check_bools("against", against)
     group = np.zeros(h.shape, np.int64) if strata is None else np.asarray(strata)
     if not h.shape == rec.shape == group.shape or (other is not None and other.shape != h.shape):
         theirs = "" if other is None else f", against {other.size}"
@@ -304,7 +279,7 @@ def roc_point_draws(
         DatasetError: no UAV or no UAV-free window.
     """
     s = check_numbers("scores", scores)
-    a = check_flags("actual", actual)
+    a = check_bools("actual", actual)
     rec = np.asarray(recording)
     other = None if against is None else check_numbers("against", against)
     if not s.shape == a.shape == rec.shape or (other is not None and other.shape != s.shape):
@@ -379,7 +354,7 @@ def roc_point_interval(
     )
     if against is None and np.all(shares == shares[0]) and shares[0] in (0.0, 1.0):
         s = check_numbers("scores", scores)
-        a = check_flags("actual", actual)
+        a = check_bools("actual", actual)
         at_own = s[a] >= threshold_at_false_alarm(s, a, rate)
         return recording_interval(at_own, np.asarray(recording)[a], level=level, seed=seed)
     lo, hi = np.percentile(shares, [50 * (1 - level), 50 * (1 + level)])

@@ -43,9 +43,8 @@ from typing import TYPE_CHECKING, Any, TypeGuard
 
 import numpy as np
 
-from uavsnn._validate import check_real
+from uavsnn._validate import check_bools, check_real
 from uavsnn.errors import ParameterError, ShapeError
-from uavsnn.roc import check_flags
 
 if TYPE_CHECKING:
     from uavsnn.dataset import LabelledWindows
@@ -280,8 +279,8 @@ def decision_figures(
         ShapeError: sequences of different lengths (or not 1-D).
         ParameterError: ``uav`` or ``alarmed`` not boolean.
     """
-    truth = check_flags("uav", uav)
-    said = check_flags("alarmed", alarmed)
+    truth = check_bools("uav", uav)
+    said = check_bools("alarmed", alarmed)
     names = np.asarray(classes)
     if names.ndim != 1:
         raise ShapeError(f"classes must be 1-D, got shape {names.shape}")

@@ -21,10 +21,13 @@ from __future__ import annotations
 import copy
 import inspect
 import math
+import numbers
 from collections import deque
 from collections.abc import Iterable
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
+
+import numpy as np
 
 from uavsnn._validate import check_int, check_real
 from uavsnn.errors import ParameterError
@@ -297,6 +300,31 @@ def _seconds(later_sum: int, earlier_sum: int) -> float:
     return (later_sum - earlier_sum) / 2 / 1e6
 
 
+def _check_box(what: str, box: Any) -> None:
+    """Refuse the box of an object (``what``: which, for the message) unless it is four finite
+    numbers ``(x0, y0, x1, y1)`` with ``x0 <= x1`` and ``y0 <= y1`` (an empty box, ``x0 ==
+    x1``, is kept: the tracker needs its centre only).
+
+    Raises:
+        ParameterError: anything else.
+    """
+    try:
+        sides = tuple(box)
+    except TypeError:
+        sides = ()
+    finite = len(sides) == 4 and all(
+        isinstance(v, numbers.Real)
+        and not isinstance(v, (bool, np.bool_))
+        and (isinstance(v, numbers.Integral) or math.isfinite(v))
+        for v in sides
+    )
+    if not (finite and sides[0] <= sides[2] and sides[1] <= sides[3]):
+        raise ParameterError(
+            f"{what}: a box must be four finite numbers (x0, y0, x1, y1) with x0 <= x1 and "
+            f"y0 <= y1, got {box!r}"
+        )
+
+
 def _iou(a: tuple, b: tuple) -> float:
     w = min(a[2], b[2]) - max(a[0], b[0])
     h = min(a[3], b[3]) - max(a[1], b[1])
@@ -407,10 +435,13 @@ class Tracker:
         Raises:
             ParameterError: a window index that is not an integer >= 0 or not later than the
                 previous one, times that are not integers ``0 <= t0 < t1``, a centre not
-                later than the previous window's, or an object whose ``counts`` no box gives
-                (:func:`uavsnn.features.activity`); the tracker is then as it was.
+                later than the previous window's, an object that is not a
+                :class:`~uavsnn.grouping.WindowObject`, a box that is not four finite numbers
+                ``(x0, y0, x1, y1)`` with ``x0 <= x1`` and ``y0 <= y1``, or an object whose
+                ``counts`` no box gives (:func:`uavsnn.features.activity`); the tracker is
+                then as it was.
         """
-        from uavsnn.grouping import WindowReport
+        from uavsnn.grouping import WindowObject, WindowReport
 
         if not isinstance(report, WindowReport):
             raise ParameterError(f"a tracker takes WindowReports, got {report!r}")
@@ -430,6 +461,10 @@ class Tracker:
                 f"window's ({self._last_sum / 2} µs): speeds are measured between centres"
             )
         objects = report.objects
+        for i, o in enumerate(objects):
+            if not isinstance(o, WindowObject):
+                raise ParameterError(f"object {i} of window {k} must be a WindowObject, got {o!r}")
+            _check_box(f"object {i} of window {k}", o.box)
         acts = [None if o.counts is None else activity(o.box, o.counts) for o in objects]
         self._last_window, self._last_sum = k, t_sum
         # Deletion first: a track missing max_misses windows by this one is gone.

@@ -143,6 +143,10 @@ _COLUMNS = ("t0", "offsets", "t", "x", "y", "n_preceding")
 
 
 def _overlap(value: Any) -> float:
+    """The window overlap, a number in ``[0, 1)``, as ``float``; a string or a ``bool`` is
+    refused, not read as a number."""
+    if isinstance(value, (str, bytes, bool, np.bool_)):
+        raise ParameterError(f"overlap must be a number in [0, 1), got {value!r}")
     try:
         overlap = float(value)
     except (TypeError, ValueError) as exc:
@@ -364,10 +368,10 @@ def make_windows(
             (default: one past the last event's time).
 
     Raises:
-        ParameterError: a length below 1 µs, an overlap outside ``[0, 1)`` or NaN, negative
-            or inverted ``start_us``/``end_us``, a ``median`` that is not a ``bool``, more
-            windows than the engine's limit, or a recording whose windows may need more than
-            :data:`MEMORY_LIMIT` bytes.
+        ParameterError: a length below 1 µs, an overlap outside ``[0, 1)``, NaN, a string or
+            a ``bool``, negative or inverted ``start_us``/``end_us``, a ``median`` that is not a
+            ``bool``, more windows than the engine's limit, or a recording whose windows may
+            need more than :data:`MEMORY_LIMIT` bytes.
     """
     if not isinstance(recording, Recording):
         raise ParameterError(f"expected a Recording, got {type(recording).__name__}")
