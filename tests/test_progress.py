@@ -24,7 +24,7 @@ class Clock:
 
 def test_lines_start_at_most_every_interval_and_end() -> None:
     out, clock = io.StringIO(), Clock()
-    p = LineProgress(100, "train conv2", " win", stream=out, clock=clock)
+    p = LineProgress(100, "train conv2", " window", stream=out, clock=clock)
     for i in range(100):
         clock.now = i * 1.0  # 1 s per step: a line every EVERY_S steps
         p.set_postfix_str(f"C={i}")
@@ -33,10 +33,10 @@ def test_lines_start_at_most_every_interval_and_end() -> None:
     p.close()  # once only
     lines = out.getvalue().splitlines()
     assert "\r" not in out.getvalue()
-    assert lines[0] == "train conv2: 0/100 win (0 s)"
-    assert lines[-1] == "train conv2: 100/100 win [C=99] (99 s) done"
+    assert lines[0] == "train conv2: 0/100 windows (0 s)"
+    assert lines[-1] == "train conv2: 100/100 windows [C=99] (99 s) done"
     assert len(lines) == 2 + int(99 // EVERY_S)
-    assert lines[1].startswith("train conv2: 11/100 win [C=10] (10 s)")
+    assert lines[1].startswith("train conv2: 11/100 windows [C=10] (10 s)")
 
 
 def test_a_progress_line_the_reader_cannot_take_does_not_stop_the_work() -> None:
@@ -65,7 +65,7 @@ def test_bar_is_lines_when_stderr_is_not_a_terminal(capsys) -> None:
     assert isinstance(p, LineProgress)
     p.update(3)
     p.close()
-    assert capsys.readouterr().err == "x: 0/3 step (0 s)\nx: 3/3 step (0 s) done\n"
+    assert capsys.readouterr().err == "x: 0/3 steps (0 s)\nx: 3/3 steps (0 s) done\n"
 
 
 def run(*args: str, cwd: Path) -> subprocess.CompletedProcess:
@@ -95,16 +95,16 @@ def test_piped_commands_print_plain_progress_lines(tmp_path: Path) -> None:
                 cwd=tmp_path)  # fmt: skip
     assert built.returncode == 0, built.stderr
     lines = built.stderr.splitlines()
-    assert "\r" not in built.stderr and lines[0] == "dataset: 0 step (0 s)"
-    assert " step (" in lines[-1] and lines[-1].endswith(" done")
+    assert "\r" not in built.stderr and lines[0] == "dataset: 0 steps (0 s)"
+    assert " steps (" in lines[-1] and lines[-1].endswith(" done")
     trained = run("train", "data", "-o", "m.npz", "--windows-per-layer", "20", cwd=tmp_path)
     assert trained.returncode == 0, trained.stderr
     lines = trained.stderr.splitlines()
     assert "\r" not in trained.stderr
     for layer in ("conv2", "conv3"):
-        assert f"train {layer}: 0/20 win (0 s)" in lines
+        assert f"train {layer}: 0/20 windows (0 s)" in lines
         assert any(
-            s.startswith(f"train {layer}: 20/20 win [C=") and s.endswith("done") for s in lines
+            s.startswith(f"train {layer}: 20/20 windows [C=") and s.endswith("done") for s in lines
         )
 
 
@@ -117,3 +117,12 @@ def test_piped_simulate_prints_lines_not_carriage_returns(tmp_path: Path) -> Non
     assert "\r" not in done.stderr
     lines = [s for s in done.stderr.splitlines() if s.startswith("square.avi:")]
     assert lines[0].startswith("square.avi: 0/") and lines[-1].endswith(" done")
+
+
+def test_a_line_counts_its_unit_in_the_plural_but_for_one() -> None:
+    # "bench: 0/3 density", "dataset: 8 step": tqdm's unit is a singular (its "step/s").
+    for total, unit, want in ((3, "density", "0/3 densities"), (2, "day", "0/2 days"),
+                              (1, "density", "0/1 density")):  # fmt: skip
+        out = io.StringIO()
+        LineProgress(total, "x", unit, stream=out, clock=Clock())
+        assert out.getvalue().startswith(f"x: {want} ("), out.getvalue()

@@ -53,7 +53,7 @@ __all__ = [
 ]
 
 #: The package's public submodules, reachable as attributes after ``import uavsnn`` as the docs
-#: write them (``uavsnn.io.read(...)``, ``uavsnn.sim.simulate(...)``): each is imported on first
+#: write them (``uavsnn.io.read(...)``, ``uavsnn.sim.pix2nvs(...)``): each is imported on first
 #: use, so ``import uavsnn`` stays as light as the names above need.
 SUBMODULES = frozenset(
     {

@@ -23,7 +23,8 @@ Example::
     for chunk in source:               # arrays of uavsnn.EVENT_DTYPE, in time order
         for d in det.push(chunk):
             print(d["t"], d["x"], d["y"])
-    det.flush()
+    for d in det.flush():              # the stream's end: the detections still pending
+        print(d["t"], d["x"], d["y"])
 """
 
 from __future__ import annotations
@@ -40,7 +41,7 @@ import numpy as np
 
 from uavsnn import _core
 from uavsnn._state import EngineState
-from uavsnn._validate import MAX_TIME_US, U64_MAX, check_int, check_sensor_size
+from uavsnn._validate import MAX_TIME_US, check_int, check_sensor_size
 from uavsnn.boxes import xywh
 from uavsnn.errors import ParameterError, ShapeError, StreamError, UavsnnError
 from uavsnn.events import EVENT_DTYPE, packed_bytes
@@ -154,7 +155,8 @@ class Detector(EngineState):
     Args:
         model: a :class:`uavsnn.network.Network` (the detector copies its weights; later
             changes to the network do not reach it), or the path of a model file.
-        window_us: window length ``L`` in microseconds (at least 1).
+        window_us: window length ``L`` in microseconds, from 1 to ``2**62`` (the engine's
+            longest window).
         overlap: overlap ``o`` of consecutive windows, in ``[0, 1)``; at most
             ``ceil(1 / (1 - o))`` windows are live at once, and that may not exceed
             :data:`MAX_LIVE_WINDOWS`.
@@ -168,7 +170,7 @@ class Detector(EngineState):
         rotor: whether :meth:`push_windows` measures each object's rotor signature.
 
     Raises:
-        ParameterError: for a window shorter than 1 µs (or, with ``rotor``, longer than
+        ParameterError: for a ``window_us`` outside ``[1, 2**62]`` (or, with ``rotor``, over
             :data:`uavsnn.features.MAX_RATE_BINS` bins of ``RATE_BIN_US``: 20.48 s), an overlap
             outside ``[0, 1)`` or one that keeps more than :data:`MAX_LIVE_WINDOWS` windows
             live, or a ``model`` that is neither a network nor a path.
@@ -208,8 +210,9 @@ class Detector(EngineState):
                 f"{(width, height)}; downsample the events first (uavsnn.filters.downsample)"
             )
         # The engine takes both times as u64: a larger one is refused here, not an
-        # OverflowError; the overlap's range is the engine's check.
-        window_us = check_int("window_us", window_us, 1, U64_MAX)
+        # OverflowError; the window beyond the engine's longest (2^62 µs) too, under its
+        # Python name. The overlap's range is the engine's check.
+        window_us = check_int("window_us", window_us, 1, MAX_TIME_US)
         if rotor and window_us > MAX_MEASURED_WINDOW_US:
             # Refused later, in push_windows, once the events were taken.
             raise ParameterError(
@@ -219,7 +222,7 @@ class Detector(EngineState):
                 "without measuring them"
             )
         if start_us is not None:
-            start_us = check_int("start_us", start_us, 0, U64_MAX)
+            start_us = check_int("start_us", start_us, 0, MAX_TIME_US)
         if isinstance(overlap, bool) or not isinstance(
             overlap, (int, float, np.integer, np.floating)
         ):

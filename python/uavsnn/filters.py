@@ -7,10 +7,10 @@
   grid from the events' bounding box, we use the recording's sensor; the two agree whenever
   that box is the sensor or every event has ``t ≥ dt_us``.
 - :func:`downsample`: crop the sensor to the largest centred region with the target's aspect
-  ratio, then scale coordinates, ``x' = ⌊(x − x0)·W'/w⌋`` (same for ``y``). Events outside
-  the crop are removed (that is what the crop is for); every event inside it is kept, with its
-  time and polarity, in order, even when several land on one target pixel (a window takes the
-  first of them).
+  ratio, then scale coordinates down, ``x' = ⌊(x − x0)·W'/w⌋`` (same for ``y``); a target
+  wider or taller than the sensor is refused. Events outside the crop are removed (that is
+  what the crop is for); every event inside it is kept, with its time and polarity, in order,
+  even when several land on one target pixel (a window takes the first of them).
 """
 
 from __future__ import annotations
@@ -47,14 +47,25 @@ def denoise(recording: Recording, dt_us: int) -> Recording:
 
 def downsample(recording: Recording, target: tuple[int, int] = (240, 180)) -> Recording:
     """Crop ``recording`` to ``target``'s aspect ratio (centred) and scale its coordinates onto
-    a ``target`` sensor; ``metadata["downsampled_from"]`` records the original sensor size.
+    a ``target`` sensor, no wider and no taller than the recording's (the same size keeps
+    every event where it is); ``metadata["downsampled_from"]`` records the original sensor size.
 
     Raises:
-        ParameterError: a malformed ``target``.
+        ParameterError: a malformed ``target``, or one wider or taller than the recording's
+            sensor (scaling up would make pixels the sensor never had).
     """
     rec = _recording(recording)
     tw, th = check_sensor_size(target)
     width, height = rec.sensor_size
+    if tw > width or th > height:
+        larger = " and ".join(
+            side for side, more in (("wider", tw > width), ("taller", th > height)) if more
+        )
+        raise ParameterError(
+            f"a {width}x{height} sensor cannot be downsampled to {tw}x{th}: downsampling only "
+            f"reduces (it crops and scales a larger sensor down), and {tw}x{th} is {larger} "
+            f"than {width}x{height}"
+        )
     packed = _core.downsample_events(packed_bytes(rec.events), width, height, tw, th)
     metadata = {**rec.metadata, "downsampled_from": [width, height]}
     # The engine checked the source and kept its order; every kept event lies on the target:

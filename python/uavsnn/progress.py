@@ -68,7 +68,9 @@ class LineProgress:
 
     def _line(self, done: bool = False) -> None:
         count = f"{self.n}/{self.total}" if self.total else f"{self.n}"
-        unit = f" {self.unit}" if self.unit else ""
+        # The unit as tqdm takes it, in the singular ("step/s"); counted here, its plural.
+        shown = self.total if self.total else self.n
+        unit = f" {_plural(self.unit) if shown != 1 else self.unit}" if self.unit else ""
         post = f" [{self.postfix}]" if self.postfix else ""
         state = " done" if done else ""
         try:
@@ -81,6 +83,13 @@ class LineProgress:
             # The reader went away (a closed pipe: BrokenPipeError, or on Windows EINVAL), or
             # the stream closed: a progress line is never worth stopping the work for.
             pass
+
+
+def _plural(noun: str) -> str:
+    """``noun``'s plural: ``"steps"``, ``"densities"``, ``"windows"``."""
+    if noun.endswith("y") and noun[-2:-1] not in ("a", "e", "i", "o", "u"):
+        return noun[:-1] + "ies"
+    return noun + "s"
 
 
 def bar(total: int | None = None, desc: str = "", unit: str = "", **kwargs: Any) -> Any:

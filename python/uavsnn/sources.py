@@ -170,15 +170,10 @@ class FileSource(EventSource):
                     f"{path} records no sensor size ({w}x{h} is only a stand-in): give its "
                     "sensor size, then it can be downsampled"
                 )
-            tw, th = target
-            if tw > w or th > h:
-                # filters.downsample would scale it up, making pixels the sensor never had.
-                raise ParameterError(
-                    f"{path}: its {w}x{h} sensor cannot be downsampled to {tw}x{th}: "
-                    f"downsampling only reduces (it crops and scales a larger sensor down), "
-                    f"and {tw}x{th} is {_larger(tw > w, th > h)} than {w}x{h}"
-                )
-            self.recording = filters.downsample(self.recording, target)
+            try:  # a larger target is refused: downsampling only reduces
+                self.recording = filters.downsample(self.recording, target)
+            except ParameterError as exc:
+                raise ParameterError(f"{path}: {exc}") from None
         self.sensor_size = self.recording.sensor_size
         self.realtime = realtime
         self.chunk_events = chunk_events
@@ -482,10 +477,6 @@ def _is_default(value: Any, default: Any) -> bool:
     if default is None or value is None:
         return value is default
     return isinstance(value, (bool, int, str)) and value == default
-
-
-def _larger(wider: bool, taller: bool) -> str:
-    return "wider and taller" if wider and taller else "wider" if wider else "taller"
 
 
 def open_source(

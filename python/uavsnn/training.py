@@ -299,7 +299,7 @@ def _progress_fn(progress: bool | ProgressFn) -> ProgressFn:
     def step(layer: str, done: int, total: int, convergence: float) -> None:
         bar = bars.get(layer)
         if bar is None:
-            bar = bars[layer] = new_bar(total=total, unit=" win", desc=f"train {layer}")
+            bar = bars[layer] = new_bar(total=total, unit=" window", desc=f"train {layer}")
         bar.set_postfix_str(f"C={convergence:.4f}", refresh=False)
         bar.update(done - bar.n)
         if done >= total:

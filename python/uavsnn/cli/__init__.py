@@ -19,22 +19,32 @@ path (:class:`Terminated`, a ``KeyboardInterrupt``) and exit 128 + the signal's 
 129, as shells report them. Their handlers are installed only in the main thread and only where
 the signal's disposition is the default (a handler the embedding program set, or ``nohup``'s
 ignored SIGHUP, is left alone), and put back when :func:`main` returns.
+
+``--ray [ADDRESS]`` takes the word after it for its address when that word is a cluster's
+address (``auto``, ``local``, ``ray://...``, ``HOST:PORT``) or cannot be a positional argument:
+``uavsnn detect --ray rec.npz -m M`` runs ``rec.npz`` on a local cluster rather than miss its
+SOURCE (:func:`_parse`).
+
+A bare ``uavsnn``, like ``uavsnn dataset``, misses its command: the usage goes to standard error
+and the exit code is 2, argparse's rule.
 """
 
 from __future__ import annotations
 
 import argparse
 import contextlib
+import contextvars
 import errno
 import importlib
 import io
 import os
+import re
 import signal
 import sys
 import threading
 from collections.abc import Iterator
 from types import FrameType
-from typing import Any
+from typing import Any, NoReturn
 
 from uavsnn import __version__
 from uavsnn._files import check_output_dir, output_dir, output_file
@@ -163,15 +173,88 @@ def _stop_signals() -> Iterator[None]:
             signal.signal(sig, handler)
 
 
+#: The words ``--ray`` takes as its address; ``ray://...`` and ``HOST:PORT`` are addresses too.
+_RAY_WORDS = ("auto", "local")
+#: ``HOST:PORT`` (an IPv6 host in brackets), a Ray cluster's address.
+_HOST_PORT = re.compile(r"(\[[0-9A-Fa-f:.]+\]|[^\s/\\:@\[\]]+):[0-9]+")
+#: Set while :func:`_parse` tries a reading of the words: a parser's error then raises
+#: :class:`_Unparsed` instead of printing the usage and exiting.
+_TRYING: contextvars.ContextVar[bool] = contextvars.ContextVar("uavsnn_cli_trying", default=False)
+
+
+class _Unparsed(Exception):
+    """A reading of the words that :func:`_parse` tried does not parse."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """The command line's parser (its sub-commands' parsers are of its class too): an
+    ``ArgumentParser`` whose errors raise :class:`_Unparsed` while :func:`_parse` tries a
+    reading of the words."""
+
+    def error(self, message: str) -> NoReturn:
+        if _TRYING.get():
+            raise _Unparsed(message)
+        super().error(message)
+
+
+def _ray_takes(word: str) -> bool:
+    """Whether ``word``, after ``--ray``, is surely its ADDRESS: ``auto``, ``local``,
+    ``ray://...``, or ``HOST:PORT`` that names no existing file
+    (:func:`uavsnn.distributed.connect`)."""
+    if word in _RAY_WORDS or word.startswith("ray://"):
+        return True
+    return _HOST_PORT.fullmatch(word) is not None and not os.path.exists(word)
+
+
+def _ray_without_address(words: list[str]) -> list[str]:
+    """``words`` with each ``--ray`` that a word other than a cluster's address follows (a file,
+    a folder to make, ``-``, ``udp://HOST:PORT``) moved after the options, where it takes no
+    address. ``--ray=ADDRESS``, ``--ray`` before an option, and what follows ``--`` stay."""
+    end = words.index("--") if "--" in words else len(words)
+    kept: list[str] = []
+    moved: list[str] = []
+    for i, word in enumerate(words[:end]):
+        after = words[i + 1] if i + 1 < end else "--"
+        positional = after == "-" or not after.startswith("-")
+        if word == "--ray" and positional and not _ray_takes(after):
+            moved.append(word)
+        else:
+            kept.append(word)
+    return [*kept, *moved, *words[end:]]
+
+
+def _parse(parser: argparse.ArgumentParser, words: list[str]) -> argparse.Namespace:
+    """``words`` parsed. ``--ray [ADDRESS]`` would take the positional argument after it for
+    its address (``uavsnn detect -m M --ray rec.npz``: no SOURCE left): a word after ``--ray``
+    that is no cluster's address is read as a positional argument, ``--ray`` without address,
+    when the words then parse; else as written, when they parse so (``uavsnn reproduce --ray
+    nonsense``: the address that ``--ray`` refuses). When neither parses, the error is that of
+    the first reading (``uavsnn detect --ray rec.npz`` misses its --model, not its SOURCE)."""
+    moved = _ray_without_address(words)
+    if moved == list(words):
+        return parser.parse_args(words)
+    for reading in (moved, words):
+        trying = _TRYING.set(True)
+        try:
+            return parser.parse_args(reading)
+        except _Unparsed:
+            pass
+        finally:
+            _TRYING.reset(trying)
+    return parser.parse_args(moved)
+
+
 def _build_parser(command: str | None = None) -> argparse.ArgumentParser:
     """The parser, with ``command``'s module imported and its arguments defined (every command
     when ``command`` is ``"*"``); the others are listed by name and help line only."""
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="uavsnn",
         description="Drone detection on event-camera streams with an STDP-trained SNN.",
     )
     parser.add_argument("--version", action="version", version=f"uavsnn {__version__}")
-    subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
+    # Without a command: the usage and "required: COMMAND" on standard error, exit 2, as a
+    # command without its action (``uavsnn dataset``) exits.
+    subparsers = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name, line in COMMANDS.items():
         if command in (name, "*"):
             importlib.import_module(f"{__name__}.{name}").register(subparsers)
@@ -185,10 +268,7 @@ def main(argv: list[str] | None = None) -> int:
     words = sys.argv[1:] if argv is None else argv
     # The top-level options take no value, so the first word that is not one names the command.
     parser = _build_parser(next((w for w in words if not w.startswith("-")), None))
-    args = parser.parse_args(words)
-    if args.command is None:
-        parser.print_help()
-        return 0
+    args = _parse(parser, words)
     handler = getattr(args, "handler", None)
     if handler is None:
         parser.error(f"unknown command {args.command!r}")

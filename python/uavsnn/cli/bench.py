@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from uavsnn.bench import DEFAULT_EVENTS, DENSITIES, bench_density
+from uavsnn.cli import counted
 from uavsnn.errors import ParameterError
 from uavsnn.network import Network
 from uavsnn.progress import bar as new_bar
@@ -124,8 +125,8 @@ def _bench(args: argparse.Namespace) -> int:
             f"one thread {r.one_thread_ns_per_event:.0f} ns/event "
             f"({r.one_thread_events_per_s / 1e6:.2f} M events/s, "
             f"{r.real_time_factor:.0f}x real time); "
-            f"{r.threads} threads {r.scaling:.2f}x one; stream ({r.stream_chunk_us / 1000:g} ms "
-            f"chunks) {r.stream_vs_batch:.2f}x batch"
+            f"{counted(r.threads, 'thread')} {r.scaling:.2f}x one; "
+            f"stream ({r.stream_chunk_us / 1000:g} ms chunks) {r.stream_vs_batch:.2f}x batch"
         )
         spikes = ", ".join(f"{k} {v:.1f}" for k, v in r.spikes_per_window.items())
         print(f"    spikes/window: {spikes}; windows detected {r.detected_windows}/{r.windows}")

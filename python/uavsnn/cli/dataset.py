@@ -70,7 +70,12 @@ def register(subparsers: Any) -> None:
         "dvs). Rules and format: docs/dataset.md.",
     )
     b.add_argument("out_dir", type=Path, help="folder to write (created; must be empty)")
-    b.add_argument("--domain", choices=DATASET_DOMAINS, required=True)
+    b.add_argument(
+        "--domain",
+        choices=DATASET_DOMAINS,
+        required=True,
+        help="where the recordings come from: dvs, sim, real or combined (see above)",
+    )
     b.add_argument(
         "--videos",
         type=Path,
@@ -86,7 +91,13 @@ def register(subparsers: Any) -> None:
     )
     b.add_argument("--window-ms", type=float, default=50.0, help="window length (50)")
     b.add_argument("--overlap", type=float, default=0.5, help="window overlap in [0, 1) (0.5)")
-    b.add_argument("--seed", type=int, default=0)
+    b.add_argument(
+        "--seed",
+        type=int,
+        default=0,
+        help="seed of every draw (the scenes, their events, the real clips' split, the windows "
+        "kept): the same seed builds the same dataset (0)",
+    )
     b.add_argument(
         "--min-fraction",
         type=float,
@@ -134,26 +145,62 @@ def register(subparsers: Any) -> None:
     add_ray_option(b, "the recordings' simulation as tasks (the same dataset)")
     b.set_defaults(handler=_build)
 
-    d = actions.add_parser("demo", help="build the small built-in synthetic set")
-    d.add_argument("out_dir", type=Path)
-    d.add_argument("--seed", type=int, default=0)
-    d.add_argument("--n-test", type=int, default=200)
-    d.add_argument("--n-train", type=int, default=400)
-    d.add_argument("--overwrite", action="store_true")
-    d.add_argument("--json", action="store_true")
-    d.add_argument("--quiet", action="store_true")
+    d = actions.add_parser(
+        "demo",
+        help="build the small built-in synthetic set",
+        description="Build the small synthetic set that 'uavsnn demo' trains and tests on: the "
+        "dvs domain, 1 s scenes rendered at 400 fps, windows of 50 ms with 50 % overlap, "
+        "split by recording into balanced train and test sets, with a manifest.",
+    )
+    d.add_argument("out_dir", type=Path, help="folder to write (created; must be empty)")
+    d.add_argument(
+        "--seed",
+        type=int,
+        default=0,
+        help="seed of every draw (the scenes, their events, the windows kept): the same seed "
+        "builds the same set (0)",
+    )
+    d.add_argument("--n-test", type=int, default=200, help="test windows, half UAV (200)")
+    d.add_argument("--n-train", type=int, default=400, help="train windows, half UAV (400)")
+    d.add_argument("--overwrite", action="store_true", help="replace a dataset in OUT_DIR")
+    d.add_argument("--json", action="store_true", help="print the summary as JSON")
+    d.add_argument("--quiet", action="store_true", help="no progress bar")
     d.set_defaults(handler=_demo)
 
-    i = actions.add_parser("info", help="summarise a dataset")
-    i.add_argument("dir", type=Path)
+    i = actions.add_parser(
+        "info",
+        help="summarise a dataset",
+        description="Print what a dataset's manifest says of it: its domain, source and seed, "
+        "its windows' length, overlap and sensor, and each split's windows (UAV and not), "
+        "recordings and classes.",
+    )
+    i.add_argument("dir", type=Path, help="dataset folder (with manifest.json)")
     i.add_argument("--json", action="store_true", help="print the manifest's summary as JSON")
     i.set_defaults(handler=_info)
 
-    p = actions.add_parser("preview", help="render a sampled scene to a PNG contact sheet")
+    p = actions.add_parser(
+        "preview",
+        help="render a sampled scene to a PNG contact sheet",
+        description="Draw a scene as a dataset build draws them and write some of its frames, "
+        "with their labels, to a PNG contact sheet; print its background, light and objects.",
+    )
     p.add_argument("out", type=Path, help="PNG to write")
-    p.add_argument("--domain", choices=("dvs", "sim"), default="dvs")
-    p.add_argument("--kind", choices=(*SCENE_KINDS, *OBJECT_KINDS), default="uav")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument(
+        "--domain",
+        choices=("dvs", "sim"),
+        default="dvs",
+        help="whose scenes: dvs (rendered for the DVS emulator) or sim (video for PIX2NVS) (dvs)",
+    )
+    p.add_argument(
+        "--kind",
+        choices=(*SCENE_KINDS, *OBJECT_KINDS),
+        default="uav",
+        help="what the scene holds: uav (a UAV, now and then with a distractor), object (a "
+        "non-UAV object), empty (background only), or that one kind of object (uav)",
+    )
+    p.add_argument(
+        "--seed", type=int, default=0, help="seed of the scene's draw and of its rendering (0)"
+    )
     p.add_argument("--frames", type=int, default=8, help="frames on the sheet (8)")
     p.add_argument("--duration", type=float, default=None, help="seconds (domain default)")
     p.add_argument(

@@ -40,7 +40,12 @@ def register(subparsers: Any) -> None:
         "thresholds) and write report.md with pictures.",
     )
     p.add_argument("--out", type=Path, default=Path("runs/demo"), help="folder (runs/demo)")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument(
+        "--seed",
+        type=int,
+        default=0,
+        help="seed of the dataset, the network's weights, its training and the added noise (0)",
+    )
     p.add_argument("--json", action="store_true", help="print the figures as JSON")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     p.set_defaults(handler=_demo)

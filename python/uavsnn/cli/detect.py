@@ -89,7 +89,8 @@ def register(subparsers: Any) -> None:
     p.add_argument(
         "more_sources",
         nargs="*",
-        metavar="SOURCE",
+        default=[],  # optional: a missing SOURCE is the one argument "required"
+        metavar="MORE_SOURCES",
         help="more files or udp://HOST:PORT streams, each with its own detector (needs --ray)",
     )
     p.add_argument(

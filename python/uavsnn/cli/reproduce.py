@@ -97,7 +97,13 @@ def register(subparsers: Any) -> None:
         "static thresholds, score the real footage, and write RESULTS.md with pictures.",
     )
     p.add_argument("--out", type=Path, default=Path("runs/reproduce"), help="(runs/reproduce)")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument(
+        "--seed",
+        type=int,
+        default=0,
+        help="seed of the datasets, the networks' weights and training, the added noise and the "
+        "UAV-free minutes; the tuning sets and --track-minutes take --tune-seed (0)",
+    )
     p.add_argument("--n-train", type=int, default=4000, help="train windows per domain (4000)")
     p.add_argument(
         "--n-test", type=int, default=2000, help="test windows of dvs and of real footage (2000)"

@@ -465,7 +465,8 @@ def synthetic_split(rec: Recorder, source: SceneSource, split: str, n: int) -> L
                 )
             i += 1
             rec.progress(
-                f"{source.domain} {split}: {i} recordings, {pool.positives} UAV and "
+                f"{source.domain} {split}: {i} recording{'' if i == 1 else 's'}, "
+                f"{pool.positives} UAV and "
                 f"{pool.negatives} non-UAV windows"
             )
     finally:
