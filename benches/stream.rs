@@ -13,7 +13,7 @@ use std::hint::black_box;
 use std::time::{Duration, Instant};
 
 use criterion::{criterion_group, criterion_main, BatchSize, Criterion, Throughput};
-use uavsnn::network::{infer, Network, NetworkConfig, PentEstimate, Spikes, WindowBatch};
+use uavsnn::network::{infer, Network, NetworkConfig, PentEstimate, WindowBatch};
 use uavsnn::stream::{NetworkDetector, StreamConfig};
 use uavsnn::windows::{make_windows, WindowConfig};
 use uavsnn::{Event, SensorSize};
@@ -126,12 +126,8 @@ fn throughput(c: &mut Criterion) {
         b.iter(|| {
             let config = WindowConfig::new(WINDOW_US, OVERLAP).expect("config");
             let w = make_windows(&events, sensor, &config).expect("windows");
-            let offsets: Vec<i64> = w.offsets.iter().map(|&o| o as i64).collect();
-            let n_pre: Vec<i64> = w.n_preceding.iter().map(|&n| n as i64).collect();
-            let spikes = Spikes::new(&w.t, &w.x, &w.y).expect("spikes");
-            let batch = WindowBatch::new((240, 180), WINDOW_US, &w.t0, &offsets, spikes, &n_pre)
-                .expect("batch");
-            let results = infer(&net, &batch, Some(1), false).expect("infer");
+            let results = WindowBatch::with_windows(&w, |batch| infer(&net, batch, Some(1), false))
+                .expect("infer");
             results.iter().map(|r| r.detections.len()).sum::<usize>()
         });
     });

@@ -2,6 +2,7 @@
 //! of `uavsnn.windows.Windows` ([`WindowBatch`]), validated before any work starts.
 
 use crate::error::{Error, Result};
+use crate::windows::Windows;
 
 /// One window's input spikes as columns: `t` (µs, absolute, sorted), `x`, `y`.
 #[derive(Debug, Clone, Copy)]
@@ -45,6 +46,11 @@ impl<'a> Spikes<'a> {
     }
 
     /// The spikes `range` of these columns.
+    ///
+    /// # Panics
+    ///
+    /// If `range` does not lie within `0..=self.len()`, or starts after it ends, as slicing a
+    /// slice does. [`WindowBatch::window`] gives a window's spikes with a typed error instead.
     #[must_use]
     pub fn slice(&self, range: std::ops::Range<usize>) -> Spikes<'a> {
         Spikes {
@@ -58,11 +64,13 @@ impl<'a> Spikes<'a> {
 /// Many windows, as `uavsnn.windows.Windows` holds them: window `i`'s spikes are
 /// `offsets[i]..offsets[i + 1]` of the columns.
 ///
-/// [`WindowBatch::new`] checks everything. The fields are public, so a batch written as a
-/// struct literal may be inconsistent: [`window`](Self::window), [`infer`](super::infer) and
-/// [`Trainer::step`](super::Trainer::step) re-check each window they read in `O(1)` (its
-/// index, offsets and count, and that its last spike is before `t0 + L`); the network checks
-/// the spikes themselves (on the sensor, sorted, none before `t0`).
+/// [`WindowBatch::new`] checks everything; [`WindowBatch::with_windows`] makes a batch of the
+/// [`Windows`] of [`make_windows`](crate::windows::make_windows). The fields are public, so a
+/// batch written as a struct literal may be inconsistent: [`window`](Self::window),
+/// [`infer`](super::infer) and [`Trainer::step`](super::Trainer::step) re-check each window
+/// they read in `O(1)` (its index, offsets and count, and that its last spike is before
+/// `t0 + L`); the network checks the spikes themselves (on the sensor, sorted, none before
+/// `t0`).
 #[derive(Debug, Clone, Copy)]
 pub struct WindowBatch<'a> {
     /// `(width, height)` of the sensor.
@@ -146,6 +154,83 @@ impl<'a> WindowBatch<'a> {
             batch.check_window(i)?;
         }
         Ok(batch)
+    }
+
+    /// Run `f` on `windows` (what [`make_windows`](crate::windows::make_windows) gives) as a
+    /// batch, checked as [`WindowBatch::new`] checks one, and return what `f` returns.
+    ///
+    /// A batch borrows its columns as `i64`, the layout of `uavsnn.windows.Windows`, while
+    /// [`Windows`] owns `usize` offsets and `u64` counts: the two converted columns
+    /// (`windows + 1` and `windows` values) live for the call, and the batch with them.
+    ///
+    /// # Errors
+    ///
+    /// As [`WindowBatch::new`] (the fields of [`Windows`] are public, so they may disagree),
+    /// [`Error::Shape`] (`offsets`) or [`Error::InvalidParameter`] (`n_preceding`) for a
+    /// value beyond `i64::MAX`; then whatever `f` returns.
+    ///
+    /// ```
+    /// use uavsnn::network::{infer, Network, NetworkConfig, WindowBatch};
+    /// use uavsnn::windows::{make_windows, WindowConfig};
+    /// use uavsnn::{Event, SensorSize};
+    ///
+    /// let config = NetworkConfig { width: 64, height: 48, ..NetworkConfig::default() };
+    /// let net = Network::new(config, 0)?;
+    /// // A vertical line of 5 pixels at t = 1000 µs, and again 20 ms later.
+    /// let events: Vec<Event> = [1_000, 21_000]
+    ///     .into_iter()
+    ///     .flat_map(|t| (10..15).map(move |y| Event { t, x: 20, y, p: true }))
+    ///     .collect();
+    /// let sensor = SensorSize::new(64, 48)?;
+    /// let windows = make_windows(&events, sensor, &WindowConfig::new(10_000, 0.0)?)?;
+    /// let results = WindowBatch::with_windows(&windows, |batch| infer(&net, batch, None, false))?;
+    /// assert_eq!(results.len(), 3); // [1000, 11000), [11000, 21000), [21000, 31000)
+    /// assert!(results[0].counts[0] > 0 && results[1].counts[0] == 0); // conv1 fired, then not
+    /// # Ok::<(), uavsnn::Error>(())
+    /// ```
+    pub fn with_windows<R, E: From<Error>>(
+        windows: &Windows,
+        f: impl FnOnce(&WindowBatch<'_>) -> std::result::Result<R, E>,
+    ) -> std::result::Result<R, E> {
+        let offsets = windows
+            .offsets
+            .iter()
+            .enumerate()
+            .map(|(i, &o)| {
+                i64::try_from(o).map_err(|_| Error::Shape {
+                    name: "offsets",
+                    expected: "offsets of at most i64::MAX".into(),
+                    got: format!("offsets[{i}] = {o}"),
+                })
+            })
+            .collect::<Result<Vec<i64>>>()?;
+        let n_preceding = windows
+            .n_preceding
+            .iter()
+            .enumerate()
+            .map(|(i, &n)| {
+                i64::try_from(n).map_err(|_| {
+                    Error::param(
+                        "n_preceding",
+                        format!("counts must be at most i64::MAX; window {i} has {n}"),
+                    )
+                })
+            })
+            .collect::<Result<Vec<i64>>>()?;
+        let sensor = (
+            usize::from(windows.sensor.width),
+            usize::from(windows.sensor.height),
+        );
+        let spikes = Spikes::new(&windows.t, &windows.x, &windows.y)?;
+        let batch = WindowBatch::new(
+            sensor,
+            windows.length_us,
+            &windows.t0,
+            &offsets,
+            spikes,
+            &n_preceding,
+        )?;
+        f(&batch)
     }
 
     fn check_window(&self, i: usize) -> Result<()> {
@@ -277,6 +362,147 @@ pub(crate) struct BatchWindow<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::events::{Event, SensorSize};
+    use crate::network::{infer, Network, NetworkConfig};
+    use crate::windows::{make_windows, WindowConfig};
+
+    /// Overlapping windows over a few lines of events on a 16 × 12 sensor, with "preceding"
+    /// counts that are not all zero.
+    fn some_windows() -> Windows {
+        let events: Vec<Event> = (0..40u64)
+            .map(|i| Event {
+                t: 1_000 + 250 * i,
+                x: 2 + (i % 10) as u16,
+                y: 3 + (i / 10) as u16,
+                p: i % 3 == 0,
+            })
+            .collect();
+        let sensor = SensorSize::new(16, 12).unwrap();
+        make_windows(&events, sensor, &WindowConfig::new(2_000, 0.5).unwrap()).unwrap()
+    }
+
+    #[test]
+    fn a_batch_from_windows_is_the_hand_converted_one() {
+        let w = some_windows();
+        assert!(w.len() > 5 && w.n_preceding.iter().any(|&n| n > 0));
+        let offsets: Vec<i64> = w.offsets.iter().map(|&o| o as i64).collect();
+        let n_preceding: Vec<i64> = w.n_preceding.iter().map(|&n| n as i64).collect();
+        let spikes = Spikes::new(&w.t, &w.x, &w.y).unwrap();
+        let by_hand =
+            WindowBatch::new((16, 12), 2_000, &w.t0, &offsets, spikes, &n_preceding).unwrap();
+        let config = NetworkConfig {
+            width: 16,
+            height: 12,
+            ..NetworkConfig::default()
+        };
+        let net = Network::new(config, 0).unwrap();
+        let expected = infer(&net, &by_hand, Some(1), true).unwrap();
+        let got = WindowBatch::with_windows(&w, |batch| {
+            assert_eq!(batch.sensor, by_hand.sensor);
+            assert_eq!(batch.length_us, by_hand.length_us);
+            assert_eq!(batch.t0, by_hand.t0);
+            assert_eq!(batch.offsets, by_hand.offsets);
+            assert_eq!(batch.n_preceding, by_hand.n_preceding);
+            for i in 0..batch.len() {
+                assert_eq!(batch.window(i)?.t(), by_hand.window(i)?.t());
+                assert_eq!(batch.window(i)?.x(), by_hand.window(i)?.x());
+                assert_eq!(batch.window(i)?.y(), by_hand.window(i)?.y());
+            }
+            infer(&net, batch, Some(1), true)
+        })
+        .unwrap();
+        assert_eq!(got, expected);
+    }
+
+    #[test]
+    fn a_batch_from_windows_is_checked_and_passes_errors_through() {
+        #[derive(Debug)]
+        enum Mine {
+            Engine(Error),
+        }
+        impl From<Error> for Mine {
+            fn from(e: Error) -> Self {
+                Mine::Engine(e)
+            }
+        }
+        let w = some_windows();
+        let run = |w: &Windows| WindowBatch::with_windows(w, |batch| Ok(batch.len()));
+        assert_eq!(run(&w).unwrap(), w.len());
+        assert_eq!(run(&Windows::empty(w.sensor, 10)).unwrap(), 0);
+        // `f`'s own error comes back as it is, whatever its type.
+        let err = WindowBatch::with_windows(&w, |_| Err::<(), _>(Error::Internal("f".into())));
+        assert!(matches!(err, Err(Error::Internal(m)) if m == "f"));
+        // An error type of the caller's that engine errors convert into.
+        let bad = Windows {
+            length_us: 0,
+            ..w.clone()
+        };
+        let err = WindowBatch::with_windows(&bad, |_| Ok::<(), Mine>(())).unwrap_err();
+        assert!(matches!(
+            err,
+            Mine::Engine(Error::InvalidParameter {
+                name: "length_us",
+                ..
+            })
+        ));
+        // Public fields that disagree, or do not fit the batch's `i64` columns.
+        let mut offsets = w.clone();
+        offsets.offsets[1] = usize::MAX;
+        let mut shifted = w.clone();
+        shifted.offsets.pop();
+        for bad in [offsets, shifted] {
+            assert!(
+                matches!(
+                    run(&bad),
+                    Err(Error::Shape {
+                        name: "offsets",
+                        ..
+                    })
+                ),
+                "{:?}",
+                run(&bad)
+            );
+        }
+        let mut counts = w.clone();
+        counts.n_preceding[2] = u64::MAX;
+        assert!(matches!(
+            run(&counts),
+            Err(Error::InvalidParameter {
+                name: "n_preceding",
+                ..
+            })
+        ));
+        let mut short = w.clone();
+        short.n_preceding.pop();
+        assert!(matches!(
+            run(&short),
+            Err(Error::Shape {
+                name: "n_preceding",
+                ..
+            })
+        ));
+        let mut columns = w.clone();
+        columns.x.pop();
+        assert!(matches!(
+            run(&columns),
+            Err(Error::Shape { name: "spikes", .. })
+        ));
+        let mut outside = w.clone();
+        outside.x[0] = 16;
+        assert!(matches!(
+            run(&outside),
+            Err(Error::InvalidEvent { index: 0, .. })
+        ));
+    }
+
+    #[test]
+    #[should_panic(expected = "out of range")]
+    fn a_slice_beyond_the_spikes_panics() {
+        let s = Spikes::new(&[5], &[1], &[1]).unwrap();
+        assert_eq!(s.slice(0..1).len(), 1);
+        assert!(s.slice(1..1).is_empty());
+        let _ = s.slice(0..5);
+    }
 
     #[test]
     fn validates_shapes_and_spikes() {

@@ -260,21 +260,31 @@ impl NetworkConfig {
         serde_json::to_string_pretty(self).unwrap_or_default()
     }
 
-    /// The conv layers' configs in order (conv1, conv2, conv3).
+    /// The conv layers' configs in order: `conv(0)` is conv1, `conv(1)` conv2 and `conv(2)`
+    /// conv3 (a [`ConvLayer`](super::ConvLayer)'s [`index`](super::ConvLayer::index)).
+    ///
+    /// # Panics
+    ///
+    /// If `index` is 3 or more, as indexing a slice of the three does.
     pub fn conv(&self, index: usize) -> &ConvConfig {
         match index {
             0 => &self.conv1,
             1 => &self.conv2,
-            _ => &self.conv3,
+            2 => &self.conv3,
+            _ => panic!("conv layer index {index} is out of range: there are 3 conv layers"),
         }
     }
 
-    /// The pool layers' configs in order (pool1, pool2).
+    /// The pool layers' configs in order: `pool(0)` is pool1 and `pool(1)` pool2.
+    ///
+    /// # Panics
+    ///
+    /// If `index` is 2 or more, as indexing a slice of the two does.
     pub fn pool(&self, index: usize) -> &PoolConfig {
-        if index == 0 {
-            &self.pool1
-        } else {
-            &self.pool2
+        match index {
+            0 => &self.pool1,
+            1 => &self.pool2,
+            _ => panic!("pool layer index {index} is out of range: there are 2 pool layers"),
         }
     }
 
@@ -572,6 +582,32 @@ fn check_conv(index: usize, c: &ConvConfig) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::network::ConvLayer;
+
+    #[test]
+    fn layers_by_index() {
+        let mut c = NetworkConfig::default();
+        (c.conv1.maps, c.conv2.maps, c.conv3.maps) = (1, 2, 3);
+        for layer in ConvLayer::ALL {
+            assert_eq!(c.conv(layer.index()).maps, 1 + layer.index());
+        }
+        c.pool2.kernel = 3;
+        assert_eq!(c.pool(0), &c.pool1);
+        assert_eq!(c.pool(1), &c.pool2);
+        assert_ne!(c.pool(0), c.pool(1));
+    }
+
+    #[test]
+    #[should_panic(expected = "conv layer index 7 is out of range")]
+    fn no_conv_layer_beyond_conv3() {
+        let _ = NetworkConfig::default().conv(7);
+    }
+
+    #[test]
+    #[should_panic(expected = "pool layer index 2 is out of range")]
+    fn no_pool_layer_beyond_pool2() {
+        let _ = NetworkConfig::default().pool(2);
+    }
 
     #[test]
     fn default_is_valid_and_round_trips_through_json() {
