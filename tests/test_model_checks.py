@@ -7,10 +7,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from test_tracks import STEP, report
 
 from uavsnn import EVENT_DTYPE, ParameterError, Recording, ShapeError, UavsnnError
 from uavsnn.events import convert
-from uavsnn.grouping import _NO_DETECTIONS, WindowObject, WindowReport, merge_boxes
+from uavsnn.grouping import _NO_DETECTIONS, WindowReport, merge_boxes
 from uavsnn.identify import (
     FEATURES,
     Identifier,
@@ -25,8 +26,6 @@ from uavsnn.network import WINDOW_DETECTION_DTYPE
 from uavsnn.tracks import Tracker, track_windows
 from uavsnn.windows import make_windows, window_step
 
-STEP = 25_000
-
 
 def features(n: int, seed: int) -> WindowFeatures:
     """``n`` windows of one object each, half of them UAVs, told apart by the width."""
@@ -35,17 +34,6 @@ def features(n: int, seed: int) -> WindowFeatures:
     x = rng.normal(size=(n, len(FEATURES)))
     x[:, FEATURES.index("log_width")] += np.where(label, 1.5, -1.5)
     return WindowFeatures(x, np.arange(n), np.zeros((n, 4), np.int64), n, label, np.ones(n, bool))
-
-
-def report(k: int, boxes: list) -> WindowReport:
-    return WindowReport(
-        window=k,
-        t0=k * STEP,
-        t1=k * STEP + 2 * STEP,
-        detected=bool(boxes),
-        detections=_NO_DETECTIONS,
-        objects=tuple(WindowObject(box=b, spikes=1) for b in boxes),
-    )
 
 
 # ---------------------------------------------------------------- flags are booleans
