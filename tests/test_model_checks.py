@@ -273,3 +273,16 @@ def test_every_refusal_here_is_a_uavsnn_error() -> None:
     ):
         with pytest.raises(UavsnnError):
             call()
+
+
+def test_one_window_out_of_range_is_named_as_the_caller_gave_it() -> None:
+    # Windows.spikes(99) said "indices[0]=99", an argument the caller never passed.
+    events = np.zeros(5, EVENT_DTYPE)
+    events["t"] = np.arange(5) * 10_000
+    windows = make_windows(Recording(events, (10, 10)), 20_000)
+    with pytest.raises(ParameterError, match=r"^i=99 is out of range for 3 windows"):
+        windows.spikes(99)
+    with pytest.raises(ParameterError, match=r"^i must be integers"):
+        windows.spikes(1.5)  # type: ignore[arg-type]
+    with pytest.raises(ParameterError, match=r"^indices\[1\]=99 is out of range"):
+        windows.select([0, 99])

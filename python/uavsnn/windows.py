@@ -254,26 +254,28 @@ class Windows:
     def __len__(self) -> int:
         return len(self.t0)
 
-    def _indices(self, indices: Any) -> np.ndarray:
-        """Window indices as int64 (negative ones count from the end), range-checked."""
+    def _indices(self, indices: Any, name: str = "indices") -> np.ndarray:
+        """Window indices as int64 (negative ones count from the end), range-checked; ``name``:
+        the caller's argument, for the message (one index: ``"i"``)."""
         idx = np.atleast_1d(np.asarray(indices))
         if idx.ndim != 1:
             raise ShapeError(f"indices must be 1-D, got shape {idx.shape}")
         if idx.size == 0:
             return np.zeros(0, np.int64)
         if idx.dtype.kind not in "iu":
-            raise ParameterError(f"indices must be integers, got {idx.dtype}")
+            raise ParameterError(f"{name} must be integers, got {idx.dtype}")
         n = len(self)
         bad = (idx < -n) | (idx >= n)
         if bad.any():
             i = int(np.argmax(bad))
-            raise ParameterError(f"indices[{i}]={idx[i]} is out of range for {n} windows")
+            which = name if np.ndim(indices) == 0 else f"{name}[{i}]"
+            raise ParameterError(f"{which}={idx[i]} is out of range for {n} windows")
         idx = idx.astype(np.int64)
         return np.where(idx < 0, idx + n, idx)
 
     def spikes(self, i: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(t, x, y)`` of window ``i`` (views, not copies)."""
-        (k,) = self._indices([i])
+        (k,) = self._indices(i, "i")
         a, b = int(self.offsets[k]), int(self.offsets[k + 1])
         return self.t[a:b], self.x[a:b], self.y[a:b]
 
