@@ -360,9 +360,9 @@ def emulate_dvs(
         Events of ``uavsnn.EVENT_DTYPE``, sorted by time; ties keep pixel order.
 
     Raises:
-        SimulationError: no frames, frames of mixed sizes or bad shape, a dtype other than
-            ``uint8`` and float, non-finite or negative intensities, timestamps that are not
-            one per frame and strictly increasing, or past 2^62 µs.
+        SimulationError: no frames, frames of mixed sizes or bad shape, integer intensities
+            above 255, non-finite or negative intensities, timestamps that are not one per
+            frame and strictly increasing, or past 2^62 µs.
         ParameterError: impossible parameters or seed.
     """
     batch = as_frame_batch(frames)

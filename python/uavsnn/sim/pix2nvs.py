@@ -225,9 +225,9 @@ def pix2nvs(
         Events of ``uavsnn.EVENT_DTYPE``; the first frame makes none.
 
     Raises:
-        SimulationError: no frames, frames of mixed sizes or bad shape, a dtype other than
-            ``uint8`` and float, non-finite or negative intensities, timestamps that are not
-            one per frame and strictly increasing, or past 2^62 µs.
+        SimulationError: no frames, frames of mixed sizes or bad shape, integer intensities
+            above 255, non-finite or negative intensities, timestamps that are not one per
+            frame and strictly increasing, or past 2^62 µs.
         ParameterError: impossible parameters or seed.
     """
     check_seed(seed)
