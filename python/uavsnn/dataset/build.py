@@ -187,10 +187,24 @@ def _check_build_args(
         raise ParameterError(f"test_fraction must be in (0, 1), got {test_fraction!r}")
 
 
+#: What a dataset's folder holds of its own (beside :data:`LOCK`): its manifest, its split files,
+#: and what a build killed part way may leave there (a staging folder made inside the folder,
+#: a file's temporary name). An overwrite replaces these, and nothing else.
+_OWN = re.compile(
+    r"(manifest\.json|(test|train)\.npz|\.building-[0-9a-f]{12}"
+    r"|\.(manifest\.json|(test|train)\.npz)\.[0-9a-f]{12}\.tmp)"
+)
+
+
+def _own(name: str) -> bool:
+    """Whether ``name`` in a dataset's folder is the dataset's (:data:`_OWN`)."""
+    return _OWN.fullmatch(name) is not None
+
+
 def _prepare(out_dir: str | Path, overwrite: bool) -> Path:
     """Check that a build may write its dataset into ``out_dir`` (empty, or a dataset and
-    ``overwrite``); nothing there is removed yet: :func:`_replace_contents` does it once the
-    new dataset is whole."""
+    ``overwrite``, holding nothing that is not the dataset's); nothing there is removed yet:
+    :func:`_replace_contents` does it once the new dataset is whole."""
     root = Path(out_dir)
     if root.exists() and not root.is_dir():
         raise DatasetError(f"{root} exists and is not a folder")
@@ -202,6 +216,18 @@ def _prepare(out_dir: str | Path, overwrite: bool) -> Path:
             )
         if not (root / MANIFEST).is_file():
             raise DatasetError(f"{root} is not empty and not a dataset: refusing to overwrite it")
+        others = sorted(
+            p.name + ("/" if p.is_dir() else "")
+            for p in root.iterdir()
+            if p.name != LOCK and not _own(p.name)
+        )
+        if others:
+            more = f" and {len(others) - 3} more" if len(others) > 3 else ""
+            raise DatasetError(
+                f"{root} holds more than a dataset ({', '.join(others[:3])}{more}): refusing to "
+                "overwrite it (overwrite replaces a dataset's own manifest.json, test.npz and "
+                "train.npz); move the others out, or choose another folder"
+            )
     root.mkdir(parents=True, exist_ok=True)
     return root
 
@@ -234,8 +260,9 @@ def _staging(root: Path) -> Iterator[Path]:
 
 
 def _replace_contents(root: Path, stage: Path) -> None:
-    """Put the dataset built in ``stage`` in ``root`` in place of what ``root`` holds (but its
-    :data:`LOCK`, held by the build), which goes into ``stage`` (removed with it). Each file is
+    """Put the dataset built in ``stage`` in ``root`` in place of the dataset ``root`` holds
+    (its own files, :data:`_OWN`: not :data:`LOCK`, held by the build, nor a file put there
+    while it ran), which goes into ``stage`` (removed with it). Each file is
     renamed, no data copied: the old manifest goes first and the new one comes last, so the
     folder is never a dataset of mixed files; should a rename fail, or be interrupted, the
     ones done are undone, and ``root`` is as it was."""
@@ -243,7 +270,7 @@ def _replace_contents(root: Path, stage: Path) -> None:
     old.mkdir()
     # The old manifest first, the new one last.
     leaving = sorted(
-        (p.name for p in root.iterdir() if p.name not in (LOCK, stage.name)),
+        (p.name for p in root.iterdir() if p.name != stage.name and _own(p.name)),
         key=lambda name: name != MANIFEST,
     )
     coming = sorted((p.name for p in stage.iterdir() if p != old), key=lambda n: n == MANIFEST)
@@ -311,12 +338,14 @@ def build(
     tuning set — holds every kind (manifest: ``"object_scenes": "stratified"``).
 
     The dataset is built in a hidden folder beside ``out_dir`` and put in its place only once
-    whole (with ``overwrite``, the old dataset goes then): a build that fails or is
+    whole (with ``overwrite``, the old dataset goes then; a folder that holds anything else is
+    refused before any work, so nothing but a dataset is replaced): a build that fails or is
     interrupted leaves ``out_dir`` as it was, the old dataset whole, and no folder it made.
 
     Raises:
         ParameterError: impossible arguments.
-        DatasetError: a non-empty ``out_dir`` (unless ``overwrite`` and it holds a dataset),
+        DatasetError: a non-empty ``out_dir`` (unless ``overwrite`` and it holds a dataset and
+            nothing else: ``overwrite`` replaces the dataset's own files, never others),
             missing or malformed footage, or too few windows to fill a balanced split.
     """
     _check_build_args(

@@ -40,6 +40,8 @@ VIDEO_SUFFIXES = (".mp4", ".avi", ".mov", ".mkv", ".m4v", ".webm", ".mpg", ".mpe
 #: Class names (case-insensitive) that mean a UAV.
 UAV_NAMES = ("DRONE", "UAV")
 _NAME = re.compile(r"^(?P<prefix>[A-Za-z0-9]+)_(?P<cls>[A-Za-z]+)_(?P<id>[A-Za-z0-9]+)$")
+_PATTERN = "<PREFIX>_<CLASS>_<ID>"
+_PATTERN_RULE = "PREFIX and ID ASCII letters and digits, CLASS ASCII letters"
 
 
 @dataclass(frozen=True)
@@ -57,20 +59,36 @@ class Clip:
 def find_clips(folder: str | Path) -> list[Clip]:
     """The labelled videos of ``folder``, sorted by name.
 
+    A clip is a video (a suffix in :data:`VIDEO_SUFFIXES`) named ``<PREFIX>_<CLASS>_<ID>``:
+    ``PREFIX`` and ``ID`` ASCII letters and digits, ``CLASS`` ASCII letters, joined by single
+    underscores. Other files are left alone, but a video otherwise named with a ``.csv`` of
+    its name beside it is meant as a clip, and refused.
+
     Raises:
         DatasetError: the folder is missing or holds no video named ``<PREFIX>_<CLASS>_<ID>``,
             a video so named is a link to nothing (a clip that cannot be read is an error,
-            never a clip left out), or a video has no ``.csv`` beside it.
+            never a clip left out), a video has no ``.csv`` beside it, a video with a ``.csv``
+            beside it is not so named, or two videos have one name (``V_DRONE_001.avi`` and
+            ``V_DRONE_001.mp4``: one box file, and two clips of one name that could land in
+            different splits).
     """
     root = Path(folder)
     if not root.is_dir():
         raise DatasetError(f"video folder {root} does not exist or is not a folder")
     clips = []
+    named: dict[str, Path] = {}  # the clips' videos by name
     for path in sorted(root.iterdir(), key=lambda p: p.name):  # as on every OS
         if path.suffix.lower() not in VIDEO_SUFFIXES:
             continue
+        boxes = path.with_suffix(".csv")
         m = _NAME.match(path.stem)
         if m is None:
+            if (path.is_file() or path.is_symlink()) and (boxes.is_file() or boxes.is_symlink()):
+                raise DatasetError(
+                    f"video {path.name} in {root} has a box file {boxes.name} but its name is not "
+                    f"{_PATTERN} ({_PATTERN_RULE}, e.g. V_DRONE_001): rename the video and its "
+                    ".csv"
+                )
             continue
         if path.is_symlink() and not path.exists():
             raise DatasetError(
@@ -78,7 +96,6 @@ def find_clips(folder: str | Path) -> list[Clip]:
             )
         if not path.is_file():
             continue  # a folder so named: not a clip
-        boxes = path.with_suffix(".csv")
         if not boxes.is_file():
             if boxes.is_symlink() and not boxes.exists():
                 raise DatasetError(
@@ -86,13 +103,20 @@ def find_clips(folder: str | Path) -> list[Clip]:
                     f"(it points to {boxes.readlink()})"
                 )
             raise DatasetError(f"video {path.name} has no box file {boxes.name} beside it")
+        if path.stem in named:
+            raise DatasetError(
+                f"videos {named[path.stem].name} and {path.name} in {root} have one name (and "
+                f"one box file, {boxes.name}): keep one of them, or rename the other with its "
+                "own .csv"
+            )
+        named[path.stem] = path
         cls_name = m.group("cls").upper()
         uav = cls_name in UAV_NAMES
         clips.append(Clip(path.stem, path, boxes, UAV_CLASS if uav else cls_name.lower(), uav))
     if not clips:
         raise DatasetError(
             f"no labelled videos in {root}: expected files named like V_DRONE_001.mp4 "
-            f"(<PREFIX>_<CLASS>_<ID> with a suffix in {', '.join(VIDEO_SUFFIXES)}) and a .csv "
+            f"({_PATTERN} with a suffix in {', '.join(VIDEO_SUFFIXES)}) and a .csv "
             f"of the same name"
         )
     return clips

@@ -265,7 +265,8 @@ class Background:
     ``overcast`` in [0, 1] greys the sky; ``cloud_speed_deg_s`` is the clouds' angular drift;
     ``wind`` in [0, 1] sways the trees. Where the horizon or the hall's floor falls in the frame
     follows from the camera's tilt and ``camera_height_m``; ``room_m`` is the hall's (length,
-    width, height). ``variant`` (an integer >= 0) picks a layout.
+    width, height), each in [2, 500] m (three finite numbers for a sky, which does not use
+    it). ``variant`` (an integer >= 0) picks a layout.
     """
 
     kind: str = "sky"
@@ -288,7 +289,8 @@ class Background:
         _finite("background.wind", self.wind, low=0.0, high=1.0)
         _finite("background.camera_height_m", self.camera_height_m, low=0.05, high=100.0)
         room = _vector("background.room_m", self.room_m, (3,))
-        if np.any(room < 2.0) or np.any(room > 500.0):
+        # A sky draws no room: its room_m is kept (three numbers) but never used.
+        if self.kind != "sky" and (np.any(room < 2.0) or np.any(room > 500.0)):
             raise SimulationError(f"background.room_m must lie in [2, 500] m, got {room.tolist()}")
         _store(self, "room_m", room)
         _variant("background.variant", self.variant)

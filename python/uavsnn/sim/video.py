@@ -90,6 +90,14 @@ def _open(path: str | Path) -> cv2.VideoCapture:
         # Refused before FFmpeg sees it: FFmpeg would print its own line ("moov atom not found")
         # to standard error, past OpenCV's logging, before this one.
         raise SimulationError(f"cannot read {str(p)!r} as a video (the file is empty)")
+    try:
+        # Opened here first: OpenCV would print its own warning ("can't open/read file") to
+        # standard error, and then report no more than an unknown format.
+        with open(p, "rb"):
+            pass
+    except OSError as exc:
+        why = "permission denied" if isinstance(exc, PermissionError) else exc.strerror or exc
+        raise SimulationError(f"cannot read {str(p)!r} ({why})") from exc
     cap = cv2.VideoCapture(str(p))
     if not cap.isOpened():
         cap.release()
