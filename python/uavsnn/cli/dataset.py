@@ -139,7 +139,12 @@ def register(subparsers: Any) -> None:
         "hold every kind",
     )
     add_camera_options(b, "dvs")
-    b.add_argument("--overwrite", action="store_true", help="replace a dataset in OUT_DIR")
+    b.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace the dataset in OUT_DIR (its own files; a folder that holds anything "
+        "else is refused)",
+    )
     b.add_argument("--json", action="store_true", help="print the summary as JSON")
     b.add_argument("--quiet", action="store_true", help="no progress bar")
     add_ray_option(b, "the recordings' simulation as tasks (the same dataset)")
@@ -162,7 +167,12 @@ def register(subparsers: Any) -> None:
     )
     d.add_argument("--n-test", type=int, default=200, help="test windows, half UAV (200)")
     d.add_argument("--n-train", type=int, default=400, help="train windows, half UAV (400)")
-    d.add_argument("--overwrite", action="store_true", help="replace a dataset in OUT_DIR")
+    d.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace the dataset in OUT_DIR (its own files; a folder that holds anything "
+        "else is refused)",
+    )
     d.add_argument("--json", action="store_true", help="print the summary as JSON")
     d.add_argument("--quiet", action="store_true", help="no progress bar")
     d.set_defaults(handler=_demo)
