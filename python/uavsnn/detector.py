@@ -71,6 +71,10 @@ __all__ = [
 #: overlap of 0.9999 would need 10,000 of them. Overlaps up to ``1 - 1/64 ≈ 0.984`` are accepted.
 MAX_LIVE_WINDOWS = 64
 
+# Bytes the engine's stream keeps per pixel beside the window states: its counter of preceding
+# events (8) and up to two 16-byte queue entries.
+_STREAM_PIXEL_BYTES = 8 + 2 * 16
+
 #: The most objects of one window whose rotor signature :meth:`Detector.push_windows` measures
 #: (the first ones: most conv3 spikes first); the others get ``rotor=None``.
 MAX_ROTOR_BOXES = 8
@@ -173,7 +177,9 @@ class Detector(EngineState):
         ParameterError: for a ``window_us`` outside ``[1, 2**62]`` (or, with ``rotor``, over
             :data:`uavsnn.features.MAX_RATE_BINS` bins of ``RATE_BIN_US``: 20.48 s), an overlap
             outside ``[0, 1)`` or one that keeps more than :data:`MAX_LIVE_WINDOWS` windows
-            live, or a ``model`` that is neither a network nor a path.
+            live, or a ``model`` that is neither a network nor a path; or when the network
+            states of the live windows would not fit in ``uavsnn.windows.MEMORY_LIMIT`` (the
+            bytes and the limit named), instead of aborting the process later.
         ShapeError: when ``sensor_size`` differs from the network's input size.
     """
 
@@ -227,6 +233,16 @@ class Detector(EngineState):
             overlap, (int, float, np.integer, np.floating)
         ):
             raise ParameterError(f"overlap must be a number in [0, 1), got {overlap!r}")
+        # Each live window holds a network state, and the stream keeps 40 bytes a pixel: refused
+        # here when they would not fit in the memory this process may have (the engine checks
+        # its fixed 4 GiB only; more than MAX_LIVE_WINDOWS live windows is its to refuse).
+        live = -(-window_us // _core.window_step(window_us, float(overlap)))
+        if live <= MAX_LIVE_WINDOWS:
+            network._check_memory(
+                live,
+                more=width * height * _STREAM_PIXEL_BYTES,
+                hint=", or a smaller overlap" if live > 1 else "",
+            )
         w1, w2, w3 = (
             np.ascontiguousarray(network.weights(layer), dtype=np.float32).ravel()
             for layer in ("conv1", "conv2", "conv3")

@@ -10,7 +10,7 @@ model file need. The model is stored beside the network as plain arrays, ``ident
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, fields, replace
 from typing import Any
 
 import numpy as np
@@ -31,8 +31,13 @@ __all__ = ["VERSION", "Identifier"]
 #: version 1 files still load (their class guess is ``"uav"`` or ``"other"``).
 VERSION = 3
 
+#: The relative difference within which a rate names one of the rates a model was tuned for
+#: (:meth:`Identifier.at_false_alarm`, :meth:`Identifier.at_false_tracks`): a float32's
+#: precision, far finer than the rates' spacing.
+_RATE_TOLERANCE = 1e-6
 
-@dataclass(frozen=True)
+
+@dataclass(frozen=True, eq=False)
 class Identifier:
     """A fitted identification model: UAV score of an object from its features, and (when
     ``classes`` is not empty) a class model for the class guess: ``class_coef``
@@ -63,7 +68,10 @@ class Identifier:
     (:attr:`uavsnn.features.WindowFeatures.gate_px`); a network with this model runs its
     tracker at that gate (:func:`uavsnn.tracks.tracker_for`). ``None``: a model written before
     uavsnn recorded it, which runs at its sensor's gate
-    (:meth:`uavsnn.tracks.Tracker.for_sensor`)."""
+    (:meth:`uavsnn.tracks.Tracker.for_sensor`).
+
+    Two models are equal (``==``) when every field is: the arrays (the trees' too) element by
+    element. A model holds arrays, so it is not hashable (as a :class:`uavsnn.Network`)."""
 
     features: tuple[str, ...]
     coef: np.ndarray
@@ -161,9 +169,18 @@ class Identifier:
         if self.trees is not None and self.trees.columns > d:
             raise ShapeError(f"the trees split on column {self.trees.columns - 1} of {d} features")
 
+    def __eq__(self, other: object) -> bool:
+        """Every field equal, the arrays (and the trees') element by element."""
+        if other.__class__ is not self.__class__:
+            return NotImplemented
+        return _same(self, other)
+
+    __hash__ = None  # type: ignore[assignment]  # holds arrays
+
     def at_false_alarm(self, rate: float) -> Identifier:
         """This model with its threshold set where ``rate`` of the tuning set's UAV-free windows
-        alarmed (one of :attr:`alarm_thresholds`' shares), e.g. ``ident.at_false_alarm(0.01)``.
+        alarmed (one of :attr:`alarm_thresholds`' shares, matched to a relative 1e-6, so that a
+        float32 share is the same), e.g. ``ident.at_false_alarm(0.01)``.
 
         Raises:
             ParameterError: ``rate`` not a number, or the model was not tuned for that share
@@ -171,7 +188,8 @@ class Identifier:
         """
         rate = check_real("rate", rate)
         for share, threshold in self.alarm_thresholds:
-            if math.isclose(share, rate, rel_tol=0.0, abs_tol=1e-12):
+            # Within a float32's precision: np.float32(0.01) is 0.01 too.
+            if math.isclose(share, rate, rel_tol=_RATE_TOLERANCE):
                 return replace(self, threshold=threshold)
         have = ", ".join(f"{share:g}" for share, _ in self.alarm_thresholds) or "none"
         raise ParameterError(
@@ -182,14 +200,14 @@ class Identifier:
     def at_false_tracks(self, rate: float) -> Identifier:
         """This model with its threshold set where ``rate`` confirmed tracks per minute of the
         streamed UAV-free tuning recordings alarmed (one of :attr:`track_alarm_thresholds`'
-        rates), e.g. ``ident.at_false_tracks(0.1)``.
+        rates, matched to a relative 1e-6), e.g. ``ident.at_false_tracks(0.1)``.
 
         Raises:
             ParameterError: ``rate`` not a number, or the model was not tuned for that rate.
         """
         rate = check_real("rate", rate)
         for have, threshold in self.track_alarm_thresholds:
-            if math.isclose(have, rate, rel_tol=1e-12, abs_tol=0.0):
+            if math.isclose(have, rate, rel_tol=_RATE_TOLERANCE):
                 return replace(self, threshold=threshold)
         tuned = ", ".join(f"{r:g}" for r, _ in self.track_alarm_thresholds) or "none"
         raise ParameterError(
@@ -352,15 +370,24 @@ class Identifier:
     @classmethod
     def from_arrays(cls, arrays: Any) -> Identifier | None:
         """The model stored in ``arrays`` (a mapping, e.g. an ``np.load`` of a model file), or
-        ``None`` when it holds none. Reads versions 1 (no class model), 2 and 3 (trees), with
-        or without ``identify.gate_px`` (absent: :attr:`gate_px` is ``None``); arrays it does
-        not know are ignored.
+        ``None`` when it holds none (no ``identify.*`` array). Reads versions 1 (no class
+        model), 2 (with or without the class model) and 3 (trees: their four arrays must be
+        there), with or without ``identify.gate_px`` (absent: :attr:`gate_px` is ``None``);
+        arrays it does not know are ignored.
 
         Raises:
             ModelFileError: another version, a stored gate that is not one finite number > 0,
-                or arrays that do not fit together.
+                or arrays that do not fit together: one missing (``identify.version`` beside
+                the others too), one of another shape or dtype (each named).
         """
         if "identify.version" not in arrays:
+            stored = sorted(str(k) for k in arrays if str(k).startswith("identify."))
+            if stored:
+                shown = ", ".join(stored[:3]) + (", ..." if len(stored) > 3 else "")
+                raise ModelFileError(
+                    f"its identification arrays are inconsistent: identify.version is missing "
+                    f"beside {len(stored)} of them ({shown})"
+                )
             return None
         version = int(_one(arrays, "identify.version", "iu", "one integer"))
         if version not in (1, 2, VERSION):
@@ -372,37 +399,43 @@ class Identifier:
             classes: tuple[str, ...] = ()
             class_coef, class_l2 = None, None
             if version >= 2 and "identify.classes" in arrays:
-                classes = tuple(str(c) for c in np.asarray(arrays["identify.classes"]))
-                class_coef = np.asarray(arrays["identify.class_coef"], dtype=np.float64)
-                l2 = float(np.asarray(arrays["identify.class_l2"]))
+                classes = tuple(str(c) for c in _stored(arrays, "identify.classes"))
+                class_coef = np.asarray(_stored(arrays, "identify.class_coef"), dtype=np.float64)
+                l2 = _scalar(arrays, "identify.class_l2")
                 class_l2 = None if math.isnan(l2) else l2
+            elif version >= 2:
+                for key in ("identify.class_coef", "identify.class_l2"):
+                    if key in arrays:
+                        raise ModelFileError(f"{key} is stored without identify.classes")
             alarms = _pairs(arrays, "identify.alarm_rates", "identify.alarm_thresholds")
             track_alarms = _pairs(
                 arrays, "identify.track_alarm_rates", "identify.track_alarm_thresholds"
             )
             minutes, confirm = 0.0, DEFAULT_CONFIRM
             if track_alarms:
-                minutes = float(np.asarray(arrays["identify.track_alarm_minutes"]))
+                minutes = _scalar(arrays, "identify.track_alarm_minutes")
                 if "identify.track_alarm_confirm" in arrays:
-                    pair = np.asarray(arrays["identify.track_alarm_confirm"]).tolist()
+                    pair = _stored(arrays, "identify.track_alarm_confirm").tolist()
                     if not isinstance(pair, list) or len(pair) != 2:
                         raise ShapeError(f"identify.track_alarm_confirm must be 2 values: {pair}")
                     confirm = (int(pair[0]), int(pair[1]))
             trees = None
-            if version >= 3 and "identify.tree_feature" in arrays:
+            if version >= 3:  # a version-3 model has trees (without them it is version 2)
                 trees = Trees(
-                    feature=np.asarray(arrays["identify.tree_feature"], dtype=np.int64),
-                    threshold=np.asarray(arrays["identify.tree_threshold"], dtype=np.float64),
-                    leaf=np.asarray(arrays["identify.tree_leaf"], dtype=np.float64),
-                    base=float(np.asarray(arrays["identify.tree_base"])),
+                    feature=np.asarray(_stored(arrays, "identify.tree_feature"), dtype=np.int64),
+                    threshold=np.asarray(
+                        _stored(arrays, "identify.tree_threshold"), dtype=np.float64
+                    ),
+                    leaf=np.asarray(_stored(arrays, "identify.tree_leaf"), dtype=np.float64),
+                    base=_scalar(arrays, "identify.tree_base"),
                 )
             return cls(
-                features=tuple(str(f) for f in np.asarray(arrays["identify.features"])),
-                coef=np.asarray(arrays["identify.coef"], dtype=np.float64),
-                mean=np.asarray(arrays["identify.mean"], dtype=np.float64),
-                scale=np.asarray(arrays["identify.scale"], dtype=np.float64),
-                threshold=float(np.asarray(arrays["identify.threshold"])),
-                l2=float(np.asarray(arrays["identify.l2"])),
+                features=tuple(str(f) for f in _stored(arrays, "identify.features")),
+                coef=np.asarray(_stored(arrays, "identify.coef"), dtype=np.float64),
+                mean=np.asarray(_stored(arrays, "identify.mean"), dtype=np.float64),
+                scale=np.asarray(_stored(arrays, "identify.scale"), dtype=np.float64),
+                threshold=_scalar(arrays, "identify.threshold"),
+                l2=_scalar(arrays, "identify.l2"),
                 classes=classes,
                 class_coef=class_coef,
                 class_l2=class_l2,
@@ -414,9 +447,21 @@ class Identifier:
                 gate_px=gate,
             )
         except (KeyError, TypeError, ValueError, ParameterError, ShapeError) as exc:
-            # TypeError: an array where one number belongs (float() of a 1-D array), or one
-            # number where names belong (iterating a 0-D array).
+            # TypeError: one number where names belong (iterating a 0-D array). ValueError:
+            # the ModelFileErrors above too (an array missing, or not one number), named.
             raise ModelFileError(f"its identification arrays are inconsistent: {exc}") from exc
+
+
+def _same(a: Any, b: Any) -> bool:
+    """Whether two field values are equal: arrays element by element (and of one shape), the
+    fields of two models or of two :class:`Trees` each by this rule, others by ``==``."""
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        return isinstance(a, np.ndarray) and isinstance(b, np.ndarray) and np.array_equal(a, b)
+    if isinstance(a, Identifier | Trees) or isinstance(b, Identifier | Trees):
+        return a.__class__ is b.__class__ and all(
+            _same(getattr(a, f.name), getattr(b, f.name)) for f in fields(a)
+        )
+    return a is b or bool(a == b)
 
 
 def _number(name: str, value: Any) -> float:
@@ -457,16 +502,37 @@ def _number_pairs(name: str, pairs: Any) -> tuple[tuple[float, float], ...]:
     return tuple((_number(name, r), _number(name, t)) for r, t in given)
 
 
+def _stored(arrays: Any, key: str) -> np.ndarray:
+    """The array stored as ``key``.
+
+    Raises:
+        ModelFileError: there is none (named).
+    """
+    if key not in arrays:
+        raise ModelFileError(f"{key} is missing")
+    return np.asarray(arrays[key])
+
+
 def _one(arrays: Any, key: str, kinds: str, what: str) -> np.ndarray:
     """The 0-D array stored as ``key``, of a dtype kind in ``kinds``.
 
     Raises:
-        ModelFileError: it is an array of another shape or dtype (``what`` it must be).
+        ModelFileError: there is none, or it is an array of another shape or dtype (``what`` it
+            must be).
     """
-    stored = np.asarray(arrays[key])
+    stored = _stored(arrays, key)
     if stored.shape != () or stored.dtype.kind not in kinds:
         raise ModelFileError(f"{key} must be {what}, got an array of {stored.dtype} {stored.shape}")
     return stored
+
+
+def _scalar(arrays: Any, key: str) -> float:
+    """The one number stored as ``key``, as a float.
+
+    Raises:
+        ModelFileError: there is none, or it is not one number (named).
+    """
+    return float(_one(arrays, key, "iuf", "one number"))
 
 
 def _gate(arrays: Any) -> float | None:
@@ -477,23 +543,23 @@ def _gate(arrays: Any) -> float | None:
     """
     if "identify.gate_px" not in arrays:
         return None
-    gate = float(_one(arrays, "identify.gate_px", "iuf", "one number"))
+    gate = _scalar(arrays, "identify.gate_px")
     if not (math.isfinite(gate) and gate > 0):
         raise ModelFileError(f"identify.gate_px must be a finite number > 0, got {gate}")
     return gate
 
 
 def _pairs(arrays: Any, rates_key: str, thresholds_key: str) -> tuple[tuple[float, float], ...]:
-    """The ``(rate, threshold)`` pairs stored as two arrays (none when absent).
+    """The ``(rate, threshold)`` pairs stored as two arrays (none when both are absent).
 
     Raises:
         ShapeError: arrays that are not of one length.
-        KeyError: the thresholds missing beside the rates.
+        ModelFileError: one of the two arrays missing beside the other.
     """
-    if rates_key not in arrays:
+    if rates_key not in arrays and thresholds_key not in arrays:
         return ()
-    rates = np.asarray(arrays[rates_key], dtype=np.float64)
-    thresholds = np.asarray(arrays[thresholds_key], dtype=np.float64)
+    rates = np.asarray(_stored(arrays, rates_key), dtype=np.float64)
+    thresholds = np.asarray(_stored(arrays, thresholds_key), dtype=np.float64)
     if rates.ndim != 1 or rates.shape != thresholds.shape:
         raise ShapeError(
             f"{rates_key} {rates.shape} and {thresholds_key} {thresholds.shape} differ"

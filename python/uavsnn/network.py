@@ -17,10 +17,13 @@ event of each active pixel, polarities merged), sorted by ``t``; a repeated pixe
 
 from __future__ import annotations
 
+import contextlib
 import copy
+import functools
 import itertools
 import json
 import os
+import secrets
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -30,7 +33,8 @@ import numpy as np
 import numpy.typing as npt
 
 from uavsnn import _core
-from uavsnn._files import temporary_beside, write_atomic
+from uavsnn import windows as windows_module
+from uavsnn._files import write_atomic
 from uavsnn._validate import (
     U64_MAX,
     check_int,
@@ -394,6 +398,46 @@ class Network:
             raise ShapeError(f"weights must be 4-D (maps, in_channels, k, k), got {array.shape}")
         self._core.set_weights(_layer(layer), np.ascontiguousarray(array))
 
+    @functools.cached_property
+    def _state_bytes(self) -> int:
+        """Bytes of one window's state in the engine, counted as it counts them
+        (``Geometry::state_bytes``): per pixel 12, per conv neuron 4 and per conv position 2,
+        per pool neuron 28 and 8 per 64 conv neurons of its block. A network's config does not
+        change: counted once."""
+        c, shapes = self.config, self.shapes
+        total = int(c["width"]) * int(c["height"]) * 12
+        for layer in CONV_LAYERS:
+            maps, rows, cols = shapes[layer]
+            total += rows * cols * (maps * 4 + 2)
+        for layer in ("pool1", "pool2"):
+            maps, rows, cols = shapes[layer]
+            words = -(-(int(c[layer]["kernel"]) ** 2) // 64)
+            total += maps * rows * cols * (28 + 8 * words)
+        return total
+
+    def _check_memory(self, states: int = 1, *, more: int = 0, hint: str = "") -> None:
+        """Refuse, before the engine allocates them, ``states`` window states (and ``more``
+        bytes beside them) that would not fit in ``uavsnn.windows.MEMORY_LIMIT`` (the memory
+        this process may have): the engine checks them against its fixed 4 GiB only, and an
+        allocation the system cannot honour aborts the process.
+
+        Raises:
+            ParameterError: they would not fit (the bytes and the limit named; ``hint`` added).
+        """
+        limit = windows_module.MEMORY_LIMIT
+        need = states * self._state_bytes + more
+        if limit is None or need <= limit:
+            return
+        c = self.config
+        maps = "/".join(str(c[name]["maps"]) for name in CONV_LAYERS)
+        what = "one window's state" if states == 1 else f"the states of {states} live windows"
+        beside = f" ({more:,} of them beside the states)" if more else ""
+        raise ParameterError(
+            f"{what} of a {c['width']}x{c['height']} network (conv maps {maps}) would need "
+            f"{need:,} bytes{beside}, more than the {limit:,} bytes allowed "
+            f"(uavsnn.windows.MEMORY_LIMIT): use a smaller width and height, or fewer maps{hint}"
+        )
+
     def conv1_thresholds(self, n_in: int) -> np.ndarray:
         """conv1's per-map thresholds (float32) for a window whose PENT estimate is ``n_in``."""
         return np.asarray(self._core.conv1_thresholds(_count("n_in", n_in)), dtype=np.float32)
@@ -417,10 +461,13 @@ class Network:
 
         ``t`` (sorted, ``>= t0``), ``x``, ``y`` are integer arrays of equal length. ``n_in``
         overrides PENT's ``N_in`` (default: the number of spikes). Out-of-sensor or unsorted
-        spikes raise :class:`~uavsnn.EventError`.
+        spikes raise :class:`~uavsnn.EventError`; a network whose window state would not fit in
+        ``uavsnn.windows.MEMORY_LIMIT`` raises :class:`~uavsnn.ParameterError` (it, and the
+        bytes it needs, named) instead of aborting the process.
         """
         t_, x_, y_ = self._inputs(t, x, y)
         n = None if n_in is None else _count("n_in", n_in)
+        self._check_memory()
         packed, counts, thresholds, found = self._core.run_window(t_, x_, y_, _count("t0", t0), n)
         # One buffer of every layer's spike records; each layer is a slice of one view.
         spikes = packed.view(SPIKE_DTYPE)
@@ -456,13 +503,16 @@ class Network:
         crossings compete (winner-take-all); the winners' kernels are updated in place with
         ``a_plus``/``a_minus`` (default: the config's initial rates; an override must keep the
         config's signs, ``a_plus > 0`` and ``a_minus <= 0``, as a finite float32). Returns the
-        winners in acceptance order (:data:`SPIKE_DTYPE`).
+        winners in acceptance order (:data:`SPIKE_DTYPE`). A window state that would not fit in
+        ``uavsnn.windows.MEMORY_LIMIT`` is refused (:class:`~uavsnn.ParameterError`), as in
+        :meth:`run_window`.
         """
         layer = _layer(layer)
         plus = None if a_plus is None else _rate("a_plus", a_plus)
         minus = None if a_minus is None else _rate("a_minus", a_minus)
         t_, x_, y_ = self._inputs(t, x, y)
         n = None if n_in is None else _count("n_in", n_in)
+        self._check_memory()
         columns = self._core.stdp_step(layer, t_, x_, y_, _count("t0", t0), n, plus, minus)
         return _spikes(columns, SPIKE_DTYPE)
 
@@ -474,7 +524,9 @@ class Network:
         PENT's ``N_in`` is each window's spike count or its ``n_preceding``, as
         ``config["pent"]["estimate"]`` says. With ``spikes=True`` every layer's spikes are
         returned too. The results do not depend on the number of workers; fewer run than asked
-        where their network states would not fit in the engine's 4 GiB cap together.
+        where their network states would not fit in the engine's 4 GiB cap together; a network
+        whose one window state would not fit in ``uavsnn.windows.MEMORY_LIMIT`` is refused
+        (:class:`~uavsnn.ParameterError`), as in :meth:`run_window`.
 
         A ``threads`` count other than the default starts a pool of that many threads, kept
         for later calls (starting threads costs more than a small batch): at most two such
@@ -484,6 +536,8 @@ class Network:
         workers = None if threads is None else check_int("threads", threads, 1)
         if workers is not None and workers > MAX_THREADS:
             raise ParameterError(f"threads must be at most {MAX_THREADS}, got {workers}")
+        if len(columns["t0"]):
+            self._check_memory()  # one worker's (the engine runs fewer where more do not fit)
         counts, thresholds, detections, layer_spikes = self._core.infer(
             **columns, threads=workers, record=bool(spikes)
         )
@@ -526,10 +580,14 @@ class Network:
         ``callback(done, total, convergence)`` is called every ``every`` windows and at the end;
         returning ``False`` stops training early. The GIL is released between calls. Ctrl-C
         (checked as often, callback or not) stops it too, with a ``KeyboardInterrupt``: the
-        layer's weights then hold the windows taken so far.
+        layer's weights then hold the windows taken so far. A window state that would not fit
+        in ``uavsnn.windows.MEMORY_LIMIT`` is refused (:class:`~uavsnn.ParameterError`), as in
+        :meth:`run_window`.
         """
         layer = _layer(layer)
         columns = _window_columns(windows)
+        if len(columns["t0"]):
+            self._check_memory()
         convergence, a_plus, seen, winners = self._core.train_layer(
             layer,
             **columns,
@@ -555,17 +613,35 @@ class Network:
         is interrupted, see the old file or the whole new one, never the new network without
         its identification.
 
+        The temporary file's name is longer than the file's: with an identification, the
+        file's name may be at most 237 bytes long (the usual limit of 255, less the 18 that
+        ``.NAME.<12 hex digits>.tmp`` adds); without, about 240 (the engine's
+        ``.NAME.tmp-<process id>-<count>``).
+
         Raises:
-            ParameterError: ``path`` is not a ``str`` or ``os.PathLike[str]`` (bytes refused).
-            ModelFileError: the file cannot be written (the old one is left as it was).
+            ParameterError: ``path`` is not a ``str`` or ``os.PathLike[str]`` (bytes refused),
+                or :attr:`identification` is neither ``None`` nor an identification model.
+            ModelFileError: the file cannot be written (the old one is left as it was), or
+                ``path`` names no file (empty, or ending in a folder separator).
         """
         file = check_path(path)
         if self.identification is None:
             self._core.save(file)
             return
-        arrays = self.identification.to_arrays()
-        # The engine's part first, beside the file; then the whole file from it, atomically.
-        tmp = temporary_beside(Path(file))
+        to_arrays = getattr(self.identification, "to_arrays", None)
+        if not callable(to_arrays):
+            raise ParameterError(
+                f"identification must be a uavsnn.identify.Identifier or None, got "
+                f"{type(self.identification).__name__}"
+            )
+        target = Path(file)
+        # Path("x/") is "x": a file named so is not the folder asked for, as the engine says.
+        if target.name in ("", ".", "..") or file.endswith((os.sep, os.altsep or os.sep)):
+            raise ModelFileError(f"model file: cannot write {file}: the path has no file name")
+        arrays = to_arrays()
+        # The engine's part first, beside the file, under a short name (the engine adds its own
+        # temporary name to it); then the whole file from it, atomically.
+        tmp = target.with_name(f".uavsnn-{secrets.token_hex(6)}.tmp")
         try:
             try:
                 self._core.save(str(tmp))
@@ -576,7 +652,9 @@ class Network:
         except OSError as exc:
             raise ModelFileError(f"cannot write {file}: {exc.strerror or exc}") from exc
         finally:
-            tmp.unlink(missing_ok=True)
+            # Never in place of the error above (the folder may be a file, the name too long).
+            with contextlib.suppress(OSError):
+                tmp.unlink(missing_ok=True)
 
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> Network:

@@ -369,8 +369,9 @@ def check_fits(source: EventSource, model_size: tuple[int, int]) -> None:
 
     Raises:
         ParameterError: naming both sizes: a file is cropped and scaled with
-            ``--downsample`` (``downsample_to``), unless it records no sensor size, which is to
-            be given; a live stream is not cropped or scaled.
+            ``--downsample`` (``downsample_to``) when it is at least as large as the model's
+            input on both axes (a smaller one needs a model of its size), unless it records
+            no sensor size, which is to be given; a live stream is not cropped or scaled.
     """
     size = source.sensor_size
     if size is None or tuple(size) == tuple(model_size):
@@ -385,6 +386,12 @@ def check_fits(source: EventSource, model_size: tuple[int, int]) -> None:
         raise ParameterError(
             f"{source.path} records no sensor size ({w}x{h} is only a stand-in): give "
             "--sensor-size WxH (sensor_size)"
+        )
+    if w < mw or h < mh:  # downsampling only reduces: nothing makes it fit
+        raise ParameterError(
+            f"the recording's sensor is {w}x{h}, smaller than the model's input {mw}x{mh}: "
+            f"--downsample (downsample_to) only reduces; use a model of a {w}x{h} input "
+            "(trained on data of that size)"
         )
     raise ParameterError(
         f"the recording's sensor is {w}x{h}, the model's input {mw}x{mh}: add --downsample "

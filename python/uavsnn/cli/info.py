@@ -60,22 +60,40 @@ def summary(recording: Recording) -> dict[str, Any]:
     }
 
 
-#: The arrays that make an ``.npz`` file a model (:meth:`uavsnn.network.Network.save` writes
-#: them; a recording has ``events`` and ``sensor_size`` instead).
+#: The arrays of a model file (:meth:`uavsnn.network.Network.save` writes them, and its
+#: identification's ``identify.*``; a recording has ``events`` and ``sensor_size`` instead).
 MODEL_ARRAYS = ("format", "config", "conv1", "conv2", "conv3")
 
 
 def is_model_file(path: str | Path) -> bool:
-    """Whether ``path`` is an ``.npz`` archive holding a model's arrays (:data:`MODEL_ARRAYS`)
-    and no events: a model file, which :meth:`uavsnn.network.Network.load` reads."""
+    """Whether ``path`` is meant as a model file, which :meth:`uavsnn.network.Network.load`
+    reads (or says what is wrong with): an ``.npz`` archive holding any of a model's arrays
+    (:data:`MODEL_ARRAYS`, ``identify.*``) and no events, a damaged model missing some of them
+    too; or an archive cut short (no directory) whose first array is one of them."""
     try:
         if not zipfile.is_zipfile(path):
-            return False
+            first = _first_member(path)
+            return first is not None and _is_model_array(first.removesuffix(".npy"))
         with zipfile.ZipFile(path) as archive:
             members = npz_arrays(archive)
     except (OSError, zipfile.BadZipFile):
         return False
-    return "events" not in members and all(name in members for name in MODEL_ARRAYS)
+    return "events" not in members and any(_is_model_array(name) for name in members)
+
+
+def _is_model_array(name: str) -> bool:
+    return name in MODEL_ARRAYS or name.startswith("identify.")
+
+
+def _first_member(path: str | Path) -> str | None:
+    """The name of a zip archive's first member, read from its local header (the start of a
+    file cut short keeps it), or ``None`` when the file does not start with one."""
+    with open(path, "rb") as file:
+        head = file.read(30)
+        if len(head) < 30 or head[:4] != b"PK\x03\x04":
+            return None
+        name = file.read(int.from_bytes(head[26:28], "little"))
+    return name.decode("utf-8", errors="replace")
 
 
 def model_summary(network: Network, path: str | None = None) -> dict[str, Any]:
