@@ -298,8 +298,9 @@ def check_test_set(data: LabelledWindows, network: Network, *, balanced: bool = 
     uav = int(np.count_nonzero(data.label))
     if balanced and 2 * uav != len(data):
         raise DatasetError(
-            f"the test set is unbalanced: {uav} UAV and {len(data) - uav} other windows "
-            "(SPEC §5 asks for half each; pass balanced=False to score it anyway)"
+            f"the set is unbalanced: {uav} UAV and {len(data) - uav} other windows "
+            "(SPEC §5 asks for half each; pass balanced=False, uavsnn evaluate --unbalanced, "
+            "to score it anyway)"
         )
 
 
