@@ -264,6 +264,7 @@ class DvsKernel:
 PACKET_FORMATS: list[str]
 RESTART_AFTER: int
 MAX_HELD_BYTES: int
+PUSH_SLICE: int
 
 @final
 class PacketDecoder:

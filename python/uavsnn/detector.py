@@ -32,6 +32,7 @@ from __future__ import annotations
 import bisect
 import json
 import os
+import threading
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import replace
@@ -115,6 +116,8 @@ else:  # hidden from type checkers, which would take any name of this module as 
 
 _NO_DETECTIONS = np.empty(0, dtype=WINDOW_DETECTION_DTYPE)
 _NO_DETECTIONS.flags.writeable = False
+# The events the engine pushes between two looks at Python's signals.
+_PUSH_SLICE = _core.PUSH_SLICE
 
 
 def _detections(packed: np.ndarray) -> np.ndarray:
@@ -132,13 +135,22 @@ class _Changing:
         self.detector, self.call = detector, call
 
     def __enter__(self) -> None:
+        # One call that changes the stream at a time, its Python part (grouping, tracks) with
+        # its engine part: another is refused before it touches anything.
+        if not self.detector._lock.acquire(False):
+            raise StreamError(
+                f"{self.call}(): the detector is in use by another call (another thread's, or "
+                "one a signal handler interrupted): one call at a time changes its stream"
+            )
         self.detector._taken = False
 
     def __exit__(
         self, kind: type[BaseException] | None, exc: BaseException | None, tb: Any
     ) -> None:
-        if exc is not None and (self.detector._taken or not isinstance(exc, UavsnnError)):
-            self.detector._interrupted = self.call
+        detector = self.detector
+        if exc is not None and (detector._taken or not isinstance(exc, UavsnnError)):
+            detector._interrupted = self.call
+        detector._lock.release()
 
 
 class Detector(EngineState):
@@ -267,6 +279,8 @@ class Detector(EngineState):
         self._interrupted: str | None = None
         # Whether the current call's engine part took its input (see _changing).
         self._taken = False
+        # Held by the call that changes the stream (see _changing).
+        self._lock = threading.Lock()
 
     _remake = "make another with Detector(...) for a second stream"
 
@@ -291,10 +305,10 @@ class Detector(EngineState):
                 as it was before the call; a call stopped by anything else (Ctrl-C) leaves it
                 :attr:`interrupted`.
         """
-        self._check_whole("push")
-        if self._grouper is not None:
-            raise self._mixed("push", "push_windows")
         with self._changing("push"):
+            self._check_whole("push")
+            if self._grouper is not None:
+                raise self._mixed("push", "push_windows")
             found = self._push(events)
             self._plain = self._plain or len(events) > 0
             return found
@@ -308,7 +322,16 @@ class Detector(EngineState):
         ):
             packed_bytes(events)  # raises the EventError that says what is wrong
         raw = events.tobytes()  # the packed records, copied (cheaper than a dtype view)
-        return self._engine(self._inner.push, raw)
+        if len(events) <= _PUSH_SLICE:
+            return self._engine(self._inner.push, raw)
+        # Between slices the engine runs Python's signal handlers: one that raises (even one of
+        # the package's errors) stops the push part way, which no refusal does.
+        before = self._inner.events_seen
+        try:
+            return self._engine(self._inner.push, raw)
+        except UavsnnError:
+            self._taken = self._taken or self._inner.events_seen != before
+            raise
 
     def _engine(self, call: Callable[..., np.ndarray], *args: Any) -> np.ndarray:
         """An engine call that changes the stream (push, advance, flush): timed into
@@ -333,10 +356,10 @@ class Detector(EngineState):
             StreamError: the stream is already past ``t_us``, was flushed, or an earlier call
                 was interrupted part way; the detector is then as it was.
         """
-        self._check_whole("advance")
-        if self._grouper is not None:
-            raise self._mixed("advance", "push_windows")
         with self._changing("advance"):
+            self._check_whole("advance")
+            if self._grouper is not None:
+                raise self._mixed("advance", "push_windows")
             return self._advance(t_us)
 
     def _advance(self, t_us: int) -> np.ndarray:
@@ -358,10 +381,10 @@ class Detector(EngineState):
             StreamError: an earlier call was interrupted part way (:attr:`interrupted`):
                 the detections pending would not be those of the stream pushed.
         """
-        self._check_whole("flush")
-        if self._grouper is not None:
-            raise self._mixed("flush", "push_windows")
         with self._changing("flush"):
+            self._check_whole("flush")
+            if self._grouper is not None:
+                raise self._mixed("flush", "push_windows")
             return self._flush()
 
     def _flush(self) -> np.ndarray:
@@ -422,10 +445,10 @@ class Detector(EngineState):
                 engine has the chunk (Ctrl-C, an error while the windows are grouped, tracked
                 or scored) leaves it :attr:`interrupted`.
         """
-        self._check_whole("push_windows")
-        if self._plain:
-            raise self._mixed("push_windows", "push")
         with self._changing("push_windows"):
+            self._check_whole("push_windows")
+            if self._plain:
+                raise self._mixed("push_windows", "push")
             found = self._push(events)
             grouper = self._windows()
             grouper.add(events[:0], found)  # the whole chunk's spikes, noted at once
@@ -446,10 +469,10 @@ class Detector(EngineState):
         Raises:
             ParameterError, StreamError: as :meth:`advance`.
         """
-        self._check_whole("advance_windows")
-        if self._plain:
-            raise self._mixed("advance_windows", "push")
         with self._changing("advance_windows"):
+            self._check_whole("advance_windows")
+            if self._plain:
+                raise self._mixed("advance_windows", "push")
             found = self._advance(t_us)
             return self._finish_reports(self._windows().advance(t_us, found))
 
@@ -460,10 +483,10 @@ class Detector(EngineState):
         Raises:
             StreamError: as :meth:`flush`.
         """
-        self._check_whole("flush_windows")
-        if self._plain:
-            raise self._mixed("flush_windows", "push")
         with self._changing("flush_windows"):
+            self._check_whole("flush_windows")
+            if self._plain:
+                raise self._mixed("flush_windows", "push")
             return self._finish_reports(self._windows().finish(self._flush()))
 
     @property

@@ -24,6 +24,7 @@ import itertools
 import json
 import os
 import secrets
+import threading
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -43,7 +44,7 @@ from uavsnn._validate import (
     check_sensor_size,
     listed,
 )
-from uavsnn.errors import EventError, ModelFileError, ParameterError, ShapeError
+from uavsnn.errors import EventError, ModelFileError, ParameterError, ShapeError, StreamError
 
 __all__ = [
     "CONV_LAYERS",
@@ -339,6 +340,34 @@ def _window_columns(windows: WindowsLike) -> dict[str, Any]:
     }
 
 
+class _Use:
+    """A call on a :class:`Network` while :meth:`Network.train_layer` may run: the engine lets
+    the network go between training's chunks (for its callback and Ctrl-C), so another
+    thread's call would read half-trained weights there, or change them under it. Refused
+    with a :class:`~uavsnn.StreamError` instead, as the engine refuses a call that meets
+    another's; the training thread's own reads (its callback's) go on."""
+
+    __slots__ = ("call", "net", "write")
+
+    def __init__(self, net: Network, call: str, write: bool = False) -> None:
+        self.net, self.call, self.write = net, call, write
+
+    def __enter__(self) -> None:
+        net = self.net
+        with net._guard:
+            trainer = net._trainer
+            if trainer is not None and (self.write or trainer != threading.get_ident()):
+                raise StreamError(
+                    f"{self.call}(): the network is in use by train_layer(), which another "
+                    "call made; use a copy() per thread"
+                )
+            net._users += 1
+
+    def __exit__(self, *exc: object) -> None:
+        with self.net._guard:
+            self.net._users -= 1
+
+
 class Network:
     """The network: conv1 (Gabor, or trained), conv2 and conv3 (STDP) with their config.
 
@@ -358,6 +387,7 @@ class Network:
         except (TypeError, ValueError) as exc:
             raise ParameterError(f"config must be JSON-serialisable: {exc}") from exc
         self._core = _core.NetworkCore(text, _count("seed", seed))
+        self._init_guard()
         #: The identification model (:class:`uavsnn.identify.Identifier`) or ``None``: then
         #: only the any-spike rule decides. Saved and loaded with the model file.
         self.identification: Any = None
@@ -365,10 +395,17 @@ class Network:
         #: its identification does not record its tracker gate).
         self.load_note: str | None = None
 
+    def _init_guard(self) -> None:
+        # See _Use: the thread in train_layer, the calls under way, and the lock of both.
+        self._guard = threading.Lock()
+        self._trainer: int | None = None
+        self._users = 0
+
     @classmethod
     def _wrap(cls, core: _core.NetworkCore) -> Network:
         net = cls.__new__(cls)
         net._core = core
+        net._init_guard()
         net.identification = None
         net.load_note = None
         return net
@@ -386,7 +423,8 @@ class Network:
 
     def weights(self, layer: str) -> np.ndarray:
         """A copy of a conv layer's weights, ``(maps, in_channels, k, k)`` float32."""
-        return self._core.weights(_layer(layer))
+        with _Use(self, "weights"):
+            return self._core.weights(_layer(layer))
 
     def set_weights(self, layer: str, w: npt.ArrayLike) -> None:
         """Replace a conv layer's weights: float32 of shape ``(maps, in_channels, k, k)``, every
@@ -396,7 +434,8 @@ class Network:
             raise ParameterError(f"weights must be float32, got {array.dtype}")
         if array.ndim != 4:
             raise ShapeError(f"weights must be 4-D (maps, in_channels, k, k), got {array.shape}")
-        self._core.set_weights(_layer(layer), np.ascontiguousarray(array))
+        with _Use(self, "set_weights", write=True):
+            self._core.set_weights(_layer(layer), np.ascontiguousarray(array))
 
     @functools.cached_property
     def _state_bytes(self) -> int:
@@ -440,7 +479,9 @@ class Network:
 
     def conv1_thresholds(self, n_in: int) -> np.ndarray:
         """conv1's per-map thresholds (float32) for a window whose PENT estimate is ``n_in``."""
-        return np.asarray(self._core.conv1_thresholds(_count("n_in", n_in)), dtype=np.float32)
+        with _Use(self, "conv1_thresholds"):
+            thresholds = self._core.conv1_thresholds(_count("n_in", n_in))
+        return np.asarray(thresholds, dtype=np.float32)
 
     def _inputs(self, t: Any, x: Any, y: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         t_, x_, y_ = (
@@ -468,7 +509,10 @@ class Network:
         t_, x_, y_ = self._inputs(t, x, y)
         n = None if n_in is None else _count("n_in", n_in)
         self._check_memory()
-        packed, counts, thresholds, found = self._core.run_window(t_, x_, y_, _count("t0", t0), n)
+        with _Use(self, "run_window"):
+            packed, counts, thresholds, found = self._core.run_window(
+                t_, x_, y_, _count("t0", t0), n
+            )
         # One buffer of every layer's spike records; each layer is a slice of one view.
         spikes = packed.view(SPIKE_DTYPE)
         ends = list(itertools.accumulate(counts))
@@ -513,7 +557,8 @@ class Network:
         t_, x_, y_ = self._inputs(t, x, y)
         n = None if n_in is None else _count("n_in", n_in)
         self._check_memory()
-        columns = self._core.stdp_step(layer, t_, x_, y_, _count("t0", t0), n, plus, minus)
+        with _Use(self, "stdp_step", write=True):
+            columns = self._core.stdp_step(layer, t_, x_, y_, _count("t0", t0), n, plus, minus)
         return _spikes(columns, SPIKE_DTYPE)
 
     def infer(
@@ -538,9 +583,10 @@ class Network:
             raise ParameterError(f"threads must be at most {MAX_THREADS}, got {workers}")
         if len(columns["t0"]):
             self._check_memory()  # one worker's (the engine runs fewer where more do not fit)
-        counts, thresholds, detections, layer_spikes = self._core.infer(
-            **columns, threads=workers, record=bool(spikes)
-        )
+        with _Use(self, "infer"):
+            counts, thresholds, detections, layer_spikes = self._core.infer(
+                **columns, threads=workers, record=bool(spikes)
+            )
         found = _spikes(tuple(detections), WINDOW_DETECTION_DTYPE)
         n = len(counts)
         first = np.zeros(n, dtype=np.uint64)
@@ -588,15 +634,28 @@ class Network:
         columns = _window_columns(windows)
         if len(columns["t0"]):
             self._check_memory()
-        convergence, a_plus, seen, winners = self._core.train_layer(
-            layer,
-            **columns,
-            epochs=_count("epochs", epochs, minimum=1),
-            seed=_count("seed", seed),
-            shuffle=bool(shuffle),
-            callback=callback,
-            every=_count("every", every, minimum=1),
-        )
+        epochs, seed = _count("epochs", epochs, minimum=1), _count("seed", seed)
+        every = _count("every", every, minimum=1)
+        # The network is this thread's until training ends, between its chunks too (_Use).
+        with self._guard:
+            if self._trainer is not None or self._users:
+                raise StreamError(
+                    "train_layer(): the network is in use by another call; use a copy() per thread"
+                )
+            self._trainer = threading.get_ident()
+        try:
+            convergence, a_plus, seen, winners = self._core.train_layer(
+                layer,
+                **columns,
+                epochs=epochs,
+                seed=seed,
+                shuffle=bool(shuffle),
+                callback=callback,
+                every=every,
+            )
+        finally:
+            with self._guard:
+                self._trainer = None
         return TrainReport(
             layer=layer,
             convergence=list(convergence),
@@ -626,7 +685,8 @@ class Network:
         """
         file = check_path(path)
         if self.identification is None:
-            self._core.save(file)
+            with _Use(self, "save"):
+                self._core.save(file)
             return
         to_arrays = getattr(self.identification, "to_arrays", None)
         if not callable(to_arrays):
@@ -644,7 +704,8 @@ class Network:
         tmp = target.with_name(f".uavsnn-{secrets.token_hex(6)}.tmp")
         try:
             try:
-                self._core.save(str(tmp))
+                with _Use(self, "save"):
+                    self._core.save(str(tmp))
             except ModelFileError as exc:
                 # The engine names the file it wrote, the temporary one: name the user's.
                 raise ModelFileError(str(exc).replace(str(tmp), file)) from exc
@@ -696,7 +757,9 @@ class Network:
 
     def copy(self) -> Network:
         """An independent copy (same config and weights, and identification)."""
-        net = self._wrap(self._core.copy())
+        with _Use(self, "copy"):
+            core = self._core.copy()
+        net = self._wrap(core)
         net.identification = self.identification
         return net
 

@@ -287,6 +287,7 @@ pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("DETECTION_RECORD_SIZE", DETECTION_RECORD)?;
     m.add("PACKET_FORMATS", PacketFormat::NAMES.to_vec())?;
     m.add("RESTART_AFTER", crate::stream::RESTART_AFTER)?;
+    m.add("PUSH_SLICE", crate::stream::PUSH_SLICE)?;
     m.add("MAX_HELD_BYTES", crate::stream::MAX_HELD_BYTES)?;
     Ok(())
 }
