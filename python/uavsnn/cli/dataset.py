@@ -50,6 +50,18 @@ from uavsnn.sim import Pix2NvsParams
 __all__ = ["register"]
 
 
+def _add_output_options(parser: Any) -> None:
+    """``--overwrite``, ``--json`` and ``--quiet``, as ``dataset build`` and ``demo`` take them."""
+    parser.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace the dataset in OUT_DIR (its own files; a folder that holds anything "
+        "else is refused)",
+    )
+    parser.add_argument("--json", action="store_true", help="print the summary as JSON")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
 def register(subparsers: Any) -> None:
     """Add ``uavsnn dataset`` and its actions."""
     parser = subparsers.add_parser(
@@ -139,14 +151,7 @@ def register(subparsers: Any) -> None:
         "hold every kind",
     )
     add_camera_options(b, "dvs")
-    b.add_argument(
-        "--overwrite",
-        action="store_true",
-        help="replace the dataset in OUT_DIR (its own files; a folder that holds anything "
-        "else is refused)",
-    )
-    b.add_argument("--json", action="store_true", help="print the summary as JSON")
-    b.add_argument("--quiet", action="store_true", help="no progress bar")
+    _add_output_options(b)
     add_ray_option(b, "the recordings' simulation as tasks (the same dataset)")
     b.set_defaults(handler=_build)
 
@@ -167,14 +172,7 @@ def register(subparsers: Any) -> None:
     )
     d.add_argument("--n-test", type=int, default=200, help="test windows, half UAV (200)")
     d.add_argument("--n-train", type=int, default=400, help="train windows, half UAV (400)")
-    d.add_argument(
-        "--overwrite",
-        action="store_true",
-        help="replace the dataset in OUT_DIR (its own files; a folder that holds anything "
-        "else is refused)",
-    )
-    d.add_argument("--json", action="store_true", help="print the summary as JSON")
-    d.add_argument("--quiet", action="store_true", help="no progress bar")
+    _add_output_options(d)
     d.set_defaults(handler=_demo)
 
     i = actions.add_parser(
