@@ -61,7 +61,7 @@ def test_another_thread_is_refused_between_train_layers_chunks() -> None:
     thread.start()
     net.train_layer("conv2", windows, every=8, callback=callback)
     thread.join(30)
-    assert len(seen) == 2 and all("in use by train_layer()" in s for s in seen), seen
+    assert len(seen) == 2 and all("in use by another thread" in s for s in seen), seen
     assert reads and np.array_equal(net.weights("conv2"), reference.weights("conv2"))
     # Once training ends, the network is anyone's again.
     net.infer(windows)

@@ -357,9 +357,13 @@ class _Use:
         with net._guard:
             trainer = net._trainer
             if trainer is not None and (self.write or trainer != threading.get_ident()):
+                who = (
+                    "another thread (its train_layer() is running)"
+                    if trainer != threading.get_ident()
+                    else "this thread's train_layer(), whose callback may read it, not change it"
+                )
                 raise StreamError(
-                    f"{self.call}(): the network is in use by train_layer(), which another "
-                    "call made; use a copy() per thread"
+                    f"{self.call}(): the network is in use by {who}; use a copy() per thread"
                 )
             net._users += 1
 
@@ -640,7 +644,8 @@ class Network:
         with self._guard:
             if self._trainer is not None or self._users:
                 raise StreamError(
-                    "train_layer(): the network is in use by another call; use a copy() per thread"
+                    "train_layer(): the network is in use by another thread (one of its calls "
+                    "is running); use a copy() per thread"
                 )
             self._trainer = threading.get_ident()
         try:
