@@ -174,9 +174,9 @@ def test_connect_refuses_bad_arguments_before_anything(kwargs: dict[str, Any]) -
 
 
 def test_a_ray_clusters_own_port_passes_the_check(runner: Any) -> None:
-    from uavsnn import distributed
+    from uavsnn.distributed import cluster
 
-    distributed._check_reachable(ray.get_runtime_context().gcs_address, 5.0)
+    cluster._check_reachable(ray.get_runtime_context().gcs_address, 5.0)
 
 
 # -- datasets -------------------------------------------------------------------------------
@@ -350,7 +350,7 @@ def test_a_stream_worker_polls_without_touching_the_busy_detector(
     import threading
 
     import uavsnn.detector
-    from uavsnn.distributed import _StreamWorker
+    from uavsnn.distributed.streams import _StreamWorker
     from uavsnn.events import Recording
     from uavsnn.io import write_npz
 
@@ -383,7 +383,7 @@ def test_a_stream_worker_drops_a_chunk_stamped_wholly_before_the_idle_mark(
     """A quiet stream advanced with the wall clock (idle_flush_s): a packet that arrives
     stamped wholly before the time reached is rejected, and the stream goes on (the worker
     once pushed the empty rest and failed). No Ray needed."""
-    from uavsnn.distributed import _StreamWorker
+    from uavsnn.distributed.streams import _StreamWorker
 
     burst = _events(1_000, 12)
     # After the burst's last event (so the packet decoder takes it, in time order) but before
@@ -743,11 +743,10 @@ def test_detect_streams_checks_its_arguments_before_any_actor(
 ) -> None:
     """What every stream would refuse is refused once, before any actor starts (each actor
     used to fail alone, with Ray's traceback)."""
-    from uavsnn import distributed
-    from uavsnn.distributed import detect_streams
+    from uavsnn.distributed import detect_streams, streams
 
     started: list[str] = []
-    monkeypatch.setattr(distributed, "_gather", lambda *a, **k: started.append("gather"))
+    monkeypatch.setattr(streams, "_gather", lambda *a, **k: started.append("gather"))
     path = str(tmp_path / "r.npy")
     np.save(path, _events(500, 1))
     udp = "udp://127.0.0.1:0"
