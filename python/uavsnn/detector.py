@@ -265,6 +265,18 @@ class Detector(EngineState):
         )
         self._network = network
         self._start_us = start_us
+        # What never changes, read here: the properties and the repr answer while another
+        # thread's call holds the engine (which then refuses reads).
+        inner = self._inner
+        self._window_us, self._overlap, self._step_us = (
+            inner.window_us,
+            inner.overlap,
+            inner.step_us,
+        )
+        self._sensor_size: tuple[int, int] = inner.sensor_size
+        self._fixed = (
+            f"window_us={self._window_us}, overlap={self._overlap}, sensor_size={self._sensor_size}"
+        )
         self._busy_ns = 0
         self._tracker = tracker_for(network) if tracker is None else tracker
         self._rotor = bool(rotor)
@@ -569,7 +581,7 @@ class Detector(EngineState):
     @property
     def sensor_size(self) -> tuple[int, int]:
         """``(width, height)`` events are checked against."""
-        return self._inner.sensor_size
+        return self._sensor_size
 
     @property
     def start_us(self) -> int | None:
@@ -579,17 +591,17 @@ class Detector(EngineState):
     @property
     def window_us(self) -> int:
         """Window length in microseconds."""
-        return self._inner.window_us
+        return self._window_us
 
     @property
     def overlap(self) -> float:
         """Overlap of consecutive windows."""
-        return self._inner.overlap
+        return self._overlap
 
     @property
     def step_us(self) -> int:
         """Microseconds between consecutive window starts."""
-        return self._inner.step_us
+        return self._step_us
 
     @property
     def events_seen(self) -> int:
@@ -628,11 +640,18 @@ class Detector(EngineState):
         return self.events_seen / self.busy_seconds if self._busy_ns else 0.0
 
     def __repr__(self) -> str:
-        return (
-            f"Detector(window_us={self.window_us}, overlap={self.overlap}, "
-            f"sensor_size={self.sensor_size}, events_seen={self.events_seen}, "
-            f"windows_opened={self.windows_opened}, detections={self.detections_emitted})"
-        )
+        # Never raises: while a call holds the detector (another thread's push lets the GIL go
+        # holding the engine, which refuses reads with a StreamError), what Python knows.
+        if not self._lock.locked():
+            try:
+                return (
+                    f"Detector({self._fixed}, events_seen={self.events_seen}, "
+                    f"windows_opened={self.windows_opened}, "
+                    f"detections={self.detections_emitted})"
+                )
+            except StreamError:  # a call took it meanwhile
+                pass
+        return f"Detector({self._fixed}, in use)"
 
 
 def _with_rotor(

@@ -454,10 +454,10 @@ class Identifier:
 
 def _same(a: Any, b: Any) -> bool:
     """Whether two field values are equal: arrays element by element (and of one shape), the
-    fields of two models or of two :class:`Trees` each by this rule, others by ``==``."""
+    fields of two models each by this rule, others (:class:`Trees` too) by ``==``."""
     if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
         return isinstance(a, np.ndarray) and isinstance(b, np.ndarray) and np.array_equal(a, b)
-    if isinstance(a, Identifier | Trees) or isinstance(b, Identifier | Trees):
+    if isinstance(a, Identifier) or isinstance(b, Identifier):
         return a.__class__ is b.__class__ and all(
             _same(getattr(a, f.name), getattr(b, f.name)) for f in fields(a)
         )

@@ -22,6 +22,7 @@ import copy
 import inspect
 import math
 import numbers
+import threading
 from collections import deque
 from collections.abc import Iterable
 from dataclasses import dataclass, replace
@@ -353,6 +354,12 @@ class Tracker:
             an object that would start a track beyond it gets none (``track_id`` stays
             ``None``) and is counted in :attr:`births_refused`.
 
+    One tracker may serve several threads (a :class:`~uavsnn.detector.Detector`'s
+    ``push_windows`` feeding it while another thread drains it): :meth:`update`,
+    :meth:`drain_ended`, :meth:`finish`, :meth:`reset` and :attr:`live` each run whole under the
+    tracker's lock, so every deleted track is drained exactly once. The windows must still come
+    in order, so one thread feeds it.
+
     Raises:
         ParameterError: a parameter out of range or of the wrong type.
     """
@@ -389,7 +396,22 @@ class Tracker:
         self.confirm_windows = confirm_windows
         self.max_misses = max_misses
         self.max_tracks = max_tracks
+        # Held by each call that reads or changes the tracks (not by __repr__, which must
+        # not wait); never while calling out of the tracker, so it cannot deadlock.
+        self._lock = threading.Lock()
         self.reset()
+
+    def __getstate__(self) -> dict[str, Any]:
+        """A copy or a pickle (a process pool's, ``copy.deepcopy``): the state as it stands
+        between two calls, without the lock, which cannot be copied."""
+        with self._lock:
+            state = self.__dict__.copy()
+        del state["_lock"]
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._lock = threading.Lock()
 
     @classmethod
     def for_sensor(cls, width: int, **kwargs: Any) -> Tracker:
@@ -411,6 +433,10 @@ class Tracker:
 
     def reset(self) -> None:
         """Forget every track; ids start from 1 again."""
+        with self._lock:
+            self._reset()
+
+    def _reset(self) -> None:
         self._live: list[_Live] = []
         self._ended: deque[Track] = deque(maxlen=MAX_ENDED)
         self._next_id = 1
@@ -441,6 +467,10 @@ class Tracker:
                 ``counts`` no box gives (:func:`uavsnn.features.activity`); the tracker is
                 then as it was.
         """
+        with self._lock:
+            return self._update(report)
+
+    def _update(self, report: WindowReport) -> WindowReport:
         from uavsnn.grouping import WindowObject, WindowReport
 
         if not isinstance(report, WindowReport):
@@ -557,6 +587,10 @@ class Tracker:
     def drain_ended(self) -> list[Track]:
         """The tracks deleted since the last call (in deletion order, at most
         :data:`MAX_ENDED`), forgotten here."""
+        with self._lock:
+            return self._drain()
+
+    def _drain(self) -> list[Track]:
         out = list(self._ended)
         self._ended.clear()
         return out
@@ -564,15 +598,17 @@ class Tracker:
     def finish(self) -> list[Track]:
         """End the stream: every track deleted and not yet drained, then every live track
         (by id); the tracker is empty afterwards, and ids go on from where they were."""
-        out = self.drain_ended() + [tr.snapshot() for tr in self._live]
-        self._live = []
-        self._last_window = self._last_sum = None
+        with self._lock:
+            out = self._drain() + [tr.snapshot() for tr in self._live]
+            self._live = []
+            self._last_window = self._last_sum = None
         return out
 
     @property
     def live(self) -> tuple[Track, ...]:
         """Snapshots of the live tracks, by id."""
-        return tuple(tr.snapshot() for tr in self._live)
+        with self._lock:
+            return tuple(tr.snapshot() for tr in self._live)
 
     def __repr__(self) -> str:
         return (
@@ -637,5 +673,7 @@ def track_windows(reports: Iterable[WindowReport], tracker: Tracker | None = Non
         tracks += work.drain_ended()
     tracks = sorted(tracks + work.finish(), key=lambda t: t.id)
     if work is not given:  # the given tracker takes the run once all of it went through
-        given.__dict__.update(work.__dict__)
+        state = work.__getstate__()  # its own lock stays its own
+        with given._lock:
+            given.__dict__.update(state)
     return TrackResult(reports=tuple(out), tracks=tuple(tracks))

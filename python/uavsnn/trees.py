@@ -26,7 +26,7 @@ model file without pickle (:meth:`uavsnn.identify.Identifier.to_arrays`).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -45,7 +45,7 @@ MAX_TREES = 10_000
 _ROWS = 1024
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Trees:
     """A fitted sum of oblivious trees. ``feature`` ``(T, D)`` int64: the column each level
     of each tree splits on; ``threshold`` ``(T, D)`` float64: a row goes right at that level
@@ -53,7 +53,8 @@ class Trees:
     ``base``: the raw score before any tree. The probability is ``sigmoid(base + sum of
     leaves)``. ``width``: the columns of the rows :func:`fit_trees` fitted it on, which every
     row scored must have (``None`` where not known, as in a model file: a row then needs the
-    columns the trees split on, :attr:`columns`).
+    columns the trees split on, :attr:`columns`). Two are equal when every field is, the
+    arrays element by element (and of one shape); they cannot be hashed (they hold arrays).
 
     Raises:
         ShapeError: arrays that do not fit together.
@@ -88,6 +89,21 @@ class Trees:
                 f"width must be an integer >= {max(self.columns, 1)} (the columns split on), "
                 f"got {self.width!r}"
             )
+
+    def __eq__(self, other: object) -> bool:
+        """Every field equal, the arrays element by element."""
+        if other.__class__ is not self.__class__:
+            return NotImplemented
+        for f in fields(self):
+            a, b = getattr(self, f.name), getattr(other, f.name)
+            if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+                if not np.array_equal(a, b):
+                    return False
+            elif not (a is b or a == b):
+                return False
+        return True
+
+    __hash__ = None  # type: ignore[assignment]  # holds arrays
 
     @property
     def columns(self) -> int:
