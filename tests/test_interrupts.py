@@ -63,7 +63,7 @@ def window_rows(reports: list[Any]) -> list[tuple[int, int, int, int]]:
 def test_a_copy_of_a_network_is_independent(net: Network) -> None:
     # A shallow copy shared the engine's weights.
     original = net.copy()
-    original.identification = ["a stand-in identification"]
+    original._identification = ["a stand-in identification"]  # type: ignore[assignment]
     original.load_note = "a note"
     for how in (copy.copy, copy.deepcopy):
         twin = how(original)
@@ -85,7 +85,7 @@ def test_a_network_pickles_whatever_else_is_imported(net: Network, tmp_path: Pat
     import subprocess
 
     original = net.copy()
-    original.identification = {"a": "stand-in"}
+    original._identification = {"a": "stand-in"}  # type: ignore[assignment]
     original.load_note = "a note"
     path = tmp_path / "net.pickle"
     code = (
@@ -360,7 +360,7 @@ def test_a_save_stopped_before_the_identification_leaves_the_old_file(
     Network(seed=1).save(path)
     before = path.read_bytes()
     new = Network(seed=2)
-    new.identification = _Identification()
+    new._identification = _Identification()  # type: ignore[assignment]
 
     def stopped(_path: str, _arrays: object, **_source: object) -> None:
         raise failure
@@ -377,7 +377,7 @@ def test_a_save_with_identification_writes_both_parts(tmp_path: Path) -> None:
     path = tmp_path / "model.npz"
     Network(seed=1).save(path)
     new = Network(seed=2)
-    new.identification = _Identification()
+    new._identification = _Identification()  # type: ignore[assignment]
     new.save(path)
     assert [p.name for p in tmp_path.iterdir()] == ["model.npz"]
     with zipfile.ZipFile(path) as z:

@@ -190,17 +190,6 @@ def test_a_long_name_saves_with_an_identification(tmp_path: Path, with_model: Ne
     assert sorted(len(p.name) for p in tmp_path.iterdir()) == [235, 237]
 
 
-def test_an_identification_of_another_type_is_refused_on_save(tmp_path: Path) -> None:
-    # It was an AttributeError ('int' object has no attribute 'to_arrays').
-    net = Network(small_config(), seed=1)
-    net.identification = 5
-    with pytest.raises(
-        ParameterError, match=r"identification must be .*Identifier or None, got int"
-    ):
-        net.save(tmp_path / "m.npz")
-    assert list(tmp_path.iterdir()) == []
-
-
 # -- 4. window states beyond the memory this process may have ----------------------------------
 
 

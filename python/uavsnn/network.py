@@ -24,18 +24,17 @@ import itertools
 import json
 import os
 import secrets
-import threading
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 import numpy.typing as npt
 
-from uavsnn import _core
-from uavsnn import windows as windows_module
+from uavsnn import _core, _network_use
 from uavsnn._files import write_atomic
+from uavsnn._network_use import Use as _Use
 from uavsnn._validate import (
     U64_MAX,
     check_int,
@@ -44,7 +43,12 @@ from uavsnn._validate import (
     check_sensor_size,
     listed,
 )
-from uavsnn.errors import EventError, ModelFileError, ParameterError, ShapeError, StreamError
+from uavsnn.errors import EventError, ModelFileError, ParameterError, ShapeError
+
+if TYPE_CHECKING:
+    import threading
+
+    from uavsnn.identifier import Identifier
 
 __all__ = [
     "CONV_LAYERS",
@@ -340,38 +344,6 @@ def _window_columns(windows: WindowsLike) -> dict[str, Any]:
     }
 
 
-class _Use:
-    """A call on a :class:`Network` while :meth:`Network.train_layer` may run: the engine lets
-    the network go between training's chunks (for its callback and Ctrl-C), so another
-    thread's call would read half-trained weights there, or change them under it. Refused
-    with a :class:`~uavsnn.StreamError` instead, as the engine refuses a call that meets
-    another's; the training thread's own reads (its callback's) go on."""
-
-    __slots__ = ("call", "net", "write")
-
-    def __init__(self, net: Network, call: str, write: bool = False) -> None:
-        self.net, self.call, self.write = net, call, write
-
-    def __enter__(self) -> None:
-        net = self.net
-        with net._guard:
-            trainer = net._trainer
-            if trainer is not None and (self.write or trainer != threading.get_ident()):
-                who = (
-                    "another thread (its train_layer() is running)"
-                    if trainer != threading.get_ident()
-                    else "this thread's train_layer(), whose callback may read it, not change it"
-                )
-                raise StreamError(
-                    f"{self.call}(): the network is in use by {who}; use a copy() per thread"
-                )
-            net._users += 1
-
-    def __exit__(self, *exc: object) -> None:
-        with self.net._guard:
-            self.net._users -= 1
-
-
 class Network:
     """The network: conv1 (Gabor, or trained), conv2 and conv3 (STDP) with their config.
 
@@ -392,27 +364,49 @@ class Network:
             raise ParameterError(f"config must be JSON-serialisable: {exc}") from exc
         self._core = _core.NetworkCore(text, _count("seed", seed))
         self._init_guard()
-        #: The identification model (:class:`uavsnn.identify.Identifier`) or ``None``: then
-        #: only the any-spike rule decides. Saved and loaded with the model file.
-        self.identification: Any = None
+        self._identification: Identifier | None = None
         #: What :meth:`load` noticed about the file (e.g. that it has no identification, or that
         #: its identification does not record its tracker gate).
         self.load_note: str | None = None
 
+    # The guard of a call while train_layer may run (uavsnn._network_use.Use).
+    _guard: threading.Lock
+    _trainer: int | None
+    _users: int
+
     def _init_guard(self) -> None:
-        # See _Use: the thread in train_layer, the calls under way, and the lock of both.
-        self._guard = threading.Lock()
-        self._trainer: int | None = None
-        self._users = 0
+        _network_use.init_guard(self)
 
     @classmethod
     def _wrap(cls, core: _core.NetworkCore) -> Network:
         net = cls.__new__(cls)
         net._core = core
         net._init_guard()
-        net.identification = None
+        net._identification = None
         net.load_note = None
         return net
+
+    @property
+    def identification(self) -> Identifier | None:
+        """The identification model (:class:`uavsnn.identify.Identifier`) or ``None``: then
+        only the any-spike rule decides. Saved and loaded with the model file.
+
+        Raises:
+            ParameterError: set to anything else (on setting).
+        """
+        return self._identification
+
+    @identification.setter
+    def identification(self, value: Identifier | None) -> None:
+        if value is not None:
+            from uavsnn.identifier import Identifier
+
+            if not isinstance(value, Identifier):
+                raise ParameterError(
+                    f"identification must be a uavsnn.identify.Identifier or None, got "
+                    f"{type(value).__name__}"
+                )
+        self._identification = value
 
     @property
     def config(self) -> dict[str, Any]:
@@ -443,43 +437,18 @@ class Network:
 
     @functools.cached_property
     def _state_bytes(self) -> int:
-        """Bytes of one window's state in the engine, counted as it counts them
-        (``Geometry::state_bytes``): per pixel 12, per conv neuron 4 and per conv position 2,
-        per pool neuron 28 and 8 per 64 conv neurons of its block. A network's config does not
-        change: counted once."""
-        c, shapes = self.config, self.shapes
-        total = int(c["width"]) * int(c["height"]) * 12
-        for layer in CONV_LAYERS:
-            maps, rows, cols = shapes[layer]
-            total += rows * cols * (maps * 4 + 2)
-        for layer in ("pool1", "pool2"):
-            maps, rows, cols = shapes[layer]
-            words = -(-(int(c[layer]["kernel"]) ** 2) // 64)
-            total += maps * rows * cols * (28 + 8 * words)
-        return total
+        """Bytes of one window's state, the engine's count (``Geometry::state_bytes``). A
+        network's config does not change: asked once."""
+        return self._core.state_bytes()
 
     def _check_memory(self, states: int = 1, *, more: int = 0, hint: str = "") -> None:
-        """Refuse, before the engine allocates them, ``states`` window states (and ``more``
-        bytes beside them) that would not fit in ``uavsnn.windows.MEMORY_LIMIT`` (the memory
-        this process may have): the engine checks them against its fixed 4 GiB only, and an
-        allocation the system cannot honour aborts the process.
+        """Refuse ``states`` window states (and ``more`` bytes beside them) that would not fit
+        in ``uavsnn.windows.MEMORY_LIMIT``: :func:`uavsnn._network_use.check_memory`.
 
         Raises:
             ParameterError: they would not fit (the bytes and the limit named; ``hint`` added).
         """
-        limit = windows_module.MEMORY_LIMIT
-        need = states * self._state_bytes + more
-        if limit is None or need <= limit:
-            return
-        c = self.config
-        maps = "/".join(str(c[name]["maps"]) for name in CONV_LAYERS)
-        what = "one window's state" if states == 1 else f"the states of {states} live windows"
-        beside = f" ({more:,} of them beside the states)" if more else ""
-        raise ParameterError(
-            f"{what} of a {c['width']}x{c['height']} network (conv maps {maps}) would need "
-            f"{need:,} bytes{beside}, more than the {limit:,} bytes allowed "
-            f"(uavsnn.windows.MEMORY_LIMIT): use a smaller width and height, or fewer maps{hint}"
-        )
+        _network_use.check_memory(self, states, more=more, hint=hint)
 
     def conv1_thresholds(self, n_in: int) -> np.ndarray:
         """conv1's per-map thresholds (float32) for a window whose PENT estimate is ``n_in``."""
@@ -641,14 +610,7 @@ class Network:
         epochs, seed = _count("epochs", epochs, minimum=1), _count("seed", seed)
         every = _count("every", every, minimum=1)
         # The network is this thread's until training ends, between its chunks too (_Use).
-        with self._guard:
-            if self._trainer is not None or self._users:
-                raise StreamError(
-                    "train_layer(): the network is in use by another thread (one of its calls "
-                    "is running); use a copy() per thread"
-                )
-            self._trainer = threading.get_ident()
-        try:
+        with _network_use.training(self):
             convergence, a_plus, seen, winners = self._core.train_layer(
                 layer,
                 **columns,
@@ -658,9 +620,6 @@ class Network:
                 callback=callback,
                 every=every,
             )
-        finally:
-            with self._guard:
-                self._trainer = None
         return TrainReport(
             layer=layer,
             convergence=list(convergence),
@@ -683,8 +642,7 @@ class Network:
         ``.NAME.tmp-<process id>-<count>``).
 
         Raises:
-            ParameterError: ``path`` is not a ``str`` or ``os.PathLike[str]`` (bytes refused),
-                or :attr:`identification` is neither ``None`` nor an identification model.
+            ParameterError: ``path`` is not a ``str`` or ``os.PathLike[str]`` (bytes refused).
             ModelFileError: the file cannot be written (the old one is left as it was), or
                 ``path`` names no file (empty, or ending in a folder separator).
         """
@@ -693,6 +651,7 @@ class Network:
             with _Use(self, "save"):
                 self._core.save(file)
             return
+        # The setter refuses anything else; checked again for one set past it.
         to_arrays = getattr(self.identification, "to_arrays", None)
         if not callable(to_arrays):
             raise ParameterError(
@@ -765,7 +724,7 @@ class Network:
         with _Use(self, "copy"):
             core = self._core.copy()
         net = self._wrap(core)
-        net.identification = self.identification
+        net._identification = self.identification
         return net
 
     def __copy__(self) -> Network:
@@ -779,7 +738,7 @@ class Network:
         """``copy.deepcopy(net)``: an independent copy, its identification copied too."""
         net = self.copy()
         memo[id(self)] = net
-        net.identification = copy.deepcopy(self.identification, memo)
+        net._identification = copy.deepcopy(self.identification, memo)
         net.load_note = self.load_note
         return net
 
@@ -799,7 +758,7 @@ class Network:
         net = Network(config)
         for layer, w in weights.items():
             net.set_weights(layer, w)
-        net.identification = identification
+        net._identification = identification
         net.load_note = load_note
         return net
 

@@ -317,6 +317,13 @@ impl NetworkCore {
         map(py, this.net.set_weights(layer, values))
     }
 
+    /// Bytes of one window's state, as the engine counts them (`Geometry::state_bytes`); a
+    /// valid config's fit in `u64` (at most `MAX_WINDOW_STATE_BYTES`), clamped there anyway.
+    fn state_bytes(slf: &Bound<'_, Self>) -> PyResult<u64> {
+        let bytes = Self::read(slf)?.net.geometry().state_bytes();
+        Ok(u64::try_from(bytes).unwrap_or(u64::MAX))
+    }
+
     /// conv1's thresholds for a window whose PENT estimate is `n_in`.
     fn conv1_thresholds(slf: &Bound<'_, Self>, n_in: u64) -> PyResult<Vec<f32>> {
         Ok(Self::read(slf)?.net.conv1_thresholds(n_in))

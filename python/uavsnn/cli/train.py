@@ -142,11 +142,27 @@ def register(subparsers: Any) -> None:
 
 
 def _base_config(config_file: Path | None) -> dict[str, Any]:
-    """The config of ``--config``, or Table 1."""
+    """The config of ``--config``, or Table 1.
+
+    Raises:
+        ParameterError: the file cannot be read, is not JSON, does not hold an object, or one
+            of its objects gives a field twice (JSON would keep the last one silently).
+    """
+
+    def unique(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+        fields: dict[str, Any] = {}
+        for key, value in pairs:
+            if key in fields:
+                raise ParameterError(
+                    f"--config {config_file}: the field {key!r} is given twice in one object"
+                )
+            fields[key] = value
+        return fields
+
     base = default_config()
     if config_file is not None:
         try:
-            base = json.loads(config_file.read_text(encoding="utf-8"))
+            base = json.loads(config_file.read_text(encoding="utf-8"), object_pairs_hook=unique)
         except OSError as exc:
             raise ParameterError(f"--config {config_file}: cannot read: {exc.strerror}") from exc
         except (UnicodeDecodeError, json.JSONDecodeError) as exc:
