@@ -9,6 +9,7 @@ import importlib
 import json
 import os
 import pickle
+import signal
 import sys
 import zipfile
 from pathlib import Path
@@ -340,6 +341,50 @@ def test_detect_stopped_inside_the_detector_exits_130_without_a_flush(
     assert lines[-1] == "uavsnn detect: interrupted"
     assert any("Ctrl-C stopped the detector inside a chunk" in line for line in lines)
     assert not any("Traceback" in line or "StreamError" in line for line in lines)
+
+
+class _SignalledOut:
+    """Standard output that sends this process ``signum`` while it writes its ``at``-th line
+    (between the line's text and its newline), as a Ctrl-C or a service manager's SIGTERM may
+    land while detect prints."""
+
+    def __init__(self, signum: int, at: int) -> None:
+        self.signum, self.at, self.lines, self.text = signum, at, 0, []
+
+    def write(self, text: str) -> int:
+        self.text.append(text)
+        if text == "\n":
+            self.lines += 1
+            if self.lines == self.at:
+                os.kill(os.getpid(), self.signum)
+        return len(text)
+
+    def flush(self) -> None:
+        pass
+
+
+@pytest.mark.parametrize(("signum", "code"), [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
+def test_detect_stopped_while_it_prints_writes_every_line_whole(
+    model: Path,
+    events: np.ndarray,
+    signum: int,
+    code: int,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    # A stop raised inside print left half a line (the flush's line glued to it) and dropped
+    # the rest of the windows push_windows had returned, without a word.
+    pieces = [events[:1_000].tobytes()]  # one chunk: its windows are printed in one go
+    done, ended, _ = _detect(model, pieces, False, monkeypatch, capsys)
+    assert done == 0 and len(ended) > 4
+    out = _SignalledOut(signum, at=2)
+    monkeypatch.setattr(sys, "stdout", out)
+    got, _, err = _detect(model, pieces, False, monkeypatch, capsys)
+    assert got == code
+    assert err.splitlines()[-1].startswith("uavsnn detect: interrupted")
+    lines = "".join(out.text).splitlines()
+    # Every line is one JSON object, and every window of the chunk is there.
+    assert [json.loads(line) for line in lines] == [json.loads(line) for line in ended]
 
 
 # -- 4. a model file with its identification: one atomic write --------------------------------

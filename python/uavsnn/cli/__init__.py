@@ -55,6 +55,7 @@ __all__ = [
     "Terminated",
     "check_output_dir",
     "exit_code",
+    "held_stops",
     "interrupted_line",
     "main",
     "output_dir",
@@ -171,6 +172,46 @@ def _stop_signals() -> Iterator[None]:
     finally:
         for sig, handler in previous:
             signal.signal(sig, handler)
+
+
+def _held(signum: int, _frame: FrameType | None) -> None:
+    _HELD.append(signum)
+
+
+#: The stop signals that came while :func:`held_stops` held them, in order.
+_HELD: list[int] = []
+
+
+@contextlib.contextmanager
+def held_stops() -> Iterator[None]:
+    """Ctrl-C, SIGTERM and SIGHUP wait for the block to end, then stop the command as they
+    would have (``KeyboardInterrupt``, :class:`Terminated`): a block that prints a list of
+    lines prints them all, each whole. A stop raised in the middle of a ``print`` left half a
+    line (two JSON objects glued together when the flush's lines followed) and dropped the
+    list's other lines. Only signals whose handler is Python's or :func:`_stop_signals`' are
+    held, and only in the main thread; an error of the block itself goes on as it is."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    ours = (signal.default_int_handler, _terminate)
+    previous = [
+        (sig, handler)
+        for sig in (signal.SIGINT, *STOP_SIGNALS)
+        if (handler := signal.getsignal(sig)) in ours
+    ]
+    for sig, _ in previous:
+        signal.signal(sig, _held)
+    try:
+        yield
+    finally:
+        for sig, handler in previous:
+            signal.signal(sig, handler)
+    if _HELD:
+        signum = _HELD[0]
+        _HELD.clear()
+        if signum == signal.SIGINT:
+            raise KeyboardInterrupt
+        raise Terminated(signum)
 
 
 #: The words ``--ray`` takes as its address; ``ray://...`` and ``HOST:PORT`` are addresses too.

@@ -546,7 +546,13 @@ def run(args: argparse.Namespace) -> int:
     still reported (the windows still open flushed), and the exit code is then 130 (143, 129),
     as for any interruption; 1, without the summary, when standard output's reader went away.
     Returns the exit code."""
-    from uavsnn.cli import exit_code, interrupted_line, pipe_closed, quiet_stdout
+    from uavsnn.cli import (
+        exit_code,
+        held_stops,
+        interrupted_line,
+        pipe_closed,
+        quiet_stdout,
+    )
     from uavsnn.detector import Detector
     from uavsnn.driver import StreamDriver
     from uavsnn.sources import IdleClock, UdpSource, check_fits, is_live, open_source
@@ -599,13 +605,16 @@ def run(args: argparse.Namespace) -> int:
         classes = tuple(ident.classes) if ident is not None else ()
 
         def emit(found: Any) -> None:
-            if found is None:
+            if found is None or not len(found):
                 return
-            for item in found:
-                line = (
-                    _spike(item, args.json) if args.per_spike else _window(item, args.json, classes)
-                )
-                print(line, file=out, flush=True)
+            with held_stops():  # a stop waits for the lines: each whole, none dropped
+                for item in found:
+                    line = (
+                        _spike(item, args.json)
+                        if args.per_spike
+                        else _window(item, args.json, classes)
+                    )
+                    print(line, file=out, flush=True)
 
         driver = StreamDriver(
             source, detector, idle_flush_s=args.idle_flush, windows=not args.per_spike
@@ -667,7 +676,7 @@ def _run_many(args: argparse.Namespace) -> int:
     by its stream's name, as one stream's ``detect`` prints them; a stream that fails is
     reported and the others go on (exit 1 when any failed). Ctrl-C (SIGTERM, SIGHUP) stops
     every stream: each one's summary so far, then the interruption's line and exit code."""
-    from uavsnn.cli import exit_code, interrupted_line
+    from uavsnn.cli import exit_code, held_stops, interrupted_line
     from uavsnn.distributed import StreamResult, detect_streams, runner_for
     from uavsnn.sources import is_live
 
@@ -709,13 +718,16 @@ def _run_many(args: argparse.Namespace) -> int:
                       file=err, flush=True)  # fmt: skip
 
     def found(name: str, items: Any) -> None:
-        for item in items:
-            line = _spike(item, args.json) if args.per_spike else _window(item, args.json, classes)
-            if args.json:
-                print(json.dumps({"stream": name, **json.loads(line)}), file=out)
-            else:
-                print(f"[{name}] {line}", file=out)
-        out.flush()
+        with held_stops():  # a stop waits for the lines: each whole, none dropped
+            for item in items:
+                line = (
+                    _spike(item, args.json) if args.per_spike else _window(item, args.json, classes)
+                )
+                if args.json:
+                    print(json.dumps({"stream": name, **json.loads(line)}), file=out)
+                else:
+                    print(f"[{name}] {line}", file=out)
+            out.flush()
 
     def update(r: StreamResult) -> None:
         nonlocal last
