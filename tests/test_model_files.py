@@ -325,6 +325,23 @@ def test_a_smaller_recording_is_not_told_to_downsample(tmp_path: Path) -> None:
     check_fits(FileSource(path), model)
 
 
+def test_a_npy_recording_within_the_model_is_asked_for_its_sensor_size(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # A .npy file's size is its events' extent: events short of the edge were told to use a
+    # model of that extent's size, and --sensor-size was the fix.
+    model = (40, 30)
+    path = tmp_path / "r.npy"
+    np.save(path, random_events(200, (33, 25)))
+    with pytest.raises(ParameterError, match=r"r\.npy records no sensor size.*--sensor-size 40x30"):
+        check_fits(FileSource(path), model)
+    check_fits(FileSource(path, sensor_size=model), model)  # the advice taken, it fits
+    # An extent beyond the model's on either axis keeps the advice of its size.
+    np.save(path, random_events(200, (50, 25)))
+    with pytest.raises(ParameterError, match=r"sensor is 50x25, smaller than the model's input"):
+        check_fits(FileSource(path), model)
+
+
 # -- 8. operating points of a float32 rate; messages naming the array ---------------------------
 
 

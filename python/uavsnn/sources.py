@@ -371,7 +371,9 @@ def check_fits(source: EventSource, model_size: tuple[int, int]) -> None:
         ParameterError: naming both sizes: a file is cropped and scaled with
             ``--downsample`` (``downsample_to``) when it is at least as large as the model's
             input on both axes (a smaller one needs a model of its size), unless it records
-            no sensor size, which is to be given; a live stream is not cropped or scaled.
+            no sensor size, which is to be given (a ``.npy`` file whose events' extent lies
+            within the model's input is asked for its size too); a live stream is not cropped
+            or scaled.
     """
     size = source.sensor_size
     if size is None or tuple(size) == tuple(model_size):
@@ -386,6 +388,13 @@ def check_fits(source: EventSource, model_size: tuple[int, int]) -> None:
         raise ParameterError(
             f"{source.path} records no sensor size ({w}x{h} is only a stand-in): give "
             "--sensor-size WxH (sensor_size)"
+        )
+    if source.recording.metadata.get("sensor_size_source") == "inferred" and w <= mw and h <= mh:
+        # A .npy file records no size: its events' extent stands in, and fits the model's.
+        raise ParameterError(
+            f"{source.path} records no sensor size, and its events reach only {w}x{h}, "
+            f"within the model's input {mw}x{mh}: give --sensor-size {mw}x{mh} (sensor_size) "
+            "if they come from such a sensor"
         )
     if w < mw or h < mh:  # downsampling only reduces: nothing makes it fit
         raise ParameterError(
