@@ -366,7 +366,10 @@ def test_windowing_beyond_the_memory_limit_is_refused(monkeypatch: pytest.Monkey
     t = rec.events["t"]
     need = 10_000 * 40 + -(-(int(t[-1]) + 1 - int(t[0])) // 2_500) * 24
     monkeypatch.setattr(uwindows, "MEMORY_LIMIT", need - 1)
-    with pytest.raises(ParameterError, match=r"windowing 10,000 events .* uavsnn.Detector"):
+    with pytest.raises(
+        ParameterError,
+        match=r"windowing 10,000 events .* uavsnn.Detector .* cuts short the windows",
+    ):
         make_windows(rec, 5_000, 0.5)
     monkeypatch.setattr(uwindows, "MEMORY_LIMIT", need)
     assert len(make_windows(rec, 5_000, 0.5).t0)

@@ -133,8 +133,9 @@ def _check_memory(n_events: int, length_us: int, overlap: float, span_us: int = 
         raise ParameterError(
             f"windowing {n_events:,} events (overlap {overlap}) may need {need / 2**30:.1f} GiB, "
             f"more than the {MEMORY_LIMIT / 2**30:.1f} GiB allowed (uavsnn.windows.MEMORY_LIMIT):"
-            " window a part at a time (start_us/end_us), or stream the recording through "
-            "uavsnn.Detector ('uavsnn detect'), which needs memory for its live windows only"
+            " stream the recording through uavsnn.Detector ('uavsnn detect'), which needs "
+            "memory for its live windows only (windowing it a part at a time with "
+            "start_us/end_us cuts short the windows that cross a part's end_us)"
         )
 
 
