@@ -388,3 +388,35 @@ def test_build_refuses_videos_for_a_domain_that_reads_none(domain: str, tmp_path
     with pytest.raises(ParameterError, match=f"videos are real clips: .* not {domain}"):
         build(out, domain, videos=tmp_path, n_test=4, n_train=2)
     assert not out.exists()
+
+
+# -- detect --start-us: the windows of uavsnn evaluate's streams ---------------------------------
+
+
+def test_detect_start_us_windows_a_recording_as_the_evaluation_streams_do(
+    tmp_path: Path, model: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # detect started its windows at the first event, evaluate's streams (stream_reports) at 0,
+    # and detect could not be told otherwise: a clip's windows could not be reproduced.
+    import json
+
+    from uavsnn.false_alarms import stream_reports
+
+    events = random_events(400, SMALL_SENSOR)
+    events["t"] += np.uint64(14_969) - events["t"][0]  # a clip's first event, not at 0
+    path = tmp_path / "clip.npz"
+    uio.write_npz(uavsnn.Recording(events, SMALL_SENSOR), path)
+    net = Network.load(model)
+    wanted = [(r.window, r.t0, r.detected) for r in stream_reports(net, events, SMALL_SENSOR)]
+
+    def detect(*extra: str) -> list[tuple[int, int, bool]]:
+        code = main(["detect", str(path), "-m", str(model), "--json", *extra])
+        lines = capsys.readouterr().out.splitlines()
+        assert code == 0
+        return [(d["window"], d["t0"], d["detected"]) for d in map(json.loads, lines)]
+
+    assert detect("--start-us", "0") == wanted
+    assert detect()[0][1] == int(events["t"][0]) != wanted[0][1]
+    _one_line_exit_2(
+        capsys, ["detect", str(path), "-m", str(model), "--start-us", "-5"], "--start-us must be"
+    )

@@ -115,6 +115,13 @@ def register(subparsers: Any) -> None:
         "--overlap", type=float, default=0.5, help="window overlap in [0, 1) (default 0.5)"
     )
     p.add_argument(
+        "--start-us",
+        type=int,
+        metavar="US",
+        help="start of window 0 in µs of event time (default: the first event's time); 0 "
+        "windows a recording as uavsnn evaluate's streams do",
+    )
+    p.add_argument(
         "--downsample",
         action="store_true",
         help="files only: crop and scale the recording to the model's input size",
@@ -375,6 +382,7 @@ MAX_WINDOW_MS = float(1 << 62) / 1000
 
 def _check_args(args: argparse.Namespace) -> None:
     """Refuse flag values that make no sense before opening anything."""
+    from uavsnn._validate import MAX_TIME_US
     from uavsnn.features import MAX_MEASURED_WINDOW_US
     from uavsnn.sources import check_seconds, is_live
 
@@ -394,6 +402,10 @@ def _check_args(args: argparse.Namespace) -> None:
         )
     if not (math.isfinite(args.overlap) and 0.0 <= args.overlap < 1.0):
         raise ParameterError(f"--overlap must be in [0, 1), got {args.overlap}")
+    if args.start_us is not None and not 0 <= args.start_us <= MAX_TIME_US:
+        raise ParameterError(
+            f"--start-us must be a time in µs from 0 to {MAX_TIME_US}, got {args.start_us}"
+        )
     if not (math.isfinite(args.summary_every) and args.summary_every >= 0):
         raise ParameterError(
             f"--summary-every must be a number of seconds >= 0 (0: only at the end), "
@@ -590,6 +602,7 @@ def run(args: argparse.Namespace) -> int:
             network,
             window_us=round(args.window_ms * 1000),
             overlap=args.overlap,
+            start_us=args.start_us,
             sensor_size=source.sensor_size,
             tracker=_tracker(args.confirm, network),
         )
@@ -749,8 +762,9 @@ def _run_many(args: argparse.Namespace) -> int:
     try:
         results = detect_streams(
             runner, sources, network, window_us=round(args.window_ms * 1000),
-            overlap=args.overlap, on_ready=ready, on_detections=found, on_update=update,
-            windows=not args.per_spike, tracker=_tracker(args.confirm, network), keep=False,
+            overlap=args.overlap, start_us=args.start_us, on_ready=ready,
+            on_detections=found, on_update=update, windows=not args.per_spike,
+            tracker=_tracker(args.confirm, network), keep=False,
             sensor_size=_sensor_size(args.sensor_size), realtime=args.realtime,
             udp_format=args.udp_format, max_packets=args.max_packets,
             idle_timeout=args.idle_timeout, downsample=args.downsample,

@@ -136,6 +136,7 @@ class _StreamWorker:
         )
 
         window_us, overlap = opts.pop("window_us"), opts.pop("overlap")
+        start_us = opts.pop("start_us", None)
         idle_flush_s = opts.pop("idle_flush_s", None)
         opts.pop("windows", None)
         tracker = opts.pop("tracker", None)
@@ -164,6 +165,7 @@ class _StreamWorker:
             model,
             window_us=window_us,
             overlap=overlap,
+            start_us=start_us,
             sensor_size=self.source.sensor_size,
             tracker=tracker,
         )
@@ -258,6 +260,7 @@ def detect_streams(
     *,
     window_us: int = 50_000,
     overlap: float = 0.5,
+    start_us: int | None = None,
     names: Sequence[str] | None = None,
     on_ready: Callable[[dict[str, tuple[str, int] | None], dict[str, Any]], None] | None = None,
     on_detections: Callable[[str, Any], None] | None = None,
@@ -316,7 +319,7 @@ def detect_streams(
         ParameterError: before any actor starts: a runner that is not Ray's, ``sources`` not a
             list of file paths and ``udp://HOST:PORT`` addresses (standard input cannot be
             one), names missing or repeated, more than :data:`MAX_STREAMS` sources, a model
-            that is neither a network nor a model file, a window or overlap a ``Detector``
+            that is neither a network nor a model file, a window, overlap or start a ``Detector``
             refuses, a bad ``idle_flush_s``, an unknown source option or one for a kind of
             source none is, or a ``tracker`` that is no :class:`~uavsnn.tracks.Tracker` or is
             given without ``windows``.
@@ -357,8 +360,8 @@ def detect_streams(
             f"model must be a uavsnn.Network or the path of a model file, got "
             f"{type(model).__name__}"
         )
-    # The window and overlap as every stream's Detector will take them (refused here, once).
-    Detector(model, window_us=window_us, overlap=overlap)
+    # The window, overlap and start as every stream's Detector takes them (refused here, once).
+    Detector(model, window_us=window_us, overlap=overlap, start_us=start_us)
     if tracker is not None:
         if not isinstance(tracker, Tracker):
             raise ParameterError(f"tracker must be a uavsnn.tracks.Tracker, got {tracker!r}")
@@ -379,6 +382,7 @@ def detect_streams(
     options = {
         "window_us": window_us,
         "overlap": overlap,
+        "start_us": start_us,
         "idle_flush_s": idle_flush_s,
         "windows": bool(windows),
         "tracker": tracker,
