@@ -223,7 +223,10 @@ class Evaluation:
         return 1e9 * self.seconds / self.input_spikes if self.input_spikes else float("nan")
 
     def to_dict(self) -> dict[str, Any]:
-        """Everything as JSON-ready values."""
+        """Everything as plain values for :func:`json.dumps`. A figure that is not defined
+        (the speed of a run without one input spike, or of :func:`score` given no time) is NaN,
+        which :func:`json.dumps` writes as the bare word ``NaN``, outside strict JSON; the
+        commands write it as ``null`` (``uavsnn._jsonout``)."""
         (tp, fn), (fp, tn) = self.confusion.tolist()
 
         def stats(values: np.ndarray) -> dict[str, float | int | None]:

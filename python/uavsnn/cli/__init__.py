@@ -25,6 +25,9 @@ address (``auto``, ``local``, ``ray://...``, ``HOST:PORT``) or cannot be a posit
 ``uavsnn detect --ray rec.npz -m M`` runs ``rec.npz`` on a local cluster rather than miss its
 SOURCE (:func:`_parse`).
 
+What a command writes as JSON (``--json``, ``results.json``) is strict JSON: a figure that is not
+defined is ``null``, never Python's bare ``NaN`` (:mod:`uavsnn._jsonout`).
+
 A bare ``uavsnn``, like ``uavsnn dataset``, misses its command: the usage goes to standard error
 and the exit code is 2, argparse's rule.
 """

@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 import argparse
-import json
 import math
 from pathlib import Path
 from typing import Any
 
+from uavsnn import _jsonout
 from uavsnn.bench import DEFAULT_EVENTS, DENSITIES, bench_density
 from uavsnn.cli import counted
 from uavsnn.errors import ParameterError
@@ -116,7 +116,7 @@ def _bench(args: argparse.Namespace) -> int:
         progress.close()
     if args.json:
         model = str(args.model) if args.model else None
-        print(json.dumps({"model": model, "rows": [r.to_dict() for r in rows]}, indent=2))
+        print(_jsonout.dumps({"model": model, "rows": [r.to_dict() for r in rows]}, indent=2))
         return 0
     print(f"model: {args.model or f'untrained (seed {args.seed})'}")
     for r in rows:

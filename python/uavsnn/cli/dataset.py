@@ -10,13 +10,13 @@
 from __future__ import annotations
 
 import argparse
-import json
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from uavsnn import _jsonout
 from uavsnn._files import check_output_dir
 from uavsnn.cli import counted
 from uavsnn.cli._camera import add_camera_options, fov_option, lens_option, through_lens
@@ -255,7 +255,7 @@ def _summary(root: Path, manifest: dict[str, Any]) -> dict[str, Any]:
 
 def _print(summary: dict[str, Any], as_json: bool) -> None:
     if as_json:
-        print(json.dumps(summary, indent=2))
+        print(_jsonout.dumps(summary, indent=2))
         return
     print(f"{summary['root']}: {summary['domain']} — {summary['source']} (seed {summary['seed']})")
     p = summary["parameters"]

@@ -4,12 +4,11 @@ evaluate, report — in a few minutes on two cores (SPEC §6)."""
 from __future__ import annotations
 
 import argparse
-import json
 import time
 from pathlib import Path
 from typing import Any
 
-from uavsnn import __version__, report
+from uavsnn import __version__, _jsonout, report
 from uavsnn.cli import output_dir
 from uavsnn.dataset import build_demo, load
 from uavsnn.errors import ParameterError
@@ -86,7 +85,7 @@ def run_demo(out: Path, seed: int = 0, *, progress: bool = False) -> dict[str, A
             "total": round(time.perf_counter() - started, 2),
         },
     }
-    (out / "results.json").write_text(json.dumps(figures, indent=2) + "\n", encoding="utf-8")
+    (out / "results.json").write_text(_jsonout.dumps(figures, indent=2) + "\n", encoding="utf-8")
     text = [
         "# uavsnn demo\n",
         f"`uavsnn demo --seed {seed}` (uavsnn {__version__}): the small synthetic dvs set "
@@ -111,7 +110,7 @@ def _demo(args: argparse.Namespace) -> int:
     output_dir(args.out, "--out")
     figures = run_demo(args.out, args.seed, progress=not args.quiet)
     if args.json:
-        print(json.dumps(figures, indent=2))
+        print(_jsonout.dumps(figures, indent=2))
         return 0
     test = figures["test"]
     (tp, fn), (fp, tn) = test["confusion"]

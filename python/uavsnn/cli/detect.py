@@ -33,6 +33,7 @@ from typing import Any, TextIO
 
 import numpy as np
 
+from uavsnn import _jsonout
 from uavsnn.distributed import add_ray_option
 from uavsnn.errors import ParameterError
 from uavsnn.track_eval import Confirm
@@ -220,7 +221,7 @@ def _spike(d: np.void, as_json: bool) -> str:
     x0, y0, x1, y1 = int(d["x0"]), int(d["y0"]), int(d["x1"]), int(d["y1"])
     cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
     if as_json:
-        return json.dumps(
+        return _jsonout.dumps(
             {
                 "t": int(d["t"]),
                 "window": int(d["window"]),
@@ -296,7 +297,7 @@ def _window(w: Any, as_json: bool, classes: tuple[str, ...] = ()) -> str:
     """One window's decision (the default output; docs/streaming.md "What detect prints");
     ``classes``: the names of the model's class probabilities."""
     if as_json:
-        return json.dumps(
+        return _jsonout.dumps(
             {
                 "window": w.window,
                 "t0": w.t0,
@@ -737,7 +738,7 @@ def _run_many(args: argparse.Namespace) -> int:
                     _spike(item, args.json) if args.per_spike else _window(item, args.json, classes)
                 )
                 if args.json:
-                    print(json.dumps({"stream": name, **json.loads(line)}), file=out)
+                    print(_jsonout.dumps({"stream": name, **json.loads(line)}), file=out)
                 else:
                     print(f"[{name}] {line}", file=out)
             out.flush()

@@ -3,12 +3,11 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 from typing import Any
 
-from uavsnn import report
+from uavsnn import _jsonout, report
 from uavsnn._files import check_output_dir
 from uavsnn.cli import counted, output_dir, output_file
 from uavsnn.dataset import load
@@ -324,7 +323,7 @@ def _evaluate(args: argparse.Namespace) -> int:
         (args.report / "report.md").write_text("\n".join(text), encoding="utf-8")
         figures["report"] = str(args.report / "report.md")
     if args.json:
-        print(json.dumps(figures, indent=2))
+        print(_jsonout.dumps(figures, indent=2))
         return 0
     if network.load_note:
         print(f"note: {network.load_note}")

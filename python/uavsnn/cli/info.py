@@ -4,14 +4,13 @@ them), what the model takes and does."""
 from __future__ import annotations
 
 import argparse
-import json
 import zipfile
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from uavsnn import io
+from uavsnn import _jsonout, io
 from uavsnn._npy import npz_arrays
 from uavsnn.errors import ParameterError
 from uavsnn.events import Recording
@@ -203,7 +202,7 @@ def run(args: argparse.Namespace) -> int:
         return _run_model(args)
     info = summary(io.read(args.file, sensor_size=args.sensor_size))
     if args.json:
-        print(json.dumps(info, indent=2))
+        print(_jsonout.dumps(info, indent=2))
         return 0
     width, height = info["sensor_size"]
     duration = info["duration_us"]
@@ -235,7 +234,7 @@ def _run_model(args: argparse.Namespace) -> int:
         )
     info = model_summary(network, str(args.file))
     if args.json:
-        print(json.dumps(info, indent=2))
+        print(_jsonout.dumps(info, indent=2))
     else:
         _print_model(info)
     return 0

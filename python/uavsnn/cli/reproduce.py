@@ -19,14 +19,13 @@ Every figure comes from this one command and its seed.
 from __future__ import annotations
 
 import argparse
-import json
 import shlex
 import sys
 import time
 from pathlib import Path
 from typing import Any, NamedTuple
 
-from uavsnn import __version__, identify, pictures, report
+from uavsnn import __version__, _jsonout, identify, pictures, report
 from uavsnn._validate import check_int
 from uavsnn.cli import check_output_dir, output_dir
 from uavsnn.cli._results_text import (
@@ -630,7 +629,7 @@ def _reproduce(args: argparse.Namespace) -> int:
                 *real_text,
             ]
     log["seconds"] = round(time.perf_counter() - started, 1)
-    (out / "results.json").write_text(json.dumps(_lean(log), indent=2) + "\n", encoding="utf-8")
+    (out / "results.json").write_text(_jsonout.dumps(_lean(log), indent=2) + "\n", encoding="utf-8")
 
     real_ran = "real" in log or "real_sensors" in log
     real_sizes = [_sensor_name(s) for s in real_sensors] if real_ran else []

@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from uavsnn import _jsonout
 from uavsnn._files import write_atomic
 from uavsnn.cli._camera import add_camera_options
 from uavsnn.errors import ParameterError
@@ -280,7 +281,7 @@ def _finish(args: argparse.Namespace, recording: Recording) -> int:
         "params": recording.metadata.get("params"),
     }
     if args.json:
-        print(json.dumps(summary))
+        print(_jsonout.dumps(summary))
     else:
         print(
             f"{summary['events']} events from {summary['frames']} frames "

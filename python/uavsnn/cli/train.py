@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from uavsnn import identify
+from uavsnn import _jsonout, identify
 from uavsnn._files import check_output_dir
 from uavsnn.cli import output_file
 from uavsnn.dataset import load
@@ -490,7 +490,7 @@ def _train(args: argparse.Namespace) -> int:
     network.save(args.output)
     summary |= result.to_dict()
     if args.json:
-        print(json.dumps(summary, indent=2))
+        print(_jsonout.dumps(summary, indent=2))
     else:
         for layer, r in summary["layers"].items():
             print(
@@ -586,7 +586,7 @@ def _identify_only(args: argparse.Namespace) -> int:
     network.save(args.output)
     summary = {"model": str(args.output), "network": str(args.identify_only), "identify": ident}
     if args.json:
-        print(json.dumps(summary, indent=2))
+        print(_jsonout.dumps(summary, indent=2))
     else:
         _print_identification(ident)
         print(f"wrote {args.output} (the network of {args.identify_only})")
