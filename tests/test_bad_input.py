@@ -193,7 +193,8 @@ def test_ctrl_c_is_one_line_and_exit_130(
     monkeypatch.setattr(module, handler, interrupted)
     assert main(argv) == 130
     err = capsys.readouterr().err
-    assert err == f"uavsnn {argv[0]}: interrupted\n"
+    name = " ".join(["uavsnn", *argv[:2]] if argv[0] == "dataset" else ["uavsnn", argv[0]])
+    assert err == f"{name}: interrupted\n"
 
 
 def test_ctrl_c_during_a_real_dataset_build(tmp_path: Path) -> None:
@@ -217,7 +218,7 @@ def test_ctrl_c_during_a_real_dataset_build(tmp_path: Path) -> None:
     assert proc.returncode == 130, err
     # Piped, a build reports progress in plain lines; the last line is the interruption.
     lines = err.strip().splitlines()
-    assert lines[-1] == "uavsnn dataset: interrupted", err
+    assert lines[-1] == "uavsnn dataset build: interrupted", err
     assert not any("Traceback" in line for line in lines), err
     # Nothing half-written: no manifest, no temporary file, no lock left behind.
     assert not out.exists() or not [p.name for p in out.iterdir()]

@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from conftest import one_line_exit_2
 
 from uavsnn import DatasetError, SimulationError
 from uavsnn.cli import main
@@ -323,3 +324,17 @@ def test_rows_past_the_last_frame_are_ignored_and_a_header_alone_labels_nothing(
     assert not plan.labelled.any() and not plan.windows.usable.any()
     text = " ".join((DOCS / "dataset.md").read_text(encoding="utf-8").split())
     assert "rows past the video's last frame" in text and "header alone" in text
+
+
+def test_dataset_info_on_a_split_file_names_its_folder(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # A split's file was called a folder that "does not exist", under "uavsnn dataset:".
+    split = tmp_path / "data" / "test.npz"
+    split.parent.mkdir()
+    split.write_bytes(b"")
+    line = one_line_exit_2(capsys, ["dataset", "info", str(split)], "is a file")
+    assert line.startswith("uavsnn dataset info: error: ")
+    assert line.endswith(f"a dataset is a folder (its folder is {split.parent})")
+    line = one_line_exit_2(capsys, ["dataset", "info", str(tmp_path / "none")], "does not exist")
+    assert line.startswith("uavsnn dataset info: error: dataset folder ")

@@ -535,6 +535,6 @@ def test_the_command_line_overwrite_stopped_by_ctrl_c_exits_130_and_keeps_the_ol
     _stop_at_split(monkeypatch, KeyboardInterrupt())
     argv = ["dataset", "build", str(root), "--domain", "dvs", "--n-test", "4", "--n-train", "4"]
     assert main([*argv, "--quiet", "--overwrite"]) == 130
-    assert capsys.readouterr().err.splitlines()[-1] == "uavsnn dataset: interrupted"
+    assert capsys.readouterr().err.splitlines()[-1] == "uavsnn dataset build: interrupted"
     assert _files(root) == old
     assert [p.name for p in tmp_path.iterdir()] == ["set"]

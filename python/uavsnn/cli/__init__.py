@@ -316,7 +316,10 @@ def main(argv: list[str] | None = None) -> int:
     handler = getattr(args, "handler", None)
     if handler is None:
         parser.error(f"unknown command {args.command!r}")
-    name = f"uavsnn {args.command}"
+    # A command with actions names its action too ("uavsnn dataset info: error: ...").
+    name = " ".join(
+        ["uavsnn", args.command, *filter(None, [getattr(args, "dataset_action", None)])]
+    )
     for stream in (sys.stdout, sys.stderr):
         _write_what_it_can(stream)
     with _stop_signals():

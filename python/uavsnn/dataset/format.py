@@ -377,10 +377,14 @@ def read_manifest(root: str | Path) -> dict[str, Any]:
     """Read and check a dataset's manifest.
 
     Raises:
-        DatasetError: no such folder or manifest, not JSON, not a uavsnn dataset, or of another
-            format version.
+        DatasetError: no such folder (a file named instead: a split's ``.npz`` is named with
+            its folder) or manifest, not JSON, not a uavsnn dataset, or of another format
+            version.
     """
     root = Path(root)
+    if root.exists() and not root.is_dir():
+        hint = f" (its folder is {root.parent})" if root.name.endswith(".npz") else ""
+        raise DatasetError(f"{root} is a file: a dataset is a folder{hint}")
     if not root.is_dir():
         raise DatasetError(f"dataset folder {root} does not exist")
     path = root / MANIFEST
