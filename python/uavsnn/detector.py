@@ -284,7 +284,11 @@ class Detector(EngineState):
         self._plain = False  # events went through push
         self._recent: list[np.ndarray] = []  # raw events of the open windows, in order
         self._recent_n = 0
-        self._lost_until = 0  # events before this time were dropped from _recent
+        # Every event dropped from _recent is earlier than this: a window that starts at or
+        # after it lost none.
+        self._lost_until = 0
+        # The first window the tracker has not been fed, reported or skipped (see _skip_to).
+        self._unfed = 0
         # Per live track: scored objects, the sum of their UAV scores and class probabilities.
         self._identity: dict[int, tuple[int, float, np.ndarray]] = {}
         # The call that changes the stream and was stopped part way (see _changing), or None.
@@ -414,6 +418,7 @@ class Detector(EngineState):
             self._grouper = None
             self._plain = False
             self._recent, self._recent_n, self._lost_until = [], 0, 0
+            self._unfed = 0
             self._identity = {}
             self._interrupted = None
 
@@ -449,7 +454,11 @@ class Detector(EngineState):
         Use either this (with :meth:`flush_windows`) or :meth:`push` on one stream, not both:
         mixing them raises :class:`~uavsnn.StreamError`.
         The reports are :class:`WindowGrouper`'s whatever the chunking, so the tracks are those
-        of :func:`uavsnn.tracks.track_windows` over them.
+        of :func:`uavsnn.tracks.track_windows` over them. The windows of a silent gap, which
+        hold no event and get no report, are fed to the tracker as windows without objects
+        while a track is live (at most ``max_misses + 1`` of them): a track that ends in a gap
+        is deleted (:meth:`~uavsnn.tracks.Tracker.drain_ended`) at the window, and with the
+        record, that ``track_windows`` over every window gives it.
 
         Raises:
             EventError, StreamError: as :meth:`push`; the detector, its tracks included, is
@@ -471,12 +480,16 @@ class Detector(EngineState):
                 part = events[s : s + _ROTOR_SLICE]
                 if self._rotor:
                     self._keep(part)
-                out += self._finish_reports(grouper.add(part, _NO_DETECTIONS))
+                closed = grouper.add(part, _NO_DETECTIONS)
+                out += self._finish_reports(closed, reached=int(part["t"][-1]))
             return out
 
     def advance_windows(self, t_us: int) -> list[WindowReport]:
         """:meth:`advance` for a stream read with :meth:`push_windows`: the windows that end by
-        ``t_us``, tracked, as the next chunk would return them.
+        ``t_us``, tracked, as the next chunk would return them. The windows without events that
+        end by ``t_us`` count as missed for the tracks, as in a gap (:meth:`push_windows`), so
+        a track whose object left as the stream fell quiet is deleted once
+        ``tracker.max_misses`` windows have passed, not at the next event.
 
         Raises:
             ParameterError, StreamError: as :meth:`advance`.
@@ -486,7 +499,8 @@ class Detector(EngineState):
             if self._plain:
                 raise self._mixed("advance_windows", "push")
             found = self._advance(t_us)
-            return self._finish_reports(self._windows().advance(t_us, found))
+            closed = self._windows().advance(t_us, found)
+            return self._finish_reports(closed, reached=int(t_us))
 
     def flush_windows(self) -> list[WindowReport]:
         """End the stream (as :meth:`flush`) and return every window still open, tracked.
@@ -515,7 +529,9 @@ class Detector(EngineState):
         """Keep a copy of a chunk for the rotor signature, within :data:`MAX_ROTOR_EVENTS`."""
         chunk = events[-MAX_ROTOR_EVENTS:].copy()
         if len(chunk) < len(events):
-            self._lost_until = int(chunk["t"][0])
+            # After the last event dropped: the first one kept may share its time.
+            dropped = int(events["t"][len(events) - len(chunk) - 1])
+            self._lost_until = max(self._lost_until, dropped + 1)
             self._recent, self._recent_n = [], 0
         self._recent.append(chunk)
         self._recent_n += len(chunk)
@@ -529,25 +545,53 @@ class Detector(EngineState):
             else:
                 self._recent[0] = head[extra:]
                 self._recent_n -= extra
-                self._lost_until = max(self._lost_until, int(head["t"][extra]))
+                self._lost_until = max(self._lost_until, int(head["t"][extra - 1]) + 1)
 
-    def _finish_reports(self, closed: list[WindowReport]) -> list[WindowReport]:
+    def _finish_reports(
+        self, closed: list[WindowReport], reached: int | None = None
+    ) -> list[WindowReport]:
+        """The windows ``closed``, measured, tracked and scored; ``reached``: the time the
+        stream has reached (the windows ending by then are all closed or skipped)."""
         out = []
         ident = self._network.identification
         for report in closed:
+            self._skip_to(report.window)
             measured = None
             if report.objects and report.t0 >= self._lost_until and self._recent:
                 report, measured = _with_rotor(report, self._recent)
             # The track first (its statistics so far include this window), then the score.
             report = self._tracker.update(report)
+            self._unfed = report.window + 1
             if measured is not None and ident is not None:
                 report = self._with_track_identity(_with_scores(report, measured, ident), ident)
             out.append(report)
+        if reached is not None:
+            start = self._windows().start_us
+            if start is not None and reached - start >= self._window_us:
+                self._skip_to((reached - start - self._window_us) // self._step_us + 1)
         if self._recent and self._grouper is not None:
             keep_from = self._grouper.open_since()
             while self._recent and (keep_from is None or self._recent[0]["t"][-1] < keep_from):
                 self._recent_n -= len(self._recent.pop(0))
         return out
+
+    def _skip_to(self, k: int) -> None:
+        """Feed the tracker the windows before ``k`` it has not seen: windows the stream
+        skipped (they held no event, a silent gap), as windows without objects, so that its
+        tracks miss them as they miss them in :func:`uavsnn.tracks.track_windows` over every
+        window: a track ends at the same window, with the same record (misses, age). Only
+        while a track is live, so at most ``max_misses + 1`` of them: a long gap costs no
+        more. The windows reported are tracked as before (these only delete a track that
+        would be deleted at the next window reported, sooner)."""
+        j, tracker = self._unfed, self._tracker
+        if j >= k:
+            return
+        start = self._windows().start_us or 0
+        while j < k and tracker.live_count:
+            t0 = start + j * self._step_us
+            tracker.update(WindowReport(j, t0, t0 + self._window_us, False, _NO_DETECTIONS, ()))
+            j += 1
+        self._unfed = k
 
     def _with_track_identity(self, report: WindowReport, ident: Any) -> WindowReport:
         """``report`` with each scored, tracked object's track score and class guess, from

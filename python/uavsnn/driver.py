@@ -26,6 +26,7 @@ from uavsnn.sources import (
 
 if TYPE_CHECKING:
     from uavsnn.detector import Detector
+    from uavsnn.tracks import Track
 
 __all__ = ["StreamDriver", "StreamStep"]
 
@@ -39,13 +40,18 @@ class StreamStep:
     (the detector refused a chunk, ``error`` says why; its ``events`` are counted in
     :attr:`StreamDriver.rejected`, the stream goes on); ``"restarted"`` (the sensor restarted:
     the old stream's windows were flushed in the step before, and the detector is reset once
-    the step has been taken; ``t`` is the new stream's first time)."""
+    the step has been taken; ``t`` is the new stream's first time, and ``tracks`` the old
+    stream's tracks not yet drained: its tracker's ``finish()``, the tracks it deleted that
+    ``drain_ended()`` has not taken, then those still live, as they stood at its last window;
+    the new stream's track ids start from 1 again). ``tracks`` is empty at every other step,
+    and at a restart without ``windows`` (nothing fed the tracker)."""
 
     kind: str
     found: Any = None
     error: UavsnnError | None = None
     events: int = 0
     t: int = 0
+    tracks: tuple[Track, ...] = ()
 
 
 class StreamDriver:
@@ -62,7 +68,9 @@ class StreamDriver:
       for the next event, and the events that arrive stamped before the time reached are
       dropped and counted in :attr:`rejected`.
     - At a sensor restart (:attr:`uavsnn.sources.SourceStats.restarts`) the old stream's
-      windows are flushed, then the detector is reset for the new stream.
+      windows are flushed, then the detector is reset for the new stream; the ``"restarted"``
+      step carries the old stream's tracks that were not drained (:attr:`StreamStep.tracks`),
+      which the reset would otherwise forget.
     - At the source's end the windows still open are flushed.
 
     ``windows``: push with ``push_windows`` (closed windows, each with its objects) instead of
@@ -153,7 +161,10 @@ class StreamDriver:
                 # stream's windows, and start the detector again on the new one.
                 self._restarts = self.source.stats.restarts
                 yield StreamStep("found", self.flush())
-                yield StreamStep("restarted", t=int(chunk["t"][0]))
+                # The old stream's tracks, ended: those the caller did not drain after the
+                # flush, and those live at its last window (the reset would drop them).
+                ended = tuple(d.tracker.finish()) if self.windows else ()
+                yield StreamStep("restarted", t=int(chunk["t"][0]), tracks=ended)
                 self._before = (self.events_seen, self.windows_opened, self.detections_emitted)
                 d.reset()
                 self.idle = IdleClock(self.idle.lag_s)

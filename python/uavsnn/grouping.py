@@ -356,6 +356,12 @@ class WindowGrouper:
         self._note(detections)
         return self._report(len(self._open))
 
+    @property
+    def start_us(self) -> int | None:
+        """Start of window 0: ``start_us`` as given, else the first event's time; ``None``
+        before the first event."""
+        return self._start
+
     def open_since(self) -> int | None:
         """Start of the earliest window not yet reported, or of the next one to open; events
         before it belong to no window still to come. ``None`` before the first event."""

@@ -610,6 +610,11 @@ class Tracker:
         with self._lock:
             return tuple(tr.snapshot() for tr in self._live)
 
+    @property
+    def live_count(self) -> int:
+        """How many tracks are live: ``len(live)``, without taking their snapshots."""
+        return len(self._live)
+
     def __repr__(self) -> str:
         return (
             f"Tracker(gate_px={self.gate_px}, confirm={self.confirm_hits}/"
