@@ -607,8 +607,8 @@ def test_detect_command_over_several_files(
     assert main(argv) == 1
     err = capsys.readouterr().err
     # One line per stream, saying what fits (no actor's traceback: it did not fail to start).
-    assert f"{files[0]}: failed (ParameterError: the recording's sensor is " in err
-    assert "--downsample" in err and "Traceback" not in err
+    assert f"{files[0]}: failed (ParameterError: {files[0]} records no sensor size" in err
+    assert "--sensor-size 240x180" in err and "Traceback" not in err
     assert main([*argv, "--sensor-size", "240x180"]) == 0
     captured = capsys.readouterr()
     lines = [json.loads(line) for line in captured.out.splitlines()]
