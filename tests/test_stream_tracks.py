@@ -7,7 +7,6 @@ events at its first timestamp to ``MAX_ROTOR_EVENTS`` is not measured."""
 from __future__ import annotations
 
 import itertools
-from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
@@ -15,11 +14,11 @@ import pytest
 from conftest import SMALL_SENSOR, blob_events, small_config
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from test_live import ListSource
 
 import uavsnn.detector
 from uavsnn import EVENT_DTYPE, Network
 from uavsnn import driver as driver_module
-from uavsnn import sources as sources_module
 from uavsnn.detector import Detector, _with_rotor
 from uavsnn.grouping import _NO_DETECTIONS, WindowGrouper, WindowReport
 from uavsnn.tracks import Track, Tracker, track_windows
@@ -200,22 +199,6 @@ def test_an_hour_of_quiet_ends_the_tracks_at_once(net: Network) -> None:
 
 
 # -- a sensor restart ------------------------------------------------------------------------------
-
-
-class ListSource(sources_module.EventSource):
-    """Chunks given in advance; ``restart_at``: the chunk from which the sensor has restarted."""
-
-    sensor_size = SMALL_SENSOR
-
-    def __init__(self, chunks: list[np.ndarray], restart_at: int | None = None) -> None:
-        super().__init__()
-        self.chunks, self.restart_at = chunks, restart_at
-
-    def __iter__(self) -> Iterator[np.ndarray]:
-        for i, chunk in enumerate(self.chunks):
-            if i == self.restart_at:
-                self.stats.restarts += 1
-            yield chunk
 
 
 def test_a_restart_hands_back_the_old_streams_tracks(net: Network) -> None:
