@@ -387,6 +387,20 @@ def test_detect_stopped_while_it_prints_writes_every_line_whole(
     assert [json.loads(line) for line in lines] == [json.loads(line) for line in ended]
 
 
+def test_a_stop_held_inside_another_hold_waits_for_the_outer_block() -> None:
+    from uavsnn.cli import held_stops
+
+    done = []
+    with pytest.raises(KeyboardInterrupt):
+        with held_stops():
+            with held_stops():
+                os.kill(os.getpid(), signal.SIGINT)
+                done.append("inner")
+            done.append("outer")
+    assert done == ["inner", "outer"]
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
 # -- 4. a model file with its identification: one atomic write --------------------------------
 
 

@@ -209,7 +209,7 @@ def held_stops() -> Iterator[None]:
     finally:
         for sig, handler in previous:
             signal.signal(sig, handler)
-    if _HELD:
+    if previous and _HELD:  # held here (a block inside another's leaves them to the outer)
         signum = _HELD[0]
         _HELD.clear()
         if signum == signal.SIGINT:
