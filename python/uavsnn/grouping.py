@@ -2,22 +2,23 @@
 
 :class:`WindowGrouper` turns the detector's conv3 spikes into one :class:`WindowReport` per
 window (the paper's decision, and the spikes' causal boxes merged into :class:`WindowObject`
-by :func:`merge_boxes`), which is what ``uavsnn detect`` prints; the detector's
-:meth:`~uavsnn.detector.Detector.push_windows` fills each object's rotor signature, track and
-identification. :mod:`uavsnn.features` merges a dataset's windows with the same rule, so batch
-and streaming see the same objects. Every name here is also reachable from
-:mod:`uavsnn.detector`, where it lived before.
+by :func:`merge_boxes`), which is what ``uavsnn detect`` prints (its JSON line is
+:meth:`WindowReport.to_dict`); the detector's :meth:`~uavsnn.detector.Detector.push_windows`
+fills each object's rotor signature, track and identification. :mod:`uavsnn.features` merges a
+dataset's windows with the same rule, so batch and streaming see the same objects. Every name
+here is also reachable from :mod:`uavsnn.detector`, where it lived before.
 """
 
 from __future__ import annotations
 
 from collections import Counter
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from uavsnn._jsonout import strict
 from uavsnn._validate import MAX_TIME_US, check_int
 from uavsnn.errors import ParameterError, ShapeError
 from uavsnn.events import EVENT_DTYPE
@@ -80,6 +81,49 @@ class WindowObject:
         x0, y0, x1, y1 = self.box
         return (x0 + x1) / 2, (y0 + y1) / 2
 
+    def to_dict(self, classes: Iterable[str] = ()) -> dict[str, Any]:
+        """The object as ``uavsnn detect --json`` prints it (docs/streaming.md, "What
+        ``uavsnn detect`` prints"): ``box``, ``centre``, ``spikes``, ``uav_score``, ``class``
+        (:attr:`class_guess`), ``class_probabilities`` (:attr:`class_probabilities` by class
+        name, ``None`` when not scored or when ``classes`` does not name each of them),
+        ``track`` (:attr:`track_id`), ``track_confirmed``, ``track_score``, ``track_class``,
+        ``track_stats`` (:attr:`track`'s figures, ``None`` without a track) and ``rotor``
+        (``frequency_hz``, ``strength``, ``pixels``; ``None`` unless detected). Plain Python
+        values only (a figure that is not finite is ``None``), ready for :func:`json.dumps`.
+
+        Args:
+            classes: the names of the class probabilities, in order: the model's
+                :attr:`uavsnn.identify.Identifier.classes` (``network.identification.classes``).
+
+        Raises:
+            ParameterError: ``classes`` that is not an iterable of class names (``str``).
+        """
+        return self._dict(_class_names(classes))
+
+    def _dict(self, classes: tuple[str, ...]) -> dict[str, Any]:
+        x0, y0, x1, y1 = (int(v) for v in self.box)
+        probs = self.class_probabilities
+        return strict(
+            {
+                "box": [x0, y0, x1, y1],
+                "centre": [(x0 + x1) / 2, (y0 + y1) / 2],
+                "spikes": int(self.spikes),
+                "uav_score": _maybe(float, self.uav_score),
+                "class": _maybe(str, self.class_guess),
+                "class_probabilities": (
+                    {c: float(v) for c, v in zip(classes, probs, strict=True)}
+                    if probs and len(probs) == len(classes)
+                    else None
+                ),
+                "track": _maybe(int, self.track_id),
+                "track_confirmed": _maybe(bool, self.track_confirmed),
+                "track_score": _maybe(float, self.track_score),
+                "track_class": _maybe(str, self.track_class),
+                "track_stats": None if self.track is None else _track_dict(self.track),
+                "rotor": _rotor_dict(self.rotor),
+            }
+        )
+
 
 @dataclass(frozen=True)
 class WindowReport:
@@ -98,6 +142,85 @@ class WindowReport:
     def spikes(self) -> int:
         """Number of conv3 spikes in the window."""
         return len(self.detections)
+
+    def to_dict(self, classes: Iterable[str] = ()) -> dict[str, Any]:
+        """The window as ``uavsnn detect --json`` prints it, one line of it
+        (docs/streaming.md, "What ``uavsnn detect`` prints"): ``window``, ``t0``, ``t1``,
+        ``detected``, ``spikes`` and ``objects``, each object's :meth:`WindowObject.to_dict`
+        (:attr:`detections` themselves are left out). Plain Python values only, ready for
+        :func:`json.dumps`.
+
+        Args:
+            classes: the names of the objects' class probabilities, in order: the model's
+                :attr:`uavsnn.identify.Identifier.classes` (``network.identification.classes``;
+                ``()`` for a model without identification).
+
+        Raises:
+            ParameterError: ``classes`` that is not an iterable of class names (``str``).
+        """
+        names = _class_names(classes)
+        return {
+            "window": int(self.window),
+            "t0": int(self.t0),
+            "t1": int(self.t1),
+            "detected": bool(self.detected),
+            "spikes": self.spikes,
+            "objects": [o._dict(names) for o in self.objects],
+        }
+
+
+def _class_names(classes: Any) -> tuple[str, ...]:
+    """``classes`` as a tuple of class names, or a :class:`ParameterError` (a single ``str`` is
+    refused: it would name a class a letter)."""
+    names = None
+    if not isinstance(classes, (str, bytes)):
+        try:
+            names = tuple(classes)
+        except TypeError:
+            pass
+    if names is None or not all(isinstance(c, str) for c in names):
+        raise ParameterError(
+            f"classes must be an iterable of class names (str), as "
+            f"network.identification.classes, got {classes!r}"
+        )
+    return tuple(str(c) for c in names)
+
+
+def _maybe(kind: Any, value: Any) -> Any:
+    """``value`` as ``kind`` (``int``, ``float``, ``bool``, ``str``: a NumPy scalar as the plain
+    value), ``None`` kept."""
+    return None if value is None else kind(value)
+
+
+def _track_dict(track: Track) -> dict[str, Any]:
+    """A track's figures as ``uavsnn detect --json`` prints them (``track_stats``)."""
+    return {
+        "age_us": int(track.age_us),
+        "hits": int(track.hits),
+        "speed_px_s": float(track.speed),
+        "velocity_px_s": [float(v) for v in track.velocity],
+        "straightness": float(track.straightness),
+        "turn_rate_rad_s": float(track.turn_rate),
+        "first_alarm_us": _maybe(int, track.first_alarm_us),
+        "rotor_strength_mean": float(track.rotor_strength_mean),
+        "activity_measured": int(track.activity_measured),
+        "events_per_px_mean": float(track.events_per_px_mean),
+        "events_per_px_std": float(track.events_per_px_std),
+        "on_balance_mean": float(track.on_balance_mean),
+        "rate_swing_mean": float(track.rate_swing_mean),
+    }
+
+
+def _rotor_dict(rotor: RotorEstimate | None) -> dict[str, Any] | None:
+    """A rotor signature as ``uavsnn detect`` prints it, when detected (docs/identification.md),
+    else ``None``."""
+    if rotor is None or not rotor.detected:
+        return None
+    return {
+        "frequency_hz": round(float(rotor.frequency_hz), 2),
+        "strength": round(float(rotor.strength), 4),
+        "pixels": int(rotor.pixels),
+    }
 
 
 def merge_boxes(detections: np.ndarray) -> tuple[WindowObject, ...]:

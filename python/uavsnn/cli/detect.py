@@ -244,16 +244,13 @@ def _absent(value: object) -> str:
     return "-" if value is None else str(value)
 
 
-def _rotor(o: Any) -> dict[str, Any] | None:
-    """The rotor signature when detected (docs/identification.md), else ``None``."""
+def _rotor(o: Any) -> str:
+    """The rotor signature when detected (docs/identification.md), ``-`` otherwise; its
+    figures rounded as the JSON line has them, then shown to fewer places."""
     r = o.rotor
     if r is None or not r.detected:
-        return None
-    return {
-        "frequency_hz": round(r.frequency_hz, 2),
-        "strength": round(r.strength, 4),
-        "pixels": r.pixels,
-    }
+        return "-"
+    return f"{round(r.frequency_hz, 2):.1f}Hz/{round(r.strength, 4):.3f}/{r.pixels}px"
 
 
 def _track(o: Any) -> str:
@@ -263,66 +260,12 @@ def _track(o: Any) -> str:
     return f"{o.track_id}{'' if o.track_confirmed else '?'}"
 
 
-def _probabilities(o: Any, classes: tuple[str, ...]) -> dict[str, float] | None:
-    """The object's class probabilities by class name (``None`` when not scored or the model
-    has no class part)."""
-    if not o.class_probabilities or len(o.class_probabilities) != len(classes):
-        return None
-    return dict(zip(classes, o.class_probabilities, strict=True))
-
-
-def _track_stats(o: Any) -> dict[str, Any] | None:
-    """The object's track as it stands after the window (``None`` without a track)."""
-    tr = o.track
-    if tr is None:
-        return None
-    return {
-        "age_us": tr.age_us,
-        "hits": tr.hits,
-        "speed_px_s": tr.speed,
-        "velocity_px_s": list(tr.velocity),
-        "straightness": tr.straightness,
-        "turn_rate_rad_s": tr.turn_rate,
-        "first_alarm_us": tr.first_alarm_us,
-        "rotor_strength_mean": tr.rotor_strength_mean,
-        "activity_measured": tr.activity_measured,
-        "events_per_px_mean": tr.events_per_px_mean,
-        "events_per_px_std": tr.events_per_px_std,
-        "on_balance_mean": tr.on_balance_mean,
-        "rate_swing_mean": tr.rate_swing_mean,
-    }
-
-
 def _window(w: Any, as_json: bool, classes: tuple[str, ...] = ()) -> str:
     """One window's decision (the default output; docs/streaming.md "What detect prints");
-    ``classes``: the names of the model's class probabilities."""
+    ``classes``: the names of the model's class probabilities. The JSON line is
+    :meth:`WindowReport.to_dict <uavsnn.grouping.WindowReport.to_dict>`'s dict."""
     if as_json:
-        return _jsonout.dumps(
-            {
-                "window": w.window,
-                "t0": w.t0,
-                "t1": w.t1,
-                "detected": w.detected,
-                "spikes": w.spikes,
-                "objects": [
-                    {
-                        "box": list(o.box),
-                        "centre": list(o.centre),
-                        "spikes": o.spikes,
-                        "uav_score": o.uav_score,
-                        "class": o.class_guess,
-                        "class_probabilities": _probabilities(o, classes),
-                        "track": o.track_id,
-                        "track_confirmed": o.track_confirmed,
-                        "track_score": o.track_score,
-                        "track_class": o.track_class,
-                        "track_stats": _track_stats(o),
-                        "rotor": _rotor(o),
-                    }
-                    for o in w.objects
-                ],
-            }
-        )
+        return _jsonout.dumps(w.to_dict(classes))
     line = (
         f"window={w.window} t={w.t0}..{w.t1} {'DETECTED' if w.detected else 'clear'} "
         f"spikes={w.spikes} objects={len(w.objects)}"
@@ -330,16 +273,10 @@ def _window(w: Any, as_json: bool, classes: tuple[str, ...] = ()) -> str:
     for o in w.objects:
         x0, y0, x1, y1 = o.box
         cx, cy = o.centre
-        rotor = _rotor(o)
         line += (
             f" | box={x0},{y0},{x1},{y1} centre={cx:.1f},{cy:.1f} spikes={o.spikes} "
             f"uav_score={_absent(o.uav_score)} class={_absent(o.class_guess)} "
-            f"track={_track(o)} track_class={_absent(o.track_class)} rotor="
-            + (
-                "-"
-                if rotor is None
-                else f"{rotor['frequency_hz']:.1f}Hz/{rotor['strength']:.3f}/{rotor['pixels']}px"
-            )
+            f"track={_track(o)} track_class={_absent(o.track_class)} rotor={_rotor(o)}"
         )
     return line
 
