@@ -12,6 +12,7 @@ import pickle
 import signal
 import sys
 import zipfile
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -363,7 +364,19 @@ class _SignalledOut:
         pass
 
 
+@pytest.fixture
+def ctrl_c() -> Iterator[None]:
+    """Ctrl-C's own handler, whatever this process inherited: a job started in the background
+    by a non-interactive shell (a CI runner) ignores SIGINT, and Python then installs none."""
+    before = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, before)
+
+
 @pytest.mark.parametrize(("signum", "code"), [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
+@pytest.mark.usefixtures("ctrl_c")
 def test_detect_stopped_while_it_prints_writes_every_line_whole(
     model: Path,
     events: np.ndarray,
@@ -387,6 +400,7 @@ def test_detect_stopped_while_it_prints_writes_every_line_whole(
     assert [json.loads(line) for line in lines] == [json.loads(line) for line in ended]
 
 
+@pytest.mark.usefixtures("ctrl_c")
 def test_a_stop_held_inside_another_hold_waits_for_the_outer_block() -> None:
     from uavsnn.cli import held_stops
 
