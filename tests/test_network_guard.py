@@ -140,3 +140,22 @@ def test_a_config_file_without_repeats_is_read_as_before(tmp_path: Path) -> None
     path.write_text(json.dumps(config), encoding="utf-8")
     assert _base_config(path) == config
     assert _base_config(None) == default_config()
+
+
+def test_a_setting_whose_object_gives_a_field_twice_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # --set conv2='{"maps": 4, "maps": 8}' kept the last value silently, as --config did.
+    from uavsnn.training import apply_overrides
+
+    setting = 'conv2={"maps": 4, "threshold": 15, "maps": 8}'
+    with pytest.raises(ParameterError, match=r"the setting .*conv2=.*: the field 'maps' is given"):
+        apply_overrides(default_config(), [setting])
+    out = tmp_path / "m.npz"
+    line = one_line_exit_2(
+        capsys, ["train", str(tmp_path / "none"), "-o", str(out), "--set", setting], "maps"
+    )
+    assert "given twice" in line and not out.exists()
+    # Objects without repeats, and plain values, are read as before.
+    config = apply_overrides(default_config(), ['pent={"mode": "static"}', "conv2.threshold=9"])
+    assert config["pent"] == {"mode": "static"} and config["conv2"]["threshold"] == 9

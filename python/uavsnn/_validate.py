@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 import numbers
 import os
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -152,3 +153,18 @@ def check_numbers(name: str, values: Any) -> np.ndarray:
         return np.asarray(values, dtype=np.float64)
     except (TypeError, ValueError) as exc:
         raise ParameterError(f"{name} must be numbers ({exc})") from exc
+
+
+def fields_once(what: str) -> Callable[[list[tuple[str, Any]]], dict[str, Any]]:
+    """A :func:`json.loads` ``object_pairs_hook`` that refuses an object giving a field twice
+    (JSON keeps the last one silently), with a ParameterError naming ``what`` and the field."""
+
+    def once(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+        fields: dict[str, Any] = {}
+        for key, value in pairs:
+            if key in fields:
+                raise ParameterError(f"{what}: the field {key!r} is given twice in one object")
+            fields[key] = value
+        return fields
+
+    return once

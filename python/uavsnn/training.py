@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 
 from uavsnn._files import check_output_dir, output_dir, write_atomic
-from uavsnn._validate import check_int
+from uavsnn._validate import check_int, fields_once
 from uavsnn.errors import DatasetError, ModelFileError, ParameterError
 from uavsnn.network import CONV_LAYERS, Network, TrainReport, WindowsLike
 
@@ -439,7 +439,11 @@ def _copy_weights(source: Network, target: Network) -> None:
 
 def parse_override(text: str) -> tuple[list[str], Any]:
     """``"conv2.threshold=15"`` → ``(["conv2", "threshold"], 15)``; the value is read as JSON
-    (numbers, ``true``/``false``, quoted strings), or taken as a plain string."""
+    (numbers, ``true``/``false``, quoted strings, objects), or taken as a plain string.
+
+    Raises:
+        ParameterError: not ``KEY=VALUE``, or a JSON object value giving a field twice.
+    """
     key, sep, value = text.partition("=")
     path = [part for part in key.strip().split(".") if part]
     if not sep or not path:
@@ -447,7 +451,9 @@ def parse_override(text: str) -> tuple[list[str], Any]:
             f"a setting must read KEY=VALUE (e.g. conv2.threshold=15), got {text!r}"
         )
     try:
-        parsed: Any = json.loads(value)
+        parsed: Any = json.loads(value, object_pairs_hook=fields_once(f"the setting {text!r}"))
+    except ParameterError:
+        raise
     except ValueError:
         parsed = value.strip()
     return path, parsed

@@ -12,6 +12,7 @@ import numpy as np
 
 from uavsnn import _jsonout, identify
 from uavsnn._files import check_output_dir
+from uavsnn._validate import fields_once
 from uavsnn.cli import output_file
 from uavsnn.dataset import load
 from uavsnn.distributed import Runner, add_ray_option, runner_for
@@ -148,21 +149,11 @@ def _base_config(config_file: Path | None) -> dict[str, Any]:
         ParameterError: the file cannot be read, is not JSON, does not hold an object, or one
             of its objects gives a field twice (JSON would keep the last one silently).
     """
-
-    def unique(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
-        fields: dict[str, Any] = {}
-        for key, value in pairs:
-            if key in fields:
-                raise ParameterError(
-                    f"--config {config_file}: the field {key!r} is given twice in one object"
-                )
-            fields[key] = value
-        return fields
-
     base = default_config()
     if config_file is not None:
+        once = fields_once(f"--config {config_file}")
         try:
-            base = json.loads(config_file.read_text(encoding="utf-8"), object_pairs_hook=unique)
+            base = json.loads(config_file.read_text(encoding="utf-8"), object_pairs_hook=once)
         except OSError as exc:
             raise ParameterError(f"--config {config_file}: cannot read: {exc.strerror}") from exc
         except (UnicodeDecodeError, json.JSONDecodeError) as exc:
