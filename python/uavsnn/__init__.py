@@ -65,7 +65,42 @@ SUBMODULES = frozenset(
     }
 )  # fmt: skip
 
-if not TYPE_CHECKING:  # a type checker resolves submodules itself, and no other name
+if TYPE_CHECKING:  # the submodules as attributes, to a type checker as at run time
+    from uavsnn import bench as bench
+    from uavsnn import boxes as boxes
+    from uavsnn import cli as cli
+    from uavsnn import clips as clips
+    from uavsnn import dataset as dataset
+    from uavsnn import detector as detector
+    from uavsnn import distributed as distributed
+    from uavsnn import driver as driver
+    from uavsnn import errors as errors
+    from uavsnn import evaluation as evaluation
+    from uavsnn import events as events
+    from uavsnn import experiments as experiments
+    from uavsnn import false_alarms as false_alarms
+    from uavsnn import features as features
+    from uavsnn import filters as filters
+    from uavsnn import grouping as grouping
+    from uavsnn import identifier as identifier
+    from uavsnn import identify as identify
+    from uavsnn import io as io
+    from uavsnn import linear as linear
+    from uavsnn import network as network
+    from uavsnn import pictures as pictures
+    from uavsnn import progress as progress
+    from uavsnn import report as report
+    from uavsnn import roc as roc
+    from uavsnn import scenes as scenes
+    from uavsnn import signature as signature
+    from uavsnn import sim as sim
+    from uavsnn import sources as sources
+    from uavsnn import track_eval as track_eval
+    from uavsnn import tracks as tracks
+    from uavsnn import training as training
+    from uavsnn import trees as trees
+    from uavsnn import windows as windows
+else:  # each imported on first use
 
     def __getattr__(name: str) -> object:
         if name in SUBMODULES:

@@ -8,6 +8,7 @@ from __future__ import annotations
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass
+from typing import TypeVar
 
 import numpy as np
 
@@ -91,6 +92,10 @@ class IdleClock:
         return int(np.searchsorted(chunk["t"], np.uint64(self.reached), "left"))
 
 
+# A source's own type, which ``with`` gives back (``with FileSource(p) as f: f.recording``).
+_Source = TypeVar("_Source", bound="EventSource")
+
+
 class EventSource:
     """Base of the sources: iterate to receive chunks of events in time order."""
 
@@ -110,7 +115,7 @@ class EventSource:
     def close(self) -> None:
         """Release what the source holds (sockets); iterating afterwards is an error."""
 
-    def __enter__(self) -> EventSource:
+    def __enter__(self: _Source) -> _Source:
         return self
 
     def __exit__(self, *exc: object) -> None:
