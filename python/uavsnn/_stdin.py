@@ -9,7 +9,7 @@ import select
 import sys
 from collections.abc import Iterator
 from io import TextIOBase
-from typing import Any, BinaryIO
+from typing import IO, Any
 
 import numpy as np
 
@@ -17,7 +17,7 @@ from uavsnn import _csv
 from uavsnn._source_base import EMPTY, EventSource, check_seconds
 from uavsnn._validate import MAX_TIME_US, check_sensor_size
 from uavsnn.errors import ParameterError, RecordingFileError, StreamError
-from uavsnn.events import EVENT_DTYPE
+from uavsnn.events import EVENT_DTYPE, SensorSizeLike
 from uavsnn.io import CSV_MAX_LINE
 
 #: Formats of standard input understood by :class:`StdinSource`.
@@ -48,10 +48,10 @@ class StdinSource(EventSource):
 
     def __init__(
         self,
-        stream: BinaryIO | None = None,
+        stream: IO[bytes] | None = None,
         *,
         fmt: str = "packed",
-        sensor_size: tuple[int, int] | None = None,
+        sensor_size: SensorSizeLike | None = None,
         read_size: int = 1 << 16,
         heartbeat_s: float | None = None,
     ) -> None:

@@ -45,7 +45,7 @@ from uavsnn._state import EngineState
 from uavsnn._validate import MAX_TIME_US, check_int, check_sensor_size
 from uavsnn.boxes import xywh
 from uavsnn.errors import ParameterError, ShapeError, StreamError, UavsnnError
-from uavsnn.events import EVENT_DTYPE, packed_bytes
+from uavsnn.events import EVENT_DTYPE, SensorSizeLike, packed_bytes
 from uavsnn.features import MAX_MEASURED_WINDOW_US, MAX_RATE_BINS, RATE_BIN_US, rate_bins
 from uavsnn.grouping import WindowGrouper, WindowObject, WindowReport, merge_boxes
 from uavsnn.network import WINDOW_DETECTION_DTYPE
@@ -201,7 +201,7 @@ class Detector(EngineState):
         *,
         window_us: int = 50_000,
         overlap: float = 0.5,
-        sensor_size: tuple[int, int] | None = None,
+        sensor_size: SensorSizeLike | None = None,
         start_us: int | None = None,
         tracker: Tracker | None = None,
         rotor: bool = True,

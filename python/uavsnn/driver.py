@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from uavsnn.errors import EventError, ParameterError, StreamError, UavsnnError
 from uavsnn.sources import (
@@ -25,7 +25,10 @@ from uavsnn.sources import (
 )
 
 if TYPE_CHECKING:
+    import numpy as np
+
     from uavsnn.detector import Detector
+    from uavsnn.grouping import WindowReport
     from uavsnn.tracks import Track
 
 __all__ = ["StreamDriver", "StreamStep"]
@@ -47,7 +50,7 @@ class StreamStep:
     and at a restart without ``windows`` (nothing fed the tracker)."""
 
     kind: str
-    found: Any = None
+    found: np.ndarray | list[WindowReport] | None = None
     error: UavsnnError | None = None
     events: int = 0
     t: int = 0
@@ -142,7 +145,7 @@ class StreamDriver:
         """Detections the detector emitted, over every stream since the first."""
         return self._before[2] + self.detector.detections_emitted
 
-    def flush(self) -> Any:
+    def flush(self) -> np.ndarray | list[WindowReport]:
         """End the stream's windows: what the detector's ``flush`` (``flush_windows``) gives."""
         d = self.detector
         return d.flush_windows() if self.windows else d.flush()

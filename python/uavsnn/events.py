@@ -31,7 +31,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -39,7 +39,12 @@ from uavsnn import _core
 from uavsnn._validate import MAX_TIME_US, check_sensor_size
 from uavsnn.errors import EventError, ParameterError
 
-__all__ = ["EVENT_DTYPE", "LAYOUTS", "Recording", "convert", "packed_bytes"]
+__all__ = ["EVENT_DTYPE", "LAYOUTS", "Recording", "SensorSizeLike", "convert", "packed_bytes"]
+
+#: What a ``sensor_size`` parameter takes: ``(width, height)``, or tonic's ``(width, height,
+#: channels)`` with 1 or 2 channels (its first two are kept). A sensor size the package gives
+#: back is always ``(width, height)``.
+SensorSizeLike = tuple[int, int] | tuple[int, int, int]
 
 EVENT_DTYPE = np.dtype([("t", "<u8"), ("x", "<u2"), ("y", "<u2"), ("p", "?")])
 
@@ -88,6 +93,15 @@ class Recording:
     events: np.ndarray
     sensor_size: tuple[int, int]
     metadata: dict[str, Any] = field(default_factory=dict)
+
+    if TYPE_CHECKING:  # what the constructor takes: it keeps (width, height) and a new dict
+
+        def __init__(
+            self,
+            events: np.ndarray,
+            sensor_size: SensorSizeLike,
+            metadata: Mapping[str, Any] = ...,
+        ) -> None: ...
 
     def __post_init__(self) -> None:
         if not isinstance(self.metadata, Mapping):
@@ -195,7 +209,7 @@ def _guess_layout(names: tuple[str, ...]) -> str:
 def convert(
     array: Any,
     layout: str = "auto",
-    sensor_size: tuple[int, int] | None = None,
+    sensor_size: SensorSizeLike | None = None,
 ) -> np.ndarray:
     """Convert events of another layout to a new array of the canonical :data:`EVENT_DTYPE`.
 

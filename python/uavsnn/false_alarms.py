@@ -47,6 +47,7 @@ from uavsnn.track_eval import (
 
 if TYPE_CHECKING:
     from uavsnn.dataset.synthetic import LabelledRecording
+    from uavsnn.events import SensorSizeLike
     from uavsnn.grouping import WindowReport
     from uavsnn.identifier import Identifier
     from uavsnn.network import Network
@@ -126,7 +127,9 @@ def alarm_rules(
     return rules
 
 
-def count_alarms(reports: Sequence[WindowReport], rules: dict[str, float | None]) -> dict:
+def count_alarms(
+    reports: Sequence[WindowReport], rules: dict[str, float | None]
+) -> dict[str, dict[str, int] | list[float]]:
     """Per rule, the windows (``"alarming"``) and the tracks (``"tracks"``) that alarm among
     ``reports``, the windows of one stream; ``"track_peaks"``: for each confirmed track with a
     score, the highest :attr:`~uavsnn.grouping.WindowObject.track_score` it reached while
@@ -213,7 +216,7 @@ def _real(value: Any) -> bool:
 def stream_reports(
     network: Network,
     events: np.ndarray,
-    sensor_size: tuple[int, int],
+    sensor_size: SensorSizeLike,
     confirm: tuple[int, int] | None = None,
     *,
     window_us: int = 50_000,

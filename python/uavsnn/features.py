@@ -45,6 +45,7 @@ if TYPE_CHECKING:
 __all__ = [
     "CLUTTER_CLASS",
     "FEATURES",
+    "MAX_MEASURED_WINDOW_US",
     "RATE_BIN_US",
     "TRACK_ACTIVITY",
     "TRACK_FEATURES",

@@ -40,12 +40,14 @@ from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import numpy.typing as npt
 
 from uavsnn._validate import check_bools, check_numbers, check_real
 from uavsnn.errors import DatasetError, ParameterError, ShapeError
 from uavsnn.features import (
     CLUTTER_CLASS,
     FEATURES,
+    MAX_MEASURED_WINDOW_US,
     RATE_BIN_US,
     TRACK_ACTIVITY,
     TRACK_FEATURES,
@@ -61,7 +63,14 @@ from uavsnn.features import (
     window_steps,
 )
 from uavsnn.identifier import VERSION, Identifier
-from uavsnn.linear import fit_logistic, fit_softmax, labelled, predict_logistic, predict_softmax
+from uavsnn.linear import (
+    fit_logistic,
+    fit_softmax,
+    labelled,
+    predict_logistic,
+    predict_softmax,
+    sigmoid,
+)
 from uavsnn.track_eval import Confirm
 from uavsnn.trees import Trees, fit_trees
 
@@ -73,6 +82,7 @@ __all__ = [
     "CLUTTER_CLASS",
     "FEATURES",
     "GROUPS",
+    "MAX_MEASURED_WINDOW_US",
     "MIN_CLASS_OBJECTS",
     "MODELS",
     "RATE_BIN_US",
@@ -99,6 +109,7 @@ __all__ = [
     "fit_score",
     "fit_softmax",
     "fit_tree_score",
+    "labelled",
     "missing_classes",
     "model_name",
     "object_features",
@@ -108,6 +119,7 @@ __all__ = [
     "rate_swing",
     "raw_noise_events",
     "rotor_coverage",
+    "sigmoid",
     "split_by_recording",
     "threshold_accuracies",
     "track_features",
@@ -365,7 +377,7 @@ def fit_tree_score(
     return best[1], best[0]
 
 
-def alarm_threshold(score: np.ndarray, label: np.ndarray, rate: float) -> float:
+def alarm_threshold(score: npt.ArrayLike, label: npt.ArrayLike, rate: float) -> float:
     """The operating point of :func:`fit` on window scores (``score``; -1 for windows the
     any-spike rule does not call UAV): the threshold at which at most ``rate`` of the UAV-free
     windows of ``label`` alarm. A window the rule misses never alarms; where the share would
@@ -415,7 +427,9 @@ def alarm_note(
     )
 
 
-def threshold_accuracies(score: np.ndarray, label: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def threshold_accuracies(
+    score: npt.ArrayLike, label: npt.ArrayLike
+) -> tuple[np.ndarray, np.ndarray]:
     """The thresholds :func:`best_threshold` chooses among (0.5 and each non-negative score,
     ascending) and the balanced accuracy against ``label`` of calling UAV the windows whose
     ``score`` reaches each.
@@ -442,7 +456,9 @@ def threshold_accuracies(score: np.ndarray, label: np.ndarray) -> tuple[np.ndarr
 THRESHOLD_WITHIN = 0.0
 
 
-def best_threshold(score: np.ndarray, label: np.ndarray, within: float = THRESHOLD_WITHIN) -> float:
+def best_threshold(
+    score: npt.ArrayLike, label: npt.ArrayLike, within: float = THRESHOLD_WITHIN
+) -> float:
     """The threshold of :func:`fit` on window scores (``score``; negative for windows the
     any-spike rule does not call UAV): of the candidates of :func:`threshold_accuracies` (0.5
     and each non-negative score) whose balanced accuracy against ``label`` is within

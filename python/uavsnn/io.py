@@ -84,7 +84,7 @@ from uavsnn._prophesee import (
 )
 from uavsnn._validate import check_path, check_sensor_size
 from uavsnn.errors import EventError, ParameterError, RecordingFileError
-from uavsnn.events import EVENT_DTYPE, Recording, convert, packed_bytes
+from uavsnn.events import EVENT_DTYPE, Recording, SensorSizeLike, convert, packed_bytes
 
 __all__ = ["CAMERA_SENSOR_SIZES", "FAERY_FALLBACK_SIZE", "FORMATS", "read", "write_npz"]
 
@@ -105,7 +105,7 @@ FORMATS: dict[str, str] = {
 FAERY_FALLBACK_SIZE = (1280, 720)
 
 
-def read(path: str | os.PathLike[str], sensor_size: tuple[int, int] | None = None) -> Recording:
+def read(path: str | os.PathLike[str], sensor_size: SensorSizeLike | None = None) -> Recording:
     """Read a recording.
 
     Args:

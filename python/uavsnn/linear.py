@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import numpy.typing as npt
 
 from uavsnn.errors import ParameterError, ShapeError
 
@@ -29,7 +30,7 @@ __all__ = [
 
 
 def fit_logistic(
-    x: np.ndarray, y: np.ndarray, *, l2: float = 1.0, iterations: int = 50
+    x: npt.ArrayLike, y: npt.ArrayLike, *, l2: float = 1.0, iterations: int = 50
 ) -> np.ndarray:
     """Logistic regression by Newton's method: coefficients ``(d + 1,)``, the intercept last,
     minimising the log loss plus ``l2 / 2 * |w|²`` (the intercept is not penalised). ``x``
@@ -57,7 +58,7 @@ def fit_logistic(
     return w
 
 
-def labelled(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def labelled(x: npt.ArrayLike, y: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """``x`` as float64 ``(n, d)`` and ``y`` as given, checked for a binary fit: ``y`` ``(n,)``
     boolean, ``x`` finite.
 
@@ -75,7 +76,7 @@ def labelled(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return x, y
 
 
-def predict_logistic(coef: np.ndarray, x: np.ndarray) -> np.ndarray:
+def predict_logistic(coef: npt.ArrayLike, x: npt.ArrayLike) -> np.ndarray:
     """``sigmoid(x @ coef[:-1] + coef[-1])``.
 
     Raises:
@@ -86,7 +87,7 @@ def predict_logistic(coef: np.ndarray, x: np.ndarray) -> np.ndarray:
     return sigmoid(x @ coef[:-1] + coef[-1])
 
 
-def _rows(x: np.ndarray, d: int, expected: str, shape: tuple[int, ...]) -> np.ndarray:
+def _rows(x: npt.ArrayLike, d: int, expected: str, shape: tuple[int, ...]) -> np.ndarray:
     """``x`` as float64 ``(n, d)``; ``d`` < 0 when the coefficients' ``shape`` is not the
     ``expected`` one.
 
@@ -107,12 +108,12 @@ def sigmoid(z: np.ndarray) -> np.ndarray:
 
 
 def fit_softmax(
-    x: np.ndarray,
-    y: np.ndarray,
+    x: npt.ArrayLike,
+    y: npt.ArrayLike,
     classes: int,
     *,
     l2: float = 1.0,
-    weights: np.ndarray | None = None,
+    weights: npt.ArrayLike | None = None,
     iterations: int = 50,
 ) -> np.ndarray:
     """Multinomial logistic regression by Newton's method: coefficients ``(classes, d + 1)``,
@@ -166,7 +167,7 @@ def fit_softmax(
     return coef.reshape(k, d1)
 
 
-def predict_softmax(coef: np.ndarray, x: np.ndarray) -> np.ndarray:
+def predict_softmax(coef: npt.ArrayLike, x: npt.ArrayLike) -> np.ndarray:
     """Class probabilities ``(m, classes)``: ``softmax(x @ coef[:, :-1].T + coef[:, -1])``.
 
     Raises:

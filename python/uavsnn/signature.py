@@ -32,7 +32,7 @@ from uavsnn import _core
 from uavsnn._state import EngineState
 from uavsnn._validate import check_real, check_sensor_size, whole
 from uavsnn.errors import EventError, ParameterError
-from uavsnn.events import packed_bytes
+from uavsnn.events import SensorSizeLike, packed_bytes
 
 __all__ = [
     "DEFAULTS",
@@ -206,7 +206,7 @@ class RotorSignature(_BoxEstimator):
         self._inner: _core.RotorSignature = _core.RotorSignature(x0, y0, width, height, *args)
 
     @classmethod
-    def for_sensor(cls, sensor_size: tuple[int, int], **params: Any) -> RotorSignature:
+    def for_sensor(cls, sensor_size: SensorSizeLike, **params: Any) -> RotorSignature:
         """An estimator over a whole ``(width, height)`` sensor."""
         width, height = check_sensor_size(sensor_size)
         _known(params, DEFAULTS, "rotor signature")

@@ -93,7 +93,7 @@ from uavsnn._source_base import (
 from uavsnn._stdin import STDIN_FORMATS, STDIN_RESTART_EVENTS, StdinSource
 from uavsnn._validate import check_sensor_size
 from uavsnn.errors import ParameterError, UavsnnError
-from uavsnn.events import EVENT_DTYPE
+from uavsnn.events import EVENT_DTYPE, SensorSizeLike
 
 __all__ = [
     "MAX_IDLE_TIMEOUT",
@@ -145,7 +145,7 @@ class FileSource(EventSource):
         self,
         path: str | Path,
         *,
-        sensor_size: tuple[int, int] | None = None,
+        sensor_size: SensorSizeLike | None = None,
         realtime: bool = False,
         chunk_events: int = 4096,
         chunk_us: int = 1000,
@@ -240,7 +240,7 @@ class UdpSource(EventSource):
         port: int,
         *,
         fmt: str = "t64_x16_y16_on8",
-        sensor_size: tuple[int, int],
+        sensor_size: SensorSizeLike,
         max_packets: int | None = None,
         idle_timeout: float | None = None,
         receive_buffer: int | None = None,
@@ -408,14 +408,32 @@ def check_fits(source: EventSource, model_size: tuple[int, int]) -> None:
     )
 
 
-def is_live(spec: str) -> bool:
+def is_live(spec: str | os.PathLike[str]) -> bool:
     """Whether a source's command-line spelling names a live stream, which ends only when
-    told (``-`` or ``udp://HOST:PORT``), rather than a file."""
-    return spec == "-" or spec.startswith("udp://")
+    told (``-`` or ``udp://HOST:PORT``), rather than a file. A path is read as
+    :func:`open_source` reads it (``Path("-")`` is standard input).
+
+    Raises:
+        ParameterError: ``spec`` not a ``str`` or ``os.PathLike[str]``.
+    """
+    return _kind(spec) != "file"
 
 
-def _kind(spec: str) -> str:
+def _spelling(spec: str | os.PathLike[str]) -> str:
+    """``spec`` as the string :func:`open_source` reads (a path's ``os.fspath``), or
+    :class:`~uavsnn.ParameterError`."""
+    if isinstance(spec, os.PathLike):
+        spec = os.fspath(spec)
+    if not isinstance(spec, str):
+        raise ParameterError(
+            f"a source is a path, '-' or udp://HOST:PORT, got {type(spec).__name__}"
+        )
+    return spec
+
+
+def _kind(spec: str | os.PathLike[str]) -> str:
     """``"stdin"``, ``"udp"`` or ``"file"``: the kind of source ``spec`` names."""
+    spec = _spelling(spec)
     if spec == "-":
         return "stdin"
     return "udp" if spec.startswith("udp://") else "file"
@@ -439,13 +457,14 @@ _OPTIONS: dict[str, tuple[tuple[str, ...], str, Any]] = {
 }
 
 
-def source_options(spec: str, options: Mapping[str, Any]) -> dict[str, Any]:
+def source_options(spec: str | os.PathLike[str], options: Mapping[str, Any]) -> dict[str, Any]:
     """The items of ``options`` (keyword arguments of :func:`open_source`) that apply to the
     kind of source ``spec`` names: for a caller that opens sources of several kinds with one
     set of options (:func:`uavsnn.distributed.detect_streams`' workers), each gets its own.
 
     Raises:
-        ParameterError: a name that is no option of :func:`open_source`.
+        ParameterError: a name that is no option of :func:`open_source`, or ``spec`` not a
+            ``str`` or ``os.PathLike[str]``.
     """
     unknown = sorted(set(options) - set(_OPTIONS))
     if unknown:
@@ -498,7 +517,7 @@ def _is_default(value: Any, default: Any) -> bool:
 def open_source(
     spec: str | os.PathLike[str],
     *,
-    sensor_size: tuple[int, int] | None = None,
+    sensor_size: SensorSizeLike | None = None,
     realtime: bool = False,
     stdin_format: str = "packed",
     udp_format: str = "t64_x16_y16_on8",
@@ -521,12 +540,7 @@ def open_source(
     that apply to a source. ``downsample_to`` only reduces: a target wider or taller than the
     file's sensor is refused.
     """
-    if isinstance(spec, os.PathLike):
-        spec = os.fspath(spec)
-    if not isinstance(spec, str):
-        raise ParameterError(
-            f"a source is a path, '-' or udp://HOST:PORT, got {type(spec).__name__}"
-        )
+    spec = _spelling(spec)
     _check_options(
         spec,
         {

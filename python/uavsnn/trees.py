@@ -29,6 +29,7 @@ import math
 from dataclasses import dataclass, fields
 
 import numpy as np
+import numpy.typing as npt
 
 from uavsnn.errors import ParameterError, ShapeError
 from uavsnn.linear import labelled, sigmoid
@@ -149,11 +150,11 @@ def _log_loss(raw: np.ndarray, y: np.ndarray) -> float:
 
 
 def fit_trees(
-    x: np.ndarray,
-    y: np.ndarray,
+    x: npt.ArrayLike,
+    y: npt.ArrayLike,
     *,
-    x_tune: np.ndarray | None = None,
-    y_tune: np.ndarray | None = None,
+    x_tune: npt.ArrayLike | None = None,
+    y_tune: npt.ArrayLike | None = None,
     depth: int = 3,
     trees: int = 200,
     learning_rate: float = 0.1,

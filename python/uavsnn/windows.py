@@ -30,7 +30,7 @@ import numpy as np
 from uavsnn import _core
 from uavsnn._validate import MAX_TIME_US, check_sensor_size, int_param, listed
 from uavsnn.errors import ParameterError, ShapeError
-from uavsnn.events import Recording, packed_bytes
+from uavsnn.events import Recording, SensorSizeLike, packed_bytes
 
 __all__ = [
     "MEMORY_LIMIT",
@@ -417,7 +417,7 @@ def _fraction(value: Any) -> float:
     return frac
 
 
-def noise_per_window(fraction: float, sensor_size: tuple[int, int]) -> int:
+def noise_per_window(fraction: float, sensor_size: SensorSizeLike) -> int:
     """The noise events :func:`add_noise` draws per window on a ``sensor_size`` sensor:
     ``fraction · W · H`` rounded half away from zero, as the engine rounds it.
 

@@ -35,7 +35,7 @@ import zipfile
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -174,9 +174,24 @@ class LabelledWindows:
     recording: np.ndarray
     box: np.ndarray
     manifest: dict[str, Any] = field(default_factory=dict)
-    range_m: np.ndarray = None  # type: ignore[assignment]
+    range_m: np.ndarray = None  # type: ignore[assignment]  # None: all NaN (__post_init__)
     size_px: np.ndarray = None  # type: ignore[assignment]
     raw: RawEvents | None = None
+
+    if TYPE_CHECKING:  # what the constructor takes: range_m and size_px may be None
+
+        def __init__(
+            self,
+            windows: Windows,
+            label: np.ndarray,
+            cls: np.ndarray,
+            recording: np.ndarray,
+            box: np.ndarray,
+            manifest: dict[str, Any] = ...,
+            range_m: np.ndarray | None = None,
+            size_px: np.ndarray | None = None,
+            raw: RawEvents | None = None,
+        ) -> None: ...
 
     def __post_init__(self) -> None:
         n = len(self.windows)

@@ -19,6 +19,7 @@ from uavsnn.errors import ParameterError, UavsnnError
 from uavsnn.network import Network
 
 if TYPE_CHECKING:
+    from uavsnn.grouping import WindowReport
     from uavsnn.tracks import Tracker
 
 __all__ = ["MAX_STREAMS", "STOP_WAIT_S", "StreamResult", "detect_streams"]
@@ -46,7 +47,7 @@ class StreamResult:
 
     name: str
     detections: np.ndarray
-    reports: list[Any] = field(default_factory=list)
+    reports: list[WindowReport] = field(default_factory=list)
     #: conv3 spikes the stream's detector gave (kept or not).
     spikes: int = 0
     #: Windows reported closed (``windows=True``; kept or not), and those of them detected.
@@ -256,7 +257,7 @@ class _StreamWorker:
 def detect_streams(
     runner: Runner,
     sources: Sequence[str],
-    model: Network,
+    model: Network | str | os.PathLike[str],
     *,
     window_us: int = 50_000,
     overlap: float = 0.5,

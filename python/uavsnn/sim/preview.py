@@ -13,8 +13,9 @@ import cv2
 import numpy as np
 
 from uavsnn._files import write_image
-from uavsnn.errors import SimulationError
-from uavsnn.events import Recording
+from uavsnn._validate import check_sensor_size
+from uavsnn.errors import EventError, SimulationError
+from uavsnn.events import Recording, SensorSizeLike, packed_bytes
 from uavsnn.sim.checks import check_int
 
 __all__ = ["event_frame", "event_strip", "write_preview"]
@@ -26,9 +27,23 @@ _OFF = (255, 150, 40)
 _BOTH = (255, 60, 255)
 
 
-def event_frame(events: np.ndarray, sensor_size: tuple[int, int]) -> np.ndarray:
-    """A BGR ``uint8`` image ``(h, w, 3)`` of ``events`` (ON red, OFF blue, both magenta)."""
-    w, h = sensor_size
+def event_frame(events: np.ndarray, sensor_size: SensorSizeLike) -> np.ndarray:
+    """A BGR ``uint8`` image ``(h, w, 3)`` of ``events`` (ON red, OFF blue, both magenta).
+
+    Raises:
+        ParameterError: a bad ``sensor_size`` (``(width, height)``, or tonic's ``(width,
+            height, channels)``).
+        EventError: ``events`` not a 1-D array of :data:`~uavsnn.events.EVENT_DTYPE`, or an
+            event off the sensor, naming the first.
+    """
+    w, h = check_sensor_size(sensor_size)
+    packed_bytes(events)  # the dtype and shape
+    off = (events["x"] >= w) | (events["y"] >= h)
+    if off.any():
+        i = int(np.argmax(off))
+        raise EventError(
+            f"event {i}: (x={events['x'][i]}, y={events['y'][i]}) is outside the {w}x{h} sensor"
+        )
     on = np.zeros((h, w), dtype=bool)
     off = np.zeros((h, w), dtype=bool)
     polarity = events["p"]
