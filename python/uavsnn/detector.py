@@ -274,9 +274,6 @@ class Detector(EngineState):
             inner.step_us,
         )
         self._sensor_size: tuple[int, int] = inner.sensor_size
-        self._fixed = (
-            f"window_us={self._window_us}, overlap={self._overlap}, sensor_size={self._sensor_size}"
-        )
         self._busy_ns = 0
         self._tracker = tracker_for(network) if tracker is None else tracker
         self._rotor = bool(rotor)
@@ -566,9 +563,7 @@ class Detector(EngineState):
                 report = self._with_track_identity(_with_scores(report, measured, ident), ident)
             out.append(report)
         if reached is not None:
-            start = self._windows().start_us
-            if start is not None and reached - start >= self._window_us:
-                self._skip_to((reached - start - self._window_us) // self._step_us + 1)
+            self._skip_to(self._windows().ended_by(reached))
         if self._recent and self._grouper is not None:
             keep_from = self._grouper.open_since()
             while self._recent and (keep_from is None or self._recent[0]["t"][-1] < keep_from):
@@ -586,10 +581,9 @@ class Detector(EngineState):
         j, tracker = self._unfed, self._tracker
         if j >= k:
             return
-        start = self._windows().start_us or 0
+        grouper = self._windows()
         while j < k and tracker.live_count:
-            t0 = start + j * self._step_us
-            tracker.update(WindowReport(j, t0, t0 + self._window_us, False, _NO_DETECTIONS, ()))
+            tracker.update(grouper.empty(j))
             j += 1
         self._unfed = k
 
@@ -686,16 +680,18 @@ class Detector(EngineState):
     def __repr__(self) -> str:
         # Never raises: while a call holds the detector (another thread's push lets the GIL go
         # holding the engine, which refuses reads with a StreamError), what Python knows.
+        fixed = (
+            f"window_us={self._window_us}, overlap={self._overlap}, sensor_size={self._sensor_size}"
+        )
         if not self._lock.locked():
             try:
                 return (
-                    f"Detector({self._fixed}, events_seen={self.events_seen}, "
-                    f"windows_opened={self.windows_opened}, "
-                    f"detections={self.detections_emitted})"
+                    f"Detector({fixed}, events_seen={self.events_seen}, "
+                    f"windows_opened={self.windows_opened}, detections={self.detections_emitted})"
                 )
             except StreamError:  # a call took it meanwhile
                 pass
-        return f"Detector({self._fixed}, in use)"
+        return f"Detector({fixed}, in use)"
 
 
 def _with_rotor(

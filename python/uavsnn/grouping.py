@@ -479,11 +479,18 @@ class WindowGrouper:
         self._note(detections)
         return self._report(len(self._open))
 
-    @property
-    def start_us(self) -> int | None:
-        """Start of window 0: ``start_us`` as given, else the first event's time; ``None``
-        before the first event."""
-        return self._start
+    def ended_by(self, t: int) -> int:
+        """How many windows, from window 0, end by event time ``t``: no event still to come (at
+        ``t`` or later) falls in them. 0 before the first event."""
+        if self._start is None or t - self._start < self.window_us:
+            return 0
+        return (t - self._start - self.window_us) // self.step_us + 1
+
+    def empty(self, k: int) -> WindowReport:
+        """Window ``k`` as a window without events: not detected, no object (a window of a
+        silent gap, which no event opens and no report gives)."""
+        t0, t1 = self._bounds(k)
+        return WindowReport(k, t0, t1, False, _NO_DETECTIONS, ())
 
     def open_since(self) -> int | None:
         """Start of the earliest window not yet reported, or of the next one to open; events
@@ -494,6 +501,11 @@ class WindowGrouper:
 
     def _end(self, k: int) -> int:
         return k * self.step_us + self.window_us
+
+    def _bounds(self, k: int) -> tuple[int, int]:
+        """Window ``k``'s start and end in event time."""
+        start = self._start or 0
+        return start + k * self.step_us, start + self._end(k)
 
     def _note(self, detections: np.ndarray) -> None:
         _check_array(
@@ -510,16 +522,16 @@ class WindowGrouper:
             self._found.setdefault(int(k), []).append(detections[windows == k])
 
     def _report(self, n: int) -> list[WindowReport]:
-        start = self._start or 0
         out = []
         for k in self._open[:n]:
             parts: Sequence[np.ndarray] = self._found.pop(k, [])
             spikes = np.concatenate(parts) if parts else _NO_DETECTIONS
+            t0, t1 = self._bounds(k)
             out.append(
                 WindowReport(
                     window=k,
-                    t0=start + k * self.step_us,
-                    t1=start + self._end(k),
+                    t0=t0,
+                    t1=t1,
                     detected=len(spikes) >= self.min_detections,
                     detections=spikes,
                     objects=merge_boxes(spikes),
