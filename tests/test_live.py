@@ -556,12 +556,20 @@ def test_detect_reports_the_old_stream_and_starts_again_after_a_restart(
     assert t0[back[0] - 1] >= HOUR_US and t0[back[0]] < HOUR_US
     assert "the sensor restarted (its clock went back to t=" in err
     assert "restarts=1" in err
-    # Each stream's windows are those of a detector run on it alone.
-    for part, stream in ((windows[: back[0]], old), (windows[back[0] :], new)):
+    # Each line names its stream: window numbers start again at the restart, the run goes on.
+    assert [w["run"] for w in windows] == [0] * back[0] + [1] * (len(windows) - back[0])
+    assert windows[back[0]]["window"] == 0 < windows[back[0] - 1]["window"]
+    # Each stream's windows are those of a detector run on it alone (run 0), but for the run.
+    for run, part, stream in ((0, windows[: back[0]], old), (1, windows[back[0] :], new)):
         code, alone, _ = run_in_process(
             detect_argv(model, "--json"), stream.tobytes(), monkeypatch, capsys
         )
-        assert [json.loads(line) for line in alone] == part
+        assert [{**json.loads(line), "run": run} for line in alone] == part
+    # The text lines say the run after the restart only.
+    code, text, _ = run_in_process(detect_argv(model), data, monkeypatch, capsys)
+    assert [" run=1 " in line for line in text if line.startswith("window=")] == [
+        w["run"] == 1 for w in windows
+    ]
 
 
 # -- StreamDriver: the loop `uavsnn detect` and the Ray workers share ------------------------------
@@ -639,6 +647,25 @@ def test_the_stream_driver_ends_the_old_stream_and_resets_at_a_restart(
     assert (driver.events_seen, det.events_seen) == (len(events), len(new))
     assert driver.windows_opened == sum(d.windows_opened for d in alone) > det.windows_opened
     assert driver.detections_emitted == len(before) + len(after)
+
+
+def test_the_windows_after_a_restart_carry_the_next_run(net: Network, events: np.ndarray) -> None:
+    old, new = np.array_split(events, 2)
+    old = old.copy()
+    old["t"] += np.uint64(HOUR_US)
+    parts = [*np.array_split(old, 2), *np.array_split(new, 2)]
+    det = Detector(net, window_us=3_000)
+    assert det.run == 0
+    steps = list(driver_module.StreamDriver(ListSource(parts, restart_at=2), det, windows=True))
+    runs = [[w.run for w in s.found] for s in steps if s.kind == "found"]
+    first = [w for s in steps[:3] for w in s.found]
+    assert det.run == 1 and first and all(r == 0 for run in runs[:3] for r in run)
+    assert runs[3:] and all(r == 1 for run in runs[3:] for r in run)
+    # The same reports as a detector of its own on the new stream gives, but for the run.
+    alone = Detector(net, window_us=3_000)
+    want = [w for c in parts[2:] for w in alone.push_windows(c)] + alone.flush_windows()
+    got = [w for s in steps[4:] for w in s.found]
+    assert [w.to_dict() for w in got] == [{**w.to_dict(), "run": 1} for w in want]
 
 
 def test_the_stream_driver_stops_when_the_detector_was_stopped_part_way(

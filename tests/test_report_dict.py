@@ -120,7 +120,7 @@ def test_to_dict_by_hand_with_a_rotor_and_a_track(recording, tmp_path: Path) -> 
         track=track, track_score=0.625, class_probabilities=(0.5, 0.25, 0.25), track_class="bird",
     )  # fmt: skip
     d = WindowReport(4, 100, 3100, True, reports[0].detections[:0], (o,)).to_dict(CLASSES)
-    assert list(d) == ["window", "t0", "t1", "detected", "spikes", "objects"]
+    assert list(d) == ["window", "run", "t0", "t1", "detected", "spikes", "objects"]
     assert (d["window"], d["t0"], d["t1"], d["detected"], d["spikes"]) == (4, 100, 3100, True, 0)
     (got,) = d["objects"]
     assert list(got) == [

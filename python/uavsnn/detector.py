@@ -275,6 +275,7 @@ class Detector(EngineState):
         )
         self._sensor_size: tuple[int, int] = inner.sensor_size
         self._busy_ns = 0
+        self._run = 0  # resets so far: the stream's number (WindowReport.run)
         self._tracker = tracker_for(network) if tracker is None else tracker
         self._rotor = bool(rotor)
         self._grouper: WindowGrouper | None = None  # made by push_windows
@@ -410,6 +411,7 @@ class Detector(EngineState):
         with self._changing("reset"):
             self._inner.reset()
             self._taken = True
+            self._run += 1
             self._busy_ns = 0
             self._tracker.reset()
             self._grouper = None
@@ -418,6 +420,14 @@ class Detector(EngineState):
             self._unfed = 0
             self._identity = {}
             self._interrupted = None
+
+    @property
+    def run(self) -> int:
+        """The stream's number: 0 for the first, one more after each :meth:`reset` (a sensor
+        restart, :class:`~uavsnn.driver.StreamDriver`). :meth:`push_windows`' reports carry
+        it (:attr:`WindowReport.run <uavsnn.grouping.WindowReport.run>`): window numbers and
+        track ids start again at each reset."""
+        return self._run
 
     @property
     def interrupted(self) -> bool:
@@ -561,7 +571,7 @@ class Detector(EngineState):
             self._unfed = report.window + 1
             if measured is not None and ident is not None:
                 report = self._with_track_identity(_with_scores(report, measured, ident), ident)
-            out.append(report)
+            out.append(replace(report, run=self._run) if self._run else report)
         if reached is not None:
             self._skip_to(self._windows().ended_by(reached))
         if self._recent and self._grouper is not None:

@@ -137,6 +137,12 @@ class WindowReport:
     #: The window's spikes, as :meth:`~uavsnn.detector.Detector.push` returned them, in time order.
     detections: np.ndarray
     objects: tuple[WindowObject, ...]
+    #: The stream the window belongs to: 0 for the first, one more after each
+    #: :meth:`Detector.reset() <uavsnn.detector.Detector.reset>` (a sensor restart, which
+    #: :class:`~uavsnn.driver.StreamDriver` and ``uavsnn detect`` meet with one). Window
+    #: numbers and track ids start again in each, so ``(run, window)`` and ``(run, track)``
+    #: name a window and a track over a whole session.
+    run: int = 0
 
     @property
     def spikes(self) -> int:
@@ -145,8 +151,8 @@ class WindowReport:
 
     def to_dict(self, classes: Iterable[str] = ()) -> dict[str, Any]:
         """The window as ``uavsnn detect --json`` prints it, one line of it
-        (docs/streaming.md, "What ``uavsnn detect`` prints"): ``window``, ``t0``, ``t1``,
-        ``detected``, ``spikes`` and ``objects``, each object's :meth:`WindowObject.to_dict`
+        (docs/streaming.md, "What ``uavsnn detect`` prints"): ``window``, ``run``, ``t0``,
+        ``t1``, ``detected``, ``spikes`` and ``objects``, each object's :meth:`WindowObject.to_dict`
         (:attr:`detections` themselves are left out). Plain Python values only, ready for
         :func:`json.dumps`.
 
@@ -161,6 +167,7 @@ class WindowReport:
         names = _class_names(classes)
         return {
             "window": int(self.window),
+            "run": int(self.run),
             "t0": int(self.t0),
             "t1": int(self.t1),
             "detected": bool(self.detected),

@@ -267,7 +267,8 @@ def _window(w: Any, as_json: bool, classes: tuple[str, ...] = ()) -> str:
     if as_json:
         return _jsonout.dumps(w.to_dict(classes))
     line = (
-        f"window={w.window} t={w.t0}..{w.t1} {'DETECTED' if w.detected else 'clear'} "
+        f"window={w.window}{f' run={w.run}' if w.run else ''} t={w.t0}..{w.t1} "
+        f"{'DETECTED' if w.detected else 'clear'} "
         f"spikes={w.spikes} objects={len(w.objects)}"
     )
     for o in w.objects:
