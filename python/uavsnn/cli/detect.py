@@ -23,7 +23,6 @@ output goes away (``| head -1``) the command stops quietly, without its summary,
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
 import time
@@ -36,6 +35,7 @@ import numpy as np
 from uavsnn import _jsonout
 from uavsnn.distributed import add_ray_option
 from uavsnn.errors import ParameterError
+from uavsnn.grouping import _rotor_dict
 from uavsnn.track_eval import Confirm
 
 __all__ = ["register"]
@@ -214,25 +214,29 @@ def _sensor_size(text: str | None) -> tuple[int, int] | None:
     return width, height
 
 
+def _spike_dict(d: np.void) -> dict[str, Any]:
+    """One conv3 spike as ``--per-spike --json`` prints it."""
+    x0, y0, x1, y1 = int(d["x0"]), int(d["y0"]), int(d["x1"]), int(d["y1"])
+    return {
+        "t": int(d["t"]),
+        "window": int(d["window"]),
+        "map": int(d["map"]),
+        "row": int(d["row"]),
+        "col": int(d["col"]),
+        "box": [x0, y0, x1, y1],
+        "centre": [(x0 + x1) / 2, (y0 + y1) / 2],
+        "field_centre": [round(float(d["x"]), 2), round(float(d["y"]), 2)],
+    }
+
+
 def _spike(d: np.void, as_json: bool) -> str:
     """One conv3 spike (``--per-spike``). ``centre`` is the middle of the spike's causal box;
     ``field`` the middle of the neuron's receptive field, which covers most of the sensor and
     so usually lies outside the box (docs/streaming.md)."""
+    if as_json:
+        return _jsonout.dumps(_spike_dict(d))
     x0, y0, x1, y1 = int(d["x0"]), int(d["y0"]), int(d["x1"]), int(d["y1"])
     cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
-    if as_json:
-        return _jsonout.dumps(
-            {
-                "t": int(d["t"]),
-                "window": int(d["window"]),
-                "map": int(d["map"]),
-                "row": int(d["row"]),
-                "col": int(d["col"]),
-                "box": [x0, y0, x1, y1],
-                "centre": [cx, cy],
-                "field_centre": [round(float(d["x"]), 2), round(float(d["y"]), 2)],
-            }
-        )
     return (
         f"t={int(d['t'])} window={int(d['window'])} map={int(d['map'])} "
         f"box={x0},{y0},{x1},{y1} centre={cx:.1f},{cy:.1f} "
@@ -246,11 +250,11 @@ def _absent(value: object) -> str:
 
 def _rotor(o: Any) -> str:
     """The rotor signature when detected (docs/identification.md), ``-`` otherwise; its
-    figures rounded as the JSON line has them, then shown to fewer places."""
-    r = o.rotor
-    if r is None or not r.detected:
+    figures as the JSON line has them, shown to fewer places."""
+    r = _rotor_dict(o.rotor)
+    if r is None:
         return "-"
-    return f"{round(r.frequency_hz, 2):.1f}Hz/{round(r.strength, 4):.3f}/{r.pixels}px"
+    return f"{r['frequency_hz']:.1f}Hz/{r['strength']:.3f}/{r['pixels']}px"
 
 
 def _track(o: Any) -> str:
@@ -672,12 +676,11 @@ def _run_many(args: argparse.Namespace) -> int:
     def found(name: str, items: Any) -> None:
         with held_stops():  # a stop waits for the lines: each whole, none dropped
             for item in items:
-                line = (
-                    _spike(item, args.json) if args.per_spike else _window(item, args.json, classes)
-                )
                 if args.json:
-                    print(_jsonout.dumps({"stream": name, **json.loads(line)}), file=out)
+                    d = _spike_dict(item) if args.per_spike else item.to_dict(classes)
+                    print(_jsonout.dumps({"stream": name, **d}), file=out)
                 else:
+                    line = _spike(item, False) if args.per_spike else _window(item, False)
                     print(f"[{name}] {line}", file=out)
             out.flush()
 
