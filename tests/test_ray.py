@@ -753,6 +753,7 @@ def test_detect_streams_checks_its_arguments_before_any_actor(
     cases: list[tuple[Any, dict[str, Any], str]] = [
         (path, {}, "sources must be a list"),
         ([path, 3], {}, "sources must be a list"),
+        ([Path(path), b"x"], {}, "sources must be a list"),
         (["-"], {}, "standard input"),
         ([path], {"bogus": 1}, "unknown source option 'bogus'"),
         ([path], {"window_us": 0}, "window_us must be"),
@@ -775,9 +776,10 @@ def test_detect_streams_checks_its_arguments_before_any_actor(
     model.save(tmp_path / "m.npz")
     monkeypatch.undo()
     results = detect_streams(
-        runner, [path, str(tmp_path / "none.npz")], str(tmp_path / "m.npz"),
+        runner, [Path(path), str(tmp_path / "none.npz")], tmp_path / "m.npz",
         sensor_size=(240, 180),
     )  # fmt: skip
+    # A Path is a file as its text is, and its stream is named by the text.
     assert results[path].ok and results[path].events_seen == 500
     bad = results[str(tmp_path / "none.npz")]
     assert bad.error is not None and bad.error.startswith("RecordingFileError: ")

@@ -35,7 +35,7 @@ from uavsnn.detector import Detector
 from uavsnn.distributed import SERIAL, StreamResult, detect_streams
 from uavsnn.driver import StreamDriver, StreamStep
 from uavsnn.events import Recording, SensorSizeLike, convert
-from uavsnn.false_alarms import count_alarms, stream_reports
+from uavsnn.false_alarms import AlarmCounts, count_alarms, stream_reports
 from uavsnn.grouping import WindowReport
 from uavsnn.io import read
 from uavsnn.network import Network
@@ -93,7 +93,8 @@ def results(step: StreamStep, driver: StreamDriver, result: StreamResult) -> Non
     assert_type(step.found, np.ndarray | list[WindowReport] | None)
     assert_type(driver.flush(), np.ndarray | list[WindowReport])
     assert_type(result.reports, list[WindowReport])
-    assert_type(count_alarms([], {}), dict[str, dict[str, int] | list[float]])
+    assert_type(count_alarms([], {}), AlarmCounts)
+    assert_type(count_alarms([], {})["track_peaks"], list[float])
 """
 
 

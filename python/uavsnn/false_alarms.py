@@ -28,7 +28,7 @@ import math
 import numbers
 from collections.abc import Iterator, Sequence
 from dataclasses import replace
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypedDict
 
 import numpy as np
 
@@ -58,6 +58,7 @@ __all__ = [
     "FREE_KEY",
     "TRACK_ALARM_RATES",
     "TUNE_KEY",
+    "AlarmCounts",
     "alarm_rules",
     "count_alarms",
     "false_alarm_figures",
@@ -127,9 +128,20 @@ def alarm_rules(
     return rules
 
 
-def count_alarms(
-    reports: Sequence[WindowReport], rules: dict[str, float | None]
-) -> dict[str, dict[str, int] | list[float]]:
+class AlarmCounts(TypedDict):
+    """What :func:`count_alarms` gives."""
+
+    #: Per rule, the detected windows that alarm.
+    alarming: dict[str, int]
+    #: Per rule, the confirmed tracks that alarm.
+    tracks: dict[str, int]
+    #: Each confirmed, scored track's highest track score, largest first.
+    track_peaks: list[float]
+    #: Each detected window's highest object score, largest first.
+    window_peaks: list[float]
+
+
+def count_alarms(reports: Sequence[WindowReport], rules: dict[str, float | None]) -> AlarmCounts:
     """Per rule, the windows (``"alarming"``) and the tracks (``"tracks"``) that alarm among
     ``reports``, the windows of one stream; ``"track_peaks"``: for each confirmed track with a
     score, the highest :attr:`~uavsnn.grouping.WindowObject.track_score` it reached while

@@ -256,7 +256,7 @@ class _StreamWorker:
 
 def detect_streams(
     runner: Runner,
-    sources: Sequence[str],
+    sources: Sequence[str | os.PathLike[str]],
     model: Network | str | os.PathLike[str],
     *,
     window_us: int = 50_000,
@@ -332,13 +332,15 @@ def detect_streams(
     if not isinstance(runner, RayRunner):
         raise ParameterError("streams run in Ray actors: pass the runner connect() returns")
     if isinstance(sources, (str, bytes, os.PathLike)) or not all(
-        isinstance(spec, str) for spec in sources
+        isinstance(spec, (str, os.PathLike)) and isinstance(os.fspath(spec), str)
+        for spec in sources
     ):
         raise ParameterError(
-            f"sources must be a list of file paths and udp://HOST:PORT addresses (strings), got "
-            f"{sources!r}"
+            f"sources must be a list of file paths (str or Path) and udp://HOST:PORT addresses, "
+            f"got {sources!r}"
         )
-    if "-" in sources:
+    specs: list[str] = [os.fspath(spec) for spec in sources]  # a Path's stream: its text
+    if "-" in specs:
         raise ParameterError(
             "standard input ('-') cannot be a stream here: each stream's actor opens its source"
         )
@@ -351,8 +353,8 @@ def detect_streams(
     as_opened = dict(source_options)
     if "downsample" in as_opened:
         as_opened["downsample_to"] = True if as_opened.pop("downsample") else None
-    check_applies(sources, as_opened, spelled={"downsample_to": "downsample"})
-    if idle_flush_s is not None and not any(is_live(spec) for spec in sources):
+    check_applies(specs, as_opened, spelled={"downsample_to": "downsample"})
+    if idle_flush_s is not None and not any(is_live(spec) for spec in specs):
         raise ParameterError("idle_flush_s applies to live streams (UDP), and no stream is one")
     if isinstance(model, (str, os.PathLike)):
         model = Network.load(model)
@@ -369,12 +371,12 @@ def detect_streams(
         if not windows:
             raise ParameterError("tracker links the objects of windows: give windows=True")
     ray = runner._ray
-    names = list(names) if names is not None else list(sources)
-    if len(names) != len(sources) or len(set(names)) != len(names):
+    names = list(names) if names is not None else list(specs)
+    if len(names) != len(specs) or len(set(names)) != len(names):
         raise ParameterError("every stream needs a name of its own")
-    if len(sources) > MAX_STREAMS:
+    if len(specs) > MAX_STREAMS:
         raise ParameterError(
-            f"{len(sources)} streams: at most {MAX_STREAMS} run at once (uavsnn.distributed."
+            f"{len(specs)} streams: at most {MAX_STREAMS} run at once (uavsnn.distributed."
             f"MAX_STREAMS), each an actor process holding the model"
         )
     from uavsnn.sources import check_seconds
@@ -395,7 +397,7 @@ def detect_streams(
     model_ref = ray.put(model)
     actors = {
         name: actor_class.remote(name, spec, model_ref, options)
-        for name, spec in zip(names, sources, strict=True)
+        for name, spec in zip(names, specs, strict=True)
     }
     results = {name: StreamResult(name, np.empty(0, dtype=_detection_dtype())) for name in names}
     parts: dict[str, list[np.ndarray]] = {name: [] for name in names}
