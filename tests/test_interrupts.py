@@ -326,22 +326,35 @@ def test_detect_stopped_inside_the_detector_exits_130_without_a_flush(
 ) -> None:
     real = Detector._push
     calls = []
+    pieces = [part.tobytes() for part in chunks(events, 6)]
+    code, whole, _ = _detect(model, pieces, False, monkeypatch, capsys)
+    assert code == 0
 
     def taken_then_interrupted(self: Detector, chunk: np.ndarray) -> np.ndarray:
         found = real(self, chunk)
-        calls.append(len(chunk))
+        calls.append(int(chunk["t"][-1]))
         if len(calls) == 3:
             raise KeyboardInterrupt
         return found
 
     monkeypatch.setattr(Detector, "_push", taken_then_interrupted)
-    pieces = [part.tobytes() for part in chunks(events, 6)]
-    code, _, err = _detect(model, pieces, False, monkeypatch, capsys)
+    code, printed, err = _detect(model, pieces, False, monkeypatch, capsys)
     assert code == 130
     lines = err.splitlines()
     assert lines[-1] == "uavsnn detect: interrupted"
-    assert any("Ctrl-C stopped the detector inside a chunk" in line for line in lines)
     assert not any("Traceback" in line or "StreamError" in line for line in lines)
+    # The message counts the windows lost: those holding an event the detector took, less
+    # those printed.
+    t, last = events["t"], calls[-1]
+    opened = sum(
+        bool(np.any((t >= w["t0"]) & (t < w["t1"]) & (t <= last))) for w in map(json.loads, whole)
+    )
+    assert 0 < len(printed) < opened
+    stopped = (
+        "Ctrl-C stopped the detector inside a chunk: the windows still open "
+        f"({opened - len(printed)} of {opened} opened) are not reported"
+    )
+    assert any(stopped in line for line in lines), lines
 
 
 class _SignalledOut:

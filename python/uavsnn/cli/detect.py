@@ -559,8 +559,10 @@ def run(args: argparse.Namespace) -> int:
         summary = _Summary(args.summary_every, err)
         ident = network.identification
         classes = tuple(ident.classes) if ident is not None else ()
+        printed = 0  # the windows of the detector's stream (its run) printed
 
         def emit(found: Any) -> None:
+            nonlocal printed
             if found is None or not len(found):
                 return
             with held_stops():  # a stop waits for the lines: each whole, none dropped
@@ -571,6 +573,7 @@ def run(args: argparse.Namespace) -> int:
                         else _window(item, args.json, classes)
                     )
                     print(line, file=out, flush=True)
+                    printed += 1
 
         driver = StreamDriver(
             source, detector, idle_flush_s=args.idle_flush, windows=not args.per_spike
@@ -580,6 +583,7 @@ def run(args: argparse.Namespace) -> int:
             refused = 0
             for step in driver:
                 if step.kind == "restarted":
+                    printed = 0
                     print(
                         f"uavsnn detect: the sensor restarted (its clock went back to "
                         f"t={step.t} µs): the old stream's "
@@ -602,9 +606,17 @@ def run(args: argparse.Namespace) -> int:
             interrupted = exc
             if detector.interrupted:
                 what = getattr(exc, "name", "Ctrl-C")
+                # Every window the detector opened gets a line (a window in a silent gap is
+                # neither opened nor printed): those opened and not printed are lost.
+                lost = (
+                    ""
+                    if args.per_spike
+                    else f" ({detector.windows_opened - printed} of "
+                    f"{detector.windows_opened} opened)"
+                )
                 print(
                     f"uavsnn detect: {what} stopped the detector inside a chunk: the windows "
-                    "still open are not reported",
+                    f"still open{lost} are not reported",
                     file=err,
                     flush=True,
                 )
