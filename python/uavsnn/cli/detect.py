@@ -265,8 +265,8 @@ def _track(o: Any) -> str:
 
 
 def _window(w: Any, as_json: bool, classes: tuple[str, ...] = ()) -> str:
-    """One window's decision (the default output; docs/streaming.md "What detect prints");
-    ``classes``: the names of the model's class probabilities. The JSON line is
+    """One window's decision (the default output; docs/streaming.md, "What ``uavsnn detect``
+    prints"); ``classes``: the names of the model's class probabilities. The JSON line is
     :meth:`WindowReport.to_dict <uavsnn.grouping.WindowReport.to_dict>`'s dict."""
     if as_json:
         return _jsonout.dumps(w.to_dict(classes))
