@@ -176,7 +176,11 @@ impl EventSource for PackedEvents<'_> {
 }
 
 /// One packed 13-byte record (`t u64, x u16, y u16, p u8`, little endian: the canonical
-/// dtype's bytes), unchecked. `record` holds at least 13 bytes.
+/// dtype's bytes), unchecked (the first 13 bytes of `record`).
+///
+/// # Panics
+///
+/// If `record` holds fewer than [`PACKED_EVENT_SIZE`] bytes.
 #[inline]
 pub fn packed_event(record: &[u8]) -> Event {
     let r = record;
@@ -225,7 +229,7 @@ pub fn validate_source<E: EventSource + ?Sized>(
     let mut last = previous_t;
     for i in 0..events.len() {
         let e = events.get(i);
-        check_one(&e, sensor, last, index_offset + i)?;
+        check_one(&e, sensor, last, index_offset.saturating_add(i))?;
         last = Some(e.t);
     }
     Ok(())
@@ -277,7 +281,7 @@ pub fn decode_packed(
             y: u16::from_le_bytes([r[10], r[11]]),
             p: r[12] != 0,
         };
-        check_one(&e, sensor, last, index_offset + i)?;
+        check_one(&e, sensor, last, index_offset.saturating_add(i))?;
         last = Some(e.t);
         out.push(e);
     }
@@ -343,6 +347,14 @@ mod tests {
             ]
         );
         assert!(decode_packed(&bytes[..12], s, None, 0).is_err());
+        // An offset near the end of usize names the bad event without overflowing.
+        let back = [&bytes[13..], &bytes[..13]].concat();
+        for offset in [usize::MAX - 1, usize::MAX] {
+            let err = decode_packed(&back, s, None, offset).unwrap_err();
+            assert!(err.to_string().contains("goes backwards"), "{err}");
+            let err = validate(&[ev(9, 0, 0), ev(7, 0, 0)], s, None, offset).unwrap_err();
+            assert!(err.to_string().contains("goes backwards"), "{err}");
+        }
     }
 
     #[test]

@@ -90,8 +90,15 @@ pub fn cores() -> usize {
 ///
 /// # Errors
 ///
-/// [`Error::Internal`] when the pools' lock is poisoned or the threads cannot start.
+/// [`Error::InvalidParameter`] for `n` outside `1..=`[`MAX_THREADS`]; [`Error::Internal`] when the
+/// pools' lock is poisoned or the threads cannot start.
 pub fn pool(n: usize) -> Result<Arc<rayon::ThreadPool>> {
+    if !(1..=MAX_THREADS).contains(&n) {
+        return Err(Error::param(
+            "threads",
+            format!("a pool has 1 to MAX_THREADS ({MAX_THREADS}) workers, got {n}"),
+        ));
+    }
     let mut kept = KEPT
         .lock()
         .map_err(|_| Error::Internal("thread pools poisoned".into()))?;
@@ -149,6 +156,16 @@ pub fn cap_global_threads() -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_pool_has_one_to_max_threads_workers() {
+        for n in [0, MAX_THREADS + 1, usize::MAX] {
+            let err = pool(n).unwrap_err();
+            assert!(matches!(err, Error::InvalidParameter { .. }), "{n}: {err}");
+            assert!(err.to_string().contains("MAX_THREADS"), "{err}");
+        }
+        assert_eq!(pool(1).unwrap().current_num_threads(), 1);
+    }
 
     #[test]
     fn a_forked_childs_pool_takes_what_rayon_would() {

@@ -315,9 +315,13 @@ impl Geometry {
 
     /// The sensor pixels a conv3 neuron at `(row, col)` can see: rows `y0..y1`, columns `x0..x1`
     /// (half-open), composed back through every layer and clipped to each layer's extent.
+    /// A position outside conv3's output sees nothing (two empty ranges).
     pub fn conv3_receptive_field(&self, row: usize, col: usize) -> (Range<usize>, Range<usize>) {
         let [c1, c2, c3] = &self.conv;
         let [p1, p2] = &self.pool;
+        if row >= c3.out_h || col >= c3.out_w {
+            return (0..0, 0..0);
+        }
         let axis = |o: usize, vertical: bool| {
             let pick = |h: usize, w: usize| if vertical { h } else { w };
             let r = conv_back(c3, o..o + 1, pick(c3.in_h, c3.in_w));
@@ -353,6 +357,19 @@ fn pool_back(g: &PoolGeom, r: Range<usize>, input: usize) -> Range<usize> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_receptive_field_outside_conv3_is_empty() {
+        let g = Geometry::new(&NetworkConfig::default()).unwrap();
+        let c3 = g.conv[2];
+        assert!(!g
+            .conv3_receptive_field(c3.out_h - 1, c3.out_w - 1)
+            .0
+            .is_empty());
+        for (row, col) in [(c3.out_h, 0), (0, c3.out_w), (usize::MAX, usize::MAX)] {
+            assert_eq!(g.conv3_receptive_field(row, col), (0..0, 0..0));
+        }
+    }
 
     fn conv(k: usize, padding: Padding, n: usize) -> ConvGeom {
         ConvGeom::new("t", n, n, 1, k, 1, padding).unwrap()

@@ -1,14 +1,4 @@
-//! Model files: an uncompressed `.npz` archive (readable by `numpy.load(path,
-//! allow_pickle=False)`) holding
-//!
-//! - `format`: the bytes of [`MODEL_FORMAT`] as a `uint8` array,
-//! - `config`: the config as UTF-8 JSON bytes, a `uint8` array (its `version` is checked, and
-//!   every field must be there: [`NetworkConfig::missing_fields`]),
-//! - `conv1`, `conv2`, `conv3`: the weights, `float32` `(maps, in_ch, k, k)`.
-//!
-//! Writing is atomic (a temporary file in the same folder, synced, then renamed over the
-//! target); loading checks the format, version, shapes and that every weight is finite and in
-//! `[0, 1]`, and reports any problem as [`Error::Model`]. No pickled code, ever.
+//! Model files ([`MODEL_FORMAT`]): writing, reading and checking them.
 
 use std::fs;
 use std::io::{Read, Write};
@@ -22,6 +12,18 @@ use super::window::Network;
 use crate::error::{Error, Result};
 
 /// The format marker stored in every model file.
+///
+/// A model file is an uncompressed `.npz` archive (readable by `numpy.load(path,
+/// allow_pickle=False)`) holding
+///
+/// - `format`: the bytes of [`MODEL_FORMAT`] as a `uint8` array,
+/// - `config`: the config as UTF-8 JSON bytes, a `uint8` array (its `version` is checked, and
+///   every field must be there: [`NetworkConfig::missing_fields`]),
+/// - `conv1`, `conv2`, `conv3`: the weights, `float32` `(maps, in_ch, k, k)`.
+///
+/// Writing is atomic (a temporary file in the same folder, synced, then renamed over the
+/// target); loading checks the format, version, shapes and that every weight is finite and in
+/// `[0, 1]`, and reports any problem as [`Error::Model`]. No pickled code, ever.
 pub const MODEL_FORMAT: &str = "uavsnn-model";
 
 /// The largest model file [`Network::load`] reads: four times the bytes of the most weights a
@@ -30,7 +32,7 @@ pub const MODEL_FORMAT: &str = "uavsnn-model";
 pub const MAX_MODEL_FILE_BYTES: u64 = 1 << 30;
 
 impl Network {
-    /// The model file's bytes (see the module docs).
+    /// The model file's bytes (the format: [`MODEL_FORMAT`]).
     pub fn to_npz_bytes(&self) -> Result<Vec<u8>> {
         let json = self.config().to_json();
         let mut entries = vec![
@@ -115,7 +117,7 @@ impl Network {
             .map_err(|e| Error::Model(format!("cannot write {}: {e}", path.display())))
     }
 
-    /// Load from `path` (checked; see the module docs). A file larger than
+    /// Load from `path` (checked: [`MODEL_FORMAT`]). A file larger than
     /// [`MAX_MODEL_FILE_BYTES`] is refused before more than that is read.
     pub fn load(path: impl AsRef<Path>) -> Result<Self> {
         let path = path.as_ref();

@@ -1,26 +1,27 @@
-//! A conv layer's weights, in two layouts kept in step:
-//!
-//! - the *canonical* `(maps, in_ch, k, k)` float32 array of docs/model.md §2 (what users, model
-//!   files and STDP see);
-//! - the *engine* layout `[in_ch][dy][j][map]` in float64, with `j = k − 1 − dx`. An input spike
-//!   at `(c, iy, ix)` reaches, in output row `oy`, the consecutive columns `ox0 ..` with
-//!   `dx` falling as `ox` rises; with potentials stored `[row][col][map]`, its update for that
-//!   row is one contiguous run of `k × maps` potentials plus one contiguous run of weights.
-//!   The engine's running sums are float32 filters; exact potentials are gathered from the
-//!   canonical weights (see `conv`).
-//!
-//! Each map also keeps the running sums of its weights sorted from the largest: no `n` inputs
-//! of a neuron can give it more potential than the `n`-th of them, which tells the engine how
-//! many inputs must have fired before a neuron can cross (see `conv`).
+//! A conv layer's weights ([`ConvWeights`]).
 
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
 use rand_pcg::Pcg64;
 
+use super::config::MAX_WEIGHTS;
 use super::geometry::ConvGeom;
 use crate::error::{Error, Result};
 
-/// One conv layer's weights.
+/// One conv layer's weights, in two layouts kept in step:
+///
+/// - the *canonical* `(maps, in_ch, k, k)` float32 array of docs/model.md §2 (what users, model
+///   files and STDP see);
+/// - the *engine* layout `[in_ch][dy][j][map]` in float64, with `j = k − 1 − dx`. An input spike
+///   at `(c, iy, ix)` reaches, in output row `oy`, the consecutive columns `ox0 ..` with
+///   `dx` falling as `ox` rises; with potentials stored `[row][col][map]`, its update for that
+///   row is one contiguous run of `k × maps` potentials plus one contiguous run of weights.
+///   The engine's running sums are float32 filters; exact potentials are gathered from the
+///   canonical weights (see `conv`).
+///
+/// Each map also keeps the running sums of its weights sorted from the largest: no `n` inputs
+/// of a neuron can give it more potential than the `n`-th of them, which tells the engine how
+/// many inputs must have fired before a neuron can cross (see `conv`).
 #[derive(Debug, Clone, PartialEq)]
 pub struct ConvWeights {
     maps: usize,
@@ -35,7 +36,13 @@ pub struct ConvWeights {
 impl ConvWeights {
     /// Weights from a canonical `(maps, in_ch, k, k)` array; every value must be finite and in
     /// `[0, 1]`.
+    ///
+    /// # Errors
+    ///
+    /// [`Error::InvalidParameter`] for a geometry of more than [`MAX_WEIGHTS`] weights, [`Error::Shape`]
+    /// for `canonical` of another length, [`Error::InvalidParameter`] for a value outside `[0, 1]`.
     pub fn new(g: &ConvGeom, canonical: Vec<f32>) -> Result<Self> {
+        weight_count(g)?;
         check_values(g, &canonical)?;
         let mut w = Self {
             maps: g.maps,
@@ -53,12 +60,17 @@ impl ConvWeights {
 
     /// `N(mean, std)` clipped to `[0, 1]`, drawn in canonical order from a PCG64 stream seeded
     /// by `seed` and the layer's index (so conv2 and conv3 draw independent streams).
+    ///
+    /// # Errors
+    ///
+    /// As [`Self::new`], and [`Error::InvalidParameter`] for a `std` that is negative or not finite.
     pub fn random(g: &ConvGeom, mean: f64, std: f64, seed: u64, layer: usize) -> Result<Self> {
+        let count = weight_count(g)?;
         let normal = Normal::new(mean, std)
             .map_err(|e| Error::param("init", format!("mean {mean} std {std}: {e}")))?;
         let mut rng =
             Pcg64::seed_from_u64(seed ^ (layer as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15));
-        let canonical = (0..g.maps * g.kernel_len())
+        let canonical = (0..count)
             .map(|_| normal.sample(&mut rng).clamp(0.0, 1.0) as f32)
             .collect();
         Self::new(g, canonical)
@@ -69,7 +81,7 @@ impl ConvWeights {
         &self.canonical
     }
 
-    /// The engine layout (see the module docs).
+    /// The engine layout (see [`ConvWeights`]).
     #[inline]
     pub fn engine(&self) -> &[f32] {
         &self.engine
@@ -81,6 +93,10 @@ impl ConvWeights {
     }
 
     /// Map `m`'s canonical kernel `(in_ch, k, k)`.
+    ///
+    /// # Panics
+    ///
+    /// If `m` is not below the layer's maps (`shape()[0]`).
     pub fn kernel(&self, m: usize) -> &[f32] {
         let n = self.in_ch * self.k * self.k;
         &self.canonical[m * n..(m + 1) * n]
@@ -140,6 +156,26 @@ impl ConvWeights {
     }
 }
 
+/// The weights of a layer of geometry `g`, `maps · in_ch · k²`, if at most [`MAX_WEIGHTS`]
+/// (a geometry's fields are public: a caller may give any).
+fn weight_count(g: &ConvGeom) -> Result<usize> {
+    g.maps
+        .checked_mul(g.in_ch)
+        .and_then(|n| n.checked_mul(g.k))
+        .and_then(|n| n.checked_mul(g.k))
+        .filter(|&n| n <= MAX_WEIGHTS)
+        .ok_or_else(|| {
+            Error::param(
+                "weights",
+                format!(
+                    "a layer of {} maps, {} input channels and {}x{} kernels holds more than \
+                     MAX_WEIGHTS ({MAX_WEIGHTS}) weights",
+                    g.maps, g.in_ch, g.k, g.k
+                ),
+            )
+        })
+}
+
 fn check_values(g: &ConvGeom, w: &[f32]) -> Result<()> {
     let expected = g.maps * g.kernel_len();
     if w.len() != expected {
@@ -168,6 +204,32 @@ mod tests {
     use super::*;
     use crate::network::config::NetworkConfig;
     use crate::network::geometry::Geometry;
+
+    #[test]
+    fn a_geometry_of_too_many_weights_is_refused_before_any_allocation() {
+        let g = Geometry::new(&NetworkConfig::default()).unwrap().conv[1];
+        // 2^31 weights (8 GiB), and a count that overflows usize.
+        for (maps, in_ch, k) in [
+            (1 << 15, 1 << 16, 1),
+            (usize::MAX, 2, 3),
+            (2, 2, usize::MAX),
+        ] {
+            let big = ConvGeom {
+                in_ch,
+                k,
+                maps,
+                ..g
+            };
+            for err in [
+                ConvWeights::random(&big, 0.8, 0.05, 0, 1).unwrap_err(),
+                ConvWeights::new(&big, vec![0.5; 4]).unwrap_err(),
+            ] {
+                assert!(matches!(err, Error::InvalidParameter { .. }), "{err}");
+                assert!(err.to_string().contains("MAX_WEIGHTS"), "{err}");
+            }
+        }
+        assert!(ConvWeights::random(&g, 0.8, 0.05, 0, 1).is_ok());
+    }
 
     #[test]
     fn random_weights_are_seeded_and_clipped() {

@@ -1,35 +1,4 @@
-//! The per-event engine: one window at a time through the whole network (docs/model.md §3).
-//!
-//! A [`WindowState`] holds everything one worker needs (potentials, stamps, scratch lists), sized
-//! by the network's neurons once; it is reused from window to window and allocates nothing per
-//! event once its scratch lists have grown. Nothing is swept per window: every per-neuron array
-//! carries generation stamps, so starting a window costs O(maps).
-//!
-//! # Incremental use (streams)
-//!
-//! ```
-//! use uavsnn::network::{Network, NetworkConfig};
-//!
-//! let config = NetworkConfig { width: 64, height: 48, ..NetworkConfig::default() };
-//! let net = Network::new(config, 0).unwrap();
-//! let mut state = net.new_state();
-//! let thresholds = net.conv1_thresholds(0); // PENT from an estimate known before the window
-//! state.begin(&net, 1_000, &thresholds).unwrap();
-//! for (t, x, y) in [(1_005, 3, 4), (1_005, 4, 4), (1_009, 5, 4)] {
-//!     // Detections of completed timestamp groups come back at once.
-//!     for d in state.push(&net, t, x, y).unwrap() {
-//!         println!("UAV at ({}, {}) t={}", d.x, d.y, d.t);
-//!     }
-//! }
-//! state.finish(&net).unwrap(); // completes the last group
-//! println!("{} conv3 spikes", state.detections().len());
-//! ```
-//!
-//! Spikes of equal time form a *group* that is processed at once: its crossings are decided only
-//! when the group is complete, that is when a later spike arrives ([`WindowState::push`]), when
-//! the caller says so ([`WindowState::flush`], [`WindowState::push_group`]) or at
-//! [`WindowState::finish`]. A pixel's first spike in the window is its input spike; later ones
-//! are ignored (docs/model.md §1), so raw events can be pushed as they come.
+//! The per-event engine: one window at a time through the whole network ([`WindowState`]).
 
 use super::batch::Spikes;
 use super::cause::{self, Causes};
@@ -60,7 +29,39 @@ pub struct Spike {
     pub v: f32,
 }
 
-/// The engine state of one worker; see the module docs.
+/// The engine state of one worker: one window at a time through the whole network
+/// (docs/model.md §3).
+///
+/// A [`WindowState`] holds everything one worker needs (potentials, stamps, scratch lists), sized
+/// by the network's neurons once; it is reused from window to window and allocates nothing per
+/// event once its scratch lists have grown. Nothing is swept per window: every per-neuron array
+/// carries generation stamps, so starting a window costs O(maps).
+///
+/// # Incremental use (streams)
+///
+/// ```
+/// use uavsnn::network::{Network, NetworkConfig};
+///
+/// let config = NetworkConfig { width: 64, height: 48, ..NetworkConfig::default() };
+/// let net = Network::new(config, 0).unwrap();
+/// let mut state = net.new_state();
+/// let thresholds = net.conv1_thresholds(0); // PENT from an estimate known before the window
+/// state.begin(&net, 1_000, &thresholds).unwrap();
+/// for (t, x, y) in [(1_005, 3, 4), (1_005, 4, 4), (1_009, 5, 4)] {
+///     // Detections of completed timestamp groups come back at once.
+///     for d in state.push(&net, t, x, y).unwrap() {
+///         println!("UAV at ({}, {}) t={}", d.x, d.y, d.t);
+///     }
+/// }
+/// state.finish(&net).unwrap(); // completes the last group
+/// println!("{} conv3 spikes", state.detections().len());
+/// ```
+///
+/// Spikes of equal time form a *group* that is processed at once: its crossings are decided only
+/// when the group is complete, that is when a later spike arrives ([`WindowState::push`]), when
+/// the caller says so ([`WindowState::flush`], [`WindowState::push_group`]) or at
+/// [`WindowState::finish`]. A pixel's first spike in the window is its input spike; later ones
+/// are ignored (docs/model.md §1), so raw events can be pushed as they come.
 #[derive(Debug, Clone)]
 pub struct WindowState {
     net_id: u64,

@@ -1,29 +1,4 @@
-//! Decoders for the UDP packet formats that the field's streaming tools send.
-//!
-//! - `t64_x16_y16_on8` (faery's default `UdpFormat`): packed 13-byte little-endian records,
-//!   `t: u64, x: u16, y: u16, on: u8`, the same bytes as the canonical NumPy dtype.
-//! - `t32_x16_y15_on1` (faery's compact `UdpFormat`): 8-byte little-endian records,
-//!   `t: u32, x: u16, y_on: u16` with `y = y_on >> 1` and `on = y_on & 1`. The 32-bit time wraps
-//!   every 71.6 minutes; like faery's receiver, a jump back by more than 2³¹ µs is read as a wrap.
-//! - `spif` (aestream's UDP output, the event word of `SpiNNaker`'s spif, "spiffer"): little-endian
-//!   32-bit words, bit 31 = "no timestamp" flag, bits 30..16 = x, bit 15 = polarity,
-//!   bits 14..0 = y. When bit 31 is clear, the next word is the event's time (u32 µs, unwrapped
-//!   as above). aestream sends no time by default; such events are stamped with the packet's
-//!   arrival time, which the caller reads from a monotonic clock.
-//!
-//! A packet is decoded whole or not at all: a length that is not a whole number of records,
-//! an event outside the sensor, a time going backwards, or a `spif` packet mixing stamped and
-//! unstamped events is an error, and the decoder's state (last time, wrap count) is unchanged,
-//! so the caller can count the packet as dropped and go on with the next one.
-//!
-//! A sensor that restarts sends times from zero again, and a packet stamped far ahead by a
-//! glitch moves the last time there: every later packet would go backwards, and the stream
-//! would be lost until the new times passed the old one (hours). So after [`RESTART_AFTER`]
-//! packets in a row refused only because their times go back, the next such packet starts a
-//! new time base if it is good in itself: the refused packets, held meanwhile (at most
-//! [`MAX_HELD_BYTES`] of them), are decoded on the new base before it, and
-//! [`PacketDecoder::restarts`] counts the restart, for the caller to end the windows of the old
-//! stream before it. [`PacketDecoder::dropped`] counts the packets refused and not taken back.
+//! Decoders for the UDP packet formats the field's streaming tools send ([`PacketDecoder`]).
 
 use std::fmt;
 use std::str::FromStr;
@@ -86,7 +61,7 @@ impl FromStr for PacketFormat {
 const WRAP: u64 = 1 << 32;
 
 /// Packets in a row refused only for going back in time after which the next one, if good in
-/// itself, starts a new time base (a restarted sensor; see the module docs): a few reordered
+/// itself, starts a new time base (a restarted sensor; see [`PacketDecoder`]): a few reordered
 /// or repeated datagrams never reach it. The refused packets are held and decoded on the new
 /// base, so a restarted sensor loses none of them (up to [`MAX_HELD_BYTES`]).
 pub const RESTART_AFTER: u32 = 8;
@@ -97,6 +72,33 @@ pub const RESTART_AFTER: u32 = 8;
 pub const MAX_HELD_BYTES: usize = RESTART_AFTER as usize * 65_536;
 
 /// Decodes packets of one format into validated events, keeping the time base across packets.
+///
+/// The formats ([`PacketFormat`]):
+///
+/// - `t64_x16_y16_on8` (faery's default `UdpFormat`): packed 13-byte little-endian records,
+///   `t: u64, x: u16, y: u16, on: u8`, the same bytes as the canonical NumPy dtype.
+/// - `t32_x16_y15_on1` (faery's compact `UdpFormat`): 8-byte little-endian records,
+///   `t: u32, x: u16, y_on: u16` with `y = y_on >> 1` and `on = y_on & 1`. The 32-bit time wraps
+///   every 71.6 minutes; like faery's receiver, a jump back by more than 2³¹ µs is read as a wrap.
+/// - `spif` (aestream's UDP output, the event word of `SpiNNaker`'s spif, "spiffer"): little-endian
+///   32-bit words, bit 31 = "no timestamp" flag, bits 30..16 = x, bit 15 = polarity,
+///   bits 14..0 = y. When bit 31 is clear, the next word is the event's time (u32 µs, unwrapped
+///   as above). aestream sends no time by default; such events are stamped with the packet's
+///   arrival time, which the caller reads from a monotonic clock.
+///
+/// A packet is decoded whole or not at all: a length that is not a whole number of records,
+/// an event outside the sensor, a time going backwards, or a `spif` packet mixing stamped and
+/// unstamped events is an error, and the decoder's state (last time, wrap count) is unchanged,
+/// so the caller can count the packet as dropped and go on with the next one.
+///
+/// A sensor that restarts sends times from zero again, and a packet stamped far ahead by a
+/// glitch moves the last time there: every later packet would go backwards, and the stream
+/// would be lost until the new times passed the old one (hours). So after [`RESTART_AFTER`]
+/// packets in a row refused only because their times go back, the next such packet starts a
+/// new time base if it is good in itself: the refused packets, held meanwhile (at most
+/// [`MAX_HELD_BYTES`] of them), are decoded on the new base before it, and
+/// [`PacketDecoder::restarts`] counts the restart, for the caller to end the windows of the old
+/// stream before it. [`PacketDecoder::dropped`] counts the packets refused and not taken back.
 #[derive(Debug, Clone)]
 pub struct PacketDecoder {
     format: PacketFormat,
@@ -158,7 +160,7 @@ impl PacketDecoder {
     /// Decode one packet, appending its events to `out`. `arrival_us` stamps events that carry
     /// no time (`spif` without timestamps). On error nothing is appended and no state changes
     /// but the packets refused in a row for going back, which are held (those good in
-    /// themselves) and may make this packet start a new time base (see the module docs and
+    /// themselves) and may make this packet start a new time base (see [`PacketDecoder`] and
     /// [`Self::restarts`]): then the held packets' events, decoded on the new base, come before
     /// its own, and the call succeeds (the packet itself is dropped if it goes back from them).
     pub fn decode(&mut self, packet: &[u8], arrival_us: u64, out: &mut Vec<Event>) -> Result<()> {
