@@ -7,8 +7,10 @@ use thiserror::Error;
 pub type Result<T, E = Error> = std::result::Result<T, E>;
 
 /// Everything that can go wrong in the engine. The Python binding maps each variant to a class
-/// of the `uavsnn.UavsnnError` hierarchy (see [`Error::python_class`]).
+/// of the `uavsnn.UavsnnError` hierarchy (see [`Error::python_class`]). More variants may come:
+/// a `match` needs a wildcard arm.
 #[derive(Debug, Error, Clone, PartialEq)]
+#[non_exhaustive]
 pub enum Error {
     /// An event is malformed: out of the sensor, or its time goes backwards.
     #[error("event {index}: {reason}")]
