@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import copy
 import re
+import warnings
 import zipfile
 from dataclasses import replace
 from pathlib import Path
@@ -384,3 +385,35 @@ def test_a_missing_or_misshapen_array_is_named_plainly(
     with pytest.raises(ModelFileError, match="inconsistent: " + message) as caught:
         Network.load(path)
     assert "'" not in str(caught.value) and "archive" not in str(caught.value)
+
+
+def test_changing_the_weights_drops_an_identification_fitted_on_the_old_ones() -> None:
+    """An identification scores features of the network's own spikes: trained further, or
+    given other weights, the network keeps none fitted on the old weights (it was kept, and
+    saved with the new weights)."""
+    events = random_events(400, SMALL_SENSOR, seed=3)
+    windows = uavsnn.windows.make_windows(Recording(events, SMALL_SENSOR), 20_000)
+    net = Network(small_config(), seed=1)
+
+    def train(n: Network) -> None:
+        n.train_layer("conv2", windows)
+
+    def stdp(n: Network) -> None:
+        n.stdp_step("conv2", events["t"], events["x"], events["y"], 0)
+
+    def replace_weights(n: Network) -> None:
+        n.set_weights("conv3", n.weights("conv3") * np.float32(0.5))
+
+    for change in (train, stdp, replace_weights):
+        net.identification = identifier()
+        with pytest.warns(UserWarning, match="identification, fitted on the old weights, is"):
+            change(net)
+        assert net.identification is None
+    # Without an identification, nothing to say.
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        replace_weights(net)
+    # A copy's pictures of its weights (the report's) leave the network's identification be.
+    net.identification = identifier()
+    net.copy().identification = None
+    assert net.identification is not None

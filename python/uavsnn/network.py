@@ -434,6 +434,23 @@ class Network:
             raise ShapeError(f"weights must be 4-D (maps, in_channels, k, k), got {array.shape}")
         with _Use(self, "set_weights", write=True):
             self._core.set_weights(_layer(layer), np.ascontiguousarray(array))
+        self._drop_identification("set_weights")
+
+    def _drop_identification(self, call: str) -> None:
+        """Drop an identification fitted on the weights just changed by ``call``, with a
+        warning: it scores features of the old network's spikes (docs/identification.md)."""
+        if self._identification is None:
+            return
+        import warnings
+
+        self._identification = None
+        warnings.warn(
+            f"{call}() changed the network's weights: its identification, fitted on the old "
+            "weights, is dropped (only the any-spike rule decides); fit it again on the new "
+            "network (`uavsnn train --identify-only`, or uavsnn.identify.fit_network)",
+            UserWarning,
+            stacklevel=3,
+        )
 
     @functools.cached_property
     def _state_bytes(self) -> int:
@@ -532,6 +549,7 @@ class Network:
         self._check_memory()
         with _Use(self, "stdp_step", write=True):
             columns = self._core.stdp_step(layer, t_, x_, y_, _count("t0", t0), n, plus, minus)
+        self._drop_identification("stdp_step")
         return _spikes(columns, SPIKE_DTYPE)
 
     def infer(
@@ -611,15 +629,19 @@ class Network:
         every = _count("every", every, minimum=1)
         # The network is this thread's until training ends, between its chunks too (_Use).
         with _network_use.training(self):
-            convergence, a_plus, seen, winners = self._core.train_layer(
-                layer,
-                **columns,
-                epochs=epochs,
-                seed=seed,
-                shuffle=bool(shuffle),
-                callback=callback,
-                every=every,
-            )
+            try:
+                convergence, a_plus, seen, winners = self._core.train_layer(
+                    layer,
+                    **columns,
+                    epochs=epochs,
+                    seed=seed,
+                    shuffle=bool(shuffle),
+                    callback=callback,
+                    every=every,
+                )
+            finally:  # stopped part way too: the weights hold the windows taken
+                if len(columns["t0"]):
+                    self._drop_identification("train_layer")
         return TrainReport(
             layer=layer,
             convergence=list(convergence),

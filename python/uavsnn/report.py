@@ -80,6 +80,7 @@ def figures(
             shots = []
             for seen, weights in result.snapshots:
                 copy = network.copy()
+                copy.identification = None  # the pictures read the weights alone
                 copy.set_weights(layer, weights)
                 shots.append((f"{seen} windows", pictures.reconstruct_features(copy, layer)))
             put(
