@@ -838,6 +838,11 @@ def test_cli_false_alarm_sets_the_operating_point(net: Network, expected, tmp_pa
     args, classes = _classes_at(net, ident, tmp_path, events, "--false-alarm", ("0.01", "0.05"))
     assert classes["0.01"] and "uav" not in classes["0.01"]
     assert set(classes["0.05"]) == {"uav"}
+    # A point of 0.0 calls more than the default threshold: said on stderr; the other not.
+    for share, said in (("0.05", True), ("0.01", False)):
+        done = run_cli(detect_cmd(*args, "--false-alarm", share), stdin=b"")
+        note = b"--false-alarm %s is the threshold 0.0" % share.encode()
+        assert (note in done.stderr) is said, done.stderr
     refused = run_cli(detect_cmd(*args, "--false-alarm", "0.02"), stdin=b"")
     assert (
         refused.returncode == 2 and b"not tuned for a false-alarm share of 0.02" in refused.stderr

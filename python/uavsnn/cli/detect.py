@@ -479,11 +479,24 @@ def _load(args: argparse.Namespace) -> Any:
                 f"{flag} sets identification's threshold; {args.model} has no "
                 "identification (fit one with `uavsnn train`)"
             )
-        network.identification = (
+        point = (
             ident.at_false_alarm(args.false_alarm)
             if args.false_alarm is not None
             else ident.at_false_tracks(args.false_tracks)
         )
+        network.identification = point
+        if point.threshold <= 0.0 < ident.threshold:
+            # The tuning set's UAV-free windows (tracks) stayed within the share with the
+            # any-spike rule alone: the point scores nothing out, which the user should know.
+            value = args.false_alarm if args.false_alarm is not None else args.false_tracks
+            print(
+                f"uavsnn detect: note: {flag} {value:g} is the threshold 0.0 on {args.model}: "
+                "its tuning recordings stayed within that share with the any-spike rule "
+                "alone, so every detection is called UAV, more than the model's default "
+                f"threshold ({ident.threshold:.3g}) calls",
+                file=sys.stderr,
+                flush=True,
+            )
         if args.false_tracks is not None:
             # The track points hold for the confirmation rule they were set with.
             stored = str(Confirm.of_pair(ident.track_alarm_confirm))
