@@ -385,3 +385,29 @@ def test_a_model_file_must_end_in_npz(
         argv = ["train", str(sets["d0"]), "-o", str(out), "--identify-only", str(model)]
     one_line_exit_2(capsys, argv, f"output must end in .npz, got {out}")
     assert not out.exists()
+
+
+@pytest.mark.parametrize("domain", ["real", "dvs", None])
+def test_the_tuning_advice_fits_the_dataset_s_domain(
+    domain: str | None, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A dataset of real footage is advised to tune on other videos: `--stratify`, which the
+    notes advised for every dataset, is refused for real footage."""
+    ident = {
+        "model": "logistic", "train_windows": 10, "tune_windows": 4, "l2": 1.0,
+        "threshold": 0.5, "tune": uavsnn.identify.HELD_OUT_TUNING, "tune_lacks": ["airplane"],
+    }  # fmt: skip
+    manifest = None if domain is None else {"domain": domain}
+    uavsnn.cli.train._print_identification(ident, manifest)
+    out = capsys.readouterr().out
+    notes = [line for line in out.splitlines() if line.startswith("note: ")]
+    assert len(notes) == 2
+    # A class the guess never gives is said; without a class guess, that is said.
+    for classes, note in ((["uav", "bird"], "never gives airplane"), ([], "no class guess")):
+        uavsnn.cli.train._print_identification(
+            {**ident, "classes": classes, "classes_left_out": ["airplane"]}, manifest
+        )
+        assert note in capsys.readouterr().out
+    stratify = "--stratify" in out
+    assert stratify is (domain != "real"), out
+    assert ("--domain real --videos OTHER_VIDEOS" in out) is (domain == "real"), out

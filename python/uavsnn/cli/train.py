@@ -491,12 +491,23 @@ def _train(args: argparse.Namespace) -> int:
             )
         for layer in summary["resumed"]:
             print(f"{layer}: from the checkpoint")
-        _print_identification(summary.get("identify", {}))
+        _print_identification(summary.get("identify", {}), data.manifest)
         print(f"wrote {args.output}")
     return 0
 
 
-def _print_identification(ident: dict[str, Any]) -> None:
+def _tuning_advice(manifest: dict[str, Any] | None) -> str:
+    """How to build a tuning set of other recordings for a dataset with ``manifest``: real
+    footage from other videos (``--stratify`` is for rendered scenes), scenes of another seed."""
+    if (manifest or {}).get("domain") == "real":
+        return (
+            "`uavsnn dataset build TUNE --domain real --videos OTHER_VIDEOS`, from videos the "
+            "training set does not hold"
+        )
+    return "`uavsnn dataset build TUNE --seed OTHER --stratify`"
+
+
+def _print_identification(ident: dict[str, Any], manifest: dict[str, Any] | None = None) -> None:
     if "skipped" in ident:
         print(f"identification skipped: {ident['skipped']}")
     elif ident:
@@ -528,16 +539,32 @@ def _print_identification(ident: dict[str, Any]) -> None:
         if ident.get("tune") == identify.HELD_OUT_TUNING:
             print(
                 "note: identification was tuned on a quarter of the training recordings held "
-                "out; with a tuning set of other recordings (`uavsnn dataset build TUNE --seed "
-                "OTHER --stratify`, then --tune TUNE) the fit detected more at 1 % false alarms "
-                'on unseen recordings (docs/identification.md, "Tuned on other seeds")'
+                f"out; with a tuning set of other recordings ({_tuning_advice(manifest)}, then "
+                "--tune TUNE) the fit detected more at 1 % false alarms on unseen recordings "
+                '(docs/identification.md, "Tuned on other seeds")'
+            )
+        left = ", ".join(ident.get("classes_left_out", []))
+        if left:
+            why = (
+                f"fewer than {identify.MIN_CLASS_OBJECTS} of its objects in the training "
+                "windows were detected on their labelled box"
+            )
+            print(
+                f"note: the class guess never gives {left}: {why}"
+                if ident.get("classes")
+                else f"note: no class guess: {why}, in all but one class or all ({left})"
             )
         if ident.get("tune_lacks"):
             print(
                 f"note: the tuning windows hold no {', '.join(ident['tune_lacks'])} object, "
                 "which the training windows have: the thresholds were set without them (auto "
-                "keeps the logistic score); `uavsnn dataset build --stratify` makes a tuning "
-                "set with every kind of object"
+                "keeps the logistic score); "
+                + (
+                    "a tuning set built from videos of every class has them"
+                    if (manifest or {}).get("domain") == "real"
+                    else "`uavsnn dataset build --stratify` makes a tuning set with every kind "
+                    "of object"
+                )
             )
 
 
@@ -579,6 +606,6 @@ def _identify_only(args: argparse.Namespace) -> int:
     if args.json:
         print(_jsonout.dumps(summary, indent=2))
     else:
-        _print_identification(ident)
+        _print_identification(ident, data.manifest)
         print(f"wrote {args.output} (the network of {args.identify_only})")
     return 0
