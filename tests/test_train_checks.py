@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import shutil
+from dataclasses import replace
 from pathlib import Path
 from types import SimpleNamespace
 from typing import Any
@@ -18,7 +19,8 @@ from conftest import one_line_exit_2, symlink
 
 import uavsnn.cli.train
 import uavsnn.identify
-from uavsnn import ParameterError
+import uavsnn.network
+from uavsnn import ModelFileError, ParameterError
 from uavsnn.cli import main
 from uavsnn.dataset import SceneSource, build, load
 from uavsnn.identifier import Identifier
@@ -411,3 +413,83 @@ def test_the_tuning_advice_fits_the_dataset_s_domain(
     stratify = "--stratify" in out
     assert stratify is (domain != "real"), out
     assert ("--domain real --videos OTHER_VIDEOS" in out) is (domain == "real"), out
+
+
+# -- what a model was trained on ------------------------------------------------------------------
+
+
+def test_a_trained_model_records_its_windows_and_recordings(
+    sets: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`uavsnn train` records the windows and recordings it trained on: `info` shows them,
+    `evaluate` says when the split it scores holds one (its figures on them are no test: a
+    dataset of the same seed with more recordings holds the training recordings again), and a
+    Detector windows as the model was trained."""
+    from uavsnn import Detector
+
+    out = tmp_path / "m.npz"
+    argv = ["train", str(sets["d0"]), "-o", str(out), "--windows-per-layer", "8"]
+    assert main([*argv, "--no-identify", "--quiet", "--set", "conv2.threshold=10"]) == 0
+    capsys.readouterr()
+    net = Network.load(out)
+    trained = net.trained_on
+    assert trained is not None and (trained.window_us, trained.overlap) == (50_000, 0.5)
+    d0 = load(sets["d0"], "train")
+    names = {str(e["name"]) for e in d0.manifest["recordings"] if e["split"] == "train"}
+    assert {name for _, name in trained.recordings} == names and names
+    assert main(["info", str(out)]) == 0
+    assert "trained on:  windows of 50 ms, overlap 0.5" in capsys.readouterr().out
+    # The same dataset's test split: other recordings, nothing said.
+    assert main(["evaluate", str(out), str(sets["d0"]), "--json"]) == 0
+    done = capsys.readouterr()
+    assert json.loads(done.out)["trained_on_split"] == [] and "warning" not in done.err
+    # A dataset of the same seed with more recordings: its train split holds d0's.
+    assert main(["evaluate", str(out), str(sets["more"]), "--split", "train", "--json"]) == 0
+    done = capsys.readouterr()
+    shared = json.loads(done.out)["trained_on_split"]
+    assert set(shared) == names
+    assert f"warning: {len(names)} of the train split's recordings trained" in done.err
+    # A Detector and detect window as the model was trained, unless told otherwise.
+    net.trained_on = replace(trained, window_us=20_000, overlap=0.0)
+    net.save(out)
+    det = Detector(out)
+    assert (det.window_us, det.overlap) == (20_000, 0.0)
+    assert Detector(out, window_us=30_000, overlap=0.5).window_us == 30_000
+    assert main(["info", str(out)]) == 0
+    assert "windows of 20 ms, overlap 0" in capsys.readouterr().out
+    # Evaluated on windows of another length: said.
+    assert main(["evaluate", str(out), str(sets["d0"])]) == 0
+    assert "was trained on windows of 20 ms, overlap 0; " in capsys.readouterr().err
+
+
+def test_a_model_without_its_training_record_keeps_the_defaults(tmp_path: Path) -> None:
+    from uavsnn import Detector
+    from uavsnn.provenance import ARRAY, TrainedOn
+
+    path = tmp_path / "m.npz"
+    net = Network(CONFIG, seed=0)
+    net.save(path)
+    loaded = Network.load(path)
+    assert loaded.trained_on is None
+    assert (Detector(loaded).window_us, Detector(loaded).overlap) == (50_000, 0.5)
+    # Saved and loaded, copied and pickled whole.
+    net.trained_on = TrainedOn(25_000, 0.25, ((("clip", "V_DRONE_001.mp4"), "V_DRONE_001"),))
+    net.save(path)
+    import copy
+    import pickle
+
+    for other in (
+        Network.load(path),
+        net.copy(),
+        copy.deepcopy(net),
+        pickle.loads(pickle.dumps(net)),
+    ):
+        assert other.trained_on == net.trained_on
+    # A damaged or later entry is refused with the file's name.
+    for bad in (b'{"version": 2}', b"not json", b'{"version": 1, "window_us": 0}'):
+        with np.load(path) as arrays:
+            kept = {name: arrays[name] for name in arrays.files}
+        kept[ARRAY] = np.frombuffer(bad, dtype=np.uint8)
+        uavsnn.network._add_arrays(str(path), kept)
+        with pytest.raises(ModelFileError, match=f"{ARRAY} entry is damaged"):
+            Network.load(path)

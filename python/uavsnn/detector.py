@@ -56,6 +56,8 @@ if TYPE_CHECKING:
     from uavsnn.network import Network
 
 __all__ = [
+    "DEFAULT_OVERLAP",
+    "DEFAULT_WINDOW_US",
     "MAX_LIVE_WINDOWS",
     "MAX_ROTOR_BOXES",
     "MAX_ROTOR_EVENTS",
@@ -113,6 +115,11 @@ else:  # hidden from type checkers, which would take any name of this module as 
             return WINDOW_DETECTION_DTYPE
         raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
+
+#: The window and overlap of a model that does not record its training windows
+#: (:attr:`uavsnn.network.Network.trained_on` ``None``).
+DEFAULT_WINDOW_US = 50_000
+DEFAULT_OVERLAP = 0.5
 
 _NO_DETECTIONS = np.empty(0, dtype=WINDOW_DETECTION_DTYPE)
 _NO_DETECTIONS.flags.writeable = False
@@ -172,10 +179,12 @@ class Detector(EngineState):
         model: a :class:`uavsnn.network.Network` (the detector copies its weights; later
             changes to the network do not reach it), or the path of a model file.
         window_us: window length ``L`` in microseconds, from 1 to ``2**62`` (the engine's
-            longest window).
+            longest window). Default: the window the model was trained on
+            (:attr:`Network.trained_on <uavsnn.network.Network.trained_on>`, which ``uavsnn
+            train`` records), else 50,000.
         overlap: overlap ``o`` of consecutive windows, in ``[0, 1)``; at most
             ``ceil(1 / (1 - o))`` windows are live at once, and that may not exceed
-            :data:`MAX_LIVE_WINDOWS`.
+            :data:`MAX_LIVE_WINDOWS`. Default: the model's training overlap, else 0.5.
         sensor_size: ``(width, height)`` of the camera; it must equal the network's input size
             (a check that the right camera feeds the right model). Default: the network's.
         start_us: start of window 0; default: the first event's time.
@@ -199,8 +208,8 @@ class Detector(EngineState):
         self,
         model: Network | str | os.PathLike[str],
         *,
-        window_us: int = 50_000,
-        overlap: float = 0.5,
+        window_us: int | None = None,
+        overlap: float | None = None,
         sensor_size: SensorSizeLike | None = None,
         start_us: int | None = None,
         tracker: Tracker | None = None,
@@ -221,6 +230,11 @@ class Detector(EngineState):
                     f"{type(model).__name__}"
                 )
             network = model
+        trained = network.trained_on
+        if window_us is None:
+            window_us = DEFAULT_WINDOW_US if trained is None else trained.window_us
+        if overlap is None:
+            overlap = DEFAULT_OVERLAP if trained is None else trained.overlap
         width, height = int(network.config["width"]), int(network.config["height"])
         if sensor_size is not None and check_sensor_size(sensor_size) != (width, height):
             raise ShapeError(

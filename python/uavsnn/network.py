@@ -49,6 +49,7 @@ if TYPE_CHECKING:
     import threading
 
     from uavsnn.identifier import Identifier
+    from uavsnn.provenance import TrainedOn
 
 __all__ = [
     "CONV_LAYERS",
@@ -368,6 +369,10 @@ class Network:
         #: What :meth:`load` noticed about the file (e.g. that it has no identification, or that
         #: its identification does not record its tracker gate).
         self.load_note: str | None = None
+        #: What the model was trained on (:class:`uavsnn.provenance.TrainedOn`: its windows
+        #: and recordings), or ``None``; ``uavsnn train`` records it, and it is saved and loaded
+        #: with the model file.
+        self.trained_on: TrainedOn | None = None
 
     # The guard of a call while train_layer may run (uavsnn._network_use.Use).
     _guard: threading.Lock
@@ -384,6 +389,7 @@ class Network:
         net._init_guard()
         net._identification = None
         net.load_note = None
+        net.trained_on = None
         return net
 
     @property
@@ -668,23 +674,34 @@ class Network:
             ModelFileError: the file cannot be written (the old one is left as it was), or
                 ``path`` names no file (empty, or ending in a folder separator).
         """
+        from uavsnn.provenance import ARRAY, TrainedOn
+
         file = check_path(path)
-        if self.identification is None:
+        if self.trained_on is not None and not isinstance(self.trained_on, TrainedOn):
+            raise ParameterError(
+                f"trained_on must be a uavsnn.provenance.TrainedOn or None, got "
+                f"{type(self.trained_on).__name__}"
+            )
+        if self.identification is None and self.trained_on is None:
             with _Use(self, "save"):
                 self._core.save(file)
             return
-        # The setter refuses anything else; checked again for one set past it.
-        to_arrays = getattr(self.identification, "to_arrays", None)
-        if not callable(to_arrays):
-            raise ParameterError(
-                f"identification must be a uavsnn.identify.Identifier or None, got "
-                f"{type(self.identification).__name__}"
-            )
+        arrays: dict[str, np.ndarray] = {}
+        if self.identification is not None:
+            # The setter refuses anything else; checked again for one set past it.
+            to_arrays = getattr(self.identification, "to_arrays", None)
+            if not callable(to_arrays):
+                raise ParameterError(
+                    f"identification must be a uavsnn.identify.Identifier or None, got "
+                    f"{type(self.identification).__name__}"
+                )
+            arrays |= to_arrays()
+        if self.trained_on is not None:
+            arrays[ARRAY] = self.trained_on.to_array()
         target = Path(file)
         # Path("x/") is "x": a file named so is not the folder asked for, as the engine says.
         if target.name in ("", ".", "..") or file.endswith((os.sep, os.altsep or os.sep)):
             raise ModelFileError(f"model file: cannot write {file}: the path has no file name")
-        arrays = to_arrays()
         # The engine's part first, beside the file, under a short name (the engine adds its own
         # temporary name to it); then the whole file from it, atomically.
         tmp = target.with_name(f".uavsnn-{secrets.token_hex(6)}.tmp")
@@ -714,6 +731,7 @@ class Network:
         (:data:`uavsnn.tracks.DEFAULT_GATE_PX`) every size was fitted at before the gate scaled
         with the sensor (sensors wider than 240 px), a :attr:`load_note` says so."""
         from uavsnn.identifier import Identifier
+        from uavsnn.provenance import TrainedOn
         from uavsnn.tracks import DEFAULT_GATE_PX, GATE_SHARE
 
         path = check_path(path)
@@ -721,6 +739,7 @@ class Network:
         try:
             with np.load(path, allow_pickle=False) as arrays:
                 net.identification = Identifier.from_arrays(arrays)
+                net.trained_on = TrainedOn.from_arrays(arrays)
         except (OSError, ValueError) as exc:
             if isinstance(exc, ModelFileError):
                 raise ModelFileError(f"{path}: {exc}") from exc
@@ -747,6 +766,7 @@ class Network:
             core = self._core.copy()
         net = self._wrap(core)
         net._identification = self.identification
+        net.trained_on = self.trained_on
         return net
 
     def __copy__(self) -> Network:
@@ -768,7 +788,8 @@ class Network:
         """Pickled (for a process pool, Ray) as its config, weights, identification and load
         note, whatever else is imported."""
         weights = {layer: self.weights(layer) for layer in CONV_LAYERS}
-        return Network._restore, (self.config, weights, self.identification, self.load_note)
+        state = (self.config, weights, self.identification, self.load_note, self.trained_on)
+        return Network._restore, state
 
     @staticmethod
     def _restore(
@@ -776,12 +797,14 @@ class Network:
         weights: dict[str, np.ndarray],
         identification: Any,
         load_note: str | None,
+        trained_on: TrainedOn | None = None,  # absent from a network pickled before
     ) -> Network:
         net = Network(config)
         for layer, w in weights.items():
             net.set_weights(layer, w)
         net._identification = identification
         net.load_note = load_note
+        net.trained_on = trained_on
         return net
 
     def __eq__(self, other: object) -> bool:

@@ -111,9 +111,17 @@ def register(subparsers: Any) -> None:
     p.add_argument(
         "--realtime", action="store_true", help="replay a file at its own pace (files only)"
     )
-    p.add_argument("--window-ms", type=float, default=50.0, help="window length in ms (default 50)")
     p.add_argument(
-        "--overlap", type=float, default=0.5, help="window overlap in [0, 1) (default 0.5)"
+        "--window-ms",
+        type=float,
+        help="window length in ms (default: the window the model was trained on, as uavsnn "
+        "info shows it; 50 for a model that does not record it)",
+    )
+    p.add_argument(
+        "--overlap",
+        type=float,
+        help="window overlap in [0, 1) (default: the model's training overlap; 0.5 for a "
+        "model that does not record it)",
     )
     p.add_argument(
         "--start-us",
@@ -323,6 +331,11 @@ class _Summary:
 MAX_WINDOW_MS = float(1 << 62) / 1000
 
 
+def _window_us(args: argparse.Namespace) -> int | None:
+    """``--window-ms`` in µs, or ``None`` (the model's)."""
+    return None if args.window_ms is None else round(args.window_ms * 1000)
+
+
 def _check_args(args: argparse.Namespace) -> None:
     """Refuse flag values that make no sense before opening anything."""
     from uavsnn._validate import MAX_TIME_US
@@ -330,12 +343,14 @@ def _check_args(args: argparse.Namespace) -> None:
     from uavsnn.sources import check_seconds, is_live
 
     longest = MAX_MEASURED_WINDOW_US / 1000
-    if not (math.isfinite(args.window_ms) and 0.001 <= args.window_ms <= MAX_WINDOW_MS):
+    if args.window_ms is None:
+        pass  # the model's
+    elif not (math.isfinite(args.window_ms) and 0.001 <= args.window_ms <= MAX_WINDOW_MS):
         raise ParameterError(
             f"--window-ms must be a number of ms from 0.001 (1 µs) to {longest:g}, "
             f"got {args.window_ms}"
         )
-    if round(args.window_ms * 1000) > MAX_MEASURED_WINDOW_US:
+    elif round(args.window_ms * 1000) > MAX_MEASURED_WINDOW_US:
         # The detector refuses it, advising its Python argument rotor=False, which the command
         # line has not: its objects' rotor and event rate are always measured.
         raise ParameterError(
@@ -343,7 +358,7 @@ def _check_args(args: argparse.Namespace) -> None:
             "ms, the longest window whose objects' rotor and event rate are measured: give a "
             "shorter --window-ms"
         )
-    if not (math.isfinite(args.overlap) and 0.0 <= args.overlap < 1.0):
+    if args.overlap is not None and not (math.isfinite(args.overlap) and 0.0 <= args.overlap < 1.0):
         raise ParameterError(f"--overlap must be in [0, 1), got {args.overlap}")
     if args.start_us is not None and not 0 <= args.start_us <= MAX_TIME_US:
         raise ParameterError(
@@ -556,7 +571,7 @@ def run(args: argparse.Namespace) -> int:
     with source:
         detector = Detector(
             network,
-            window_us=round(args.window_ms * 1000),
+            window_us=_window_us(args),
             overlap=args.overlap,
             start_us=args.start_us,
             sensor_size=source.sensor_size,
@@ -728,7 +743,7 @@ def _run_many(args: argparse.Namespace) -> int:
 
     try:
         results = detect_streams(
-            runner, sources, network, window_us=round(args.window_ms * 1000),
+            runner, sources, network, window_us=_window_us(args),
             overlap=args.overlap, start_us=args.start_us, on_ready=ready,
             on_detections=found, on_update=update, windows=not args.per_spike,
             tracker=_tracker(args.confirm, network), keep=False,

@@ -128,6 +128,44 @@ def register(subparsers: Any) -> None:
     p.set_defaults(handler=_evaluate)
 
 
+def _trained_here(
+    args: argparse.Namespace, network: Network, manifest: dict[str, Any]
+) -> list[str]:
+    """The recordings of the split scored that the model was trained, fitted or tuned on
+    (:meth:`uavsnn.provenance.TrainedOn.shared_with`), each said on stderr, as is a dataset
+    windowed otherwise than the model was trained."""
+    trained = network.trained_on
+    if trained is None:
+        return []
+    shared = trained.shared_with(manifest, args.split)
+    if shared:
+        names = ", ".join(shared[:3]) + (f" and {len(shared) - 3} more" if len(shared) > 3 else "")
+        print(
+            f"uavsnn evaluate: warning: {len(shared)} of the {args.split} split's recordings "
+            f"trained {args.model} ({names}): its figures on them are no test; evaluate on a "
+            "dataset of other recordings",
+            file=sys.stderr,
+            flush=True,
+        )
+    parameters = manifest.get("parameters")
+    parameters = parameters if isinstance(parameters, dict) else {}
+    window, overlap = parameters.get("window_us"), parameters.get("overlap")
+    if (
+        isinstance(window, (int, float))
+        and isinstance(overlap, (int, float))
+        and (window, overlap) != (trained.window_us, trained.overlap)
+    ):
+        print(
+            f"uavsnn evaluate: note: {args.model} was trained on windows of "
+            f"{trained.window_us / 1000:g} ms, overlap {trained.overlap:g}; {args.dataset}'s "
+            f"are {window / 1000:g} ms, overlap {overlap:g}: its identification's features "
+            "are measured over the window",
+            file=sys.stderr,
+            flush=True,
+        )
+    return shared
+
+
 def _noise_shares(text: str | None) -> tuple[float, ...]:
     """--noise-shares: ``None`` for :data:`NOISE_FRACTIONS`; ``table3`` for SPEC §5's six; else
     comma-separated shares in (0, 1], in the order given, with no noise first."""
@@ -232,10 +270,13 @@ def _evaluate(args: argparse.Namespace) -> int:
             "needs a model with identification (`uavsnn train`) or --ablation"
         )
     data = load(args.dataset, args.split)
+    trained_here = _trained_here(args, network, data.manifest or {})
     result = evaluate(
         network, data, threads=args.threads, balanced=not args.unbalanced, keep_inference=True
     )
     figures: dict[str, Any] = {"model": str(args.model), "dataset": str(args.dataset)}
+    if network.trained_on is not None:
+        figures["trained_on_split"] = trained_here
     figures |= result.to_dict()
     features = None
     if args.tracks or network.identification is not None or args.ablation is not None:

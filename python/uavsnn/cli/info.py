@@ -81,7 +81,9 @@ def is_model_file(path: str | Path) -> bool:
 
 
 def _is_model_array(name: str) -> bool:
-    return name in MODEL_ARRAYS or name.startswith("identify.")
+    from uavsnn.provenance import ARRAY
+
+    return name in MODEL_ARRAYS or name == ARRAY or name.startswith("identify.")
 
 
 def _first_member(path: str | Path) -> str | None:
@@ -131,6 +133,13 @@ def model_summary(network: Network, path: str | None = None) -> dict[str, Any]:
             "false_alarm_rates": [float(rate) for rate, _ in ident.alarm_thresholds],
             "false_tracks_per_minute": [float(r) for r, _ in ident.track_alarm_thresholds],
         },
+        "trained_on": None
+        if network.trained_on is None
+        else {
+            "window_us": network.trained_on.window_us,
+            "overlap": network.trained_on.overlap,
+            "recordings": len(network.trained_on.recordings),
+        },
         "load_note": network.load_note,
         "config": config,
     }
@@ -155,6 +164,19 @@ def _print_model(info: dict[str, Any]) -> None:
     else:
         rule += f"; conv1 thresholds {info['pent_mode']}"
     print(f"detection:   {rule}")
+    trained = info["trained_on"]
+    if trained is None:
+        print(
+            "trained on:  not recorded (`uavsnn detect` windows of 50 ms, overlap 0.5, unless "
+            "told otherwise)"
+        )
+    else:
+        n = trained["recordings"]
+        print(
+            f"trained on:  windows of {trained['window_us'] / 1000:g} ms, overlap "
+            f"{trained['overlap']:g} (`uavsnn detect` takes them), from {n} "
+            f"recording{'s' if n != 1 else ''}"
+        )
     ident = info["identification"]
     if ident is None:
         print(

@@ -19,6 +19,7 @@ from uavsnn.distributed import Runner, add_ray_option, runner_for
 from uavsnn.errors import DatasetError, ParameterError
 from uavsnn.false_alarms import MAX_MINUTES, TRACK_ALARM_RATES, tune_track_alarms
 from uavsnn.network import Network, default_config
+from uavsnn.provenance import TrainedOn, recordings_of, split_ids
 from uavsnn.track_eval import Confirm
 from uavsnn.training import STATE_FILE, apply_overrides, parse_override, train
 
@@ -199,50 +200,6 @@ def _sized(
     return out
 
 
-def _recording_key(entry: Any) -> tuple[Any, ...] | None:
-    """What a manifest's recording entry is, whichever dataset lists it: a rendered scene by
-    its domain and seed (a dataset's recording ``i`` of a split is seeded by the dataset's seed,
-    domain, split and ``i`` alone), a real clip by its video file; ``None`` when unknown."""
-    if not isinstance(entry, dict):
-        return None
-    seed = entry.get("seed")
-    if isinstance(seed, int) and not isinstance(seed, bool):
-        return ("scene", str(entry.get("domain")), seed)
-    video = entry.get("video")
-    if isinstance(video, str) and video:
-        return ("clip", video)
-    return None
-
-
-def _recordings(manifest: dict[str, Any], used: dict[int, str]) -> dict[Any, tuple[str, str]]:
-    """Key (:func:`_recording_key`) -> (name, split) of the recordings ``used`` (id -> split)
-    of a dataset with ``manifest``."""
-    entries = manifest.get("recordings")
-    if not isinstance(entries, list):
-        return {}
-    out: dict[Any, tuple[str, str]] = {}
-    for entry in entries:
-        key = _recording_key(entry)
-        rid = entry.get("id") if isinstance(entry, dict) else None
-        if key is None or not isinstance(rid, int) or rid not in used:
-            continue
-        name = entry["video"] if key[0] == "clip" else str(entry.get("name", rid))
-        out[key] = (name, used[rid])
-    return out
-
-
-def _used_ids(manifest: dict[str, Any]) -> dict[int, str]:
-    """Recording id -> the split whose windows it gave, from the manifest's splits."""
-    out: dict[int, str] = {}
-    splits = manifest.get("splits")
-    for split, entry in (splits if isinstance(splits, dict) else {}).items():
-        ids = entry.get("recordings") if isinstance(entry, dict) else None
-        for rid in ids if isinstance(ids, list) else []:
-            if isinstance(rid, int):
-                out.setdefault(rid, str(split))
-    return out
-
-
 #: The advice for a tuning set of rendered scenes that shares recordings with the training set.
 _OTHER_SEED = (
     "build the tuning set with another --seed (`uavsnn dataset build TUNE --seed OTHER --stratify`)"
@@ -262,7 +219,8 @@ def check_tuning_set(
     ``tune_path``) that shares a
     recording with the training dataset (``data``, its split ``split``): any of its splits,
     so that identification is tuned neither on the recordings it is fitted on nor on the test
-    recordings. Recordings are told apart by their manifest entries (:func:`_recording_key`);
+    recordings. Recordings are told apart by their manifest entries
+    (:func:`uavsnn.provenance.recording_key`);
     datasets whose manifests list none are told apart by their domain and seed.
 
     Raises:
@@ -274,11 +232,11 @@ def check_tuning_set(
             f"on other recordings than it is fitted on; {_OTHER_SEED}"
         )
     trained_m, tune_m = data.manifest or {}, tune.manifest or {}
-    used = _used_ids(trained_m)
+    used = split_ids(trained_m)
     for rid in np.unique(np.asarray(data.recording)).tolist():
         used.setdefault(int(rid), split)
-    mine = _recordings(trained_m, used)
-    theirs = _recordings(tune_m, {int(r): "train" for r in np.unique(np.asarray(tune.recording))})
+    mine = recordings_of(trained_m, used)
+    theirs = recordings_of(tune_m, {int(r): "train" for r in np.unique(np.asarray(tune.recording))})
     if not mine or not theirs:
         same = [trained_m.get(k) for k in ("domain", "seed")] == [
             tune_m.get(k) for k in ("domain", "seed")
@@ -478,6 +436,7 @@ def _train(args: argparse.Namespace) -> int:
         tracks = _tune_tracks(network, args, data, tune, runner)
         if tracks is not None:
             summary["identify"]["tracks"] = tracks
+    network.trained_on = _trained_on(data, tune)
     network.save(args.output)
     summary |= result.to_dict()
     if args.json:
@@ -494,6 +453,17 @@ def _train(args: argparse.Namespace) -> int:
         _print_identification(summary.get("identify", {}), data.manifest)
         print(f"wrote {args.output}")
     return 0
+
+
+def _trained_on(data: Any, tune: Any) -> TrainedOn:
+    """What the model is trained on: ``data``'s windows and recordings, and those of the
+    tuning set ``tune`` (``None``: held out of ``data``)."""
+    trained = TrainedOn.of(data.manifest or {}, data.recording)
+    if tune is not None:
+        # The tuning set's windows are ``data``'s kind (checked): its recordings join.
+        tuned = TrainedOn.of(tune.manifest or {}, tune.recording)
+        trained = tuned.joined(trained)
+    return trained
 
 
 def _tuning_advice(manifest: dict[str, Any] | None) -> str:
@@ -601,6 +571,8 @@ def _identify_only(args: argparse.Namespace) -> int:
     tracks = _tune_tracks(network, args, data, tune, runner)
     if tracks is not None:
         ident["tracks"] = tracks
+    fitted = _trained_on(data, tune)
+    network.trained_on = fitted if network.trained_on is None else network.trained_on.joined(fitted)
     network.save(args.output)
     summary = {"model": str(args.output), "network": str(args.identify_only), "identify": ident}
     if args.json:
