@@ -59,8 +59,8 @@ SUBMODULES = frozenset(
     {
         "bench", "boxes", "cli", "clips", "dataset", "detector", "distributed", "driver", "errors",
         "evaluation", "events", "experiments", "false_alarms", "features", "filters", "grouping",
-        "identifier", "identify", "io", "linear", "network", "pictures", "progress", "report",
-        "roc", "scenes", "signature", "sim", "sources", "track_eval", "tracks", "training",
+        "identifier", "identify", "io", "linear", "network", "pictures", "progress",
+        "provenance", "report", "roc", "scenes", "signature", "sim", "sources", "track_eval", "tracks", "training",
         "trees", "windows",
     }
 )  # fmt: skip
@@ -89,6 +89,7 @@ if TYPE_CHECKING:  # the submodules as attributes, to a type checker as at run t
     from uavsnn import network as network
     from uavsnn import pictures as pictures
     from uavsnn import progress as progress
+    from uavsnn import provenance as provenance
     from uavsnn import report as report
     from uavsnn import roc as roc
     from uavsnn import scenes as scenes
