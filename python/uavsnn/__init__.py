@@ -60,8 +60,8 @@ SUBMODULES = frozenset(
         "bench", "boxes", "cli", "clips", "dataset", "detector", "distributed", "driver", "errors",
         "evaluation", "events", "experiments", "false_alarms", "features", "filters", "grouping",
         "identifier", "identify", "io", "linear", "network", "pictures", "progress",
-        "provenance", "report", "roc", "scenes", "signature", "sim", "sources", "track_eval", "tracks", "training",
-        "trees", "windows",
+        "provenance", "report", "roc", "scenes", "signature", "sim", "sources", "track_eval",
+        "tracks", "training", "trees", "windows",
     }
 )  # fmt: skip
 
