@@ -92,7 +92,7 @@ def plan_clip(cut: WindowCut, clip: Clip, sensor: tuple[int, int] = SENSOR) -> C
         )
     n = int(info.frame_count)
     ts = np.round(np.arange(n) * 1e6 / info.fps).astype(np.uint64)  # as uavsnn.sim times them
-    labels, labelled = clip_labels(clip, n, (info.width, info.height), sensor)
+    labels, labelled = clip_labels(clip, n, (info.width, info.height), sensor, video_frames=n)
     end_us = int(ts[-1] + (ts[-1] - ts[-2]))
     windows = cut.label(cut.starts(end_us), ts, labels, labelled)
     return ClipPlan(clip, ts, labels, labelled, end_us, windows, sensor)

@@ -5,7 +5,8 @@ A folder holds videos named ``<PREFIX>_<CLASS>_<ID>.<ext>`` (``V_DRONE_001.mp4``
 ``frame,x,y,w,h``: one row per frame, frames counted from 1, the box's top-left corner and size
 in pixels of the video; an empty box means no target in that frame. Frames without a row
 (past the last one, or skipped) are unlabelled and are never scored. ``DRONE`` (or ``UAV``) is
-the UAV class; every other class (``BIRD``, ``AIRPLANE``, ``HELICOPTER``...) is not a UAV.
+the UAV class; every other class (``BIRD``, ``AIRPLANE``, ``HELICOPTER``...) is not a UAV, and
+a class that holds ``DRONE`` or ``UAV`` without being one of them (``DRONES``) is refused.
 
 The videos become events through the "sim" path (:func:`uavsnn.sim.video_to_recording`:
 PIX2NVS on the frames cropped, centred, to the sensor's aspect ratio, events pooled onto the
@@ -24,8 +25,10 @@ import numpy as np
 
 from uavsnn.errors import DatasetError
 from uavsnn.scenes import LABEL_DTYPE, UAV_CLASS
+from uavsnn.sim.video import probe_video
 
 __all__ = [
+    "MAX_ROWS_PAST_END",
     "UAV_NAMES",
     "VIDEO_SUFFIXES",
     "Clip",
@@ -42,6 +45,10 @@ UAV_NAMES = ("DRONE", "UAV")
 _NAME = re.compile(r"^(?P<prefix>[A-Za-z0-9]+)_(?P<cls>[A-Za-z]+)_(?P<id>[A-Za-z0-9]+)$")
 _PATTERN = "<PREFIX>_<CLASS>_<ID>"
 _PATTERN_RULE = "PREFIX and ID ASCII letters and digits, CLASS ASCII letters"
+#: The most box-file rows past a video's last frame (as its container counts them) that are
+#: ignored: 77 of the 140 svanstrom-dev clips have one. More are labels made at another frame
+#: rate or for another video, and refused.
+MAX_ROWS_PAST_END = 2
 
 
 @dataclass(frozen=True)
@@ -70,7 +77,8 @@ def find_clips(folder: str | Path) -> list[Clip]:
             never a clip left out), a video has no ``.csv`` beside it, a video with a ``.csv``
             beside it is not so named, or two videos have one name (``V_DRONE_001.avi`` and
             ``V_DRONE_001.mp4``: one box file, and two clips of one name that could land in
-            different splits).
+            different splits), or a class holds ``DRONE`` or ``UAV`` but is not one of
+            :data:`UAV_NAMES` (``LAB_DRONES_1`` would be a non-UAV class ``drones``).
     """
     root = Path(folder)
     if not root.is_dir():
@@ -112,6 +120,14 @@ def find_clips(folder: str | Path) -> list[Clip]:
         named[path.stem] = path
         cls_name = m.group("cls").upper()
         uav = cls_name in UAV_NAMES
+        if not uav and any(name in cls_name for name in UAV_NAMES):
+            # A drone clip misnamed would be a non-UAV class: its drone labelled "no UAV".
+            raise DatasetError(
+                f"video {path.name} in {root} has class {m.group('cls')}, which is not a UAV "
+                f"class ({' or '.join(UAV_NAMES)}, in any case) but holds one: name a drone "
+                f"clip <PREFIX>_DRONE_<ID> (e.g. V_DRONE_001), and another class without "
+                f"{' or '.join(UAV_NAMES)} in it; rename the video and its .csv"
+            )
         clips.append(Clip(path.stem, path, boxes, UAV_CLASS if uav else cls_name.lower(), uav))
     if not clips:
         raise DatasetError(
@@ -122,29 +138,38 @@ def find_clips(folder: str | Path) -> list[Clip]:
     return clips
 
 
-def read_boxes(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
+def read_boxes(
+    path: str | Path, video_size: tuple[int, int] | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """Read a ``frame,x,y,w,h`` box file: ``(frames, boxes)``, frame numbers from 1 (int64)
     and ``(x0, y0, x1, y1)`` float32 boxes, NaN for rows with an empty box.
 
+    The file is UTF-8, with or without a byte-order mark (Excel's "CSV UTF-8"); rows with
+    nothing in them (blank lines, ``,,,,``) are skipped. With ``video_size`` (width, height),
+    a box wholly outside the video's frame is refused (a box that only reaches past its edge
+    is kept: the sensor sees the part inside the crop).
+
     Raises:
         DatasetError: unreadable file, wrong header, a malformed row (named by line), a box of
-            zero or negative size, frame numbers below 1 or not increasing.
+            zero or negative size, frame numbers below 1 or not increasing, a box wholly
+            outside the ``video_size`` frame.
     """
     path = Path(path)
     try:
-        with path.open(newline="") as f:
-            rows = list(csv.reader(f))
-    except (OSError, UnicodeDecodeError) as exc:
+        with path.open(newline="", encoding="utf-8-sig") as f:
+            reader = csv.reader(f)
+            # (line, row) of the rows with something in them; line numbers as an editor's.
+            rows = [(reader.line_num, r) for r in reader if any(c.strip() for c in r)]
+    except (OSError, UnicodeDecodeError, csv.Error) as exc:
         raise DatasetError(f"cannot read box file {path}: {exc}") from exc
     if not rows:
         raise DatasetError(f"box file {path} is empty; expected the header frame,x,y,w,h")
-    header = [c.strip().lower() for c in rows[0]]
+    header = [c.strip().lower() for c in rows[0][1]]
     if header != ["frame", "x", "y", "w", "h"]:
-        raise DatasetError(f"box file {path} has header {rows[0]}, expected frame,x,y,w,h")
+        raise DatasetError(f"box file {path} has header {rows[0][1]}, expected frame,x,y,w,h")
     frames = np.zeros(len(rows) - 1, dtype=np.int64)
     boxes = np.full((len(rows) - 1, 4), np.nan, dtype=np.float32)
-    for i, row in enumerate(rows[1:]):
-        line = i + 2
+    for i, (line, row) in enumerate(rows[1:]):
         cells = [c.strip() for c in row]
         if len(cells) != 5:
             raise DatasetError(f"{path}:{line}: expected 5 fields frame,x,y,w,h, got {row}")
@@ -166,6 +191,14 @@ def read_boxes(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
             raise DatasetError(f"{path}:{line}: box {vals} is not four numbers or empty") from exc
         if not all(math.isfinite(v) for v in (x, y, w, h)) or w <= 0 or h <= 0:
             raise DatasetError(f"{path}:{line}: box {vals} must be finite with w, h > 0")
+        if video_size is not None and (
+            x >= video_size[0] or y >= video_size[1] or x + w <= 0 or y + h <= 0
+        ):
+            raise DatasetError(
+                f"{path}:{line}: box {vals} lies wholly outside the video's "
+                f"{video_size[0]}x{video_size[1]} frame (x, y, w, h are pixels of the video, "
+                "from its top-left corner): labels made for another video or size?"
+            )
         boxes[i] = (x, y, x + w, y + h)
     return frames, boxes
 
@@ -219,14 +252,38 @@ def boxes_to_sensor(
 
 
 def clip_labels(
-    clip: Clip, n_frames: int, video_size: tuple[int, int], sensor_size: tuple[int, int]
+    clip: Clip,
+    n_frames: int,
+    video_size: tuple[int, int],
+    sensor_size: tuple[int, int],
+    *,
+    video_frames: int | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Per frame of the video: labels in sensor pixels and whether the frame is labelled.
+    """Per frame of the video's first ``n_frames``: labels in sensor pixels and whether the
+    frame is labelled.
 
-    Rows for frames the video does not have are ignored; frames without a row are unlabelled.
-    The range of a filmed object is unknown (NaN); its size is the longer side of its box.
+    Rows for frames the video does not have are ignored, up to :data:`MAX_ROWS_PAST_END` past
+    its last one; frames without a row are unlabelled. The range of a filmed object is unknown
+    (NaN); its size is the longer side of its box. ``video_frames`` is the video's frame count
+    as its container reports it (:func:`uavsnn.sim.probe_video`, which is asked when it is not
+    given; 0: unknown, not checked); ``n_frames`` may be fewer, to label only the first frames.
+
+    Raises:
+        DatasetError: a bad box file (:func:`read_boxes`, with ``video_size``), or one with
+            rows for more than :data:`MAX_ROWS_PAST_END` frames past the video's last.
     """
-    frames, boxes = read_boxes(clip.boxes)
+    frames, boxes = read_boxes(clip.boxes, video_size)
+    if video_frames is None:
+        video_frames = probe_video(clip.video).frame_count
+    # A count of 0 is a container that does not know it: nothing to check against.
+    if len(frames) and 0 < video_frames < frames[-1] - MAX_ROWS_PAST_END:
+        past = int((frames > video_frames).sum())
+        raise DatasetError(
+            f"box file {clip.boxes} has {len(frames)} rows, to frame {frames[-1]}, but video "
+            f"{clip.video.name} has {video_frames} frames ({past} of the rows past its end; "
+            f"rows up to {MAX_ROWS_PAST_END} frames past it are ignored): labels made at "
+            "another frame rate or for another video?"
+        )
     labels = np.zeros(n_frames, dtype=LABEL_DTYPE)
     labels["cls"] = "none"
     for k in ("x0", "y0", "x1", "y1", "range_m", "size_px"):
