@@ -228,8 +228,13 @@ def test_missing_empty_and_unknown_files(tmp_path: Path) -> None:
         with pytest.raises(uavsnn.RecordingFileError, match="empty"):
             io.read(tmp_path / f"empty.{ext}")
     (tmp_path / "rec.mp4").write_bytes(b"\0" * 10)
-    with pytest.raises(uavsnn.RecordingFileError, match=r"unknown file type '\.mp4'"):
+    with pytest.raises(uavsnn.RecordingFileError, match=r"unknown file type '\.mp4'") as e:
         io.read(tmp_path / "rec.mp4")
+    assert "uavsnn simulate rec.mp4 -o EVENTS.npz" in str(e.value)  # a video: how to read it
+    (tmp_path / "rec.xyz").write_bytes(b"\0" * 10)
+    with pytest.raises(uavsnn.RecordingFileError, match=r"unknown file type '\.xyz'") as e:
+        io.read(tmp_path / "rec.xyz")
+    assert "simulate" not in str(e.value)
 
 
 @pytest.mark.parametrize("ext", ["aedat4", "raw", "dat", "es", "npz", "npy"])

@@ -128,8 +128,15 @@ def read(path: str | os.PathLike[str], sensor_size: SensorSizeLike | None = None
     given = None if sensor_size is None else check_sensor_size(sensor_size)
     kind = FORMATS.get(file.suffix.lower())
     if kind is None:
+        from uavsnn.dataset.real import VIDEO_SUFFIXES
+
+        video = (
+            f"; a video becomes events with `uavsnn simulate {file.name} -o EVENTS.npz`"
+            if file.suffix.lower() in VIDEO_SUFFIXES
+            else ""
+        )
         raise RecordingFileError(
-            f"{file}: unknown file type {file.suffix!r}; expected one of {sorted(FORMATS)}"
+            f"{file}: unknown file type {file.suffix!r}; expected one of {sorted(FORMATS)}{video}"
         )
     try:
         return _read(file, kind, given)
