@@ -224,6 +224,20 @@ def test_simulate_command_reports_errors(tmp_path, capsys):
     assert not out.exists()
 
 
+@pytest.mark.parametrize(
+    ("flag", "said"), [("--fps", "fps must be"), ("--max-frames", "max_frames")]
+)
+def test_simulate_refuses_a_frame_count_or_rate_before_it_starts(
+    video, tmp_path, capsys, flag, said
+):
+    """Refused before the progress line: it said "done" and then the error."""
+    out = tmp_path / "x.npz"
+    assert main(["simulate", str(video), "-o", str(out), flag, "0"]) == 2
+    err = capsys.readouterr().err
+    assert said in err and "done" not in err and "frames" not in err.split("error:")[0], err
+    assert not out.exists()
+
+
 def test_simulate_command_sets_the_pix2nvs_model(video, tmp_path, capsys):
     out = tmp_path / "compat.npz"
     argv = ["simulate", str(video), "-o", str(out), "--size", "120x90", "--json"]

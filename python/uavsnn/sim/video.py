@@ -362,6 +362,11 @@ def video_to_recording(
         raise ParameterError(
             f"mode={mode!r} takes {expected.__name__}, got {type(params).__name__}"
         )
+    # Checked before the progress bar starts (iter_video checks them at its first frame).
+    if max_frames is not None:
+        check_int("max_frames", max_frames, low=1, high=2**62)
+    if fps is not None:
+        check_real("fps", fps, low=0.0, low_open=True, high=1e6)
     info = probe_video(path)
     sim: Pix2NvsSimulator | DvsEmulator | None = None
     if downsample == "frames":
