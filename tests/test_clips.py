@@ -319,6 +319,11 @@ def test_bad_clip_sets_are_typed_errors(
     with pytest.raises(DatasetError, match=f"clip {name} .* is not in"):
         clip_set(root, "test", other)
     write_clip(other, name, [(200 - 3 * k, 100) for k in range(30)])
+    # Its box file edited since the build: its windows would be labelled otherwise.
+    with pytest.raises(DatasetError, match=f"box file .*{name}.csv of clip {name} changed since"):
+        clip_set(root, "test", other)
+    # The box file as built, the video another one.
+    shutil.copy(videos / f"{name}.csv", other / f"{name}.csv")
     with pytest.raises(DatasetError, match="events here"):
         evaluate_clips(net, root, videos=other)
     with pytest.raises(ParameterError, match="HITS/WINDOWS"):

@@ -176,6 +176,7 @@ def _clip_set(
     root: Path, manifest: dict[str, Any], split: str, videos: str | Path | None
 ) -> ClipSet:
     from uavsnn.dataset.footage import plan_clip
+    from uavsnn.dataset.format import file_sha256
     from uavsnn.dataset.real import find_clips
     from uavsnn.dataset.splits import WindowCut
     from uavsnn.dataset.synthetic import stratified_object
@@ -227,6 +228,13 @@ def _clip_set(
             if name not in found:
                 raise DatasetError(f"clip {name} of {root}'s {split} split is not in {folder}")
             j = found[name]
+            built = record.get("boxes_sha256")  # older sets lack it
+            if built is not None and file_sha256(folder_clips[j].boxes) != built:
+                raise DatasetError(
+                    f"box file {folder_clips[j].boxes} of clip {name} changed since {root} was "
+                    "built: its windows would be labelled otherwise than the dataset's; "
+                    "build the dataset again, or give --videos the folder it was built from"
+                )
             pix2nvs = Pix2NvsParams(**sources["real"]["simulator_params"])
             plan = plan_clip(cut, folder_clips[j], sensor)
             chosen.append(Whole(name, events, real=(int(manifest["seed"]), j, plan, pix2nvs)))

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from uavsnn.dataset.format import LabelledWindows, RawEvents
+from uavsnn.dataset.format import LabelledWindows, RawEvents, file_sha256
 from uavsnn.dataset.labels import WindowLabels
 from uavsnn.dataset.real import Clip, clip_labels, crop_box, find_clips
 from uavsnn.dataset.splits import (
@@ -252,6 +252,7 @@ def real_splits(
                     "split": "test" if is_test[j] else "train",
                     "kind": plan.clip.cls,
                     "video": plan.clip.video.name,
+                    "boxes_sha256": file_sha256(plan.clip.boxes),
                     "windows": len(w.label),
                     "usable": int(w.usable.sum()),
                     "usable_uav": int((w.usable & w.label).sum()),

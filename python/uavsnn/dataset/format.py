@@ -269,7 +269,8 @@ def save_split(path: str | Path, data: LabelledWindows) -> Path:
     return path
 
 
-def _sha256(path: Path) -> str:
+def file_sha256(path: Path) -> str:
+    """The SHA-256 of a file's bytes, in hex."""
     digest = hashlib.sha256()
     with path.open("rb") as f:
         for block in iter(lambda: f.read(1 << 20), b""):
@@ -368,7 +369,7 @@ def write_manifest(root: str | Path, manifest: dict[str, Any]) -> Path:
         hashed = {}
         for name, entry in splits.items():
             file = Path(root) / str(entry.get("file", f"{name}.npz"))
-            hashed[name] = entry | {"sha256": _sha256(file)} if file.is_file() else entry
+            hashed[name] = entry | {"sha256": file_sha256(file)} if file.is_file() else entry
         manifest = manifest | {"splits": hashed}
     text = json.dumps(manifest, indent=2, sort_keys=False, allow_nan=False) + "\n"
     write_atomic(path, lambda f: f.write(text.encode("utf-8")))
@@ -520,7 +521,7 @@ def load(root: str | Path, split: str) -> LabelledWindows:
         )
     # A well-formed file that is not the one built with this manifest.
     expected_hash = splits[split].get("sha256")
-    if expected_hash is not None and _sha256(path) != expected_hash:
+    if expected_hash is not None and file_sha256(path) != expected_hash:
         raise DatasetError(
             f"split file {path} is not the one the manifest lists (its SHA-256 differs): "
             "it was changed or comes from another build; rebuild the dataset"
