@@ -127,17 +127,85 @@ def test_first_spike_in_box_counts_a_pixel_by_its_centre() -> None:
     assert first_spike_in_box(w, boxes).tolist() == [1, 1004, 2001, 3001, 4003]
 
 
+def _detections(rows: list[tuple[int, int, list[int]]]) -> np.ndarray:
+    """Detections of (window, t, box x0, y0, x1, y1), in the order given."""
+    out = np.zeros(len(rows), dtype=WINDOW_DETECTION_DTYPE)
+    for i, (window, t, box) in enumerate(rows):
+        out[i]["window"], out[i]["t"] = window, t
+        for k, v in zip(("x0", "y0", "x1", "y1"), box, strict=True):
+            out[i][k] = v
+    return out
+
+
 def test_latency_leaves_out_detections_with_no_input_spike_in_the_box() -> None:
     # Two detected drones: the first's box holds an input spike (at 5), the second's none.
     w = _windows([[(5, 4, 4)], [(2, 0, 0)]])
     data = _labelled(w, [True, True], ["drone", "drone"], [[4, 4, 5, 5], [10, 5, 12, 7]])
-    detections = np.zeros(2, dtype=WINDOW_DETECTION_DTYPE)
-    detections["window"] = [0, 1]
-    detections["t"] = [30, 1040]
+    detections = _detections([(0, 30, [3, 3, 6, 6]), (1, 1040, [10, 5, 12, 7])])
     inference = _inference([True, True], [30, 1040], detections)
     e = score(inference, data)
     assert e.latency_us.tolist() == [25]
     assert e.latency_from_start_us.tolist() == [30, 40]
+    assert (e.latency_no_spike_in_box, e.latency_not_caused) == (1, 0)
+
+
+def test_latency_runs_to_a_detection_the_uav_can_have_caused() -> None:
+    """A detection before the UAV's first input spike in its box, or boxed off the UAV, was
+    caused by something else: the latency runs to the first detection at or after that spike
+    whose box overlaps the labelled one, and a window without one is left out of the latency
+    (counted), while it stays a true positive."""
+    # The UAV's first input spike in its box [10, 12) x [4, 6) comes 20 µs into each window
+    # (windows start every 1000 µs); a spike elsewhere 1 µs in (a bird at (2, 2)).
+    w = _windows([[(1, 2, 2), (20, 10, 4), (30, 11, 5)]] * 4 + [[(1, 2, 2)]])
+    on_uav, off = [9, 3, 13, 7], [0, 0, 5, 5]
+    detections = _detections(
+        [
+            (0, 5, on_uav),  # before the UAV's first spike (20), though boxed on it
+            (1, 1030, off),  # after it, boxed off it
+            (2, 2003, off),  # caused by the bird ...
+            (2, 2025, on_uav),  # ... then by the UAV: 5 µs after its first spike
+            (3, 3020, on_uav),  # at the UAV's first spike itself
+            (4, 4003, off),  # a false positive
+        ]
+    )
+    data = _labelled(
+        w,
+        [True, True, True, True, False],
+        ["drone"] * 4 + ["bird"],
+        [[10, 4, 12, 6]] * 4 + [[2, 2, 3, 3]],
+    )
+    inference = _inference([True] * 5, [5, 1030, 2003, 3020, 4003], detections)
+    e = score(inference, data)
+    # What counts as detected does not move: four true positives and a false one.
+    assert e.confusion.tolist() == [[4, 0], [1, 0]]
+    assert e.latency_us.tolist() == [5, 0]
+    assert (e.latency_us >= 0).all()
+    assert (e.latency_no_spike_in_box, e.latency_not_caused) == (0, 2)
+    # From the window's start to its first detection, over every true positive.
+    assert e.latency_from_start_us.tolist() == [5, 30, 3, 20]
+    d = e.to_dict()
+    assert d["latency_us"]["n"] == 2 and d["latency_us"]["median"] == 2.5
+    assert d["latency_left_out"] == {"no_spike_in_box": 0, "not_caused": 2}
+    from uavsnn.evaluation import first_detection_on_box, first_spike_in_box
+
+    caused = first_detection_on_box(inference, data.box, first_spike_in_box(w, data.box))
+    # (the bird's window, too: the function reads boxes, not labels)
+    assert caused.tolist() == [-1, -1, 2025, 3020, 4003]
+    from uavsnn.report import evaluation_markdown
+
+    text = evaluation_markdown(e)
+    assert "Latency in event time over 2 true positives" in text
+    assert "Left out: 2 whose every detection came before the first input spike" in text
+    # Only detections before the UAV's spike: no latency at all, said so.
+    early = _inference([True], [5], _detections([(0, 5, on_uav)]))
+    one = _labelled(_windows([[(1, 2, 2), (20, 10, 4)]]), [True], ["drone"], [[10, 4, 12, 6]])
+    alone = score(early, one)
+    assert alone.latency_us.size == 0 and alone.latency_not_caused == 1
+    assert "No latency from the UAV's first input spike: of 1 true positives, 1 whose" in (
+        evaluation_markdown(alone)
+    )
+    with pytest.raises(ShapeError, match="boxes must have shape"):
+        first_detection_on_box(inference, data.box[:2], np.zeros(5, np.int64))
 
 
 def test_score_per_class_latency_and_pixels() -> None:
@@ -148,9 +216,11 @@ def test_score_per_class_latency_and_pixels() -> None:
         ["drone", "drone", "bird", "none"],
         [[4, 4, 5, 5], [0, 0, 20, 10], [0, 0, 2, 2], NAN4],
     )
-    detections = np.zeros(2, dtype=WINDOW_DETECTION_DTYPE)
-    detections["window"] = [0, 2]
-    detections["t"] = [25, 2003]
+    # The drone window's first detection (at 25) has the zero box, off the drone's [4, 5)²;
+    # its second (at 28) is boxed on it.
+    detections = _detections(
+        [(0, 25, [0, 0, 0, 0]), (0, 28, [4, 4, 5, 5]), (2, 2003, [1, 1, 2, 2])]
+    )
     inference = _inference([True, False, True, False], [25, 0, 2003, 0], detections)
     e = score(inference, data, seconds=0.5)
     assert e.confusion.tolist() == [[1, 1], [1, 1]]
@@ -158,14 +228,15 @@ def test_score_per_class_latency_and_pixels() -> None:
     assert e.per_class["drone"].called_uav == 1 and e.per_class["drone"].correct == 1
     assert e.per_class["bird"].called_uav == 1 and e.per_class["bird"].correct == 0
     assert e.per_class["none"].correct == 1
-    # the drone window's first spike in its box is at 5; detected at 25
-    assert e.latency_us.tolist() == [20]
+    # the drone window's first spike in its box is at 5; the first detection it can have
+    # caused (boxed on it) at 28
+    assert e.latency_us.tolist() == [23]
     assert e.latency_from_start_us.tolist() == [25]
     assert e.pixel_fraction == pytest.approx(6 / 4 / 200)
     assert e.input_spikes == 6 and e.events_per_second == 12.0
     d = e.to_dict()
     assert (d["tp"], d["fn"], d["fp"], d["tn"]) == (1, 1, 1, 1)
-    assert d["latency_us"]["median"] == 20.0
+    assert d["latency_us"]["median"] == 23.0
     # The true positive's first detection has the zero box: no overlap with [4, 5)², centres
     # (0, 0) and (4.5, 4.5).
     assert e.box_iou.tolist() == [0.0]
@@ -282,6 +353,110 @@ def _binomial_tail(n: int, k: int, p: float, *, upper: bool) -> float:
 
     ks = range(k, n + 1) if upper else range(k + 1)
     return sum(comb(n, j) * p**j * (1 - p) ** (n - j) for j in ks)
+
+
+def _recorded(label: list[bool] | np.ndarray, recording: np.ndarray) -> LabelledWindows:
+    """Windows of one spike each, with the given labels and recordings."""
+    label = np.asarray(label, dtype=bool)
+    n = len(label)
+    return LabelledWindows(
+        _windows([[(1, 0, 0)]] * n),
+        label,
+        np.where(label, "drone", "bird").astype("<U12"),
+        np.asarray(recording, np.int64),
+        np.full((n, 4), np.nan, dtype=np.float32),
+    )
+
+
+def test_an_interval_needs_enough_recordings_of_each_kind() -> None:
+    """With fewer than MIN_INTERVAL_RECORDINGS recordings of a kind, the figures carry no
+    interval over the recordings (a kind of one recording adds nothing to the draw); with
+    enough, the interval is recording_interval's, as before."""
+    from uavsnn.evaluation import (
+        MIN_INTERVAL_RECORDINGS,
+        accuracy_lead,
+        identification_figures,
+        interval_recordings,
+        recording_interval,
+    )
+    from uavsnn.report import (
+        evaluation_markdown,
+        identification_markdown,
+        interval_text,
+        lead_text,
+    )
+
+    assert MIN_INTERVAL_RECORDINGS == 5
+    label = np.arange(60) < 30
+    rng = np.random.default_rng(0)
+    called = rng.random(60) < np.where(label, 0.7, 0.3)
+    scores = rng.random(60)
+    # One UAV recording (the walk's: one drone clip), six UAV-free ones.
+    few = np.where(label, 0, 1 + np.arange(60) % 6)
+    # Five UAV recordings and six UAV-free.
+    enough = np.where(label, 100 + np.arange(60) % 5, 1 + np.arange(60) % 6)
+    assert interval_recordings(few, label) == 1 and interval_recordings(enough, label) == 5
+    assert interval_recordings(few) == 7 and interval_recordings([]) == 0
+    for recording, drawn in ((few, False), (enough, True)):
+        data = _recorded(label, recording)
+        e = score(_inference(called.tolist(), [0] * 60), data)
+        expected = recording_interval(called == label, recording, strata=label)
+        lo, hi = e.accuracy_interval
+        if drawn:
+            assert (lo, hi) == expected and lo <= e.accuracy <= hi
+            assert "– in place of an interval" not in evaluation_markdown(e)
+        else:
+            assert np.isnan(lo) and np.isnan(hi)
+            assert e.to_dict()["recordings"] == {"uav": 1, "uav_free": 6}
+            text = evaluation_markdown(e)
+            assert f"**{100 * e.accuracy:.1f} %** (–) on 60 windows" in text
+            assert "fewer than 5 recordings of a kind to draw again (this set has 1 UAV" in text
+        figures = identification_figures(called, scores, data, 0.5, alarm_thresholds=[(0.05, 0.9)])
+        lead = accuracy_lead(called & (scores >= 0.5) == label, called == label, data)
+        assert figures["accuracy_lead"]["lead"] == lead["lead"]
+        tuned = figures["at_tuned_false_alarm"][0]
+        alarm = np.where(called, scores, -np.inf) >= 0.9
+        # The false alarms draw from the six UAV-free recordings alone: always an interval.
+        assert tuned["false_alarm_interval"] == list(
+            recording_interval(alarm[~label], recording[~label])
+        )
+        if drawn:
+            assert figures["any_spike"]["accuracy_interval"] == list(expected)
+            assert lead["interval"] == list(
+                recording_interval(
+                    called & (scores >= 0.5) == label,
+                    recording,
+                    against=called == label,
+                    strata=label,
+                )
+            )
+            assert "(–)" not in lead_text(lead)
+            assert interval_text(e.accuracy_interval) == (
+                f"95 % interval {100 * lo:.1f}-{100 * hi:.1f}"
+            )
+        else:
+            for interval in (
+                figures["any_spike"]["accuracy_interval"],
+                figures["identified"]["accuracy_interval"],
+                figures["accuracy_lead"]["interval"],
+                tuned["detection_interval"],
+                *(p["detection_interval"] for p in figures["at_false_alarm"]),
+            ):
+                assert all(np.isnan(interval))
+            assert lead_text(figures["accuracy_lead"]).endswith(" (–)")
+            assert figures["recordings"] == {"uav": 1, "uav_free": 6}
+            assert interval_text(e.accuracy_interval) == (
+                "no 95 % interval: fewer than 5 recordings of a kind"
+            )
+            text = identification_markdown(figures)
+            assert "– in place of an interval: fewer than 5 recordings of a kind" in text
+            # Figures without an interval still compare equal to themselves.
+            assert figures == identification_figures(
+                called, scores, data, 0.5, alarm_thresholds=[(0.05, 0.9)]
+            )
+    # Arrays that do not fit are refused whatever the recordings.
+    with pytest.raises(ShapeError):
+        accuracy_lead(np.ones(3, bool), np.ones(60, bool), _recorded(label, few))
 
 
 def test_recording_interval_draws_recordings_not_windows() -> None:

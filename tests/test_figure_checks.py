@@ -60,7 +60,9 @@ def test_accuracy_intervals_built_on_it() -> None:
     still exactly none (the difference is the same on every draw by construction)."""
     n = 20
     label = np.arange(n) < 10
-    data = _data(label, np.arange(n) // 5)
+    # 5 UAV and 5 UAV-free recordings: the fewest an interval is drawn from
+    # (evaluation.MIN_INTERVAL_RECORDINGS).
+    data = _data(label, np.arange(n) // 2)
     figures = identification_figures(np.ones(n, bool), np.linspace(0, 1, n), data, 0.5)
     lo, hi = figures["any_spike"]["accuracy_interval"]
     assert lo < 0.5 < hi

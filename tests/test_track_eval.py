@@ -23,6 +23,7 @@ from uavsnn.track_eval import (
     first_uav_starts,
     ms_text,
     poisson_upper,
+    recording_names,
     track_figures,
     track_table,
 )
@@ -142,6 +143,36 @@ def test_a_found_uav_a_false_bird_track_and_a_missed_uav() -> None:
     table = track_table(f)
     assert "| any-spike | 1 of 2 | 100 / 100 | 1 |" in table and "identification" not in table
     assert "| 1 of 3 (25.0 %) |" in table
+    # A manifest without recordings[] names none.
+    assert [r["name"] for r in f["per_recording"]] == [None, None, None]
+
+
+def test_each_recording_is_named_as_the_manifest_names_it() -> None:
+    """Each recording's row carries its name in the manifest's recordings[] (None where the
+    manifest does not name it), so that a missed recording can be named as `evaluate --clips`
+    names it, not by its id."""
+    data, objects = scene()
+    entries = [
+        {"id": 0, "name": "V_DRONE_001"},
+        {"id": 1, "name": "V_BIRD_002"},
+        {"id": 2, "name": "V_DRONE_026"},
+        {"id": 3, "name": "V_AIRPLANE_005"},  # a recording of another split
+        {"id": "4", "name": "odd"},  # not an id
+    ]
+    named = replace(data, manifest=data.manifest | {"recordings": entries})
+    assert recording_names(named) == {
+        0: "V_DRONE_001",
+        1: "V_BIRD_002",
+        2: "V_DRONE_026",
+        3: "V_AIRPLANE_005",
+    }
+    f = track_figures(named, tracked(named, objects))
+    rows = {r["recording"]: r for r in f["per_recording"]}
+    assert f["rules"]["any_spike"]["missed"] == [2] and rows[2]["name"] == "V_DRONE_026"
+    assert [r["name"] for r in f["per_recording"]] == ["V_DRONE_001", "V_BIRD_002", "V_DRONE_026"]
+    partial = replace(data, manifest=data.manifest | {"recordings": entries[:1]})
+    rows = track_figures(partial, tracked(partial, objects))["per_recording"]
+    assert [r["name"] for r in rows] == ["V_DRONE_001", None, None]
 
 
 def test_ms_text_keeps_a_half_step_and_drops_a_whole_one() -> None:

@@ -8,13 +8,19 @@ fire (:attr:`uavsnn.network.Inference.detected`). Beside the confusion matrix
 - per object size (the labelled box's longer side, in bins of :data:`SIZE_BINS_PX`), how often
   UAV windows and windows of other objects were called UAV: what the any-spike rule responds to;
 - latency in event time: from the first input spike of the window that falls inside the
-  labelled UAV box to the first conv3 spike (and from the window's start), over the true
-  positives;
+  labelled UAV box to the first conv3 spike the UAV can have caused (one at or after that
+  spike whose box overlaps the labelled box: :func:`first_detection_on_box`), over the true
+  positives that have both (how many do not is counted); and from the window's start to its
+  first conv3 spike, over every true positive;
 - where: over the true positives with a labelled box, the overlap (IoU) of the first
   detection's box with the labelled UAV box, and the distance between their centres;
 - the fraction of the sensor's pixels that spiked per window (the paper's sparsity);
 - the cost: input spikes per second of wall time through :meth:`~uavsnn.Network.infer`, and
   nanoseconds per input spike.
+
+A share's 95 % interval is drawn over the recordings (:func:`recording_interval`), and only
+where each kind of recording drawn again has at least :data:`MIN_INTERVAL_RECORDINGS`; else it
+is ``(nan, nan)``: none.
 
 ::
 
@@ -53,6 +59,7 @@ from uavsnn.roc import (
 
 __all__ = [
     "FALSE_ALARM_RATES",
+    "MIN_INTERVAL_RECORDINGS",
     "RANGE_BINS_M",
     "SIZE_BINS_PX",
     "ClassFigures",
@@ -69,8 +76,10 @@ __all__ = [
     "detection_by_target",
     "evaluate",
     "first_detection_boxes",
+    "first_detection_on_box",
     "first_spike_in_box",
     "identification_figures",
+    "interval_recordings",
     "recording_interval",
     "roc_area",
     "roc_curve",
@@ -118,12 +127,78 @@ def accuracy(matrix: npt.ArrayLike) -> float:
     return float("nan") if total == 0 else float(m[0, 0] + m[1, 1]) / total
 
 
+MIN_INTERVAL_RECORDINGS = 5
+"""The fewest recordings of each kind drawn again (the UAV and the UAV-free recordings, where
+they are drawn apart) for which a figure carries its 95 % interval over the recordings; with
+fewer, the interval is ``(nan, nan)``: none (``null`` in JSON, ``–`` in text).
+
+Windows of one recording are not independent, so the interval says how the figure moves when
+other recordings are drawn, and that needs recordings to draw. A kind with one recording gives
+the same windows on every draw and adds nothing to the interval, which then reflects the other
+kind alone: one drone clip and two other clips gave an accuracy of 34.0 % "(28.3–40.4)" that
+says nothing of how another drone would fare. With ``r`` recordings the bootstrap has at most
+``C(2r - 1, r)`` distinct draws (1, 3, 10 and 35 for 1 to 4 recordings, 126 for 5), and its
+variance is ``(r - 1) / r`` of the usual estimate of the recordings' own (none at 1, half at
+2), so below 5 it is too coarse and too narrow to be read as a 95 % interval. Even at 5 it
+covers less than 95 %: read it as a lower bound on the uncertainty. Every figure of
+docs/results/RESULTS.md draws from 16 recordings of a kind or more."""
+
+
+def interval_recordings(recording: npt.ArrayLike, strata: npt.ArrayLike | None = None) -> int:
+    """The fewest recordings in any group of ``strata`` (one group without it): what a figure's
+    interval over ``recording`` draws again from, which :data:`MIN_INTERVAL_RECORDINGS` bounds;
+    0 for no windows.
+
+    Raises:
+        ShapeError: ``strata`` and ``recording`` differ in length."""
+    rec = np.asarray(recording).ravel()
+    group = np.zeros(rec.shape, np.int64) if strata is None else np.asarray(strata).ravel()
+    if group.shape != rec.shape:
+        raise ShapeError(f"recording has {rec.size} windows, strata {group.size}")
+    if rec.size == 0:
+        return 0
+    return min(len(np.unique(rec[group == g])) for g in np.unique(group))
+
+
+#: No interval: one NaN object, so that figures without one still compare equal in Python.
+_NAN = float("nan")
+
+
+def _drawn_interval(
+    hit: np.ndarray,
+    recording: np.ndarray,
+    *,
+    against: np.ndarray | None = None,
+    strata: np.ndarray | None = None,
+) -> tuple[float, float]:
+    """:func:`recording_interval`, where each group drawn again has at least
+    :data:`MIN_INTERVAL_RECORDINGS` recordings; else none, ``(nan, nan)``. Arrays of other
+    lengths get :func:`recording_interval`'s ShapeError either way."""
+    shape = np.shape(hit)
+    agree = np.shape(recording) == shape and all(
+        a is None or np.shape(a) == shape for a in (against, strata)
+    )
+    if agree and interval_recordings(recording, strata) < MIN_INTERVAL_RECORDINGS:
+        return (_NAN, _NAN)
+    return recording_interval(hit, recording, against=against, strata=strata)
+
+
+def _recording_counts(actual: np.ndarray, recording: np.ndarray) -> dict[str, int]:
+    """The UAV and the UAV-free recordings of a set's windows (a recording with windows of
+    both kinds counts in each): what its intervals are drawn from."""
+    return {
+        "uav": len(np.unique(recording[actual])),
+        "uav_free": len(np.unique(recording[~actual])),
+    }
+
+
 def _accuracy_interval(
     predicted: np.ndarray, actual: np.ndarray, recording: np.ndarray
 ) -> tuple[float, float]:
     """The 95 % interval of the share of windows ``predicted`` decides right, the UAV and the
-    UAV-free recordings drawn again apart (:func:`recording_interval` with ``strata``)."""
-    return recording_interval(predicted == actual, recording, strata=actual)
+    UAV-free recordings drawn again apart (:func:`recording_interval` with ``strata``); none,
+    ``(nan, nan)``, with fewer than :data:`MIN_INTERVAL_RECORDINGS` of either."""
+    return _drawn_interval(predicted == actual, recording, strata=actual)
 
 
 def accuracy_lead(
@@ -133,14 +208,17 @@ def accuracy_lead(
     flag a window) than another (``their_right``): ``{"lead", "interval"}``, the difference of
     the two accuracies and its paired 95 % interval when the recordings are drawn again, both
     on the same draws, the UAV and the UAV-free recordings apart (:func:`recording_interval`
-    with ``against`` and ``strata``). The lead is NaN for no windows.
+    with ``against`` and ``strata``; none, ``[nan, nan]``, with fewer than
+    :data:`MIN_INTERVAL_RECORDINGS` of either). The lead is NaN for no windows.
 
     Raises:
         ShapeError: the flags and ``data`` differ in length.
         ParameterError: flags that are not boolean."""
     mine = check_bools("right", right)
     theirs = check_bools("their_right", their_right)
-    interval = recording_interval(mine, data.recording, against=theirs, strata=data.label)
+    interval = _drawn_interval(
+        mine, np.asarray(data.recording), against=theirs, strata=np.asarray(data.label)
+    )
     lead = float(mine.mean() - theirs.mean()) if mine.size else float("nan")
     return {"lead": lead, "interval": list(interval)}
 
@@ -199,8 +277,18 @@ class Evaluation:
     #: By the labelled object's size (:data:`SIZE_BINS_PX`; windows without a box left out).
     per_size: tuple[SizeFigures, ...] = ()
     #: The accuracy's 95 % interval when the recordings are drawn again, the UAV and the
-    #: UAV-free ones apart (:func:`recording_interval` with ``strata``).
+    #: UAV-free ones apart (:func:`recording_interval` with ``strata``); ``(nan, nan)``, none,
+    #: with fewer than :data:`MIN_INTERVAL_RECORDINGS` of either.
     accuracy_interval: tuple[float, float] = (float("nan"), float("nan"))
+    #: The set's UAV and UAV-free recordings, what the interval is drawn from (a recording
+    #: with windows of both kinds counts in each).
+    recordings: tuple[int, int] = (0, 0)
+    #: True positives left out of :attr:`latency_us` with no input spike in the labelled box.
+    latency_no_spike_in_box: int = 0
+    #: True positives left out of :attr:`latency_us` with an input spike in the box but no
+    #: detection the UAV can have caused (every one came before the box's first input spike,
+    #: or its box lies off the labelled box: :func:`first_detection_on_box`).
+    latency_not_caused: int = 0
 
     @property
     def accuracy(self) -> float:
@@ -224,9 +312,11 @@ class Evaluation:
 
     def to_dict(self) -> dict[str, Any]:
         """Everything as plain values for :func:`json.dumps`. A figure that is not defined
-        (the speed of a run without one input spike, or of :func:`score` given no time) is NaN,
-        which :func:`json.dumps` writes as the bare word ``NaN``, outside strict JSON; the
-        commands write it as ``null`` (``uavsnn._jsonout``)."""
+        (the speed of a run without one input spike, or of :func:`score` given no time, or an
+        interval from too few recordings) is NaN, which :func:`json.dumps` writes as the bare
+        word ``NaN``, outside strict JSON; the commands write it as ``null``
+        (``uavsnn._jsonout``). ``latency_left_out``: the true positives :attr:`latency_us`
+        leaves out, ``no_spike_in_box`` and ``not_caused``."""
         (tp, fn), (fp, tn) = self.confusion.tolist()
 
         def stats(values: np.ndarray) -> dict[str, float | int | None]:
@@ -244,6 +334,7 @@ class Evaluation:
             "confusion": [[tp, fn], [fp, tn]],
             "accuracy": self.accuracy,
             "accuracy_interval": list(self.accuracy_interval),
+            "recordings": {"uav": self.recordings[0], "uav_free": self.recordings[1]},
             "tp": tp,
             "fn": fn,
             "fp": fp,
@@ -268,6 +359,10 @@ class Evaluation:
                 for z in self.per_size
             ],
             "latency_us": stats(self.latency_us),
+            "latency_left_out": {
+                "no_spike_in_box": self.latency_no_spike_in_box,
+                "not_caused": self.latency_not_caused,
+            },
             "latency_from_window_start_us": stats(self.latency_from_start_us),
             "box_iou": stats(self.box_iou),
             "box_centre_error_px": stats(self.box_centre_error_px),
@@ -405,8 +500,12 @@ def score(
     tp = np.flatnonzero(predicted & actual)
     first_in_box = inputs.first_in_box
     detection_t = inference.first_detection_t.astype(np.int64)
+    # The latency runs to the first detection the UAV can have caused: a detection before its
+    # first input spike in the box, or boxed off it, was caused by something else.
+    caused_t = first_detection_on_box(inference, labelled, first_in_box)
     reached = tp[first_in_box[tp] >= 0]
-    latency = detection_t[reached] - first_in_box[reached]
+    caused = reached[caused_t[reached] >= 0]
+    latency = caused_t[caused] - first_in_box[caused]
     from_start = detection_t[tp] - w.t0[tp].astype(np.int64)
     first_box = first_detection_boxes(inference, len(data))
     located = tp[boxed[tp]]
@@ -415,6 +514,8 @@ def score(
     width, height = w.sensor_size
     spikes = inputs.spikes
     min_detections = 1 if network is None else int(network.config["detection"]["min_detections"])
+    rec = np.asarray(data.recording)
+    counts = _recording_counts(actual, rec)
     return Evaluation(
         confusion=confusion_matrix(predicted, actual),
         per_class=per_class,
@@ -429,7 +530,10 @@ def score(
         box_iou=iou,
         box_centre_error_px=centre,
         per_size=tuple(per_size),
-        accuracy_interval=_accuracy_interval(predicted, actual, np.asarray(data.recording)),
+        accuracy_interval=_accuracy_interval(predicted, actual, rec),
+        recordings=(counts["uav"], counts["uav_free"]),
+        latency_no_spike_in_box=len(tp) - len(reached),
+        latency_not_caused=len(reached) - len(caused),
     )
 
 
@@ -449,6 +553,47 @@ def first_detection_boxes(inference: Inference, windows: int) -> np.ndarray:
         which, first = np.unique(found["window"], return_index=True)
         rows = found[first]
         out[which] = np.stack([rows[k] for k in ("x0", "y0", "x1", "y1")], axis=1)
+    return out
+
+
+def first_detection_on_box(
+    inference: Inference, boxes: npt.ArrayLike, first_in_box: npt.ArrayLike
+) -> np.ndarray:
+    """Per window ``inference`` ran, the time (int64 µs) of its first detection that the object
+    in its labelled box ``x0, y0, x1, y1`` can have caused: one at or after the window's first
+    input spike in the box (``first_in_box``, :func:`first_spike_in_box`) whose box (the input
+    spikes that caused it, docs/model.md §5) overlaps the labelled box by some area. −1 where
+    none is, or where no input spike is in the box (``first_in_box`` −1).
+
+    Raises:
+        ShapeError: ``boxes`` not ``(n, 4)`` or ``first_in_box`` not ``(n,)``, for ``n``
+            windows.
+    """
+    n = len(inference)
+    box = check_numbers("boxes", boxes)
+    start = np.asarray(first_in_box, dtype=np.int64)
+    if box.shape != (n, 4) or start.shape != (n,):
+        raise ShapeError(
+            f"boxes must have shape ({n}, 4) and first_in_box ({n},), got {box.shape} and "
+            f"{start.shape}"
+        )
+    out = np.full(n, -1, dtype=np.int64)
+    found = inference.detections
+    which = np.asarray(found["window"], dtype=np.int64)
+    t = np.asarray(found["t"], dtype=np.int64)
+    after = (start[which] >= 0) & (t >= start[which])
+    which, t, rows = which[after], t[after], found[after]
+    if not len(rows):
+        return out
+    own = np.stack([rows[k] for k in ("x0", "y0", "x1", "y1")], axis=1).astype(np.float64)
+    label = box[which]
+    overlaps = (np.minimum(own[:, 2], label[:, 2]) > np.maximum(own[:, 0], label[:, 0])) & (
+        np.minimum(own[:, 3], label[:, 3]) > np.maximum(own[:, 1], label[:, 1])
+    )
+    big = np.iinfo(np.int64).max
+    first = np.full(n, big, dtype=np.int64)
+    np.minimum.at(first, which[overlaps], t[overlaps])
+    out[first != big] = first[first != big]
     return out
 
 
@@ -560,7 +705,9 @@ def identification_figures(
     ``"accuracy_interval"`` is its accuracy's, the UAV and the UAV-free recordings drawn apart
     (:func:`recording_interval` with ``strata``); ``"accuracy_lead"`` is the second rule's
     accuracy minus the first's, with the paired interval (``against``: both rules on the same
-    draws).
+    draws). Every interval is ``[nan, nan]``, none, where the recordings it draws again number
+    fewer than :data:`MIN_INTERVAL_RECORDINGS` of a kind; ``"recordings"`` gives the set's
+    ``"uav"`` and ``"uav_free"`` recordings.
 
     ``alarm_thresholds`` (:attr:`uavsnn.identify.Identifier.alarm_thresholds`: thresholds set
     on other recordings for a false-alarm share) adds ``"at_tuned_false_alarm"``: the same
@@ -624,12 +771,14 @@ def identification_figures(
             },
         }
         if intervals:
-            point["false_alarm_interval"] = list(recording_interval(alarm[~actual], rec[~actual]))
-            point["detection_interval"] = list(recording_interval(alarm[actual], rec[actual]))
+            point["false_alarm_interval"] = list(_drawn_interval(alarm[~actual], rec[~actual]))
+            point["detection_interval"] = list(_drawn_interval(alarm[actual], rec[actual]))
         return point
 
     roc: dict[str, Any] | None = None
     at_fa = []
+    # A point read off the ROC moves with both kinds of recording (roc_point_interval).
+    drawable = interval_recordings(rec, actual) >= MIN_INTERVAL_RECORDINGS
     if both:
         fa, pd = roc_curve(combined, actual)
         keep = np.unique(np.linspace(0, len(fa) - 1, min(roc_points, len(fa))).round().astype(int))
@@ -641,7 +790,9 @@ def identification_figures(
         }
         for r in FALSE_ALARM_RATES:
             point = at(r, threshold_at_false_alarm(combined, actual, r))
-            point["detection_interval"] = list(roc_point_interval(combined, actual, rec, r))
+            point["detection_interval"] = (
+                list(roc_point_interval(combined, actual, rec, r)) if drawable else [_NAN, _NAN]
+            )
             at_fa.append(point)
     identified = combined >= threshold
     out = {
@@ -651,6 +802,7 @@ def identification_figures(
         # What identification adds to the any-spike rule's accuracy on these windows, with the
         # paired interval: both rules on the same draws of the recordings.
         "accuracy_lead": accuracy_lead(identified == actual, fired == actual, data),
+        "recordings": _recording_counts(actual, rec),
         "roc": roc,
         "at_false_alarm": at_fa,
     }

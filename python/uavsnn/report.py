@@ -19,7 +19,12 @@ import numpy as np
 from uavsnn import pictures
 from uavsnn._files import output_dir
 from uavsnn.dataset import LabelledWindows
-from uavsnn.evaluation import ClassFigures, Evaluation, detection_by_target
+from uavsnn.evaluation import (
+    MIN_INTERVAL_RECORDINGS,
+    ClassFigures,
+    Evaluation,
+    detection_by_target,
+)
 from uavsnn.experiments import PAPER_TABLE3, PAPER_TABLE3_BY_SHARE, NoisePoint
 from uavsnn.network import Network
 from uavsnn.training import TrainingResult
@@ -35,6 +40,7 @@ __all__ = [
     "evaluation_markdown",
     "figures",
     "identification_markdown",
+    "interval_text",
     "lead_text",
     "noise_table",
     "percent",
@@ -309,7 +315,9 @@ def evaluation_markdown(evaluation: Evaluation) -> str:
     lines = [
         f"Accuracy {percent_with_interval(d['accuracy'], d['accuracy_interval'], bold=True)} on "
         f"{d['windows']} windows (a window is a UAV when at least {d['min_detections']} conv3 "
-        "neuron fires; in brackets its 95 % interval when the recordings are drawn again).",
+        "neuron fires; in brackets its 95 % interval when the recordings are drawn again"
+        + _no_interval_note([d["accuracy_interval"]], d["recordings"], "; ")
+        + ").",
         "",
         confusion_table(evaluation.confusion),
         "| class | windows | called UAV | right |",
@@ -341,8 +349,17 @@ def evaluation_markdown(evaluation: Evaluation) -> str:
     if lat["n"]:
         lines.append(
             f"Latency in event time over {lat['n']} true positives: from the first input spike "
-            f"in the UAV's box to the first conv3 spike, median {lat['median'] / 1000:.2f} ms "
-            f"(90th percentile {lat['p90'] / 1000:.2f} ms); from the window's start, median "
+            "in the UAV's box to the first conv3 spike it can have caused (at or after that "
+            "spike, its box overlapping the UAV's), median "
+            f"{lat['median'] / 1000:.2f} ms (90th percentile {lat['p90'] / 1000:.2f} ms); from "
+            f"the window's start to the first conv3 spike, median {start['median'] / 1000:.2f} "
+            f"ms over {start['n']}." + _latency_left_out(d["latency_left_out"])
+        )
+    elif start["n"]:
+        lines.append(
+            f"No latency from the UAV's first input spike: of {start['n']} true positives, "
+            + _latency_left_out(d["latency_left_out"], alone=True)
+            + f" From the window's start to the first conv3 spike, median "
             f"{start['median'] / 1000:.2f} ms."
         )
     iou, off = d["box_iou"], d["box_centre_error_px"]
@@ -462,9 +479,57 @@ def _noise_detection_table(points: Sequence[NoisePoint], modes: Sequence[str]) -
 
 
 def lead_text(lead: dict[str, Any]) -> str:
-    """``"+1.9 (-3.1 to +6.0)"``: a lead in points, with its interval."""
-    lo, hi = lead["interval"]
+    """``"+1.9 (-3.1 to +6.0)"``: a lead in points, with its interval; ``"+1.9 (–)"`` where it
+    has none (too few recordings: :data:`uavsnn.evaluation.MIN_INTERVAL_RECORDINGS`)."""
+    interval = lead.get("interval")
+    if interval is None or any(math.isnan(v) for v in interval):
+        return f"{100 * lead['lead']:+.1f} (–)"
+    lo, hi = interval
     return f"{100 * lead['lead']:+.1f} ({100 * lo:+.1f} to {100 * hi:+.1f})"
+
+
+def interval_text(interval: Sequence[float] | None, head: str = "95 % interval") -> str:
+    """``"95 % interval 28.3-40.4"`` (per cent), or, where the figure has none (``None`` or
+    NaN: drawn from fewer than :data:`uavsnn.evaluation.MIN_INTERVAL_RECORDINGS` recordings of
+    a kind), ``"no 95 % interval: fewer than 5 recordings of a kind"``, for a line of text."""
+    if interval is None or any(math.isnan(v) for v in interval):
+        return f"no {head}: fewer than {MIN_INTERVAL_RECORDINGS} recordings of a kind"
+    return f"{head} {100 * interval[0]:.1f}-{100 * interval[1]:.1f}"
+
+
+def _latency_left_out(left: dict[str, int], *, alone: bool = False) -> str:
+    """The true positives the latency leaves out, as a sentence (``alone``: the whole reason
+    there is none), or nothing."""
+    parts = []
+    if left["no_spike_in_box"]:
+        parts.append(f"{left['no_spike_in_box']} with no input spike in the UAV's box")
+    if left["not_caused"]:
+        parts.append(
+            f"{left['not_caused']} whose every detection came before the first input spike in "
+            "the UAV's box or had its box off the UAV's (caused by something else)"
+        )
+    if not parts:
+        return ""
+    head = "" if alone else " Left out: "
+    return head + " and ".join(parts) + "."
+
+
+def _no_interval_note(
+    intervals: Sequence[Sequence[float] | None], recordings: Any, lead: str = ""
+) -> str:
+    """What a ``–`` in place of a 95 % interval means, after ``lead``, where one of
+    ``intervals`` is none (NaN), with the set's UAV and UAV-free ``recordings`` (``{"uav",
+    "uav_free"}``); else nothing."""
+    missing = any(i is not None and any(math.isnan(v) for v in i) for i in intervals)
+    if not missing:
+        return ""
+    counts = ""
+    if isinstance(recordings, Mapping):
+        counts = f"this set has {recordings['uav']} UAV and {recordings['uav_free']} UAV-free; "
+    return (
+        f"{lead}– in place of an interval: fewer than {MIN_INTERVAL_RECORDINGS} recordings of "
+        f"a kind to draw again ({counts}`evaluation.MIN_INTERVAL_RECORDINGS`)"
+    )
 
 
 def _bin_name(low: float, high: float | None, unit: str) -> str:
@@ -475,14 +540,17 @@ def percent_with_interval(
     share: float | None, interval: Sequence[float] | None, *, bold: bool = False
 ) -> str:
     """``share`` in per cent (in bold with ``bold``), with its interval in brackets when there
-    is one."""
+    is one; ``(–)`` where it was drawn from too few recordings to have one (NaN,
+    :data:`uavsnn.evaluation.MIN_INTERVAL_RECORDINGS`)."""
     text = f"**{percent(share)}**" if bold and share is not None else percent(share)
-    if share is None or interval is None or any(math.isnan(v) for v in interval):
+    if share is None or interval is None or math.isnan(share):
         return text
+    if any(math.isnan(v) for v in interval):
+        return f"{text} (–)"
     return f"{text} ({100 * interval[0]:.1f}–{100 * interval[1]:.1f})"
 
 
-def _operating_points(points: list[dict[str, Any]]) -> list[str]:
+def _operating_points(points: list[dict[str, Any]], recordings: Any = None) -> list[str]:
     """The lines of :func:`identification_markdown` at the points read off the ROC: detection
     by size and range, false alarms per class, overall detection."""
     lines: list[str] = []
@@ -519,7 +587,9 @@ def _operating_points(points: list[dict[str, Any]]) -> list[str]:
             "In brackets, its 95 % interval when the set's recordings are drawn again and the "
             "threshold read again on each draw (`evaluation.roc_point_interval`; at 1 % it "
             'covers less than 95 %: docs/identification.md, "How well a point read off the '
-            'ROC is known").'
+            'ROC is known")'
+            + _no_interval_note([p.get("detection_interval") for p in points], recordings, "; ")
+            + "."
         )
     return lines
 
@@ -543,6 +613,12 @@ def identification_markdown(figures: dict[str, Any]) -> str:
         (tp, fn), (fp, tn) = rule["confusion"]
         acc = percent_with_interval(rule["accuracy"], rule.get("accuracy_interval"), bold=True)
         lines.append(f"| {name} | {tp} | {fn} | {fp} | {tn} | {acc} |")
+    drawn = [figures[k].get("accuracy_interval") for k in ("any_spike", "identified")]
+    if "accuracy_lead" in figures:
+        drawn.append(figures["accuracy_lead"].get("interval"))
+    note = _no_interval_note(drawn, figures.get("recordings"))
+    if note:
+        lines.append(f"\n{note}.")
     if "accuracy_lead" in figures:
         lead = lead_text(figures["accuracy_lead"])
         lines.append(
@@ -567,7 +643,7 @@ def identification_markdown(figures: dict[str, Any]) -> str:
             f"({100 * roc['false_alarm'][-1]:.1f} %, detection "
             f"{100 * roc['detection'][-1]:.1f} %); area up to there {roc['area_reachable']:.3f}.\n"
         )
-        lines += _operating_points(points)
+        lines += _operating_points(points, figures.get("recordings"))
     tuned = figures.get("at_tuned_false_alarm", [])
     if tuned:
         lines += [
@@ -575,7 +651,13 @@ def identification_markdown(figures: dict[str, Any]) -> str:
             "windows alarmed (`Identifier.alarm_thresholds`; what a user who fixes the "
             "operating point gets here). In brackets, the 95 % interval when this set's "
             "recordings are drawn again (`evaluation.recording_interval`): windows of one "
-            "recording alarm together, so the recordings set how well a share is known.\n",
+            "recording alarm together, so the recordings set how well a share is known"
+            + _no_interval_note(
+                [p.get(k) for p in tuned for k in ("false_alarm_interval", "detection_interval")],
+                figures.get("recordings"),
+                "; ",
+            )
+            + ".\n",
             "| set for | threshold | false alarms here | detection here |",
             "|---|---|---|---|",
         ]
@@ -664,6 +746,7 @@ def roc_chart(
                 )
                 for p in at
                 if p.get("detection_interval") is not None
+                and not any(math.isnan(v) for v in p["detection_interval"])
             ]
             for name, at in (points or {}).items()
             if name in rocs

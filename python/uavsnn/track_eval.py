@@ -70,6 +70,7 @@ __all__ = [
     "ms_text",
     "poisson_upper",
     "recording_class",
+    "recording_names",
     "rule_name",
     "track_figures",
     "track_table",
@@ -342,6 +343,18 @@ def first_uav_starts(data: LabelledWindows) -> tuple[dict[int, int], bool]:
     return starts, every
 
 
+def recording_names(data: LabelledWindows) -> dict[int, str]:
+    """Each recording's name in ``data``'s manifest (``recordings[]``: a real clip's file
+    name, ``V_DRONE_026``; a rendered recording's ``dvs-test-00012``), by its id; a recording
+    the manifest does not name is left out."""
+    entries = data.manifest.get("recordings") if isinstance(data.manifest, dict) else None
+    return {
+        r["id"]: r["name"]
+        for r in (entries if isinstance(entries, list) else [])
+        if isinstance(r, dict) and _is_int(r.get("id")) and isinstance(r.get("name"), str)
+    }
+
+
 def _is_int(value: object) -> TypeGuard[int]:
     """A JSON integer (not a bool)."""
     return isinstance(value, int) and not isinstance(value, bool)
@@ -378,8 +391,10 @@ def track_figures(
     ``false_tracks_per_minute``, ``false_tracks_per_minute_upper95``, ``stray_tracks``, and
     ``decided``: the recordings decided right, :func:`decision_figures`, a recording decided
     UAV where a track alarmed in it, of the class labelled most often in it) and
-    ``per_recording`` (one row per recording, with ``uav_windows_met``: its UAV windows where
-    an object meets the labelled box, and ``uav_size_px``: the median labelled UAV size).
+    ``per_recording`` (one row per recording: ``recording``, its id, and ``name``, its name in
+    the dataset's manifest or ``None`` (:func:`recording_names`), with ``uav_windows_met``: its
+    UAV windows where an object meets the labelled box, and ``uav_size_px``: the median
+    labelled UAV size).
 
     Raises:
         ShapeError: ``feats`` or ``scores`` that do not fit ``data``.
@@ -521,6 +536,7 @@ def track_figures(
         if label[w] and not met[w] and box_meets(feats.boxes[j], truth[w]):
             met[w] = True
     size = np.asarray(data.size_px, dtype=np.float64)
+    named = recording_names(data)
     rows = []
     for r in recordings:
         mine = rec == r
@@ -529,6 +545,7 @@ def track_figures(
         kinds, counts = np.unique(cls[mine], return_counts=True)
         row: dict[str, Any] = {
             "recording": r,
+            "name": named.get(r),
             "windows": int(mine.sum()),
             "steps": span[r],
             "uav_windows": int((mine & label).sum()),

@@ -4,6 +4,7 @@ from the figures :mod:`uavsnn.cli.reproduce` measured. No figure is computed her
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from typing import Any
 
@@ -26,12 +27,14 @@ __all__ = [
 
 
 def _set_beforehand(point: dict[str, Any]) -> str:
-    """Detection (false alarms; their 95 % interval over the test recordings) at a threshold
-    set beforehand."""
+    """Detection (false alarms; their 95 % interval over the test recordings, ``–`` where too
+    few recordings give none: ``evaluation.MIN_INTERVAL_RECORDINGS``) at a threshold set
+    beforehand."""
     lo, hi = point["false_alarm_interval"]
+    interval = "–" if math.isnan(lo) or math.isnan(hi) else f"{100 * lo:.1f}–{100 * hi:.1f}"
     return (
         f"{100 * point['detection_rate']:.1f} % ({100 * point['false_alarm_rate']:.1f} %; "
-        f"{100 * lo:.1f}–{100 * hi:.1f})"
+        f"{interval})"
     )
 
 

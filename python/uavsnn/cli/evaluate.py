@@ -369,10 +369,9 @@ def _evaluate(args: argparse.Namespace) -> int:
     if network.load_note:
         print(f"note: {network.load_note}")
     (tp, fn), (fp, tn) = result.confusion.tolist()
-    lo, hi = result.accuracy_interval
     print(
-        f"accuracy {100 * result.accuracy:.1f} % (95 % interval {100 * lo:.1f}-{100 * hi:.1f}) "
-        f"on {result.windows} windows"
+        f"accuracy {100 * result.accuracy:.1f} % ({report.interval_text(result.accuracy_interval)})"
+        f" on {result.windows} windows"
     )
     print(f"confusion [[TP {tp}, FN {fn}], [FP {fp}, TN {tn}]]")
     for name, c in sorted(result.per_class.items()):
@@ -382,9 +381,22 @@ def _evaluate(args: argparse.Namespace) -> int:
             f"  box side {z.label:10s} UAV: {z.uav.called_uav}/{z.uav.windows} called UAV, "
             f"others: {z.other.called_uav}/{z.other.windows}"
         )
-    if len(result.latency_us):
-        median_ms = figures["latency_us"]["median"] / 1000
-        print(f"latency (first UAV spike -> detection): median {median_ms:.2f} ms")
+    left = result.latency_no_spike_in_box + result.latency_not_caused
+    if len(result.latency_us) or left:
+        # Over the true positives with a detection the UAV can have caused (evaluation.score).
+        median = figures["latency_us"]["median"]
+        said = "-" if median is None else f"median {median / 1000:.2f} ms"
+        print(
+            f"latency (first UAV spike -> first detection it can have caused): {said} over "
+            f"{len(result.latency_us)} true positives"
+            + (
+                f" ({left} left out: {result.latency_no_spike_in_box} with no input spike in "
+                f"the UAV's box, {result.latency_not_caused} with no detection at or after it "
+                "boxed on the UAV)"
+                if left
+                else ""
+            )
+        )
     if len(result.box_iou):
         iou, off = figures["box_iou"]["median"], figures["box_centre_error_px"]["median"]
         print(f"first detection's box: median IoU {iou:.2f}, centre {off:.1f} px off the UAV's")
@@ -459,14 +471,17 @@ def _identification(
     return out
 
 
+#: How the lines of text name an interval over the recordings (report.interval_text).
+OVER_RECORDINGS = "95 % interval over recordings"
+
+
 def _print_identification(ident: dict[str, Any]) -> None:
     if "identified" in ident:
         for name, label in (("any_spike", "any-spike rule"), ("identified", "+ identification")):
             (tp, fn), (fp, tn) = ident[name]["confusion"]
-            lo, hi = ident[name]["accuracy_interval"]
             print(
                 f"{label:18s} accuracy {100 * ident[name]['accuracy']:.1f} % "
-                f"(95 % interval {100 * lo:.1f}-{100 * hi:.1f}) "
+                f"({report.interval_text(ident[name]['accuracy_interval'])}) "
                 f"[[TP {tp}, FN {fn}], [FP {fp}, TN {tn}]]"
             )
         if "accuracy_lead" in ident:
@@ -480,21 +495,19 @@ def _print_identification(ident: dict[str, Any]) -> None:
                 f"{100 * z['rate']:.0f} %"
                 for z in point["by_size_px"]
             )
-            lo, hi = point["detection_interval"]
+            drawn = report.interval_text(point["detection_interval"], OVER_RECORDINGS)
             print(
                 f"  at {100 * point['false_alarm_target']:g} % false alarms: detection "
-                f"{100 * point['detection_rate']:.1f} % (95 % interval over recordings "
-                f"{100 * lo:.1f}-{100 * hi:.1f}; by drawn size: {sizes})"
+                f"{100 * point['detection_rate']:.1f} % ({drawn}; by drawn size: {sizes})"
             )
         if ident["roc"] is None:
             print("  one class only (all UAV, or none): no ROC, no point read off one")
         for point in ident.get("at_tuned_false_alarm", []):
-            lo, hi = point["false_alarm_interval"]
             alarms = (
                 "none to measure (no UAV-free window)"
                 if point["false_alarm_rate"] is None
-                else f"{100 * point['false_alarm_rate']:.1f} % (95 % interval over recordings "
-                f"{100 * lo:.1f}-{100 * hi:.1f})"
+                else f"{100 * point['false_alarm_rate']:.1f} % "
+                f"({report.interval_text(point['false_alarm_interval'], OVER_RECORDINGS)})"
             )
             print(
                 f"  at the threshold tuned for {100 * point['false_alarm_target']:g} % false "
@@ -577,8 +590,8 @@ def _print_tracks(tracks: dict[str, Any]) -> None:
         print(
             "  UAV recordings the any-spike rule missed: "
             + ", ".join(
-                f"{r} (UAV {_size(rows[r]['uav_size_px'])}, an object on it in "
-                f"{rows[r]['uav_windows_met']} of {rows[r]['uav_windows']} windows)"
+                f"{rows[r].get('name') or r} (UAV {_size(rows[r]['uav_size_px'])}, an object "
+                f"on it in {rows[r]['uav_windows_met']} of {rows[r]['uav_windows']} windows)"
                 for r in missed
             )
         )
