@@ -35,7 +35,6 @@ import numpy as np
 from uavsnn import _jsonout
 from uavsnn.distributed import add_ray_option
 from uavsnn.errors import ParameterError
-from uavsnn.grouping import _rotor_dict
 from uavsnn.track_eval import Confirm
 
 __all__ = ["register"]
@@ -259,7 +258,7 @@ def _absent(value: object) -> str:
 def _rotor(o: Any) -> str:
     """The rotor signature when detected (docs/identification.md), ``-`` otherwise; its
     figures as the JSON line has them, shown to fewer places."""
-    r = _rotor_dict(o.rotor)
+    r = o.to_dict()["rotor"]  # the JSON line's
     if r is None:
         return "-"
     return f"{r['frequency_hz']:.1f}Hz/{r['strength']:.3f}/{r['pixels']}px"
