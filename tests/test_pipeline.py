@@ -176,6 +176,7 @@ def test_demo_is_well_above_chance_on_held_out_windows(tmp_path: Path) -> None:
     test = figures["test"]
     assert test["windows"] == 200
     assert test["accuracy"] >= 0.65, test["confusion"]
+    assert Network.load(tmp_path / "demo" / "model.npz").trained_on is not None
     for name in (
         "report.md",
         "results.json",
@@ -296,6 +297,19 @@ def test_reproduce_at_a_tiny_size(
     assert real_manifest["parameters"]["sensor_size"] == [320, 240]
     assert Network.load(out / "model-real-320x240.npz").config["width"] == 320
     assert Network.load(out / "model-real.npz").config["width"] == 240
+    # Each model records what it learned from: evaluated on its own training split, it is
+    # warned of; on its test split, not (uavsnn.provenance).
+    from uavsnn.dataset import load as load_split
+
+    for model, split, trained in (
+        ("model-dvs.npz", "train", True), ("model-dvs.npz", "test", False),
+        ("model-combined.npz", "train", True), ("model-real.npz", "train", True),
+    ):  # fmt: skip
+        net = Network.load(out / model)
+        assert net.trained_on is not None and net.trained_on.window_us == 50_000
+        data = "data/real" if "real" in model else "data/dvs"
+        shared = net.trained_on.shared_with(load_split(out / data, split).manifest, split)
+        assert bool(shared) is trained, (model, split)
     sizes = text.index("## Real footage at each sensor size")
     assert (
         sizes < text.index("## Real footage at 240x180") < text.index("## Real footage at 320x240")

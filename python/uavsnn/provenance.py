@@ -13,9 +13,9 @@ uses:
 
 Recordings are told apart as ``uavsnn train --tune`` tells them apart
 (:func:`recording_key`): a rendered scene by its domain and seed, a real clip by its video
-file. A model file without the entry (written by the library, ``uavsnn reproduce`` or an
-earlier uavsnn) has ``trained_on = None``: the defaults of 50 ms and 0.5 apply, and nothing is
-checked.
+file. ``uavsnn train``, ``demo`` and ``reproduce`` write the entry; a model file without it
+(written by the library alone, or by an earlier uavsnn) has ``trained_on = None``: the
+defaults of 50 ms and 0.5 apply, and nothing is checked.
 """
 
 from __future__ import annotations
@@ -117,6 +117,16 @@ class TrainedOn:
             overlap=float(parameters.get("overlap", 0.5)),
             recordings=tuple(sorted((key, name) for key, (name, _) in found.items())),
         )
+
+    @classmethod
+    def of_sets(cls, first: Any, *more: Any) -> TrainedOn:
+        """What a model trained, fitted or tuned on the labelled windows ``first`` and ``more``
+        (:class:`uavsnn.dataset.LabelledWindows`, each with its dataset's manifest) is trained
+        on: every set's recordings, the window of ``first``."""
+        out = cls.of(first.manifest or {}, first.recording)
+        for data in more:
+            out = cls.of(data.manifest or {}, data.recording).joined(out)
+        return out
 
     def joined(self, other: TrainedOn) -> TrainedOn:
         """Both sets of recordings; the window of ``other`` (the later training: an

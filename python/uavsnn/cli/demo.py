@@ -21,6 +21,7 @@ from uavsnn.experiments import (
     static_twin,
 )
 from uavsnn.network import Network
+from uavsnn.provenance import TrainedOn
 from uavsnn.training import train
 
 __all__ = ["DEMO_WINDOWS_PER_LAYER", "register", "run_demo"]
@@ -63,6 +64,7 @@ def run_demo(out: Path, seed: int = 0, *, progress: bool = False) -> dict[str, A
         network, train_set.windows, windows_per_layer=DEMO_WINDOWS_PER_LAYER, seed=seed,
         progress=progress,
     )  # fmt: skip
+    network.trained_on = TrainedOn.of_sets(train_set)
     network.save(out / "model.npz")
     result = evaluate(network, test_set, keep_inference=True)
     static, theta = static_twin(network, train_set.windows)

@@ -72,6 +72,7 @@ from uavsnn.false_alarms import (
     tune_track_alarms,
 )
 from uavsnn.network import Network, default_config
+from uavsnn.provenance import TrainedOn
 from uavsnn.track_eval import evaluate_tracks
 
 __all__ = ["register"]
@@ -291,6 +292,7 @@ def _real_footage(
     job = _train_all(runner, {"real": (config, real_train, "")}, seed, train_kwargs)["real"]
     net = runner.result(job).network
     real_fit = fit_identification(net, real_train)
+    net.trained_on = TrainedOn.of_sets(real_train)
     net.save(out / f"model-real{suffix}.npz")
     real = runner.result(runner.submit(evaluate_task, net, real_test, {"keep_inference": True}))
     assert real.inference is not None
@@ -481,6 +483,12 @@ def _reproduce(args: argparse.Namespace) -> int:
         "dvs": (dvs_train, dvs_tune), "sim": (sim_train, sim_tune),
         "combined": (dvs_train, dvs_tune), "combined, Table 1 as published": (dvs_train, dvs_tune),
     }  # fmt: skip
+    # name -> the sets whose recordings the network learns from (uavsnn.provenance): its
+    # training windows' (a combined network's are drawn from both) and identification's.
+    learned = {
+        "dvs": [dvs_train], "sim": [sim_train], "combined": [dvs_train, sim_train],
+        "combined, Table 1 as published": [dvs_train, sim_train],
+    }  # fmt: skip
     # name -> (config, training windows, model file)
     runs: dict[str, tuple[dict[str, Any], LabelledWindows, str]] = {
         "dvs": (recipe, dvs_train, "model-dvs.npz"),
@@ -513,6 +521,8 @@ def _reproduce(args: argparse.Namespace) -> int:
             net.identification, fits[name]["tracks"] = tune_track_alarms(
                 net, minutes=args.track_minutes, seed=tune_seed, runner=runner
             )
+        fitted_on = [d for d in ident_data[name] if d is not None]
+        net.trained_on = TrainedOn.of_sets(*learned[name], *fitted_on)
         net.save(out / model_file)
         networks[name] = net
         evaluations[name] = runner.submit(evaluate_task, net, test_ref, {"keep_inference": True})

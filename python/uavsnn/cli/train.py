@@ -458,12 +458,7 @@ def _train(args: argparse.Namespace) -> int:
 def _trained_on(data: Any, tune: Any) -> TrainedOn:
     """What the model is trained on: ``data``'s windows and recordings, and those of the
     tuning set ``tune`` (``None``: held out of ``data``)."""
-    trained = TrainedOn.of(data.manifest or {}, data.recording)
-    if tune is not None:
-        # The tuning set's windows are ``data``'s kind (checked): its recordings join.
-        tuned = TrainedOn.of(tune.manifest or {}, tune.recording)
-        trained = tuned.joined(trained)
-    return trained
+    return TrainedOn.of_sets(data, *([] if tune is None else [tune]))
 
 
 def _tuning_advice(manifest: dict[str, Any] | None) -> str:
