@@ -234,7 +234,9 @@ def _encode_bgr8(
 ) -> np.ndarray:
     """A video camera: gamma 1/2.2, read and shot noise that grow as the light falls, 8 bits."""
     x = np.clip(lin * np.float32(level), 0.0, 1.0)
-    v = cv2.pow(x, 1.0 / 2.2) * np.float32(255.0)
+    # In software, as the renderer's other functions (uavsnn.scenes.portable): OpenCV's pow
+    # rounds float32 otherwise in its SIMD and scalar code, and the sim frames with it.
+    v = portable.power(x, 1.0 / 2.2).astype(np.float32) * np.float32(255.0)
     sigma = noise * (1.0 + 1.5 * math.log10(1.0 / max(level, 1e-3)))
     if sigma > 0 and grain is not None:
         # A random crop of a pre-drawn field of unit noise: independent enough from frame to
