@@ -154,6 +154,16 @@ def write_clip() -> Callable[..., None]:
 
 
 @pytest.fixture
+def one_clip(tmp_path: Path, write_clip: Callable[..., None]) -> Path:
+    """A folder, ``tmp_path / "videos"``, of one labelled clip: V_DRONE_001.avi (320x256) and
+    its .csv, 6 frames."""
+    videos = tmp_path / "videos"
+    videos.mkdir()
+    write_clip(videos, "V_DRONE_001", [(40 + 4 * k, 60) for k in range(6)])
+    return videos
+
+
+@pytest.fixture
 def clips(tmp_path: Path, write_clip: Callable[..., None]) -> Path:
     """A folder of five labelled clips of 320x256 (two drones, two birds, an airplane), as the
     tiny reproduce test's: ``tmp_path / "videos"``."""

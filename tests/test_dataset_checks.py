@@ -165,12 +165,9 @@ def test_an_interrupted_overwrite_leaves_the_old_dataset_and_the_owners_file(
 
 
 @pytest.fixture
-def folder(tmp_path: Path, write_clip: Callable[..., None]) -> Path:
-    """One labelled clip, V_DRONE_001.avi and .csv, of 6 frames."""
-    videos = tmp_path / "videos"
-    videos.mkdir()
-    write_clip(videos, "V_DRONE_001", [(40 + 4 * k, 60) for k in range(6)])
-    return videos
+def folder(one_clip: Path) -> Path:
+    """One labelled clip, V_DRONE_001.avi (320x256) and .csv, of 6 frames (conftest)."""
+    return one_clip
 
 
 def test_two_videos_of_one_name_are_refused(folder: Path) -> None:

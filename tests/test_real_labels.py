@@ -6,7 +6,6 @@ or UAV but is not the UAV class is refused; a byte-order mark and blank rows are
 from __future__ import annotations
 
 import shutil
-from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -25,12 +24,9 @@ HEADER = "frame,x,y,w,h"
 
 
 @pytest.fixture
-def folder(tmp_path: Path, write_clip: Callable[..., None]) -> Path:
-    """One labelled clip, V_DRONE_001.avi (320x256) and .csv, of 6 frames."""
-    videos = tmp_path / "videos"
-    videos.mkdir()
-    write_clip(videos, "V_DRONE_001", [(40 + 4 * k, 60) for k in range(6)])
-    return videos
+def folder(one_clip: Path) -> Path:
+    """One labelled clip, V_DRONE_001.avi (320x256) and .csv, of 6 frames (conftest)."""
+    return one_clip
 
 
 def _rows(folder: Path, *rows: str) -> Path:
