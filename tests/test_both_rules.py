@@ -7,6 +7,7 @@ from __future__ import annotations
 import pickle
 from dataclasses import replace
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -754,3 +755,25 @@ def test_mix_windows_draws_equal_shares_of_each_part(tiny) -> None:
     rec_test = np.asarray(test.recording)
     assert np.array_equal(whole.recording, np.concatenate([rec_test, rec_test + offset]))
     assert np.array_equal(whole.cls[n:], other.cls)
+
+
+def test_a_detection_lead_from_too_few_recordings_has_no_interval() -> None:
+    """The noise sweep's detection lead at a false-alarm rate takes the minimum of recordings
+    every interval over the recordings takes (evaluation.MIN_INTERVAL_RECORDINGS)."""
+    from uavsnn.evaluation import MIN_INTERVAL_RECORDINGS, roc_point_interval
+    from uavsnn.experiments import _lead
+
+    rng = np.random.default_rng(0)
+    n = 40
+    label = np.arange(n) % 2 == 0
+    mine, theirs = rng.random(n), rng.random(n)
+    for per_kind, drawn in ((MIN_INTERVAL_RECORDINGS - 1, False), (MIN_INTERVAL_RECORDINGS, True)):
+        # per_kind UAV and as many UAV-free recordings, windows dealt out in turn.
+        recording = np.where(label, np.arange(n) % per_kind, per_kind + np.arange(n) % per_kind)
+        data = SimpleNamespace(label=label, recording=recording)
+        lead = _lead(mine, theirs, data, 0.05)  # type: ignore[arg-type]
+        if drawn:
+            want = roc_point_interval(mine, label, recording, 0.05, against=theirs)
+            assert tuple(lead["interval"]) == want
+        else:
+            assert np.isnan(lead["interval"]).all()

@@ -5,6 +5,7 @@ PENT or static thresholds, and accuracy against additive noise (Table 3).
 
 from __future__ import annotations
 
+import math
 import platform
 import time
 from collections.abc import Iterable, Sequence
@@ -28,6 +29,7 @@ from uavsnn.evaluation import (
     detection_at_false_alarm,
     detection_by_target,
     identification_figures,
+    interval_recordings,
     roc_point_interval,
     score,
 )
@@ -467,12 +469,19 @@ def _lead(
     mine: np.ndarray, theirs: np.ndarray, data: LabelledWindows, rate: float
 ) -> dict[str, Any]:
     """``mine``'s detection at ``rate`` minus ``theirs`` (each at its own threshold on ``data``),
-    with the paired interval over the recordings."""
+    with the paired interval over the recordings: none, ``[nan, nan]``, with fewer than
+    :data:`~uavsnn.evaluation.MIN_INTERVAL_RECORDINGS` UAV or UAV-free recordings, as every
+    interval over the recordings."""
     actual = np.asarray(data.label, dtype=bool)
     lead = detection_at_false_alarm(mine, actual, rate) - detection_at_false_alarm(
         theirs, actual, rate
     )
-    interval = roc_point_interval(mine, actual, data.recording, rate, against=theirs)
+    from uavsnn import evaluation  # the minimum read when called, as evaluation's own
+
+    recording = np.asarray(data.recording)
+    if interval_recordings(recording, actual) < evaluation.MIN_INTERVAL_RECORDINGS:
+        return {"lead": lead, "interval": [math.nan, math.nan]}
+    interval = roc_point_interval(mine, actual, recording, rate, against=theirs)
     return {"lead": lead, "interval": list(interval)}
 
 
