@@ -335,3 +335,27 @@ def test_dataset_info_on_a_split_file_names_its_folder(
     assert line.endswith(f"a dataset is a folder (its folder is {split.parent})")
     line = one_line_exit_2(capsys, ["dataset", "info", str(tmp_path / "none")], "does not exist")
     assert line.startswith("uavsnn dataset info: error: dataset folder ")
+
+
+def test_a_clip_that_gave_no_usable_window_is_said(capsys: pytest.CaptureFixture[str]) -> None:
+    """A clip whose box file labels no window (its header alone) added nothing to the set, and
+    only the manifest's `usable` 0 showed it: `dataset build` and `dataset info` name it."""
+    from uavsnn.cli.dataset import _print, _summary
+
+    split = {"windows": 4, "uav": 2, "non_uav": 2, "classes": {"drone": 2}, "recordings": [0]}
+    manifest = {
+        "domain": "real", "source": "videos", "seed": 0,
+        "parameters": {"window_ms": 50.0, "overlap": 0.5, "sensor_size": [240, 180]},
+        "splits": {"train": split, "test": split},
+        "recordings": [
+            {"id": 0, "name": "V_DRONE_001", "domain": "real", "usable": 4},
+            {"id": 1, "name": "V_BIRD_002", "domain": "real", "usable": 0},
+        ],
+    }  # fmt: skip
+    summary = _summary(Path("set"), manifest)
+    assert summary["unusable_clips"] == ["V_BIRD_002"]
+    _print(summary, as_json=False)
+    assert "1 clip gave no usable window" in capsys.readouterr().out
+    manifest["recordings"][1]["usable"] = 3  # type: ignore[index]
+    _print(_summary(Path("set"), manifest), as_json=False)
+    assert "usable window" not in capsys.readouterr().out

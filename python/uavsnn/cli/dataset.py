@@ -246,6 +246,13 @@ def _summary(root: Path, manifest: dict[str, Any]) -> dict[str, Any]:
             for name, s in manifest["splits"].items()
         },
         "recordings": len(manifest.get("recordings", [])),
+        # Real clips that gave no usable window (a box file of its header alone, or labels
+        # that leave every window unscored): listed, and said, rather than dropped silently.
+        "unusable_clips": sorted(
+            str(r.get("name"))
+            for r in manifest.get("recordings", [])
+            if isinstance(r, dict) and r.get("domain") == "real" and r.get("usable") == 0
+        ),
         "lens": next(
             (src["lens"] for src in manifest["parameters"].get("sources", []) if "lens" in src),
             None,
@@ -273,6 +280,12 @@ def _print(summary: dict[str, Any], as_json: bool) -> None:
         print(
             f"  {name}: {s['windows']} windows ({s['uav']} UAV, {s['non_uav']} not) from "
             f"{counted(s['recordings'], 'recording')} — {classes}"
+        )
+    unusable = summary.get("unusable_clips") or []
+    if unusable:
+        print(
+            f"  {counted(len(unusable), 'clip')} gave no usable window (no window with its "
+            f"frames labelled; see each box file): {', '.join(unusable)}"
         )
 
 
