@@ -74,6 +74,7 @@ __all__ = [
     "confusion_matrix",
     "detection_at_false_alarm",
     "detection_by_target",
+    "drawn_point_interval",
     "evaluate",
     "first_detection_boxes",
     "first_detection_on_box",
@@ -181,6 +182,22 @@ def _drawn_interval(
     if agree and interval_recordings(recording, strata) < MIN_INTERVAL_RECORDINGS:
         return (_NAN, _NAN)
     return recording_interval(hit, recording, against=against, strata=strata)
+
+
+def drawn_point_interval(
+    scores: npt.ArrayLike,
+    actual: npt.ArrayLike,
+    recording: npt.ArrayLike,
+    rate: float,
+    *,
+    against: npt.ArrayLike | None = None,
+) -> tuple[float, float]:
+    """:func:`roc_point_interval` (with ``against``, the paired interval of a lead), where the
+    UAV and the UAV-free recordings each number at least :data:`MIN_INTERVAL_RECORDINGS`; else
+    none, ``(nan, nan)``: a point read off the ROC moves with both kinds of recording."""
+    if interval_recordings(recording, actual) < MIN_INTERVAL_RECORDINGS:
+        return (_NAN, _NAN)
+    return roc_point_interval(scores, actual, recording, rate, against=against)
 
 
 def _recording_counts(actual: np.ndarray, recording: np.ndarray) -> dict[str, int]:
@@ -586,10 +603,7 @@ def first_detection_on_box(
     if not len(rows):
         return out
     own = np.stack([rows[k] for k in ("x0", "y0", "x1", "y1")], axis=1).astype(np.float64)
-    label = box[which]
-    overlaps = (np.minimum(own[:, 2], label[:, 2]) > np.maximum(own[:, 0], label[:, 0])) & (
-        np.minimum(own[:, 3], label[:, 3]) > np.maximum(own[:, 1], label[:, 1])
-    )
+    overlaps = box_iou(own, box[which]) > 0  # by some area (a window without a box: none)
     big = np.iinfo(np.int64).max
     first = np.full(n, big, dtype=np.int64)
     np.minimum.at(first, which[overlaps], t[overlaps])
@@ -777,8 +791,6 @@ def identification_figures(
 
     roc: dict[str, Any] | None = None
     at_fa = []
-    # A point read off the ROC moves with both kinds of recording (roc_point_interval).
-    drawable = interval_recordings(rec, actual) >= MIN_INTERVAL_RECORDINGS
     if both:
         fa, pd = roc_curve(combined, actual)
         keep = np.unique(np.linspace(0, len(fa) - 1, min(roc_points, len(fa))).round().astype(int))
@@ -790,9 +802,7 @@ def identification_figures(
         }
         for r in FALSE_ALARM_RATES:
             point = at(r, threshold_at_false_alarm(combined, actual, r))
-            point["detection_interval"] = (
-                list(roc_point_interval(combined, actual, rec, r)) if drawable else [_NAN, _NAN]
-            )
+            point["detection_interval"] = list(drawn_point_interval(combined, actual, rec, r))
             at_fa.append(point)
     identified = combined >= threshold
     out = {

@@ -5,7 +5,6 @@ PENT or static thresholds, and accuracy against additive noise (Table 3).
 
 from __future__ import annotations
 
-import math
 import platform
 import time
 from collections.abc import Iterable, Sequence
@@ -28,9 +27,8 @@ from uavsnn.evaluation import (
     check_test_set,
     detection_at_false_alarm,
     detection_by_target,
+    drawn_point_interval,
     identification_figures,
-    interval_recordings,
-    roc_point_interval,
     score,
 )
 from uavsnn.network import CONV_LAYERS, Inference, Network, default_config
@@ -248,7 +246,7 @@ class NoisePoint:
     #: windows: ``{other: {rate: {"lead", "interval"}}}``, the detection at each of
     #: :data:`~uavsnn.evaluation.FALSE_ALARM_RATES` (each at its own threshold) minus the
     #: other's, with the paired 95 % interval over the recordings
-    #: (:func:`~uavsnn.evaluation.roc_point_interval` with ``against``); ``None`` elsewhere.
+    #: (:func:`~uavsnn.evaluation.drawn_point_interval` with ``against``); ``None`` elsewhere.
     leads: dict[str, dict[str, dict[str, Any]]] | None = None
     #: The first mode's accuracy lead over each other mode on the same noisy windows, by
     #: rule: ``{other: {"any_spike" | "identified": {"lead", "interval"}}}``, its accuracy
@@ -476,12 +474,7 @@ def _lead(
     lead = detection_at_false_alarm(mine, actual, rate) - detection_at_false_alarm(
         theirs, actual, rate
     )
-    from uavsnn import evaluation  # the minimum read when called, as evaluation's own
-
-    recording = np.asarray(data.recording)
-    if interval_recordings(recording, actual) < evaluation.MIN_INTERVAL_RECORDINGS:
-        return {"lead": lead, "interval": [math.nan, math.nan]}
-    interval = roc_point_interval(mine, actual, recording, rate, against=theirs)
+    interval = drawn_point_interval(mine, actual, data.recording, rate, against=theirs)
     return {"lead": lead, "interval": list(interval)}
 
 
