@@ -49,6 +49,7 @@ from uavsnn.events import EVENT_DTYPE, SensorSizeLike, packed_bytes
 from uavsnn.features import MAX_MEASURED_WINDOW_US, MAX_RATE_BINS, RATE_BIN_US, rate_bins
 from uavsnn.grouping import WindowGrouper, WindowObject, WindowReport, merge_boxes
 from uavsnn.network import WINDOW_DETECTION_DTYPE
+from uavsnn.provenance import DEFAULT_OVERLAP, DEFAULT_WINDOW_US
 from uavsnn.signature import BoxMeasure, measure_box
 from uavsnn.tracks import Tracker, tracker_for
 
@@ -115,11 +116,6 @@ else:  # hidden from type checkers, which would take any name of this module as 
             return WINDOW_DETECTION_DTYPE
         raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
-
-#: The window and overlap of a model that does not record its training windows
-#: (:attr:`uavsnn.network.Network.trained_on` ``None``).
-DEFAULT_WINDOW_US = 50_000
-DEFAULT_OVERLAP = 0.5
 
 _NO_DETECTIONS = np.empty(0, dtype=WINDOW_DETECTION_DTYPE)
 _NO_DETECTIONS.flags.writeable = False

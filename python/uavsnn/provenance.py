@@ -31,6 +31,8 @@ from uavsnn.errors import ModelFileError
 
 __all__ = [
     "ARRAY",
+    "DEFAULT_OVERLAP",
+    "DEFAULT_WINDOW_US",
     "VERSION",
     "TrainedOn",
     "recording_key",
@@ -40,6 +42,10 @@ __all__ = [
 
 #: The model file's entry.
 ARRAY = "trained_on"
+#: The window and overlap of a model that does not record its training windows, and of a
+#: dataset whose manifest does not say (:class:`~uavsnn.detector.Detector`'s defaults then).
+DEFAULT_WINDOW_US = 50_000
+DEFAULT_OVERLAP = 0.5
 #: The entry's version: a file of a later one is refused.
 VERSION = 1
 
@@ -113,8 +119,8 @@ class TrainedOn:
         ids = {int(r) for r in np.unique(np.asarray(recording_ids)).tolist()}
         found = recordings_of(manifest, dict.fromkeys(ids, ""))
         return cls(
-            window_us=int(parameters.get("window_us", 50_000)),
-            overlap=float(parameters.get("overlap", 0.5)),
+            window_us=int(parameters.get("window_us", DEFAULT_WINDOW_US)),
+            overlap=float(parameters.get("overlap", DEFAULT_OVERLAP)),
             recordings=tuple(sorted((key, name) for key, (name, _) in found.items())),
         )
 

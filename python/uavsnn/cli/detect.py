@@ -35,6 +35,7 @@ import numpy as np
 from uavsnn import _jsonout
 from uavsnn.distributed import add_ray_option
 from uavsnn.errors import ParameterError
+from uavsnn.provenance import DEFAULT_OVERLAP, DEFAULT_WINDOW_US
 from uavsnn.track_eval import Confirm
 
 __all__ = ["register"]
@@ -114,13 +115,13 @@ def register(subparsers: Any) -> None:
         "--window-ms",
         type=float,
         help="window length in ms (default: the window the model was trained on, as uavsnn "
-        "info shows it; 50 for a model that does not record it)",
+        f"info shows it; {DEFAULT_WINDOW_US / 1000:g} for a model that does not record it)",
     )
     p.add_argument(
         "--overlap",
         type=float,
-        help="window overlap in [0, 1) (default: the model's training overlap; 0.5 for a "
-        "model that does not record it)",
+        help="window overlap in [0, 1) (default: the model's training overlap; "
+        f"{DEFAULT_OVERLAP:g} for a model that does not record it)",
     )
     p.add_argument(
         "--start-us",

@@ -12,8 +12,10 @@ import numpy as np
 
 from uavsnn import _jsonout, io
 from uavsnn._npy import npz_arrays
+from uavsnn.cli import counted
 from uavsnn.errors import ParameterError
 from uavsnn.events import Recording
+from uavsnn.provenance import ARRAY, DEFAULT_OVERLAP, DEFAULT_WINDOW_US
 
 if TYPE_CHECKING:
     from uavsnn.network import Network
@@ -81,8 +83,6 @@ def is_model_file(path: str | Path) -> bool:
 
 
 def _is_model_array(name: str) -> bool:
-    from uavsnn.provenance import ARRAY
-
     return name in MODEL_ARRAYS or name == ARRAY or name.startswith("identify.")
 
 
@@ -167,15 +167,14 @@ def _print_model(info: dict[str, Any]) -> None:
     trained = info["trained_on"]
     if trained is None:
         print(
-            "trained on:  not recorded (`uavsnn detect` windows of 50 ms, overlap 0.5, unless "
-            "told otherwise)"
+            f"trained on:  not recorded (`uavsnn detect` windows of {DEFAULT_WINDOW_US / 1000:g} "
+            f"ms, overlap {DEFAULT_OVERLAP:g}, unless told otherwise)"
         )
     else:
-        n = trained["recordings"]
         print(
             f"trained on:  windows of {trained['window_us'] / 1000:g} ms, overlap "
-            f"{trained['overlap']:g} (`uavsnn detect` takes them), from {n} "
-            f"recording{'s' if n != 1 else ''}"
+            f"{trained['overlap']:g} (`uavsnn detect` takes them), from "
+            f"{counted(trained['recordings'], 'recording')}"
         )
     ident = info["identification"]
     if ident is None:
