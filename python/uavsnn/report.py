@@ -478,11 +478,19 @@ def _noise_detection_table(points: Sequence[NoisePoint], modes: Sequence[str]) -
     return "\n".join(rows) + "\n"
 
 
+def _drawn(interval: Sequence[float] | None) -> Sequence[float] | None:
+    """A figure's interval, or ``None`` where it has none: ``None``, or NaN (drawn from too few
+    recordings, :data:`uavsnn.evaluation.MIN_INTERVAL_RECORDINGS`)."""
+    if interval is None or any(math.isnan(v) for v in interval):
+        return None
+    return interval
+
+
 def lead_text(lead: dict[str, Any]) -> str:
     """``"+1.9 (-3.1 to +6.0)"``: a lead in points, with its interval; ``"+1.9 (–)"`` where it
     has none (too few recordings: :data:`uavsnn.evaluation.MIN_INTERVAL_RECORDINGS`)."""
-    interval = lead.get("interval")
-    if interval is None or any(math.isnan(v) for v in interval):
+    interval = _drawn(lead.get("interval"))
+    if interval is None:
         return f"{100 * lead['lead']:+.1f} (–)"
     lo, hi = interval
     return f"{100 * lead['lead']:+.1f} ({100 * lo:+.1f} to {100 * hi:+.1f})"
@@ -492,9 +500,10 @@ def interval_text(interval: Sequence[float] | None, head: str = "95 % interval")
     """``"95 % interval 28.3-40.4"`` (per cent), or, where the figure has none (``None`` or
     NaN: drawn from fewer than :data:`uavsnn.evaluation.MIN_INTERVAL_RECORDINGS` recordings of
     a kind), ``"no 95 % interval: fewer than 5 recordings of a kind"``, for a line of text."""
-    if interval is None or any(math.isnan(v) for v in interval):
+    drawn = _drawn(interval)
+    if drawn is None:
         return f"no {head}: fewer than {MIN_INTERVAL_RECORDINGS} recordings of a kind"
-    return f"{head} {100 * interval[0]:.1f}-{100 * interval[1]:.1f}"
+    return f"{head} {100 * drawn[0]:.1f}-{100 * drawn[1]:.1f}"
 
 
 def _latency_left_out(left: dict[str, int], *, alone: bool = False) -> str:
@@ -520,7 +529,7 @@ def _no_interval_note(
     """What a ``–`` in place of a 95 % interval means, after ``lead``, where one of
     ``intervals`` is none (NaN), with the set's UAV and UAV-free ``recordings`` (``{"uav",
     "uav_free"}``); else nothing."""
-    missing = any(i is not None and any(math.isnan(v) for v in i) for i in intervals)
+    missing = any(i is not None and _drawn(i) is None for i in intervals)
     if not missing:
         return ""
     counts = ""
@@ -545,7 +554,7 @@ def percent_with_interval(
     text = f"**{percent(share)}**" if bold and share is not None else percent(share)
     if share is None or interval is None or math.isnan(share):
         return text
-    if any(math.isnan(v) for v in interval):
+    if _drawn(interval) is None:
         return f"{text} (–)"
     return f"{text} ({100 * interval[0]:.1f}–{100 * interval[1]:.1f})"
 
@@ -745,8 +754,7 @@ def roc_chart(
                     float(p["detection_interval"][1]),
                 )
                 for p in at
-                if p.get("detection_interval") is not None
-                and not any(math.isnan(v) for v in p["detection_interval"])
+                if _drawn(p.get("detection_interval")) is not None
             ]
             for name, at in (points or {}).items()
             if name in rocs
