@@ -683,7 +683,7 @@ def fit_network(
     )
     # The classes of the training windows' labelled objects the class guess cannot give:
     # fewer than MIN_CLASS_OBJECTS of their objects were detected and met their box.
-    labelled = {
+    named = {
         UAV_CLASS if uav else str(c)
         for c, uav in zip(train.cls.tolist(), train.label.tolist(), strict=True)
         if str(c) not in ("", "none")
@@ -692,7 +692,7 @@ def fit_network(
         "train_windows": len(train),
         "tune_windows": len(tune),
         "classes": list(fitted.classes),
-        "classes_left_out": sorted(labelled - set(fitted.classes)),
+        "classes_left_out": sorted(named - set(fitted.classes)),
         "tune": HELD_OUT_TUNING if held_out else SEPARATE_TUNING,
         "tune_lacks": list(missing_classes(train_feats, tune_feats)),
         "model": model_name(fitted),
