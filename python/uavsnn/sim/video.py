@@ -109,8 +109,9 @@ def _open(path: str | Path) -> cv2.VideoCapture:
 
 
 def _fps(cap: cv2.VideoCapture, fps: float | None, path: str | Path) -> float:
+    """``fps`` (checked by :func:`iter_video`), else the container's frame rate."""
     if fps is not None:
-        return check_real("fps", fps, low=0.0, low_open=True, high=1e6)
+        return fps
     reported = float(cap.get(cv2.CAP_PROP_FPS))
     if not math.isfinite(reported) or not 0.0 < reported <= 1e6:
         raise SimulationError(
@@ -181,16 +182,29 @@ def iter_video(
 
     Raises:
         SimulationError: a missing, unreadable or empty video, no usable frame rate, frames
-            that change size when ``size`` is ``None``.
-        ParameterError: a bad parameter, a ``path`` that is not a ``str`` or
-            ``os.PathLike[str]``, or frames resized to ``size`` that would not fit in
-            ``uavsnn.windows.MEMORY_LIMIT`` (refused before a frame is read).
+            that change size when ``size`` is ``None`` (as the frames are read).
+        ParameterError: a bad parameter, or frames resized to ``size`` that would not fit in
+            ``uavsnn.windows.MEMORY_LIMIT`` (at the call, before a frame is read); a ``path``
+            that is not a ``str`` or ``os.PathLike[str]`` (at the first frame).
     """
     check_choice("color", color, ("gray", "bgr"))
     target = None if size is None else check_size(size)
     limit = None if max_frames is None else check_int("max_frames", max_frames, low=1, high=2**62)
+    rate = None if fps is None else check_real("fps", fps, low=0.0, low_open=True, high=1e6)
     if target is not None and resize:
         _check_frame_memory(target, color)
+    return _frames(path, target, limit, color, rate, resize)
+
+
+def _frames(
+    path: str | Path,
+    target: tuple[int, int] | None,
+    limit: int | None,
+    color: Color,
+    fps: float | None,
+    resize: bool,
+) -> Iterator[tuple[np.ndarray, int]]:
+    """:func:`iter_video`'s frames, its arguments checked."""
     cap = _open(path)
     try:
         rate = _fps(cap, fps, path)
@@ -362,11 +376,6 @@ def video_to_recording(
         raise ParameterError(
             f"mode={mode!r} takes {expected.__name__}, got {type(params).__name__}"
         )
-    # Checked before the progress bar starts (iter_video checks them at its first frame).
-    if max_frames is not None:
-        check_int("max_frames", max_frames, low=1, high=2**62)
-    if fps is not None:
-        check_real("fps", fps, low=0.0, low_open=True, high=1e6)
     info = probe_video(path)
     sim: Pix2NvsSimulator | DvsEmulator | None = None
     if downsample == "frames":
