@@ -95,7 +95,7 @@ def test_piped_commands_print_plain_progress_lines(tmp_path: Path) -> None:
                 cwd=tmp_path)  # fmt: skip
     assert built.returncode == 0, built.stderr
     lines = built.stderr.splitlines()
-    assert "\r" not in built.stderr and lines[0] == "dataset: 0 steps (0 s)"
+    assert "\r" not in built.stderr and lines[0] == "dataset: started"
     assert " steps (" in lines[-1] and lines[-1].endswith(" done")
     trained = run("train", "data", "-o", "m.npz", "--windows-per-layer", "20", cwd=tmp_path)
     assert trained.returncode == 0, trained.stderr
@@ -126,3 +126,17 @@ def test_a_line_counts_its_unit_in_the_plural_but_for_one() -> None:
         out = io.StringIO()
         LineProgress(total, "x", unit, stream=out, clock=Clock())
         assert out.getvalue().startswith(f"x: {want} ("), out.getvalue()
+
+
+def test_an_unknown_total_starts_with_started_not_zero_steps() -> None:
+    # `dataset build` counts steps of a total it does not know: its first line read "0 steps".
+    out, clock = io.StringIO(), Clock()
+    p = LineProgress(None, "dataset", " step", stream=out, clock=clock)
+    clock.now = 20.0
+    p.update(2)
+    p.close()
+    assert out.getvalue().splitlines() == [
+        "dataset: started",
+        "dataset: 2 steps (20 s)",
+        "dataset: 2 steps (20 s) done",
+    ]

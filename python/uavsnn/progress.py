@@ -67,18 +67,21 @@ class LineProgress:
             self._line(done=True)
 
     def _line(self, done: bool = False) -> None:
+        if not self.total and not self.n and not done:
+            # Nothing counted of an unknown total: "0 steps" would read as no work to do.
+            self._print(f"{self.desc}: started")
+            return
         count = f"{self.n}/{self.total}" if self.total else f"{self.n}"
         # The unit as tqdm takes it, in the singular ("step/s"); counted here, its plural.
         shown = self.total if self.total else self.n
         unit = f" {_plural(self.unit) if shown != 1 else self.unit}" if self.unit else ""
         post = f" [{self.postfix}]" if self.postfix else ""
         state = " done" if done else ""
+        self._print(f"{self.desc}: {count}{unit}{post} ({self.clock() - self.start:.0f} s){state}")
+
+    def _print(self, line: str) -> None:
         try:
-            print(
-                f"{self.desc}: {count}{unit}{post} ({self.clock() - self.start:.0f} s){state}",
-                file=self.stream,
-                flush=True,
-            )
+            print(line, file=self.stream, flush=True)
         except (OSError, ValueError):
             # The reader went away (a closed pipe: BrokenPipeError, or on Windows EINVAL), or
             # the stream closed: a progress line is never worth stopping the work for.
