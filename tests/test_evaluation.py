@@ -716,3 +716,21 @@ def test_roc_point_interval_refuses_what_it_cannot_draw() -> None:
         roc_point_interval(s, a, rec, 0.01, resamples=True)
     with pytest.raises(DatasetError, match="UAV and UAV-free"):
         roc_point_interval(s, np.ones(4, bool), rec, 0.01)
+
+
+def test_a_point_past_the_rules_reach_is_the_lowest_detections_score() -> None:
+    """Where a false-alarm share needs more UAV-free windows than the any-spike rule calls,
+    every detection alarms: the point's threshold is the lowest detection's score (it was the
+    float just above -inf, -1.797e308 in the JSON), with the same alarms."""
+    from uavsnn.evaluation import identification_figures
+
+    label = np.arange(40) % 2 == 0
+    called = label | (np.arange(40) == 1)  # one UAV-free window of 20 called: 5 %
+    scores = np.linspace(0.2, 0.9, 40)
+    figures = identification_figures(called, scores, _recorded(label, np.arange(40)), 0.5)
+    at1, at5 = figures["at_false_alarm"]
+    # 1 %: no UAV-free window may alarm, just above the one called.
+    assert at1["threshold"] == np.nextafter(scores[1], np.inf) and at1["false_alarm_rate"] == 0
+    # 5 %: one may, and the rule calls no second: every detection alarms.
+    assert at5["false_alarm_target"] == 0.05 and at5["threshold"] == scores[called].min()
+    assert at5["false_alarm_rate"] == 0.05 and at5["detection_rate"] == 1.0

@@ -800,8 +800,12 @@ def identification_figures(
             # Up to the any-spike rule's own false-alarm rate: windows it misses never alarm.
             "area_reachable": float(np.sum(np.diff(fa) * (pd[1:] + pd[:-1]) / 2)),
         }
+        # Where a share needs more windows than the rule calls, every detection alarms: the
+        # point is the lowest detection's score, not the float just above -inf that stands for
+        # it (-1.797e308 in the JSON).
+        lowest = float(s[fired].min()) if fired.any() else float(s.min())
         for r in FALSE_ALARM_RATES:
-            point = at(r, threshold_at_false_alarm(combined, actual, r))
+            point = at(r, max(threshold_at_false_alarm(combined, actual, r), lowest))
             point["detection_interval"] = list(drawn_point_interval(combined, actual, rec, r))
             at_fa.append(point)
     identified = combined >= threshold
