@@ -175,6 +175,12 @@ def test_identify_draws_fits_each_group_of_features(bench_script, tmp_path, monk
     assert set(full["scored"]) == set(fewer["scored"]) == {str(s2)}
     assert full["features"] == list(GROUPS["all"])
     assert fewer["features"] == list(GROUPS["no_activity_history"])
+    # As text: these sets draw from fewer than 5 UAV-free recordings, so no interval ("nan-nan").
+    monkeypatch.setattr("sys.argv", [a for a in argv if a != "--json"])
+    draws.main()
+    text = capsys.readouterr().out
+    assert "set for 1 %: false alarms" in text and "nan" not in text
+    assert "no 95 % interval: fewer than 5 recordings of a kind; 2 UAV-free" in text
 
 
 def test_rss_noise_runs_a_level_in_parts_with_the_points_of_one(bench_script) -> None:

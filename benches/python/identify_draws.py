@@ -40,6 +40,7 @@ from uavsnn import Network, identify  # noqa: E402
 from uavsnn.dataset import LabelledWindows, load  # noqa: E402
 from uavsnn.evaluation import detection_by_target  # noqa: E402
 from uavsnn.experiments import both_rules, mix_windows  # noqa: E402
+from uavsnn.report import interval_text  # noqa: E402
 
 
 def joined(spec: str) -> LabelledWindows:
@@ -153,10 +154,11 @@ def main() -> None:
                     for c, v in p["per_class"].items()
                     if v > 0
                 )
-                lo, hi = p["false_alarm_interval"]
+                # No interval from fewer than MIN_INTERVAL_RECORDINGS UAV-free recordings.
+                drawn = interval_text(p["false_alarm_interval"])
                 print(
                     f"    set for {100 * p['target']:g} %: false alarms "
-                    f"{100 * p['false_alarms']:.1f} % ({100 * lo:.1f}-{100 * hi:.1f} over "
+                    f"{100 * p['false_alarms']:.1f} % ({drawn}; "
                     f"{s['uav_free_recordings']} UAV-free recordings), detection "
                     f"{100 * p['detection']:.1f} % ({classes})"
                 )
