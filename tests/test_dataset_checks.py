@@ -359,3 +359,33 @@ def test_a_clip_that_gave_no_usable_window_is_said(capsys: pytest.CaptureFixture
     manifest["recordings"][1]["usable"] = 3  # type: ignore[index]
     _print(_summary(Path("set"), manifest), as_json=False)
     assert "usable window" not in capsys.readouterr().out
+
+
+def test_a_clip_labelled_in_part_is_said(capsys: pytest.CaptureFixture[str]) -> None:
+    """A box file made for part of a clip (labels that stop short of the video) left the rest of
+    its windows unscored without a word: a clip that leaves more than a tenth is named."""
+    from uavsnn.cli.dataset import PARTLY_LABELLED, _print, _summary
+
+    split = {"windows": 4, "uav": 2, "non_uav": 2, "classes": {"drone": 2}, "recordings": [0]}
+    manifest = {
+        "domain": "real", "source": "videos", "seed": 0,
+        "parameters": {"window_ms": 50.0, "overlap": 0.5, "sensor_size": [240, 180]},
+        "splits": {"train": split, "test": split},
+        "recordings": [
+            {"id": 0, "name": "V_DRONE_001", "domain": "real", "usable": 398, "windows": 401},
+            {"id": 1, "name": "V_BIRD_002", "domain": "real", "usable": 200, "windows": 401},
+            {"id": 2, "name": "V_BIRD_003", "domain": "real", "usable": 0, "windows": 401},
+        ],
+    }  # fmt: skip
+    summary = _summary(Path("set"), manifest)
+    assert PARTLY_LABELLED == 0.1
+    assert summary["partly_labelled_clips"] == [
+        {"name": "V_BIRD_002", "usable": 200, "windows": 401}
+    ]  # the clip of no usable window is said apart
+    _print(summary, as_json=False)
+    out = capsys.readouterr().out
+    assert "1 clip left more than 10 % of its windows unscored" in out
+    assert "V_BIRD_002 (200 of 401)" in out and "V_DRONE_001" not in out
+    manifest["recordings"][1]["usable"] = 361  # type: ignore[index]
+    _print(_summary(Path("set"), manifest), as_json=False)
+    assert "unscored" not in capsys.readouterr().out

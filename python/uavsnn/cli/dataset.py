@@ -233,6 +233,11 @@ def _parameters(manifest: dict[str, Any]) -> dict[str, Any]:
     return params
 
 
+#: The share of a real clip's windows left unscored above which `dataset build` and `dataset
+#: info` name the clip (none of the reference clips but one leaves more than 8 %).
+PARTLY_LABELLED = 0.1
+
+
 def _summary(root: Path, manifest: dict[str, Any]) -> dict[str, Any]:
     return {
         "root": str(root),
@@ -253,6 +258,18 @@ def _summary(root: Path, manifest: dict[str, Any]) -> dict[str, Any]:
             for r in manifest.get("recordings", [])
             if isinstance(r, dict) and r.get("domain") == "real" and r.get("usable") == 0
         ),
+        # Real clips that leave more than PARTLY_LABELLED of their windows unscored (frames
+        # without a box row: labels that stop short of the video, or gaps): said, as a box file
+        # made for part of a clip leaves it.
+        "partly_labelled_clips": [
+            {"name": str(r.get("name")), "usable": r["usable"], "windows": r["windows"]}
+            for r in manifest.get("recordings", [])
+            if isinstance(r, dict)
+            and r.get("domain") == "real"
+            and isinstance(r.get("windows"), int)
+            and isinstance(r.get("usable"), int)
+            and 0 < r["usable"] < (1 - PARTLY_LABELLED) * r["windows"]
+        ],
         "lens": next(
             (src["lens"] for src in manifest["parameters"].get("sources", []) if "lens" in src),
             None,
@@ -286,6 +303,14 @@ def _print(summary: dict[str, Any], as_json: bool) -> None:
         print(
             f"  {counted(len(unusable), 'clip')} gave no usable window (no window with its "
             f"frames labelled; see each box file): {', '.join(unusable)}"
+        )
+    partly = summary.get("partly_labelled_clips") or []
+    if partly:
+        named = ", ".join(f"{c['name']} ({c['usable']} of {c['windows']})" for c in partly)
+        print(
+            f"  {counted(len(partly), 'clip')} left more than {100 * PARTLY_LABELLED:g} % of "
+            f"{'its' if len(partly) == 1 else 'their'} windows unscored (frames without a box "
+            f"row; see each box file): {named}"
         )
 
 
