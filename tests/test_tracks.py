@@ -613,6 +613,10 @@ def test_a_network_runs_at_the_gate_its_identification_was_fitted_with(net: Netw
     assert _tracker("2/4", fitted).gate_px == 24.0 and _tracker(None, fitted) is None
     with pytest.raises(ParameterError, match="gate_px"):
         tracker_for(fitted, gate_px=10.0)
+    # A misspelt argument is a ParameterError naming it, as for_sensor's (a TypeError before).
+    for make in (lambda: tracker_for(fitted, confirm_hit=2), lambda: Tracker.for_sensor(240, a=1)):
+        with pytest.raises(ParameterError, match="unknown Tracker arguments"):
+            make()
 
 
 def test_the_drifting_blob_is_one_confirmed_track(net: Network) -> None:

@@ -24,7 +24,7 @@ import math
 import numbers
 import threading
 from collections import deque
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
@@ -424,11 +424,7 @@ class Tracker:
                 :class:`Tracker`, or another argument is out of range.
         """
         width = check_int("width", width, 1, 65535)
-        if "gate_px" in kwargs:
-            raise ParameterError("for_sensor sets gate_px from the width; use Tracker(gate_px=)")
-        unknown = set(kwargs) - set(inspect.signature(cls).parameters)
-        if unknown:
-            raise ParameterError(f"unknown Tracker arguments {sorted(unknown)}")
+        _check_others("for_sensor", "the width", kwargs)
         return cls(gate_px=GATE_SHARE * width, **kwargs)
 
     def reset(self) -> None:
@@ -632,6 +628,16 @@ class TrackResult:
     tracks: tuple[Track, ...]
 
 
+def _check_others(call: str, source: str, kwargs: Mapping[str, Any]) -> None:
+    """Refuse ``kwargs`` of ``call`` that name ``gate_px`` (set from ``source``) or no argument
+    of :class:`Tracker` (a ``TypeError`` of its ``__init__`` otherwise)."""
+    if "gate_px" in kwargs:
+        raise ParameterError(f"{call} sets gate_px from {source}; use Tracker(gate_px=)")
+    unknown = set(kwargs) - set(inspect.signature(Tracker).parameters)
+    if unknown:
+        raise ParameterError(f"unknown Tracker arguments {sorted(unknown)}")
+
+
 def tracker_for(network: Network, **kwargs: Any) -> Tracker:
     """The tracker ``network`` runs with, the one place that says which: the gate its
     identification's track features were fitted with when its model records one
@@ -642,10 +648,10 @@ def tracker_for(network: Network, **kwargs: Any) -> Tracker:
     build their tracker here.
 
     Raises:
-        ParameterError: ``kwargs`` names ``gate_px``, or another argument is out of range.
+        ParameterError: ``kwargs`` names ``gate_px`` or no argument of :class:`Tracker`, or
+            another argument is out of range.
     """
-    if "gate_px" in kwargs:
-        raise ParameterError("tracker_for sets gate_px from the network; use Tracker(gate_px=)")
+    _check_others("tracker_for", "the network", kwargs)
     ident = network.identification
     gate = None if ident is None else ident.gate_px
     if gate is None:
