@@ -542,6 +542,41 @@ def test_a_few_events_back_on_standard_input_are_dropped_not_a_restart() -> None
     np.testing.assert_array_equal(got, np.concatenate([old, later]))
 
 
+def test_standard_input_mostly_off_the_sensor_is_said_once(
+    model: Path,
+    events: np.ndarray,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """A camera of another size on standard input (a 1280x720 stream into a 240x180 model
+    dropped 214,543 of 219,596 events, still printed detections and exited 0, the drops one
+    count in the summary): when more than half of the first events lie off the sensor,
+    detect says so once, with what they reach."""
+    from uavsnn.sources import SIZE_CHECK_EVENTS, StdinSource
+
+    wide = np.tile(events, SIZE_CHECK_EVENTS // len(events) + 1)[: SIZE_CHECK_EVENTS + 5].copy()
+    wide["t"] = np.sort(wide["t"])
+    wide["x"][: len(wide) // 2 + 1] += np.uint16(SMALL_SENSOR[0])  # half and one off
+    src = StdinSource(io.BytesIO(wide.tobytes()), sensor_size=SMALL_SENSOR, read_size=1 << 12)
+    kept = np.concatenate(list(src))
+    off = len(wide) // 2 + 1  # all among the first SIZE_CHECK_EVENTS
+    assert src.size_note is not None and src.size_note.startswith(
+        f"{off} of the first {SIZE_CHECK_EVENTS} events lie off the 40x30 sensor (x up to "
+    )
+    assert len(kept) == len(wide) - len(wide) // 2 - 1
+    code, _, err = run_in_process(detect_argv(model), wide.tobytes(), monkeypatch, capsys)
+    assert code == 0 and err.count("lie off the 40x30 sensor") == 1
+    assert "is the sensor size right (--sensor-size)?" in err
+    # Half off, or all on the sensor: nothing said; a stream shorter than the check, judged
+    # at its end.
+    for shifted, said in ((50, None), (0, None), (51, "51 of the first 100 events")):
+        part = events[:100].copy()
+        part["x"][:shifted] += np.uint16(SMALL_SENSOR[0])
+        src = StdinSource(io.BytesIO(part.tobytes()), sensor_size=SMALL_SENSOR)
+        list(src)
+        assert (src.size_note is None) if said is None else (said in (src.size_note or ""))
+
+
 def test_detect_reports_the_old_stream_and_starts_again_after_a_restart(
     model: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -26,6 +26,9 @@ STDIN_FORMATS: tuple[str, ...] = ("packed", "csv")
 #: for a restarted sensor's, a new stream from the first of them (UDP counts packets instead:
 #: ``_core.RESTART_AFTER``).
 STDIN_RESTART_EVENTS = 1024
+#: The first events of standard input whose share off the sensor decides
+#: :attr:`StdinSource.size_note` (more than half off: most likely the wrong sensor size).
+SIZE_CHECK_EVENTS = 10_000
 
 _RECORD = EVENT_DTYPE.itemsize
 # The latest event time the engine takes, as the events' dtype.
@@ -77,6 +80,12 @@ class StdinSource(EventSource):
         self._last_t = 0
         self._back_run = 0  # usable events in a row that went back, up to now
         self._held: list[np.ndarray] = []  # those events, while their run is short
+        #: Set once, when more than half of the first :data:`SIZE_CHECK_EVENTS` events (or of
+        #: a shorter stream's) lie off the sensor: what they reach, and that the size given is
+        #: most likely wrong (each is otherwise one quiet drop). ``None`` until then.
+        self.size_note: str | None = None
+        self._checked = self._off = 0  # of those first events: counted, off the sensor
+        self._reach = (0, 0)  # the largest x and y among them
         # With heartbeats the descriptor is read directly, once select says it holds bytes (a
         # buffered reader may hold bytes select cannot see); a stream without one has none.
         self._fd: int | None = None
@@ -142,6 +151,7 @@ class StdinSource(EventSource):
                     self.stats.dropped += 1
                     self._lines += 1
                 chunk = self._parse_csv(data[:cut])
+            self._check_size(chunk)
             for part in self._usable(chunk):
                 self.stats.events += len(part)
                 yield part
@@ -154,12 +164,42 @@ class StdinSource(EventSource):
                 # A truncated last record: its bytes never made an event.
                 self.stats.dropped += 1
         self._drop_held()  # a run going back too short to be a restart
+        self._size_verdict()  # a stream shorter than SIZE_CHECK_EVENTS
         # Nothing usable, whether or not anything was dropped (an empty stream, a header
         # alone, one line taken as a header): most likely the wrong format.
         if self.stats.events == 0:
             raise StreamError(
                 f"standard input held no usable {self.fmt} event ({self.stats.dropped} dropped): "
                 "is --stdin-format right, and the sensor size?"
+            )
+
+    def _check_size(self, chunk: np.ndarray) -> None:
+        """Count the events of ``chunk`` among the first :data:`SIZE_CHECK_EVENTS` that lie off
+        the sensor, and set :attr:`size_note` once they are all seen."""
+        if self.sensor_size is None or self._checked >= SIZE_CHECK_EVENTS or not len(chunk):
+            return
+        head = chunk[: SIZE_CHECK_EVENTS - self._checked]
+        width, height = self.sensor_size
+        self._off += int(np.count_nonzero((head["x"] >= width) | (head["y"] >= height)))
+        self._reach = (
+            max(self._reach[0], int(head["x"].max())),
+            max(self._reach[1], int(head["y"].max())),
+        )
+        self._checked += len(head)
+        if self._checked >= SIZE_CHECK_EVENTS:
+            self._size_verdict()
+
+    def _size_verdict(self) -> None:
+        if (
+            self.size_note is None
+            and self.sensor_size is not None
+            and 2 * self._off > self._checked
+        ):
+            width, height = self.sensor_size
+            self.size_note = (
+                f"{self._off} of the first {self._checked} events lie off the {width}x{height} "
+                f"sensor (x up to {self._reach[0]}, y up to {self._reach[1]}) and are dropped: "
+                "is the sensor size right (--sensor-size)?"
             )
 
     def _usable(self, chunk: np.ndarray) -> Iterator[np.ndarray]:

@@ -90,7 +90,7 @@ from uavsnn._source_base import (
     SourceStats,
     check_seconds,
 )
-from uavsnn._stdin import STDIN_FORMATS, STDIN_RESTART_EVENTS, StdinSource
+from uavsnn._stdin import SIZE_CHECK_EVENTS, STDIN_FORMATS, STDIN_RESTART_EVENTS, StdinSource
 from uavsnn._validate import check_sensor_size
 from uavsnn.errors import ParameterError, UavsnnError
 from uavsnn.events import EVENT_DTYPE, SensorSizeLike
@@ -99,6 +99,7 @@ __all__ = [
     "MAX_IDLE_TIMEOUT",
     "PACKET_FORMATS",
     "RECEIVE_BUFFER",
+    "SIZE_CHECK_EVENTS",
     "STDIN_FORMATS",
     "STDIN_RESTART_EVENTS",
     "EventSource",

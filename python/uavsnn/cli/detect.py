@@ -607,9 +607,20 @@ def run(args: argparse.Namespace) -> int:
             source, detector, idle_flush_s=args.idle_flush, windows=not args.per_spike
         )
         interrupted: KeyboardInterrupt | None = None
+        size_said = False
+
+        def size_note() -> None:
+            # Standard input's first events mostly off the sensor: said once, not dropped quietly.
+            nonlocal size_said
+            note = getattr(source, "size_note", None)
+            if note and not size_said:
+                size_said = True
+                print(f"uavsnn detect: warning: {note}", file=err, flush=True)
+
         try:
             refused = 0
             for step in driver:
+                size_note()
                 if step.kind == "restarted":
                     printed = 0
                     print(
@@ -657,6 +668,7 @@ def run(args: argparse.Namespace) -> int:
             # 1, no summary: uavsnn.cli).
             quiet_stdout(out)
             return 1
+        size_note()
         summary.write(driver, final=True)
     if interrupted is not None:
         # As the command line reports any interruption (uavsnn.cli.main): one line, 128 + the
