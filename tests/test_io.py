@@ -73,6 +73,14 @@ def test_raw_without_geometry_or_camera_falls_back_and_says_so(
     assert rec.sensor_size == io.FAERY_FALLBACK_SIZE
     assert rec.metadata["sensor_size_source"] == "fallback"
     assert len(rec) == len(io.read(shared_data / "dvs" / "prophesee_gen3_spinner_evt2.raw"))
+    # The stand-in is refused by the detector's check, even for a model of its size: this
+    # 640x480 camera's events ran in the corner of a 1280x720 model without a word.
+    from uavsnn.sources import FileSource, check_fits
+
+    for model_size in (io.FAERY_FALLBACK_SIZE, (640, 480), (240, 180)):
+        with pytest.raises(uavsnn.ParameterError, match="records no sensor size"):
+            check_fits(FileSource(anonymous), model_size)
+    check_fits(FileSource(anonymous, sensor_size=(640, 480)), (640, 480))  # given, it fits
 
 
 def test_sensor_size_contradicting_the_file_is_refused(shared_data: Path) -> None:
