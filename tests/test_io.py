@@ -83,6 +83,27 @@ def test_raw_without_geometry_or_camera_falls_back_and_says_so(
     check_fits(FileSource(anonymous, sensor_size=(640, 480)), (640, 480))  # given, it fits
 
 
+def test_raw_without_a_version_line_is_read_as_evt3_and_the_error_says_so(
+    shared_data: Path, tmp_path: Path
+) -> None:
+    # The EVT 2.0 spinner without its header: read as EVT 3.0, its error advised a sensor size,
+    # which failed again.
+    data = (shared_data / "dvs" / "prophesee_gen3_spinner_evt2.raw").read_bytes()
+    start = 0
+    while data[start : start + 1] == b"%":
+        start = data.index(b"\n", start) + 1
+    bare = tmp_path / "bare.raw"
+    bare.write_bytes(data[start:])
+    for size in (None, (640, 480)):
+        with pytest.raises(uavsnn.RecordingFileError) as caught:
+            io.read(bare, sensor_size=size)
+        assert "names no EVT version, so it was read as EVT 3.0" in str(caught.value)
+        assert "needs a '% evt 2.0' line in its header" in str(caught.value)
+        assert ("give sensor_size; or its header" in str(caught.value)) == (size is None)
+    bare.write_bytes(b"% evt 2.0\n" + data[start:])  # the advice taken
+    assert len(io.read(bare, sensor_size=(640, 480))) == 539_481
+
+
 def test_sensor_size_contradicting_the_file_is_refused(shared_data: Path) -> None:
     with pytest.raises(uavsnn.ParameterError, match=r"contradicts the file's \(320, 240\)"):
         io.read(shared_data / "dvs" / "tonic_dvxplorer_person.aedat4", sensor_size=(640, 480))

@@ -501,6 +501,14 @@ def _read_faery(file: Path, kind: str, size: int, given: tuple[int, int] | None)
         raise
     except BaseException as exc:  # faery raises RuntimeError, bare Exception, and panics
         hint = _fallback_hint(sensor) if source == "fallback" and "overflow" in str(exc) else ""
+        if kind == "evt" and not header.get("<version>"):
+            # faery takes a RAW file that names no version for EVT 3.0: a sensor size given
+            # cannot help an EVT 2.0 file read so.
+            version = (
+                "its header names no EVT version, so it was read as EVT 3.0: an EVT 2.0 file "
+                "needs a '% evt 2.0' line in its header"
+            )
+            hint = f"{hint[:-1]}; or {version})" if hint else f" ({version})"
         raise RecordingFileError(f"{file}: cannot decode as {kind}: {exc}{hint}") from exc
     if kind == "dat" and "<data>" in header:  # (not found in a header beyond 64 KiB)
         check_dat_times(file, int(header["<data>"]))
