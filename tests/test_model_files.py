@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import SMALL_SENSOR, random_events, small_config
+from conftest import SMALL_SENSOR, one_line_exit_2, random_events, small_config
 
 import uavsnn.windows
 from uavsnn import Detector, Network
@@ -324,6 +324,19 @@ def test_a_smaller_recording_is_not_told_to_downsample(tmp_path: Path) -> None:
     path = tmp_path / "r40x30.npz"
     write_npz(Recording(random_events(20, model), model), path)
     check_fits(FileSource(path), model)
+
+
+def test_a_file_of_no_event_is_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # A RAW header alone (a file cut short inside its header) detected nothing and exited 0.
+    model = (40, 30)
+    path = tmp_path / "empty.npz"
+    write_npz(Recording(random_events(0, model), model), path)
+    with pytest.raises(ParameterError, match=r"empty\.npz holds no event: nothing to detect"):
+        check_fits(FileSource(path), model)
+    net = tmp_path / "m.npz"
+    Network(small_config(), seed=0).save(net)
+    line = one_line_exit_2(capsys, ["detect", str(path), "-m", str(net)], "holds no event")
+    assert line.startswith("uavsnn detect: error: ")
 
 
 def test_a_npy_recording_within_the_model_is_asked_for_its_sensor_size(

@@ -366,18 +366,23 @@ class UdpSource(EventSource):
 
 def check_fits(source: EventSource, model_size: tuple[int, int]) -> None:
     """Refuse a source whose sensor is not ``model_size``, a model's input, saying what fits
-    it (``uavsnn detect`` and :func:`uavsnn.distributed.detect_streams`' streams check their
-    source here). A source of no known size (standard input, UDP without ``sensor_size``)
-    passes: the detector then checks the events.
+    it, and a file that holds no event (``uavsnn detect`` and
+    :func:`uavsnn.distributed.detect_streams`' streams check their source here). A source of
+    no known size (standard input, UDP without ``sensor_size``) passes: the detector then
+    checks the events.
 
     Raises:
-        ParameterError: naming both sizes: a file is cropped and scaled with
+        ParameterError: a file of no event (a header alone, or cut short inside it: it would
+            detect nothing and exit 0, where standard input without a usable event is an
+            error); or, naming both sizes: a file is cropped and scaled with
             ``--downsample`` (``downsample_to``) when it is at least as large as the model's
             input on both axes (a smaller one needs a model of its size), unless it records
             no sensor size, which is to be given (a ``.npy`` file whose events' extent lies
             within the model's input is asked for its size too); a live stream is not cropped
             or scaled.
     """
+    if isinstance(source, FileSource) and not len(source.recording):
+        raise ParameterError(f"{source.path} holds no event: nothing to detect")
     size = source.sensor_size
     if size is None:
         return
