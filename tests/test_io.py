@@ -61,6 +61,28 @@ def test_raw_without_geometry_takes_the_cameras_size_and_says_so(shared_data: Pa
         assert rec.metadata["sensor_size_source"] == "camera"
         assert rec.metadata["camera"] == "gen3"
         assert len(rec) == len(io.read(shared_data / "dvs" / name, sensor_size=(640, 480)))
+        assert (
+            "sensor_size_note"
+            not in io.read(shared_data / "dvs" / name, sensor_size=(640, 480)).metadata
+        )
+
+
+def test_a_size_given_against_the_named_camera_is_taken_and_said(
+    shared_data: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # --sensor-size 1280x720 on a Gen3 file was taken without a word (info: "as given").
+    path = shared_data / "dvs" / "prophesee_gen3_spinner_evt2.raw"
+    rec = io.read(path, sensor_size=(1280, 720))
+    assert rec.sensor_size == (1280, 720) and rec.metadata["sensor_size_source"] == "argument"
+    note = rec.metadata["sensor_size_note"]
+    assert note == (
+        "prophesee_gen3_spinner_evt2.raw's header names a gen3 camera, whose sensor is 640x480, "
+        "and 1280x720 was given: the given size is taken"
+    )
+    from uavsnn.cli import main
+
+    assert main(["info", str(path), "--sensor-size", "1280x720"]) == 0
+    assert f"note:        {note}" in capsys.readouterr().out
 
 
 def test_raw_without_geometry_or_camera_falls_back_and_says_so(

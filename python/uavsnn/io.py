@@ -23,7 +23,10 @@ file whose header names the camera generation (Prophesee Gen3 files carry no geo
 (:data:`CAMERA_SENSOR_SIZES`, recorded in ``metadata["camera"]``); or else faery's fallback of
 1280×720 (``.npy``: the events' bounding box). The recording's
 ``metadata["sensor_size_source"]`` says which: ``"file"``, ``"argument"``, ``"camera"``,
-``"fallback"`` or ``"inferred"``. A ``sensor_size`` that contradicts the file's is an error.
+``"fallback"`` or ``"inferred"``. A ``sensor_size`` that contradicts the file's is an error;
+one that differs from the size of the camera its header names is taken, and
+``metadata["sensor_size_note"]`` says so (``uavsnn info`` and ``uavsnn detect`` print it: the
+table's sizes are each generation's usual sensor, not every variant's).
 
 A CSV file may start with a header line or not (faery would take the first line as a header
 always; a UTF-8 byte-order mark is skipped, and a first line that starts with a number is not a
@@ -334,6 +337,12 @@ def _sensor_size(
             raise ParameterError(f"{file}: sensor_size={given} contradicts the file's {geometry}")
         return geometry, "file"
     if given is not None:
+        if camera is not None and camera[1] != given:
+            (name, (width, height)), (gw, gh) = camera, given
+            metadata["sensor_size_note"] = (
+                f"{file.name}'s header names a {name} camera, whose sensor is {width}x{height}, "
+                f"and {gw}x{gh} was given: the given size is taken"
+            )
         return given, "argument"
     if camera is not None:
         metadata["camera"], sensor = camera

@@ -538,7 +538,14 @@ def run(args: argparse.Namespace) -> int:
     )
     from uavsnn.detector import Detector
     from uavsnn.driver import StreamDriver
-    from uavsnn.sources import IdleClock, UdpSource, check_fits, is_live, open_source
+    from uavsnn.sources import (
+        FileSource,
+        IdleClock,
+        UdpSource,
+        check_fits,
+        is_live,
+        open_source,
+    )
 
     _check_args(args)
     if args.more_sources or args.ray is not None:
@@ -584,6 +591,10 @@ def run(args: argparse.Namespace) -> int:
                 print(f"uavsnn detect: warning: {source.buffer_note}", file=err, flush=True)
         if network.load_note:
             print(f"uavsnn detect: note: {network.load_note}", file=err, flush=True)
+        if isinstance(source, FileSource) and source.recording.metadata.get("sensor_size_note"):
+            # A size given against the camera its header names: taken, and said.
+            note = source.recording.metadata["sensor_size_note"]
+            print(f"uavsnn detect: note: {note}", file=err, flush=True)
         summary = _Summary(args.summary_every, err)
         ident = network.identification
         classes = tuple(ident.classes) if ident is not None else ()

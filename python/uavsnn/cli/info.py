@@ -51,6 +51,7 @@ def summary(recording: Recording) -> dict[str, Any]:
         "sensor_size": list(recording.sensor_size),
         "sensor_size_source": recording.metadata.get("sensor_size_source"),
         "camera": recording.metadata.get("camera"),
+        "sensor_size_note": recording.metadata.get("sensor_size_note"),
         "events": n,
         "first_t_us": int(t[0]) if n else None,
         "last_t_us": int(t[-1]) if n else None,
@@ -231,6 +232,8 @@ def run(args: argparse.Namespace) -> int:
     source = _SOURCES.get(info["sensor_size_source"], info["sensor_size_source"])
     source = source.replace("{camera}", str(info["camera"]))
     print(f"sensor:      {width}x{height} ({source})")
+    if info.get("sensor_size_note"):
+        print(f"note:        {info['sensor_size_note']}")
     print(f"events:      {info['events']:,}")
     if info["events"]:
         print(f"time:        {info['first_t_us']} .. {info['last_t_us']} µs")
