@@ -493,3 +493,29 @@ def test_a_model_without_its_training_record_keeps_the_defaults(tmp_path: Path) 
         uavsnn.network._add_arrays(str(path), kept)
         with pytest.raises(ModelFileError, match=f"{ARRAY} entry is damaged"):
             Network.load(path)
+
+
+def test_detect_notes_a_window_the_model_was_not_trained_on(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # detect --window-ms 20 --overlap 0.9 on a model of 50 ms windows said nothing (evaluate
+    # notes a dataset windowed otherwise).
+    from conftest import random_events
+
+    from uavsnn.events import Recording
+    from uavsnn.io import write_npz
+    from uavsnn.provenance import TrainedOn
+
+    net = Network(CONFIG, seed=0)
+    net.trained_on = TrainedOn(50_000, 0.5)
+    net.save(tmp_path / "m.npz")
+    size = (int(net.config["width"]), int(net.config["height"]))
+    write_npz(Recording(random_events(500, size), size), tmp_path / "r.npz")
+    argv = ["detect", str(tmp_path / "r.npz"), "-m", str(tmp_path / "m.npz"), "--summary-every"]
+    for extra, said in (([], False), (["--window-ms", "50"], False), (["--overlap", "0.9"], True)):
+        assert main([*argv, "0", *extra]) == 0
+        err = capsys.readouterr().err
+        assert ("was trained on windows of 50 ms, overlap 0.5; these are" in err) == said, err
+    assert main([*argv, "0", "--window-ms", "20", "--overlap", "0"]) == 0
+    assert "overlap 0.5; these are 20 ms, overlap 0:" in capsys.readouterr().err
+    assert TrainedOn(50_000, 0.5).windowed_otherwise(50_000, 0.5) is None

@@ -140,6 +140,14 @@ class TrainedOn:
         both = dict(self.recordings) | dict(other.recordings)
         return TrainedOn(other.window_us, other.overlap, tuple(sorted(both.items())))
 
+    def windowed_otherwise(self, window_us: float, overlap: float) -> str | None:
+        """``"trained on windows of 50 ms, overlap 0.5"`` when windows of ``window_us`` and
+        ``overlap`` are not the model's, for a note (``uavsnn evaluate`` on a dataset windowed
+        otherwise, ``uavsnn detect`` told another window); ``None`` when they are."""
+        if (window_us, overlap) == (self.window_us, self.overlap):
+            return None
+        return f"trained on windows of {self.window_us / 1000:g} ms, overlap {self.overlap:g}"
+
     def shared_with(self, manifest: Mapping[str, Any], split: str) -> list[str]:
         """The names of the recordings of a dataset's ``split`` (``manifest``: the dataset's)
         that this model was trained on, in order."""

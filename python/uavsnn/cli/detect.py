@@ -591,6 +591,19 @@ def run(args: argparse.Namespace) -> int:
                 print(f"uavsnn detect: warning: {source.buffer_note}", file=err, flush=True)
         if network.load_note:
             print(f"uavsnn detect: note: {network.load_note}", file=err, flush=True)
+        otherwise = (
+            None
+            if network.trained_on is None
+            else network.trained_on.windowed_otherwise(detector.window_us, detector.overlap)
+        )
+        if otherwise:
+            print(
+                f"uavsnn detect: note: {args.model} was {otherwise}; these are "
+                f"{detector.window_us / 1000:g} ms, overlap {detector.overlap:g}: PENT's input "
+                "count and the identification's features are measured over the window",
+                file=err,
+                flush=True,
+            )
         if isinstance(source, FileSource) and source.recording.metadata.get("sensor_size_note"):
             # A size given against the camera its header names: taken, and said.
             note = source.recording.metadata["sensor_size_note"]

@@ -150,14 +150,12 @@ def _trained_here(
     parameters = manifest.get("parameters")
     parameters = parameters if isinstance(parameters, dict) else {}
     window, overlap = parameters.get("window_us"), parameters.get("overlap")
-    if (
-        isinstance(window, (int, float))
-        and isinstance(overlap, (int, float))
-        and (window, overlap) != (trained.window_us, trained.overlap)
-    ):
+    if not (isinstance(window, (int, float)) and isinstance(overlap, (int, float))):
+        return shared
+    otherwise = trained.windowed_otherwise(window, overlap)
+    if otherwise:
         print(
-            f"uavsnn evaluate: note: {args.model} was trained on windows of "
-            f"{trained.window_us / 1000:g} ms, overlap {trained.overlap:g}; {args.dataset}'s "
+            f"uavsnn evaluate: note: {args.model} was {otherwise}; {args.dataset}'s "
             f"are {window / 1000:g} ms, overlap {overlap:g}: its identification's features "
             "are measured over the window",
             file=sys.stderr,
