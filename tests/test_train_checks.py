@@ -519,3 +519,24 @@ def test_detect_notes_a_window_the_model_was_not_trained_on(
     assert main([*argv, "0", "--window-ms", "20", "--overlap", "0"]) == 0
     assert "overlap 0.5; these are 20 ms, overlap 0:" in capsys.readouterr().err
     assert TrainedOn(50_000, 0.5).windowed_otherwise(50_000, 0.5) is None
+
+
+def test_a_stratified_tuning_set_lacking_a_kind_is_told_to_hold_more_windows(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    # The note advised --stratify for a tuning set built with it, too small to hold every kind.
+    from uavsnn.cli.train import _print_identification
+
+    ident = {"model": "logistic", "train_windows": 60, "tune_windows": 60, "tune": "tune set"}
+    ident |= {"l2": 1.0, "threshold": 0.5, "tune_lacks": ["leaf"]}
+    advice = {
+        None: "`uavsnn dataset build --stratify` makes a tuning set",
+        "stratified": "a tuning set of more windows (--n-train) has them",
+    }
+    for scenes, said in advice.items():
+        tune = {"domain": "dvs", "parameters": {"object_scenes": scenes}}
+        _print_identification(ident, {"domain": "dvs"}, tune)
+        out = capsys.readouterr().out
+        assert "the tuning windows hold no leaf object" in out and said in out
+    _print_identification(ident, {"domain": "real"}, None)
+    assert "a tuning set built from videos of every class has them" in capsys.readouterr().out

@@ -450,7 +450,9 @@ def _train(args: argparse.Namespace) -> int:
             )
         for layer in summary["resumed"]:
             print(f"{layer}: from the checkpoint")
-        _print_identification(summary.get("identify", {}), data.manifest)
+        _print_identification(
+            summary.get("identify", {}), data.manifest, None if tune is None else tune.manifest
+        )
         print(f"wrote {args.output}")
     return 0
 
@@ -472,7 +474,11 @@ def _tuning_advice(manifest: dict[str, Any] | None) -> str:
     return "`uavsnn dataset build TUNE --seed OTHER --stratify`"
 
 
-def _print_identification(ident: dict[str, Any], manifest: dict[str, Any] | None = None) -> None:
+def _print_identification(
+    ident: dict[str, Any],
+    manifest: dict[str, Any] | None = None,
+    tune_manifest: dict[str, Any] | None = None,
+) -> None:
     if "skipped" in ident:
         print(f"identification skipped: {ident['skipped']}")
     elif ident:
@@ -527,6 +533,10 @@ def _print_identification(ident: dict[str, Any], manifest: dict[str, Any] | None
                 + (
                     "a tuning set built from videos of every class has them"
                     if (manifest or {}).get("domain") == "real"
+                    # Stratified already: too few windows to hold every kind.
+                    else "a tuning set of more windows (--n-train) has them"
+                    if ((tune_manifest or {}).get("parameters") or {}).get("object_scenes")
+                    == "stratified"
                     else "`uavsnn dataset build --stratify` makes a tuning set with every kind "
                     "of object"
                 )
@@ -573,6 +583,6 @@ def _identify_only(args: argparse.Namespace) -> int:
     if args.json:
         print(_jsonout.dumps(summary, indent=2))
     else:
-        _print_identification(ident, data.manifest)
+        _print_identification(ident, data.manifest, None if tune is None else tune.manifest)
         print(f"wrote {args.output} (the network of {args.identify_only})")
     return 0
