@@ -5,6 +5,7 @@ commands given without them work as before."""
 from __future__ import annotations
 
 import io
+import re
 import sys
 from pathlib import Path
 from typing import Any
@@ -231,15 +232,41 @@ def test_detect_on_a_live_stream_of_another_size_gives_advice_it_takes(
     argv = ["detect", "-", "-m", str(model), "--summary-every", "0"]
     _stdin(monkeypatch, b"")
     line = _one_line_exit_2(capsys, [*argv, "--sensor-size", "80x60"], "--sensor-size 40x30")
-    assert "add --downsample" not in line and "not cropped or scaled" in line
-    # --downsample, which it advised, is refused for standard input, and says so.
-    line = _one_line_exit_2(capsys, [*argv, "--sensor-size", "80x60", "--downsample"], "files")
-    assert "not cropped or scaled" in line
+    assert "add --downsample to crop and scale its events to the model" in line
+    # A smaller camera cannot be downsampled to the model: refused, saying why.
+    line = _one_line_exit_2(
+        capsys, [*argv, "--sensor-size", "20x15", "--downsample"], "downsampling only reduces"
+    )
+    assert "a 20x15 sensor cannot be downsampled to 40x30" in line
     # The advice is taken: events of the model's sensor, with its --sensor-size or none.
-    for extra in (["--sensor-size", "40x30"], []):
+    for extra in (["--sensor-size", "40x30"], [], ["--downsample"]):
         _stdin(monkeypatch, random_events(200, SMALL_SENSOR).tobytes())
         assert main([*argv, *extra]) == 0
         assert "events=200" in capsys.readouterr().err
+
+
+def test_detect_downsamples_a_live_stream_as_it_does_a_file(
+    model: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A camera larger than the model on standard input was refused (--downsample fitted files
+    only): it is cropped and scaled chunk by chunk, as the same events in a file are whole."""
+    from uavsnn.events import Recording
+    from uavsnn.io import write_npz
+
+    camera = (100, 60)  # cropped to 80x60, then scaled by a half
+    events = random_events(3000, camera, seed=4)
+    write_npz(Recording(events, camera), tmp_path / "r.npz")
+    argv = ["-m", str(model), "--summary-every", "0", "--json", "--downsample"]
+    assert main(["detect", str(tmp_path / "r.npz"), *argv]) == 0
+    whole, whole_err = capsys.readouterr()
+    _stdin(monkeypatch, events.tobytes())
+    assert main(["detect", "-", *argv, "--sensor-size", "100x60"]) == 0
+    out, err = capsys.readouterr()
+    assert out == whole and '"detected": true' in whole
+    # The events the detector took: those inside the crop, as from the file.
+    kept = re.search(r" events=(\d+) ", whole_err)
+    assert kept and 0 < int(kept[1]) < 3000 and f" events={kept[1]} " in err
+    assert "lie off" not in err
 
 
 def test_detect_several_live_streams_of_another_size_are_refused_before_ray(

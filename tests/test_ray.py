@@ -759,7 +759,6 @@ def test_detect_streams_checks_its_arguments_before_any_actor(
         ([path], {"window_us": 0}, "window_us must be"),
         ([path], {"overlap": 0.999}, "overlap"),
         ([udp], {"realtime": True}, "realtime applies to files, and no stream is one"),
-        ([udp], {"downsample": True}, "downsample applies to files"),
         ([path], {"udp_format": "spif"}, "udp_format applies to UDP sources"),
         ([path], {"max_packets": 3}, "max_packets applies to UDP sources"),
         ([path], {"idle_timeout": 2.0}, "idle_timeout applies to UDP sources"),

@@ -66,7 +66,6 @@ def test_open_source_refuses_options_that_do_not_apply_to_a_file(
     ("option", "applies"),
     [
         ({"realtime": True}, "files"),
-        ({"downsample_to": (240, 180)}, "files"),
         ({"stdin_format": "csv"}, "standard input"),
     ],
 )
@@ -79,7 +78,7 @@ def test_open_source_refuses_options_that_do_not_apply_to_udp(
 
 @pytest.mark.parametrize(
     "option",
-    [{"realtime": True}, {"downsample_to": (20, 15)}, {"udp_format": "spif"}, {"max_packets": 3}],
+    [{"realtime": True}, {"udp_format": "spif"}, {"max_packets": 3}],
 )
 def test_open_source_refuses_options_that_do_not_apply_to_standard_input(
     option: dict[str, Any],
@@ -126,6 +125,16 @@ def test_the_options_that_apply_are_still_taken(tmp_path: Path) -> None:
         assert isinstance(source, UdpSource) and source.max_packets == 2
     src = open_source("-", sensor_size=SMALL_SENSOR, stdin_format="csv")
     assert isinstance(src, StdinSource) and src.fmt == "csv"
+    # Live sources downsample too, chunk by chunk, from the sensor_size the events come in.
+    with open_source("udp://127.0.0.1:0", sensor_size=(80, 60), downsample_to=(40, 30)) as udp:
+        assert (udp.sensor_size, udp.camera_size) == ((40, 30), (80, 60))
+    src = open_source("-", sensor_size=(80, 60), downsample_to=(40, 30))
+    assert (src.sensor_size, src.camera_size) == ((40, 30), (80, 60))
+    src = open_source("-", sensor_size=(40, 30), downsample_to=(40, 30))
+    assert (src.sensor_size, src.camera_size) == ((40, 30), None)  # nothing to do
+    for spec in ("-", "udp://127.0.0.1:0"):
+        with pytest.raises(ParameterError, match="downsampling only reduces"):
+            open_source(spec, sensor_size=(40, 30), downsample_to=(80, 60))
 
 
 def test_source_options_keeps_what_applies_to_each_kind() -> None:
@@ -152,9 +161,14 @@ def test_source_options_keeps_what_applies_to_each_kind() -> None:
         "udp_format": "spif",
         "max_packets": 3,
         "idle_timeout": 2.0,
+        "downsample_to": (20, 15),
         "heartbeat_s": 0.1,
     }
-    assert source_options("-", given) == {"sensor_size": (40, 30), "heartbeat_s": 0.1}
+    assert source_options("-", given) == {
+        "sensor_size": (40, 30),
+        "downsample_to": (20, 15),
+        "heartbeat_s": 0.1,
+    }
     with pytest.raises(ParameterError, match="no option of open_source: 'fps'"):
         source_options("-", {"fps": 3})
 

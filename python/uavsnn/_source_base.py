@@ -12,9 +12,10 @@ from typing import TypeVar
 
 import numpy as np
 
+from uavsnn import _core
 from uavsnn._validate import MAX_TIME_US
 from uavsnn.errors import ParameterError
-from uavsnn.events import EVENT_DTYPE
+from uavsnn.events import EVENT_DTYPE, packed_bytes
 
 #: The longest ``idle_timeout`` (seconds, about 31 years): a socket's timeout holds no more.
 MAX_IDLE_TIMEOUT = 1e9
@@ -99,8 +100,14 @@ _Source = TypeVar("_Source", bound="EventSource")
 class EventSource:
     """Base of the sources: iterate to receive chunks of events in time order."""
 
-    #: Sensor size ``(width, height)``; ``None`` when the source cannot tell.
+    #: Sensor size ``(width, height)`` of the events yielded; ``None`` when the source cannot
+    #: tell.
     sensor_size: tuple[int, int] | None = None
+    #: The sensor the events arrive from, where a live source crops and scales them onto
+    #: :attr:`sensor_size` (its ``downsample_to``, as :func:`uavsnn.filters.downsample`
+    #: does a file); ``None`` where it does not.
+    camera_size: tuple[int, int] | None = None
+    _scale: tuple[int, int, int, int] | None = None
     #: Seconds of silence after which a live source yields an empty chunk, a heartbeat, and
     #: again after as many more (for a consumer that advances its stream's time when it falls
     #: silent: ``uavsnn detect --idle-flush``); ``None``: never. Files never do.
@@ -111,6 +118,31 @@ class EventSource:
 
     def __iter__(self) -> Iterator[np.ndarray]:
         raise NotImplementedError
+
+    def _downsample_to(self, target: tuple[int, int] | None) -> None:
+        """Crop and scale the events of every later chunk from :attr:`sensor_size` onto
+        ``target`` (``None``, or the sensor's own size: as they are).
+
+        Raises:
+            ParameterError: ``target`` wider or taller than the sensor (it only reduces).
+        """
+        if target is None or self.sensor_size is None:
+            return
+        from uavsnn.filters import check_target
+
+        tw, th = check_target(self.sensor_size, target)
+        if (tw, th) != self.sensor_size:
+            self.camera_size = self.sensor_size
+            self._scale = (*self.sensor_size, tw, th)
+            self.sensor_size = (tw, th)
+
+    def _scaled(self, chunk: np.ndarray) -> np.ndarray:
+        """``chunk`` on :attr:`sensor_size`: cropped and scaled where the source downsamples
+        (events outside the crop removed; a chunk may come out empty)."""
+        if self._scale is None or not len(chunk):
+            return chunk
+        packed = _core.downsample_events(packed_bytes(chunk), *self._scale)
+        return packed.view(EVENT_DTYPE)
 
     def close(self) -> None:
         """Release what the source holds (sockets); iterating afterwards is an error."""

@@ -47,6 +47,10 @@ class StdinSource(EventSource):
             one by one (``None``: only times are checked).
         read_size: most bytes read at once; a read returns what is available, so a slow
             producer's events are not held back waiting for a full buffer.
+        downsample_to: ``(width, height)`` to crop and scale each chunk onto, from
+            ``sensor_size`` (:func:`uavsnn.filters.downsample`'s rule, which it needs: a
+            larger target is refused), e.g. a model's input; :attr:`sensor_size` is then the
+            target and :attr:`camera_size` the sensor's. ``None`` keeps them.
     """
 
     def __init__(
@@ -57,9 +61,12 @@ class StdinSource(EventSource):
         sensor_size: SensorSizeLike | None = None,
         read_size: int = 1 << 16,
         heartbeat_s: float | None = None,
+        downsample_to: tuple[int, int] | None = None,
     ) -> None:
         super().__init__()
         self.heartbeat_s = check_seconds("heartbeat_s", heartbeat_s)
+        if downsample_to is not None and sensor_size is None:
+            raise ParameterError("downsample_to needs the sensor_size the events arrive in")
         if fmt not in STDIN_FORMATS:
             raise ParameterError(f"stdin format must be one of {STDIN_FORMATS}, got {fmt!r}")
         if read_size < _RECORD:
@@ -72,6 +79,9 @@ class StdinSource(EventSource):
         self.stream = stream if stream is not None else sys.stdin.buffer
         self.fmt = fmt
         self.sensor_size = None if sensor_size is None else check_sensor_size(sensor_size)
+        # The size the events arrive in, which they are checked against.
+        self._arriving = self.sensor_size
+        self._downsample_to(downsample_to)
         self.read_size = read_size
         self._lines = 0
         # The columns of t, x, y, p, and how many a line has (as a header names them).
@@ -154,12 +164,12 @@ class StdinSource(EventSource):
             self._check_size(chunk)
             for part in self._usable(chunk):
                 self.stats.events += len(part)
-                yield part
+                yield from self._kept(part)
         if rest:
             if self.fmt == "csv":
                 for part in self._usable(self._parse_csv(rest + b"\n")):
                     self.stats.events += len(part)
-                    yield part
+                    yield from self._kept(part)
             else:
                 # A truncated last record: its bytes never made an event.
                 self.stats.dropped += 1
@@ -173,13 +183,20 @@ class StdinSource(EventSource):
                 "is --stdin-format right, and the sensor size?"
             )
 
+    def _kept(self, part: np.ndarray) -> Iterator[np.ndarray]:
+        """``part`` on :attr:`sensor_size` (downsampled where asked), unless the crop left none
+        of it: an empty chunk stands for silence (a heartbeat)."""
+        scaled = self._scaled(part)
+        if len(scaled):
+            yield scaled
+
     def _check_size(self, chunk: np.ndarray) -> None:
         """Count the events of ``chunk`` among the first :data:`SIZE_CHECK_EVENTS` that lie off
         the sensor, and set :attr:`size_note` once they are all seen."""
-        if self.sensor_size is None or self._checked >= SIZE_CHECK_EVENTS or not len(chunk):
+        if self._arriving is None or self._checked >= SIZE_CHECK_EVENTS or not len(chunk):
             return
         head = chunk[: SIZE_CHECK_EVENTS - self._checked]
-        width, height = self.sensor_size
+        width, height = self._arriving
         self._off += int(np.count_nonzero((head["x"] >= width) | (head["y"] >= height)))
         self._reach = (
             max(self._reach[0], int(head["x"].max())),
@@ -190,12 +207,8 @@ class StdinSource(EventSource):
             self._size_verdict()
 
     def _size_verdict(self) -> None:
-        if (
-            self.size_note is None
-            and self.sensor_size is not None
-            and 2 * self._off > self._checked
-        ):
-            width, height = self.sensor_size
+        if self.size_note is None and self._arriving is not None and 2 * self._off > self._checked:
+            width, height = self._arriving
             self.size_note = (
                 f"{self._off} of the first {self._checked} events lie off the {width}x{height} "
                 f"sensor (x up to {self._reach[0]}, y up to {self._reach[1]}) and are dropped: "
@@ -213,8 +226,8 @@ class StdinSource(EventSource):
         while len(chunk):
             t = chunk["t"]
             inside = t <= _MAX_TIME_US
-            if self.sensor_size is not None:
-                width, height = self.sensor_size
+            if self._arriving is not None:
+                width, height = self._arriving
                 inside &= (chunk["x"] < width) & (chunk["y"] < height)
             # The latest time before each event, among the usable ones: a backwards event is
             # dropped alone, not the events that follow it.

@@ -22,7 +22,7 @@ from uavsnn._validate import check_sensor_size, int_param
 from uavsnn.errors import ParameterError
 from uavsnn.events import EVENT_DTYPE, Recording, packed_bytes, recording_from_engine
 
-__all__ = ["denoise", "downsample"]
+__all__ = ["check_target", "denoise", "downsample"]
 
 
 def _recording(value: Any) -> Recording:
@@ -45,6 +45,27 @@ def denoise(recording: Recording, dt_us: int) -> Recording:
     return Recording(rec.events[keep], rec.sensor_size, {**rec.metadata, "denoise_dt_us": dt})
 
 
+def check_target(sensor_size: tuple[int, int], target: Any) -> tuple[int, int]:
+    """``target`` as a sensor size :func:`downsample` can take a ``sensor_size`` sensor to (a
+    live source's ``downsample_to`` checks it here too).
+
+    Raises:
+        ParameterError: a malformed ``target``, or one wider or taller than ``sensor_size``.
+    """
+    tw, th = check_sensor_size(target)
+    width, height = sensor_size
+    if tw > width or th > height:
+        larger = " and ".join(
+            side for side, more in (("wider", tw > width), ("taller", th > height)) if more
+        )
+        raise ParameterError(
+            f"a {width}x{height} sensor cannot be downsampled to {tw}x{th}: downsampling only "
+            f"reduces (it crops and scales a larger sensor down), and {tw}x{th} is {larger} "
+            f"than {width}x{height}"
+        )
+    return tw, th
+
+
 def downsample(recording: Recording, target: tuple[int, int] = (240, 180)) -> Recording:
     """Crop ``recording`` to ``target``'s aspect ratio (centred) and scale its coordinates onto
     a ``target`` sensor, no wider and no taller than the recording's (the same size keeps
@@ -55,17 +76,8 @@ def downsample(recording: Recording, target: tuple[int, int] = (240, 180)) -> Re
             sensor (scaling up would make pixels the sensor never had).
     """
     rec = _recording(recording)
-    tw, th = check_sensor_size(target)
+    tw, th = check_target(rec.sensor_size, target)
     width, height = rec.sensor_size
-    if tw > width or th > height:
-        larger = " and ".join(
-            side for side, more in (("wider", tw > width), ("taller", th > height)) if more
-        )
-        raise ParameterError(
-            f"a {width}x{height} sensor cannot be downsampled to {tw}x{th}: downsampling only "
-            f"reduces (it crops and scales a larger sensor down), and {tw}x{th} is {larger} "
-            f"than {width}x{height}"
-        )
     packed = _core.downsample_events(packed_bytes(rec.events), width, height, tw, th)
     metadata = {**rec.metadata, "downsampled_from": [width, height]}
     # The engine checked the source and kept its order; every kept event lies on the target:

@@ -231,6 +231,8 @@ class UdpSource(EventSource):
         idle_timeout: stop when no datagram arrived for this many seconds; ``None``: never.
         receive_buffer: the socket's receive buffer to ask the kernel for, in bytes (a burst
             beyond it is dropped by the kernel); :attr:`buffer_note` says when less was granted.
+        downsample_to: ``(width, height)`` to crop and scale each packet's events onto, from
+            ``sensor_size`` (as :class:`StdinSource`'s).
     """
 
     #: One line saying the kernel granted a smaller receive buffer than asked, and how to raise
@@ -248,6 +250,7 @@ class UdpSource(EventSource):
         idle_timeout: float | None = None,
         receive_buffer: int | None = None,
         heartbeat_s: float | None = None,
+        downsample_to: tuple[int, int] | None = None,
     ) -> None:
         super().__init__()
         self.heartbeat_s = check_seconds("heartbeat_s", heartbeat_s)
@@ -261,6 +264,7 @@ class UdpSource(EventSource):
         check_seconds("idle_timeout", idle_timeout)
         width, height = check_sensor_size(sensor_size)
         self.sensor_size = (width, height)
+        self._downsample_to(downsample_to)
         self.decoder = _core.PacketDecoder(fmt, width, height)
         self.max_packets = max_packets
         self.idle_timeout = idle_timeout
@@ -357,7 +361,9 @@ class UdpSource(EventSource):
             chunk = raw.view(EVENT_DTYPE)
             if len(chunk):
                 self.stats.events += len(chunk)
-                yield chunk
+                chunk = self._scaled(chunk)
+                if len(chunk):  # (the crop may leave none: an empty chunk is a heartbeat)
+                    yield chunk
 
     def close(self) -> None:
         """Close the socket."""
@@ -463,7 +469,7 @@ _LIVE = ("stdin", "udp")
 _OPTIONS: dict[str, tuple[tuple[str, ...], str, Any]] = {
     "sensor_size": (("file", *_LIVE), "every source", None),
     "realtime": (_FILES, "files", False),
-    "downsample_to": (_FILES, "files", None),
+    "downsample_to": (("file", *_LIVE), "every source", None),
     "stdin_format": (("stdin",), "standard input ('-')", "packed"),
     "udp_format": (("udp",), "UDP sources (udp://HOST:PORT)", "t64_x16_y16_on8"),
     "max_packets": (("udp",), "UDP sources (udp://HOST:PORT)", None),
@@ -546,14 +552,16 @@ def open_source(
     ``sensor_size`` is required for ``-`` and UDP (their bytes carry none); for a file it is
     needed only when the file records none (CSV, ``.npy``, a RAW/DAT header without geometry),
     and must agree with a file's own where it has one (as :func:`uavsnn.io.read`: one that
-    contradicts it is refused). ``realtime`` and ``downsample_to`` apply to files,
-    ``stdin_format`` to ``-``, and ``udp_format``, ``max_packets`` and ``idle_timeout`` to UDP;
-    ``heartbeat_s`` to ``-`` and UDP (:attr:`EventSource.heartbeat_s`). An option given for a
-    source it does not apply to is refused (:class:`~uavsnn.ParameterError`), unless it is at
+    contradicts it is refused); ``downsample_to`` crops and scales any source's events onto
+    a smaller sensor (a live source's chunk by chunk, from its ``sensor_size``). ``realtime``
+    applies to files, ``stdin_format`` to ``-``, and ``udp_format``, ``max_packets`` and
+    ``idle_timeout`` to UDP; ``heartbeat_s`` to ``-`` and UDP
+    (:attr:`EventSource.heartbeat_s`). An option given for a source it does not apply to is
+    refused (:class:`~uavsnn.ParameterError`), unless it is at
     its default (which changes nothing: ``realtime=False``, ``stdin_format="packed"``,
     ``udp_format="t64_x16_y16_on8"``, ``None``); :func:`source_options` picks those of a set
     that apply to a source. ``downsample_to`` only reduces: a target wider or taller than the
-    file's sensor is refused.
+    source's sensor is refused.
     """
     spec = _spelling(spec)
     _check_options(
@@ -571,7 +579,12 @@ def open_source(
     if spec == "-":
         if sensor_size is None:
             raise ParameterError("standard input carries no sensor size: give sensor_size")
-        return StdinSource(fmt=stdin_format, sensor_size=sensor_size, heartbeat_s=heartbeat_s)
+        return StdinSource(
+            fmt=stdin_format,
+            sensor_size=sensor_size,
+            heartbeat_s=heartbeat_s,
+            downsample_to=downsample_to,
+        )
     if spec.startswith("udp://"):
         if sensor_size is None:
             raise ParameterError("UDP packets carry no sensor size: give sensor_size")
@@ -590,5 +603,6 @@ def open_source(
             max_packets=max_packets,
             idle_timeout=idle_timeout,
             heartbeat_s=heartbeat_s,
+            downsample_to=downsample_to,
         )
     return FileSource(spec, sensor_size=sensor_size, realtime=realtime, downsample_to=downsample_to)

@@ -52,6 +52,8 @@ SOURCE is one of:
                     --stdin-format csv
   udp://HOST:PORT   UDP packets in faery's t64_x16_y16_on8 (default) or t32_x16_y15_on1
                     format, or aestream's spif words (--udp-format spif)
+'-' and UDP carry no sensor size: --sensor-size gives it (default: the model's input);
+with --downsample, a larger camera's events are fitted to the model chunk by chunk.
 
 MODEL (--model) is a trained model file: 'uavsnn train DATASET -o MODEL' writes one, and
 'uavsnn demo --out DIR' writes DIR/model.npz (trained on its small built-in set).
@@ -133,7 +135,8 @@ def register(subparsers: Any) -> None:
     p.add_argument(
         "--downsample",
         action="store_true",
-        help="files only: crop and scale the recording to the model's input size",
+        help="crop and scale the events to the model's input size: a file's sensor, or "
+        "--sensor-size's for '-' and UDP (chunk by chunk)",
     )
     p.add_argument(
         "--sensor-size",
@@ -378,11 +381,6 @@ def _check_args(args: argparse.Namespace) -> None:
             "--realtime replays a file at its own pace; standard input and UDP already "
             "arrive at theirs"
         )
-    if args.downsample and live:
-        raise ParameterError(
-            "--downsample applies to files: '-' and UDP are not cropped or scaled, their "
-            "--sensor-size must be the model's input (the default)"
-        )
     if not any(s.startswith("udp://") for s in sources):
         udp_only = (
             ("--max-packets", args.max_packets, "standard input and files end by themselves"),
@@ -428,8 +426,8 @@ def _check_args(args: argparse.Namespace) -> None:
 
 
 def _check_live_size(size: tuple[int, int], model_size: tuple[int, int]) -> None:
-    """Refuse a ``--sensor-size`` for '-' or UDP other than the model's input: a live stream is
-    not cropped or scaled (``--downsample`` fits files only).
+    """Refuse a ``--sensor-size`` for '-' or UDP other than the model's input, without
+    ``--downsample``.
 
     Raises:
         ParameterError: the sizes differ, saying what the command line can do.
@@ -439,10 +437,11 @@ def _check_live_size(size: tuple[int, int], model_size: tuple[int, int]) -> None
     w, h = size
     mw, mh = model_size
     raise ParameterError(
-        f"the stream's sensor is {w}x{h} (--sensor-size), the model's input {mw}x{mh}: '-' and "
-        f"UDP are not cropped or scaled (--downsample fits files only); send events of a "
-        f"{mw}x{mh} sensor (--sensor-size {mw}x{mh}, the default), or a model of {w}x{h} ("
-        f"uavsnn train --set width={w} --set height={h}, on a dataset built with --sensor {w}x{h})"
+        f"the stream's sensor is {w}x{h} (--sensor-size), the model's input {mw}x{mh}: add "
+        f"--downsample to crop and scale its events to the model (a larger sensor), send "
+        f"events of a {mw}x{mh} sensor (--sensor-size {mw}x{mh}, the default), or use a model "
+        f"of {w}x{h} (uavsnn train --set width={w} --set height={h}, on a dataset built with "
+        f"--sensor {w}x{h})"
     )
 
 
@@ -557,7 +556,8 @@ def run(args: argparse.Namespace) -> int:
     sensor_size = _sensor_size(args.sensor_size)
     if live:
         sensor_size = sensor_size or model_size
-        _check_live_size(sensor_size, model_size)
+        if not args.downsample:
+            _check_live_size(sensor_size, model_size)
     source = open_source(
         args.source,
         sensor_size=sensor_size,
@@ -719,7 +719,7 @@ def _run_many(args: argparse.Namespace) -> int:
     if args.ray is None:
         raise ParameterError("several sources need --ray (one detector per stream, on Ray)")
     network = _load(args)
-    if any(is_live(s) for s in sources):
+    if any(is_live(s) for s in sources) and not args.downsample:
         model_size = (int(network.config["width"]), int(network.config["height"]))
         _check_live_size(_sensor_size(args.sensor_size) or model_size, model_size)
     runner = runner_for(args.ray)

@@ -307,9 +307,10 @@ def detect_streams(
 
     ``model``: a :class:`~uavsnn.network.Network` or the path of a model file.
     ``source_options``: as :func:`uavsnn.sources.open_source` (``sensor_size``, ``realtime``,
-    ``udp_format``, ``max_packets``, ``idle_timeout``), and ``downsample`` (fit files to the
-    model's input); each applies to the sources of its kind (``realtime`` and ``downsample``
-    to files, the others but ``sensor_size`` to UDP) and is refused when none is of that kind.
+    ``udp_format``, ``max_packets``, ``idle_timeout``), and ``downsample`` (fit each source to
+    the model's input: a file's sensor, a UDP stream's ``sensor_size``); each applies to the
+    sources of its kind (``realtime`` to files, the others but ``sensor_size`` and
+    ``downsample`` to UDP) and is refused when none is of that kind.
 
     ``idle_flush_s``: a live stream quiet for that many seconds is advanced
     with the wall clock (:class:`uavsnn.sources.IdleClock`; ``uavsnn detect --idle-flush``),
