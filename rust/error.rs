@@ -73,7 +73,17 @@ impl Error {
 /// a 1280 × 720 event camera (or a 2048 × 2048 network of Table 1's layers) needs; a larger
 /// request (a 65535 × 65535 sensor, a kernel of 65535) is refused with a typed error instead of
 /// exhausting memory or aborting the process.
-pub const MAX_ALLOC_BYTES: usize = 1 << 32;
+///
+/// 4 GiB on 64-bit targets; on a target whose `isize::MAX` is smaller (32-bit: 2 GiB − 1), that
+/// (no allocation may be larger there), so that the constant exists on every target.
+pub const MAX_ALLOC_BYTES: usize = {
+    const FOUR_GIB: u64 = 1 << 32;
+    if (isize::MAX as u64) < FOUR_GIB {
+        isize::MAX as usize
+    } else {
+        FOUR_GIB as usize
+    }
+};
 
 /// The bytes of `count` items of `item_bytes` each, or [`Error::InvalidParameter`] naming
 /// `name` when the product overflows or is above [`MAX_ALLOC_BYTES`]. `what` describes the
@@ -112,6 +122,17 @@ pub(crate) fn assert_over_cap(err: &Error, name: &str) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_cap_is_four_gib_where_an_allocation_may_be_that_large() {
+        #[cfg(target_pointer_width = "64")]
+        assert_eq!(MAX_ALLOC_BYTES as u64, 4 << 30);
+        assert_eq!(
+            MAX_ALLOC_BYTES as u64,
+            (4u64 << 30).min(isize::MAX as u64),
+            "the smaller of 4 GiB and isize::MAX"
+        );
+    }
 
     #[test]
     fn check_alloc_refuses_overflow_and_the_cap() {

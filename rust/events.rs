@@ -22,10 +22,17 @@ pub struct Event {
 
 /// Width and height of a sensor in pixels. Deserialised through [`SensorSize::new`] (a zero
 /// side is refused there as by it).
+///
+/// The fields are public, so a size written as a struct literal may have a zero side. Every
+/// function of the crate that takes a `SensorSize` checks it where it uses it
+/// ([`SensorSize::validate`]) and refuses a zero side with the [`Error::InvalidParameter`]
+/// (`sensor_size`) that [`SensorSize::new`] gives.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 #[serde(try_from = "RawSensorSize")]
 pub struct SensorSize {
+    /// Columns, at least 1.
     pub width: u16,
+    /// Rows, at least 1.
     pub height: u16,
 }
 
@@ -46,28 +53,61 @@ impl TryFrom<RawSensorSize> for SensorSize {
 
 impl SensorSize {
     /// A sensor size, rejecting zero dimensions.
+    ///
+    /// # Errors
+    ///
+    /// [`Error::InvalidParameter`] (`sensor_size`) when `width` or `height` is 0.
     pub fn new(width: u16, height: u16) -> Result<Self> {
-        if width == 0 || height == 0 {
-            return Err(Error::param(
-                "sensor_size",
-                format!("width and height must be positive, got {width}x{height}"),
-            ));
-        }
-        Ok(Self { width, height })
+        Self { width, height }.validate_as("sensor_size")
     }
 
-    /// Number of pixels.
+    /// This size checked as [`SensorSize::new`] checks one: the fields are public, so a size
+    /// written as a struct literal may have a zero side.
+    ///
+    /// # Errors
+    ///
+    /// As [`SensorSize::new`].
+    pub fn validate(self) -> Result<Self> {
+        self.validate_as("sensor_size")
+    }
+
+    /// [`SensorSize::validate`] naming the parameter `name` in the error (`target` for the
+    /// target of a downsampling).
+    pub(crate) fn validate_as(self, name: &'static str) -> Result<Self> {
+        if self.width == 0 || self.height == 0 {
+            return Err(Error::param(
+                name,
+                format!(
+                    "width and height must be positive, got {}x{}",
+                    self.width, self.height
+                ),
+            ));
+        }
+        Ok(self)
+    }
+
+    /// Number of pixels (0 for a size with a zero side, which [`SensorSize::validate`]
+    /// refuses).
     pub fn area(self) -> usize {
         self.width as usize * self.height as usize
     }
 
-    /// Row-major index of a pixel.
+    /// Row-major index of a pixel, which must lie on the sensor ([`SensorSize::contains`]):
+    /// callers check their coordinates first. Debug builds assert it, so that a pixel off the
+    /// sensor (or any pixel of a size with a zero side) is not silently given the index of
+    /// another pixel, or one past the sensor's last.
     #[inline]
     pub fn index(self, x: u16, y: u16) -> usize {
+        debug_assert!(
+            self.contains(x, y),
+            "pixel ({x}, {y}) is off the {}x{} sensor",
+            self.width,
+            self.height
+        );
         y as usize * self.width as usize + x as usize
     }
 
-    /// Whether a coordinate lies on the sensor.
+    /// Whether a coordinate lies on the sensor (never, for a size with a zero side).
     #[inline]
     pub fn contains(self, x: u16, y: u16) -> bool {
         x < self.width && y < self.height
@@ -196,6 +236,11 @@ pub fn packed_event(record: &[u8]) -> Event {
 ///
 /// `previous_t` is the time of the last event already accepted (for streams fed in chunks);
 /// `index_offset` is added to the index reported in errors.
+///
+/// # Errors
+///
+/// [`Error::InvalidParameter`] (`sensor_size`) for a sensor with a zero side
+/// ([`SensorSize::validate`]), then [`Error::InvalidEvent`] naming the first bad event.
 pub fn validate(
     events: &[Event],
     sensor: SensorSize,
@@ -206,12 +251,17 @@ pub fn validate(
 }
 
 /// [`validate`] for any [`EventSource`].
+///
+/// # Errors
+///
+/// As [`validate`].
 pub fn validate_source<E: EventSource + ?Sized>(
     events: &E,
     sensor: SensorSize,
     previous_t: Option<u64>,
     index_offset: usize,
 ) -> Result<()> {
+    sensor.validate()?;
     // A pass without a branch per event (cheaper than checking each event in turn, which
     // branches three times per event);
     // the exact scan below runs only to name the first bad event.
@@ -259,12 +309,19 @@ fn check_one(e: &Event, sensor: SensorSize, last: Option<u64>, index: usize) -> 
 
 /// Decode packed 13-byte records (the canonical NumPy dtype viewed as bytes) into events,
 /// validating them in the same pass.
+///
+/// # Errors
+///
+/// [`Error::InvalidParameter`] (`sensor_size`) for a sensor with a zero side, [`Error::Shape`]
+/// for a length that is not a whole number of records, [`Error::InvalidEvent`] for the first
+/// bad event.
 pub fn decode_packed(
     bytes: &[u8],
     sensor: SensorSize,
     previous_t: Option<u64>,
     index_offset: usize,
 ) -> Result<Vec<Event>> {
+    sensor.validate()?;
     if !bytes.len().is_multiple_of(PACKED_EVENT_SIZE) {
         return Err(Error::Shape {
             name: "events",
@@ -286,6 +343,23 @@ pub fn decode_packed(
         out.push(e);
     }
     Ok(out)
+}
+
+/// Test support: `err` is the error [`SensorSize::new`] gives for a zero side.
+#[cfg(test)]
+#[track_caller]
+pub(crate) fn assert_zero_sensor(err: &Error) {
+    assert!(
+        matches!(
+            err,
+            Error::InvalidParameter {
+                name: "sensor_size",
+                ..
+            }
+        ),
+        "{err}"
+    );
+    assert!(err.to_string().contains("must be positive"), "{err}");
 }
 
 #[cfg(test)]
@@ -385,5 +459,35 @@ mod tests {
     #[test]
     fn zero_sensor_is_rejected() {
         assert!(SensorSize::new(0, 10).is_err());
+    }
+
+    #[test]
+    fn a_sensor_size_literal_is_checked_where_it_is_used() {
+        // The fields are public: a literal skips `new`. The checks of events accepted no
+        // events on it (nothing lies on a 0x0 sensor) without a word.
+        let ok = SensorSize::new(4, 3).unwrap();
+        assert_eq!(ok.validate(), Ok(ok));
+        for (width, height) in [(0, 0), (0, 3), (4, 0)] {
+            let bad = SensorSize { width, height };
+            assert_zero_sensor(&bad.validate().unwrap_err());
+            assert_eq!(bad.validate(), SensorSize::new(width, height));
+            assert_zero_sensor(&validate(&[], bad, None, 0).unwrap_err());
+            assert_zero_sensor(&validate(&[ev(0, 0, 0)], bad, None, 0).unwrap_err());
+            let packed = PackedEvents::new(&[]).unwrap();
+            assert_zero_sensor(&validate_source(&packed, bad, None, 0).unwrap_err());
+            assert_zero_sensor(&decode_packed(&[], bad, None, 0).unwrap_err());
+        }
+    }
+
+    #[cfg(debug_assertions)]
+    #[test]
+    #[should_panic(expected = "off the 0x0 sensor")]
+    fn the_index_of_a_pixel_off_the_sensor_is_a_bug_debug_builds_catch() {
+        // Unchecked, a 0x0 sensor gave pixel (3, 0) the index 3 (of a state of 0 pixels).
+        let _ = SensorSize {
+            width: 0,
+            height: 0,
+        }
+        .index(3, 0);
     }
 }

@@ -21,11 +21,18 @@ use crate::events::{
 /// `(max x + 1, max y + 1)`, ours is the recording's sensor. The results differ only for events
 /// with `t < dt_us` next to the bounding box's edge; they are equal whenever the sensor is that
 /// box or every `t ≥ dt_us`.
+///
+/// # Errors
+///
+/// [`Error::InvalidParameter`]: `sensor_size` for a sensor with a zero side
+/// ([`SensorSize::validate`]) or above the memory cap, `dt_us` for 0; [`Error::InvalidEvent`]
+/// for an event off the sensor or out of order.
 pub fn denoise_mask<E: EventSource + ?Sized>(
     events: &E,
     sensor: SensorSize,
     dt_us: u64,
 ) -> Result<Vec<bool>> {
+    sensor.validate()?;
     if dt_us == 0 {
         return Err(Error::param(
             "dt_us",
@@ -88,19 +95,10 @@ impl Crop {
     /// # Errors
     ///
     /// [`Error::InvalidParameter`] (`sensor_size` or `target`) when either has a zero width or
-    /// height (possible through [`SensorSize`]'s public fields or its deserialisation).
+    /// height (possible through [`SensorSize`]'s public fields; [`SensorSize::validate`]).
     pub fn centred(source: SensorSize, target: SensorSize) -> Result<Self> {
-        for (name, size) in [("sensor_size", source), ("target", target)] {
-            if size.width == 0 || size.height == 0 {
-                return Err(Error::param(
-                    name,
-                    format!(
-                        "width and height must be positive, got {}x{}",
-                        size.width, size.height
-                    ),
-                ));
-            }
-        }
+        source.validate()?;
+        target.validate_as("target")?;
         let (sw, sh) = (u64::from(source.width), u64::from(source.height));
         let (tw, th) = (u64::from(target.width), u64::from(target.height));
         // Compare sw/sh with tw/th without division.
@@ -124,13 +122,18 @@ impl Crop {
 /// covers a block of source pixels. Every event inside the crop is kept, with its time and
 /// polarity, in its original order, even when several land on one target pixel at once (a
 /// window then takes the first of them).
+///
+/// # Errors
+///
+/// As [`Crop::centred`] for the sizes (checked first), then [`Error::InvalidEvent`] for an
+/// event off `source` or out of order.
 pub fn downsample_map<E: EventSource + ?Sized>(
     events: &E,
     source: SensorSize,
     target: SensorSize,
 ) -> Result<Vec<Option<(u16, u16)>>> {
-    validate_source(events, source, None, 0)?;
     let crop = Crop::centred(source, target)?;
+    validate_source(events, source, None, 0)?;
     let (cx, cy) = (u64::from(crop.width), u64::from(crop.height));
     let (tw, th) = (u64::from(target.width), u64::from(target.height));
     Ok((0..events.len())
@@ -151,9 +154,14 @@ pub fn downsample_map<E: EventSource + ?Sized>(
 
 /// [`downsample`] of packed 13-byte records (the canonical NumPy dtype's bytes): the kept
 /// records, with their new coordinates, packed the same way, in one pass after validation.
+///
+/// # Errors
+///
+/// As [`downsample_map`], and [`Error::Shape`] for a length that is not a whole number of
+/// records.
 pub fn downsample_packed(raw: &[u8], source: SensorSize, target: SensorSize) -> Result<Vec<u8>> {
-    validate_source(&PackedEvents::new(raw)?, source, None, 0)?;
     let crop = Crop::centred(source, target)?;
+    validate_source(&PackedEvents::new(raw)?, source, None, 0)?;
     let (cx, cy) = (u64::from(crop.width), u64::from(crop.height));
     let (tw, th) = (u64::from(target.width), u64::from(target.height));
     let mut out = Vec::with_capacity(raw.len());
@@ -175,6 +183,10 @@ pub fn downsample_packed(raw: &[u8], source: SensorSize, target: SensorSize) -> 
 
 /// Crop `events` to the centred region of `source` with `target`'s aspect ratio, then scale
 /// their coordinates onto `target` (see [`downsample_map`]).
+///
+/// # Errors
+///
+/// As [`downsample_map`].
 pub fn downsample(events: &[Event], source: SensorSize, target: SensorSize) -> Result<Vec<Event>> {
     let map = downsample_map(events, source, target)?;
     Ok(events
@@ -368,5 +380,25 @@ mod tests {
         assert!(downsample_map(&[] as &[Event], zero, s).is_err());
         assert!(Crop::centred(s, zero).is_err());
         assert!(Crop::centred(zero, s).is_err());
+    }
+
+    #[test]
+    fn a_zero_sensor_is_a_parameter_error_before_any_event() {
+        // Denoising on a 0x0 sensor accepted no events without a word; with events the size
+        // was blamed on the first of them (an event error).
+        let s = SensorSize::new(4, 4).unwrap();
+        let zero = SensorSize {
+            width: 0,
+            height: 0,
+        };
+        let events = [ev(1, 0, 0)];
+        for err in [
+            denoise_mask(&[] as &[Event], zero, 10).unwrap_err(),
+            denoise(&events, zero, 10).unwrap_err(),
+            downsample(&events, zero, s).unwrap_err(),
+            downsample_packed(&[0; PACKED_EVENT_SIZE], zero, s).unwrap_err(),
+        ] {
+            crate::events::assert_zero_sensor(&err);
+        }
     }
 }

@@ -3,11 +3,15 @@
 //! A forked process (Python's `multiprocessing` and `concurrent.futures.ProcessPoolExecutor`
 //! with the `fork` start method, Linux's default before Python 3.14, or `os.fork`) holds a
 //! copy of its parent's rayon pools but none of their threads: parallel work handed to them
-//! there waits forever. [`in_live_pool`] therefore runs work directly only in the process the
-//! engine first ran in ([`note_process`]); in any other it runs it on a pool started in that
-//! process, so the parent's pools are never used. The parent's pools are forgotten there, not
-//! dropped: dropping one would signal threads that do not exist, under locks the fork may have
-//! copied while held.
+//! there waits forever. The Python binding therefore runs work directly only in the process
+//! the engine first ran in; in any other it runs it on a pool started in that process
+//! ([`pool`]), so the parent's pools are never used. The parent's pools are forgotten there,
+//! not dropped: dropping one would signal threads that do not exist, under locks the fork may
+//! have copied while held.
+//!
+//! `note_process`, `in_live_pool` and `cap_global_threads`, the binding's side of this, are
+//! crate-private: only the binding calls them (a Rust program chooses its pools itself, with
+//! [`pool`] or rayon's own).
 
 use std::mem;
 use std::num::NonZeroUsize;
@@ -34,14 +38,28 @@ static KEPT: Mutex<Kept> = Mutex::new(Kept {
     pools: Vec::new(),
 });
 
-/// The process the engine first ran in (set by [`note_process`] or the first
-/// [`in_live_pool`]).
+/// The process the engine first ran in (set by `note_process` or the first `in_live_pool`).
+///
+/// Those two and `cap_global_threads` are the binding's, not the crate's API:
+///
+/// ```compile_fail,E0603
+/// uavsnn::threads::note_process();
+/// ```
+///
+/// ```compile_fail,E0603
+/// let _ = uavsnn::threads::in_live_pool(|| ());
+/// ```
+///
+/// ```compile_fail,E0603
+/// let _ = uavsnn::threads::cap_global_threads();
+/// ```
 static FIRST_PROCESS: OnceLock<u32> = OnceLock::new();
 
 /// Note the current process as the one whose rayon global pool [`in_live_pool`] may use. The
 /// Python binding calls it when the module loads, before any work; a later call changes
-/// nothing.
-pub fn note_process() {
+/// nothing. Crate-private: only the binding calls it.
+#[cfg_attr(not(feature = "python"), allow(dead_code))]
+pub(crate) fn note_process() {
     FIRST_PROCESS.get_or_init(std::process::id);
 }
 
@@ -53,7 +71,10 @@ pub fn note_process() {
 /// # Errors
 ///
 /// [`Error::Internal`] when a forked child cannot start its pool.
-pub fn in_live_pool<T: Send>(f: impl FnOnce() -> T + Send) -> Result<T> {
+///
+/// Crate-private: only the binding calls it.
+#[cfg_attr(not(feature = "python"), allow(dead_code))]
+pub(crate) fn in_live_pool<T: Send>(f: impl FnOnce() -> T + Send) -> Result<T> {
     let pid = std::process::id();
     if *FIRST_PROCESS.get_or_init(|| pid) == pid {
         return Ok(f());
@@ -62,7 +83,7 @@ pub fn in_live_pool<T: Send>(f: impl FnOnce() -> T + Send) -> Result<T> {
 }
 
 /// The workers rayon's global pool takes in this process: `RAYON_NUM_THREADS` when it is a
-/// positive whole number (at most [`MAX_THREADS`], as [`cap_global_threads`] caps it), else one
+/// positive whole number (at most [`MAX_THREADS`], as the Python binding caps it), else one
 /// per core ([`cores`]). A forked child's pool is sized so, so that `RAYON_NUM_THREADS=1` keeps
 /// a pool of forked workers from taking every core each.
 pub fn global_threads() -> usize {
@@ -142,7 +163,10 @@ fn take_pool(
 /// for a call of milliseconds, and 100,000 failed to start, after which every parallel call
 /// panicked. Any other value is left to rayon (0, or a value that is not a number: one worker
 /// per core). Returns whether it capped the pool; does nothing once the global pool is built.
-pub fn cap_global_threads() -> bool {
+/// Crate-private: the binding calls it when the module loads; a Rust program sizes rayon's
+/// global pool itself.
+#[cfg_attr(not(feature = "python"), allow(dead_code))]
+pub(crate) fn cap_global_threads() -> bool {
     let asked = std::env::var("RAYON_NUM_THREADS")
         .ok()
         .and_then(|v| v.parse::<usize>().ok());

@@ -139,6 +139,11 @@ pub struct Spike {
 }
 
 /// Many windows in compressed sparse rows.
+///
+/// The fields are public, so windows may be edited or built by hand: [`Windows::view`] (the
+/// way into [`frames`] and [`add_noise`]) and
+/// [`WindowBatch::with_windows`](crate::network::WindowBatch::with_windows) check them, the
+/// sensor included ([`SensorSize::validate`]).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Windows {
     /// Sensor the coordinates refer to.
@@ -161,7 +166,7 @@ pub struct Windows {
 }
 
 impl Windows {
-    /// No windows.
+    /// No windows (not checked: `sensor` and `length_us` are, where the windows are used).
     pub fn empty(sensor: SensorSize, length_us: u64) -> Self {
         Self {
             sensor,
@@ -219,10 +224,11 @@ pub struct WindowsView<'a> {
 }
 
 impl<'a> WindowsView<'a> {
-    /// Check that the columns describe valid windows: `offsets` starts at 0, never decreases and
-    /// ends at the number of spikes (all checked before any spike is read); every window start
-    /// is at most [`MAX_TIME_US`] (so `t0 + length_us` cannot overflow); every spike lies on the
-    /// sensor and inside its window, and spikes are sorted by time within each window.
+    /// Check that the columns describe valid windows: the sensor has no zero side
+    /// ([`SensorSize::validate`]); `offsets` starts at 0, never decreases and ends at the
+    /// number of spikes (all checked before any spike is read); every window start is at most
+    /// [`MAX_TIME_US`] (so `t0 + length_us` cannot overflow); every spike lies on the sensor
+    /// and inside its window, and spikes are sorted by time within each window.
     pub fn new(
         sensor: SensorSize,
         length_us: u64,
@@ -232,6 +238,7 @@ impl<'a> WindowsView<'a> {
         x: &'a [u16],
         y: &'a [u16],
     ) -> Result<Self> {
+        sensor.validate()?;
         if length_us == 0 || length_us > MAX_TIME_US {
             return Err(Error::param(
                 "length_us",
@@ -398,11 +405,19 @@ impl Grid {
 /// The events are validated first (sorted, on the sensor, times ≤ [`MAX_TIME_US`]). An empty
 /// stream gives no windows unless both `start_us` and `end_us` are given, in which case it gives
 /// the empty windows of that range.
+///
+/// # Errors
+///
+/// [`Error::InvalidParameter`]: `sensor_size` for a sensor with a zero side
+/// ([`SensorSize::validate`]) or one above the memory cap, or the config's field out of range;
+/// [`Error::InvalidEvent`] for an event off the sensor, out of order or beyond
+/// [`MAX_TIME_US`].
 pub fn make_windows<E: EventSource + ?Sized>(
     events: &E,
     sensor: SensorSize,
     config: &WindowConfig,
 ) -> Result<Windows> {
+    sensor.validate()?;
     if config.length_us == 0 || config.length_us > MAX_TIME_US {
         return Err(Error::param(
             "length_us",

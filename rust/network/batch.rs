@@ -167,7 +167,9 @@ impl<'a> WindowBatch<'a> {
     ///
     /// As [`WindowBatch::new`] (the fields of [`Windows`] are public, so they may disagree),
     /// [`Error::Shape`] (`offsets`) or [`Error::InvalidParameter`] (`n_preceding`) for a
-    /// value beyond `i64::MAX`; then whatever `f` returns.
+    /// value beyond `i64::MAX`, [`Error::InvalidParameter`] (`sensor_size`) for a sensor with
+    /// a zero side ([`SensorSize::validate`](crate::SensorSize::validate)); then whatever `f`
+    /// returns.
     ///
     /// ```
     /// use uavsnn::network::{infer, Network, NetworkConfig, WindowBatch};
@@ -217,10 +219,8 @@ impl<'a> WindowBatch<'a> {
                 })
             })
             .collect::<Result<Vec<i64>>>()?;
-        let sensor = (
-            usize::from(windows.sensor.width),
-            usize::from(windows.sensor.height),
-        );
+        let sensor = windows.sensor.validate()?;
+        let sensor = (usize::from(sensor.width), usize::from(sensor.height));
         let spikes = Spikes::new(&windows.t, &windows.x, &windows.y)?;
         let batch = WindowBatch::new(
             sensor,
@@ -429,6 +429,13 @@ mod tests {
         let run = |w: &Windows| WindowBatch::with_windows(w, |batch| Ok(batch.len()));
         assert_eq!(run(&w).unwrap(), w.len());
         assert_eq!(run(&Windows::empty(w.sensor, 10)).unwrap(), 0);
+        // A 0x0 sensor (a SensorSize literal) ran `f` on a batch of no pixels.
+        let zero = SensorSize {
+            width: 0,
+            height: 0,
+        };
+        let err = run(&Windows::empty(zero, 10)).unwrap_err();
+        crate::events::assert_zero_sensor(&err);
         // `f`'s own error comes back as it is, whatever its type.
         let err = WindowBatch::with_windows(&w, |_| Err::<(), _>(Error::Internal("f".into())));
         assert!(matches!(err, Err(Error::Internal(m)) if m == "f"));

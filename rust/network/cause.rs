@@ -104,6 +104,12 @@ impl Causes {
         }
     }
 
+    /// Walk the causes with the scalar kernels, as on a CPU without AVX2.
+    #[cfg(test)]
+    pub fn set_scalar(&mut self) {
+        self.avx2 = None;
+    }
+
     /// Forget every stamp (after the window generation counter wrapped).
     pub fn clear_stamps(&mut self) {
         for v in &mut self.boxes {

@@ -230,8 +230,8 @@ pub const MAX_WEIGHTS: usize = 1 << 26;
 
 /// Most bytes one window's state may take (per-pixel tables, every layer's potentials, pool
 /// stamps and cause words, as `Geometry::state_bytes` counts them), the engine's
-/// [`MAX_ALLOC_BYTES`](crate::error::MAX_ALLOC_BYTES): 4 GiB. Table 1's layers need about
-/// 30 MB on a 1280 × 720 sensor and 150 MB on 2048 × 2048.
+/// [`MAX_ALLOC_BYTES`](crate::error::MAX_ALLOC_BYTES): 4 GiB (less on 32-bit targets).
+/// Table 1's layers need about 30 MB on a 1280 × 720 sensor and 150 MB on 2048 × 2048.
 pub const MAX_WINDOW_STATE_BYTES: usize = crate::error::MAX_ALLOC_BYTES;
 
 impl NetworkConfig {

@@ -21,6 +21,9 @@ static NEXT_ID: AtomicU64 = AtomicU64::new(1);
 /// The network: config, geometry and weights, and a pool of engine states `S` kept between
 /// parallel calls (one per worker that used one; a clone starts with none). Used as
 /// [`Network`](super::Network), its one instance.
+///
+/// Name it as `Network`: `NetworkOf` is public only because it is `Network`'s definition, so
+/// that the methods below are `Network`'s in the docs (hidden, they would be left out of them).
 #[derive(Debug)]
 pub struct NetworkOf<S> {
     id: u64,

@@ -1029,6 +1029,54 @@ fn table1_layers_equal_dense_reference() {
     }
 }
 
+/// A CPU without AVX2 runs the scalar references of `simd` end to end: the same spikes, counts
+/// and detections as the AVX2 kernels (where the CPU has them) and the dense reference, window
+/// after window in one state (so that each way's reset between windows runs too), adding
+/// densely and waking by count.
+#[test]
+fn scalar_kernels_give_the_spikes_of_the_avx2_ones() {
+    let mut c = NetworkConfig {
+        width: 48,
+        height: 48,
+        padding: Padding::Same,
+        ..NetworkConfig::default()
+    };
+    c.pent.mode = ThresholdMode::Static;
+    c.conv1.threshold = 1.5;
+    c.conv2.threshold = 2.0;
+    c.conv3.threshold = 1.0;
+    let mut net = Network::new(c.clone(), 3).unwrap();
+    random_weights(&mut net, 11);
+    for gated in [false, true] {
+        let (mut fast, mut scalar) = (net.new_state(), net.new_state());
+        scalar.set_scalar();
+        for w in 0..3u64 {
+            let (t, x, y) = window(&c, 7 + w, 1500, 1_000 * w);
+            let (dense, _) = dense_window(&net, &t, &x, &y, None);
+            assert!(dense.iter().all(|l| !l.is_empty()), "every layer fires");
+            for s in [&mut fast, &mut scalar] {
+                s.set_gated(gated);
+                net.run_window(s, Spikes::new(&t, &x, &y).unwrap(), 1_000 * w, None, true)
+                    .unwrap();
+            }
+            assert_eq!(scalar.counts(), fast.counts(), "window {w}, gated {gated}");
+            assert_eq!(
+                scalar.detections(),
+                fast.detections(),
+                "window {w}, gated {gated}"
+            );
+            for layer in Layer::ALL {
+                assert_eq!(
+                    scalar.spikes(layer),
+                    fast.spikes(layer),
+                    "{layer}, window {w}"
+                );
+                assert_eq!(scalar.spikes(layer), &dense[layer.index()][..], "{layer}");
+            }
+        }
+    }
+}
+
 #[test]
 fn stdp_step_refuses_rates_of_the_wrong_sign_or_not_finite() {
     // A NaN rate wrote NaN weights, which the model file then refused to read back.

@@ -786,6 +786,17 @@ impl WindowState {
         }
     }
 
+    /// Run every kernel of this state as on a CPU without AVX2 (the scalar references of
+    /// `simd`, and no path compiled for AVX2). Call on a fresh state, before its first window.
+    #[cfg(test)]
+    pub(crate) fn set_scalar(&mut self) {
+        self.avx2 = None;
+        self.causes.set_scalar();
+        for c in &mut self.conv {
+            c.set_scalar();
+        }
+    }
+
     #[cfg(test)]
     pub(crate) fn set_generation(&mut self, generation: u32) {
         self.generation = generation;

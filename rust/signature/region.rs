@@ -8,11 +8,22 @@ use crate::events::SensorSize;
 pub const MAX_PIXELS: usize = 1 << 22;
 
 /// The rectangle of pixels an estimator follows: columns `x0..x0 + width`, rows `y0..y0 + height`.
+///
+/// The fields are public, so a region written as a struct literal may be empty, leave the
+/// 16-bit coordinates or exceed [`MAX_PIXELS`]. The estimators that take one
+/// ([`RotorSignature::new`](super::RotorSignature::new),
+/// [`RotorSpectrum::new`](super::spectrum::RotorSpectrum::new)) check it
+/// ([`Region::validate`]) and refuse it with the [`Error::InvalidParameter`] (`box`) that
+/// [`Region::new`] gives.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Region {
+    /// Left column.
     pub x0: u16,
+    /// Top row.
     pub y0: u16,
+    /// Columns, at least 1.
     pub width: u16,
+    /// Rows, at least 1.
     pub height: u16,
 }
 
@@ -65,8 +76,10 @@ impl Region {
     ///
     /// # Errors
     ///
-    /// As [`Region::new`].
+    /// [`Error::InvalidParameter`] (`sensor_size`) for a sensor with a zero side
+    /// ([`SensorSize::validate`]), else as [`Region::new`].
     pub fn sensor(sensor: SensorSize) -> Result<Self> {
+        let sensor = sensor.validate()?;
         Self::new(0, 0, sensor.width, sensor.height)
     }
 
@@ -95,6 +108,19 @@ mod tests {
         assert!(Region::new(65_535, 0, 2, 4).is_err());
         assert!(Region::new(0, 0, 4096, 2048).is_err());
         assert!(Region::new(65_534, 0, 2, 4).is_ok());
+    }
+
+    #[test]
+    fn the_region_of_a_zero_sensor_blames_the_sensor() {
+        // A 0x0 SensorSize literal was refused as an empty `box`, a parameter the caller of
+        // `Region::sensor` never gave.
+        let zero = SensorSize {
+            width: 0,
+            height: 0,
+        };
+        crate::events::assert_zero_sensor(&Region::sensor(zero).unwrap_err());
+        let sensor = SensorSize::new(240, 180).unwrap();
+        assert_eq!(Region::sensor(sensor), Region::new(0, 0, 240, 180));
     }
 
     #[test]

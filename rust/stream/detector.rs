@@ -42,7 +42,8 @@ pub trait WindowEngine {
     /// The state of one window (potentials, latches, box tracking...).
     type State;
 
-    /// The input size the engine expects.
+    /// The input size the engine expects ([`Detector::new`] refuses one with a zero side,
+    /// [`SensorSize::validate`]).
     fn sensor(&self) -> Result<SensorSize>;
 
     /// A fresh state; states are reused through [`WindowEngine::begin`].
@@ -78,6 +79,11 @@ pub const MAX_LIVE_WINDOWS: u64 = 64;
 pub const PUSH_SLICE: usize = 1 << 16;
 
 /// Window length, overlap and (optionally) the first window's start.
+///
+/// The default is the Python package's (`uavsnn.provenance.DEFAULT_WINDOW_US` and
+/// `DEFAULT_OVERLAP`, its `Detector`'s windows for a model that records none): windows of
+/// 50 ms (`window_us: 50_000`) overlapping by half (`overlap: 0.5`), from the first event
+/// (`start_us: None`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct StreamConfig {
     /// Window length `L` in microseconds.
@@ -86,6 +92,17 @@ pub struct StreamConfig {
     pub overlap: f64,
     /// Start of window 0; `None` for the first event's time.
     pub start_us: Option<u64>,
+}
+
+impl Default for StreamConfig {
+    /// 50 ms windows overlapping by half from the first event, as in the Python package.
+    fn default() -> Self {
+        Self {
+            window_us: 50_000,
+            overlap: 0.5,
+            start_us: None,
+        }
+    }
 }
 
 /// Counters kept by the detector.
@@ -142,6 +159,13 @@ pub struct Detector<E: WindowEngine> {
 
 impl<E: WindowEngine> Detector<E> {
     /// A detector running `engine` over windows of `config`.
+    ///
+    /// # Errors
+    ///
+    /// [`Error::InvalidParameter`] for a window length or overlap out of range (or an overlap
+    /// keeping more than [`MAX_LIVE_WINDOWS`] windows live), a start beyond 2^62 µs, or
+    /// `sensor_size` when the engine's sensor has a zero side ([`SensorSize::validate`]) or its
+    /// per-pixel memory is above the cap; what [`WindowEngine::sensor`] returns.
     pub fn new(engine: E, config: StreamConfig) -> Result<Self> {
         let step = window_step(config.window_us, config.overlap)?;
         let live = config.window_us.div_ceil(step);
@@ -176,7 +200,7 @@ impl<E: WindowEngine> Detector<E> {
             usize::try_from(live).unwrap_or(usize::MAX),
             engine.state_bytes(),
         )?;
-        let sensor = engine.sensor()?;
+        let sensor = engine.sensor()?.validate()?;
         // The counter keeps 8 bytes a pixel and queues up to two 16-byte entries a pixel.
         check_alloc(
             "sensor_size",

@@ -119,7 +119,9 @@ pub struct PacketDecoder {
 }
 
 impl PacketDecoder {
-    /// A decoder for `format` checking coordinates against `sensor`.
+    /// A decoder for `format` checking coordinates against `sensor`. The sensor is checked
+    /// where it is used: with a zero side ([`SensorSize::validate`]), every
+    /// [`decode`](Self::decode) refuses with [`Error::InvalidParameter`] (`sensor_size`).
     pub fn new(format: PacketFormat, sensor: SensorSize) -> Self {
         Self {
             format,
@@ -163,7 +165,15 @@ impl PacketDecoder {
     /// themselves) and may make this packet start a new time base (see [`PacketDecoder`] and
     /// [`Self::restarts`]): then the held packets' events, decoded on the new base, come before
     /// its own, and the call succeeds (the packet itself is dropped if it goes back from them).
+    ///
+    /// # Errors
+    ///
+    /// [`Error::InvalidParameter`] (`sensor_size`) when the decoder's sensor has a zero side
+    /// ([`SensorSize::validate`]): the packet is not read, nor counted as
+    /// [`dropped`](Self::dropped); else [`Error::Stream`] or [`Error::InvalidEvent`] for a
+    /// packet refused as above.
     pub fn decode(&mut self, packet: &[u8], arrival_us: u64, out: &mut Vec<Event>) -> Result<()> {
+        self.sensor.validate()?;
         let mut clock = Clock {
             last_t: self.last_t,
             wrap_base: self.wrap_base,
@@ -467,6 +477,30 @@ mod tests {
             assert_eq!(format.name().parse::<PacketFormat>().unwrap(), format);
         }
         assert!("t16".parse::<PacketFormat>().is_err());
+    }
+
+    #[test]
+    fn a_zero_sensor_is_refused_at_every_packet_and_drops_none() {
+        // A 0x0 SensorSize literal took empty packets and refused every event as off the
+        // sensor, counting each packet as dropped: a stream lost without a word of why.
+        let zero = SensorSize {
+            width: 0,
+            height: 0,
+        };
+        for (format, bytes) in [
+            (PacketFormat::T64X16Y16On8, t64(&sample())),
+            (PacketFormat::T32X16Y15On1, t32(&sample())),
+            (PacketFormat::Spif, spif(&sample(), true)),
+        ] {
+            let mut d = PacketDecoder::new(format, zero);
+            let mut out = Vec::new();
+            for packet in [&bytes[..], &[]] {
+                let err = d.decode(packet, 0, &mut out).unwrap_err();
+                crate::events::assert_zero_sensor(&err);
+            }
+            assert!(out.is_empty());
+            assert_eq!((d.dropped(), d.restarts(), d.last_t()), (0, 0, None));
+        }
     }
 
     #[test]

@@ -692,3 +692,82 @@ fn a_large_chunk_runs_in_slices_with_the_same_detections() {
         assert_eq!(d.stats(), small.stats());
     }
 }
+
+/// An engine of a given sensor that never detects.
+struct OfSize(SensorSize);
+
+impl WindowEngine for OfSize {
+    type State = ();
+
+    fn sensor(&self) -> Result<SensorSize> {
+        Ok(self.0)
+    }
+
+    fn new_state(&self) {}
+
+    fn begin(&self, (): &mut (), _: u64, _: u64) -> Result<()> {
+        Ok(())
+    }
+
+    fn push(&self, (): &mut (), _: u64, _: u16, _: u16) -> Result<()> {
+        Ok(())
+    }
+
+    fn settle(&self, (): &mut (), _: &mut Vec<Detection>) -> Result<()> {
+        Ok(())
+    }
+}
+
+#[test]
+fn an_engine_of_a_zero_sensor_is_refused() {
+    // An engine's sensor may be a SensorSize literal: a 0x0 one made a detector that took
+    // no event and blamed each on itself.
+    let zero = SensorSize {
+        width: 0,
+        height: 0,
+    };
+    let err = Detector::new(OfSize(zero), config(100, 0.5)).err().unwrap();
+    crate::events::assert_zero_sensor(&err);
+    let sensor = SensorSize::new(W, H).unwrap();
+    assert_eq!(
+        Detector::new(OfSize(sensor), config(100, 0.5))
+            .unwrap()
+            .sensor(),
+        sensor
+    );
+}
+
+#[test]
+fn the_default_stream_config_is_the_python_packages() {
+    let config = StreamConfig::default();
+    assert_eq!(
+        config,
+        StreamConfig {
+            window_us: 50_000,
+            overlap: 0.5,
+            start_us: None,
+        }
+    );
+    NetworkDetector::new(Network::new(NetworkConfig::default(), 0).unwrap(), config).unwrap();
+    // The numbers the Python package keeps (`uavsnn.provenance`), read from its source where
+    // the repository is there (the crate's package holds no Python).
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/python/uavsnn/provenance.py");
+    let Ok(source) = std::fs::read_to_string(path) else {
+        eprintln!("{path} is not here: the Python defaults not compared");
+        return;
+    };
+    let constant = |name: &str| -> String {
+        let prefix = format!("{name} = ");
+        let line = source.lines().find_map(|l| l.strip_prefix(prefix.as_str()));
+        let value = line.unwrap_or_else(|| panic!("no `{prefix}` line in {path}"));
+        value.split('#').next().unwrap().trim().replace('_', "")
+    };
+    assert_eq!(
+        constant("DEFAULT_WINDOW_US").parse::<u64>(),
+        Ok(config.window_us)
+    );
+    assert_eq!(
+        constant("DEFAULT_OVERLAP").parse::<f64>(),
+        Ok(config.overlap)
+    );
+}

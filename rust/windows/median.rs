@@ -27,9 +27,11 @@ pub(crate) struct MedianFilter {
 }
 
 impl MedianFilter {
-    /// A filter for `sensor`, or [`Error::InvalidParameter`] (`sensor_size`) when its 8 bytes
-    /// a pixel are above [`MAX_ALLOC_BYTES`](crate::error::MAX_ALLOC_BYTES).
+    /// A filter for `sensor`, or [`Error::InvalidParameter`] (`sensor_size`) when it has a
+    /// zero side or its 8 bytes a pixel are above
+    /// [`MAX_ALLOC_BYTES`](crate::error::MAX_ALLOC_BYTES).
     pub(crate) fn new(sensor: SensorSize) -> Result<Self> {
+        sensor.validate()?;
         check_alloc(
             "sensor_size",
             || {
@@ -85,9 +87,11 @@ impl MedianFilter {
 /// # Errors
 ///
 /// [`Error::Shape`] when the columns differ in length, [`Error::InvalidEvent`] for a pixel off
-/// the sensor, [`Error::InvalidParameter`] (`sensor_size`) when the filter's 8 bytes a pixel are
-/// above [`MAX_ALLOC_BYTES`](crate::error::MAX_ALLOC_BYTES).
+/// the sensor, [`Error::InvalidParameter`] (`sensor_size`) when the sensor has a zero side
+/// ([`SensorSize::validate`]) or the filter's 8 bytes a pixel are above
+/// [`MAX_ALLOC_BYTES`](crate::error::MAX_ALLOC_BYTES).
 pub fn median_keep(sensor: SensorSize, x: &[u16], y: &[u16]) -> Result<Vec<bool>> {
+    sensor.validate()?;
     if x.len() != y.len() {
         return Err(Error::Shape {
             name: "x, y",

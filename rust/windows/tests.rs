@@ -468,3 +468,28 @@ fn view_of_inconsistent_windows_is_refused() {
         (&[10u64, 13, 14][..], &[0u16, 2, 1][..], &[0u16, 1, 0][..])
     );
 }
+
+#[test]
+fn a_zero_sensor_literal_is_refused_where_windows_are_made_or_read() {
+    // SensorSize's fields are public: a 0x0 sensor skipped `SensorSize::new`, and windowing
+    // gave the empty windows of a range on it, a view of them and a median filter.
+    let zero = SensorSize {
+        width: 0,
+        height: 0,
+    };
+    let config = WindowConfig::new(10, 0.0)
+        .unwrap()
+        .with_range(Some(0), Some(30));
+    for median in [false, true] {
+        let err = make_windows(&[] as &[Event], zero, &config.with_median(median)).unwrap_err();
+        crate::events::assert_zero_sensor(&err);
+    }
+    let no_spikes = WindowsView::new(zero, 10, &[0, 10], &[0, 0, 0], &[], &[], &[]);
+    crate::events::assert_zero_sensor(&no_spikes.unwrap_err());
+    let mut windows = Windows::empty(zero, 10);
+    windows.t0.push(0);
+    windows.offsets.push(0);
+    windows.n_preceding.push(0);
+    crate::events::assert_zero_sensor(&windows.view().unwrap_err());
+    crate::events::assert_zero_sensor(&median_keep(zero, &[], &[]).unwrap_err());
+}

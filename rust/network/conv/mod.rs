@@ -435,6 +435,14 @@ impl ConvState {
         self.forced = Some(gated);
     }
 
+    /// Run this layer's scalar kernels (and no whole-footprint path), as on a CPU without AVX2.
+    /// Call on a fresh state, before its first window.
+    #[cfg(test)]
+    pub fn set_scalar(&mut self) {
+        self.avx2 = None;
+        self.whole = None;
+    }
+
     /// Set the per-map thresholds for the coming window.
     pub fn set_thresholds(&mut self, thresholds: impl Fn(usize) -> f32) {
         let maps = self.geom.maps;
