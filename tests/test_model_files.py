@@ -209,7 +209,7 @@ def test_the_state_bytes_are_the_engines_count(monkeypatch: pytest.MonkeyPatch) 
         with pytest.raises(ParameterError, match="MAX_ALLOC_BYTES") as caught:
             Detector(net, overlap=0.95, rotor=False)
         count = re.search(r"\((\d+) x (\d+)\)", str(caught.value))
-        assert count is not None and int(count.group(2)) == net._state_bytes
+        assert count is not None and int(count.group(2)) == net.state_bytes
 
 
 def test_window_states_beyond_the_memory_limit_are_refused(
@@ -218,7 +218,7 @@ def test_window_states_beyond_the_memory_limit_are_refused(
     # A config within the engine's caps aborted the process ("memory allocation of ...
     # failed") under `ulimit -v`: refused now against uavsnn.windows.MEMORY_LIMIT.
     net = Network(small_config(), seed=1)
-    one = net._state_bytes
+    one = net.state_bytes
     pixels = SMALL_SENSOR[0] * SMALL_SENSOR[1] * 40
     events = random_events(50, SMALL_SENSOR)
     t, x, y = events["t"], events["x"], events["y"]

@@ -34,7 +34,7 @@ def test_the_memory_check_uses_the_engines_count(monkeypatch: pytest.MonkeyPatch
     # Python counted the state's bytes itself, a twin of the engine's Geometry::state_bytes.
     net = Network(small_config(), seed=1)
     one = net._core.state_bytes()
-    assert isinstance(one, int) and one > 0 and net._state_bytes == one
+    assert isinstance(one, int) and one > 0 and net.state_bytes == one
     events = random_events(50, SMALL_SENSOR)
     t, x, y = events["t"], events["x"], events["y"]
     monkeypatch.setattr(uavsnn.windows, "MEMORY_LIMIT", one - 1)
@@ -47,7 +47,7 @@ def test_the_memory_check_uses_the_engines_count(monkeypatch: pytest.MonkeyPatch
 
 def test_the_memory_check_of_live_windows(monkeypatch: pytest.MonkeyPatch) -> None:
     net = Network(small_config(), seed=1)
-    one = net._state_bytes
+    one = net.state_bytes
     monkeypatch.setattr(uavsnn.windows, "MEMORY_LIMIT", 3 * one + 9)
     _network_use.check_memory(net, 3, more=9)
     with pytest.raises(

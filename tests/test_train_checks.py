@@ -438,7 +438,12 @@ def test_a_trained_model_records_its_windows_and_recordings(
     names = {str(e["name"]) for e in d0.manifest["recordings"] if e["split"] == "train"}
     assert {name for _, name in trained.recordings} == names and names
     assert main(["info", str(out)]) == 0
-    assert "trained on:  windows of 50 ms, overlap 0.5" in capsys.readouterr().out
+    text = capsys.readouterr().out
+    assert "trained on:  windows of 50 ms, overlap 0.5" in text
+    # What one window's state takes (the engine's count), and a detector's live windows.
+    mib = net.state_bytes / 2**20
+    assert f"memory:      {mib:.3g} MiB a window's state; a detector keeps 2 live" in text
+    assert f"{64 * mib:.3g} MiB: an overlap of 0.984)" in text
     # The same dataset's test split: other recordings, nothing said.
     assert main(["evaluate", str(out), str(sets["d0"]), "--json"]) == 0
     done = capsys.readouterr()
@@ -456,7 +461,8 @@ def test_a_trained_model_records_its_windows_and_recordings(
     assert (det.window_us, det.overlap) == (20_000, 0.0)
     assert Detector(out, window_us=30_000, overlap=0.5).window_us == 30_000
     assert main(["info", str(out)]) == 0
-    assert "windows of 20 ms, overlap 0" in capsys.readouterr().out
+    text = capsys.readouterr().out
+    assert "windows of 20 ms, overlap 0" in text and "a detector keeps 1 live" in text
     # Evaluated on windows of another length: said.
     assert main(["evaluate", str(out), str(sets["d0"])]) == 0
     assert "was trained on windows of 20 ms, overlap 0; " in capsys.readouterr().err

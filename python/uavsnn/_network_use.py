@@ -97,7 +97,7 @@ def check_memory(net: Network, states: int = 1, *, more: int = 0, hint: str = ""
         ParameterError: they would not fit (the bytes and the limit named; ``hint`` added).
     """
     limit = windows_module.MEMORY_LIMIT
-    need = states * net._state_bytes + more
+    need = states * net.state_bytes + more
     if limit is None or need <= limit:
         return
     c = net.config

@@ -459,8 +459,10 @@ class Network:
         )
 
     @functools.cached_property
-    def _state_bytes(self) -> int:
-        """Bytes of one window's state, the engine's count (``Geometry::state_bytes``). A
+    def state_bytes(self) -> int:
+        """Bytes of one window's state, the engine's count (``Geometry::state_bytes``): what
+        each window :meth:`infer` runs at once, and each live window of a
+        :class:`~uavsnn.detector.Detector`, holds (``uavsnn info`` prints it for a model). A
         network's config does not change: asked once."""
         return self._core.state_bytes()
 

@@ -68,8 +68,8 @@ pub trait WindowEngine {
 }
 
 /// The most windows a stream may hold live at once, `ceil(L / step)`: each holds a network state
-/// (about half a MiB on a 240×180 sensor), so an overlap of 0.9999 would need ten thousand of
-/// them. With `step = L·(1 − o)` this allows overlaps up to `1 − 1/64 ≈ 0.984`.
+/// (`Geometry::state_bytes`: 1.7 MiB for Table 1's layers on a 240×180 sensor, 35 MiB on
+/// 1280×720), so an overlap of 0.9999 would need ten thousand of them. With `step = L·(1 − o)` this allows overlaps up to `1 − 1/64 ≈ 0.984`.
 pub const MAX_LIVE_WINDOWS: u64 = 64;
 
 /// Events a push reads at a time. A larger chunk is checked whole first, then run in slices of

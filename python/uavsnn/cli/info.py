@@ -10,9 +10,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from uavsnn import _jsonout, io
+from uavsnn import _core, _jsonout, io
 from uavsnn._npy import npz_arrays
 from uavsnn.cli import counted
+from uavsnn.detector import MAX_LIVE_WINDOWS
 from uavsnn.errors import ParameterError
 from uavsnn.events import Recording
 from uavsnn.provenance import ARRAY, DEFAULT_OVERLAP, DEFAULT_WINDOW_US
@@ -141,9 +142,24 @@ def model_summary(network: Network, path: str | None = None) -> dict[str, Any]:
             "overlap": network.trained_on.overlap,
             "recordings": len(network.trained_on.recordings),
         },
+        "state_bytes": network.state_bytes,
+        "live_windows": _live_windows(network),
         "load_note": network.load_note,
         "config": config,
     }
+
+
+def _live_windows(network: Network) -> int:
+    """The windows a ``Detector`` keeps live at the model's window and overlap (its training's,
+    else the defaults)."""
+    trained = network.trained_on
+    window = DEFAULT_WINDOW_US if trained is None else trained.window_us
+    overlap = DEFAULT_OVERLAP if trained is None else trained.overlap
+    return -(-window // _core.window_step(window, float(overlap)))
+
+
+def _mib(n: float) -> str:
+    return f"{n / 2**20:.3g} MiB" if n < 2**30 else f"{n / 2**30:.3g} GiB"
 
 
 def _print_model(info: dict[str, Any]) -> None:
@@ -177,6 +193,12 @@ def _print_model(info: dict[str, Any]) -> None:
             f"{trained['overlap']:g} (`uavsnn detect` takes them), from "
             f"{counted(trained['recordings'], 'recording')}"
         )
+    state, live = info["state_bytes"], info["live_windows"]
+    print(
+        f"memory:      {_mib(state)} a window's state; a detector keeps {live} live at "
+        f"these windows ({_mib(live * state)}), {MAX_LIVE_WINDOWS} at most "
+        f"({_mib(MAX_LIVE_WINDOWS * state)}: an overlap of 0.984)"
+    )
     ident = info["identification"]
     if ident is None:
         print(
