@@ -337,21 +337,26 @@ def test_dataset_info_on_a_split_file_names_its_folder(
     assert line.startswith("uavsnn dataset info: error: dataset folder ")
 
 
+def _real_manifest(*recordings: dict[str, Any]) -> dict[str, Any]:
+    """The manifest of a small real set with these recordings, for `dataset info`'s summary."""
+    split = {"windows": 4, "uav": 2, "non_uav": 2, "classes": {"drone": 2}, "recordings": [0]}
+    return {
+        "domain": "real", "source": "videos", "seed": 0,
+        "parameters": {"window_ms": 50.0, "overlap": 0.5, "sensor_size": [240, 180]},
+        "splits": {"train": split, "test": split},
+        "recordings": list(recordings),
+    }  # fmt: skip
+
+
 def test_a_clip_that_gave_no_usable_window_is_said(capsys: pytest.CaptureFixture[str]) -> None:
     """A clip whose box file labels no window (its header alone) added nothing to the set, and
     only the manifest's `usable` 0 showed it: `dataset build` and `dataset info` name it."""
     from uavsnn.cli.dataset import _print, _summary
 
-    split = {"windows": 4, "uav": 2, "non_uav": 2, "classes": {"drone": 2}, "recordings": [0]}
-    manifest = {
-        "domain": "real", "source": "videos", "seed": 0,
-        "parameters": {"window_ms": 50.0, "overlap": 0.5, "sensor_size": [240, 180]},
-        "splits": {"train": split, "test": split},
-        "recordings": [
-            {"id": 0, "name": "V_DRONE_001", "domain": "real", "usable": 4},
-            {"id": 1, "name": "V_BIRD_002", "domain": "real", "usable": 0},
-        ],
-    }  # fmt: skip
+    manifest = _real_manifest(
+        {"id": 0, "name": "V_DRONE_001", "domain": "real", "usable": 4},
+        {"id": 1, "name": "V_BIRD_002", "domain": "real", "usable": 0},
+    )
     summary = _summary(Path("set"), manifest)
     assert summary["unusable_clips"] == ["V_BIRD_002"]
     _print(summary, as_json=False)
@@ -366,17 +371,11 @@ def test_a_clip_labelled_in_part_is_said(capsys: pytest.CaptureFixture[str]) -> 
     its windows unscored without a word: a clip that leaves more than a tenth is named."""
     from uavsnn.cli.dataset import PARTLY_LABELLED, _print, _summary
 
-    split = {"windows": 4, "uav": 2, "non_uav": 2, "classes": {"drone": 2}, "recordings": [0]}
-    manifest = {
-        "domain": "real", "source": "videos", "seed": 0,
-        "parameters": {"window_ms": 50.0, "overlap": 0.5, "sensor_size": [240, 180]},
-        "splits": {"train": split, "test": split},
-        "recordings": [
-            {"id": 0, "name": "V_DRONE_001", "domain": "real", "usable": 398, "windows": 401},
-            {"id": 1, "name": "V_BIRD_002", "domain": "real", "usable": 200, "windows": 401},
-            {"id": 2, "name": "V_BIRD_003", "domain": "real", "usable": 0, "windows": 401},
-        ],
-    }  # fmt: skip
+    manifest = _real_manifest(
+        {"id": 0, "name": "V_DRONE_001", "domain": "real", "usable": 398, "windows": 401},
+        {"id": 1, "name": "V_BIRD_002", "domain": "real", "usable": 200, "windows": 401},
+        {"id": 2, "name": "V_BIRD_003", "domain": "real", "usable": 0, "windows": 401},
+    )
     summary = _summary(Path("set"), manifest)
     assert PARTLY_LABELLED == 0.1
     assert summary["partly_labelled_clips"] == [

@@ -983,14 +983,12 @@ fn exact_potential_decides_where_float32_rounds_above() {
     }
 }
 
-/// Table 1's layers (conv2 10 × 10 over 4 maps into 20, conv3 into 10: the shapes the engine
-/// has fixed fast paths for, outside `config_strategy`'s sizes) against the dense reference,
-/// recorded and not, through every layer and stopped early.
-#[test]
-fn table1_layers_equal_dense_reference() {
+/// Table 1's layers on a `side` × `side` sensor with static thresholds low enough for random
+/// weights to fire every layer, and those weights.
+fn table1_static(side: usize) -> (NetworkConfig, Network) {
     let mut c = NetworkConfig {
-        width: 125,
-        height: 125,
+        width: side,
+        height: side,
         padding: Padding::Same,
         ..NetworkConfig::default()
     };
@@ -1000,6 +998,15 @@ fn table1_layers_equal_dense_reference() {
     c.conv3.threshold = 1.0;
     let mut net = Network::new(c.clone(), 3).unwrap();
     random_weights(&mut net, 11);
+    (c, net)
+}
+
+/// Table 1's layers (conv2 10 × 10 over 4 maps into 20, conv3 into 10: the shapes the engine
+/// has fixed fast paths for, outside `config_strategy`'s sizes) against the dense reference,
+/// recorded and not, through every layer and stopped early.
+#[test]
+fn table1_layers_equal_dense_reference() {
+    let (c, net) = table1_static(125);
     let (t, x, y) = window(&c, 7, 6000, 0);
     let (dense, _) = dense_window(&net, &t, &x, &y, None);
     assert!(dense.iter().all(|l| !l.is_empty()), "every layer fires");
@@ -1035,18 +1042,7 @@ fn table1_layers_equal_dense_reference() {
 /// densely and waking by count.
 #[test]
 fn scalar_kernels_give_the_spikes_of_the_avx2_ones() {
-    let mut c = NetworkConfig {
-        width: 48,
-        height: 48,
-        padding: Padding::Same,
-        ..NetworkConfig::default()
-    };
-    c.pent.mode = ThresholdMode::Static;
-    c.conv1.threshold = 1.5;
-    c.conv2.threshold = 2.0;
-    c.conv3.threshold = 1.0;
-    let mut net = Network::new(c.clone(), 3).unwrap();
-    random_weights(&mut net, 11);
+    let (c, net) = table1_static(48);
     for gated in [false, true] {
         let (mut fast, mut scalar) = (net.new_state(), net.new_state());
         scalar.set_scalar();

@@ -595,8 +595,8 @@ fn the_small_network_detects_the_blob() {
     assert!(!network_batch(&net, &events, 3_000, 0.5).is_empty());
 }
 
-/// An engine of a given sensor and state size whose windows are never run: only what
-/// [`Detector::new`] checks.
+/// An engine of a given sensor (a literal: any size) and state size whose windows are never
+/// run: only what [`Detector::new`] checks.
 struct Inert {
     sensor: (u16, u16),
     state_bytes: usize,
@@ -606,7 +606,10 @@ impl WindowEngine for Inert {
     type State = ();
 
     fn sensor(&self) -> Result<SensorSize> {
-        SensorSize::new(self.sensor.0, self.sensor.1)
+        Ok(SensorSize {
+            width: self.sensor.0,
+            height: self.sensor.1,
+        })
     }
 
     fn new_state(&self) {}
@@ -693,48 +696,22 @@ fn a_large_chunk_runs_in_slices_with_the_same_detections() {
     }
 }
 
-/// An engine of a given sensor that never detects.
-struct OfSize(SensorSize);
-
-impl WindowEngine for OfSize {
-    type State = ();
-
-    fn sensor(&self) -> Result<SensorSize> {
-        Ok(self.0)
-    }
-
-    fn new_state(&self) {}
-
-    fn begin(&self, (): &mut (), _: u64, _: u64) -> Result<()> {
-        Ok(())
-    }
-
-    fn push(&self, (): &mut (), _: u64, _: u16, _: u16) -> Result<()> {
-        Ok(())
-    }
-
-    fn settle(&self, (): &mut (), _: &mut Vec<Detection>) -> Result<()> {
-        Ok(())
-    }
-}
-
 #[test]
 fn an_engine_of_a_zero_sensor_is_refused() {
     // An engine's sensor may be a SensorSize literal: a 0x0 one made a detector that took
     // no event and blamed each on itself.
-    let zero = SensorSize {
-        width: 0,
-        height: 0,
+    let inert = |sensor| Inert {
+        sensor,
+        state_bytes: 0,
     };
-    let err = Detector::new(OfSize(zero), config(100, 0.5)).err().unwrap();
+    let err = Detector::new(inert((0, 0)), config(100, 0.5))
+        .err()
+        .unwrap();
     crate::events::assert_zero_sensor(&err);
-    let sensor = SensorSize::new(W, H).unwrap();
-    assert_eq!(
-        Detector::new(OfSize(sensor), config(100, 0.5))
-            .unwrap()
-            .sensor(),
-        sensor
-    );
+    let sensor = Detector::new(inert((W, H)), config(100, 0.5))
+        .unwrap()
+        .sensor();
+    assert_eq!(sensor, SensorSize::new(W, H).unwrap());
 }
 
 #[test]
