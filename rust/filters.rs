@@ -365,32 +365,11 @@ mod tests {
             matches!(err, Error::InvalidParameter { name: "target", .. }),
             "{err}"
         );
-        let err = downsample(&[], flat, s).unwrap_err();
-        assert!(
-            matches!(
-                err,
-                Error::InvalidParameter {
-                    name: "sensor_size",
-                    ..
-                }
-            ),
-            "{err}"
-        );
+        crate::events::assert_zero_sensor(&downsample(&[], flat, s).unwrap_err());
         assert!(downsample_packed(&[], s, flat).is_err());
         assert!(downsample_map(&[] as &[Event], zero, s).is_err());
-        assert!(Crop::centred(s, zero).is_err());
-        assert!(Crop::centred(zero, s).is_err());
-    }
-
-    #[test]
-    fn a_zero_sensor_is_a_parameter_error_before_any_event() {
         // Denoising on a 0x0 sensor accepted no events without a word; with events the size
         // was blamed on the first of them (an event error).
-        let s = SensorSize::new(4, 4).unwrap();
-        let zero = SensorSize {
-            width: 0,
-            height: 0,
-        };
         let events = [ev(1, 0, 0)];
         for err in [
             denoise_mask(&[] as &[Event], zero, 10).unwrap_err(),
@@ -400,5 +379,7 @@ mod tests {
         ] {
             crate::events::assert_zero_sensor(&err);
         }
+        assert!(Crop::centred(s, zero).is_err());
+        assert!(Crop::centred(zero, s).is_err());
     }
 }
