@@ -27,6 +27,7 @@ from conftest import (
     blob_events,
     kill_group,
     one_line_exit_2,
+    random_events,
     small_config,
 )
 
@@ -522,6 +523,34 @@ def test_a_udp_source_follows_a_restarted_sensor() -> None:
     np.testing.assert_array_equal(after, new)
     assert src.stats.dropped == 0
     assert len(chunks[first_new]) == (_core.RESTART_AFTER + 1) * per
+
+
+def test_live_sources_downsample_each_chunk_as_a_file_is_whole() -> None:
+    """`downsample_to` of the live sources: each chunk cropped and scaled from the camera's
+    sensor as `filters.downsample` does a recording whole (the crop may empty a packet: no
+    empty chunk comes of it, which would read as silence)."""
+    from uavsnn.events import Recording
+    from uavsnn.filters import downsample
+    from uavsnn.sources import StdinSource
+
+    camera, model = (100, 60), SMALL_SENSOR
+    events = random_events(2_000, camera, seed=9)
+    events["x"][:100] = 0  # a first packet wholly outside the centred crop
+    events = events[np.argsort(events["t"], kind="stable")]
+    want = downsample(Recording(events, camera), model).events
+    with (
+        UdpSource(LOOPBACK, 0, sensor_size=camera, idle_timeout=0.5, downsample_to=model) as src,
+        socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s,
+    ):
+        for i in range(0, len(events), 100):
+            s.sendto(events[i : i + 100].tobytes(), src.address)
+        udp = list(src)
+    stdin = list(StdinSource(io.BytesIO(events.tobytes()), sensor_size=camera,
+                             read_size=13 * 100, downsample_to=model))  # fmt: skip
+    for chunks in (udp, stdin):
+        assert all(len(c) for c in chunks)
+        np.testing.assert_array_equal(np.concatenate(chunks), want)
+    assert src.sensor_size == model and src.camera_size == camera and src.stats.events == 2_000
 
 
 @pytest.mark.parametrize("fmt", ["packed", "csv"])
