@@ -72,7 +72,8 @@ __all__ = [
 
 #: The most windows a :class:`Detector` keeps live at once, ``ceil(1 / (1 - overlap))`` (the
 #: engine's limit): each holds a network state (:attr:`Network.state_bytes`: 1.7 MiB on a
-#: 240×180 sensor, 35 MiB on 1280×720), so an overlap of 0.9999 would need 10,000 of them. Overlaps up to ``1 - 1/64 ≈ 0.984`` are accepted.
+#: 240×180 sensor, 35 MiB on 1280×720), so an overlap of 0.9999 would need 10,000 of them.
+#: Overlaps up to ``1 - 1/64 ≈ 0.984`` are accepted.
 MAX_LIVE_WINDOWS = 64
 
 # Bytes the engine's stream keeps per pixel beside the window states: its counter of preceding
