@@ -321,7 +321,10 @@ def rotor_events(
 
     jitter = np.random.default_rng(seed)
 
-    def image(t_s: float, ss: int = 4) -> np.ndarray:
+    # Frames and sub-frame samples on one coverage grid, as the scenes draw fast parts: on two,
+    # a blade's coverage at frames differed from that between them by its phase, which put
+    # lines of the frame rate and its beats with the blade pass into the spectrum.
+    def image(t_s: float, ss: int = FINE_SS) -> np.ndarray:
         img = bg.copy()
         # Face-on: the rotor's plane (x, z) seen as the screen's (x, y).
         face = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
