@@ -286,7 +286,7 @@ def test_the_documented_scene_file_records(
     with np.load(tmp_path / "drone.labels.npz") as labels:
         drone = labels["labels"]["cls"] == "drone"
     # As docs/simulation.md says: 100 frames, the drone labelled in every one (its event count,
-    # 7,539 on the machine of the change, is not checked: the C library's exp and log may move
+    # 7,370 on the machine of the change, is not checked: the C library's exp and log may move
     # it on another).
     assert summary["frames"] == 100 and summary["events"] > 0 and bool(drone.all())
 
