@@ -116,6 +116,36 @@ def test_a_bad_json_field_is_one_line_and_writes_nothing(
         assert sorted(p.name for p in tmp_path.iterdir()) == ["scene.json"]
 
 
+def test_a_json_scenes_size_is_its_own_or_sizes_where_it_gives_none(
+    base: dict[str, Any], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The docs said width and height default to --size: left out, they were refused
+    (missing fields); given with another --size, the refusal named a Python call."""
+    from uavsnn.cli import main
+    from uavsnn.io import read
+
+    scene, out = tmp_path / "scene.json", tmp_path / "s.npz"
+    cases = [  # (edit, --size, the sensor recorded)
+        (lambda d: [d.pop("width"), d.pop("height")], [], (240, 180)),
+        (lambda d: [d.pop("width"), d.pop("height")], ["--size", "64x48"], (64, 48)),
+        (lambda d: None, [], (64, 48)),
+        (lambda d: None, ["--size", "64x48"], (64, 48)),
+    ]
+    for edit, size, sensor in cases:
+        scene.write_text(json.dumps(_edited(base, edit)))
+        assert main(["simulate", "--scene", str(scene), "-o", str(out), *size]) == 0
+        capsys.readouterr()
+        assert read(out).sensor_size == sensor
+    scene.write_text(json.dumps(base))
+    line = _one_line_exit_2(
+        capsys, ["simulate", "--scene", str(scene), "-o", str(out), "--size", "80x60"], "--size"
+    )
+    assert line.endswith("the scene's width and height are 64x48, --size 80x60: leave --size "
+                         "out to record at the scene's size, or edit the scene's")  # fmt: skip
+    scene.write_text(json.dumps(_edited(base, lambda d: d.pop("height"))))
+    _one_line_exit_2(capsys, ["simulate", "--scene", str(scene), "-o", str(out)], "and not height")
+
+
 def test_what_is_checked_is_what_is_drawn(base: dict[str, Any]) -> None:
     """Integers and NumPy arrays are kept as tuples of floats; a sampled scene is unchanged."""
     spec = spec_from_dict(base)

@@ -64,7 +64,11 @@ def register(subparsers: Any) -> None:
         default=None,
         help="a video's simulator (sim, the default); --scene is always dvs",
     )
-    parser.add_argument("--size", default="240x180", help="sensor WIDTHxHEIGHT (240x180)")
+    parser.add_argument(
+        "--size",
+        help="sensor WIDTHxHEIGHT (240x180; a JSON scene's own width and height where it gives "
+        "them)",
+    )
     parser.add_argument("--seed", type=int, default=0, help="seed of the dvs noise (0)")
     parser.add_argument(
         "--downsample",
@@ -112,6 +116,30 @@ def write_recording(recording: Recording, path: Path) -> None:
     write_npz(recording, path)
 
 
+#: The sensor of ``--size`` when neither it nor a JSON scene gives one.
+_SIZE = "240x180"
+
+
+def _fill_size(data: dict[str, Any], size: tuple[int, int], *, given: bool) -> None:
+    """A JSON scene ``data``'s ``width`` and ``height``, filled in from ``size`` (``--size``'s,
+    or the default) where it leaves both out; where it gives them and ``--size`` was
+    ``given``, the two must agree (without ``--size`` the scene is recorded at its own)."""
+    has = [key for key in ("width", "height") if key in data]
+    if not has:
+        data["width"], data["height"] = size
+    elif len(has) == 1:
+        other = "height" if has[0] == "width" else "width"
+        raise ParameterError(
+            f"the scene gives {has[0]} and not {other}: give both, or leave both out for --size's"
+        )
+    elif given and (data["width"], data["height"]) != size:
+        raise ParameterError(
+            f"the scene's width and height are {data['width']}x{data['height']}, --size "
+            f"{size[0]}x{size[1]}: leave --size out to record at the scene's size, or edit "
+            "the scene's"
+        )
+
+
 def _scene(args: argparse.Namespace, size: tuple[int, int]) -> Recording:
     """Record the scene ``--scene`` names; its labels go beside the output."""
     from uavsnn.cli._camera import fov_option, lens_option, through_lens
@@ -132,7 +160,10 @@ def _scene(args: argparse.Namespace, size: tuple[int, int]) -> Recording:
             # RecursionError: arrays or objects nested too deep for the JSON parser.
             what = "nested too deep" if isinstance(exc, RecursionError) else exc
             raise ParameterError(f"cannot read the scene {args.scene}: {what}") from exc
+        if isinstance(data, dict):
+            _fill_size(data, size, given=args.size is not None)
         spec = spec_from_dict(data)
+        size = (spec.width, spec.height)
     elif args.scene in SCENE_KINDS or args.scene in OBJECT_KINDS:
         rng = np.random.default_rng(args.seed)
         duration = 1.0 if args.duration is None else args.duration
@@ -180,7 +211,7 @@ def pix2nvs_params(args: argparse.Namespace) -> Pix2NvsParams | None:
 
 def run(args: argparse.Namespace) -> int:
     """Handler of ``uavsnn simulate``."""
-    size = check_size(args.size)
+    size = check_size(args.size or _SIZE)
     if args.output.suffix.lower() != ".npz":
         print(
             f"uavsnn simulate: error: output must end in .npz, got {args.output}", file=sys.stderr
