@@ -263,3 +263,46 @@ def test_event_strip_of_an_empty_recording():
 
     img = event_strip(Recording(np.zeros(0, EVENT_DTYPE), (20, 10)), panels=3, scale=1)
     assert img.shape == (10, 3 * 20 + 2 * 2, 3)
+
+
+def test_a_single_frame_or_an_image_is_refused_not_an_empty_recording(tmp_path: Path) -> None:
+    """One frame (an image, max_frames=1) made an empty recording, exit 0, with a frame rate
+    OpenCV makes up for images (a new user's walk)."""
+    from uavsnn import SimulationError
+
+    one = write_video(tmp_path / "one.avi", n=1)
+    image = tmp_path / "still.png"
+    cv2.imwrite(str(image), np.full((H, W, 3), 90, dtype=np.uint8))
+    for path, limit in ((one, None), (write_video(tmp_path / "two.avi", n=3), 1), (image, None)):
+        with pytest.raises(SimulationError, match="a recording needs at least 2"):
+            video_to_recording(path, "dvs", (W // 2, H // 2), max_frames=limit)
+    assert len(video_to_recording(tmp_path / "two.avi", "dvs", (W // 2, H // 2), max_frames=2))
+
+
+def test_frames_scaled_up_are_said(video: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A sensor larger than the video's crop (frames resized up) gave events of the crop's
+    size spread over the sensor, every pixel block alike, without a word."""
+    from uavsnn.cli import main
+
+    rec = video_to_recording(video, "dvs", (640, 480), max_frames=4)
+    assert rec.metadata["upscaled_from"] == [267, 200] and rec.sensor_size == (640, 480)
+    own = video_to_recording(video, "dvs", (240, 180), max_frames=4)
+    assert "upscaled_from" not in own.metadata
+    out = video.parent / "up.npz"
+    argv = ["simulate", str(video), "-o", str(out), "--mode", "dvs", "--size", "640x480"]
+    assert main([*argv, "--max-frames", "4"]) == 0
+    err = capsys.readouterr().err
+    assert "note: the video's 267x200 crop is smaller than the 640x480 sensor" in err
+
+
+def test_a_stopped_progress_bar_says_no_done(capsys: pytest.CaptureFixture[str]) -> None:
+    """simulate's progress line said "done" just before "interrupted"."""
+    import sys
+
+    from uavsnn.progress import LineProgress, stop
+
+    line = LineProgress(10, "clip", " frame", stream=sys.stderr)
+    line.update(3)
+    stop(line)
+    line.close()  # closed already: nothing more
+    assert "done" not in capsys.readouterr().err

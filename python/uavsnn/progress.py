@@ -16,7 +16,7 @@ import sys
 import time
 from typing import Any, TextIO
 
-__all__ = ["EVERY_S", "LineProgress", "bar"]
+__all__ = ["EVERY_S", "LineProgress", "bar", "stop"]
 
 #: Seconds between two plain progress lines when standard error is not a terminal.
 EVERY_S = 10.0
@@ -93,6 +93,15 @@ def _plural(noun: str) -> str:
     if noun.endswith("y") and noun[-2:-1] not in ("a", "e", "i", "o", "u"):
         return noun[:-1] + "ies"
     return noun + "s"
+
+
+def stop(progress: Any) -> None:
+    """Close a :func:`bar` whose work stopped before its end (an interruption, an error): a
+    :class:`LineProgress` without its "done" line; tqdm's bar as it closes."""
+    if isinstance(progress, LineProgress):
+        progress.closed = True
+    else:
+        progress.close()
 
 
 def bar(total: int | None = None, desc: str = "", unit: str = "", **kwargs: Any) -> Any:

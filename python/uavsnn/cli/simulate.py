@@ -310,7 +310,18 @@ def _finish(args: argparse.Namespace, recording: Recording) -> int:
         "events_per_second": len(ev) / duration_s if duration_s > 0 else 0.0,
         "seed": args.seed,
         "params": recording.metadata.get("params"),
+        "upscaled_from": recording.metadata.get("upscaled_from"),
     }
+    up = summary["upscaled_from"]
+    if up is not None:
+        w, h = recording.sensor_size
+        print(
+            f"uavsnn simulate: note: the video's {up[0]}x{up[1]} crop is smaller than the "
+            f"{w}x{h} sensor: its frames were scaled up, so the events are those of a "
+            f"{up[0]}x{up[1]} sensor spread over {w}x{h} (give --size {up[0]}x{up[1]} or "
+            "less for the video's own pixels)",
+            file=sys.stderr,
+        )
     if args.json:
         print(_jsonout.dumps(summary))
     else:

@@ -403,8 +403,17 @@ def video_to_recording(
             chunks.append(sim.process(frame[None], [t]))
             n += 1
             bar(1)
-    finally:
-        bar(None)
+    except BaseException:
+        bar(_STOPPED)  # closed without "done": the frames were not all read
+        raise
+    bar(None)
+    if n < 2:
+        # Events are changes between frames: one frame (an image, max_frames=1) makes none,
+        # and OpenCV gives an image a frame rate of its own.
+        raise SimulationError(
+            f"{str(path)!r} gave {n} frame{'s' if n != 1 else ''}: a recording needs at least 2 "
+            "(events are the changes between frames; an image is no video)"
+        )
     if rate is None:
         rate = info.fps
     events = np.concatenate(chunks) if chunks else np.zeros(0, dtype=EVENT_DTYPE)
@@ -420,7 +429,20 @@ def video_to_recording(
         "pooling": pooling if downsample == "events" else None,
         "video_size": [info.width, info.height],
     }
+    crop = _crop_size((info.width, info.height), sensor)
+    if downsample == "frames" and (crop[0] < sensor[0] or crop[1] < sensor[1]):
+        # Frames scaled up: the events are those of a sensor of the crop's size, spread.
+        metadata["upscaled_from"] = list(crop)
     return Recording(events, sensor, metadata)
+
+
+def _crop_size(size: tuple[int, int], sensor: tuple[int, int]) -> tuple[int, int]:
+    """The size of :func:`crop_to_aspect`'s crop of a ``size`` frame to ``sensor``'s aspect."""
+    w, h = size
+    aspect = sensor[0] / sensor[1]
+    if w / h > aspect:
+        return min(w, max(1, round(h * aspect))), h
+    return w, min(h, max(1, round(w / aspect)))
 
 
 def _simulator(
@@ -446,16 +468,21 @@ def _simulator(
     return Pix2NvsSimulator(frame_size, params=params, output_size=sensor, pooling=pooling)
 
 
+#: What a :func:`_progress` step is given when the work stopped before its end.
+_STOPPED = "stopped"
+
+
 def _progress(
     progress: bool | Callable[[int], None], total: int, path: str | Path
-) -> Callable[[int | None], None]:
-    """A ``step(n)`` function; ``step(None)`` closes the bar."""
+) -> Callable[[int | str | None], None]:
+    """A ``step(n)`` function; ``step(None)`` closes the bar, ``step(_STOPPED)`` closes it
+    without its "done" line (the work stopped)."""
     if callable(progress):
         user = progress
         done = [0]
 
-        def step_user(k: int | None) -> None:
-            if k is not None:
+        def step_user(k: int | str | None) -> None:
+            if isinstance(k, int):
                 done[0] += k
                 user(done[0])
 
@@ -463,12 +490,15 @@ def _progress(
     if not progress:
         return lambda k: None
     from uavsnn.progress import bar as new_bar
+    from uavsnn.progress import stop
 
     bar = new_bar(total=total or None, unit="frame", desc=Path(path).name)
 
-    def step_bar(k: int | None) -> None:
+    def step_bar(k: int | str | None) -> None:
         if k is None:
             bar.close()
+        elif k == _STOPPED:
+            stop(bar)
         else:
             bar.update(k)
 
