@@ -101,6 +101,10 @@ def test_spectra_and_rotation_refuse_what_would_not_fit_before_allocating() -> N
             event_rate_spectrum(bad)
     with pytest.raises(ParameterError, match="box"):
         pixel_rate_spectrum(ev, box=(1.0, 2.0))
+    # (x, y, width, height), the rotor estimators' form, read as corners: empty, refused (it
+    # gave a spectrum of NaN).
+    with pytest.raises(ParameterError, match="x1 > x0 and y1 > y0"):
+        pixel_rate_spectrum(ev, box=(30, 20, 12, 10))
     with pytest.raises(ParameterError, match="chunk"):
         pixel_rate_spectrum(ev[:1], chunk=0)
     with pytest.raises(EventError, match="fields t, x, y, p"):

@@ -149,7 +149,7 @@ def pixel_rate_spectrum(
     Raises:
         EventError: ``events`` without the fields ``t``, ``x``, ``y`` and ``p``.
         ParameterError: as :func:`event_rate_spectrum`, a ``box`` that is not four finite
-            numbers, or a ``min_events`` or ``chunk`` below 1.
+            numbers with ``x1 > x0`` and ``y1 > y0``, or a ``min_events`` or ``chunk`` below 1.
     """
     ev = _events(events, ("t", "x", "y", "p"))
     bin_us = check_int("bin_us", bin_us, low=1, high=10**9)
@@ -245,17 +245,24 @@ def _events(events: Any, fields: tuple[str, ...]) -> np.ndarray:
 
 
 def _box(box: Any) -> tuple[float, float, float, float]:
-    """A box ``(x0, y0, x1, y1)`` of finite numbers."""
+    """A box ``(x0, y0, x1, y1)`` of finite numbers, not empty (``x1 > x0``, ``y1 > y0``: a
+    box given as ``(x, y, width, height)``, the rotor estimators' form, is mostly empty)."""
     try:
         x0, y0, x1, y1 = box
     except (TypeError, ValueError) as exc:
         raise ParameterError(f"box must be (x0, y0, x1, y1), got {box!r}") from exc
-    return (
+    corners = (
         check_real("box x0", x0),
         check_real("box y0", y0),
         check_real("box x1", x1),
         check_real("box y1", y1),
     )
+    if corners[2] <= corners[0] or corners[3] <= corners[1]:
+        raise ParameterError(
+            f"box must be (x0, y0, x1, y1) with x1 > x0 and y1 > y0, got {box!r} (the rotor "
+            "estimators of uavsnn.signature take (x, y, width, height) instead)"
+        )
+    return corners
 
 
 def dominant_frequency(
