@@ -411,10 +411,12 @@ def test_info_command_reports_counts_and_rates(
     assert info["mean_rate_ev_per_s"] == pytest.approx((len(t) - 1) / ((t[-1] - t[0]) * 1e-6))
     busiest = np.bincount((t - t[0]) // 1000).max()
     assert info["peak_rate_ev_per_s"] == busiest * 1000
+    assert info["on_fraction"] == pytest.approx(rec.events["p"].mean())
     assert main(["info", str(path)]) == 0
     text = capsys.readouterr().out
     assert "640x480 (the gen3 camera named in the header" in text
     assert "busiest 1 ms bin" in text
+    assert f"events:      {len(rec):,} ({rec.events['p'].mean():.0%} ON)" in text
 
 
 def test_info_gives_no_peak_rate_for_events_shorter_than_a_bin(

@@ -28,7 +28,8 @@ PEAK_BIN_US = 1_000
 
 
 def summary(recording: Recording) -> dict[str, Any]:
-    """Sensor size, event count, first/last time, duration, and mean and peak event rates.
+    """Sensor size, event count and the share of ON events, first/last time, duration, and
+    mean and peak event rates.
 
     The mean rate is events per second from the intervals between the events: ``n − 1`` of
     them over ``last t − first t`` (``None`` for fewer than two distinct times; ``n`` over that
@@ -54,6 +55,7 @@ def summary(recording: Recording) -> dict[str, Any]:
         "camera": recording.metadata.get("camera"),
         "sensor_size_note": recording.metadata.get("sensor_size_note"),
         "events": n,
+        "on_fraction": float(recording.events["p"].mean()) if n else None,
         "first_t_us": int(t[0]) if n else None,
         "last_t_us": int(t[-1]) if n else None,
         "duration_us": duration,
@@ -256,7 +258,8 @@ def run(args: argparse.Namespace) -> int:
     print(f"sensor:      {width}x{height} ({source})")
     if info.get("sensor_size_note"):
         print(f"note:        {info['sensor_size_note']}")
-    print(f"events:      {info['events']:,}")
+    on = "" if info["on_fraction"] is None else f" ({info['on_fraction']:.0%} ON)"
+    print(f"events:      {info['events']:,}{on}")
     if info["events"]:
         print(f"time:        {info['first_t_us']} .. {info['last_t_us']} µs")
     print(f"duration:    {duration / 1e6:.6f} s")
