@@ -306,3 +306,45 @@ def test_a_stopped_progress_bar_says_no_done(capsys: pytest.CaptureFixture[str])
     stop(line)
     line.close()  # closed already: nothing more
     assert "done" not in capsys.readouterr().err
+
+
+def test_the_dvs_model_is_set_from_the_command_line(
+    video: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A video through --mode dvs took DvsParams() and a scene SCENE_PARAMS, with no way to
+    change either from the command line (a new user's walk)."""
+    from dataclasses import asdict, replace
+
+    from uavsnn.cli import main
+    from uavsnn.io import read
+    from uavsnn.sim import SCENE_PARAMS, DvsParams
+
+    out = tmp_path / "d.npz"
+    base = ["simulate", str(video), "-o", str(out), "--mode", "dvs", "--max-frames", "4"]
+    cases = [
+        ([], DvsParams()),
+        (["--dvs-preset", "ideal"], DvsParams.ideal()),
+        (["--dvs-set", "cutoff_hz=3000", "--dvs-set", "threshold_on=0.3"],
+         DvsParams(cutoff_hz=3000.0, threshold_on=0.3)),
+        (["--dvs-preset", "scene", "--dvs-set", "leak_rate_hz=0"],
+         replace(SCENE_PARAMS, leak_rate_hz=0.0)),
+    ]  # fmt: skip
+    for extra, want in cases:
+        assert main([*base, *extra, "--quiet"]) == 0
+        capsys.readouterr()
+        assert read(out).metadata["params"] == asdict(want)
+    scene = ["simulate", "--scene", "uav", "-o", str(out), "--duration", "0.02", "--quiet"]
+    for extra, want in (([], SCENE_PARAMS), (["--dvs-preset", "default"], DvsParams())):
+        assert main([*scene, *extra]) == 0
+        assert read(out).metadata["params"] == asdict(want)
+    for extra, match in (
+        (["--dvs-set", "bogus=1"], "expected NAME=VALUE with NAME one of cutoff_dark_luma"),
+        (["--dvs-set", "cutoff_hz"], "expected NAME=VALUE"),
+        (["--dvs-set", "cutoff_hz=abc"], "'abc' is not a number"),
+        (["--dvs-set", "cutoff_hz=-1"], "cutoff_hz must be >= 0"),
+    ):
+        assert main([*base, *extra]) == 2
+        assert match in capsys.readouterr().err
+    sim = ["simulate", str(video), "-o", str(out), "--dvs-preset", "gen3"]
+    assert main(sim) == 2
+    assert "which --mode sim does not use" in capsys.readouterr().err

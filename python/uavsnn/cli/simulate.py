@@ -19,6 +19,8 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from collections.abc import Callable
+from dataclasses import asdict, fields, replace
 from pathlib import Path
 from typing import Any
 
@@ -29,7 +31,7 @@ from uavsnn._files import write_atomic
 from uavsnn.cli._camera import add_camera_options
 from uavsnn.errors import ParameterError
 from uavsnn.events import Recording
-from uavsnn.sim import Pix2NvsParams, video_to_recording, write_preview
+from uavsnn.sim import SCENE_PARAMS, DvsParams, Pix2NvsParams, video_to_recording, write_preview
 from uavsnn.sim.checks import check_size
 
 __all__ = ["register", "run", "write_recording"]
@@ -100,6 +102,25 @@ def register(subparsers: Any) -> None:
     model.add_argument("--threshold-min", type=float, help="adaptive threshold floor (0)")
     model.add_argument("--threshold-max", type=float, help="adaptive threshold ceiling (none)")
     model.add_argument("--log-offset", type=float, help="added to luma before the log (1)")
+    dvs = parser.add_argument_group(
+        "DVS model (--mode dvs and --scene; defaults: a DAVIS240-like sensor for a video, the "
+        "scenes' sensor for --scene, docs/simulation.md)"
+    )
+    dvs.add_argument(
+        "--dvs-preset",
+        choices=tuple(DVS_PRESETS),
+        help="the sensor to start from: default (uavsnn.sim.DvsParams()), scene "
+        "(SCENE_PARAMS: a 3 kHz photoreceptor), ideal, noisy (v2e's) or gen3 (a Prophesee "
+        "Gen3-like sensor)",
+    )
+    dvs.add_argument(
+        "--dvs-set",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="set one field of the sensor (uavsnn.sim.DvsParams: threshold_on, cutoff_hz, "
+        "leak_rate_hz, ...); repeat for more",
+    )
     parser.add_argument("--max-frames", type=int, default=None, help="stop after N frames")
     parser.add_argument("--fps", type=float, default=None, help="override the video's rate")
     parser.add_argument("--preview", type=Path, default=None, help="write a PNG strip here")
@@ -172,12 +193,18 @@ def _scene(args: argparse.Namespace, size: tuple[int, int]) -> Recording:
         kinds = ", ".join((*SCENE_KINDS, *OBJECT_KINDS))
         raise ParameterError(f"--scene must be a .json file or one of {kinds}, got {args.scene}")
     spec = through_lens(spec, lens, size)
-    out = record(spec, sensor=size, seed=args.seed)
+    params = dvs_params(args, "scene") or SCENE_PARAMS
+    out = record(spec, sensor=size, seed=args.seed, params=params)
     labels_path = args.output.with_suffix(".labels.npz")
     write_atomic(
         labels_path, lambda f: np.savez(f, timestamps_us=out.timestamps_us, labels=out.labels)
     )
-    meta = dict(out.recording.metadata, frames=spec.n_frames, labels=str(labels_path))
+    meta = dict(
+        out.recording.metadata,
+        frames=spec.n_frames,
+        labels=str(labels_path),
+        params=asdict(params),  # the sensor, as a video's recording names it
+    )
     return Recording(out.recording.events, out.recording.sensor_size, meta)
 
 
@@ -209,6 +236,49 @@ def pix2nvs_params(args: argparse.Namespace) -> Pix2NvsParams | None:
     return Pix2NvsParams.original(**given) if compat else Pix2NvsParams(**given)
 
 
+#: The sensors ``--dvs-preset`` starts from, each taking the fields ``--dvs-set`` gives.
+DVS_PRESETS: dict[str, Callable[..., DvsParams]] = {
+    "default": DvsParams,
+    "scene": lambda **fields: replace(SCENE_PARAMS, **fields),
+    "ideal": DvsParams.ideal,
+    "noisy": DvsParams.noisy,
+    "gen3": DvsParams.gen3,
+}
+
+
+def dvs_params(args: argparse.Namespace, preset: str) -> DvsParams | None:
+    """The DVS sensor ``--dvs-preset`` and ``--dvs-set`` ask for (``None``: neither given, the
+    caller's default); ``preset`` is the one to start from when ``--dvs-preset`` is not given.
+
+    Raises:
+        ParameterError: ``--dvs-*`` with ``--mode sim``, a field that ``DvsParams`` does not
+            have or a value that is not a number, or an impossible value.
+    """
+    chosen = getattr(args, "dvs_preset", None)
+    settings = getattr(args, "dvs_set", None) or []
+    if chosen is None and not settings:
+        return None
+    if args.mode == "sim":
+        raise ParameterError(
+            "--dvs-preset and --dvs-set set the DVS model, which --mode sim does not use"
+        )
+    names = {f.name for f in fields(DvsParams)}
+    given: dict[str, float] = {}
+    for item in settings:
+        name, sep, value = item.partition("=")
+        name = name.strip()
+        if not sep or name not in names:
+            known = ", ".join(sorted(names))
+            raise ParameterError(
+                f"--dvs-set {item!r}: expected NAME=VALUE with NAME one of {known}"
+            )
+        try:
+            given[name] = float(value)
+        except ValueError as exc:
+            raise ParameterError(f"--dvs-set {item!r}: {value!r} is not a number") from exc
+    return DVS_PRESETS[chosen or preset](**given)
+
+
 def run(args: argparse.Namespace) -> int:
     """Handler of ``uavsnn simulate``."""
     size = check_size(args.size or _SIZE)
@@ -234,7 +304,9 @@ def run(args: argparse.Namespace) -> int:
         )
     else:
         args.mode = args.mode or "sim"
-        recording = _video(args, size, pix2nvs_params(args))
+        # Each refuses its options with the other mode.
+        pix2nvs, dvs = pix2nvs_params(args), dvs_params(args, "default")
+        recording = _video(args, size, dvs if args.mode == "dvs" else pix2nvs)
     return _finish(args, recording)
 
 
@@ -278,7 +350,7 @@ def _check_scene_options(args: argparse.Namespace) -> None:
 
 
 def _video(
-    args: argparse.Namespace, size: tuple[int, int], params: Pix2NvsParams | None
+    args: argparse.Namespace, size: tuple[int, int], params: Pix2NvsParams | DvsParams | None
 ) -> Recording:
     return video_to_recording(
         args.video,
