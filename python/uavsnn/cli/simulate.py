@@ -239,7 +239,7 @@ def pix2nvs_params(args: argparse.Namespace) -> Pix2NvsParams | None:
 #: The sensors ``--dvs-preset`` starts from, each taking the fields ``--dvs-set`` gives.
 DVS_PRESETS: dict[str, Callable[..., DvsParams]] = {
     "default": DvsParams,
-    "scene": lambda **fields: replace(SCENE_PARAMS, **fields),
+    "scene": lambda **given: replace(SCENE_PARAMS, **given),
     "ideal": DvsParams.ideal,
     "noisy": DvsParams.noisy,
     "gen3": DvsParams.gen3,
