@@ -348,3 +348,20 @@ def test_the_dvs_model_is_set_from_the_command_line(
     sim = ["simulate", str(video), "-o", str(out), "--dvs-preset", "gen3"]
     assert main(sim) == 2
     assert "which --mode sim does not use" in capsys.readouterr().err
+
+
+def test_a_slow_video_through_the_dvs_emulator_is_said(
+    video: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """30 fps video went into --mode dvs without a word, though the emulator wants frames at a
+    high rate (a new user's walk): a note below SLOW_FPS, which PIX2NVS (sim) does not need."""
+    from uavsnn.cli import main
+    from uavsnn.cli.simulate import SLOW_FPS
+
+    out = tmp_path / "d.npz"
+    base = ["simulate", str(video), "-o", str(out), "--max-frames", "3", "--quiet"]
+    for mode, fps, said in (("dvs", None, True), ("dvs", "500", False), ("sim", None, False)):
+        assert main([*base, "--mode", mode, *(["--fps", fps] if fps else [])]) == 0
+        err = capsys.readouterr().err
+        assert ("note: the video's 25 fps frames hold nothing faster than 12.5 Hz" in err) == said
+    assert FPS < SLOW_FPS <= 500

@@ -236,6 +236,9 @@ def pix2nvs_params(args: argparse.Namespace) -> Pix2NvsParams | None:
     return Pix2NvsParams.original(**given) if compat else Pix2NvsParams(**given)
 
 
+#: Below this frame rate ``--mode dvs`` notes that the video holds no fast flicker.
+SLOW_FPS = 200.0
+
 #: The sensors ``--dvs-preset`` starts from, each taking the fields ``--dvs-set`` gives.
 DVS_PRESETS: dict[str, Callable[..., DvsParams]] = {
     "default": DvsParams,
@@ -384,6 +387,16 @@ def _finish(args: argparse.Namespace, recording: Recording) -> int:
         "params": recording.metadata.get("params"),
         "upscaled_from": recording.metadata.get("upscaled_from"),
     }
+    rate = float(recording.metadata["fps"])
+    if args.video is not None and args.mode == "dvs" and rate < SLOW_FPS:
+        # The emulator interpolates between frames: nothing faster than half their rate is in
+        # the events (a rotor's blade pass is hundreds of hertz).
+        print(
+            f"uavsnn simulate: note: the video's {rate:g} fps frames hold nothing faster than "
+            f"{rate / 2:g} Hz, which the DVS emulator cannot bring back (a rotor's blade pass is "
+            "hundreds of hertz: docs/simulation.md)",
+            file=sys.stderr,
+        )
     up = summary["upscaled_from"]
     if up is not None:
         w, h = recording.sensor_size
