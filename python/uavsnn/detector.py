@@ -49,7 +49,7 @@ from uavsnn.events import EVENT_DTYPE, SensorSizeLike, packed_bytes
 from uavsnn.features import MAX_MEASURED_WINDOW_US, MAX_RATE_BINS, RATE_BIN_US, rate_bins
 from uavsnn.grouping import WindowGrouper, WindowObject, WindowReport, merge_boxes
 from uavsnn.network import WINDOW_DETECTION_DTYPE
-from uavsnn.provenance import DEFAULT_OVERLAP, DEFAULT_WINDOW_US
+from uavsnn.provenance import DEFAULT_OVERLAP, DEFAULT_WINDOW_US, model_windows
 from uavsnn.signature import BoxMeasure, measure_box
 from uavsnn.tracks import Tracker, tracker_for
 
@@ -67,6 +67,7 @@ __all__ = [
     "WindowGrouper",
     "WindowObject",
     "WindowReport",
+    "live_windows",
     "merge_boxes",
 ]
 
@@ -75,6 +76,14 @@ __all__ = [
 #: 240×180 sensor, 35 MiB on 1280×720), so an overlap of 0.9999 would need 10,000 of them.
 #: Overlaps up to ``1 - 1/64 ≈ 0.984`` are accepted.
 MAX_LIVE_WINDOWS = 64
+
+
+def live_windows(window_us: int, overlap: float) -> int:
+    """The windows a :class:`Detector` keeps live at once at windows of ``window_us`` and
+    ``overlap``: ``ceil(window_us / step)``, the engine's step (:data:`MAX_LIVE_WINDOWS` at most
+    are accepted)."""
+    return -(-window_us // _core.window_step(window_us, overlap))
+
 
 # Bytes the engine's stream keeps per pixel beside the window states: its counter of preceding
 # events (8) and up to two 16-byte queue entries.
@@ -227,11 +236,9 @@ class Detector(EngineState):
                     f"{type(model).__name__}"
                 )
             network = model
-        trained = network.trained_on
-        if window_us is None:
-            window_us = DEFAULT_WINDOW_US if trained is None else trained.window_us
-        if overlap is None:
-            overlap = DEFAULT_OVERLAP if trained is None else trained.overlap
+        trained_window, trained_overlap = model_windows(network.trained_on)
+        window_us = trained_window if window_us is None else window_us
+        overlap = trained_overlap if overlap is None else overlap
         width, height = int(network.config["width"]), int(network.config["height"])
         if sensor_size is not None and check_sensor_size(sensor_size) != (width, height):
             raise ShapeError(
@@ -259,7 +266,7 @@ class Detector(EngineState):
         # Each live window holds a network state, and the stream keeps 40 bytes a pixel: refused
         # here when they would not fit in the memory this process may have (the engine checks
         # its fixed 4 GiB only; more than MAX_LIVE_WINDOWS live windows is its to refuse).
-        live = -(-window_us // _core.window_step(window_us, float(overlap)))
+        live = live_windows(window_us, float(overlap))
         if live <= MAX_LIVE_WINDOWS:
             network._check_memory(
                 live,

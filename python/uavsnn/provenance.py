@@ -35,6 +35,7 @@ __all__ = [
     "DEFAULT_WINDOW_US",
     "VERSION",
     "TrainedOn",
+    "model_windows",
     "recording_key",
     "recordings_of",
     "split_ids",
@@ -48,6 +49,14 @@ DEFAULT_WINDOW_US = 50_000
 DEFAULT_OVERLAP = 0.5
 #: The entry's version: a file of a later one is refused.
 VERSION = 1
+
+
+def model_windows(trained: TrainedOn | None) -> tuple[int, float]:
+    """The window and overlap a model runs at unless told otherwise: those it was ``trained``
+    on, else :data:`DEFAULT_WINDOW_US` and :data:`DEFAULT_OVERLAP`."""
+    if trained is None:
+        return DEFAULT_WINDOW_US, DEFAULT_OVERLAP
+    return trained.window_us, trained.overlap
 
 
 def recording_key(entry: Any) -> tuple[str, ...] | None:

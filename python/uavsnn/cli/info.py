@@ -10,13 +10,13 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from uavsnn import _core, _jsonout, io
+from uavsnn import _jsonout, io
 from uavsnn._npy import npz_arrays
 from uavsnn.cli import counted
-from uavsnn.detector import MAX_LIVE_WINDOWS
+from uavsnn.detector import MAX_LIVE_WINDOWS, live_windows
 from uavsnn.errors import ParameterError
 from uavsnn.events import Recording
-from uavsnn.provenance import ARRAY, DEFAULT_OVERLAP, DEFAULT_WINDOW_US
+from uavsnn.provenance import ARRAY, DEFAULT_OVERLAP, DEFAULT_WINDOW_US, model_windows
 
 if TYPE_CHECKING:
     from uavsnn.network import Network
@@ -145,19 +145,10 @@ def model_summary(network: Network, path: str | None = None) -> dict[str, Any]:
             "recordings": len(network.trained_on.recordings),
         },
         "state_bytes": network.state_bytes,
-        "live_windows": _live_windows(network),
+        "live_windows": live_windows(*model_windows(network.trained_on)),
         "load_note": network.load_note,
         "config": config,
     }
-
-
-def _live_windows(network: Network) -> int:
-    """The windows a ``Detector`` keeps live at the model's window and overlap (its training's,
-    else the defaults)."""
-    trained = network.trained_on
-    window = DEFAULT_WINDOW_US if trained is None else trained.window_us
-    overlap = DEFAULT_OVERLAP if trained is None else trained.overlap
-    return -(-window // _core.window_step(window, float(overlap)))
 
 
 def _mib(n: float) -> str:
