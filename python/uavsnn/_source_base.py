@@ -136,6 +136,12 @@ class EventSource:
             self._scale = (*self.sensor_size, tw, th)
             self.sensor_size = (tw, th)
 
+    @property
+    def _arriving(self) -> tuple[int, int] | None:
+        """The sensor size the events arrive in (before any downsampling), which they are
+        checked against."""
+        return self.camera_size if self.camera_size is not None else self.sensor_size
+
     def _scaled(self, chunk: np.ndarray) -> np.ndarray:
         """``chunk`` on :attr:`sensor_size`: cropped and scaled where the source downsamples
         (events outside the crop removed; a chunk may come out empty)."""

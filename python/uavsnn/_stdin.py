@@ -79,8 +79,6 @@ class StdinSource(EventSource):
         self.stream = stream if stream is not None else sys.stdin.buffer
         self.fmt = fmt
         self.sensor_size = None if sensor_size is None else check_sensor_size(sensor_size)
-        # The size the events arrive in, which they are checked against.
-        self._arriving = self.sensor_size
         self._downsample_to(downsample_to)
         self.read_size = read_size
         self._lines = 0
