@@ -54,13 +54,17 @@ def crop_to_aspect(frame: np.ndarray, aspect: float) -> np.ndarray:
     """The largest centred crop of ``frame`` (``(h, w)`` or ``(h, w, c)``) whose width/height
     is ``aspect``; a view, no copy."""
     h, w = frame.shape[:2]
+    cw, ch = _crop_size((w, h), aspect)
+    x0, y0 = (w - cw) // 2, (h - ch) // 2
+    return frame[y0 : y0 + ch, x0 : x0 + cw]
+
+
+def _crop_size(size: tuple[int, int], aspect: float) -> tuple[int, int]:
+    """The ``(width, height)`` of :func:`crop_to_aspect`'s crop of a frame of ``size``."""
+    w, h = size
     if w / h > aspect:
-        cw = min(w, max(1, round(h * aspect)))
-        x0 = (w - cw) // 2
-        return frame[:, x0 : x0 + cw]
-    ch = min(h, max(1, round(w / aspect)))
-    y0 = (h - ch) // 2
-    return frame[y0 : y0 + ch]
+        return min(w, max(1, round(h * aspect))), h
+    return w, min(h, max(1, round(w / aspect)))
 
 
 class VideoInfo:
@@ -429,20 +433,11 @@ def video_to_recording(
         "pooling": pooling if downsample == "events" else None,
         "video_size": [info.width, info.height],
     }
-    crop = _crop_size((info.width, info.height), sensor)
+    crop = _crop_size((info.width, info.height), sensor[0] / sensor[1])
     if downsample == "frames" and (crop[0] < sensor[0] or crop[1] < sensor[1]):
         # Frames scaled up: the events are those of a sensor of the crop's size, spread.
         metadata["upscaled_from"] = list(crop)
     return Recording(events, sensor, metadata)
-
-
-def _crop_size(size: tuple[int, int], sensor: tuple[int, int]) -> tuple[int, int]:
-    """The size of :func:`crop_to_aspect`'s crop of a ``size`` frame to ``sensor``'s aspect."""
-    w, h = size
-    aspect = sensor[0] / sensor[1]
-    if w / h > aspect:
-        return min(w, max(1, round(h * aspect))), h
-    return w, min(h, max(1, round(w / aspect)))
 
 
 def _simulator(
