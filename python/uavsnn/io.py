@@ -509,15 +509,17 @@ def _read_faery(file: Path, kind: str, size: int, given: tuple[int, int] | None)
     except (KeyboardInterrupt, SystemExit):
         raise
     except BaseException as exc:  # faery raises RuntimeError, bare Exception, and panics
-        hint = _fallback_hint(sensor) if source == "fallback" and "overflow" in str(exc) else ""
+        reasons = (
+            [_fallback_reason(sensor)] if source == "fallback" and "overflow" in str(exc) else []
+        )
         if kind == "evt" and not header.get("<version>"):
             # faery takes a RAW file that names no version for EVT 3.0: a sensor size given
             # cannot help an EVT 2.0 file read so.
-            version = (
+            reasons.append(
                 "its header names no EVT version, so it was read as EVT 3.0: an EVT 2.0 file "
                 "needs a '% evt 2.0' line in its header"
             )
-            hint = f"{hint[:-1]}; or {version})" if hint else f" ({version})"
+        hint = f" ({'; or '.join(reasons)})" if reasons else ""
         raise RecordingFileError(f"{file}: cannot decode as {kind}: {exc}{hint}") from exc
     if kind == "dat" and "<data>" in header:  # (not found in a header beyond 64 KiB)
         check_dat_times(file, int(header["<data>"]))
@@ -535,9 +537,14 @@ def _read_faery(file: Path, kind: str, size: int, given: tuple[int, int] | None)
     return _recording(file, events, sensor, metadata)
 
 
-def _fallback_hint(sensor: tuple[int, int]) -> str:
+def _fallback_reason(sensor: tuple[int, int]) -> str:
     """What an event off the sensor of a file without geometry may mean."""
-    return f" (the file has no geometry; the sensor was taken as {sensor}: give sensor_size)"
+    return f"the file has no geometry; the sensor was taken as {sensor}: give sensor_size"
+
+
+def _fallback_hint(sensor: tuple[int, int]) -> str:
+    """:func:`_fallback_reason` in brackets, to follow an error."""
+    return f" ({_fallback_reason(sensor)})"
 
 
 def _read_chunks(file: Path, stream: Any) -> list[np.ndarray]:
