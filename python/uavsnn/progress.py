@@ -61,10 +61,13 @@ class LineProgress:
     def set_postfix_str(self, postfix: str, refresh: bool = True) -> None:
         self.postfix = postfix
 
-    def close(self) -> None:
+    def close(self, done: bool = True) -> None:
+        """The last line, ending in "done"; none when the work stopped before its end
+        (``done=False``)."""
         if not self.closed:
             self.closed = True
-            self._line(done=True)
+            if done:
+                self._line(done=True)
 
     def _line(self, done: bool = False) -> None:
         if not self.total and not self.n and not done:
@@ -99,7 +102,7 @@ def stop(progress: Any) -> None:
     """Close a :func:`bar` whose work stopped before its end (an interruption, an error): a
     :class:`LineProgress` without its "done" line; tqdm's bar as it closes."""
     if isinstance(progress, LineProgress):
-        progress.closed = True
+        progress.close(done=False)
     else:
         progress.close()
 

@@ -384,8 +384,8 @@ def check_fits(source: EventSource, model_size: tuple[int, int]) -> None:
             ``--downsample`` (``downsample_to``) when it is at least as large as the model's
             input on both axes (a smaller one needs a model of its size), unless it records
             no sensor size, which is to be given (a ``.npy`` file whose events' extent lies
-            within the model's input is asked for its size too); a live stream is not cropped
-            or scaled.
+            within the model's input is asked for its size too); a live stream is cropped and
+            scaled where it was opened with ``downsample_to``.
     """
     if isinstance(source, FileSource) and not len(source.recording):
         raise ParameterError(f"{source.path} holds no event: nothing to detect")
@@ -407,8 +407,9 @@ def check_fits(source: EventSource, model_size: tuple[int, int]) -> None:
         return
     if not isinstance(source, FileSource):
         raise ParameterError(
-            f"the stream's sensor is {w}x{h}, the model's input {mw}x{mh}: a live stream is "
-            f"not cropped or scaled; send events of a {mw}x{mh} sensor"
+            f"the stream's sensor is {w}x{h}, the model's input {mw}x{mh}: open it with "
+            f"downsample_to={mw, mh} (--downsample) to crop and scale its events, or send "
+            f"events of a {mw}x{mh} sensor"
         )
     if source.recording.metadata.get("sensor_size_source") == "inferred" and w <= mw and h <= mh:
         # A .npy file records no size: its events' extent stands in, and fits the model's.
