@@ -59,7 +59,7 @@ SUBMODULES = frozenset(
     {
         "bench", "boxes", "cli", "clips", "dataset", "detector", "distributed", "driver", "errors",
         "evaluation", "events", "experiments", "false_alarms", "features", "filters", "grouping",
-        "identifier", "identify", "io", "linear", "network", "pictures", "progress",
+        "identifier", "identify", "io", "linear", "network", "outputs", "pictures", "progress",
         "provenance", "report", "roc", "scenes", "signature", "sim", "sources", "track_eval",
         "tracks", "training", "trees", "windows",
     }
@@ -87,6 +87,7 @@ if TYPE_CHECKING:  # the submodules as attributes, to a type checker as at run t
     from uavsnn import io as io
     from uavsnn import linear as linear
     from uavsnn import network as network
+    from uavsnn import outputs as outputs
     from uavsnn import pictures as pictures
     from uavsnn import progress as progress
     from uavsnn import provenance as provenance
