@@ -151,10 +151,10 @@ def test_to_dict_by_hand_with_a_rotor_and_a_track(recording, tmp_path: Path) -> 
     undetected = RotorEstimate(50.0, 0.1, 0, 0, 0, 0, False)
     assert replace(o, rotor=undetected).to_dict()["rotor"] is None
     # detect's text line shows the JSON line's rotor to fewer places.
-    from uavsnn.cli.detect import _rotor
+    from uavsnn.cli._detect_lines import rotor_text
 
-    assert _rotor(o) == "123.5Hz/0.123/12px"
-    assert _rotor(replace(o, rotor=undetected)) == _rotor(replace(o, rotor=None)) == "-"
+    assert rotor_text(o) == "123.5Hz/0.123/12px"
+    assert rotor_text(replace(o, rotor=undetected)) == rotor_text(replace(o, rotor=None)) == "-"
     bare = WindowObject(box=(0, 0, 1, 1), spikes=1).to_dict()
     assert bare["centre"] == [0.5, 0.5]
     assert all(bare[k] is None for k in bare if k not in ("box", "centre", "spikes"))

@@ -30,9 +30,8 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any, TextIO
 
-import numpy as np
-
 from uavsnn import _jsonout
+from uavsnn.cli._detect_lines import spike_dict, spike_line, window_line
 from uavsnn.distributed import add_ray_option
 from uavsnn.errors import ParameterError
 from uavsnn.provenance import DEFAULT_OVERLAP, DEFAULT_WINDOW_US
@@ -223,78 +222,6 @@ def _sensor_size(text: str | None) -> tuple[int, int] | None:
     if width < 1 or height < 1:
         raise ParameterError(f"--sensor-size must be at least 1x1 pixels, got {text!r}")
     return width, height
-
-
-def _spike_dict(d: np.void) -> dict[str, Any]:
-    """One conv3 spike as ``--per-spike --json`` prints it."""
-    x0, y0, x1, y1 = int(d["x0"]), int(d["y0"]), int(d["x1"]), int(d["y1"])
-    return {
-        "t": int(d["t"]),
-        "window": int(d["window"]),
-        "map": int(d["map"]),
-        "row": int(d["row"]),
-        "col": int(d["col"]),
-        "box": [x0, y0, x1, y1],
-        "centre": [(x0 + x1) / 2, (y0 + y1) / 2],
-        "field_centre": [round(float(d["x"]), 2), round(float(d["y"]), 2)],
-    }
-
-
-def _spike(d: np.void, as_json: bool) -> str:
-    """One conv3 spike (``--per-spike``). ``centre`` is the middle of the spike's causal box;
-    ``field`` the middle of the neuron's receptive field, which covers most of the sensor and
-    so usually lies outside the box (docs/streaming.md)."""
-    if as_json:
-        return _jsonout.dumps(_spike_dict(d))
-    x0, y0, x1, y1 = int(d["x0"]), int(d["y0"]), int(d["x1"]), int(d["y1"])
-    cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
-    return (
-        f"t={int(d['t'])} window={int(d['window'])} map={int(d['map'])} "
-        f"box={x0},{y0},{x1},{y1} centre={cx:.1f},{cy:.1f} "
-        f"field={float(d['x']):.1f},{float(d['y']):.1f}"
-    )
-
-
-def _absent(value: object) -> str:
-    return "-" if value is None else str(value)
-
-
-def _rotor(o: Any) -> str:
-    """The rotor signature when detected (docs/identification.md), ``-`` otherwise; its
-    figures as the JSON line has them, shown to fewer places."""
-    r = o.to_dict()["rotor"]  # the JSON line's
-    if r is None:
-        return "-"
-    return f"{r['frequency_hz']:.1f}Hz/{r['strength']:.3f}/{r['pixels']}px"
-
-
-def _track(o: Any) -> str:
-    """``7`` for a confirmed track, ``7?`` for a tentative one, ``-`` for none."""
-    if o.track_id is None:
-        return "-"
-    return f"{o.track_id}{'' if o.track_confirmed else '?'}"
-
-
-def _window(w: Any, as_json: bool, classes: tuple[str, ...] = ()) -> str:
-    """One window's decision (the default output; docs/streaming.md, "What ``uavsnn detect``
-    prints"); ``classes``: the names of the model's class probabilities. The JSON line is
-    :meth:`WindowReport.to_dict <uavsnn.grouping.WindowReport.to_dict>`'s dict."""
-    if as_json:
-        return _jsonout.dumps(w.to_dict(classes))
-    line = (
-        f"window={w.window}{f' run={w.run}' if w.run else ''} t={w.t0}..{w.t1} "
-        f"{'DETECTED' if w.detected else 'clear'} "
-        f"spikes={w.spikes} objects={len(w.objects)}"
-    )
-    for o in w.objects:
-        x0, y0, x1, y1 = o.box
-        cx, cy = o.centre
-        line += (
-            f" | box={x0},{y0},{x1},{y1} centre={cx:.1f},{cy:.1f} spikes={o.spikes} "
-            f"uav_score={_absent(o.uav_score)} class={_absent(o.class_guess)} "
-            f"track={_track(o)} track_class={_absent(o.track_class)} rotor={_rotor(o)}"
-        )
-    return line
 
 
 class _Summary:
@@ -620,9 +547,9 @@ def run(args: argparse.Namespace) -> int:
             with held_stops():  # a stop waits for the lines: each whole, none dropped
                 for item in found:
                     line = (
-                        _spike(item, args.json)
+                        spike_line(item, args.json)
                         if args.per_spike
-                        else _window(item, args.json, classes)
+                        else window_line(item, args.json, classes)
                     )
                     print(line, file=out, flush=True)
                     printed += 1
@@ -753,10 +680,10 @@ def _run_many(args: argparse.Namespace) -> int:
         with held_stops():  # a stop waits for the lines: each whole, none dropped
             for item in items:
                 if args.json:
-                    d = _spike_dict(item) if args.per_spike else item.to_dict(classes)
+                    d = spike_dict(item) if args.per_spike else item.to_dict(classes)
                     print(_jsonout.dumps({"stream": name, **d}), file=out)
                 else:
-                    line = _spike(item, False) if args.per_spike else _window(item, False)
+                    line = spike_line(item, False) if args.per_spike else window_line(item, False)
                     print(f"[{name}] {line}", file=out)
             out.flush()
 
