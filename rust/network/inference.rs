@@ -9,7 +9,7 @@ use super::config::PentEstimate;
 use super::detection::Detection;
 use super::layer::Layer;
 use super::states::feed;
-use super::window::{Network, Spike, WindowState};
+use super::window::{LayerSpike, Network, WindowState};
 use crate::error::{Error, Result};
 
 /// What one window gave.
@@ -22,7 +22,7 @@ pub struct WindowResult {
     /// conv3 spikes as detections, by time, then map, row and col.
     pub detections: Vec<Detection>,
     /// Every layer's spikes, when asked for.
-    pub spikes: Option<[Vec<Spike>; 5]>,
+    pub spikes: Option<[Vec<LayerSpike>; 5]>,
 }
 
 impl WindowResult {

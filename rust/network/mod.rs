@@ -77,5 +77,9 @@ pub use train::{
     check_training, train_layer, training_order, TrainOptions, TrainProgress, TrainReport, Trainer,
 };
 pub use weights::ConvWeights;
-pub use window::{Network, Spike, WindowState};
+pub use window::{LayerSpike, Network, WindowState};
+
+/// The old name of [`LayerSpike`], which [`crate::windows::Spike`] (an input spike) shared.
+#[deprecated(note = "renamed `LayerSpike`: `uavsnn::windows::Spike` is an input spike")]
+pub type Spike = LayerSpike;
 pub use winners::Winner;

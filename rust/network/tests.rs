@@ -120,13 +120,13 @@ fn dense_pool(g: &PoolGeom, input: &Times) -> Times {
     out
 }
 
-fn spikes_of(times: &Times, v: Option<&Vec<Vec<Vec<f64>>>>) -> Vec<Spike> {
+fn spikes_of(times: &Times, v: Option<&Vec<Vec<Vec<f64>>>>) -> Vec<LayerSpike> {
     let mut out = Vec::new();
     for (m, map) in times.iter().enumerate() {
         for (r, row) in map.iter().enumerate() {
             for (c, t) in row.iter().enumerate() {
                 if let Some(t) = t {
-                    out.push(Spike {
+                    out.push(LayerSpike {
                         t: *t,
                         map: m as u16,
                         row: r as u16,
@@ -148,7 +148,7 @@ fn dense_window(
     x: &[u16],
     y: &[u16],
     train: Option<usize>,
-) -> ([Vec<Spike>; 5], Vec<Winner>) {
+) -> ([Vec<LayerSpike>; 5], Vec<Winner>) {
     let c = net.config();
     let g = net.geometry();
     let mut frame: Times = vec![vec![vec![None; c.width]; c.height]];
@@ -163,7 +163,7 @@ fn dense_window(
         .iter()
         .map(|&v| f64::from(v))
         .collect();
-    let mut traces: [Vec<Spike>; 5] = Default::default();
+    let mut traces: [Vec<LayerSpike>; 5] = Default::default();
     let mut input = frame;
     for layer in 0..3 {
         let lc = c.conv(layer);
@@ -270,7 +270,7 @@ fn dense_box(
     t: &[u64],
     x: &[u16],
     y: &[u16],
-    spikes: &[Vec<Spike>; 5],
+    spikes: &[Vec<LayerSpike>; 5],
     d: &Detection,
 ) -> (u16, u16, u16, u16) {
     let g = net.geometry();
@@ -853,7 +853,7 @@ fn exact_potential_decides_where_float32_rounds_below() {
     let exact: f64 = w.iter().map(|&v| f64::from(v)).sum();
     assert_eq!(
         state.spikes(Layer::Conv1),
-        &[Spike {
+        &[LayerSpike {
             t: 3,
             map: 0,
             row: 0,

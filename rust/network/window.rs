@@ -18,9 +18,10 @@ mod input;
 /// windows (see [`NetworkOf`]; its one-window entry points are in `states`).
 pub type Network = NetworkOf<WindowState>;
 
-/// A spike of a layer, as reported in traces.
+/// A spike of a layer, as reported in traces (an input spike of a window is a
+/// [`crate::windows::Spike`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Spike {
+pub struct LayerSpike {
     /// Time (µs, absolute).
     pub t: u64,
     pub map: u16,
@@ -88,7 +89,7 @@ pub struct WindowState {
     pool_out: Vec<PoolSpike>,
     counts: [u64; 5],
     record: bool,
-    trace: [Vec<Spike>; 5],
+    trace: [Vec<LayerSpike>; 5],
     detections: Vec<Detection>,
     training: Option<usize>,
     wta: Wta,
@@ -424,7 +425,7 @@ impl WindowState {
         if record {
             self.trace[conv_layer.index()].extend(self.crossings.iter().map(|c| {
                 let (row, col) = split.div_rem(c.pos as usize);
-                Spike {
+                LayerSpike {
                     t,
                     map: c.map as u16,
                     row: row as u16,
@@ -480,12 +481,14 @@ impl WindowState {
         let pool_layer = Layer::ALL[2 * layer + 1];
         self.counts[pool_layer.index()] += self.pool_out.len() as u64;
         if record {
-            self.trace[pool_layer.index()].extend(self.pool_out.iter().map(|&(m, r, c)| Spike {
-                t,
-                map: m as u16,
-                row: r as u16,
-                col: c as u16,
-                v: 0.0,
+            self.trace[pool_layer.index()].extend(self.pool_out.iter().map(|&(m, r, c)| {
+                LayerSpike {
+                    t,
+                    map: m as u16,
+                    row: r as u16,
+                    col: c as u16,
+                    v: 0.0,
+                }
             }));
         }
         // Without new inputs the next layer has nothing to decide: its band's exact
@@ -520,7 +523,7 @@ impl WindowState {
 
     /// A layer's spikes, sorted by `(t, map, row, col)` after [`Self::finish`]; empty unless
     /// recording is on ([`Self::set_record`]).
-    pub fn spikes(&self, layer: Layer) -> &[Spike] {
+    pub fn spikes(&self, layer: Layer) -> &[LayerSpike] {
         &self.trace[layer.index()]
     }
 

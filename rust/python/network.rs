@@ -12,8 +12,9 @@ use pyo3::types::PyTuple;
 use super::errors::{detach, map, InUse, SIGNAL_CHECK_SECONDS};
 use crate::error::Error;
 use crate::network::{
-    check_sensor, infer_range, training_order, ConvLayer, Detection, Layer, Network, NetworkConfig,
-    Rates, Spike, Spikes, TrainOptions, Trainer, WindowBatch, WindowResult, Winner, MAX_THREADS,
+    check_sensor, infer_range, training_order, ConvLayer, Detection, Layer, LayerSpike, Network,
+    NetworkConfig, Rates, Spikes, TrainOptions, Trainer, WindowBatch, WindowResult, Winner,
+    MAX_THREADS,
 };
 
 /// Columns `(t, map, row, col, v)` of spikes.
@@ -41,7 +42,7 @@ const SPIKE_RECORD: usize = 8 + 3 * 2 + 4;
 /// Bytes of one `DETECTION_DTYPE` record: `t u8, map row col u2, x y f4, box 4×u2`.
 const DETECTION_RECORD: usize = 8 + 3 * 2 + 2 * 4 + 4 * 2;
 
-fn pack_spike(out: &mut Vec<u8>, s: &Spike) {
+fn pack_spike(out: &mut Vec<u8>, s: &LayerSpike) {
     out.extend_from_slice(&s.t.to_le_bytes());
     for v in [s.map, s.row, s.col] {
         out.extend_from_slice(&v.to_le_bytes());
@@ -62,7 +63,7 @@ pub(super) fn pack_detection(out: &mut Vec<u8>, d: &Detection) {
     }
 }
 
-fn spike_columns<'py>(py: Python<'py>, spikes: &[Spike]) -> SpikeColumns<'py> {
+fn spike_columns<'py>(py: Python<'py>, spikes: &[LayerSpike]) -> SpikeColumns<'py> {
     (
         PyArray1::from_iter(py, spikes.iter().map(|s| s.t)),
         PyArray1::from_iter(py, spikes.iter().map(|s| s.map)),
@@ -467,7 +468,7 @@ impl NetworkCore {
             let layers: Vec<Bound<'py, PyTuple>> = Layer::ALL
                 .iter()
                 .map(|&l| {
-                    let all: Vec<(i64, Spike)> = results
+                    let all: Vec<(i64, LayerSpike)> = results
                         .iter()
                         .enumerate()
                         .flat_map(|(i, r)| {
