@@ -287,6 +287,32 @@ def test_bad_frames_seed_and_size():
         emulator.process(np.zeros((1, 4, 5)), [0])
 
 
+def test_float_frames_past_white_are_taken_and_a_negative_bgr_channel_is_refused() -> None:
+    """Float frames are on the 0-255 scale and may go past 255 (light brighter than white, the
+    "dvs" renderer's flickering light): taken, not clipped. A BGR pixel with a negative
+    channel under a luma >= 0 (-100 blue, 200 red: luma 48.4) was taken; NaN was refused."""
+    from uavsnn.sim import pix2nvs
+
+    times = [0, 1_000]
+    white = np.full((2, 4, 4), 100.0, np.float32)
+    white[1] = 255.0
+    brighter = np.where(white > 200.0, np.float32(400.0), white)
+    ideal = DvsParams.ideal()
+    to_white = len(emulate_dvs(white, times, params=ideal))
+    assert len(emulate_dvs(brighter, times, params=ideal)) > to_white > 0
+    bgr = np.full((2, 4, 4, 3), 100.0)
+    bgr[1, 2, 3] = (-100.0, 0.0, 200.0)
+    nan = np.full((2, 4, 4), 100.0, np.float32)
+    nan[1, 0, 0] = np.nan
+    for frames, said in (
+        (bgr, r"frame 1: pixel \(x=3, y=2\) has intensity \(B, G, R\) \(-100.0, 0.0, 200.0\)"),
+        (nan, r"frame 1: pixel \(x=0, y=0\) has intensity nan, expected a finite value >= 0"),
+    ):
+        for simulate in (emulate_dvs, pix2nvs):
+            with pytest.raises(SimulationError, match=said):
+                simulate(frames, times)
+
+
 def test_process_frame_with_sub_frame_samples_and_bad_patches() -> None:
     """A patch's sub-frame samples reach its pixels (a flash between two equal frames makes
     events there and nowhere else); patches off the sensor, overlapping, with times outside the

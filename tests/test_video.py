@@ -12,6 +12,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+import uavsnn.io
 from uavsnn import ParameterError, Recording, SimulationError
 from uavsnn.cli import main
 from uavsnn.sim import (
@@ -236,6 +237,67 @@ def test_simulate_refuses_a_frame_count_or_rate_before_it_starts(
     err = capsys.readouterr().err
     assert said in err and "done" not in err and "frames" not in err.split("error:")[0], err
     assert not out.exists()
+
+
+@pytest.mark.parametrize("fps", ["1e-6", "0.5", "0", "-5", "nan", "inf", "2e6"])
+def test_simulate_refuses_an_absurd_frame_rate_naming_the_range(video, tmp_path, capsys, fps):
+    """--fps 1e-6 was taken (a frame every 11.6 days; PIX2NVS wrote its events, the DVS
+    emulator refused only after decoding); the others said "fps", not the option or its range."""
+    out = tmp_path / "x.npz"
+    assert main(["simulate", str(video), "-o", str(out), "--fps", fps]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "uavsnn simulate: error: --fps must be" in err[0], err
+    assert "from 1 to 1,000,000 frames per second" in err[0], err
+    assert not out.exists()
+    with pytest.raises(ParameterError, match=r"fps must be .* from 1 to 1,000,000"):
+        video_to_recording(video, fps=float(fps))
+    with pytest.raises(ParameterError, match="fps must be"):
+        next(iter_video(video, fps=float(fps)))
+
+
+def test_start_begins_partway_in_the_videos_time(video):
+    """A long video could only be simulated from its first frame. Frame i keeps its time
+    i/fps: the events from frame 5 on (0.2 s at 25 fps) are those of the whole video there."""
+    whole = video_to_recording(video, "sim", (120, 90), downsample="frames")
+    part = video_to_recording(video, "sim", (120, 90), downsample="frames", start=0.2)
+    assert part.metadata["start_s"] == 0.2 and part.metadata["start_frame"] == 5
+    assert part.metadata["frames"] == 7 and "start_s" not in whole.metadata
+    np.testing.assert_array_equal(part.events, whole.events[whole.events["t"] > 200_000])
+    # Between frames: the next frame (0.21 s: frame 6 at 240 ms); with --max-frames, N frames
+    # from the start.
+    short = video_to_recording(video, "sim", (120, 90), start=0.21, max_frames=3)
+    assert short.metadata["start_frame"] == 6 and short.metadata["frames"] == 3
+    assert 240_000 < short.events["t"].min() and short.events["t"].max() <= 320_000
+    # The start is on the time the frames are given: fps=50 puts frame 5 at 0.1 s.
+    times = [t for _, t in iter_video(video, start=0.1, fps=50.0)]
+    assert times == list(range(100_000, 240_000, 20_000))
+    frames, times = read_video(video, start=0.2, max_frames=2)
+    whole, _ = read_video(video, max_frames=7)
+    np.testing.assert_array_equal(frames, whole[5:])
+    assert times.tolist() == [200_000, 240_000]
+
+
+def test_a_start_at_or_past_the_end_is_refused_before_any_output(video, tmp_path, capsys):
+    # The 12 frames at 25 fps end at 0.48 s; a start at frame 11 leaves one frame, no events.
+    for start in (0.48, 0.5, 3600.0):
+        with pytest.raises(ParameterError, match=r"start=.* is at or past the end of .*12 frames"):
+            video_to_recording(video, start=start)
+    with pytest.raises(SimulationError, match=r"gave 1 frame from start=0\.44 s"):
+        video_to_recording(video, start=0.44)
+    for bad in (-1.0, float("nan"), float("inf")):
+        with pytest.raises(ParameterError, match="start must be"):
+            video_to_recording(video, start=bad)
+    out = tmp_path / "x.npz"
+    for start, said in (("0.48", "is at or past the end"), ("-1", "--start must be >= 0")):
+        assert main(["simulate", str(video), "-o", str(out), "--start", start]) == 2
+        err = capsys.readouterr().err
+        assert said in err and "done" not in err and "frames" not in err.split("error:")[0], err
+        assert not out.exists()
+    scene = ["simulate", "--scene", "uav", "-o", str(out), "--start", "1"]
+    assert main(scene) == 2
+    assert "--start: for a video" in capsys.readouterr().err
+    assert main(["simulate", str(video), "-o", str(out), "--start", "0.2", "--quiet"]) == 0
+    assert uavsnn.io.read(out).metadata["start_frame"] == 5
 
 
 def test_simulate_command_sets_the_pix2nvs_model(video, tmp_path, capsys):

@@ -5,6 +5,7 @@ Examples::
 
     uavsnn simulate clip.mp4 -o clip.npz --mode sim --size 240x180 --preview clip.png
     uavsnn simulate render.avi -o render.npz --mode dvs --seed 3 --json
+    uavsnn simulate long.mp4 -o part.npz --start 600 --max-frames 300   # 10 s from 10 min in
     uavsnn simulate clip.mp4 -o clip.npz --pix2nvs-compat --reference event_increment
     uavsnn simulate --scene uav -o uav.npz --seed 3        # a sampled "dvs" scene
     uavsnn simulate --scene scene.json -o scene.npz         # a scene described in JSON
@@ -33,6 +34,7 @@ from uavsnn.errors import ParameterError
 from uavsnn.events import Recording
 from uavsnn.sim import SCENE_PARAMS, DvsParams, Pix2NvsParams, video_to_recording, write_preview
 from uavsnn.sim.checks import check_size
+from uavsnn.sim.video import check_fps, check_start
 
 __all__ = ["register", "run", "write_recording"]
 
@@ -121,8 +123,23 @@ def register(subparsers: Any) -> None:
         help="set one field of the sensor (uavsnn.sim.DvsParams: threshold_on, cutoff_hz, "
         "leak_rate_hz, ...); repeat for more",
     )
-    parser.add_argument("--max-frames", type=int, default=None, help="stop after N frames")
-    parser.add_argument("--fps", type=float, default=None, help="override the video's rate")
+    parser.add_argument(
+        "--start",
+        type=float,
+        default=None,
+        metavar="SECONDS",
+        help="begin at the first frame at or after this time of the video (frames before it are "
+        "decoded and dropped); the events keep the video's time (default: its first frame)",
+    )
+    parser.add_argument(
+        "--max-frames", type=int, default=None, help="stop after N frames (from --start)"
+    )
+    parser.add_argument(
+        "--fps",
+        type=float,
+        default=None,
+        help="override the video's rate (1 to 1,000,000 frames per second)",
+    )
     parser.add_argument("--preview", type=Path, default=None, help="write a PNG strip here")
     parser.add_argument("--json", action="store_true", help="print a JSON summary")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -303,10 +320,15 @@ def run(args: argparse.Namespace) -> int:
         raise ParameterError("--lens, --focus-m and --fov are for --scene (a rendered scene)")
     elif args.duration is not None:
         raise ParameterError(
-            "--duration sets a --scene's length; a video runs whole (--max-frames stops it)"
+            "--duration sets a --scene's length; a video runs whole (--start and --max-frames "
+            "cut it)"
         )
     else:
         args.mode = args.mode or "sim"
+        if args.fps is not None:
+            check_fps(args.fps, "--fps")
+        if args.start is not None:
+            check_start(args.start, "--start")
         # Each refuses its options with the other mode.
         pix2nvs, dvs = pix2nvs_params(args), dvs_params(args, "default")
         recording = _video(args, size, dvs if args.mode == "dvs" else pix2nvs)
@@ -333,14 +355,15 @@ def _check_scene_options(args: argparse.Namespace) -> None:
     """Refuse the options of a video with ``--scene``, which records through the DVS emulator.
 
     Raises:
-        ParameterError: ``--mode sim``, a PIX2NVS option, ``--downsample``, ``--max-frames``
-            or ``--fps`` with ``--scene``.
+        ParameterError: ``--mode sim``, a PIX2NVS option, ``--downsample``, ``--start``,
+            ``--max-frames`` or ``--fps`` with ``--scene``.
     """
     given = ["--" + k.replace("_", "-") for k in _MODEL_OPTIONS if getattr(args, k) is not None]
     given += ["--pix2nvs-compat"] * bool(args.pix2nvs_compat)
     given += ["--mode sim"] * (args.mode == "sim")
     video_options = {
         "--downsample": args.downsample,
+        "--start": args.start,
         "--max-frames": args.max_frames,
         "--fps": args.fps,
     }
@@ -363,6 +386,7 @@ def _video(
         downsample=args.downsample,
         max_frames=args.max_frames,
         fps=args.fps,
+        start=args.start,
         params=params,
         progress=not (args.quiet or args.json),
     )
@@ -380,6 +404,7 @@ def _finish(args: argparse.Namespace, recording: Recording) -> int:
         "mode": args.mode,
         "sensor_size": list(recording.sensor_size),
         "frames": recording.metadata["frames"],
+        "start_s": recording.metadata.get("start_s"),
         "events": len(ev),
         "on_fraction": float(ev["p"].mean()) if len(ev) else 0.0,
         "events_per_second": len(ev) / duration_s if duration_s > 0 else 0.0,

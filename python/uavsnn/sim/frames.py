@@ -4,7 +4,11 @@ Frames may be an array ``(n, h, w)`` of gray or ``(n, h, w, 3)`` of BGR (OpenCV'
 order), or a sequence of such frames. ``uint8`` passes to the engine untouched (no copy, strided
 views included); every other real dtype becomes ``float32`` on the same 0–255 scale, BGR being
 turned into BT.601 luma first (integer frames with a value above 255, a 16-bit sensor's, are
-refused rather than taken as brighter).
+refused rather than taken as brighter). Float frames are intensities on that scale, 255 being a
+video's white, and may go past it: light brighter than white, as the "dvs" renderer's flickering
+light makes, is taken as it is, not clipped. So float frames on another scale are taken on this
+one (0–1 as nearly black, 0–1000 as up to four times white): scale them first. NaN, infinite or
+negative values (a negative channel of a BGR pixel too) are refused.
 Timestamps are integer microseconds, one per frame, strictly increasing, at most 2^62 µs (the
 engine's latest time).
 """
@@ -62,7 +66,7 @@ def as_frame_batch(frames: Any) -> FrameBatch:
 
     Raises :class:`~uavsnn.SimulationError` for no frames, frames of mixed sizes, a shape that
     is neither ``(n, h, w)`` nor ``(n, h, w, 3)``, a non-numeric dtype, integer intensities above
-    255, or non-finite or negative intensities.
+    255, or non-finite or negative intensities (of a BGR pixel's luma or of any of its channels).
     """
     if isinstance(frames, np.ndarray):
         array = frames
@@ -101,11 +105,13 @@ def as_frame_batch(frames: Any) -> FrameBatch:
     gray = array.astype(np.float32) @ BT601_BGR if array.ndim == 4 else array
     gray = np.ascontiguousarray(gray, dtype=np.float32)
     bad = ~np.isfinite(gray) | (gray < 0)
+    if array.ndim == 4:
+        bad |= (array < 0).any(axis=3)  # a negative channel under a luma >= 0
     if bad.any():
         k, y, x = (int(v) for v in np.argwhere(bad)[0])
+        value = gray[k, y, x] if array.ndim == 3 else f"(B, G, R) {tuple(array[k, y, x].tolist())}"
         raise SimulationError(
-            f"frame {k}: pixel (x={x}, y={y}) has intensity {gray[k, y, x]}, "
-            "expected a finite value >= 0"
+            f"frame {k}: pixel (x={x}, y={y}) has intensity {value}, expected a finite value >= 0"
         )
     return FrameBatch("float", gray)
 

@@ -3,7 +3,8 @@
 Frames are cropped, centred, to the aspect ratio of the target sensor (4:3 for the default
 240×180) and resized with area averaging (``cv2.INTER_AREA``: a larger pixel integrates the
 light of the smaller ones it covers). Frame ``i`` is at ``round(i · 10⁶ / fps)`` µs, with ``fps``
-from the container unless given.
+from the container unless given (:data:`FPS_RANGE`), ``i`` counted from the video's first frame
+also when reading starts later (``start``).
 
 Where the down-sampling happens is a parameter of :func:`video_to_recording`:
 
@@ -15,6 +16,7 @@ Where the down-sampling happens is a parameter of :func:`video_to_recording`:
 
 from __future__ import annotations
 
+import itertools
 import math
 import queue
 import sys
@@ -27,7 +29,7 @@ from typing import Any, Literal
 import cv2
 import numpy as np
 
-from uavsnn._validate import check_path
+from uavsnn._validate import MAX_TIME_US, check_path
 from uavsnn.errors import ParameterError, SimulationError
 from uavsnn.events import EVENT_DTYPE, Recording
 from uavsnn.sim.checks import check_choice, check_int, check_real, check_seed, check_size
@@ -35,7 +37,10 @@ from uavsnn.sim.dvs import DvsEmulator, DvsParams
 from uavsnn.sim.pix2nvs import POOLING_MODES, Pix2NvsParams, Pix2NvsSimulator
 
 __all__ = [
+    "FPS_RANGE",
     "VideoInfo",
+    "check_fps",
+    "check_start",
     "crop_to_aspect",
     "iter_video",
     "prefetch",
@@ -48,6 +53,40 @@ Color = Literal["gray", "bgr"]
 
 #: Decoded frames held ahead of the simulator.
 PREFETCH_FRAMES = 4
+
+#: The frame rates ``fps=`` (``uavsnn simulate --fps``) may give: at least one frame a second
+#: (the scenes' lowest rate; at 10^-6 fps the frames were 11.6 days apart), at most one a
+#: microsecond (the events' time resolution).
+FPS_RANGE = (1.0, 1e6)
+
+
+def check_fps(fps: Any, name: str = "fps") -> float:
+    """``fps`` as ``float``, if it is a frame rate in :data:`FPS_RANGE`; else a
+    :class:`~uavsnn.ParameterError` naming ``name`` and the range."""
+    low, high = FPS_RANGE
+    try:
+        return check_real(name, fps, low=low, high=high)
+    except ParameterError as exc:
+        raise ParameterError(
+            f"{exc}: a frame rate is from {low:,.0f} to {high:,.0f} frames per second (at "
+            "most a frame a microsecond, the events' time resolution)"
+        ) from exc
+
+
+def check_start(start: Any, name: str = "start") -> float:
+    """``start`` as ``float``, if it is a time in seconds from 0 to the engine's latest
+    (2^62 µs); else a :class:`~uavsnn.ParameterError` naming ``name``."""
+    return check_real(name, start, low=0.0, high=MAX_TIME_US / 1e6)
+
+
+def _first_frame(start: float, fps: float) -> int:
+    """The index of the first frame at or after ``start`` seconds, frame ``i`` being at
+    ``round(i · 10⁶ / fps)`` µs (compared in whole µs, so that 0.4 s at 25 fps is frame 10)."""
+    start_us = round(start * 1e6)
+    i = max(0, math.ceil(start_us * fps / 1e6) - 1)
+    while round(i * 1e6 / fps) < start_us:
+        i += 1
+    return i
 
 
 def crop_to_aspect(frame: np.ndarray, aspect: float) -> np.ndarray:
@@ -169,6 +208,7 @@ def iter_video(
     color: Color = "gray",
     fps: float | None = None,
     resize: bool = True,
+    start: float | None = None,
 ) -> Iterator[tuple[np.ndarray, int]]:
     """Yield ``(frame, t_us)`` one frame at a time.
 
@@ -176,28 +216,34 @@ def iter_video(
         path: any file OpenCV's FFmpeg back end reads (mp4, avi, mkv, mov, ...).
         size: ``(width, height)`` to crop (centred, to its aspect ratio) and resize to;
             ``None`` keeps frames as decoded (then they must all have one size).
-        max_frames: stop after this many frames.
+        max_frames: stop after this many frames (from ``start``).
         color: ``"gray"`` (OpenCV's BT.601 luma rounded to ``uint8``) or ``"bgr"`` (``uint8``,
             3 channels; the simulators then take luma in floating point, as PIX2NVS does —
             :func:`video_to_recording` reads BGR for that reason).
-        fps: frame rate to assume, overriding the container's.
+        fps: frame rate to assume, overriding the container's; in :data:`FPS_RANGE`.
         resize: with ``size``, ``False`` only crops to its aspect ratio (for simulating at full
             resolution and pooling the events afterwards).
+        start: begin at the first frame at or after this time in seconds, on the frames' own
+            time (frame ``i`` at ``i / fps``: ``fps``'s when given). The frames before it are
+            decoded and dropped (exact, where OpenCV's seek lands a few frames off in some
+            H.264 files); the frames keep their times, ``t_us`` starting near ``start``.
 
     Raises:
         SimulationError: a missing, unreadable or empty video, no usable frame rate, frames
             that change size when ``size`` is ``None`` (as the frames are read).
         ParameterError: a bad parameter, or frames resized to ``size`` that would not fit in
             ``uavsnn.windows.MEMORY_LIMIT`` (at the call, before a frame is read); a ``path``
-            that is not a ``str`` or ``os.PathLike[str]`` (at the first frame).
+            that is not a ``str`` or ``os.PathLike[str]``, or a ``start`` at or past the
+            video's end (at the first frame).
     """
     check_choice("color", color, ("gray", "bgr"))
     target = None if size is None else check_size(size)
     limit = None if max_frames is None else check_int("max_frames", max_frames, low=1, high=2**62)
-    rate = None if fps is None else check_real("fps", fps, low=0.0, low_open=True, high=1e6)
+    rate = None if fps is None else check_fps(fps)
+    begin = None if start is None else check_start(start)
     if target is not None and resize:
         _check_frame_memory(target, color)
-    return _frames(path, target, limit, color, rate, resize)
+    return _frames(path, target, limit, color, rate, resize, begin)
 
 
 def _frames(
@@ -207,14 +253,18 @@ def _frames(
     color: Color,
     fps: float | None,
     resize: bool,
+    start: float | None,
 ) -> Iterator[tuple[np.ndarray, int]]:
     """:func:`iter_video`'s frames, its arguments checked."""
     cap = _open(path)
     try:
         rate = _fps(cap, fps, path)
-        first_shape: tuple[int, ...] | None = None
+        first = 0 if start is None else _first_frame(start, rate)
         i = 0
-        while limit is None or i < limit:
+        while i < first and cap.grab():
+            i += 1  # decoded and dropped (not converted): exact, where a seek may land off
+        first_shape: tuple[int, ...] | None = None
+        while i >= first and (limit is None or i - first < limit):
             ok, frame = cap.read()
             if not ok or frame is None:
                 break
@@ -237,8 +287,18 @@ def _frames(
             i += 1
         if i == 0:
             raise SimulationError(f"no frame could be decoded from {str(path)!r} (empty video?)")
+        if i <= first:
+            raise _past_end(start, path, i, rate)
     finally:
         cap.release()
+
+
+def _past_end(start: float | None, path: str | Path, frames: int, fps: float) -> ParameterError:
+    """The error of a ``start`` at or past the end of a video of ``frames`` frames."""
+    return ParameterError(
+        f"start={start:g} s (uavsnn simulate --start) is at or past the end of {str(path)!r}: "
+        f"its {frames} frames last {frames / fps:g} s at {fps:g} fps"
+    )
 
 
 def prefetch(items: Iterable[Any], depth: int = PREFETCH_FRAMES) -> Iterator[Any]:
@@ -292,8 +352,9 @@ def read_video(
     max_frames: int | None = None,
     color: Color = "gray",
     fps: float | None = None,
+    start: float | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Read a whole video: ``(frames, timestamps_us)``.
+    """Read a whole video (from ``start``, see :func:`iter_video`): ``(frames, timestamps_us)``.
 
     ``frames`` is ``(n, h, w)`` ``uint8`` gray or ``(n, h, w, 3)`` BGR, cropped to the aspect
     ratio of ``size`` and resized to it (see :func:`iter_video`); ``timestamps_us`` is
@@ -310,7 +371,8 @@ def read_video(
     times: list[int] = []
     limit = _memory_limit()
     held = 0
-    for frame, t in iter_video(path, size=size, max_frames=max_frames, color=color, fps=fps):
+    stream = iter_video(path, size=size, max_frames=max_frames, color=color, fps=fps, start=start)
+    for frame, t in stream:
         held += frame.nbytes
         if limit is not None and 2 * held > limit:
             raise ParameterError(
@@ -337,6 +399,7 @@ def video_to_recording(
     max_frames: int | None = None,
     fps: float | None = None,
     progress: bool | Callable[[int], None] = False,
+    start: float | None = None,
 ) -> Recording:
     """Turn a video file into a :class:`~uavsnn.Recording` of ``size``, streaming it.
 
@@ -351,19 +414,28 @@ def video_to_recording(
             ``"dvs"``).
         pooling: with ``downsample="events"``, ``"strongest"`` or ``"all"`` (see
             :class:`~uavsnn.sim.Pix2NvsSimulator`).
-        max_frames: stop after this many frames.
-        fps: frame rate to assume, overriding the container's.
+        max_frames: stop after this many frames (from ``start``).
+        fps: frame rate to assume, overriding the container's; in :data:`FPS_RANGE`.
         progress: ``True`` for a progress bar, or a callable given the number of frames done.
+        start: begin at the first frame at or after this time in seconds (see
+            :func:`iter_video`); the events keep the video's time, so they start near
+            ``start``, not at 0.
 
-    The metadata holds the source, mode, seed, parameters, frame rate, frame count and
-    down-sampling.
+    The metadata holds the source, mode, seed, parameters, frame rate, frame count (the
+    frames read) and down-sampling; with ``start``, also ``start_s`` (``start``) and
+    ``start_frame`` (the index of the first frame read).
 
     Raises:
-        ParameterError: a bad parameter, or a ``path`` that is not a ``str`` or
-            ``os.PathLike[str]``.
+        ParameterError: a bad parameter, a ``path`` that is not a ``str`` or
+            ``os.PathLike[str]``, or a ``start`` at or past the video's end (before the
+            progress bar starts).
         SimulationError: as :func:`iter_video`, or frames the simulator cannot take.
     """
     check_choice("mode", mode, ("sim", "dvs"))
+    if fps is not None:
+        fps = check_fps(fps)
+    if start is not None:
+        start = check_start(start)
     sensor = check_size(size)
     seed = check_seed(seed)
     check_choice("pooling", pooling, POOLING_MODES)
@@ -393,14 +465,20 @@ def video_to_recording(
         color="bgr",
         fps=fps,
         resize=downsample == "frames",
+        start=start,
     )
-    bar = _progress(progress, info.frame_count if max_frames is None else max_frames, path)
+    # The first frame here, before the progress bar: the frames before a start are decoded
+    # then, and a start past the end is refused.
+    head = next(stream)
+    rate = info.fps if fps is None else fps  # usable: the stream read a frame at it
+    first = 0 if start is None else _first_frame(start, rate)
+    total = max(info.frame_count - first, 0)
+    bar = _progress(progress, total if max_frames is None else max_frames, path)
     chunks: list[np.ndarray] = []
     n = 0
-    rate = fps
     try:
         # One frame per call: the engine reads the cropped view in place, without a copy.
-        for frame, t in prefetch(stream):
+        for frame, t in prefetch(itertools.chain([head], stream)):
             if sim is None:
                 frame_size = (int(frame.shape[1]), int(frame.shape[0]))
                 sim = _simulator(mode, frame_size, sensor, params, pooling, seed, downsample)
@@ -414,12 +492,11 @@ def video_to_recording(
     if n < 2:
         # Events are changes between frames: one frame (an image, max_frames=1) makes none,
         # and OpenCV gives an image a frame rate of its own.
+        since = "" if start is None else f" from start={start:g} s"
         raise SimulationError(
-            f"{str(path)!r} gave {n} frame{'s' if n != 1 else ''}: a recording needs at least 2 "
-            "(events are the changes between frames; an image is no video)"
+            f"{str(path)!r} gave {n} frame{'s' if n != 1 else ''}{since}: a recording needs at "
+            "least 2 (events are the changes between frames; an image is no video)"
         )
-    if rate is None:
-        rate = info.fps
     events = np.concatenate(chunks) if chunks else np.zeros(0, dtype=EVENT_DTYPE)
     used = sim.params if sim is not None else expected()
     metadata: dict[str, Any] = {
@@ -433,6 +510,9 @@ def video_to_recording(
         "pooling": pooling if downsample == "events" else None,
         "video_size": [info.width, info.height],
     }
+    if start is not None:
+        metadata["start_s"] = start
+        metadata["start_frame"] = first
     crop = _crop_size((info.width, info.height), sensor[0] / sensor[1])
     if downsample == "frames" and (crop[0] < sensor[0] or crop[1] < sensor[1]):
         # Frames scaled up: the events are those of a sensor of the crop's size, spread.
