@@ -137,12 +137,13 @@ def test_a_rendered_drone_shows_its_blade_pass_not_a_beat_with_the_frame_rate() 
     them: the frames' coverage differed from the sub-frame samples' by the blades' phase, and a
     blade pass of 0.8 times the frame rate (400 Hz at 500 fps) repeats its phase at frames
     every fifth, 100 Hz, which both rotor estimators found instead (a new user's walk). Drawn
-    alike at frames and between, the blade pass comes back."""
+    alike at frames and between, the blade pass comes back. (At 6 m: at 8 m the rotor sampled
+    24 times a passage lights one or two pixels, too few for either to call it.)"""
     from uavsnn.scenes import record, spec_from_dict
     from uavsnn.signature import rotor_signature, rotor_spectrum
 
     drone = {"kind": "phantom", "size_m": 0.29, "rate_hz": 200.0,
-             "path": {"kind": "hover", "start": [0.0, -0.3, 8.0]}}  # fmt: skip
+             "path": {"kind": "hover", "start": [0.0, -0.3, 6.0]}}  # fmt: skip
     scene = {"domain": "dvs", "width": 240, "height": 180, "fps": 500, "duration_s": 0.2,
              "focal_px": 220, "tilt_deg": 15, "background": {"kind": "sky", "cloud_cover": 0.0},
              "objects": [drone]}  # fmt: skip
@@ -157,4 +158,4 @@ def test_a_rendered_drone_shows_its_blade_pass_not_a_beat_with_the_frame_rate() 
     edges = rotor_signature(window, (x0, y0, x1 - x0, y1 - y0))
     spectrum = rotor_spectrum(window, (x0, y0, x1 - x0, y1 - y0))
     assert spectrum.detected and abs(spectrum.frequency_hz - 400) <= 8, spectrum
-    assert abs(edges.frequency_hz - 400) <= 8, edges  # (too few pixels agree to be detected)
+    assert edges.detected and abs(edges.frequency_hz - 400) <= 8, edges

@@ -8,7 +8,7 @@ alone (the renderer before sub-frame samples). The peak of the mean per-pixel, p
 event-rate spectrum (``pixel_rate_spectrum``) is compared with the blade pass, 2 x the rate:
 ``ok`` when within 2 %.
 
-    python benches/python/rotor_grid.py [--duration 0.3] [--samples-per-pass 6]
+    python benches/python/rotor_grid.py [--duration 0.3] [--samples-per-pass 24]
 
 Prints a Markdown table (docs/simulation.md keeps its output).
 """
@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 
+from uavsnn.scenes.renderer import SAMPLES_PER_PASS
 from uavsnn.sim.checks import dominant_frequency, pixel_rate_spectrum, rotor_events
 
 RATES = (50.0, 100.0, 150.0, 300.0, 450.0, 600.0)
@@ -26,7 +27,7 @@ SIZES = (2.0, 3.0, 4.0, 6.0, 10.0, 20.0, 40.0, 60.0)
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--duration", type=float, default=0.3)
-    ap.add_argument("--samples-per-pass", type=int, default=6)
+    ap.add_argument("--samples-per-pass", type=int, default=SAMPLES_PER_PASS)
     ap.add_argument("--fps", type=float, default=500.0)
     args = ap.parse_args()
     print(

@@ -366,8 +366,16 @@ class _Objects:
 FINE_SS = 8
 
 #: Sub-frame samples per period of an object's fastest motion (a blade passage, a wing beat)
-#: that the "dvs" domain's renderings give the emulator (the issue's floor is 4).
-SAMPLES_PER_PASS = 6
+#: that the "dvs" domain's renderings give the emulator (the issue's floor is 4). A blade a
+#: tenth of a pixel wide gives its pixels harmonics of the blade pass up to several kHz, and
+#: the emulator takes the samples as they come (its photoreceptor's low-pass acts after them):
+#: at 6 a passage (1500 samples a second for a 240 Hz blade pass at 500 fps) the harmonics
+#: above half that rate folded back about it through the frames, the one sample of each frame
+#: interval whose time is not jittered, into lines at 1500 − 240·n Hz (60, 300, 540, 780 Hz), and
+#: the sparse samples missed part of the rotor's events; at 24 the folds lie beyond 5 kHz, where
+#: the harmonics are weak (``python benches/python/drone_bird_spectra.py --samples-per-pass 6``
+#: against the default).
+SAMPLES_PER_PASS = 24
 
 #: The sub-frame samples of one patch between two frames hold at most this many bytes
 #: (float32): a larger patch gets fewer samples. The scenes that

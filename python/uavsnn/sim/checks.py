@@ -287,7 +287,7 @@ def rotor_events(
     diameter_px: float,
     *,
     fps: float = 500.0,
-    samples_per_pass: int = 6,
+    samples_per_pass: int | None = None,
     duration_s: float = 0.5,
     blades: int = 2,
     sky: float = 0.7,
@@ -298,16 +298,19 @@ def rotor_events(
     """A rotor alone, face-on against a plain sky: rendered as the "dvs" scenes render a
     quadcopter's rotors (its translucent disc and its blades, :func:`uavsnn.scenes.objects.
     rotor_parts`), frames at ``fps`` with ``ceil(samples_per_pass · blades · rev_hz / fps) -
-    1`` sub-frame samples between frames (``samples_per_pass = 0``: none), emulated by
+    1`` sub-frame samples between frames (``samples_per_pass = 0``: none; ``None``: the scenes'
+    :data:`~uavsnn.scenes.renderer.SAMPLES_PER_PASS`), emulated by
     :class:`~uavsnn.sim.DvsEmulator` (``params``: default :data:`~uavsnn.sim.SCENE_PARAMS`).
 
     Returns the events and the frame's ``(width, height)`` (the rotor in its centre, two
     pixels of sky around it). The blade pass is ``blades · rev_hz``.
     """
     from uavsnn.scenes.objects import rotor_parts
-    from uavsnn.scenes.renderer import FINE_SS, _draw, sub_frame_times
+    from uavsnn.scenes.renderer import FINE_SS, SAMPLES_PER_PASS, _draw, sub_frame_times
     from uavsnn.sim.dvs import SCENE_PARAMS, DvsEmulator
 
+    if samples_per_pass is None:
+        samples_per_pass = SAMPLES_PER_PASS
     rev_hz = check_real("rev_hz", rev_hz, low=0.0)
     diameter_px = check_real("diameter_px", diameter_px, low=0.5, high=1000.0)
     fps = check_real("fps", fps, low=1.0, high=1e6)
