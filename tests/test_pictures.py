@@ -4,6 +4,7 @@ each picture, and typed errors for bad input."""
 from __future__ import annotations
 
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 import cv2
@@ -334,6 +335,26 @@ BAD_INPUT: dict[str, tuple[Any, type[Exception], str]] = {
         uavsnn.ParameterError,
         "y_range",
     ),
+    "dashed unknown series": (
+        lambda: pictures.line_chart([1], {"a": [1]}, **CHART, dashed=["b"]),
+        uavsnn.ParameterError,
+        "dashed names 'b'",
+    ),
+    "colours unknown series": (
+        lambda: pictures.line_chart([1], {"a": [1]}, **CHART, colours={"b": 0}),
+        uavsnn.ParameterError,
+        "colours names 'b'",
+    ),
+    "note without y": (
+        lambda: pictures.line_chart([1], {"a": [1]}, **CHART, notes={"a": [(1.0, "x")]}),
+        uavsnn.ParameterError,
+        "notes of 'a'",
+    ),
+    "noise without noise": (
+        lambda: pictures.snr_chart([{"fraction": 0.0, "snr_db": None, "mode": "pent"}]),
+        uavsnn.ParameterError,
+        "finite SNR",
+    ),
     "3x3 matrix": (
         lambda: pictures.confusion_image(np.zeros((3, 3)), title=""),
         uavsnn.ShapeError,
@@ -384,3 +405,86 @@ def test_line_chart_joins_series_measured_at_other_x_without_gaps() -> None:
             (with_gaps[:, :, 0] == 180) & (with_gaps[:, :, 1] == 119) & (with_gaps[:, :, 2] == 31)
         ).sum()
     )
+
+
+# ------------------------------------------------------------------------ accuracy against SNR
+
+BLUE = np.array([180, 119, 31], np.uint8)  # the first mode (PENT)
+ORANGE = np.array([14, 127, 255], np.uint8)  # the second (static)
+PAPER_GREEN = np.array([44, 160, 44], np.uint8)  # the paper
+
+
+def noise_point(
+    fraction: float, snr: float | None, mode: str, accuracy: float, identified: float | None
+) -> dict[str, Any]:
+    """A noise point as results.json's ``"noise"`` holds it (NoisePoint.to_dict())."""
+    point: dict[str, Any] = {"fraction": fraction, "snr_db": snr, "mode": mode}
+    point["accuracy"] = accuracy
+    if identified is not None:
+        point["identified"] = {"accuracy": identified, "confusion": [[1, 0], [0, 1]]}
+    return point
+
+
+def test_snr_chart_puts_the_papers_points_at_our_snr_of_the_same_share() -> None:
+    # Our shares 0.5 % and 5 % sit at 10 dB and 0 dB; the paper's figures for those shares must
+    # be drawn there (SPEC §5), not at its own labels (23 and -15 dB), which lie outside ours.
+    noise = [
+        noise_point(0.0, None, "pent", 0.5, None),  # no noise: no SNR, left out
+        noise_point(0.005, 10.0, "pent", 0.5, None),
+        noise_point(0.05, 0.0, "pent", 0.5, None),
+    ]
+    chart = pictures.snr_chart(noise, paper={0.005: 0.9, 0.05: 0.1, 0.2: 0.05})
+    plot = chart[:-60]  # above the x labels and the legend
+    blue_cols = np.flatnonzero(colour_mask(plot, BLUE).any(axis=0))
+    green = colour_mask(plot, PAPER_GREEN)
+    green_rows, green_cols = np.nonzero(green)
+    # The share labels are written left of and above the paper's points, so its rightmost
+    # pixels are the 0.5 % marker's and its lowest the 5 % marker's.
+    assert abs(green_cols.max() - blue_cols.max()) <= 1
+    lowest = green_cols[green_rows >= green_rows.max() - 1]
+    assert abs(lowest.mean() - (blue_cols.min() + 3)) <= 1.5
+    # The 0.5 % point is near the top (0.9), the 5 % one near the bottom (0.1).
+    assert green_rows.max() - green_rows.min() > 0.6 * (plot.shape[0] - 40)
+    # The same points as NoisePoints (their evaluation and both_rules figures) draw the same.
+    objects = [
+        SimpleNamespace(
+            fraction=p["fraction"],
+            snr_db=float("inf") if p["snr_db"] is None else p["snr_db"],
+            mode=p["mode"],
+            evaluation=SimpleNamespace(accuracy=p["accuracy"]),
+            identified=None,
+        )
+        for p in noise
+    ]
+    again = pictures.snr_chart(objects, paper={0.005: 0.9, 0.05: 0.1, 0.2: 0.05})
+    np.testing.assert_array_equal(again, chart)
+
+
+def test_snr_chart_draws_identification_dashed_beside_the_any_spike_rule() -> None:
+    shares = [(0.005, 10.0), (0.01, 7.0), (0.2, -6.0)]
+    plain = [noise_point(f, s, m, 0.6, None) for f, s in shares for m in ("pent", "static")]
+    both = [
+        noise_point(f, s, m, 0.6, 0.3 if m == "pent" else 0.8)
+        for f, s in shares
+        for m in ("pent", "static")
+    ]
+    without, with_id = pictures.snr_chart(plain), pictures.snr_chart(both)
+    assert is_bgr(with_id) and with_id.shape == without.shape == (460, 760, 3)
+    for colour, level in ((BLUE, 0.3), (ORANGE, 0.8)):
+        new = colour_mask(with_id[:-60], colour) & ~colour_mask(without[:-60], colour)
+        rows = np.nonzero(new)[0]
+        # a second line of the mode's colour, at identification's accuracy ...
+        plot_top, plot_height = 36, with_id.shape[0] - 36 - 42 - 22
+        expected = plot_top + (1 - level) * (plot_height - 1)
+        assert rows.size and abs(np.median(rows) - expected) < 4
+        # ... dashed: along its row, the colour has gaps where the solid line has none
+        row = int(np.median(rows))
+        cols = np.flatnonzero(colour_mask(with_id[row - 1 : row + 2], colour).any(axis=0))
+        assert len(np.split(cols, np.flatnonzero(np.diff(cols) > 2) + 1)) >= 5
+    # The default paper is Table 3 by share: at 0.5 % and 1 % here (its 85 and 83 %), both
+    # drawn in green near 0.84, right of 7 dB's point; 20 % is not among its shares.
+    green_rows, green_cols = np.nonzero(colour_mask(without[:-60], PAPER_GREEN))
+    assert green_rows.size and abs(np.median(green_rows) - (36 + 0.16 * 339)) < 8
+    ours = np.flatnonzero(colour_mask(without[:-60], ORANGE).any(axis=0))  # over PENT's
+    seven = ours.min() + (ours.max() - ours.min()) * 13 / 16  # 7 dB in -6..10
+    assert green_cols.min() > seven - 40  # the label "1 %" left of it, no point at -6 dB

@@ -10,7 +10,7 @@ follow :mod:`uavsnn.sim.preview`: a dark grey background, light text.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from typing import Any
 
 import cv2
@@ -32,6 +32,7 @@ __all__ = [
     "line_chart",
     "pent_comparison",
     "reconstruct_features",
+    "snr_chart",
     "spikes_image",
     "vstack",
     "write_png",
@@ -260,18 +261,51 @@ def _frame(frame: np.ndarray, scale: int) -> tuple[np.ndarray, float]:
     return cv2.resize(img, None, fx=scale, fy=scale, interpolation=cv2.INTER_NEAREST), span
 
 
+def _key_width(style: str) -> int:
+    return 20 if style in ("line", "dashed line") else 10
+
+
 def _keys(entries: Sequence[tuple[Any, str, str]], width: int, start: int = 6) -> np.ndarray:
-    """A footer bar of legend entries ``(colour, label, "fill" | "box" | "dash")`` from ``start``,
-    at least ``width`` wide."""
-    bar = _canvas(22, max(width, start + sum(22 + _width(s, 0.35) for _, s, _ in entries)))
+    """A footer bar of legend entries ``(colour, label, "fill" | "box" | "dash" | "line" |
+    "dashed line")`` from ``start``, at least ``width`` wide."""
+    need = sum(12 + _key_width(st) + _width(s, 0.35) for _, s, st in entries)
+    bar = _canvas(22, max(width, start + need))
     for colour, label, style in entries:
+        wide = _key_width(style)
         if style == "dash":
             _dashed(bar, (start, 6), (start + 10, 16), colour)
+        elif style in ("line", "dashed line"):
+            _polyline(bar, np.array([[start, 11], [start + wide, 11]]), colour, style != "line")
         else:
             cv2.rectangle(bar, (start, 6), (start + 10, 16), colour, -1 if style == "fill" else 1)
-        _text(bar, label, (start + 14, 15), 0.35)
-        start += 22 + _width(label, 0.35)
+        _text(bar, label, (start + wide + 4, 15), 0.35)
+        start += 12 + wide + _width(label, 0.35)
     return bar
+
+
+def _polyline(img: np.ndarray, pts: np.ndarray, colour: Any, dashed: bool) -> None:
+    """A 2-pixel polyline through ``pts`` (``(n, 2)`` pixel columns and rows), solid or in
+    dashes of 7 pixels with gaps of 5 that carry on from one segment to the next."""
+    if not dashed:
+        cv2.polylines(img, [pts.astype(np.int32)], False, colour, 2, cv2.LINE_AA)
+        return
+    walked = 0.0  # the length drawn so far, which sets where the next dash starts
+    for a, b in zip(pts[:-1].astype(np.float64), pts[1:].astype(np.float64), strict=True):
+        length = float(np.hypot(*(b - a)))
+        s = (-walked) % 12.0  # the next dash's start along this segment
+        while s < length:
+            e = min(s + 7.0, length)
+            p, q = a + (b - a) * s / length, a + (b - a) * e / length
+            cv2.line(
+                img,
+                tuple(np.round(p).astype(int)),
+                tuple(np.round(q).astype(int)),
+                colour,
+                2,
+                cv2.LINE_AA,
+            )
+            s += 12.0
+        walked += length
 
 
 def _dashed(img: np.ndarray, p0: tuple[int, int], p1: tuple[int, int], colour: Any) -> None:
@@ -399,6 +433,17 @@ def _ticks(lo: float, hi: float) -> tuple[np.ndarray, int]:
     return np.where(np.abs(ticks) < step * 1e-9, 0.0, ticks), max(0, -math.floor(math.log10(step)))
 
 
+def _legend(entries: Sequence[tuple[Any, str, str]], width: int) -> np.ndarray:
+    """Legend entries in rows of :func:`_keys`, each as many as fit in ``width`` (one row when
+    all fit), ``width`` wide."""
+    rows: list[list[tuple[Any, str, str]]] = [[]]
+    for entry in entries:
+        if rows[-1] and _keys([*rows[-1], entry], 0).shape[1] > width:
+            rows.append([])
+        rows[-1].append(entry)
+    return _join([_keys(row, width)[:, :width] for row in rows], 0, True)
+
+
 def line_chart(
     x: Sequence[float] | np.ndarray,
     series: Mapping[str, Sequence[float] | np.ndarray],
@@ -411,20 +456,41 @@ def line_chart(
     markers: bool = True,
     gaps: bool = True,
     intervals: Mapping[str, Sequence[tuple[float, float, float]]] | None = None,
+    dashed: Collection[str] = (),
+    colours: Mapping[str, int] | None = None,
+    notes: Mapping[str, Sequence[tuple[float, float, str]]] | None = None,
 ) -> np.ndarray:
-    """A line chart ``size = (width, height)``: one colour per series (legend below), round
-    ticks with values, gridlines. Points are drawn in order of ``x``; a NaN is a gap (a point
-    between gaps still gets its marker), or with ``gaps=False`` a value not measured at that
-    ``x`` (the series' other points are joined: series measured at different x); ``y_range``
-    fixes the y axis, else it fits the data. ``intervals``: per series, ``(x, low, high)``
-    bars drawn in its colour (a vertical line with caps); where several series have bars, each
-    series' are set a few pixels apart around their x, so bars at the same x stay apart."""
+    """A line chart ``size = (width, height)``: one colour per series (legend below, in as many
+    rows as it needs), round ticks with values, gridlines. Points are drawn in order of ``x``;
+    a NaN is a gap (a point between gaps still gets its marker), or with ``gaps=False`` a value
+    not measured at that ``x`` (the series' other points are joined: series measured at
+    different x); ``y_range`` fixes the y axis, else it fits the data. ``intervals``: per
+    series, ``(x, low, high)`` bars drawn in its colour (a vertical line with caps); where
+    several series have bars, each series' are set a few pixels apart around their x, so bars
+    at the same x stay apart. ``dashed``: the series drawn in dashes (then the legend shows
+    each series' line); ``colours``: a series' index into the palette (default: its position,
+    so two series can share a colour); ``notes``: per series, ``(x, y, text)`` written small
+    in its colour above and left of that point, on a patch of background over the lines."""
     bars = {} if intervals is None else {str(k): list(v) for k, v in intervals.items()}
     for name, rows in bars.items():
         if name not in series:
             raise ParameterError(f"intervals name {name!r}, which is not a series")
         if any(len(r) != 3 or not np.isfinite(np.asarray(r, np.float64)).all() for r in rows):
             raise ParameterError(f"intervals of {name!r} must be finite (x, low, high) triples")
+    texts = {} if notes is None else {str(k): list(v) for k, v in notes.items()}
+    dashes = {str(k) for k in dashed}
+    shades = {} if colours is None else {str(k): v for k, v in colours.items()}
+    for what, names in (("dashed", dashes), ("colours", shades), ("notes", texts)):
+        for name in names:
+            if name not in series:
+                raise ParameterError(f"{what} names {name!r}, which is not a series")
+    for name, index in shades.items():
+        check_int(f"colours[{name!r}]", index, 0, 10_000)
+    for name, notes_of in texts.items():
+        if any(
+            len(r) != 3 or not np.isfinite(np.asarray(r[:2], np.float64)).all() for r in notes_of
+        ):
+            raise ParameterError(f"notes of {name!r} must be (x, y, text) with finite x and y")
     xs = np.asarray(x, dtype=np.float64)
     if xs.ndim != 1 or xs.size == 0 or not np.isfinite(xs).all():
         raise ParameterError(f"x must be a non-empty 1-D sequence of finite numbers, got {xs!r}")
@@ -449,7 +515,14 @@ def line_chart(
     (xt, xd), (yt, yd) = _ticks(x0, x1), _ticks(y0, y1)
     ylabels = [f"{v:.{yd}f}" for v in yt]
     left = max(_width(s, 0.35) for s in ylabels) + 30
-    legend = _keys([(_PALETTE[i % len(_PALETTE)], n, "fill") for i, n in enumerate(ys)], width)
+    colour_of = {n: _PALETTE[shades.get(n, i) % len(_PALETTE)] for i, n in enumerate(ys)}
+    legend = _legend(
+        [
+            (colour_of[n], n, ("dashed line" if n in dashes else "line") if dashes else "fill")
+            for n in ys
+        ],
+        width,
+    )
     pw, ph = width - left - 16, height - 36 - 42 - legend.shape[0]
     if pw < 40 or ph < 40:
         raise ParameterError(f"size {size} leaves no room for the plot")
@@ -473,8 +546,8 @@ def line_chart(
     cv2.rectangle(img, (left - 1, 35), (left + pw, 36 + ph), _DIM, 1)
     order = np.argsort(xs, kind="stable")
     barred = [name for name in ys if bars.get(name)]  # the series with bars, set apart in x
-    for i, v in enumerate(ys.values()):
-        colour, ok = _PALETTE[i % len(_PALETTE)], np.isfinite(v[order])
+    for name, v in ys.items():
+        colour, ok = colour_of[name], np.isfinite(v[order])
         pts = px(xs[order], np.where(ok, v[order], y0))
         # With gaps=False a series' NaNs are only "not measured at this x": its points are joined.
         runs = (
@@ -484,16 +557,21 @@ def line_chart(
         )
         for run in runs:
             if run.size and ok[run[0]]:  # a run of finite points: a polyline, and markers
-                cv2.polylines(plot, [pts[run]], False, colour, 2, cv2.LINE_AA)
+                _polyline(plot, pts[run], colour, name in dashes)
                 for k in run if markers or len(run) == 1 else []:
                     cv2.circle(plot, (int(pts[k, 0]), int(pts[k, 1])), 3, colour, -1)
-        name = list(ys)[i]
         for bx, low, high in bars.get(name, []):
             (c, top), (_, bottom) = px(bx, high), px(bx, low)
             c += 5 * barred.index(name) - 5 * (len(barred) - 1) // 2
             cv2.line(plot, (int(c), int(top)), (int(c), int(bottom)), colour, 1)
             for r in (top, bottom):
                 cv2.line(plot, (int(c) - 4, int(r)), (int(c) + 4, int(r)), colour, 1)
+    for name, notes_of in texts.items():  # over every line, each on a patch of background
+        for nx, ny, note in notes_of:
+            c, r = (int(v) for v in px(nx, ny))
+            w, at = _width(str(note), 0.33), (c - _width(str(note), 0.33) - 5, r - 6)
+            cv2.rectangle(plot, (at[0] - 2, at[1] - 10), (at[0] + w + 1, at[1] + 3), BACKGROUND, -1)
+            _text(plot, str(note), at, 0.33, colour_of[name])
     _text(img, title, (left, 24), 0.5)
     _text(img, xlabel, (left + (pw - _width(xlabel)) // 2, 36 + ph + 32))
     label = np.rot90(_bar(ylabel, 0, 0.4)[:, : min(_width(ylabel) + 12, ph + 30)])
@@ -538,3 +616,91 @@ def confusion_image(
     accuracy = f"accuracy {100 * (m[0, 0] + m[1, 1]) / total:.1f}%" if total > 0 else "accuracy n/a"
     _text(img, f"{accuracy}   ({total:.0f} windows)", (left, top + 2 * ch + 22))
     return _titled(img, title)
+
+
+def _noise_field(point: Any, name: str) -> Any:
+    return point[name] if isinstance(point, Mapping) else getattr(point, name)
+
+
+def _noise_accuracies(point: Any) -> tuple[float, float]:
+    """A noise point's accuracy by the any-spike rule and with identification (NaN without)."""
+    if isinstance(point, Mapping):  # NoisePoint.to_dict(), as in results.json's "noise"
+        spike, ident = point["accuracy"], (point.get("identified") or {}).get("accuracy")
+    else:  # a uavsnn.experiments.NoisePoint
+        spike = point.evaluation.accuracy
+        ident = (point.identified or {}).get("identified", {}).get("accuracy")
+    return float(spike), float("nan") if ident is None else float(ident)
+
+
+_MODE_NAMES = {"pent": "PENT", "static": "static"}
+
+
+def snr_chart(
+    noise: Sequence[Any],
+    *,
+    paper: Mapping[float, float] | None = None,
+    title: str = "accuracy against SNR; the paper's Table 3 at our SNR of its noise share",
+    size: tuple[int, int] = (760, 460),
+) -> np.ndarray:
+    """Accuracy against the windows' median SNR of each noise share (SPEC §5, the paper's
+    Table 3): per thresholding mode (PENT, static) one colour, the any-spike rule solid and
+    detection + identification dashed (where the points have it); the paper's accuracy at each
+    share of ``paper`` (``{share: accuracy}``, default
+    :data:`uavsnn.experiments.PAPER_TABLE3_BY_SHARE`) drawn at our median SNR of that same
+    share and labelled with it, since the paper's own SNR labels cannot all come from one
+    signal. ``noise``: :class:`~uavsnn.experiments.NoisePoint` s or their ``to_dict()`` (as
+    results.json's ``"noise"``); points without noise (no finite SNR) are left out, as are the
+    paper's shares that ``noise`` lacks."""
+    if paper is None:
+        from uavsnn.experiments import PAPER_TABLE3_BY_SHARE
+
+        paper = PAPER_TABLE3_BY_SHARE
+    rows = []
+    for point in noise:
+        snr = _noise_field(point, "snr_db")
+        if snr is not None and math.isfinite(float(snr)):
+            rows.append(
+                (
+                    float(_noise_field(point, "fraction")),
+                    float(snr),
+                    str(_noise_field(point, "mode")),
+                    *_noise_accuracies(point),
+                )
+            )
+    if not rows:
+        raise ParameterError("noise has no point with added noise (a finite SNR) to draw")
+    shares = sorted({r[0] for r in rows})
+    at = {f: float(np.median([r[1] for r in rows if r[0] == f])) for f in shares}
+    x = [at[f] for f in shares]
+    series: dict[str, list[float]] = {}
+    dashed, colours = [], {}
+    for i, mode in enumerate(dict.fromkeys(r[2] for r in rows)):
+        name = _MODE_NAMES.get(mode, mode)
+        by_share = {r[0]: r[3:] for r in rows if r[2] == mode}
+        for rule, k in (("any spike", 0), ("+ identification", 1)):
+            values = [by_share[f][k] if f in by_share else math.nan for f in shares]
+            if k == 0 or np.isfinite(values).any():
+                series[f"{name} {rule}"] = values
+                colours[f"{name} {rule}"] = i
+                if k == 1:
+                    dashed.append(f"{name} {rule}")
+    matched = {float(f): float(a) for f, a in paper.items() if float(f) in at}
+    notes = {}
+    if matched:
+        label = "paper (Table 3) by share"
+        series[label] = [matched.get(f, math.nan) for f in shares]
+        colours[label] = max(2, len(set(colours.values())))  # green beside PENT and static
+        notes[label] = [(at[f], a, f"{100 * f:g} %") for f, a in matched.items()]
+    return line_chart(
+        x,
+        series,
+        title=title,
+        xlabel="median SNR of the noisy test windows at each noise share (dB)",
+        ylabel="accuracy",
+        y_range=(0.0, 1.0),
+        size=size,
+        gaps=False,
+        dashed=dashed,
+        colours=colours,
+        notes=notes,
+    )
