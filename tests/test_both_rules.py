@@ -777,3 +777,96 @@ def test_a_detection_lead_from_too_few_recordings_has_no_interval() -> None:
             assert tuple(lead["interval"]) == want
         else:
             assert np.isnan(lead["interval"]).all()
+
+
+# ------------------------------------------------ operating points as the texts name them
+
+
+def _point(target: float, reached: float) -> dict[str, Any]:
+    """An operating point of identification_figures by hand: 10 UAV windows under 6 px (none
+    detected), 20 from 6 to 12 px (1 detected) and 10 of 48 px or more (5 detected)."""
+    return {
+        "false_alarm_target": target, "threshold": 0.5, "false_alarm_rate": reached,
+        "detection_rate": 6 / 40, "detection_interval": [0.05, 0.3],
+        "false_alarm_interval": [0.0, 0.02],
+        "by_size_px": [
+            {"low": 0.0, "high": 6.0, "windows": 10, "detected": 0, "rate": 0.0},
+            {"low": 6.0, "high": 12.0, "windows": 20, "detected": 1, "rate": 0.05},
+            {"low": 48.0, "high": None, "windows": 10, "detected": 5, "rate": 0.5},
+        ],
+        "by_range_m": [], "false_alarms_per_class": {"bird": reached},
+    }  # fmt: skip
+
+
+def test_a_point_is_named_with_the_false_alarms_it_reached() -> None:
+    """The size and class tables were headed "at 1 % false alarms" where the threshold read off
+    the ROC reached 0.9 %; and the drones of the target's size (≥ 6 px) are given beside all
+    drones, at the points read off the ROC and at those set beforehand."""
+    from uavsnn.report import at_point_text, detection_from_size
+
+    points = [_point(0.01, 0.009), _point(0.05, 0.048)]
+    assert at_point_text(points[0]) == "at 1 % false alarms (0.9 % reached)"
+    assert at_point_text({"false_alarm_target": 0.01}) == "at 1 % false alarms"
+    assert detection_from_size(points[0]["by_size_px"]) == {
+        "detected": 6, "windows": 30, "rate": 0.2,
+    }  # fmt: skip
+    assert detection_from_size(points[0]["by_size_px"][:1]) is None
+    with pytest.raises(ParameterError, match="not an edge"):
+        detection_from_size(points[0]["by_size_px"], 8.0)
+    rule = {"confusion": [[6, 34], [1, 39]], "accuracy": 0.5625, "per_class": {"uav": 0.15}}
+    figures = {
+        "threshold": 0.5, "any_spike": rule, "identified": rule,
+        "roc": {"false_alarm": [0.0, 0.1], "detection": [0.0, 0.5], "area_reachable": 0.02},
+        "at_false_alarm": points, "at_tuned_false_alarm": [_point(0.01, 0.03)],
+    }  # fmt: skip
+    text = identification_markdown(figures)
+    assert (
+        "| size | UAV windows | at 1 % false alarms (0.9 % reached) | at 5 % false alarms" in text
+    )
+    assert "| class | at 1 % false alarms (0.9 % reached) |" in text
+    assert "| 0–6 px | 10 | 0 (0.0 %) |" in text and "| ≥ 48 px | 10 |" in text
+    assert (
+        "at 0.9 % false alarms (of the drones ≥ 6 px, the target's size: 6 of 30, 20.0 %)" in text
+    )
+    assert "| detection here, drones ≥ 6 px |" in text and "| 6 of 30 (20.0 %) |" in text
+
+
+def test_table2_gives_the_false_alarms_reached_and_the_target_size() -> None:
+    from uavsnn.cli._results_text import TABLE2_HEAD, table2_row
+
+    rule = {"confusion": [[6, 34], [1, 39]], "accuracy": 0.5625, "accuracy_interval": [0.4, 0.7]}
+    ident = {
+        "any_spike": rule, "identified": rule,
+        "at_false_alarm": [_point(0.01, 0.009), _point(0.05, 0.048)],
+        "at_tuned_false_alarm": [_point(0.01, 0.03), _point(0.05, 0.06)],
+    }  # fmt: skip
+    e = SimpleNamespace(confusion=np.array([[6, 34], [1, 39]]), accuracy=0.5625)
+    row = table2_row("combined", e, None, ident)  # type: ignore[arg-type]
+    assert "| 15.0 % (5.0–30.0) at 0.9 %; ≥ 6 px: 20.0 % |" in row
+    assert "| 15.0 % (3.0 %; 0.0–2.0); ≥ 6 px: 20.0 % |" in row
+    assert "at the false alarms reached; drones ≥ 6 px" in TABLE2_HEAD[0]
+    assert row.count("|") == TABLE2_HEAD[0].count("|")
+
+
+def test_evaluate_names_sizes_as_the_report_does(capsys: pytest.CaptureFixture[str]) -> None:
+    """`uavsnn evaluate` wrote "48-inf px" and whole per cents ("1 %" for 0.6 %); RESULTS.md
+    writes "≥ 48 px" and one decimal. It also gives the false alarms reached and the drones
+    of the target size."""
+    from uavsnn.cli.evaluate import _print_identification
+
+    rule = {"confusion": [[6, 34], [1, 39]], "accuracy": 0.5625, "accuracy_interval": [0.4, 0.7]}
+    ident = {
+        "any_spike": rule, "identified": rule, "roc": {}, "at_false_alarm": [_point(0.01, 0.009)],
+        "at_tuned_false_alarm": [_point(0.01, 0.03)],
+        "rotor_coverage": [{
+            "low_px": 48.0, "high_px": None, "uav_windows": 10, "object_on_uav": 9,
+            "rotor_votes": 3, "rotor_detected": 1,
+        }],
+    }  # fmt: skip
+    _print_identification(ident)
+    out = capsys.readouterr().out
+    assert "at 1 % false alarms (0.9 % reached): detection 15.0 %" in out
+    assert "drones ≥ 6 px 6 of 30 (20.0 %); by drawn size: 0–6 px 0.0 %, 6–12 px 5.0 %" in out
+    assert "≥ 48 px 50.0 %)" in out and "inf" not in out
+    assert "detection 15.0 %; drones ≥ 6 px 6 of 30 (20.0 %)" in out  # set beforehand
+    assert "UAV ≥ 48 px: 10 windows" in out

@@ -341,4 +341,4 @@ def test_drawn_size_bounds_are_written_alike(capsys: pytest.CaptureFixture[str])
     }  # fmt: skip
     _print_identification(ident)
     out = capsys.readouterr().out
-    assert "by drawn size: 0-6 px 3 %, 6-12 px 50 %, 12-inf px 100 %)" in out
+    assert "by drawn size: 0–6 px 3.0 %, 6–12 px 50.0 %, ≥ 12 px 100.0 %)" in out

@@ -242,6 +242,11 @@ def test_evaluate_clips_decides_every_test_clip(footage: tuple[Path, Path, Path]
     assert rule["time_to_alarm_ms"]["n"] == len(found)
     table = clip_table(figures)
     assert f"| any-spike | **{rule['right']} of {len(rows)}" in table
+    # The time to first alarm says where its clock starts: the first UAV window, where the UAV
+    # is labelled visible for half the window, not its first event.
+    assert "time to first alarm from the first UAV window, median" in table
+    assert "from the start of each UAV clip's first UAV window" in table
+    assert "does not start at the UAV's first event" in table
     # A UAV clip where no track alarmed is named under the table, with its UAV's size.
     quiet = copy.deepcopy(figures)
     row = next(r for r in quiet["per_clip"] if r["uav"])

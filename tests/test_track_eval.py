@@ -8,6 +8,7 @@ import json
 import math
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -142,7 +143,12 @@ def test_a_found_uav_a_false_bird_track_and_a_missed_uav() -> None:
     }  # fmt: skip
     table = track_table(f)
     assert "| any-spike | 1 of 2 | 100 / 100 | 1 |" in table and "identification" not in table
-    assert "| 1 of 3 (25.0 %) |" in table
+    # "N of M (x %)" is N/M; the balanced accuracy has a column of its own.
+    assert "| 1 of 3 (33.3 %) | 25.0 % |" in table and "| balanced accuracy |" in table
+    # The clock of the time to first alarm is named: from the first UAV window, where the UAV
+    # is labelled visible for half the window, not from its first event.
+    assert "time to first alarm from the first UAV window" in table
+    assert "does not start at the UAV's first event" in table
     # A manifest without recordings[] names none.
     assert [r["name"] for r in f["per_recording"]] == [None, None, None]
 
@@ -364,7 +370,8 @@ def test_the_figures_under_other_confirmation_rules() -> None:
     default = track_figures(data, feats)
     again = track_figures(data, feats, confirm=Confirm(3, 5))
     assert again["rules"] == default["rules"] and again["confirm"] == "3/5"
-    assert default["confirm"] is None  # the tracker's own flags
+    # The tracker's own flags are recorded as its default rule, not as None.
+    assert default["confirm"] == "3/5"
     for text, delay in (("2/3", 75.0), ("2/2", 75.0), ("4/5", 125.0), ("1/1", 50.0)):
         f = track_figures(data, feats, confirm=Confirm.parse(text))
         assert f["rules"]["any_spike"]["time_to_alarm_ms"]["median"] == delay, text
@@ -585,3 +592,51 @@ def test_a_dataset_without_raw_events_is_one_line_and_exit_2(
     code = main(["evaluate", str(model), str(bare), "--tracks"])
     err = capsys.readouterr().err
     assert code == 2 and "raw events" in err and len(err.strip().splitlines()) == 1
+
+
+def test_the_rule_recorded_is_the_rule_used(tiny: tuple[Path, Path]) -> None:
+    """Without a rule, the figures record the tracker's (uavsnn reproduce's results.json had
+    None where `uavsnn evaluate --tracks` said 3/5 for the same figures)."""
+    from uavsnn.dataset import load
+    from uavsnn.track_eval import evaluate_tracks
+    from uavsnn.tracks import tracker_for
+
+    root, model = tiny
+    network, data = Network.load(model), load(root, "test")
+    assert evaluate_tracks(network, data)["confirm"] == "3/5"
+    tracker = tracker_for(network, confirm_hits=2, confirm_windows=4)
+    assert evaluate_tracks(network, data, tracker=tracker)["confirm"] == "2/4"
+    # A rule given is the rule applied, whatever tracker made the features.
+    ruled = evaluate_tracks(network, data, tracker=tracker, confirm=Confirm(1, 1))
+    assert ruled["confirm"] == "1/1"
+
+
+def test_the_track_lines_of_evaluate_read_as_counts_and_rates(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """`uavsnn evaluate --tracks` says the false tracks and their rate apart ("35 68.68/min"
+    read as one number), the balanced accuracy beside the recordings decided right, and where
+    the time to first alarm starts."""
+    from uavsnn.cli.evaluate import _print_tracks
+
+    rule = {
+        "time_to_alarm_ms": {"median": 125.0, "p90": 580.0},
+        "found": 25,
+        "missed": [],
+        "false_tracks": 35,
+        "false_tracks_per_minute": 68.68,
+        "false_tracks_per_minute_upper95": 91.06,
+        "stray_tracks": 3,
+        "decided": {"right": 41, "balanced_accuracy": 0.61},
+    }
+    tracks: dict[str, Any] = {
+        "confirm": "3/5", "recordings": 67, "uav_recordings": 34, "windows": 2000,
+        "window_coverage": 0.796, "uav_free_minutes": 0.5097, "alarm_clock": "recording",
+        "rules": {"any_spike": rule}, "per_recording": [],
+    }  # fmt: skip
+    _print_tracks(tracks)
+    out = capsys.readouterr().out
+    assert "35 false tracks (68.68 per minute, 95 % upper bound 91.06)" in out
+    assert "false tracks 35 68.68/min" not in out
+    assert "recordings decided right 41/67 (61.2 %; balanced accuracy 61.0 %)" in out
+    assert "does not start at the UAV's first event" in out

@@ -38,6 +38,7 @@ from uavsnn.errors import DatasetError, InternalError, ParameterError
 from uavsnn.false_alarms import alarm_rules, count_alarms, stream_reports
 from uavsnn.track_eval import (
     DEFAULT_CONFIRM,
+    UAV_WINDOW_TEXT,
     Confirm,
     box_meets,
     decision_figures,
@@ -531,7 +532,8 @@ def clip_table(figures: dict[str, Any]) -> str:
     uav, clips = figures["uav_clips"], figures["clips"]
     lines = [
         "| rule | clips decided right | balanced | UAV clips alarmed (found on the UAV) "
-        "| other clips without an alarm | time to first alarm, median / 90th pct (ms) "
+        "| other clips without an alarm | time to first alarm from the first UAV window, "
+        "median / 90th pct (ms) "
         "| false tracks per minute of other clips (95 % upper bound) |",
         "|---|---|---|---|---|---|---|",
     ]
@@ -576,6 +578,8 @@ def clip_table(figures: dict[str, Any]) -> str:
         "",
         f"{clips} clips ({uav} with a UAV), {figures['minutes']:.1f} minutes, "
         f"{figures['windows']:,} windows streamed (every window of each clip up to its last "
-        f"event); tracks confirmed at {figures['confirm']}.",
+        f"event); tracks confirmed at {figures['confirm']}; the time to first alarm runs from "
+        f"the start of each UAV clip's first UAV window ({UAV_WINDOW_TEXT}) to the end of the "
+        "window where an alarming track first meets the UAV.",
     ]
     return "\n".join(lines)

@@ -19,6 +19,7 @@ import numpy as np
 from uavsnn import pictures
 from uavsnn._files import output_dir
 from uavsnn.dataset import LabelledWindows
+from uavsnn.errors import ParameterError
 from uavsnn.evaluation import (
     MIN_INTERVAL_RECORDINGS,
     ClassFigures,
@@ -32,11 +33,15 @@ from uavsnn.windows import add_noise
 
 __all__ = [
     "CAPTIONS",
+    "TARGET_SIZE_PX",
     "TRAINED_CONV1_CAPTION",
+    "at_point_text",
+    "bin_name",
     "caption",
     "class_markdown",
     "confusion_table",
     "conv1_trained",
+    "detection_from_size",
     "evaluation_markdown",
     "figures",
     "identification_markdown",
@@ -175,26 +180,7 @@ def _pent_sheet(network: Network, static: Network, test: LabelledWindows, seed: 
 
 
 def _snr_chart(noise: Sequence[NoisePoint]) -> np.ndarray:
-    noisy = [p for p in noise if np.isfinite(p.snr_db)]
-    levels = sorted({p.snr_db for p in noisy})
-    series: dict[str, list[float]] = {}
-    for mode in dict.fromkeys(p.mode for p in noisy):
-        by_level = {p.snr_db: p.evaluation.accuracy for p in noisy if p.mode == mode}
-        series[mode] = [by_level.get(level, float("nan")) for level in levels]
-    x = [*levels, *PAPER_TABLE3]
-    padded = {
-        name: [*values, *([float("nan")] * len(PAPER_TABLE3))] for name, values in series.items()
-    }
-    padded["paper (Table 3)"] = [float("nan")] * len(levels) + list(PAPER_TABLE3.values())
-    return pictures.line_chart(
-        x,
-        padded,
-        title="accuracy against SNR",
-        xlabel="SNR (dB)",
-        ylabel="accuracy",
-        y_range=(0.0, 1.0),
-        gaps=False,
-    )
+    return pictures.snr_chart(noise)
 
 
 _FEATURES = (
@@ -234,9 +220,12 @@ CAPTIONS = {
     "the noisy input, then conv1's spikes with PENT (thresholds raised with the number of "
     "active pixels) and with static thresholds, each with every layer's spike count and conv1's "
     "threshold range under it. PENT should keep conv1 from firing on the noise everywhere.",
-    "snr": "Test accuracy against the signal-to-noise ratio of added noise (higher is "
-    "cleaner), with PENT and with static thresholds, beside the paper's Table 3. 0.5 is chance "
-    "on the balanced test set.",
+    "snr": "Test accuracy against the median SNR of the noisy test windows at each noise share "
+    "(higher is cleaner): one colour per network (PENT, static thresholds), the any-spike rule "
+    "solid and detection + identification dashed. The paper's Table 3 (green) is lined up by "
+    "noise share, as SPEC §5 compares it: each of its six figures is drawn at our median SNR of "
+    "the same share (0.5 % ... 5 %, labelled), not at its own dB labels, which cannot all come "
+    "from one signal. 0.5 is chance on the balanced test set.",
     "roc": "Detection + identification on the dvs test windows, one curve per network: the "
     "share of UAV windows detected against the share of UAV-free windows alarming, as the "
     "threshold on the UAV score moves. A window the any-spike rule misses never alarms, so each "
@@ -527,22 +516,66 @@ def _no_interval_note(
     intervals: Sequence[Sequence[float] | None], recordings: Any, lead: str = ""
 ) -> str:
     """What a ``–`` in place of a 95 % interval means, after ``lead``, where one of
-    ``intervals`` is none (NaN), with the set's UAV and UAV-free ``recordings`` (``{"uav",
-    "uav_free"}``); else nothing."""
+    ``intervals`` is none (NaN), with the set's ``recordings`` (``{"uav", "uav_free"}``: the
+    recordings with UAV windows and those with UAV-free windows, the two strata an interval
+    draws from; a recording with both kinds is in both, so ``uav_free`` is not the count of
+    recordings without a UAV); else nothing."""
     missing = any(i is not None and _drawn(i) is None for i in intervals)
     if not missing:
         return ""
     counts = ""
     if isinstance(recordings, Mapping):
-        counts = f"this set has {recordings['uav']} UAV and {recordings['uav_free']} UAV-free; "
+        counts = (
+            f"this set has {recordings['uav']} UAV and {recordings['uav_free']} UAV-free, "
+            "counted by their windows: a recording with windows of both kinds counts in both; "
+        )
     return (
         f"{lead}– in place of an interval: fewer than {MIN_INTERVAL_RECORDINGS} recordings of "
         f"a kind to draw again ({counts}`evaluation.MIN_INTERVAL_RECORDINGS`)"
     )
 
 
-def _bin_name(low: float, high: float | None, unit: str) -> str:
+def bin_name(low: float, high: float | None, unit: str) -> str:
+    """A bin of sizes or ranges as the reports name it: ``"6–12 px"``, or ``"≥ 48 px"`` for
+    one without an upper end (``high`` ``None``)."""
     return f"≥ {low:g} {unit}" if high is None else f"{low:g}–{high:g} {unit}"
+
+
+#: The smallest drawn drone size the detection target names: drones of at least 6 px
+#: detected at least 95 % of the time at a 1 % false-alarm rate.
+TARGET_SIZE_PX = 6.0
+
+
+def detection_from_size(
+    bins: Sequence[Mapping[str, Any]], low: float = TARGET_SIZE_PX
+) -> dict[str, Any] | None:
+    """The detection of the UAV windows whose drawn size is at least ``low``, summed over an
+    operating point's ``by_size_px`` bins (:func:`uavsnn.evaluation.identification_figures`;
+    ``low`` must be a bin edge, as 6 px is of :data:`uavsnn.evaluation.SIZE_BINS_PX`):
+    ``{"detected", "windows", "rate"}``, or ``None`` where no such window is there (or the
+    bins carry no counts).
+
+    Raises:
+        ParameterError: ``low`` inside a bin.
+    """
+    if any(b["low"] < low < (math.inf if b["high"] is None else b["high"]) for b in bins):
+        raise ParameterError(f"{low:g} px is not an edge of the size bins")
+    above = [b for b in bins if b["low"] >= low and "windows" in b and "detected" in b]
+    windows = sum(int(b["windows"]) for b in above)
+    if not windows:
+        return None
+    detected = sum(int(b["detected"]) for b in above)
+    return {"detected": detected, "windows": windows, "rate": detected / windows}
+
+
+def at_point_text(point: Mapping[str, Any]) -> str:
+    """``"at 1 % false alarms (0.9 % reached)"``: an operating point read off the ROC by its
+    target share of UAV-free windows alarming, with the share its threshold reached on these
+    windows (a ROC moves in steps, so the two can differ); the target alone where the point
+    gives no rate reached."""
+    text = f"at {100 * point['false_alarm_target']:g} % false alarms"
+    reached = point.get("false_alarm_rate")
+    return text if reached is None else f"{text} ({100 * reached:.1f} % reached)"
 
 
 def percent_with_interval(
@@ -563,7 +596,7 @@ def _operating_points(points: list[dict[str, Any]], recordings: Any = None) -> l
     """The lines of :func:`identification_markdown` at the points read off the ROC: detection
     by size and range, false alarms per class, overall detection."""
     lines: list[str] = []
-    head = " | ".join(f"at {100 * p['false_alarm_target']:g} % false alarms" for p in points)
+    head = " | ".join(at_point_text(p) for p in points)
     for key, unit, what in (("by_size_px", "px", "size"), ("by_range_m", "m", "range")):
         if not points[0][key]:
             lines += [f"No UAV window has a labelled {what}.\n"]
@@ -578,7 +611,7 @@ def _operating_points(points: list[dict[str, Any]], recordings: Any = None) -> l
             cells = " | ".join(
                 f"{p[key][k]['detected']} ({100 * p[key][k]['rate']:.1f} %)" for p in points
             )
-            lines.append(f"| {_bin_name(b['low'], b['high'], unit)} | {b['windows']} | {cells} |")
+            lines.append(f"| {bin_name(b['low'], b['high'], unit)} | {b['windows']} | {cells} |")
         lines.append("")
     lines += ["False alarms per class of other object:\n", f"| class | {head} |"]
     lines.append("|---|" + "---|" * len(points))
@@ -587,7 +620,7 @@ def _operating_points(points: list[dict[str, Any]], recordings: Any = None) -> l
         lines.append(f"| {cls} | {cells} |")
     overall = "; ".join(
         f"{percent_with_interval(p['detection_rate'], p.get('detection_interval'))} of the UAV "
-        f"windows at {100 * p['false_alarm_rate']:.1f} % false alarms"
+        f"windows at {100 * p['false_alarm_rate']:.1f} % false alarms" + _target_size_text(p)
         for p in points
     )
     lines += ["", f"Overall detection: {overall}."]
@@ -601,6 +634,24 @@ def _operating_points(points: list[dict[str, Any]], recordings: Any = None) -> l
             + "."
         )
     return lines
+
+
+def _target_size_text(point: Mapping[str, Any]) -> str:
+    """``" (of the drones ≥ 6 px, the target's size: 134 of 761, 17.6 %)"``, or nothing where the
+    point has no UAV window of that size (:func:`detection_from_size`)."""
+    at = detection_from_size(point.get("by_size_px", []))
+    if at is None:
+        return ""
+    return (
+        f" (of the drones {bin_name(TARGET_SIZE_PX, None, 'px')}, the target's size: "
+        f"{at['detected']} of {at['windows']}, {100 * at['rate']:.1f} %)"
+    )
+
+
+def _target_size_cell(point: Mapping[str, Any]) -> str:
+    """``"200 of 761 (26.3 %)"``: :func:`detection_from_size` as a table cell, ``–`` for none."""
+    at = detection_from_size(point.get("by_size_px", []))
+    return "–" if at is None else f"{at['detected']} of {at['windows']} ({percent(at['rate'])})"
 
 
 def identification_markdown(figures: dict[str, Any]) -> str:
@@ -667,13 +718,15 @@ def identification_markdown(figures: dict[str, Any]) -> str:
                 "; ",
             )
             + ".\n",
-            "| set for | threshold | false alarms here | detection here |",
-            "|---|---|---|---|",
+            f"| set for | threshold | false alarms here | detection here | detection here, "
+            f"drones {bin_name(TARGET_SIZE_PX, None, 'px')} |",
+            "|---|---|---|---|---|",
         ]
         lines += [
             f"| {100 * p['false_alarm_target']:g} % false alarms | {p['threshold']:.3f} | "
             f"{percent_with_interval(p['false_alarm_rate'], p.get('false_alarm_interval'))} | "
-            f"{percent_with_interval(p['detection_rate'], p.get('detection_interval'))} |"
+            f"{percent_with_interval(p['detection_rate'], p.get('detection_interval'))} | "
+            f"{_target_size_cell(p)} |"
             for p in tuned
         ]
     return "\n".join(lines) + "\n"

@@ -20,9 +20,10 @@ From the alarms (:func:`track_figures`):
 - a UAV recording (one with a labelled UAV window) is **found** when an alarming track has,
   at or after its alarm, an object meeting the labelled UAV box of a UAV window; the **time
   to first alarm** is the end of the earliest such window minus the start of the
-  recording's first labelled UAV window, in event time: the first of every window the build
-  cut from the recording (the manifest's ``first_uav_us``), not only of those the split kept
-  (:func:`first_uav_starts`);
+  recording's first labelled UAV window (the first window the UAV is labelled visible in for
+  at least half of its time, not the UAV's first event), in event time: the first of every
+  window the build cut from the recording (the manifest's ``first_uav_us``), not only of
+  those the split kept (:func:`first_uav_starts`);
 - a **false track** is an alarming track whose alarm window has no UAV; the rate divides
   them by the **UAV-free time**: the union of the recordings' UAV-free windows
   ``[t0, t0 + L)``. With few counts the one-sided 95 % Poisson upper bound is given beside;
@@ -57,6 +58,7 @@ __all__ = [
     "DEFAULT_CONFIRM",
     "RULES",
     "TRACK_SCORES",
+    "UAV_WINDOW_TEXT",
     "Confirm",
     "at_rule",
     "box_meets",
@@ -377,7 +379,10 @@ def track_figures(
     ``"mean"`` of the track's object scores (the default) or their running ``"max"``.
     ``confirm``: the confirmation rule (:class:`Confirm`) to apply to the tracks' hits instead
     of the ``confirmed`` flags the tracker set (its score-aware part needs ``scores``); the
-    figures then carry ``confirm`` (the rule as text; ``None``: the tracker's flags).
+    figures carry ``confirm``, the rule as text: ``str(confirm)``, or with ``None`` the
+    tracker's default :data:`DEFAULT_CONFIRM` (``"3/5"``), whose flags ``feats`` are taken to
+    hold, as :func:`identified_track_figures` takes them (:func:`evaluate_tracks` records
+    the rule of a ``tracker`` it is given).
 
     Returns a plain dict (JSON-ready): ``windows``, ``recordings``, ``uav_recordings``,
     ``step_us``, ``window_us``, ``window_coverage`` (the windows present over the steps
@@ -499,7 +504,7 @@ def track_figures(
         "window_coverage": len(data) / sum(span.values()) if recordings else 0.0,
         "alarm_clock": "recording" if from_manifest else "kept windows",
         "uav_free_minutes": free_minutes,
-        "confirm": None if confirm is None else str(confirm),
+        "confirm": str(confirm or Confirm.of_pair(DEFAULT_CONFIRM)),
         "rules": {},
     }
     kind = {r: recording_class(cls[rec == r]) for r in recordings}
@@ -579,14 +584,22 @@ def evaluate_tracks(
 ) -> dict[str, Any]:
     """:func:`track_figures` of ``network`` on ``data`` (a format-2 dataset split): its objects
     and tracks (``features`` when already made, else :func:`uavsnn.features.window_features`
-    with ``tracker``), and with the network's identification (when it has one) both rules."""
+    with ``tracker``), and with the network's identification (when it has one) both rules.
+    Without ``confirm`` the figures' ``confirm`` is the rule of the tracker that made the
+    features: ``tracker``'s when it made them here, else the default 3 of 5."""
     from uavsnn.features import window_features
 
+    made_by = None
     if features is None:
         features = window_features(network, data, inference, tracker=tracker)
-    return identified_track_figures(
+        if tracker is not None:
+            made_by = Confirm(tracker.confirm_hits, tracker.confirm_windows)
+    figures = identified_track_figures(
         data, features, network.identification, track_score=track_score, confirm=confirm
     )
+    if confirm is None and made_by is not None:
+        figures["confirm"] = str(made_by)
+    return figures
 
 
 def identified_track_figures(
@@ -669,19 +682,23 @@ def ms_text(value: float | None) -> str:
 
 
 def _decided(d: dict[str, Any], recordings: int) -> str:
+    """``"41 of 67 (61.2 %)"``: the recordings decided right and their share of all; then,
+    in a column of its own, the balanced accuracy (``–`` where it is none)."""
+    share = f" ({100 * d['right'] / recordings:.1f} %)" if recordings else ""
     balanced = d["balanced_accuracy"]
-    share = "" if balanced is None else f" ({100 * balanced:.1f} %)"
-    return f"{d['right']} of {recordings}{share}"
+    return f"{d['right']} of {recordings}{share} | " + (
+        "–" if balanced is None else f"{100 * balanced:.1f} %"
+    )
 
 
 def track_table(figures: dict[str, Any]) -> str:
     """A Markdown table of :func:`track_figures`' figures, one row per rule."""
     minutes = figures["uav_free_minutes"]
     lines = [
-        "| rule | UAV recordings found | time to first alarm, median / 90th pct (ms) "
-        "| false tracks | per minute of UAV-free recording (95 % upper bound) | stray tracks "
-        "| recordings decided right (balanced) |",
-        "|---|---|---|---|---|---|---|",
+        "| rule | UAV recordings found | time to first alarm from the first UAV window, median "
+        "/ 90th pct (ms) | false tracks | per minute of UAV-free recording (95 % upper bound) "
+        "| stray tracks | recordings decided right | balanced accuracy |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     for rule, f in figures["rules"].items():
         t = f["time_to_alarm_ms"]
@@ -701,12 +718,27 @@ def track_table(figures: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
+#: What a UAV window is, where the time to first alarm starts (:func:`clock_text`).
+UAV_WINDOW_TEXT = (
+    "a UAV window has the UAV labelled visible for at least half of its time, so the clock "
+    "does not start at the UAV's first event"
+)
+
+
 def clock_text(figures: dict[str, Any]) -> str:
-    """Where :func:`track_figures`' time to first alarm starts, in words."""
+    """Where :func:`track_figures`' time to first alarm starts and ends, in words."""
     if figures.get("alarm_clock") == "recording":
-        return "the time to first alarm runs from each recording's first UAV window"
+        start = (
+            "the time to first alarm runs from each recording's first UAV window (its start; "
+            "the first of all the windows the build cut from the recording"
+        )
+    else:
+        start = (
+            "the time to first alarm runs from the first UAV window the split kept, which may "
+            "be a step or more after the recording's first (its start; the dataset's manifest "
+            "does not give the first: build the dataset again"
+        )
     return (
-        "the time to first alarm runs from the first UAV window the split kept, which may be "
-        "a step or more after the recording's first (the dataset's manifest does not give it: "
-        "build the dataset again)"
+        f"{start}; {UAV_WINDOW_TEXT}) to the end of the window where an alarming track first "
+        "meets the UAV"
     )

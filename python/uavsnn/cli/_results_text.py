@@ -10,7 +10,7 @@ from typing import Any
 
 from uavsnn import identify, report
 from uavsnn.cli import counted
-from uavsnn.evaluation import Evaluation, detection_by_target
+from uavsnn.evaluation import Evaluation
 from uavsnn.track_eval import rule_name, track_table
 
 __all__ = [
@@ -26,15 +26,31 @@ __all__ = [
 ]
 
 
+def _target_size(point: dict[str, Any]) -> str:
+    """``"; ≥ 6 px: 17.6 %"``: the detection of the drones of the target's size at ``point``
+    (:func:`uavsnn.report.detection_from_size`), or nothing where there are none."""
+    at = report.detection_from_size(point.get("by_size_px", []))
+    if at is None:
+        return ""
+    return f"; {_TARGET}: {report.percent(at['rate'])}"
+
+
+def _read_off(point: dict[str, Any]) -> str:
+    """Detection (its 95 % interval) at a point read off the test ROC, the false alarms its
+    threshold reached there, and the drones of the target size detected."""
+    detection = report.percent_with_interval(point["detection_rate"], point["detection_interval"])
+    return f"{detection} at {report.percent(point['false_alarm_rate'])}{_target_size(point)}"
+
+
 def _set_beforehand(point: dict[str, Any]) -> str:
     """Detection (false alarms; their 95 % interval over the test recordings, ``–`` where too
     few recordings give none: ``evaluation.MIN_INTERVAL_RECORDINGS``) at a threshold set
-    beforehand."""
+    beforehand, and the drones of the target size detected."""
     lo, hi = point["false_alarm_interval"]
     interval = "–" if math.isnan(lo) or math.isnan(hi) else f"{100 * lo:.1f}–{100 * hi:.1f}"
     return (
         f"{100 * point['detection_rate']:.1f} % ({100 * point['false_alarm_rate']:.1f} %; "
-        f"{interval})"
+        f"{interval}){_target_size(point)}"
     )
 
 
@@ -51,12 +67,7 @@ def table2_row(name: str, e: Evaluation, paper: float | None, ident: dict[str, A
         # Detection at the points read off the test ROC, each with its interval over the test
         # recordings (the threshold read again on each draw).
         points = {p["false_alarm_target"]: p for p in ident["at_false_alarm"]}
-        read = [
-            report.percent_with_interval(
-                points[r]["detection_rate"], points[r]["detection_interval"]
-            )
-            for r in (0.01, 0.05)
-        ]
+        read = [_read_off(points[r]) if r in points else "–" for r in (0.01, 0.05)]
         tuned = {p["false_alarm_target"]: p for p in ident.get("at_tuned_false_alarm", [])}
         set_for = [_set_beforehand(tuned[r]) if r in tuned else "–" for r in (0.01, 0.05)]
         identified = ident["identified"]
@@ -85,11 +96,13 @@ def identification_leads(idents: dict[str, dict[str, Any] | None]) -> str:
     )
 
 
+_TARGET = report.bin_name(report.TARGET_SIZE_PX, None, "px")
+
 TABLE2_HEAD = [
     "| trained on | TP | FN | FP | TN | any-spike accuracy (its 95 % interval) | paper | "
-    "with identification | detection at 1 % false alarms (its 95 % interval) | at 5 % | "
-    "set beforehand for 1 %: "
-    "detection (false alarms; their 95 % interval) | for 5 % |",
+    "with identification | detection at 1 % false alarms (its 95 % interval) at the false "
+    f"alarms reached; drones {_TARGET} | at 5 % | set beforehand for 1 %: "
+    f"detection (false alarms; their 95 % interval); drones {_TARGET} | for 5 % |",
     "|---|---|---|---|---|---|---|---|---|---|---|---|",
 ]
 
@@ -172,7 +185,9 @@ def real_sizes_table(rows: list[tuple[str, dict[str, Any]]]) -> str:
     rules = [r for r in first if all(r in e["clips"]["rules"] for _, e in rows)]
     lines = [
         "| sensor | windows, any-spike | windows, with identification | detection at 5 % false "
-        "alarms | " + " | ".join(f"clips decided right: {rule_name(r)}" for r in rules) + " |",
+        "alarms (at the false alarms reached) | "
+        + " | ".join(f"clips decided right: {rule_name(r)}" for r in rules)
+        + " |",
         "|---|---|---|---|" + "---|" * len(rules),
     ]
     for name, entry in rows:
@@ -181,9 +196,14 @@ def real_sizes_table(rows: list[tuple[str, dict[str, Any]]]) -> str:
         if ident is None:
             with_ident = detection = "–"
         else:
-            at = detection_by_target(ident["at_false_alarm"])
+            at = {p["false_alarm_target"]: p for p in ident["at_false_alarm"]}
             with_ident = f"{100 * ident['identified']['accuracy']:.1f} %"
-            detection = f"{100 * at[0.05]:.1f} %" if 0.05 in at else "–"
+            detection = (
+                f"{report.percent(at[0.05]['detection_rate'])} at "
+                f"{report.percent(at[0.05]['false_alarm_rate'])}"
+                if 0.05 in at
+                else "–"
+            )
         cells = [
             f"{clips['rules'][r]['right']} of {clips['clips']} "
             f"({100 * clips['rules'][r]['right'] / max(1, clips['clips']):.1f} %)"

@@ -489,14 +489,14 @@ def _print_identification(ident: dict[str, Any]) -> None:
             )
         for point in ident["at_false_alarm"]:
             sizes = ", ".join(
-                f"{z['low']:g}-{'inf' if z['high'] is None else format(z['high'], 'g')} px "
-                f"{100 * z['rate']:.0f} %"
+                f"{report.bin_name(z['low'], z['high'], 'px')} {100 * z['rate']:.1f} %"
                 for z in point["by_size_px"]
             )
             drawn = report.interval_text(point["detection_interval"], OVER_RECORDINGS)
             print(
-                f"  at {100 * point['false_alarm_target']:g} % false alarms: detection "
-                f"{100 * point['detection_rate']:.1f} % ({drawn}; by drawn size: {sizes})"
+                f"  {report.at_point_text(point)}: detection "
+                f"{100 * point['detection_rate']:.1f} % ({drawn}{_target_size(point)}; by "
+                f"drawn size: {sizes})"
             )
         if ident["roc"] is None:
             print("  one class only (all UAV, or none): no ROC, no point read off one")
@@ -510,7 +510,7 @@ def _print_identification(ident: dict[str, Any]) -> None:
             print(
                 f"  at the threshold tuned for {100 * point['false_alarm_target']:g} % false "
                 f"alarms ({point['threshold']:.3f}): false alarms {alarms}, detection "
-                f"{report.percent(point['detection_rate'])}"
+                f"{report.percent(point['detection_rate'])}{_target_size(point)}"
             )
     classes = ident.get("classes")
     if classes and classes["classes"] and classes["objects"]:
@@ -530,9 +530,9 @@ def _print_identification(ident: dict[str, Any]) -> None:
                 f"{report.percent(point['balanced_accuracy'])}"
             )
     for z in ident["rotor_coverage"]:
-        high = "inf" if z["high_px"] is None else f"{z['high_px']:g}"
         print(
-            f"  UAV {z['low_px']:g}-{high} px: {z['uav_windows']} windows, object on the UAV "
+            f"  UAV {report.bin_name(z['low_px'], z['high_px'], 'px')}: {z['uav_windows']} "
+            "windows, object on the UAV "
             f"{z['object_on_uav']}, rotor votes {z['rotor_votes']}, rotor detected "
             f"{z['rotor_detected']}"
         )
@@ -554,6 +554,19 @@ def _print_identification(ident: dict[str, Any]) -> None:
         )
 
 
+def _target_size(point: dict[str, Any]) -> str:
+    """``"; drones ≥ 6 px 134 of 761 (17.6 %)"``: the detection of the UAV windows whose drawn
+    size reaches :data:`uavsnn.report.TARGET_SIZE_PX` at ``point`` (the size the target
+    names); nothing where the point has no such window."""
+    at = report.detection_from_size(point.get("by_size_px", []))
+    if at is None:
+        return ""
+    return (
+        f"; drones {report.bin_name(report.TARGET_SIZE_PX, None, 'px')} "
+        f"{at['detected']} of {at['windows']} ({100 * at['rate']:.1f} %)"
+    )
+
+
 def _print_tracks(tracks: dict[str, Any]) -> None:
     score = tracks.get("track_score")
     score_text = f", identified on the running {score} UAV score" if score else ""
@@ -572,15 +585,21 @@ def _print_tracks(tracks: dict[str, Any]) -> None:
         )
         per_minute = f["false_tracks_per_minute"]
         rate = (
-            "-"
+            "no UAV-free time to divide by"
             if per_minute is None
-            else f"{per_minute:.2f}/min (95 % bound {f['false_tracks_per_minute_upper95']:.2f})"
+            else f"{per_minute:.2f} per minute, 95 % upper bound "
+            f"{f['false_tracks_per_minute_upper95']:.2f}"
         )
+        decided, recordings = f["decided"], tracks["recordings"]
+        shares = [f"{100 * decided['right'] / recordings:.1f} %"] if recordings else []
+        if decided.get("balanced_accuracy") is not None:
+            shares.append(f"balanced accuracy {100 * decided['balanced_accuracy']:.1f} %")
         print(
             f"  {rule_name(rule):18s} UAV recordings found {f['found']}/"
-            f"{tracks['uav_recordings']}, time to first alarm {delay}; false tracks "
-            f"{f['false_tracks']} {rate}, stray {f['stray_tracks']}; recordings decided right "
-            f"{f['decided']['right']}/{tracks['recordings']}"
+            f"{tracks['uav_recordings']}, time to first alarm {delay}; "
+            f"{counted(f['false_tracks'], 'false track')} ({rate}), stray {f['stray_tracks']}; "
+            f"recordings decided right {decided['right']}/{recordings}"
+            + (f" ({'; '.join(shares)})" if shares else "")
         )
     rows = {row["recording"]: row for row in tracks["per_recording"]}
     missed = tracks["rules"]["any_spike"]["missed"]
