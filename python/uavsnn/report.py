@@ -52,6 +52,7 @@ __all__ = [
     "percent_with_interval",
     "picture_links",
     "roc_chart",
+    "target_size_cell",
 ]
 
 
@@ -648,8 +649,9 @@ def _target_size_text(point: Mapping[str, Any]) -> str:
     )
 
 
-def _target_size_cell(point: Mapping[str, Any]) -> str:
-    """``"200 of 761 (26.3 %)"``: :func:`detection_from_size` as a table cell, ``–`` for none."""
+def target_size_cell(point: Mapping[str, Any]) -> str:
+    """``"200 of 761 (26.3 %)"``: :func:`detection_from_size` of an operating point as the
+    reports write it, ``–`` for none."""
     at = detection_from_size(point.get("by_size_px", []))
     return "–" if at is None else f"{at['detected']} of {at['windows']} ({percent(at['rate'])})"
 
@@ -726,7 +728,7 @@ def identification_markdown(figures: dict[str, Any]) -> str:
             f"| {100 * p['false_alarm_target']:g} % false alarms | {p['threshold']:.3f} | "
             f"{percent_with_interval(p['false_alarm_rate'], p.get('false_alarm_interval'))} | "
             f"{percent_with_interval(p['detection_rate'], p.get('detection_interval'))} | "
-            f"{_target_size_cell(p)} |"
+            f"{target_size_cell(p)} |"
             for p in tuned
         ]
     return "\n".join(lines) + "\n"

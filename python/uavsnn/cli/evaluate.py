@@ -558,13 +558,9 @@ def _target_size(point: dict[str, Any]) -> str:
     """``"; drones ≥ 6 px 134 of 761 (17.6 %)"``: the detection of the UAV windows whose drawn
     size reaches :data:`uavsnn.report.TARGET_SIZE_PX` at ``point`` (the size the target
     names); nothing where the point has no such window."""
-    at = report.detection_from_size(point.get("by_size_px", []))
-    if at is None:
-        return ""
-    return (
-        f"; drones {report.bin_name(report.TARGET_SIZE_PX, None, 'px')} "
-        f"{at['detected']} of {at['windows']} ({100 * at['rate']:.1f} %)"
-    )
+    cell = report.target_size_cell(point)
+    size = report.bin_name(report.TARGET_SIZE_PX, None, "px")
+    return "" if cell == "–" else f"; drones {size} {cell}"
 
 
 def _print_tracks(tracks: dict[str, Any]) -> None:
