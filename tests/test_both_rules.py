@@ -870,3 +870,26 @@ def test_evaluate_names_sizes_as_the_report_does(capsys: pytest.CaptureFixture[s
     assert "≥ 48 px 50.0 %)" in out and "inf" not in out
     assert "detection 15.0 %; drones ≥ 6 px 6 of 30 (20.0 %)" in out  # set beforehand
     assert "UAV ≥ 48 px: 10 windows" in out
+
+
+def test_evaluate_gives_the_false_alarms_per_class_at_every_point(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """`uavsnn evaluate` printed the false alarms per class of other object nowhere (an
+    analyst's walk: with the threshold set beforehand for 1 %, insects alarmed 17 % of the time,
+    in the JSON only); it gives them at the points read off the ROC and at those set
+    beforehand, named as RESULTS.md names them."""
+    from uavsnn.cli.evaluate import _print_identification
+
+    rule = {"confusion": [[6, 34], [1, 39]], "accuracy": 0.5625, "accuracy_interval": [0.4, 0.7]}
+    ident = {
+        "any_spike": rule, "identified": rule, "roc": {}, "rotor_coverage": [],
+        "at_false_alarm": [_point(0.01, 0.009)], "at_tuned_false_alarm": [_point(0.01, 0.171)],
+    }  # fmt: skip
+    _print_identification(ident)
+    out = capsys.readouterr().out
+    assert "(20.0 %); by drawn size: 0–6 px 0.0 %, 6–12 px 5.0 %, ≥ 48 px 50.0 %); false " in out
+    assert "false alarms per class: bird 0.9 %" in out
+    assert "at the threshold set beforehand for 1 % false alarms (0.500)" in out
+    assert "(20.0 %); false alarms per class: bird 17.1 %" in out
+    assert "tuned for" not in out
