@@ -34,6 +34,7 @@ from uavsnn.windows import add_noise
 __all__ = [
     "CAPTIONS",
     "TARGET_SIZE_PX",
+    "TARGET_SIZE_TEXT",
     "TRAINED_CONV1_CAPTION",
     "at_point_text",
     "bin_name",
@@ -111,7 +112,7 @@ def figures(
     if static is not None:
         put("pent", _pent_sheet(network, static, test, seed))
     if noise:
-        put("snr", _snr_chart(noise))
+        put("snr", pictures.snr_chart(noise))
     return written
 
 
@@ -178,10 +179,6 @@ def _pent_sheet(network: Network, static: Network, test: LabelledWindows, seed: 
         static.run_window(t, x, y, t0),
         title=f"a UAV window with noise on 5 % of pixels (SNR {float(snr[0]):.1f} dB)",
     )
-
-
-def _snr_chart(noise: Sequence[NoisePoint]) -> np.ndarray:
-    return pictures.snr_chart(noise)
 
 
 _FEATURES = (
@@ -547,6 +544,10 @@ def bin_name(low: float, high: float | None, unit: str) -> str:
 TARGET_SIZE_PX = 6.0
 
 
+#: :data:`TARGET_SIZE_PX` as the reports name it: ``"≥ 6 px"``.
+TARGET_SIZE_TEXT = bin_name(TARGET_SIZE_PX, None, "px")
+
+
 def detection_from_size(
     bins: Sequence[Mapping[str, Any]], low: float = TARGET_SIZE_PX
 ) -> dict[str, Any] | None:
@@ -644,7 +645,7 @@ def _target_size_text(point: Mapping[str, Any]) -> str:
     if at is None:
         return ""
     return (
-        f" (of the drones {bin_name(TARGET_SIZE_PX, None, 'px')}, the target's size: "
+        f" (of the drones {TARGET_SIZE_TEXT}, the target's size: "
         f"{at['detected']} of {at['windows']}, {100 * at['rate']:.1f} %)"
     )
 
@@ -721,7 +722,7 @@ def identification_markdown(figures: dict[str, Any]) -> str:
             )
             + ".\n",
             f"| set for | threshold | false alarms here | detection here | detection here, "
-            f"drones {bin_name(TARGET_SIZE_PX, None, 'px')} |",
+            f"drones {TARGET_SIZE_TEXT} |",
             "|---|---|---|---|---|",
         ]
         lines += [

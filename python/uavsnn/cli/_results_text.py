@@ -32,7 +32,7 @@ def _target_size(point: dict[str, Any]) -> str:
     at = report.detection_from_size(point.get("by_size_px", []))
     if at is None:
         return ""
-    return f"; {_TARGET}: {report.percent(at['rate'])}"
+    return f"; {report.TARGET_SIZE_TEXT}: {report.percent(at['rate'])}"
 
 
 def _read_off(point: dict[str, Any]) -> str:
@@ -96,13 +96,11 @@ def identification_leads(idents: dict[str, dict[str, Any] | None]) -> str:
     )
 
 
-_TARGET = report.bin_name(report.TARGET_SIZE_PX, None, "px")
-
 TABLE2_HEAD = [
     "| trained on | TP | FN | FP | TN | any-spike accuracy (its 95 % interval) | paper | "
     "with identification | detection at 1 % false alarms (its 95 % interval) at the false "
-    f"alarms reached; drones {_TARGET} | at 5 % | set beforehand for 1 %: "
-    f"detection (false alarms; their 95 % interval); drones {_TARGET} | for 5 % |",
+    f"alarms reached; drones {report.TARGET_SIZE_TEXT} | at 5 % | set beforehand for 1 %: "
+    f"detection (false alarms; their 95 % interval); drones {report.TARGET_SIZE_TEXT} | for 5 % |",
     "|---|---|---|---|---|---|---|---|---|---|---|---|",
 ]
 

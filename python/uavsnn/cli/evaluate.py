@@ -571,8 +571,7 @@ def _target_size(point: dict[str, Any]) -> str:
     size reaches :data:`uavsnn.report.TARGET_SIZE_PX` at ``point`` (the size the target
     names); nothing where the point has no such window."""
     cell = report.target_size_cell(point)
-    size = report.bin_name(report.TARGET_SIZE_PX, None, "px")
-    return "" if cell == "–" else f"; drones {size} {cell}"
+    return "" if cell == "–" else f"; drones {report.TARGET_SIZE_TEXT} {cell}"
 
 
 def _print_tracks(tracks: dict[str, Any]) -> None:
