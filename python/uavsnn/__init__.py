@@ -60,8 +60,8 @@ SUBMODULES = frozenset(
         "bench", "boxes", "cli", "clips", "dataset", "detector", "distributed", "driver", "errors",
         "evaluation", "events", "experiments", "false_alarms", "features", "filters", "grouping",
         "identifier", "identify", "io", "linear", "network", "outputs", "pictures", "progress",
-        "provenance", "report", "roc", "scenes", "signature", "sim", "sources", "track_eval",
-        "tracks", "training", "trees", "windows",
+        "provenance", "report", "report_pictures", "roc", "scenes", "signature", "sim", "sources",
+        "track_eval", "tracks", "training", "trees", "windows",
     }
 )  # fmt: skip
 
@@ -92,6 +92,7 @@ if TYPE_CHECKING:  # the submodules as attributes, to a type checker as at run t
     from uavsnn import progress as progress
     from uavsnn import provenance as provenance
     from uavsnn import report as report
+    from uavsnn import report_pictures as report_pictures
     from uavsnn import roc as roc
     from uavsnn import scenes as scenes
     from uavsnn import signature as signature

@@ -32,6 +32,7 @@ __all__ = [
     "line_chart",
     "pent_comparison",
     "reconstruct_features",
+    "roc_chart",
     "snr_chart",
     "spikes_image",
     "vstack",
@@ -704,3 +705,52 @@ def snr_chart(
         colours=colours,
         notes=notes,
     )
+
+
+def roc_chart(
+    rocs: dict[str, dict[str, Any]],
+    title: str,
+    points: Mapping[str, Sequence[Mapping[str, Any]]] | None = None,
+) -> np.ndarray:
+    """The ROC curves of :func:`uavsnn.evaluation.identification_figures` outputs
+    (``{name: figures["roc"]}``) as one chart: detection rate against false-alarm rate.
+    ``points``: per curve, its points read off the ROC (``figures["at_false_alarm"]``), each
+    drawn as its detection's 95 % interval over the recordings at its false-alarm rate."""
+    # One x axis, the union of the curves' false-alarm points; each curve is joined over its
+    # own points (a NaN is a point it was not measured at), its best detection at each.
+    xs = np.unique(np.concatenate([np.asarray(r["false_alarm"]) for r in rocs.values()]))
+    series = {}
+    for name, roc in rocs.items():
+        y = np.full(xs.shape, np.nan)
+        at = np.searchsorted(xs, np.asarray(roc["false_alarm"], dtype=np.float64))
+        np.fmax.at(y, at, np.asarray(roc["detection"], dtype=np.float64))
+        series[name] = y
+    return line_chart(
+        xs,
+        series,
+        title=title,
+        xlabel="UAV-free windows alarming",
+        ylabel="UAV windows detected",
+        y_range=(0.0, 1.0),
+        markers=False,
+        gaps=False,
+        intervals={
+            name: [
+                (
+                    float(p["false_alarm_rate"]),
+                    float(p["detection_interval"][0]),
+                    float(p["detection_interval"][1]),
+                )
+                for p in at
+                if _drawn(p.get("detection_interval"))
+            ]
+            for name, at in (points or {}).items()
+            if name in rocs
+        },
+    )
+
+
+def _drawn(interval: Sequence[float] | None) -> bool:
+    """Whether a figure's interval can be drawn: given, and not NaN (drawn from too few
+    recordings, :data:`uavsnn.evaluation.MIN_INTERVAL_RECORDINGS`)."""
+    return interval is not None and not any(math.isnan(v) for v in interval)

@@ -8,7 +8,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from uavsnn import __version__, _jsonout, report
+from uavsnn import __version__, _jsonout, report, report_pictures
 from uavsnn.cli import output_dir
 from uavsnn.dataset import build_demo, load
 from uavsnn.errors import ParameterError
@@ -69,7 +69,7 @@ def run_demo(out: Path, seed: int = 0, *, progress: bool = False) -> dict[str, A
     result = evaluate(network, test_set, keep_inference=True)
     static, theta = static_twin(network, train_set.windows)
     points = noise_sweep({"pent": network, "static": static}, test_set, DEMO_NOISE, seed=seed)
-    written = report.figures(
+    written = report_pictures.figures(
         out, network, test_set, result, training=trained, noise=points, static=static, seed=seed
     )
     figures = {
@@ -100,7 +100,7 @@ def run_demo(out: Path, seed: int = 0, *, progress: bool = False) -> dict[str, A
         f"Static threshold {theta:.2f}: the one PENT sets for the median clean training window.\n",
         report.noise_table(points),
         "\n## Pictures\n",
-        *report.picture_links(written, out),
+        *report_pictures.picture_links(written, out),
     ]
     (out / "report.md").write_text("\n".join(text), encoding="utf-8")
     return figures

@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from uavsnn import _jsonout, report
+from uavsnn import _jsonout, report, report_pictures
 from uavsnn._files import check_output_dir
 from uavsnn.cli import counted, output_dir, output_file
 from uavsnn.dataset import load
@@ -320,7 +320,7 @@ def _evaluate(args: argparse.Namespace) -> int:
         if roc_in_report:
             output_dir(args.report, "--report")  # the ROC is written into it
         name = "any-spike + identification"
-        chart = report.roc_chart(
+        chart = pictures.roc_chart(
             {name: ident["roc"]},
             f"ROC on {args.dataset.name}/{args.split}",
             points={name: ident["at_false_alarm"]},
@@ -349,7 +349,7 @@ def _evaluate(args: argparse.Namespace) -> int:
         figures["noise"] = [p.to_dict() for p in points]
     if args.report:
         output_dir(args.report, "--report")  # made now, when the report is written
-        written = report.figures(
+        written = report_pictures.figures(
             args.report, network, data, result, noise=points, static=static, seed=args.seed
         )
         text = [
@@ -358,7 +358,10 @@ def _evaluate(args: argparse.Namespace) -> int:
         ]
         if points:
             text += ["\n## Noise\n", report.noise_table(points)]
-        text += ["\n## Pictures\n", *report.picture_links(written, args.report, network=network)]
+        text += [
+            "\n## Pictures\n",
+            *report_pictures.picture_links(written, args.report, network=network),
+        ]
         (args.report / "report.md").write_text("\n".join(text), encoding="utf-8")
         figures["report"] = str(args.report / "report.md")
     if args.json:
@@ -629,10 +632,10 @@ def _in_report(path: Path, report_dir: Path | None) -> bool:
 
 
 #: The pictures ``uavsnn evaluate --report`` may write into its folder (beside report.md): all
-#: of :func:`uavsnn.report.figures` but the training's and reproduce's ROC.
+#: of :func:`uavsnn.report_pictures.figures` but the training's and reproduce's ROC.
 _REPORT_PICTURES = frozenset(
     f"{name}.png"
-    for name in report.CAPTIONS
+    for name in report_pictures.CAPTIONS
     if name not in ("roc", "convergence") and not name.startswith("evolution-")
 )
 

@@ -25,7 +25,7 @@ import time
 from pathlib import Path
 from typing import Any, NamedTuple
 
-from uavsnn import __version__, _jsonout, identify, pictures, report
+from uavsnn import __version__, _jsonout, identify, pictures, report, report_pictures
 from uavsnn._validate import check_int
 from uavsnn.cli import check_output_dir, output_dir
 from uavsnn.cli._results_text import (
@@ -598,7 +598,7 @@ def _reproduce(args: argparse.Namespace) -> int:
     )
     log["noise"] = [p.to_dict() for p in points]
     log["static_threshold"] = theta
-    written = report.figures(
+    written = report_pictures.figures(
         out / "figures", best, dvs_test, results["combined"], training=trainings["combined"],
         noise=points, static=static, seed=seed,
     )  # fmt: skip
@@ -607,7 +607,7 @@ def _reproduce(args: argparse.Namespace) -> int:
         title = f"detection + identification, {len(dvs_test)} dvs test windows"
         at = {name: f["at_false_alarm"] for name, f in idents.items() if f is not None}
         written["roc"] = pictures.write_png(
-            out / "figures/roc.png", report.roc_chart(rocs, title, points=at)
+            out / "figures/roc.png", pictures.roc_chart(rocs, title, points=at)
         )
 
     real_text: list[str] = []
@@ -697,7 +697,7 @@ def _reproduce(args: argparse.Namespace) -> int:
         report.noise_table(points),
         *real_text,
         "\n## Pictures\n",
-        *report.picture_links(written, out, network=best),
+        *report_pictures.picture_links(written, out, network=best),
     ]
     (out / "RESULTS.md").write_text("\n".join(text), encoding="utf-8")
     step(f"wrote {out / 'RESULTS.md'}")
