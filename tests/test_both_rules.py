@@ -831,6 +831,43 @@ def test_a_point_is_named_with_the_false_alarms_it_reached() -> None:
     assert "| detection here, drones ≥ 6 px |" in text and "| 6 of 30 (20.0 %) |" in text
 
 
+def test_the_report_counts_recordings_and_gives_false_alarms_per_class_set_beforehand() -> None:
+    """An analyst's walk: the size bins gave windows only (a bin of 82 windows was three
+    recordings), the false alarms per class were given at the points read off the ROC only, not
+    at those set beforehand, the class ``none`` read as an empty scene, and the ROC's partial
+    area came without the most it could be."""
+    from uavsnn.report import NONE_TEXT
+
+    def counted(target: float, reached: float) -> dict[str, Any]:
+        point = _point(target, reached)
+        for b, recordings in zip(point["by_size_px"], (2, 3, 1), strict=True):
+            b["recordings"] = recordings
+        point["false_alarms_per_class"] = {"bird": reached, "none": 0.0}
+        return point
+
+    rule = {
+        "confusion": [[6, 34], [1, 39]], "accuracy": 0.5625,
+        "per_class": {"drone": 0.15, "none": 0.0},
+    }  # fmt: skip
+    figures = {
+        "threshold": 0.5, "any_spike": rule, "identified": rule,
+        "roc": {"false_alarm": [0.0, 0.1], "detection": [0.0, 0.5], "area_reachable": 0.02},
+        "at_false_alarm": [counted(0.01, 0.009), counted(0.05, 0.048)],
+        "at_tuned_false_alarm": [counted(0.01, 0.171), counted(0.05, 0.25)],
+    }  # fmt: skip
+    text = identification_markdown(figures)
+    assert "| size | UAV windows (their recordings) | at 1 % false alarms" in text
+    assert "| 0–6 px | 10 (2) | 0 (0.0 %) |" in text and "| ≥ 48 px | 10 (1) |" in text
+    assert "| class | set for 1 % | set for 5 % |" in text
+    assert "| bird | 17.1 % | 25.0 % |" in text  # at the thresholds set beforehand
+    assert "| bird | 0.9 % | 4.8 % |" in text  # at the points read off the ROC
+    assert text.count(NONE_TEXT) == 1 and "not an empty scene" in NONE_TEXT
+    assert "area up to there 0.020, of at most 0.100" in text
+    # Figures of an older run, without recordings per bin, read as before.
+    figures["at_false_alarm"] = [_point(0.01, 0.009)]
+    assert "| size | UAV windows | at 1 % false alarms" in identification_markdown(figures)
+
+
 def test_table2_gives_the_false_alarms_reached_and_the_target_size() -> None:
     from uavsnn.cli._results_text import TABLE2_HEAD, table2_row
 

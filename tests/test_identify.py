@@ -1288,6 +1288,11 @@ def test_identification_figures_on_hand_made_windows() -> None:
     assert at1["detection_rate"] == 0.5
     sizes = {z["low"]: z["rate"] for z in at1["by_size_px"]}
     assert sizes == {0.0: 0.0, 12.0: 1.0}
+    # Each bin counts its recordings beside its windows: ten windows a recording here.
+    assert {z["low"]: (z["windows"], z["recordings"]) for z in at1["by_size_px"]} == {
+        0.0: (50, 5),
+        12.0: (50, 5),
+    }
     assert at1["false_alarms_per_class"]["ball"] == 0.0
     at5 = f["at_false_alarm"][1]
     assert at5["false_alarms_per_class"]["bird"] <= 0.1

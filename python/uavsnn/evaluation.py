@@ -572,7 +572,12 @@ FALSE_ALARM_RATES: tuple[float, ...] = (0.01, 0.05)
 """The shares of UAV-free windows raising an alarm at which detection is reported."""
 
 
-def _binned_rate(hit: np.ndarray, value: np.ndarray, edges: Sequence[float]) -> list[dict]:
+def _binned_rate(
+    hit: np.ndarray, value: np.ndarray, edges: Sequence[float], recording: np.ndarray
+) -> list[dict]:
+    """Per bin of ``value`` between ``edges`` that holds a window: its windows, the recordings
+    they come from (a recording whose object changes size or range has windows in several
+    bins), and the windows hit."""
     out = []
     for low, high in itertools.pairwise(edges):
         inside = np.isfinite(value) & (value >= low) & (value < high)
@@ -582,6 +587,7 @@ def _binned_rate(hit: np.ndarray, value: np.ndarray, edges: Sequence[float]) -> 
                     "low": float(low),
                     "high": None if np.isinf(high) else float(high),
                     "windows": int(inside.sum()),
+                    "recordings": int(np.unique(recording[inside]).size),
                     "detected": int(hit[inside].sum()),
                     "rate": float(hit[inside].mean()),
                 }
@@ -606,7 +612,8 @@ def identification_figures(
     thresholds where :data:`FALSE_ALARM_RATES` of the UAV-free windows alarm, the detection
     rate against size (``data.size_px``, :data:`SIZE_BINS_PX`) and range (``data.range_m``,
     :data:`RANGE_BINS_M`) and the false alarms per class of other object. Those thresholds are
-    read off this set's UAV-free windows (points on its ROC), not tuned for it; each point's
+    read off this set's UAV-free windows (points on its own ROC, which no user can set
+    beforehand; nothing else is tuned on them); each point's
     ``"detection_interval"`` is its 95 % interval when the recordings are drawn again, the
     threshold read again each time (:func:`roc_point_interval`). Each rule's
     ``"accuracy_interval"`` is its accuracy's, the UAV and the UAV-free recordings drawn apart
@@ -671,8 +678,12 @@ def identification_figures(
             "threshold": t,
             "false_alarm_rate": share(alarm[~actual]),
             "detection_rate": share(alarm[actual]),
-            "by_size_px": _binned_rate(alarm[actual], data.size_px[actual], SIZE_BINS_PX),
-            "by_range_m": _binned_rate(alarm[actual], data.range_m[actual], RANGE_BINS_M),
+            "by_size_px": _binned_rate(
+                alarm[actual], data.size_px[actual], SIZE_BINS_PX, rec[actual]
+            ),
+            "by_range_m": _binned_rate(
+                alarm[actual], data.range_m[actual], RANGE_BINS_M, rec[actual]
+            ),
             "false_alarms_per_class": {
                 c: float(alarm[~actual & (data.cls == c)].mean()) for c in others
             },

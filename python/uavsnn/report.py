@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from uavsnn.dataset.labels import NONE_CLASS
 from uavsnn.errors import ParameterError
 from uavsnn.evaluation import (
     MIN_INTERVAL_RECORDINGS,
@@ -38,6 +39,7 @@ from uavsnn.report_pictures import (
 
 __all__ = [
     "CAPTIONS",
+    "NONE_TEXT",
     "TARGET_SIZE_PX",
     "TARGET_SIZE_TEXT",
     "TRAINED_CONV1_CAPTION",
@@ -60,6 +62,13 @@ __all__ = [
     "roc_chart",
     "target_size_cell",
 ]
+
+
+#: What the class ``none`` of the per-class tables is.
+NONE_TEXT = (
+    f"`{NONE_CLASS}`: a window in which no labelled object is in view, not an empty scene: the "
+    "scene's background, its clutter and the sensor's noise still give events."
+)
 
 
 def confusion_table(matrix: np.ndarray) -> str:
@@ -102,6 +111,8 @@ def evaluation_markdown(evaluation: Evaluation) -> str:
             f"| {name} | {c['windows']} | {c['called_uav']} | "
             f"{100 * c['correct'] / c['windows']:.1f} % |"
         )
+    if NONE_CLASS in d["per_class"]:
+        lines += ["", NONE_TEXT]
     if evaluation.per_size:
         lines += [
             "",
@@ -391,22 +402,26 @@ def _operating_points(points: list[dict[str, Any]], recordings: Any = None) -> l
             lines += [f"No UAV window has a labelled {what}.\n"]
             continue
         label = f"{what} (as drawn, `size_px`: not the box, which adds the motion)"
+        # Older figures give no recordings per bin.
+        counted = all("recordings" in b for b in points[0][key])
         lines += [
             f"Detection by the UAV's {label if key == 'by_size_px' else what}:\n",
-            f"| {what} | UAV windows | {head} |",
+            f"| {what} | UAV windows{' (their recordings)' if counted else ''} | {head} |",
         ]
         lines.append("|---|---|" + "---|" * len(points))
         for k, b in enumerate(points[0][key]):
             cells = " | ".join(
                 f"{p[key][k]['detected']} ({100 * p[key][k]['rate']:.1f} %)" for p in points
             )
-            lines.append(f"| {bin_name(b['low'], b['high'], unit)} | {b['windows']} | {cells} |")
+            windows = f"{b['windows']} ({b['recordings']})" if counted else f"{b['windows']}"
+            lines.append(f"| {bin_name(b['low'], b['high'], unit)} | {windows} | {cells} |")
+        if counted:
+            lines.append(
+                "\nA recording whose UAV changes size or range has windows in several bins; a "
+                "bin of few recordings is known to few draws."
+            )
         lines.append("")
-    lines += ["False alarms per class of other object:\n", f"| class | {head} |"]
-    lines.append("|---|" + "---|" * len(points))
-    for cls in points[0]["false_alarms_per_class"]:
-        cells = " | ".join(f"{100 * p['false_alarms_per_class'][cls]:.1f} %" for p in points)
-        lines.append(f"| {cls} | {cells} |")
+    lines += _class_false_alarms(points, head)
     overall = "; ".join(
         f"{percent_with_interval(p['detection_rate'], p.get('detection_interval'))} of the UAV "
         f"windows at {100 * p['false_alarm_rate']:.1f} % false alarms" + _target_size_text(p)
@@ -422,6 +437,17 @@ def _operating_points(points: list[dict[str, Any]], recordings: Any = None) -> l
             + _no_interval_note([p.get("detection_interval") for p in points], recordings, "; ")
             + "."
         )
+    return lines
+
+
+def _class_false_alarms(points: Sequence[Mapping[str, Any]], head: str) -> list[str]:
+    """The false alarms per class of other object at each operating point, under ``head`` (the
+    points' names, ``" | "`` between them)."""
+    lines = ["False alarms per class of other object:\n", f"| class | {head} |"]
+    lines.append("|---|" + "---|" * len(points))
+    for cls in points[0]["false_alarms_per_class"]:
+        cells = " | ".join(f"{100 * p['false_alarms_per_class'][cls]:.1f} %" for p in points)
+        lines.append(f"| {cls} | {cells} |")
     return lines
 
 
@@ -480,6 +506,8 @@ def identification_markdown(figures: dict[str, Any]) -> str:
     for cls, rate in figures["any_spike"]["per_class"].items():
         other = figures["identified"]["per_class"][cls]
         lines.append(f"| {cls} | {100 * rate:.1f} % | {100 * other:.1f} % |")
+    if NONE_CLASS in figures["any_spike"]["per_class"]:
+        lines.append(f"\n{NONE_TEXT}")
     roc = figures["roc"]
     points = figures["at_false_alarm"]
     if roc is None:
@@ -491,7 +519,9 @@ def identification_markdown(figures: dict[str, Any]) -> str:
         lines.append(
             f"\nROC of the combined score: it ends at the any-spike rule's own false-alarm rate "
             f"({100 * roc['false_alarm'][-1]:.1f} %, detection "
-            f"{100 * roc['detection'][-1]:.1f} %); area up to there {roc['area_reachable']:.3f}.\n"
+            f"{100 * roc['detection'][-1]:.1f} %); area up to there {roc['area_reachable']:.3f}, "
+            f"of at most {roc['false_alarm'][-1]:.3f} (every UAV window detected from the "
+            "first false alarm on).\n"
         )
         lines += _operating_points(points, figures.get("recordings"))
     tuned = figures.get("at_tuned_false_alarm", [])
@@ -519,6 +549,9 @@ def identification_markdown(figures: dict[str, Any]) -> str:
             f"{target_size_cell(p)} |"
             for p in tuned
         ]
+        if all("false_alarms_per_class" in p for p in tuned):
+            head = " | ".join(f"set for {100 * p['false_alarm_target']:g} %" for p in tuned)
+            lines += ["", *_class_false_alarms(tuned, head)]
     return "\n".join(lines) + "\n"
 
 

@@ -665,15 +665,16 @@ def _reproduce(args: argparse.Namespace) -> int:
         "identification (also the best object's UAV score at least the threshold tuned on "
         f"recordings of seed {tune_seed}), each accuracy with its 95 % interval when the test "
         "recordings are drawn again, the UAV and the UAV-free ones apart "
-        "(`evaluation.recording_interval`); and the detection rate of the second where 1 % and 5 % "
-        "of the UAV-free test windows alarm (thresholds read off the test set's ROC, not "
-        "tuned on it; in brackets the detection's 95 % interval when the test recordings are "
-        "drawn again and the threshold read again on each draw, "
+        "(`evaluation.recording_interval`); and the detection rate of the second where 1 % and "
+        "5 % of the UAV-free test windows alarm: the test ROC's own points, each threshold read "
+        "off the test windows themselves, an operating point no user can set beforehand "
+        "(nothing of the model is fitted on it; in brackets the detection's 95 % interval when "
+        "the test recordings are drawn again and the threshold read again on each draw, "
         "`evaluation.roc_point_interval`, which at 1 % covers less than 95 %: "
         'docs/identification.md, "How well a point read off the ROC is known"), and the '
         "detection and false-alarm rates on the test set at the thresholds where 1 % and 5 % "
         f"of the UAV-free windows of seed {tune_seed} alarmed: an operating point fixed "
-        "beforehand, as a user fixes it (the interval: the false "
+        "beforehand, as a user fixes it, and what a user gets (the interval: the false "
         "alarms' 95 % interval when the test recordings are drawn again, "
         "`evaluation.recording_interval`).\n",
         *TABLE2_HEAD,

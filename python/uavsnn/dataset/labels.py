@@ -29,9 +29,18 @@ import numpy as np
 from uavsnn.errors import ParameterError, ShapeError
 from uavsnn.scenes import LABEL_DTYPE, UAV_CLASS
 
-__all__ = ["AMBIGUOUS", "OK", "UNSCORED", "WindowLabels", "frame_spans", "label_windows"]
+__all__ = [
+    "AMBIGUOUS",
+    "NONE_CLASS",
+    "OK",
+    "UNSCORED",
+    "WindowLabels",
+    "frame_spans",
+    "label_windows",
+]
 
 OK, AMBIGUOUS, UNSCORED = 0, 1, 2
+#: The class of a window in which no labelled object is in view.
 NONE_CLASS = "none"
 
 
