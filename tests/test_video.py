@@ -239,6 +239,20 @@ def test_simulate_refuses_a_frame_count_or_rate_before_it_starts(
     assert not out.exists()
 
 
+def test_a_container_frame_rate_is_held_to_the_range_a_given_one_is(tmp_path: Path) -> None:
+    """A video whose container said 0.5 fps was taken (its frames two seconds apart) where
+    --fps 0.5 was refused: the container's rate is held to FPS_RANGE too, and --fps still
+    gives the rate its frames were taken at."""
+    slow = tmp_path / "slow.avi"
+    writer = cv2.VideoWriter(str(slow), cv2.VideoWriter_fourcc(*"MJPG"), 0.5, (W, H))
+    for k in range(3):
+        writer.write(np.full((H, W, 3), 60 + 40 * k, dtype=np.uint8))
+    writer.release()
+    with pytest.raises(SimulationError, match=r"0\.5 fps; a frame rate is from 1 to 1,000,000"):
+        next(iter_video(slow))
+    assert [t for _, t in iter_video(slow, fps=25.0)] == [0, 40_000, 80_000]
+
+
 @pytest.mark.parametrize("fps", ["1e-6", "0.5", "0", "-5", "nan", "inf", "2e6"])
 def test_simulate_refuses_an_absurd_frame_rate_naming_the_range(video, tmp_path, capsys, fps):
     """--fps 1e-6 was taken (a frame every 11.6 days; PIX2NVS wrote its events, the DVS

@@ -152,14 +152,17 @@ def _open(path: str | Path) -> cv2.VideoCapture:
 
 
 def _fps(cap: cv2.VideoCapture, fps: float | None, path: str | Path) -> float:
-    """``fps`` (checked by :func:`iter_video`), else the container's frame rate."""
+    """``fps`` (checked by :func:`iter_video`), else the container's frame rate, which must lie
+    in :data:`FPS_RANGE` as a given one must."""
     if fps is not None:
         return fps
     reported = float(cap.get(cv2.CAP_PROP_FPS))
-    if not math.isfinite(reported) or not 0.0 < reported <= 1e6:
+    low, high = FPS_RANGE
+    if not math.isfinite(reported) or not low <= reported <= high:
         raise SimulationError(
-            f"{str(path)!r} reports no usable frame rate ({reported}); give its frame rate "
-            "(fps=, uavsnn simulate --fps)"
+            f"{str(path)!r} reports no usable frame rate ({reported:g} fps; a frame rate is "
+            f"from {low:,.0f} to {high:,.0f} frames per second); give the rate its frames were "
+            "taken at (fps=, uavsnn simulate --fps)"
         )
     return reported
 
