@@ -18,7 +18,10 @@ clips); its class is the one labelled in most of its frames (``"none"`` where no
 labelled, as in a drone clip whose drone is never labelled visible). As in
 :func:`uavsnn.track_eval.track_figures`, a UAV clip is also **found** when an alarming track
 meets the labelled UAV from its alarm on, and its **time to first alarm** runs from the start
-of its first labelled UAV window to the end of the window where that happens.
+of its first labelled UAV window to the end of the window where that happens. A **false track**
+is an alarming track of a clip without a UAV, counted per minute of those clips (a UAV clip's
+UAV-free stretches do not count: its tracks are the clip's decision); ``track_figures`` counts
+one whose alarm window holds no UAV, in any recording, per minute of UAV-free windows.
 
     >>> figures = evaluate_clips(network, "runs/reproduce/data/real")
     >>> print(clip_table(figures))
@@ -580,6 +583,9 @@ def clip_table(figures: dict[str, Any]) -> str:
         f"{figures['windows']:,} windows streamed (every window of each clip up to its last "
         f"event); tracks confirmed at {figures['confirm']}; the time to first alarm runs from "
         f"the start of each UAV clip's first UAV window ({UAV_WINDOW_TEXT}) to the end of the "
-        "window where an alarming track first meets the UAV.",
+        "window where an alarming track first meets the UAV. A false track here is an alarming "
+        "track of a clip without a UAV, per minute of those clips (the windowed tracks of "
+        "`uavsnn evaluate --tracks` count one whose alarm window holds no UAV, in any "
+        "recording, per minute of UAV-free windows).",
     ]
     return "\n".join(lines)

@@ -713,7 +713,9 @@ def track_table(figures: dict[str, Any]) -> str:
     lines.append(
         f"{figures['recordings']} recordings, {figures['windows']} windows "
         f"({100 * figures['window_coverage']:.1f} % of the steps they span), "
-        f"{60 * minutes:.2f} s of UAV-free recording; {clock_text(figures)}."
+        f"{60 * minutes:.2f} s of UAV-free recording; {clock_text(figures)}. A false track "
+        "alarms in a window without a UAV, a UAV recording's UAV-free windows included (the "
+        "streamed clips of `uavsnn evaluate --clips` count the clips without a UAV only)."
     )
     return "\n".join(lines)
 
