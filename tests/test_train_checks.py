@@ -546,3 +546,55 @@ def test_a_stratified_tuning_set_lacking_a_kind_is_told_to_hold_more_windows(
         assert "the tuning windows hold no leaf object" in out and said in out
     _print_identification(ident, {"domain": "real"}, None)
     assert "a tuning set built from videos of every class has them" in capsys.readouterr().out
+
+
+# -- continuing STDP from a model file (--from) ---------------------------------------------------
+
+
+def test_train_from_a_model_continues_its_stdp(
+    sets: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """There was no way to continue a trained model's STDP on new recordings (one's own footage)
+    from the command line: `--from MODEL` starts from its config and weights, keeps what
+    `--layers` leaves alone, changes settings by `--set` but not the shape or the input size,
+    and records both sets of recordings."""
+    first, later = tmp_path / "first.npz", tmp_path / "later.npz"
+    base = ["--windows-per-layer", "8", "--no-identify", "--quiet"]
+    argv = ["train", str(sets["other"]), "-o", str(first), *base, "--set", "conv2.threshold=10"]
+    assert main(argv) == 0
+    start = Network.load(first)
+    # Only conv3 goes on: conv1 and conv2 are MODEL's, and conv2's threshold is MODEL's too.
+    argv = ["train", str(sets["d0"]), "-o", str(later), *base, "--from", str(first)]
+    assert main([*argv, "--layers", "conv3", "--set", "conv3.threshold=2.5"]) == 0
+    assert f"wrote {later} (from {first})" in capsys.readouterr().out
+    net = Network.load(later)
+    for layer in ("conv1", "conv2"):
+        assert np.array_equal(net.weights(layer), start.weights(layer))
+    assert not np.array_equal(net.weights("conv3"), start.weights("conv3"))
+    assert net.config["conv2"]["threshold"] == 10.0 and net.config["conv3"]["threshold"] == 2.5
+    fresh = Network(net.config, seed=0)
+    assert not np.array_equal(fresh.weights("conv2"), net.weights("conv2"))
+    assert start.trained_on is not None and net.trained_on is not None
+    recorded = set(net.trained_on.recordings)
+    assert set(start.trained_on.recordings) < recorded
+    d0 = load(sets["d0"], "train").manifest["recordings"]
+    assert {name for _, name in recorded} >= {str(e["name"]) for e in d0 if e["split"] == "train"}
+    # The JSON names where it started.
+    assert main([*argv, "--layers", "conv3", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["from"] == str(first)
+    later.unlink()
+    # What --from leaves no room for is refused before any work, in one line.
+    one_line_exit_2(capsys, [*argv, "--set", "conv2.maps=8"], "changes the shape of conv2")
+    one_line_exit_2(capsys, [*argv, "--set", "width=320"], "keeps MODEL's input size")
+    config = tmp_path / "c.json"
+    config.write_text(json.dumps(default_config()))
+    one_line_exit_2(capsys, [*argv, "--config", str(config)], "not with --config")
+    checkpoints = ["--checkpoint-dir", str(tmp_path / "ck"), "--resume"]
+    one_line_exit_2(capsys, [*argv, *checkpoints], "--resume continues from --checkpoint-dir")
+    only = ["train", str(sets["d0"]), "-o", str(later), "--identify-only", str(first)]
+    one_line_exit_2(capsys, [*only, "--from", str(first)], "--from")
+    wide = tmp_path / "wide.npz"
+    Network({**default_config(), "width": 320, "height": 240}).save(wide)
+    line = one_line_exit_2(capsys, [*argv[:-1], str(wide)], "input is 320x240")
+    assert "the dataset's sensor 240x180" in line
+    assert not later.exists()

@@ -16,9 +16,9 @@ from uavsnn._validate import fields_once
 from uavsnn.cli import output_file
 from uavsnn.dataset import load
 from uavsnn.distributed import Runner, add_ray_option, runner_for
-from uavsnn.errors import DatasetError, ParameterError
+from uavsnn.errors import DatasetError, ParameterError, ShapeError
 from uavsnn.false_alarms import MAX_MINUTES, TRACK_ALARM_RATES, tune_track_alarms
-from uavsnn.network import Network, default_config
+from uavsnn.network import CONV_LAYERS, Network, default_config
 from uavsnn.provenance import TrainedOn, recordings_of, split_ids
 from uavsnn.track_eval import Confirm
 from uavsnn.training import STATE_FILE, apply_overrides, parse_override, train
@@ -103,6 +103,17 @@ def register(subparsers: Any) -> None:
     )
     p.add_argument(
         "--no-identify", action="store_true", help="skip fitting identification after STDP"
+    )
+    p.add_argument(
+        "--from",
+        dest="start_from",
+        type=Path,
+        metavar="MODEL",
+        help="continue STDP from MODEL's network (its config and weights) on DATASET, e.g. a "
+        "model trained on rendered scenes taken on to your own footage of the same sensor "
+        "size; --set may change its learning and firing settings, not its shape. Its "
+        "identification is fitted again (its features change with the weights); the model "
+        "written is trained on both MODEL's recordings and DATASET's",
     )
     p.add_argument(
         "--identify-only",
@@ -379,6 +390,7 @@ def _train(args: argparse.Namespace) -> int:
     _check_track_flags(args)
     if args.identify_only is not None:
         return _identify_only(args)
+    _check_from_flags(args)
     if args.resume and args.checkpoint_dir is None:
         raise ParameterError("--resume continues from --checkpoint-dir: give it too")
     if args.epochs is not None and args.windows_per_layer is not None:
@@ -387,7 +399,8 @@ def _train(args: argparse.Namespace) -> int:
             "--windows-per-layer would decide alone (that many windows, in as many passes as "
             "it takes): give one"
         )
-    base = _base_config(args.config)
+    start = None if args.start_from is None else Network.load(args.start_from)
+    base = _base_config(args.config) if start is None else start.config
     config = apply_overrides(base, args.settings)  # bad flags fail before any work
     output_file(args.output, "-o")
     if args.checkpoint_dir is not None:
@@ -401,14 +414,17 @@ def _train(args: argparse.Namespace) -> int:
                 f"{args.checkpoint_dir.parent} does not exist"
             )
     data = load(args.dataset, args.split)
-    config = _sized(config, base if args.config is not None else {}, args.settings, data)
+    if start is None:
+        config = _sized(config, base if args.config is not None else {}, args.settings, data)
+    else:
+        _check_start_size(args.start_from, start, data)
     tune = None if args.tune is None or args.no_identify else load(args.tune, "train")
     if tune is not None:
         check_tuning_set(args.dataset, data, args.tune, tune, split=args.split)
     runner = runner_for(args.ray)  # an unreachable cluster fails now, not after the training
     seed = _SEED if args.seed is None else args.seed
     layers = _LAYERS if args.layers is None else args.layers
-    network = Network(config, seed=seed)
+    network = Network(config, seed=seed) if start is None else _continued(start, config, args)
     if args.resume and not (args.checkpoint_dir / STATE_FILE).is_file():
         print(
             f"note: nothing to resume in {args.checkpoint_dir}: training from the start",
@@ -437,6 +453,10 @@ def _train(args: argparse.Namespace) -> int:
         if tracks is not None:
             summary["identify"]["tracks"] = tracks
     network.trained_on = _trained_on(data, tune)
+    if start is not None:
+        summary["from"] = str(args.start_from)
+        if start.trained_on is not None:
+            network.trained_on = start.trained_on.joined(network.trained_on)
     network.save(args.output)
     summary |= result.to_dict()
     if args.json:
@@ -453,8 +473,67 @@ def _train(args: argparse.Namespace) -> int:
         _print_identification(
             summary.get("identify", {}), data.manifest, None if tune is None else tune.manifest
         )
-        print(f"wrote {args.output}")
+        if start is not None and args.no_identify and start.identification is not None:
+            print(
+                f"note: {args.start_from}'s identification was fitted on its old weights and "
+                "is not kept: only the any-spike rule decides (`uavsnn train --identify-only` "
+                "fits it again)"
+            )
+        print(f"wrote {args.output}" + ("" if start is None else f" (from {args.start_from})"))
     return 0
+
+
+def _check_from_flags(args: argparse.Namespace) -> None:
+    """Refuse the flags that ``--from MODEL`` leaves no room for, before any work."""
+    if args.start_from is None:
+        return
+    if args.config is not None:
+        raise ParameterError(
+            "--from takes MODEL's config: not with --config (--set changes one of its settings)"
+        )
+    if args.resume:
+        raise ParameterError(
+            "--resume continues from --checkpoint-dir, --from from a model file: give one"
+        )
+    for text in args.settings:
+        if parse_override(text)[0][0] in ("width", "height"):
+            raise ParameterError(
+                f"--set {text}: --from keeps MODEL's input size (its weights are of it); "
+                "train a new model for another size"
+            )
+
+
+def _check_start_size(path: Path, start: Network, data: Any) -> None:
+    """Refuse a dataset whose sensor is not the input size of the ``--from`` model."""
+    if not len(data):  # an empty split: train() refuses it
+        return
+    sensor = tuple(int(v) for v in data.windows.sensor_size)
+    size = (int(start.config["width"]), int(start.config["height"]))
+    if size != sensor:
+        raise ParameterError(
+            f"--from {path}: its network's input is {size[0]}x{size[1]}, the dataset's sensor "
+            f"{sensor[0]}x{sensor[1]}: continue it on data of its size (`uavsnn dataset build "
+            f"--sensor {size[0]}x{size[1]}`), or train a new model"
+        )
+
+
+def _continued(start: Network, config: dict[str, Any], args: argparse.Namespace) -> Network:
+    """The network ``--from`` continues: ``start``'s weights under ``config`` (its config
+    with --set), without the identification fitted on them.
+
+    Raises:
+        ParameterError: a --set that changes the shape of a layer's weights.
+    """
+    network = Network(config)
+    try:
+        for layer in CONV_LAYERS:
+            network.set_weights(layer, start.weights(layer))
+    except ShapeError as exc:
+        raise ParameterError(
+            f"--set {' '.join(args.settings)}: changes the shape of {layer}'s weights, which "
+            f"--from {args.start_from} continues ({exc}); train a new model for another shape"
+        ) from exc
+    return network
 
 
 def _trained_on(data: Any, tune: Any) -> TrainedOn:
@@ -556,6 +635,7 @@ def _identify_only(args: argparse.Namespace) -> int:
         "--seed": args.seed is not None,
         "--checkpoint-dir": args.checkpoint_dir is not None,
         "--resume": args.resume,
+        "--from": args.start_from is not None,
     }
     given = [flag for flag, on in stdp.items() if on]
     if given:
