@@ -65,3 +65,23 @@ def test_evaluate_json_of_windows_without_an_event_is_strict(
     assert main(["evaluate", str(model), str(silent), "--json"]) == 0
     figures = _strict(capsys.readouterr().out)
     assert isinstance(figures, dict) and figures["ns_per_event"] is None
+
+
+def test_every_json_document_names_the_version_that_wrote_it(
+    silent: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A program reading `--json` could not tell which layout it held (results.json named its
+    uavsnn, the commands' documents did not): each document leads with ``"uavsnn"``."""
+    from uavsnn import __version__
+
+    model = tmp_path / "m.npz"
+    Network({"width": SENSOR[0], "height": SENSOR[1]}, seed=3).save(model)
+    for argv in (
+        ["evaluate", str(model), str(silent), "--json"],
+        ["info", str(model), "--json"],
+    ):
+        assert main(argv) == 0
+        document = _strict(capsys.readouterr().out)
+        assert isinstance(document, dict)
+        assert next(iter(document.items())) == ("uavsnn", __version__), argv
+    assert _jsonout.document({"a": 1}, indent=None) == f'{{"uavsnn": "{__version__}", "a": 1}}'

@@ -10,7 +10,7 @@ import json
 import math
 from typing import Any
 
-__all__ = ["dumps", "strict"]
+__all__ = ["document", "dumps", "strict"]
 
 
 def strict(value: Any) -> Any:
@@ -29,3 +29,12 @@ def dumps(value: Any, *, indent: int | None = None) -> str:
     """``value`` as strict JSON (:func:`strict`; refused by :func:`json.dumps` should a value
     that is not finite remain)."""
     return json.dumps(strict(value), indent=indent, allow_nan=False)
+
+
+def document(value: dict[str, Any], *, indent: int | None = 2) -> str:
+    """A command's JSON document (``--json``): ``value`` led by ``"uavsnn"``, the version that
+    wrote it, so that a program reading it knows which layout it holds (a document's keys are
+    only added to within a minor version)."""
+    from uavsnn import __version__
+
+    return dumps({"uavsnn": __version__, **value}, indent=indent)

@@ -116,7 +116,7 @@ def _bench(args: argparse.Namespace) -> int:
         progress.close()
     if args.json:
         model = str(args.model) if args.model else None
-        print(_jsonout.dumps({"model": model, "rows": [r.to_dict() for r in rows]}, indent=2))
+        print(_jsonout.document({"model": model, "rows": [r.to_dict() for r in rows]}))
         return 0
     print(f"model: {args.model or f'untrained (seed {args.seed})'}")
     for r in rows:

@@ -279,7 +279,7 @@ def _summary(root: Path, manifest: dict[str, Any]) -> dict[str, Any]:
 
 def _print(summary: dict[str, Any], as_json: bool) -> None:
     if as_json:
-        print(_jsonout.dumps(summary, indent=2))
+        print(_jsonout.document(summary))
         return
     print(f"{summary['root']}: {summary['domain']} — {summary['source']} (seed {summary['seed']})")
     p = summary["parameters"]

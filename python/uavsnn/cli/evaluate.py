@@ -365,7 +365,7 @@ def _evaluate(args: argparse.Namespace) -> int:
         (args.report / "report.md").write_text("\n".join(text), encoding="utf-8")
         figures["report"] = str(args.report / "report.md")
     if args.json:
-        print(_jsonout.dumps(figures, indent=2))
+        print(_jsonout.document(figures))
         return 0
     if network.load_note:
         print(f"note: {network.load_note}")

@@ -239,7 +239,7 @@ def run(args: argparse.Namespace) -> int:
         return _run_model(args)
     info = summary(io.read(args.file, sensor_size=args.sensor_size))
     if args.json:
-        print(_jsonout.dumps(info, indent=2))
+        print(_jsonout.document(info))
         return 0
     width, height = info["sensor_size"]
     duration = info["duration_us"]
@@ -274,7 +274,7 @@ def _run_model(args: argparse.Namespace) -> int:
         )
     info = model_summary(network, str(args.file))
     if args.json:
-        print(_jsonout.dumps(info, indent=2))
+        print(_jsonout.document(info))
     else:
         _print_model(info)
     return 0

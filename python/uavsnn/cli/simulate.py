@@ -433,7 +433,7 @@ def _finish(args: argparse.Namespace, recording: Recording) -> int:
             file=sys.stderr,
         )
     if args.json:
-        print(_jsonout.dumps(summary))
+        print(_jsonout.document(summary, indent=None))
     else:
         print(
             f"{summary['events']} events from {summary['frames']} frames "

@@ -460,7 +460,7 @@ def _train(args: argparse.Namespace) -> int:
     network.save(args.output)
     summary |= result.to_dict()
     if args.json:
-        print(_jsonout.dumps(summary, indent=2))
+        print(_jsonout.document(summary))
     else:
         for layer, r in summary["layers"].items():
             print(
@@ -661,7 +661,7 @@ def _identify_only(args: argparse.Namespace) -> int:
     network.save(args.output)
     summary = {"model": str(args.output), "network": str(args.identify_only), "identify": ident}
     if args.json:
-        print(_jsonout.dumps(summary, indent=2))
+        print(_jsonout.document(summary))
     else:
         _print_identification(ident, data.manifest, None if tune is None else tune.manifest)
         print(f"wrote {args.output} (the network of {args.identify_only})")
