@@ -579,9 +579,18 @@ def test_train_from_a_model_continues_its_stdp(
     assert set(start.trained_on.recordings) < recorded
     d0 = load(sets["d0"], "train").manifest["recordings"]
     assert {name for _, name in recorded} >= {str(e["name"]) for e in d0 if e["split"] == "train"}
-    # The JSON names where it started.
+    # The JSON names where it started, and an identification MODEL had is not kept: it was
+    # fitted on the old weights.
+    start.identification = Identifier(
+        ("log_width",), np.zeros(2), np.zeros(1), np.ones(1), 0.5, 1.0
+    )
+    start.save(first)
     assert main([*argv, "--layers", "conv3", "--json"]) == 0
-    assert json.loads(capsys.readouterr().out)["from"] == str(first)
+    summary = json.loads(capsys.readouterr().out)
+    assert (
+        summary["from"] == str(first) and "identification was fitted on its old" in summary["note"]
+    )
+    assert Network.load(later).identification is None
     later.unlink()
     # What --from leaves no room for is refused before any work, in one line.
     one_line_exit_2(capsys, [*argv, "--set", "conv2.maps=8"], "changes the shape of conv2")

@@ -457,6 +457,12 @@ def _train(args: argparse.Namespace) -> int:
         summary["from"] = str(args.start_from)
         if start.trained_on is not None:
             network.trained_on = start.trained_on.joined(network.trained_on)
+        if args.no_identify and start.identification is not None:
+            summary["note"] = (
+                f"{args.start_from}'s identification was fitted on its old weights and is not "
+                "kept: only the any-spike rule decides (`uavsnn train --identify-only` fits it "
+                "again)"
+            )
     network.save(args.output)
     summary |= result.to_dict()
     if args.json:
@@ -473,12 +479,8 @@ def _train(args: argparse.Namespace) -> int:
         _print_identification(
             summary.get("identify", {}), data.manifest, None if tune is None else tune.manifest
         )
-        if start is not None and args.no_identify and start.identification is not None:
-            print(
-                f"note: {args.start_from}'s identification was fitted on its old weights and "
-                "is not kept: only the any-spike rule decides (`uavsnn train --identify-only` "
-                "fits it again)"
-            )
+        if "note" in summary:
+            print(f"note: {summary['note']}")
         print(f"wrote {args.output}" + ("" if start is None else f" (from {args.start_from})"))
     return 0
 
